@@ -1,0 +1,63 @@
+# Penumbra: `make render` and `make test` work on a fresh Debian 12 machine (README).
+# Both install what is missing (Debian packages with apt-get, Python packages into .venv),
+# build the C++ libraries and the Python module, then render the example or run every test.
+
+SHELL := /bin/bash
+PYTHON ?= python3.11
+VENV := .venv
+VPY := $(VENV)/bin/python
+BUILD_DIR := build/python
+EXAMPLE_IMAGE := examples/images/cornell.png
+
+DEBIAN_PACKAGES := build-essential cmake ninja-build pkg-config git \
+	python3.11 python3.11-venv python3.11-dev \
+	libembree-dev libosd-dev libopencolorio-dev libopenimageio-dev libtbb-dev \
+	libopencv-core-dev openimageio-tools opencolorio-tools libgtest-dev
+PYTHON_PACKAGES := usd-core==26.11 "numpy>=1.26" "pybind11>=2.12" "scikit-build-core>=0.10" "pytest>=8"
+
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+
+.PHONY: all deps venv build render test test-cpp test-python bench clean
+
+all: build
+
+## Debian packages, installed only when some are missing.
+deps:
+	@missing=$$(for p in $(DEBIAN_PACKAGES); do \
+		dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+		echo "Installing Debian packages:" $$missing; \
+		$(SUDO) apt-get update && \
+		DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y --no-install-recommends $$missing; \
+	fi
+
+$(VENV)/.installed: | deps
+	$(PYTHON) -m venv $(VENV)
+	$(VPY) -m pip install --quiet --upgrade pip
+	$(VPY) -m pip install --quiet $(PYTHON_PACKAGES)
+	touch $@
+
+venv: deps $(VENV)/.installed
+
+## Builds the C++ libraries, tests and the module, and installs `penumbra` (editable) in .venv.
+build: venv
+	$(VPY) -m pip install --quiet --no-build-isolation --no-deps -e . \
+		--config-settings=cmake.define.pybind11_DIR=$$($(VPY) -m pybind11 --cmakedir)
+
+render: build
+	mkdir -p $(dir $(EXAMPLE_IMAGE))
+	$(VENV)/bin/penumbra-record --samples 64 examples/cornell.usda $(EXAMPLE_IMAGE)
+
+test: build test-cpp test-python
+
+test-cpp:
+	ctest --test-dir $(BUILD_DIR) --output-on-failure
+
+test-python:
+	$(VPY) -m pytest -q tests/python
+
+bench: build
+	$(VPY) bench/run.py
+
+clean:
+	rm -rf build $(VENV)

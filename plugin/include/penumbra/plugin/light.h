@@ -1,0 +1,32 @@
+// Light sprims: one class for the UsdLux intrinsic lights, the type fixed at insertion.
+#pragma once
+
+#include "penumbra/light.h"
+#include "penumbra/plugin/prim.h"
+
+namespace penumbra::plugin {
+
+class Light : public Prim {
+ public:
+  Light(PrimId id, LightType type);
+
+  /// Sets a UsdLux input by its name without "inputs:" (color, intensity, exposure, normalize,
+  /// enableColorTemperature, colorTemperature, width, height, radius, angle, treatAsPoint).
+  /// Throws std::invalid_argument for an unknown name or a value of the wrong type.
+  void setParam(const std::string& name, const ParamValue& value);
+  void setTransform(const Transform& lightToWorld);
+  void setVisible(bool visible);
+
+  const LightParams& params() const { return params_; }
+  bool visible() const { return visible_; }
+
+ private:
+  LightParams params_;
+  bool visible_ = true;
+};
+
+/// The light type for a sprim type name ("rectLight", ...); throws std::invalid_argument.
+LightType lightTypeFromName(const std::string& typeName);
+bool isLightTypeName(const std::string& typeName);
+
+}  // namespace penumbra::plugin

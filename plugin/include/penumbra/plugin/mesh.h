@@ -1,0 +1,41 @@
+// Mesh rprim: topology, points, display colour, material binding, transform, visibility.
+#pragma once
+
+#include <string>
+
+#include "penumbra/mesh.h"
+#include "penumbra/plugin/prim.h"
+#include "penumbra/scene.h"
+
+namespace penumbra::plugin {
+
+class Mesh : public Prim {
+ public:
+  Mesh(PrimId id, Scene::MeshId handle) : Prim(std::move(id)), handle_(handle) {}
+
+  void setTopology(std::vector<int> counts, std::vector<int> indices, bool leftHanded,
+                   std::string subdivisionScheme);
+  void setPoints(std::vector<Vec3f> points);
+  void setDoubleSided(bool doubleSided);
+  void setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolation);
+  void setMaterialId(PrimId materialId);
+  void setTransform(const Transform& objectToWorld);
+  void setVisible(bool visible);
+
+  Scene::MeshId handle() const { return handle_; }
+  const MeshData& data() const { return data_; }
+  const PrimId& materialId() const { return materialId_; }
+  const Transform& transform() const { return objectToWorld_; }
+  bool visible() const { return visible_; }
+  const std::string& subdivisionScheme() const { return subdivisionScheme_; }
+
+ private:
+  Scene::MeshId handle_;
+  MeshData data_;
+  std::string subdivisionScheme_ = "none";
+  PrimId materialId_;
+  Transform objectToWorld_;
+  bool visible_ = true;
+};
+
+}  // namespace penumbra::plugin

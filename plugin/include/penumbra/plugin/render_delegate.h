@@ -1,0 +1,84 @@
+// The render delegate (cf. HdRenderDelegate + HdRenderIndex): creates and owns prims by id,
+// holds the render settings, and syncs dirty prims into the renderer's Scene.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "penumbra/plugin/camera.h"
+#include "penumbra/plugin/light.h"
+#include "penumbra/plugin/material.h"
+#include "penumbra/plugin/mesh.h"
+#include "penumbra/scene.h"
+
+namespace penumbra::plugin {
+
+/// Render settings; unknown keys are rejected.
+struct RenderSettingsMap {
+  int samples = 16;  // target samples per pixel: a render pass converges there
+  int seed = 0;
+  int threads = 0;  // 0: all cores
+  int maxPathDepth = 8;
+
+  /// Throws std::invalid_argument for an unknown key or an out-of-range value.
+  void set(const std::string& key, int value);
+  std::map<std::string, int> asMap() const;
+};
+
+class RenderDelegate {
+ public:
+  RenderDelegate();
+  ~RenderDelegate();
+
+  /// Rprim types: "mesh". Sprim types: "camera", "material", and the light types
+  /// ("rectLight", "diskLight", "sphereLight", "distantLight", "domeLight").
+  /// Throws std::invalid_argument for an unknown type or an id already in use.
+  void insertRprim(const std::string& type, const PrimId& id);
+  void insertSprim(const std::string& type, const PrimId& id);
+  /// Throws std::out_of_range for an unknown id.
+  void removePrim(const PrimId& id);
+  bool hasPrim(const PrimId& id) const;
+  std::vector<PrimId> primIds() const;
+
+  /// Typed access; throws std::out_of_range naming the id when it is missing or of another type.
+  Mesh& mesh(const PrimId& id);
+  Camera& camera(const PrimId& id);
+  Light& light(const PrimId& id);
+  Material& material(const PrimId& id);
+  Prim& prim(const PrimId& id);
+
+  RenderSettingsMap& settings() { return settings_; }
+  const RenderSettingsMap& settings() const { return settings_; }
+
+  /// Syncs every dirty prim into the scene and commits it. Returns true if anything a render
+  /// depends on changed (scene contents or any camera), so that passes restart accumulation.
+  bool sync();
+  /// Incremented by every sync that changed the scene's contents.
+  uint64_t sceneVersion() const { return sceneVersion_; }
+  const Scene& scene() const { return *scene_; }
+
+  /// Warnings raised since the last call, each naming its prim.
+  std::vector<std::string> takeWarnings();
+
+ private:
+  void warn(std::string message) { warnings_.push_back(std::move(message)); }
+  void syncMaterials();
+  void syncLights();
+  void syncMesh(Mesh& mesh, bool materialsChanged);
+
+  Device device_;
+  std::unique_ptr<Scene> scene_;
+  std::map<PrimId, std::unique_ptr<Prim>> prims_;
+  std::map<PrimId, int> materialIndex_;
+  RenderSettingsMap settings_;
+  std::vector<std::string> warnings_;
+  bool materialsStructureChanged_ = false;
+  bool lightsStructureChanged_ = false;
+  bool meshesStructureChanged_ = false;
+  bool warnedAboutSubdivision_ = false;
+  uint64_t sceneVersion_ = 0;
+};
+
+}  // namespace penumbra::plugin

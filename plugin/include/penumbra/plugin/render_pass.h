@@ -1,0 +1,47 @@
+// A progressive render pass (cf. HdRenderPass): each execute() syncs what is dirty and adds more
+// samples per pixel to its render buffers, restarting when the scene or camera changed.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "penumbra/film.h"
+#include "penumbra/plugin/render_delegate.h"
+
+namespace penumbra::plugin {
+
+class RenderPass {
+ public:
+  /// Throws std::invalid_argument for a non-positive size.
+  RenderPass(RenderDelegate& delegate, PrimId cameraId, int width, int height);
+
+  /// Syncs, then renders `samples` more samples per pixel. Sample indices continue where the
+  /// previous call stopped, so execute(64) equals 4 × execute(16) bit for bit.
+  /// Throws std::out_of_range if the camera is not in the render index.
+  void execute(int samples);
+  void reset();
+
+  int samplesDone() const { return samplesDone_; }
+  bool converged() const { return samplesDone_ >= delegate_.settings().samples; }
+  int width() const { return film_.width(); }
+  int height() const { return film_.height(); }
+
+  /// AOV names: "color" (RGBA) and "depth".
+  static const std::vector<std::string>& aovNames();
+  /// Resolved buffer, row-major from the top: 4 floats per pixel for color, 1 for depth.
+  /// Throws std::invalid_argument for an unknown name.
+  std::vector<float> aov(const std::string& name) const;
+  static int aovChannels(const std::string& name);
+
+ private:
+  RenderDelegate& delegate_;
+  PrimId cameraId_;
+  Film film_;
+  int samplesDone_ = 0;
+  // What the accumulated samples were rendered with; any change restarts accumulation.
+  uint64_t sceneVersion_ = ~uint64_t(0);
+  int cameraSyncCount_ = -1;
+  std::map<std::string, int> settingsUsed_;
+};
+
+}  // namespace penumbra::plugin

@@ -1,0 +1,45 @@
+#include "penumbra/plugin/mesh.h"
+
+namespace penumbra::plugin {
+
+void Mesh::setTopology(std::vector<int> counts, std::vector<int> indices, bool leftHanded,
+                       std::string subdivisionScheme) {
+  data_.faceVertexCounts = std::move(counts);
+  data_.faceVertexIndices = std::move(indices);
+  data_.leftHanded = leftHanded;
+  subdivisionScheme_ = std::move(subdivisionScheme);
+  markDirty(DirtyTopology);
+}
+
+void Mesh::setPoints(std::vector<Vec3f> points) {
+  data_.points = std::move(points);
+  markDirty(DirtyPoints);
+}
+
+void Mesh::setDoubleSided(bool doubleSided) {
+  data_.doubleSided = doubleSided;
+  markDirty(DirtyDoubleSided);
+}
+
+void Mesh::setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolation) {
+  data_.displayColor = std::move(colors);
+  data_.displayColorInterpolation = interpolation;
+  markDirty(DirtyPrimvar);
+}
+
+void Mesh::setMaterialId(PrimId materialId) {
+  materialId_ = std::move(materialId);
+  markDirty(DirtyMaterialId);
+}
+
+void Mesh::setTransform(const Transform& objectToWorld) {
+  objectToWorld_ = objectToWorld;
+  markDirty(DirtyTransform);
+}
+
+void Mesh::setVisible(bool visible) {
+  visible_ = visible;
+  markDirty(DirtyVisibility);
+}
+
+}  // namespace penumbra::plugin

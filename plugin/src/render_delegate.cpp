@@ -1,0 +1,205 @@
+#include "penumbra/plugin/render_delegate.h"
+
+#include <stdexcept>
+
+namespace penumbra::plugin {
+
+void RenderSettingsMap::set(const std::string& key, int value) {
+  const auto requireAtLeast = [&](int minimum) {
+    if (value < minimum)
+      throw std::invalid_argument("render setting " + key + " must be >= " +
+                                  std::to_string(minimum) + ", got " + std::to_string(value));
+  };
+  if (key == "samples")
+    requireAtLeast(1), samples = value;
+  else if (key == "seed")
+    requireAtLeast(0), seed = value;
+  else if (key == "threads")
+    requireAtLeast(0), threads = value;
+  else if (key == "maxPathDepth")
+    requireAtLeast(0), maxPathDepth = value;
+  else
+    throw std::invalid_argument("unknown render setting '" + key +
+                                "' (known: samples, seed, threads, maxPathDepth)");
+}
+
+std::map<std::string, int> RenderSettingsMap::asMap() const {
+  return {
+      {"samples", samples}, {"seed", seed}, {"threads", threads}, {"maxPathDepth", maxPathDepth}};
+}
+
+RenderDelegate::RenderDelegate() : scene_(std::make_unique<Scene>(device_)) {}
+
+// The scene (and its Embree objects) must go before the device.
+RenderDelegate::~RenderDelegate() {
+  prims_.clear();
+  scene_.reset();
+}
+
+void RenderDelegate::insertRprim(const std::string& type, const PrimId& id) {
+  if (type != "mesh") throw std::invalid_argument(id + ": unsupported rprim type '" + type + "'");
+  if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
+  prims_[id] = std::make_unique<Mesh>(id, scene_->addMesh());
+  meshesStructureChanged_ = true;
+}
+
+void RenderDelegate::insertSprim(const std::string& type, const PrimId& id) {
+  if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
+  if (type == "camera") {
+    prims_[id] = std::make_unique<Camera>(id);
+  } else if (type == "material") {
+    prims_[id] = std::make_unique<Material>(id);
+    materialsStructureChanged_ = true;
+  } else if (isLightTypeName(type)) {
+    prims_[id] = std::make_unique<Light>(id, lightTypeFromName(type));
+    lightsStructureChanged_ = true;
+  } else {
+    throw std::invalid_argument(id + ": unsupported sprim type '" + type + "'");
+  }
+}
+
+void RenderDelegate::removePrim(const PrimId& id) {
+  Prim& removed = prim(id);
+  if (auto* mesh = dynamic_cast<Mesh*>(&removed)) {
+    scene_->removeMesh(mesh->handle());
+    meshesStructureChanged_ = true;
+  }
+  if (dynamic_cast<Material*>(&removed)) materialsStructureChanged_ = true;
+  if (dynamic_cast<Light*>(&removed)) lightsStructureChanged_ = true;
+  prims_.erase(id);
+}
+
+bool RenderDelegate::hasPrim(const PrimId& id) const {
+  return prims_.count(id) != 0;
+}
+
+std::vector<PrimId> RenderDelegate::primIds() const {
+  std::vector<PrimId> ids;
+  for (const auto& entry : prims_) ids.push_back(entry.first);
+  return ids;
+}
+
+Prim& RenderDelegate::prim(const PrimId& id) {
+  const auto found = prims_.find(id);
+  if (found == prims_.end()) throw std::out_of_range(id + ": no such prim in the render index");
+  return *found->second;
+}
+
+namespace {
+template <typename T>
+T& primAs(Prim& prim, const char* typeName) {
+  if (auto* typed = dynamic_cast<T*>(&prim)) return *typed;
+  throw std::out_of_range(prim.id() + ": prim is not a " + typeName);
+}
+}  // namespace
+
+Mesh& RenderDelegate::mesh(const PrimId& id) {
+  return primAs<Mesh>(prim(id), "mesh");
+}
+Camera& RenderDelegate::camera(const PrimId& id) {
+  return primAs<Camera>(prim(id), "camera");
+}
+Light& RenderDelegate::light(const PrimId& id) {
+  return primAs<Light>(prim(id), "light");
+}
+Material& RenderDelegate::material(const PrimId& id) {
+  return primAs<Material>(prim(id), "material");
+}
+
+std::vector<std::string> RenderDelegate::takeWarnings() {
+  std::vector<std::string> taken;
+  taken.swap(warnings_);
+  return taken;
+}
+
+void RenderDelegate::syncMaterials() {
+  std::vector<MaterialParams> materials;
+  materialIndex_.clear();
+  for (auto& [id, prim] : prims_) {
+    if (auto* material = dynamic_cast<Material*>(prim.get())) {
+      materialIndex_[id] = int(materials.size());
+      materials.push_back(material->params());
+      if (material->dirtyBits() != Clean) material->markClean();
+    }
+  }
+  scene_->setMaterials(std::move(materials));
+}
+
+void RenderDelegate::syncLights() {
+  std::vector<penumbra::Light> lights;
+  for (auto& [id, prim] : prims_) {
+    auto* light = dynamic_cast<Light*>(prim.get());
+    if (!light) continue;
+    if (light->visible()) {
+      try {
+        lights.emplace_back(light->params());
+      } catch (const std::invalid_argument& error) {
+        warn(id + ": " + error.what() + "; the light is skipped");
+      }
+    }
+    if (light->dirtyBits() != Clean) light->markClean();
+  }
+  scene_->setLights(std::move(lights));
+}
+
+void RenderDelegate::syncMesh(Mesh& mesh, bool materialsChanged) {
+  const uint32_t bits = mesh.dirtyBits();
+  if (bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided)) {
+    if (mesh.subdivisionScheme() != "none" && !warnedAboutSubdivision_) {
+      warnedAboutSubdivision_ = true;
+      warn(mesh.id() + ": subdivisionScheme '" + mesh.subdivisionScheme() +
+           "' is not supported yet; subdivision meshes render as their control cage");
+    }
+    try {
+      scene_->setMeshGeometry(mesh.handle(), triangulate(mesh.data()));
+    } catch (const std::invalid_argument& error) {
+      warn(mesh.id() + ": " + error.what() + "; the mesh is skipped");
+      scene_->clearMeshGeometry(mesh.handle());
+    }
+  }
+  int materialIndex = Scene::kNoMaterial;
+  if (!mesh.materialId().empty()) {
+    const auto found = materialIndex_.find(mesh.materialId());
+    if (found != materialIndex_.end())
+      materialIndex = found->second;
+    else if (bits & DirtyMaterialId)
+      warn(mesh.id() + ": bound material " + mesh.materialId() +
+           " is not in the render index; displayColor is used");
+  }
+  if (bits != Clean || materialsChanged)
+    scene_->setMeshInstance(mesh.handle(), mesh.transform(), materialIndex, mesh.visible());
+  if (bits != Clean) mesh.markClean();
+}
+
+bool RenderDelegate::sync() {
+  bool materialsDirty = materialsStructureChanged_, lightsDirty = lightsStructureChanged_;
+  bool meshesDirty = meshesStructureChanged_, camerasDirty = false;
+  for (const auto& [id, prim] : prims_) {
+    if (prim->dirtyBits() == Clean) continue;
+    if (dynamic_cast<Material*>(prim.get()))
+      materialsDirty = true;
+    else if (dynamic_cast<Light*>(prim.get()))
+      lightsDirty = true;
+    else if (dynamic_cast<Mesh*>(prim.get()))
+      meshesDirty = true;
+    else
+      camerasDirty = true;
+  }
+  if (materialsDirty) syncMaterials();
+  if (lightsDirty) syncLights();
+  if (meshesDirty || materialsDirty) {
+    for (auto& [id, prim] : prims_)
+      if (auto* mesh = dynamic_cast<Mesh*>(prim.get())) syncMesh(*mesh, materialsDirty);
+  }
+  for (auto& [id, prim] : prims_)
+    if (dynamic_cast<Camera*>(prim.get()) && prim->dirtyBits() != Clean) prim->markClean();
+  materialsStructureChanged_ = lightsStructureChanged_ = meshesStructureChanged_ = false;
+  const bool sceneChanged = materialsDirty || lightsDirty || meshesDirty;
+  if (sceneChanged) {
+    scene_->commit();
+    ++sceneVersion_;
+  }
+  return sceneChanged || camerasDirty;
+}
+
+}  // namespace penumbra::plugin

@@ -1,0 +1,60 @@
+#include "penumbra/plugin/render_pass.h"
+
+#include <stdexcept>
+
+#include "penumbra/render.h"
+
+namespace penumbra::plugin {
+
+RenderPass::RenderPass(RenderDelegate& delegate, PrimId cameraId, int width, int height)
+    : delegate_(delegate), cameraId_(std::move(cameraId)), film_(width, height) {}
+
+const std::vector<std::string>& RenderPass::aovNames() {
+  static const std::vector<std::string> names = {"color", "depth"};
+  return names;
+}
+
+int RenderPass::aovChannels(const std::string& name) {
+  if (name == "color") return 4;
+  if (name == "depth") return 1;
+  throw std::invalid_argument("unknown AOV '" + name + "' (known: color, depth)");
+}
+
+void RenderPass::reset() {
+  film_.clear();
+  samplesDone_ = 0;
+}
+
+void RenderPass::execute(int samples) {
+  if (samples < 0) throw std::invalid_argument("sample count must be >= 0");
+  delegate_.sync();
+  const Camera& cameraPrim = delegate_.camera(cameraId_);
+  const RenderSettingsMap& settings = delegate_.settings();
+  // The target sample count does not change what a sample is; everything else does.
+  std::map<std::string, int> settingsUsed = settings.asMap();
+  settingsUsed.erase("samples");
+  settingsUsed.erase("threads");
+  if (delegate_.sceneVersion() != sceneVersion_ || cameraPrim.syncCount() != cameraSyncCount_ ||
+      settingsUsed != settingsUsed_) {
+    reset();
+    sceneVersion_ = delegate_.sceneVersion();
+    cameraSyncCount_ = cameraPrim.syncCount();
+    settingsUsed_ = std::move(settingsUsed);
+  }
+  if (samples == 0) return;
+  const penumbra::Camera camera(cameraPrim.params(), film_.width(), film_.height());
+  RenderSettings renderSettings;
+  renderSettings.threads = settings.threads;
+  renderSettings.integrator.seed = uint32_t(settings.seed);
+  renderSettings.integrator.maxPathDepth = settings.maxPathDepth;
+  renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_), uint32_t(samples),
+                renderSettings);
+  samplesDone_ += samples;
+}
+
+std::vector<float> RenderPass::aov(const std::string& name) const {
+  aovChannels(name);
+  return name == "color" ? film_.resolveColor() : film_.resolveDepth();
+}
+
+}  // namespace penumbra::plugin

@@ -1,0 +1,315 @@
+// penumbra._core: Python bindings of the render delegate (plugin/) and the image I/O.
+// See docs/core-api.md. Heavy data crosses as numpy buffers; errors map to ValueError
+// (bad values), KeyError (unknown prim ids) and RuntimeError (files, Embree).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstring>
+#include <stdexcept>
+
+#include "penumbra/image_io.h"
+#include "penumbra/plugin/render_delegate.h"
+#include "penumbra/plugin/render_pass.h"
+
+namespace py = pybind11;
+using penumbra::CameraParams;
+using penumbra::ColorCorrection;
+using penumbra::DisplaySettings;
+using penumbra::ImageData;
+using penumbra::Interpolation;
+using penumbra::Metadata;
+using penumbra::Projection;
+using penumbra::Transform;
+using penumbra::Vec3f;
+using namespace penumbra::plugin;
+
+namespace {
+
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+using IntArray = py::array_t<int32_t, py::array::c_style | py::array::forcecast>;
+using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+std::vector<Vec3f> toVec3Array(const FloatArray& array, const char* what) {
+  if (array.ndim() != 2 || array.shape(1) != 3)
+    throw std::invalid_argument(std::string(what) + " must have shape (N, 3)");
+  std::vector<Vec3f> result(size_t(array.shape(0)));
+  if (!result.empty()) std::memcpy(result.data(), array.data(), result.size() * sizeof(Vec3f));
+  return result;
+}
+
+std::vector<int> toIntVector(const IntArray& array, const char* what) {
+  if (array.ndim() != 1) throw std::invalid_argument(std::string(what) + " must be 1-dimensional");
+  return std::vector<int>(array.data(), array.data() + array.shape(0));
+}
+
+Transform toTransform(const DoubleArray& matrix) {
+  if (matrix.ndim() != 2 || matrix.shape(0) != 4 || matrix.shape(1) != 4)
+    throw std::invalid_argument("a transform must have shape (4, 4)");
+  return Transform::fromRowMajor(matrix.data());
+}
+
+Interpolation toInterpolation(const std::string& name) {
+  if (name == "constant") return Interpolation::Constant;
+  if (name == "uniform") return Interpolation::Uniform;
+  if (name == "vertex" || name == "varying") return Interpolation::Vertex;
+  if (name == "faceVarying") return Interpolation::FaceVarying;
+  throw std::invalid_argument("unknown primvar interpolation '" + name + "'");
+}
+
+ParamValue toParamValue(const std::string& name, const py::handle& value) {
+  if (py::isinstance<py::bool_>(value)) return value.cast<bool>();
+  if (py::isinstance<py::int_>(value)) return value.cast<int>();
+  if (py::isinstance<py::float_>(value)) return value.cast<float>();
+  if (py::hasattr(value, "__len__") && py::len(value) == 3) {
+    const py::sequence items = py::reinterpret_borrow<py::sequence>(value);
+    return Vec3f(items[0].cast<float>(), items[1].cast<float>(), items[2].cast<float>());
+  }
+  try {
+    return py::float_(py::reinterpret_borrow<py::object>(value)).cast<float>();  // numpy scalars
+  } catch (const py::error_already_set&) {
+    throw std::invalid_argument(name + ": expected a number, a bool or a 3-component colour");
+  }
+}
+
+Metadata toMetadata(const py::dict& metadata) {
+  Metadata result;
+  for (const auto& [key, value] : metadata) {
+    const std::string name = py::str(key);
+    if (py::isinstance<py::bool_>(value) || py::isinstance<py::int_>(value))
+      result[name] = value.cast<int>();
+    else if (py::isinstance<py::float_>(value))
+      result[name] = value.cast<float>();
+    else
+      result[name] = std::string(py::str(value));
+  }
+  return result;
+}
+
+ColorCorrection toColorCorrection(const std::string& mode) {
+  if (mode == "disabled") return ColorCorrection::Disabled;
+  if (mode == "sRGB") return ColorCorrection::SRGB;
+  if (mode == "openColorIO") return ColorCorrection::OpenColorIO;
+  throw std::invalid_argument(
+      "colour correction mode must be disabled, sRGB or openColorIO, got '" + mode + "'");
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "Penumbra's render delegate and image I/O (see docs/core-api.md)";
+  py::register_exception_translator([](std::exception_ptr pointer) {
+    try {
+      if (pointer) std::rethrow_exception(pointer);
+    } catch (const std::out_of_range& error) {
+      PyErr_SetString(PyExc_KeyError, error.what());
+    }
+  });
+
+  m.def("version", [] { return std::string(PENUMBRA_VERSION); });
+
+  py::class_<RenderDelegate>(m, "RenderDelegate")
+      .def(py::init<>())
+      .def("insert_rprim", &RenderDelegate::insertRprim, py::arg("type"), py::arg("id"))
+      .def("insert_sprim", &RenderDelegate::insertSprim, py::arg("type"), py::arg("id"))
+      .def("remove_prim", &RenderDelegate::removePrim, py::arg("id"))
+      .def("has_prim", &RenderDelegate::hasPrim, py::arg("id"))
+      .def("prim_ids", &RenderDelegate::primIds)
+      .def(
+          "set_mesh_topology",
+          [](RenderDelegate& self, const std::string& id, const IntArray& counts,
+             const IntArray& indices, bool leftHanded, const std::string& subdivisionScheme) {
+            self.mesh(id).setTopology(toIntVector(counts, "face_vertex_counts"),
+                                      toIntVector(indices, "face_vertex_indices"), leftHanded,
+                                      subdivisionScheme);
+          },
+          py::arg("id"), py::arg("face_vertex_counts"), py::arg("face_vertex_indices"),
+          py::arg("left_handed") = false, py::arg("subdivision_scheme") = "none")
+      .def(
+          "set_mesh_points",
+          [](RenderDelegate& self, const std::string& id, const FloatArray& points) {
+            self.mesh(id).setPoints(toVec3Array(points, "points"));
+          },
+          py::arg("id"), py::arg("points"))
+      .def(
+          "set_mesh_double_sided",
+          [](RenderDelegate& self, const std::string& id, bool doubleSided) {
+            self.mesh(id).setDoubleSided(doubleSided);
+          },
+          py::arg("id"), py::arg("double_sided"))
+      .def(
+          "set_mesh_display_color",
+          [](RenderDelegate& self, const std::string& id, const FloatArray& colors,
+             const std::string& interpolation) {
+            self.mesh(id).setDisplayColor(toVec3Array(colors, "display colour"),
+                                          toInterpolation(interpolation));
+          },
+          py::arg("id"), py::arg("colors"), py::arg("interpolation"))
+      .def(
+          "set_mesh_material",
+          [](RenderDelegate& self, const std::string& id, const std::string& materialId) {
+            self.mesh(id).setMaterialId(materialId);
+          },
+          py::arg("id"), py::arg("material_id"))
+      .def(
+          "set_transform",
+          [](RenderDelegate& self, const std::string& id, const DoubleArray& matrix) {
+            const Transform transform = toTransform(matrix);
+            Prim& prim = self.prim(id);
+            if (auto* mesh = dynamic_cast<Mesh*>(&prim))
+              mesh->setTransform(transform);
+            else if (auto* camera = dynamic_cast<Camera*>(&prim))
+              camera->setTransform(transform);
+            else if (auto* light = dynamic_cast<Light*>(&prim))
+              light->setTransform(transform);
+            else
+              throw std::invalid_argument(id + ": this prim has no transform");
+          },
+          py::arg("id"), py::arg("matrix"))
+      .def(
+          "set_visible",
+          [](RenderDelegate& self, const std::string& id, bool visible) {
+            Prim& prim = self.prim(id);
+            if (auto* mesh = dynamic_cast<Mesh*>(&prim))
+              mesh->setVisible(visible);
+            else if (auto* light = dynamic_cast<Light*>(&prim))
+              light->setVisible(visible);
+            else
+              throw std::invalid_argument(id + ": this prim has no visibility");
+          },
+          py::arg("id"), py::arg("visible"))
+      .def(
+          "set_camera",
+          [](RenderDelegate& self, const std::string& id, float focalLength,
+             float horizontalAperture, float verticalAperture, float horizontalApertureOffset,
+             float verticalApertureOffset, float fStop, float focusDistance,
+             std::pair<float, float> clippingRange, float shutterOpen, float shutterClose,
+             const std::string& projection) {
+            CameraParams params;
+            params.focalLength = focalLength;
+            params.horizontalAperture = horizontalAperture;
+            params.verticalAperture = verticalAperture;
+            params.horizontalApertureOffset = horizontalApertureOffset;
+            params.verticalApertureOffset = verticalApertureOffset;
+            params.fStop = fStop;
+            params.focusDistance = focusDistance;
+            params.nearClip = clippingRange.first;
+            params.farClip = clippingRange.second;
+            params.shutterOpen = shutterOpen;
+            params.shutterClose = shutterClose;
+            if (projection == "perspective")
+              params.projection = Projection::Perspective;
+            else if (projection == "orthographic")
+              params.projection = Projection::Orthographic;
+            else
+              throw std::invalid_argument(id + ": unknown projection '" + projection + "'");
+            self.camera(id).setParams(params);
+          },
+          py::arg("id"), py::kw_only(), py::arg("focal_length"), py::arg("horizontal_aperture"),
+          py::arg("vertical_aperture"), py::arg("horizontal_aperture_offset") = 0.0f,
+          py::arg("vertical_aperture_offset") = 0.0f, py::arg("f_stop") = 0.0f,
+          py::arg("focus_distance") = 0.0f,
+          py::arg("clipping_range") = std::pair<float, float>(0.01f, 1e6f),
+          py::arg("shutter_open") = 0.0f, py::arg("shutter_close") = 0.0f,
+          py::arg("projection") = "perspective")
+      .def(
+          "set_light",
+          [](RenderDelegate& self, const std::string& id, const py::kwargs& params) {
+            Light& light = self.light(id);
+            for (const auto& [key, value] : params) {
+              const std::string name = py::str(key);
+              light.setParam(name, toParamValue(id + ": " + name, value));
+            }
+          },
+          py::arg("id"))
+      .def(
+          "set_material",
+          [](RenderDelegate& self, const std::string& id, const py::dict& params) {
+            Material& material = self.material(id);
+            material.resetParams();
+            for (const auto& [key, value] : params) {
+              const std::string name = py::str(key);
+              material.setParam(name, toParamValue(id + ": " + name, value));
+            }
+          },
+          py::arg("id"), py::arg("params"))
+      .def(
+          "set_render_setting",
+          [](RenderDelegate& self, const std::string& key, int value) {
+            self.settings().set(key, value);
+          },
+          py::arg("key"), py::arg("value"))
+      .def("render_settings", [](const RenderDelegate& self) { return self.settings().asMap(); })
+      .def(
+          "dirty_bits",
+          [](RenderDelegate& self, const std::string& id) { return self.prim(id).dirtyBits(); },
+          py::arg("id"))
+      .def(
+          "sync_count",
+          [](RenderDelegate& self, const std::string& id) { return self.prim(id).syncCount(); },
+          py::arg("id"))
+      .def("take_warnings", &RenderDelegate::takeWarnings);
+
+  py::class_<RenderPass>(m, "RenderPass")
+      .def(py::init<RenderDelegate&, std::string, int, int>(), py::arg("delegate"),
+           py::arg("camera_id"), py::arg("width"), py::arg("height"), py::keep_alive<1, 2>())
+      .def("execute", &RenderPass::execute, py::arg("samples"),
+           py::call_guard<py::gil_scoped_release>())
+      .def("reset", &RenderPass::reset)
+      .def_property_readonly("samples_done", &RenderPass::samplesDone)
+      .def_property_readonly("converged", &RenderPass::converged)
+      .def_property_readonly("width", &RenderPass::width)
+      .def_property_readonly("height", &RenderPass::height)
+      .def_static("aov_names", &RenderPass::aovNames)
+      .def(
+          "aov",
+          [](const RenderPass& self, const std::string& name) {
+            const int channels = RenderPass::aovChannels(name);
+            const std::vector<float> values = self.aov(name);
+            py::array_t<float> result({self.height(), self.width(), channels});
+            std::memcpy(result.mutable_data(), values.data(), values.size() * sizeof(float));
+            return result;
+          },
+          py::arg("name"));
+
+  m.def(
+      "write_image",
+      [](const std::string& path, const FloatArray& channels, const std::vector<std::string>& names,
+         const py::dict& metadata, const std::string& colorMode, const std::string& ocioConfig,
+         const std::string& display, const std::string& view) {
+        if (channels.ndim() != 3 || channels.shape(2) != py::ssize_t(names.size()))
+          throw std::invalid_argument(
+              path + ": pixels must have shape (H, W, C) with one name per channel");
+        ImageData image;
+        image.height = int(channels.shape(0));
+        image.width = int(channels.shape(1));
+        image.channelNames = names;
+        image.pixels.assign(channels.data(), channels.data() + channels.size());
+        image.metadata = toMetadata(metadata);
+        DisplaySettings settings{toColorCorrection(colorMode), ocioConfig, display, view};
+        py::gil_scoped_release release;
+        penumbra::writeImage(path, image, settings);
+      },
+      py::arg("path"), py::arg("channels"), py::arg("channel_names"),
+      py::arg("metadata") = py::dict(), py::arg("color_mode") = "disabled",
+      py::arg("ocio_config") = "", py::arg("display") = "", py::arg("view") = "");
+
+  m.def(
+      "read_image",
+      [](const std::string& path) {
+        ImageData image;
+        {
+          py::gil_scoped_release release;
+          image = penumbra::readImage(path);
+        }
+        const py::ssize_t channels = py::ssize_t(image.channelNames.size());
+        py::array_t<float> pixels({py::ssize_t(image.height), py::ssize_t(image.width), channels});
+        std::memcpy(pixels.mutable_data(), image.pixels.data(),
+                    image.pixels.size() * sizeof(float));
+        py::dict metadata;
+        for (const auto& [key, value] : image.metadata)
+          std::visit([&, name = key](const auto& v) { metadata[py::str(name)] = v; }, value);
+        return py::make_tuple(pixels, image.channelNames, metadata);
+      },
+      py::arg("path"));
+}

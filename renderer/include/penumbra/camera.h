@@ -1,0 +1,65 @@
+// Pinhole and thin-lens cameras with UsdGeomCamera's parameters (DESIGN.md §3): focal length and
+// apertures in tenths of a scene unit, distances in scene units, looking down -Z with +Y up.
+#pragma once
+
+#include "penumbra/math.h"
+
+namespace penumbra {
+
+struct Ray {
+  Vec3f origin;
+  Vec3f direction;  // unit length
+  float tNear = 0;
+  float tFar = kInfinity;
+};
+
+enum class Projection { Perspective, Orthographic };
+
+struct CameraParams {
+  Transform cameraToWorld;
+  Projection projection = Projection::Perspective;
+  float focalLength = 50;  // tenths of a scene unit
+  float horizontalAperture = 20.955f;
+  float verticalAperture = 15.2908f;
+  float horizontalApertureOffset = 0;
+  float verticalApertureOffset = 0;
+  float fStop = 0;          // 0: pinhole
+  float focusDistance = 0;  // scene units
+  float nearClip = 1;       // scene units, along the view axis
+  float farClip = 1e6f;
+  float shutterOpen = 0;  // time codes relative to the frame
+  float shutterClose = 0;
+};
+
+/// A camera bound to an image resolution. The aperture is fitted to the image aspect by
+/// expanding it (UsdRenderSettings' default conform policy, "expandAperture").
+class Camera {
+ public:
+  /// Throws std::invalid_argument for non-positive sizes or apertures.
+  Camera(const CameraParams& params, int imageWidth, int imageHeight);
+
+  /// Ray through continuous image position (x right, y down, in pixels; (0,0) is the top-left
+  /// corner of the image) and a uniform lens sample.
+  Ray generateRay(float imageX, float imageY, Vec2f lensSample) const;
+  /// Distance along the view axis of the point at parameter t of a ray this camera generated.
+  float viewDepth(const Ray& ray, float t) const;
+
+  /// Lens radius in scene units (0 for a pinhole).
+  float lensRadius() const { return lensRadius_; }
+  /// Fitted film window size in tenths of a scene unit.
+  float filmWidth() const { return filmWidth_; }
+  float filmHeight() const { return filmHeight_; }
+  const CameraParams& params() const { return params_; }
+
+ private:
+  CameraParams params_;
+  int width_, height_;
+  float filmWidth_, filmHeight_;
+  float lensRadius_;
+  Vec3f viewAxis_;  // world-space unit -Z of the camera
+};
+
+/// Shirley–Chiu concentric mapping of the unit square to the unit disk (no clumping).
+Vec2f concentricSampleDisk(Vec2f u);
+
+}  // namespace penumbra

@@ -1,0 +1,31 @@
+// Importance-sampled pixel reconstruction filter. Instead of splatting weighted samples into
+// neighbouring pixels, each sample's offset from the pixel centre is drawn with density
+// proportional to the filter, and every sample has weight 1: pixels stay independent, which keeps
+// rendering deterministic across threads and farm splits.
+#pragma once
+
+#include <vector>
+
+#include "penumbra/math.h"
+
+namespace penumbra {
+
+/// A separable Gaussian filter, truncated at `radius` pixels and shifted to reach zero there.
+class PixelFilter {
+ public:
+  explicit PixelFilter(float radius = 1.5f, float sigma = 0.5f);
+
+  /// Offset from the pixel centre, in pixels, for a uniform 2D sample.
+  Vec2f sampleOffset(Vec2f u) const { return {sample1D(u.x), sample1D(u.y)}; }
+  float radius() const { return radius_; }
+  /// The filter's 1D profile (unnormalised), exposed for tests.
+  float evaluate1D(float x) const;
+
+ private:
+  float sample1D(float u) const;
+
+  float radius_, sigma_;
+  std::vector<float> cdf_;  // cumulative integral of the profile over equal bins, cdf_.back() = 1
+};
+
+}  // namespace penumbra

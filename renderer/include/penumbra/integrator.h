@@ -1,0 +1,37 @@
+// Unidirectional path tracing with next-event estimation. Each camera sample distributes its rays
+// over the pixel area (filter), the lens and, at every vertex, the light's surface and the BSDF
+// lobe; light and BSDF samples are combined by multiple importance sampling (power heuristic).
+#pragma once
+
+#include <cstdint>
+
+#include "penumbra/camera.h"
+#include "penumbra/filter.h"
+#include "penumbra/scene.h"
+
+namespace penumbra {
+
+struct IntegratorSettings {
+  uint32_t seed = 0;
+  /// Surface interactions per path: 0 shows emitters only, 1 direct lighting, 2+ indirect.
+  int maxPathDepth = 8;
+};
+
+struct CameraSample {
+  Vec3f radiance;
+  float alpha = 0;          // 1 when the camera ray hit a surface or an area light
+  float depth = kInfinity;  // view-axis distance of the first hit
+};
+
+/// Renders sample `sampleIndex` of pixel (x, y); a pure function of its arguments.
+CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const PixelFilter& filter,
+                                int x, int y, uint32_t sampleIndex,
+                                const IntegratorSettings& settings);
+
+/// Power heuristic (β = 2) weight of a strategy with density `pdf` against `otherPdf`.
+inline float powerHeuristic(float pdf, float otherPdf) {
+  const float a = pdf * pdf, b = otherPdf * otherPdf;
+  return a + b > 0 ? a / (a + b) : 0.0f;
+}
+
+}  // namespace penumbra

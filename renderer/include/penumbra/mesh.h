@@ -1,0 +1,47 @@
+// Polygon meshes as the renderer receives them (plain arrays, USD conventions), and their
+// triangulation.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "penumbra/math.h"
+
+namespace penumbra {
+
+/// How a per-mesh value array maps onto the surface (UsdGeom primvar interpolation).
+enum class Interpolation { Constant, Uniform, Vertex, FaceVarying };
+
+struct MeshData {
+  std::vector<Vec3f> points;
+  std::vector<int> faceVertexCounts;
+  std::vector<int> faceVertexIndices;
+  bool leftHanded = false;  // orientation: leftHanded reverses the winding that faces front
+  bool doubleSided = false;
+  std::vector<Vec3f> displayColor;  // empty: none authored
+  Interpolation displayColorInterpolation = Interpolation::Constant;
+};
+
+/// A triangulated mesh ready for Embree. Triangles are fans of each polygon, wound so that the
+/// front face is counter-clockwise in a right-handed frame.
+struct TriangleMesh {
+  std::vector<Vec3f> points;
+  std::vector<uint32_t> triangles;  // 3 point indices per triangle
+  // Per triangle: the polygon it came from and the face-vertex positions of its 3 corners (for
+  // uniform and faceVarying data).
+  std::vector<uint32_t> sourceFace;
+  std::vector<uint32_t> cornerFaceVertex;
+  bool doubleSided = false;
+  std::vector<Vec3f> displayColor;
+  Interpolation displayColorInterpolation = Interpolation::Constant;
+
+  /// Display colour at a point on triangle `triangle` with barycentrics (u, v) as Embree gives
+  /// them (weights 1-u-v, u, v for corners 0, 1, 2). `fallback` when none is authored.
+  Vec3f displayColorAt(uint32_t triangle, float u, float v, const Vec3f& fallback) const;
+};
+
+/// Validates and triangulates. Throws std::invalid_argument with a message saying what is wrong
+/// (counts that do not add up, indices out of range, primvar sizes, non-finite points).
+TriangleMesh triangulate(const MeshData& mesh);
+
+}  // namespace penumbra

@@ -1,0 +1,42 @@
+// Deterministic low-discrepancy sampling: every value is a pure function of
+// (seed, pixel, sample index, dimension), so images do not depend on threads or tile order.
+//
+// Each dimension (a 1D or 2D draw) takes the first two dimensions of the Sobol sequence at a
+// shuffled sample index and Owen-scrambles them with hash-derived seeds (Burley 2020, "Practical
+// Hash-based Owen Scrambling"). Within one pixel the first 2^k samples of every 2D draw form a
+// (0,k,2)-net; draws of different dimensions are decorrelated by the per-dimension shuffle.
+#pragma once
+
+#include <cstdint>
+
+#include "penumbra/math.h"
+
+namespace penumbra {
+
+/// A 32-bit integer hash with good avalanche (the "lowbias32" finaliser of Chris Wellons).
+uint32_t hashUint32(uint32_t x);
+/// Hash of two values, order-dependent.
+uint32_t hashCombine(uint32_t seed, uint32_t value);
+
+/// Owen scrambling of a 32-bit binary fraction: each bit is flipped by a hash of the bits above it.
+uint32_t owenScramble(uint32_t bits, uint32_t seed);
+/// The first two dimensions of the Sobol (0,2)-sequence, as 32-bit fractions.
+uint32_t sobolDimension0(uint32_t index);
+uint32_t sobolDimension1(uint32_t index);
+
+/// The random numbers of one camera sample: draw them in a fixed order.
+class SampleStream {
+ public:
+  SampleStream(uint32_t seed, uint32_t pixelX, uint32_t pixelY, uint32_t sampleIndex);
+
+  float next1D();
+  Vec2f next2D();
+  uint32_t dimension() const { return dimension_; }
+
+ private:
+  uint32_t pixelSeed_;
+  uint32_t sampleIndex_;
+  uint32_t dimension_ = 0;
+};
+
+}  // namespace penumbra

@@ -1,0 +1,83 @@
+#include "penumbra/camera.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace penumbra {
+
+Vec2f concentricSampleDisk(Vec2f u) {
+  const float x = 2 * u.x - 1, y = 2 * u.y - 1;
+  if (x == 0 && y == 0) return {0, 0};
+  float radius, angle;
+  if (std::fabs(x) > std::fabs(y)) {
+    radius = x;
+    angle = (kPi / 4) * (y / x);
+  } else {
+    radius = y;
+    angle = kPi / 2 - (kPi / 4) * (x / y);
+  }
+  return {radius * std::cos(angle), radius * std::sin(angle)};
+}
+
+Camera::Camera(const CameraParams& params, int imageWidth, int imageHeight)
+    : params_(params), width_(imageWidth), height_(imageHeight) {
+  if (imageWidth <= 0 || imageHeight <= 0)
+    throw std::invalid_argument("image size must be positive, got " + std::to_string(imageWidth) +
+                                "x" + std::to_string(imageHeight));
+  if (!(params.horizontalAperture > 0) || !(params.verticalAperture > 0))
+    throw std::invalid_argument("camera apertures must be positive");
+  if (params.projection == Projection::Perspective && !(params.focalLength > 0))
+    throw std::invalid_argument("camera focalLength must be positive");
+  const float imageAspect = float(imageWidth) / float(imageHeight);
+  const float apertureAspect = params.horizontalAperture / params.verticalAperture;
+  filmWidth_ = params.horizontalAperture;
+  filmHeight_ = params.verticalAperture;
+  if (imageAspect > apertureAspect)
+    filmWidth_ = filmHeight_ * imageAspect;
+  else
+    filmHeight_ = filmWidth_ / imageAspect;
+  const bool thinLens =
+      params.projection == Projection::Perspective && params.fStop > 0 && params.focusDistance > 0;
+  // f = 0.1 · focalLength scene units; R = f / (2 N).
+  lensRadius_ = thinLens ? 0.1f * params.focalLength / (2 * params.fStop) : 0.0f;
+  viewAxis_ = normalize(params.cameraToWorld.applyToVector({0, 0, -1}));
+}
+
+Ray Camera::generateRay(float imageX, float imageY, Vec2f lensSample) const {
+  // Position on the film window, in tenths of a scene unit, relative to the optical axis.
+  const float filmX = params_.horizontalApertureOffset + (imageX / width_ - 0.5f) * filmWidth_;
+  const float filmY = params_.verticalApertureOffset + (0.5f - imageY / height_) * filmHeight_;
+  Vec3f origin, direction;
+  if (params_.projection == Projection::Orthographic) {
+    origin = {0.1f * filmX, 0.1f * filmY, 0};
+    direction = {0, 0, -1};
+  } else {
+    direction = {filmX / params_.focalLength, filmY / params_.focalLength, -1};
+    if (lensRadius_ > 0) {
+      // Rays through the lens converge where the pinhole ray meets the plane of focus.
+      const Vec3f focusPoint = direction * params_.focusDistance;
+      const Vec2f lens = concentricSampleDisk(lensSample);
+      origin = {lensRadius_ * lens.x, lensRadius_ * lens.y, 0};
+      direction = focusPoint - origin;
+    }
+  }
+  direction = normalize(direction);
+  Ray ray;
+  // Clipping distances are measured along the view axis, where -direction.z is the cosine.
+  ray.tNear = params_.nearClip / -direction.z;
+  ray.tFar = params_.farClip / -direction.z;
+  const Vec3f worldOrigin = params_.cameraToWorld.applyToPoint(origin);
+  const Vec3f worldDirection = params_.cameraToWorld.applyToVector(direction);
+  const float scale = length(worldDirection);
+  ray.origin = worldOrigin;
+  ray.direction = worldDirection / scale;
+  ray.tNear *= scale;
+  ray.tFar *= scale;
+  return ray;
+}
+
+float Camera::viewDepth(const Ray& ray, float t) const {
+  return t * dot(ray.direction, viewAxis_);
+}
+
+}  // namespace penumbra

@@ -1,0 +1,121 @@
+#include "penumbra/integrator.h"
+
+#include "penumbra/sampler.h"
+
+namespace penumbra {
+namespace {
+
+/// Emission from the lights a ray meets before `tMax` (area lights) or, if it escapes, from the
+/// infinite ones, weighted against the BSDF sampling that produced it (`bsdfPdf` <= 0: the ray
+/// was not BSDF-sampled, so it takes the full emission).
+Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped, float bsdfPdf,
+                      float* nearestLight) {
+  const std::vector<Light>& lights = scene.lights();
+  const float selectPdf = lights.empty() ? 0.0f : 1.0f / float(lights.size());
+  Vec3f total{0.0f};
+  float nearest = tMax;
+  for (const Light& light : lights) {
+    std::optional<LightHit> hit;
+    if (light.isInfinite()) {
+      if (escaped) hit = light.escaped(ray.origin, ray.direction);
+    } else {
+      hit = light.intersect(ray.origin, ray.direction, tMax);
+    }
+    if (!hit) continue;
+    // Light surfaces may overlap; each contributes, and the nearest defines depth and alpha.
+    nearest = std::min(nearest, hit->distance);
+    const float weight = bsdfPdf > 0 ? powerHeuristic(bsdfPdf, selectPdf * hit->pdf) : 1.0f;
+    total += hit->radiance * weight;
+  }
+  if (nearestLight) *nearestLight = nearest;
+  return total;
+}
+
+/// Spawns a ray from a surface point towards `direction`, offset off the surface on that side.
+Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, float tFar) {
+  const float side = dot(direction, hit.normal) >= 0 ? 1.0f : -1.0f;
+  Ray ray;
+  ray.origin = hit.position + hit.normal * (side * scene.rayEpsilon(hit.position));
+  ray.direction = direction;
+  ray.tNear = 0;
+  ray.tFar = tFar;
+  return ray;
+}
+
+}  // namespace
+
+CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const PixelFilter& filter,
+                                int x, int y, uint32_t sampleIndex,
+                                const IntegratorSettings& settings) {
+  SampleStream sampler(settings.seed, uint32_t(x), uint32_t(y), sampleIndex);
+  const Vec2f filterOffset = filter.sampleOffset(sampler.next2D());
+  const Vec2f lensSample = sampler.next2D();
+  Ray ray = camera.generateRay(float(x) + 0.5f + filterOffset.x, float(y) + 0.5f + filterOffset.y,
+                               lensSample);
+
+  CameraSample result;
+  Vec3f throughput{1.0f};
+  float bsdfPdf = 0;  // density of the direction that produced `ray`; 0 for the camera ray
+  const std::vector<Light>& lights = scene.lights();
+  const float selectPdf = lights.empty() ? 0.0f : 1.0f / float(lights.size());
+
+  for (int bounce = 0;; ++bounce) {
+    const std::optional<SurfaceHit> hit = scene.intersect(ray);
+    float nearestLight = kInfinity;
+    result.radiance += throughput * emittedAlongRay(scene, ray, hit ? hit->distance : ray.tFar,
+                                                    !hit, bsdfPdf, &nearestLight);
+    if (bounce == 0) {
+      const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
+      if (firstHit < kInfinity) {
+        result.alpha = 1;
+        result.depth = camera.viewDepth(ray, firstHit);
+      }
+    }
+    if (!hit) break;
+    // Surfaces shade on the side the ray arrives from (single-sided back faces were culled).
+    const Vec3f wo = -ray.direction;
+    const Vec3f normal = dot(wo, hit->normal) >= 0 ? hit->normal : -hit->normal;
+    result.radiance += throughput * hit->emission;
+    if (bounce >= settings.maxPathDepth) break;
+    const Vec3f bsdf = hit->albedo * kInvPi;  // Lambertian
+
+    // Next-event estimation: one light, chosen uniformly, sampled over its area/solid angle.
+    const float lightChoice = sampler.next1D();
+    const Vec2f lightSample = sampler.next2D();
+    if (!lights.empty()) {
+      const size_t index = std::min(size_t(lightChoice * float(lights.size())), lights.size() - 1);
+      const std::optional<LightSample> sample = lights[index].sample(hit->position, lightSample);
+      if (sample && sample->pdf > 0) {
+        const float cosine = dot(sample->direction, normal);
+        if (cosine > 0) {
+          const float tFar =
+              std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
+          if (!scene.occluded(spawnRay(scene, *hit, sample->direction, tFar))) {
+            const float lightPdf = selectPdf * sample->pdf;
+            const float weight = sample->isDelta ? 1.0f : powerHeuristic(lightPdf, cosine * kInvPi);
+            result.radiance += throughput * bsdf * sample->radiance * (cosine * weight / lightPdf);
+          }
+        }
+      }
+    }
+
+    // BSDF sampling: cosine-weighted, so f·cos/pdf is the albedo.
+    const Vec3f local = sampleCosineHemisphere(sampler.next2D());
+    const Vec3f direction = normalize(Frame(normal).toWorld(local));
+    bsdfPdf = local.z * kInvPi;
+    if (!(bsdfPdf > 0)) break;
+    throughput *= hit->albedo;
+    // Russian roulette once paths are long enough to be dim; survivors are reweighted.
+    const float rouletteSample = sampler.next1D();
+    if (bounce >= 3) {
+      const float survival = std::min(0.95f, maxComponent(throughput));
+      if (rouletteSample >= survival) break;
+      throughput *= 1 / survival;
+    }
+    if (isBlack(throughput)) break;
+    ray = spawnRay(scene, *hit, direction, kInfinity);
+  }
+  return result;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,116 @@
+#include "penumbra/mesh.h"
+
+#include <stdexcept>
+
+namespace penumbra {
+namespace {
+
+size_t expectedPrimvarSize(Interpolation interpolation, const MeshData& mesh) {
+  switch (interpolation) {
+    case Interpolation::Constant:
+      return 1;
+    case Interpolation::Uniform:
+      return mesh.faceVertexCounts.size();
+    case Interpolation::Vertex:
+      return mesh.points.size();
+    case Interpolation::FaceVarying:
+      return mesh.faceVertexIndices.size();
+  }
+  return 0;
+}
+
+const char* interpolationName(Interpolation interpolation) {
+  switch (interpolation) {
+    case Interpolation::Constant:
+      return "constant";
+    case Interpolation::Uniform:
+      return "uniform";
+    case Interpolation::Vertex:
+      return "vertex";
+    case Interpolation::FaceVarying:
+      return "faceVarying";
+  }
+  return "?";
+}
+
+}  // namespace
+
+TriangleMesh triangulate(const MeshData& mesh) {
+  const size_t pointCount = mesh.points.size();
+  for (size_t i = 0; i < pointCount; ++i) {
+    const Vec3f& p = mesh.points[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw std::invalid_argument("points[" + std::to_string(i) + "] is not finite");
+  }
+  size_t indexTotal = 0;
+  for (size_t face = 0; face < mesh.faceVertexCounts.size(); ++face) {
+    const int count = mesh.faceVertexCounts[face];
+    if (count < 0)
+      throw std::invalid_argument("faceVertexCounts[" + std::to_string(face) + "] is negative");
+    indexTotal += size_t(count);
+  }
+  if (indexTotal != mesh.faceVertexIndices.size())
+    throw std::invalid_argument("faceVertexCounts add up to " + std::to_string(indexTotal) +
+                                " but faceVertexIndices has " +
+                                std::to_string(mesh.faceVertexIndices.size()) + " entries");
+  for (size_t i = 0; i < mesh.faceVertexIndices.size(); ++i) {
+    const int index = mesh.faceVertexIndices[i];
+    if (index < 0 || size_t(index) >= pointCount)
+      throw std::invalid_argument("faceVertexIndices[" + std::to_string(i) +
+                                  "] = " + std::to_string(index) + " is out of range for " +
+                                  std::to_string(pointCount) + " points");
+  }
+  if (!mesh.displayColor.empty()) {
+    const size_t expected = expectedPrimvarSize(mesh.displayColorInterpolation, mesh);
+    if (mesh.displayColor.size() != expected)
+      throw std::invalid_argument(std::string("displayColor (") +
+                                  interpolationName(mesh.displayColorInterpolation) + ") has " +
+                                  std::to_string(mesh.displayColor.size()) + " values, expected " +
+                                  std::to_string(expected));
+  }
+
+  TriangleMesh result;
+  result.points = mesh.points;
+  result.doubleSided = mesh.doubleSided;
+  result.displayColor = mesh.displayColor;
+  result.displayColorInterpolation = mesh.displayColorInterpolation;
+  size_t faceStart = 0;
+  for (size_t face = 0; face < mesh.faceVertexCounts.size(); ++face) {
+    const int count = mesh.faceVertexCounts[face];
+    // Polygons with fewer than 3 vertices are skipped, as Hydra does.
+    for (int k = 1; k + 1 < count; ++k) {
+      uint32_t corners[3] = {uint32_t(faceStart), uint32_t(faceStart + k),
+                             uint32_t(faceStart + k + 1)};
+      if (mesh.leftHanded) std::swap(corners[1], corners[2]);
+      for (uint32_t corner : corners) {
+        result.triangles.push_back(uint32_t(mesh.faceVertexIndices[corner]));
+        result.cornerFaceVertex.push_back(corner);
+      }
+      result.sourceFace.push_back(uint32_t(face));
+    }
+    faceStart += size_t(count);
+  }
+  return result;
+}
+
+Vec3f TriangleMesh::displayColorAt(uint32_t triangle, float u, float v,
+                                   const Vec3f& fallback) const {
+  if (displayColor.empty()) return fallback;
+  switch (displayColorInterpolation) {
+    case Interpolation::Constant:
+      return displayColor[0];
+    case Interpolation::Uniform:
+      return displayColor[sourceFace[triangle]];
+    case Interpolation::Vertex:
+      return displayColor[triangles[3 * triangle]] * (1 - u - v) +
+             displayColor[triangles[3 * triangle + 1]] * u +
+             displayColor[triangles[3 * triangle + 2]] * v;
+    case Interpolation::FaceVarying:
+      return displayColor[cornerFaceVertex[3 * triangle]] * (1 - u - v) +
+             displayColor[cornerFaceVertex[3 * triangle + 1]] * u +
+             displayColor[cornerFaceVertex[3 * triangle + 2]] * v;
+  }
+  return fallback;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,34 @@
+#include "penumbra/render.h"
+
+#include <tbb/blocked_range2d.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+namespace penumbra {
+namespace {
+constexpr int kTileSize = 16;
+}
+
+void renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_t firstSample,
+                   uint32_t sampleCount, const RenderSettings& settings) {
+  const PixelFilter filter;
+  const auto renderTiles = [&] {
+    tbb::parallel_for(
+        tbb::blocked_range2d<int>(0, film.height(), kTileSize, 0, film.width(), kTileSize),
+        [&](const tbb::blocked_range2d<int>& tile) {
+          for (int y = tile.rows().begin(); y < tile.rows().end(); ++y)
+            for (int x = tile.cols().begin(); x < tile.cols().end(); ++x)
+              for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s)
+                film.addSample(
+                    x, y, renderCameraSample(scene, camera, filter, x, y, s, settings.integrator));
+        });
+  };
+  if (settings.threads > 0) {
+    tbb::task_arena arena(settings.threads);
+    arena.execute(renderTiles);
+  } else {
+    renderTiles();
+  }
+}
+
+}  // namespace penumbra

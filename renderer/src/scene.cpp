@@ -1,0 +1,220 @@
+#include "penumbra/scene.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace penumbra {
+namespace {
+
+void throwOnEmbreeError(RTCDevice device, const char* what) {
+  const RTCError error = rtcGetDeviceError(device);
+  if (error != RTC_ERROR_NONE)
+    throw std::runtime_error(std::string("Embree failed to ") + what + " (error " +
+                             std::to_string(int(error)) + ")");
+}
+
+/// Culls back faces of single-sided meshes. Embree's geometric normal is (v1-v0)×(v2-v0) in
+/// object space, which faces the viewer for counter-clockwise (front) triangles, and the ray is
+/// in the same object space here, so the test holds under any instance transform.
+void cullBackFaces(const RTCFilterFunctionNArguments* args) {
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const float facing =
+        RTCRayN_dir_x(args->ray, args->N, i) * RTCHitN_Ng_x(args->hit, args->N, i) +
+        RTCRayN_dir_y(args->ray, args->N, i) * RTCHitN_Ng_y(args->hit, args->N, i) +
+        RTCRayN_dir_z(args->ray, args->N, i) * RTCHitN_Ng_z(args->hit, args->N, i);
+    if (facing > 0) args->valid[i] = 0;
+  }
+}
+
+RTCRay toEmbreeRay(const Ray& ray) {
+  RTCRay r;
+  r.org_x = ray.origin.x;
+  r.org_y = ray.origin.y;
+  r.org_z = ray.origin.z;
+  r.dir_x = ray.direction.x;
+  r.dir_y = ray.direction.y;
+  r.dir_z = ray.direction.z;
+  r.tnear = ray.tNear;
+  r.tfar = ray.tFar;
+  r.time = 0;
+  r.mask = 0xffffffffu;
+  r.id = 0;
+  r.flags = 0;
+  return r;
+}
+
+}  // namespace
+
+Device::Device() : device_(rtcNewDevice(nullptr)) {
+  if (!device_) throw std::runtime_error("Embree could not create a device");
+}
+
+Device::~Device() {
+  rtcReleaseDevice(device_);
+}
+
+Scene::Scene(const Device& device) : device_(device.get()), top_(rtcNewScene(device_)) {
+  rtcRetainDevice(device_);
+  throwOnEmbreeError(device_, "create a scene");
+}
+
+Scene::~Scene() {
+  for (auto& mesh : meshes_)
+    if (mesh) releaseGeometry(*mesh);
+  rtcReleaseScene(top_);
+  rtcReleaseDevice(device_);
+}
+
+Scene::MeshRecord& Scene::record(MeshId id) {
+  if (id >= meshes_.size() || !meshes_[id])
+    throw std::out_of_range("no mesh with id " + std::to_string(id));
+  return *meshes_[id];
+}
+
+Scene::MeshId Scene::addMesh() {
+  auto mesh = std::make_unique<MeshRecord>();
+  mesh->instance = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
+  const MeshId id = rtcAttachGeometry(top_, mesh->instance);
+  rtcDisableGeometry(mesh->instance);  // until it has geometry
+  rtcCommitGeometry(mesh->instance);
+  throwOnEmbreeError(device_, "add a mesh instance");
+  if (id >= meshes_.size()) meshes_.resize(id + 1);
+  meshes_[id] = std::move(mesh);
+  return id;
+}
+
+void Scene::releaseGeometry(MeshRecord& mesh) {
+  if (mesh.bvh) rtcReleaseScene(mesh.bvh);
+  mesh.bvh = nullptr;
+  mesh.data.reset();
+}
+
+void Scene::removeMesh(MeshId id) {
+  MeshRecord& mesh = record(id);
+  releaseGeometry(mesh);
+  rtcDetachGeometry(top_, id);
+  rtcReleaseGeometry(mesh.instance);
+  meshes_[id].reset();
+}
+
+void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
+  MeshRecord& mesh = record(id);
+  releaseGeometry(mesh);
+  if (!data.triangles.empty()) {
+    RTCScene bvh = rtcNewScene(device_);
+    RTCGeometry triangles = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vertices = static_cast<float*>(
+        rtcSetNewGeometryBuffer(triangles, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                sizeof(Vec3f), data.points.size()));
+    auto* indices = static_cast<uint32_t*>(
+        rtcSetNewGeometryBuffer(triangles, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(uint32_t), data.triangles.size() / 3));
+    if (!vertices || !indices) {
+      rtcReleaseGeometry(triangles);
+      rtcReleaseScene(bvh);
+      throwOnEmbreeError(device_, "allocate mesh buffers");
+      throw std::runtime_error("Embree could not allocate mesh buffers");
+    }
+    std::copy(data.points.begin(), data.points.end(), reinterpret_cast<Vec3f*>(vertices));
+    std::copy(data.triangles.begin(), data.triangles.end(), indices);
+    if (!data.doubleSided) {
+      rtcSetGeometryIntersectFilterFunction(triangles, cullBackFaces);
+      rtcSetGeometryOccludedFilterFunction(triangles, cullBackFaces);
+    }
+    rtcCommitGeometry(triangles);
+    rtcAttachGeometry(bvh, triangles);
+    rtcReleaseGeometry(triangles);
+    rtcCommitScene(bvh);
+    throwOnEmbreeError(device_, "build a mesh BVH");
+    mesh.bvh = bvh;
+  }
+  mesh.data = std::make_shared<const TriangleMesh>(std::move(data));
+  updateInstance(mesh);
+}
+
+void Scene::clearMeshGeometry(MeshId id) {
+  MeshRecord& mesh = record(id);
+  releaseGeometry(mesh);
+  updateInstance(mesh);
+}
+
+void Scene::setMeshInstance(MeshId id, const Transform& objectToWorld, int materialIndex,
+                            bool visible) {
+  MeshRecord& mesh = record(id);
+  mesh.objectToWorld = objectToWorld;
+  mesh.materialIndex = materialIndex;
+  mesh.visible = visible;
+  updateInstance(mesh);
+}
+
+void Scene::updateInstance(MeshRecord& mesh) {
+  if (mesh.bvh) rtcSetGeometryInstancedScene(mesh.instance, mesh.bvh);
+  const std::array<float, 12> matrix = mesh.objectToWorld.toEmbreeColumnMajor3x4();
+  rtcSetGeometryTransform(mesh.instance, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, matrix.data());
+  if (mesh.bvh && mesh.visible)
+    rtcEnableGeometry(mesh.instance);
+  else
+    rtcDisableGeometry(mesh.instance);
+  rtcCommitGeometry(mesh.instance);
+  throwOnEmbreeError(device_, "update a mesh instance");
+}
+
+void Scene::commit() {
+  rtcCommitScene(top_);
+  throwOnEmbreeError(device_, "build the scene BVH");
+  RTCBounds bounds;
+  rtcGetSceneBounds(top_, &bounds);
+  const float extent = std::max({bounds.upper_x - bounds.lower_x, bounds.upper_y - bounds.lower_y,
+                                 bounds.upper_z - bounds.lower_z});
+  sceneExtent_ = std::isfinite(extent) && extent > 0 ? extent : 1.0f;
+}
+
+float Scene::rayEpsilon(const Vec3f& point) const {
+  // Relative to the coordinates' magnitude (float rounding of the hit point and of the instance
+  // transform), with a floor tied to the scene's size so that it works in any unit.
+  return 2e-5f * std::max(maxAbsComponent(point), 1e-2f * sceneExtent_);
+}
+
+std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit rayHit;
+  rayHit.ray = toEmbreeRay(ray);
+  rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rayHit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(top_, &context, &rayHit);
+  if (rayHit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+
+  const MeshRecord& mesh = *meshes_[rayHit.hit.instID[0]];
+  const TriangleMesh& data = *mesh.data;
+  const uint32_t triangle = rayHit.hit.primID;
+  const Vec3f& p0 = data.points[data.triangles[3 * triangle]];
+  const Vec3f& p1 = data.points[data.triangles[3 * triangle + 1]];
+  const Vec3f& p2 = data.points[data.triangles[3 * triangle + 2]];
+
+  SurfaceHit hit;
+  hit.distance = rayHit.ray.tfar;
+  hit.position = ray.origin + ray.direction * hit.distance;
+  hit.normal = normalize(mesh.objectToWorld.applyToNormal(cross(p1 - p0, p2 - p0)));
+  hit.doubleSided = data.doubleSided;
+  const Vec3f fallbackColor{0.5f};
+  if (mesh.materialIndex >= 0 && size_t(mesh.materialIndex) < materials_.size()) {
+    const MaterialParams& material = materials_[size_t(mesh.materialIndex)];
+    hit.albedo = material.diffuseColor;
+    hit.emission = material.emissiveColor;
+  } else {
+    hit.albedo = data.displayColorAt(triangle, rayHit.hit.u, rayHit.hit.v, fallbackColor);
+  }
+  return hit;
+}
+
+bool Scene::occluded(const Ray& ray) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay r = toEmbreeRay(ray);
+  rtcOccluded1(top_, &context, &r);
+  return r.tfar < 0;  // Embree sets tfar to -inf when occluded
+}
+
+}  // namespace penumbra

@@ -1,0 +1,73 @@
+#include <gtest/gtest.h>
+
+#include <set>
+#include <vector>
+
+#include "penumbra/sampler.h"
+
+using namespace penumbra;
+
+TEST(Sampler, IsAPureFunctionOfItsInputs) {
+  SampleStream a(7, 10, 20, 33), b(7, 10, 20, 33);
+  for (int d = 0; d < 16; ++d) {
+    const Vec2f x = a.next2D(), y = b.next2D();
+    EXPECT_EQ(x.x, y.x);
+    EXPECT_EQ(x.y, y.y);
+  }
+}
+
+TEST(Sampler, DiffersBetweenSeedsPixelsAndSamples) {
+  const auto first = [](uint32_t seed, uint32_t x, uint32_t y, uint32_t s) {
+    return SampleStream(seed, x, y, s).next2D().x;
+  };
+  const float base = first(0, 1, 2, 3);
+  EXPECT_NE(base, first(1, 1, 2, 3));
+  EXPECT_NE(base, first(0, 2, 2, 3));
+  EXPECT_NE(base, first(0, 1, 3, 3));
+  EXPECT_NE(base, first(0, 1, 2, 4));
+}
+
+// The first 2^k samples of every 2D draw form a (0,k,2)-net: each elementary interval of area
+// 2^-k (all 2^a x 2^(k-a) grids) holds exactly one point.
+TEST(Sampler, PowerOfTwoPrefixesAreZeroTwoNets) {
+  for (uint32_t k : {4u, 6u, 8u}) {
+    const uint32_t n = 1u << k;
+    for (uint32_t dimension = 0; dimension < 6; ++dimension) {
+      std::vector<Vec2f> points;
+      for (uint32_t s = 0; s < n; ++s) {
+        SampleStream stream(3, 5, 9, s);
+        Vec2f p{};
+        for (uint32_t d = 0; d <= dimension; ++d) p = stream.next2D();
+        points.push_back(p);
+      }
+      for (uint32_t a = 0; a <= k; ++a) {
+        const uint32_t columns = 1u << a, rows = 1u << (k - a);
+        std::set<uint32_t> cells;
+        for (const Vec2f& p : points) {
+          ASSERT_GE(p.x, 0.0f);
+          ASSERT_LT(p.x, 1.0f);
+          cells.insert(uint32_t(p.x * columns) * rows + uint32_t(p.y * rows));
+        }
+        EXPECT_EQ(cells.size(), n) << "k=" << k << " dimension=" << dimension << " a=" << a;
+      }
+    }
+  }
+}
+
+TEST(Sampler, OneDimensionalDrawsAreStratified) {
+  const uint32_t n = 64;
+  std::set<uint32_t> strata;
+  for (uint32_t s = 0; s < n; ++s) strata.insert(uint32_t(SampleStream(0, 4, 4, s).next1D() * n));
+  EXPECT_EQ(strata.size(), n);
+}
+
+TEST(Sampler, MeanIsUnbiased) {
+  double sum = 0;
+  const int n = 4096;
+  for (int s = 0; s < n; ++s) {
+    SampleStream stream(11, 0, 0, uint32_t(s));
+    stream.next2D();
+    sum += stream.next2D().y;
+  }
+  EXPECT_NEAR(sum / n, 0.5, 1e-3);
+}
