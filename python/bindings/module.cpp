@@ -33,8 +33,10 @@ using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecas
 std::vector<Vec3f> toVec3Array(const FloatArray& array, const char* what) {
   if (array.ndim() != 2 || array.shape(1) != 3)
     throw std::invalid_argument(std::string(what) + " must have shape (N, 3)");
-  std::vector<Vec3f> result(size_t(array.shape(0)));
-  if (!result.empty()) std::memcpy(result.data(), array.data(), result.size() * sizeof(Vec3f));
+  std::vector<Vec3f> result;
+  result.reserve(size_t(array.shape(0)));
+  for (const float* xyz = array.data(); xyz != array.data() + array.size(); xyz += 3)
+    result.emplace_back(xyz[0], xyz[1], xyz[2]);
   return result;
 }
 

@@ -13,7 +13,7 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
   const std::vector<Light>& lights = scene.lights();
   const float selectPdf = lights.empty() ? 0.0f : 1.0f / float(lights.size());
   Vec3f total{0.0f};
-  float nearest = tMax;
+  float nearest = kInfinity;
   for (const Light& light : lights) {
     std::optional<LightHit> hit;
     if (light.isInfinite()) {
@@ -60,7 +60,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   const float selectPdf = lights.empty() ? 0.0f : 1.0f / float(lights.size());
 
   for (int bounce = 0;; ++bounce) {
-    const std::optional<SurfaceHit> hit = scene.intersect(ray);
+    const std::optional<SurfaceHit> hit =
+        scene.intersect(ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary);
     float nearestLight = kInfinity;
     result.radiance += throughput * emittedAlongRay(scene, ray, hit ? hit->distance : ray.tFar,
                                                     !hit, bsdfPdf, &nearestLight);
@@ -72,7 +73,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       }
     }
     if (!hit) break;
-    // Surfaces shade on the side the ray arrives from (single-sided back faces were culled).
+    // Surfaces shade on the side the ray arrives from.
     const Vec3f wo = -ray.direction;
     const Vec3f normal = dot(wo, hit->normal) >= 0 ? hit->normal : -hit->normal;
     result.radiance += throughput * hit->emission;

@@ -13,10 +13,18 @@ void throwOnEmbreeError(RTCDevice device, const char* what) {
                              std::to_string(int(error)) + ")");
 }
 
-/// Culls back faces of single-sided meshes. Embree's geometric normal is (v1-v0)×(v2-v0) in
-/// object space, which faces the viewer for counter-clockwise (front) triangles, and the ray is
-/// in the same object space here, so the test holds under any instance transform.
+/// An intersect context that tells the filter whether the ray comes from the camera.
+struct TraceContext {
+  RTCIntersectContext embree;  // first member: Embree passes a pointer to it to the filter
+  bool cameraRay;
+};
+
+/// Culls back faces of single-sided meshes for camera rays. Embree's geometric normal is
+/// (v1-v0)×(v2-v0) in object space, which faces the viewer for counter-clockwise (front)
+/// triangles, and the ray is in the same object space here, so the test holds under any
+/// instance transform.
 void cullBackFaces(const RTCFilterFunctionNArguments* args) {
+  if (!reinterpret_cast<const TraceContext*>(args->context)->cameraRay) return;
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] != -1) continue;
     const float facing =
@@ -118,10 +126,7 @@ void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
     }
     std::copy(data.points.begin(), data.points.end(), reinterpret_cast<Vec3f*>(vertices));
     std::copy(data.triangles.begin(), data.triangles.end(), indices);
-    if (!data.doubleSided) {
-      rtcSetGeometryIntersectFilterFunction(triangles, cullBackFaces);
-      rtcSetGeometryOccludedFilterFunction(triangles, cullBackFaces);
-    }
+    if (!data.doubleSided) rtcSetGeometryIntersectFilterFunction(triangles, cullBackFaces);
     rtcCommitGeometry(triangles);
     rtcAttachGeometry(bvh, triangles);
     rtcReleaseGeometry(triangles);
@@ -176,14 +181,15 @@ float Scene::rayEpsilon(const Vec3f& point) const {
   return 2e-5f * std::max(maxAbsComponent(point), 1e-2f * sceneExtent_);
 }
 
-std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
+std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
+  TraceContext context;
+  rtcInitIntersectContext(&context.embree);
+  context.cameraRay = kind == RayKind::Camera;
   RTCRayHit rayHit;
   rayHit.ray = toEmbreeRay(ray);
   rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rayHit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(top_, &context, &rayHit);
+  rtcIntersect1(top_, &context.embree, &rayHit);
   if (rayHit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
 
   const MeshRecord& mesh = *meshes_[rayHit.hit.instID[0]];

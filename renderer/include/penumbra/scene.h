@@ -39,6 +39,10 @@ struct SurfaceHit {
   bool doubleSided = false;
 };
 
+/// Camera rays do not see the back faces of single-sided meshes (doubleSided = 0), as in
+/// Storm; other rays see both sides, so that a single-sided wall still blocks light.
+enum class RayKind { Camera, Secondary };
+
 class Scene {
  public:
   using MeshId = uint32_t;
@@ -65,7 +69,7 @@ class Scene {
   /// Rebuilds the top-level BVH; call after edits and before tracing.
   void commit();
 
-  std::optional<SurfaceHit> intersect(const Ray& ray) const;
+  std::optional<SurfaceHit> intersect(const Ray& ray, RayKind kind) const;
   /// True if anything blocks the segment [tNear, tFar] of the ray.
   bool occluded(const Ray& ray) const;
   /// Offset for spawning rays from `point` so that they do not re-hit its surface.

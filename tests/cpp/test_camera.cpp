@@ -1,0 +1,113 @@
+#include <gtest/gtest.h>
+
+#include "penumbra/camera.h"
+
+using namespace penumbra;
+
+namespace {
+
+// The camera of ../shared/scenes/cornell.usda: 35 mm lens on a 36 x 20.25 mm film, metres.
+CameraParams cornellCamera() {
+  CameraParams params;
+  params.focalLength = 0.35f;
+  params.horizontalAperture = 0.36f;
+  params.verticalAperture = 0.2025f;
+  const double matrix[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 4.45679, 1};
+  params.cameraToWorld = Transform::fromRowMajor(matrix);
+  params.nearClip = 0.05f;
+  params.farClip = 1000;
+  return params;
+}
+
+void expectNear(const Vec3f& a, const Vec3f& b, float tolerance) {
+  EXPECT_NEAR(a.x, b.x, tolerance);
+  EXPECT_NEAR(a.y, b.y, tolerance);
+  EXPECT_NEAR(a.z, b.z, tolerance);
+}
+
+}  // namespace
+
+TEST(Camera, PinholeRaysMatchHandComputedDirections) {
+  const Camera camera(cornellCamera(), 640, 360);
+  // Image centre: straight down -Z from the camera position.
+  const Ray centre = camera.generateRay(320, 180, {0.5f, 0.5f});
+  expectNear(centre.origin, {0, 1, 4.45679f}, 1e-5f);
+  expectNear(centre.direction, {0, 0, -1}, 1e-6f);
+  // Top-left corner: film point (-0.18, +0.10125) in tenths, focal length 0.35.
+  const Ray corner = camera.generateRay(0, 0, {0.5f, 0.5f});
+  expectNear(corner.direction, normalize(Vec3f(-0.18f / 0.35f, 0.10125f / 0.35f, -1)), 1e-6f);
+  // Bottom-right corner mirrors it.
+  const Ray opposite = camera.generateRay(640, 360, {0.5f, 0.5f});
+  expectNear(opposite.direction, normalize(Vec3f(0.18f / 0.35f, -0.10125f / 0.35f, -1)), 1e-6f);
+}
+
+TEST(Camera, ClippingRangeIsMeasuredAlongTheViewAxis) {
+  const Camera camera(cornellCamera(), 640, 360);
+  const Ray corner = camera.generateRay(0, 0, {0.5f, 0.5f});
+  EXPECT_NEAR(corner.tNear * -corner.direction.z, 0.05f, 1e-6f);
+  EXPECT_NEAR(camera.viewDepth(corner, corner.tFar), 1000, 1e-2f);
+}
+
+TEST(Camera, ApertureExpandsToTheImageAspect) {
+  // A square image from a 16:9 aperture keeps the width and grows the height.
+  const Camera camera(cornellCamera(), 100, 100);
+  EXPECT_FLOAT_EQ(camera.filmWidth(), 0.36f);
+  EXPECT_FLOAT_EQ(camera.filmHeight(), 0.36f);
+  const Ray top = camera.generateRay(50, 0, {0.5f, 0.5f});
+  expectNear(top.direction, normalize(Vec3f(0, 0.18f / 0.35f, -1)), 1e-6f);
+}
+
+TEST(Camera, ApertureOffsetsShiftTheFilm) {
+  CameraParams params = cornellCamera();
+  params.horizontalApertureOffset = 0.035f;
+  const Camera camera(params, 640, 360);
+  const Ray centre = camera.generateRay(320, 180, {0.5f, 0.5f});
+  expectNear(centre.direction, normalize(Vec3f(0.1f, 0, -1)), 1e-6f);
+}
+
+TEST(Camera, ThinLensRaysConvergeOnThePlaneOfFocus) {
+  CameraParams params = cornellCamera();
+  params.fStop = 2;
+  params.focusDistance = 3;
+  const Camera camera(params, 640, 360);
+  // f = 0.035 m, R = f / (2 N).
+  EXPECT_NEAR(camera.lensRadius(), 0.035f / 4, 1e-7f);
+  const Ray pinhole = camera.generateRay(100, 50, {0.5f, 0.5f});
+  const Vec3f focus = pinhole.origin + pinhole.direction * (3 / -pinhole.direction.z);
+  float spread = 0;
+  for (const Vec2f lens : {Vec2f{0.1f, 0.2f}, Vec2f{0.9f, 0.5f}, Vec2f{0.3f, 0.95f}}) {
+    const Ray ray = camera.generateRay(100, 50, lens);
+    const Vec3f hit = ray.origin + ray.direction * (3 / -ray.direction.z);
+    expectNear(hit, focus, 1e-5f);
+    spread = std::max(spread, length(ray.origin - pinhole.origin));
+  }
+  EXPECT_GT(spread, 0.5f * camera.lensRadius());
+  EXPECT_LE(spread, camera.lensRadius() * 1.0001f);
+}
+
+TEST(Camera, FStopZeroIsAPinhole) {
+  CameraParams params = cornellCamera();
+  params.focusDistance = 3;
+  EXPECT_EQ(Camera(params, 64, 36).lensRadius(), 0);
+}
+
+TEST(Camera, RejectsBadParameters) {
+  CameraParams params = cornellCamera();
+  EXPECT_THROW(Camera(params, 0, 10), std::invalid_argument);
+  params.horizontalAperture = 0;
+  EXPECT_THROW(Camera(params, 10, 10), std::invalid_argument);
+}
+
+TEST(Camera, ConcentricDiskMappingStaysInTheDiskAndCoversIt) {
+  double meanRadius2 = 0;
+  const int n = 64;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const Vec2f d = concentricSampleDisk({(i + 0.5f) / n, (j + 0.5f) / n});
+      const float r2 = d.x * d.x + d.y * d.y;
+      EXPECT_LE(r2, 1.0f + 1e-6f);
+      meanRadius2 += r2;
+    }
+  // Uniform over the unit disk: E[r²] = 1/2.
+  EXPECT_NEAR(meanRadius2 / (n * n), 0.5, 2e-3);
+}

@@ -1,0 +1,189 @@
+#include <gtest/gtest.h>
+
+#include "penumbra/color.h"
+#include "penumbra/light.h"
+#include "penumbra/sampler.h"
+
+using namespace penumbra;
+
+namespace {
+
+Transform translation(double x, double y, double z) {
+  const double m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, x, y, z, 1};
+  return Transform::fromRowMajor(m);
+}
+
+// Rotates local -Z onto world -Y (a light facing down), then translates.
+Transform facingDown(double x, double y, double z) {
+  const double m[16] = {1, 0, 0, 0, 0, 0, -1, 0, 0, 1, 0, 0, x, y, z, 1};
+  return Transform::fromRowMajor(m);
+}
+
+Vec2f sample2D(uint32_t index) {
+  return SampleStream(1, 0, 0, index).next2D();
+}
+
+/// ∫ pdf(ω) dω over the sphere, where the light reports pdf for directions that reach it.
+double integratePdf(const Light& light, const Vec3f& point) {
+  const int n = 1 << 20;
+  double sum = 0;
+  for (int i = 0; i < n; ++i) {
+    const Vec3f direction = sampleUniformSphere(sample2D(uint32_t(i)));
+    const auto hit = light.isInfinite() ? light.escaped(point, direction)
+                                        : light.intersect(point, direction, kInfinity);
+    if (hit) sum += hit->pdf;
+  }
+  return sum * 4 * kPi / n;
+}
+
+/// Irradiance at `point` on a surface with `normal`, estimated with the light's own sampling.
+double estimateIrradiance(const Light& light, const Vec3f& point, const Vec3f& normal) {
+  const int n = 1 << 16;
+  double sum = 0;
+  for (int i = 0; i < n; ++i) {
+    const auto sample = light.sample(point, sample2D(uint32_t(i)));
+    if (!sample) continue;
+    const float cosine = std::max(0.0f, dot(sample->direction, normal));
+    sum += luminance(sample->radiance) * cosine / sample->pdf;
+  }
+  return sum / n;
+}
+
+/// Form factor from a point to a parallel rectangle of sides a, b at height h with one corner
+/// right above the point (the classic differential-area-to-rectangle result).
+double cornerFormFactor(double a, double b, double h) {
+  const double x = a / h, y = b / h;
+  const double sx = std::sqrt(1 + x * x), sy = std::sqrt(1 + y * y);
+  return (x / sx * std::atan(y / sx) + y / sy * std::atan(x / sy)) / (2 * M_PI);
+}
+
+LightParams params(LightType type, const Transform& transform) {
+  LightParams p;
+  p.type = type;
+  p.lightToWorld = transform;
+  return p;
+}
+
+}  // namespace
+
+TEST(Lights, SamplingDensitiesIntegrateToOne) {
+  const Vec3f point{0.3f, 0, -0.2f};
+  LightParams rect = params(LightType::Rect, facingDown(0, 2, 0));
+  rect.width = 1.5f;
+  rect.height = 0.7f;
+  LightParams disk = params(LightType::Disk, facingDown(0.5, 1.5, 0));
+  disk.radius = 0.6f;
+  LightParams sphere = params(LightType::Sphere, translation(1, 2, -1));
+  sphere.radius = 0.5f;
+  LightParams distant = params(LightType::Distant, facingDown(0, 0, 0));
+  distant.angle = 10;
+  const LightParams dome = params(LightType::Dome, Transform());
+  for (const LightParams& p : {rect, disk, sphere, distant, dome})
+    EXPECT_NEAR(integratePdf(Light(p), point), 1.0, 0.01) << "light type " << int(p.type);
+}
+
+TEST(Lights, SampledDirectionsAgreeWithIntersection) {
+  LightParams rect = params(LightType::Rect, facingDown(0, 2, 0));
+  LightParams sphere = params(LightType::Sphere, translation(1, 2, -1));
+  for (const LightParams& p : {rect, sphere}) {
+    const Light light(p);
+    for (uint32_t i = 0; i < 64; ++i) {
+      const auto sample = light.sample({0, 0, 0}, sample2D(i));
+      ASSERT_TRUE(sample);
+      const auto hit = light.intersect({0, 0, 0}, sample->direction, kInfinity);
+      ASSERT_TRUE(hit);
+      EXPECT_NEAR(hit->distance, sample->distance, 1e-4f);
+      EXPECT_NEAR(hit->pdf / sample->pdf, 1.0f, 1e-3f);
+    }
+  }
+}
+
+TEST(Lights, RectLightIrradianceMatchesTheFormFactor) {
+  LightParams p = params(LightType::Rect, facingDown(0, 2, 0));
+  p.width = 1.2f;
+  p.height = 0.8f;
+  p.intensity = 5;
+  const double expected = 5 * M_PI * 4 * cornerFormFactor(0.6, 0.4, 2);
+  EXPECT_NEAR(estimateIrradiance(Light(p), {0, 0, 0}, {0, 1, 0}) / expected, 1.0, 0.01);
+}
+
+TEST(Lights, SphereLightIrradianceIsPiLTimesSubtendedSine) {
+  LightParams p = params(LightType::Sphere, translation(1, 2, 0));
+  p.radius = 0.25f;
+  p.intensity = 3;
+  const double d2 = 1 + 4;
+  // A Lambertian sphere fully above the horizon: E = π L (r/d)² cos θ.
+  const double expected = M_PI * 3 * (0.0625 / d2) * (2 / std::sqrt(d2));
+  EXPECT_NEAR(estimateIrradiance(Light(p), {0, 0, 0}, {0, 1, 0}) / expected, 1.0, 0.01);
+}
+
+TEST(Lights, DiskLightOnAxisIrradiance) {
+  LightParams p = params(LightType::Disk, facingDown(0, 1.5, 0));
+  p.radius = 0.5f;
+  const double expected = M_PI * 0.25 / (0.25 + 2.25);
+  EXPECT_NEAR(estimateIrradiance(Light(p), {0, 0, 0}, {0, 1, 0}) / expected, 1.0, 0.01);
+}
+
+TEST(Lights, NormalizedDistantLightGivesIntensityAsIrradiance) {
+  LightParams p = params(LightType::Distant, facingDown(0, 0, 0));
+  p.angle = 2;
+  p.intensity = 3;
+  p.normalize = true;
+  EXPECT_NEAR(estimateIrradiance(Light(p), {0, 0, 0}, {0, 1, 0}) / 3, 1.0, 0.01);
+  // Unnormalised, intensity is the radiance of the sun disk: E = L π sin²(angle/2).
+  p.normalize = false;
+  const double sinHalf = std::sin(M_PI / 180);
+  EXPECT_NEAR(estimateIrradiance(Light(p), {0, 0, 0}, {0, 1, 0}) / (3 * M_PI * sinHalf * sinHalf),
+              1.0, 0.01);
+}
+
+TEST(Lights, DomeIrradianceIsPiL) {
+  LightParams p = params(LightType::Dome, Transform());
+  p.intensity = 0.5f;
+  EXPECT_NEAR(estimateIrradiance(Light(p), {0, 0, 0}, {0, 1, 0}) / (0.5 * M_PI), 1.0, 0.01);
+}
+
+TEST(Lights, RadianceCombinesColorIntensityExposureAndNormalize) {
+  LightParams p = params(LightType::Rect, facingDown(0, 2, 0));
+  p.color = {1, 0.5f, 0.25f};
+  p.intensity = 3;
+  p.exposure = 2;
+  p.width = 2;
+  p.height = 0.5f;
+  const Light plain(p);
+  EXPECT_FLOAT_EQ(plain.radiance().x, 12);
+  EXPECT_FLOAT_EQ(plain.radiance().y, 6);
+  p.normalize = true;
+  EXPECT_FLOAT_EQ(Light(p).radiance().x, 12);  // area 1
+  p.width = 4;
+  EXPECT_FLOAT_EQ(Light(p).radiance().x, 6);
+}
+
+TEST(Lights, NormalizeUsesTheWorldSpaceArea) {
+  LightParams p = params(LightType::Sphere, Transform());
+  p.radius = 1;
+  p.normalize = true;
+  const double scale2[16] = {2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 1};
+  p.lightToWorld = Transform::fromRowMajor(scale2);
+  EXPECT_NEAR(Light(p).radiance().x, 1 / (4 * M_PI * 4), 1e-7);
+}
+
+TEST(Lights, DegenerateLightsAreRejected) {
+  LightParams p = params(LightType::Rect, Transform());
+  p.width = 0;
+  EXPECT_THROW(Light{p}, std::invalid_argument);
+  LightParams sphere = params(LightType::Sphere, Transform());
+  sphere.radius = 0;
+  EXPECT_THROW(Light{sphere}, std::invalid_argument);
+}
+
+TEST(Color, BlackbodyIsNormalisedAndOrdered) {
+  for (float kelvin : {2000.0f, 4000.0f, 6500.0f, 9000.0f})
+    EXPECT_NEAR(luminance(blackbodyColor(kelvin)), 1.0f, 1e-4f);
+  const Vec3f warm = blackbodyColor(2700), cool = blackbodyColor(9000),
+              white = blackbodyColor(6504);
+  EXPECT_GT(warm.x, warm.z * 2);
+  EXPECT_GT(cool.z, cool.x);
+  // A 6504 K blackbody is close to, not exactly, D65 white.
+  EXPECT_NEAR(white.x / white.z, 1.0f, 0.1f);
+}

@@ -1,0 +1,255 @@
+// End-to-end tests of the render delegate: prims in, pixels out.
+#include <gtest/gtest.h>
+
+#include <numeric>
+
+#include "penumbra/plugin/render_delegate.h"
+#include "penumbra/plugin/render_pass.h"
+
+using namespace penumbra;
+using namespace penumbra::plugin;
+
+namespace {
+
+Transform translation(double x, double y, double z) {
+  const double m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, x, y, z, 1};
+  return Transform::fromRowMajor(m);
+}
+
+// Local -Z onto world -Y: cameras looking down, lights facing down.
+Transform facingDown(double x, double y, double z) {
+  const double m[16] = {1, 0, 0, 0, 0, 0, -1, 0, 0, 1, 0, 0, x, y, z, 1};
+  return Transform::fromRowMajor(m);
+}
+
+/// A square in the XZ plane at height y, facing +Y (counter-clockwise seen from above).
+void addFloor(RenderDelegate& delegate, const PrimId& id, float halfSize, float y = 0) {
+  delegate.insertRprim("mesh", id);
+  Mesh& mesh = delegate.mesh(id);
+  mesh.setPoints({{-halfSize, y, -halfSize},
+                  {-halfSize, y, halfSize},
+                  {halfSize, y, halfSize},
+                  {halfSize, y, -halfSize}});
+  mesh.setTopology({4}, {0, 1, 2, 3}, false, "none");
+}
+
+void addCamera(RenderDelegate& delegate, const Transform& transform, float focalLength = 50) {
+  delegate.insertSprim("camera", "/cam");
+  CameraParams params;
+  params.focalLength = focalLength;
+  params.horizontalAperture = params.verticalAperture = 1;
+  params.nearClip = 0.01f;
+  delegate.camera("/cam").setParams(params);
+  delegate.camera("/cam").setTransform(transform);
+}
+
+/// A grey floor seen from straight above through a narrow lens.
+void lambertianFloorScene(RenderDelegate& delegate, float albedo) {
+  addFloor(delegate, "/floor", 50);
+  delegate.insertSprim("material", "/grey");
+  delegate.material("/grey").setParam("diffuseColor", Vec3f(albedo));
+  delegate.mesh("/floor").setMaterialId("/grey");
+  addCamera(delegate, facingDown(0, 5, 0));
+}
+
+double meanChannel(const std::vector<float>& rgba, int channel) {
+  double sum = 0;
+  for (size_t i = size_t(channel); i < rgba.size(); i += 4) sum += rgba[i];
+  return sum / double(rgba.size() / 4);
+}
+
+std::vector<float> render(RenderDelegate& delegate, int width, int height, int samples) {
+  RenderPass pass(delegate, "/cam", width, height);
+  pass.execute(samples);
+  return pass.aov("color");
+}
+
+double cornerFormFactor(double a, double b, double h) {
+  const double x = a / h, y = b / h;
+  const double sx = std::sqrt(1 + x * x), sy = std::sqrt(1 + y * y);
+  return (x / sx * std::atan(y / sx) + y / sy * std::atan(x / sy)) / (2 * M_PI);
+}
+
+}  // namespace
+
+TEST(Render, LambertianPlaneUnderSphereLightMatchesAnalyticRadiance) {
+  RenderDelegate delegate;
+  lambertianFloorScene(delegate, 0.5f);
+  delegate.insertSprim("sphereLight", "/bulb");
+  delegate.light("/bulb").setParam("radius", 0.25f);
+  delegate.light("/bulb").setParam("intensity", 3.0f);
+  delegate.light("/bulb").setTransform(translation(1, 2, 0));
+  const double d2 = 5;
+  const double irradiance = M_PI * 3 * (0.0625 / d2) * (2 / std::sqrt(d2));
+  const std::vector<float> image = render(delegate, 8, 8, 256);
+  EXPECT_NEAR(meanChannel(image, 0) / (0.5 / M_PI * irradiance), 1.0, 0.02);
+  EXPECT_EQ(meanChannel(image, 3), 1.0);
+}
+
+TEST(Render, LambertianPlaneUnderRectLightMatchesAnalyticRadiance) {
+  RenderDelegate delegate;
+  lambertianFloorScene(delegate, 0.5f);
+  delegate.insertSprim("rectLight", "/panel");
+  plugin::Light& panel = delegate.light("/panel");
+  panel.setParam("width", 1.2f);
+  panel.setParam("height", 0.8f);
+  panel.setParam("intensity", 5.0f);
+  panel.setTransform(facingDown(0, 2, 0));
+  const double irradiance = 5 * M_PI * 4 * cornerFormFactor(0.6, 0.4, 2);
+  const std::vector<float> image = render(delegate, 8, 8, 256);
+  EXPECT_NEAR(meanChannel(image, 1) / (0.5 / M_PI * irradiance), 1.0, 0.02);
+}
+
+TEST(Render, ImagesAreBitIdenticalForAnyThreadCountAndSplit) {
+  const auto renderWith = [](int threads, std::vector<int> passes) {
+    RenderDelegate delegate;
+    lambertianFloorScene(delegate, 0.7f);
+    addFloor(delegate, "/occluder", 0.3f, 1);
+    delegate.insertSprim("rectLight", "/panel");
+    delegate.light("/panel").setTransform(facingDown(0.2, 2, 0));
+    delegate.camera("/cam").setParams([] {
+      CameraParams params;
+      params.focalLength = 10;
+      params.horizontalAperture = params.verticalAperture = 10;
+      return params;
+    }());
+    delegate.settings().set("threads", threads);
+    RenderPass pass(delegate, "/cam", 48, 40);
+    for (int samples : passes) pass.execute(samples);
+    return pass.aov("color");
+  };
+  const std::vector<float> one = renderWith(1, {16});
+  EXPECT_EQ(one, renderWith(2, {16}));
+  EXPECT_EQ(one, renderWith(2, {4, 8, 4}));
+  EXPECT_NE(one, renderWith(1, {17}));
+}
+
+TEST(Render, AreaLightsCastSoftShadows) {
+  RenderDelegate delegate;
+  addFloor(delegate, "/floor", 50);
+  // The occluder covers x < 0 at height 1 and is single-sided, facing away from the light: it
+  // still blocks light (only camera rays ignore back faces).
+  addFloor(delegate, "/occluder", 5, 1);
+  delegate.mesh("/occluder").setTransform(translation(-5, 0, 0));
+  delegate.insertSprim("rectLight", "/panel");
+  delegate.light("/panel").setParam("width", 1.0f);
+  delegate.light("/panel").setParam("height", 1.0f);
+  delegate.light("/panel").setTransform(facingDown(0, 2, 0));
+  addCamera(delegate, facingDown(0, 0.9, 0), 5);
+  const int width = 64;
+  RenderPass pass(delegate, "/cam", width, 8);
+  pass.execute(64);
+  const std::vector<float> image = pass.aov("color");
+  // The occluder edge at x = 0 is halfway between floor and light: the penumbra on the floor spans
+  // x in [-0.5, 0.5] (similar triangles), i.e. the middle half of this 0.9-unit-high view of
+  // width 1.8.
+  std::vector<double> row(width);
+  for (int x = 0; x < width; ++x) row[x] = image[size_t(4 * (4 * width + x))];
+  const double lit = row[width - 1], dark = row[0];
+  ASSERT_GT(lit, 10 * std::max(dark, 1e-3));
+  int intermediate = 0;
+  for (int x = 0; x < width; ++x)
+    if (row[x] > dark + 0.1 * (lit - dark) && row[x] < lit - 0.1 * (lit - dark)) ++intermediate;
+  EXPECT_GE(intermediate, width / 4);  // a gradient, not a hard step
+  for (int x = 8; x + 1 < width - 8; ++x) EXPECT_LE(row[x], row[x + 1] * 1.1 + 1e-3);
+}
+
+TEST(Render, SingleSidedMeshesAreInvisibleFromBehindUnlessLeftHanded) {
+  const auto alphaOfFloorSeenFromBelow = [](bool leftHanded, bool doubleSided) {
+    RenderDelegate delegate;
+    addFloor(delegate, "/floor", 1);
+    delegate.mesh("/floor").setTopology({4}, {0, 1, 2, 3}, leftHanded, "none");
+    delegate.mesh("/floor").setDoubleSided(doubleSided);
+    const double lookUp[16] = {1, 0, 0, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, -2, 0, 1};
+    addCamera(delegate, Transform::fromRowMajor(lookUp));
+    return meanChannel(render(delegate, 4, 4, 1), 3);
+  };
+  EXPECT_EQ(alphaOfFloorSeenFromBelow(false, false), 0.0);
+  EXPECT_EQ(alphaOfFloorSeenFromBelow(true, false), 1.0);
+  EXPECT_EQ(alphaOfFloorSeenFromBelow(false, true), 1.0);
+}
+
+TEST(Render, DepthIsTheViewAxisDistanceOfTheFirstHit) {
+  RenderDelegate delegate;
+  lambertianFloorScene(delegate, 0.5f);
+  RenderPass pass(delegate, "/cam", 4, 4);
+  pass.execute(4);
+  for (float depth : pass.aov("depth")) EXPECT_NEAR(depth, 5.0f, 1e-4f);
+}
+
+TEST(Render, DisplayColorIsTheFallbackAlbedo) {
+  RenderDelegate delegate;
+  addFloor(delegate, "/floor", 50);
+  delegate.mesh("/floor").setDisplayColor({{0.2f, 0.4f, 0.8f}}, Interpolation::Constant);
+  addCamera(delegate, facingDown(0, 5, 0));
+  delegate.insertSprim("domeLight", "/sky");
+  delegate.settings().set("maxPathDepth", 1);
+  const std::vector<float> image = render(delegate, 4, 4, 64);
+  // Under a unit dome a Lambertian plane reflects its albedo (E = π).
+  EXPECT_NEAR(meanChannel(image, 0), 0.2, 0.004);
+  EXPECT_NEAR(meanChannel(image, 2), 0.8, 0.016);
+  delegate.insertSprim("material", "/red");
+  delegate.material("/red").setParam("diffuseColor", Vec3f(0.9f, 0.1f, 0.1f));
+  delegate.mesh("/floor").setMaterialId("/red");
+  EXPECT_NEAR(meanChannel(render(delegate, 4, 4, 64), 0), 0.9, 0.018);
+}
+
+TEST(Render, EmissiveSurfacesAreSeenByTheCamera) {
+  RenderDelegate delegate;
+  lambertianFloorScene(delegate, 0.5f);
+  delegate.material("/grey").setParam("emissiveColor", Vec3f(2, 3, 4));
+  const std::vector<float> image = render(delegate, 4, 4, 4);
+  EXPECT_FLOAT_EQ(float(meanChannel(image, 2)), 4.0f);
+}
+
+TEST(RenderDelegate, InvalidMeshesAreSkippedWithAWarningNamingThem) {
+  RenderDelegate delegate;
+  lambertianFloorScene(delegate, 0.5f);
+  delegate.insertRprim("mesh", "/bad");
+  delegate.mesh("/bad").setPoints({{0, 0, 0}});
+  delegate.mesh("/bad").setTopology({3}, {0, 1, 2}, false, "none");
+  delegate.insertSprim("domeLight", "/sky");
+  const std::vector<float> image = render(delegate, 4, 4, 4);
+  const std::vector<std::string> warnings = delegate.takeWarnings();
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0],
+            "/bad: faceVertexIndices[1] = 1 is out of range for 1 points; the mesh is skipped");
+  EXPECT_GT(meanChannel(image, 0), 0.4);
+  EXPECT_TRUE(delegate.takeWarnings().empty());
+}
+
+TEST(RenderDelegate, OnlyDirtyPrimsAreSynced) {
+  RenderDelegate delegate;
+  lambertianFloorScene(delegate, 0.5f);
+  addFloor(delegate, "/other", 1, 1);
+  RenderPass pass(delegate, "/cam", 4, 4);
+  pass.execute(2);
+  EXPECT_EQ(delegate.prim("/floor").syncCount(), 1);
+  EXPECT_EQ(delegate.prim("/other").syncCount(), 1);
+  delegate.mesh("/other").setTransform(translation(0, 0.5, 0));
+  EXPECT_NE(delegate.prim("/other").dirtyBits(), 0u);
+  pass.execute(2);
+  EXPECT_EQ(delegate.prim("/floor").syncCount(), 1);
+  EXPECT_EQ(delegate.prim("/other").syncCount(), 2);
+  EXPECT_EQ(pass.samplesDone(), 2);  // the edit restarted accumulation
+  pass.execute(2);
+  EXPECT_EQ(pass.samplesDone(), 4);
+  EXPECT_EQ(delegate.prim("/other").syncCount(), 2);
+}
+
+TEST(RenderDelegate, RejectsUnknownTypesIdsAndSettings) {
+  RenderDelegate delegate;
+  EXPECT_THROW(delegate.insertRprim("points", "/p"), std::invalid_argument);
+  EXPECT_THROW(delegate.insertSprim("cylinderLightX", "/l"), std::invalid_argument);
+  delegate.insertSprim("camera", "/cam");
+  EXPECT_THROW(delegate.insertSprim("camera", "/cam"), std::invalid_argument);
+  EXPECT_THROW(delegate.mesh("/cam"), std::out_of_range);
+  EXPECT_THROW(delegate.removePrim("/nothing"), std::out_of_range);
+  EXPECT_THROW(delegate.settings().set("spp", 4), std::invalid_argument);
+  EXPECT_THROW(delegate.settings().set("samples", 0), std::invalid_argument);
+  delegate.insertSprim("rectLight", "/l");
+  EXPECT_THROW(delegate.light("/l").setParam("radius", Vec3f(1, 1, 1)), std::invalid_argument);
+  EXPECT_THROW(delegate.light("/l").setParam("shaping:cone:angle", 1.0f), std::invalid_argument);
+  RenderPass pass(delegate, "/missing", 4, 4);
+  EXPECT_THROW(pass.execute(1), std::out_of_range);
+}
