@@ -1,0 +1,20 @@
+"""Penumbra: a distributed ray tracer for USD stages.
+
+```python
+import penumbra
+from pxr import Usd
+stage = Usd.Stage.Open("scene.usda")
+renderer = penumbra.Renderer(stage)
+image = renderer.render(camera="/cam", time=1.0, width=640, samples=64, aovs=("color", "depth"))
+image.write("out.exr")
+```
+"""
+
+from . import _core
+from .errors import PenumbraWarning, SceneError
+from .image import Image
+from .renderer import Renderer, render
+
+__version__: str = _core.version()
+
+__all__ = ["Image", "PenumbraWarning", "Renderer", "SceneError", "__version__", "render"]

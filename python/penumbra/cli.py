@@ -1,0 +1,313 @@
+"""``penumbra-record``: renders a USD file to images, with usdrecord's command line.
+
+Exit status: 0 success; 1 the scene or a file could not be rendered (the message names the file
+or prim); 2 usage error (including flags Penumbra does not support yet).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+import warnings
+from collections.abc import Sequence
+
+from pxr import Usd
+
+from .errors import PenumbraWarning, SceneError
+from .frames import find_placeholder, frame_path, frame_spec_precision, parse_frame_spec
+from .image import COLOR_MODES
+from .renderer import DEFAULT_MAX_PATH_DEPTH, DEFAULT_SAMPLES, DEFAULT_WIDTH, Renderer
+from .usd import open_stage, read_render_settings, resolve_camera
+
+PROG = "penumbra-record"
+EXIT_OK, EXIT_SCENE, EXIT_USAGE = 0, 1, 2
+COMPLEXITIES = ("low", "medium", "high", "veryhigh")
+
+# Flags the parser accepts (for usdrecord compatibility) that this version rejects.
+_NOT_SUPPORTED_YET = {
+    "mask": "--mask",
+    "session_layer": "--sessionLayer",
+    "aov": "--aov",
+    "disable_motion_blur": "--disableMotionBlur",
+    "disable_depth_of_field": "--disableDepthOfField",
+    "scheduler": "--scheduler",
+    "resume": "--resume",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser: usdrecord's flags plus Penumbra's own."""
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Render a USD file with Penumbra (usdrecord-compatible command line).",
+        epilog=(
+            "Not supported yet (rejected with exit status 2): --mask, --sessionLayer, --aov, "
+            "--disableMotionBlur, --disableDepthOfField, --scheduler, --resume. "
+            "Exit status: 0 success, 1 the scene or a file could not be rendered, 2 usage error."
+        ),
+    )
+    parser.add_argument("usdFilePath", help="USD file to render")
+    parser.add_argument(
+        "outputImagePath",
+        help=(
+            "output image; the extension picks the format (.exr: scene-linear floats and "
+            "metadata; .png/.jpg/.tif: display values). With --frames it holds one frame "
+            'placeholder "###" or "###.###" (zero-padded width, decimals)'
+        ),
+    )
+    usd = parser.add_argument_group("usdrecord options")
+    usd.add_argument(
+        "--camera",
+        "-cam",
+        metavar="CAMERA",
+        help=(
+            "camera prim path, or a camera's prim name searched in the stage (default: the "
+            "render settings' camera, else main_cam)"
+        ),
+    )
+    times = usd.add_mutually_exclusive_group()
+    times.add_argument(
+        "--defaultTime",
+        "-d",
+        action="store_true",
+        help="render at the Default time code (default: the stage's startTimeCode)",
+    )
+    times.add_argument(
+        "--frames",
+        "-f",
+        metavar="FRAMESPEC[,FRAMESPEC...]",
+        help="time codes to render: 101, 101:110, 101:110x2, 101:104x0.5, comma lists",
+    )
+    usd.add_argument(
+        "--imageWidth",
+        "-w",
+        type=int,
+        default=DEFAULT_WIDTH,
+        metavar="WIDTH",
+        help=(
+            "image width in pixels (default: %(default)s); the height follows the render "
+            "settings' resolution aspect, else the camera's aperture aspect"
+        ),
+    )
+    usd.add_argument(
+        "--complexity",
+        "-c",
+        choices=COMPLEXITIES,
+        default="low",
+        help=(
+            "accepted for compatibility; no effect, as Penumbra does not dice subdivision "
+            "surfaces by a complexity level (default: %(default)s)"
+        ),
+    )
+    usd.add_argument(
+        "--purposes",
+        default="proxy",
+        metavar="PURPOSE[,PURPOSE...]",
+        help=(
+            'purposes rendered besides "default" (always included), comma- or '
+            "space-separated (default: %(default)s)"
+        ),
+    )
+    usd.add_argument(
+        "--renderSettingsPrimPath",
+        "-rs",
+        metavar="PRIMPATH",
+        help=(
+            "UsdRenderSettings prim giving the camera and resolution (default: the stage's "
+            "renderSettingsPrimPath metadata)"
+        ),
+    )
+    usd.add_argument(
+        "--colorCorrectionMode",
+        "-color",
+        choices=COLOR_MODES,
+        default="sRGB",
+        help=(
+            "display transform of .png/.jpg/.tif output: sRGB transfer function, "
+            "openColorIO ($OCIO, else Penumbra's bundled config: sRGB display, Standard view), "
+            "or disabled (default: %(default)s)"
+        ),
+    )
+    usd.add_argument("--mask", metavar="PRIMPATH[,PRIMPATH...]", help="not supported yet")
+    usd.add_argument(
+        "--sessionLayer", dest="session_layer", metavar="SESSIONLAYER", help="not supported yet"
+    )
+
+    own = parser.add_argument_group("Penumbra options")
+    own.add_argument(
+        "--samples",
+        "-spp",
+        type=int,
+        default=DEFAULT_SAMPLES,
+        metavar="N",
+        help="samples per pixel (default: %(default)s)",
+    )
+    own.add_argument("--seed", type=int, default=0, help="random seed (default: %(default)s)")
+    own.add_argument(
+        "--threads",
+        type=int,
+        default=0,
+        metavar="N",
+        help="render threads (default: 0, every core)",
+    )
+    own.add_argument(
+        "--maxPathDepth",
+        type=int,
+        default=DEFAULT_MAX_PATH_DEPTH,
+        metavar="N",
+        help="maximum number of bounces of a path (default: %(default)s)",
+    )
+    own.add_argument("--aov", metavar="NAME[,NAME...]", help="not supported yet")
+    own.add_argument(
+        "--disableMotionBlur",
+        dest="disable_motion_blur",
+        action="store_true",
+        help="not supported yet",
+    )
+    own.add_argument(
+        "--disableDepthOfField",
+        dest="disable_depth_of_field",
+        action="store_true",
+        help="not supported yet",
+    )
+    own.add_argument("--scheduler", metavar="ADDRESS", help="not supported yet")
+    own.add_argument("--resume", action="store_true", help="not supported yet")
+    return parser
+
+
+class _Progress:
+    """Prints ``samples done / total`` and the elapsed time of a frame on stderr: updated in
+    place on a terminal, else one line per quarter of the frame (logs stay short)."""
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.started = time.perf_counter()
+        self.interactive = sys.stderr.isatty()
+        self.quarters_reported = 0
+
+    def __call__(self, done: int, total: int) -> None:
+        elapsed = time.perf_counter() - self.started
+        line = f"{self.label}: {done}/{total} samples, {elapsed:.1f} s"
+        if self.interactive:
+            end = "\n" if done >= total else ""
+            sys.stderr.write(f"\r{line}{end}")
+        elif 4 * done // total > self.quarters_reported:
+            self.quarters_reported = 4 * done // total
+            sys.stderr.write(f"{line}\n")
+        sys.stderr.flush()
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Penumbra warnings as ``penumbra-record: warning: …`` lines on stderr."""
+    if issubclass(category, PenumbraWarning):
+        sys.stderr.write(f"{PROG}: warning: {message}\n")
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
+class _UsageError(Exception):
+    """A command line that cannot be honoured (exit status 2)."""
+
+
+def _check_usage(args: argparse.Namespace) -> list[float]:
+    """Reject unsupported flags and invalid values; return the ``--frames`` time codes (empty
+    without ``--frames``)."""
+    for dest, flag in _NOT_SUPPORTED_YET.items():
+        if getattr(args, dest):
+            raise _UsageError(f"{flag} is not supported yet")
+    for name in ("imageWidth", "samples"):
+        if getattr(args, name) < 1:
+            raise _UsageError(f"--{name} must be at least 1")
+    for name in ("threads", "maxPathDepth"):
+        if getattr(args, name) < 0:
+            raise _UsageError(f"--{name} cannot be negative")
+    try:
+        placeholder = find_placeholder(args.outputImagePath)
+        frames = parse_frame_spec(args.frames) if args.frames is not None else []
+    except ValueError as error:
+        raise _UsageError(str(error)) from None
+    if args.frames is None:
+        if placeholder:
+            raise _UsageError(
+                f"{args.outputImagePath} holds a frame placeholder, so --frames is needed"
+            )
+        return frames
+    if not placeholder:
+        raise _UsageError(
+            f'with --frames, {args.outputImagePath} needs a frame placeholder such as "####"'
+        )
+    decimals = len(placeholder.partition(".")[2])
+    needed = frame_spec_precision(args.frames)
+    if decimals < needed:
+        raise _UsageError(
+            f"the frames need {needed} decimals but placeholder {placeholder} has {decimals}"
+        )
+    return frames
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``penumbra-record``; returns the exit status."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exit_:  # argparse reports usage errors (2) and --help (0) this way
+        return int(exit_.code or 0)
+    try:
+        frames = _check_usage(args)
+    except _UsageError as error:
+        sys.stderr.write(f"{PROG}: error: {error}\n")
+        return EXIT_USAGE
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", PenumbraWarning)
+        warnings.showwarning = _show_warning
+        try:
+            return _record(args, frames)
+        except (SceneError, RuntimeError) as error:  # RuntimeError: the image writer's
+            sys.stderr.write(f"{PROG}: error: {error}\n")
+            return EXIT_SCENE
+        except KeyboardInterrupt:
+            sys.stderr.write(f"\n{PROG}: interrupted\n")
+            return 130
+
+
+def _record(args: argparse.Namespace, frames: list[float]) -> int:
+    stage = open_stage(args.usdFilePath)
+    settings = read_render_settings(stage, args.renderSettingsPrimPath)
+    camera = resolve_camera(stage, args.camera, settings)
+    if args.defaultTime:
+        time_codes = [Usd.TimeCode.Default()]
+    elif frames:
+        time_codes = [Usd.TimeCode(frame) for frame in frames]
+    else:
+        time_codes = [Usd.TimeCode(stage.GetStartTimeCode())]
+
+    print(f"Camera: {camera.GetPath()}")
+    purposes = args.purposes.replace(",", " ").split()
+    with Renderer(stage, purposes=purposes) as renderer:
+        for time_code in time_codes:
+            frame = "default" if time_code.IsDefault() else f"{time_code.GetValue():g}"
+            print(f"Recording time code: {frame}")
+            image = renderer.render(
+                camera=str(camera.GetPath()),
+                time=time_code,
+                width=args.imageWidth,
+                samples=args.samples,
+                seed=args.seed,
+                threads=args.threads,
+                max_path_depth=args.maxPathDepth,
+                render_settings=settings.path if settings else None,
+                progress=_Progress(f"time code {frame}"),
+            )
+            output = args.outputImagePath
+            if frames:
+                output = frame_path(output, time_code.GetValue())
+            image.write(output, color_mode=args.colorCorrectionMode)
+            print(f"Wrote {os.path.abspath(output)}")
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,115 @@
+"""Rendered images: AOV arrays plus metadata, written by the same writer as the CLI."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+
+import numpy as np
+
+from . import _core
+
+BUNDLED_OCIO_CONFIG = Path(__file__).resolve().parent / "ocio" / "config.ocio"
+"""The OCIO config used for display output when ``$OCIO`` is unset."""
+
+COLOR_MODES = ("disabled", "sRGB", "openColorIO")
+METADATA_PREFIX = "penumbra:"
+
+_CHANNEL_SUFFIXES = "RGBA"
+
+
+def channel_names(aov: str, channels: int) -> list[str]:
+    """EXR channel names of an AOV: ``color`` is R, G, B, A; ``depth`` is Z; any other AOV is
+    a layer ``aov.R``, ``aov.G``, … (or plain ``aov`` when it has one channel)."""
+    if aov == "color":
+        return list(_CHANNEL_SUFFIXES[:channels])
+    if aov == "depth" and channels == 1:
+        return ["Z"]
+    if channels == 1:
+        return [aov]
+    return [f"{aov}.{_CHANNEL_SUFFIXES[i] if i < 4 else i}" for i in range(channels)]
+
+
+class Image(Mapping[str, np.ndarray]):
+    """The AOVs of one render (``image["color"]``: float32 (H, W, 4), scene-linear) and its
+    metadata (camera, samples, seed, renderTimeSeconds, version, timeCode, stage)."""
+
+    def __init__(self, aovs: Mapping[str, np.ndarray], metadata: Mapping[str, str | int | float]):
+        if not aovs:
+            raise ValueError("an image needs at least one AOV")
+        shapes = {array.shape[:2] for array in aovs.values()}
+        if len(shapes) != 1:
+            raise ValueError(f"AOVs of one image must have one size, not {sorted(shapes)}")
+        self._aovs = {name: np.asarray(array, dtype=np.float32) for name, array in aovs.items()}
+        self.metadata: dict[str, str | int | float] = dict(metadata)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self._aovs[name]
+        except KeyError:
+            raise KeyError(f"no AOV {name!r} in this image (it has {sorted(self._aovs)})") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._aovs)
+
+    def __len__(self) -> int:
+        return len(self._aovs)
+
+    @property
+    def width(self) -> int:
+        return next(iter(self._aovs.values())).shape[1]
+
+    @property
+    def height(self) -> int:
+        return next(iter(self._aovs.values())).shape[0]
+
+    def __repr__(self) -> str:
+        return f"<penumbra.Image {self.width}x{self.height} aovs={list(self._aovs)}>"
+
+    def write(
+        self,
+        path: str | os.PathLike,
+        color_mode: str = "openColorIO",
+        *,
+        ocio_config: str | os.PathLike | None = None,
+        display: str = "",
+        view: str = "",
+    ) -> None:
+        """Write the image atomically; the extension picks the format.
+
+        ``.exr`` holds every AOV as float channels (see :func:`channel_names`) and the metadata
+        as ``penumbra:*`` attributes. Other formats hold the ``color`` AOV converted to display
+        values: ``color_mode`` ``"openColorIO"`` (default) uses ``ocio_config``, else ``$OCIO``,
+        else Penumbra's bundled config (sRGB display, "Standard" view unless ``display``/
+        ``view`` say otherwise); ``"sRGB"`` applies the sRGB transfer function;
+        ``"disabled"`` writes the linear values. Errors raise ``RuntimeError`` naming the file.
+        """
+        if color_mode not in COLOR_MODES:
+            raise ValueError(f"color_mode must be one of {COLOR_MODES}, not {color_mode!r}")
+        path = os.fspath(path)
+        if path.lower().endswith(".exr"):
+            aovs = list(self._aovs.items())
+        elif "color" in self._aovs:
+            aovs = [("color", self._aovs["color"])]
+        else:
+            raise ValueError(f"{path}: only .exr can hold an image without a 'color' AOV")
+        arrays: list[np.ndarray] = []
+        names: list[str] = []
+        for aov, array in aovs:
+            array = array.reshape(array.shape[0], array.shape[1], -1)
+            arrays.append(array)
+            names += channel_names(aov, array.shape[2])
+        config = ""
+        if color_mode == "openColorIO":
+            config = os.fspath(ocio_config or os.environ.get("OCIO") or BUNDLED_OCIO_CONFIG)
+        _core.write_image(
+            path,
+            np.ascontiguousarray(np.concatenate(arrays, axis=2)),
+            names,
+            {METADATA_PREFIX + key: value for key, value in self.metadata.items()},
+            color_mode=color_mode,
+            ocio_config=config,
+            display=display,
+            view=view,
+        )

@@ -1,0 +1,178 @@
+"""The Python API: :class:`Renderer` keeps a stage synced into one render delegate."""
+
+from __future__ import annotations
+
+import math
+import os
+import time as clock
+from collections.abc import Callable, Iterable
+
+import numpy as np
+from pxr import Usd
+
+from . import _core
+from .errors import SceneError, warn
+from .image import Image
+from .usd import (
+    DEFAULT_PURPOSES,
+    SceneDelegate,
+    image_size,
+    open_stage,
+    read_render_settings,
+    resolve_camera,
+    stage_name,
+)
+
+DEFAULT_WIDTH = 960  # usdrecord's default image width
+DEFAULT_SAMPLES = 64
+DEFAULT_MAX_PATH_DEPTH = 8
+PROGRESS_STEPS = 16  # progress is reported about this many times per render
+
+ProgressCallback = Callable[[int, int], None]
+"""Called as ``progress(samples_done, samples_total)`` while a render runs."""
+
+TimeLike = float | Usd.TimeCode | None
+
+
+def _time_code(stage: Usd.Stage, time: TimeLike) -> Usd.TimeCode:
+    """``time`` as a time code; ``None`` is the stage's startTimeCode (as in usdrecord)."""
+    if time is None:
+        return Usd.TimeCode(stage.GetStartTimeCode())
+    if isinstance(time, Usd.TimeCode):
+        return time
+    return Usd.TimeCode(float(time))
+
+
+class Renderer:
+    """Renders a USD stage; edits to the stage are picked up incrementally.
+
+    Creating a renderer syncs the stage (at its startTimeCode) into one render delegate. Each
+    :meth:`render` then pushes only what changed since the previous one: edited prims (the
+    renderer listens to the stage's change notices) and, at a new time code, the prims whose
+    data might vary with time. One render pass is kept per (camera, width, height).
+
+    ``purposes``: the UsdGeomImageable purposes rendered; "default" is always included and the
+    default, ``("default", "proxy")``, is usdrecord's.
+    """
+
+    def __init__(self, stage: Usd.Stage, *, purposes: Iterable[str] = DEFAULT_PURPOSES):
+        self.stage = stage
+        self.delegate = _core.RenderDelegate()
+        """The ``penumbra._core.RenderDelegate`` holding the synced scene (for inspection)."""
+        self._scene = SceneDelegate(stage, self.delegate, purposes)
+        self._passes: dict[tuple[str, int, int], _core.RenderPass] = {}
+        self._scene.update(_time_code(stage, None))
+
+    def close(self) -> None:
+        """Stop tracking stage edits and drop the render passes."""
+        self._scene.close()
+        self._passes.clear()
+
+    def __enter__(self) -> Renderer:
+        return self
+
+    def __exit__(self, *_exc) -> None:
+        self.close()
+
+    def render(
+        self,
+        camera: str | None = None,
+        time: TimeLike = None,
+        width: int | None = None,
+        height: int | None = None,
+        *,
+        samples: int = DEFAULT_SAMPLES,
+        seed: int = 0,
+        aovs: Iterable[str] = ("color",),
+        threads: int = 0,
+        max_path_depth: int = DEFAULT_MAX_PATH_DEPTH,
+        render_settings: str | None = None,
+        progress: ProgressCallback | None = None,
+    ) -> Image:
+        """Render the stage and return its AOVs as an :class:`Image`.
+
+        ``camera``: a prim path or bare camera name; by default the render settings' camera,
+        else ``main_cam``. ``time``: a time code (float or ``Usd.TimeCode``, e.g.
+        ``Usd.TimeCode.Default()``); by default the stage's startTimeCode. ``width``: by default
+        the render settings' resolution, else 960. ``height``: by default from the aspect ratio
+        of the render settings' resolution, else of the camera's apertures. ``render_settings``:
+        a UsdRenderSettings prim path, by default the stage's ``renderSettingsPrimPath``.
+        ``threads`` 0 uses every core. Raises :class:`penumbra.SceneError` when the stage cannot
+        be rendered; warnings about skipped prims are :class:`penumbra.PenumbraWarning`.
+        """
+        if samples < 1:
+            raise ValueError(f"samples must be at least 1, not {samples}")
+        aovs = tuple(aovs)
+        time_code = _time_code(self.stage, time)
+        settings = read_render_settings(self.stage, render_settings)
+        camera_prim = resolve_camera(self.stage, camera, settings)
+        if width is None:
+            if settings is not None and settings.resolution is not None and height is None:
+                width = settings.resolution[0]
+            else:
+                width = DEFAULT_WIDTH
+        width, height = image_size(camera_prim, time_code, width, height, settings)
+
+        self._scene.update(time_code)
+        camera_id = str(camera_prim.GetPath())
+        if self._scene.prim_kind(camera_id) != "camera":
+            raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
+        render_pass = self._render_pass(camera_id, width, height)
+        unknown = sorted(set(aovs) - set(render_pass.aov_names()))
+        if unknown or not aovs:
+            raise ValueError(
+                f"aovs must name at least one of {render_pass.aov_names()} (unknown: {unknown})"
+            )
+
+        for key, value in (
+            ("samples", samples),
+            ("seed", seed),
+            ("threads", threads),
+            ("maxPathDepth", max_path_depth),
+        ):
+            self.delegate.set_render_setting(key, value)
+        started = clock.perf_counter()
+        render_pass.reset()
+        step = max(1, math.ceil(samples / PROGRESS_STEPS))
+        while render_pass.samples_done < samples:
+            render_pass.execute(min(step, samples - render_pass.samples_done))
+            self._forward_warnings()
+            if progress is not None:
+                progress(render_pass.samples_done, samples)
+        elapsed = clock.perf_counter() - started
+
+        metadata = {
+            "camera": camera_id,
+            "samples": samples,
+            "seed": seed,
+            "renderTimeSeconds": round(elapsed, 3),
+            "version": _core.version(),
+            "timeCode": "default" if time_code.IsDefault() else time_code.GetValue(),
+            "stage": stage_name(self.stage),
+        }
+        return Image({name: np.array(render_pass.aov(name)) for name in aovs}, metadata)
+
+    def _render_pass(self, camera_id: str, width: int, height: int):
+        key = (camera_id, width, height)
+        if key not in self._passes:
+            self._passes[key] = _core.RenderPass(self.delegate, camera_id, width, height)
+        return self._passes[key]
+
+    def _forward_warnings(self) -> None:
+        for message in self.delegate.take_warnings():
+            warn(message)
+
+
+def render(
+    stage_or_path: Usd.Stage | str | os.PathLike,
+    *,
+    purposes: Iterable[str] = DEFAULT_PURPOSES,
+    **kwargs,
+) -> Image:
+    """Render a stage (or the file at a path) once: ``Renderer(stage).render(**kwargs)``."""
+    if isinstance(stage_or_path, Usd.Stage):
+        stage = stage_or_path
+    else:
+        stage = open_stage(stage_or_path)
+    with Renderer(stage, purposes=purposes) as renderer:
+        return renderer.render(**kwargs)

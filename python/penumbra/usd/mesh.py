@@ -1,0 +1,63 @@
+"""UsdGeomMesh → the delegate's ``mesh`` rprim: topology, points, sidedness, displayColor."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from .sampling import SampleReader
+
+def sync_mesh_data(core, prim: Usd.Prim, reader: SampleReader, warn: Callable[[str], None]) -> bool:
+    """Push the topology, points, sidedness and displayColor of ``prim`` to ``core``.
+
+    Returns ``False`` (after a warning naming the prim) when the mesh has no points or no
+    topology; nothing is pushed then. Index ranges are validated by the delegate at sync.
+    """
+    mesh = UsdGeom.Mesh(prim)
+    path = str(prim.GetPath())
+    points = reader.get(mesh.GetPointsAttr())
+    counts = reader.get(mesh.GetFaceVertexCountsAttr())
+    indices = reader.get(mesh.GetFaceVertexIndicesAttr())
+    missing = [
+        name
+        for name, value in (
+            ("points", points),
+            ("faceVertexCounts", counts),
+            ("faceVertexIndices", indices),
+        )
+        if value is None or len(value) == 0
+    ]
+    if missing:
+        warn(f"{path}: mesh has no {' and no '.join(missing)}; skipped")
+        return False
+
+    left_handed = reader.get(mesh.GetOrientationAttr()) == UsdGeom.Tokens.leftHanded
+    scheme = reader.get(mesh.GetSubdivisionSchemeAttr()) or UsdGeom.Tokens.catmullClark
+    core.set_mesh_topology(
+        path,
+        np.asarray(counts, dtype=np.int32),
+        np.asarray(indices, dtype=np.int32),
+        left_handed,
+        str(scheme),
+    )
+    core.set_mesh_points(path, np.asarray(points, dtype=np.float32).reshape(-1, 3))
+    core.set_mesh_double_sided(path, bool(reader.get(mesh.GetDoubleSidedAttr())))
+    colors, interpolation = _display_color(prim, reader)
+    core.set_mesh_display_color(path, colors, interpolation)
+    return True
+
+
+def _display_color(prim: Usd.Prim, reader: SampleReader) -> tuple[np.ndarray, str]:
+    """The flattened displayColor of ``prim`` (own or inherited constant primvar) and its
+    interpolation; no values when none is authored (the delegate then uses its grey fallback)."""
+    primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(
+        UsdGeom.Tokens.primvarsDisplayColor
+    )
+    if primvar and primvar.HasValue():
+        values = reader.flattened_primvar(primvar)
+        if values is not None and len(values) > 0:
+            colors = np.asarray(values, dtype=np.float32).reshape(-1, 3)
+            return colors, str(primvar.GetInterpolation())
+    return np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.constant

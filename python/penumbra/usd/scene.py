@@ -1,0 +1,409 @@
+"""The USD scene delegate: mirrors a stage into a ``penumbra._core.RenderDelegate``.
+
+Like Hydra's UsdImaging delegate it inserts one delegate prim per supported USD prim (prim ids
+are USD paths, instance proxies included), pushes their data at a time code, and afterwards
+pushes only what changed:
+
+* stage edits arrive as ``Usd.Notice.ObjectsChanged`` and are queued; :meth:`SceneDelegate.update`
+  re-reads only the affected aspects of the affected prims (an ancestor's transform or
+  visibility edit reaches its whole subtree, a shader edit re-sends its material, a structural
+  change re-populates the changed subtree);
+* a new time code re-reads only the aspects whose inputs might vary with time.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdVol
+
+from ..errors import warn
+from .camera import sync_camera
+from .lights import is_light, light_type, sync_light
+from .material import bound_material, has_subset_bindings, read_material
+from .mesh import sync_mesh_data
+from .sampling import SampleReader, transform_might_vary, visibility_might_vary
+
+DEFAULT_PURPOSES = ("default", "proxy")
+"""usdrecord's default: the "default" purpose plus "proxy"."""
+
+
+class Dirty(enum.IntFlag):
+    """The aspects of a prim that can be re-read independently."""
+
+    DATA = enum.auto()  # the prim's own attributes (geometry, camera, light inputs)
+    TRANSFORM = enum.auto()
+    VISIBILITY = enum.auto()
+    BINDING = enum.auto()  # meshes: which material is bound
+    ALL = DATA | TRANSFORM | VISIBILITY | BINDING
+
+
+# Which aspects each kind of prim has.
+_ASPECTS = {
+    "mesh": Dirty.ALL,
+    "camera": Dirty.DATA | Dirty.TRANSFORM,
+}
+_LIGHT_ASPECTS = Dirty.DATA | Dirty.TRANSFORM | Dirty.VISIBILITY
+
+
+@dataclass
+class _Prim:
+    """A tracked rprim or sprim."""
+
+    kind: str  # the delegate's prim type: "mesh", "camera", "rectLight", ...
+    in_core: bool = False  # False while the prim is unusable (e.g. a mesh without points)
+    varying: Dirty = Dirty(0)  # aspects whose inputs might vary with time
+    material: str = ""  # meshes: id of the bound material ("" = none)
+
+
+@dataclass
+class _Material:
+    """A material used by at least one tracked mesh."""
+
+    users: set[Sdf.Path]
+    sources: set[Sdf.Path]
+    in_core: bool = False  # False when the material is unusable (not UsdPreviewSurface)
+    varying: bool = False
+
+
+def _is_xform_property(name: str) -> bool:
+    return name.startswith("xformOp:") or name == UsdGeom.Tokens.xformOpOrder
+
+
+class SceneDelegate:
+    """Mirrors ``stage`` into ``core`` (a ``penumbra._core.RenderDelegate``).
+
+    ``purposes``: the UsdGeomImageable purposes whose geometry is rendered ("default" is always
+    included).
+    """
+
+    def __init__(self, stage: Usd.Stage, core, purposes: Iterable[str] = DEFAULT_PURPOSES):
+        self.stage = stage
+        self.core = core
+        self.purposes = frozenset(purposes) | {UsdGeom.Tokens.default_}
+        self.time: Usd.TimeCode | None = None
+        self._prims: dict[Sdf.Path, _Prim] = {}
+        self._materials: dict[Sdf.Path, _Material] = {}
+        self._dirty: dict[Sdf.Path, Dirty] = {}
+        self._dirty_materials: set[Sdf.Path] = set()
+        self._resynced: set[Sdf.Path] = set()
+        self._changed: set[Sdf.Path] = set()
+        self._unsupported: dict[str, list[Sdf.Path]] = {}
+        self._reported: set[str] = set()
+        self._listener = Tf.Notice.Register(
+            Usd.Notice.ObjectsChanged, self._on_objects_changed, stage
+        )
+
+    # ----------------------------------------------------------------------------------------
+    # Public interface
+
+    def close(self) -> None:
+        """Stop listening to the stage."""
+        if self._listener is not None:
+            self._listener.Revoke()
+            self._listener = None
+
+    def update(self, time: Usd.TimeCode) -> None:
+        """Bring the delegate up to date with the stage at ``time``.
+
+        The first call populates the delegate; later calls push only queued edits and, when
+        ``time`` differs from the last one, the time-varying aspects.
+        """
+        if self.time is None:
+            self.time = time
+            self._resync(Sdf.Path.absoluteRootPath)
+        self._process_notices()
+        if time != self.time:
+            self.time = time
+            for path, record in self._prims.items():
+                if record.varying:
+                    self._mark(path, record.varying)
+            self._dirty_materials.update(
+                path for path, material in self._materials.items() if material.varying
+            )
+        self._flush()
+        self._report_unsupported()
+
+    def prim_kind(self, path: str) -> str | None:
+        """The delegate prim type tracked at ``path`` (``None`` if untracked)."""
+        record = self._prims.get(Sdf.Path(path))
+        return record.kind if record else None
+
+    # ----------------------------------------------------------------------------------------
+    # Warnings
+
+    def _warn(self, message: str) -> None:
+        """Warn once per distinct message for the life of this delegate."""
+        if message not in self._reported:
+            self._reported.add(message)
+            warn(message)
+
+    def _report_unsupported(self) -> None:
+        for type_name, paths in sorted(self._unsupported.items()):
+            count = len(paths)
+            noun = "prim" if count == 1 else "prims"
+            warn(f"{count} {type_name} {noun} not supported yet, skipped (first: {min(paths)})")
+        self._unsupported.clear()
+
+    # ----------------------------------------------------------------------------------------
+    # Classification
+
+    def _classify(self, prim: Usd.Prim) -> str | None:
+        """The delegate prim type for ``prim``, or ``None`` when it is not rendered."""
+        if prim.IsA(UsdGeom.Camera):
+            return "camera"
+        sprim_type = light_type(prim)
+        if sprim_type is not None:
+            return sprim_type
+        if prim.IsA(UsdGeom.Mesh):
+            purpose = UsdGeom.Imageable(prim).ComputePurpose()
+            return "mesh" if purpose in self.purposes else None
+        renderable = (UsdGeom.Gprim, UsdGeom.PointInstancer, UsdVol.Volume)
+        if any(prim.IsA(schema) for schema in renderable) or is_light(prim):
+            if UsdGeom.Imageable(prim).ComputePurpose() in self.purposes:
+                type_name = prim.GetTypeName() or "untyped"
+                self._unsupported.setdefault(type_name, []).append(prim.GetPath())
+        return None
+
+    def _traverse(self, root: Usd.Prim) -> Iterator[tuple[Sdf.Path, str]]:
+        """``(path, kind)`` of the prims to render under ``root`` (instance proxies included;
+        prototypes below a PointInstancer are not rendered on their own)."""
+        if not root or any(p.IsA(UsdGeom.PointInstancer) for p in _ancestors(root)):
+            return
+        it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
+        for prim in it:
+            kind = self._classify(prim)
+            if kind is not None:
+                yield prim.GetPath(), kind
+            if prim.IsA(UsdGeom.PointInstancer):
+                it.PruneChildren()
+
+    # ----------------------------------------------------------------------------------------
+    # Change tracking
+
+    def _on_objects_changed(self, notice, _sender) -> None:
+        self._resynced.update(notice.GetResyncedPaths())
+        self._changed.update(notice.GetChangedInfoOnlyPaths())
+
+    def _instance_paths(self, path: Sdf.Path) -> Iterator[Sdf.Path]:
+        """``path`` itself, or, inside a prototype, the corresponding paths in its instances."""
+        root = path.GetPrefixes()[0] if path != Sdf.Path.absoluteRootPath else path
+        prototype = self.stage.GetPrimAtPath(root)
+        if not (prototype and prototype.IsPrototype()):
+            yield path
+            return
+        for instance in prototype.GetInstances():
+            yield from self._instance_paths(path.ReplacePrefix(root, instance.GetPath()))
+
+    def _process_notices(self) -> None:
+        resynced = {p for q in self._resynced for p in self._instance_paths(q)}
+        changed = {p for q in self._changed for p in self._instance_paths(q)}
+        self._resynced.clear()
+        self._changed.clear()
+        # A resynced property (created or removed) is an edit of that property.
+        changed |= {p for p in resynced if p.IsPropertyPath()}
+        prim_roots = sorted(p for p in resynced if not p.IsPropertyPath())
+        roots: list[Sdf.Path] = []
+        for path in prim_roots:  # sorted: an ancestor comes before its descendants
+            if not roots or not path.HasPrefix(roots[-1]):
+                roots.append(path)
+        for root in roots:
+            self._resync(root)
+        for path in sorted(changed):
+            self._on_changed(path)
+
+    def _on_changed(self, path: Sdf.Path) -> None:
+        """Mark what an edit of ``path`` (a property, or a prim's metadata) affects."""
+        prim_path = path.GetPrimPath()
+        name = path.name if path.IsPropertyPath() else ""
+        if name == UsdGeom.Tokens.purpose:
+            self._resync(prim_path)
+            return
+        for material_path, material in self._materials.items():
+            if prim_path in material.sources:
+                self._dirty_materials.add(material_path)
+        if _is_xform_property(name):
+            self._mark_subtree(prim_path, Dirty.TRANSFORM)
+        elif name == UsdGeom.Tokens.visibility:
+            self._mark_subtree(prim_path, Dirty.VISIBILITY)
+        elif name.startswith("material:binding"):
+            self._mark_subtree(prim_path, Dirty.BINDING)
+        elif name.startswith("primvars:") and prim_path not in self._prims:
+            self._mark_subtree(prim_path, Dirty.DATA)  # inherited constant primvars
+        elif prim_path in self._prims:
+            self._mark(prim_path, Dirty.DATA if name else Dirty.ALL)
+
+    def _mark(self, path: Sdf.Path, bits: Dirty) -> None:
+        record = self._prims.get(path)
+        if record is not None:
+            self._dirty[path] = self._dirty.get(path, Dirty(0)) | (bits & _aspects(record.kind))
+
+    def _mark_subtree(self, root: Sdf.Path, bits: Dirty) -> None:
+        for path in self._prims:
+            if path.HasPrefix(root):
+                self._mark(path, bits)
+
+    def _resync(self, root: Sdf.Path) -> None:
+        """Re-populate the subtree at ``root``: remove what is gone, insert what is new, and
+        re-read everything else in it."""
+        wanted = dict(self._traverse(self.stage.GetPrimAtPath(root)))
+        for path in [p for p in self._prims if p.HasPrefix(root)]:
+            if wanted.get(path) != self._prims[path].kind:
+                self._remove(path)
+        for path, kind in wanted.items():
+            if path not in self._prims:
+                self._prims[path] = _Prim(kind)
+            self._mark(path, Dirty.ALL)
+        for material_path, material in self._materials.items():
+            if material_path.HasPrefix(root) or any(s.HasPrefix(root) for s in material.sources):
+                self._dirty_materials.add(material_path)
+                for user in material.users:
+                    self._mark(user, Dirty.BINDING)
+
+    def _remove(self, path: Sdf.Path) -> None:
+        record = self._prims.pop(path)
+        self._dirty.pop(path, None)
+        if record.in_core:
+            self.core.remove_prim(str(path))
+        if record.material:
+            self._release_material(Sdf.Path(record.material), path)
+
+    # ----------------------------------------------------------------------------------------
+    # Pushing data
+
+    def _flush(self) -> None:
+        while self._dirty or self._dirty_materials:
+            xform_cache = UsdGeom.XformCache(self.time)
+            dirty, self._dirty = self._dirty, {}
+            for path in sorted(dirty):
+                if path in self._prims:
+                    self._sync_prim(path, dirty[path], xform_cache)
+            materials, self._dirty_materials = self._dirty_materials, set()
+            for path in sorted(materials):
+                if path in self._materials:
+                    self._sync_material(path)
+
+    def _sync_prim(self, path: Sdf.Path, bits: Dirty, xform_cache: UsdGeom.XformCache) -> None:
+        record = self._prims[path]
+        prim = self.stage.GetPrimAtPath(path)
+        if not record.in_core:
+            bits = _aspects(record.kind)  # a prim entering the delegate needs everything
+        path_str = str(path)
+        if bits & Dirty.DATA:
+            reader = SampleReader(self.time)
+            if not record.in_core:
+                self._insert(path_str, record.kind)
+                record.in_core = True
+            if record.kind == "mesh":
+                if not sync_mesh_data(self.core, prim, reader, self._warn):
+                    self.core.remove_prim(path_str)
+                    record.in_core = False
+                    return
+            elif record.kind == "camera":
+                sync_camera(self.core, prim, reader)
+            else:
+                sync_light(self.core, prim, reader, self._warn)
+            record.varying = _set_flag(record.varying, Dirty.DATA, reader.varying)
+        if bits & Dirty.TRANSFORM:
+            matrix = xform_cache.GetLocalToWorldTransform(prim)
+            self.core.set_transform(path_str, np.array(matrix, dtype=np.float64))
+            record.varying = _set_flag(record.varying, Dirty.TRANSFORM, transform_might_vary(prim))
+        if bits & Dirty.VISIBILITY:
+            visibility = UsdGeom.Imageable(prim).ComputeVisibility(self.time)
+            self.core.set_visible(path_str, visibility != UsdGeom.Tokens.invisible)
+            record.varying = _set_flag(
+                record.varying, Dirty.VISIBILITY, visibility_might_vary(prim)
+            )
+        if bits & Dirty.BINDING:
+            self._sync_binding(path, record, prim)
+
+    def _insert(self, path: str, kind: str) -> None:
+        if kind == "mesh":
+            self.core.insert_rprim(kind, path)
+        else:
+            self.core.insert_sprim(kind, path)
+
+    def _sync_binding(self, path: Sdf.Path, record: _Prim, prim: Usd.Prim) -> None:
+        if has_subset_bindings(prim):
+            self._warn(
+                f"{path}: per-face material bindings (GeomSubsets) are not supported yet; "
+                "the mesh's own binding is used"
+            )
+        material_prim = bound_material(prim)
+        material_path = material_prim.GetPath() if material_prim else None
+        old = Sdf.Path(record.material) if record.material else None
+        if material_path != old:
+            if old is not None:
+                self._release_material(old, path)
+            if material_path is not None:
+                self._acquire_material(material_path, path)
+        material_id = ""
+        if material_path is not None and self._materials[material_path].in_core:
+            material_id = str(material_path)
+        record.material = str(material_path) if material_path is not None else ""
+        self.core.set_mesh_material(str(path), material_id)
+
+    def _acquire_material(self, material_path: Sdf.Path, user: Sdf.Path) -> None:
+        material = self._materials.get(material_path)
+        if material is None:
+            material = self._materials[material_path] = _Material(users=set(), sources=set())
+            self._read_material(material_path, material)
+        material.users.add(user)
+
+    def _release_material(self, material_path: Sdf.Path, user: Sdf.Path) -> None:
+        material = self._materials.get(material_path)
+        if material is None:
+            return
+        material.users.discard(user)
+        if not material.users:
+            del self._materials[material_path]
+            self._dirty_materials.discard(material_path)
+            if material.in_core:
+                self.core.remove_prim(str(material_path))
+
+    def _sync_material(self, material_path: Sdf.Path) -> None:
+        material = self._materials[material_path]
+        was_in_core = material.in_core
+        self._read_material(material_path, material)
+        if material.in_core != was_in_core:
+            for user in material.users:
+                self._mark(user, Dirty.BINDING)
+
+    def _read_material(self, material_path: Sdf.Path, material: _Material) -> None:
+        """Read the material and insert, update or remove it in the delegate."""
+        prim = self.stage.GetPrimAtPath(material_path)
+        reader = SampleReader(self.time)
+        data = None
+        if prim and prim.IsA(UsdShade.Material):
+            data = read_material(prim, reader, self._warn)
+        material.varying = reader.varying
+        path_str = str(material_path)
+        if data is None:
+            material.sources = {material_path}
+            if material.in_core:
+                self.core.remove_prim(path_str)
+                material.in_core = False
+            return
+        material.sources = data.sources
+        if not material.in_core:
+            self.core.insert_sprim("material", path_str)
+            material.in_core = True
+        self.core.set_material(path_str, data.params)
+
+
+def _aspects(kind: str) -> Dirty:
+    return _ASPECTS.get(kind, _LIGHT_ASPECTS)
+
+
+def _set_flag(flags: Dirty, flag: Dirty, on: bool) -> Dirty:
+    return flags | flag if on else flags & ~flag
+
+
+def _ancestors(prim: Usd.Prim) -> Iterator[Usd.Prim]:
+    prim = prim.GetParent()
+    while prim and not prim.IsPseudoRoot():
+        yield prim
+        prim = prim.GetParent()

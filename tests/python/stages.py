@@ -1,0 +1,114 @@
+"""Builders of tiny stages for the Python tests (scene-linear, metersPerUnit 1, Y up)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+SCENES = Path(__file__).parents[2].parent / "shared" / "scenes"
+CORNELL = SCENES / "cornell.usda"
+
+
+def new_stage(path: Path | None = None) -> Usd.Stage:
+    """An empty stage (in memory, or a new file at ``path``) rendering time code 1."""
+    stage = Usd.Stage.CreateNew(str(path)) if path else Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(1)
+    return stage
+
+
+def add_camera(
+    stage: Usd.Stage,
+    path: str = "/cam",
+    translate=(0.0, 0.0, 5.0),
+    rotate_x: float = 0.0,
+    focal_length: float = 5.0,
+    aperture=(4.0, 4.0),
+) -> UsdGeom.Camera:
+    """A pinhole camera; with the defaults it sees the square [-2, 2]² of the z = 0 plane."""
+    camera = UsdGeom.Camera.Define(stage, path)
+    camera.CreateFocalLengthAttr(focal_length)
+    camera.CreateHorizontalApertureAttr(aperture[0])
+    camera.CreateVerticalApertureAttr(aperture[1])
+    camera.CreateClippingRangeAttr(Gf.Vec2f(0.01, 1000.0))
+    camera.AddTranslateOp().Set(Gf.Vec3d(*translate))
+    if rotate_x:
+        camera.AddRotateXOp().Set(rotate_x)
+    return camera
+
+
+def add_quad(
+    stage: Usd.Stage,
+    path: str,
+    center=(0.0, 0.0, 0.0),
+    half_size: float = 1.0,
+    color=None,
+    facing: str = "z",
+) -> UsdGeom.Mesh:
+    """A square facing +Z (in the XY plane) or +Y (``facing="y"``, in the XZ plane), wound
+    counter-clockwise seen from the front, single-sided unless told otherwise."""
+    s = half_size
+    if facing == "z":
+        corners = [(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)]
+    else:
+        corners = [(-s, 0, -s), (-s, 0, s), (s, 0, s), (s, 0, -s)]
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr([Gf.Vec3f(*c) for c in corners])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    mesh.CreateDoubleSidedAttr(False)
+    if color is not None:
+        mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([Gf.Vec3f(*color)])
+    mesh.AddTranslateOp().Set(Gf.Vec3d(*center))
+    return mesh
+
+
+def add_distant_light(stage: Usd.Stage, path: str = "/sun", intensity: float = 3.0):
+    """A distant light shining along −Z (onto quads facing +Z); normalized, so that the
+    irradiance of a surface facing it is ``intensity``."""
+    light = UsdLux.DistantLight.Define(stage, path)
+    light.CreateIntensityAttr(intensity)
+    light.CreateNormalizeAttr(True)
+    light.CreateAngleAttr(0.5)
+    return light
+
+
+def add_preview_material(stage: Usd.Stage, path: str, **inputs) -> UsdShade.Material:
+    """A material whose surface is a UsdPreviewSurface with the given inputs."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    for name, value in inputs.items():
+        type_name = (
+            Sdf.ValueTypeNames.Color3f
+            if isinstance(value, tuple)
+            else (Sdf.ValueTypeNames.Int if isinstance(value, int) else Sdf.ValueTypeNames.Float)
+        )
+        shader.CreateInput(name, type_name).Set(value)
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return material
+
+
+def bind(mesh: UsdGeom.Mesh, material: UsdShade.Material) -> None:
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+
+
+def lit_quad_stage(path: Path | None = None) -> Usd.Stage:
+    """A camera looking at a grey quad facing it, lit by a distant light: the quad fills the
+    central half of the image."""
+    stage = new_stage(path)
+    add_camera(stage)
+    add_quad(stage, "/World/quad")
+    add_distant_light(stage)
+    return stage
+
+
+def pixel(image, u: float, v: float):
+    """The RGB of the pixel at fractional position (u, v) (0..1 from the top-left)."""
+    color = image["color"] if hasattr(image, "keys") else image
+    h, w = color.shape[:2]
+    return color[min(h - 1, int(v * h)), min(w - 1, int(u * w)), :3]

@@ -1,0 +1,202 @@
+"""``penumbra-record`` end to end: outputs, metadata, frames, errors and exit codes."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import UsdGeom
+
+from penumbra import _core
+from penumbra.cli import main
+from stages import CORNELL, add_quad, lit_quad_stage, new_stage
+
+SMALL = ["-w", "32", "-spp", "4", "-cam", "/cam"]
+
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    return rgb[..., :3] @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+
+
+@pytest.fixture(scope="module")
+def cornell_exr(tmp_path_factory) -> Path:
+    """cornell.usda rendered once at 160×90, 64 spp."""
+    out = tmp_path_factory.mktemp("cornell") / "cornell.exr"
+    assert main([str(CORNELL), str(out), "-w", "160", "-spp", "64"]) == 0
+    return out
+
+
+def test_cornell_exr_channels_and_metadata(cornell_exr):
+    pixels, names, metadata = _core.read_image(str(cornell_exr))
+    assert pixels.shape == (90, 160, 4) and names == ["R", "G", "B", "A"]
+    assert metadata["penumbra:camera"] == "/cam"
+    assert int(metadata["penumbra:samples"]) == 64
+    assert int(metadata["penumbra:seed"]) == 0
+    assert float(metadata["penumbra:timeCode"]) == 1.0
+    assert float(metadata["penumbra:renderTimeSeconds"]) > 0
+    assert metadata["penumbra:version"] == _core.version()
+    red_wall, green_wall = pixels[45, 20, :3], pixels[45, 140, :3]
+    assert red_wall[0] > 2 * red_wall[1] and green_wall[1] > 2 * green_wall[0]
+
+
+def test_cornell_soft_shadow(cornell_exr):
+    """The shadow the short box casts on the floor to its right has a penumbra: across its
+    edge the floor's luminance rises through many intermediate values, not in one step."""
+    pixels, _, _ = _core.read_image(str(cornell_exr))
+    # Floor rows 81-84 at the box's base, from inside the shadow (column 114) to the lit floor.
+    profile = luminance(pixels[81:85, 114:138]).mean(axis=0)
+    umbra, lit = profile[:3].mean(), profile[-3:].mean()
+    assert lit > 2.5 * umbra
+    between = (profile > umbra + 0.15 * (lit - umbra)) & (profile < lit - 0.15 * (lit - umbra))
+    assert np.count_nonzero(between) >= 6  # a hard shadow would give one or two
+    smoothed = profile.reshape(-1, 2).mean(axis=1)
+    assert np.all(np.diff(smoothed) > -0.1 * (lit - umbra))  # monotone up to noise
+
+
+def test_png_output(tmp_path):
+    out = tmp_path / "cornell.png"
+    assert main([str(CORNELL), str(out), *SMALL]) == 0
+    pixels, _, _ = _core.read_image(str(out))
+    assert pixels.shape[:2] == (18, 32) and pixels.shape[2] in (3, 4)
+    assert 0.0 <= pixels.min() and pixels.max() <= 1.0 and pixels[..., :3].max() > 0.2
+
+
+def test_png_color_modes_agree(tmp_path):
+    """The bundled OCIO config's sRGB display equals the sRGB transfer function."""
+    stage_path = tmp_path / "quad.usda"
+    lit_quad_stage(stage_path).Save()
+    outputs = {}
+    for mode in ("sRGB", "openColorIO", "disabled"):
+        outputs[mode] = tmp_path / f"{mode}.png"
+        assert main([str(stage_path), str(outputs[mode]), *SMALL, "-color", mode]) == 0
+    srgb, ocio, linear = (_core.read_image(str(outputs[m]))[0][..., :3] for m in outputs)
+    np.testing.assert_allclose(ocio, srgb, atol=1.5 / 255)
+    centre = linear[16, 16]
+    assert srgb[16, 16] == pytest.approx(1.055 * centre ** (1 / 2.4) - 0.055, abs=1.5 / 255)
+
+
+def test_frames_substitution(tmp_path):
+    stage_path = tmp_path / "quad.usda"
+    lit_quad_stage(stage_path).Save()
+    pattern = tmp_path / "out.###.exr"
+    assert main([str(stage_path), str(pattern), *SMALL, "-f", "1:3x2,10"]) == 0
+    written = sorted(p.name for p in tmp_path.glob("out.*.exr"))
+    assert written == ["out.001.exr", "out.003.exr", "out.010.exr"]
+    _, _, metadata = _core.read_image(str(tmp_path / "out.010.exr"))
+    assert float(metadata["penumbra:timeCode"]) == 10.0
+
+
+@pytest.mark.parametrize(
+    "output, frames, message",
+    [
+        ("out.exr", ["-f", "1:2"], "needs a frame placeholder"),
+        ("out.#.exr", [], "so --frames is needed"),
+        ("out.#.exr", ["-f", "1:2x0.5"], "need 1 decimals"),
+        ("out.#.exr", ["-f", "1:"], "invalid FRAMESPEC '1:'"),
+        ("o#ut.#.exr", ["-f", "1"], "2 frame placeholders"),
+    ],
+)
+def test_frame_usage_errors(tmp_path, capsys, output, frames, message):
+    assert main([str(CORNELL), str(tmp_path / output), *frames]) == 2
+    assert message in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    "flag",
+    [
+        ["--mask", "/World"],
+        ["--sessionLayer", "session.usda"],
+        ["--aov", "depth"],
+        ["--disableMotionBlur"],
+        ["--disableDepthOfField"],
+        ["--scheduler", "tcp://farm:8786"],
+        ["--resume"],
+    ],
+)
+def test_unsupported_flags(tmp_path, capsys, flag):
+    assert main([str(CORNELL), str(tmp_path / "out.exr"), *flag]) == 2
+    assert f"penumbra-record: error: {flag[0]} is not supported yet" in capsys.readouterr().err
+
+
+def test_usage_errors(tmp_path, capsys):
+    assert main([str(CORNELL)]) == 2
+    assert main([str(CORNELL), str(tmp_path / "o.exr"), "-color", "ACES"]) == 2
+    assert main([str(CORNELL), str(tmp_path / "o.exr"), "-w", "0"]) == 2
+    assert main(["--help"]) == 0
+    assert "--samples" in capsys.readouterr().out
+
+
+def test_missing_and_unreadable_files(tmp_path, capsys):
+    missing = tmp_path / "missing.usda"
+    assert main([str(missing), str(tmp_path / "o.exr")]) == 1
+    assert f"{missing}: no such file" in capsys.readouterr().err
+    broken = tmp_path / "broken.usda"
+    broken.write_text('#usda 1.0\ndef Xform "a" {\n  float x =\n}\n')
+    assert main([str(broken), str(tmp_path / "o.exr")]) == 1
+    assert f"{broken}: cannot read the file" in capsys.readouterr().err
+    assert not (tmp_path / "o.exr").exists()
+
+
+def test_camera_errors(tmp_path, capsys):
+    no_camera = tmp_path / "no_camera.usda"
+    stage = new_stage(no_camera)
+    add_quad(stage, "/World/quad")
+    stage.Save()
+    assert main([str(no_camera), str(tmp_path / "o.exr")]) == 1
+    err = capsys.readouterr().err
+    assert str(no_camera) in err and "no camera" in err and "not implemented yet" in err
+
+    assert main([str(CORNELL), str(tmp_path / "o.exr"), "--camera", "/World/tall_box"]) == 1
+    assert "/World/tall_box is not a camera (it is a Mesh)" in capsys.readouterr().err
+    assert main([str(CORNELL), str(tmp_path / "o.exr"), "-cam", "/nowhere"]) == 1
+    assert "no prim at camera path /nowhere" in capsys.readouterr().err
+    assert main([str(CORNELL), str(tmp_path / "o.exr"), "-rs", "/World"]) == 1
+    assert "/World is not a RenderSettings prim" in capsys.readouterr().err
+
+
+def test_camera_by_name_and_main_cam(tmp_path):
+    stage_path = tmp_path / "quad.usda"
+    stage = lit_quad_stage(stage_path)
+    UsdGeom.Camera.Define(stage, "/rig/main_cam").CreateFocalLengthAttr(5.0)
+    stage.Save()
+    size = ["-w", "16", "-spp", "1"]
+    assert main([str(stage_path), str(tmp_path / "a.exr"), *size, "-cam", "cam"]) == 0
+    assert _core.read_image(str(tmp_path / "a.exr"))[2]["penumbra:camera"] == "/cam"
+    assert main([str(stage_path), str(tmp_path / "b.exr"), *size]) == 0
+    assert _core.read_image(str(tmp_path / "b.exr"))[2]["penumbra:camera"] == "/rig/main_cam"
+
+
+def test_out_of_range_indices_warn_and_render(tmp_path, capsys):
+    stage_path = tmp_path / "bad.usda"
+    stage = lit_quad_stage(stage_path)
+    bad = add_quad(stage, "/World/bad", center=(1.5, 1.5, 0.1), half_size=0.3)
+    bad.GetFaceVertexIndicesAttr().Set([0, 1, 2, 7])
+    stage.Save()
+    out = tmp_path / "o.exr"
+    assert main([str(stage_path), str(out), *SMALL]) == 0
+    err = capsys.readouterr().err
+    warnings = [line for line in err.splitlines() if line.startswith("penumbra-record: warning:")]
+    assert len(warnings) == 1 and "/World/bad" in warnings[0]
+    pixels = _core.read_image(str(out))[0]
+    assert luminance(pixels[16, 16]) > 0.05  # the good quad
+
+
+def test_console_script_progress(tmp_path):
+    """The installed console script runs and reports progress on stderr."""
+    script = Path(sys.executable).with_name("penumbra-record")
+    stage_path = tmp_path / "quad.usda"
+    lit_quad_stage(stage_path).Save()
+    out = tmp_path / "o.exr"
+    result = subprocess.run(
+        [str(script), str(stage_path), str(out), "-w", "16", "-spp", "8", "-cam", "/cam"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "8/8 samples" in result.stderr
+    assert out.exists()
