@@ -32,6 +32,8 @@ struct TriangleMesh {
   std::vector<uint32_t> sourceFace;
   std::vector<uint32_t> cornerFaceVertex;
   bool doubleSided = false;
+  /// Shading normals per point (smooth surfaces, e.g. subdivision limit normals); empty: flat.
+  std::vector<Vec3f> normals;
   std::vector<Vec3f> displayColor;
   Interpolation displayColorInterpolation = Interpolation::Constant;
 
