@@ -67,8 +67,8 @@ void Light::setParam(const std::string& name, const ParamValue& value) {
   markDirty(DirtyParams);
 }
 
-void Light::setTransform(const Transform& lightToWorld) {
-  params_.lightToWorld = lightToWorld;
+void Light::setTransform(const MotionTransform& lightToWorld) {
+  params_.lightToWorld = lightToWorld.first();
   markDirty(DirtyTransform);
 }
 

@@ -11,8 +11,9 @@ void Mesh::setTopology(std::vector<int> counts, std::vector<int> indices, bool l
   markDirty(DirtyTopology);
 }
 
-void Mesh::setPoints(std::vector<Vec3f> points) {
+void Mesh::setPoints(std::vector<Vec3f> points, std::vector<std::vector<Vec3f>> pointMotion) {
   data_.points = std::move(points);
+  data_.pointMotion = std::move(pointMotion);
   markDirty(DirtyPoints);
 }
 
@@ -32,7 +33,7 @@ void Mesh::setMaterialId(PrimId materialId) {
   markDirty(DirtyMaterialId);
 }
 
-void Mesh::setTransform(const Transform& objectToWorld) {
+void Mesh::setTransform(const MotionTransform& objectToWorld) {
   objectToWorld_ = objectToWorld;
   markDirty(DirtyTransform);
 }

@@ -19,6 +19,7 @@ using penumbra::DisplaySettings;
 using penumbra::ImageData;
 using penumbra::Interpolation;
 using penumbra::Metadata;
+using penumbra::MotionTransform;
 using penumbra::Projection;
 using penumbra::Transform;
 using penumbra::Vec3f;
@@ -30,14 +31,17 @@ using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>
 using IntArray = py::array_t<int32_t, py::array::c_style | py::array::forcecast>;
 using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
+std::vector<Vec3f> toVec3Vector(const float* xyz, size_t count) {
+  std::vector<Vec3f> result;
+  result.reserve(count);
+  for (size_t i = 0; i < count; ++i, xyz += 3) result.emplace_back(xyz[0], xyz[1], xyz[2]);
+  return result;
+}
+
 std::vector<Vec3f> toVec3Array(const FloatArray& array, const char* what) {
   if (array.ndim() != 2 || array.shape(1) != 3)
     throw std::invalid_argument(std::string(what) + " must have shape (N, 3)");
-  std::vector<Vec3f> result;
-  result.reserve(size_t(array.shape(0)));
-  for (const float* xyz = array.data(); xyz != array.data() + array.size(); xyz += 3)
-    result.emplace_back(xyz[0], xyz[1], xyz[2]);
-  return result;
+  return toVec3Vector(array.data(), size_t(array.shape(0)));
 }
 
 std::vector<int> toIntVector(const IntArray& array, const char* what) {
@@ -45,10 +49,22 @@ std::vector<int> toIntVector(const IntArray& array, const char* what) {
   return std::vector<int>(array.data(), array.data() + array.shape(0));
 }
 
-Transform toTransform(const DoubleArray& matrix) {
-  if (matrix.ndim() != 2 || matrix.shape(0) != 4 || matrix.shape(1) != 4)
-    throw std::invalid_argument("a transform must have shape (4, 4)");
-  return Transform::fromRowMajor(matrix.data());
+/// (4, 4) → a static transform; (K, 4, 4) → K samples uniformly spaced over the shutter.
+MotionTransform toMotionTransform(const DoubleArray& matrices) {
+  const bool single = matrices.ndim() == 2;
+  if (!(single || matrices.ndim() == 3) || matrices.shape(matrices.ndim() - 2) != 4 ||
+      matrices.shape(matrices.ndim() - 1) != 4 || (!single && matrices.shape(0) < 1))
+    throw std::invalid_argument("a transform must have shape (4, 4) or (K, 4, 4) with K >= 1");
+  std::vector<Transform> steps;
+  const py::ssize_t count = single ? 1 : matrices.shape(0);
+  for (py::ssize_t k = 0; k < count; ++k)
+    steps.push_back(Transform::fromRowMajor(matrices.data() + 16 * k));
+  return MotionTransform(std::move(steps));
+}
+
+std::vector<float> toFloatVector(const FloatArray& array, const char* what) {
+  if (array.ndim() != 1) throw std::invalid_argument(std::string(what) + " must be 1-dimensional");
+  return std::vector<float>(array.data(), array.data() + array.shape(0));
 }
 
 Interpolation toInterpolation(const std::string& name) {
@@ -130,7 +146,14 @@ PYBIND11_MODULE(_core, m) {
       .def(
           "set_mesh_points",
           [](RenderDelegate& self, const std::string& id, const FloatArray& points) {
-            self.mesh(id).setPoints(toVec3Array(points, "points"));
+            if (points.ndim() == 2) return self.mesh(id).setPoints(toVec3Array(points, "points"));
+            if (points.ndim() != 3 || points.shape(2) != 3 || points.shape(0) < 1)
+              throw std::invalid_argument(id + ": points must have shape (N, 3) or (K, N, 3)");
+            const size_t count = size_t(points.shape(1));
+            std::vector<std::vector<Vec3f>> motion;
+            for (py::ssize_t k = 1; k < points.shape(0); ++k)
+              motion.push_back(toVec3Vector(points.data() + 3 * count * size_t(k), count));
+            self.mesh(id).setPoints(toVec3Vector(points.data(), count), std::move(motion));
           },
           py::arg("id"), py::arg("points"))
       .def(
@@ -156,7 +179,7 @@ PYBIND11_MODULE(_core, m) {
       .def(
           "set_transform",
           [](RenderDelegate& self, const std::string& id, const DoubleArray& matrix) {
-            const Transform transform = toTransform(matrix);
+            const MotionTransform transform = toMotionTransform(matrix);
             Prim& prim = self.prim(id);
             if (auto* mesh = dynamic_cast<Mesh*>(&prim))
               mesh->setTransform(transform);
@@ -214,6 +237,14 @@ PYBIND11_MODULE(_core, m) {
           py::arg("clipping_range") = std::pair<float, float>(0.01f, 1e6f),
           py::arg("shutter_open") = 0.0f, py::arg("shutter_close") = 0.0f,
           py::arg("projection") = "perspective")
+      .def(
+          "set_camera_motion",
+          [](RenderDelegate& self, const std::string& id, const FloatArray& focalLengths,
+             const FloatArray& focusDistances) {
+            self.camera(id).setLensMotion(toFloatVector(focalLengths, "focal_lengths"),
+                                          toFloatVector(focusDistances, "focus_distances"));
+          },
+          py::arg("id"), py::arg("focal_lengths"), py::arg("focus_distances"))
       .def(
           "set_light",
           [](RenderDelegate& self, const std::string& id, const py::kwargs& params) {

@@ -36,14 +36,37 @@ Camera::Camera(const CameraParams& params, int imageWidth, int imageHeight)
     filmWidth_ = filmHeight_ * imageAspect;
   else
     filmHeight_ = filmWidth_ / imageAspect;
-  const bool thinLens =
+  thinLens_ =
       params.projection == Projection::Perspective && params.fStop > 0 && params.focusDistance > 0;
-  // f = 0.1 · focalLength scene units; R = f / (2 N).
-  lensRadius_ = thinLens ? 0.1f * params.focalLength / (2 * params.fStop) : 0.0f;
-  viewAxis_ = normalize(params.cameraToWorld.applyToVector({0, 0, -1}));
+  for (const float focalLength : params.focalLengthSteps)
+    if (!(focalLength > 0))
+      throw std::invalid_argument("camera focalLength samples must be positive");
 }
 
-Ray Camera::generateRay(float imageX, float imageY, Vec2f lensSample) const {
+namespace {
+/// A lens parameter at a normalised time: uniformly spaced samples, or the scalar when none.
+float sampledAt(const std::vector<float>& steps, float scalar, float time) {
+  if (steps.empty()) return scalar;
+  if (steps.size() == 1) return steps.front();
+  const StepPosition where = locateStep(steps.size(), time);
+  return (1 - where.fraction) * steps[where.step] + where.fraction * steps[where.step + 1];
+}
+}  // namespace
+
+float Camera::focalLengthAt(float time) const {
+  return sampledAt(params_.focalLengthSteps, params_.focalLength, time);
+}
+
+float Camera::focusDistanceAt(float time) const {
+  return sampledAt(params_.focusDistanceSteps, params_.focusDistance, time);
+}
+
+// f = 0.1 · focalLength scene units; R = f / (2 N).
+float Camera::lensRadiusAt(float time) const {
+  return thinLens_ ? 0.1f * focalLengthAt(time) / (2 * params_.fStop) : 0.0f;
+}
+
+Ray Camera::generateRay(float imageX, float imageY, Vec2f lensSample, float time) const {
   // Position on the film window, in tenths of a scene unit, relative to the optical axis.
   const float filmX = params_.horizontalApertureOffset + (imageX / width_ - 0.5f) * filmWidth_;
   const float filmY = params_.verticalApertureOffset + (0.5f - imageY / height_) * filmHeight_;
@@ -52,12 +75,14 @@ Ray Camera::generateRay(float imageX, float imageY, Vec2f lensSample) const {
     origin = {0.1f * filmX, 0.1f * filmY, 0};
     direction = {0, 0, -1};
   } else {
-    direction = {filmX / params_.focalLength, filmY / params_.focalLength, -1};
-    if (lensRadius_ > 0) {
+    const float focalLength = focalLengthAt(time);
+    direction = {filmX / focalLength, filmY / focalLength, -1};
+    if (thinLens_) {
       // Rays through the lens converge where the pinhole ray meets the plane of focus.
-      const Vec3f focusPoint = direction * params_.focusDistance;
+      const Vec3f focusPoint = direction * focusDistanceAt(time);
       const Vec2f lens = concentricSampleDisk(lensSample);
-      origin = {lensRadius_ * lens.x, lensRadius_ * lens.y, 0};
+      const float radius = lensRadiusAt(time);
+      origin = {radius * lens.x, radius * lens.y, 0};
       direction = focusPoint - origin;
     }
   }
@@ -66,8 +91,10 @@ Ray Camera::generateRay(float imageX, float imageY, Vec2f lensSample) const {
   // Clipping distances are measured along the view axis, where -direction.z is the cosine.
   ray.tNear = params_.nearClip / -direction.z;
   ray.tFar = params_.farClip / -direction.z;
-  const Vec3f worldOrigin = params_.cameraToWorld.applyToPoint(origin);
-  const Vec3f worldDirection = params_.cameraToWorld.applyToVector(direction);
+  ray.time = time;
+  const Transform cameraToWorld = params_.cameraToWorld.at(time);
+  const Vec3f worldOrigin = cameraToWorld.applyToPoint(origin);
+  const Vec3f worldDirection = cameraToWorld.applyToVector(direction);
   const float scale = length(worldDirection);
   ray.origin = worldOrigin;
   ray.direction = worldDirection / scale;
@@ -77,7 +104,8 @@ Ray Camera::generateRay(float imageX, float imageY, Vec2f lensSample) const {
 }
 
 float Camera::viewDepth(const Ray& ray, float t) const {
-  return t * dot(ray.direction, viewAxis_);
+  const Vec3f viewAxis = normalize(params_.cameraToWorld.at(ray.time).applyToVector({0, 0, -1}));
+  return t * dot(ray.direction, viewAxis);
 }
 
 }  // namespace penumbra

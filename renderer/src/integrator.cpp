@@ -32,13 +32,15 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
 }
 
 /// Spawns a ray from a surface point towards `direction`, offset off the surface on that side.
-Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, float tFar) {
+Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, float tFar,
+             float time) {
   const float side = dot(direction, hit.normal) >= 0 ? 1.0f : -1.0f;
   Ray ray;
   ray.origin = hit.position + hit.normal * (side * scene.rayEpsilon(hit.position));
   ray.direction = direction;
   ray.tNear = 0;
   ray.tFar = tFar;
+  ray.time = time;
   return ray;
 }
 
@@ -50,8 +52,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   SampleStream sampler(settings.seed, uint32_t(x), uint32_t(y), sampleIndex);
   const Vec2f filterOffset = filter.sampleOffset(sampler.next2D());
   const Vec2f lensSample = sampler.next2D();
+  const float shutterTime = sampler.next1D();
   Ray ray = camera.generateRay(float(x) + 0.5f + filterOffset.x, float(y) + 0.5f + filterOffset.y,
-                               lensSample);
+                               lensSample, shutterTime);
 
   CameraSample result;
   Vec3f throughput{1.0f};
@@ -91,7 +94,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         if (cosine > 0) {
           const float tFar =
               std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
-          if (!scene.occluded(spawnRay(scene, *hit, sample->direction, tFar))) {
+          if (!scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time))) {
             const float lightPdf = selectPdf * sample->pdf;
             const float weight = sample->isDelta ? 1.0f : powerHeuristic(lightPdf, cosine * kInvPi);
             result.radiance += throughput * bsdf * sample->radiance * (cosine * weight / lightPdf);
@@ -114,7 +117,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       throughput *= 1 / survival;
     }
     if (isBlack(throughput)) break;
-    ray = spawnRay(scene, *hit, direction, kInfinity);
+    ray = spawnRay(scene, *hit, direction, kInfinity, ray.time);
   }
   return result;
 }

@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "penumbra/motion.h"
+
 namespace penumbra {
 namespace {
 
@@ -33,14 +35,25 @@ const char* interpolationName(Interpolation interpolation) {
   return "?";
 }
 
+void requireFinite(const std::vector<Vec3f>& points, const std::string& name) {
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Vec3f& p = points[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw std::invalid_argument(name + "[" + std::to_string(i) + "] is not finite");
+  }
+}
+
 }  // namespace
 
 TriangleMesh triangulate(const MeshData& mesh) {
   const size_t pointCount = mesh.points.size();
-  for (size_t i = 0; i < pointCount; ++i) {
-    const Vec3f& p = mesh.points[i];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      throw std::invalid_argument("points[" + std::to_string(i) + "] is not finite");
+  requireFinite(mesh.points, "points");
+  for (size_t step = 0; step < mesh.pointMotion.size(); ++step) {
+    const std::string name = "points at motion sample " + std::to_string(step + 1);
+    if (mesh.pointMotion[step].size() != pointCount)
+      throw std::invalid_argument(name + " has " + std::to_string(mesh.pointMotion[step].size()) +
+                                  " points, expected " + std::to_string(pointCount));
+    requireFinite(mesh.pointMotion[step], name);
   }
   size_t indexTotal = 0;
   for (size_t face = 0; face < mesh.faceVertexCounts.size(); ++face) {
@@ -71,6 +84,7 @@ TriangleMesh triangulate(const MeshData& mesh) {
 
   TriangleMesh result;
   result.points = mesh.points;
+  result.pointMotion = mesh.pointMotion;
   result.doubleSided = mesh.doubleSided;
   result.displayColor = mesh.displayColor;
   result.displayColorInterpolation = mesh.displayColorInterpolation;
@@ -91,6 +105,15 @@ TriangleMesh triangulate(const MeshData& mesh) {
     faceStart += size_t(count);
   }
   return result;
+}
+
+Vec3f TriangleMesh::cornerAt(uint32_t triangle, int corner, float time) const {
+  const uint32_t index = triangles[3 * size_t(triangle) + size_t(corner)];
+  if (pointMotion.empty()) return points[index];
+  const StepPosition where = locateStep(pointMotion.size() + 1, time);
+  const Vec3f& from = where.step == 0 ? points[index] : pointMotion[where.step - 1][index];
+  const Vec3f& to = pointMotion[where.step][index];
+  return from * (1 - where.fraction) + to * where.fraction;
 }
 
 Vec3f TriangleMesh::displayColorAt(uint32_t triangle, float u, float v,

@@ -45,7 +45,7 @@ RTCRay toEmbreeRay(const Ray& ray) {
   r.dir_z = ray.direction.z;
   r.tnear = ray.tNear;
   r.tfar = ray.tFar;
-  r.time = 0;
+  r.time = ray.time;
   r.mask = 0xffffffffu;
   r.id = 0;
   r.flags = 0;
@@ -112,19 +112,28 @@ void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
   if (!data.triangles.empty()) {
     RTCScene bvh = rtcNewScene(device_);
     RTCGeometry triangles = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(
-        rtcSetNewGeometryBuffer(triangles, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                sizeof(Vec3f), data.points.size()));
+    const unsigned stepCount = unsigned(data.pointMotion.size() + 1);
+    rtcSetGeometryTimeStepCount(triangles, stepCount);
+    bool allocated = true;
+    for (unsigned step = 0; step < stepCount; ++step) {
+      const std::vector<Vec3f>& points = step == 0 ? data.points : data.pointMotion[step - 1];
+      auto* vertices = static_cast<Vec3f*>(
+          rtcSetNewGeometryBuffer(triangles, RTC_BUFFER_TYPE_VERTEX, step, RTC_FORMAT_FLOAT3,
+                                  sizeof(Vec3f), points.size()));
+      if (vertices)
+        std::copy(points.begin(), points.end(), vertices);
+      else
+        allocated = false;
+    }
     auto* indices = static_cast<uint32_t*>(
         rtcSetNewGeometryBuffer(triangles, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                 3 * sizeof(uint32_t), data.triangles.size() / 3));
-    if (!vertices || !indices) {
+    if (!allocated || !indices) {
       rtcReleaseGeometry(triangles);
       rtcReleaseScene(bvh);
       throwOnEmbreeError(device_, "allocate mesh buffers");
       throw std::runtime_error("Embree could not allocate mesh buffers");
     }
-    std::copy(data.points.begin(), data.points.end(), reinterpret_cast<Vec3f*>(vertices));
     std::copy(data.triangles.begin(), data.triangles.end(), indices);
     if (!data.doubleSided) rtcSetGeometryIntersectFilterFunction(triangles, cullBackFaces);
     rtcCommitGeometry(triangles);
@@ -144,7 +153,7 @@ void Scene::clearMeshGeometry(MeshId id) {
   updateInstance(mesh);
 }
 
-void Scene::setMeshInstance(MeshId id, const Transform& objectToWorld, int materialIndex,
+void Scene::setMeshInstance(MeshId id, const MotionTransform& objectToWorld, int materialIndex,
                             bool visible) {
   MeshRecord& mesh = record(id);
   mesh.objectToWorld = objectToWorld;
@@ -155,8 +164,38 @@ void Scene::setMeshInstance(MeshId id, const Transform& objectToWorld, int mater
 
 void Scene::updateInstance(MeshRecord& mesh) {
   if (mesh.bvh) rtcSetGeometryInstancedScene(mesh.instance, mesh.bvh);
-  const std::array<float, 12> matrix = mesh.objectToWorld.toEmbreeColumnMajor3x4();
-  rtcSetGeometryTransform(mesh.instance, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, matrix.data());
+  const std::vector<Transform>& steps = mesh.objectToWorld.steps();
+  rtcSetGeometryTimeStepCount(mesh.instance, unsigned(steps.size()));
+  if (steps.size() == 1) {
+    const std::array<float, 12> matrix = steps.front().toEmbreeColumnMajor3x4();
+    rtcSetGeometryTransform(mesh.instance, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, matrix.data());
+  } else {
+    // Quaternion-decomposed steps: Embree slerps the rotation, so turns travel on arcs.
+    Quaternion previous;
+    for (unsigned step = 0; step < steps.size(); ++step) {
+      const TransformDecomposition d = decompose(steps[step]);
+      Quaternion q = d.rotation;
+      if (q.w * previous.w + q.x * previous.x + q.y * previous.y + q.z * previous.z < 0)
+        q = {-q.w, -q.x, -q.y, -q.z};  // same rotation, on the near side of the previous key
+      previous = q;
+      RTCQuaternionDecomposition embree;
+      rtcInitQuaternionDecomposition(&embree);
+      embree.scale_x = float(d.scaleShear[0]);
+      embree.skew_xy = float(d.scaleShear[1]);
+      embree.skew_xz = float(d.scaleShear[2]);
+      embree.scale_y = float(d.scaleShear[3]);
+      embree.skew_yz = float(d.scaleShear[4]);
+      embree.scale_z = float(d.scaleShear[5]);
+      embree.quaternion_r = float(q.w);
+      embree.quaternion_i = float(q.x);
+      embree.quaternion_j = float(q.y);
+      embree.quaternion_k = float(q.z);
+      embree.translation_x = float(d.translation[0]);
+      embree.translation_y = float(d.translation[1]);
+      embree.translation_z = float(d.translation[2]);
+      rtcSetGeometryTransformQuaternion(mesh.instance, step, &embree);
+    }
+  }
   if (mesh.bvh && mesh.visible)
     rtcEnableGeometry(mesh.instance);
   else
@@ -195,14 +234,14 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
   const MeshRecord& mesh = *meshes_[rayHit.hit.instID[0]];
   const TriangleMesh& data = *mesh.data;
   const uint32_t triangle = rayHit.hit.primID;
-  const Vec3f& p0 = data.points[data.triangles[3 * triangle]];
-  const Vec3f& p1 = data.points[data.triangles[3 * triangle + 1]];
-  const Vec3f& p2 = data.points[data.triangles[3 * triangle + 2]];
+  const Vec3f p0 = data.cornerAt(triangle, 0, ray.time);
+  const Vec3f p1 = data.cornerAt(triangle, 1, ray.time);
+  const Vec3f p2 = data.cornerAt(triangle, 2, ray.time);
 
   SurfaceHit hit;
   hit.distance = rayHit.ray.tfar;
   hit.position = ray.origin + ray.direction * hit.distance;
-  hit.normal = normalize(mesh.objectToWorld.applyToNormal(cross(p1 - p0, p2 - p0)));
+  hit.normal = normalize(mesh.objectToWorld.at(ray.time).applyToNormal(cross(p1 - p0, p2 - p0)));
   hit.doubleSided = data.doubleSided;
   const Vec3f fallbackColor{0.5f};
   if (mesh.materialIndex >= 0 && size_t(mesh.materialIndex) < materials_.size()) {

@@ -2,7 +2,9 @@
 // apertures in tenths of a scene unit, distances in scene units, looking down -Z with +Y up.
 #pragma once
 
-#include "penumbra/math.h"
+#include <vector>
+
+#include "penumbra/motion.h"
 
 namespace penumbra {
 
@@ -11,12 +13,13 @@ struct Ray {
   Vec3f direction;  // unit length
   float tNear = 0;
   float tFar = kInfinity;
+  float time = 0;  // normalised shutter time in [0, 1]
 };
 
 enum class Projection { Perspective, Orthographic };
 
 struct CameraParams {
-  Transform cameraToWorld;
+  MotionTransform cameraToWorld;
   Projection projection = Projection::Perspective;
   float focalLength = 50;  // tenths of a scene unit
   float horizontalAperture = 20.955f;
@@ -29,6 +32,9 @@ struct CameraParams {
   float farClip = 1e6f;
   float shutterOpen = 0;  // time codes relative to the frame
   float shutterClose = 0;
+  // Animated lens over the shutter: uniformly spaced samples; empty means the scalars above.
+  std::vector<float> focalLengthSteps;
+  std::vector<float> focusDistanceSteps;
 };
 
 /// A camera bound to an image resolution. The aperture is fitted to the image aspect by
@@ -39,24 +45,27 @@ class Camera {
   Camera(const CameraParams& params, int imageWidth, int imageHeight);
 
   /// Ray through continuous image position (x right, y down, in pixels; (0,0) is the top-left
-  /// corner of the image) and a uniform lens sample.
-  Ray generateRay(float imageX, float imageY, Vec2f lensSample) const;
+  /// corner of the image), a uniform lens sample and a normalised shutter time in [0, 1].
+  Ray generateRay(float imageX, float imageY, Vec2f lensSample, float time = 0) const;
   /// Distance along the view axis of the point at parameter t of a ray this camera generated.
   float viewDepth(const Ray& ray, float t) const;
 
-  /// Lens radius in scene units (0 for a pinhole).
-  float lensRadius() const { return lensRadius_; }
+  /// Lens radius in scene units (0 for a pinhole) at the start of the shutter.
+  float lensRadius() const { return lensRadiusAt(0); }
   /// Fitted film window size in tenths of a scene unit.
   float filmWidth() const { return filmWidth_; }
   float filmHeight() const { return filmHeight_; }
   const CameraParams& params() const { return params_; }
 
  private:
+  float focalLengthAt(float time) const;
+  float focusDistanceAt(float time) const;
+  float lensRadiusAt(float time) const;
+
   CameraParams params_;
   int width_, height_;
   float filmWidth_, filmHeight_;
-  float lensRadius_;
-  Vec3f viewAxis_;  // world-space unit -Z of the camera
+  bool thinLens_;
 };
 
 /// Shirley–Chiu concentric mapping of the unit square to the unit disk (no clumping).

@@ -14,6 +14,9 @@ enum class Interpolation { Constant, Uniform, Vertex, FaceVarying };
 
 struct MeshData {
   std::vector<Vec3f> points;
+  /// Deformation motion: the points at later, uniformly spaced shutter times (steps 1..K-1;
+  /// `points` is step 0). Empty for static meshes.
+  std::vector<std::vector<Vec3f>> pointMotion;
   std::vector<int> faceVertexCounts;
   std::vector<int> faceVertexIndices;
   bool leftHanded = false;  // orientation: leftHanded reverses the winding that faces front
@@ -26,7 +29,8 @@ struct MeshData {
 /// front face is counter-clockwise in a right-handed frame.
 struct TriangleMesh {
   std::vector<Vec3f> points;
-  std::vector<uint32_t> triangles;  // 3 point indices per triangle
+  std::vector<std::vector<Vec3f>> pointMotion;  // as in MeshData
+  std::vector<uint32_t> triangles;              // 3 point indices per triangle
   // Per triangle: the polygon it came from and the face-vertex positions of its 3 corners (for
   // uniform and faceVarying data).
   std::vector<uint32_t> sourceFace;
@@ -36,6 +40,9 @@ struct TriangleMesh {
   std::vector<Vec3f> normals;
   std::vector<Vec3f> displayColor;
   Interpolation displayColorInterpolation = Interpolation::Constant;
+
+  /// Corner `corner` (0..2) of `triangle` at normalised shutter time `time`.
+  Vec3f cornerAt(uint32_t triangle, int corner, float time) const;
 
   /// Display colour at a point on triangle `triangle` with barycentrics (u, v) as Embree gives
   /// them (weights 1-u-v, u, v for corners 0, 1, 2). `fallback` when none is authored.

@@ -13,6 +13,7 @@
 #include "penumbra/light.h"
 #include "penumbra/material.h"
 #include "penumbra/mesh.h"
+#include "penumbra/motion.h"
 
 namespace penumbra {
 
@@ -60,7 +61,9 @@ class Scene {
   void setMeshGeometry(MeshId id, TriangleMesh mesh);
   /// Drops the mesh's geometry (it stays registered but renders nothing).
   void clearMeshGeometry(MeshId id);
-  void setMeshInstance(MeshId id, const Transform& objectToWorld, int materialIndex, bool visible);
+  /// Places the mesh; an animated transform gives Embree multi-segment instance motion.
+  void setMeshInstance(MeshId id, const MotionTransform& objectToWorld, int materialIndex,
+                       bool visible);
 
   void setMaterials(std::vector<MaterialParams> materials) { materials_ = std::move(materials); }
   void setLights(std::vector<Light> lights) { lights_ = std::move(lights); }
@@ -80,7 +83,7 @@ class Scene {
     RTCScene bvh = nullptr;
     RTCGeometry instance = nullptr;
     std::shared_ptr<const TriangleMesh> data;
-    Transform objectToWorld;
+    MotionTransform objectToWorld;
     int materialIndex = kNoMaterial;
     bool visible = true;
   };

@@ -1,6 +1,9 @@
 // Camera sprim: UsdGeomCamera's parameters and transform.
 #pragma once
 
+#include <stdexcept>
+#include <vector>
+
 #include "penumbra/camera.h"
 #include "penumbra/plugin/prim.h"
 
@@ -10,13 +13,23 @@ class Camera : public Prim {
  public:
   using Prim::Prim;
 
+  /// Sets everything but the transform; animated lens samples are reset to the scalars.
   void setParams(const CameraParams& params) {
-    const Transform transform = params_.cameraToWorld;
+    const MotionTransform transform = params_.cameraToWorld;
     params_ = params;
     params_.cameraToWorld = transform;
     markDirty(DirtyParams);
   }
-  void setTransform(const Transform& cameraToWorld) {
+  /// Focal length and focus distance sampled uniformly over the shutter (same count, >= 1).
+  void setLensMotion(std::vector<float> focalLengths, std::vector<float> focusDistances) {
+    if (focalLengths.empty() || focalLengths.size() != focusDistances.size())
+      throw std::invalid_argument(
+          id() + ": lens motion needs as many focus distances as focal lengths (>= 1)");
+    params_.focalLengthSteps = std::move(focalLengths);
+    params_.focusDistanceSteps = std::move(focusDistances);
+    markDirty(DirtyParams);
+  }
+  void setTransform(const MotionTransform& cameraToWorld) {
     params_.cameraToWorld = cameraToWorld;
     markDirty(DirtyTransform);
   }

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "penumbra/light.h"
+#include "penumbra/motion.h"
 #include "penumbra/plugin/prim.h"
 
 namespace penumbra::plugin {
@@ -14,7 +15,9 @@ class Light : public Prim {
   /// enableColorTemperature, colorTemperature, width, height, radius, angle, treatAsPoint).
   /// Throws std::invalid_argument for an unknown name or a value of the wrong type.
   void setParam(const std::string& name, const ParamValue& value);
-  void setTransform(const Transform& lightToWorld);
+  /// Lights keep their transform at the start of the shutter (motion blur of lights is not
+  /// supported yet): only the first sample is used.
+  void setTransform(const MotionTransform& lightToWorld);
   void setVisible(bool visible);
 
   const LightParams& params() const { return params_; }

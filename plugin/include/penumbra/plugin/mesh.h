@@ -15,17 +15,18 @@ class Mesh : public Prim {
 
   void setTopology(std::vector<int> counts, std::vector<int> indices, bool leftHanded,
                    std::string subdivisionScheme);
-  void setPoints(std::vector<Vec3f> points);
+  /// `pointMotion`: the points at later, uniformly spaced shutter times (see MeshData).
+  void setPoints(std::vector<Vec3f> points, std::vector<std::vector<Vec3f>> pointMotion = {});
   void setDoubleSided(bool doubleSided);
   void setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolation);
   void setMaterialId(PrimId materialId);
-  void setTransform(const Transform& objectToWorld);
+  void setTransform(const MotionTransform& objectToWorld);
   void setVisible(bool visible);
 
   Scene::MeshId handle() const { return handle_; }
   const MeshData& data() const { return data_; }
   const PrimId& materialId() const { return materialId_; }
-  const Transform& transform() const { return objectToWorld_; }
+  const MotionTransform& transform() const { return objectToWorld_; }
   bool visible() const { return visible_; }
   const std::string& subdivisionScheme() const { return subdivisionScheme_; }
 
@@ -34,7 +35,7 @@ class Mesh : public Prim {
   MeshData data_;
   std::string subdivisionScheme_ = "none";
   PrimId materialId_;
-  Transform objectToWorld_;
+  MotionTransform objectToWorld_;
   bool visible_ = true;
 };
 
