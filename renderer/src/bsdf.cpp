@@ -1,1 +1,738 @@
-// Placeholder: being written.
+#include "penumbra/bsdf.h"
+
+#include <array>
+
+#include "penumbra/light.h"
+
+namespace penumbra {
+namespace {
+
+/// Clamps to [0, 1]; NaN becomes 0, so that table indices computed from it stay defined.
+float clamp01(float v) {
+  return v > 0 ? (v < 1 ? v : 1.0f) : 0.0f;
+}
+Vec3f clamp01(const Vec3f& v) {
+  return {clamp01(v.x), clamp01(v.y), clamp01(v.z)};
+}
+float square(float v) {
+  return v * v;
+}
+Vec3f lerp(const Vec3f& a, const Vec3f& b, float t) {
+  return a * (1 - t) + b * t;
+}
+
+/// Schlick's Fresnel approximation from F0 at normal incidence to F90 = 1 at grazing.
+float schlickWeight(float cosTheta) {
+  const float m = clamp01(1 - cosTheta);
+  return (m * m) * (m * m) * m;
+}
+Vec3f schlickFresnel(const Vec3f& f0, float cosTheta) {
+  return f0 + (Vec3f(1.0f) - f0) * schlickWeight(cosTheta);
+}
+/// Hemispherical average 2∫F(μ)μ dμ of Schlick's Fresnel: 2∫(1 − μ)^5 μ dμ = 1/21.
+Vec3f schlickAverage(const Vec3f& f0) {
+  return f0 + (Vec3f(1.0f) - f0) * (1.0f / 21.0f);
+}
+
+/// Exact Fresnel reflectance of unpolarised light meeting an interface at cos θ = cosThetaI from
+/// the side of index n_i; eta = n_t / n_i. Total internal reflection gives 1.
+float fresnelDielectric(float cosThetaI, float eta) {
+  const float sin2ThetaT = (1 - cosThetaI * cosThetaI) / (eta * eta);
+  if (sin2ThetaT >= 1) return 1;
+  const float cosThetaT = std::sqrt(1 - sin2ThetaT);
+  const float perpendicular = (cosThetaI - eta * cosThetaT) / (cosThetaI + eta * cosThetaT);
+  const float parallel = (eta * cosThetaI - cosThetaT) / (eta * cosThetaI + cosThetaT);
+  return 0.5f * (perpendicular * perpendicular + parallel * parallel);
+}
+
+/// Reflectance of a thin slab with interface reflectance r: the sum of the light reflected at the
+/// first interface and of all paths bouncing inside, r + t²r/(1 − r²) with t = 1 − r.
+float thinSlabReflectance(float r) {
+  return r < 1 ? r + square(1 - r) * r / (1 - r * r) : 1.0f;
+}
+
+Vec3f reflect(const Vec3f& wo, const Vec3f& normal) {
+  return normal * (2 * dot(wo, normal)) - wo;
+}
+/// Refracts wo (on the side `normal` points to, cos θ = dot(wo, normal) > 0) into the other side;
+/// eta = n_t / n_i. Empty under total internal reflection.
+std::optional<Vec3f> refract(const Vec3f& wo, const Vec3f& normal, float eta) {
+  const float cosThetaI = dot(wo, normal);
+  const float sin2ThetaT = (1 - cosThetaI * cosThetaI) / (eta * eta);
+  if (sin2ThetaT >= 1) return std::nullopt;
+  const float cosThetaT = std::sqrt(1 - sin2ThetaT);
+  return -wo / eta + normal * (cosThetaI / eta - cosThetaT);
+}
+Vec3f mirrorThroughSurface(const Vec3f& w) {
+  return {w.x, w.y, -w.z};
+}
+
+// --- GGX (Trowbridge–Reitz) microfacets, isotropic, in the local frame (z = macro normal) ---
+
+/// Distribution of microfacet normals D(h), per unit solid angle of h.
+float ggxDensity(const Vec3f& h, float alpha) {
+  if (h.z <= 0) return 0;
+  const float alpha2 = alpha * alpha;
+  const float d = h.z * h.z * (alpha2 - 1) + 1;
+  return alpha2 / (kPi * d * d);
+}
+/// Smith's Λ(w): G1 = 1 / (1 + Λ).
+float ggxLambda(const Vec3f& w, float alpha) {
+  const float cos2 = w.z * w.z;
+  if (cos2 == 0) return kInfinity;
+  const float tan2 = std::max(0.0f, 1 - cos2) / cos2;
+  return 0.5f * (std::sqrt(1 + alpha * alpha * tan2) - 1);
+}
+float ggxMasking(const Vec3f& w, float alpha) {
+  return 1 / (1 + ggxLambda(w, alpha));
+}
+/// Height-correlated masking-shadowing G2 (Heitz 2014).
+float ggxMaskingShadowing(const Vec3f& wo, const Vec3f& wi, float alpha) {
+  return 1 / (1 + ggxLambda(wo, alpha) + ggxLambda(wi, alpha));
+}
+/// A microfacet normal distributed as the normals visible from wo (wo.z > 0), with density
+/// G1(wo) max(0, wo·h) D(h) / wo.z (Heitz 2018): in the configuration stretched to α = 1 the
+/// visible normals are uniform over the projected hemisphere, i.e. over a disk of which the part
+/// hidden behind the hemisphere's silhouette is folded onto the visible half.
+Vec3f sampleGgxVisibleNormal(const Vec3f& wo, float alpha, Vec2f u) {
+  const Vec3f view = normalize(Vec3f(alpha * wo.x, alpha * wo.y, wo.z));
+  const float lengthXY2 = view.x * view.x + view.y * view.y;
+  const Vec3f tangent =
+      lengthXY2 > 0 ? Vec3f(-view.y, view.x, 0) / std::sqrt(lengthXY2) : Vec3f(1, 0, 0);
+  const Vec3f bitangent = cross(view, tangent);
+  const float radius = std::sqrt(u.x);
+  const float phi = 2 * kPi * u.y;
+  const float p1 = radius * std::cos(phi);
+  const float diskY = radius * std::sin(phi);
+  // Seen from `view`, the visible hemisphere projects to a disk whose lower half is foreshortened
+  // by cos θ_view: blend the lower half towards the silhouette's half-ellipse.
+  const float visibleFraction = 0.5f * (1 + view.z);
+  const float p2 =
+      (1 - visibleFraction) * std::sqrt(std::max(0.0f, 1 - p1 * p1)) + visibleFraction * diskY;
+  const Vec3f stretched =
+      tangent * p1 + bitangent * p2 + view * std::sqrt(std::max(0.0f, 1 - p1 * p1 - p2 * p2));
+  return normalize(Vec3f(alpha * stretched.x, alpha * stretched.y, std::max(1e-7f, stretched.z)));
+}
+float ggxVisibleNormalPdf(const Vec3f& wo, const Vec3f& h, float alpha) {
+  return ggxMasking(wo, alpha) * std::max(0.0f, dot(wo, h)) * ggxDensity(h, alpha) / wo.z;
+}
+
+/// f · cos θi of single-scattering GGX reflection without Fresnel: D G2 / (4 cos θo).
+float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, const Vec3f& h, float alpha) {
+  return ggxDensity(h, alpha) * ggxMaskingShadowing(wo, wi, alpha) / (4 * wo.z);
+}
+/// Solid-angle density of wi = reflect(wo, h) with h sampled by sampleGgxVisibleNormal.
+float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, float alpha) {
+  const float cosThetaOH = dot(wo, h);
+  return cosThetaOH > 0 ? ggxVisibleNormalPdf(wo, h, alpha) / (4 * cosThetaOH) : 0.0f;
+}
+
+// --- Directional albedos of GGX lobes, for energy compensation ---
+
+/// Where `coordinate` in [0, 1] falls on a grid of `size` nodes including both ends.
+struct GridCell {
+  int index;       // lower node
+  float fraction;  // position between it and the next, for linear interpolation
+};
+GridCell gridCell(float coordinate, int size) {
+  const float x = clamp01(coordinate) * float(size - 1);
+  const int index = std::min(int(x), size - 2);
+  return {index, x - float(index)};
+}
+
+/// E_F(μ, α) = F0·A(μ, α) + B(μ, α) is the directional albedo of single-scattering GGX reflection
+/// with Schlick's Fresnel (F90 = 1), and E = A + B the albedo for F = 1. Tabulated over
+/// roughness r = √α and μ = cos θo, both on [0, 1] with end points included, and computed at
+/// first use by integrating with stratified visible-normal samples.
+class GgxAlbedoTable {
+ public:
+  static constexpr int kSize = 32;
+  static constexpr int kStrata = 16;  // kStrata² samples per entry
+
+  GgxAlbedoTable() {
+    for (int row = 0; row < kSize; ++row) {
+      const float alpha =
+          std::max(square(float(row) / (kSize - 1)), PreviewSurfaceBsdf::kDeltaAlpha);
+      for (int column = 0; column < kSize; ++column) {
+        // At μ = 0 the integral has a limit but the sampling does not; evaluate just above.
+        const float cosThetaO = std::max(float(column) / (kSize - 1), 1e-3f);
+        const Vec3f wo(std::sqrt(1 - cosThetaO * cosThetaO), 0, cosThetaO);
+        double scale = 0, bias = 0;
+        for (int i = 0; i < kStrata; ++i) {
+          for (int j = 0; j < kStrata; ++j) {
+            const Vec2f u{(float(i) + 0.5f) / kStrata, (float(j) + 0.5f) / kStrata};
+            const Vec3f h = sampleGgxVisibleNormal(wo, alpha, u);
+            const Vec3f wi = reflect(wo, h);
+            if (wi.z <= 0) continue;
+            // f cos θi / pdf for visible-normal sampling is G2 / G1(wo).
+            const float weight = ggxMaskingShadowing(wo, wi, alpha) / ggxMasking(wo, alpha);
+            const float fresnel = schlickWeight(dot(wo, h));
+            scale += weight * (1 - fresnel);
+            bias += weight * fresnel;
+          }
+        }
+        scale_[row * kSize + column] = float(scale / (kStrata * kStrata));
+        bias_[row * kSize + column] = float(bias / (kStrata * kStrata));
+      }
+      averageScale_[row] = hemisphericalAverage(&scale_[row * kSize]);
+      averageBias_[row] = hemisphericalAverage(&bias_[row * kSize]);
+    }
+  }
+
+  struct Albedo {
+    float scale = 0, bias = 0;  // A and B
+  };
+  Albedo directional(float cosTheta, float alpha) const {
+    const GridCell r = cell(std::sqrt(alpha)), m = cell(cosTheta);
+    const auto at = [&](const std::array<float, kSize * kSize>& table) {
+      const float* row0 = &table[r.index * kSize];
+      const float* row1 = row0 + kSize;
+      const float lower = row0[m.index] + m.fraction * (row0[m.index + 1] - row0[m.index]);
+      const float upper = row1[m.index] + m.fraction * (row1[m.index + 1] - row1[m.index]);
+      return lower + r.fraction * (upper - lower);
+    };
+    return {at(scale_), at(bias_)};
+  }
+  /// 2∫ A(μ) μ dμ and 2∫ B(μ) μ dμ, exactly for directional()'s interpolation in μ.
+  Albedo average(float alpha) const {
+    const GridCell r = cell(std::sqrt(alpha));
+    const auto at = [&](const std::array<float, kSize>& table) {
+      return table[r.index] + r.fraction * (table[r.index + 1] - table[r.index]);
+    };
+    return {at(averageScale_), at(averageBias_)};
+  }
+
+ private:
+  static GridCell cell(float coordinate) { return gridCell(coordinate, kSize); }
+  /// 2∫ f(μ) μ dμ of the piecewise-linear interpolant of f at μ_k = k/(kSize − 1): on each
+  /// segment the integrand is quadratic and Simpson's rule is exact.
+  static float hemisphericalAverage(const float* values) {
+    const double width = 1.0 / (kSize - 1);
+    double sum = 0;
+    for (int k = 0; k + 1 < kSize; ++k) {
+      const double mu0 = k * width, mu1 = (k + 1) * width;
+      sum += width * (values[k] * (2 * mu0 + mu1) + values[k + 1] * (mu0 + 2 * mu1)) / 6;
+    }
+    return float(2 * sum);
+  }
+
+  std::array<float, kSize * kSize> scale_{}, bias_{};
+  std::array<float, kSize> averageScale_{}, averageBias_{};
+};
+
+const GgxAlbedoTable& ggxAlbedoTable() {
+  static const GgxAlbedoTable table;  // built once, thread-safe, immutable afterwards
+  return table;
+}
+
+/// Directional albedo E(μ, α, η) of single-scattering GGX on a solid dielectric interface: the
+/// energy reflected plus refracted (as flux, so without the 1/η² radiance scaling) by the exact
+/// Fresnel equations for light from μ = cos θ on the side of index n_i, η = n_t / n_i. The rest
+/// is lost to masking; the BSDF divides by E to put it back (albedo scaling). The table spans
+/// μ and roughness r = √α on [0, 1] and the normal-incidence reflection coefficient
+/// (η − 1)/(η + 1), the same for η and 1/η, on [0, 0.5] (η up to 3), separately for η ≥ 1 and
+/// η < 1 (total internal reflection), end points included. Computed at first use.
+class GgxDielectricAlbedoTable {
+ public:
+  static constexpr int kCosines = 16, kRoughnesses = 16, kIors = 8;
+  static constexpr int kStrata = 12;  // kStrata² samples per entry
+  static constexpr float kMaxReflectionCoefficient = 0.5f;
+
+  GgxDielectricAlbedoTable() {
+    for (int side = 0; side < 2; ++side) {
+      for (int k = 0; k < kIors; ++k) {
+        const float coefficient = kMaxReflectionCoefficient * float(k) / (kIors - 1);
+        const float denser = (1 + coefficient) / (1 - coefficient);
+        const float eta = side == 0 ? denser : 1 / denser;
+        for (int r = 0; r < kRoughnesses; ++r) {
+          const float alpha =
+              std::max(square(float(r) / (kRoughnesses - 1)), PreviewSurfaceBsdf::kDeltaAlpha);
+          for (int m = 0; m < kCosines; ++m) {
+            const float cosThetaO = std::max(float(m) / (kCosines - 1), 1e-3f);
+            albedo_[index(side, k, r, m)] = integrate(cosThetaO, alpha, eta);
+          }
+        }
+      }
+    }
+  }
+
+  float albedo(float cosTheta, float alpha, float eta) const {
+    const int side = eta >= 1 ? 0 : 1;
+    const GridCell k = gridCell(std::fabs(eta - 1) / (eta + 1) / kMaxReflectionCoefficient, kIors);
+    const GridCell r = gridCell(std::sqrt(alpha), kRoughnesses);
+    const GridCell m = gridCell(cosTheta, kCosines);
+    float value = 0;
+    for (int dk = 0; dk < 2; ++dk) {
+      for (int dr = 0; dr < 2; ++dr) {
+        for (int dm = 0; dm < 2; ++dm) {
+          const float weight = (dk ? k.fraction : 1 - k.fraction) *
+                               (dr ? r.fraction : 1 - r.fraction) *
+                               (dm ? m.fraction : 1 - m.fraction);
+          value += weight * albedo_[index(side, k.index + dk, r.index + dr, m.index + dm)];
+        }
+      }
+    }
+    return value;
+  }
+
+ private:
+  static int index(int side, int ior, int roughness, int cosine) {
+    return ((side * kIors + ior) * kRoughnesses + roughness) * kCosines + cosine;
+  }
+  /// Both continuations of each visible normal, weighted by their Fresnel probabilities, each
+  /// with its visible-normal-sampling weight G2 / G1(wo).
+  static float integrate(float cosThetaO, float alpha, float eta) {
+    const Vec3f wo(std::sqrt(1 - cosThetaO * cosThetaO), 0, cosThetaO);
+    const float masking = ggxMasking(wo, alpha);
+    double sum = 0;
+    for (int i = 0; i < kStrata; ++i) {
+      for (int j = 0; j < kStrata; ++j) {
+        const Vec2f u{(float(i) + 0.5f) / kStrata, (float(j) + 0.5f) / kStrata};
+        const Vec3f h = sampleGgxVisibleNormal(wo, alpha, u);
+        const float reflectance = fresnelDielectric(dot(wo, h), eta);
+        const Vec3f reflected = reflect(wo, h);
+        if (reflected.z > 0) {
+          sum += reflectance * ggxMaskingShadowing(wo, reflected, alpha) / masking;
+        }
+        const std::optional<Vec3f> refracted = refract(wo, h, eta);
+        if (refracted && refracted->z < 0) {
+          sum += (1 - reflectance) * ggxMaskingShadowing(wo, *refracted, alpha) / masking;
+        }
+      }
+    }
+    return float(sum / (kStrata * kStrata));
+  }
+
+  std::array<float, 2 * kIors * kRoughnesses * kCosines> albedo_{};
+};
+
+const GgxDielectricAlbedoTable& ggxDielectricAlbedoTable() {
+  static const GgxDielectricAlbedoTable table;  // built once, thread-safe, immutable afterwards
+  return table;
+}
+
+/// A specular layer: GGX (or a mirror when alpha = 0) with Schlick's Fresnel from f0 to 1 and a
+/// Kulla–Conty multiple-scattering term scaled by `multipleScattering`.
+struct SpecularLayer {
+  float alpha;
+  Vec3f f0;
+  Vec3f multipleScattering;
+
+  /// Directional albedo E(μ): everything the layer reflects for light from μ.
+  Vec3f albedo(float cosTheta) const {
+    if (alpha == 0) return schlickFresnel(f0, cosTheta);
+    const GgxAlbedoTable::Albedo e = ggxAlbedoTable().directional(cosTheta, alpha);
+    return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
+  }
+  /// Hemispherical average 2∫E(μ)μ dμ.
+  Vec3f averageAlbedo() const {
+    if (alpha == 0) return schlickAverage(f0);
+    const GgxAlbedoTable::Albedo e = ggxAlbedoTable().average(alpha);
+    return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
+  }
+};
+
+/// Kulla–Conty scale F_avg² E_avg / (1 − F_avg (1 − E_avg)) of the multiple-scattering lobe
+/// (1 − E(μo))(1 − E(μi)) / (π (1 − E_avg)), which by itself reflects 1 − E(μo): the energy of
+/// the light that bounces more than once between microfacets, each bounce attenuated by the
+/// average Fresnel reflectance.
+Vec3f multipleScatteringScale(const Vec3f& f0, float alpha) {
+  if (alpha == 0) return Vec3f(0.0f);
+  const GgxAlbedoTable::Albedo e = ggxAlbedoTable().average(alpha);
+  const float averageAlbedo = e.scale + e.bias;
+  const Vec3f fresnel = schlickAverage(f0);
+  const auto scale = [&](float f) { return f * f * averageAlbedo / (1 - f * (1 - averageAlbedo)); };
+  return {scale(fresnel.x), scale(fresnel.y), scale(fresnel.z)};
+}
+
+/// GGX α for a UsdPreviewSurface roughness; 0 (a delta lobe) below kDeltaAlpha.
+float microfacetAlpha(float roughness) {
+  const float alpha = square(clamp01(roughness));
+  return alpha < PreviewSurfaceBsdf::kDeltaAlpha ? 0.0f : alpha;
+}
+
+constexpr float kClearcoatF0 = 0.04f;  // ((1 − 1.5) / (1 + 1.5))², fixed by the spec
+
+}  // namespace
+
+PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& diffuseAlbedo,
+                                       const Vec3f& normal, float ior,
+                                       DielectricKind dielectricKind)
+    : frame_(normal),
+      opacity_(clamp01(material.opacity)),
+      clearcoat_(clamp01(material.clearcoat)),
+      coatAlpha_(microfacetAlpha(material.clearcoatRoughness)),
+      specularAlpha_(microfacetAlpha(material.roughness)),
+      ior_(std::isfinite(ior) && ior > 0 ? ior : 1.0f),
+      dielectricAlpha_(microfacetAlpha(material.transmissionRoughness < 0
+                                           ? material.roughness
+                                           : material.transmissionRoughness)),
+      dielectricKind_(dielectricKind) {
+  const Vec3f albedo = clamp01(diffuseAlbedo);
+  if (material.useSpecularWorkflow) {
+    specularF0_ = clamp01(material.specularColor);
+    multipleScatteringScale_ = multipleScatteringScale(specularF0_, specularAlpha_);
+    diffuseReflectance_ = albedo;
+    diffuseCoverF0_ = specularF0_;
+    diffuseCoverMultipleScattering_ = multipleScatteringScale_;
+  } else {
+    // A linear mix of a dielectric (weight 1 − metallic) and a conductor of reflectance
+    // diffuseColor. Both specular lobes share α, so their sum is one lobe with the mixed F0.
+    const float metallic = clamp01(material.metallic);
+    const Vec3f dielectricF0(square((1 - ior_) / (1 + ior_)));
+    specularF0_ = lerp(dielectricF0, albedo, metallic);
+    diffuseCoverF0_ = dielectricF0;
+    diffuseCoverMultipleScattering_ = multipleScatteringScale(dielectricF0, specularAlpha_);
+    multipleScatteringScale_ = diffuseCoverMultipleScattering_ * (1 - metallic) +
+                               multipleScatteringScale(albedo, specularAlpha_) * metallic;
+    diffuseReflectance_ = albedo * (1 - metallic);
+  }
+  const Vec3f coverAverage =
+      SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}
+          .averageAlbedo();
+  const auto normalization = [](float average) {
+    return average < 1 - 1e-4f ? kInvPi / (1 - average) : 0.0f;
+  };
+  diffuseNormalization_ = {normalization(coverAverage.x), normalization(coverAverage.y),
+                           normalization(coverAverage.z)};
+}
+
+bool PreviewSurfaceBsdf::isPurelySpecular() const {
+  const bool opaqueIsDelta =
+      opacity_ == 0 || ((clearcoat_ == 0 || coatAlpha_ == 0) && specularAlpha_ == 0 &&
+                        isBlack(diffuseReflectance_ * diffuseNormalization_));
+  const bool translucentIsDelta = opacity_ == 1 || dielectricAlpha_ == 0 || ior_ == 1;
+  return opaqueIsDelta && translucentIsDelta;
+}
+
+float PreviewSurfaceBsdf::coatTransmittance(float cosTheta) const {
+  if (clearcoat_ == 0) return 1;
+  return 1 - clearcoat_ *
+                 SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.albedo(cosTheta).x;
+}
+
+Vec3f PreviewSurfaceBsdf::diffuseLayerCover(float cosTheta) const {
+  return SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}.albedo(
+      cosTheta);
+}
+
+PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::lobeProbabilities(float cosThetaO) const {
+  // Each lobe's albedo for this wo. The layers under the coat are attenuated by its
+  // transmittance for wo only, the one for wi being unknown yet.
+  LobeProbabilities p;
+  if (opacity_ > 0) {
+    const float coat = coatTransmittance(cosThetaO);
+    const float below = opacity_ * coat;
+    p.coat = opacity_ * (1 - coat);
+    if (specularAlpha_ == 0) {
+      p.specular = below * luminance(schlickFresnel(specularF0_, cosThetaO));
+    } else {
+      const GgxAlbedoTable::Albedo e = ggxAlbedoTable().directional(cosThetaO, specularAlpha_);
+      p.specular = below * luminance(specularF0_ * e.scale + Vec3f(e.bias));
+      p.multipleScattering =
+          below * luminance(multipleScatteringScale_) * std::max(0.0f, 1 - e.scale - e.bias);
+    }
+    p.diffuse =
+        below * luminance(diffuseReflectance_ * (Vec3f(1.0f) - diffuseLayerCover(cosThetaO)));
+  }
+  p.dielectric = 1 - opacity_;  // its albedo is 1: energy-compensated, and nothing is absorbed
+  const float total = p.coat + p.specular + p.multipleScattering + p.diffuse + p.dielectric;
+  if (!(total > 0)) return {};
+  const float scale = 1 / total;
+  p.coat *= scale;
+  p.specular *= scale;
+  p.multipleScattering *= scale;
+  p.diffuse *= scale;
+  p.dielectric *= scale;
+  return p;
+}
+
+Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi) const {
+  if (wi.z <= 0) return Vec3f(0.0f);
+  const Vec3f h = normalize(wo + wi);
+  Vec3f base(0.0f);
+  if (specularAlpha_ > 0) {
+    base += schlickFresnel(specularF0_, dot(wo, h)) *
+            ggxReflectionWithoutFresnel(wo, wi, h, specularAlpha_);
+    const GgxAlbedoTable& table = ggxAlbedoTable();
+    const GgxAlbedoTable::Albedo eo = table.directional(wo.z, specularAlpha_);
+    const GgxAlbedoTable::Albedo ei = table.directional(wi.z, specularAlpha_);
+    const GgxAlbedoTable::Albedo average = table.average(specularAlpha_);
+    const float averageLoss = 1 - average.scale - average.bias;
+    if (averageLoss > 0) {
+      base += multipleScatteringScale_ *
+              (std::max(0.0f, 1 - eo.scale - eo.bias) * std::max(0.0f, 1 - ei.scale - ei.bias) *
+               wi.z / (kPi * averageLoss));
+    }
+  }
+  if (!isBlack(diffuseReflectance_)) {
+    base += diffuseReflectance_ * diffuseNormalization_ * (Vec3f(1.0f) - diffuseLayerCover(wo.z)) *
+            (Vec3f(1.0f) - diffuseLayerCover(wi.z)) * wi.z;
+  }
+  Vec3f value = base * (coatTransmittance(wo.z) * coatTransmittance(wi.z));
+  if (clearcoat_ > 0 && coatAlpha_ > 0) {
+    value += Vec3f(clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), dot(wo, h)).x *
+                   ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_));
+  }
+  return value * opacity_;
+}
+
+float PreviewSurfaceBsdf::pdfOpaque(const Vec3f& wo, const Vec3f& wi,
+                                    const LobeProbabilities& p) const {
+  if (wi.z <= 0) return 0;
+  const Vec3f h = normalize(wo + wi);
+  float density = (p.multipleScattering + p.diffuse) * wi.z * kInvPi;
+  if (specularAlpha_ > 0) density += p.specular * ggxReflectionPdf(wo, h, specularAlpha_);
+  if (coatAlpha_ > 0) density += p.coat * ggxReflectionPdf(wo, h, coatAlpha_);
+  return density;
+}
+
+float PreviewSurfaceBsdf::dielectricReflectance(float cosTheta, float eta) const {
+  return dielectricKind_ == DielectricKind::ThinSheet
+             ? thinSlabReflectance(fresnelDielectric(cosTheta, ior_))
+             : fresnelDielectric(cosTheta, eta);
+}
+
+// Rough dielectric (Walter et al. 2007). Reflection: h = normalize(wo + wi). Refraction through a
+// solid: h = ±normalize(wo + η wi) with wo·h > 0 > wi·h; the density of wi given h has Jacobian
+// dh/dwi = η² |wi·h| / (wo·h + η wi·h)², and the energy-conserving (flux) BTDF times cos θi is
+// D G2 (1 − F) (wo·h) / cos θo · dh/dwi. Radiance is that divided by η². A thin sheet transmits
+// the reflection lobe mirrored through the surface. The light lost to masking is put back by
+// dividing by the directional albedo for wo (albedo scaling): exact in energy for every wo, but not
+// reciprocal — harmless for a path tracer that only traces from the camera.
+float PreviewSurfaceBsdf::dielectricAlbedo(float cosThetaO, float eta) const {
+  if (dielectricKind_ == DielectricKind::ThinSheet) {
+    // Each microfacet reflects R' and transmits 1 − R' into mirror-image directions, which are
+    // masked alike: the albedo is that of a white GGX mirror.
+    const GgxAlbedoTable::Albedo e = ggxAlbedoTable().directional(cosThetaO, dielectricAlpha_);
+    return e.scale + e.bias;
+  }
+  return ggxDielectricAlbedoTable().albedo(cosThetaO, dielectricAlpha_, eta);
+}
+
+float PreviewSurfaceBsdf::evaluateDielectric(const Vec3f& wo, const Vec3f& wi, float eta) const {
+  const float singleScattering = evaluateDielectricSingleScattering(wo, wi, eta);
+  return singleScattering > 0 ? singleScattering / dielectricAlbedo(wo.z, eta) : 0.0f;
+}
+
+float PreviewSurfaceBsdf::evaluateDielectricSingleScattering(const Vec3f& wo, const Vec3f& wi,
+                                                             float eta) const {
+  const float alpha = dielectricAlpha_;
+  if (wi.z > 0) {
+    const Vec3f h = normalize(wo + wi);
+    return dielectricReflectance(dot(wo, h), eta) * ggxReflectionWithoutFresnel(wo, wi, h, alpha);
+  }
+  if (dielectricKind_ == DielectricKind::ThinSheet) {
+    const Vec3f mirrored = mirrorThroughSurface(wi);
+    const Vec3f h = normalize(wo + mirrored);
+    return (1 - dielectricReflectance(dot(wo, h), eta)) *
+           ggxReflectionWithoutFresnel(wo, mirrored, h, alpha);
+  }
+  Vec3f h = wo + wi * eta;
+  if (dot(h, h) == 0) return 0;
+  h = normalize(h);
+  if (h.z < 0) h = -h;
+  const float cosThetaOH = dot(wo, h), cosThetaIH = dot(wi, h);
+  if (cosThetaOH <= 0 || cosThetaIH >= 0) return 0;
+  const float denominator = square(cosThetaOH + eta * cosThetaIH);
+  return ggxDensity(h, alpha) * ggxMaskingShadowing(wo, wi, alpha) *
+         (1 - fresnelDielectric(cosThetaOH, eta)) * cosThetaOH * -cosThetaIH / (wo.z * denominator);
+}
+
+float PreviewSurfaceBsdf::pdfDielectric(const Vec3f& wo, const Vec3f& wi, float eta) const {
+  const float alpha = dielectricAlpha_;
+  if (wi.z > 0) {
+    const Vec3f h = normalize(wo + wi);
+    return dielectricReflectance(dot(wo, h), eta) * ggxReflectionPdf(wo, h, alpha);
+  }
+  if (dielectricKind_ == DielectricKind::ThinSheet) {
+    const Vec3f h = normalize(wo + mirrorThroughSurface(wi));
+    return (1 - dielectricReflectance(dot(wo, h), eta)) * ggxReflectionPdf(wo, h, alpha);
+  }
+  Vec3f h = wo + wi * eta;
+  if (dot(h, h) == 0) return 0;
+  h = normalize(h);
+  if (h.z < 0) h = -h;
+  const float cosThetaOH = dot(wo, h), cosThetaIH = dot(wi, h);
+  if (cosThetaOH <= 0 || cosThetaIH >= 0) return 0;
+  const float jacobian = eta * eta * -cosThetaIH / square(cosThetaOH + eta * cosThetaIH);
+  return (1 - fresnelDielectric(cosThetaOH, eta)) * ggxVisibleNormalPdf(wo, h, alpha) * jacobian;
+}
+
+namespace {
+
+/// The local frame seen from wo's side: the opaque part is two-sided and the dielectric is
+/// symmetric once the relative index is inverted, so everything is computed with wo.z > 0.
+struct OrientedPair {
+  Vec3f wo, wi;
+  bool flipped;
+};
+OrientedPair orient(const Frame& frame, const Vec3f& wo, const Vec3f& wi) {
+  OrientedPair pair{frame.toLocal(wo), frame.toLocal(wi), false};
+  if (pair.wo.z < 0) {
+    pair.wo.z = -pair.wo.z;
+    pair.wi.z = -pair.wi.z;
+    pair.flipped = true;
+  }
+  return pair;
+}
+
+}  // namespace
+
+Vec3f PreviewSurfaceBsdf::evaluate(const Vec3f& woWorld, const Vec3f& wiWorld) const {
+  const OrientedPair pair = orient(frame_, woWorld, wiWorld);
+  const Vec3f &wo = pair.wo, &wi = pair.wi;
+  if (wo.z == 0 || wi.z == 0) return Vec3f(0.0f);
+  Vec3f value = opacity_ > 0 ? evaluateOpaque(wo, wi) : Vec3f(0.0f);
+  if (opacity_ < 1 && dielectricAlpha_ > 0 && ior_ != 1) {
+    const float eta = pair.flipped ? 1 / ior_ : ior_;
+    value += Vec3f((1 - opacity_) * evaluateDielectric(wo, wi, eta));
+  }
+  return value;
+}
+
+float PreviewSurfaceBsdf::pdf(const Vec3f& woWorld, const Vec3f& wiWorld) const {
+  const OrientedPair pair = orient(frame_, woWorld, wiWorld);
+  const Vec3f &wo = pair.wo, &wi = pair.wi;
+  if (wo.z == 0 || wi.z == 0) return 0;
+  const LobeProbabilities p = lobeProbabilities(wo.z);
+  float density = p.dielectric < 1 ? pdfOpaque(wo, wi, p) : 0.0f;
+  if (p.dielectric > 0 && dielectricAlpha_ > 0 && ior_ != 1) {
+    density += p.dielectric * pdfDielectric(wo, wi, pair.flipped ? 1 / ior_ : ior_);
+  }
+  return density;
+}
+
+std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float uLobe,
+                                                     Vec2f u) const {
+  Vec3f wo = frame_.toLocal(woWorld);
+  const bool flipped = wo.z < 0;
+  if (flipped) wo.z = -wo.z;
+  if (!(wo.z > 0)) return std::nullopt;
+  const LobeProbabilities p = lobeProbabilities(wo.z);
+
+  // Picks lobe k if uLobe falls in its interval and rescales uLobe to [0, 1) within it, so that
+  // the dielectric can reuse it for its reflect/refract choice.
+  const std::array<float, 5> probabilities{p.coat, p.specular, p.multipleScattering, p.diffuse,
+                                           p.dielectric};
+  int lobe = -1;
+  float cumulative = 0;
+  for (int k = 0; k < 5; ++k) {
+    if (probabilities[k] > 0 && uLobe < cumulative + probabilities[k]) {
+      lobe = k;
+      uLobe = std::min((uLobe - cumulative) / probabilities[k], 0.99999994f);
+      break;
+    }
+    cumulative += probabilities[k];
+  }
+  if (lobe < 0) {  // rounding left uLobe past the last interval: take the last non-empty lobe
+    for (int k = 4; k >= 0 && lobe < 0; --k) {
+      if (probabilities[k] > 0) lobe = k;
+    }
+    if (lobe < 0) return std::nullopt;
+    uLobe = 0.5f;
+  }
+
+  BsdfSample result;
+  Vec3f wi;
+  const auto toWorld = [&](Vec3f local) {
+    if (flipped) local.z = -local.z;
+    return normalize(frame_.toWorld(local));
+  };
+  const auto delta = [&](const Vec3f& local, const Vec3f& weight, float probability,
+                         BsdfLobe kind) {
+    result.direction = toWorld(local);
+    result.weight = weight / probability;
+    result.pdf = probability;
+    result.lobe = kind;
+    result.isDelta = true;
+    result.transmitted = local.z < 0;
+    return result;
+  };
+  const Vec3f mirror(-wo.x, -wo.y, wo.z);
+  switch (lobe) {
+    case 0:  // clearcoat
+      if (coatAlpha_ == 0) {
+        return delta(mirror,
+                     Vec3f(opacity_ * clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), wo.z).x),
+                     p.coat, BsdfLobe::Specular);
+      }
+      wi = reflect(wo, sampleGgxVisibleNormal(wo, coatAlpha_, u));
+      result.lobe = BsdfLobe::Glossy;
+      break;
+    case 1:  // specular layer, single scattering
+      if (specularAlpha_ == 0) {
+        const float coat = coatTransmittance(wo.z);
+        return delta(mirror, schlickFresnel(specularF0_, wo.z) * (opacity_ * coat * coat),
+                     p.specular, BsdfLobe::Specular);
+      }
+      wi = reflect(wo, sampleGgxVisibleNormal(wo, specularAlpha_, u));
+      result.lobe = BsdfLobe::Glossy;
+      break;
+    case 2:  // specular layer, multiple scattering
+      wi = sampleCosineHemisphere(u);
+      result.lobe = BsdfLobe::Glossy;
+      break;
+    case 3:
+      wi = sampleCosineHemisphere(u);
+      result.lobe = BsdfLobe::Diffuse;
+      break;
+    default: {  // translucent part
+      const float eta = flipped ? 1 / ior_ : ior_;
+      const float weight = 1 - opacity_;
+      if (ior_ == 1) {  // an index-matched interface: light passes unchanged
+        return delta(-wo, Vec3f(weight), p.dielectric, BsdfLobe::Transmission);
+      }
+      if (dielectricAlpha_ == 0) {
+        const float reflectance = dielectricReflectance(wo.z, eta);
+        if (uLobe < reflectance) {
+          return delta(mirror, Vec3f(weight * reflectance), p.dielectric * reflectance,
+                       BsdfLobe::Specular);
+        }
+        const float transmittance = 1 - reflectance;
+        if (dielectricKind_ == DielectricKind::ThinSheet) {
+          return delta(-wo, Vec3f(weight * transmittance), p.dielectric * transmittance,
+                       BsdfLobe::Transmission);
+        }
+        const Vec3f refracted = *refract(wo, Vec3f(0, 0, 1), eta);  // reflectance < 1: no TIR
+        return delta(refracted, Vec3f(weight * transmittance / (eta * eta)),
+                     p.dielectric * transmittance, BsdfLobe::Transmission);
+      }
+      const Vec3f h = sampleGgxVisibleNormal(wo, dielectricAlpha_, u);
+      const float reflectance = dielectricReflectance(dot(wo, h), eta);
+      if (uLobe < reflectance) {
+        wi = reflect(wo, h);
+        result.lobe = BsdfLobe::Glossy;
+      } else if (dielectricKind_ == DielectricKind::ThinSheet) {
+        wi = mirrorThroughSurface(reflect(wo, h));
+        result.lobe = BsdfLobe::Transmission;
+      } else {
+        const std::optional<Vec3f> refracted = refract(wo, h, eta);
+        if (!refracted) return std::nullopt;  // reflectance is 1 under TIR; rounding only
+        wi = *refracted;
+        result.lobe = BsdfLobe::Transmission;
+      }
+      break;
+    }
+  }
+  // A microfacet lobe may send wi to the wrong side of the macro surface: nothing scatters there.
+  const bool transmitted = result.lobe == BsdfLobe::Transmission;
+  if (transmitted ? wi.z >= 0 : wi.z <= 0) return std::nullopt;
+  result.direction = toWorld(wi);
+  result.transmitted = transmitted;
+  result.pdf = pdf(woWorld, result.direction);
+  if (!(result.pdf > 0)) return std::nullopt;
+  result.weight = evaluate(woWorld, result.direction) / result.pdf;
+  return result;
+}
+
+float dispersiveIor(float iorD, float abbeNumber, float wavelengthNm) {
+  if (!(abbeNumber > 0)) return iorD;
+  constexpr double kLineD = 587.6, kLineF = 486.1, kLineC = 656.3;  // nm
+  const double b =
+      (double(iorD) - 1) / (double(abbeNumber) * (1 / (kLineF * kLineF) - 1 / (kLineC * kLineC)));
+  const double a = double(iorD) - b / (kLineD * kLineD);
+  return float(a + b / (double(wavelengthNm) * double(wavelengthNm)));
+}
+
+}  // namespace penumbra

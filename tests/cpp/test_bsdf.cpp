@@ -1,1 +1,428 @@
-// Placeholder: being written.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <utility>
+#include <vector>
+
+#include "penumbra/bsdf.h"
+#include "penumbra/sampler.h"
+
+using namespace penumbra;
+
+namespace {
+
+// A normal off the axes, so that the local frame is exercised.
+const Vec3f kNormal = normalize(Vec3f(0.3f, -0.5f, 0.8f));
+
+/// A direction at cos θ = cosTheta from `normal` (negative: behind it), at azimuth `phi`.
+Vec3f directionAt(float cosTheta, float phi = 0.7f, const Vec3f& normal = kNormal) {
+  const float sinTheta = std::sqrt(std::max(0.0f, 1 - cosTheta * cosTheta));
+  return normalize(
+      Frame(normal).toWorld({sinTheta * std::cos(phi), sinTheta * std::sin(phi), cosTheta}));
+}
+
+MaterialParams whiteMetal(float roughness) {
+  MaterialParams m;
+  m.diffuseColor = Vec3f(1.0f);
+  m.metallic = 1;
+  m.roughness = roughness;
+  return m;
+}
+
+MaterialParams glass(float roughness) {
+  MaterialParams m;
+  m.opacity = 0;
+  m.ior = 1.5f;
+  m.roughness = roughness;
+  return m;
+}
+
+PreviewSurfaceBsdf makeBsdf(const MaterialParams& m, DielectricKind kind = DielectricKind::Solid) {
+  return PreviewSurfaceBsdf(m, m.diffuseColor, kNormal, m.ior, kind);
+}
+
+struct Albedo {
+  double radiance = 0;  // E[weight]: what a white furnace shows (mean of the RGB channels)
+  double flux = 0;      // E[weight · (n_i / n_o)²]: the fraction of the incident energy scattered
+};
+
+/// White furnace by the BSDF's own sampling: the directional albedo for light leaving along wo.
+/// Radiance through a solid interface is scaled by (n_o/n_i)², so only the flux albedo — the
+/// radiance weight times (n_i/n_o)², i.e. the energy leaving wo's point over the energy arriving
+/// — must be 1 for a lossless dielectric.
+Albedo furnace(const PreviewSurfaceBsdf& bsdf, const Vec3f& wo, float ior = 1,
+               uint32_t samples = 1u << 16) {
+  double radiance = 0, flux = 0;
+  for (uint32_t i = 0; i < samples; ++i) {
+    SampleStream stream(1, 2, 3, i);
+    const float uLobe = stream.next1D();
+    const std::optional<BsdfSample> s = bsdf.sample(wo, uLobe, stream.next2D());
+    if (!s) continue;
+    const double w = (s->weight.x + s->weight.y + s->weight.z) / 3.0;
+    const double woSide = dot(wo, kNormal) > 0 ? 1.0 : ior;
+    const double wiSide = dot(s->direction, kNormal) > 0 ? 1.0 : ior;
+    radiance += w;
+    flux += w * (wiSide / woSide) * (wiSide / woSide);
+  }
+  return {radiance / samples, flux / samples};
+}
+
+/// ∫ evaluate(wo, wi) dwi over the sphere, by a stratified grid in (cos θ, φ) around the normal —
+/// independent of the BSDF's sampling.
+double integrateEvaluate(const PreviewSurfaceBsdf& bsdf, const Vec3f& wo, int n = 768) {
+  double sum = 0;
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      const Vec3f wi = directionAt(-1 + 2 * (float(i) + 0.5f) / float(n),
+                                   2 * kPi * (float(j) + 0.5f) / float(n));
+      const Vec3f f = bsdf.evaluate(wo, wi);
+      sum += (f.x + f.y + f.z) / 3.0;
+    }
+  }
+  return sum * 4 * kPi / (double(n) * n);
+}
+
+/// ∫ pdf(wo, wi) dwi over the sphere, on the same grid.
+double integratePdf(const PreviewSurfaceBsdf& bsdf, const Vec3f& wo, int n = 512) {
+  double sum = 0;
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      sum += bsdf.pdf(wo, directionAt(-1 + 2 * (float(i) + 0.5f) / float(n),
+                                      2 * kPi * (float(j) + 0.5f) / float(n)));
+    }
+  }
+  return sum * 4 * kPi / (double(n) * n);
+}
+
+float angleBetween(const Vec3f& a, const Vec3f& b) {
+  return std::acos(std::min(1.0f, std::max(-1.0f, dot(a, b))));
+}
+
+}  // namespace
+
+TEST(BsdfFurnace, WhiteLambertianUnderASpecularLayerReflectsEverything) {
+  for (float roughness : {0.0f, 0.5f, 1.0f}) {
+    MaterialParams m;
+    m.diffuseColor = Vec3f(1.0f);
+    m.roughness = roughness;
+    const PreviewSurfaceBsdf bsdf = makeBsdf(m);
+    for (float cosTheta : {0.05f, 0.3f, 0.7f, 1.0f}) {
+      const Albedo a = furnace(bsdf, directionAt(cosTheta));
+      EXPECT_NEAR(a.radiance, 1.0, 0.01) << "roughness " << roughness << " cos " << cosTheta;
+    }
+  }
+  // Seen from the back, the opaque part is the same (two-sided).
+  MaterialParams m;
+  m.diffuseColor = Vec3f(1.0f);
+  EXPECT_NEAR(furnace(makeBsdf(m), directionAt(-0.6f)).radiance, 1.0, 0.01);
+}
+
+TEST(BsdfFurnace, SmoothWhiteMetalIsAPerfectMirror) {
+  const PreviewSurfaceBsdf bsdf = makeBsdf(whiteMetal(0));
+  EXPECT_TRUE(bsdf.isPurelySpecular());
+  for (float cosTheta : {0.1f, 0.5f, 1.0f}) {
+    const Vec3f wo = directionAt(cosTheta);
+    EXPECT_NEAR(furnace(bsdf, wo, 1, 256).radiance, 1.0, 0.01);
+    const std::optional<BsdfSample> s = bsdf.sample(wo, 0.5f, {0.3f, 0.6f});
+    ASSERT_TRUE(s);
+    EXPECT_TRUE(s->isDelta);
+    EXPECT_EQ(s->lobe, BsdfLobe::Specular);
+    EXPECT_NEAR(dot(s->direction, kNormal), cosTheta, 1e-5f);
+    EXPECT_NEAR(dot(s->direction, wo), 2 * cosTheta * cosTheta - 1, 1e-5f);
+  }
+}
+
+// Without multiple-scattering compensation, roughness 1 at grazing angles keeps only ~60 %.
+TEST(BsdfFurnace, RoughWhiteMetalLosesAtMostThreePercent) {
+  for (float roughness : {0.25f, 0.5f, 0.75f, 1.0f}) {
+    const PreviewSurfaceBsdf bsdf = makeBsdf(whiteMetal(roughness));
+    for (float cosTheta : {0.1f, 0.3f, 0.6f, 1.0f}) {
+      const Vec3f wo = directionAt(cosTheta);
+      const double sampled = furnace(bsdf, wo).radiance;
+      EXPECT_GE(sampled, 0.97) << "roughness " << roughness << " cos " << cosTheta;
+      EXPECT_LE(sampled, 1.01) << "roughness " << roughness << " cos " << cosTheta;
+      // The same integral of evaluate(), independent of the sampling (the grid resolves the
+      // wider lobes only).
+      if (roughness >= 0.5f) {
+        EXPECT_NEAR(integrateEvaluate(bsdf, wo, 384), sampled, 0.01)
+            << "roughness " << roughness << " cos " << cosTheta;
+      }
+    }
+  }
+}
+
+TEST(BsdfFurnace, GlassScattersAllEnergyFromBothSides) {
+  const float ior = 1.5f;
+  for (float roughness : {0.0f, 0.3f, 0.5f}) {
+    const PreviewSurfaceBsdf bsdf = makeBsdf(glass(roughness));
+    EXPECT_TRUE(bsdf.hasTransmission());
+    EXPECT_EQ(bsdf.isPurelySpecular(), roughness == 0);
+    // From inside, beyond the critical angle (cos θc ≈ 0.745) everything is reflected.
+    for (float cosTheta : {0.1f, 0.4f, 0.8f, 1.0f, -0.1f, -0.4f, -0.8f, -1.0f}) {
+      const Albedo a = furnace(bsdf, directionAt(cosTheta), ior);
+      EXPECT_NEAR(a.flux, 1.0, 0.02) << "roughness " << roughness << " cos " << cosTheta;
+    }
+  }
+  // At normal incidence from outside, 4 % is reflected and the transmitted 96 % of the energy
+  // carries radiance scaled by 1/η².
+  const Albedo normal = furnace(makeBsdf(glass(0)), directionAt(1.0f), ior, 4096);
+  EXPECT_NEAR(normal.radiance, 0.04 + 0.96 / (ior * ior), 0.005);
+}
+
+TEST(BsdfFurnace, ThinSheetTransmitsStraightThroughWithoutLoss) {
+  for (float roughness : {0.0f, 0.4f}) {
+    const PreviewSurfaceBsdf bsdf = makeBsdf(glass(roughness), DielectricKind::ThinSheet);
+    for (float cosTheta : {0.2f, 0.9f, -0.5f}) {
+      // No radiance scaling through a sheet: the radiance albedo is the flux albedo.
+      const Albedo a = furnace(bsdf, directionAt(cosTheta));
+      EXPECT_NEAR(a.radiance, 1.0, 0.02) << "roughness " << roughness << " cos " << cosTheta;
+    }
+  }
+  const Vec3f wo = directionAt(0.6f);
+  const std::optional<BsdfSample> s =
+      makeBsdf(glass(0), DielectricKind::ThinSheet).sample(wo, 0.99f, {0.5f, 0.5f});
+  ASSERT_TRUE(s);
+  EXPECT_TRUE(s->transmitted);
+  EXPECT_NEAR(dot(s->direction, wo), -1.0f, 1e-5f);
+}
+
+TEST(BsdfPdf, IntegratesToTheFractionOfNonDeltaSamples) {
+  MaterialParams coated;
+  coated.diffuseColor = Vec3f(0.6f, 0.3f, 0.1f);
+  coated.metallic = 0.3f;
+  coated.roughness = 0.4f;
+  coated.clearcoat = 1;
+  coated.clearcoatRoughness = 0.3f;
+  MaterialParams translucent = coated;
+  translucent.opacity = 0.4f;
+  translucent.transmissionRoughness = 0.5f;
+  for (const MaterialParams& m : {whiteMetal(0.6f), glass(0.5f), coated, translucent}) {
+    const PreviewSurfaceBsdf bsdf = makeBsdf(m);
+    for (float cosTheta : {0.3f, 0.9f, -0.6f}) {
+      const Vec3f wo = directionAt(cosTheta);
+      const uint32_t n = 1u << 15;
+      uint32_t nonDelta = 0;
+      for (uint32_t i = 0; i < n; ++i) {
+        SampleStream stream(4, 5, 6, i);
+        const float uLobe = stream.next1D();
+        const std::optional<BsdfSample> s = bsdf.sample(wo, uLobe, stream.next2D());
+        if (s && !s->isDelta) ++nonDelta;
+      }
+      EXPECT_NEAR(integratePdf(bsdf, wo), double(nonDelta) / n, 0.01) << "cos " << cosTheta;
+    }
+  }
+}
+
+// The directions sample() produces are distributed as pdf() says: a histogram over
+// (cos θ, φ) around the normal, equal-solid-angle cells, against pdf() integrated over each cell.
+TEST(BsdfPdf, MatchesTheHistogramOfSampledDirections) {
+  MaterialParams coated;
+  coated.diffuseColor = Vec3f(0.5f);
+  coated.roughness = 0.3f;
+  coated.clearcoat = 1;
+  coated.clearcoatRoughness = 0.2f;
+  MaterialParams translucent = glass(0.4f);
+  translucent.opacity = 0.5f;
+  translucent.diffuseColor = Vec3f(0.8f);
+  constexpr int kRows = 24, kColumns = 48, kSub = 6;
+  const std::pair<MaterialParams, DielectricKind> cases[] = {
+      {whiteMetal(0.5f), DielectricKind::Solid},
+      {glass(0.4f), DielectricKind::Solid},
+      {glass(0.4f), DielectricKind::ThinSheet},
+      {coated, DielectricKind::Solid},
+      {translucent, DielectricKind::Solid}};
+  for (const auto& [m, kind] : cases) {
+    const PreviewSurfaceBsdf bsdf = makeBsdf(m, kind);
+    for (float cosTheta : {0.5f, -0.9f}) {
+      const Vec3f wo = directionAt(cosTheta);
+      const Frame frame(kNormal);
+      std::vector<double> observed(kRows * kColumns, 0.0), expected(kRows * kColumns, 0.0);
+      const uint32_t n = 1u << 17;
+      for (uint32_t i = 0; i < n; ++i) {
+        SampleStream stream(7, 8, 9, i);
+        const float uLobe = stream.next1D();
+        const std::optional<BsdfSample> s = bsdf.sample(wo, uLobe, stream.next2D());
+        if (!s || s->isDelta) continue;
+        const Vec3f local = frame.toLocal(s->direction);
+        const int row = std::min(kRows - 1, int((local.z + 1) / 2 * kRows));
+        float phi = std::atan2(local.y, local.x);
+        if (phi < 0) phi += 2 * kPi;
+        const int column = std::min(kColumns - 1, int(phi / (2 * kPi) * kColumns));
+        observed[row * kColumns + column] += 1;
+      }
+      const double cellSolidAngle = 4 * kPi / (kRows * kColumns);
+      for (int row = 0; row < kRows; ++row) {
+        for (int column = 0; column < kColumns; ++column) {
+          double sum = 0;
+          for (int a = 0; a < kSub; ++a) {
+            for (int b = 0; b < kSub; ++b) {
+              const float z = -1 + 2 * (row + (a + 0.5f) / kSub) / kRows;
+              const float phi = 2 * kPi * (column + (b + 0.5f) / kSub) / kColumns;
+              sum += bsdf.pdf(wo, directionAt(z, phi));
+            }
+          }
+          expected[row * kColumns + column] = sum / (kSub * kSub) * cellSolidAngle * n;
+        }
+      }
+      double chiSquare = 0;
+      int cells = 0;
+      for (int k = 0; k < kRows * kColumns; ++k) {
+        if (expected[k] < 20) continue;
+        chiSquare += (observed[k] - expected[k]) * (observed[k] - expected[k]) / expected[k];
+        ++cells;
+      }
+      ASSERT_GT(cells, 50);
+      // Low-discrepancy samples make the statistic far smaller than the χ² expectation (≈ cells);
+      // allow 2× for the quadrature error of the expected counts in peaked cells.
+      EXPECT_LT(chiSquare / cells, 2.0) << "cos " << cosTheta << " cells " << cells;
+    }
+  }
+}
+
+TEST(BsdfSample, WeightIsEvaluateOverPdf) {
+  MaterialParams m;
+  m.diffuseColor = Vec3f(0.7f, 0.5f, 0.2f);
+  m.metallic = 0.5f;
+  m.roughness = 0.35f;
+  m.clearcoat = 0.5f;
+  m.clearcoatRoughness = 0.1f;
+  m.opacity = 0.7f;
+  const PreviewSurfaceBsdf bsdf = makeBsdf(m);
+  int checked = 0;
+  for (float cosTheta : {0.2f, 0.8f, -0.4f}) {
+    const Vec3f wo = directionAt(cosTheta);
+    for (uint32_t i = 0; i < 512; ++i) {
+      SampleStream stream(2, 2, 2, i);
+      const float uLobe = stream.next1D();
+      const std::optional<BsdfSample> s = bsdf.sample(wo, uLobe, stream.next2D());
+      if (!s || s->isDelta) continue;
+      const float pdf = bsdf.pdf(wo, s->direction);
+      const Vec3f f = bsdf.evaluate(wo, s->direction);
+      ASSERT_GT(pdf, 0);
+      EXPECT_NEAR(s->pdf, pdf, 1e-4f * pdf);
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(s->weight[c], f[c] / pdf, 1e-4f * f[c] / pdf + 1e-7f);
+      EXPECT_EQ(s->transmitted, dot(s->direction, kNormal) * dot(wo, kNormal) < 0);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 1000);
+}
+
+TEST(BsdfEvaluate, ReflectionIsReciprocal) {
+  MaterialParams layered;
+  layered.diffuseColor = Vec3f(0.9f, 0.4f, 0.2f);
+  layered.metallic = 0.3f;
+  layered.roughness = 0.45f;
+  layered.clearcoat = 0.8f;
+  layered.clearcoatRoughness = 0.25f;
+  MaterialParams specularWorkflow = layered;
+  specularWorkflow.useSpecularWorkflow = true;
+  specularWorkflow.specularColor = Vec3f(0.3f, 0.5f, 0.9f);
+  int checked = 0;
+  // Rough glass is left out: its energy compensation divides by the albedo for wo.
+  for (const MaterialParams& m : {layered, specularWorkflow}) {
+    const PreviewSurfaceBsdf bsdf = makeBsdf(m);
+    for (uint32_t i = 0; i < 256; ++i) {
+      SampleStream stream(9, 9, 9, i);
+      const Vec2f a = stream.next2D(), b = stream.next2D();
+      const Vec3f wo = directionAt(2 * a.x - 1, 2 * kPi * a.y);
+      const Vec3f wi = directionAt(2 * b.x - 1, 2 * kPi * b.y);
+      const float cosO = std::fabs(dot(wo, kNormal)), cosI = std::fabs(dot(wi, kNormal));
+      if (cosO < 0.02f || cosI < 0.02f) continue;
+      const Vec3f forward = bsdf.evaluate(wo, wi) / cosI;
+      const Vec3f backward = bsdf.evaluate(wi, wo) / cosO;
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(forward[c], backward[c], 1e-3f * std::max(forward[c], 1e-3f));
+      }
+      if (forward.x > 0) ++checked;
+    }
+  }
+  EXPECT_GT(checked, 150);
+}
+
+TEST(BsdfGlossy, LobeWidthGrowsWithRoughness) {
+  const Vec3f wo = directionAt(0.7f);
+  const Vec3f mirror = kNormal * (2 * dot(wo, kNormal)) - wo;
+  float previousReflection = 0, previousTransmission = 0;
+  for (float roughness : {0.1f, 0.25f, 0.4f, 0.6f, 0.8f}) {
+    const PreviewSurfaceBsdf metal = makeBsdf(whiteMetal(roughness));
+    const PreviewSurfaceBsdf sheet = makeBsdf(glass(roughness), DielectricKind::ThinSheet);
+    double reflection = 0, transmission = 0;
+    int reflected = 0, transmitted = 0;
+    for (uint32_t i = 0; i < 4096; ++i) {
+      SampleStream stream(3, 3, 3, i);
+      const float uLobe = stream.next1D();
+      const Vec2f u = stream.next2D();
+      if (const std::optional<BsdfSample> s = metal.sample(wo, uLobe, u)) {
+        reflection += angleBetween(s->direction, mirror);
+        ++reflected;
+      }
+      const std::optional<BsdfSample> t = sheet.sample(wo, uLobe, u);
+      if (t && t->transmitted) {
+        transmission += angleBetween(t->direction, -wo);
+        ++transmitted;
+      }
+    }
+    const float meanReflection = float(reflection / reflected);
+    const float meanTransmission = float(transmission / transmitted);
+    EXPECT_GT(meanReflection, previousReflection * 1.1f) << "roughness " << roughness;
+    EXPECT_GT(meanTransmission, previousTransmission * 1.1f) << "roughness " << roughness;
+    previousReflection = meanReflection;
+    previousTransmission = meanTransmission;
+  }
+}
+
+TEST(BsdfLayers, FresnelReflectanceAtNormalIncidenceFollowsTheWorkflow) {
+  const Vec3f wo = directionAt(1.0f);
+  const auto mirrorWeight = [&](const MaterialParams& m) {
+    const PreviewSurfaceBsdf bsdf = makeBsdf(m);
+    Vec3f total(0.0f);
+    for (uint32_t i = 0; i < 1024; ++i) {
+      SampleStream stream(1, 1, 1, i);
+      const float uLobe = stream.next1D();
+      const std::optional<BsdfSample> s = bsdf.sample(wo, uLobe, stream.next2D());
+      if (s && s->isDelta) total += s->weight / 1024.0f;
+    }
+    return total;
+  };
+  MaterialParams plastic;
+  plastic.roughness = 0;
+  plastic.ior = 2.0f;
+  EXPECT_NEAR(mirrorWeight(plastic).y, 1.0f / 9.0f, 0.003f);  // ((1 − 2)/(1 + 2))²
+  MaterialParams specular;
+  specular.roughness = 0;
+  specular.useSpecularWorkflow = true;
+  specular.specularColor = Vec3f(0.2f, 0.5f, 0.8f);
+  const Vec3f f0 = mirrorWeight(specular);
+  EXPECT_NEAR(f0.x, 0.2f, 0.005f);
+  EXPECT_NEAR(f0.y, 0.5f, 0.005f);
+  EXPECT_NEAR(f0.z, 0.8f, 0.005f);
+  MaterialParams coated = whiteMetal(0.5f);
+  coated.clearcoat = 1;
+  coated.clearcoatRoughness = 0;
+  EXPECT_NEAR(mirrorWeight(coated).y, 0.04f, 0.002f);
+}
+
+TEST(BsdfLayers, ClearcoatNeverCreatesEnergy) {
+  for (float coatRoughness : {0.0f, 0.3f, 0.8f}) {
+    MaterialParams m = whiteMetal(0.3f);
+    m.clearcoat = 1;
+    m.clearcoatRoughness = coatRoughness;
+    for (float cosTheta : {0.1f, 0.5f, 1.0f}) {
+      const double albedo = furnace(makeBsdf(m), directionAt(cosTheta), 1, 1u << 14).radiance;
+      EXPECT_LE(albedo, 1.005) << "coat roughness " << coatRoughness << " cos " << cosTheta;
+      EXPECT_GE(albedo, 0.8) << "coat roughness " << coatRoughness << " cos " << cosTheta;
+    }
+  }
+}
+
+TEST(BsdfDispersion, CauchyFitThroughTheAbbeNumber) {
+  const float nd = 1.5168f, vd = 64.17f;  // N-BK7
+  EXPECT_NEAR(dispersiveIor(nd, vd, 587.6f), nd, 1e-6f);
+  const float nF = dispersiveIor(nd, vd, 486.1f), nC = dispersiveIor(nd, vd, 656.3f);
+  EXPECT_NEAR(nF - nC, (nd - 1) / vd, 1e-6f);
+  EXPECT_GT(dispersiveIor(nd, vd, 400), dispersiveIor(nd, vd, 700));  // normal dispersion
+  for (float wavelength : {380.0f, 486.1f, 587.6f, 780.0f}) {
+    EXPECT_EQ(dispersiveIor(nd, 0, wavelength), nd);
+  }
+}

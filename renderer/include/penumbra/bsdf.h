@@ -1,0 +1,161 @@
+// The UsdPreviewSurface BSDF (spec 2.5/2.6, DESIGN.md §3): the scattering of one shading point.
+//
+// The surface is a mix of an opaque part (weight `opacity`) and a translucent part (weight
+// 1 − opacity). The opaque part is a stack of layers, each attenuating the ones below by the
+// energy it reflects:
+//   clearcoat  GGX, α = clearcoatRoughness², Schlick F0 = 0.04 (ior 1.5), white, × `clearcoat`
+//   specular   GGX, α = roughness², Schlick from F0 to F90 = 1 — F0 = specularColor (specular
+//              workflow) or ((1 − ior)/(1 + ior))² mixed towards diffuseColor by `metallic`
+//              (metallic workflow) — plus Kulla–Conty multiple-scattering compensation
+//   diffuse    Lambertian, diffuseColor (× (1 − metallic) in the metallic workflow)
+// The translucent part is a clear (untinted) dielectric interface with index of refraction `ior`
+// and α = transmissionRoughness², reflection and refraction split by the exact Fresnel equations.
+// Every GGX lobe is sampled by its visible normals (Heitz 2018) and uses Smith's
+// height-correlated masking-shadowing; α below kDeltaAlpha makes the lobe a perfect mirror or
+// refractor (a delta lobe).
+//
+// Conventions: directions are in world space, unit length, and point away from the surface; `wo`
+// points towards where the ray came from. Values are for radiance transport (the integrator traces
+// from the camera): refraction into a denser medium scales radiance by 1/η².
+//
+// Sides. The opaque part is two-sided: seen from the back, it scatters as if the shading normal
+// were flipped. The translucent part knows an outside (the side the shading normal points to)
+// and an inside; see DielectricKind for how it treats the inside.
+//
+// Layering. The diffuse layer under the specular layer is scaled by
+// (1 − E(μo))(1 − E(μi)) / (1 − E_avg), E being the specular layer's directional albedo (Kelemen
+// and Szirmay-Kalos 2001; Kulla and Conty 2017), which keeps it reciprocal and makes a white
+// diffuse surface under any specular layer reflect exactly all energy. The layers under the
+// clearcoat are scaled by (1 − c·E_cc(μo))(1 − c·E_cc(μi)) — light crosses the coat twice — which
+// is reciprocal and never creates energy but drops the light bouncing between coat and base (a
+// white rough metal under a full coat keeps 86–95 %).
+//
+// Energy. The conductor/specular lobe gets Kulla–Conty's reciprocal multiple-scattering term; the
+// rough dielectric is divided by its single-scattering albedo for wo (albedo scaling), which
+// conserves energy for every wo but is not reciprocal — fine for a path tracer tracing from the
+// camera, wrong for light tracing. Both albedos are tabulated numerically at first use (about
+// 20 ms for the GGX reflection table, 50 ms for the dielectric one, built only when a rough
+// dielectric is first evaluated).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include "penumbra/material.h"
+#include "penumbra/math.h"
+
+namespace penumbra {
+
+enum class BsdfLobe : uint8_t {
+  Diffuse,
+  Glossy,        // rough reflection (microfacet, incl. its multiple-scattering term)
+  Specular,      // delta reflection
+  Transmission,  // refraction, rough or delta (see BsdfSample::isDelta)
+};
+
+struct BsdfSample {
+  Vec3f direction;  // wi
+  /// The factor the path throughput is multiplied by: f · |cos θi| / pdf. For a delta lobe, its
+  /// reflectance or (radiance) transmittance divided by the probability of choosing it.
+  Vec3f weight;
+  /// Solid-angle density of `direction` over all non-delta lobes (what pdf() returns); for a
+  /// delta lobe the discrete probability of having chosen it.
+  float pdf = 0;
+  BsdfLobe lobe = BsdfLobe::Diffuse;
+  bool isDelta = false;
+  bool transmitted = false;  // wi is on the other side of the shading normal than wo
+};
+
+/// How the translucent part treats the side behind its shading normal. The renderer cannot tell
+/// from a single hit whether a mesh is closed; the integrator (or the scene, e.g. by checking that
+/// every edge of a mesh has exactly two faces) must choose:
+///  - Solid: every surface is the boundary of a solid of index `ior` (the side behind the normal is
+///    inside). Correct for closed meshes. An open single-sheet mesh (a window modelled as one
+///    quad) then refracts once without refracting back: the image behind it is shifted and, by
+///    the 1/η² radiance scaling, darkened (to 1/1.5² ≈ 44 % for ior 1.5).
+///  - ThinSheet: the surface is an infinitesimally thin slab. Light passes through without
+///    bending or radiance scaling; reflection and transmission include the slab's internal
+///    bounces, R' = R + T²R/(1 − R²) for the exact Fresnel reflectance R. A rough sheet transmits
+///    its glossy reflection lobe mirrored through the surface plane. Right for open meshes;
+///    wrong (no refraction) for solids.
+enum class DielectricKind : uint8_t { Solid, ThinSheet };
+
+class PreviewSurfaceBsdf {
+ public:
+  /// GGX α below which a lobe is a perfect mirror or refractor (roughness ≲ 0.03): narrower lobes
+  /// are indistinguishable from mirrors at film resolution and overflow the microfacet density.
+  static constexpr float kDeltaAlpha = 1e-3f;
+
+  /// `diffuseAlbedo` overrides material.diffuseColor (the integrator passes displayColor when no
+  /// material is bound). `normal`: unit shading normal on the side of the authored front face.
+  /// `ior`: the index of refraction to use instead of material.ior (wavelength-dependent under
+  /// dispersion, see dispersiveIor); it also sets F0 in the metallic workflow.
+  PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& diffuseAlbedo,
+                     const Vec3f& normal, float ior,
+                     DielectricKind dielectricKind = DielectricKind::Solid);
+
+  /// f(wo, wi) · |cos θi| over the non-delta lobes.
+  Vec3f evaluate(const Vec3f& wo, const Vec3f& wi) const;
+  /// Solid-angle density with which sample() produces wi through its non-delta lobes. It
+  /// integrates to the probability of choosing a non-delta lobe (less the rare samples a
+  /// microfacet lobe sends below the surface), which is all MIS needs.
+  float pdf(const Vec3f& wo, const Vec3f& wi) const;
+  /// Chooses a lobe with `uLobe` (by its estimated albedo) and a direction in it with `u`.
+  /// Non-delta samples are weighted against the whole BSDF (weight = evaluate / pdf), so the
+  /// result does not depend on which lobe produced the direction. Empty when nothing scatters.
+  std::optional<BsdfSample> sample(const Vec3f& wo, float uLobe, Vec2f u) const;
+
+  /// Every lobe with non-zero weight is a delta: light sampling cannot hit any of them.
+  bool isPurelySpecular() const;
+  bool hasTransmission() const { return opacity_ < 1; }
+
+ private:
+  struct LobeProbabilities {
+    float coat = 0, specular = 0, multipleScattering = 0, diffuse = 0, dielectric = 0;
+  };
+  /// Lobe choice probabilities for an outgoing direction at cos θo = cosThetaO (> 0).
+  LobeProbabilities lobeProbabilities(float cosThetaO) const;
+  /// Clearcoat transmittance 1 − c·E_cc(μ).
+  float coatTransmittance(float cosTheta) const;
+  /// Directional albedo of the specular layer the diffuse layer lies under.
+  Vec3f diffuseLayerCover(float cosTheta) const;
+  /// Everything below in the local frame (z = shading normal); "opaque" functions expect
+  /// wo.z > 0, "dielectric" functions wo.z > 0 and the relative index η = n(wi side)/n(wo side)
+  /// of the reflection–refraction pair (1 for a thin sheet).
+  Vec3f evaluateOpaque(const Vec3f& wo, const Vec3f& wi) const;
+  float pdfOpaque(const Vec3f& wo, const Vec3f& wi, const LobeProbabilities& p) const;
+  float evaluateDielectric(const Vec3f& wo, const Vec3f& wi, float eta) const;
+  float evaluateDielectricSingleScattering(const Vec3f& wo, const Vec3f& wi, float eta) const;
+  /// Directional albedo of the single-scattering dielectric lobe (reflected plus transmitted flux).
+  float dielectricAlbedo(float cosThetaO, float eta) const;
+  float pdfDielectric(const Vec3f& wo, const Vec3f& wi, float eta) const;
+  /// Fresnel reflectance of the dielectric (of the whole slab for a thin sheet).
+  float dielectricReflectance(float cosTheta, float eta) const;
+
+  Frame frame_;
+  float opacity_;
+  // Clearcoat; α = 0 marks a delta lobe, here and below.
+  float clearcoat_;
+  float coatAlpha_;
+  // Specular layer.
+  float specularAlpha_;
+  Vec3f specularF0_;
+  Vec3f multipleScatteringScale_;  // Kulla–Conty F_ms (F_avg² E_avg / (1 − F_avg (1 − E_avg)))
+  // Diffuse layer and the specular layer it lies under (the dielectric one in the metallic
+  // workflow, whose contribution the metallic mix then weights by 1 − metallic).
+  Vec3f diffuseReflectance_;
+  Vec3f diffuseCoverF0_;
+  Vec3f diffuseCoverMultipleScattering_;
+  Vec3f diffuseNormalization_;  // 1 / (π (1 − E_avg)) of that cover, 0 where nothing gets through
+  // Translucent part.
+  float ior_;
+  float dielectricAlpha_;
+  DielectricKind dielectricKind_;
+};
+
+/// Index of refraction at `wavelengthNm` from the Cauchy fit n(λ) = A + B/λ² through n_d = iorD at
+/// the Fraunhofer d line (587.6 nm) with Abbe number V_d = (n_d − 1)/(n_F − n_C), F = 486.1 nm,
+/// C = 656.3 nm. abbeNumber <= 0 means no dispersion (iorD at every wavelength).
+float dispersiveIor(float iorD, float abbeNumber, float wavelengthNm);
+
+}  // namespace penumbra
