@@ -8,11 +8,10 @@ namespace penumbra::plugin {
 namespace {
 
 const std::map<std::string, LightType>& lightTypes() {
-  static const std::map<std::string, LightType> types = {{"rectLight", LightType::Rect},
-                                                         {"diskLight", LightType::Disk},
-                                                         {"sphereLight", LightType::Sphere},
-                                                         {"distantLight", LightType::Distant},
-                                                         {"domeLight", LightType::Dome}};
+  static const std::map<std::string, LightType> types = {
+      {"rectLight", LightType::Rect},       {"diskLight", LightType::Disk},
+      {"sphereLight", LightType::Sphere},   {"cylinderLight", LightType::Cylinder},
+      {"distantLight", LightType::Distant}, {"domeLight", LightType::Dome}};
   return types;
 }
 
@@ -35,36 +34,52 @@ Light::Light(PrimId id, LightType type) : Prim(std::move(id)) {
 }
 
 void Light::setParam(const std::string& name, const ParamValue& value) {
+  static const std::map<std::string, float LightParams::*> numbers = {
+      {"intensity", &LightParams::intensity},
+      {"exposure", &LightParams::exposure},
+      {"colorTemperature", &LightParams::colorTemperature},
+      {"diffuse", &LightParams::diffuse},
+      {"specular", &LightParams::specular},
+      {"width", &LightParams::width},
+      {"height", &LightParams::height},
+      {"radius", &LightParams::radius},
+      {"length", &LightParams::length},
+      {"angle", &LightParams::angle},
+      {"shaping:cone:angle", &LightParams::coneAngle},
+      {"shaping:cone:softness", &LightParams::coneSoftness},
+      {"shaping:focus", &LightParams::focus}};
+  static const std::map<std::string, bool LightParams::*> flags = {
+      {"normalize", &LightParams::normalize},
+      {"enableColorTemperature", &LightParams::enableColorTemperature},
+      {"treatAsPoint", &LightParams::treatAsPoint},
+      {"shadow:enable", &LightParams::shadowEnable}};
+  static const std::map<std::string, Vec3f LightParams::*> colors = {
+      {"color", &LightParams::color}, {"shaping:focusTint", &LightParams::focusTint}};
   try {
-    LightParams& p = params_;
-    if (name == "color")
-      p.color = paramAsColor(name, value);
-    else if (name == "intensity")
-      p.intensity = paramAsFloat(name, value);
-    else if (name == "exposure")
-      p.exposure = paramAsFloat(name, value);
-    else if (name == "normalize")
-      p.normalize = paramAsBool(name, value);
-    else if (name == "enableColorTemperature")
-      p.enableColorTemperature = paramAsBool(name, value);
-    else if (name == "colorTemperature")
-      p.colorTemperature = paramAsFloat(name, value);
-    else if (name == "width")
-      p.width = paramAsFloat(name, value);
-    else if (name == "height")
-      p.height = paramAsFloat(name, value);
-    else if (name == "radius")
-      p.radius = paramAsFloat(name, value);
-    else if (name == "angle")
-      p.angle = paramAsFloat(name, value);
-    else if (name == "treatAsPoint")
-      p.treatAsPoint = paramAsBool(name, value);
+    if (const auto number = numbers.find(name); number != numbers.end())
+      params_.*(number->second) = paramAsFloat(name, value);
+    else if (const auto flag = flags.find(name); flag != flags.end())
+      params_.*(flag->second) = paramAsBool(name, value);
+    else if (const auto color = colors.find(name); color != colors.end())
+      params_.*(color->second) = paramAsColor(name, value);
+    else if (name == "texture:file")
+      textureFile_ = paramAsString(name, value);
+    else if (name == "treatAsLine")
+      paramAsBool(name, value);  // a hint only: the cylinder itself is always rendered
     else
       throw std::invalid_argument("unknown light parameter '" + name + "'");
   } catch (const std::invalid_argument& error) {
     throw std::invalid_argument(id() + ": " + error.what());
   }
   markDirty(DirtyParams);
+}
+
+void Light::loadTexture() {
+  if (textureFile_ == loadedTextureFile_) return;
+  loadedTextureFile_ = textureFile_;
+  params_.texture.reset();
+  if (!textureFile_.empty())
+    params_.texture = LightTexture::load(textureFile_, params_.type == LightType::Dome);
 }
 
 void Light::setTransform(const MotionTransform& lightToWorld) {

@@ -1,38 +1,33 @@
 #include "penumbra/plugin/material.h"
 
+#include <map>
+
 #include "penumbra/plugin/param_value.h"
 
 namespace penumbra::plugin {
 
 void Material::setParam(const std::string& name, const ParamValue& value) {
+  static const std::map<std::string, float MaterialParams::*> numbers = {
+      {"metallic", &MaterialParams::metallic},
+      {"roughness", &MaterialParams::roughness},
+      {"clearcoat", &MaterialParams::clearcoat},
+      {"clearcoatRoughness", &MaterialParams::clearcoatRoughness},
+      {"opacity", &MaterialParams::opacity},
+      {"opacityThreshold", &MaterialParams::opacityThreshold},
+      {"ior", &MaterialParams::ior},
+      {"penumbra:transmissionRoughness", &MaterialParams::transmissionRoughness},
+      {"penumbra:abbeNumber", &MaterialParams::abbeNumber}};
+  static const std::map<std::string, Vec3f MaterialParams::*> colors = {
+      {"diffuseColor", &MaterialParams::diffuseColor},
+      {"emissiveColor", &MaterialParams::emissiveColor},
+      {"specularColor", &MaterialParams::specularColor}};
   try {
-    MaterialParams& p = params_;
-    if (name == "diffuseColor")
-      p.diffuseColor = paramAsColor(name, value);
-    else if (name == "emissiveColor")
-      p.emissiveColor = paramAsColor(name, value);
-    else if (name == "specularColor")
-      p.specularColor = paramAsColor(name, value);
+    if (const auto number = numbers.find(name); number != numbers.end())
+      params_.*(number->second) = paramAsFloat(name, value);
+    else if (const auto color = colors.find(name); color != colors.end())
+      params_.*(color->second) = paramAsColor(name, value);
     else if (name == "useSpecularWorkflow")
-      p.useSpecularWorkflow = paramAsBool(name, value);
-    else if (name == "metallic")
-      p.metallic = paramAsFloat(name, value);
-    else if (name == "roughness")
-      p.roughness = paramAsFloat(name, value);
-    else if (name == "clearcoat")
-      p.clearcoat = paramAsFloat(name, value);
-    else if (name == "clearcoatRoughness")
-      p.clearcoatRoughness = paramAsFloat(name, value);
-    else if (name == "opacity")
-      p.opacity = paramAsFloat(name, value);
-    else if (name == "opacityThreshold")
-      p.opacityThreshold = paramAsFloat(name, value);
-    else if (name == "ior")
-      p.ior = paramAsFloat(name, value);
-    else if (name == "penumbra:transmissionRoughness")
-      p.transmissionRoughness = paramAsFloat(name, value);
-    else if (name == "penumbra:abbeNumber")
-      p.abbeNumber = paramAsFloat(name, value);
+      params_.useSpecularWorkflow = paramAsBool(name, value);
     else
       throw std::invalid_argument("unknown UsdPreviewSurface input '" + name + "'");
   } catch (const std::invalid_argument& error) {

@@ -130,6 +130,13 @@ void RenderDelegate::syncLights() {
   for (auto& [id, prim] : prims_) {
     auto* light = dynamic_cast<Light*>(prim.get());
     if (!light) continue;
+    if (light->dirtyBits() & DirtyParams) {
+      try {
+        light->loadTexture();
+      } catch (const std::runtime_error& error) {
+        warn(id + ": " + error.what() + "; the light renders without its texture");
+      }
+    }
     if (light->visible()) {
       try {
         lights.emplace_back(light->params());

@@ -79,6 +79,7 @@ ParamValue toParamValue(const std::string& name, const py::handle& value) {
   if (py::isinstance<py::bool_>(value)) return value.cast<bool>();
   if (py::isinstance<py::int_>(value)) return value.cast<int>();
   if (py::isinstance<py::float_>(value)) return value.cast<float>();
+  if (py::isinstance<py::str>(value)) return value.cast<std::string>();
   if (py::hasattr(value, "__len__") && py::len(value) == 3) {
     const py::sequence items = py::reinterpret_borrow<py::sequence>(value);
     return Vec3f(items[0].cast<float>(), items[1].cast<float>(), items[2].cast<float>());
@@ -86,7 +87,8 @@ ParamValue toParamValue(const std::string& name, const py::handle& value) {
   try {
     return py::float_(py::reinterpret_borrow<py::object>(value)).cast<float>();  // numpy scalars
   } catch (const py::error_already_set&) {
-    throw std::invalid_argument(name + ": expected a number, a bool or a 3-component colour");
+    throw std::invalid_argument(name +
+                                ": expected a number, a bool, a string or a 3-component colour");
   }
 }
 

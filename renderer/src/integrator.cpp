@@ -11,21 +11,24 @@ namespace {
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped, float bsdfPdf,
                       float* nearestLight) {
   const std::vector<Light>& lights = scene.lights();
-  const float selectPdf = lights.empty() ? 0.0f : 1.0f / float(lights.size());
   Vec3f total{0.0f};
   float nearest = kInfinity;
-  for (const Light& light : lights) {
+  for (size_t i = 0; i < lights.size(); ++i) {
+    const Light& light = lights[i];
     std::optional<LightHit> hit;
     if (light.isInfinite()) {
-      if (escaped) hit = light.escaped(ray.origin, ray.direction);
+      if (escaped) hit = light.escaped(ray.direction);
     } else {
       hit = light.intersect(ray.origin, ray.direction, tMax);
     }
     if (!hit) continue;
     // Light surfaces may overlap; each contributes, and the nearest defines depth and alpha.
     nearest = std::min(nearest, hit->distance);
-    const float weight = bsdfPdf > 0 ? powerHeuristic(bsdfPdf, selectPdf * hit->pdf) : 1.0f;
-    total += hit->radiance * weight;
+    const float lightPdf = scene.lightSelection().probability(i) * hit->pdf;
+    const float weight = bsdfPdf > 0 ? powerHeuristic(bsdfPdf, lightPdf) : 1.0f;
+    // Camera rays see lights as they are; reflected light is scaled by the lobe multiplier.
+    const float multiplier = bsdfPdf > 0 ? light.diffuseMultiplier() : 1.0f;
+    total += hit->radiance * (weight * multiplier);
   }
   if (nearestLight) *nearestLight = nearest;
   return total;
@@ -60,7 +63,6 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   Vec3f throughput{1.0f};
   float bsdfPdf = 0;  // density of the direction that produced `ray`; 0 for the camera ray
   const std::vector<Light>& lights = scene.lights();
-  const float selectPdf = lights.empty() ? 0.0f : 1.0f / float(lights.size());
 
   for (int bounce = 0;; ++bounce) {
     const std::optional<SurfaceHit> hit =
@@ -83,22 +85,23 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     if (bounce >= settings.maxPathDepth) break;
     const Vec3f bsdf = hit->albedo * kInvPi;  // Lambertian
 
-    // Next-event estimation: one light, chosen uniformly, sampled over its area/solid angle.
+    // Next-event estimation: one light, chosen by power, sampled over its area/solid angle.
     const float lightChoice = sampler.next1D();
     const Vec2f lightSample = sampler.next2D();
     if (!lights.empty()) {
-      const size_t index = std::min(size_t(lightChoice * float(lights.size())), lights.size() - 1);
-      const std::optional<LightSample> sample = lights[index].sample(hit->position, lightSample);
-      if (sample && sample->pdf > 0) {
-        const float cosine = dot(sample->direction, normal);
-        if (cosine > 0) {
-          const float tFar =
-              std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
-          if (!scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time))) {
-            const float lightPdf = selectPdf * sample->pdf;
-            const float weight = sample->isDelta ? 1.0f : powerHeuristic(lightPdf, cosine * kInvPi);
-            result.radiance += throughput * bsdf * sample->radiance * (cosine * weight / lightPdf);
-          }
+      const size_t index = scene.lightSelection().sampleIndex(lightChoice);
+      const Light& light = lights[index];
+      const std::optional<LightSample> sample = light.sample(hit->position, lightSample);
+      const float cosine = sample ? dot(sample->direction, normal) : 0.0f;
+      if (sample && sample->pdf > 0 && cosine > 0) {
+        const float tFar =
+            std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
+        if (!light.castsShadows() ||
+            !scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time))) {
+          const float lightPdf = scene.lightSelection().probability(index) * sample->pdf;
+          const float weight = sample->isDelta ? 1.0f : powerHeuristic(lightPdf, cosine * kInvPi);
+          result.radiance += throughput * bsdf * sample->radiance *
+                             (cosine * weight * light.diffuseMultiplier() / lightPdf);
         }
       }
     }

@@ -4,6 +4,7 @@
 
 #include "penumbra/camera.h"
 #include "penumbra/color.h"
+#include "penumbra/image_io.h"
 
 namespace penumbra {
 
@@ -41,7 +42,68 @@ bool isFinite(const Vec3f& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
+float smoothstep(float edge0, float edge1, float x) {
+  if (edge1 <= edge0) return x >= edge0 ? 1.0f : 0.0f;
+  const float t = std::clamp((x - edge0) / (edge1 - edge0), 0.0f, 1.0f);
+  return t * t * (3 - 2 * t);
+}
+
+/// sin of the polar angle (from +Y) at the centre of lat-long row `row` of `height`.
+float latLongRowSine(int row, int height) {
+  return std::sin(kPi * (float(row) + 0.5f) / float(height));
+}
+
+std::vector<float> samplingWeights(const std::vector<Vec3f>& texels, int width, int height,
+                                   bool latLong) {
+  std::vector<float> weights(texels.size());
+  for (int y = 0; y < height; ++y) {
+    const float rowWeight = latLong ? latLongRowSine(y, height) : 1.0f;
+    for (int x = 0; x < width; ++x) {
+      const size_t i = size_t(y) * size_t(width) + size_t(x);
+      weights[i] = std::max(0.0f, luminance(texels[i])) * rowWeight;
+    }
+  }
+  return weights;
+}
+
 }  // namespace
+
+LightTexture::LightTexture(int width, int height, std::vector<Vec3f> texels, bool latLong)
+    : width_(width),
+      height_(height),
+      texels_(std::move(texels)),
+      distribution_(samplingWeights(texels_, width, height, latLong), width, height) {
+  double sum[3] = {0, 0, 0}, weightSum = 0;
+  for (int y = 0; y < height_; ++y) {
+    const double rowWeight = latLong ? latLongRowSine(y, height_) : 1.0;
+    for (int x = 0; x < width_; ++x) {
+      const Vec3f& t = texels_[size_t(y) * size_t(width_) + size_t(x)];
+      sum[0] += t.x * rowWeight;
+      sum[1] += t.y * rowWeight;
+      sum[2] += t.z * rowWeight;
+      weightSum += rowWeight;
+    }
+  }
+  average_ = {float(sum[0] / weightSum), float(sum[1] / weightSum), float(sum[2] / weightSum)};
+}
+
+std::shared_ptr<const LightTexture> LightTexture::load(const std::string& path, bool latLong) {
+  const ImageData image = readImage(path);
+  const size_t channels = image.channelNames.size();
+  std::vector<Vec3f> texels(size_t(image.width) * size_t(image.height));
+  for (size_t i = 0; i < texels.size(); ++i) {
+    const float* p = &image.pixels[i * channels];
+    texels[i] = channels >= 3 ? Vec3f(p[0], p[1], p[2]) : Vec3f(p[0]);
+  }
+  return std::make_shared<const LightTexture>(image.width, image.height, std::move(texels),
+                                              latLong);
+}
+
+Vec3f LightTexture::lookup(Vec2f uv) const {
+  const int x = std::clamp(int(uv.x * float(width_)), 0, width_ - 1);
+  const int y = std::clamp(int(uv.y * float(height_)), 0, height_ - 1);
+  return texels_[size_t(y) * size_t(width_) + size_t(x)];
+}
 
 Light::Light(const LightParams& params) : params_(params) {
   Vec3f emission = params.color * (params.intensity * std::exp2(params.exposure));
@@ -63,7 +125,16 @@ Light::Light(const LightParams& params) : params_(params) {
       // Spheres stay spheres: a non-uniform scale is approximated by its geometric mean.
       radius_ = params.radius * float(std::cbrt(std::fabs(toWorld.linearDeterminant())));
       area_ = 4 * kPi * radius_ * radius_;
-      if (params.treatAsPoint && area_ == 0) area_ = 1;  // a point: nothing to normalise by
+      break;
+    case LightType::Cylinder:
+      // The axis keeps its length; the cross-section stays circular (mean of the two scales).
+      edgeU_ = toWorld.applyToVector({params.length, 0, 0});
+      edgeV_ = toWorld.applyToVector({0, params.radius, 0});
+      normal_ = toWorld.applyToVector({0, 0, params.radius});
+      radius_ = 0.5f * (length(edgeV_) + length(normal_));
+      edgeV_ = normalize(edgeV_);
+      normal_ = normalize(cross(edgeU_, edgeV_));  // completes the cross-section frame
+      area_ = 2 * kPi * radius_ * length(edgeU_);
       break;
     case LightType::Distant: {
       const double halfAngle = std::clamp(0.5 * params.angle * M_PI / 180, 0.0, M_PI);
@@ -81,23 +152,27 @@ Light::Light(const LightParams& params) : params_(params) {
       throw std::invalid_argument("the light has zero area (check width/height/radius and scale)");
     normal_ = normalize(normal_);
   }
-  if (params.type == LightType::Sphere && !(area_ > 0))
-    throw std::invalid_argument("the sphere light has zero radius (use treatAsPoint for a point)");
-  if (params.normalize && params.type != LightType::Dome) {
+  if ((params.type == LightType::Sphere || params.type == LightType::Cylinder) && !(area_ > 0))
+    throw std::invalid_argument("the light has zero radius or length");
+  if (params.normalize) {
     if (params.type == LightType::Distant) {
-      // Normalised distant lights give `intensity` as the irradiance on a facing surface.
-      // The cone's projected solid angle is π sin²(h) = π (1 - cos h)(1 + cos h).
+      // Normalised distant lights give `intensity` as the irradiance on a facing surface; the
+      // cone's projected solid angle is π sin²(h) = π (1 - cos h)(1 + cos h).
       if (!isDelta()) emission = emission / (kPi * oneMinusCosHalfAngle_ * (1 + cosHalfAngle_));
-    } else {
+    } else if (params.type != LightType::Dome) {
       emission = emission / area_;
     }
   }
   radiance_ = emission;
   if (!isFinite(radiance_) || !isFinite(center_))
     throw std::invalid_argument("the light's parameters or transform are not finite");
-  if (params.type == LightType::Distant || params.type == LightType::Dome) {
-    normal_ = normalize(toWorld.applyToVector({0, 0, -1}));  // direction the light travels
-  }
+  axis_ = normalize(toWorld.applyToVector({0, 0, -1}));
+  if (params.type == LightType::Distant) normal_ = axis_;  // the direction the light travels
+  if (params.type == LightType::Dome) worldToLight_ = toWorld.inverse();
+  const float coneAngle = std::clamp(params.coneAngle, 0.0f, 180.0f) * kPi / 180;
+  coneCosOuter_ = std::cos(coneAngle);
+  coneCosInner_ = std::cos(coneAngle * (1 - std::clamp(params.coneSoftness, 0.0f, 1.0f)));
+  shaped_ = !isInfinite() && (params.coneAngle < 90 || params.focus > 0);
 }
 
 bool Light::isDelta() const {
@@ -105,85 +180,148 @@ bool Light::isDelta() const {
          (params_.type == LightType::Distant && !(oneMinusCosHalfAngle_ > 0));
 }
 
+Vec3f Light::shaping(const Vec3f& emitted) const {
+  if (!shaped_) return Vec3f(1.0f);
+  const float cosine = dot(emitted, axis_);
+  Vec3f factor(smoothstep(coneCosOuter_, coneCosInner_, cosine));
+  if (params_.focus > 0) {
+    const float focused = std::pow(std::max(0.0f, cosine), params_.focus);
+    factor *= params_.focusTint + (Vec3f(1.0f) - params_.focusTint) * focused;
+  }
+  return factor;
+}
+
+Vec2f Light::rectUV(const Vec3f& point) const {
+  const Vec3f offset = point - center_;
+  return {dot(offset, edgeU_) / dot(edgeU_, edgeU_) + 0.5f,
+          0.5f - dot(offset, edgeV_) / dot(edgeV_, edgeV_)};
+}
+
+Vec2f Light::domeUV(const Vec3f& direction, float* sinPolar) const {
+  const Vec3f local = normalize(worldToLight_.applyToVector(direction));
+  const float latitude = std::asin(std::clamp(local.y, -1.0f, 1.0f));
+  const float longitude = std::atan2(local.x, local.z);
+  *sinPolar = std::sqrt(local.x * local.x + local.z * local.z);
+  return {(kPi - longitude) / (2 * kPi), (kPi / 2 - latitude) / kPi};
+}
+
+Vec3f Light::domeDirection(Vec2f uv, float* sinPolar) const {
+  const float longitude = kPi * (1 - 2 * uv.x), latitude = kPi * (0.5f - uv.y);
+  *sinPolar = std::cos(latitude);
+  const Vec3f local = {*sinPolar * std::sin(longitude), std::sin(latitude),
+                       *sinPolar * std::cos(longitude)};
+  return normalize(params_.lightToWorld.applyToVector(local));
+}
+
 float Light::solidAnglePdfFromArea(const Vec3f& point, const Vec3f& lightPoint,
-                                   const Vec3f& lightNormal) const {
+                                   const Vec3f& lightNormal, float areaDensity) const {
   const Vec3f toLight = lightPoint - point;
   const float distance2 = dot(toLight, toLight);
   const float cosLight = -dot(toLight, lightNormal) / std::sqrt(distance2);
-  return cosLight > 0 ? distance2 / (area_ * cosLight) : 0.0f;
+  return cosLight > 0 ? areaDensity * distance2 / cosLight : 0.0f;
 }
 
 std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u) const {
   LightSample result;
+  Vec3f lightPoint, lightNormal;
+  float areaDensity = 1 / area_;
+  Vec3f texture(1.0f);
   switch (params_.type) {
     case LightType::Rect:
     case LightType::Disk: {
       Vec2f offset = {u.x - 0.5f, u.y - 0.5f};
-      if (params_.type == LightType::Disk) offset = concentricSampleDisk(u);
-      const Vec3f lightPoint = center_ + edgeU_ * offset.x + edgeV_ * offset.y;
-      result.pdf = solidAnglePdfFromArea(point, lightPoint, normal_);
-      if (!(result.pdf > 0)) return std::nullopt;
-      const Vec3f toLight = lightPoint - point;
-      result.distance = length(toLight);
-      result.direction = toLight / result.distance;
-      result.radiance = radiance_;
-      return result;
+      if (params_.type == LightType::Disk) {
+        offset = concentricSampleDisk(u);
+      } else if (params_.texture) {
+        float density = 0;
+        const Vec2f uv = params_.texture->distribution().sample(u, &density);
+        if (!(density > 0)) return std::nullopt;
+        offset = {uv.x - 0.5f, 0.5f - uv.y};
+        areaDensity = density / area_;
+        texture = params_.texture->lookup(uv);
+      }
+      lightPoint = center_ + edgeU_ * offset.x + edgeV_ * offset.y;
+      lightNormal = normal_;
+      break;
+    }
+    case LightType::Cylinder: {
+      // Only the arc of the side that faces the point: the far side would be rejected anyway.
+      float middle = 0, halfWidth = 0;
+      if (!visibleArc(point, &middle, &halfWidth)) return std::nullopt;
+      const float phi = middle + (2 * u.y - 1) * halfWidth;
+      lightNormal = edgeV_ * std::cos(phi) + normal_ * std::sin(phi);
+      lightPoint = center_ + edgeU_ * (u.x - 0.5f) + lightNormal * radius_;
+      areaDensity = 1 / (2 * halfWidth * radius_ * length(edgeU_));
+      break;
     }
     case LightType::Sphere: {
       const Vec3f toCenter = center_ - point;
       const float distance2 = dot(toCenter, toCenter);
       const float distance = std::sqrt(distance2);
+      result.direction = toCenter / distance;
       if (params_.treatAsPoint) {
         // Radiant intensity of the sphere seen from afar: L · π r².
-        result.direction = toCenter / distance;
         result.distance = distance;
-        result.radiance = radiance_ * (kPi * radius_ * radius_ / distance2);
+        result.radiance =
+            radiance_ * shaping(-result.direction) * (kPi * radius_ * radius_ / distance2);
         result.pdf = 1;
         result.isDelta = true;
         return result;
       }
       if (distance <= radius_) return std::nullopt;  // inside: the sphere emits outward only
       // Uniform directions in the cone the sphere subtends (solid-angle sampling).
-      const float sin2Max = radius_ * radius_ / distance2;
-      const float oneMinusCosMax = oneMinusCosFromSin2(sin2Max);
-      const Frame frame(toCenter / distance);
-      result.direction = normalize(frame.toWorld(sampleUniformCone(u, oneMinusCosMax)));
+      const float oneMinusCosMax = oneMinusCosFromSin2(radius_ * radius_ / distance2);
+      result.direction =
+          normalize(Frame(result.direction).toWorld(sampleUniformCone(u, oneMinusCosMax)));
       const std::optional<float> t = intersectSphere(point, result.direction);
       // Grazing directions may miss by rounding: the tangent distance is then exact enough.
       result.distance = t ? *t : std::sqrt(std::max(0.0f, distance2 - radius_ * radius_));
-      result.radiance = radiance_;
+      result.radiance = radiance_ * shaping(-result.direction);
       result.pdf = uniformConePdf(oneMinusCosMax);
       return result;
     }
-    case LightType::Distant: {
+    case LightType::Distant:
       result.distance = kInfinity;
+      result.radiance = radiance_;
       if (isDelta()) {
         result.direction = -normal_;
-        result.radiance = radiance_;
         result.pdf = 1;
         result.isDelta = true;
         return result;
       }
       result.direction =
           normalize(Frame(-normal_).toWorld(sampleUniformCone(u, oneMinusCosHalfAngle_)));
-      result.radiance = radiance_;
       result.pdf = uniformConePdf(oneMinusCosHalfAngle_);
       return result;
-    }
     case LightType::Dome:
-      result.direction = sampleUniformSphere(u);
       result.distance = kInfinity;
-      result.radiance = radiance_;
-      result.pdf = 1 / (4 * kPi);
+      if (params_.texture) {
+        float density = 0, sinPolar = 0;
+        const Vec2f uv = params_.texture->distribution().sample(u, &density);
+        result.direction = domeDirection(uv, &sinPolar);
+        if (!(density > 0) || !(sinPolar > 0)) return std::nullopt;
+        result.radiance = radiance_ * params_.texture->lookup(uv);
+        result.pdf = density / (2 * kPi * kPi * sinPolar);
+      } else {
+        result.direction = sampleUniformSphere(u);
+        result.radiance = radiance_;
+        result.pdf = 1 / (4 * kPi);
+      }
       return result;
   }
-  return std::nullopt;
+  result.pdf = solidAnglePdfFromArea(point, lightPoint, lightNormal, areaDensity);
+  if (!(result.pdf > 0)) return std::nullopt;
+  const Vec3f toLight = lightPoint - point;
+  result.distance = length(toLight);
+  result.direction = toLight / result.distance;
+  result.radiance = radiance_ * texture * shaping(-result.direction);
+  return result;
 }
 
 std::optional<float> Light::intersectSphere(const Vec3f& origin, const Vec3f& direction) const {
   const Vec3f toOrigin = origin - center_;
   const float b = dot(toOrigin, direction);
-  // Discriminant in the numerically robust form (pbrt-v4 §6.8.1 idea: |o - b d|).
+  // Discriminant from the distance of the centre to the line (robust for distant spheres).
   const Vec3f perpendicular = toOrigin - direction * b;
   const float discriminant = radius_ * radius_ - dot(perpendicular, perpendicular);
   if (discriminant < 0) return std::nullopt;
@@ -191,6 +329,36 @@ std::optional<float> Light::intersectSphere(const Vec3f& origin, const Vec3f& di
   const float tNear = -b - std::sqrt(discriminant);
   if (tNear > 0) return tNear;
   return std::nullopt;
+}
+
+bool Light::visibleArc(const Vec3f& point, float* middle, float* halfWidth) const {
+  const Vec3f axis = normalize(edgeU_);
+  const Vec3f toPoint = point - center_;
+  const Vec3f across = toPoint - axis * dot(toPoint, axis);
+  const float distance = length(across);
+  if (!(distance > radius_)) return false;
+  *middle = std::atan2(dot(across, normal_), dot(across, edgeV_));
+  *halfWidth = std::acos(radius_ / distance);
+  return *halfWidth > 0;
+}
+
+std::optional<float> Light::intersectCylinder(const Vec3f& origin, const Vec3f& direction,
+                                              Vec3f* normal) const {
+  const float axisLength = length(edgeU_);
+  const Vec3f axis = edgeU_ / axisLength;
+  const Vec3f toOrigin = origin - center_;
+  const Vec3f o = toOrigin - axis * dot(toOrigin, axis);
+  const Vec3f d = direction - axis * dot(direction, axis);
+  const float a = dot(d, d), b = dot(o, d), c = dot(o, o) - radius_ * radius_;
+  const float discriminant = b * b - a * c;
+  if (!(a > 0) || discriminant < 0) return std::nullopt;
+  // The side emits outward: only the near root, seen from outside, counts.
+  const float t = (-b - std::sqrt(discriminant)) / a;
+  if (!(t > 0) || c < 0) return std::nullopt;
+  const float along = dot(toOrigin + direction * t, axis);
+  if (std::fabs(along) > 0.5f * axisLength) return std::nullopt;
+  *normal = normalize(o + d * t);
+  return t;
 }
 
 std::optional<LightHit> Light::intersect(const Vec3f& origin, const Vec3f& direction,
@@ -201,41 +369,92 @@ std::optional<LightHit> Light::intersect(const Vec3f& origin, const Vec3f& direc
     const std::optional<float> t = intersectSphere(origin, direction);
     if (!t || *t >= tMax) return std::nullopt;
     const Vec3f toCenter = center_ - origin;
-    const float sin2Max = radius_ * radius_ / dot(toCenter, toCenter);
     hit.distance = *t;
-    hit.radiance = radiance_;
-    hit.pdf = uniformConePdf(oneMinusCosFromSin2(sin2Max));
+    hit.radiance = radiance_ * shaping(-direction);
+    hit.pdf = uniformConePdf(oneMinusCosFromSin2(radius_ * radius_ / dot(toCenter, toCenter)));
+    return hit;
+  }
+  if (params_.type == LightType::Cylinder) {
+    Vec3f surfaceNormal;
+    const std::optional<float> t = intersectCylinder(origin, direction, &surfaceNormal);
+    if (!t || *t >= tMax) return std::nullopt;
+    float middle = 0, halfWidth = 0;
+    if (!visibleArc(origin, &middle, &halfWidth)) return std::nullopt;
+    hit.distance = *t;
+    hit.radiance = radiance_ * shaping(-direction);
+    hit.pdf = solidAnglePdfFromArea(origin, origin + direction * *t, surfaceNormal,
+                                    1 / (2 * halfWidth * radius_ * length(edgeU_)));
     return hit;
   }
   const float facing = dot(direction, normal_);
   if (facing >= 0) return std::nullopt;  // one-sided emitters are seen from the -Z side only
   const float t = dot(center_ - origin, normal_) / facing;
   if (!(t > 0) || t >= tMax) return std::nullopt;
-  const Vec3f offset = origin + direction * t - center_;
+  const Vec3f point = origin + direction * t;
+  const Vec3f offset = point - center_;
   const float a = dot(offset, edgeU_) / dot(edgeU_, edgeU_);
   const float b = dot(offset, edgeV_) / dot(edgeV_, edgeV_);
   const bool inside = params_.type == LightType::Rect
                           ? (std::fabs(a) <= 0.5f && std::fabs(b) <= 0.5f)
                           : (a * a + b * b <= 1);
   if (!inside) return std::nullopt;
+  float areaDensity = 1 / area_;
+  Vec3f texture(1.0f);
+  if (params_.type == LightType::Rect && params_.texture) {
+    const Vec2f uv = rectUV(point);
+    texture = params_.texture->lookup(uv);
+    areaDensity = params_.texture->distribution().density(uv) / area_;
+  }
   hit.distance = t;
-  hit.radiance = radiance_;
-  hit.pdf = solidAnglePdfFromArea(origin, origin + direction * t, normal_);
+  hit.radiance = radiance_ * texture * shaping(-direction);
+  hit.pdf = solidAnglePdfFromArea(origin, point, normal_, areaDensity);
   return hit;
 }
 
-std::optional<LightHit> Light::escaped(const Vec3f& /*origin*/, const Vec3f& direction) const {
+std::optional<LightHit> Light::escaped(const Vec3f& direction) const {
   if (!isInfinite() || isDelta()) return std::nullopt;
   LightHit hit;
   hit.distance = kInfinity;
   hit.radiance = radiance_;
   if (params_.type == LightType::Dome) {
     hit.pdf = 1 / (4 * kPi);
+    if (params_.texture) {
+      float sinPolar = 0;
+      const Vec2f uv = domeUV(direction, &sinPolar);
+      hit.radiance = radiance_ * params_.texture->lookup(uv);
+      hit.pdf = sinPolar > 0
+                    ? params_.texture->distribution().density(uv) / (2 * kPi * kPi * sinPolar)
+                    : 0;
+    }
     return hit;
   }
   if (dot(direction, -normal_) < cosHalfAngle_) return std::nullopt;
   hit.pdf = uniformConePdf(oneMinusCosHalfAngle_);
   return hit;
+}
+
+float Light::power(float sceneRadius) const {
+  const Vec3f mean = params_.texture ? radiance_ * params_.texture->average() : radiance_;
+  const float radianceLuminance = std::max(0.0f, luminance(mean));
+  const float crossSection = kPi * sceneRadius * sceneRadius;
+  switch (params_.type) {
+    case LightType::Sphere:
+      if (params_.treatAsPoint) return radianceLuminance * 4 * kPi * kPi * radius_ * radius_;
+      return radianceLuminance * area_ * kPi;
+    case LightType::Rect:
+    case LightType::Disk:
+    case LightType::Cylinder:
+      return radianceLuminance * area_ * kPi;
+    case LightType::Distant: {
+      const float irradiance =
+          isDelta() ? radianceLuminance
+                    : radianceLuminance * kPi * oneMinusCosHalfAngle_ * (1 + cosHalfAngle_);
+      return irradiance * crossSection;
+    }
+    case LightType::Dome:
+      return radianceLuminance * kPi * 4 * crossSection;
+  }
+  return 0;
 }
 
 }  // namespace penumbra

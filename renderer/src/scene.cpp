@@ -212,6 +212,10 @@ void Scene::commit() {
   const float extent = std::max({bounds.upper_x - bounds.lower_x, bounds.upper_y - bounds.lower_y,
                                  bounds.upper_z - bounds.lower_z});
   sceneExtent_ = std::isfinite(extent) && extent > 0 ? extent : 1.0f;
+  std::vector<float> powers;
+  for (const Light& light : lights_)
+    powers.push_back(light.power(0.5f * sceneExtent_ * std::sqrt(3.0f)));
+  lightSelection_ = Distribution1D(std::move(powers));
 }
 
 float Scene::rayEpsilon(const Vec3f& point) const {

@@ -29,7 +29,7 @@ double integratePdf(const Light& light, const Vec3f& point) {
   double sum = 0;
   for (int i = 0; i < n; ++i) {
     const Vec3f direction = sampleUniformSphere(sample2D(uint32_t(i)));
-    const auto hit = light.isInfinite() ? light.escaped(point, direction)
+    const auto hit = light.isInfinite() ? light.escaped(direction)
                                         : light.intersect(point, direction, kInfinity);
     if (hit) sum += hit->pdf;
   }
@@ -57,6 +57,38 @@ double cornerFormFactor(double a, double b, double h) {
   return (x / sx * std::atan(y / sx) + y / sy * std::atan(x / sy)) / (2 * M_PI);
 }
 
+std::vector<Vec3f> checker(int width, int height) {
+  std::vector<Vec3f> texels;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) texels.push_back((x + y) % 2 ? Vec3f(4, 3, 2) : Vec3f(0.1f));
+  return texels;
+}
+
+/// A 16x8 lat-long map: dim everywhere, one bright texel in the row just above the horizon at
+/// the centre column (longitude 0: +Z in the light's frame).
+std::shared_ptr<const LightTexture> skyTexture() {
+  std::vector<Vec3f> texels(16 * 8, Vec3f(0.05f, 0.1f, 0.2f));
+  texels[3 * 16 + 8] = Vec3f(200, 180, 150);
+  return std::make_shared<const LightTexture>(16, 8, std::move(texels), true);
+}
+
+/// Irradiance estimated independently of the light's own sampling: uniform directions over the
+/// hemisphere, each looked up with intersect()/escaped().
+double irradianceByUniformDirections(const Light& light, const Vec3f& point, const Vec3f& normal) {
+  const int n = 1 << 20;
+  double sum = 0;
+  const Frame frame(normal);
+  for (int i = 0; i < n; ++i) {
+    const Vec2f u = sample2D(uint32_t(i));
+    const Vec3f local = sampleUniformCone(u, 1);
+    const Vec3f direction = frame.toWorld(local);
+    const auto hit = light.isInfinite() ? light.escaped(direction)
+                                        : light.intersect(point, direction, kInfinity);
+    if (hit) sum += luminance(hit->radiance) * local.z;
+  }
+  return sum * 2 * M_PI / n;
+}
+
 LightParams params(LightType type, const Transform& transform) {
   LightParams p;
   p.type = type;
@@ -78,7 +110,15 @@ TEST(Lights, SamplingDensitiesIntegrateToOne) {
   LightParams distant = params(LightType::Distant, facingDown(0, 0, 0));
   distant.angle = 10;
   const LightParams dome = params(LightType::Dome, Transform());
-  for (const LightParams& p : {rect, disk, sphere, distant, dome})
+  LightParams cylinder = params(LightType::Cylinder, facingDown(0.2, 1.5, 0.1));
+  cylinder.length = 2;
+  cylinder.radius = 0.3f;
+  LightParams texturedDome = params(LightType::Dome, facingDown(0, 0, 0));
+  texturedDome.texture = skyTexture();
+  LightParams texturedRect = rect;
+  texturedRect.texture = std::make_shared<const LightTexture>(4, 2, checker(4, 2), false);
+  for (const LightParams& p :
+       {rect, disk, sphere, distant, dome, cylinder, texturedDome, texturedRect})
     EXPECT_NEAR(integratePdf(Light(p), point), 1.0, 0.01) << "light type " << int(p.type);
 }
 
@@ -186,4 +226,84 @@ TEST(Color, BlackbodyIsNormalisedAndOrdered) {
   EXPECT_GT(cool.z, cool.x);
   // A 6504 K blackbody is close to, not exactly, D65 white.
   EXPECT_NEAR(white.x / white.z, 1.0f, 0.1f);
+}
+
+TEST(Lights, SampledIrradianceMatchesAnIndependentEstimateForEveryShape) {
+  LightParams cylinder = params(LightType::Cylinder, translation(0.3, 1.2, 0));
+  cylinder.length = 1.5f;
+  cylinder.radius = 0.2f;
+  LightParams texturedDome = params(LightType::Dome, Transform());
+  texturedDome.texture = skyTexture();
+  LightParams texturedRect = params(LightType::Rect, facingDown(0, 1.5, 0.2));
+  texturedRect.width = 2;
+  texturedRect.texture = std::make_shared<const LightTexture>(4, 2, checker(4, 2), false);
+  LightParams shaped = params(LightType::Disk, facingDown(0.4, 1, 0));
+  shaped.radius = 0.3f;
+  shaped.coneAngle = 30;
+  shaped.coneSoftness = 0.5f;
+  shaped.focus = 2;
+  for (const LightParams& p : {cylinder, texturedDome, texturedRect, shaped}) {
+    const Light light(p);
+    const double expected = irradianceByUniformDirections(light, {0, 0, 0}, {0, 1, 0});
+    ASSERT_GT(expected, 0) << "light type " << int(p.type);
+    EXPECT_NEAR(estimateIrradiance(light, {0, 0, 0}, {0, 1, 0}) / expected, 1.0, 0.02)
+        << "light type " << int(p.type);
+  }
+}
+
+TEST(Lights, DomeTexturesFollowOpenEXRLatLongOrientation) {
+  LightParams p = params(LightType::Dome, Transform());
+  p.texture = skyTexture();
+  // The bright texel (column 8 of 16, row 3 of 8) is at longitude ~0, just above the horizon:
+  // towards +Z.
+  const Vec3f bright = normalize(Vec3f(-0.05f, 0.2f, 1));
+  EXPECT_GT(Light(p).escaped(bright)->radiance.x, 100);
+  EXPECT_LT(Light(p).escaped({0, 0.2f, -1})->radiance.x, 1);
+  // Rotating the dome by 90° about Y carries the bright spot from +Z to +X (and local -X to +Z).
+  const double rotate[16] = {0, 0, -1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1};
+  p.lightToWorld = Transform::fromRowMajor(rotate);
+  EXPECT_GT(Light(p).escaped(normalize(Vec3f(1, 0.2f, 0.05f)))->radiance.x, 100);
+  // Importance sampling finds it: most samples go to the bright texel.
+  int towardsBright = 0;
+  for (uint32_t i = 0; i < 256; ++i)
+    if (Light(p).sample({0, 0, 0}, sample2D(i))->direction.x > 0.8f) ++towardsBright;
+  EXPECT_GT(towardsBright, 200);
+}
+
+TEST(Lights, ShapingConeCutsOffEmissionOutsideItsAngle) {
+  LightParams p = params(LightType::Rect, facingDown(0, 1, 0));
+  p.width = p.height = 0.1f;
+  p.coneAngle = 20;
+  const Light light(p);
+  EXPECT_TRUE(light.sample({0.1f, 0, 0}, {0.5f, 0.5f}));
+  EXPECT_GT(light.sample({0.1f, 0, 0}, {0.5f, 0.5f})->radiance.x, 0.99f);  // 5.7° off axis
+  EXPECT_EQ(light.sample({1, 0, 0}, {0.5f, 0.5f})->radiance.x, 0);         // 45° off axis
+  p.coneAngle = 90;
+  p.focus = 4;
+  const float cos45 = std::sqrt(0.5f);
+  EXPECT_NEAR(Light(p).sample({1, 0, 0}, {0.5f, 0.5f})->radiance.x, std::pow(cos45, 4.0f), 1e-3f);
+}
+
+TEST(Lights, PowerRanksLightsForSelection) {
+  LightParams dim = params(LightType::Sphere, translation(0, 2, 0));
+  LightParams bright = dim;
+  bright.intensity = 9;
+  EXPECT_NEAR(Light(bright).power(1) / Light(dim).power(1), 9, 1e-4);
+  Distribution1D choice({Light(dim).power(1), Light(bright).power(1)});
+  EXPECT_NEAR(choice.probability(1), 0.9f, 1e-6f);
+  EXPECT_EQ(choice.sampleIndex(0.05f), 0u);
+  EXPECT_EQ(choice.sampleIndex(0.5f), 1u);
+}
+
+TEST(Lights, CylinderLightsEmitFromTheirSideOnly) {
+  LightParams p = params(LightType::Cylinder, translation(0, 1, 0));
+  p.length = 2;
+  p.radius = 0.25f;
+  p.normalize = true;
+  const Light light(p);
+  EXPECT_NEAR(light.radiance().x, 1 / (2 * M_PI * 0.25 * 2), 1e-6);
+  EXPECT_TRUE(light.intersect({0, 0, 0}, {0, 1, 0}, kInfinity));
+  EXPECT_NEAR(light.intersect({0, 0, 0}, {0, 1, 0}, kInfinity)->distance, 0.75f, 1e-5f);
+  EXPECT_FALSE(light.intersect({3, 1, 0}, {-1, 0, 0}, kInfinity));  // along the axis: a cap
+  EXPECT_FALSE(light.intersect({0, 1, 0}, {0, 1, 0}, kInfinity));   // from inside
 }

@@ -249,7 +249,26 @@ TEST(RenderDelegate, RejectsUnknownTypesIdsAndSettings) {
   EXPECT_THROW(delegate.settings().set("samples", 0), std::invalid_argument);
   delegate.insertSprim("rectLight", "/l");
   EXPECT_THROW(delegate.light("/l").setParam("radius", Vec3f(1, 1, 1)), std::invalid_argument);
-  EXPECT_THROW(delegate.light("/l").setParam("shaping:cone:angle", 1.0f), std::invalid_argument);
+  EXPECT_THROW(delegate.light("/l").setParam("shaping:ies:file", std::string("a.ies")),
+               std::invalid_argument);
+  EXPECT_THROW(delegate.light("/l").setParam("texture:file", 1.0f), std::invalid_argument);
   RenderPass pass(delegate, "/missing", 4, 4);
   EXPECT_THROW(pass.execute(1), std::out_of_range);
+}
+
+TEST(Render, LightsWithShadowsDisabledShineThroughOccluders) {
+  const auto floorUnderOccluder = [](bool shadows) {
+    RenderDelegate delegate;
+    lambertianFloorScene(delegate, 0.5f);
+    addFloor(delegate, "/occluder", 5, 1);
+    delegate.insertSprim("sphereLight", "/bulb");
+    delegate.light("/bulb").setParam("shadow:enable", shadows);
+    delegate.light("/bulb").setTransform(translation(0, 3, 0));
+    delegate.settings().set("maxPathDepth", 1);
+    delegate.camera("/cam").setTransform(facingDown(0, 0.5, 0));  // between floor and occluder
+    return meanChannel(render(delegate, 4, 4, 16), 0);
+  };
+  EXPECT_EQ(floorUnderOccluder(true), 0.0);
+  // E = π L (r/d)² with r = 0.5, d = 3: radiance 0.5/π · E.
+  EXPECT_NEAR(floorUnderOccluder(false), 0.5 * 0.25 / 9, 0.5 * 0.25 / 9 * 0.02);
 }

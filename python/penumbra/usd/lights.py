@@ -17,6 +17,7 @@ _LIGHTS: tuple[tuple[str, type, tuple[str, ...]], ...] = (
     ("rectLight", UsdLux.RectLight, ("width", "height")),
     ("diskLight", UsdLux.DiskLight, ("radius",)),
     ("sphereLight", UsdLux.SphereLight, ("radius", "treatAsPoint")),
+    ("cylinderLight", UsdLux.CylinderLight, ("radius", "length", "treatAsLine")),
     ("distantLight", UsdLux.DistantLight, ("angle",)),
     ("domeLight", UsdLux.DomeLight, ()),
 )
@@ -27,7 +28,17 @@ _COMMON_INPUTS = (
     "normalize",
     "enableColorTemperature",
     "colorTemperature",
+    "diffuse",
+    "specular",
 )
+# Inputs of the applied schemas that shape the emission, by the delegate's parameter name.
+_SHAPING_INPUTS = (
+    ("shaping:cone:angle", "GetShapingConeAngleAttr"),
+    ("shaping:cone:softness", "GetShapingConeSoftnessAttr"),
+    ("shaping:focus", "GetShapingFocusAttr"),
+    ("shaping:focusTint", "GetShapingFocusTintAttr"),
+)
+_COLOR_INPUTS = ("color", "shaping:focusTint")
 
 
 def light_type(prim: Usd.Prim) -> str | None:
@@ -57,11 +68,29 @@ def sync_light(core, prim: Usd.Prim, reader: SampleReader, warn: Callable[[str],
     light_api = UsdLux.LightAPI(prim)
     params = {name: reader.get(_getter(light_api, name)) for name in _COMMON_INPUTS}
     params.update({name: reader.get(_getter(schema, name)) for name in shape_inputs})
-    params["color"] = tuple(float(c) for c in params["color"])
+    if prim.HasAPI(UsdLux.ShapingAPI):
+        shaping = UsdLux.ShapingAPI(prim)
+        params.update({name: reader.get(getattr(shaping, getter)()) for name, getter in _SHAPING_INPUTS})
+    if prim.HasAPI(UsdLux.ShadowAPI):
+        params["shadow:enable"] = reader.get(UsdLux.ShadowAPI(prim).GetShadowEnableAttr())
+    for name in _COLOR_INPUTS:
+        if name in params:
+            params[name] = tuple(float(c) for c in params[name])
+    params["texture:file"] = _texture_path(prim, schema, reader, warn)
     core.set_light(path, **params)
+
+
+def _texture_path(prim: Usd.Prim, schema, reader: SampleReader, warn: Callable[[str], None]) -> str:
+    """The resolved ``inputs:texture:file`` of a rect or dome light ("" when none).
+
+    An unresolvable path is passed on as authored: the delegate then warns, naming the file.
+    """
     texture_attr = getattr(schema, "GetTextureFileAttr", None)
-    texture = texture_attr().Get(reader.time) if texture_attr is not None else None
-    if texture is not None and texture.path:
-        warn(
-            f"{path}: inputs:texture:file is not supported yet; the light emits its constant color"
-        )
+    texture = reader.get(texture_attr()) if texture_attr is not None else None
+    if texture is None or not texture.path:
+        return ""
+    if isinstance(schema, UsdLux.DomeLight):
+        layout = reader.get(schema.GetTextureFormatAttr())
+        if layout not in (None, UsdLux.Tokens.automatic, UsdLux.Tokens.latlong):
+            warn(f"{prim.GetPath()}: texture:format {layout!r} is not supported yet; read as latlong")
+    return texture.resolvedPath or texture.path

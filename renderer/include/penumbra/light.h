@@ -1,20 +1,46 @@
 // UsdLux lights (DESIGN.md §3): radiance = color · intensity · 2^exposure · blackbody
-// [/ world-space area if normalize]. Rect and disk lights lie in their local XY plane and emit
-// along -Z; sphere lights emit outward; a distant light's light travels along -Z; the dome
-// surrounds the scene.
+// [· texture] [/ world-space area if normalize]. Rect and disk lights lie in their local XY plane
+// and emit along -Z; sphere lights emit outward; cylinder lights lie along local X and emit from
+// their side; a distant light's light travels along -Z; the dome surrounds the scene (lat-long
+// texture, +Y up, OpenEXR's orientation).
 //
 // Shadow rays are distributed over each light's area or solid angle (soft shadows); every
 // sampling routine returns its density in solid angle so that the integrator can combine it with
 // BSDF sampling by multiple importance sampling.
 #pragma once
 
+#include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 
+#include "penumbra/distribution.h"
 #include "penumbra/math.h"
 
 namespace penumbra {
 
-enum class LightType { Rect, Disk, Sphere, Distant, Dome };
+enum class LightType { Rect, Disk, Sphere, Cylinder, Distant, Dome };
+
+/// An emission texture (scene-linear RGB, row 0 at the top) with its sampling distribution.
+class LightTexture {
+ public:
+  /// `latLong`: a dome's lat-long map, whose rows are weighted by sin(polar angle) for sampling.
+  LightTexture(int width, int height, std::vector<Vec3f> texels, bool latLong);
+  /// Reads an image through OIIO. Throws std::runtime_error naming the file.
+  static std::shared_ptr<const LightTexture> load(const std::string& path, bool latLong);
+
+  /// Nearest texel at (u, v) in [0, 1)², v = 0 at the top row.
+  Vec3f lookup(Vec2f uv) const;
+  const Distribution2D& distribution() const { return distribution_; }
+  /// Mean texel value (for latLong maps: weighted by solid angle).
+  const Vec3f& average() const { return average_; }
+
+ private:
+  int width_, height_;
+  std::vector<Vec3f> texels_;
+  Distribution2D distribution_;
+  Vec3f average_;
+};
 
 struct LightParams {
   LightType type = LightType::Sphere;
@@ -26,9 +52,18 @@ struct LightParams {
   bool enableColorTemperature = false;
   float colorTemperature = 6500;  // kelvin
   float width = 1, height = 1;    // rect, scene units before the transform
-  float radius = 0.5f;            // disk and sphere
+  float radius = 0.5f;            // disk, sphere and cylinder
+  float length = 1;               // cylinder, along local X
   float angle = 0.53f;            // distant: angular diameter in degrees
   bool treatAsPoint = false;      // sphere: emit from the centre as a point
+  // ShapingAPI, around the light's -Z axis.
+  float coneAngle = 90;  // degrees off the axis; >= 90 means no cone
+  float coneSoftness = 0;
+  float focus = 0;                              // off-axis emission falls off as cos^focus ...
+  Vec3f focusTint{0.0f};                        // ... towards this tint
+  bool shadowEnable = true;                     // ShadowAPI shadow:enable
+  float diffuse = 1, specular = 1;              // multipliers of the light's effect on those lobes
+  std::shared_ptr<const LightTexture> texture;  // texture:file (rect, dome)
 };
 
 /// A light sample as seen from a shading point.
@@ -59,30 +94,53 @@ class Light {
   }
   /// True for lights no ray can hit (point-like sphere, zero-angle distant light).
   bool isDelta() const;
+  bool castsShadows() const { return params_.shadowEnable; }
+  float diffuseMultiplier() const { return params_.diffuse; }
+  float specularMultiplier() const { return params_.specular; }
 
   std::optional<LightSample> sample(const Vec3f& point, Vec2f u) const;
   /// First intersection of a ray with a finite light's emitting surface closer than tMax.
   std::optional<LightHit> intersect(const Vec3f& origin, const Vec3f& direction, float tMax) const;
   /// Radiance and pdf for a ray that escaped the scene in `direction` (infinite lights).
-  std::optional<LightHit> escaped(const Vec3f& origin, const Vec3f& direction) const;
+  std::optional<LightHit> escaped(const Vec3f& direction) const;
 
-  /// The emitted radiance (constant over the light), after all UsdLux factors.
+  /// The emitted radiance before texture and shaping, after all other UsdLux factors.
   const Vec3f& radiance() const { return radiance_; }
   float area() const { return area_; }
+  /// Approximate emitted power (luminance · area · solid angle), for choosing lights;
+  /// infinite lights use the radius of the scene's bounding sphere.
+  float power(float sceneRadius) const;
 
  private:
-  float solidAnglePdfFromArea(const Vec3f& point, const Vec3f& lightPoint,
-                              const Vec3f& lightNormal) const;
+  float solidAnglePdfFromArea(const Vec3f& point, const Vec3f& lightPoint, const Vec3f& lightNormal,
+                              float areaDensity) const;
   std::optional<float> intersectSphere(const Vec3f& origin, const Vec3f& direction) const;
+  /// Cylinder: the half-width (radians) of the arc of the side visible from `point`, and the
+  /// angle of its middle; false from inside.
+  bool visibleArc(const Vec3f& point, float* middle, float* halfWidth) const;
+  std::optional<float> intersectCylinder(const Vec3f& origin, const Vec3f& direction,
+                                         Vec3f* normal) const;
+  /// ShapingAPI factor for light leaving the light in world direction `emitted`.
+  Vec3f shaping(const Vec3f& emitted) const;
+  /// Rect texture coordinates of a point in the light's plane.
+  Vec2f rectUV(const Vec3f& point) const;
+  /// Dome: lat-long coordinates of a world direction and back.
+  Vec2f domeUV(const Vec3f& direction, float* sinPolar) const;
+  Vec3f domeDirection(Vec2f uv, float* sinPolar) const;
 
   LightParams params_;
   Vec3f radiance_;
-  // Rect: corner + edges; disk: centre + semi-axes; sphere: centre + radius.
+  // Rect: centre + edges; disk: centre + semi-axes; sphere: centre + radius; cylinder: centre +
+  // axis (full length) + radius.
   Vec3f center_, edgeU_, edgeV_, normal_;
   float radius_ = 0;
   float area_ = 0;
   float cosHalfAngle_ = 1;          // distant light cone
   float oneMinusCosHalfAngle_ = 0;  // kept separately for precision at small angles
+  Vec3f axis_;                      // shaping axis: the light's -Z in world space
+  bool shaped_ = false;
+  float coneCosOuter_ = -1, coneCosInner_ = -1;
+  Transform worldToLight_;
 };
 
 /// Directions uniformly distributed in a cone around +Z whose half angle h has

@@ -152,6 +152,24 @@ struct Transform {
             float(sign * (c10 * n.x + c11 * n.y + c12 * n.z)),
             float(sign * (c20 * n.x + c21 * n.y + c22 * n.z))};
   }
+  /// The inverse of an affine transform (singular linear parts give non-finite values).
+  Transform inverse() const {
+    Transform result;
+    // Inverse of the linear part L (row-vector form): adj(L) / det(L), via cofactors.
+    const double det = linearDeterminant();
+    auto cofactor = [this](int r, int c) {
+      const int r0 = (r + 1) % 3, r1 = (r + 2) % 3, c0 = (c + 1) % 3, c1 = (c + 2) % 3;
+      return at(r0, c0) * at(r1, c1) - at(r0, c1) * at(r1, c0);
+    };
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) result.m[size_t(r * 4 + c)] = cofactor(c, r) / det;
+    for (int c = 0; c < 3; ++c) {
+      double t = 0;
+      for (int k = 0; k < 3; ++k) t -= at(3, k) * result.at(k, c);
+      result.m[size_t(12 + c)] = t;
+    }
+    return result;
+  }
   /// The 3x4 column-major matrix Embree expects for RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR.
   std::array<float, 12> toEmbreeColumnMajor3x4() const {
     std::array<float, 12> out{};

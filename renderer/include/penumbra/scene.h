@@ -68,6 +68,8 @@ class Scene {
   void setMaterials(std::vector<MaterialParams> materials) { materials_ = std::move(materials); }
   void setLights(std::vector<Light> lights) { lights_ = std::move(lights); }
   const std::vector<Light>& lights() const { return lights_; }
+  /// Lights are chosen for next-event estimation in proportion to their power (set by commit()).
+  const Distribution1D& lightSelection() const { return lightSelection_; }
 
   /// Rebuilds the top-level BVH; call after edits and before tracing.
   void commit();
@@ -97,6 +99,7 @@ class Scene {
   std::vector<std::unique_ptr<MeshRecord>> meshes_;  // indexed by the instance's Embree geomID
   std::vector<MaterialParams> materials_;
   std::vector<Light> lights_;
+  Distribution1D lightSelection_{{}};
   float sceneExtent_ = 1;
 };
 

@@ -12,9 +12,14 @@ class Light : public Prim {
   Light(PrimId id, LightType type);
 
   /// Sets a UsdLux input by its name without "inputs:" (color, intensity, exposure, normalize,
-  /// enableColorTemperature, colorTemperature, width, height, radius, angle, treatAsPoint).
+  /// enableColorTemperature, colorTemperature, diffuse, specular, width, height, radius, length,
+  /// angle, treatAsPoint, treatAsLine, texture:file, shaping:cone:angle, shaping:cone:softness,
+  /// shaping:focus, shaping:focusTint, shadow:enable).
   /// Throws std::invalid_argument for an unknown name or a value of the wrong type.
   void setParam(const std::string& name, const ParamValue& value);
+  /// Loads texture:file if it changed since the last call. Throws std::runtime_error naming the
+  /// file when it cannot be read (the light then renders untextured).
+  void loadTexture();
   /// Lights keep their transform at the start of the shutter (motion blur of lights is not
   /// supported yet): only the first sample is used.
   void setTransform(const MotionTransform& lightToWorld);
@@ -26,6 +31,7 @@ class Light : public Prim {
  private:
   LightParams params_;
   bool visible_ = true;
+  std::string textureFile_, loadedTextureFile_;
 };
 
 /// The light type for a sprim type name ("rectLight", ...); throws std::invalid_argument.

@@ -12,5 +12,6 @@ namespace penumbra::plugin {
 float paramAsFloat(const std::string& name, const ParamValue& value);
 bool paramAsBool(const std::string& name, const ParamValue& value);
 Vec3f paramAsColor(const std::string& name, const ParamValue& value);
+std::string paramAsString(const std::string& name, const ParamValue& value);
 
 }  // namespace penumbra::plugin

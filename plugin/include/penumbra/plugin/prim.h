@@ -29,8 +29,8 @@ enum DirtyBits : uint32_t {
 };
 
 /// A parameter value as schemas author them (cf. VtValue, restricted to what lights and
-/// materials use).
-using ParamValue = std::variant<bool, int, float, Vec3f>;
+/// materials use; asset paths arrive resolved, as strings).
+using ParamValue = std::variant<bool, int, float, Vec3f, std::string>;
 
 class Prim {
  public:
