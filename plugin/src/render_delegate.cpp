@@ -4,28 +4,45 @@
 
 namespace penumbra::plugin {
 
+namespace {
+
+struct SettingField {
+  int RenderSettingsMap::*field;
+  int minimum;
+};
+
+const std::map<std::string, SettingField>& settingFields() {
+  static const std::map<std::string, SettingField> fields = {
+      {"samples", {&RenderSettingsMap::samples, 1}},
+      {"seed", {&RenderSettingsMap::seed, 0}},
+      {"threads", {&RenderSettingsMap::threads, 0}},
+      {"maxPathDepth", {&RenderSettingsMap::maxPathDepth, 0}},
+      {"maxDiffuseDepth", {&RenderSettingsMap::maxDiffuseDepth, 0}},
+      {"maxGlossyDepth", {&RenderSettingsMap::maxGlossyDepth, 0}},
+      {"maxTransmissionDepth", {&RenderSettingsMap::maxTransmissionDepth, 0}}};
+  return fields;
+}
+
+}  // namespace
+
 void RenderSettingsMap::set(const std::string& key, int value) {
-  const auto requireAtLeast = [&](int minimum) {
-    if (value < minimum)
-      throw std::invalid_argument("render setting " + key + " must be >= " +
-                                  std::to_string(minimum) + ", got " + std::to_string(value));
-  };
-  if (key == "samples")
-    requireAtLeast(1), samples = value;
-  else if (key == "seed")
-    requireAtLeast(0), seed = value;
-  else if (key == "threads")
-    requireAtLeast(0), threads = value;
-  else if (key == "maxPathDepth")
-    requireAtLeast(0), maxPathDepth = value;
-  else
-    throw std::invalid_argument("unknown render setting '" + key +
-                                "' (known: samples, seed, threads, maxPathDepth)");
+  const auto found = settingFields().find(key);
+  if (found == settingFields().end()) {
+    std::string known;
+    for (const auto& entry : settingFields()) known += (known.empty() ? "" : ", ") + entry.first;
+    throw std::invalid_argument("unknown render setting '" + key + "' (known: " + known + ")");
+  }
+  if (value < found->second.minimum)
+    throw std::invalid_argument("render setting " + key +
+                                " must be >= " + std::to_string(found->second.minimum) + ", got " +
+                                std::to_string(value));
+  this->*(found->second.field) = value;
 }
 
 std::map<std::string, int> RenderSettingsMap::asMap() const {
-  return {
-      {"samples", samples}, {"seed", seed}, {"threads", threads}, {"maxPathDepth", maxPathDepth}};
+  std::map<std::string, int> values;
+  for (const auto& [key, entry] : settingFields()) values[key] = this->*(entry.field);
+  return values;
 }
 
 RenderDelegate::RenderDelegate() : scene_(std::make_unique<Scene>(device_)) {}

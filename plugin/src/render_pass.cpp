@@ -47,6 +47,9 @@ void RenderPass::execute(int samples) {
   renderSettings.threads = settings.threads;
   renderSettings.integrator.seed = uint32_t(settings.seed);
   renderSettings.integrator.maxPathDepth = settings.maxPathDepth;
+  renderSettings.integrator.maxDiffuseDepth = settings.maxDiffuseDepth;
+  renderSettings.integrator.maxGlossyDepth = settings.maxGlossyDepth;
+  renderSettings.integrator.maxTransmissionDepth = settings.maxTransmissionDepth;
   renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_), uint32_t(samples),
                 renderSettings);
   samplesDone_ += samples;

@@ -447,7 +447,8 @@ PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::lobeProbabilities(floa
   return p;
 }
 
-Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi) const {
+Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
+                                         Vec3f* diffusePart) const {
   if (wi.z <= 0) return Vec3f(0.0f);
   const Vec3f h = normalize(wo + wi);
   Vec3f base(0.0f);
@@ -465,11 +466,16 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi) const
                wi.z / (kPi * averageLoss));
     }
   }
+  Vec3f diffuse(0.0f);
   if (!isBlack(diffuseReflectance_)) {
-    base += diffuseReflectance_ * diffuseNormalization_ * (Vec3f(1.0f) - diffuseLayerCover(wo.z)) *
-            (Vec3f(1.0f) - diffuseLayerCover(wi.z)) * wi.z;
+    diffuse = diffuseReflectance_ * diffuseNormalization_ *
+              (Vec3f(1.0f) - diffuseLayerCover(wo.z)) * (Vec3f(1.0f) - diffuseLayerCover(wi.z)) *
+              wi.z;
+    base += diffuse;
   }
-  Vec3f value = base * (coatTransmittance(wo.z) * coatTransmittance(wi.z));
+  const float coat = coatTransmittance(wo.z) * coatTransmittance(wi.z);
+  if (diffusePart) *diffusePart = diffuse * (coat * opacity_);
+  Vec3f value = base * coat;
   if (clearcoat_ > 0 && coatAlpha_ > 0) {
     value += Vec3f(clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), dot(wo, h)).x *
                    ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_));
@@ -579,11 +585,13 @@ OrientedPair orient(const Frame& frame, const Vec3f& wo, const Vec3f& wi) {
 
 }  // namespace
 
-Vec3f PreviewSurfaceBsdf::evaluate(const Vec3f& woWorld, const Vec3f& wiWorld) const {
+Vec3f PreviewSurfaceBsdf::evaluate(const Vec3f& woWorld, const Vec3f& wiWorld,
+                                   Vec3f* diffusePart) const {
+  if (diffusePart) *diffusePart = Vec3f(0.0f);
   const OrientedPair pair = orient(frame_, woWorld, wiWorld);
   const Vec3f &wo = pair.wo, &wi = pair.wi;
   if (wo.z == 0 || wi.z == 0) return Vec3f(0.0f);
-  Vec3f value = opacity_ > 0 ? evaluateOpaque(wo, wi) : Vec3f(0.0f);
+  Vec3f value = opacity_ > 0 ? evaluateOpaque(wo, wi, diffusePart) : Vec3f(0.0f);
   if (opacity_ < 1 && dielectricAlpha_ > 0 && ior_ != 1) {
     const float eta = pair.flipped ? 1 / ior_ : ior_;
     value += Vec3f((1 - opacity_) * evaluateDielectric(wo, wi, eta));

@@ -1,15 +1,22 @@
 #include "penumbra/integrator.h"
 
+#include "penumbra/bsdf.h"
 #include "penumbra/sampler.h"
 
 namespace penumbra {
 namespace {
 
+/// How the ray being traced was produced, for weighting the emission it finds.
+struct ScatteringRecord {
+  float pdf = 0;  // solid-angle density of a non-delta BSDF sample; 0: no MIS
+  bool fromSurface = false;
+  bool diffuse = false;  // which light multiplier (diffuse or specular) applies
+};
+
 /// Emission from the lights a ray meets before `tMax` (area lights) or, if it escapes, from the
-/// infinite ones, weighted against the BSDF sampling that produced it (`bsdfPdf` <= 0: the ray
-/// was not BSDF-sampled, so it takes the full emission).
-Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped, float bsdfPdf,
-                      float* nearestLight) {
+/// infinite ones, weighted against the BSDF sampling that produced it.
+Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
+                      const ScatteringRecord& origin, float* nearestLight) {
   const std::vector<Light>& lights = scene.lights();
   Vec3f total{0.0f};
   float nearest = kInfinity;
@@ -25,9 +32,11 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     // Light surfaces may overlap; each contributes, and the nearest defines depth and alpha.
     nearest = std::min(nearest, hit->distance);
     const float lightPdf = scene.lightSelection().probability(i) * hit->pdf;
-    const float weight = bsdfPdf > 0 ? powerHeuristic(bsdfPdf, lightPdf) : 1.0f;
-    // Camera rays see lights as they are; reflected light is scaled by the lobe multiplier.
-    const float multiplier = bsdfPdf > 0 ? light.diffuseMultiplier() : 1.0f;
+    const float weight = origin.pdf > 0 ? powerHeuristic(origin.pdf, lightPdf) : 1.0f;
+    // Camera rays see lights as they are; reflected light is scaled by the lobe's multiplier.
+    const float multiplier = !origin.fromSurface ? 1.0f
+                             : origin.diffuse    ? light.diffuseMultiplier()
+                                                 : light.specularMultiplier();
     total += hit->radiance * (weight * multiplier);
   }
   if (nearestLight) *nearestLight = nearest;
@@ -47,6 +56,21 @@ Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, 
   return ray;
 }
 
+/// The scattering function at a hit: the bound UsdPreviewSurface, or a Lambertian displayColor.
+PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit) {
+  static const MaterialParams lambertian = [] {
+    MaterialParams params;
+    params.roughness = 1;
+    params.useSpecularWorkflow = true;  // specularColor 0: no specular layer
+    params.specularColor = Vec3f(0.0f);
+    return params;
+  }();
+  if (!hit.material) return PreviewSurfaceBsdf(lambertian, hit.albedo, hit.shadingNormal, 1.0f);
+  // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
+  return PreviewSurfaceBsdf(*hit.material, hit.albedo, hit.shadingNormal, hit.material->ior,
+                            hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet);
+}
+
 }  // namespace
 
 CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const PixelFilter& filter,
@@ -61,7 +85,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
 
   CameraSample result;
   Vec3f throughput{1.0f};
-  float bsdfPdf = 0;  // density of the direction that produced `ray`; 0 for the camera ray
+  ScatteringRecord scattering;
+  int diffuseBounces = 0, glossyBounces = 0, transmissionBounces = 0;
+  bool lastVertex = false;  // a lobe's depth is exhausted: only collect what the ray reaches
   const std::vector<Light>& lights = scene.lights();
 
   for (int bounce = 0;; ++bounce) {
@@ -69,7 +95,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         scene.intersect(ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary);
     float nearestLight = kInfinity;
     result.radiance += throughput * emittedAlongRay(scene, ray, hit ? hit->distance : ray.tFar,
-                                                    !hit, bsdfPdf, &nearestLight);
+                                                    !hit, scattering, &nearestLight);
     if (bounce == 0) {
       const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
       if (firstHit < kInfinity) {
@@ -78,49 +104,66 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       }
     }
     if (!hit) break;
-    // Surfaces shade on the side the ray arrives from.
-    const Vec3f wo = -ray.direction;
-    const Vec3f normal = dot(wo, hit->normal) >= 0 ? hit->normal : -hit->normal;
     result.radiance += throughput * hit->emission;
-    if (bounce >= settings.maxPathDepth) break;
-    const Vec3f bsdf = hit->albedo * kInvPi;  // Lambertian
+    if (bounce >= settings.maxPathDepth || lastVertex) break;
+    const Vec3f wo = -ray.direction;
+    const PreviewSurfaceBsdf bsdf = makeBsdf(*hit);
 
     // Next-event estimation: one light, chosen by power, sampled over its area/solid angle.
     const float lightChoice = sampler.next1D();
     const Vec2f lightSample = sampler.next2D();
-    if (!lights.empty()) {
+    if (!lights.empty() && !bsdf.isPurelySpecular()) {
       const size_t index = scene.lightSelection().sampleIndex(lightChoice);
       const Light& light = lights[index];
       const std::optional<LightSample> sample = light.sample(hit->position, lightSample);
-      const float cosine = sample ? dot(sample->direction, normal) : 0.0f;
-      if (sample && sample->pdf > 0 && cosine > 0) {
+      Vec3f diffusePart;
+      const Vec3f f = sample && sample->pdf > 0 ? bsdf.evaluate(wo, sample->direction, &diffusePart)
+                                                : Vec3f(0.0f);
+      if (!isBlack(f)) {
         const float tFar =
             std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
         if (!light.castsShadows() ||
             !scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time))) {
           const float lightPdf = scene.lightSelection().probability(index) * sample->pdf;
-          const float weight = sample->isDelta ? 1.0f : powerHeuristic(lightPdf, cosine * kInvPi);
-          result.radiance += throughput * bsdf * sample->radiance *
-                             (cosine * weight * light.diffuseMultiplier() / lightPdf);
+          const float weight =
+              sample->isDelta ? 1.0f : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
+          const Vec3f response = diffusePart * light.diffuseMultiplier() +
+                                 (f - diffusePart) * light.specularMultiplier();
+          result.radiance += throughput * response * sample->radiance * (weight / lightPdf);
         }
       }
     }
 
-    // BSDF sampling: cosine-weighted, so f·cos/pdf is the albedo.
-    const Vec3f local = sampleCosineHemisphere(sampler.next2D());
-    const Vec3f direction = normalize(Frame(normal).toWorld(local));
-    bsdfPdf = local.z * kInvPi;
-    if (!(bsdfPdf > 0)) break;
-    throughput *= hit->albedo;
-    // Russian roulette once paths are long enough to be dim; survivors are reweighted.
+    // BSDF sampling continues the path.
+    const float lobeChoice = sampler.next1D();
+    const Vec2f directionSample = sampler.next2D();
     const float rouletteSample = sampler.next1D();
+    const std::optional<BsdfSample> scattered = bsdf.sample(wo, lobeChoice, directionSample);
+    if (!scattered || isBlack(scattered->weight)) break;
+    // A direction on the other side of the geometric surface than the lobe intends (possible
+    // with shading normals) would leak light through the surface.
+    if ((dot(scattered->direction, hit->normal) * dot(wo, hit->normal) < 0) !=
+        scattered->transmitted)
+      break;
+    throughput *= scattered->weight;
+    scattering = {scattered->isDelta ? 0.0f : scattered->pdf, true,
+                  scattered->lobe == BsdfLobe::Diffuse};
+    int& lobeBounces = scattered->lobe == BsdfLobe::Diffuse        ? diffuseBounces
+                       : scattered->lobe == BsdfLobe::Transmission ? transmissionBounces
+                                                                   : glossyBounces;
+    const int lobeLimit = scattered->lobe == BsdfLobe::Diffuse ? settings.maxDiffuseDepth
+                          : scattered->lobe == BsdfLobe::Transmission
+                              ? settings.maxTransmissionDepth
+                              : settings.maxGlossyDepth;
+    lastVertex = ++lobeBounces >= lobeLimit;
+    // Russian roulette once paths are long enough to be dim; survivors are reweighted.
     if (bounce >= 3) {
       const float survival = std::min(0.95f, maxComponent(throughput));
       if (rouletteSample >= survival) break;
       throughput *= 1 / survival;
     }
     if (isBlack(throughput)) break;
-    ray = spawnRay(scene, *hit, direction, kInfinity, ray.time);
+    ray = spawnRay(scene, *hit, scattered->direction, kInfinity, ray.time);
   }
   return result;
 }

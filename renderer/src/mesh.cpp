@@ -1,6 +1,7 @@
 #include "penumbra/mesh.h"
 
 #include <stdexcept>
+#include <unordered_map>
 
 #include "penumbra/motion.h"
 
@@ -45,6 +46,24 @@ void requireFinite(const std::vector<Vec3f>& points, const std::string& name) {
 
 }  // namespace
 
+bool isClosedSurface(const std::vector<int>& faceVertexCounts,
+                     const std::vector<int>& faceVertexIndices) {
+  std::unordered_map<uint64_t, int> edgeUses;
+  size_t start = 0;
+  for (const int count : faceVertexCounts) {
+    for (int k = 0; k < count; ++k) {
+      const auto a = uint32_t(faceVertexIndices[start + size_t(k)]);
+      const auto b = uint32_t(faceVertexIndices[start + size_t((k + 1) % count)]);
+      ++edgeUses[(uint64_t(std::min(a, b)) << 32) | std::max(a, b)];
+    }
+    start += size_t(std::max(count, 0));
+  }
+  if (edgeUses.empty()) return false;
+  for (const auto& [edge, uses] : edgeUses)
+    if (uses != 2) return false;
+  return true;
+}
+
 TriangleMesh triangulate(const MeshData& mesh) {
   const size_t pointCount = mesh.points.size();
   requireFinite(mesh.points, "points");
@@ -86,6 +105,7 @@ TriangleMesh triangulate(const MeshData& mesh) {
   result.points = mesh.points;
   result.pointMotion = mesh.pointMotion;
   result.doubleSided = mesh.doubleSided;
+  result.closed = isClosedSurface(mesh.faceVertexCounts, mesh.faceVertexIndices);
   result.displayColor = mesh.displayColor;
   result.displayColorInterpolation = mesh.displayColorInterpolation;
   size_t faceStart = 0;

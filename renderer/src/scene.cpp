@@ -196,7 +196,11 @@ void Scene::updateInstance(MeshRecord& mesh) {
       rtcSetGeometryTransformQuaternion(mesh.instance, step, &embree);
     }
   }
-  if (mesh.bvh && mesh.visible)
+  const bool cutOut = mesh.materialIndex >= 0 && size_t(mesh.materialIndex) < materials_.size() &&
+                      materials_[size_t(mesh.materialIndex)].opacityThreshold > 0 &&
+                      materials_[size_t(mesh.materialIndex)].opacity <
+                          materials_[size_t(mesh.materialIndex)].opacityThreshold;
+  if (mesh.bvh && mesh.visible && !cutOut)
     rtcEnableGeometry(mesh.instance);
   else
     rtcDisableGeometry(mesh.instance);
@@ -245,15 +249,26 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
   SurfaceHit hit;
   hit.distance = rayHit.ray.tfar;
   hit.position = ray.origin + ray.direction * hit.distance;
-  hit.normal = normalize(mesh.objectToWorld.at(ray.time).applyToNormal(cross(p1 - p0, p2 - p0)));
-  hit.doubleSided = data.doubleSided;
+  const Transform objectToWorld = mesh.objectToWorld.at(ray.time);
+  hit.normal = normalize(objectToWorld.applyToNormal(cross(p1 - p0, p2 - p0)));
+  hit.shadingNormal = hit.normal;
+  const float u = rayHit.hit.u, v = rayHit.hit.v;
+  if (!data.normals.empty()) {
+    const size_t i0 = data.triangles[3 * size_t(triangle)],
+                 i1 = data.triangles[3 * size_t(triangle) + 1],
+                 i2 = data.triangles[3 * size_t(triangle) + 2];
+    const Vec3f interpolated = objectToWorld.applyToNormal(
+        data.normals[i0] * (1 - u - v) + data.normals[i1] * u + data.normals[i2] * v);
+    if (length(interpolated) > 0) hit.shadingNormal = normalize(interpolated);
+  }
+  hit.closed = data.closed;
   const Vec3f fallbackColor{0.5f};
   if (mesh.materialIndex >= 0 && size_t(mesh.materialIndex) < materials_.size()) {
-    const MaterialParams& material = materials_[size_t(mesh.materialIndex)];
-    hit.albedo = material.diffuseColor;
-    hit.emission = material.emissiveColor;
+    hit.material = &materials_[size_t(mesh.materialIndex)];
+    hit.albedo = hit.material->diffuseColor;
+    hit.emission = hit.material->emissiveColor;
   } else {
-    hit.albedo = data.displayColorAt(triangle, rayHit.hit.u, rayHit.hit.v, fallbackColor);
+    hit.albedo = data.displayColorAt(triangle, u, v, fallbackColor);
   }
   return hit;
 }

@@ -43,12 +43,11 @@ void addCamera(RenderDelegate& delegate, const Transform& transform, float focal
   delegate.camera("/cam").setTransform(transform);
 }
 
-/// A grey floor seen from straight above through a narrow lens.
+/// A grey floor (displayColor without a material: Lambertian) seen from straight above through
+/// a narrow lens.
 void lambertianFloorScene(RenderDelegate& delegate, float albedo) {
   addFloor(delegate, "/floor", 50);
-  delegate.insertSprim("material", "/grey");
-  delegate.material("/grey").setParam("diffuseColor", Vec3f(albedo));
-  delegate.mesh("/floor").setMaterialId("/grey");
+  delegate.mesh("/floor").setDisplayColor({Vec3f(albedo)}, Interpolation::Constant);
   addCamera(delegate, facingDown(0, 5, 0));
 }
 
@@ -197,7 +196,9 @@ TEST(Render, DisplayColorIsTheFallbackAlbedo) {
 TEST(Render, EmissiveSurfacesAreSeenByTheCamera) {
   RenderDelegate delegate;
   lambertianFloorScene(delegate, 0.5f);
-  delegate.material("/grey").setParam("emissiveColor", Vec3f(2, 3, 4));
+  delegate.insertSprim("material", "/glow");
+  delegate.material("/glow").setParam("emissiveColor", Vec3f(2, 3, 4));
+  delegate.mesh("/floor").setMaterialId("/glow");
   const std::vector<float> image = render(delegate, 4, 4, 4);
   EXPECT_FLOAT_EQ(float(meanChannel(image, 2)), 4.0f);
 }

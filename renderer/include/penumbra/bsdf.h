@@ -94,8 +94,9 @@ class PreviewSurfaceBsdf {
                      const Vec3f& normal, float ior,
                      DielectricKind dielectricKind = DielectricKind::Solid);
 
-  /// f(wo, wi) · |cos θi| over the non-delta lobes.
-  Vec3f evaluate(const Vec3f& wo, const Vec3f& wi) const;
+  /// f(wo, wi) · |cos θi| over the non-delta lobes. `diffusePart`, if given, receives the
+  /// diffuse lobe's share (lights scale diffuse and specular response separately).
+  Vec3f evaluate(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart = nullptr) const;
   /// Solid-angle density with which sample() produces wi through its non-delta lobes. It
   /// integrates to the probability of choosing a non-delta lobe (less the rare samples a
   /// microfacet lobe sends below the surface), which is all MIS needs.
@@ -122,7 +123,7 @@ class PreviewSurfaceBsdf {
   /// Everything below in the local frame (z = shading normal); "opaque" functions expect
   /// wo.z > 0, "dielectric" functions wo.z > 0 and the relative index η = n(wi side)/n(wo side)
   /// of the reflection–refraction pair (1 for a thin sheet).
-  Vec3f evaluateOpaque(const Vec3f& wo, const Vec3f& wi) const;
+  Vec3f evaluateOpaque(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart = nullptr) const;
   float pdfOpaque(const Vec3f& wo, const Vec3f& wi, const LobeProbabilities& p) const;
   float evaluateDielectric(const Vec3f& wo, const Vec3f& wi, float eta) const;
   float evaluateDielectricSingleScattering(const Vec3f& wo, const Vec3f& wi, float eta) const;

@@ -1,6 +1,7 @@
 // Unidirectional path tracing with next-event estimation. Each camera sample distributes its rays
-// over the pixel area (filter), the lens and, at every vertex, the light's surface and the BSDF
-// lobe; light and BSDF samples are combined by multiple importance sampling (power heuristic).
+// over the pixel area (filter), the lens, the shutter and, at every vertex, the light's surface
+// and the BSDF lobes; light and BSDF samples are combined by multiple importance sampling (power
+// heuristic).
 #pragma once
 
 #include <cstdint>
@@ -15,6 +16,10 @@ struct IntegratorSettings {
   uint32_t seed = 0;
   /// Surface interactions per path: 0 shows emitters only, 1 direct lighting, 2+ indirect.
   int maxPathDepth = 8;
+  /// Scattering events per lobe type along a path (the light met by the last one still counts).
+  int maxDiffuseDepth = 4;
+  int maxGlossyDepth = 4;
+  int maxTransmissionDepth = 8;
 };
 
 struct CameraSample {

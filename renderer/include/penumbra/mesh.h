@@ -36,6 +36,9 @@ struct TriangleMesh {
   std::vector<uint32_t> sourceFace;
   std::vector<uint32_t> cornerFaceVertex;
   bool doubleSided = false;
+  /// Every edge has exactly two faces: the mesh bounds a solid (translucent materials refract
+  /// into it); open meshes are treated as thin sheets.
+  bool closed = false;
   /// Shading normals per point (smooth surfaces, e.g. subdivision limit normals); empty: flat.
   std::vector<Vec3f> normals;
   std::vector<Vec3f> displayColor;
@@ -48,6 +51,10 @@ struct TriangleMesh {
   /// them (weights 1-u-v, u, v for corners 0, 1, 2). `fallback` when none is authored.
   Vec3f displayColorAt(uint32_t triangle, float u, float v, const Vec3f& fallback) const;
 };
+
+/// True when every edge of the polygon mesh is shared by exactly two faces.
+bool isClosedSurface(const std::vector<int>& faceVertexCounts,
+                     const std::vector<int>& faceVertexIndices);
 
 /// Validates and triangulates. Throws std::invalid_argument with a message saying what is wrong
 /// (counts that do not add up, indices out of range, primvar sizes, non-finite points).

@@ -34,10 +34,12 @@ class Device {
 struct SurfaceHit {
   float distance = 0;
   Vec3f position;
-  Vec3f normal;    // unit geometric normal on the authored front side
-  Vec3f albedo;    // Lambertian reflectance
-  Vec3f emission;  // emitted radiance
-  bool doubleSided = false;
+  Vec3f normal;         // unit geometric normal on the authored front side
+  Vec3f shadingNormal;  // unit, interpolated where the mesh has normals, on the same side
+  Vec3f albedo;         // diffuseColor, or displayColor without a material
+  Vec3f emission;       // emitted radiance
+  const MaterialParams* material = nullptr;  // null: displayColor, Lambertian
+  bool closed = false;                       // the mesh bounds a solid
 };
 
 /// Camera rays do not see the back faces of single-sided meshes (doubleSided = 0), as in
@@ -65,6 +67,8 @@ class Scene {
   void setMeshInstance(MeshId id, const MotionTransform& objectToWorld, int materialIndex,
                        bool visible);
 
+  /// Materials are referenced by index; a material whose opacity is below a non-zero
+  /// opacityThreshold cuts its meshes out entirely (opacity has no texture yet).
   void setMaterials(std::vector<MaterialParams> materials) { materials_ = std::move(materials); }
   void setLights(std::vector<Light> lights) { lights_ = std::move(lights); }
   const std::vector<Light>& lights() const { return lights_; }

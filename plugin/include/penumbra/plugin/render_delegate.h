@@ -19,8 +19,11 @@ namespace penumbra::plugin {
 struct RenderSettingsMap {
   int samples = 16;  // target samples per pixel: a render pass converges there
   int seed = 0;
-  int threads = 0;  // 0: all cores
-  int maxPathDepth = 8;
+  int threads = 0;       // 0: all cores
+  int maxPathDepth = 8;  // surface interactions in all
+  int maxDiffuseDepth = 4;
+  int maxGlossyDepth = 4;
+  int maxTransmissionDepth = 8;
 
   /// Throws std::invalid_argument for an unknown key or an out-of-range value.
   void set(const std::string& key, int value);
