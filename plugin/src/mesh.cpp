@@ -8,7 +8,19 @@ void Mesh::setTopology(std::vector<int> counts, std::vector<int> indices, bool l
   data_.faceVertexIndices = std::move(indices);
   data_.leftHanded = leftHanded;
   subdivisionScheme_ = std::move(subdivisionScheme);
+  tessellator_.reset();
   markDirty(DirtyTopology);
+}
+
+void Mesh::setSubdivisionTags(SubdivisionTags tags) {
+  tags_ = std::move(tags);
+  tessellator_.reset();
+  markDirty(DirtyTopology);
+}
+
+const LimitSurfaceTessellator* Mesh::tessellator(SubdivisionScheme scheme) {
+  if (!tessellator_) tessellator_ = std::make_unique<LimitSurfaceTessellator>(data_, scheme, tags_);
+  return tessellator_.get();
 }
 
 void Mesh::setPoints(std::vector<Vec3f> points, std::vector<std::vector<Vec3f>> pointMotion) {
@@ -25,6 +37,7 @@ void Mesh::setDoubleSided(bool doubleSided) {
 void Mesh::setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolation) {
   data_.displayColor = std::move(colors);
   data_.displayColorInterpolation = interpolation;
+  tessellator_.reset();  // it carries displayColor
   markDirty(DirtyPrimvar);
 }
 

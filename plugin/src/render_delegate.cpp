@@ -19,7 +19,8 @@ const std::map<std::string, SettingField>& settingFields() {
       {"maxPathDepth", {&RenderSettingsMap::maxPathDepth, 0}},
       {"maxDiffuseDepth", {&RenderSettingsMap::maxDiffuseDepth, 0}},
       {"maxGlossyDepth", {&RenderSettingsMap::maxGlossyDepth, 0}},
-      {"maxTransmissionDepth", {&RenderSettingsMap::maxTransmissionDepth, 0}}};
+      {"maxTransmissionDepth", {&RenderSettingsMap::maxTransmissionDepth, 0}},
+      {"complexity", {&RenderSettingsMap::complexity, 0}}};
   return fields;
 }
 
@@ -32,6 +33,9 @@ void RenderSettingsMap::set(const std::string& key, int value) {
     for (const auto& entry : settingFields()) known += (known.empty() ? "" : ", ") + entry.first;
     throw std::invalid_argument("unknown render setting '" + key + "' (known: " + known + ")");
   }
+  if (key == "complexity" && value > 3)
+    throw std::invalid_argument("render setting complexity must be 0 (low) to 3 (veryhigh), got " +
+                                std::to_string(value));
   if (value < found->second.minimum)
     throw std::invalid_argument("render setting " + key +
                                 " must be >= " + std::to_string(found->second.minimum) + ", got " +
@@ -166,16 +170,73 @@ void RenderDelegate::syncLights() {
   scene_->setLights(std::move(lights));
 }
 
-void RenderDelegate::syncMesh(Mesh& mesh, bool materialsChanged) {
+bool DicingContext::operator==(const DicingContext& other) const {
+  const CameraParams &a = camera, &b = other.camera;
+  return imageWidth == other.imageWidth && a.cameraToWorld.first().m == b.cameraToWorld.first().m &&
+         a.focalLength == b.focalLength && a.horizontalAperture == b.horizontalAperture &&
+         a.projection == b.projection && a.nearClip == b.nearClip;
+}
+
+TriangleMesh RenderDelegate::meshTriangles(Mesh& mesh, const DicingContext& dicing) {
+  const std::optional<SubdivisionScheme> scheme = parseSubdivisionScheme(mesh.subdivisionScheme());
+  if (!scheme) return triangulate(mesh.data());
+  const MeshData& cage = mesh.data();
+  try {
+    const LimitSurfaceTessellator& tessellator = *mesh.tessellator(*scheme);
+    // Dice each base face finely enough that its facets stay within a fraction of a pixel of
+    // the limit surface at its distance from the camera (halved per complexity level).
+    const CameraParams& camera = dicing.camera;
+    const Transform& objectToWorld = mesh.transform().first();
+    const Vec3f eye = camera.cameraToWorld.first().applyToPoint({0, 0, 0});
+    const float pixelAngle =
+        camera.projection == Projection::Perspective
+            ? camera.horizontalAperture / camera.focalLength / float(dicing.imageWidth)
+            : 0.0f;
+    const float pixelWidth = 0.1f * camera.horizontalAperture / float(dicing.imageWidth);
+    const float fraction = std::ldexp(1.0f, -settings_.complexity);
+    // World-space curvature bounds: the transform's largest stretch scales them.
+    const float stretch = std::max({length(objectToWorld.applyToVector({1, 0, 0})),
+                                    length(objectToWorld.applyToVector({0, 1, 0})),
+                                    length(objectToWorld.applyToVector({0, 0, 1}))});
+    std::vector<int> rates(tessellator.faceCount(), 1);
+    std::vector<const std::vector<Vec3f>*> samples = {&cage.points};
+    for (const std::vector<Vec3f>& step : cage.pointMotion) samples.push_back(&step);
+    size_t faceStart = 0;
+    std::vector<size_t> faceStarts;
+    for (const int count : cage.faceVertexCounts)
+      faceStarts.push_back(faceStart), faceStart += size_t(count);
+    for (const std::vector<Vec3f>* points : samples) {
+      const std::vector<float> bounds = tessellator.curvatureBounds(*points);
+      for (size_t face = 0; face < rates.size() && face < cage.faceVertexCounts.size(); ++face) {
+        float nearest = kInfinity;
+        for (int k = 0; k < cage.faceVertexCounts[face]; ++k) {
+          const Vec3f p = objectToWorld.applyToPoint(
+              (*points)[size_t(cage.faceVertexIndices[faceStarts[face] + size_t(k)])]);
+          nearest = std::min(nearest, length(p - eye));
+        }
+        const float footprint =
+            pixelAngle > 0 ? std::max(nearest, camera.nearClip) * pixelAngle : pixelWidth;
+        rates[face] = std::max(rates[face],
+                               tessellationRateFor(bounds[face] * stretch, fraction * footprint));
+      }
+    }
+    TriangleMesh result = tessellator.tessellate(cage.points, rates);
+    for (const std::vector<Vec3f>& step : cage.pointMotion)
+      result.pointMotion.push_back(tessellator.tessellate(step, rates).points);
+    result.doubleSided = cage.doubleSided;
+    result.closed = isClosedSurface(cage.faceVertexCounts, cage.faceVertexIndices);
+    return result;
+  } catch (const std::invalid_argument& error) {
+    warn(mesh.id() + ": cannot subdivide (" + error.what() + "); rendering the control cage");
+    return triangulate(cage);
+  }
+}
+
+void RenderDelegate::syncMesh(Mesh& mesh, bool materialsChanged, const DicingContext& dicing) {
   const uint32_t bits = mesh.dirtyBits();
   if (bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided)) {
-    if (mesh.subdivisionScheme() != "none" && !warnedAboutSubdivision_) {
-      warnedAboutSubdivision_ = true;
-      warn(mesh.id() + ": subdivisionScheme '" + mesh.subdivisionScheme() +
-           "' is not supported yet; subdivision meshes render as their control cage");
-    }
     try {
-      scene_->setMeshGeometry(mesh.handle(), triangulate(mesh.data()));
+      scene_->setMeshGeometry(mesh.handle(), meshTriangles(mesh, dicing));
     } catch (const std::invalid_argument& error) {
       warn(mesh.id() + ": " + error.what() + "; the mesh is skipped");
       scene_->clearMeshGeometry(mesh.handle());
@@ -195,7 +256,15 @@ void RenderDelegate::syncMesh(Mesh& mesh, bool materialsChanged) {
   if (bits != Clean) mesh.markClean();
 }
 
-bool RenderDelegate::sync() {
+bool RenderDelegate::sync(const DicingContext& dicing) {
+  // A new dicing camera or complexity re-dices every subdivision surface.
+  if (dicedFor_ != dicing || dicedComplexity_ != settings_.complexity) {
+    for (auto& [id, prim] : prims_)
+      if (auto* mesh = dynamic_cast<Mesh*>(prim.get()); mesh && mesh->subdivisionScheme() != "none")
+        mesh->markDirty(DirtyPoints);
+    dicedFor_ = dicing;
+    dicedComplexity_ = settings_.complexity;
+  }
   bool materialsDirty = materialsStructureChanged_, lightsDirty = lightsStructureChanged_;
   bool meshesDirty = meshesStructureChanged_, camerasDirty = false;
   for (const auto& [id, prim] : prims_) {
@@ -213,7 +282,7 @@ bool RenderDelegate::sync() {
   if (lightsDirty) syncLights();
   if (meshesDirty || materialsDirty) {
     for (auto& [id, prim] : prims_)
-      if (auto* mesh = dynamic_cast<Mesh*>(prim.get())) syncMesh(*mesh, materialsDirty);
+      if (auto* mesh = dynamic_cast<Mesh*>(prim.get())) syncMesh(*mesh, materialsDirty, dicing);
   }
   for (auto& [id, prim] : prims_)
     if (dynamic_cast<Camera*>(prim.get()) && prim->dirtyBits() != Clean) prim->markClean();

@@ -27,8 +27,8 @@ void RenderPass::reset() {
 
 void RenderPass::execute(int samples) {
   if (samples < 0) throw std::invalid_argument("sample count must be >= 0");
-  delegate_.sync();
   const Camera& cameraPrim = delegate_.camera(cameraId_);
+  delegate_.sync({cameraPrim.params(), film_.width()});
   const RenderSettingsMap& settings = delegate_.settings();
   // The target sample count does not change what a sample is; everything else does.
   std::map<std::string, int> settingsUsed = settings.asMap();

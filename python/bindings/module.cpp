@@ -146,6 +146,32 @@ PYBIND11_MODULE(_core, m) {
           py::arg("id"), py::arg("face_vertex_counts"), py::arg("face_vertex_indices"),
           py::arg("left_handed") = false, py::arg("subdivision_scheme") = "none")
       .def(
+          "set_mesh_subdivision_tags",
+          [](RenderDelegate& self, const std::string& id, const std::string& interpolateBoundary,
+             const std::string& faceVaryingLinearInterpolation,
+             const std::string& triangleSubdivisionRule, const IntArray& holeIndices,
+             const IntArray& cornerIndices, const FloatArray& cornerSharpnesses,
+             const IntArray& creaseIndices, const IntArray& creaseLengths,
+             const FloatArray& creaseSharpnesses) {
+            penumbra::SubdivisionTags tags;
+            tags.interpolateBoundary = interpolateBoundary;
+            tags.faceVaryingLinearInterpolation = faceVaryingLinearInterpolation;
+            tags.triangleSubdivisionRule = triangleSubdivisionRule;
+            tags.holeIndices = toIntVector(holeIndices, "hole_indices");
+            tags.cornerIndices = toIntVector(cornerIndices, "corner_indices");
+            tags.cornerSharpnesses = toFloatVector(cornerSharpnesses, "corner_sharpnesses");
+            tags.creaseIndices = toIntVector(creaseIndices, "crease_indices");
+            tags.creaseLengths = toIntVector(creaseLengths, "crease_lengths");
+            tags.creaseSharpnesses = toFloatVector(creaseSharpnesses, "crease_sharpnesses");
+            self.mesh(id).setSubdivisionTags(std::move(tags));
+          },
+          py::arg("id"), py::kw_only(), py::arg("interpolate_boundary") = "edgeAndCorner",
+          py::arg("face_varying_linear_interpolation") = "cornersPlus1",
+          py::arg("triangle_subdivision_rule") = "catmullClark",
+          py::arg("hole_indices") = IntArray(), py::arg("corner_indices") = IntArray(),
+          py::arg("corner_sharpnesses") = FloatArray(), py::arg("crease_indices") = IntArray(),
+          py::arg("crease_lengths") = IntArray(), py::arg("crease_sharpnesses") = FloatArray())
+      .def(
           "set_mesh_points",
           [](RenderDelegate& self, const std::string& id, const FloatArray& points) {
             if (points.ndim() == 2) return self.mesh(id).setPoints(toVec3Array(points, "points"));

@@ -273,3 +273,36 @@ TEST(Render, LightsWithShadowsDisabledShineThroughOccluders) {
   // E = π L (r/d)² with r = 0.5, d = 3: radiance 0.5/π · E.
   EXPECT_NEAR(floorUnderOccluder(false), 0.5 * 0.25 / 9, 0.5 * 0.25 / 9 * 0.02);
 }
+
+TEST(Render, SubdivisionMeshesRenderTheirLimitSurface) {
+  RenderDelegate delegate;
+  delegate.insertRprim("mesh", "/cube");
+  Mesh& cube = delegate.mesh("/cube");
+  cube.setPoints({{-1, -1, 1},
+                  {1, -1, 1},
+                  {-1, 1, 1},
+                  {1, 1, 1},
+                  {-1, 1, -1},
+                  {1, 1, -1},
+                  {-1, -1, -1},
+                  {1, -1, -1}});
+  cube.setTopology({4, 4, 4, 4, 4, 4},
+                   {0, 1, 3, 2, 2, 3, 5, 4, 4, 5, 7, 6, 6, 7, 1, 0, 1, 7, 5, 3, 6, 0, 2, 4}, false,
+                   "catmullClark");
+  addCamera(delegate, translation(0, 0, 5), 50);
+  RenderPass pass(delegate, "/cam", 9, 9);
+  pass.execute(1);
+  // The limit surface of a 2-unit Catmull-Clark cube passes 0.8396 from its centre at the middle
+  // of each face (the cage is at 1).
+  const std::vector<float> depth = pass.aov("depth");
+  EXPECT_NEAR(depth[4 * 9 + 4], 5 - 0.8396, 2e-3);
+  EXPECT_TRUE(delegate.takeWarnings().empty());
+  // A hole removes its face: the camera then looks into the cube, at the far side's inside.
+  cube.setSubdivisionTags([] {
+    SubdivisionTags tags;
+    tags.holeIndices = {0};
+    return tags;
+  }());
+  pass.execute(1);
+  EXPECT_GT(pass.aov("depth")[4 * 9 + 4], 5.5f);
+}

@@ -6,6 +6,7 @@
 #include "penumbra/mesh.h"
 #include "penumbra/plugin/prim.h"
 #include "penumbra/scene.h"
+#include "penumbra/subdivision.h"
 
 namespace penumbra::plugin {
 
@@ -16,6 +17,8 @@ class Mesh : public Prim {
   void setTopology(std::vector<int> counts, std::vector<int> indices, bool leftHanded,
                    std::string subdivisionScheme);
   /// `pointMotion`: the points at later, uniformly spaced shutter times (see MeshData).
+  /// UsdGeomMesh's subdivision tags (creases, corners, holes, boundary rules).
+  void setSubdivisionTags(SubdivisionTags tags);
   void setPoints(std::vector<Vec3f> points, std::vector<std::vector<Vec3f>> pointMotion = {});
   void setDoubleSided(bool doubleSided);
   void setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolation);
@@ -29,11 +32,17 @@ class Mesh : public Prim {
   const MotionTransform& transform() const { return objectToWorld_; }
   bool visible() const { return visible_; }
   const std::string& subdivisionScheme() const { return subdivisionScheme_; }
+  const SubdivisionTags& subdivisionTags() const { return tags_; }
+  /// The tessellator of the current topology (built on first use, dropped when topology or tags
+  /// change); null for meshes that are not subdivided.
+  const LimitSurfaceTessellator* tessellator(SubdivisionScheme scheme);
 
  private:
   Scene::MeshId handle_;
   MeshData data_;
   std::string subdivisionScheme_ = "none";
+  SubdivisionTags tags_;
+  std::unique_ptr<LimitSurfaceTessellator> tessellator_;
   PrimId materialId_;
   MotionTransform objectToWorld_;
   bool visible_ = true;

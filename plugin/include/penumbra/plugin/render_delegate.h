@@ -4,6 +4,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,15 @@
 
 namespace penumbra::plugin {
 
+/// What subdivision surfaces are diced for: the camera and resolution of the render pass.
+struct DicingContext {
+  CameraParams camera;
+  int imageWidth = 960;
+
+  bool operator==(const DicingContext& other) const;
+  bool operator!=(const DicingContext& other) const { return !(*this == other); }
+};
+
 /// Render settings; unknown keys are rejected.
 struct RenderSettingsMap {
   int samples = 16;  // target samples per pixel: a render pass converges there
@@ -24,6 +34,9 @@ struct RenderSettingsMap {
   int maxDiffuseDepth = 4;
   int maxGlossyDepth = 4;
   int maxTransmissionDepth = 8;
+  /// How finely subdivision surfaces are diced (usdrecord's --complexity): 0 low (within about
+  /// a pixel of the limit surface), 1 medium, 2 high, 3 veryhigh (each halves the tolerance).
+  int complexity = 0;
 
   /// Throws std::invalid_argument for an unknown key or an out-of-range value.
   void set(const std::string& key, int value);
@@ -55,9 +68,10 @@ class RenderDelegate {
   RenderSettingsMap& settings() { return settings_; }
   const RenderSettingsMap& settings() const { return settings_; }
 
-  /// Syncs every dirty prim into the scene and commits it. Returns true if anything a render
-  /// depends on changed (scene contents or any camera), so that passes restart accumulation.
-  bool sync();
+  /// Syncs every dirty prim into the scene and commits it; subdivision surfaces are diced for
+  /// `dicing` (and re-diced when it changes). Returns true if anything a render depends on
+  /// changed (scene contents or any camera), so that passes restart accumulation.
+  bool sync(const DicingContext& dicing);
   /// Incremented by every sync that changed the scene's contents.
   uint64_t sceneVersion() const { return sceneVersion_; }
   const Scene& scene() const { return *scene_; }
@@ -69,7 +83,9 @@ class RenderDelegate {
   void warn(std::string message) { warnings_.push_back(std::move(message)); }
   void syncMaterials();
   void syncLights();
-  void syncMesh(Mesh& mesh, bool materialsChanged);
+  void syncMesh(Mesh& mesh, bool materialsChanged, const DicingContext& dicing);
+  /// The triangles to render for a mesh: its polygons, or its diced limit surface.
+  TriangleMesh meshTriangles(Mesh& mesh, const DicingContext& dicing);
 
   Device device_;
   std::unique_ptr<Scene> scene_;
@@ -80,7 +96,8 @@ class RenderDelegate {
   bool materialsStructureChanged_ = false;
   bool lightsStructureChanged_ = false;
   bool meshesStructureChanged_ = false;
-  bool warnedAboutSubdivision_ = false;
+  std::optional<DicingContext> dicedFor_;
+  int dicedComplexity_ = 0;
   uint64_t sceneVersion_ = 0;
 };
 
