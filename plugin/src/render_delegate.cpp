@@ -1,5 +1,6 @@
 #include "penumbra/plugin/render_delegate.h"
 
+#include <limits>
 #include <stdexcept>
 
 namespace penumbra::plugin {
@@ -9,6 +10,7 @@ namespace {
 struct SettingField {
   int RenderSettingsMap::*field;
   int minimum;
+  int maximum = std::numeric_limits<int>::max();
 };
 
 const std::map<std::string, SettingField>& settingFields() {
@@ -20,7 +22,8 @@ const std::map<std::string, SettingField>& settingFields() {
       {"maxDiffuseDepth", {&RenderSettingsMap::maxDiffuseDepth, 0}},
       {"maxGlossyDepth", {&RenderSettingsMap::maxGlossyDepth, 0}},
       {"maxTransmissionDepth", {&RenderSettingsMap::maxTransmissionDepth, 0}},
-      {"complexity", {&RenderSettingsMap::complexity, 0}}};
+      {"complexity", {&RenderSettingsMap::complexity, 0, 3}},
+      {"directLighting", {&RenderSettingsMap::directLighting, 0, 2}}};
   return fields;
 }
 
@@ -33,13 +36,11 @@ void RenderSettingsMap::set(const std::string& key, int value) {
     for (const auto& entry : settingFields()) known += (known.empty() ? "" : ", ") + entry.first;
     throw std::invalid_argument("unknown render setting '" + key + "' (known: " + known + ")");
   }
-  if (key == "complexity" && value > 3)
-    throw std::invalid_argument("render setting complexity must be 0 (low) to 3 (veryhigh), got " +
-                                std::to_string(value));
-  if (value < found->second.minimum)
-    throw std::invalid_argument("render setting " + key +
-                                " must be >= " + std::to_string(found->second.minimum) + ", got " +
-                                std::to_string(value));
+  const SettingField& setting = found->second;
+  if (value < setting.minimum || value > setting.maximum)
+    throw std::invalid_argument(
+        "render setting " + key + " must be in [" + std::to_string(setting.minimum) + ", " +
+        std::to_string(setting.maximum) + "], got " + std::to_string(value));
   this->*(found->second.field) = value;
 }
 

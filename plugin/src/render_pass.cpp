@@ -50,6 +50,7 @@ void RenderPass::execute(int samples) {
   renderSettings.integrator.maxDiffuseDepth = settings.maxDiffuseDepth;
   renderSettings.integrator.maxGlossyDepth = settings.maxGlossyDepth;
   renderSettings.integrator.maxTransmissionDepth = settings.maxTransmissionDepth;
+  renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
   renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_), uint32_t(samples),
                 renderSettings);
   samplesDone_ += samples;

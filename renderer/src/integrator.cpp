@@ -13,10 +13,24 @@ struct ScatteringRecord {
   bool diffuse = false;  // which light multiplier (diffuse or specular) applies
 };
 
+/// MIS weight of a BSDF-sampled ray that met a light (`lightPdf`: its light-sampling density).
+float bsdfStrategyWeight(const ScatteringRecord& origin, float lightPdf, DirectLighting mode) {
+  if (origin.pdf <= 0) return 1;  // camera rays and delta lobes: light sampling cannot find these
+  switch (mode) {
+    case DirectLighting::MultipleImportance:
+      return powerHeuristic(origin.pdf, lightPdf);
+    case DirectLighting::LightSamplingOnly:
+      return lightPdf > 0 ? 0.0f : 1.0f;
+    case DirectLighting::BsdfSamplingOnly:
+      return 1;
+  }
+  return 1;
+}
+
 /// Emission from the lights a ray meets before `tMax` (area lights) or, if it escapes, from the
 /// infinite ones, weighted against the BSDF sampling that produced it.
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
-                      const ScatteringRecord& origin, float* nearestLight) {
+                      const ScatteringRecord& origin, DirectLighting mode, float* nearestLight) {
   const std::vector<Light>& lights = scene.lights();
   Vec3f total{0.0f};
   float nearest = kInfinity;
@@ -32,7 +46,7 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     // Light surfaces may overlap; each contributes, and the nearest defines depth and alpha.
     nearest = std::min(nearest, hit->distance);
     const float lightPdf = scene.lightSelection().probability(i) * hit->pdf;
-    const float weight = origin.pdf > 0 ? powerHeuristic(origin.pdf, lightPdf) : 1.0f;
+    const float weight = bsdfStrategyWeight(origin, lightPdf, mode);
     // Camera rays see lights as they are; reflected light is scaled by the lobe's multiplier.
     const float multiplier = !origin.fromSurface ? 1.0f
                              : origin.diffuse    ? light.diffuseMultiplier()
@@ -94,8 +108,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     const std::optional<SurfaceHit> hit =
         scene.intersect(ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary);
     float nearestLight = kInfinity;
-    result.radiance += throughput * emittedAlongRay(scene, ray, hit ? hit->distance : ray.tFar,
-                                                    !hit, scattering, &nearestLight);
+    result.radiance +=
+        throughput * emittedAlongRay(scene, ray, hit ? hit->distance : ray.tFar, !hit, scattering,
+                                     settings.directLighting, &nearestLight);
     if (bounce == 0) {
       const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
       if (firstHit < kInfinity) {
@@ -112,7 +127,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     // Next-event estimation: one light, chosen by power, sampled over its area/solid angle.
     const float lightChoice = sampler.next1D();
     const Vec2f lightSample = sampler.next2D();
-    if (!lights.empty() && !bsdf.isPurelySpecular()) {
+    if (!lights.empty() && !bsdf.isPurelySpecular() &&
+        settings.directLighting != DirectLighting::BsdfSamplingOnly) {
       const size_t index = scene.lightSelection().sampleIndex(lightChoice);
       const Light& light = lights[index];
       const std::optional<LightSample> sample = light.sample(hit->position, lightSample);
@@ -126,7 +142,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
             !scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time))) {
           const float lightPdf = scene.lightSelection().probability(index) * sample->pdf;
           const float weight =
-              sample->isDelta ? 1.0f : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
+              sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
+                  ? 1.0f
+                  : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
           const Vec3f response = diffusePart * light.diffuseMultiplier() +
                                  (f - diffusePart) * light.specularMultiplier();
           result.radiance += throughput * response * sample->radiance * (weight / lightPdf);

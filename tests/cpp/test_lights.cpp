@@ -307,3 +307,34 @@ TEST(Lights, CylinderLightsEmitFromTheirSideOnly) {
   EXPECT_FALSE(light.intersect({3, 1, 0}, {-1, 0, 0}, kInfinity));  // along the axis: a cap
   EXPECT_FALSE(light.intersect({0, 1, 0}, {0, 1, 0}, kInfinity));   // from inside
 }
+
+TEST(Lights, DomeImportanceSamplingLowersVarianceWithTheSameMean) {
+  LightParams p = params(LightType::Dome, Transform());
+  p.texture = skyTexture();
+  const Light light(p);
+  const Vec3f normal{0, 1, 0};
+  const int n = 1 << 14;
+  double importance[2] = {0, 0}, uniform[2] = {0, 0};
+  for (int i = 0; i < n; ++i) {
+    const Vec2f u = sample2D(uint32_t(i));
+    if (const auto s = light.sample({0, 0, 0}, u)) {
+      const double value = luminance(s->radiance) * std::max(0.0f, s->direction.y) / s->pdf;
+      importance[0] += value;
+      importance[1] += value * value;
+    }
+    const Vec3f local = sampleUniformCone(u, 1);  // uniform over the upper hemisphere
+    const double value =
+        luminance(light.escaped(local.z * normal + Vec3f(local.x, 0, local.y))->radiance) *
+        local.z * 2 * M_PI;
+    uniform[0] += value;
+    uniform[1] += value * value;
+  }
+  const auto meanAndVariance = [n](const double* sums) {
+    const double mean = sums[0] / n;
+    return std::pair<double, double>{mean, sums[1] / n - mean * mean};
+  };
+  const auto [importanceMean, importanceVariance] = meanAndVariance(importance);
+  const auto [uniformMean, uniformVariance] = meanAndVariance(uniform);
+  EXPECT_LT(importanceVariance * 10, uniformVariance);
+  EXPECT_NEAR(importanceMean, uniformMean, 3 * std::sqrt(uniformVariance / n));
+}

@@ -110,3 +110,107 @@ TEST(Materials, WhiteFurnaceGlassSphere) {
     EXPECT_NEAR(value, 1.0, 0.02) << "roughness " << roughness;
   }
 }
+
+namespace {
+
+/// A glossy plastic floor under a rect light and a dome, from above, with one of the three
+/// direct-lighting estimators; returns the green channel per pixel.
+std::vector<double> directLightingImage(int mode) {
+  RenderDelegate delegate;
+  addFloor(delegate, "/floor");
+  delegate.insertSprim("material", "/plastic");
+  delegate.material("/plastic").setParam("diffuseColor", Vec3f(0.4f, 0.5f, 0.6f));
+  delegate.material("/plastic").setParam("roughness", 0.3f);
+  delegate.mesh("/floor").setMaterialId("/plastic");
+  delegate.insertSprim("rectLight", "/panel");
+  delegate.light("/panel").setParam("intensity", 4.0f);
+  const double facingDown[16] = {1, 0, 0, 0, 0, 0, -1, 0, 0, 1, 0, 0, 0.5, 1.5, 0, 1};
+  delegate.light("/panel").setTransform(Transform::fromRowMajor(facingDown));
+  delegate.insertSprim("domeLight", "/sky");
+  delegate.light("/sky").setParam("intensity", 0.3f);
+  addCameraAbove(delegate);
+  delegate.camera("/cam").setParams([] {
+    CameraParams params;
+    params.focalLength = 10;
+    params.horizontalAperture = params.verticalAperture = 20;
+    return params;
+  }());
+  delegate.settings().set("maxPathDepth", 1);
+  delegate.settings().set("directLighting", mode);
+  RenderPass pass(delegate, "/cam", 24, 24);
+  pass.execute(64);
+  const std::vector<float> rgba = pass.aov("color");
+  std::vector<double> green;
+  for (size_t i = 1; i < rgba.size(); i += 4) green.push_back(rgba[i]);
+  return green;
+}
+
+/// Mean of a − b over pixels and its standard error (pixels are independent estimates).
+std::pair<double, double> meanDifference(const std::vector<double>& a,
+                                         const std::vector<double>& b) {
+  double sum = 0, sumSquares = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const double d = a[i] - b[i];
+    sum += d;
+    sumSquares += d * d;
+  }
+  const double n = double(a.size()), mean = sum / n;
+  return {mean, std::sqrt((sumSquares / n - mean * mean) / (n - 1))};
+}
+
+}  // namespace
+
+TEST(Materials, MisLightOnlyAndBsdfOnlyAgreeInTheMean) {
+  const std::vector<double> mis = directLightingImage(0), light = directLightingImage(1),
+                            bsdf = directLightingImage(2);
+  double total = 0;
+  for (double v : mis) total += v;
+  ASSERT_GT(total / double(mis.size()), 0.05);
+  for (const auto& other : {light, bsdf}) {
+    const auto [mean, standardError] = meanDifference(mis, other);
+    EXPECT_LT(std::fabs(mean), 3 * standardError + 1e-6) << "mean difference " << mean;
+  }
+}
+
+TEST(Materials, GlossyReflectionsBlurMoreWithRoughness) {
+  const auto highlightSpread = [](float roughness) {
+    RenderDelegate delegate;
+    addFloor(delegate, "/mirror");
+    delegate.insertSprim("material", "/metal");
+    delegate.material("/metal").setParam("metallic", 1.0f);
+    delegate.material("/metal").setParam("diffuseColor", Vec3f(1.0f));
+    delegate.material("/metal").setParam("roughness", roughness);
+    delegate.mesh("/mirror").setMaterialId("/metal");
+    delegate.insertSprim("sphereLight", "/bulb");
+    delegate.light("/bulb").setParam("radius", 0.05f);
+    delegate.light("/bulb").setParam("intensity", 100.0f);
+    const double above[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 5, 0, 1};
+    delegate.light("/bulb").setTransform(Transform::fromRowMajor(above));
+    addCameraAbove(delegate);
+    delegate.camera("/cam").setParams([] {
+      CameraParams params;
+      params.focalLength = 10;
+      params.horizontalAperture = params.verticalAperture = 10;
+      return params;
+    }());
+    delegate.settings().set("maxPathDepth", 1);
+    const int size = 48;
+    RenderPass pass(delegate, "/cam", size, size);
+    pass.execute(32);
+    const std::vector<float> rgba = pass.aov("color");
+    // Intensity-weighted RMS distance of the highlight from the image centre, in pixels.
+    double weight = 0, moment = 0;
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x) {
+        const double value = rgba[size_t(4 * (y * size + x) + 1)];
+        const double dx = x + 0.5 - size / 2.0, dy = y + 0.5 - size / 2.0;
+        weight += value;
+        moment += value * (dx * dx + dy * dy);
+      }
+    return std::sqrt(moment / weight);
+  };
+  const double sharp = highlightSpread(0.1f), medium = highlightSpread(0.25f),
+               rough = highlightSpread(0.5f);
+  EXPECT_LT(sharp * 1.3, medium);
+  EXPECT_LT(medium * 1.3, rough);
+}

@@ -12,6 +12,10 @@
 
 namespace penumbra {
 
+/// How direct lighting is estimated. Only multiple importance sampling is meant for images; the
+/// single strategies exist to check it (all three converge to the same result).
+enum class DirectLighting { MultipleImportance, LightSamplingOnly, BsdfSamplingOnly };
+
 struct IntegratorSettings {
   uint32_t seed = 0;
   /// Surface interactions per path: 0 shows emitters only, 1 direct lighting, 2+ indirect.
@@ -20,6 +24,7 @@ struct IntegratorSettings {
   int maxDiffuseDepth = 4;
   int maxGlossyDepth = 4;
   int maxTransmissionDepth = 8;
+  DirectLighting directLighting = DirectLighting::MultipleImportance;
 };
 
 struct CameraSample {

@@ -37,6 +37,8 @@ struct RenderSettingsMap {
   /// How finely subdivision surfaces are diced (usdrecord's --complexity): 0 low (within about
   /// a pixel of the limit surface), 1 medium, 2 high, 3 veryhigh (each halves the tolerance).
   int complexity = 0;
+  /// Direct lighting estimator (a diagnostic): 0 MIS, 1 light sampling only, 2 BSDF sampling only.
+  int directLighting = 0;
 
   /// Throws std::invalid_argument for an unknown key or an out-of-range value.
   void set(const std::string& key, int value);
