@@ -18,12 +18,17 @@ from pxr import Usd
 from .errors import PenumbraWarning, SceneError
 from .frames import find_placeholder, frame_path, frame_spec_precision, parse_frame_spec
 from .image import COLOR_MODES
-from .renderer import DEFAULT_MAX_PATH_DEPTH, DEFAULT_SAMPLES, DEFAULT_WIDTH, Renderer
+from .renderer import (
+    COMPLEXITIES,
+    DEFAULT_MAX_PATH_DEPTH,
+    DEFAULT_SAMPLES,
+    DEFAULT_WIDTH,
+    Renderer,
+)
 from .usd import open_stage, read_render_settings, resolve_camera
 
 PROG = "penumbra-record"
 EXIT_OK, EXIT_SCENE, EXIT_USAGE = 0, 1, 2
-COMPLEXITIES = ("low", "medium", "high", "veryhigh")
 
 # Flags the parser accepts (for usdrecord compatibility) that this version rejects.
 _NOT_SUPPORTED_YET = {
@@ -97,8 +102,8 @@ def build_parser() -> argparse.ArgumentParser:
         choices=COMPLEXITIES,
         default="low",
         help=(
-            "accepted for compatibility; no effect, as Penumbra does not dice subdivision "
-            "surfaces by a complexity level (default: %(default)s)"
+            "how finely subdivision surfaces are diced: Penumbra renders their limit surface, "
+            "within about a pixel at low, each level halving that (default: %(default)s)"
         ),
     )
     usd.add_argument(
@@ -276,16 +281,16 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _record(args: argparse.Namespace, frames: list[float]) -> int:
     stage = open_stage(args.usdFilePath)
     settings = read_render_settings(stage, args.renderSettingsPrimPath)
-    camera = resolve_camera(stage, args.camera, settings)
     if args.defaultTime:
         time_codes = [Usd.TimeCode.Default()]
     elif frames:
         time_codes = [Usd.TimeCode(frame) for frame in frames]
     else:
         time_codes = [Usd.TimeCode(stage.GetStartTimeCode())]
+    purposes = args.purposes.replace(",", " ").split()
+    camera = resolve_camera(stage, args.camera, settings, time_codes[0], purposes)
 
     print(f"Camera: {camera.GetPath()}")
-    purposes = args.purposes.replace(",", " ").split()
     with Renderer(stage, purposes=purposes) as renderer:
         for time_code in time_codes:
             frame = "default" if time_code.IsDefault() else f"{time_code.GetValue():g}"
@@ -298,6 +303,7 @@ def _record(args: argparse.Namespace, frames: list[float]) -> int:
                 seed=args.seed,
                 threads=args.threads,
                 max_path_depth=args.maxPathDepth,
+                complexity=args.complexity,
                 render_settings=settings.path if settings else None,
                 progress=_Progress(f"time code {frame}"),
             )

@@ -13,6 +13,8 @@ from pxr import Usd
 from . import _core
 from .errors import SceneError, warn
 from .image import Image
+from .usd.framing import DEFAULT_LIGHT_ID
+from .usd.lights import LIGHT_SPRIM_TYPES
 from .usd import (
     DEFAULT_PURPOSES,
     SceneDelegate,
@@ -26,6 +28,9 @@ from .usd import (
 DEFAULT_WIDTH = 960  # usdrecord's default image width
 DEFAULT_SAMPLES = 64
 DEFAULT_MAX_PATH_DEPTH = 8
+COMPLEXITIES = ("low", "medium", "high", "veryhigh")
+"""usdrecord's complexity levels: how finely subdivision surfaces are diced (each level halves
+the distance allowed between the diced surface and the limit surface, about a pixel at "low")."""
 PROGRESS_STEPS = 16  # progress is reported about this many times per render
 
 ProgressCallback = Callable[[int, int], None]
@@ -41,6 +46,13 @@ def _time_code(stage: Usd.Stage, time: TimeLike) -> Usd.TimeCode:
     if isinstance(time, Usd.TimeCode):
         return time
     return Usd.TimeCode(float(time))
+
+
+def complexity_level(complexity: str) -> int:
+    """The render delegate's ``complexity`` setting for a usdrecord complexity name."""
+    if complexity not in COMPLEXITIES:
+        raise ValueError(f"complexity must be one of {', '.join(COMPLEXITIES)}, not {complexity!r}")
+    return COMPLEXITIES.index(complexity)
 
 
 class Renderer:
@@ -86,6 +98,7 @@ class Renderer:
         aovs: Iterable[str] = ("color",),
         threads: int = 0,
         max_path_depth: int = DEFAULT_MAX_PATH_DEPTH,
+        complexity: str = "low",
         render_settings: str | None = None,
         progress: ProgressCallback | None = None,
     ) -> Image:
@@ -105,7 +118,7 @@ class Renderer:
         aovs = tuple(aovs)
         time_code = _time_code(self.stage, time)
         settings = read_render_settings(self.stage, render_settings)
-        camera_prim = resolve_camera(self.stage, camera, settings)
+        camera_prim = resolve_camera(self.stage, camera, settings, time_code, self._scene.purposes)
         if width is None:
             if settings is not None and settings.resolution is not None and height is None:
                 width = settings.resolution[0]
@@ -114,6 +127,7 @@ class Renderer:
         width, height = image_size(camera_prim, time_code, width, height, settings)
 
         self._scene.update(time_code)
+        self._update_default_light()
         camera_id = str(camera_prim.GetPath())
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
@@ -129,6 +143,7 @@ class Renderer:
             ("seed", seed),
             ("threads", threads),
             ("maxPathDepth", max_path_depth),
+            ("complexity", complexity_level(complexity)),
         ):
             self.delegate.set_render_setting(key, value)
         started = clock.perf_counter()
@@ -157,6 +172,24 @@ class Renderer:
         if key not in self._passes:
             self._passes[key] = _core.RenderPass(self.delegate, camera_id, width, height)
         return self._passes[key]
+
+    def _update_default_light(self) -> None:
+        """Light a stage without lights with a uniform dome (as usdrecord lights such stages by
+        default); drop it once the stage has lights of its own."""
+        has_default = self.delegate.has_prim(DEFAULT_LIGHT_ID)
+        has_lights = any(
+            self._scene.prim_kind(prim_id) in LIGHT_SPRIM_TYPES
+            for prim_id in self.delegate.prim_ids()
+            if prim_id != DEFAULT_LIGHT_ID
+        )
+        if has_lights and has_default:
+            self.delegate.remove_prim(DEFAULT_LIGHT_ID)
+        elif not has_lights and not has_default:
+            self.delegate.insert_sprim("domeLight", DEFAULT_LIGHT_ID)
+            warn(
+                f"{stage_name(self.stage)}: the stage has no lights; rendering under a uniform "
+                "white dome light (intensity 1)"
+            )
 
     def _forward_warnings(self) -> None:
         for message in self.delegate.take_warnings():

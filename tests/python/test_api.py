@@ -297,9 +297,11 @@ def test_camera_errors():
         renderer.render(camera="/World", **SMALL)
     with pytest.raises(penumbra.SceneError, match="no camera named 'nope'"):
         renderer.render(camera="nope", **SMALL)
-    with pytest.raises(penumbra.SceneError, match="no camera: none was given"):
-        renderer.render(**SMALL)
+    # Without a camera named anywhere, a camera framing the stage is made (session layer).
+    assert renderer.render(**SMALL).metadata["camera"] == "/PenumbraFramingCamera"
     assert renderer.render(camera="cam", **SMALL).metadata["camera"] == "/cam"
+    with pytest.raises(penumbra.SceneError, match="no camera: .* no geometry to frame"):
+        penumbra.Renderer(Usd.Stage.CreateInMemory()).render(**SMALL)
 
 
 def test_render_convenience_on_a_path():

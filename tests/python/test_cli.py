@@ -142,13 +142,12 @@ def test_missing_and_unreadable_files(tmp_path, capsys):
 
 
 def test_camera_errors(tmp_path, capsys):
-    no_camera = tmp_path / "no_camera.usda"
-    stage = new_stage(no_camera)
-    add_quad(stage, "/World/quad")
-    stage.Save()
-    assert main([str(no_camera), str(tmp_path / "o.exr")]) == 1
+    empty = tmp_path / "empty.usda"
+    new_stage(empty).Save()
+    assert main([str(empty), str(tmp_path / "o.exr")]) == 1
     err = capsys.readouterr().err
-    assert str(no_camera) in err and "no camera" in err and "not implemented yet" in err
+    assert str(empty) in err and "no camera" in err and "no geometry to frame" in err
+    assert not (tmp_path / "o.exr").exists()
 
     assert main([str(CORNELL), str(tmp_path / "o.exr"), "--camera", "/World/tall_box"]) == 1
     assert "/World/tall_box is not a camera (it is a Mesh)" in capsys.readouterr().err
@@ -156,6 +155,24 @@ def test_camera_errors(tmp_path, capsys):
     assert "no prim at camera path /nowhere" in capsys.readouterr().err
     assert main([str(CORNELL), str(tmp_path / "o.exr"), "-rs", "/World"]) == 1
     assert "/World is not a RenderSettings prim" in capsys.readouterr().err
+
+
+def test_stage_without_camera_or_lights_is_framed_and_lit(tmp_path, capsys):
+    no_camera = tmp_path / "no_camera.usda"
+    stage = new_stage(no_camera)
+    add_quad(stage, "/World/quad")
+    stage.Save()
+    assert main([str(no_camera), str(tmp_path / "o.exr"), "-w", "32", "-spp", "4"]) == 0
+    err = capsys.readouterr().err
+    assert "the stage has no lights" in err
+    pixels, _, metadata = _core.read_image(str(tmp_path / "o.exr"))
+    assert metadata["penumbra:camera"] == "/PenumbraFramingCamera"
+    # The quad fills the middle of the frame (alpha 1) and is lit by the default dome.
+    height, width = pixels.shape[:2]
+    assert pixels[height // 2, width // 2, 3] == 1.0
+    assert pixels[height // 2, width // 2, 0] > 0.1
+    # The user's file is not modified: the camera lives in the session layer.
+    assert "PenumbraFramingCamera" not in no_camera.read_text()
 
 
 def test_camera_by_name_and_main_cam(tmp_path):

@@ -21,6 +21,9 @@ _LIGHTS: tuple[tuple[str, type, tuple[str, ...]], ...] = (
     ("distantLight", UsdLux.DistantLight, ("angle",)),
     ("domeLight", UsdLux.DomeLight, ()),
 )
+LIGHT_SPRIM_TYPES = frozenset(entry[0] for entry in _LIGHTS)
+"""The delegate's sprim types for lights."""
+
 _COMMON_INPUTS = (
     "color",
     "intensity",

@@ -42,6 +42,8 @@ def sync_mesh_data(core, prim: Usd.Prim, reader: SampleReader, warn: Callable[[s
         left_handed,
         str(scheme),
     )
+    if scheme != UsdGeom.Tokens.none:
+        _sync_subdivision_tags(core, path, mesh, reader)
     core.set_mesh_points(path, np.asarray(points, dtype=np.float32).reshape(-1, 3))
     core.set_mesh_double_sided(path, bool(reader.get(mesh.GetDoubleSidedAttr())))
     colors, interpolation = _display_color(prim, reader)
@@ -61,3 +63,26 @@ def _display_color(prim: Usd.Prim, reader: SampleReader) -> tuple[np.ndarray, st
             colors = np.asarray(values, dtype=np.float32).reshape(-1, 3)
             return colors, str(primvar.GetInterpolation())
     return np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.constant
+
+
+def _sync_subdivision_tags(core, path: str, mesh: UsdGeom.Mesh, reader: SampleReader) -> None:
+    """Push the subdivision tags (boundary rules, creases, corners, holes) of a subdivided mesh."""
+
+    def array(attr: Usd.Attribute, dtype) -> np.ndarray:
+        value = reader.get(attr)
+        return np.asarray(value if value is not None else [], dtype=dtype)
+
+    core.set_mesh_subdivision_tags(
+        path,
+        interpolate_boundary=str(reader.get(mesh.GetInterpolateBoundaryAttr())),
+        face_varying_linear_interpolation=str(
+            reader.get(mesh.GetFaceVaryingLinearInterpolationAttr())
+        ),
+        triangle_subdivision_rule=str(reader.get(mesh.GetTriangleSubdivisionRuleAttr())),
+        hole_indices=array(mesh.GetHoleIndicesAttr(), np.int32),
+        corner_indices=array(mesh.GetCornerIndicesAttr(), np.int32),
+        corner_sharpnesses=array(mesh.GetCornerSharpnessesAttr(), np.float32),
+        crease_indices=array(mesh.GetCreaseIndicesAttr(), np.int32),
+        crease_lengths=array(mesh.GetCreaseLengthsAttr(), np.int32),
+        crease_sharpnesses=array(mesh.GetCreaseSharpnessesAttr(), np.float32),
+    )

@@ -8,11 +8,13 @@ the camera's apertures.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from pxr import Sdf, Usd, UsdGeom, UsdRender, UsdUtils
 
 from ..errors import SceneError
+from .framing import framing_camera
 from .stage import stage_name
 
 
@@ -82,10 +84,15 @@ def find_camera(stage: Usd.Stage, name_or_path: str) -> Usd.Prim:
 
 
 def resolve_camera(
-    stage: Usd.Stage, camera: str | None, settings: RenderSettings | None
+    stage: Usd.Stage,
+    camera: str | None,
+    settings: RenderSettings | None,
+    time: Usd.TimeCode | None = None,
+    purposes: Iterable[str] = (),
 ) -> Usd.Prim:
     """The camera to render: ``camera`` if given, else the render settings' camera, else
-    ``main_cam``. Raises :class:`SceneError` when there is none."""
+    ``main_cam``, else a camera framing the stage (at ``time``, of the geometry with
+    ``purposes``). Raises :class:`SceneError` when there is none and nothing to frame."""
     if camera:
         return find_camera(stage, camera)
     if settings is not None and settings.camera:
@@ -93,11 +100,14 @@ def resolve_camera(
     try:
         return find_camera(stage, UsdUtils.GetPrimaryCameraName())
     except SceneError:
+        pass
+    framing = framing_camera(stage, time or Usd.TimeCode(stage.GetStartTimeCode()), purposes)
+    if framing is None:
         raise SceneError(
-            f"{stage_name(stage)}: no camera: none was given, the render settings name none and "
-            f"there is no {UsdUtils.GetPrimaryCameraName()!r} (a camera framing the stage is "
-            "not implemented yet)"
-        ) from None
+            f"{stage_name(stage)}: no camera: none was given, the render settings name none, "
+            f"there is no {UsdUtils.GetPrimaryCameraName()!r} and there is no geometry to frame"
+        )
+    return framing
 
 
 def image_size(
