@@ -30,7 +30,8 @@ float bsdfStrategyWeight(const ScatteringRecord& origin, float lightPdf, DirectL
 /// Emission from the lights a ray meets before `tMax` (area lights) or, if it escapes, from the
 /// infinite ones, weighted against the BSDF sampling that produced it.
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
-                      const ScatteringRecord& origin, DirectLighting mode, float* nearestLight) {
+                      const ScatteringRecord& origin, DirectLighting mode, float* nearestLight,
+                      bool* sawLight) {
   const std::vector<Light>& lights = scene.lights();
   Vec3f total{0.0f};
   float nearest = kInfinity;
@@ -43,8 +44,10 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
       hit = light.intersect(ray.origin, ray.direction, tMax);
     }
     if (!hit) continue;
-    // Light surfaces may overlap; each contributes, and the nearest defines depth and alpha.
+    // Light surfaces may overlap; each contributes, and the nearest defines depth. A visible
+    // light (the dome too) makes the pixel opaque.
     nearest = std::min(nearest, hit->distance);
+    if (sawLight) *sawLight = true;
     const float lightPdf = scene.lightSelection().probability(i) * hit->pdf;
     const float weight = bsdfStrategyWeight(origin, lightPdf, mode);
     // Camera rays see lights as they are; reflected light is scaled by the lobe's multiplier.
@@ -108,15 +111,14 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     const std::optional<SurfaceHit> hit =
         scene.intersect(ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary);
     float nearestLight = kInfinity;
+    bool sawLight = false;
     result.radiance +=
         throughput * emittedAlongRay(scene, ray, hit ? hit->distance : ray.tFar, !hit, scattering,
-                                     settings.directLighting, &nearestLight);
+                                     settings.directLighting, &nearestLight, &sawLight);
     if (bounce == 0) {
       const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
-      if (firstHit < kInfinity) {
-        result.alpha = 1;
-        result.depth = camera.viewDepth(ray, firstHit);
-      }
+      if (firstHit < kInfinity) result.depth = camera.viewDepth(ray, firstHit);
+      if (hit || sawLight) result.alpha = 1;
     }
     if (!hit) break;
     result.radiance += throughput * hit->emission;

@@ -29,7 +29,7 @@ struct IntegratorSettings {
 
 struct CameraSample {
   Vec3f radiance;
-  float alpha = 0;          // 1 when the camera ray hit a surface or an area light
+  float alpha = 0;          // 1 when the camera ray hit a surface or saw a light (dome too)
   float depth = kInfinity;  // view-axis distance of the first hit
 };
 

@@ -1,0 +1,3 @@
+"""pytest set-up: golden-image fixture (penumbra.testing)."""
+
+pytest_plugins = ["penumbra.testing"]
