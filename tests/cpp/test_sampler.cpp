@@ -71,3 +71,25 @@ TEST(Sampler, MeanIsUnbiased) {
   }
   EXPECT_NEAR(sum / n, 0.5, 1e-3);
 }
+
+// The stream is the construction the header documents; the implementation's shortcuts (points
+// produced bit-reversed, byte tables) must not change a single value.
+TEST(Sampler, MatchesTheReferenceConstruction) {
+  for (uint32_t sample : {0u, 1u, 7u, 1000u, 65535u, 4000000000u}) {
+    SampleStream stream(42, 3, 9, sample);
+    const uint32_t pixelSeed = hashCombine(hashCombine(hashUint32(42), 3), 9);
+    for (uint32_t dimension = 0; dimension < 8; ++dimension) {
+      const uint32_t seed = hashCombine(pixelSeed, dimension);
+      const uint32_t index = owenScramble(sample, seed);
+      const uint32_t x = owenScramble(sobolDimension0(index), hashCombine(seed, 1));
+      const uint32_t y = owenScramble(sobolDimension1(index), hashCombine(seed, 2));
+      if (dimension % 2 == 0) {
+        const Vec2f p = stream.next2D();
+        EXPECT_EQ(p.x, std::min(float(x) * 0x1p-32f, 0x1.fffffep-1f));
+        EXPECT_EQ(p.y, std::min(float(y) * 0x1p-32f, 0x1.fffffep-1f));
+      } else {
+        EXPECT_EQ(stream.next1D(), std::min(float(x) * 0x1p-32f, 0x1.fffffep-1f));
+      }
+    }
+  }
+}
