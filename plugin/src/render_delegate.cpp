@@ -59,9 +59,13 @@ RenderDelegate::~RenderDelegate() {
 }
 
 void RenderDelegate::insertRprim(const std::string& type, const PrimId& id) {
-  if (type != "mesh") throw std::invalid_argument(id + ": unsupported rprim type '" + type + "'");
   if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
-  prims_[id] = std::make_unique<Mesh>(id, scene_->addMesh());
+  if (type == "mesh")
+    prims_[id] = std::make_unique<Mesh>(id, scene_->addMesh());
+  else if (type == "instancer")
+    prims_[id] = std::make_unique<Instancer>(id, scene_->addInstancer());
+  else
+    throw std::invalid_argument(id + ": unsupported rprim type '" + type + "'");
   meshesStructureChanged_ = true;
 }
 
@@ -83,7 +87,19 @@ void RenderDelegate::insertSprim(const std::string& type, const PrimId& id) {
 void RenderDelegate::removePrim(const PrimId& id) {
   Prim& removed = prim(id);
   if (auto* mesh = dynamic_cast<Mesh*>(&removed)) {
+    // Instancers of this mesh lose their copies (and get them back if it is inserted again).
+    for (auto& [otherId, other] : prims_)
+      if (auto* copies = dynamic_cast<Instancer*>(other.get());
+          copies && copies->prototype() == id) {
+        scene_->removeInstancer(copies->handle());
+        copies->setHandle(scene_->addInstancer());
+        copies->markDirty(DirtyTransform);
+      }
     scene_->removeMesh(mesh->handle());
+    meshesStructureChanged_ = true;
+  }
+  if (auto* copies = dynamic_cast<Instancer*>(&removed)) {
+    scene_->removeInstancer(copies->handle());
     meshesStructureChanged_ = true;
   }
   if (dynamic_cast<Material*>(&removed)) materialsStructureChanged_ = true;
@@ -117,6 +133,9 @@ T& primAs(Prim& prim, const char* typeName) {
 
 Mesh& RenderDelegate::mesh(const PrimId& id) {
   return primAs<Mesh>(prim(id), "mesh");
+}
+Instancer& RenderDelegate::instancer(const PrimId& id) {
+  return primAs<Instancer>(prim(id), "instancer");
 }
 Camera& RenderDelegate::camera(const PrimId& id) {
   return primAs<Camera>(prim(id), "camera");
@@ -257,6 +276,21 @@ void RenderDelegate::syncMesh(Mesh& mesh, bool materialsChanged, const DicingCon
   if (bits != Clean) mesh.markClean();
 }
 
+void RenderDelegate::syncInstancer(Instancer& copies) {
+  const auto found = prims_.find(copies.prototype());
+  auto* prototype = found == prims_.end() ? nullptr : dynamic_cast<Mesh*>(found->second.get());
+  if (!prototype) {
+    warn(copies.id() + ": prototype " + copies.prototype() +
+         " is not a mesh in the render index; the instances are skipped");
+    scene_->removeInstancer(copies.handle());
+    copies.setHandle(scene_->addInstancer());
+  } else {
+    scene_->setInstances(copies.handle(), prototype->handle(), copies.transforms(),
+                         copies.visible());
+  }
+  copies.markClean();
+}
+
 bool RenderDelegate::sync(const DicingContext& dicing) {
   // A new dicing camera or complexity re-dices every subdivision surface.
   if (dicedFor_ != dicing || dicedComplexity_ != settings_.complexity) {
@@ -274,7 +308,7 @@ bool RenderDelegate::sync(const DicingContext& dicing) {
       materialsDirty = true;
     else if (dynamic_cast<Light*>(prim.get()))
       lightsDirty = true;
-    else if (dynamic_cast<Mesh*>(prim.get()))
+    else if (dynamic_cast<Mesh*>(prim.get()) || dynamic_cast<Instancer*>(prim.get()))
       meshesDirty = true;
     else
       camerasDirty = true;
@@ -284,6 +318,11 @@ bool RenderDelegate::sync(const DicingContext& dicing) {
   if (meshesDirty || materialsDirty) {
     for (auto& [id, prim] : prims_)
       if (auto* mesh = dynamic_cast<Mesh*>(prim.get())) syncMesh(*mesh, materialsDirty, dicing);
+    // After the meshes: copies follow their prototype's geometry, placed by the scene.
+    for (auto& [id, prim] : prims_)
+      if (auto* copies = dynamic_cast<Instancer*>(prim.get());
+          copies && copies->dirtyBits() != Clean)
+        syncInstancer(*copies);
   }
   for (auto& [id, prim] : prims_)
     if (dynamic_cast<Camera*>(prim.get()) && prim->dirtyBits() != Clean) prim->markClean();

@@ -227,10 +227,35 @@ PYBIND11_MODULE(_core, m) {
               mesh->setVisible(visible);
             else if (auto* light = dynamic_cast<Light*>(&prim))
               light->setVisible(visible);
+            else if (auto* copies = dynamic_cast<Instancer*>(&prim))
+              copies->setVisible(visible);
             else
               throw std::invalid_argument(id + ": this prim has no visibility");
           },
           py::arg("id"), py::arg("visible"))
+      .def(
+          "set_instances",
+          [](RenderDelegate& self, const std::string& id, const std::string& prototype,
+             const DoubleArray& matrices) {
+            // (N, 4, 4): static copies; (N, K, 4, 4): K motion samples each.
+            const bool animated = matrices.ndim() == 4;
+            if (!(matrices.ndim() == 3 || animated) || matrices.shape(matrices.ndim() - 1) != 4 ||
+                matrices.shape(matrices.ndim() - 2) != 4 || (animated && matrices.shape(1) < 1))
+              throw std::invalid_argument(
+                  id + ": instance transforms must have shape (N, 4, 4) or (N, K, 4, 4)");
+            const py::ssize_t count = matrices.shape(0), steps = animated ? matrices.shape(1) : 1;
+            std::vector<MotionTransform> transforms;
+            transforms.reserve(size_t(count));
+            const double* values = matrices.data();
+            for (py::ssize_t i = 0; i < count; ++i) {
+              std::vector<Transform> samples;
+              for (py::ssize_t k = 0; k < steps; ++k, values += 16)
+                samples.push_back(Transform::fromRowMajor(values));
+              transforms.emplace_back(std::move(samples));
+            }
+            self.instancer(id).setInstances(prototype, std::move(transforms));
+          },
+          py::arg("id"), py::arg("prototype"), py::arg("transforms"))
       .def(
           "set_camera",
           [](RenderDelegate& self, const std::string& id, float focalLength,

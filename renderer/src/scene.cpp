@@ -1,5 +1,6 @@
 #include "penumbra/scene.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -68,8 +69,14 @@ Scene::Scene(const Device& device) : device_(device.get()), top_(rtcNewScene(dev
 }
 
 Scene::~Scene() {
-  for (auto& mesh : meshes_)
-    if (mesh) releaseGeometry(*mesh);
+  for (auto& instancerRecord : instancers_)
+    if (instancerRecord)
+      for (auto& copy : instancerRecord->copies) releasePlacement(copy);
+  for (auto& mesh : meshes_) {
+    if (!mesh) continue;
+    releasePlacement(mesh->own);
+    if (mesh->bvh) rtcReleaseScene(mesh->bvh);
+  }
   rtcReleaseScene(top_);
   rtcReleaseDevice(device_);
 }
@@ -80,37 +87,113 @@ Scene::MeshRecord& Scene::record(MeshId id) {
   return *meshes_[id];
 }
 
-Scene::MeshId Scene::addMesh() {
-  auto mesh = std::make_unique<MeshRecord>();
-  mesh->instance = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
-  const MeshId id = rtcAttachGeometry(top_, mesh->instance);
-  rtcDisableGeometry(mesh->instance);  // until it has geometry
-  rtcCommitGeometry(mesh->instance);
-  throwOnEmbreeError(device_, "add a mesh instance");
-  if (id >= meshes_.size()) meshes_.resize(id + 1);
-  meshes_[id] = std::move(mesh);
-  return id;
+Scene::InstancerRecord& Scene::instancer(InstancerId id) {
+  if (id >= instancers_.size() || !instancers_[id])
+    throw std::out_of_range("no instancer with id " + std::to_string(id));
+  return *instancers_[id];
 }
 
-void Scene::releaseGeometry(MeshRecord& mesh) {
-  if (mesh.bvh) rtcReleaseScene(mesh.bvh);
-  mesh.bvh = nullptr;
-  mesh.data.reset();
+std::unique_ptr<Scene::Placement> Scene::newPlacement(MeshId mesh) {
+  auto placement = std::make_unique<Placement>();
+  placement->mesh = mesh;
+  placement->geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
+  placement->geomId = rtcAttachGeometry(top_, placement->geometry);
+  throwOnEmbreeError(device_, "add an instance");
+  if (placement->geomId >= placements_.size()) placements_.resize(placement->geomId + 1, nullptr);
+  placements_[placement->geomId] = placement.get();
+  return placement;
+}
+
+void Scene::releasePlacement(std::unique_ptr<Placement>& placement) {
+  if (!placement) return;
+  rtcDetachGeometry(top_, placement->geomId);
+  rtcReleaseGeometry(placement->geometry);
+  placements_[placement->geomId] = nullptr;
+  placement.reset();
+}
+
+void Scene::updatePlacement(Placement& placement, bool enabled) {
+  const MeshRecord& mesh = *meshes_[placement.mesh];
+  if (mesh.bvh) rtcSetGeometryInstancedScene(placement.geometry, mesh.bvh);
+  const std::vector<Transform>& steps = placement.objectToWorld.steps();
+  rtcSetGeometryTimeStepCount(placement.geometry, unsigned(steps.size()));
+  if (steps.size() == 1) {
+    const std::array<float, 12> matrix = steps.front().toEmbreeColumnMajor3x4();
+    rtcSetGeometryTransform(placement.geometry, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, matrix.data());
+  } else {
+    // Quaternion-decomposed steps: Embree slerps the rotation, so turns travel on arcs.
+    Quaternion previous;
+    for (unsigned step = 0; step < steps.size(); ++step) {
+      const TransformDecomposition d = decompose(steps[step]);
+      Quaternion q = d.rotation;
+      if (q.w * previous.w + q.x * previous.x + q.y * previous.y + q.z * previous.z < 0)
+        q = {-q.w, -q.x, -q.y, -q.z};  // same rotation, on the near side of the previous key
+      previous = q;
+      RTCQuaternionDecomposition embree;
+      rtcInitQuaternionDecomposition(&embree);
+      embree.scale_x = float(d.scaleShear[0]);
+      embree.skew_xy = float(d.scaleShear[1]);
+      embree.skew_xz = float(d.scaleShear[2]);
+      embree.scale_y = float(d.scaleShear[3]);
+      embree.skew_yz = float(d.scaleShear[4]);
+      embree.scale_z = float(d.scaleShear[5]);
+      embree.quaternion_r = float(q.w);
+      embree.quaternion_i = float(q.x);
+      embree.quaternion_j = float(q.y);
+      embree.quaternion_k = float(q.z);
+      embree.translation_x = float(d.translation[0]);
+      embree.translation_y = float(d.translation[1]);
+      embree.translation_z = float(d.translation[2]);
+      rtcSetGeometryTransformQuaternion(placement.geometry, step, &embree);
+    }
+  }
+  if (enabled && mesh.bvh)
+    rtcEnableGeometry(placement.geometry);
+  else
+    rtcDisableGeometry(placement.geometry);
+  rtcCommitGeometry(placement.geometry);
+  throwOnEmbreeError(device_, "update an instance");
+}
+
+bool Scene::renderable(const MeshRecord& mesh) const {
+  if (!mesh.bvh) return false;
+  if (mesh.materialIndex < 0 || size_t(mesh.materialIndex) >= materials_.size()) return true;
+  const MaterialParams& material = materials_[size_t(mesh.materialIndex)];
+  return !(material.opacityThreshold > 0 && material.opacity < material.opacityThreshold);
+}
+
+void Scene::updateAllPlacements(MeshId id) {
+  MeshRecord& mesh = record(id);
+  const bool shown = renderable(mesh);
+  updatePlacement(*mesh.own, shown && mesh.visible);
+  for (const InstancerId user : mesh.instancers) {
+    InstancerRecord& copies = instancer(user);
+    for (auto& copy : copies.copies) updatePlacement(*copy, shown && copies.visible);
+  }
+}
+
+Scene::MeshId Scene::addMesh() {
+  const MeshId id = MeshId(meshes_.size());
+  meshes_.push_back(std::make_unique<MeshRecord>());
+  meshes_.back()->own = newPlacement(id);
+  updatePlacement(*meshes_.back()->own, false);  // nothing to show until it has geometry
+  return id;
 }
 
 void Scene::removeMesh(MeshId id) {
   MeshRecord& mesh = record(id);
-  releaseGeometry(mesh);
-  rtcDetachGeometry(top_, id);
-  rtcReleaseGeometry(mesh.instance);
+  if (!mesh.instancers.empty())
+    throw std::logic_error("mesh " + std::to_string(id) + " is still placed by an instancer");
+  releasePlacement(mesh.own);
+  if (mesh.bvh) rtcReleaseScene(mesh.bvh);
   meshes_[id].reset();
 }
 
 void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
   MeshRecord& mesh = record(id);
-  releaseGeometry(mesh);
+  RTCScene bvh = nullptr;
   if (!data.triangles.empty()) {
-    RTCScene bvh = rtcNewScene(device_);
+    bvh = rtcNewScene(device_);
     RTCGeometry triangles = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
     const unsigned stepCount = unsigned(data.pointMotion.size() + 1);
     rtcSetGeometryTimeStepCount(triangles, stepCount);
@@ -141,71 +224,69 @@ void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
     rtcReleaseGeometry(triangles);
     rtcCommitScene(bvh);
     throwOnEmbreeError(device_, "build a mesh BVH");
-    mesh.bvh = bvh;
   }
+  // Instances keep their own reference to the old BVH until they are pointed at the new one.
+  if (mesh.bvh) rtcReleaseScene(mesh.bvh);
+  mesh.bvh = bvh;
   mesh.data = std::make_shared<const TriangleMesh>(std::move(data));
-  updateInstance(mesh);
+  updateAllPlacements(id);
 }
 
 void Scene::clearMeshGeometry(MeshId id) {
-  MeshRecord& mesh = record(id);
-  releaseGeometry(mesh);
-  updateInstance(mesh);
+  setMeshGeometry(id, TriangleMesh{});
 }
 
 void Scene::setMeshInstance(MeshId id, const MotionTransform& objectToWorld, int materialIndex,
                             bool visible) {
   MeshRecord& mesh = record(id);
-  mesh.objectToWorld = objectToWorld;
+  mesh.own->objectToWorld = objectToWorld;
   mesh.materialIndex = materialIndex;
   mesh.visible = visible;
-  updateInstance(mesh);
+  updateAllPlacements(id);
 }
 
-void Scene::updateInstance(MeshRecord& mesh) {
-  if (mesh.bvh) rtcSetGeometryInstancedScene(mesh.instance, mesh.bvh);
-  const std::vector<Transform>& steps = mesh.objectToWorld.steps();
-  rtcSetGeometryTimeStepCount(mesh.instance, unsigned(steps.size()));
-  if (steps.size() == 1) {
-    const std::array<float, 12> matrix = steps.front().toEmbreeColumnMajor3x4();
-    rtcSetGeometryTransform(mesh.instance, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, matrix.data());
-  } else {
-    // Quaternion-decomposed steps: Embree slerps the rotation, so turns travel on arcs.
-    Quaternion previous;
-    for (unsigned step = 0; step < steps.size(); ++step) {
-      const TransformDecomposition d = decompose(steps[step]);
-      Quaternion q = d.rotation;
-      if (q.w * previous.w + q.x * previous.x + q.y * previous.y + q.z * previous.z < 0)
-        q = {-q.w, -q.x, -q.y, -q.z};  // same rotation, on the near side of the previous key
-      previous = q;
-      RTCQuaternionDecomposition embree;
-      rtcInitQuaternionDecomposition(&embree);
-      embree.scale_x = float(d.scaleShear[0]);
-      embree.skew_xy = float(d.scaleShear[1]);
-      embree.skew_xz = float(d.scaleShear[2]);
-      embree.scale_y = float(d.scaleShear[3]);
-      embree.skew_yz = float(d.scaleShear[4]);
-      embree.scale_z = float(d.scaleShear[5]);
-      embree.quaternion_r = float(q.w);
-      embree.quaternion_i = float(q.x);
-      embree.quaternion_j = float(q.y);
-      embree.quaternion_k = float(q.z);
-      embree.translation_x = float(d.translation[0]);
-      embree.translation_y = float(d.translation[1]);
-      embree.translation_z = float(d.translation[2]);
-      rtcSetGeometryTransformQuaternion(mesh.instance, step, &embree);
+Scene::InstancerId Scene::addInstancer() {
+  instancers_.push_back(std::make_unique<InstancerRecord>());
+  return InstancerId(instancers_.size() - 1);
+}
+
+void Scene::setInstances(InstancerId id, MeshId prototype, std::vector<MotionTransform> transforms,
+                         bool visible) {
+  InstancerRecord& copies = instancer(id);
+  MeshRecord& mesh = record(prototype);
+  if (copies.prototype != prototype || copies.copies.empty()) {
+    if (!copies.copies.empty()) {
+      auto& users = record(copies.prototype).instancers;
+      users.erase(std::remove(users.begin(), users.end(), id), users.end());
     }
+    if (std::find(mesh.instancers.begin(), mesh.instancers.end(), id) == mesh.instancers.end())
+      mesh.instancers.push_back(id);
   }
-  const bool cutOut = mesh.materialIndex >= 0 && size_t(mesh.materialIndex) < materials_.size() &&
-                      materials_[size_t(mesh.materialIndex)].opacityThreshold > 0 &&
-                      materials_[size_t(mesh.materialIndex)].opacity <
-                          materials_[size_t(mesh.materialIndex)].opacityThreshold;
-  if (mesh.bvh && mesh.visible && !cutOut)
-    rtcEnableGeometry(mesh.instance);
-  else
-    rtcDisableGeometry(mesh.instance);
-  rtcCommitGeometry(mesh.instance);
-  throwOnEmbreeError(device_, "update a mesh instance");
+  copies.prototype = prototype;
+  copies.visible = visible;
+  // Reuse the Embree geometries already there; create or drop the difference.
+  while (copies.copies.size() > transforms.size()) {
+    releasePlacement(copies.copies.back());
+    copies.copies.pop_back();
+  }
+  while (copies.copies.size() < transforms.size()) copies.copies.push_back(newPlacement(prototype));
+  const bool shown = renderable(mesh) && visible;
+  for (size_t i = 0; i < transforms.size(); ++i) {
+    Placement& copy = *copies.copies[i];
+    copy.mesh = prototype;
+    copy.objectToWorld = std::move(transforms[i]);
+    updatePlacement(copy, shown);
+  }
+}
+
+void Scene::removeInstancer(InstancerId id) {
+  InstancerRecord& copies = instancer(id);
+  if (!copies.copies.empty()) {
+    auto& users = record(copies.prototype).instancers;
+    users.erase(std::remove(users.begin(), users.end(), id), users.end());
+  }
+  for (auto& copy : copies.copies) releasePlacement(copy);
+  instancers_[id].reset();
 }
 
 void Scene::commit() {
@@ -239,7 +320,8 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
   rtcIntersect1(top_, &context.embree, &rayHit);
   if (rayHit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
 
-  const MeshRecord& mesh = *meshes_[rayHit.hit.instID[0]];
+  const Placement& placement = *placements_[rayHit.hit.instID[0]];
+  const MeshRecord& mesh = *meshes_[placement.mesh];
   const TriangleMesh& data = *mesh.data;
   const uint32_t triangle = rayHit.hit.primID;
   const Vec3f p0 = data.cornerAt(triangle, 0, ray.time);
@@ -249,7 +331,7 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
   SurfaceHit hit;
   hit.distance = rayHit.ray.tfar;
   hit.position = ray.origin + ray.direction * hit.distance;
-  const Transform objectToWorld = mesh.objectToWorld.at(ray.time);
+  const Transform objectToWorld = placement.objectToWorld.at(ray.time);
   hit.normal = normalize(objectToWorld.applyToNormal(cross(p1 - p0, p2 - p0)));
   hit.shadingNormal = hit.normal;
   const float u = rayHit.hit.u, v = rayHit.hit.v;

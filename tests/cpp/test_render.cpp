@@ -306,3 +306,39 @@ TEST(Render, SubdivisionMeshesRenderTheirLimitSurface) {
   pass.execute(1);
   EXPECT_GT(pass.aov("depth")[4 * 9 + 4], 5.5f);
 }
+
+TEST(RenderDelegate, InstancersPlaceCopiesOfAPrototype) {
+  RenderDelegate delegate;
+  addFloor(delegate, "/proto", 0.25f);
+  delegate.mesh("/proto").setVisible(false);  // only its copies render
+  delegate.insertRprim("instancer", "/copies");
+  delegate.instancer("/copies").setInstances("/proto",
+                                             {translation(-1, 0, 0), translation(1, 0, 0)});
+  addCamera(delegate, facingDown(0, 5, 0), 1);  // sees x in [-2.5, 2.5]
+  const auto alphaAt = [&](RenderPass& pass, float x) {
+    const std::vector<float> rgba = pass.aov("color");
+    const int column = int((x + 2.5f) / 5 * 40);
+    return rgba[size_t(4 * (20 * 40 + column) + 3)];
+  };
+  RenderPass pass(delegate, "/cam", 40, 40);
+  pass.execute(1);
+  EXPECT_EQ(alphaAt(pass, -1), 1.0f);
+  EXPECT_EQ(alphaAt(pass, 1), 1.0f);
+  EXPECT_EQ(alphaAt(pass, 0), 0.0f);  // the hidden prototype
+  // Editing the prototype's geometry moves every copy with it.
+  delegate.mesh("/proto").setTransform(translation(0, 0, 0));
+  delegate.mesh("/proto").setPoints(
+      {{1.5f, 0, -0.25f}, {1.5f, 0, 0.25f}, {2, 0, 0.25f}, {2, 0, -0.25f}});
+  pass.execute(1);
+  EXPECT_EQ(alphaAt(pass, -1), 0.0f);
+  EXPECT_EQ(alphaAt(pass, 0.75f), 1.0f);  // -1 + 1.75
+  // Removing the prototype drops the copies, with a warning at the next sync.
+  delegate.removePrim("/proto");
+  pass.execute(1);
+  EXPECT_EQ(alphaAt(pass, 0.75f), 0.0f);
+  const std::vector<std::string> warnings = delegate.takeWarnings();
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(
+      warnings[0],
+      "/copies: prototype /proto is not a mesh in the render index; the instances are skipped");
+}

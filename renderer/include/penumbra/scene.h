@@ -1,6 +1,6 @@
-// The scene the tracer sees: triangle meshes as Embree instances (one BVH per mesh, one instance
-// each, so that a transform edit does not rebuild geometry), materials and lights. Plain data
-// only; no USD.
+// The scene the tracer sees: triangle meshes as Embree instances (one BVH per mesh, placed by
+// one instance of its own, so that a transform edit does not rebuild geometry, and by any number
+// of instancer copies sharing that BVH), materials and lights. Plain data only; no USD.
 #pragma once
 
 #include <embree3/rtcore.h>
@@ -49,6 +49,7 @@ enum class RayKind { Camera, Secondary };
 class Scene {
  public:
   using MeshId = uint32_t;
+  using InstancerId = uint32_t;
   /// Material index meaning "none bound": displayColor is the albedo.
   static constexpr int kNoMaterial = -1;
 
@@ -66,6 +67,14 @@ class Scene {
   /// Places the mesh; an animated transform gives Embree multi-segment instance motion.
   void setMeshInstance(MeshId id, const MotionTransform& objectToWorld, int materialIndex,
                        bool visible);
+
+  /// Copies of a mesh (its geometry and material), one per transform, sharing its BVH: memory
+  /// grows with the number of copies, not with their triangles. The mesh itself need not be
+  /// visible (a prototype). Replaces the instancer's previous copies.
+  InstancerId addInstancer();
+  void setInstances(InstancerId id, MeshId prototype, std::vector<MotionTransform> transforms,
+                    bool visible);
+  void removeInstancer(InstancerId id);
 
   /// Materials are referenced by index; a material whose opacity is below a non-zero
   /// opacityThreshold cuts its meshes out entirely (opacity has no texture yet).
@@ -85,22 +94,42 @@ class Scene {
   float rayEpsilon(const Vec3f& point) const;
 
  private:
+  /// One Embree instance geometry: a placement of a mesh's BVH.
+  struct Placement {
+    RTCGeometry geometry = nullptr;
+    unsigned geomId = 0;
+    MeshId mesh = 0;
+    MotionTransform objectToWorld;
+  };
   struct MeshRecord {
     RTCScene bvh = nullptr;
-    RTCGeometry instance = nullptr;
     std::shared_ptr<const TriangleMesh> data;
-    MotionTransform objectToWorld;
     int materialIndex = kNoMaterial;
     bool visible = true;
+    std::unique_ptr<Placement> own;
+    std::vector<InstancerId> instancers;  // those placing copies of this mesh
   };
-  void updateInstance(MeshRecord& record);
-  void releaseGeometry(MeshRecord& record);
+  struct InstancerRecord {
+    MeshId prototype = 0;
+    bool visible = true;
+    std::vector<std::unique_ptr<Placement>> copies;
+  };
+
+  MeshRecord& record(MeshId id);
+  InstancerRecord& instancer(InstancerId id);
+  std::unique_ptr<Placement> newPlacement(MeshId mesh);
+  void releasePlacement(std::unique_ptr<Placement>& placement);
+  /// Pushes a placement's BVH, transform and enabled state to Embree.
+  void updatePlacement(Placement& placement, bool enabled);
+  /// Whether copies of a mesh render: it has geometry and its material does not cut it out.
+  bool renderable(const MeshRecord& mesh) const;
+  void updateAllPlacements(MeshId id);
 
   RTCDevice device_;
   RTCScene top_;
-  MeshRecord& record(MeshId id);
-
-  std::vector<std::unique_ptr<MeshRecord>> meshes_;  // indexed by the instance's Embree geomID
+  std::vector<std::unique_ptr<MeshRecord>> meshes_;           // by MeshId
+  std::vector<std::unique_ptr<InstancerRecord>> instancers_;  // by InstancerId
+  std::vector<const Placement*> placements_;                  // by Embree geomID
   std::vector<MaterialParams> materials_;
   std::vector<Light> lights_;
   Distribution1D lightSelection_{{}};

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "penumbra/plugin/camera.h"
+#include "penumbra/plugin/instancer.h"
 #include "penumbra/plugin/light.h"
 #include "penumbra/plugin/material.h"
 #include "penumbra/plugin/mesh.h"
@@ -50,7 +51,7 @@ class RenderDelegate {
   RenderDelegate();
   ~RenderDelegate();
 
-  /// Rprim types: "mesh". Sprim types: "camera", "material", and the light types
+  /// Rprim types: "mesh", "instancer". Sprim types: "camera", "material", and the light types
   /// ("rectLight", "diskLight", "sphereLight", "distantLight", "domeLight").
   /// Throws std::invalid_argument for an unknown type or an id already in use.
   void insertRprim(const std::string& type, const PrimId& id);
@@ -62,6 +63,7 @@ class RenderDelegate {
 
   /// Typed access; throws std::out_of_range naming the id when it is missing or of another type.
   Mesh& mesh(const PrimId& id);
+  Instancer& instancer(const PrimId& id);
   Camera& camera(const PrimId& id);
   Light& light(const PrimId& id);
   Material& material(const PrimId& id);
@@ -86,6 +88,7 @@ class RenderDelegate {
   void syncMaterials();
   void syncLights();
   void syncMesh(Mesh& mesh, bool materialsChanged, const DicingContext& dicing);
+  void syncInstancer(Instancer& instancer);
   /// The triangles to render for a mesh: its polygons, or its diced limit surface.
   TriangleMesh meshTriangles(Mesh& mesh, const DicingContext& dicing);
 

@@ -1,0 +1,41 @@
+// Instancer rprim (cf. HdInstancer): copies of one prototype mesh, each with its own transform,
+// sharing the prototype's geometry. USD's point instancers and native instancing flatten to one
+// of these per prototype mesh (Embree instances one level deep).
+#pragma once
+
+#include <vector>
+
+#include "penumbra/plugin/prim.h"
+#include "penumbra/scene.h"
+
+namespace penumbra::plugin {
+
+class Instancer : public Prim {
+ public:
+  Instancer(PrimId id, Scene::InstancerId handle) : Prim(std::move(id)), handle_(handle) {}
+
+  /// `transforms`: one (possibly animated) prototype-to-world transform per copy.
+  void setInstances(PrimId prototype, std::vector<MotionTransform> transforms) {
+    prototype_ = std::move(prototype);
+    transforms_ = std::move(transforms);
+    markDirty(DirtyTransform);
+  }
+  void setVisible(bool visible) {
+    visible_ = visible;
+    markDirty(DirtyVisibility);
+  }
+
+  Scene::InstancerId handle() const { return handle_; }
+  void setHandle(Scene::InstancerId handle) { handle_ = handle; }
+  const PrimId& prototype() const { return prototype_; }
+  const std::vector<MotionTransform>& transforms() const { return transforms_; }
+  bool visible() const { return visible_; }
+
+ private:
+  Scene::InstancerId handle_;
+  PrimId prototype_;
+  std::vector<MotionTransform> transforms_;
+  bool visible_ = true;
+};
+
+}  // namespace penumbra::plugin
