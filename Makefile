@@ -57,7 +57,9 @@ test-python:
 	$(VPY) -m pytest -q tests/python
 
 bench: build
-	$(VPY) bench/run.py
+	$(VPY) bench/run.py cornell.usda dof.usda motion.usda glass.usda instances.usda
+	$(VPY) bench/instances.py --instances 100000
+	$(VPY) bench/instances.py --instances 1000000
 
 clean:
 	rm -rf build $(VENV)

@@ -14,6 +14,7 @@ from . import _core
 from .errors import SceneError, warn
 from .image import Image
 from .usd.framing import DEFAULT_LIGHT_ID
+from .usd.instancers import PointInstancerDelegate
 from .usd.lights import LIGHT_SPRIM_TYPES
 from .usd import (
     DEFAULT_PURPOSES,
@@ -72,12 +73,22 @@ class Renderer:
         self.delegate = _core.RenderDelegate()
         """The ``penumbra._core.RenderDelegate`` holding the synced scene (for inspection)."""
         self._scene = SceneDelegate(stage, self.delegate, purposes)
+        self._instancers = PointInstancerDelegate(stage, self.delegate, purposes, warn)
         self._passes: dict[tuple[str, int, int], _core.RenderPass] = {}
         self._scene.update(_time_code(stage, None))
+
+    def sync(self, time: TimeLike = None) -> None:
+        """Push the stage (as edited since the last sync) at ``time`` into the render delegate;
+        :meth:`render` does this itself. Acceleration structures are built by the first render."""
+        time_code = _time_code(self.stage, time)
+        self._scene.update(time_code)
+        self._instancers.update(time_code)
+        self._update_default_light()
 
     def close(self) -> None:
         """Stop tracking stage edits and drop the render passes."""
         self._scene.close()
+        self._instancers.close()
         self._passes.clear()
 
     def __enter__(self) -> Renderer:
@@ -126,8 +137,7 @@ class Renderer:
                 width = DEFAULT_WIDTH
         width, height = image_size(camera_prim, time_code, width, height, settings)
 
-        self._scene.update(time_code)
-        self._update_default_light()
+        self.sync(time_code)
         camera_id = str(camera_prim.GetPath())
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")

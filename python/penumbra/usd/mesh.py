@@ -9,14 +9,21 @@ from pxr import Usd, UsdGeom
 
 from .sampling import SampleReader
 
-def sync_mesh_data(core, prim: Usd.Prim, reader: SampleReader, warn: Callable[[str], None]) -> bool:
-    """Push the topology, points, sidedness and displayColor of ``prim`` to ``core``.
+def sync_mesh_data(
+    core,
+    prim: Usd.Prim,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    prim_id: str | None = None,
+) -> bool:
+    """Push the topology, points, sidedness and displayColor of ``prim`` to ``core`` (as the
+    delegate prim ``prim_id``, by default the prim's path).
 
     Returns ``False`` (after a warning naming the prim) when the mesh has no points or no
     topology; nothing is pushed then. Index ranges are validated by the delegate at sync.
     """
     mesh = UsdGeom.Mesh(prim)
-    path = str(prim.GetPath())
+    path = prim_id or str(prim.GetPath())
     points = reader.get(mesh.GetPointsAttr())
     counts = reader.get(mesh.GetFaceVertexCountsAttr())
     indices = reader.get(mesh.GetFaceVertexIndicesAttr())

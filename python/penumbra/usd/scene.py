@@ -161,7 +161,7 @@ class SceneDelegate:
         if prim.IsA(UsdGeom.Mesh):
             purpose = UsdGeom.Imageable(prim).ComputePurpose()
             return "mesh" if purpose in self.purposes else None
-        renderable = (UsdGeom.Gprim, UsdGeom.PointInstancer, UsdVol.Volume)
+        renderable = (UsdGeom.Gprim, UsdVol.Volume)  # point instancers: PointInstancerDelegate
         if any(prim.IsA(schema) for schema in renderable) or is_light(prim):
             if UsdGeom.Imageable(prim).ComputePurpose() in self.purposes:
                 type_name = prim.GetTypeName() or "untyped"

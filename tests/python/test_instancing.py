@@ -1,0 +1,78 @@
+"""UsdGeomPointInstancer: copies of prototypes placed by positions, orientations, scales and
+protoIndices, masked by invisibleIds, sharing one BVH per prototype mesh."""
+
+from __future__ import annotations
+
+import pytest
+from pxr import Gf, UsdGeom, Vt
+
+import penumbra
+from stages import add_camera, add_distant_light, add_preview_material, add_quad, bind, new_stage
+
+SMALL = dict(camera="/cam", width=40, samples=1)
+
+
+def instancer_stage():
+    """Two prototypes (a red and a blue quad, each a quarter unit wide) placed by a point
+    instancer; the camera sees the square [-2, 2]² of the z = 0 plane."""
+    stage = new_stage()
+    add_camera(stage)
+    add_distant_light(stage)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/World/copies")
+    UsdGeom.Xform.Define(stage, "/World/copies/Prototypes")
+    for name, color in (("red", (1, 0, 0)), ("blue", (0, 0, 1))):
+        quad = add_quad(stage, f"/World/copies/Prototypes/{name}/quad", half_size=0.125)
+        bind(quad, add_preview_material(stage, f"/World/Looks/{name}", diffuseColor=color))
+        instancer.GetPrototypesRel().AddTarget(f"/World/copies/Prototypes/{name}")
+    instancer.CreatePositionsAttr(Vt.Vec3fArray([(-1, 1, 0), (1, 1, 0), (-1, -1, 0), (1, -1, 0)]))
+    instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 1, 1, 0]))
+    return stage, instancer
+
+
+def color_at(image, x: float, y: float):
+    """Pixel colour at plane point (x, y) for the 40x40 view of [-2, 2]²."""
+    height, width = image["color"].shape[:2]
+    column = int((x + 2) / 4 * width)
+    row = int((2 - y) / 4 * height)
+    return image["color"][row, column]
+
+
+def test_copies_follow_positions_and_proto_indices():
+    stage, _ = instancer_stage()
+    renderer = penumbra.Renderer(stage)
+    image = renderer.render(**SMALL)
+    # Diffuse red and blue under a white specular layer.
+    red, blue = color_at(image, -1, 1), color_at(image, 1, 1)
+    assert red[0] > 5 * red[2] and blue[2] > 5 * blue[0]
+    assert color_at(image, -1, -1)[2] > 5 * color_at(image, -1, -1)[0]
+    assert color_at(image, 0, 0)[3] == 0  # the prototypes themselves do not render
+    # Only two meshes in the delegate, however many copies.
+    meshes = [p for p in renderer.delegate.prim_ids() if "/prototypes/" in p]
+    assert len(meshes) == 2
+
+
+def test_orientations_scales_and_invisible_ids():
+    stage, instancer = instancer_stage()
+    # Scale the first copy by 4 and hide the second; turn the third a quarter about Z.
+    instancer.CreateScalesAttr(Vt.Vec3fArray([(4, 4, 1), (1, 1, 1), (1, 1, 1), (1, 1, 1)]))
+    instancer.CreateInvisibleIdsAttr(Vt.Int64Array([1]))
+    instancer.CreateOrientationsAttr(
+        Vt.QuathArray([Gf.Quath(1), Gf.Quath(1), Gf.Quath(0.7071, 0, 0, 0.7071), Gf.Quath(1)])
+    )
+    image = penumbra.Renderer(stage).render(**SMALL)
+    assert color_at(image, -1 + 0.4, 1 + 0.4)[3] == 1  # inside the scaled copy (half size 0.5)
+    assert color_at(image, 1, 1)[3] == 0  # invisibleIds
+    assert color_at(image, -1, -1)[3] == 1
+
+
+def test_edits_resync_the_instancer_and_bad_indices_warn():
+    stage, instancer = instancer_stage()
+    renderer = penumbra.Renderer(stage)
+    renderer.render(**SMALL)
+    instancer.GetPositionsAttr().Set(Vt.Vec3fArray([(0, 0, 0), (1, 1, 0), (-1, -1, 0), (1, -1, 0)]))
+    image = renderer.render(**SMALL)
+    assert color_at(image, 0, 0)[3] == 1 and color_at(image, -1, 1)[3] == 0
+    instancer.GetProtoIndicesAttr().Set(Vt.IntArray([0, 1, 7, 0]))
+    with pytest.warns(penumbra.PenumbraWarning, match="/World/copies: 1 protoIndices are out of range"):
+        image = renderer.render(**SMALL)
+    assert image["color"][..., 3].max() == 0
