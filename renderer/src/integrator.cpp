@@ -2,9 +2,24 @@
 
 #include "penumbra/bsdf.h"
 #include "penumbra/sampler.h"
+#include "penumbra/spectrum.h"
 
 namespace penumbra {
 namespace {
+
+/// What the path's three colour channels mean: RGB, or (in scenes with dispersion) three
+/// wavelengths, with RGB inputs upsampled to smooth spectra (Jakob & Hanika 2019).
+struct PathSpectrum {
+  bool spectral = false;
+  SampledWavelengths wavelengths;
+
+  Vec3f emission(const Vec3f& rgb) const {
+    return spectral ? RgbSpectrum::unbounded(rgb).at(wavelengths.lambda) : rgb;
+  }
+  Vec3f reflectance(const Vec3f& rgb) const {
+    return spectral ? RgbSpectrum::reflectance(rgb).at(wavelengths.lambda) : rgb;
+  }
+};
 
 /// How the ray being traced was produced, for weighting the emission it finds.
 struct ScatteringRecord {
@@ -30,8 +45,8 @@ float bsdfStrategyWeight(const ScatteringRecord& origin, float lightPdf, DirectL
 /// Emission from the lights a ray meets before `tMax` (area lights) or, if it escapes, from the
 /// infinite ones, weighted against the BSDF sampling that produced it.
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
-                      const ScatteringRecord& origin, DirectLighting mode, float* nearestLight,
-                      bool* sawLight) {
+                      const ScatteringRecord& origin, DirectLighting mode,
+                      const PathSpectrum& spectrum, float* nearestLight, bool* sawLight) {
   const std::vector<Light>& lights = scene.lights();
   Vec3f total{0.0f};
   float nearest = kInfinity;
@@ -54,7 +69,7 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     const float multiplier = !origin.fromSurface ? 1.0f
                              : origin.diffuse    ? light.diffuseMultiplier()
                                                  : light.specularMultiplier();
-    total += hit->radiance * (weight * multiplier);
+    total += spectrum.emission(hit->radiance) * (weight * multiplier);
   }
   if (nearestLight) *nearestLight = nearest;
   return total;
@@ -74,7 +89,8 @@ Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, 
 }
 
 /// The scattering function at a hit: the bound UsdPreviewSurface, or a Lambertian displayColor.
-PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit) {
+/// `ior`: the material's, or its value at the hero wavelength under dispersion.
+PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior) {
   static const MaterialParams lambertian = [] {
     MaterialParams params;
     params.roughness = 1;
@@ -82,9 +98,13 @@ PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit) {
     params.specularColor = Vec3f(0.0f);
     return params;
   }();
-  if (!hit.material) return PreviewSurfaceBsdf(lambertian, hit.albedo, hit.shadingNormal, 1.0f);
+  const Vec3f albedo = spectrum.reflectance(hit.albedo);
+  if (!hit.material) return PreviewSurfaceBsdf(lambertian, albedo, hit.shadingNormal, 1.0f);
+  MaterialParams material = *hit.material;
+  if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
+  material.diffuseColor = albedo;
   // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
-  return PreviewSurfaceBsdf(*hit.material, hit.albedo, hit.shadingNormal, hit.material->ior,
+  return PreviewSurfaceBsdf(material, albedo, hit.shadingNormal, ior,
                             hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet);
 }
 
@@ -97,6 +117,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   const Vec2f filterOffset = filter.sampleOffset(sampler.next2D());
   const Vec2f lensSample = sampler.next2D();
   const float shutterTime = sampler.next1D();
+  PathSpectrum spectrum;
+  if (scene.spectral()) {  // drawn only then, so that RGB renders keep their samples
+    spectrum.spectral = true;
+    spectrum.wavelengths = sampleWavelengths(sampler.next1D());
+  }
   Ray ray = camera.generateRay(float(x) + 0.5f + filterOffset.x, float(y) + 0.5f + filterOffset.y,
                                lensSample, shutterTime);
 
@@ -114,17 +139,25 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     bool sawLight = false;
     result.radiance +=
         throughput * emittedAlongRay(scene, ray, hit ? hit->distance : ray.tFar, !hit, scattering,
-                                     settings.directLighting, &nearestLight, &sawLight);
+                                     settings.directLighting, spectrum, &nearestLight, &sawLight);
     if (bounce == 0) {
       const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
       if (firstHit < kInfinity) result.depth = camera.viewDepth(ray, firstHit);
       if (hit || sawLight) result.alpha = 1;
     }
     if (!hit) break;
-    result.radiance += throughput * hit->emission;
+    result.radiance += throughput * spectrum.emission(hit->emission);
     if (bounce >= settings.maxPathDepth || lastVertex) break;
     const Vec3f wo = -ray.direction;
-    const PreviewSurfaceBsdf bsdf = makeBsdf(*hit);
+    float ior = hit->material ? hit->material->ior : 1.0f;
+    if (spectrum.spectral && hit->material && hit->material->abbeNumber > 0 &&
+        hit->material->opacity < 1) {
+      // A dispersive interface sends each wavelength its own way: only the hero's path goes on.
+      spectrum.wavelengths.keepHeroOnly();
+      throughput = {throughput.x, 0, 0};
+      ior = dispersiveIor(ior, hit->material->abbeNumber, spectrum.wavelengths.hero());
+    }
+    const PreviewSurfaceBsdf bsdf = makeBsdf(*hit, spectrum, ior);
 
     // Next-event estimation: one light, chosen by power, sampled over its area/solid angle.
     const float lightChoice = sampler.next1D();
@@ -149,7 +182,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                   : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
           const Vec3f response = diffusePart * light.diffuseMultiplier() +
                                  (f - diffusePart) * light.specularMultiplier();
-          result.radiance += throughput * response * sample->radiance * (weight / lightPdf);
+          result.radiance +=
+              throughput * response * spectrum.emission(sample->radiance) * (weight / lightPdf);
         }
       }
     }
@@ -185,6 +219,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     if (isBlack(throughput)) break;
     ray = spawnRay(scene, *hit, scattered->direction, kInfinity, ray.time);
   }
+  if (spectrum.spectral) result.radiance = spectralToRgb(result.radiance, spectrum.wavelengths);
   return result;
 }
 

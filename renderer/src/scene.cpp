@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "penumbra/spectrum.h"
+
 namespace penumbra {
 namespace {
 
@@ -301,6 +303,10 @@ void Scene::commit() {
   for (const Light& light : lights_)
     powers.push_back(light.power(0.5f * sceneExtent_ * std::sqrt(3.0f)));
   lightSelection_ = Distribution1D(std::move(powers));
+  spectral_ = std::any_of(materials_.begin(), materials_.end(), [](const MaterialParams& m) {
+    return m.abbeNumber > 0 && m.opacity < 1;
+  });
+  if (spectral_) prepareSpectralTables();  // now rather than on the first ray
 }
 
 float Scene::rayEpsilon(const Vec3f& point) const {

@@ -60,7 +60,9 @@ void addCameraAbove(RenderDelegate& delegate) {
   delegate.camera("/cam").setTransform(Transform::fromRowMajor(down));
 }
 
-double furnace(const std::map<std::string, ParamValue>& material, bool sphere) {
+/// Mean radiance of a white object in a uniform dome of radiance 1, recorded as `label`.
+double furnace(const std::map<std::string, ParamValue>& material, bool sphere,
+               const std::string& label) {
   RenderDelegate delegate;
   if (sphere)
     addSphere(delegate, "/object", 1);
@@ -79,25 +81,28 @@ double furnace(const std::map<std::string, ParamValue>& material, bool sphere) {
   const std::vector<float> rgba = pass.aov("color");
   double sum = 0;
   for (size_t i = 0; i < rgba.size(); i += 4) sum += rgba[i + 1];
-  return sum / double(rgba.size() / 4);
+  const double value = sum / double(rgba.size() / 4);
+  ::testing::Test::RecordProperty(label, std::to_string(value));  // in the test's XML output
+  return value;
 }
 
 }  // namespace
 
 TEST(Materials, WhiteFurnaceLambertian) {
-  EXPECT_NEAR(furnace({{"diffuseColor", Vec3f(1.0f)}}, false), 1.0, 0.01);
+  EXPECT_NEAR(furnace({{"diffuseColor", Vec3f(1.0f)}}, false, "lambertian"), 1.0, 0.01);
 }
 
 TEST(Materials, WhiteFurnaceSmoothMetal) {
-  EXPECT_NEAR(
-      furnace({{"diffuseColor", Vec3f(1.0f)}, {"metallic", 1.0f}, {"roughness", 0.0f}}, false), 1.0,
-      0.01);
+  EXPECT_NEAR(furnace({{"diffuseColor", Vec3f(1.0f)}, {"metallic", 1.0f}, {"roughness", 0.0f}},
+                      false, "smoothMetal"),
+              1.0, 0.01);
 }
 
 TEST(Materials, WhiteFurnaceRoughMetalLosesAtMostThreePercent) {
   for (float roughness : {0.5f, 1.0f}) {
-    const double value = furnace(
-        {{"diffuseColor", Vec3f(1.0f)}, {"metallic", 1.0f}, {"roughness", roughness}}, false);
+    const double value =
+        furnace({{"diffuseColor", Vec3f(1.0f)}, {"metallic", 1.0f}, {"roughness", roughness}},
+                false, "roughMetal" + std::to_string(roughness));
     EXPECT_GE(value, 0.97) << "roughness " << roughness;
     EXPECT_LE(value, 1.01) << "roughness " << roughness;
   }
@@ -105,8 +110,8 @@ TEST(Materials, WhiteFurnaceRoughMetalLosesAtMostThreePercent) {
 
 TEST(Materials, WhiteFurnaceGlassSphere) {
   for (float roughness : {0.0f, 0.3f}) {
-    const double value =
-        furnace({{"opacity", 0.0f}, {"ior", 1.5f}, {"roughness", roughness}}, true);
+    const double value = furnace({{"opacity", 0.0f}, {"ior", 1.5f}, {"roughness", roughness}}, true,
+                                 "glassSphere" + std::to_string(roughness));
     EXPECT_NEAR(value, 1.0, 0.02) << "roughness " << roughness;
   }
 }
@@ -213,4 +218,64 @@ TEST(Materials, GlossyReflectionsBlurMoreWithRoughness) {
                rough = highlightSpread(0.5f);
   EXPECT_LT(sharp * 1.3, medium);
   EXPECT_LT(medium * 1.3, rough);
+}
+
+namespace {
+
+/// Horizontal centroids (in pixels) of the red and blue light of a white slit seen through a
+/// glass sphere of Abbe number `abbe` (0: no dispersion).
+std::pair<double, double> slitCentroids(float abbe) {
+  RenderDelegate delegate;
+  addSphere(delegate, "/lens", 1);
+  delegate.insertSprim("material", "/glass");
+  delegate.material("/glass").setParam("opacity", 0.0f);
+  delegate.material("/glass").setParam("ior", 1.6f);
+  delegate.material("/glass").setParam("roughness", 0.0f);
+  delegate.material("/glass").setParam("penumbra:abbeNumber", abbe);
+  delegate.mesh("/lens").setMaterialId("/glass");
+  // A white slit behind the sphere, off its axis, hidden from the camera except through it.
+  delegate.insertRprim("mesh", "/slit");
+  delegate.mesh("/slit").setPoints(
+      {{0.55f, -0.3f, -3}, {0.6f, -0.3f, -3}, {0.6f, 0.3f, -3}, {0.55f, 0.3f, -3}});
+  delegate.mesh("/slit").setTopology({4}, {0, 1, 2, 3}, false, "none");
+  delegate.mesh("/slit").setDoubleSided(true);
+  delegate.insertSprim("material", "/white");
+  delegate.material("/white").setParam("emissiveColor", Vec3f(5.0f));
+  delegate.material("/white").setParam("diffuseColor", Vec3f(0.0f));
+  delegate.mesh("/slit").setMaterialId("/white");
+  delegate.insertSprim("camera", "/cam");
+  CameraParams params;
+  params.focalLength = 50;
+  params.horizontalAperture = params.verticalAperture = 20;
+  delegate.camera("/cam").setParams(params);
+  const double back[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 5, 1};
+  delegate.camera("/cam").setTransform(Transform::fromRowMajor(back));
+  for (const char* key : {"maxPathDepth", "maxTransmissionDepth"}) delegate.settings().set(key, 16);
+  const int size = 64;
+  RenderPass pass(delegate, "/cam", size, size);
+  pass.execute(256);
+  const std::vector<float> rgba = pass.aov("color");
+  double red = 0, redX = 0, blue = 0, blueX = 0;
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const float* p = &rgba[size_t(4 * (y * size + x))];
+      red += p[0];
+      redX += p[0] * (x + 0.5);
+      blue += p[2];
+      blueX += p[2] * (x + 0.5);
+    }
+  EXPECT_GT(red, 0.1);
+  EXPECT_GT(blue, 0.1);
+  return {redX / red, blueX / blue};
+}
+
+}  // namespace
+
+TEST(Materials, DispersionSplitsAWhiteSlitIntoColours) {
+  const auto [red, blue] = slitCentroids(20);
+  RecordProperty("separationPixelsAbbe20", std::to_string(std::fabs(red - blue)));
+  EXPECT_GT(std::fabs(red - blue), 1.0) << "red " << red << " blue " << blue;
+  const auto [redPlain, bluePlain] = slitCentroids(0);
+  RecordProperty("separationPixelsAbbe0", std::to_string(std::fabs(redPlain - bluePlain)));
+  EXPECT_LT(std::fabs(redPlain - bluePlain), 0.3) << "red " << redPlain << " blue " << bluePlain;
 }

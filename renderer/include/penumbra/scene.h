@@ -86,6 +86,9 @@ class Scene {
 
   /// Rebuilds the top-level BVH; call after edits and before tracing.
   void commit();
+  /// True when a material disperses light (abbeNumber > 0 on a translucent material): paths
+  /// are then traced spectrally (set by commit()).
+  bool spectral() const { return spectral_; }
 
   std::optional<SurfaceHit> intersect(const Ray& ray, RayKind kind) const;
   /// True if anything blocks the segment [tNear, tFar] of the ray.
@@ -134,6 +137,7 @@ class Scene {
   std::vector<Light> lights_;
   Distribution1D lightSelection_{{}};
   float sceneExtent_ = 1;
+  bool spectral_ = false;
 };
 
 }  // namespace penumbra

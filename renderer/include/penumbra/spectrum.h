@@ -27,8 +27,11 @@
 // The coefficients are fitted by Newton's method (the Gauss–Newton step of a square system) so that
 // the spectrum integrated against renderingSpaceMatching reproduces the RGB. A table over RGB,
 // parametrised by the largest component z and the other two divided by it (3 tables of 32³ nodes,
-// z nodes clustered at 0 and 1), holds the fitted coefficients; lookups interpolate them
-// trilinearly. It is built on first use (or by prepareSpectralTables()) in parallel.
+// z from 0.1 to 1 − 3e-5 clustered towards 1, interpolation weights linear in σ⁻¹(z)), holds the
+// fitted coefficients; lookups interpolate them trilinearly. Colours darker than z = 0.1 get the
+// spectrum of the same chromaticity at z = 0.1, scaled down (the model's own dark spectra are too
+// broad to reach saturated dark colours). Built on first use, or by prepareSpectralTables(), with
+// TBB: about 0.3–0.5 s on 2 cores, 1.2 MB.
 #pragma once
 
 #include "penumbra/math.h"
@@ -77,18 +80,19 @@ class RgbSpectrum {
   /// The zero spectrum.
   RgbSpectrum() = default;
 
-  /// A reflectance: values in [0, 1] at every wavelength for rgb in [0, 1]³; round trip within
-  /// about 1e-3 (table lookup). Negative components are clamped to 0. Grey (r = g = b) is exactly
-  /// constant. A colour with a component above 1 cannot be a bounded reflectance: it is upsampled
-  /// as unbounded(rgb) (the round trip still holds, values exceed 1).
+  /// A reflectance: values in [0, 1] at every wavelength for rgb in [0, 1]³ (table lookup, ~70 ns
+  /// with three evaluations). Round trip: mean error 4e-4, worst measured 2.6e-3 (between table
+  /// nodes; below 8-bit quantisation). Negative components are clamped to 0. Grey (r = g = b) is
+  /// exactly constant. A colour with a component above 1 cannot be a bounded reflectance: it is
+  /// upsampled as unbounded(rgb) (the round trip still holds, values exceed 1).
   static RgbSpectrum reflectance(const Vec3f& rgb);
   /// Any non-negative colour (emission, light colours): 2·max(rgb) times the reflectance spectrum
   /// of rgb / (2·max(rgb)) (pbrt's trick; the factor 2 keeps the fit away from the saturated
   /// corners). Negative components are clamped to 0. Grey is exactly constant.
   static RgbSpectrum unbounded(const Vec3f& rgb);
-  /// reflectance(rgb) refined by Newton iterations to the fit's precision (about 1e-6 where the
-  /// model can reach the colour). Microseconds, not nanoseconds: for material constants converted
-  /// once, not per hit.
+  /// reflectance(rgb) refined by Newton iterations on the fit's quadrature: round trip
+  /// within 2.5e-4 over [0, 1]³ (the 5 nm Simpson quadrature's error against the exact integral).
+  /// About 3 µs: for material constants converted once, not per hit.
   static RgbSpectrum reflectanceExact(const Vec3f& rgb);
 
   /// The spectrum's value at one wavelength (nm).
