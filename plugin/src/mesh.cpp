@@ -12,6 +12,17 @@ void Mesh::setTopology(std::vector<int> counts, std::vector<int> indices, bool l
   markDirty(DirtyTopology);
 }
 
+void Mesh::setLight(bool enabled, const std::vector<std::pair<std::string, ParamValue>>& params) {
+  if (!enabled) {
+    light_.reset();
+  } else {
+    auto light = std::make_unique<Light>(id(), LightType::Mesh);
+    for (const auto& [name, value] : params) light->setParam(name, value);
+    light_ = std::move(light);
+  }
+  markDirty(DirtyParams);
+}
+
 void Mesh::setSubdivisionTags(SubdivisionTags tags) {
   tags_ = std::move(tags);
   tessellator_.reset();

@@ -95,6 +95,7 @@ void RenderDelegate::removePrim(const PrimId& id) {
         copies->setHandle(scene_->addInstancer());
         copies->markDirty(DirtyTransform);
       }
+    if (mesh->light()) lightsStructureChanged_ = true;
     scene_->removeMesh(mesh->handle());
     meshesStructureChanged_ = true;
   }
@@ -168,24 +169,45 @@ void RenderDelegate::syncMaterials() {
 
 void RenderDelegate::syncLights() {
   std::vector<penumbra::Light> lights;
+  const auto add = [&](const PrimId& id, const LightParams& params) {
+    try {
+      lights.emplace_back(params);
+      return int(lights.size()) - 1;
+    } catch (const std::invalid_argument& error) {
+      warn(id + ": " + error.what() + "; the light is skipped");
+      return -1;
+    }
+  };
   for (auto& [id, prim] : prims_) {
-    auto* light = dynamic_cast<Light*>(prim.get());
-    if (!light) continue;
-    if (light->dirtyBits() & DirtyParams) {
-      try {
-        light->loadTexture();
-      } catch (const std::runtime_error& error) {
-        warn(id + ": " + error.what() + "; the light renders without its texture");
+    if (auto* light = dynamic_cast<Light*>(prim.get())) {
+      if (light->dirtyBits() & DirtyParams) {
+        try {
+          light->loadTexture();
+        } catch (const std::runtime_error& error) {
+          warn(id + ": " + error.what() + "; the light renders without its texture");
+        }
       }
-    }
-    if (light->visible()) {
-      try {
-        lights.emplace_back(light->params());
-      } catch (const std::invalid_argument& error) {
-        warn(id + ": " + error.what() + "; the light is skipped");
+      if (light->visible()) add(id, light->params());
+      if (light->dirtyBits() != Clean) light->markClean();
+    } else if (auto* mesh = dynamic_cast<Mesh*>(prim.get())) {
+      int index = -1;
+      if (mesh->light() && mesh->visible()) {
+        // The light samples the polygons (the cage of a subdivision surface) at shutter open.
+        LightParams params = mesh->light()->params();
+        auto corners = std::make_shared<std::vector<Vec3f>>();
+        try {
+          const TriangleMesh triangles = triangulate(mesh->data());
+          const Transform& toWorld = mesh->transform().first();
+          for (const uint32_t point : triangles.triangles)
+            corners->push_back(toWorld.applyToPoint(triangles.points[point]));
+          params.meshTriangles = std::move(corners);
+          index = add(id, params);
+        } catch (const std::invalid_argument&) {
+          // The mesh itself is skipped with a warning at its sync.
+        }
       }
+      scene_->setMeshLight(mesh->handle(), index);
     }
-    if (light->dirtyBits() != Clean) light->markClean();
   }
   scene_->setLights(std::move(lights));
 }
@@ -313,6 +335,11 @@ bool RenderDelegate::sync(const DicingContext& dicing) {
     else
       camerasDirty = true;
   }
+  // Mesh lights follow their meshes' geometry, transform and light inputs.
+  for (const auto& [id, prim] : prims_)
+    if (auto* mesh = dynamic_cast<Mesh*>(prim.get());
+        mesh && mesh->dirtyBits() != Clean && (mesh->light() || (mesh->dirtyBits() & DirtyParams)))
+      lightsDirty = true;
   if (materialsDirty) syncMaterials();
   if (lightsDirty) syncLights();
   if (meshesDirty || materialsDirty) {

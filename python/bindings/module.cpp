@@ -199,6 +199,17 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("id"), py::arg("colors"), py::arg("interpolation"))
       .def(
+          "set_mesh_light",
+          [](RenderDelegate& self, const std::string& id, bool enabled, const py::kwargs& params) {
+            std::vector<std::pair<std::string, ParamValue>> values;
+            for (const auto& [key, value] : params) {
+              const std::string name = py::str(key);
+              values.emplace_back(name, toParamValue(id + ": " + name, value));
+            }
+            self.mesh(id).setLight(enabled, values);
+          },
+          py::arg("id"), py::arg("enabled"))
+      .def(
           "set_mesh_material",
           [](RenderDelegate& self, const std::string& id, const std::string& materialId) {
             self.mesh(id).setMaterialId(materialId);

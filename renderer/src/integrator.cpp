@@ -146,7 +146,20 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (hit || sawLight) result.alpha = 1;
     }
     if (!hit) break;
-    result.radiance += throughput * spectrum.emission(hit->emission);
+    if (!isBlack(hit->emission)) {
+      // A mesh light's surface: weigh against sampling that light, as for the other lights.
+      float weight = 1;
+      if (hit->lightIndex >= 0) {
+        const size_t index = size_t(hit->lightIndex);
+        const float lightPdf = scene.lightSelection().probability(index) *
+                               lights[index].meshPdf(ray.origin, hit->position, hit->normal);
+        weight = bsdfStrategyWeight(scattering, lightPdf, settings.directLighting);
+        if (scattering.fromSurface)
+          weight *= scattering.diffuse ? lights[index].diffuseMultiplier()
+                                       : lights[index].specularMultiplier();
+      }
+      result.radiance += throughput * spectrum.emission(hit->emission) * weight;
+    }
     if (bounce >= settings.maxPathDepth || lastVertex) break;
     const Vec3f wo = -ray.direction;
     float ior = hit->material ? hit->material->ior : 1.0f;

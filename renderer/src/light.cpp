@@ -145,7 +145,21 @@ Light::Light(const LightParams& params) : params_(params) {
     }
     case LightType::Dome:
       break;
+    case LightType::Mesh: {
+      const std::vector<Vec3f>& corners =
+          params.meshTriangles ? *params.meshTriangles : std::vector<Vec3f>{};
+      std::vector<float> areas;
+      for (size_t i = 0; i + 2 < corners.size(); i += 3) {
+        areas.push_back(0.5f *
+                        length(cross(corners[i + 1] - corners[i], corners[i + 2] - corners[i])));
+        area_ += areas.back();
+      }
+      triangleChoice_.emplace(std::move(areas));
+      break;
+    }
   }
+  if (params.type == LightType::Mesh && !(area_ > 0))
+    throw std::invalid_argument("the mesh light has no area");
   if (params.type == LightType::Rect || params.type == LightType::Disk) {
     normal_ = toWorld.applyToNormal({0, 0, -1});
     if (!(area_ > 0) || !(length(normal_) > 0))
@@ -252,6 +266,17 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u) const {
       lightNormal = edgeV_ * std::cos(phi) + normal_ * std::sin(phi);
       lightPoint = center_ + edgeU_ * (u.x - 0.5f) + lightNormal * radius_;
       areaDensity = 1 / (2 * halfWidth * radius_ * length(edgeU_));
+      break;
+    }
+    case LightType::Mesh: {
+      float within = 0;
+      const size_t triangle = triangleChoice_->sampleIndex(u.x, &within);
+      const Vec3f* corner = &(*params_.meshTriangles)[3 * triangle];
+      // Uniform on the triangle: barycentrics from the square root map.
+      const float root = std::sqrt(within);
+      lightPoint =
+          corner[0] * (1 - root) + corner[1] * (root * (1 - u.y)) + corner[2] * (root * u.y);
+      lightNormal = normalize(cross(corner[1] - corner[0], corner[2] - corner[0]));
       break;
     }
     case LightType::Sphere: {
@@ -363,7 +388,8 @@ std::optional<float> Light::intersectCylinder(const Vec3f& origin, const Vec3f& 
 
 std::optional<LightHit> Light::intersect(const Vec3f& origin, const Vec3f& direction,
                                          float tMax) const {
-  if (isInfinite() || isDelta()) return std::nullopt;
+  // Mesh lights are met as geometry (SurfaceHit::lightIndex), not here.
+  if (isInfinite() || isDelta() || params_.type == LightType::Mesh) return std::nullopt;
   LightHit hit;
   if (params_.type == LightType::Sphere) {
     const std::optional<float> t = intersectSphere(origin, direction);
@@ -433,6 +459,10 @@ std::optional<LightHit> Light::escaped(const Vec3f& direction) const {
   return hit;
 }
 
+float Light::meshPdf(const Vec3f& origin, const Vec3f& point, const Vec3f& normal) const {
+  return solidAnglePdfFromArea(origin, point, normal, 1 / area_);
+}
+
 float Light::power(float sceneRadius) const {
   const Vec3f mean = params_.texture ? radiance_ * params_.texture->average() : radiance_;
   const float radianceLuminance = std::max(0.0f, luminance(mean));
@@ -444,6 +474,7 @@ float Light::power(float sceneRadius) const {
     case LightType::Rect:
     case LightType::Disk:
     case LightType::Cylinder:
+    case LightType::Mesh:
       return radianceLuminance * area_ * kPi;
     case LightType::Distant: {
       const float irradiance =

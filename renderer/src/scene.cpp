@@ -247,6 +247,10 @@ void Scene::setMeshInstance(MeshId id, const MotionTransform& objectToWorld, int
   updateAllPlacements(id);
 }
 
+void Scene::setMeshLight(MeshId id, int lightIndex) {
+  record(id).lightIndex = lightIndex;
+}
+
 Scene::InstancerId Scene::addInstancer() {
   instancers_.push_back(std::make_unique<InstancerRecord>());
   return InstancerId(instancers_.size() - 1);
@@ -357,6 +361,11 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
     hit.emission = hit.material->emissiveColor;
   } else {
     hit.albedo = data.displayColorAt(triangle, u, v, fallbackColor);
+  }
+  if (mesh.lightIndex >= 0 && size_t(mesh.lightIndex) < lights_.size()) {
+    hit.lightIndex = mesh.lightIndex;
+    if (dot(ray.direction, hit.normal) < 0)
+      hit.emission = lights_[size_t(mesh.lightIndex)].radiance();
   }
   return hit;
 }

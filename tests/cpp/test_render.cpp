@@ -342,3 +342,24 @@ TEST(RenderDelegate, InstancersPlaceCopiesOfAPrototype) {
       warnings[0],
       "/copies: prototype /proto is not a mesh in the render index; the instances are skipped");
 }
+
+TEST(Render, MeshLightsMatchTheEquivalentRectLight) {
+  // A 1.2 x 0.8 quad 2 above the floor, facing down, emitting radiance 5: the rect-light case.
+  const auto floorRadiance = [](int directLighting) {
+    RenderDelegate delegate;
+    lambertianFloorScene(delegate, 0.5f);
+    delegate.insertRprim("mesh", "/panel");
+    Mesh& panel = delegate.mesh("/panel");
+    panel.setPoints({{-0.6f, 2, -0.4f}, {0.6f, 2, -0.4f}, {0.6f, 2, 0.4f}, {-0.6f, 2, 0.4f}});
+    panel.setTopology({4}, {0, 1, 2, 3}, false, "none");  // counter-clockwise from below
+    panel.setLight(true, {{"intensity", 5.0f}});
+    panel.setVisible(true);
+    delegate.settings().set("maxPathDepth", 1);
+    delegate.settings().set("directLighting", directLighting);
+    return meanChannel(render(delegate, 8, 8, 256), 1);
+  };
+  const double expected = 0.5 / M_PI * 5 * M_PI * 4 * cornerFormFactor(0.6, 0.4, 2);
+  EXPECT_NEAR(floorRadiance(0) / expected, 1.0, 0.02);  // MIS
+  EXPECT_NEAR(floorRadiance(1) / expected, 1.0, 0.02);  // light sampling only
+  EXPECT_NEAR(floorRadiance(2) / expected, 1.0, 0.05);  // BSDF sampling only (noisier)
+}

@@ -44,6 +44,18 @@ _SHAPING_INPUTS = (
 _COLOR_INPUTS = ("color", "shaping:focusTint")
 
 
+def sync_mesh_light(core, prim: Usd.Prim, prim_id: str, reader: SampleReader) -> None:
+    """Make mesh ``prim`` (delegate prim ``prim_id``) an emitter sampled as a light when it has
+    UsdLuxMeshLightAPI applied, or not."""
+    if not prim.HasAPI(UsdLux.MeshLightAPI):
+        core.set_mesh_light(prim_id, False)
+        return
+    light_api = UsdLux.LightAPI(prim)
+    params = {name: reader.get(_getter(light_api, name)) for name in _COMMON_INPUTS}
+    params["color"] = tuple(float(c) for c in params["color"])
+    core.set_mesh_light(prim_id, True, **params)
+
+
 def light_type(prim: Usd.Prim) -> str | None:
     """The delegate's sprim type for a supported UsdLux light, else ``None``."""
     for sprim_type, schema, _ in _LIGHTS:

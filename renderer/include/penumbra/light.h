@@ -19,7 +19,7 @@
 
 namespace penumbra {
 
-enum class LightType { Rect, Disk, Sphere, Cylinder, Distant, Dome };
+enum class LightType { Rect, Disk, Sphere, Cylinder, Distant, Dome, Mesh };
 
 /// An emission texture (scene-linear RGB, row 0 at the top) with its sampling distribution.
 class LightTexture {
@@ -64,6 +64,9 @@ struct LightParams {
   bool shadowEnable = true;                     // ShadowAPI shadow:enable
   float diffuse = 1, specular = 1;              // multipliers of the light's effect on those lobes
   std::shared_ptr<const LightTexture> texture;  // texture:file (rect, dome)
+  /// UsdLuxMeshLightAPI: the emitting triangles in world space (3 points each), front side
+  /// counter-clockwise. The mesh itself is traced as geometry; the light samples its surface.
+  std::shared_ptr<const std::vector<Vec3f>> meshTriangles;
 };
 
 /// A light sample as seen from a shading point.
@@ -103,6 +106,9 @@ class Light {
   std::optional<LightHit> intersect(const Vec3f& origin, const Vec3f& direction, float tMax) const;
   /// Radiance and pdf for a ray that escaped the scene in `direction` (infinite lights).
   std::optional<LightHit> escaped(const Vec3f& direction) const;
+  /// Mesh lights: the solid-angle density sample() has for a point of the mesh seen from
+  /// `origin` (the integrator weighs emission found by BSDF rays with it).
+  float meshPdf(const Vec3f& origin, const Vec3f& point, const Vec3f& normal) const;
 
   /// The emitted radiance before texture and shaping, after all other UsdLux factors.
   const Vec3f& radiance() const { return radiance_; }
@@ -141,6 +147,7 @@ class Light {
   bool shaped_ = false;
   float coneCosOuter_ = -1, coneCosInner_ = -1;
   Transform worldToLight_;
+  std::optional<Distribution1D> triangleChoice_;  // mesh lights: triangles by area
 };
 
 /// Directions uniformly distributed in a cone around +Z whose half angle h has

@@ -39,6 +39,7 @@ struct SurfaceHit {
   Vec3f albedo;         // diffuseColor, or displayColor without a material
   Vec3f emission;       // emitted radiance
   const MaterialParams* material = nullptr;  // null: displayColor, Lambertian
+  int lightIndex = -1;                       // the mesh light this surface is (UsdLuxMeshLightAPI)
   bool closed = false;                       // the mesh bounds a solid
 };
 
@@ -67,6 +68,10 @@ class Scene {
   /// Places the mesh; an animated transform gives Embree multi-segment instance motion.
   void setMeshInstance(MeshId id, const MotionTransform& objectToWorld, int materialIndex,
                        bool visible);
+
+  /// Makes the mesh the emitting surface of light `lightIndex` (a LightType::Mesh light), or
+  /// not (-1): its front side then shows the light's radiance.
+  void setMeshLight(MeshId id, int lightIndex);
 
   /// Copies of a mesh (its geometry and material), one per transform, sharing its BVH: memory
   /// grows with the number of copies, not with their triangles. The mesh itself need not be
@@ -108,6 +113,7 @@ class Scene {
     RTCScene bvh = nullptr;
     std::shared_ptr<const TriangleMesh> data;
     int materialIndex = kNoMaterial;
+    int lightIndex = -1;
     bool visible = true;
     std::unique_ptr<Placement> own;
     std::vector<InstancerId> instancers;  // those placing copies of this mesh

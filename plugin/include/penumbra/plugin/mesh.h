@@ -1,9 +1,11 @@
 // Mesh rprim: topology, points, display colour, material binding, transform, visibility.
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include "penumbra/mesh.h"
+#include "penumbra/plugin/light.h"
 #include "penumbra/plugin/prim.h"
 #include "penumbra/scene.h"
 #include "penumbra/subdivision.h"
@@ -23,6 +25,11 @@ class Mesh : public Prim {
   void setDoubleSided(bool doubleSided);
   void setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolation);
   void setMaterialId(PrimId materialId);
+  /// UsdLuxMeshLightAPI: the mesh also emits, and is sampled as a light, with these inputs
+  /// (names as Light::setParam). `enabled` false removes the light.
+  void setLight(bool enabled, const std::vector<std::pair<std::string, ParamValue>>& params);
+  /// The mesh's light inputs, if it is a mesh light.
+  const Light* light() const { return light_.get(); }
   void setTransform(const MotionTransform& objectToWorld);
   void setVisible(bool visible);
 
@@ -43,6 +50,7 @@ class Mesh : public Prim {
   std::string subdivisionScheme_ = "none";
   SubdivisionTags tags_;
   std::unique_ptr<LimitSurfaceTessellator> tessellator_;
+  std::unique_ptr<Light> light_;
   PrimId materialId_;
   MotionTransform objectToWorld_;
   bool visible_ = true;
