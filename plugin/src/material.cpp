@@ -22,7 +22,12 @@ void Material::setParam(const std::string& name, const ParamValue& value) {
       {"emissiveColor", &MaterialParams::emissiveColor},
       {"specularColor", &MaterialParams::specularColor}};
   try {
-    if (const auto number = numbers.find(name); number != numbers.end())
+    if (name == "diffuseColor" && std::holds_alternative<std::string>(value)) {
+      if (std::get<std::string>(value) != "primvar:displayColor")
+        throw std::invalid_argument("diffuseColor can name only the primvar displayColor, not '" +
+                                    std::get<std::string>(value) + "'");
+      params_.diffuseFromDisplayColor = true;
+    } else if (const auto number = numbers.find(name); number != numbers.end())
       params_.*(number->second) = paramAsFloat(name, value);
     else if (const auto color = colors.find(name); color != colors.end())
       params_.*(color->second) = paramAsColor(name, value);

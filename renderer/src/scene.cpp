@@ -357,7 +357,9 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
   const Vec3f fallbackColor{0.5f};
   if (mesh.materialIndex >= 0 && size_t(mesh.materialIndex) < materials_.size()) {
     hit.material = &materials_[size_t(mesh.materialIndex)];
-    hit.albedo = hit.material->diffuseColor;
+    hit.albedo = hit.material->diffuseFromDisplayColor
+                     ? data.displayColorAt(triangle, u, v, hit.material->diffuseColor)
+                     : hit.material->diffuseColor;
     hit.emission = hit.material->emissiveColor;
   } else {
     hit.albedo = data.displayColorAt(triangle, u, v, fallbackColor);

@@ -65,7 +65,10 @@ def _schema_defaults() -> dict[str, Any]:
 
 
 def _to_python(value: Any) -> Any:
-    """A value as the delegate takes it: 3-tuples of floats for colours, else float/int."""
+    """A value as the delegate takes it: 3-tuples of floats for colours, strings as they are
+    (primvar bindings), else float/int."""
+    if isinstance(value, str):
+        return value
     if isinstance(value, (Gf.Vec3f, Gf.Vec3d, Gf.Vec3h)):
         return tuple(float(c) for c in value)
     if isinstance(value, bool):
@@ -73,6 +76,19 @@ def _to_python(value: Any) -> Any:
     if isinstance(value, int):
         return value
     return float(value)
+
+
+def _display_color_reader(output: Usd.Attribute, reader: SampleReader, data: MaterialData):
+    """``"primvar:displayColor"`` when ``output`` is a UsdPrimvarReader_float3 of displayColor
+    (the delegate then takes diffuseColor from each mesh's displayColor), else ``None``."""
+    shader = UsdShade.Shader(output.GetPrim())
+    if not shader or shader.GetShaderId() != "UsdPrimvarReader_float3":
+        return None
+    varname = shader.GetInput("varname")
+    if not varname or reader.get(varname.GetAttr()) != "displayColor":
+        return None
+    data.sources.add(shader.GetPath())
+    return "primvar:displayColor"
 
 
 def read_material(
@@ -109,6 +125,8 @@ def read_material(
             if producers and UsdShade.Input.IsInput(producers[0]):
                 data.sources.add(producers[0].GetPrim().GetPath())
                 value = reader.get(producers[0])
+            elif name == "diffuseColor" and producers:
+                value = _display_color_reader(producers[0], reader, data)
             if value is None:
                 source = producers[0].GetPath() if producers else "nothing"
                 warn(

@@ -9,6 +9,8 @@ namespace penumbra {
 
 struct MaterialParams {
   Vec3f diffuseColor{0.18f};
+  /// diffuseColor comes from each mesh's displayColor (a UsdPrimvarReader of displayColor).
+  bool diffuseFromDisplayColor = false;
   Vec3f emissiveColor{0.0f};
   Vec3f specularColor{0.0f};
   bool useSpecularWorkflow = false;

@@ -13,6 +13,7 @@ class Material : public Prim {
   /// Sets a UsdPreviewSurface input by name (diffuseColor, emissiveColor, specularColor,
   /// metallic, roughness, opacity, opacityThreshold, ior, clearcoat, clearcoatRoughness,
   /// useSpecularWorkflow, penumbra:transmissionRoughness, penumbra:abbeNumber).
+  /// diffuseColor may instead name the primvar it reads: "primvar:displayColor".
   /// Throws std::invalid_argument for an unknown name or a value of the wrong type.
   void setParam(const std::string& name, const ParamValue& value);
   /// Back to the schema's fallback values.
