@@ -86,7 +86,9 @@ def main() -> None:
     looks = [
         ("gold", dict(diffuseColor=(1.0, 0.78, 0.34), metallic=1.0, roughness=0.25)),
         ("lacquer", dict(diffuseColor=(0.7, 0.05, 0.04), roughness=0.5, clearcoat=1.0, clearcoatRoughness=0.05)),
-        ("glass", dict(diffuseColor=(1.0, 1.0, 1.0), opacity=0.0, ior=1.5, roughness=0.0)),
+        # A dispersive flint-like glass (Abbe number 25): the scene renders spectrally.
+        ("glass", {"diffuseColor": (1.0, 1.0, 1.0), "opacity": 0.0, "ior": 1.6, "roughness": 0.0,
+                   "penumbra:abbeNumber": 25.0}),
         ("frosted", dict(diffuseColor=(0.2, 0.35, 0.8), opacity=0.0, ior=1.5, roughness=0.35)),
     ]
     for index, (name, inputs) in enumerate(looks):

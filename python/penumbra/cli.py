@@ -7,6 +7,7 @@ or prim); 2 usage error (including flags Penumbra does not support yet).
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 import time
@@ -35,8 +36,6 @@ _NOT_SUPPORTED_YET = {
     "mask": "--mask",
     "session_layer": "--sessionLayer",
     "aov": "--aov",
-    "disable_motion_blur": "--disableMotionBlur",
-    "disable_depth_of_field": "--disableDepthOfField",
     "scheduler": "--scheduler",
     "resume": "--resume",
 }
@@ -49,7 +48,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Render a USD file with Penumbra (usdrecord-compatible command line).",
         epilog=(
             "Not supported yet (rejected with exit status 2): --mask, --sessionLayer, --aov, "
-            "--disableMotionBlur, --disableDepthOfField, --scheduler, --resume. "
+            "--scheduler, --resume. "
             "Exit status: 0 success, 1 the scene or a file could not be rendered, 2 usage error."
         ),
     )
@@ -169,13 +168,20 @@ def build_parser() -> argparse.ArgumentParser:
         "--disableMotionBlur",
         dest="disable_motion_blur",
         action="store_true",
-        help="not supported yet",
+        help=(
+            "render each frame at its time code alone (default: over the camera's shutter, "
+            "[frame + shutter:open, frame + shutter:close]; also UsdRenderSettings "
+            "disableMotionBlur)"
+        ),
     )
     own.add_argument(
         "--disableDepthOfField",
         dest="disable_depth_of_field",
         action="store_true",
-        help="not supported yet",
+        help=(
+            "render through a pinhole (default: a thin lens from the camera's fStop and "
+            "focusDistance, fStop 0 being a pinhole; also UsdRenderSettings disableDepthOfField)"
+        ),
     )
     own.add_argument("--scheduler", metavar="ADDRESS", help="not supported yet")
     own.add_argument("--resume", action="store_true", help="not supported yet")
@@ -252,6 +258,24 @@ def _check_usage(args: argparse.Namespace) -> list[float]:
     return frames
 
 
+def _report_information() -> None:
+    """Show the library's informational messages (e.g. default lighting) on stderr."""
+    logger = logging.getLogger("penumbra")
+    if not any(isinstance(handler, _StderrHandler) for handler in logger.handlers):
+        handler = _StderrHandler()
+        handler.setFormatter(logging.Formatter(f"{PROG}: note: %(message)s"))
+        logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+
+
+class _StderrHandler(logging.StreamHandler):
+    """Writes to the current sys.stderr (which tests may capture after import)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.stream = sys.stderr
+        super().emit(record)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``penumbra-record``; returns the exit status."""
     parser = build_parser()
@@ -264,6 +288,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _UsageError as error:
         sys.stderr.write(f"{PROG}: error: {error}\n")
         return EXIT_USAGE
+    _report_information()
 
     with warnings.catch_warnings():
         warnings.simplefilter("always", PenumbraWarning)
@@ -305,6 +330,8 @@ def _record(args: argparse.Namespace, frames: list[float]) -> int:
                 max_path_depth=args.maxPathDepth,
                 complexity=args.complexity,
                 render_settings=settings.path if settings else None,
+                disable_motion_blur=args.disable_motion_blur,
+                disable_depth_of_field=args.disable_depth_of_field,
                 progress=_Progress(f"time code {frame}"),
             )
             output = args.outputImagePath

@@ -2,20 +2,23 @@
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import time as clock
 from collections.abc import Callable, Iterable
 
 import numpy as np
-from pxr import Usd
+from pxr import Usd, UsdLux
 
 from . import _core
 from .errors import SceneError, warn
 from .image import Image
+from .usd.camera import read_shutter
 from .usd.framing import DEFAULT_LIGHT_ID
 from .usd.instancers import PointInstancerDelegate
 from .usd.lights import LIGHT_SPRIM_TYPES
+from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
 from .usd import (
     DEFAULT_PURPOSES,
     SceneDelegate,
@@ -25,6 +28,8 @@ from .usd import (
     resolve_camera,
     stage_name,
 )
+
+logger = logging.getLogger(__name__)
 
 DEFAULT_WIDTH = 960  # usdrecord's default image width
 DEFAULT_SAMPLES = 64
@@ -61,28 +66,44 @@ class Renderer:
 
     Creating a renderer syncs the stage (at its startTimeCode) into one render delegate. Each
     :meth:`render` then pushes only what changed since the previous one: edited prims (the
-    renderer listens to the stage's change notices) and, at a new time code, the prims whose
-    data might vary with time. One render pass is kept per (camera, width, height).
+    renderer listens to the stage's change notices) and, at a new time code or shutter, the
+    prims whose data might vary with time. One render pass is kept per (camera, width, height).
 
     ``purposes``: the UsdGeomImageable purposes rendered; "default" is always included and the
-    default, ``("default", "proxy")``, is usdrecord's.
+    default, ``("default", "proxy")``, is usdrecord's. ``max_motion_segments``: at most this many
+    uniform steps (that many + 1 motion samples) over a frame's shutter for one prim.
     """
 
-    def __init__(self, stage: Usd.Stage, *, purposes: Iterable[str] = DEFAULT_PURPOSES):
+    def __init__(
+        self,
+        stage: Usd.Stage,
+        *,
+        purposes: Iterable[str] = DEFAULT_PURPOSES,
+        max_motion_segments: int = DEFAULT_MAX_MOTION_SEGMENTS,
+    ):
+        if max_motion_segments < 1:
+            raise ValueError(f"max_motion_segments must be at least 1, not {max_motion_segments}")
         self.stage = stage
+        self.max_motion_segments = max_motion_segments
         self.delegate = _core.RenderDelegate()
         """The ``penumbra._core.RenderDelegate`` holding the synced scene (for inspection)."""
         self._scene = SceneDelegate(stage, self.delegate, purposes)
         self._instancers = PointInstancerDelegate(stage, self.delegate, purposes, warn)
         self._passes: dict[tuple[str, int, int], _core.RenderPass] = {}
-        self._scene.update(_time_code(stage, None))
+        self._scene.update(self._still(_time_code(stage, None)))
 
     def sync(self, time: TimeLike = None) -> None:
-        """Push the stage (as edited since the last sync) at ``time`` into the render delegate;
-        :meth:`render` does this itself. Acceleration structures are built by the first render."""
-        time_code = _time_code(self.stage, time)
-        self._scene.update(time_code)
-        self._instancers.update(time_code)
+        """Push the stage (as edited since the last sync) at ``time`` (without motion) into the
+        render delegate; :meth:`render` does this itself, over the camera's shutter.
+        Acceleration structures are built by the first render."""
+        self._sync(self._still(_time_code(self.stage, time)))
+
+    def _still(self, time_code: Usd.TimeCode) -> Shutter:
+        return Shutter(time_code, max_segments=self.max_motion_segments)
+
+    def _sync(self, shutter: Shutter, depth_of_field: bool = True) -> None:
+        self._scene.update(shutter, depth_of_field)
+        self._instancers.update(shutter.frame)
         self._update_default_light()
 
     def close(self) -> None:
@@ -111,6 +132,8 @@ class Renderer:
         max_path_depth: int = DEFAULT_MAX_PATH_DEPTH,
         complexity: str = "low",
         render_settings: str | None = None,
+        disable_motion_blur: bool = False,
+        disable_depth_of_field: bool = False,
         progress: ProgressCallback | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
@@ -121,8 +144,12 @@ class Renderer:
         the render settings' resolution, else 960. ``height``: by default from the aspect ratio
         of the render settings' resolution, else of the camera's apertures. ``render_settings``:
         a UsdRenderSettings prim path, by default the stage's ``renderSettingsPrimPath``.
-        ``threads`` 0 uses every core. Raises :class:`penumbra.SceneError` when the stage cannot
-        be rendered; warnings about skipped prims are :class:`penumbra.PenumbraWarning`.
+        Motion blur samples the camera's shutter, [time + shutter:open, time + shutter:close];
+        ``disable_motion_blur`` (or the render settings' ``disableMotionBlur``) renders ``time``
+        alone, ``disable_depth_of_field`` (or ``disableDepthOfField``) makes the camera a
+        pinhole. ``threads`` 0 uses every core. Raises :class:`penumbra.SceneError` when the
+        stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
+        skipped prims are :class:`penumbra.PenumbraWarning`.
         """
         if samples < 1:
             raise ValueError(f"samples must be at least 1, not {samples}")
@@ -137,7 +164,12 @@ class Renderer:
                 width = DEFAULT_WIDTH
         width, height = image_size(camera_prim, time_code, width, height, settings)
 
-        self.sync(time_code)
+        motion_blur = not (disable_motion_blur or (settings and settings.disable_motion_blur))
+        depth_of_field = not (
+            disable_depth_of_field or (settings and settings.disable_depth_of_field)
+        )
+        shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
+        self._sync(shutter, depth_of_field)
         camera_id = str(camera_prim.GetPath())
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
@@ -173,6 +205,8 @@ class Renderer:
             "renderTimeSeconds": round(elapsed, 3),
             "version": _core.version(),
             "timeCode": "default" if time_code.IsDefault() else time_code.GetValue(),
+            "shutterOpen": shutter.open,
+            "shutterClose": shutter.close,
             "stage": stage_name(self.stage),
         }
         return Image({name: np.array(render_pass.aov(name)) for name in aovs}, metadata)
@@ -189,6 +223,10 @@ class Renderer:
         has_default = self.delegate.has_prim(DEFAULT_LIGHT_ID)
         has_lights = any(
             self._scene.prim_kind(prim_id) in LIGHT_SPRIM_TYPES
+            or (
+                self._scene.prim_kind(prim_id) == "mesh"
+                and self.stage.GetPrimAtPath(prim_id).HasAPI(UsdLux.MeshLightAPI)
+            )
             for prim_id in self.delegate.prim_ids()
             if prim_id != DEFAULT_LIGHT_ID
         )
@@ -196,9 +234,11 @@ class Renderer:
             self.delegate.remove_prim(DEFAULT_LIGHT_ID)
         elif not has_lights and not has_default:
             self.delegate.insert_sprim("domeLight", DEFAULT_LIGHT_ID)
-            warn(
-                f"{stage_name(self.stage)}: the stage has no lights; rendering under a uniform "
-                "white dome light (intensity 1)"
+            # A default, not a problem with the stage: reported as information, not a warning.
+            logger.info(
+                "%s: the stage has no lights; rendering under a uniform white dome light "
+                "(intensity 1)",
+                stage_name(self.stage),
             )
 
     def _forward_warnings(self) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
@@ -112,3 +113,76 @@ def pixel(image, u: float, v: float):
     color = image["color"] if hasattr(image, "keys") else image
     h, w = color.shape[:2]
     return color[min(h - 1, int(v * h)), min(w - 1, int(u * w)), :3]
+
+
+def add_sphere_mesh(
+    stage: Usd.Stage,
+    path: str,
+    center=(0.0, 0.0, 0.0),
+    radius: float = 1.0,
+    rings: int = 12,
+    sectors: int = 24,
+) -> UsdGeom.Mesh:
+    """A UV sphere tessellated as a UsdGeomMesh (quads, triangles at the poles), its points
+    around the origin and placed by a translate op at ``center``."""
+    points = [Gf.Vec3f(0, radius, 0)]
+    for ring in range(1, rings):
+        polar = math.pi * ring / rings
+        for sector in range(sectors):
+            azimuth = 2 * math.pi * sector / sectors
+            points.append(
+                Gf.Vec3f(
+                    radius * math.sin(polar) * math.cos(azimuth),
+                    radius * math.cos(polar),
+                    -radius * math.sin(polar) * math.sin(azimuth),
+                )
+            )
+    points.append(Gf.Vec3f(0, -radius, 0))
+    south = len(points) - 1
+
+    def ring_point(ring: int, sector: int) -> int:
+        return 1 + (ring - 1) * sectors + sector % sectors
+
+    counts, indices = [], []
+    for sector in range(sectors):
+        counts.append(3)
+        indices += [0, ring_point(1, sector), ring_point(1, sector + 1)]
+    for ring in range(1, rings - 1):
+        for sector in range(sectors):
+            counts.append(4)
+            indices += [
+                ring_point(ring, sector),
+                ring_point(ring + 1, sector),
+                ring_point(ring + 1, sector + 1),
+                ring_point(ring, sector + 1),
+            ]
+    for sector in range(sectors):
+        counts.append(3)
+        indices += [south, ring_point(rings - 1, sector + 1), ring_point(rings - 1, sector)]
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr(points)
+    mesh.CreateFaceVertexCountsAttr(counts)
+    mesh.CreateFaceVertexIndicesAttr(indices)
+    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    mesh.AddTranslateOp().Set(Gf.Vec3d(*center))
+    return mesh
+
+
+def emitter_stage(meters_per_unit: float = 1.0, path: Path | None = None) -> Usd.Stage:
+    """An empty stage for emitters on black: a distant light of intensity 0 keeps the default
+    dome away, so with ``max_path_depth=0`` only emissive surfaces show."""
+    stage = new_stage(path)
+    UsdGeom.SetStageMetersPerUnit(stage, meters_per_unit)
+    UsdLux.DistantLight.Define(stage, "/off").CreateIntensityAttr(0.0)
+    add_preview_material(
+        stage, "/Looks/glow", diffuseColor=(0.0, 0.0, 0.0), emissiveColor=(1.0, 1.0, 1.0)
+    )
+    return stage
+
+
+def add_emissive_sphere(stage: Usd.Stage, path: str, center, radius: float) -> UsdGeom.Mesh:
+    """A small white emissive sphere (radiance 1) bound to ``/Looks/glow`` of
+    :func:`emitter_stage`."""
+    mesh = add_sphere_mesh(stage, path, center, radius)
+    bind(mesh, UsdShade.Material(stage.GetPrimAtPath("/Looks/glow")))
+    return mesh

@@ -111,8 +111,6 @@ def test_frame_usage_errors(tmp_path, capsys, output, frames, message):
         ["--mask", "/World"],
         ["--sessionLayer", "session.usda"],
         ["--aov", "depth"],
-        ["--disableMotionBlur"],
-        ["--disableDepthOfField"],
         ["--scheduler", "tcp://farm:8786"],
         ["--resume"],
     ],

@@ -1,27 +1,65 @@
-"""UsdGeomCamera → the render delegate's ``camera`` sprim (USD units, see DESIGN §3)."""
+"""UsdGeomCamera → the render delegate's ``camera`` sprim (USD units, see DESIGN §3), and the
+shutter a camera gives a frame."""
 
 from __future__ import annotations
 
+import numpy as np
 from pxr import Usd, UsdGeom
 
-from .sampling import SampleReader
+from ..errors import SceneError
+from .sampling import DEFAULT_MAX_MOTION_SEGMENTS, SampleReader, Shutter, changes_within
 
 
-def sync_camera(core, prim: Usd.Prim, reader: SampleReader) -> None:
-    """Push the projection, apertures, lens and shutter of camera ``prim`` to ``core``."""
+def read_shutter(
+    prim: Usd.Prim,
+    frame: Usd.TimeCode,
+    motion_blur: bool = True,
+    max_segments: int = DEFAULT_MAX_MOTION_SEGMENTS,
+) -> Shutter:
+    """The shutter of camera ``prim`` for ``frame``: [frame+shutter:open, frame+shutter:close],
+    or the frame alone without ``motion_blur``. Raises :class:`SceneError` naming the camera
+    when shutter:close < shutter:open."""
     camera = UsdGeom.Camera(prim)
+    shutter_open = float(camera.GetShutterOpenAttr().Get(frame))
+    shutter_close = float(camera.GetShutterCloseAttr().Get(frame))
+    if shutter_close < shutter_open:
+        raise SceneError(
+            f"{prim.GetPath()}: shutter:close < shutter:open "
+            f"({shutter_close:g} < {shutter_open:g})"
+        )
+    if not motion_blur:
+        return Shutter(frame, max_segments=max_segments)
+    return Shutter(frame, shutter_open, shutter_close, max_segments)
+
+
+def sync_camera(core, prim: Usd.Prim, reader: SampleReader, depth_of_field: bool = True) -> None:
+    """Push the projection, apertures, lens and the reader's shutter of camera ``prim`` to
+    ``core``; an animated focal length or focus distance is sampled over the shutter. Without
+    ``depth_of_field`` the camera is a pinhole (f-stop 0)."""
+    camera = UsdGeom.Camera(prim)
+    path = str(prim.GetPath())
+    shutter = reader.shutter
     near, far = reader.get(camera.GetClippingRangeAttr())
+    focal_attr, focus_attr = camera.GetFocalLengthAttr(), camera.GetFocusDistanceAttr()
     core.set_camera(
-        str(prim.GetPath()),
-        focal_length=float(reader.get(camera.GetFocalLengthAttr())),
+        path,
+        focal_length=float(reader.get(focal_attr)),
         horizontal_aperture=float(reader.get(camera.GetHorizontalApertureAttr())),
         vertical_aperture=float(reader.get(camera.GetVerticalApertureAttr())),
         horizontal_aperture_offset=float(reader.get(camera.GetHorizontalApertureOffsetAttr())),
         vertical_aperture_offset=float(reader.get(camera.GetVerticalApertureOffsetAttr())),
-        f_stop=float(reader.get(camera.GetFStopAttr())),
-        focus_distance=float(reader.get(camera.GetFocusDistanceAttr())),
+        f_stop=float(reader.get(camera.GetFStopAttr())) if depth_of_field else 0.0,
+        focus_distance=float(reader.get(focus_attr)),
         clipping_range=(float(near), float(far)),
-        shutter_open=float(reader.get(camera.GetShutterOpenAttr())),
-        shutter_close=float(reader.get(camera.GetShutterCloseAttr())),
+        shutter_open=shutter.open,
+        shutter_close=shutter.close,
         projection=str(reader.get(camera.GetProjectionAttr())),
     )
+    lens = (focal_attr, focus_attr)
+    if shutter.blurred and any(changes_within(attr, shutter.interval) for attr in lens):
+        authored = [t for attr in lens for t in attr.GetTimeSamplesInInterval(shutter.interval)]
+        times = shutter.times(shutter.segments(authored))
+        focal_lengths, focus_distances = (
+            np.array([attr.Get(time) for time in times], dtype=np.float32) for attr in lens
+        )
+        core.set_camera_motion(path, focal_lengths, focus_distances)

@@ -1,4 +1,5 @@
-"""UsdGeomMesh → the delegate's ``mesh`` rprim: topology, points, sidedness, displayColor."""
+"""UsdGeomMesh → the delegate's ``mesh`` rprim: topology, points (with their motion over the
+shutter), sidedness, displayColor."""
 
 from __future__ import annotations
 
@@ -7,6 +8,8 @@ from collections.abc import Callable
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from .motion import point_samples
+from .lights import sync_mesh_light
 from .sampling import SampleReader
 
 def sync_mesh_data(
@@ -51,10 +54,12 @@ def sync_mesh_data(
     )
     if scheme != UsdGeom.Tokens.none:
         _sync_subdivision_tags(core, path, mesh, reader)
-    core.set_mesh_points(path, np.asarray(points, dtype=np.float32).reshape(-1, 3))
+    at_frame = np.asarray(points, dtype=np.float32).reshape(-1, 3)
+    core.set_mesh_points(path, point_samples(mesh, at_frame, reader, warn, path))
     core.set_mesh_double_sided(path, bool(reader.get(mesh.GetDoubleSidedAttr())))
     colors, interpolation = _display_color(prim, reader)
     core.set_mesh_display_color(path, colors, interpolation)
+    sync_mesh_light(core, prim, path, reader)
     return True
 
 

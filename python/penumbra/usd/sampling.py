@@ -1,22 +1,94 @@
-"""Reading attributes at a time code while noting whether what was read can vary with time.
+"""The times a frame is sampled at, and reading attributes while noting whether what was read
+can vary with time.
 
-The scene delegate re-reads, at a new time code, only the aspects of a prim whose inputs might
-be time-varying; :class:`SampleReader` collects that fact while a prim is being read.
+A frame F seen through a camera with ``shutter:open`` o and ``shutter:close`` c covers the time
+codes [F+o, F+c] (DESIGN §3); moving prims are sampled at K uniformly spaced times over it (the
+render delegate interprets sample k at normalised shutter time k/(K−1)). The scene delegate
+re-reads, at a new frame or shutter, only the aspects of a prim whose inputs might be
+time-varying; :class:`SampleReader` collects that fact while a prim is being read.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from dataclasses import dataclass
 from typing import Any
 
-from pxr import Usd, UsdGeom
+from pxr import Gf, Usd, UsdGeom
+
+DEFAULT_MAX_MOTION_SEGMENTS = 16
+"""At most this many uniform steps (17 samples) over the shutter of one frame."""
+
+_GRID_TOLERANCE = 1e-6  # in normalised shutter time
+
+
+@dataclass(frozen=True)
+class Shutter:
+    """Frame ``frame`` sampled over the time codes [frame+open, frame+close].
+
+    ``open`` = ``close`` (or the Default frame) samples the frame alone; moving prims get at most
+    ``max_segments`` + 1 samples.
+    """
+
+    frame: Usd.TimeCode
+    open: float = 0.0
+    close: float = 0.0
+    max_segments: int = DEFAULT_MAX_MOTION_SEGMENTS
+
+    @property
+    def blurred(self) -> bool:
+        """Whether the interval has a length (motion is sampled)."""
+        return not self.frame.IsDefault() and self.close > self.open
+
+    @property
+    def interval(self) -> Gf.Interval:
+        """The closed interval of time codes the frame covers."""
+        frame = self.frame.GetValue()
+        return Gf.Interval(frame + self.open, frame + self.close)
+
+    def segments(self, authored: Iterable[float]) -> int:
+        """The fewest uniform steps over the interval whose times include every one of
+        ``authored`` (time codes) inside it; ``max_segments`` when no grid up to it does."""
+        interval = self.interval
+        inside = [
+            (t - interval.min) / interval.size for t in authored if interval.min < t < interval.max
+        ]
+        for count in range(1, self.max_segments + 1):
+            if all(abs(u * count - round(u * count)) < _GRID_TOLERANCE for u in inside):
+                return count
+        return self.max_segments
+
+    def times(self, segments: int) -> list[Usd.TimeCode]:
+        """``segments`` + 1 uniformly spaced time codes from open to close (the frame alone when
+        the shutter is closed)."""
+        if not self.blurred:
+            return [self.frame]
+        start, length = self.interval.min, self.interval.size
+        return [Usd.TimeCode(start + length * k / segments) for k in range(segments + 1)]
+
+
+def changes_within(attr: Usd.Attribute, interval: Gf.Interval) -> bool:
+    """Whether the value of ``attr`` is interpolated between different time samples somewhere
+    in ``interval`` (values are held before the first and after the last sample)."""
+    samples = attr.GetTimeSamples()
+    return len(samples) > 1 and interval.min < samples[-1] and interval.max > samples[0]
 
 
 class SampleReader:
-    """Reads attributes at ``time``; ``varying`` becomes true once any attribute read might vary."""
+    """Reads attributes at ``time``; ``varying`` becomes true once any attribute read might vary
+    (or, through :meth:`depends_on_shutter`, once what was read depends on the frame or shutter).
 
-    def __init__(self, time: Usd.TimeCode) -> None:
+    ``shutter``: the interval motion is sampled over, by default ``time`` alone.
+    """
+
+    def __init__(self, time: Usd.TimeCode, shutter: Shutter | None = None) -> None:
         self.time = time
+        self.shutter = shutter or Shutter(time)
         self.varying = False
+
+    def depends_on_shutter(self) -> None:
+        """Note that what was read must be re-read at another frame or shutter."""
+        self.varying = True
 
     def get(self, attr: Usd.Attribute) -> Any:
         """The value of ``attr`` at the reader's time (``None`` if it has none)."""

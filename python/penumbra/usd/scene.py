@@ -8,7 +8,13 @@ pushes only what changed:
   re-reads only the affected aspects of the affected prims (an ancestor's transform or
   visibility edit reaches its whole subtree, a shader edit re-sends its material, a structural
   change re-populates the changed subtree);
-* a new time code re-reads only the aspects whose inputs might vary with time.
+* a new frame or shutter (see :class:`~penumbra.usd.sampling.Shutter`) re-reads only the
+  aspects whose inputs might vary with time (which includes motion over the shutter: moving
+  transforms, deforming points, points with velocities); cameras are re-read when the shutter's
+  offsets or the depth-of-field switch change.
+
+Meshes and cameras move over the shutter (transform, points, lens); lights keep their transform
+at the frame.
 """
 
 from __future__ import annotations
@@ -17,7 +23,6 @@ import enum
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
-import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdVol
 
 from ..errors import warn
@@ -25,7 +30,8 @@ from .camera import sync_camera
 from .lights import is_light, light_type, sync_light
 from .material import bound_material, has_subset_bindings, read_material
 from .mesh import sync_mesh_data
-from .sampling import SampleReader, transform_might_vary, visibility_might_vary
+from .motion import XformCaches, transform_samples
+from .sampling import SampleReader, Shutter, transform_might_vary, visibility_might_vary
 
 DEFAULT_PURPOSES = ("default", "proxy")
 """usdrecord's default: the "default" purpose plus "proxy"."""
@@ -47,6 +53,7 @@ _ASPECTS = {
     "camera": Dirty.DATA | Dirty.TRANSFORM,
 }
 _LIGHT_ASPECTS = Dirty.DATA | Dirty.TRANSFORM | Dirty.VISIBILITY
+_MOVING_KINDS = frozenset({"mesh", "camera"})  # prims sampled over the shutter
 
 
 @dataclass
@@ -85,6 +92,8 @@ class SceneDelegate:
         self.core = core
         self.purposes = frozenset(purposes) | {UsdGeom.Tokens.default_}
         self.time: Usd.TimeCode | None = None
+        self.shutter: Shutter | None = None
+        self.depth_of_field = True
         self._prims: dict[Sdf.Path, _Prim] = {}
         self._materials: dict[Sdf.Path, _Material] = {}
         self._dirty: dict[Sdf.Path, Dirty] = {}
@@ -106,24 +115,35 @@ class SceneDelegate:
             self._listener.Revoke()
             self._listener = None
 
-    def update(self, time: Usd.TimeCode) -> None:
-        """Bring the delegate up to date with the stage at ``time``.
+    def update(self, shutter: Shutter, depth_of_field: bool = True) -> None:
+        """Bring the delegate up to date with the stage over ``shutter`` (its frame, or the
+        interval moving prims are sampled over); ``depth_of_field`` False makes cameras
+        pinholes.
 
         The first call populates the delegate; later calls push only queued edits and, when
-        ``time`` differs from the last one, the time-varying aspects.
+        the shutter differs from the last one, the time-varying aspects (and the cameras when
+        its offsets or ``depth_of_field`` changed).
         """
-        if self.time is None:
-            self.time = time
+        if self.shutter is None:
+            self.shutter, self.time, self.depth_of_field = shutter, shutter.frame, depth_of_field
             self._resync(Sdf.Path.absoluteRootPath)
         self._process_notices()
-        if time != self.time:
-            self.time = time
-            for path, record in self._prims.items():
-                if record.varying:
-                    self._mark(path, record.varying)
-            self._dirty_materials.update(
-                path for path, material in self._materials.items() if material.varying
+        if shutter != self.shutter or depth_of_field != self.depth_of_field:
+            time_changed = shutter != self.shutter
+            lens_changed = depth_of_field != self.depth_of_field or (
+                (shutter.open, shutter.close) != (self.shutter.open, self.shutter.close)
             )
+            if shutter.frame != self.time:  # materials are read at the frame
+                self._dirty_materials.update(
+                    path for path, material in self._materials.items() if material.varying
+                )
+            self.shutter, self.time, self.depth_of_field = shutter, shutter.frame, depth_of_field
+            for path, record in self._prims.items():
+                bits = record.varying if time_changed else Dirty(0)
+                if lens_changed and record.kind == "camera":
+                    bits |= Dirty.DATA
+                if bits:
+                    self._mark(path, bits)
         self._flush()
         self._report_unsupported()
 
@@ -276,24 +296,25 @@ class SceneDelegate:
 
     def _flush(self) -> None:
         while self._dirty or self._dirty_materials:
-            xform_cache = UsdGeom.XformCache(self.time)
+            xform_caches = XformCaches()
             dirty, self._dirty = self._dirty, {}
             for path in sorted(dirty):
                 if path in self._prims:
-                    self._sync_prim(path, dirty[path], xform_cache)
+                    self._sync_prim(path, dirty[path], xform_caches)
             materials, self._dirty_materials = self._dirty_materials, set()
             for path in sorted(materials):
                 if path in self._materials:
                     self._sync_material(path)
 
-    def _sync_prim(self, path: Sdf.Path, bits: Dirty, xform_cache: UsdGeom.XformCache) -> None:
+    def _sync_prim(self, path: Sdf.Path, bits: Dirty, xform_caches: XformCaches) -> None:
         record = self._prims[path]
         prim = self.stage.GetPrimAtPath(path)
         if not record.in_core:
             bits = _aspects(record.kind)  # a prim entering the delegate needs everything
         path_str = str(path)
+        shutter = self.shutter if record.kind in _MOVING_KINDS else Shutter(self.time)
         if bits & Dirty.DATA:
-            reader = SampleReader(self.time)
+            reader = SampleReader(self.time, shutter)
             if not record.in_core:
                 self._insert(path_str, record.kind)
                 record.in_core = True
@@ -303,13 +324,12 @@ class SceneDelegate:
                     record.in_core = False
                     return
             elif record.kind == "camera":
-                sync_camera(self.core, prim, reader)
+                sync_camera(self.core, prim, reader, self.depth_of_field)
             else:
                 sync_light(self.core, prim, reader, self._warn)
             record.varying = _set_flag(record.varying, Dirty.DATA, reader.varying)
         if bits & Dirty.TRANSFORM:
-            matrix = xform_cache.GetLocalToWorldTransform(prim)
-            self.core.set_transform(path_str, np.array(matrix, dtype=np.float64))
+            self.core.set_transform(path_str, transform_samples(prim, shutter, xform_caches))
             record.varying = _set_flag(record.varying, Dirty.TRANSFORM, transform_might_vary(prim))
         if bits & Dirty.VISIBILITY:
             visibility = UsdGeom.Imageable(prim).ComputeVisibility(self.time)

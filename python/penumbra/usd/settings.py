@@ -27,6 +27,8 @@ class RenderSettings:
     """The single target of the ``camera`` relationship, if there is exactly one."""
     resolution: tuple[int, int] | None
     """``resolution`` when authored (the schema fallback is not a request)."""
+    disable_motion_blur: bool = False
+    disable_depth_of_field: bool = False
 
 
 def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSettings | None:
@@ -56,6 +58,8 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
         path=str(path),
         camera=str(targets[0]) if len(targets) == 1 else None,
         resolution=resolution,
+        disable_motion_blur=bool(settings.GetDisableMotionBlurAttr().Get()),
+        disable_depth_of_field=bool(settings.GetDisableDepthOfFieldAttr().Get()),
     )
 
 

@@ -1,0 +1,187 @@
+"""Motion over a frame's shutter: transform samples, deformation samples and velocity samples.
+
+Every array returned holds one sample (static) or K samples at the uniformly spaced times
+:meth:`Shutter.times` gives (the render delegate's layout, see docs/core-api.md "Motion"):
+
+* transforms: world matrices at the times that include every authored xformOp time sample of
+  the prim and its ancestors inside the shutter; the render delegate interpolates translation
+  linearly and rotation by slerp, so steps are halved (up to the maximum) while a step's
+  midpoint strays from that interpolation: an object turning about its own origin needs no
+  extra samples, an object orbiting a pivot does (its origin would otherwise cut the chord),
+  and a turn of 180° or more between two keys is sampled finely enough to keep its direction;
+* points: time-sampled ``points`` (constant topology) at the times that include their authored
+  samples; else ``velocities`` (units/s) and ``accelerations`` (units/s²) extrapolated from the
+  points' sample at or before the frame, Δ = (t − t0) / timeCodesPerSecond.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+
+import numpy as np
+from pxr import Gf, Usd, UsdGeom
+
+from .sampling import SampleReader, Shutter, changes_within, transform_might_vary
+
+ACCELERATION_SEGMENTS = 4
+"""Steps over the shutter for accelerated points (a parabola: 5 samples keep it within 1/64 of
+its sagitta); velocities alone move linearly and need one."""
+_ARC_TOLERANCE = 0.035  # midpoint deviation / step length: about 1 % of an orbit's radius
+_TURN_TOLERANCE = 0.01  # radians by which a step's midpoint may leave the shorter arc
+_MAX_STEP_TURN = math.radians(120)  # steps turning more are ambiguous for slerp: halved
+
+
+class XformCaches:
+    """One ``UsdGeom.XformCache`` per time code, shared by the prims of one sync."""
+
+    def __init__(self) -> None:
+        self._caches: dict[float | None, UsdGeom.XformCache] = {}
+
+    def world(self, prim: Usd.Prim, time: Usd.TimeCode) -> Gf.Matrix4d:
+        """The local-to-world transform of ``prim`` at ``time``."""
+        key = None if time.IsDefault() else time.GetValue()
+        cache = self._caches.get(key)
+        if cache is None:
+            cache = self._caches[key] = UsdGeom.XformCache(time)
+        return cache.GetLocalToWorldTransform(prim)
+
+
+def transform_samples(prim: Usd.Prim, shutter: Shutter, caches: XformCaches) -> np.ndarray:
+    """The local-to-world transform of ``prim``: float64 (4, 4), or (K, 4, 4) when it moves
+    during the shutter."""
+
+    def world(segments: int) -> list[Gf.Matrix4d]:
+        return [caches.world(prim, time) for time in shutter.times(segments)]
+
+    if not (shutter.blurred and transform_might_vary(prim)):
+        return np.array(caches.world(prim, shutter.frame), dtype=np.float64)
+    segments = shutter.segments(_xform_sample_times(prim, shutter.interval))
+    matrices = world(segments)
+    while 2 * segments <= shutter.max_segments:
+        finer = world(2 * segments)
+        if all(_interpolates(*finer[2 * k : 2 * k + 3]) for k in range(segments)):
+            break
+        segments, matrices = 2 * segments, finer
+    if all(matrix == matrices[0] for matrix in matrices):
+        return np.array(matrices[0], dtype=np.float64)
+    return np.array([np.array(matrix) for matrix in matrices], dtype=np.float64)
+
+
+def _xform_sample_times(prim: Usd.Prim, interval: Gf.Interval) -> set[float]:
+    """The authored time samples inside ``interval`` of the xformOps that place ``prim``."""
+    times: set[float] = set()
+    while prim and not prim.IsPseudoRoot():
+        xformable = UsdGeom.Xformable(prim)
+        if xformable:
+            times.update(xformable.GetTimeSamplesInInterval(interval))
+            if xformable.GetResetXformStack():
+                break
+        prim = prim.GetParent()
+    return times
+
+
+def _interpolates(start: Gf.Matrix4d, middle: Gf.Matrix4d, end: Gf.Matrix4d) -> bool:
+    """Whether ``middle`` is where the render delegate's interpolation of a step from
+    ``start`` to ``end`` puts it (translation on the chord, rotation on the shorter arc)."""
+    a, b, c = (m.ExtractTranslation() for m in (start, middle, end))
+    chord = (c - a).GetLength()
+    scale = 1.0 + a.GetLength() + c.GetLength()
+    if (b - (a + c) * 0.5).GetLength() > _ARC_TOLERANCE * chord + 1e-9 * scale:
+        return False
+    qa, qb, qc = (m.ExtractRotationQuat() for m in (start, middle, end))
+    turn = _angle(qa, qc)
+    return turn <= _MAX_STEP_TURN and _angle(qa, qb) + _angle(qb, qc) - turn <= _TURN_TOLERANCE
+
+
+def _angle(p: Gf.Quatd, q: Gf.Quatd) -> float:
+    """The rotation angle between unit quaternions ``p`` and ``q`` (radians, 0..π)."""
+    dot = abs(p.GetReal() * q.GetReal() + Gf.Dot(p.GetImaginary(), q.GetImaginary()))
+    return 2.0 * math.acos(min(1.0, dot))
+
+
+def point_samples(
+    mesh: UsdGeom.Mesh,
+    points: np.ndarray,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    path: str,
+) -> np.ndarray:
+    """The object-space points of ``mesh`` over the reader's shutter: float32 (N, 3), or
+    (K, N, 3) when they deform or move with velocities. ``points``: float32 (N, 3) at the
+    reader's time (also the fallback when the topology changes within the shutter)."""
+    shutter = reader.shutter
+    attr = mesh.GetPointsAttr()
+    if shutter.blurred and changes_within(attr, shutter.interval):
+        samples = _deformation(mesh, shutter, len(points), warn, path)
+    elif mesh.GetVelocitiesAttr().HasAuthoredValue():
+        reader.depends_on_shutter()  # extrapolated over the shutter from the frame's sample
+        samples = _velocity_motion(mesh, shutter, warn, path) if shutter.blurred else None
+    else:
+        samples = None
+    if samples is None or all(np.array_equal(s, samples[0]) for s in samples):
+        return points
+    return samples
+
+
+def _deformation(
+    mesh: UsdGeom.Mesh, shutter: Shutter, count: int, warn: Callable[[str], None], path: str
+) -> np.ndarray | None:
+    """Time-sampled points at the shutter's times; ``None`` (after a warning) when the point
+    count or the topology changes within the shutter."""
+    attr = mesh.GetPointsAttr()
+    times = shutter.times(shutter.segments(attr.GetTimeSamplesInInterval(shutter.interval)))
+    samples = [np.asarray(attr.Get(time), dtype=np.float32).reshape(-1, 3) for time in times]
+    topology = [
+        attr
+        for attr in (mesh.GetFaceVertexCountsAttr(), mesh.GetFaceVertexIndicesAttr())
+        if attr.ValueMightBeTimeVarying()
+    ]
+    if any(len(s) != count for s in samples) or any(
+        attr.Get(time) != attr.Get(shutter.frame) for attr in topology for time in times
+    ):
+        warn(
+            f"{path}: the point count or topology changes within the shutter; "
+            "deformation motion blur ignored (points at the frame used)"
+        )
+        return None
+    return np.stack(samples)
+
+
+def _velocity_motion(
+    mesh: UsdGeom.Mesh, shutter: Shutter, warn: Callable[[str], None], path: str
+) -> np.ndarray | None:
+    """p(t) = p0 + v·Δ + ½·a·Δ² at the shutter's times, p0, v and a at the points' sample at
+    or before the frame; ``None`` when the velocities do not match the points."""
+    attr = mesh.GetPointsAttr()
+    bracket = attr.GetBracketingTimeSamples(shutter.frame.GetValue())
+    t0 = Usd.TimeCode(bracket[0]) if bracket else shutter.frame
+    origin = np.asarray(attr.Get(t0), dtype=np.float64).reshape(-1, 3)
+    velocities = _per_point(mesh.GetVelocitiesAttr(), t0, len(origin), warn, path)
+    if velocities is None:
+        return None
+    accelerations = _per_point(mesh.GetAccelerationsAttr(), t0, len(origin), warn, path)
+    segments = min(ACCELERATION_SEGMENTS if accelerations is not None else 1, shutter.max_segments)
+    seconds_per_code = 1.0 / mesh.GetPrim().GetStage().GetTimeCodesPerSecond()
+    samples = []
+    for time in shutter.times(segments):
+        delta = (time.GetValue() - t0.GetValue()) * seconds_per_code
+        moved = origin + velocities * delta
+        if accelerations is not None:
+            moved += 0.5 * accelerations * delta * delta
+        samples.append(moved)
+    return np.asarray(samples, dtype=np.float32)
+
+
+def _per_point(
+    attr: Usd.Attribute, time: Usd.TimeCode, count: int, warn: Callable[[str], None], path: str
+) -> np.ndarray | None:
+    """The vectors of ``attr`` at ``time`` when authored; ``None`` (after a warning if they
+    are authored but do not match the ``count`` points) otherwise."""
+    if not attr.HasAuthoredValue():
+        return None
+    values = np.asarray(attr.Get(time) or [], dtype=np.float64).reshape(-1, 3)
+    if len(values) != count:
+        warn(f"{path}: {len(values)} {attr.GetName()} for {count} points; ignored")
+        return None
+    return values

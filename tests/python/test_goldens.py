@@ -1,0 +1,32 @@
+"""Golden images (penumbra.testing): small renders of the bundled examples, compared with the
+images in goldens/. Rendering is deterministic, so any change to what a sample computes shows
+here; when the change is intended, regenerate with ``pytest --update-goldens`` and look at the
+new images before committing them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import penumbra
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def test_showcase_materials_and_lights(golden):
+    image = penumbra.render(str(EXAMPLES / "showcase.usda"), width=96, samples=8, threads=2)
+    golden.check(image, "showcase", fail=0.02, failpercent=0.0)
+
+
+def test_cornell_box(golden):
+    image = penumbra.render(str(EXAMPLES / "cornell.usda"), width=96, samples=8, threads=1)
+    golden.check(image, "cornell", fail=0.02, failpercent=0.0)
+
+
+def test_golden_check_fails_for_a_different_image(golden):
+    if golden.update:
+        return  # nothing to compare while the goldens are being rewritten
+    image = penumbra.render(str(EXAMPLES / "cornell.usda"), width=96, samples=8, seed=1)
+    with pytest.raises(pytest.fail.Exception, match="differ by more than 0.02"):
+        golden.check(image, "cornell", fail=0.02, failpercent=0.0)
