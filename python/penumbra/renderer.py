@@ -103,7 +103,7 @@ class Renderer:
 
     def _sync(self, shutter: Shutter, depth_of_field: bool = True) -> None:
         self._scene.update(shutter, depth_of_field)
-        self._instancers.update(shutter.frame)
+        self._instancers.update(shutter)
         self._update_default_light()
 
     def close(self) -> None:

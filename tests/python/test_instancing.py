@@ -76,3 +76,18 @@ def test_edits_resync_the_instancer_and_bad_indices_warn():
     with pytest.warns(penumbra.PenumbraWarning, match="/World/copies: 1 protoIndices are out of range"):
         image = renderer.render(**SMALL)
     assert image["color"][..., 3].max() == 0
+
+
+def test_copies_blur_along_their_velocities():
+    stage, instancer = instancer_stage()
+    # Shutter [0, 1] at frame 1 (24 time codes per second): 24 units/s moves a copy 1 unit.
+    UsdGeom.Camera.Get(stage, "/cam").CreateShutterCloseAttr(1.0)
+    instancer.CreateVelocitiesAttr(Vt.Vec3fArray([(24, 0, 0), (0, 0, 0), (0, 0, 0), (0, 0, 0)]))
+    renderer = penumbra.Renderer(stage)
+    blurred = renderer.render(camera="/cam", width=40, samples=16)
+    # The first copy sweeps from x = -1 to x = 0; the others stay sharp.
+    for x in (-0.9, -0.5, -0.1):
+        assert color_at(blurred, x, 1)[3] > 0.1
+    assert color_at(blurred, 0.3, 1)[3] == 0
+    sharp = renderer.render(**SMALL, disable_motion_blur=True)
+    assert color_at(sharp, -0.5, 1)[3] == 0 and color_at(sharp, -1, 1)[3] == 1

@@ -5,7 +5,10 @@ and one instancer rprim holding the world transform of every copy: Embree then s
 prototype's BVH among all copies, so memory grows with the number of instances, not with their
 triangles. Transforms come from usd-core (``ComputeInstanceTransformsAtTime``: positions,
 orientations, scales, the prototype's own transform), ``invisibleIds`` masks copies out, and
-the instancer's world transform is applied on top. Nested point instancers are not flattened yet.
+the instancer's world transform is applied on top. Over an open shutter, copies get motion
+samples (``ComputeInstanceTransformsAtTimes``: authored samples of positions, orientations and
+scales, and ``velocities``, ``accelerations`` and ``angularVelocities``), as do moving instancers.
+Nested point instancers are not flattened yet.
 
 Edits anywhere under an instancer (or its prototypes) re-sync that instancer.
 """
@@ -20,7 +23,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade
 
 from .material import bound_material, read_material
 from .mesh import sync_mesh_data
-from .sampling import SampleReader
+from .sampling import SampleReader, Shutter, changes_within, transform_might_vary
 
 
 @dataclass
@@ -39,7 +42,8 @@ class PointInstancerDelegate:
         self.core = core
         self.purposes = frozenset(purposes) | {UsdGeom.Tokens.default_}
         self.warn = warn
-        self.time: Usd.TimeCode | None = None
+        self.shutter: Shutter | None = None
+        self.time: Usd.TimeCode | None = None  # the frame
         self._instancers: dict[Sdf.Path, _Instancer] = {}
         self._dirty = True
         self._listener = Tf.Notice.Register(Usd.Notice.ObjectsChanged, self._on_changed, stage)
@@ -57,11 +61,13 @@ class PointInstancerDelegate:
         ):
             self._dirty = True
 
-    def update(self, time: Usd.TimeCode) -> None:
-        """Re-sync every point instancer when anything they depend on changed, or the time did."""
-        if not self._dirty and time == self.time:
+    def update(self, shutter: Shutter) -> None:
+        """Re-sync every point instancer when anything they depend on changed, or the frame or
+        shutter did."""
+        if not self._dirty and shutter == self.shutter:
             return
-        self.time = time
+        self.shutter = shutter
+        self.time = shutter.frame
         self._dirty = False
         found = {
             prim.GetPath(): prim
@@ -72,9 +78,8 @@ class PointInstancerDelegate:
         }
         for path in [p for p in self._instancers if p not in found]:
             self._remove(path)
-        xform_cache = UsdGeom.XformCache(time)
-        for path, prim in found.items():
-            self._sync(prim, xform_cache)
+        for prim in found.values():
+            self._sync(prim)
 
     def _remove(self, path: Sdf.Path) -> None:
         record = self._instancers.pop(path)
@@ -82,7 +87,7 @@ class PointInstancerDelegate:
         for prim_id in sorted(record.core_prims, key=_removal_order):
             self.core.remove_prim(prim_id)
 
-    def _sync(self, prim: Usd.Prim, xform_cache: UsdGeom.XformCache) -> None:
+    def _sync(self, prim: Usd.Prim) -> None:
         path = prim.GetPath()
         if path in self._instancers:
             self._remove(path)
@@ -104,21 +109,28 @@ class PointInstancerDelegate:
                 f"{len(prototypes)} prototypes; the instancer is skipped"
             )
             return
-        local = np.asarray(
-            instancer.ComputeInstanceTransformsAtTime(
-                self.time,
-                self.time,
-                UsdGeom.PointInstancer.IncludeProtoXform,
-                UsdGeom.PointInstancer.IgnoreMask,
-            ),
-            dtype=np.float64,
-        ).reshape(-1, 4, 4)
+        times = self._motion_times(prim, instancer)
+        samples = instancer.ComputeInstanceTransformsAtTimes(
+            times,
+            self.time,
+            UsdGeom.PointInstancer.IncludeProtoXform,
+            UsdGeom.PointInstancer.IgnoreMask,
+        )
+        # (N, K, 4, 4): each copy's transform at every sample time.
+        local = np.stack([np.asarray(s, dtype=np.float64).reshape(-1, 4, 4) for s in samples], axis=1)
+        if len(times) > 1 and not instancer.GetPositionsAttr().GetNumTimeSamples():
+            # usd-core extrapolates velocities from time-sampled positions only; for positions
+            # with a default value, move each copy's translation itself: p + v·Δ + ½·a·Δ².
+            local = local[:, :1].repeat(len(times), axis=1)
+            local[:, :, 3, :3] += self._default_position_offsets(instancer, times, len(indices))
         if len(local) != len(indices):
             self.warn(f"{path}: instance attributes do not match protoIndices; instances skipped")
             return
         mask = instancer.ComputeMaskAtTime(self.time)
         keep = np.asarray(mask, dtype=bool) if mask else np.ones(len(indices), dtype=bool)
-        world = np.asarray(xform_cache.GetLocalToWorldTransform(prim), dtype=np.float64)
+        world = np.stack(
+            [np.asarray(UsdGeom.XformCache(t).GetLocalToWorldTransform(prim)) for t in times]
+        )
         for index, prototype_path in enumerate(prototypes):
             root = self.stage.GetPrimAtPath(prototype_path)
             if not root:
@@ -129,7 +141,51 @@ class PointInstancerDelegate:
             if len(selected) == 0:
                 continue
             for mesh_prim in self._prototype_meshes(path, root):
+                # Broadcasting pairs each copy's k-th sample with the instancer's k-th.
                 self._sync_prototype_mesh(record, path, root, mesh_prim, selected @ world, visible)
+
+    def _default_position_offsets(
+        self, instancer: UsdGeom.PointInstancer, times: list[Usd.TimeCode], count: int
+    ) -> np.ndarray:
+        """(N, K, 3) displacements from ``velocities`` (units/s) and ``accelerations``
+        (units/s²) at the sample times, Δ = (t − frame) / timeCodesPerSecond."""
+        seconds = np.array([(t.GetValue() - self.time.GetValue()) for t in times])
+        seconds /= self.stage.GetTimeCodesPerSecond()
+        offsets = np.zeros((count, len(times), 3))
+        for attr, factor in ((instancer.GetVelocitiesAttr(), seconds), (instancer.GetAccelerationsAttr(), 0.5 * seconds**2)):
+            value = attr.Get(self.time)
+            if value is not None and len(value) == count:
+                offsets += np.asarray(value, dtype=np.float64)[:, None, :] * factor[None, :, None]
+            elif value:
+                self.warn(f"{instancer.GetPath()}: {attr.GetName()} has {len(value)} values for {count} instances; ignored")
+        return offsets
+
+    def _motion_times(self, prim: Usd.Prim, instancer: UsdGeom.PointInstancer) -> list[Usd.TimeCode]:
+        """The sample times of the copies: the frame alone unless something moves within the
+        shutter, else a uniform grid holding the authored samples inside it."""
+        shutter = self.shutter
+        if not shutter.blurred:
+            return [shutter.frame]
+        interval = shutter.interval
+        keyed = [
+            instancer.GetPositionsAttr(),
+            instancer.GetOrientationsAttr(),
+            instancer.GetScalesAttr(),
+        ]
+        authored = [t for attr in keyed for t in attr.GetTimeSamplesInInterval(interval)]
+        moving = any(changes_within(attr, interval) for attr in keyed) or transform_might_vary(prim)
+        # Velocities move copies linearly; accelerations and angular velocities bend the path.
+        curved = bool(instancer.GetAccelerationsAttr().Get(self.time)) or bool(
+            instancer.GetAngularVelocitiesAttr().Get(self.time)
+        )
+        if bool(instancer.GetVelocitiesAttr().Get(self.time)) or curved:
+            moving = True
+        if not moving:
+            return [shutter.frame]
+        segments = shutter.segments(authored)
+        if curved:
+            segments = max(segments, min(4, shutter.max_segments))
+        return shutter.times(segments)
 
     def _prototype_meshes(self, instancer: Sdf.Path, root: Usd.Prim) -> Iterable[Usd.Prim]:
         walk = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
@@ -175,6 +231,8 @@ class PointInstancerDelegate:
         self.core.insert_rprim("instancer", copies_id)
         record.core_prims.add(copies_id)
         transforms = np.asarray(relative, dtype=np.float64) @ instance_to_world
+        if transforms.shape[1] == 1:
+            transforms = transforms[:, 0]  # static copies
         self.core.set_instances(copies_id, mesh_id, np.ascontiguousarray(transforms))
         self.core.set_visible(copies_id, visible)
 
