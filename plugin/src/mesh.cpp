@@ -52,6 +52,12 @@ void Mesh::setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolatio
   markDirty(DirtyPrimvar);
 }
 
+void Mesh::setNormals(std::vector<Vec3f> normals, Interpolation interpolation) {
+  data_.normals = std::move(normals);
+  data_.normalsInterpolation = interpolation;
+  markDirty(DirtyPrimvar);
+}
+
 void Mesh::setMaterialId(PrimId materialId) {
   materialId_ = std::move(materialId);
   markDirty(DirtyMaterialId);

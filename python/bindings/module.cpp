@@ -210,6 +210,14 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("id"), py::arg("enabled"))
       .def(
+          "set_mesh_normals",
+          [](RenderDelegate& self, const std::string& id, const FloatArray& normals,
+             const std::string& interpolation) {
+            self.mesh(id).setNormals(toVec3Array(normals, "normals"),
+                                     toInterpolation(interpolation));
+          },
+          py::arg("id"), py::arg("normals"), py::arg("interpolation"))
+      .def(
           "set_mesh_material",
           [](RenderDelegate& self, const std::string& id, const std::string& materialId) {
             self.mesh(id).setMaterialId(materialId);

@@ -92,14 +92,17 @@ TriangleMesh triangulate(const MeshData& mesh) {
                                   "] = " + std::to_string(index) + " is out of range for " +
                                   std::to_string(pointCount) + " points");
   }
-  if (!mesh.displayColor.empty()) {
-    const size_t expected = expectedPrimvarSize(mesh.displayColorInterpolation, mesh);
-    if (mesh.displayColor.size() != expected)
-      throw std::invalid_argument(std::string("displayColor (") +
-                                  interpolationName(mesh.displayColorInterpolation) + ") has " +
-                                  std::to_string(mesh.displayColor.size()) + " values, expected " +
+  const auto checkPrimvar = [&](const char* name, const std::vector<Vec3f>& values,
+                                Interpolation interpolation) {
+    if (values.empty()) return;
+    const size_t expected = expectedPrimvarSize(interpolation, mesh);
+    if (values.size() != expected)
+      throw std::invalid_argument(std::string(name) + " (" + interpolationName(interpolation) +
+                                  ") has " + std::to_string(values.size()) + " values, expected " +
                                   std::to_string(expected));
-  }
+  };
+  checkPrimvar("displayColor", mesh.displayColor, mesh.displayColorInterpolation);
+  checkPrimvar("normals", mesh.normals, mesh.normalsInterpolation);
 
   TriangleMesh result;
   result.points = mesh.points;
@@ -108,6 +111,8 @@ TriangleMesh triangulate(const MeshData& mesh) {
   result.closed = isClosedSurface(mesh.faceVertexCounts, mesh.faceVertexIndices);
   result.displayColor = mesh.displayColor;
   result.displayColorInterpolation = mesh.displayColorInterpolation;
+  result.normals = mesh.normals;
+  result.normalsInterpolation = mesh.normalsInterpolation;
   size_t faceStart = 0;
   for (size_t face = 0; face < mesh.faceVertexCounts.size(); ++face) {
     const int count = mesh.faceVertexCounts[face];
@@ -136,24 +141,22 @@ Vec3f TriangleMesh::cornerAt(uint32_t triangle, int corner, float time) const {
   return from * (1 - where.fraction) + to * where.fraction;
 }
 
-Vec3f TriangleMesh::displayColorAt(uint32_t triangle, float u, float v,
-                                   const Vec3f& fallback) const {
-  if (displayColor.empty()) return fallback;
-  switch (displayColorInterpolation) {
+Vec3f TriangleMesh::interpolate(const std::vector<Vec3f>& values, Interpolation interpolation,
+                                uint32_t triangle, float u, float v) const {
+  const size_t first = 3 * size_t(triangle);
+  switch (interpolation) {
     case Interpolation::Constant:
-      return displayColor[0];
+      return values[0];
     case Interpolation::Uniform:
-      return displayColor[sourceFace[triangle]];
+      return values[sourceFace[triangle]];
     case Interpolation::Vertex:
-      return displayColor[triangles[3 * triangle]] * (1 - u - v) +
-             displayColor[triangles[3 * triangle + 1]] * u +
-             displayColor[triangles[3 * triangle + 2]] * v;
+      return values[triangles[first]] * (1 - u - v) + values[triangles[first + 1]] * u +
+             values[triangles[first + 2]] * v;
     case Interpolation::FaceVarying:
-      return displayColor[cornerFaceVertex[3 * triangle]] * (1 - u - v) +
-             displayColor[cornerFaceVertex[3 * triangle + 1]] * u +
-             displayColor[cornerFaceVertex[3 * triangle + 2]] * v;
+      return values[cornerFaceVertex[first]] * (1 - u - v) +
+             values[cornerFaceVertex[first + 1]] * u + values[cornerFaceVertex[first + 2]] * v;
   }
-  return fallback;
+  return values[0];
 }
 
 }  // namespace penumbra

@@ -346,12 +346,11 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
   hit.shadingNormal = hit.normal;
   const float u = rayHit.hit.u, v = rayHit.hit.v;
   if (!data.normals.empty()) {
-    const size_t i0 = data.triangles[3 * size_t(triangle)],
-                 i1 = data.triangles[3 * size_t(triangle) + 1],
-                 i2 = data.triangles[3 * size_t(triangle) + 2];
     const Vec3f interpolated = objectToWorld.applyToNormal(
-        data.normals[i0] * (1 - u - v) + data.normals[i1] * u + data.normals[i2] * v);
-    if (length(interpolated) > 0) hit.shadingNormal = normalize(interpolated);
+        data.interpolate(data.normals, data.normalsInterpolation, triangle, u, v));
+    // A shading normal on the other side than the surface would turn shading inside out.
+    if (length(interpolated) > 0 && dot(interpolated, hit.normal) > 0)
+      hit.shadingNormal = normalize(interpolated);
   }
   hit.closed = data.closed;
   const Vec3f fallbackColor{0.5f};

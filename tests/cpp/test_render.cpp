@@ -363,3 +363,29 @@ TEST(Render, MeshLightsMatchTheEquivalentRectLight) {
   EXPECT_NEAR(floorRadiance(1) / expected, 1.0, 0.02);  // light sampling only
   EXPECT_NEAR(floorRadiance(2) / expected, 1.0, 0.05);  // BSDF sampling only (noisier)
 }
+
+TEST(Render, AuthoredNormalsShadeTheSurface) {
+  const auto floorUnderSun = [](std::vector<Vec3f> normals, Interpolation interpolation) {
+    RenderDelegate delegate;
+    lambertianFloorScene(delegate, 0.5f);
+    delegate.mesh("/floor").setNormals(std::move(normals), interpolation);
+    delegate.insertSprim("distantLight", "/sun");
+    delegate.light("/sun").setParam("angle", 0.0f);
+    delegate.light("/sun").setParam("intensity", 2.0f);
+    delegate.light("/sun").setTransform(facingDown(0, 0, 0));
+    delegate.settings().set("maxPathDepth", 1);
+    return meanChannel(render(delegate, 4, 4, 4), 0);
+  };
+  const float c = std::cos(float(M_PI) / 3), s = std::sin(float(M_PI) / 3);
+  // The fallback surface (no material) is diffuse within 1 % of Lambertian.
+  const double flat = floorUnderSun({}, Interpolation::Vertex);
+  EXPECT_NEAR(flat, 0.5 / M_PI * 2, 0.01 * flat);
+  // Normals tilted 60° from the sun: E·cos 60°, whatever their interpolation.
+  const std::vector<std::pair<std::vector<Vec3f>, Interpolation>> tilted = {
+      {{{s, c, 0}}, Interpolation::Constant},
+      {std::vector<Vec3f>(4, {0, c, s}), Interpolation::Vertex},
+      {std::vector<Vec3f>(4, {-s, c, 0}), Interpolation::FaceVarying},
+      {{{0, c, -s}}, Interpolation::Uniform}};
+  for (const auto& [normals, interpolation] : tilted)
+    EXPECT_NEAR(floorUnderSun(normals, interpolation) / flat, 0.5, 0.01);
+}

@@ -23,6 +23,8 @@ struct MeshData {
   bool doubleSided = false;
   std::vector<Vec3f> displayColor;  // empty: none authored
   Interpolation displayColorInterpolation = Interpolation::Constant;
+  std::vector<Vec3f> normals;  // authored shading normals; empty: flat shading
+  Interpolation normalsInterpolation = Interpolation::Vertex;
 };
 
 /// A triangulated mesh ready for Embree. Triangles are fans of each polygon, wound so that the
@@ -39,17 +41,25 @@ struct TriangleMesh {
   /// Every edge has exactly two faces: the mesh bounds a solid (translucent materials refract
   /// into it); open meshes are treated as thin sheets.
   bool closed = false;
-  /// Shading normals per point (smooth surfaces, e.g. subdivision limit normals); empty: flat.
+  /// Shading normals (authored, or subdivision limit normals per point); empty: flat.
   std::vector<Vec3f> normals;
+  Interpolation normalsInterpolation = Interpolation::Vertex;
   std::vector<Vec3f> displayColor;
   Interpolation displayColorInterpolation = Interpolation::Constant;
 
   /// Corner `corner` (0..2) of `triangle` at normalised shutter time `time`.
   Vec3f cornerAt(uint32_t triangle, int corner, float time) const;
 
-  /// Display colour at a point on triangle `triangle` with barycentrics (u, v) as Embree gives
-  /// them (weights 1-u-v, u, v for corners 0, 1, 2). `fallback` when none is authored.
-  Vec3f displayColorAt(uint32_t triangle, float u, float v, const Vec3f& fallback) const;
+  /// A primvar at a point on triangle `triangle` with barycentrics (u, v) as Embree gives them
+  /// (weights 1-u-v, u, v for corners 0, 1, 2); `values` must not be empty.
+  Vec3f interpolate(const std::vector<Vec3f>& values, Interpolation interpolation,
+                    uint32_t triangle, float u, float v) const;
+  /// Display colour at a point of a triangle; `fallback` when none is authored.
+  Vec3f displayColorAt(uint32_t triangle, float u, float v, const Vec3f& fallback) const {
+    return displayColor.empty()
+               ? fallback
+               : interpolate(displayColor, displayColorInterpolation, triangle, u, v);
+  }
 };
 
 /// True when every edge of the polygon mesh is shared by exactly two faces.

@@ -24,6 +24,8 @@ class Mesh : public Prim {
   void setPoints(std::vector<Vec3f> points, std::vector<std::vector<Vec3f>> pointMotion = {});
   void setDoubleSided(bool doubleSided);
   void setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolation);
+  /// Authored shading normals (empty: flat shading, or the limit normals of subdivision).
+  void setNormals(std::vector<Vec3f> normals, Interpolation interpolation);
   void setMaterialId(PrimId materialId);
   /// UsdLuxMeshLightAPI: the mesh also emits, and is sampled as a light, with these inputs
   /// (names as Light::setParam). `enabled` false removes the light.
