@@ -59,8 +59,26 @@ def sync_mesh_data(
     core.set_mesh_double_sided(path, bool(reader.get(mesh.GetDoubleSidedAttr())))
     colors, interpolation = _display_color(prim, reader)
     core.set_mesh_display_color(path, colors, interpolation)
+    normals, normals_interpolation = _normals(mesh, reader)
+    core.set_mesh_normals(path, normals, normals_interpolation)
     sync_mesh_light(core, prim, path, reader)
     return True
+
+
+def _normals(mesh: UsdGeom.Mesh, reader: SampleReader) -> tuple[np.ndarray, str]:
+    """Authored shading normals (``primvars:normals`` wins over ``normals``, as in USD) and their
+    interpolation; no values when none are authored or the mesh is subdivided (its limit
+    normals are used then)."""
+    if reader.get(mesh.GetSubdivisionSchemeAttr()) not in (None, UsdGeom.Tokens.none):
+        return np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.vertex
+    primvar = UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetPrimvar(UsdGeom.Tokens.normals)
+    if primvar and primvar.HasValue():
+        values, interpolation = reader.flattened_primvar(primvar), primvar.GetInterpolation()
+    else:
+        values, interpolation = reader.get(mesh.GetNormalsAttr()), mesh.GetNormalsInterpolation()
+    if values is None or len(values) == 0:
+        return np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.vertex
+    return np.asarray(values, dtype=np.float32).reshape(-1, 3), str(interpolation)
 
 
 def _display_color(prim: Usd.Prim, reader: SampleReader) -> tuple[np.ndarray, str]:
