@@ -70,7 +70,8 @@ std::vector<float> toFloatVector(const FloatArray& array, const char* what) {
 Interpolation toInterpolation(const std::string& name) {
   if (name == "constant") return Interpolation::Constant;
   if (name == "uniform") return Interpolation::Uniform;
-  if (name == "vertex" || name == "varying") return Interpolation::Vertex;
+  if (name == "varying") return Interpolation::Varying;
+  if (name == "vertex") return Interpolation::Vertex;
   if (name == "faceVarying") return Interpolation::FaceVarying;
   throw std::invalid_argument("unknown primvar interpolation '" + name + "'");
 }

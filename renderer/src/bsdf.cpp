@@ -521,6 +521,22 @@ float PreviewSurfaceBsdf::evaluateDielectric(const Vec3f& wo, const Vec3f& wi, f
   return singleScattering > 0 ? singleScattering / dielectricAlbedo(wo.z, eta) : 0.0f;
 }
 
+namespace {
+/// The microfacet normal of a refraction from wo (above, z > 0) to wi (below) with relative
+/// index eta, on wo's side, and the cosines with it; false when no microfacet refracts so.
+bool refractionHalfVector(const Vec3f& wo, const Vec3f& wi, float eta, Vec3f* h, float* cosThetaOH,
+                          float* cosThetaIH) {
+  Vec3f half = wo + wi * eta;
+  if (dot(half, half) == 0) return false;
+  half = normalize(half);
+  if (half.z < 0) half = -half;
+  *h = half;
+  *cosThetaOH = dot(wo, half);
+  *cosThetaIH = dot(wi, half);
+  return *cosThetaOH > 0 && *cosThetaIH < 0;
+}
+}  // namespace
+
 float PreviewSurfaceBsdf::evaluateDielectricSingleScattering(const Vec3f& wo, const Vec3f& wi,
                                                              float eta) const {
   const float alpha = dielectricAlpha_;
@@ -534,12 +550,9 @@ float PreviewSurfaceBsdf::evaluateDielectricSingleScattering(const Vec3f& wo, co
     return (1 - dielectricReflectance(dot(wo, h), eta)) *
            ggxReflectionWithoutFresnel(wo, mirrored, h, alpha);
   }
-  Vec3f h = wo + wi * eta;
-  if (dot(h, h) == 0) return 0;
-  h = normalize(h);
-  if (h.z < 0) h = -h;
-  const float cosThetaOH = dot(wo, h), cosThetaIH = dot(wi, h);
-  if (cosThetaOH <= 0 || cosThetaIH >= 0) return 0;
+  Vec3f h;
+  float cosThetaOH = 0, cosThetaIH = 0;
+  if (!refractionHalfVector(wo, wi, eta, &h, &cosThetaOH, &cosThetaIH)) return 0;
   const float denominator = square(cosThetaOH + eta * cosThetaIH);
   return ggxDensity(h, alpha) * ggxMaskingShadowing(wo, wi, alpha) *
          (1 - fresnelDielectric(cosThetaOH, eta)) * cosThetaOH * -cosThetaIH / (wo.z * denominator);
@@ -555,12 +568,9 @@ float PreviewSurfaceBsdf::pdfDielectric(const Vec3f& wo, const Vec3f& wi, float 
     const Vec3f h = normalize(wo + mirrorThroughSurface(wi));
     return (1 - dielectricReflectance(dot(wo, h), eta)) * ggxReflectionPdf(wo, h, alpha);
   }
-  Vec3f h = wo + wi * eta;
-  if (dot(h, h) == 0) return 0;
-  h = normalize(h);
-  if (h.z < 0) h = -h;
-  const float cosThetaOH = dot(wo, h), cosThetaIH = dot(wi, h);
-  if (cosThetaOH <= 0 || cosThetaIH >= 0) return 0;
+  Vec3f h;
+  float cosThetaOH = 0, cosThetaIH = 0;
+  if (!refractionHalfVector(wo, wi, eta, &h, &cosThetaOH, &cosThetaIH)) return 0;
   const float jacobian = eta * eta * -cosThetaIH / square(cosThetaOH + eta * cosThetaIH);
   return (1 - fresnelDielectric(cosThetaOH, eta)) * ggxVisibleNormalPdf(wo, h, alpha) * jacobian;
 }

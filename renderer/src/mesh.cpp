@@ -8,12 +8,23 @@
 namespace penumbra {
 namespace {
 
-size_t expectedPrimvarSize(Interpolation interpolation, const MeshData& mesh) {
+void requireFinite(const std::vector<Vec3f>& points, const std::string& name) {
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Vec3f& p = points[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw std::invalid_argument(name + "[" + std::to_string(i) + "] is not finite");
+  }
+}
+
+}  // namespace
+
+size_t primvarElementCount(Interpolation interpolation, const MeshData& mesh) {
   switch (interpolation) {
     case Interpolation::Constant:
       return 1;
     case Interpolation::Uniform:
       return mesh.faceVertexCounts.size();
+    case Interpolation::Varying:
     case Interpolation::Vertex:
       return mesh.points.size();
     case Interpolation::FaceVarying:
@@ -28,6 +39,8 @@ const char* interpolationName(Interpolation interpolation) {
       return "constant";
     case Interpolation::Uniform:
       return "uniform";
+    case Interpolation::Varying:
+      return "varying";
     case Interpolation::Vertex:
       return "vertex";
     case Interpolation::FaceVarying:
@@ -35,16 +48,6 @@ const char* interpolationName(Interpolation interpolation) {
   }
   return "?";
 }
-
-void requireFinite(const std::vector<Vec3f>& points, const std::string& name) {
-  for (size_t i = 0; i < points.size(); ++i) {
-    const Vec3f& p = points[i];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      throw std::invalid_argument(name + "[" + std::to_string(i) + "] is not finite");
-  }
-}
-
-}  // namespace
 
 bool isClosedSurface(const std::vector<int>& faceVertexCounts,
                      const std::vector<int>& faceVertexIndices) {
@@ -95,7 +98,7 @@ TriangleMesh triangulate(const MeshData& mesh) {
   const auto checkPrimvar = [&](const char* name, const std::vector<Vec3f>& values,
                                 Interpolation interpolation) {
     if (values.empty()) return;
-    const size_t expected = expectedPrimvarSize(interpolation, mesh);
+    const size_t expected = primvarElementCount(interpolation, mesh);
     if (values.size() != expected)
       throw std::invalid_argument(std::string(name) + " (" + interpolationName(interpolation) +
                                   ") has " + std::to_string(values.size()) + " values, expected " +
@@ -149,6 +152,7 @@ Vec3f TriangleMesh::interpolate(const std::vector<Vec3f>& values, Interpolation 
       return values[0];
     case Interpolation::Uniform:
       return values[sourceFace[triangle]];
+    case Interpolation::Varying:
     case Interpolation::Vertex:
       return values[triangles[first]] * (1 - u - v) + values[triangles[first + 1]] * u +
              values[triangles[first + 2]] * v;

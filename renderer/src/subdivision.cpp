@@ -80,41 +80,10 @@ Sdc::SchemeType toOsdScheme(SubdivisionScheme scheme) {
   return Sdc::SCHEME_CATMARK;
 }
 
-const char* interpolationName(PrimvarInterpolation interpolation) {
-  switch (interpolation) {
-    case PrimvarInterpolation::Constant:
-      return "constant";
-    case PrimvarInterpolation::Uniform:
-      return "uniform";
-    case PrimvarInterpolation::Varying:
-      return "varying";
-    case PrimvarInterpolation::Vertex:
-      return "vertex";
-    case PrimvarInterpolation::FaceVarying:
-      return "faceVarying";
-  }
-  return "?";
-}
-
-PrimvarInterpolation toPrimvarInterpolation(Interpolation interpolation) {
-  switch (interpolation) {
-    case Interpolation::Constant:
-      return PrimvarInterpolation::Constant;
-    case Interpolation::Uniform:
-      return PrimvarInterpolation::Uniform;
-    case Interpolation::Vertex:
-      return PrimvarInterpolation::Vertex;
-    case Interpolation::FaceVarying:
-      return PrimvarInterpolation::FaceVarying;
-  }
-  return PrimvarInterpolation::Constant;
-}
-
 /// Whether a primvar is evaluated at every tessellation vertex (rather than passed through).
-bool isEvaluated(PrimvarInterpolation interpolation) {
-  return interpolation == PrimvarInterpolation::Varying ||
-         interpolation == PrimvarInterpolation::Vertex ||
-         interpolation == PrimvarInterpolation::FaceVarying;
+bool isEvaluated(Interpolation interpolation) {
+  return interpolation == Interpolation::Varying || interpolation == Interpolation::Vertex ||
+         interpolation == Interpolation::FaceVarying;
 }
 
 void checkFinitePoints(const std::vector<Vec3f>& points) {
@@ -224,26 +193,11 @@ void validateCage(const MeshData& cage, SubdivisionScheme scheme, const Subdivis
   }
 }
 
-size_t expectedPrimvarElements(PrimvarInterpolation interpolation, const MeshData& cage) {
-  switch (interpolation) {
-    case PrimvarInterpolation::Constant:
-      return 1;
-    case PrimvarInterpolation::Uniform:
-      return cage.faceVertexCounts.size();
-    case PrimvarInterpolation::Varying:
-    case PrimvarInterpolation::Vertex:
-      return cage.points.size();
-    case PrimvarInterpolation::FaceVarying:
-      return cage.faceVertexIndices.size();
-  }
-  return 0;
-}
-
 void validatePrimvar(const SubdivisionPrimvar& primvar, const MeshData& cage) {
   if (primvar.width < 1 || primvar.width > 4)
     throw std::invalid_argument("primvar " + primvar.name + " has width " +
                                 std::to_string(primvar.width) + "; 1 to 4 are supported");
-  const size_t expected = expectedPrimvarElements(primvar.interpolation, cage);
+  const size_t expected = primvarElementCount(primvar.interpolation, cage);
   if (primvar.values.size() != expected * size_t(primvar.width))
     throw std::invalid_argument(
         "primvar " + primvar.name + " (" + interpolationName(primvar.interpolation) + ", width " +
@@ -394,7 +348,7 @@ Vec3f combinePoints(const std::vector<float>& points, Far::ConstIndexArray indic
 
 /// A cage primvar prepared for evaluation on the patches.
 struct RefinedPrimvar {
-  PrimvarInterpolation interpolation;
+  Interpolation interpolation;
   int width;
   std::vector<float> values;  // as authored (constant, uniform) or refined (the others)
   int faceVaryingChannel = -1;
@@ -491,25 +445,25 @@ struct LimitSurfaceTessellator::Impl {
                        float* result) const {
     float weights[kMaxPatchPoints];
     switch (primvar.interpolation) {
-      case PrimvarInterpolation::Vertex:
+      case Interpolation::Vertex:
         patches->EvaluateBasis(*at.handle, at.s, at.t, weights);
         combine(primvar.values, primvar.width, patches->GetPatchVertices(*at.handle), weights,
                 result);
         break;
-      case PrimvarInterpolation::Varying:
+      case Interpolation::Varying:
         patches->EvaluateBasisVarying(*at.handle, at.s, at.t, weights);
         combine(primvar.values, primvar.width, patches->GetPatchVaryingVertices(*at.handle),
                 weights, result);
         break;
-      case PrimvarInterpolation::FaceVarying:
+      case Interpolation::FaceVarying:
         patches->EvaluateBasisFaceVarying(*at.handle, at.s, at.t, weights, nullptr, nullptr,
                                           nullptr, nullptr, nullptr, primvar.faceVaryingChannel);
         combine(primvar.values, primvar.width,
                 patches->GetPatchFVarValues(*at.handle, primvar.faceVaryingChannel), weights,
                 result);
         break;
-      case PrimvarInterpolation::Constant:
-      case PrimvarInterpolation::Uniform:
+      case Interpolation::Constant:
+      case Interpolation::Uniform:
         break;
     }
   }
@@ -574,7 +528,7 @@ LimitSurfaceTessellator::LimitSurfaceTessellator(const MeshData& cage, Subdivisi
   std::vector<SubdivisionPrimvar> allPrimvars = primvars;
   if (!cage.displayColor.empty()) {
     SubdivisionPrimvar displayColor{"displayColor", flatten(cage.displayColor), 3,
-                                    toPrimvarInterpolation(cage.displayColorInterpolation)};
+                                    cage.displayColorInterpolation};
     impl_->displayColorPrimvar = int(allPrimvars.size());
     impl_->displayColorInterpolation = cage.displayColorInterpolation;
     allPrimvars.push_back(std::move(displayColor));
@@ -593,7 +547,7 @@ LimitSurfaceTessellator::LimitSurfaceTessellator(const MeshData& cage, Subdivisi
 
   std::vector<WeldedFaceVarying> welded;
   for (size_t p = 0; p < allPrimvars.size(); ++p)
-    if (allPrimvars[p].interpolation == PrimvarInterpolation::FaceVarying) {
+    if (allPrimvars[p].interpolation == Interpolation::FaceVarying) {
       impl.primvars[p].faceVaryingChannel = int(welded.size());
       welded.push_back(weldFaceVarying(allPrimvars[p], cage));
     }
@@ -682,21 +636,21 @@ LimitSurfaceTessellator::LimitSurfaceTessellator(const MeshData& cage, Subdivisi
 
   for (RefinedPrimvar& primvar : impl.primvars) {
     switch (primvar.interpolation) {
-      case PrimvarInterpolation::Vertex:
+      case Interpolation::Vertex:
         primvar.values = refine(*impl.refiner, *impl.patches, primvar.values, primvar.width,
                                 RefinedKind::Vertex, 0);
         break;
-      case PrimvarInterpolation::Varying:
+      case Interpolation::Varying:
         primvar.values = refine(*impl.refiner, *impl.patches, primvar.values, primvar.width,
                                 RefinedKind::Varying, 0);
         break;
-      case PrimvarInterpolation::FaceVarying:
+      case Interpolation::FaceVarying:
         primvar.values =
             refine(*impl.refiner, *impl.patches, welded[size_t(primvar.faceVaryingChannel)].values,
                    primvar.width, RefinedKind::FaceVarying, primvar.faceVaryingChannel);
         break;
-      case PrimvarInterpolation::Constant:
-      case PrimvarInterpolation::Uniform:
+      case Interpolation::Constant:
+      case Interpolation::Uniform:
         break;
     }
   }
@@ -820,9 +774,8 @@ TriangleMesh LimitSurfaceTessellator::tessellate(
         mesh.points.push_back(position);
         mesh.normals.push_back(dicing.normals[local]);
         for (size_t p = 0; p < impl.primvars.size(); ++p) {
-          const PrimvarInterpolation interpolation = impl.primvars[p].interpolation;
-          if (interpolation != PrimvarInterpolation::Vertex &&
-              interpolation != PrimvarInterpolation::Varying)
+          const Interpolation interpolation = impl.primvars[p].interpolation;
+          if (interpolation != Interpolation::Vertex && interpolation != Interpolation::Varying)
             continue;
           const size_t width = size_t(impl.primvars[p].width);
           const float* value = &dicing.primvars[p][local * width];
@@ -874,7 +827,7 @@ TriangleMesh LimitSurfaceTessellator::tessellate(
         mesh.sourceFace.push_back(uint32_t(face));
       }
       for (size_t p = 0; p < impl.primvars.size(); ++p)
-        if (impl.primvars[p].interpolation == PrimvarInterpolation::FaceVarying)
+        if (impl.primvars[p].interpolation == Interpolation::FaceVarying)
           values[p].insert(values[p].end(), dicing.primvars[p].begin(), dicing.primvars[p].end());
       faceVaryingSlots += uint32_t(coordCount);
     }

@@ -3,21 +3,13 @@
 #include "penumbra/color.h"
 #include "penumbra/light.h"
 #include "penumbra/sampler.h"
+#include "transforms.h"
 
 using namespace penumbra;
+using penumbra::test::facingDown;
+using penumbra::test::translation;
 
 namespace {
-
-Transform translation(double x, double y, double z) {
-  const double m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, x, y, z, 1};
-  return Transform::fromRowMajor(m);
-}
-
-// Rotates local -Z onto world -Y (a light facing down), then translates.
-Transform facingDown(double x, double y, double z) {
-  const double m[16] = {1, 0, 0, 0, 0, 0, -1, 0, 0, 1, 0, 0, x, y, z, 1};
-  return Transform::fromRowMajor(m);
-}
 
 Vec2f sample2D(uint32_t index) {
   return SampleStream(1, 0, 0, index).next2D();

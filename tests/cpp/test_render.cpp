@@ -5,22 +5,14 @@
 
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
+#include "transforms.h"
 
 using namespace penumbra;
+using penumbra::test::facingDown;
+using penumbra::test::translation;
 using namespace penumbra::plugin;
 
 namespace {
-
-Transform translation(double x, double y, double z) {
-  const double m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, x, y, z, 1};
-  return Transform::fromRowMajor(m);
-}
-
-// Local -Z onto world -Y: cameras looking down, lights facing down.
-Transform facingDown(double x, double y, double z) {
-  const double m[16] = {1, 0, 0, 0, 0, 0, -1, 0, 0, 1, 0, 0, x, y, z, 1};
-  return Transform::fromRowMajor(m);
-}
 
 /// A square in the XZ plane at height y, facing +Y (counter-clockwise seen from above).
 void addFloor(RenderDelegate& delegate, const PrimId& id, float halfSize, float y = 0) {

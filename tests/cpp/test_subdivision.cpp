@@ -573,9 +573,9 @@ TEST(Subdivision, VertexVaryingAndUniformPrimvarsFollowTheirInterpolation) {
   MeshData cage = cube();
   cage.displayColorInterpolation = Interpolation::Vertex;
   for (const Vec3f& p : cage.points) cage.displayColor.push_back(p);
-  SubdivisionPrimvar varying{"height", {}, 1, PrimvarInterpolation::Varying};
+  SubdivisionPrimvar varying{"height", {}, 1, Interpolation::Varying};
   for (const Vec3f& p : cage.points) varying.values.push_back(p.z);
-  SubdivisionPrimvar uniform{"faceId", {0, 1, 2, 3, 4, 5}, 1, PrimvarInterpolation::Uniform};
+  SubdivisionPrimvar uniform{"faceId", {0, 1, 2, 3, 4, 5}, 1, Interpolation::Uniform};
   const LimitSurfaceTessellator tessellator(cage, SubdivisionScheme::CatmullClark, {},
                                             {varying, uniform});
   std::vector<std::vector<float>> primvars;

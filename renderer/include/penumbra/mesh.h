@@ -9,8 +9,9 @@
 
 namespace penumbra {
 
-/// How a per-mesh value array maps onto the surface (UsdGeom primvar interpolation).
-enum class Interpolation { Constant, Uniform, Vertex, FaceVarying };
+/// How a per-mesh value array maps onto the surface (UsdGeom primvar interpolation). Varying
+/// and vertex differ only on subdivision surfaces (linear versus limit evaluation).
+enum class Interpolation { Constant, Uniform, Varying, Vertex, FaceVarying };
 
 struct MeshData {
   std::vector<Vec3f> points;
@@ -61,6 +62,11 @@ struct TriangleMesh {
                : interpolate(displayColor, displayColorInterpolation, triangle, u, v);
   }
 };
+
+/// USD's token for an interpolation ("faceVarying", ...).
+const char* interpolationName(Interpolation interpolation);
+/// How many values a primvar of this interpolation has on `mesh`.
+size_t primvarElementCount(Interpolation interpolation, const MeshData& mesh);
 
 /// True when every edge of the polygon mesh is shared by exactly two faces.
 bool isClosedSurface(const std::vector<int>& faceVertexCounts,

@@ -41,14 +41,13 @@ std::optional<SubdivisionScheme> parseSubdivisionScheme(const std::string& token
 /// How a primvar maps onto a subdivision surface (UsdGeom interpolation, with varying, which
 /// subdivision meshes distinguish from vertex: varying is interpolated linearly, vertex on the
 /// limit surface).
-enum class PrimvarInterpolation { Constant, Uniform, Varying, Vertex, FaceVarying };
 
 /// A primvar carried through the tessellation besides displayColor (e.g. `st`).
 struct SubdivisionPrimvar {
   std::string name;           // names it in error messages
   std::vector<float> values;  // `width` floats per element, element count as `interpolation` says
   int width = 1;              // 1 to 4
-  PrimvarInterpolation interpolation = PrimvarInterpolation::Vertex;
+  Interpolation interpolation = Interpolation::Vertex;
 };
 
 /// The limit surface at one parametric location of a base face.
