@@ -69,6 +69,13 @@ void RenderDelegate::insertRprim(const std::string& type, const PrimId& id) {
   meshesStructureChanged_ = true;
 }
 
+void RenderDelegate::insertBprim(const std::string& type, const PrimId& id) {
+  if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
+  if (type != "renderBuffer")
+    throw std::invalid_argument(id + ": unsupported bprim type '" + type + "'");
+  prims_[id] = std::make_unique<RenderBuffer>(id);
+}
+
 void RenderDelegate::insertSprim(const std::string& type, const PrimId& id) {
   if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
   if (type == "camera") {
@@ -134,6 +141,9 @@ T& primAs(Prim& prim, const char* typeName) {
 
 Mesh& RenderDelegate::mesh(const PrimId& id) {
   return primAs<Mesh>(prim(id), "mesh");
+}
+RenderBuffer& RenderDelegate::renderBuffer(const PrimId& id) {
+  return primAs<RenderBuffer>(prim(id), "render buffer");
 }
 Instancer& RenderDelegate::instancer(const PrimId& id) {
   return primAs<Instancer>(prim(id), "instancer");
@@ -332,7 +342,7 @@ bool RenderDelegate::sync(const DicingContext& dicing) {
       lightsDirty = true;
     else if (dynamic_cast<Mesh*>(prim.get()) || dynamic_cast<Instancer*>(prim.get()))
       meshesDirty = true;
-    else
+    else if (dynamic_cast<Camera*>(prim.get()))
       camerasDirty = true;
   }
   // Mesh lights follow their meshes' geometry, transform and light inputs.
@@ -352,7 +362,9 @@ bool RenderDelegate::sync(const DicingContext& dicing) {
         syncInstancer(*copies);
   }
   for (auto& [id, prim] : prims_)
-    if (dynamic_cast<Camera*>(prim.get()) && prim->dirtyBits() != Clean) prim->markClean();
+    if ((dynamic_cast<Camera*>(prim.get()) || dynamic_cast<RenderBuffer*>(prim.get())) &&
+        prim->dirtyBits() != Clean)
+      prim->markClean();
   materialsStructureChanged_ = lightsStructureChanged_ = meshesStructureChanged_ = false;
   const bool sceneChanged = materialsDirty || lightsDirty || meshesDirty;
   if (sceneChanged) {

@@ -54,6 +54,23 @@ void RenderPass::execute(int samples) {
   renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_), uint32_t(samples),
                 renderSettings);
   samplesDone_ += samples;
+  for (const auto& [aovName, bufferId] : aovBindings_) {
+    RenderBuffer& buffer = delegate_.renderBuffer(bufferId);
+    if (buffer.width() != width() || buffer.height() != height())
+      throw std::invalid_argument(bufferId + ": render buffer is " +
+                                  std::to_string(buffer.width()) + "x" +
+                                  std::to_string(buffer.height()) + ", the pass renders " +
+                                  std::to_string(width()) + "x" + std::to_string(height()));
+    buffer.resolve(aov(aovName), aovChannels(aovName), converged());
+  }
+}
+
+void RenderPass::setAovBindings(std::map<std::string, PrimId> bindings) {
+  for (const auto& [aovName, bufferId] : bindings) {
+    aovChannels(aovName);
+    delegate_.renderBuffer(bufferId);
+  }
+  aovBindings_ = std::move(bindings);
 }
 
 std::vector<float> RenderPass::aov(const std::string& name) const {

@@ -133,6 +133,24 @@ PYBIND11_MODULE(_core, m) {
       .def(py::init<>())
       .def("insert_rprim", &RenderDelegate::insertRprim, py::arg("type"), py::arg("id"))
       .def("insert_sprim", &RenderDelegate::insertSprim, py::arg("type"), py::arg("id"))
+      .def("insert_bprim", &RenderDelegate::insertBprim, py::arg("type"), py::arg("id"))
+      .def(
+          "allocate_render_buffer",
+          [](RenderDelegate& self, const std::string& id, int width, int height) {
+            self.renderBuffer(id).allocate(width, height);
+          },
+          py::arg("id"), py::arg("width"), py::arg("height"))
+      .def(
+          "render_buffer",
+          [](RenderDelegate& self, const std::string& id) {
+            const RenderBuffer& buffer = self.renderBuffer(id);
+            py::array_t<float> result({buffer.height(), buffer.width(), buffer.channels()});
+            if (!buffer.data().empty())
+              std::memcpy(result.mutable_data(), buffer.data().data(),
+                          buffer.data().size() * sizeof(float));
+            return py::make_tuple(result, buffer.converged());
+          },
+          py::arg("id"))
       .def("remove_prim", &RenderDelegate::removePrim, py::arg("id"))
       .def("has_prim", &RenderDelegate::hasPrim, py::arg("id"))
       .def("prim_ids", &RenderDelegate::primIds)
@@ -362,6 +380,7 @@ PYBIND11_MODULE(_core, m) {
       .def("execute", &RenderPass::execute, py::arg("samples"),
            py::call_guard<py::gil_scoped_release>())
       .def("reset", &RenderPass::reset)
+      .def("set_aov_bindings", &RenderPass::setAovBindings, py::arg("bindings"))
       .def_property_readonly("samples_done", &RenderPass::samplesDone)
       .def_property_readonly("converged", &RenderPass::converged)
       .def_property_readonly("width", &RenderPass::width)

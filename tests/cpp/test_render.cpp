@@ -381,3 +381,25 @@ TEST(Render, AuthoredNormalsShadeTheSurface) {
   for (const auto& [normals, interpolation] : tilted)
     EXPECT_NEAR(floorUnderSun(normals, interpolation) / flat, 0.5, 0.01);
 }
+
+TEST(RenderDelegate, RenderPassesResolveBoundAovsIntoRenderBuffers) {
+  RenderDelegate delegate;
+  lambertianFloorScene(delegate, 0.5f);
+  delegate.insertSprim("domeLight", "/sky");
+  delegate.insertBprim("renderBuffer", "/buffers/color");
+  delegate.renderBuffer("/buffers/color").allocate(4, 4);
+  RenderPass pass(delegate, "/cam", 4, 4);
+  pass.setAovBindings({{"color", "/buffers/color"}});
+  delegate.settings().set("samples", 4);
+  pass.execute(2);
+  const RenderBuffer& buffer = delegate.renderBuffer("/buffers/color");
+  EXPECT_EQ(buffer.channels(), 4);
+  EXPECT_EQ(buffer.data(), pass.aov("color"));
+  EXPECT_FALSE(buffer.converged());
+  pass.execute(2);
+  EXPECT_TRUE(buffer.converged());
+  EXPECT_THROW(pass.setAovBindings({{"normal", "/buffers/color"}}), std::invalid_argument);
+  EXPECT_THROW(pass.setAovBindings({{"depth", "/missing"}}), std::out_of_range);
+  delegate.renderBuffer("/buffers/color").allocate(8, 8);
+  EXPECT_THROW(pass.execute(1), std::invalid_argument);
+}

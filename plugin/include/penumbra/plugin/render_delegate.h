@@ -13,6 +13,7 @@
 #include "penumbra/plugin/light.h"
 #include "penumbra/plugin/material.h"
 #include "penumbra/plugin/mesh.h"
+#include "penumbra/plugin/render_buffer.h"
 #include "penumbra/scene.h"
 
 namespace penumbra::plugin {
@@ -56,6 +57,8 @@ class RenderDelegate {
   /// Throws std::invalid_argument for an unknown type or an id already in use.
   void insertRprim(const std::string& type, const PrimId& id);
   void insertSprim(const std::string& type, const PrimId& id);
+  /// Bprim types: "renderBuffer".
+  void insertBprim(const std::string& type, const PrimId& id);
   /// Throws std::out_of_range for an unknown id.
   void removePrim(const PrimId& id);
   bool hasPrim(const PrimId& id) const;
@@ -63,6 +66,7 @@ class RenderDelegate {
 
   /// Typed access; throws std::out_of_range naming the id when it is missing or of another type.
   Mesh& mesh(const PrimId& id);
+  RenderBuffer& renderBuffer(const PrimId& id);
   Instancer& instancer(const PrimId& id);
   Camera& camera(const PrimId& id);
   Light& light(const PrimId& id);

@@ -32,6 +32,10 @@ class RenderPass {
   /// Throws std::invalid_argument for an unknown name.
   std::vector<float> aov(const std::string& name) const;
   static int aovChannels(const std::string& name);
+  /// AOV bindings (cf. HdRenderPassAovBinding): after every execute() each bound AOV is
+  /// resolved into its render buffer, which must have the pass's size. Throws
+  /// std::invalid_argument for an unknown AOV, std::out_of_range for a missing buffer.
+  void setAovBindings(std::map<std::string, PrimId> bindings);
 
  private:
   RenderDelegate& delegate_;
@@ -42,6 +46,7 @@ class RenderPass {
   uint64_t sceneVersion_ = ~uint64_t(0);
   int cameraSyncCount_ = -1;
   std::map<std::string, int> settingsUsed_;
+  std::map<std::string, PrimId> aovBindings_;
 };
 
 }  // namespace penumbra::plugin
