@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade
 
+from .implicit import is_implicit
 from .material import bound_material, read_material
 from .mesh import sync_mesh_data
 from .sampling import SampleReader, Shutter, changes_within, transform_might_vary
@@ -193,7 +194,7 @@ class PointInstancerDelegate:
             if prim.IsA(UsdGeom.PointInstancer):
                 self.warn(f"{instancer}: nested point instancer {prim.GetPath()} is not supported yet")
                 walk.PruneChildren()
-            elif prim.IsA(UsdGeom.Mesh):
+            elif prim.IsA(UsdGeom.Mesh) or is_implicit(prim):
                 imageable = UsdGeom.Imageable(prim)
                 if imageable.ComputePurpose() in self.purposes and (
                     imageable.ComputeVisibility(self.time) != UsdGeom.Tokens.invisible

@@ -1,5 +1,10 @@
-"""UsdGeomMesh → the delegate's ``mesh`` rprim: topology, points (with their motion over the
-shutter), sidedness, displayColor."""
+"""UsdGeomMesh and implicit surfaces → the delegate's ``mesh`` rprim: topology, points (with
+their motion over the shutter), sidedness, displayColor, normals.
+
+Implicit surfaces (Sphere, Cube, Cylinder, Cone, Capsule, Plane; see :mod:`.implicit`) are
+tessellated and then pushed exactly as meshes are (:func:`push_mesh`): the scene delegate
+tracks them as ``mesh`` prims, so transforms, visibility, purpose, material bindings,
+instancing and incremental edits are the meshes' own."""
 
 from __future__ import annotations
 
@@ -8,9 +13,11 @@ from collections.abc import Callable
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from .motion import point_samples
+from . import implicit
 from .lights import sync_mesh_light
-from .sampling import SampleReader
+from .motion import point_samples
+from .sampling import SampleReader, changes_within
+
 
 def sync_mesh_data(
     core,
@@ -19,14 +26,16 @@ def sync_mesh_data(
     warn: Callable[[str], None],
     prim_id: str | None = None,
 ) -> bool:
-    """Push the topology, points, sidedness and displayColor of ``prim`` to ``core`` (as the
-    delegate prim ``prim_id``, by default the prim's path).
+    """Push the topology, points, sidedness and displayColor of ``prim`` (a UsdGeomMesh or an
+    implicit surface) to ``core`` (as the delegate prim ``prim_id``, by default the prim's path).
 
     Returns ``False`` (after a warning naming the prim) when the mesh has no points or no
     topology; nothing is pushed then. Index ranges are validated by the delegate at sync.
     """
-    mesh = UsdGeom.Mesh(prim)
     path = prim_id or str(prim.GetPath())
+    if not prim.IsA(UsdGeom.Mesh):
+        return _sync_implicit(core, prim, path, reader)
+    mesh = UsdGeom.Mesh(prim)
     points = reader.get(mesh.GetPointsAttr())
     counts = reader.get(mesh.GetFaceVertexCountsAttr())
     indices = reader.get(mesh.GetFaceVertexIndicesAttr())
@@ -45,23 +54,81 @@ def sync_mesh_data(
 
     left_handed = reader.get(mesh.GetOrientationAttr()) == UsdGeom.Tokens.leftHanded
     scheme = reader.get(mesh.GetSubdivisionSchemeAttr()) or UsdGeom.Tokens.catmullClark
+    at_frame = np.asarray(points, dtype=np.float32).reshape(-1, 3)
+    push_mesh(
+        core,
+        prim,
+        path,
+        reader,
+        counts=counts,
+        indices=indices,
+        points=point_samples(mesh, at_frame, reader, warn, path),
+        normals=_normals(mesh, reader),
+        left_handed=left_handed,
+        scheme=str(scheme),
+    )
+    if scheme != UsdGeom.Tokens.none:
+        _sync_subdivision_tags(core, path, mesh, reader)
+    return True
+
+
+def push_mesh(
+    core,
+    prim: Usd.Prim,
+    path: str,
+    reader: SampleReader,
+    *,
+    counts,
+    indices,
+    points: np.ndarray,
+    normals: tuple[np.ndarray, str],
+    left_handed: bool = False,
+    scheme: str = UsdGeom.Tokens.none,
+) -> None:
+    """Push a polygon mesh (or subdivision cage) of gprim ``prim`` as delegate prim ``path``:
+    the given topology, points (float32 (N, 3) or (K, N, 3) motion samples) and normals
+    (values, interpolation), then what the gprim itself says — sidedness, displayColor and
+    UsdLuxMeshLightAPI."""
     core.set_mesh_topology(
         path,
         np.asarray(counts, dtype=np.int32),
         np.asarray(indices, dtype=np.int32),
         left_handed,
-        str(scheme),
+        scheme,
     )
-    if scheme != UsdGeom.Tokens.none:
-        _sync_subdivision_tags(core, path, mesh, reader)
-    at_frame = np.asarray(points, dtype=np.float32).reshape(-1, 3)
-    core.set_mesh_points(path, point_samples(mesh, at_frame, reader, warn, path))
-    core.set_mesh_double_sided(path, bool(reader.get(mesh.GetDoubleSidedAttr())))
+    core.set_mesh_points(path, points)
+    core.set_mesh_double_sided(path, bool(reader.get(UsdGeom.Gprim(prim).GetDoubleSidedAttr())))
     colors, interpolation = _display_color(prim, reader)
     core.set_mesh_display_color(path, colors, interpolation)
-    normals, normals_interpolation = _normals(mesh, reader)
-    core.set_mesh_normals(path, normals, normals_interpolation)
+    core.set_mesh_normals(path, *normals)
     sync_mesh_light(core, prim, path, reader)
+
+
+def _sync_implicit(core, prim: Usd.Prim, path: str, reader: SampleReader) -> bool:
+    """Tessellate implicit surface ``prim`` (at the reader's time, and over its shutter when
+    a shaping attribute changes within it) and push it as a polygon mesh with smooth normals."""
+    attrs = implicit.shape_attributes(prim)
+    for attr in attrs:
+        reader.get(attr)  # notes whether the shape might vary with time
+    generated = implicit.tessellate(prim, reader.time)
+    points = generated.points
+    shutter = reader.shutter
+    if shutter.blurred and any(changes_within(attr, shutter.interval) for attr in attrs):
+        authored = [t for attr in attrs for t in attr.GetTimeSamplesInInterval(shutter.interval)]
+        times = shutter.times(shutter.segments(authored))
+        samples = np.stack([implicit.tessellate(prim, time).points for time in times])
+        if not all(np.array_equal(sample, samples[0]) for sample in samples):
+            points = samples
+    push_mesh(
+        core,
+        prim,
+        path,
+        reader,
+        counts=generated.counts,
+        indices=generated.indices,
+        points=points,
+        normals=(generated.normals, UsdGeom.Tokens.faceVarying),
+    )
     return True
 
 

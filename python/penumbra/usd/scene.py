@@ -13,8 +13,9 @@ pushes only what changed:
   transforms, deforming points, points with velocities); cameras are re-read when the shutter's
   offsets or the depth-of-field switch change.
 
-Meshes and cameras move over the shutter (transform, points, lens); lights keep their transform
-at the frame.
+Implicit surfaces (Sphere, Cube, Cylinder, Cone, Capsule, Plane) are tessellated and tracked as
+meshes (see :mod:`.implicit`). Meshes and cameras move over the shutter (transform, points,
+lens); lights keep their transform at the frame.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdVol
 
 from ..errors import warn
 from .camera import sync_camera
+from .implicit import is_implicit
 from .lights import is_light, light_type, sync_light
 from .material import bound_material, has_subset_bindings, read_material
 from .mesh import sync_mesh_data
@@ -178,7 +180,7 @@ class SceneDelegate:
         sprim_type = light_type(prim)
         if sprim_type is not None:
             return sprim_type
-        if prim.IsA(UsdGeom.Mesh):
+        if prim.IsA(UsdGeom.Mesh) or is_implicit(prim):  # implicit surfaces: tessellated
             purpose = UsdGeom.Imageable(prim).ComputePurpose()
             return "mesh" if purpose in self.purposes else None
         renderable = (UsdGeom.Gprim, UsdVol.Volume)  # point instancers: PointInstancerDelegate
