@@ -18,36 +18,18 @@ import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdLux, Vt
 
 import penumbra
+from penumbra.usd import implicit
 
 
-def prototype_sphere(stage: Usd.Stage, path: str, stacks: int = 50, slices: int = 51) -> int:
-    """A UV sphere of radius 0.4 with (stacks - 2) * slices * 2 + 2 * slices triangles."""
-    points = [(0.0, 0.4, 0.0)]
-    for i in range(1, stacks):
-        theta = math.pi * i / stacks
-        for j in range(slices):
-            phi = 2 * math.pi * j / slices
-            points.append((0.4 * math.sin(theta) * math.cos(phi), 0.4 * math.cos(theta), -0.4 * math.sin(theta) * math.sin(phi)))
-    points.append((0.0, -0.4, 0.0))
-    bottom = len(points) - 1
-
-    def ring(i: int, j: int) -> int:
-        return 1 + (i - 1) * slices + j % slices
-
-    counts, indices = [], []
-    for j in range(slices):
-        counts += [3, 3]
-        indices += [0, ring(1, j), ring(1, j + 1), bottom, ring(stacks - 1, j + 1), ring(stacks - 1, j)]
-    for i in range(1, stacks - 1):
-        for j in range(slices):
-            counts.append(4)
-            indices += [ring(i, j), ring(i + 1, j), ring(i + 1, j + 1), ring(i, j + 1)]
+def prototype_sphere(stage: Usd.Stage, path: str) -> int:
+    """A sphere mesh of radius 0.4 with 51 × 50 segments: 4,998 triangles."""
+    sphere = implicit.sphere(0.4, segments=51, rings=50)
     mesh = UsdGeom.Mesh.Define(stage, path)
-    mesh.CreatePointsAttr(points)
-    mesh.CreateFaceVertexCountsAttr(counts)
-    mesh.CreateFaceVertexIndicesAttr(indices)
+    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(sphere.points))
+    mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(sphere.counts))
+    mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(sphere.indices))
     mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
-    return sum(count - 2 for count in counts)
+    return int((sphere.counts - 2).sum())
 
 
 def build_stage(count: int) -> tuple[Usd.Stage, int]:

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
+
+from penumbra.usd import implicit
 
 SCENES = Path(__file__).parents[2].parent / "shared" / "scenes"
 CORNELL = SCENES / "cornell.usda"
@@ -123,46 +124,15 @@ def add_sphere_mesh(
     rings: int = 12,
     sectors: int = 24,
 ) -> UsdGeom.Mesh:
-    """A UV sphere tessellated as a UsdGeomMesh (quads, triangles at the poles), its points
-    around the origin and placed by a translate op at ``center``."""
-    points = [Gf.Vec3f(0, radius, 0)]
-    for ring in range(1, rings):
-        polar = math.pi * ring / rings
-        for sector in range(sectors):
-            azimuth = 2 * math.pi * sector / sectors
-            points.append(
-                Gf.Vec3f(
-                    radius * math.sin(polar) * math.cos(azimuth),
-                    radius * math.cos(polar),
-                    -radius * math.sin(polar) * math.sin(azimuth),
-                )
-            )
-    points.append(Gf.Vec3f(0, -radius, 0))
-    south = len(points) - 1
-
-    def ring_point(ring: int, sector: int) -> int:
-        return 1 + (ring - 1) * sectors + sector % sectors
-
-    counts, indices = [], []
-    for sector in range(sectors):
-        counts.append(3)
-        indices += [0, ring_point(1, sector), ring_point(1, sector + 1)]
-    for ring in range(1, rings - 1):
-        for sector in range(sectors):
-            counts.append(4)
-            indices += [
-                ring_point(ring, sector),
-                ring_point(ring + 1, sector),
-                ring_point(ring + 1, sector + 1),
-                ring_point(ring, sector + 1),
-            ]
-    for sector in range(sectors):
-        counts.append(3)
-        indices += [south, ring_point(rings - 1, sector + 1), ring_point(rings - 1, sector)]
+    """A UV sphere tessellated as a UsdGeomMesh (quads, triangles at the poles; Penumbra's own
+    implicit-sphere tessellation, without its normals), its points around the origin and placed
+    by a translate op at ``center``."""
+    generated = implicit.sphere(radius, segments=sectors, rings=rings)
+    points, counts, indices = generated.points, generated.counts, generated.indices
     mesh = UsdGeom.Mesh.Define(stage, path)
-    mesh.CreatePointsAttr(points)
-    mesh.CreateFaceVertexCountsAttr(counts)
-    mesh.CreateFaceVertexIndicesAttr(indices)
+    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
+    mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(counts))
+    mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(indices))
     mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     mesh.AddTranslateOp().Set(Gf.Vec3d(*center))
     return mesh

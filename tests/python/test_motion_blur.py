@@ -143,7 +143,6 @@ def test_quarter_turn_leaves_an_arc_of_the_arm_length():
 
 def test_disable_motion_blur_gives_a_sharp_dot_at_the_frame(tmp_path):
     translated_stage(path=tmp_path / "moving.usda").Save()
-    out = tmp_path / "sharp.exr"
     common = ["-cam", "/cam", "-w", "960", "-spp", "16", "--maxPathDepth", "0", "-f", "1"]
     args = [str(tmp_path / "moving.usda"), str(tmp_path / "sharp.#.exr"), *common]
     assert main([*args, "--disableMotionBlur"]) == 0

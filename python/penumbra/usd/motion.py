@@ -17,7 +17,7 @@ Every array returned holds one sample (static) or K samples at the uniformly spa
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 
 import numpy as np
 from pxr import Gf, Usd, UsdGeom
