@@ -11,30 +11,15 @@ from pathlib import Path
 
 from pxr import Gf, Usd, UsdGeom, UsdLux, UsdRender
 
-from showcase import bind, preview_material, uv_sphere_cage
+from showcase import add_floor, bind, new_stage, preview_material, uv_sphere_cage
 
 HERE = Path(__file__).resolve().parent
 
 
 def new_scene(name: str, end_time: float) -> Usd.Stage:
     """A metre, Y-up stage with a floor, a soft key light and a sky dome."""
-    stage = Usd.Stage.CreateNew(str(HERE / f"{name}.usda"))
-    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
-    UsdGeom.SetStageMetersPerUnit(stage, 1)
-    stage.SetStartTimeCode(1)
-    stage.SetEndTimeCode(end_time)
-    stage.SetTimeCodesPerSecond(24)
-    world = UsdGeom.Xform.Define(stage, "/World")
-    stage.SetDefaultPrim(world.GetPrim())
-    floor = UsdGeom.Mesh.Define(stage, "/World/floor")
-    floor.CreatePointsAttr([(-30, 0, -30), (-30, 0, 30), (30, 0, 30), (30, 0, -30)])
-    floor.CreateFaceVertexCountsAttr([4])
-    floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
-    floor.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
-    floor_look = preview_material(
-        stage, "/World/Looks/floor", diffuseColor=(0.5, 0.5, 0.48), roughness=0.6
-    )
-    bind(floor.GetPrim(), floor_look)
+    stage = new_stage(name, end_time)
+    add_floor(stage, 30, diffuseColor=(0.5, 0.5, 0.48), roughness=0.6)
     key = UsdLux.RectLight.Define(stage, "/World/key")
     key.CreateWidthAttr(4.0)
     key.CreateHeightAttr(4.0)

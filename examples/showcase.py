@@ -67,21 +67,33 @@ def bind(prim: Usd.Prim, material: UsdShade.Material) -> None:
     UsdShade.MaterialBindingAPI.Apply(prim).Bind(material)
 
 
-def main() -> None:
-    stage = Usd.Stage.CreateNew(str(HERE / "showcase.usda"))
+def new_stage(name: str, end_time: float = 1) -> Usd.Stage:
+    """A new metre, Y-up stage ``examples/<name>.usda`` rendering from time code 1, with /World."""
+    stage = Usd.Stage.CreateNew(str(HERE / f"{name}.usda"))
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, 1)
     stage.SetStartTimeCode(1)
-    stage.SetEndTimeCode(1)
+    stage.SetEndTimeCode(end_time)
+    stage.SetTimeCodesPerSecond(24)
     world = UsdGeom.Xform.Define(stage, "/World")
     stage.SetDefaultPrim(world.GetPrim())
+    return stage
 
+
+def add_floor(stage: Usd.Stage, half_size: float, **look) -> None:
+    """A square floor at y = 0 with a UsdPreviewSurface of ``look`` inputs."""
+    s = half_size
     floor = UsdGeom.Mesh.Define(stage, "/World/floor")
-    floor.CreatePointsAttr([(-20, 0, -20), (-20, 0, 20), (20, 0, 20), (20, 0, -20)])
+    floor.CreatePointsAttr([(-s, 0, -s), (-s, 0, s), (s, 0, s), (s, 0, -s)])
     floor.CreateFaceVertexCountsAttr([4])
     floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
     floor.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
-    bind(floor.GetPrim(), preview_material(stage, "/World/Looks/floor", diffuseColor=(0.55, 0.55, 0.5), roughness=0.7))
+    bind(floor.GetPrim(), preview_material(stage, "/World/Looks/floor", **look))
+
+
+def main() -> None:
+    stage = new_stage("showcase")
+    add_floor(stage, 20, diffuseColor=(0.55, 0.55, 0.5), roughness=0.7)
 
     looks = [
         ("gold", dict(diffuseColor=(1.0, 0.78, 0.34), metallic=1.0, roughness=0.25)),
