@@ -5,6 +5,43 @@
 #include "penumbra/plugin/param_value.h"
 
 namespace penumbra::plugin {
+namespace {
+
+template <typename Value>
+Value parseToken(const std::map<std::string, Value>& tokens, const std::string& token,
+                 const char* what) {
+  const auto found = tokens.find(token);
+  if (found != tokens.end()) return found->second;
+  std::string known;
+  for (const auto& [name, value] : tokens) known += (known.empty() ? "" : ", ") + name;
+  throw std::invalid_argument("unknown " + std::string(what) + " '" + token + "' (expected " +
+                              known + ")");
+}
+
+}  // namespace
+
+TextureWrap parseTextureWrap(const std::string& token) {
+  static const std::map<std::string, TextureWrap> tokens = {
+      {"black", TextureWrap::Black},
+      {"clamp", TextureWrap::Clamp},
+      {"repeat", TextureWrap::Repeat},
+      {"mirror", TextureWrap::Mirror},
+      {"useMetadata", TextureWrap::UseMetadata}};
+  return parseToken(tokens, token, "wrap mode");
+}
+
+SourceColorSpace parseSourceColorSpace(const std::string& token) {
+  static const std::map<std::string, SourceColorSpace> tokens = {{"auto", SourceColorSpace::Auto},
+                                                                 {"raw", SourceColorSpace::Raw},
+                                                                 {"sRGB", SourceColorSpace::SRGB}};
+  return parseToken(tokens, token, "sourceColorSpace");
+}
+
+std::pair<int, int> parseTextureOutput(const std::string& token) {
+  static const std::map<std::string, std::pair<int, int>> tokens = {
+      {"rgb", {0, 3}}, {"r", {0, 1}}, {"g", {1, 1}}, {"b", {2, 1}}, {"a", {3, 1}}};
+  return parseToken(tokens, token, "UsdUVTexture output");
+}
 
 void Material::setParam(const std::string& name, const ParamValue& value) {
   static const std::map<std::string, float MaterialParams::*> numbers = {
@@ -22,12 +59,7 @@ void Material::setParam(const std::string& name, const ParamValue& value) {
       {"emissiveColor", &MaterialParams::emissiveColor},
       {"specularColor", &MaterialParams::specularColor}};
   try {
-    if (name == "diffuseColor" && std::holds_alternative<std::string>(value)) {
-      if (std::get<std::string>(value) != "primvar:displayColor")
-        throw std::invalid_argument("diffuseColor can name only the primvar displayColor, not '" +
-                                    std::get<std::string>(value) + "'");
-      params_.diffuseFromDisplayColor = true;
-    } else if (const auto number = numbers.find(name); number != numbers.end())
+    if (const auto number = numbers.find(name); number != numbers.end())
       params_.*(number->second) = paramAsFloat(name, value);
     else if (const auto color = colors.find(name); color != colors.end())
       params_.*(color->second) = paramAsColor(name, value);
@@ -41,8 +73,31 @@ void Material::setParam(const std::string& name, const ParamValue& value) {
   markDirty(DirtyParams);
 }
 
+void Material::connect(const std::string& input, InputSource source) {
+  static const std::map<std::string, MaterialInput> inputs = {
+      {"diffuseColor", MaterialInput::DiffuseColor},
+      {"emissiveColor", MaterialInput::EmissiveColor},
+      {"specularColor", MaterialInput::SpecularColor},
+      {"metallic", MaterialInput::Metallic},
+      {"roughness", MaterialInput::Roughness},
+      {"clearcoat", MaterialInput::Clearcoat},
+      {"clearcoatRoughness", MaterialInput::ClearcoatRoughness},
+      {"opacity", MaterialInput::Opacity},
+      {"ior", MaterialInput::Ior},
+      {"normal", MaterialInput::Normal}};
+  try {
+    const MaterialInput connected = parseToken(inputs, input, "connectable input");
+    if (source.texture) parseTextureOutput(source.output);
+    connections_.emplace_back(connected, std::move(source));
+  } catch (const std::invalid_argument& error) {
+    throw std::invalid_argument(id() + ": " + error.what());
+  }
+  markDirty(DirtyParams);
+}
+
 void Material::resetParams() {
   params_ = MaterialParams{};
+  connections_.clear();
   markDirty(DirtyParams);
 }
 

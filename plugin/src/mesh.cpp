@@ -1,5 +1,7 @@
 #include "penumbra/plugin/mesh.h"
 
+#include <stdexcept>
+
 namespace penumbra::plugin {
 
 void Mesh::setTopology(std::vector<int> counts, std::vector<int> indices, bool leftHanded,
@@ -50,6 +52,28 @@ void Mesh::setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolatio
   data_.displayColorInterpolation = interpolation;
   tessellator_.reset();  // it carries displayColor
   markDirty(DirtyPrimvar);
+}
+
+void Mesh::setPrimvars(std::vector<Primvar> primvars) {
+  data_.primvars = std::move(primvars);
+  tessellator_.reset();  // it carries the primvars
+  markDirty(DirtyPrimvar);
+}
+
+std::vector<std::string> Mesh::dropInvalidPrimvars() {
+  std::vector<std::string> problems;
+  std::vector<Primvar>& primvars = data_.primvars;
+  for (auto it = primvars.begin(); it != primvars.end();) {
+    try {
+      validatePrimvar(*it, data_);
+      ++it;
+    } catch (const std::invalid_argument& error) {
+      problems.emplace_back(error.what());
+      it = primvars.erase(it);
+      tessellator_.reset();
+    }
+  }
+  return problems;
 }
 
 void Mesh::setNormals(std::vector<Vec3f> normals, Interpolation interpolation) {

@@ -50,7 +50,8 @@ std::map<std::string, int> RenderSettingsMap::asMap() const {
   return values;
 }
 
-RenderDelegate::RenderDelegate() : scene_(std::make_unique<Scene>(device_)) {}
+RenderDelegate::RenderDelegate(const std::string& colorConfig)
+    : scene_(std::make_unique<Scene>(device_, colorConfig)) {}
 
 // The scene (and its Embree objects) must go before the device.
 RenderDelegate::~RenderDelegate() {
@@ -164,13 +165,46 @@ std::vector<std::string> RenderDelegate::takeWarnings() {
   return taken;
 }
 
+penumbra::Material RenderDelegate::buildMaterial(const Material& material, bool report) {
+  penumbra::Material result;
+  result.constants = material.params();
+  for (const auto& [input, source] : material.connections()) {
+    InputConnection connection;
+    connection.input = input;
+    if (source.texture) {
+      const TextureNode& node = *source.texture;
+      TextureReader reader;
+      std::string error;
+      reader.texture = scene_->textures().open(node.file, node.colorSpace, &error);
+      if (reader.texture == TextureSystem::kInvalid && report)
+        warn(material.id() + ": " + error + "; its fallback value is used");
+      reader.wrapS = node.wrapS;
+      reader.wrapT = node.wrapT;
+      reader.scale = node.scale;
+      reader.bias = node.bias;
+      reader.fallback = node.fallback;
+      reader.coordinates = node.coordinates;
+      connection.texture = int(result.textures.size());
+      result.textures.push_back(std::move(reader));
+      std::tie(connection.firstChannel, connection.channelCount) =
+          parseTextureOutput(source.output);
+    } else {
+      connection.primvar = source.primvar;
+      connection.fallback = source.fallback;
+    }
+    result.connections.push_back(std::move(connection));
+  }
+  return result;
+}
+
 void RenderDelegate::syncMaterials() {
-  std::vector<MaterialParams> materials;
+  std::vector<penumbra::Material> materials;
   materialIndex_.clear();
   for (auto& [id, prim] : prims_) {
     if (auto* material = dynamic_cast<Material*>(prim.get())) {
       materialIndex_[id] = int(materials.size());
-      materials.push_back(material->params());
+      // Problems (missing textures) are reported when the material changes, not every sync.
+      materials.push_back(buildMaterial(*material, material->dirtyBits() != Clean));
       if (material->dirtyBits() != Clean) material->markClean();
     }
   }
@@ -287,6 +321,8 @@ TriangleMesh RenderDelegate::meshTriangles(Mesh& mesh, const DicingContext& dici
 void RenderDelegate::syncMesh(Mesh& mesh, bool materialsChanged, const DicingContext& dicing) {
   const uint32_t bits = mesh.dirtyBits();
   if (bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided)) {
+    for (const std::string& problem : mesh.dropInvalidPrimvars())
+      warn(mesh.id() + ": " + problem + "; materials reading it use their fallback");
     try {
       scene_->setMeshGeometry(mesh.handle(), meshTriangles(mesh, dicing));
     } catch (const std::invalid_argument& error) {
@@ -319,6 +355,12 @@ void RenderDelegate::syncInstancer(Instancer& copies) {
   } else {
     scene_->setInstances(copies.handle(), prototype->handle(), copies.transforms(),
                          copies.visible());
+    try {
+      scene_->setInstancePrimvars(copies.handle(), copies.primvars());
+    } catch (const std::invalid_argument& error) {
+      warn(copies.id() + ": " + error.what() + "; the per-instance primvars are ignored");
+      scene_->setInstancePrimvars(copies.handle(), {});
+    }
   }
   copies.markClean();
 }

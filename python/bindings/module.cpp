@@ -93,6 +93,108 @@ ParamValue toParamValue(const std::string& name, const py::handle& value) {
   }
 }
 
+/// A primvar from a (K,) or (K, width) array.
+penumbra::Primvar toPrimvar(const std::string& id, const std::string& name, const FloatArray& array,
+                            Interpolation interpolation) {
+  if (array.ndim() != 1 && array.ndim() != 2)
+    throw std::invalid_argument(id + ": primvar " + name + " must have shape (N,) or (N, width)");
+  penumbra::Primvar primvar;
+  primvar.name = name;
+  primvar.width = array.ndim() == 1 ? 1 : int(array.shape(1));
+  primvar.values.assign(array.data(), array.data() + array.size());
+  primvar.interpolation = interpolation;
+  return primvar;
+}
+
+template <size_t N>
+std::array<float, N> toFloats(const std::string& where, const py::handle& value) {
+  const auto items = value.cast<std::vector<float>>();
+  if (items.size() != N)
+    throw std::invalid_argument(where + " must have " + std::to_string(N) + " components");
+  std::array<float, N> result;
+  std::copy(items.begin(), items.end(), result.begin());
+  return result;
+}
+
+/// Calls `read(key, value)` for each entry of `dict`; unknown keys are errors, so that typos in
+/// the scene delegate surface.
+template <typename Read>
+void readDict(const std::string& where, const py::dict& dict,
+              std::initializer_list<const char*> keys, Read read) {
+  for (const auto& [key, value] : dict) {
+    const std::string name = py::str(key);
+    if (std::none_of(keys.begin(), keys.end(), [&](const char* k) { return name == k; }))
+      throw std::invalid_argument(where + ": unknown key '" + name + "'");
+    read(name, value);
+  }
+}
+
+/// A UsdUVTexture's description (docs/core-api.md, set_material).
+TextureNode toTextureNode(const std::string& where, const py::dict& dict) {
+  TextureNode node;
+  readDict(where, dict,
+           {"file", "wrapS", "wrapT", "sourceColorSpace", "scale", "bias", "fallback", "st",
+            "transform"},
+           [&](const std::string& key, const py::handle& value) {
+             const std::string at = where + "." + key;
+             if (key == "file") node.file = value.cast<std::string>();
+             if (key == "wrapS")
+               node.wrapS = penumbra::plugin::parseTextureWrap(value.cast<std::string>());
+             if (key == "wrapT")
+               node.wrapT = penumbra::plugin::parseTextureWrap(value.cast<std::string>());
+             if (key == "sourceColorSpace")
+               node.colorSpace = penumbra::plugin::parseSourceColorSpace(value.cast<std::string>());
+             if (key == "scale") node.scale = toFloats<4>(at, value);
+             if (key == "bias") node.bias = toFloats<4>(at, value);
+             if (key == "fallback") node.fallback = toFloats<4>(at, value);
+             if (key == "st")
+               readDict(at, value.cast<py::dict>(), {"primvar", "fallback"},
+                        [&](const std::string& stKey, const py::handle& stValue) {
+                          if (stKey == "primvar")
+                            node.coordinates.primvar = stValue.cast<std::string>();
+                          else {
+                            const auto st = toFloats<2>(at + ".fallback", stValue);
+                            node.coordinates.fallback = {st[0], st[1]};
+                          }
+                        });
+             if (key == "transform")
+               readDict(at, value.cast<py::dict>(), {"scale", "rotation", "translation"},
+                        [&](const std::string& tKey, const py::handle& tValue) {
+                          if (tKey == "rotation") {
+                            node.coordinates.rotation = tValue.cast<float>();
+                            return;
+                          }
+                          const auto pair = toFloats<2>(at + "." + tKey, tValue);
+                          (tKey == "scale" ? node.coordinates.scale
+                                           : node.coordinates.translation) = {pair[0], pair[1]};
+                        });
+           });
+  if (node.file.empty()) throw std::invalid_argument(where + ": a texture needs a 'file'");
+  return node;
+}
+
+/// A connected input's source: {"texture": {...}, "output": "rgb"} or
+/// {"primvar": name, "fallback": value}.
+InputSource toInputSource(const std::string& where, const py::dict& dict) {
+  InputSource source;
+  readDict(where, dict, {"texture", "output", "primvar", "fallback"},
+           [&](const std::string& key, const py::handle& value) {
+             if (key == "texture")
+               source.texture = toTextureNode(where + ".texture", value.cast<py::dict>());
+             if (key == "output") source.output = value.cast<std::string>();
+             if (key == "primvar") source.primvar = value.cast<std::string>();
+             if (key == "fallback") {
+               if (py::hasattr(value, "__len__"))
+                 source.fallback = toFloats<3>(where + ".fallback", value);
+               else
+                 source.fallback.fill(value.cast<float>());
+             }
+           });
+  if (source.texture.has_value() == !source.primvar.empty())
+    throw std::invalid_argument(where + ": a connection names either a texture or a primvar");
+  return source;
+}
+
 Metadata toMetadata(const py::dict& metadata) {
   Metadata result;
   for (const auto& [key, value] : metadata) {
@@ -130,7 +232,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("version", [] { return std::string(PENUMBRA_VERSION); });
 
   py::class_<RenderDelegate>(m, "RenderDelegate")
-      .def(py::init<>())
+      .def(py::init<const std::string&>(), py::arg("ocio_config") = "")
       .def("insert_rprim", &RenderDelegate::insertRprim, py::arg("type"), py::arg("id"))
       .def("insert_sprim", &RenderDelegate::insertSprim, py::arg("type"), py::arg("id"))
       .def("insert_bprim", &RenderDelegate::insertBprim, py::arg("type"), py::arg("id"))
@@ -236,6 +338,27 @@ PYBIND11_MODULE(_core, m) {
                                      toInterpolation(interpolation));
           },
           py::arg("id"), py::arg("normals"), py::arg("interpolation"))
+      .def(
+          "set_mesh_primvars",
+          [](RenderDelegate& self, const std::string& id, const py::dict& primvars) {
+            std::vector<penumbra::Primvar> values;
+            for (const auto& [key, value] : primvars) {
+              const auto [array, interpolation] = value.cast<std::pair<FloatArray, std::string>>();
+              values.push_back(toPrimvar(id, py::str(key), array, toInterpolation(interpolation)));
+            }
+            self.mesh(id).setPrimvars(std::move(values));
+          },
+          py::arg("id"), py::arg("primvars"))
+      .def(
+          "set_instance_primvars",
+          [](RenderDelegate& self, const std::string& id, const py::dict& primvars) {
+            std::vector<penumbra::Primvar> values;
+            for (const auto& [key, value] : primvars)
+              values.push_back(
+                  toPrimvar(id, py::str(key), value.cast<FloatArray>(), Interpolation::Vertex));
+            self.instancer(id).setPrimvars(std::move(values));
+          },
+          py::arg("id"), py::arg("primvars"))
       .def(
           "set_mesh_material",
           [](RenderDelegate& self, const std::string& id, const std::string& materialId) {
@@ -353,7 +476,10 @@ PYBIND11_MODULE(_core, m) {
             material.resetParams();
             for (const auto& [key, value] : params) {
               const std::string name = py::str(key);
-              material.setParam(name, toParamValue(id + ": " + name, value));
+              if (py::isinstance<py::dict>(value))
+                material.connect(name, toInputSource(id + ": " + name, value.cast<py::dict>()));
+              else
+                material.setParam(name, toParamValue(id + ": " + name, value));
             }
           },
           py::arg("id"), py::arg("params"))

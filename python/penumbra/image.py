@@ -11,7 +11,13 @@ import numpy as np
 from . import _core
 
 BUNDLED_OCIO_CONFIG = Path(__file__).resolve().parent / "ocio" / "config.ocio"
-"""The OCIO config used for display output when ``$OCIO`` is unset."""
+"""The OCIO config used (for display output and for linearising textures) when ``$OCIO`` is
+unset."""
+
+
+def ocio_config_path(explicit: str | os.PathLike | None = None) -> str:
+    """The OCIO config in effect: ``explicit``, else ``$OCIO``, else the bundled one."""
+    return os.fspath(explicit or os.environ.get("OCIO") or BUNDLED_OCIO_CONFIG)
 
 COLOR_MODES = ("disabled", "sRGB", "openColorIO")
 METADATA_PREFIX = "penumbra:"
@@ -102,7 +108,7 @@ class Image(Mapping[str, np.ndarray]):
             names += channel_names(aov, array.shape[2])
         config = ""
         if color_mode == "openColorIO":
-            config = os.fspath(ocio_config or os.environ.get("OCIO") or BUNDLED_OCIO_CONFIG)
+            config = ocio_config_path(ocio_config)
         _core.write_image(
             path,
             np.ascontiguousarray(np.concatenate(arrays, axis=2)),

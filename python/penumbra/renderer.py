@@ -13,7 +13,7 @@ from pxr import Usd, UsdLux
 
 from . import _core
 from .errors import SceneError, warn
-from .image import Image
+from .image import Image, ocio_config_path
 from .usd.camera import read_shutter
 from .usd.framing import DEFAULT_LIGHT_ID
 from .usd.instancers import PointInstancerDelegate
@@ -85,7 +85,7 @@ class Renderer:
             raise ValueError(f"max_motion_segments must be at least 1, not {max_motion_segments}")
         self.stage = stage
         self.max_motion_segments = max_motion_segments
-        self.delegate = _core.RenderDelegate()
+        self.delegate = _core.RenderDelegate(ocio_config=ocio_config_path())
         """The ``penumbra._core.RenderDelegate`` holding the synced scene (for inspection)."""
         self._scene = SceneDelegate(stage, self.delegate, purposes)
         self._instancers = PointInstancerDelegate(stage, self.delegate, purposes, warn)

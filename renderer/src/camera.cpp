@@ -103,6 +103,13 @@ Ray Camera::generateRay(float imageX, float imageY, Vec2f lensSample, float time
   return ray;
 }
 
+RayCone Camera::pixelCone() const {
+  // Pixels are square after expandAperture: filmWidth_ / width_ == filmHeight_ / height_.
+  const float pixelFilm = filmWidth_ / float(width_);  // tenths of a scene unit
+  if (params_.projection == Projection::Orthographic) return {0.1f * pixelFilm, 0.0f};
+  return {0.0f, pixelFilm / focalLengthAt(0)};
+}
+
 float Camera::viewDepth(const Ray& ray, float t) const {
   const Vec3f viewAxis = normalize(params_.cameraToWorld.at(ray.time).applyToVector({0, 0, -1}));
   return t * dot(ray.direction, viewAxis);

@@ -88,23 +88,14 @@ Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, 
   return ray;
 }
 
-/// The scattering function at a hit: the bound UsdPreviewSurface, or a Lambertian displayColor.
-/// `ior`: the material's, or its value at the hero wavelength under dispersion.
+/// The scattering function at a hit. `ior`: the material's, or its value at the hero
+/// wavelength under dispersion.
 PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior) {
-  static const MaterialParams lambertian = [] {
-    MaterialParams params;
-    params.roughness = 1;
-    params.useSpecularWorkflow = true;  // specularColor 0: no specular layer
-    params.specularColor = Vec3f(0.0f);
-    return params;
-  }();
-  const Vec3f albedo = spectrum.reflectance(hit.albedo);
-  if (!hit.material) return PreviewSurfaceBsdf(lambertian, albedo, hit.shadingNormal, 1.0f);
-  MaterialParams material = *hit.material;
+  MaterialParams material = hit.material;
   if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
-  material.diffuseColor = albedo;
+  material.diffuseColor = spectrum.reflectance(material.diffuseColor);
   // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
-  return PreviewSurfaceBsdf(material, albedo, hit.shadingNormal, ior,
+  return PreviewSurfaceBsdf(material, material.diffuseColor, hit.shadingNormal, ior,
                             hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet);
 }
 
@@ -126,6 +117,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                lensSample, shutterTime);
 
   CameraSample result;
+  RayCone cone = camera.pixelCone();
   Vec3f throughput{1.0f};
   ScatteringRecord scattering;
   int diffuseBounces = 0, glossyBounces = 0, transmissionBounces = 0;
@@ -134,7 +126,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
 
   for (int bounce = 0;; ++bounce) {
     const std::optional<SurfaceHit> hit =
-        scene.intersect(ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary);
+        scene.intersect(ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary, cone);
     float nearestLight = kInfinity;
     bool sawLight = false;
     result.radiance +=
@@ -162,13 +154,12 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     }
     if (bounce >= settings.maxPathDepth || lastVertex) break;
     const Vec3f wo = -ray.direction;
-    float ior = hit->material ? hit->material->ior : 1.0f;
-    if (spectrum.spectral && hit->material && hit->material->abbeNumber > 0 &&
-        hit->material->opacity < 1) {
+    float ior = hit->material.ior;
+    if (spectrum.spectral && hit->material.abbeNumber > 0 && hit->material.opacity < 1) {
       // A dispersive interface sends each wavelength its own way: only the hero's path goes on.
       spectrum.wavelengths.keepHeroOnly();
       throughput = {throughput.x, 0, 0};
-      ior = dispersiveIor(ior, hit->material->abbeNumber, spectrum.wavelengths.hero());
+      ior = dispersiveIor(ior, hit->material.abbeNumber, spectrum.wavelengths.hero());
     }
     const PreviewSurfaceBsdf bsdf = makeBsdf(*hit, spectrum, ior);
 
@@ -230,6 +221,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       throughput *= 1 / survival;
     }
     if (isBlack(throughput)) break;
+    // The footprint keeps widening at the camera's rate; surface curvature and roughness,
+    // which would widen it further, are ignored.
+    cone.width = cone.radiusAt(hit->distance);
     ray = spawnRay(scene, *hit, scattered->direction, kInfinity, ray.time);
   }
   if (spectrum.spectral) result.radiance = spectralToRgb(result.radiance, spectrum.wavelengths);

@@ -1,5 +1,6 @@
 #include "penumbra/mesh.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -47,6 +48,18 @@ const char* interpolationName(Interpolation interpolation) {
       return "faceVarying";
   }
   return "?";
+}
+
+void validatePrimvar(const Primvar& primvar, const MeshData& mesh) {
+  if (primvar.width < 1 || primvar.width > 4)
+    throw std::invalid_argument("primvar " + primvar.name + " has width " +
+                                std::to_string(primvar.width) + "; 1 to 4 are supported");
+  const size_t expected = primvarElementCount(primvar.interpolation, mesh);
+  if (primvar.values.size() != expected * size_t(primvar.width))
+    throw std::invalid_argument(
+        "primvar " + primvar.name + " (" + interpolationName(primvar.interpolation) + ", width " +
+        std::to_string(primvar.width) + ") has " + std::to_string(primvar.values.size()) +
+        " floats, expected " + std::to_string(expected * size_t(primvar.width)));
 }
 
 bool isClosedSurface(const std::vector<int>& faceVertexCounts,
@@ -106,6 +119,7 @@ TriangleMesh triangulate(const MeshData& mesh) {
   };
   checkPrimvar("displayColor", mesh.displayColor, mesh.displayColorInterpolation);
   checkPrimvar("normals", mesh.normals, mesh.normalsInterpolation);
+  for (const Primvar& primvar : mesh.primvars) validatePrimvar(primvar, mesh);
 
   TriangleMesh result;
   result.points = mesh.points;
@@ -116,6 +130,7 @@ TriangleMesh triangulate(const MeshData& mesh) {
   result.displayColorInterpolation = mesh.displayColorInterpolation;
   result.normals = mesh.normals;
   result.normalsInterpolation = mesh.normalsInterpolation;
+  result.primvars = mesh.primvars;
   size_t faceStart = 0;
   for (size_t face = 0; face < mesh.faceVertexCounts.size(); ++face) {
     const int count = mesh.faceVertexCounts[face];
@@ -144,23 +159,46 @@ Vec3f TriangleMesh::cornerAt(uint32_t triangle, int corner, float time) const {
   return from * (1 - where.fraction) + to * where.fraction;
 }
 
-Vec3f TriangleMesh::interpolate(const std::vector<Vec3f>& values, Interpolation interpolation,
-                                uint32_t triangle, float u, float v) const {
-  const size_t first = 3 * size_t(triangle);
+size_t TriangleMesh::cornerElement(Interpolation interpolation, uint32_t triangle,
+                                   int corner) const {
+  const size_t at = 3 * size_t(triangle) + size_t(corner);
   switch (interpolation) {
     case Interpolation::Constant:
-      return values[0];
+      return 0;
     case Interpolation::Uniform:
-      return values[sourceFace[triangle]];
+      return sourceFace[triangle];
     case Interpolation::Varying:
     case Interpolation::Vertex:
-      return values[triangles[first]] * (1 - u - v) + values[triangles[first + 1]] * u +
-             values[triangles[first + 2]] * v;
+      return triangles[at];
     case Interpolation::FaceVarying:
-      return values[cornerFaceVertex[first]] * (1 - u - v) +
-             values[cornerFaceVertex[first + 1]] * u + values[cornerFaceVertex[first + 2]] * v;
+      return cornerFaceVertex[at];
   }
-  return values[0];
+  return 0;
+}
+
+Vec3f TriangleMesh::interpolate(const std::vector<Vec3f>& values, Interpolation interpolation,
+                                uint32_t triangle, float u, float v) const {
+  return values[cornerElement(interpolation, triangle, 0)] * (1 - u - v) +
+         values[cornerElement(interpolation, triangle, 1)] * u +
+         values[cornerElement(interpolation, triangle, 2)] * v;
+}
+
+void TriangleMesh::interpolate(const Primvar& primvar, uint32_t triangle, float u, float v,
+                               float* out) const {
+  const size_t width = size_t(primvar.width);
+  const float weights[3] = {1 - u - v, u, v};
+  std::fill(out, out + width, 0.0f);
+  for (int corner = 0; corner < 3; ++corner) {
+    const float* value =
+        &primvar.values[cornerElement(primvar.interpolation, triangle, corner) * width];
+    for (size_t c = 0; c < width; ++c) out[c] += weights[corner] * value[c];
+  }
+}
+
+const Primvar* TriangleMesh::findPrimvar(const std::string& name) const {
+  for (const Primvar& primvar : primvars)
+    if (primvar.name == name) return &primvar;
+  return nullptr;
 }
 
 }  // namespace penumbra

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "penumbra/shading.h"
 #include "penumbra/spectrum.h"
 
 namespace penumbra {
@@ -16,27 +17,13 @@ void throwOnEmbreeError(RTCDevice device, const char* what) {
                              std::to_string(int(error)) + ")");
 }
 
-/// An intersect context that tells the filter whether the ray comes from the camera.
+/// An intersect context that tells the hit filter whether the ray comes from the camera, and
+/// where the materials are.
 struct TraceContext {
   RTCIntersectContext embree;  // first member: Embree passes a pointer to it to the filter
   bool cameraRay;
+  const Scene* scene;
 };
-
-/// Culls back faces of single-sided meshes for camera rays. Embree's geometric normal is
-/// (v1-v0)×(v2-v0) in object space, which faces the viewer for counter-clockwise (front)
-/// triangles, and the ray is in the same object space here, so the test holds under any
-/// instance transform.
-void cullBackFaces(const RTCFilterFunctionNArguments* args) {
-  if (!reinterpret_cast<const TraceContext*>(args->context)->cameraRay) return;
-  for (unsigned i = 0; i < args->N; ++i) {
-    if (args->valid[i] != -1) continue;
-    const float facing =
-        RTCRayN_dir_x(args->ray, args->N, i) * RTCHitN_Ng_x(args->hit, args->N, i) +
-        RTCRayN_dir_y(args->ray, args->N, i) * RTCHitN_Ng_y(args->hit, args->N, i) +
-        RTCRayN_dir_z(args->ray, args->N, i) * RTCHitN_Ng_z(args->hit, args->N, i);
-    if (facing > 0) args->valid[i] = 0;
-  }
-}
 
 RTCRay toEmbreeRay(const Ray& ray) {
   RTCRay r;
@@ -65,7 +52,10 @@ Device::~Device() {
   rtcReleaseDevice(device_);
 }
 
-Scene::Scene(const Device& device) : device_(device.get()), top_(rtcNewScene(device_)) {
+Scene::Scene(const Device& device, const std::string& colorConfig)
+    : device_(device.get()),
+      top_(rtcNewScene(device_)),
+      textures_(std::make_unique<TextureSystem>(colorConfig)) {
   rtcRetainDevice(device_);
   throwOnEmbreeError(device_, "create a scene");
 }
@@ -157,11 +147,67 @@ void Scene::updatePlacement(Placement& placement, bool enabled) {
   throwOnEmbreeError(device_, "update an instance");
 }
 
+const Material* Scene::materialOf(const MeshRecord& mesh) const {
+  if (mesh.materialIndex < 0 || size_t(mesh.materialIndex) >= materials_.size()) return nullptr;
+  return &materials_[size_t(mesh.materialIndex)];
+}
+
 bool Scene::renderable(const MeshRecord& mesh) const {
   if (!mesh.bvh) return false;
-  if (mesh.materialIndex < 0 || size_t(mesh.materialIndex) >= materials_.size()) return true;
-  const MaterialParams& material = materials_[size_t(mesh.materialIndex)];
-  return !(material.opacityThreshold > 0 && material.opacity < material.opacityThreshold);
+  const Material* material = materialOf(mesh);
+  if (!material || material->opacityVaries()) return true;
+  const MaterialParams& constants = material->constants;
+  return !(constants.opacityThreshold > 0 && constants.opacity < constants.opacityThreshold);
+}
+
+void Scene::updateHitFilters(MeshRecord& mesh) {
+  if (!mesh.triangles) return;
+  const Material* material = materialOf(mesh);
+  const bool cutouts =
+      material && material->opacityVaries() && material->constants.opacityThreshold > 0;
+  if (cutouts == mesh.cutoutFilter) return;
+  mesh.cutoutFilter = cutouts;
+  rtcSetGeometryIntersectFilterFunction(mesh.triangles,
+                                        cutouts || !mesh.data->doubleSided ? filterHits : nullptr);
+  rtcSetGeometryOccludedFilterFunction(mesh.triangles, cutouts ? filterHits : nullptr);
+  rtcCommitGeometry(mesh.triangles);
+  rtcCommitScene(mesh.bvh);
+  throwOnEmbreeError(device_, "update a mesh's hit filters");
+}
+
+void Scene::filterHits(const RTCFilterFunctionNArguments* args) {
+  const auto* context = reinterpret_cast<const TraceContext*>(args->context);
+  const auto* mesh = static_cast<const MeshRecord*>(args->geometryUserPtr);
+  const Material* material = mesh->cutoutFilter ? context->scene->materialOf(*mesh) : nullptr;
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    // Camera rays do not see the back faces of single-sided meshes. Embree's geometric normal
+    // is (v1-v0)×(v2-v0) in object space, which faces the viewer for counter-clockwise (front)
+    // triangles; the ray is in the same object space here, so the test holds under any
+    // instance transform.
+    if (context->cameraRay && !mesh->data->doubleSided) {
+      const float facing =
+          RTCRayN_dir_x(args->ray, args->N, i) * RTCHitN_Ng_x(args->hit, args->N, i) +
+          RTCRayN_dir_y(args->ray, args->N, i) * RTCHitN_Ng_y(args->hit, args->N, i) +
+          RTCRayN_dir_z(args->ray, args->N, i) * RTCHitN_Ng_z(args->hit, args->N, i);
+      if (facing > 0) {
+        args->valid[i] = 0;
+        continue;
+      }
+    }
+    if (!material) continue;
+    SurfacePoint point;
+    point.mesh = mesh->data.get();
+    point.triangle = RTCHitN_primID(args->hit, args->N, i);
+    point.u = RTCHitN_u(args->hit, args->N, i);
+    point.v = RTCHitN_v(args->hit, args->N, i);
+    const float time = RTCRayN_time(args->ray, args->N, i);
+    for (int corner = 0; corner < 3; ++corner)
+      point.corners[corner] = point.mesh->cornerAt(point.triangle, corner, time);
+    if (evaluateOpacity(*material, *context->scene->textures_, point) <
+        material->constants.opacityThreshold)
+      args->valid[i] = 0;
+  }
 }
 
 void Scene::updateAllPlacements(MeshId id) {
@@ -220,17 +266,23 @@ void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
       throw std::runtime_error("Embree could not allocate mesh buffers");
     }
     std::copy(data.triangles.begin(), data.triangles.end(), indices);
-    if (!data.doubleSided) rtcSetGeometryIntersectFilterFunction(triangles, cullBackFaces);
+    rtcSetGeometryUserData(triangles, &mesh);
+    if (!data.doubleSided) rtcSetGeometryIntersectFilterFunction(triangles, filterHits);
     rtcCommitGeometry(triangles);
     rtcAttachGeometry(bvh, triangles);
-    rtcReleaseGeometry(triangles);
+    rtcReleaseGeometry(triangles);  // `bvh` keeps it
     rtcCommitScene(bvh);
     throwOnEmbreeError(device_, "build a mesh BVH");
+    mesh.triangles = triangles;
+  } else {
+    mesh.triangles = nullptr;
   }
+  mesh.cutoutFilter = false;
   // Instances keep their own reference to the old BVH until they are pointed at the new one.
   if (mesh.bvh) rtcReleaseScene(mesh.bvh);
   mesh.bvh = bvh;
   mesh.data = std::make_shared<const TriangleMesh>(std::move(data));
+  updateHitFilters(mesh);
   updateAllPlacements(id);
 }
 
@@ -280,9 +332,23 @@ void Scene::setInstances(InstancerId id, MeshId prototype, std::vector<MotionTra
   for (size_t i = 0; i < transforms.size(); ++i) {
     Placement& copy = *copies.copies[i];
     copy.mesh = prototype;
+    copy.instancer = &copies;
+    copy.copy = uint32_t(i);
     copy.objectToWorld = std::move(transforms[i]);
     updatePlacement(copy, shown);
   }
+}
+
+void Scene::setInstancePrimvars(InstancerId id, std::vector<Primvar> primvars) {
+  InstancerRecord& copies = instancer(id);
+  for (const Primvar& primvar : primvars)
+    if (primvar.width < 1 || primvar.width > 4 ||
+        primvar.values.size() != copies.copies.size() * size_t(primvar.width))
+      throw std::invalid_argument("per-instance primvar " + primvar.name + " has " +
+                                  std::to_string(primvar.values.size()) + " floats for " +
+                                  std::to_string(copies.copies.size()) + " copies of width " +
+                                  std::to_string(primvar.width));
+  copies.primvars = std::move(primvars);
 }
 
 void Scene::removeInstancer(InstancerId id) {
@@ -296,6 +362,8 @@ void Scene::removeInstancer(InstancerId id) {
 }
 
 void Scene::commit() {
+  for (auto& mesh : meshes_)
+    if (mesh) updateHitFilters(*mesh);  // materials may have changed
   rtcCommitScene(top_);
   throwOnEmbreeError(device_, "build the scene BVH");
   RTCBounds bounds;
@@ -307,8 +375,8 @@ void Scene::commit() {
   for (const Light& light : lights_)
     powers.push_back(light.power(0.5f * sceneExtent_ * std::sqrt(3.0f)));
   lightSelection_ = Distribution1D(std::move(powers));
-  spectral_ = std::any_of(materials_.begin(), materials_.end(), [](const MaterialParams& m) {
-    return m.abbeNumber > 0 && m.opacity < 1;
+  spectral_ = std::any_of(materials_.begin(), materials_.end(), [](const Material& m) {
+    return m.constants.abbeNumber > 0 && (m.constants.opacity < 1 || m.opacityVaries());
   });
   if (spectral_) prepareSpectralTables();  // now rather than on the first ray
 }
@@ -319,10 +387,12 @@ float Scene::rayEpsilon(const Vec3f& point) const {
   return 2e-5f * std::max(maxAbsComponent(point), 1e-2f * sceneExtent_);
 }
 
-std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
+std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
+                                           const RayCone& cone) const {
   TraceContext context;
   rtcInitIntersectContext(&context.embree);
   context.cameraRay = kind == RayKind::Camera;
+  context.scene = this;
   RTCRayHit rayHit;
   rayHit.ray = toEmbreeRay(ray);
   rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -333,36 +403,55 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
   const Placement& placement = *placements_[rayHit.hit.instID[0]];
   const MeshRecord& mesh = *meshes_[placement.mesh];
   const TriangleMesh& data = *mesh.data;
-  const uint32_t triangle = rayHit.hit.primID;
-  const Vec3f p0 = data.cornerAt(triangle, 0, ray.time);
-  const Vec3f p1 = data.cornerAt(triangle, 1, ray.time);
-  const Vec3f p2 = data.cornerAt(triangle, 2, ray.time);
+  const Transform objectToWorld = placement.objectToWorld.at(ray.time);
+  SurfacePoint point;
+  point.mesh = &data;
+  point.triangle = rayHit.hit.primID;
+  point.u = rayHit.hit.u;
+  point.v = rayHit.hit.v;
+  Vec3f objectCorners[3];
+  for (int corner = 0; corner < 3; ++corner) {
+    objectCorners[corner] = data.cornerAt(point.triangle, corner, ray.time);
+    point.corners[corner] = objectToWorld.applyToPoint(objectCorners[corner]);
+  }
 
   SurfaceHit hit;
   hit.distance = rayHit.ray.tfar;
   hit.position = ray.origin + ray.direction * hit.distance;
-  const Transform objectToWorld = placement.objectToWorld.at(ray.time);
-  hit.normal = normalize(objectToWorld.applyToNormal(cross(p1 - p0, p2 - p0)));
+  hit.normal = normalize(objectToWorld.applyToNormal(
+      cross(objectCorners[1] - objectCorners[0], objectCorners[2] - objectCorners[0])));
   hit.shadingNormal = hit.normal;
-  const float u = rayHit.hit.u, v = rayHit.hit.v;
   if (!data.normals.empty()) {
-    const Vec3f interpolated = objectToWorld.applyToNormal(
-        data.interpolate(data.normals, data.normalsInterpolation, triangle, u, v));
+    const Vec3f interpolated = objectToWorld.applyToNormal(data.interpolate(
+        data.normals, data.normalsInterpolation, point.triangle, point.u, point.v));
     // A shading normal on the other side than the surface would turn shading inside out.
     if (length(interpolated) > 0 && dot(interpolated, hit.normal) > 0)
       hit.shadingNormal = normalize(interpolated);
   }
   hit.closed = data.closed;
-  const Vec3f fallbackColor{0.5f};
-  if (mesh.materialIndex >= 0 && size_t(mesh.materialIndex) < materials_.size()) {
-    hit.material = &materials_[size_t(mesh.materialIndex)];
-    hit.albedo = hit.material->diffuseFromDisplayColor
-                     ? data.displayColorAt(triangle, u, v, hit.material->diffuseColor)
-                     : hit.material->diffuseColor;
-    hit.emission = hit.material->emissiveColor;
-  } else {
-    hit.albedo = data.displayColorAt(triangle, u, v, fallbackColor);
+  if (placement.instancer && !placement.instancer->primvars.empty()) {
+    point.instancePrimvars = &placement.instancer->primvars;
+    point.instance = placement.copy;
   }
+  if (const Material* material = materialOf(mesh)) {
+    if (material->varies()) {
+      point.normal = hit.normal;
+      point.shadingNormal = hit.shadingNormal;
+      footprintOnSurface(ray.direction, hit.normal, cone.radiusAt(hit.distance), &point.dpdx,
+                         &point.dpdy);
+      hit.material = evaluateMaterial(*material, *textures_, point, &hit.shadingNormal);
+    } else {
+      hit.material = material->constants;
+    }
+  } else {
+    hit.material = fallbackSurface();
+    float value[4];
+    int width = 0;
+    if (primvarAt(point, "displayColor", value, &width) && width >= 3)
+      hit.material.diffuseColor = {value[0], value[1], value[2]};
+    if (primvarAt(point, "displayOpacity", value, &width)) hit.material.opacity = value[0];
+  }
+  hit.emission = hit.material.emissiveColor;
   if (mesh.lightIndex >= 0 && size_t(mesh.lightIndex) < lights_.size()) {
     hit.lightIndex = mesh.lightIndex;
     if (dot(ray.direction, hit.normal) < 0)
@@ -372,10 +461,12 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind) const {
 }
 
 bool Scene::occluded(const Ray& ray) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
+  TraceContext context;
+  rtcInitIntersectContext(&context.embree);
+  context.cameraRay = false;
+  context.scene = this;
   RTCRay r = toEmbreeRay(ray);
-  rtcOccluded1(top_, &context, &r);
+  rtcOccluded1(top_, &context.embree, &r);
   return r.tfar < 0;  // Embree sets tfar to -inf when occluded
 }
 

@@ -193,18 +193,6 @@ void validateCage(const MeshData& cage, SubdivisionScheme scheme, const Subdivis
   }
 }
 
-void validatePrimvar(const SubdivisionPrimvar& primvar, const MeshData& cage) {
-  if (primvar.width < 1 || primvar.width > 4)
-    throw std::invalid_argument("primvar " + primvar.name + " has width " +
-                                std::to_string(primvar.width) + "; 1 to 4 are supported");
-  const size_t expected = primvarElementCount(primvar.interpolation, cage);
-  if (primvar.values.size() != expected * size_t(primvar.width))
-    throw std::invalid_argument(
-        "primvar " + primvar.name + " (" + interpolationName(primvar.interpolation) + ", width " +
-        std::to_string(primvar.width) + ") has " + std::to_string(primvar.values.size()) +
-        " floats, expected " + std::to_string(expected * size_t(primvar.width)));
-}
-
 /// A face-varying channel's topology: face-vertex values that are equal at the same vertex are
 /// welded into one value (smooth across the faces that share it); differing ones form a seam.
 struct WeldedFaceVarying {
@@ -213,7 +201,7 @@ struct WeldedFaceVarying {
   int valueCount = 0;
 };
 
-WeldedFaceVarying weldFaceVarying(const SubdivisionPrimvar& primvar, const MeshData& cage) {
+WeldedFaceVarying weldFaceVarying(const Primvar& primvar, const MeshData& cage) {
   const size_t width = size_t(primvar.width);
   WeldedFaceVarying welded;
   welded.valueIndices.resize(cage.faceVertexIndices.size());
@@ -348,6 +336,7 @@ Vec3f combinePoints(const std::vector<float>& points, Far::ConstIndexArray indic
 
 /// A cage primvar prepared for evaluation on the patches.
 struct RefinedPrimvar {
+  std::string name;
   Interpolation interpolation;
   int width;
   std::vector<float> values;  // as authored (constant, uniform) or refined (the others)
@@ -390,7 +379,7 @@ struct LimitSurfaceTessellator::Impl {
   // Where the limit normal is discontinuous (infinitely sharp creases and corners, non-manifold
   // topology, every edge of a bilinear cage) each face keeps its own output points.
   std::vector<uint8_t> splitVertex, splitEdge;
-  std::vector<RefinedPrimvar> primvars;  // the constructor's, then displayColor
+  std::vector<RefinedPrimvar> primvars;  // the cage's, then displayColor
   int displayColorPrimvar = -1;
   Interpolation displayColorInterpolation = Interpolation::Constant;
 
@@ -514,8 +503,7 @@ struct LimitSurfaceTessellator::Impl {
 };
 
 LimitSurfaceTessellator::LimitSurfaceTessellator(const MeshData& cage, SubdivisionScheme scheme,
-                                                 const SubdivisionTags& tags,
-                                                 const std::vector<SubdivisionPrimvar>& primvars)
+                                                 const SubdivisionTags& tags)
     : impl_(std::make_unique<Impl>()) {
   validateCage(cage, scheme, tags);
   Sdc::Options options;
@@ -525,15 +513,15 @@ LimitSurfaceTessellator::LimitSurfaceTessellator(const MeshData& cage, Subdivisi
   options.SetTriangleSubdivision(parseTriangleSubdivisionRule(tags.triangleSubdivisionRule));
   options.SetCreasingMethod(Sdc::Options::CREASE_UNIFORM);
 
-  std::vector<SubdivisionPrimvar> allPrimvars = primvars;
+  std::vector<Primvar> allPrimvars = cage.primvars;
   if (!cage.displayColor.empty()) {
-    SubdivisionPrimvar displayColor{"displayColor", flatten(cage.displayColor), 3,
-                                    cage.displayColorInterpolation};
+    Primvar displayColor{"displayColor", flatten(cage.displayColor), 3,
+                         cage.displayColorInterpolation};
     impl_->displayColorPrimvar = int(allPrimvars.size());
     impl_->displayColorInterpolation = cage.displayColorInterpolation;
     allPrimvars.push_back(std::move(displayColor));
   }
-  for (const SubdivisionPrimvar& primvar : allPrimvars) validatePrimvar(primvar, cage);
+  for (const Primvar& primvar : allPrimvars) validatePrimvar(primvar, cage);
 
   Impl& impl = *impl_;
   impl.scheme = toOsdScheme(scheme);
@@ -541,8 +529,9 @@ LimitSurfaceTessellator::LimitSurfaceTessellator(const MeshData& cage, Subdivisi
   impl.doubleSided = cage.doubleSided;
   impl.pointCount = cage.points.size();
   impl.faceCount = cage.faceVertexCounts.size();
-  for (const SubdivisionPrimvar& primvar : allPrimvars)
-    impl.primvars.push_back({primvar.interpolation, primvar.width, primvar.values, -1});
+  for (const Primvar& primvar : allPrimvars)
+    impl.primvars.push_back(
+        {primvar.name, primvar.interpolation, primvar.width, primvar.values, -1});
   if (impl.faceCount == 0) return;
 
   std::vector<WeldedFaceVarying> welded;
@@ -717,9 +706,8 @@ std::vector<float> LimitSurfaceTessellator::curvatureBounds(
   return bounds;
 }
 
-TriangleMesh LimitSurfaceTessellator::tessellate(
-    const std::vector<Vec3f>& points, const std::vector<int>& rates,
-    std::vector<std::vector<float>>* primvarValues) const {
+TriangleMesh LimitSurfaceTessellator::tessellate(const std::vector<Vec3f>& points,
+                                                 const std::vector<int>& rates) const {
   const Impl& impl = *impl_;
   if (rates.size() != 1 && rates.size() != impl.faceCount)
     throw std::invalid_argument("tessellation rates has " + std::to_string(rates.size()) +
@@ -840,7 +828,13 @@ TriangleMesh LimitSurfaceTessellator::tessellate(
       mesh.displayColor.push_back({color[i], color[i + 1], color[i + 2]});
     values.pop_back();
   }
-  if (primvarValues) *primvarValues = std::move(values);
+  for (size_t p = 0; p < values.size(); ++p) {
+    const Interpolation authored = impl.primvars[p].interpolation;
+    // Evaluated vertex and varying data has one value per output point.
+    mesh.primvars.push_back(
+        {impl.primvars[p].name, std::move(values[p]), impl.primvars[p].width,
+         authored == Interpolation::Varying ? Interpolation::Vertex : authored});
+  }
   return mesh;
 }
 

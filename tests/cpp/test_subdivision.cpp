@@ -573,23 +573,26 @@ TEST(Subdivision, VertexVaryingAndUniformPrimvarsFollowTheirInterpolation) {
   MeshData cage = cube();
   cage.displayColorInterpolation = Interpolation::Vertex;
   for (const Vec3f& p : cage.points) cage.displayColor.push_back(p);
-  SubdivisionPrimvar varying{"height", {}, 1, Interpolation::Varying};
+  Primvar varying{"height", {}, 1, Interpolation::Varying};
   for (const Vec3f& p : cage.points) varying.values.push_back(p.z);
-  SubdivisionPrimvar uniform{"faceId", {0, 1, 2, 3, 4, 5}, 1, Interpolation::Uniform};
-  const LimitSurfaceTessellator tessellator(cage, SubdivisionScheme::CatmullClark, {},
-                                            {varying, uniform});
-  std::vector<std::vector<float>> primvars;
-  const TriangleMesh mesh = tessellator.tessellate(cage.points, {4}, &primvars);
-  ASSERT_EQ(primvars.size(), 2u);
+  const Primvar uniform{"faceId", {0, 1, 2, 3, 4, 5}, 1, Interpolation::Uniform};
+  cage.primvars = {varying, uniform};
+  const LimitSurfaceTessellator tessellator(cage, SubdivisionScheme::CatmullClark, {});
+  const TriangleMesh mesh = tessellator.tessellate(cage.points, {4});
+  ASSERT_EQ(mesh.primvars.size(), 2u);
   ASSERT_EQ(mesh.displayColor.size(), mesh.points.size());
-  ASSERT_EQ(primvars[0].size(), mesh.points.size());
-  EXPECT_EQ(primvars[1], uniform.values);
+  EXPECT_EQ(mesh.primvars[0].name, "height");
+  EXPECT_EQ(mesh.primvars[0].interpolation, Interpolation::Vertex);
+  const std::vector<float>& heights = mesh.primvars[0].values;
+  ASSERT_EQ(heights.size(), mesh.points.size());
+  EXPECT_EQ(mesh.primvars[1].values, uniform.values);
+  EXPECT_EQ(mesh.primvars[1].interpolation, Interpolation::Uniform);
   for (size_t i = 0; i < mesh.points.size(); ++i) {
     // Vertex data with the cage positions as values is the limit position itself.
     EXPECT_LT(length(mesh.displayColor[i] - mesh.points[i]), 1e-5f);
     // Varying data is interpolated linearly: the +z face's points keep height 1 exactly.
     if (mesh.points[i].z > 0.8f) {
-      EXPECT_NEAR(primvars[0][i], 1.0f, 1e-6f);
+      EXPECT_NEAR(heights[i], 1.0f, 1e-6f);
     }
   }
 }

@@ -65,11 +65,9 @@ def _schema_defaults() -> dict[str, Any]:
 
 
 def _to_python(value: Any) -> Any:
-    """A value as the delegate takes it: 3-tuples of floats for colours, strings as they are
-    (primvar bindings), else float/int."""
-    if isinstance(value, str):
-        return value
-    if isinstance(value, (Gf.Vec3f, Gf.Vec3d, Gf.Vec3h)):
+    """A constant value as the delegate takes it: 3-tuples of floats for colours, else
+    float/int."""
+    if isinstance(value, (Gf.Vec3f, Gf.Vec3d, Gf.Vec3h, tuple, list)):
         return tuple(float(c) for c in value)
     if isinstance(value, bool):
         return int(value)
@@ -78,17 +76,187 @@ def _to_python(value: Any) -> Any:
     return float(value)
 
 
-def _display_color_reader(output: Usd.Attribute, reader: SampleReader, data: MaterialData):
-    """``"primvar:displayColor"`` when ``output`` is a UsdPrimvarReader_float3 of displayColor
-    (the delegate then takes diffuseColor from each mesh's displayColor), else ``None``."""
-    shader = UsdShade.Shader(output.GetPrim())
-    if not shader or shader.GetShaderId() != "UsdPrimvarReader_float3":
+# Inputs a shader network may drive, as the delegate takes them (docs/core-api.md,
+# set_material); others take their constant value.
+CONNECTABLE = frozenset(
+    {
+        "diffuseColor",
+        "emissiveColor",
+        "specularColor",
+        "metallic",
+        "roughness",
+        "clearcoat",
+        "clearcoatRoughness",
+        "opacity",
+        "ior",
+        "normal",
+    }
+)
+_VECTOR_INPUTS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "normal"})
+# UsdUVTexture inputs passed on as they are, when authored (the delegate has the spec's
+# defaults for the others).
+_TEXTURE_TOKENS = ("wrapS", "wrapT", "sourceColorSpace")
+_TEXTURE_VECTORS = ("scale", "bias", "fallback")
+
+
+class _Network:
+    """Reads the shader network behind one material's inputs, noting every prim it reads."""
+
+    def __init__(self, reader: SampleReader, data: MaterialData, warn: Callable[[str], None]):
+        self.reader = reader
+        self.data = data
+        self.warn = warn
+
+    def value(self, shader: UsdShade.Shader, name: str) -> Any:
+        """The value of input ``name`` of ``shader``, through connections to interface inputs;
+        ``None`` when unauthored or connected to another shader's output."""
+        shader_input = shader.GetInput(name)
+        if not shader_input:
+            return None
+        producers = shader_input.GetValueProducingAttributes()
+        if not producers:
+            return None
+        attr = producers[0]
+        if not UsdShade.Input.IsInput(attr):
+            return None
+        self.data.sources.add(attr.GetPrim().GetPath())
+        return self.reader.get(attr)
+
+    def upstream(self, shader_input: UsdShade.Input) -> tuple[UsdShade.Shader, str] | None:
+        """The shader and output name ``shader_input`` is connected to, if any."""
+        producers = shader_input.GetValueProducingAttributes()
+        if not producers or UsdShade.Input.IsInput(producers[0]):
+            return None
+        output = producers[0]
+        self.data.sources.add(output.GetPrim().GetPath())
+        return UsdShade.Shader(output.GetPrim()), UsdShade.Output(output).GetBaseName()
+
+    def source(self, shader_input: UsdShade.Input, name: str) -> Any:
+        """What drives input ``name``: a connection description, or ``None`` (after a warning
+        naming the input) when Penumbra cannot evaluate its network."""
+        found = self.upstream(shader_input)
+        if found is None:
+            return None
+        shader, output = found
+        shader_id = shader.GetShaderId() or ""
+        where = shader_input.GetAttr().GetPath()
+        if name not in CONNECTABLE:
+            self.warn(f"{where} cannot vary over the surface; the input keeps its default value")
+            return None
+        if shader_id == "UsdUVTexture":
+            texture = self.texture(shader)
+            if texture is None:
+                fallback = self.value(shader, "fallback") or (0.0, 0.0, 0.0, 1.0)
+                return _channels(fallback, output, name in _VECTOR_INPUTS)
+            return {"texture": texture, "output": output}
+        if shader_id.startswith("UsdPrimvarReader_"):
+            reader = self.primvar_reader(shader)
+            if reader["primvar"]:
+                return reader
+            self.warn(f"{shader.GetPath()}: primvar reader has no varname; its fallback is used")
+            fallback = reader.get("fallback", 0.0)
+            if name in _VECTOR_INPUTS:
+                return fallback if isinstance(fallback, tuple) else (fallback,) * 3
+            return fallback[0] if isinstance(fallback, tuple) else fallback
+        self.warn(
+            f"{where} is connected to {shader.GetPath()} ({shader_id or 'unidentified'}), which "
+            "Penumbra cannot evaluate; the input keeps its default value"
+        )
         return None
-    varname = shader.GetInput("varname")
-    if not varname or reader.get(varname.GetAttr()) != "displayColor":
-        return None
-    data.sources.add(shader.GetPath())
-    return "primvar:displayColor"
+
+    def primvar_reader(self, shader: UsdShade.Shader) -> dict[str, Any]:
+        """A UsdPrimvarReader_*'s primvar name and fallback (padded to 3 values)."""
+        varname = self.value(shader, "varname")
+        fallback = self.value(shader, "fallback")
+        result: dict[str, Any] = {"primvar": str(varname or "")}
+        if fallback is not None:
+            if isinstance(fallback, (int, float)):
+                result["fallback"] = float(fallback)
+            else:
+                values = [float(c) for c in fallback][:3]
+                result["fallback"] = tuple(values + [0.0] * (3 - len(values)))
+        return result
+
+    def texture(self, shader: UsdShade.Shader) -> dict[str, Any] | None:
+        """A UsdUVTexture's description, or ``None`` (after a warning) when it names no file."""
+        file = _texture_file(shader.GetInput("file"), self.reader)
+        if not file:
+            self.warn(f"{shader.GetPath()}: UsdUVTexture has no file; its fallback is used")
+            return None
+        self.data.sources.add(shader.GetPath())
+        texture: dict[str, Any] = {"file": file}
+        for name in _TEXTURE_TOKENS:
+            value = self.value(shader, name)
+            if value:
+                texture[name] = str(value)
+        for name in _TEXTURE_VECTORS:
+            value = self.value(shader, name)
+            if value is not None:
+                texture[name] = tuple(float(c) for c in value)
+        st_input = shader.GetInput("st")
+        if st_input:
+            texture.update(self.coordinates(st_input))
+        return texture
+
+    def coordinates(self, st_input: UsdShade.Input) -> dict[str, Any]:
+        """Where a texture's ``st`` comes from: ``{"st": ..., "transform": ...}`` entries."""
+        result: dict[str, Any] = {}
+        found = self.upstream(st_input)
+        if found and (found[0].GetShaderId() or "") == "UsdTransform2d":
+            transform_shader = found[0]
+            transform = {}
+            for name in ("scale", "rotation", "translation"):
+                value = self.value(transform_shader, name)
+                if value is not None:
+                    transform[name] = float(value) if name == "rotation" else tuple(value)
+            result["transform"] = transform
+            in_input = transform_shader.GetInput("in")
+            found = self.upstream(in_input) if in_input else None
+            st_input = in_input
+        if found and (found[0].GetShaderId() or "").startswith("UsdPrimvarReader_"):
+            st = {"primvar": self.primvar_reader(found[0])["primvar"]}
+            fallback = self.value(found[0], "fallback")
+            if fallback is not None and not isinstance(fallback, (int, float)):
+                st["fallback"] = tuple(float(c) for c in fallback)[:2]
+            result["st"] = st
+        elif found:
+            self.warn(
+                f"{st_input.GetAttr().GetPath()} is connected to {found[0].GetPath()}, which "
+                "Penumbra cannot evaluate; texture coordinates (0, 0) are used"
+            )
+        elif st_input:
+            value = self.reader.get(st_input.GetAttr())
+            if value is not None:
+                result["st"] = {"fallback": tuple(float(c) for c in value)}
+        return result
+
+
+def _texture_file(file_input: UsdShade.Input | None, reader: SampleReader) -> str:
+    """The texture's path, resolved (``<UDIM>`` patterns anchored to the layer that authored
+    them, as USD's resolver leaves them alone); "" when no file is given."""
+    if not file_input:
+        return ""
+    producers = file_input.GetValueProducingAttributes()
+    attr = producers[0] if producers else file_input.GetAttr()
+    asset = reader.get(attr)
+    if not asset or not asset.path:
+        return ""
+    if asset.resolvedPath:
+        return asset.resolvedPath
+    for spec in attr.GetPropertyStack(reader.time):
+        if spec.HasDefaultValue() or spec.layer.ListTimeSamplesForPath(spec.path):
+            return spec.layer.ComputeAbsolutePath(asset.path)
+    return asset.path  # unresolvable: the delegate reports it missing
+
+
+def _channels(values: Any, output: str, vector: bool) -> Any:
+    """The channels ``output`` names of a 4-value ``values``, as a constant input value."""
+    channels = [float(c) for c in values]
+    if output == "rgb":
+        return tuple(channels[:3]) if vector else channels[0]
+    index = "rgba".find(output)
+    value = channels[index] if 0 <= index < len(channels) else 0.0
+    return (value, value, value) if vector else value
 
 
 def read_material(
@@ -97,9 +265,10 @@ def read_material(
     """The UsdPreviewSurface parameters of material ``prim`` at the reader's time.
 
     Inputs that are authored (or reach a value through connections to interface inputs) are
-    read; the others get UsdPreviewSurface's schema defaults. An input connected to a shader
-    output (a texture, a shader network) has no value Penumbra can evaluate yet: it is left to
-    the delegate's default, with a warning. Returns ``None`` (after a warning) when the material
+    read; the others get UsdPreviewSurface's schema defaults. Inputs connected to a shader
+    network Penumbra evaluates (UsdUVTexture with UsdPrimvarReader_float2 and UsdTransform2d
+    coordinates; UsdPrimvarReader_*) become connection descriptions; other networks leave the
+    input at its default, with a warning. Returns ``None`` (after a warning) when the material
     has no UsdPreviewSurface surface.
     """
     path = prim.GetPath()
@@ -116,28 +285,21 @@ def read_material(
         return None
 
     data = MaterialData(sources={path, shader.GetPath()})
+    network = _Network(reader, data, warn)
     defaults = _schema_defaults()
-    for name in INPUTS:
+    for name in (*INPUTS, "normal"):
         value = None
         shader_input = shader.GetInput(name)
         if shader_input and shader_input.HasConnectedSource():
-            producers = shader_input.GetValueProducingAttributes()
-            if producers and UsdShade.Input.IsInput(producers[0]):
-                data.sources.add(producers[0].GetPrim().GetPath())
-                value = reader.get(producers[0])
-            elif name == "diffuseColor" and producers:
-                value = _display_color_reader(producers[0], reader, data)
+            value = network.value(shader, name)
             if value is None:
-                source = producers[0].GetPath() if producers else "nothing"
-                warn(
-                    f"{shader_input.GetAttr().GetPath()} is connected to {source}, which "
-                    "Penumbra cannot evaluate yet; the input keeps its default value"
-                )
-                continue
+                value = network.source(shader_input, name)
         elif shader_input:
             value = reader.get(shader_input.GetAttr())
+        if name == "normal" and not isinstance(value, dict):
+            continue  # a constant tangent-space normal other than +z is not supported
         if value is None:
             value = defaults.get(name)
         if value is not None:
-            data.params[name] = _to_python(value)
+            data.params[name] = value if isinstance(value, dict) else _to_python(value)
     return data

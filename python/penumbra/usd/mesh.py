@@ -1,5 +1,6 @@
 """UsdGeomMesh and implicit surfaces → the delegate's ``mesh`` rprim: topology, points (with
-their motion over the shutter), sidedness, displayColor, normals.
+their motion over the shutter), sidedness, displayColor, normals, and the other numeric primvars
+(``st``, displayOpacity, ...) for materials to read.
 
 Implicit surfaces (Sphere, Cube, Cylinder, Cone, Capsule, Plane; see :mod:`.implicit`) are
 tessellated and then pushed exactly as meshes are (:func:`push_mesh`): the scene delegate
@@ -66,6 +67,7 @@ def sync_mesh_data(
         normals=_normals(mesh, reader),
         left_handed=left_handed,
         scheme=str(scheme),
+        primvars=_primvars(prim, reader, warn, path),
     )
     if scheme != UsdGeom.Tokens.none:
         _sync_subdivision_tags(core, path, mesh, reader)
@@ -84,10 +86,12 @@ def push_mesh(
     normals: tuple[np.ndarray, str],
     left_handed: bool = False,
     scheme: str = UsdGeom.Tokens.none,
+    primvars: dict[str, tuple[np.ndarray, str]] | None = None,
 ) -> None:
     """Push a polygon mesh (or subdivision cage) of gprim ``prim`` as delegate prim ``path``:
-    the given topology, points (float32 (N, 3) or (K, N, 3) motion samples) and normals
-    (values, interpolation), then what the gprim itself says — sidedness, displayColor and
+    the given topology, points (float32 (N, 3) or (K, N, 3) motion samples), normals
+    (values, interpolation) and primvars (name → (values, interpolation); by default the
+    gprim's constant ones), then what the gprim itself says — sidedness, displayColor and
     UsdLuxMeshLightAPI."""
     core.set_mesh_topology(
         path,
@@ -101,6 +105,9 @@ def push_mesh(
     colors, interpolation = _display_color(prim, reader)
     core.set_mesh_display_color(path, colors, interpolation)
     core.set_mesh_normals(path, *normals)
+    if primvars is None:
+        primvars = _primvars(prim, reader, None, path, constant_only=True)
+    core.set_mesh_primvars(path, primvars)
     sync_mesh_light(core, prim, path, reader)
 
 
@@ -146,6 +153,55 @@ def _normals(mesh: UsdGeom.Mesh, reader: SampleReader) -> tuple[np.ndarray, str]
     if values is None or len(values) == 0:
         return np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.vertex
     return np.asarray(values, dtype=np.float32).reshape(-1, 3), str(interpolation)
+
+
+# Primvars the delegate receives through their own calls.
+_DEDICATED_PRIMVARS = frozenset({"displayColor", "normals"})
+
+
+def _primvars(
+    prim: Usd.Prim,
+    reader: SampleReader,
+    warn: Callable[[str], None] | None,
+    path: str,
+    constant_only: bool = False,
+) -> dict[str, tuple[np.ndarray, str]]:
+    """The numeric primvars of ``prim`` (own, and constant ones inherited from ancestors) that
+    materials may read, flattened, as float32 (N,) or (N, width) arrays with their interpolation.
+    Non-numeric primvars and widths above 4 are left out (with a warning when ``warn`` is given);
+    ``constant_only`` keeps just constant ones (for generated topology, which authored
+    per-element data cannot match)."""
+    result: dict[str, tuple[np.ndarray, str]] = {}
+    for primvar in UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance():
+        name = primvar.GetPrimvarName()
+        interpolation = str(primvar.GetInterpolation())
+        if name in _DEDICATED_PRIMVARS or not primvar.HasValue():
+            continue
+        if constant_only and interpolation != UsdGeom.Tokens.constant:
+            continue
+        if primvar.GetElementSize() != 1:
+            if warn:
+                warn(f"{path}: primvar {name} has elementSize {primvar.GetElementSize()}; "
+                     "materials cannot read it")
+            continue
+        value = reader.flattened_primvar(primvar)
+        try:
+            array = np.asarray(value, dtype=np.float32)
+        except (TypeError, ValueError):
+            continue  # strings, tokens, assets: nothing a material reads as a number
+        if interpolation == UsdGeom.Tokens.constant and not primvar.GetTypeName().isArray:
+            array = array.reshape(1, -1)
+        if array.ndim == 2 and array.shape[1] == 1:
+            array = array.reshape(-1)
+        if array.ndim not in (1, 2) or (array.ndim == 2 and array.shape[1] > 4) or array.size == 0:
+            if warn:
+                warn(
+                    f"{path}: primvar {name} of type {primvar.GetTypeName()} is not 1 to 4 "
+                    "numbers per element; materials cannot read it"
+                )
+            continue
+        result[name] = (np.ascontiguousarray(array), interpolation)
+    return result
 
 
 def _display_color(prim: Usd.Prim, reader: SampleReader) -> tuple[np.ndarray, str]:

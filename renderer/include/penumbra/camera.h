@@ -16,6 +16,14 @@ struct Ray {
   float time = 0;  // normalised shutter time in [0, 1]
 };
 
+/// A ray's footprint as a cone: radius `width` at the origin, growing by `spread` per unit of
+/// distance. Texture lookups are filtered over it; the zero cone point-samples them.
+struct RayCone {
+  float width = 0;
+  float spread = 0;
+  float radiusAt(float distance) const { return width + spread * distance; }
+};
+
 enum class Projection { Perspective, Orthographic };
 
 struct CameraParams {
@@ -47,6 +55,10 @@ class Camera {
   /// Ray through continuous image position (x right, y down, in pixels; (0,0) is the top-left
   /// corner of the image), a uniform lens sample and a normalised shutter time in [0, 1].
   Ray generateRay(float imageX, float imageY, Vec2f lensSample, float time = 0) const;
+  /// The footprint of one pixel as a ray cone (scene units): for perspective cameras the angle
+  /// a pixel subtends at the image centre, for orthographic ones a pixel's width. The lens
+  /// aperture is not included (defocus blurs by sampling the lens, not by filtering).
+  RayCone pixelCone() const;
   /// Distance along the view axis of the point at parameter t of a ray this camera generated.
   float viewDepth(const Ray& ray, float t) const;
 

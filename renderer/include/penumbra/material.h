@@ -1,16 +1,21 @@
-// UsdPreviewSurface parameters (spec 2.5/2.6) with the schema's fallback values, plus Penumbra's
-// extensions. The current integrator shades with the Lambertian lobe (diffuseColor) and
-// emission; the other parameters are carried for the glossy/translucent lobes to come.
+// UsdPreviewSurface materials (spec 2.5/2.6): the surface's parameters with the schema's fallback
+// values plus Penumbra's extensions, and the shader networks that drive them per shading point
+// (UsdUVTexture, UsdPrimvarReader_*, UsdTransform2d).
 #pragma once
 
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
 #include "penumbra/math.h"
+#include "penumbra/texture.h"
 
 namespace penumbra {
 
+/// The UsdPreviewSurface parameters at one shading point.
 struct MaterialParams {
   Vec3f diffuseColor{0.18f};
-  /// diffuseColor comes from each mesh's displayColor (a UsdPrimvarReader of displayColor).
-  bool diffuseFromDisplayColor = false;
   Vec3f emissiveColor{0.0f};
   Vec3f specularColor{0.0f};
   bool useSpecularWorkflow = false;
@@ -23,6 +28,82 @@ struct MaterialParams {
   float ior = 1.5f;
   float transmissionRoughness = -1;  // inputs:penumbra:transmissionRoughness; < 0: roughness
   float abbeNumber = 0;              // inputs:penumbra:abbeNumber; 0: no dispersion
+};
+
+/// The surface of meshes without a material: roughness 1 and no specular colour (within 1 % of
+/// Lambertian), 0.5 grey; the scene sets diffuseColor and opacity from displayColor and
+/// displayOpacity where they are authored.
+MaterialParams fallbackSurface();
+
+/// The UsdPreviewSurface inputs a shader network can drive. `Normal` is the tangent-space normal
+/// (a normal map); the others are the MaterialParams of the same name.
+enum class MaterialInput : uint8_t {
+  DiffuseColor,
+  EmissiveColor,
+  SpecularColor,
+  Metallic,
+  Roughness,
+  Clearcoat,
+  ClearcoatRoughness,
+  Opacity,
+  Ior,
+  Normal,
+};
+
+/// Whether the input takes a colour/vector (3 values) rather than one float.
+bool isVectorInput(MaterialInput input);
+
+/// The texture coordinates a UsdUVTexture reads: a UsdPrimvarReader_float2 (its primvar where the
+/// mesh has it, else its fallback), through a UsdTransform2d when one is connected.
+struct TextureCoordinates {
+  std::string primvar;  // empty: `fallback` everywhere
+  Vec2f fallback{0, 0};
+  // UsdTransform2d: result = in * scale * rotate * translate (rotation in degrees,
+  // counter-clockwise).
+  Vec2f scale{1, 1};
+  float rotation = 0;
+  Vec2f translation{0, 0};
+
+  /// The transform applied to a coordinate.
+  Vec2f apply(Vec2f st) const;
+  /// Its linear part applied to a coordinate difference (derivatives).
+  Vec2f applyLinear(Vec2f dst) const;
+};
+
+/// A UsdUVTexture node.
+struct TextureReader {
+  TextureSystem::Handle texture = TextureSystem::kInvalid;  // invalid: the file is missing
+  TextureWrap wrapS = TextureWrap::UseMetadata;
+  TextureWrap wrapT = TextureWrap::UseMetadata;
+  std::array<float, 4> scale{1, 1, 1, 1};
+  std::array<float, 4> bias{0, 0, 0, 0};
+  std::array<float, 4> fallback{0, 0, 0, 1};
+  TextureCoordinates coordinates;
+};
+
+/// What drives one input: channels of a texture reader's output, or a mesh primvar.
+struct InputConnection {
+  MaterialInput input = MaterialInput::DiffuseColor;
+  int texture = -1;  // index into Material::textures; -1: a primvar reader
+  /// The output read: its first channel (r 0, g 1, b 2, a 3) and channel count (1, or 3 for
+  /// rgb). A one-channel output feeding a colour input is broadcast to grey.
+  int firstChannel = 0;
+  int channelCount = 3;
+  std::string primvar;                     // primvar readers: the primvar's name
+  std::array<float, 3> fallback{0, 0, 0};  // primvar readers: where the mesh lacks the primvar
+};
+
+/// A UsdPreviewSurface: constant inputs, and the connections that override some of them per
+/// shading point.
+struct Material {
+  MaterialParams constants;
+  std::vector<TextureReader> textures;
+  std::vector<InputConnection> connections;
+
+  /// Whether any input varies over the surface.
+  bool varies() const { return !connections.empty(); }
+  /// Whether opacity varies over the surface (cut-outs are then decided per hit).
+  bool opacityVaries() const;
 };
 
 }  // namespace penumbra

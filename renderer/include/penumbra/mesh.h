@@ -13,6 +13,16 @@ namespace penumbra {
 /// and vertex differ only on subdivision surfaces (linear versus limit evaluation).
 enum class Interpolation { Constant, Uniform, Varying, Vertex, FaceVarying };
 
+/// A named per-mesh value array besides points, normals and displayColor (e.g. `st`, or any
+/// primvar a material reads): `width` floats per element, as many elements as `interpolation`
+/// says. Indexed primvars arrive flattened.
+struct Primvar {
+  std::string name;
+  std::vector<float> values;
+  int width = 1;  // 1 to 4
+  Interpolation interpolation = Interpolation::Vertex;
+};
+
 struct MeshData {
   std::vector<Vec3f> points;
   /// Deformation motion: the points at later, uniformly spaced shutter times (steps 1..K-1;
@@ -26,6 +36,7 @@ struct MeshData {
   Interpolation displayColorInterpolation = Interpolation::Constant;
   std::vector<Vec3f> normals;  // authored shading normals; empty: flat shading
   Interpolation normalsInterpolation = Interpolation::Vertex;
+  std::vector<Primvar> primvars;
 };
 
 /// A triangulated mesh ready for Embree. Triangles are fans of each polygon, wound so that the
@@ -47,6 +58,8 @@ struct TriangleMesh {
   Interpolation normalsInterpolation = Interpolation::Vertex;
   std::vector<Vec3f> displayColor;
   Interpolation displayColorInterpolation = Interpolation::Constant;
+  /// The cage's primvars, their values mapped onto the triangles as for displayColor.
+  std::vector<Primvar> primvars;
 
   /// Corner `corner` (0..2) of `triangle` at normalised shutter time `time`.
   Vec3f cornerAt(uint32_t triangle, int corner, float time) const;
@@ -55,18 +68,22 @@ struct TriangleMesh {
   /// (weights 1-u-v, u, v for corners 0, 1, 2); `values` must not be empty.
   Vec3f interpolate(const std::vector<Vec3f>& values, Interpolation interpolation,
                     uint32_t triangle, float u, float v) const;
-  /// Display colour at a point of a triangle; `fallback` when none is authored.
-  Vec3f displayColorAt(uint32_t triangle, float u, float v, const Vec3f& fallback) const {
-    return displayColor.empty()
-               ? fallback
-               : interpolate(displayColor, displayColorInterpolation, triangle, u, v);
-  }
+  /// A primvar at a point of a triangle: writes primvar.width floats to `out`.
+  void interpolate(const Primvar& primvar, uint32_t triangle, float u, float v, float* out) const;
+  /// Where corner `corner` (0..2) of `triangle` finds its value in data of this interpolation.
+  size_t cornerElement(Interpolation interpolation, uint32_t triangle, int corner) const;
+  /// The primvar named `name`, or null.
+  const Primvar* findPrimvar(const std::string& name) const;
 };
 
 /// USD's token for an interpolation ("faceVarying", ...).
 const char* interpolationName(Interpolation interpolation);
 /// How many values a primvar of this interpolation has on `mesh`.
 size_t primvarElementCount(Interpolation interpolation, const MeshData& mesh);
+
+/// Throws std::invalid_argument naming the primvar when its width or value count does not fit
+/// `mesh`.
+void validatePrimvar(const Primvar& primvar, const MeshData& mesh);
 
 /// True when every edge of the polygon mesh is shared by exactly two faces.
 bool isClosedSurface(const std::vector<int>& faceVertexCounts,

@@ -14,6 +14,7 @@
 #include "penumbra/material.h"
 #include "penumbra/mesh.h"
 #include "penumbra/motion.h"
+#include "penumbra/texture.h"
 
 namespace penumbra {
 
@@ -36,11 +37,12 @@ struct SurfaceHit {
   Vec3f position;
   Vec3f normal;         // unit geometric normal on the authored front side
   Vec3f shadingNormal;  // unit, interpolated where the mesh has normals, on the same side
-  Vec3f albedo;         // diffuseColor, or displayColor without a material
   Vec3f emission;       // emitted radiance
-  const MaterialParams* material = nullptr;  // null: displayColor, Lambertian
-  int lightIndex = -1;                       // the mesh light this surface is (UsdLuxMeshLightAPI)
-  bool closed = false;                       // the mesh bounds a solid
+  /// The bound material's parameters evaluated here (textures, primvar readers, normal map), or
+  /// fallbackSurface() with displayColor and displayOpacity for meshes without one.
+  MaterialParams material;
+  int lightIndex = -1;  // the mesh light this surface is (UsdLuxMeshLightAPI)
+  bool closed = false;  // the mesh bounds a solid
 };
 
 /// Camera rays do not see the back faces of single-sided meshes (doubleSided = 0), as in
@@ -54,7 +56,8 @@ class Scene {
   /// Material index meaning "none bound": displayColor is the albedo.
   static constexpr int kNoMaterial = -1;
 
-  explicit Scene(const Device& device);
+  /// `colorConfig`: the OCIO config that linearises textures (empty: $OCIO).
+  explicit Scene(const Device& device, const std::string& colorConfig = {});
   ~Scene();
   Scene(const Scene&) = delete;
   Scene& operator=(const Scene&) = delete;
@@ -80,10 +83,19 @@ class Scene {
   void setInstances(InstancerId id, MeshId prototype, std::vector<MotionTransform> transforms,
                     bool visible);
   void removeInstancer(InstancerId id);
+  /// Per-copy primvars of an instancer (one value per copy, in the order of setInstances'
+  /// transforms), overriding the prototype's primvars of the same name; displayColor among them
+  /// colours copies without a material. Throws std::invalid_argument for a count that does not
+  /// match the copies.
+  void setInstancePrimvars(InstancerId id, std::vector<Primvar> primvars);
 
-  /// Materials are referenced by index; a material whose opacity is below a non-zero
-  /// opacityThreshold cuts its meshes out entirely (opacity has no texture yet).
-  void setMaterials(std::vector<MaterialParams> materials) { materials_ = std::move(materials); }
+  /// Materials are referenced by index. Where a material's opacity is below its non-zero
+  /// opacityThreshold the surface is cut out: whole meshes for constant opacity, per hit for
+  /// textured opacity. Their texture handles refer to textures().
+  void setMaterials(std::vector<Material> materials) { materials_ = std::move(materials); }
+  /// The textures materials read; open files here before referencing them.
+  TextureSystem& textures() { return *textures_; }
+  const TextureSystem& textures() const { return *textures_; }
   void setLights(std::vector<Light> lights) { lights_ = std::move(lights); }
   const std::vector<Light>& lights() const { return lights_; }
   /// Lights are chosen for next-event estimation in proportion to their power (set by commit()).
@@ -95,22 +107,28 @@ class Scene {
   /// are then traced spectrally (set by commit()).
   bool spectral() const { return spectral_; }
 
-  std::optional<SurfaceHit> intersect(const Ray& ray, RayKind kind) const;
+  /// The first hit, shaded: textures are filtered over `cone`'s cross-section there.
+  std::optional<SurfaceHit> intersect(const Ray& ray, RayKind kind, const RayCone& cone = {}) const;
   /// True if anything blocks the segment [tNear, tFar] of the ray.
   bool occluded(const Ray& ray) const;
   /// Offset for spawning rays from `point` so that they do not re-hit its surface.
   float rayEpsilon(const Vec3f& point) const;
 
  private:
+  struct InstancerRecord;
   /// One Embree instance geometry: a placement of a mesh's BVH.
   struct Placement {
     RTCGeometry geometry = nullptr;
     unsigned geomId = 0;
     MeshId mesh = 0;
     MotionTransform objectToWorld;
+    const InstancerRecord* instancer = nullptr;  // for copies: whose, and which copy
+    uint32_t copy = 0;
   };
   struct MeshRecord {
     RTCScene bvh = nullptr;
+    RTCGeometry triangles = nullptr;  // in `bvh`
+    bool cutoutFilter = false;        // triangles filter hits by textured opacity
     std::shared_ptr<const TriangleMesh> data;
     int materialIndex = kNoMaterial;
     int lightIndex = -1;
@@ -122,6 +140,7 @@ class Scene {
     MeshId prototype = 0;
     bool visible = true;
     std::vector<std::unique_ptr<Placement>> copies;
+    std::vector<Primvar> primvars;  // one value per copy
   };
 
   MeshRecord& record(MeshId id);
@@ -132,6 +151,13 @@ class Scene {
   void updatePlacement(Placement& placement, bool enabled);
   /// Whether copies of a mesh render: it has geometry and its material does not cut it out.
   bool renderable(const MeshRecord& mesh) const;
+  /// The mesh's material, or null.
+  const Material* materialOf(const MeshRecord& mesh) const;
+  /// Sets the triangles' hit filters: back-face culling for single-sided meshes, cut-outs where
+  /// opacity is textured and thresholded.
+  void updateHitFilters(MeshRecord& mesh);
+  /// Embree hit filter (any hit, intersection and occlusion rays).
+  static void filterHits(const RTCFilterFunctionNArguments* args);
   void updateAllPlacements(MeshId id);
 
   RTCDevice device_;
@@ -139,7 +165,8 @@ class Scene {
   std::vector<std::unique_ptr<MeshRecord>> meshes_;           // by MeshId
   std::vector<std::unique_ptr<InstancerRecord>> instancers_;  // by InstancerId
   std::vector<const Placement*> placements_;                  // by Embree geomID
-  std::vector<MaterialParams> materials_;
+  std::vector<Material> materials_;
+  std::unique_ptr<TextureSystem> textures_;
   std::vector<Light> lights_;
   Distribution1D lightSelection_{{}};
   float sceneExtent_ = 1;

@@ -38,18 +38,6 @@ struct SubdivisionTags {
 /// (a plain polygon mesh) gives nullopt. Throws std::invalid_argument for any other token.
 std::optional<SubdivisionScheme> parseSubdivisionScheme(const std::string& token);
 
-/// How a primvar maps onto a subdivision surface (UsdGeom interpolation, with varying, which
-/// subdivision meshes distinguish from vertex: varying is interpolated linearly, vertex on the
-/// limit surface).
-
-/// A primvar carried through the tessellation besides displayColor (e.g. `st`).
-struct SubdivisionPrimvar {
-  std::string name;           // names it in error messages
-  std::vector<float> values;  // `width` floats per element, element count as `interpolation` says
-  int width = 1;              // 1 to 4
-  Interpolation interpolation = Interpolation::Vertex;
-};
-
 /// The limit surface at one parametric location of a base face.
 struct LimitSample {
   Vec3f position;
@@ -83,8 +71,7 @@ class LimitSurfaceTessellator {
   /// the feature-adaptive patch table and refines the primvars (which do not vary with time).
   /// Only `cage.points` varies between motion samples; the rest is the topology.
   LimitSurfaceTessellator(const MeshData& cage, SubdivisionScheme scheme,
-                          const SubdivisionTags& tags,
-                          const std::vector<SubdivisionPrimvar>& primvars = {});
+                          const SubdivisionTags& tags);
   ~LimitSurfaceTessellator();
   LimitSurfaceTessellator(LimitSurfaceTessellator&&) noexcept;
   LimitSurfaceTessellator& operator=(LimitSurfaceTessellator&&) noexcept;
@@ -100,11 +87,10 @@ class LimitSurfaceTessellator {
   /// Tessellates the limit surface of the cage at `points` (same count as the cage's).
   /// `rates`: segments per edge (>= 1), one per base face or a single one for all. The same
   /// rates give the same triangles, sourceFace and cornerFaceVertex for any points, so motion
-  /// samples line up. `primvarValues`, when given, receives each constructor primvar evaluated:
-  /// constant and uniform as authored, vertex and varying one per output point, faceVarying one
-  /// per output face-varying slot (see cornerFaceVertex).
-  TriangleMesh tessellate(const std::vector<Vec3f>& points, const std::vector<int>& rates,
-                          std::vector<std::vector<float>>* primvarValues = nullptr) const;
+  /// samples line up. The cage's primvars come out evaluated, as displayColor does: constant and
+  /// uniform as authored, vertex and varying (then marked vertex) one per output point,
+  /// faceVarying one per output face-varying slot (see cornerFaceVertex).
+  TriangleMesh tessellate(const std::vector<Vec3f>& points, const std::vector<int>& rates) const;
 
   /// The limit surface of base face `face` at `points`, at (u, v) in the face's parameterisation
   /// (OpenSubdiv Bfr: the unit square for quads, the unit triangle for Loop triangles, quad

@@ -24,18 +24,26 @@ class Instancer : public Prim {
     visible_ = visible;
     markDirty(DirtyVisibility);
   }
+  /// Per-copy primvars (one value per copy, in the order of the transforms), overriding the
+  /// prototype's.
+  void setPrimvars(std::vector<Primvar> primvars) {
+    primvars_ = std::move(primvars);
+    markDirty(DirtyPrimvar);
+  }
 
   Scene::InstancerId handle() const { return handle_; }
   void setHandle(Scene::InstancerId handle) { handle_ = handle; }
   const PrimId& prototype() const { return prototype_; }
   const std::vector<MotionTransform>& transforms() const { return transforms_; }
   bool visible() const { return visible_; }
+  const std::vector<Primvar>& primvars() const { return primvars_; }
 
  private:
   Scene::InstancerId handle_;
   PrimId prototype_;
   std::vector<MotionTransform> transforms_;
   bool visible_ = true;
+  std::vector<Primvar> primvars_;
 };
 
 }  // namespace penumbra::plugin

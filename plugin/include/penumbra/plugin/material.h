@@ -1,28 +1,70 @@
-// Material sprim: a UsdPreviewSurface's inputs.
+// Material sprim: a UsdPreviewSurface's inputs, constant or connected to a shader network
+// (UsdUVTexture with its coordinates, UsdPrimvarReader_*).
 #pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "penumbra/material.h"
 #include "penumbra/plugin/prim.h"
 
 namespace penumbra::plugin {
 
+/// A UsdUVTexture as the scene delegate describes it: the file by path (resolved; may hold
+/// <UDIM>), its inputs, and its coordinates.
+struct TextureNode {
+  std::string file;
+  TextureWrap wrapS = TextureWrap::UseMetadata;
+  TextureWrap wrapT = TextureWrap::UseMetadata;
+  SourceColorSpace colorSpace = SourceColorSpace::Auto;
+  std::array<float, 4> scale{1, 1, 1, 1};
+  std::array<float, 4> bias{0, 0, 0, 0};
+  std::array<float, 4> fallback{0, 0, 0, 1};
+  TextureCoordinates coordinates;
+};
+
+/// What a connected input reads: a texture's output ("rgb", "r", "g", "b", "a"), or a primvar
+/// (with the value used where a mesh lacks it).
+struct InputSource {
+  std::optional<TextureNode> texture;
+  std::string output = "rgb";
+  std::string primvar;
+  std::array<float, 3> fallback{0, 0, 0};
+};
+
+/// UsdUVTexture token parsers; they throw std::invalid_argument naming the token.
+TextureWrap parseTextureWrap(const std::string& token);
+SourceColorSpace parseSourceColorSpace(const std::string& token);
+/// The channels a UsdUVTexture output token names: {first channel, channel count}.
+std::pair<int, int> parseTextureOutput(const std::string& token);
+
 class Material : public Prim {
  public:
   using Prim::Prim;
 
-  /// Sets a UsdPreviewSurface input by name (diffuseColor, emissiveColor, specularColor,
-  /// metallic, roughness, opacity, opacityThreshold, ior, clearcoat, clearcoatRoughness,
-  /// useSpecularWorkflow, penumbra:transmissionRoughness, penumbra:abbeNumber).
-  /// diffuseColor may instead name the primvar it reads: "primvar:displayColor".
-  /// Throws std::invalid_argument for an unknown name or a value of the wrong type.
+  /// Sets a constant UsdPreviewSurface input by name (diffuseColor, emissiveColor,
+  /// specularColor, metallic, roughness, opacity, opacityThreshold, ior, clearcoat,
+  /// clearcoatRoughness, useSpecularWorkflow, penumbra:transmissionRoughness,
+  /// penumbra:abbeNumber). Throws std::invalid_argument for an unknown name or a value of the
+  /// wrong type.
   void setParam(const std::string& name, const ParamValue& value);
-  /// Back to the schema's fallback values.
+  /// Connects an input (the names above that can vary, or `normal`) to a source; throws
+  /// std::invalid_argument for an input that cannot be connected or an unknown output.
+  void connect(const std::string& input, InputSource source);
+  /// Back to the schema's fallback values, unconnected.
   void resetParams();
 
   const MaterialParams& params() const { return params_; }
+  /// The connected inputs, in the order they were connected.
+  const std::vector<std::pair<MaterialInput, InputSource>>& connections() const {
+    return connections_;
+  }
 
  private:
   MaterialParams params_;
+  std::vector<std::pair<MaterialInput, InputSource>> connections_;
 };
 
 }  // namespace penumbra::plugin

@@ -3,6 +3,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "penumbra/mesh.h"
 #include "penumbra/plugin/light.h"
@@ -26,6 +27,10 @@ class Mesh : public Prim {
   void setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolation);
   /// Authored shading normals (empty: flat shading, or the limit normals of subdivision).
   void setNormals(std::vector<Vec3f> normals, Interpolation interpolation);
+  /// The primvars materials may read (`st`, ...), replacing those set before.
+  void setPrimvars(std::vector<Primvar> primvars);
+  /// Removes primvars whose size does not fit the topology; returns what was wrong with each.
+  std::vector<std::string> dropInvalidPrimvars();
   void setMaterialId(PrimId materialId);
   /// UsdLuxMeshLightAPI: the mesh also emits, and is sampled as a light, with these inputs
   /// (names as Light::setParam). `enabled` false removes the light.

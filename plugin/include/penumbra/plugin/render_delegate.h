@@ -49,7 +49,8 @@ struct RenderSettingsMap {
 
 class RenderDelegate {
  public:
-  RenderDelegate();
+  /// `colorConfig`: the OCIO config that linearises sRGB textures (empty: $OCIO).
+  explicit RenderDelegate(const std::string& colorConfig = {});
   ~RenderDelegate();
 
   /// Rprim types: "mesh", "instancer". Sprim types: "camera", "material", and the light types
@@ -90,6 +91,9 @@ class RenderDelegate {
  private:
   void warn(std::string message) { warnings_.push_back(std::move(message)); }
   void syncMaterials();
+  /// The renderer's material for a material sprim, its textures opened; `report`: warn about
+  /// textures that cannot be read.
+  penumbra::Material buildMaterial(const Material& material, bool report);
   void syncLights();
   void syncMesh(Mesh& mesh, bool materialsChanged, const DicingContext& dicing);
   void syncInstancer(Instancer& instancer);

@@ -1,0 +1,60 @@
+// Image textures for UsdUVTexture: filtered, mip-mapped lookups through a private OpenImageIO
+// TextureSystem, with sRGB textures linearised (through OpenColorIO) before they are filtered.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "penumbra/math.h"  // Vec2f
+
+namespace penumbra {
+
+/// UsdUVTexture wrapS/wrapT.
+enum class TextureWrap { Black, Clamp, Repeat, Mirror, UseMetadata };
+
+/// UsdUVTexture sourceColorSpace.
+enum class SourceColorSpace { Auto, Raw, SRGB };
+
+/// A lookup's position and screen-space footprint in USD texture coordinates (st: origin at the
+/// image's bottom-left corner, t up; one unit = one image / one UDIM tile).
+struct TextureFootprint {
+  Vec2f st;
+  Vec2f dstdx;
+  Vec2f dstdy;
+};
+
+/// The textures of one scene. Values come back as stored in the file (colour not multiplied by
+/// alpha), sRGB-encoded colour converted to the OCIO config's scene_linear role.
+class TextureSystem {
+ public:
+  using Handle = int;
+  static constexpr Handle kInvalid = -1;
+
+  /// ocioConfig: path of the OCIO config used to linearise sRGB textures (empty: $OCIO).
+  explicit TextureSystem(const std::string& ocioConfig = {});
+  ~TextureSystem();  // also removes any converted-texture files it wrote
+  TextureSystem(const TextureSystem&) = delete;
+  TextureSystem& operator=(const TextureSystem&) = delete;
+
+  /// Opens `path` (may contain the token <UDIM>) for lookups. Same (path, colorSpace) → same
+  /// handle. On failure (missing/unreadable file, UDIM pattern with no tiles, no sRGB colour space
+  /// in the config) returns kInvalid and sets *error to a message naming the file and what is
+  /// wrong. Called from one thread at a time (scene sync), never concurrently with lookup().
+  Handle open(const std::string& path, SourceColorSpace colorSpace, std::string* error);
+
+  /// Channels in the file (1–4); 0 for an invalid handle.
+  int channels(Handle handle) const;
+
+  /// Filtered, mip-mapped lookup. Writes rgba with USD's channel rules: 1 channel → (c,c,c,1),
+  /// 2 → (c,c,c,a), 3 → (r,g,b,1), 4 → rgba. Returns false (rgba untouched) where there is no
+  /// texel: a UDIM tile that does not exist (or an invalid handle, non-finite st, a read error).
+  /// Thread-safe, called from many TBB threads.
+  bool lookup(Handle handle, TextureWrap wrapS, TextureWrap wrapT, const TextureFootprint& at,
+              float rgba[4]) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace penumbra

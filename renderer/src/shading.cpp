@@ -1,0 +1,291 @@
+#include "penumbra/shading.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace penumbra {
+namespace {
+
+constexpr float kDegreesToRadians = 3.14159265358979f / 180.0f;
+
+Vec2f operator+(Vec2f a, Vec2f b) {
+  return {a.x + b.x, a.y + b.y};
+}
+Vec2f operator-(Vec2f a, Vec2f b) {
+  return {a.x - b.x, a.y - b.y};
+}
+Vec2f operator*(Vec2f a, float s) {
+  return {a.x * s, a.y * s};
+}
+
+/// A texture reader's coordinates at a point: st, and how st changes across the triangle.
+struct CoordinatesAt {
+  TextureFootprint footprint;
+  Vec2f edge1{0, 0}, edge2{0, 0};  // st(corner 1) - st(corner 0), st(corner 2) - st(corner 0)
+};
+
+/// The barycentric step (a, b) with a·e1 + b·e2 closest to `dp` (least squares in the
+/// triangle's plane); zero for degenerate triangles.
+Vec2f barycentricStep(const Vec3f& e1, const Vec3f& e2, const Vec3f& dp) {
+  const float g11 = dot(e1, e1), g12 = dot(e1, e2), g22 = dot(e2, e2);
+  const float determinant = g11 * g22 - g12 * g12;
+  if (!(determinant > 0)) return {0, 0};
+  const float p1 = dot(dp, e1), p2 = dot(dp, e2);
+  return {(g22 * p1 - g12 * p2) / determinant, (g11 * p2 - g12 * p1) / determinant};
+}
+
+/// The copy's own value of primvar `name`, if it has one.
+const Primvar* instancePrimvar(const SurfacePoint& point, const std::string& name) {
+  if (!point.instancePrimvars) return nullptr;
+  for (const Primvar& primvar : *point.instancePrimvars)
+    if (primvar.name == name) return &primvar;
+  return nullptr;
+}
+
+CoordinatesAt coordinatesAt(const TextureCoordinates& coordinates, const SurfacePoint& point) {
+  CoordinatesAt result;
+  if (coordinates.primvar.empty()) {
+    result.footprint.st = coordinates.apply(coordinates.fallback);
+    return result;
+  }
+  if (const Primvar* copy = instancePrimvar(point, coordinates.primvar)) {
+    // One value per copy: constant over the surface.
+    const float* value = &copy->values[point.instance * size_t(copy->width)];
+    result.footprint.st =
+        coordinates.apply(copy->width >= 2 ? Vec2f{value[0], value[1]} : coordinates.fallback);
+    return result;
+  }
+  const Primvar* primvar = point.mesh->findPrimvar(coordinates.primvar);
+  if (!primvar || primvar->width < 2) {
+    result.footprint.st = coordinates.apply(coordinates.fallback);
+    return result;
+  }
+  Vec2f st[3];
+  for (int corner = 0; corner < 3; ++corner) {
+    const size_t element =
+        point.mesh->cornerElement(primvar->interpolation, point.triangle, corner);
+    const float* value = &primvar->values[element * size_t(primvar->width)];
+    st[corner] = {value[0], value[1]};
+  }
+  const Vec2f at = st[0] * (1 - point.u - point.v) + st[1] * point.u + st[2] * point.v;
+  const Vec3f e1 = point.corners[1] - point.corners[0];
+  const Vec3f e2 = point.corners[2] - point.corners[0];
+  result.edge1 = coordinates.applyLinear(st[1] - st[0]);
+  result.edge2 = coordinates.applyLinear(st[2] - st[0]);
+  const auto stepOf = [&](const Vec3f& dp) {
+    const Vec2f step = barycentricStep(e1, e2, dp);
+    return result.edge1 * step.x + result.edge2 * step.y;
+  };
+  result.footprint = {coordinates.apply(at), stepOf(point.dpdx), stepOf(point.dpdy)};
+  return result;
+}
+
+/// A UsdUVTexture's four output channels at a point: the texel × scale + bias, or the fallback
+/// where there is no texel (missing file or UDIM tile), which scale and bias do not touch.
+std::array<float, 4> sampleTexture(const TextureReader& reader, const TextureSystem& textures,
+                                   const CoordinatesAt& at) {
+  float rgba[4];
+  if (reader.texture == TextureSystem::kInvalid ||
+      !textures.lookup(reader.texture, reader.wrapS, reader.wrapT, at.footprint, rgba))
+    return reader.fallback;
+  std::array<float, 4> result;
+  for (int c = 0; c < 4; ++c)
+    result[size_t(c)] = rgba[c] * reader.scale[size_t(c)] + reader.bias[size_t(c)];
+  return result;
+}
+
+/// A primvar reader's value: the primvar at the point, or the reader's fallback.
+void readPrimvar(const InputConnection& connection, const SurfacePoint& point, float value[4],
+                 int* width) {
+  if (primvarAt(point, connection.primvar, value, width)) return;
+  std::copy(connection.fallback.begin(), connection.fallback.end(), value);
+  *width = 3;
+}
+
+/// Writes an input's value (three floats for vector inputs, one for the others).
+void assign(MaterialParams& params, MaterialInput input, const float* value) {
+  const Vec3f color{value[0], value[1], value[2]};
+  switch (input) {
+    case MaterialInput::DiffuseColor:
+      params.diffuseColor = color;
+      break;
+    case MaterialInput::EmissiveColor:
+      params.emissiveColor = color;
+      break;
+    case MaterialInput::SpecularColor:
+      params.specularColor = color;
+      break;
+    case MaterialInput::Metallic:
+      params.metallic = value[0];
+      break;
+    case MaterialInput::Roughness:
+      params.roughness = value[0];
+      break;
+    case MaterialInput::Clearcoat:
+      params.clearcoat = value[0];
+      break;
+    case MaterialInput::ClearcoatRoughness:
+      params.clearcoatRoughness = value[0];
+      break;
+    case MaterialInput::Opacity:
+      params.opacity = value[0];
+      break;
+    case MaterialInput::Ior:
+      params.ior = value[0];
+      break;
+    case MaterialInput::Normal:
+      break;  // bends the shading normal instead
+  }
+}
+
+/// Evaluates connections of `material` (those `wanted` accepts) at `point`, calling
+/// `use(connection, value, coordinates)` with the connection's value (three floats, broadcast
+/// from one channel where needed) and, for texture connections, the reader's coordinates.
+template <typename Wanted, typename Use>
+void evaluateConnections(const Material& material, const TextureSystem& textures,
+                         const SurfacePoint& point, Wanted wanted, Use use) {
+  int cachedReader = -1;  // consecutive connections often read one texture's channels
+  CoordinatesAt coordinates;
+  std::array<float, 4> texel{};
+  for (const InputConnection& connection : material.connections) {
+    if (!wanted(connection)) continue;
+    float value[4] = {0, 0, 0, 0};
+    int width = connection.channelCount;
+    if (connection.texture >= 0) {
+      if (connection.texture != cachedReader) {
+        const TextureReader& reader = material.textures[size_t(connection.texture)];
+        coordinates = coordinatesAt(reader.coordinates, point);
+        texel = sampleTexture(reader, textures, coordinates);
+        cachedReader = connection.texture;
+      }
+      std::copy_n(texel.begin() + connection.firstChannel, width, value);
+    } else {
+      readPrimvar(connection, point, value, &width);
+    }
+    if (width == 1) value[1] = value[2] = value[0];
+    use(connection, value, connection.texture >= 0 ? &coordinates : nullptr);
+  }
+}
+
+/// The shading normal bent by a tangent-space normal `mapped` (x along +s, y along +t, z along
+/// the normal), or the normal unchanged where the texture coordinates give no tangent frame.
+Vec3f applyNormalMap(const Vec3f& normal, const Vec3f& mapped, const CoordinatesAt* coordinates,
+                     const SurfacePoint& point) {
+  if (!coordinates) return normal;
+  const Vec2f d1 = coordinates->edge1, d2 = coordinates->edge2;
+  const float determinant = d1.x * d2.y - d1.y * d2.x;
+  if (std::abs(determinant) < 1e-12f) return normal;
+  const Vec3f e1 = point.corners[1] - point.corners[0];
+  const Vec3f e2 = point.corners[2] - point.corners[0];
+  const Vec3f dpds = (e1 * d2.y - e2 * d1.y) / determinant;
+  const Vec3f dpdt = (e2 * d1.x - e1 * d2.x) / determinant;
+  const Vec3f tangent = dpds - normal * dot(normal, dpds);
+  if (!(length(tangent) > 0)) return normal;
+  const Vec3f s = normalize(tangent);
+  Vec3f t = cross(normal, s);
+  if (dot(t, dpdt) < 0) t = -t;  // mirrored texture coordinates
+  const Vec3f bent = s * mapped.x + t * mapped.y + normal * mapped.z;
+  // A bent normal facing away from the geometric one would shade the surface inside out.
+  if (!(length(bent) > 0) || dot(bent, point.normal) <= 0) return normal;
+  return normalize(bent);
+}
+
+}  // namespace
+
+bool primvarAt(const SurfacePoint& point, const std::string& name, float value[4], int* width) {
+  if (const Primvar* copy = instancePrimvar(point, name)) {
+    const float* own = &copy->values[point.instance * size_t(copy->width)];
+    std::copy(own, own + copy->width, value);
+    *width = copy->width;
+    return true;
+  }
+  const TriangleMesh& mesh = *point.mesh;
+  if (const Primvar* primvar = mesh.findPrimvar(name)) {
+    mesh.interpolate(*primvar, point.triangle, point.u, point.v, value);
+    *width = primvar->width;
+    return true;
+  }
+  if (name == "displayColor" && !mesh.displayColor.empty()) {
+    const Vec3f color = mesh.interpolate(mesh.displayColor, mesh.displayColorInterpolation,
+                                         point.triangle, point.u, point.v);
+    value[0] = color.x, value[1] = color.y, value[2] = color.z;
+    *width = 3;
+    return true;
+  }
+  return false;
+}
+
+MaterialParams fallbackSurface() {
+  MaterialParams params;
+  params.diffuseColor = Vec3f(0.5f);
+  params.roughness = 1;
+  params.useSpecularWorkflow = true;
+  params.specularColor = Vec3f(0.0f);
+  return params;
+}
+
+bool isVectorInput(MaterialInput input) {
+  return input == MaterialInput::DiffuseColor || input == MaterialInput::EmissiveColor ||
+         input == MaterialInput::SpecularColor || input == MaterialInput::Normal;
+}
+
+Vec2f TextureCoordinates::applyLinear(Vec2f dst) const {
+  const float angle = rotation * kDegreesToRadians;
+  const float c = std::cos(angle), s = std::sin(angle);
+  const Vec2f scaled{dst.x * scale.x, dst.y * scale.y};
+  return {c * scaled.x - s * scaled.y, s * scaled.x + c * scaled.y};
+}
+
+Vec2f TextureCoordinates::apply(Vec2f st) const {
+  return applyLinear(st) + translation;
+}
+
+bool Material::opacityVaries() const {
+  return std::any_of(connections.begin(), connections.end(),
+                     [](const InputConnection& c) { return c.input == MaterialInput::Opacity; });
+}
+
+void footprintOnSurface(const Vec3f& direction, const Vec3f& normal, float radius, Vec3f* dpdx,
+                        Vec3f* dpdy) {
+  const float cosine = dot(direction, normal);
+  const Vec3f along = direction - normal * cosine;
+  const float alongLength = length(along);
+  if (alongLength < 1e-6f) {
+    const Frame frame(normal);
+    *dpdx = frame.s * radius;
+    *dpdy = frame.t * radius;
+    return;
+  }
+  const Vec3f s = along / alongLength;
+  *dpdx = s * (radius / std::max(std::abs(cosine), 0.05f));
+  *dpdy = cross(normal, s) * radius;
+}
+
+MaterialParams evaluateMaterial(const Material& material, const TextureSystem& textures,
+                                const SurfacePoint& point, Vec3f* shadingNormal) {
+  MaterialParams params = material.constants;
+  evaluateConnections(
+      material, textures, point, [](const InputConnection&) { return true; },
+      [&](const InputConnection& connection, const float* value, const CoordinatesAt* coordinates) {
+        if (connection.input == MaterialInput::Normal)
+          *shadingNormal =
+              applyNormalMap(*shadingNormal, {value[0], value[1], value[2]}, coordinates, point);
+        else
+          assign(params, connection.input, value);
+      });
+  return params;
+}
+
+float evaluateOpacity(const Material& material, const TextureSystem& textures,
+                      const SurfacePoint& point) {
+  float opacity = material.constants.opacity;
+  evaluateConnections(
+      material, textures, point,
+      [](const InputConnection& connection) { return connection.input == MaterialInput::Opacity; },
+      [&](const InputConnection&, const float* value, const CoordinatesAt*) {
+        opacity = value[0];
+      });
+  return opacity;
+}
+
+}  // namespace penumbra

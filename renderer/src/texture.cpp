@@ -1,0 +1,510 @@
+// UsdUVTexture lookups over a private OpenImageIO TextureSystem.
+//
+// Coordinates: USD's st has its origin at the image's bottom-left corner with t up; OIIO's st has
+// its origin at the top-left corner with t down. A lookup passes t' = 1 - t and negates the t
+// derivatives. The substitution commutes with every wrap mode (black/clamp: [0,1] maps to itself;
+// periodic and mirror: 1 - t shifts by a whole period and reflects about an integer), so wrapping
+// happens in OIIO.
+//
+// Colour: sRGB-encoded textures are decoded to the OCIO config's scene_linear role before any
+// filtering (averaging encoded values darkens mip levels). The decoded image is written as a
+// tiled, mip-mapped half/float OpenEXR texture into a private temporary directory, and that is
+// what OIIO reads. Raw textures are read from the original file; untiled or unmipped files are
+// tiled and mip-mapped on the fly by the ImageCache ("autotile", "automip").
+//
+// Alpha: values come back as stored in the file. PNG colour is not premultiplied by alpha (the
+// ImageCache's "unassociatedalpha"), so a cut-out's diffuse colour is not darkened at its edges.
+//
+// UDIM: tiles 1001–1100 are found when the texture is opened (each one converted on its own by
+// the colour-space rule); tile = 1001 + floor(s) + 10 floor(t) in USD st, and the lookup inside
+// the tile uses the fractional parts, clamped to the tile.
+#include "penumbra/texture.h"
+
+#include <OpenColorIO/OpenColorIO.h>
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/imageio.h>
+#include <OpenImageIO/texture.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <utility>
+#include <vector>
+
+namespace OCIO = OCIO_NAMESPACE;
+namespace fs = std::filesystem;
+
+namespace penumbra {
+
+namespace {
+
+using Wrap = OIIO::TextureOpt::Wrap;
+using OiioHandle = OIIO::TextureSystem::TextureHandle;
+
+constexpr const char* kUdimToken = "<UDIM>";
+constexpr int kUdimFirst = 1001;
+constexpr int kUdimTiles = 100;  // 1001–1100: 10 tiles across (s), 10 rows up (t)
+
+// Names under which configs carry the sRGB texture encoding (OCIO resolves aliases).
+constexpr const char* kSrgbNames[] = {"sRGB - Texture", "srgb_texture", "sRGB",
+                                      "Utility - sRGB - Texture"};
+
+std::string lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(),
+                 [](unsigned char c) { return char(std::tolower(c)); });
+  return text;
+}
+
+std::string trimmed(std::string text) {
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+  return text;
+}
+
+std::string replaceAll(std::string text, const std::string& token, const std::string& value) {
+  for (size_t at = text.find(token); at != std::string::npos;
+       at = text.find(token, at + value.size()))
+    text.replace(at, token.size(), value);
+  return text;
+}
+
+Wrap toOiio(TextureWrap wrap) {
+  switch (wrap) {
+    case TextureWrap::Black:
+      return Wrap::WrapBlack;
+    case TextureWrap::Clamp:
+      return Wrap::WrapClamp;
+    case TextureWrap::Repeat:
+      return Wrap::WrapPeriodic;
+    case TextureWrap::Mirror:
+      return Wrap::WrapMirror;
+    case TextureWrap::UseMetadata:
+      break;
+  }
+  return Wrap::WrapBlack;
+}
+
+// A wrap mode named in file metadata, in USD's words or OIIO's ("periodic"); false if unknown.
+bool parseWrap(const std::string& name, Wrap* wrap) {
+  const std::string mode = lower(trimmed(name));
+  if (mode == "black")
+    *wrap = Wrap::WrapBlack;
+  else if (mode == "clamp")
+    *wrap = Wrap::WrapClamp;
+  else if (mode == "repeat" || mode == "periodic")
+    *wrap = Wrap::WrapPeriodic;
+  else if (mode == "mirror")
+    *wrap = Wrap::WrapMirror;
+  else
+    return false;
+  return true;
+}
+
+// The wrap modes for wrapS/wrapT = useMetadata. UsdPreviewSurface spec, UsdUVTexture wrapS:
+// "useMetadata: look for wrapS and wrapT metadata in the texture file itself, that are expected
+// to be string-valued fields whose value is one of black, clamp, repeat, or mirror. If the
+// texture contains no such metadata, then fall back to black." OIIO's own convention (maketx,
+// "wrapmodes" = "periodic,clamp" or a single mode for both) is read too; USD's names win.
+void metadataWraps(const OIIO::ImageSpec& spec, Wrap* s, Wrap* t) {
+  *s = *t = Wrap::WrapBlack;
+  const std::string modes = spec.get_string_attribute("wrapmodes");
+  if (!modes.empty()) {
+    const size_t comma = modes.find(',');
+    parseWrap(modes.substr(0, comma), s);
+    if (!parseWrap(comma == std::string::npos ? modes : modes.substr(comma + 1), t)) *t = *s;
+  }
+  parseWrap(spec.get_string_attribute("wrapS"), s);
+  parseWrap(spec.get_string_attribute("wrapT"), t);
+}
+
+enum class ColorTag { None, Linear, SRGB };
+
+ColorTag colorTag(const std::string& colorSpace) {
+  const std::string name = lower(colorSpace);
+  if (name.empty()) return ColorTag::None;
+  if (name.find("linear") != std::string::npos || name.rfind("lin_", 0) == 0 || name == "raw" ||
+      name == "acescg" || name == "aces2065-1")
+    return ColorTag::Linear;
+  if (name.find("srgb") != std::string::npos) return ColorTag::SRGB;
+  return ColorTag::None;
+}
+
+// Whether a PNG file carries an sRGB chunk (it precedes the image data).
+bool pngHasSrgbChunk(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  char header[8];
+  if (!in.read(header, 8)) return false;
+  for (int chunk = 0; chunk < 256; ++chunk) {
+    unsigned char head[8];
+    if (!in.read(reinterpret_cast<char*>(head), 8)) return false;
+    const uint32_t length = uint32_t(head[0]) << 24 | uint32_t(head[1]) << 16 |
+                            uint32_t(head[2]) << 8 | uint32_t(head[3]);
+    const std::string type(reinterpret_cast<const char*>(head + 4), 4);
+    if (type == "sRGB") return true;
+    if (type == "IDAT" || type == "IEND") return false;
+    in.seekg(std::streamoff(length) + 4, std::ios::cur);  // data and CRC
+  }
+  return false;
+}
+
+// sourceColorSpace = auto. UsdPreviewSurface spec, UsdUVTexture sourceColorSpace: "auto: Check
+// for gamma/color space metadata in the texture file itself; if metadata is indicative of sRGB,
+// mark texture as sRGB. If no relevant metadata is found, mark texture as sRGB if it is either
+// 8-bit and has 3 channels or if it is 8-bit and has 4 channels. Otherwise, do not mark texture
+// as sRGB and use texture data as it was read from the texture."
+bool autoIsSrgb(const OIIO::ImageSpec& spec, const std::string& format, const std::string& file) {
+  ColorTag tag = colorTag(spec.get_string_attribute("oiio:ColorSpace"));
+  // OIIO 2.4's PNG and JPEG readers say "sRGB" for every file, whatever it holds (16-bit and
+  // grey-scale too): that is a default, not metadata. Only an sRGB chunk (PNG) or EXIF
+  // ColorSpace = 1 (JPEG) is.
+  if (tag == ColorTag::SRGB && format == "png" && !pngHasSrgbChunk(file)) tag = ColorTag::None;
+  if (tag == ColorTag::SRGB && format == "jpeg" && spec.get_int_attribute("Exif:ColorSpace") != 1)
+    tag = ColorTag::None;
+  const float gamma = spec.get_float_attribute("oiio:Gamma", 0.0f);  // PNG gAMA chunk
+  if (tag == ColorTag::None && gamma > 0.0f) {
+    if (std::abs(gamma - 1.0f) < 0.01f)
+      tag = ColorTag::Linear;
+    else if (gamma > 2.0f && gamma < 2.6f)
+      tag = ColorTag::SRGB;
+  }
+  if (tag != ColorTag::None) return tag == ColorTag::SRGB;
+  return spec.format == OIIO::TypeDesc::UINT8 && (spec.nchannels == 3 || spec.nchannels == 4);
+}
+
+// One image file as OIIO's TextureSystem reads it.
+struct Tile {
+  OiioHandle* handle = nullptr;
+  int channels = 0;
+};
+
+struct File {
+  Tile tile;
+  Wrap metadataS = Wrap::WrapBlack, metadataT = Wrap::WrapBlack;
+};
+
+struct Texture {
+  bool udim = false;
+  int channels = 0;
+  Wrap metadataS = Wrap::WrapBlack, metadataT = Wrap::WrapBlack;
+  Tile single;
+  std::array<Tile, kUdimTiles> tiles{};
+};
+
+}  // namespace
+
+struct TextureSystem::Impl {
+  std::string ocioConfigPath;
+  OIIO::TextureSystem* oiio = nullptr;
+  std::vector<Texture> textures;
+  std::map<std::pair<std::string, SourceColorSpace>, Handle> handles;
+  std::map<std::pair<std::string, bool>, File> files;  // (file, linearised)
+
+  // The sRGB → scene_linear conversion, set up when the first sRGB texture is opened.
+  bool ocioLoaded = false;
+  std::string ocioError;
+  OCIO::ConstCPUProcessorRcPtr toLinear;
+  float luma[3] = {0.2126f, 0.7152f, 0.0722f};
+
+  fs::path directory;  // converted textures; created on first need
+  int convertedCount = 0;
+
+  explicit Impl(const std::string& config) : ocioConfigPath(config) {
+    oiio = OIIO::TextureSystem::create(/*shared=*/false);
+    oiio->attribute("automip", 1);
+    oiio->attribute("autotile", 64);
+    oiio->attribute("unassociatedalpha", 1);
+  }
+
+  ~Impl() {
+    if (oiio) OIIO::TextureSystem::destroy(oiio);  // closes the files before they are removed
+    if (!directory.empty()) {
+      std::error_code ignored;
+      fs::remove_all(directory, ignored);
+    }
+  }
+
+  std::string configName() const {
+    return ocioConfigPath.empty() ? std::string("$OCIO") : "\"" + ocioConfigPath + "\"";
+  }
+
+  bool loadOcio() {
+    if (ocioLoaded) return bool(toLinear);
+    ocioLoaded = true;
+    try {
+      const OCIO::ConstConfigRcPtr config =
+          ocioConfigPath.empty() ? OCIO::GetCurrentConfig()
+                                 : OCIO::Config::CreateFromFile(ocioConfigPath.c_str());
+      const char* source = nullptr;
+      for (const char* name : kSrgbNames)
+        if (config->getColorSpace(name)) {
+          source = name;
+          break;
+        }
+      if (!source) {
+        ocioError = "the OCIO config " + configName() +
+                    " has no sRGB texture colour space (tried \"sRGB - Texture\", "
+                    "\"srgb_texture\", \"sRGB\", \"Utility - sRGB - Texture\")";
+        return false;
+      }
+      toLinear = config->getProcessor(source, OCIO::ROLE_SCENE_LINEAR)->getDefaultCPUProcessor();
+      double coefficients[3];
+      config->getDefaultLumaCoefs(coefficients);
+      for (int i = 0; i < 3; ++i) luma[i] = float(coefficients[i]);
+    } catch (const OCIO::Exception& exception) {
+      ocioError = "cannot linearise with the OCIO config " + configName() + ": " + exception.what();
+      toLinear.reset();
+    }
+    return bool(toLinear);
+  }
+
+  bool makeDirectory(std::string* error) {
+    if (!directory.empty()) return true;
+    std::error_code code;
+    const fs::path base = fs::temp_directory_path(code);
+    if (code) {
+      *error = "no temporary directory for converted textures: " + code.message();
+      return false;
+    }
+    std::string pattern = (base / "penumbra-textures-XXXXXX").string();
+    if (!mkdtemp(pattern.data())) {
+      *error =
+          "cannot create a temporary directory in " + base.string() + ": " + std::strerror(errno);
+      return false;
+    }
+    directory = pattern;
+    return true;
+  }
+
+  // Decodes `file` from sRGB to scene-linear and writes it as a tiled, mip-mapped OpenEXR
+  // texture; *texture is its path.
+  bool linearise(const std::string& file, const OIIO::ImageSpec& fileSpec, std::string* texture,
+                 std::string* error) {
+    if (!loadOcio()) {
+      *error = file + ": sourceColorSpace sRGB: " + ocioError;
+      return false;
+    }
+    if (!makeDirectory(error)) {
+      *error = file + ": " + *error;
+      return false;
+    }
+    OIIO::ImageSpec readConfig;
+    readConfig.attribute("oiio:UnassociatedAlpha", 1);  // decode colour, not colour × alpha
+    OIIO::ImageBuf image(file, 0, 0, nullptr, &readConfig);
+    if (!image.read(0, 0, /*force=*/true, OIIO::TypeFloat)) {
+      *error = file + ": cannot read the image: " + trimmed(image.geterror());
+      return false;
+    }
+    const OIIO::ROI roi = image.roi();
+    const int channels = image.nchannels(), width = roi.width();
+    std::vector<int> color;  // colour channels: all but alpha, at most three
+    for (int c = 0; c < channels && color.size() < 3; ++c)
+      if (c != image.spec().alpha_channel) color.push_back(c);
+    if (!color.empty()) {
+      std::vector<float> row(size_t(width) * channels), rgb(size_t(width) * 3);
+      for (int y = roi.ybegin; y < roi.yend; ++y) {
+        const OIIO::ROI line(roi.xbegin, roi.xend, y, y + 1, roi.zbegin, roi.zbegin + 1, 0,
+                             channels);
+        image.get_pixels(line, OIIO::TypeFloat, row.data());
+        for (int x = 0; x < width; ++x)
+          for (int k = 0; k < 3; ++k)
+            rgb[3 * x + k] = row[size_t(x) * channels + color[color.size() == 3 ? k : 0]];
+        OCIO::PackedImageDesc description(rgb.data(), width, 1, 3);
+        toLinear->apply(description);
+        for (int x = 0; x < width; ++x) {
+          const float* value = &rgb[3 * x];
+          if (color.size() == 3) {
+            for (int k = 0; k < 3; ++k) row[size_t(x) * channels + color[k]] = value[k];
+          } else {  // grey: the decoded grey's luminance
+            row[size_t(x) * channels + color[0]] =
+                luma[0] * value[0] + luma[1] * value[1] + luma[2] * value[2];
+          }
+        }
+        image.set_pixels(line, OIIO::TypeFloat, row.data());
+      }
+    }
+    image.specmod().erase_attribute("oiio:UnassociatedAlpha");
+    image.specmod().erase_attribute("oiio:ColorSpace");
+
+    const OIIO::TypeDesc::BASETYPE base = OIIO::TypeDesc::BASETYPE(fileSpec.format.basetype);
+    const bool half = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8 ||
+                      base == OIIO::TypeDesc::HALF;  // half keeps 8-bit data exactly enough
+    OIIO::ImageSpec config;
+    config.format = half ? OIIO::TypeHalf : OIIO::TypeFloat;
+    config.tile_width = config.tile_height = 64;
+    config.tile_depth = 1;
+    config.attribute("maketx:fileformatname", "openexr");
+    config.attribute("maketx:ignore_unassoc", 1);
+    config.attribute("maketx:hash", 0);
+    config.attribute("oiio:ColorSpace", "scene_linear");
+    const std::string output =
+        (directory / ("texture-" + std::to_string(convertedCount++) + ".exr")).string();
+    if (!OIIO::ImageBufAlgo::make_texture(OIIO::ImageBufAlgo::MakeTxTexture, image, output,
+                                          config)) {
+      *error = file + ": cannot write the linearised texture " + output + ": " +
+               trimmed(OIIO::geterror());
+      return false;
+    }
+    *texture = output;
+    return true;
+  }
+
+  // Prepares one image file for lookups (shared between handles that read it the same way).
+  bool openFile(const std::string& file, SourceColorSpace colorSpace, File* result,
+                std::string* error) {
+    std::error_code code;
+    if (!fs::exists(file, code)) {
+      *error = file + ": no such file";
+      return false;
+    }
+    OIIO::ImageSpec spec;
+    std::string format;
+    {
+      auto input = OIIO::ImageInput::open(file);
+      if (!input) {
+        *error = file + ": cannot read the image: " + trimmed(OIIO::geterror());
+        return false;
+      }
+      spec = input->spec();
+      format = input->format_name();
+    }
+    if (spec.nchannels < 1 || spec.width < 1 || spec.height < 1) {
+      *error = file + ": the image has no pixels";
+      return false;
+    }
+    const bool srgb = colorSpace == SourceColorSpace::SRGB ||
+                      (colorSpace == SourceColorSpace::Auto && autoIsSrgb(spec, format, file));
+    const auto key = std::make_pair(file, srgb);
+    if (auto found = files.find(key); found != files.end()) {
+      *result = found->second;
+      return true;
+    }
+    File opened;
+    metadataWraps(spec, &opened.metadataS, &opened.metadataT);
+    std::string texture = file;
+    if (srgb && !linearise(file, spec, &texture, error)) return false;
+    opened.tile.handle = oiio->get_texture_handle(OIIO::ustring(texture));
+    OIIO::ImageSpec textureSpec;
+    if (!opened.tile.handle || !oiio->good(opened.tile.handle) ||
+        !oiio->get_imagespec(opened.tile.handle, nullptr, 0, textureSpec)) {
+      *error = file + ": cannot open as a texture: " + trimmed(oiio->geterror());
+      return false;
+    }
+    opened.tile.channels = std::min(textureSpec.nchannels, 4);
+    files.emplace(key, opened);
+    *result = opened;
+    return true;
+  }
+};
+
+TextureSystem::TextureSystem(const std::string& ocioConfig)
+    : impl_(std::make_unique<Impl>(ocioConfig)) {}
+
+TextureSystem::~TextureSystem() = default;
+
+TextureSystem::Handle TextureSystem::open(const std::string& path, SourceColorSpace colorSpace,
+                                          std::string* error) {
+  std::string ignored;
+  if (!error) error = &ignored;
+  const auto key = std::make_pair(path, colorSpace);
+  if (auto found = impl_->handles.find(key); found != impl_->handles.end()) return found->second;
+
+  Texture texture;
+  if (path.find(kUdimToken) != std::string::npos) {
+    texture.udim = true;
+    int tiles = 0;
+    for (int i = 0; i < kUdimTiles; ++i) {
+      const std::string file = replaceAll(path, kUdimToken, std::to_string(kUdimFirst + i));
+      std::error_code code;
+      if (!fs::exists(file, code)) continue;
+      File opened;
+      if (!impl_->openFile(file, colorSpace, &opened, error)) return kInvalid;
+      texture.tiles[i] = opened.tile;
+      texture.channels = std::max(texture.channels, opened.tile.channels);
+      ++tiles;
+    }
+    if (tiles == 0) {
+      *error = path + ": no UDIM tiles (looked for 1001 to 1100)";
+      return kInvalid;
+    }
+  } else {
+    File opened;
+    if (!impl_->openFile(path, colorSpace, &opened, error)) return kInvalid;
+    texture.single = opened.tile;
+    texture.channels = opened.tile.channels;
+    texture.metadataS = opened.metadataS;
+    texture.metadataT = opened.metadataT;
+  }
+  const Handle handle = Handle(impl_->textures.size());
+  impl_->textures.push_back(texture);
+  impl_->handles.emplace(key, handle);
+  return handle;
+}
+
+int TextureSystem::channels(Handle handle) const {
+  if (handle < 0 || size_t(handle) >= impl_->textures.size()) return 0;
+  return impl_->textures[size_t(handle)].channels;
+}
+
+bool TextureSystem::lookup(Handle handle, TextureWrap wrapS, TextureWrap wrapT,
+                           const TextureFootprint& at, float rgba[4]) const {
+  if (handle < 0 || size_t(handle) >= impl_->textures.size()) return false;
+  const Texture& texture = impl_->textures[size_t(handle)];
+  float s = at.st.x, t = at.st.y;
+  if (!std::isfinite(s) || !std::isfinite(t)) return false;
+
+  OIIO::TextureOpt options;
+  options.mipmode = OIIO::TextureOpt::MipModeAniso;
+  // Bilinear within a level: interpolating (texel centres give texel values, as in USD's own
+  // Storm), where OIIO's bicubic is an approximating B-spline that blurs under magnification.
+  options.interpmode = OIIO::TextureOpt::InterpBilinear;
+  const Tile* tile = &texture.single;
+  if (texture.udim) {
+    const float tileS = std::floor(s), tileT = std::floor(t);
+    if (tileS < 0.0f || tileS > 9.0f || tileT < 0.0f || tileT > 9.0f) return false;
+    tile = &texture.tiles[size_t(tileS) + 10 * size_t(tileT)];
+    if (!tile->handle) return false;
+    s -= tileS;
+    t -= tileT;
+    options.swrap = options.twrap = Wrap::WrapClamp;  // no bleeding across tile borders
+  } else {
+    options.swrap = wrapS == TextureWrap::UseMetadata ? texture.metadataS : toOiio(wrapS);
+    options.twrap = wrapT == TextureWrap::UseMetadata ? texture.metadataT : toOiio(wrapT);
+  }
+  auto finite = [](float value) { return std::isfinite(value) ? value : 0.0f; };
+  const float dsdx = finite(at.dstdx.x), dtdx = -finite(at.dstdx.y);
+  const float dsdy = finite(at.dstdy.x), dtdy = -finite(at.dstdy.y);
+
+  OIIO::TextureSystem* oiio = impl_->oiio;
+  float value[4];
+  if (!oiio->texture(tile->handle, oiio->get_perthread_info(), options, s, 1.0f - t, dsdx, dtdx,
+                     dsdy, dtdy, tile->channels, value))
+    return false;
+  switch (tile->channels) {
+    case 1:
+      rgba[0] = rgba[1] = rgba[2] = value[0];
+      rgba[3] = 1.0f;
+      break;
+    case 2:
+      rgba[0] = rgba[1] = rgba[2] = value[0];
+      rgba[3] = value[1];
+      break;
+    case 3:
+      rgba[0] = value[0];
+      rgba[1] = value[1];
+      rgba[2] = value[2];
+      rgba[3] = 1.0f;
+      break;
+    default:
+      std::copy(value, value + 4, rgba);
+      break;
+  }
+  return true;
+}
+
+}  // namespace penumbra

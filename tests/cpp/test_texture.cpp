@@ -1,0 +1,494 @@
+// TextureSystem: orientation, wrap modes, colour spaces, filtering, channel rules, UDIM, errors.
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <thread>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include "penumbra/texture.h"
+
+using namespace penumbra;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The project's bundled OCIO config (it carries "sRGB - Texture").
+const std::string kBundledConfig = (fs::path(__FILE__).parent_path().parent_path().parent_path() /
+                                    "python" / "penumbra" / "ocio" / "config.ocio")
+                                       .string();
+
+// 188/255 decoded with the sRGB curve.
+constexpr float kLinear188 = 0.50289f;
+
+struct Color {
+  float r = 0, g = 0, b = 0, a = 1;
+};
+
+class Texture : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    directory_ =
+        fs::temp_directory_path() /
+        ("penumbra-texture-" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+         "-" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(directory_);
+    fs::create_directories(directory_ / "tmp");
+    // Converted textures go to a temporary directory of our own, to be checked and cleaned up.
+    if (const char* tmpdir = std::getenv("TMPDIR")) savedTmpdir_ = tmpdir, hadTmpdir_ = true;
+    setenv("TMPDIR", (directory_ / "tmp").c_str(), 1);
+  }
+  void TearDown() override {
+    if (hadTmpdir_)
+      setenv("TMPDIR", savedTmpdir_.c_str(), 1);
+    else
+      unsetenv("TMPDIR");
+    fs::remove_all(directory_);
+  }
+  std::string path(const std::string& name) const { return (directory_ / name).string(); }
+
+  // Writes an image; `pixels` holds rows top (as a viewer sees it) to bottom, channels
+  // interleaved, as floats in [0, 1] for integer formats.
+  std::string write(const std::string& name, int width, int height, int channels,
+                    OIIO::TypeDesc format, const std::vector<float>& pixels,
+                    const std::function<void(OIIO::ImageSpec&)>& attributes = {}) const {
+    const std::string file = path(name);
+    OIIO::ImageSpec spec(width, height, channels, format);
+    spec.attribute("oiio:UnassociatedAlpha", 1);  // store colour as given, not divided by alpha
+    if (attributes) attributes(spec);
+    auto output = OIIO::ImageOutput::create(file);
+    EXPECT_TRUE(output) << OIIO::geterror();
+    EXPECT_TRUE(output->open(file, spec)) << output->geterror();
+    EXPECT_TRUE(output->write_image(OIIO::TypeFloat, pixels.data())) << output->geterror();
+    output->close();
+    return file;
+  }
+  std::string constant(const std::string& name, int channels, OIIO::TypeDesc format,
+                       const std::vector<float>& value, int size = 4,
+                       const std::function<void(OIIO::ImageSpec&)>& attributes = {}) const {
+    std::vector<float> pixels;
+    for (int i = 0; i < size * size; ++i) pixels.insert(pixels.end(), value.begin(), value.end());
+    return write(name, size, size, channels, format, pixels, attributes);
+  }
+  // 8x8, quadrants as a viewer sees them: red top-left, green top-right, blue bottom-left,
+  // white bottom-right.
+  std::string quadrants(const std::string& name, OIIO::TypeDesc format) const {
+    std::vector<float> pixels;
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x) {
+        const bool top = y < 4, left = x < 4;
+        const Color c = top ? (left ? Color{1, 0, 0} : Color{0, 1, 0})
+                            : (left ? Color{0, 0, 1} : Color{1, 1, 1});
+        pixels.insert(pixels.end(), {c.r, c.g, c.b});
+      }
+    return write(name, 8, 8, 3, format, pixels);
+  }
+  // 16x16 float RGBA: R = s and G = t (USD's t, up) at texel centres.
+  std::string ramps(const std::string& name,
+                    const std::function<void(OIIO::ImageSpec&)>& attributes = {}) const {
+    std::vector<float> pixels;
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 16; ++x)
+        pixels.insert(pixels.end(), {(x + 0.5f) / 16, 1 - (y + 0.5f) / 16, 0, 1});
+    return write(name, 16, 16, 4, OIIO::TypeFloat, pixels, attributes);
+  }
+  std::vector<fs::path> convertedDirectories() const {
+    std::vector<fs::path> found;
+    for (const auto& entry : fs::directory_iterator(directory_ / "tmp"))
+      if (entry.path().filename().string().rfind("penumbra-textures-", 0) == 0)
+        found.push_back(entry.path());
+    return found;
+  }
+
+  fs::path directory_;
+  std::string savedTmpdir_;
+  bool hadTmpdir_ = false;
+};
+
+TextureFootprint at(float s, float t, float width = 1e-4f) {
+  return {{s, t}, {width, 0}, {0, width}};
+}
+
+Color lookup(const TextureSystem& textures, TextureSystem::Handle handle, float s, float t,
+             TextureWrap wrapS = TextureWrap::Clamp, TextureWrap wrapT = TextureWrap::Clamp,
+             float width = 1e-4f) {
+  float rgba[4] = {-1, -1, -1, -1};
+  EXPECT_TRUE(textures.lookup(handle, wrapS, wrapT, at(s, t, width), rgba))
+      << "st (" << s << ", " << t << ")";
+  return {rgba[0], rgba[1], rgba[2], rgba[3]};
+}
+
+void expectColor(const Color& got, const Color& want, float tolerance, const char* what) {
+  EXPECT_NEAR(got.r, want.r, tolerance) << what;
+  EXPECT_NEAR(got.g, want.g, tolerance) << what;
+  EXPECT_NEAR(got.b, want.b, tolerance) << what;
+  EXPECT_NEAR(got.a, want.a, tolerance) << what;
+}
+
+}  // namespace
+
+TEST_F(Texture, StOriginIsTheBottomLeftCornerAsAViewerSeesIt) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  for (const auto& [file, space] :
+       {std::make_pair(quadrants("q.png", OIIO::TypeUInt8), SourceColorSpace::Raw),
+        std::make_pair(quadrants("q.png", OIIO::TypeUInt8), SourceColorSpace::SRGB),
+        std::make_pair(quadrants("q.exr", OIIO::TypeHalf), SourceColorSpace::Auto)}) {
+    const auto handle = textures.open(file, space, &error);
+    ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+    expectColor(lookup(textures, handle, 0.25f, 0.9f), {1, 0, 0}, 1e-3f, "upper left: red");
+    expectColor(lookup(textures, handle, 0.75f, 0.9f), {0, 1, 0}, 1e-3f, "upper right: green");
+    expectColor(lookup(textures, handle, 0.25f, 0.1f), {0, 0, 1}, 1e-3f, "lower left: blue");
+    expectColor(lookup(textures, handle, 0.75f, 0.1f), {1, 1, 1}, 1e-3f, "lower right: white");
+  }
+}
+
+TEST_F(Texture, WrapModesMapToOpenImageIOs) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const auto handle = textures.open(ramps("ramps.exr"), SourceColorSpace::Raw, &error);
+  ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+  using W = TextureWrap;
+  EXPECT_NEAR(lookup(textures, handle, 0.25f, 0.5f).r, 0.25f, 1e-4f);
+  EXPECT_NEAR(lookup(textures, handle, 0.5f, 0.25f).g, 0.25f, 1e-4f);
+  // s
+  EXPECT_NEAR(lookup(textures, handle, 1.25f, 0.5f, W::Repeat).r, 0.25f, 1e-4f);
+  EXPECT_NEAR(lookup(textures, handle, -0.75f, 0.5f, W::Repeat).r, 0.25f, 1e-4f);
+  EXPECT_NEAR(lookup(textures, handle, 1.25f, 0.5f, W::Mirror).r, 0.75f, 1e-4f);
+  EXPECT_NEAR(lookup(textures, handle, 1.25f, 0.5f, W::Clamp).r, 15.5f / 16, 1e-4f);
+  expectColor(lookup(textures, handle, 1.25f, 0.5f, W::Black), {0, 0, 0, 0}, 1e-6f, "black s");
+  // t, through the flip to OIIO's t
+  EXPECT_NEAR(lookup(textures, handle, 0.5f, 1.25f, W::Clamp, W::Repeat).g, 0.25f, 1e-4f);
+  EXPECT_NEAR(lookup(textures, handle, 0.5f, 1.25f, W::Clamp, W::Mirror).g, 0.75f, 1e-4f);
+  EXPECT_NEAR(lookup(textures, handle, 0.5f, -0.25f, W::Clamp, W::Mirror).g, 0.25f, 1e-4f);
+  EXPECT_NEAR(lookup(textures, handle, 0.5f, -0.5f, W::Clamp, W::Clamp).g, 0.5f / 16, 1e-4f);
+  EXPECT_NEAR(lookup(textures, handle, 0.5f, 1.5f, W::Clamp, W::Clamp).g, 15.5f / 16, 1e-4f);
+  expectColor(lookup(textures, handle, 0.5f, 1.25f, W::Clamp, W::Black), {0, 0, 0, 0}, 1e-6f,
+              "black t");
+}
+
+TEST_F(Texture, UseMetadataReadsTheFilesWrapModesAndFallsBackToBlack) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  using W = TextureWrap;
+  const auto oiioModes = textures.open(
+      ramps("oiio.exr",
+            [](OIIO::ImageSpec& spec) { spec.attribute("wrapmodes", "periodic,mirror"); }),
+      SourceColorSpace::Raw, &error);
+  ASSERT_NE(oiioModes, TextureSystem::kInvalid) << error;
+  const auto usdModes = textures.open(ramps("usd.exr",
+                                            [](OIIO::ImageSpec& spec) {
+                                              spec.attribute("wrapS", "mirror");
+                                              spec.attribute("wrapT", "repeat");
+                                            }),
+                                      SourceColorSpace::Raw, &error);
+  ASSERT_NE(usdModes, TextureSystem::kInvalid) << error;
+  const auto none = textures.open(ramps("none.exr"), SourceColorSpace::Raw, &error);
+  ASSERT_NE(none, TextureSystem::kInvalid) << error;
+
+  const Color oiio = lookup(textures, oiioModes, 1.25f, 1.25f, W::UseMetadata, W::UseMetadata);
+  EXPECT_NEAR(oiio.r, 0.25f, 1e-4f);  // periodic
+  EXPECT_NEAR(oiio.g, 0.75f, 1e-4f);  // mirror
+  const Color usd = lookup(textures, usdModes, 1.25f, 1.25f, W::UseMetadata, W::UseMetadata);
+  EXPECT_NEAR(usd.r, 0.75f, 1e-4f);  // mirror
+  EXPECT_NEAR(usd.g, 0.25f, 1e-4f);  // repeat
+  // An explicit mode still overrides the metadata.
+  EXPECT_NEAR(lookup(textures, oiioModes, 1.25f, 0.5f, W::Clamp, W::UseMetadata).r, 15.5f / 16,
+              1e-4f);
+  // No metadata: black (UsdPreviewSurface spec), inside the image as is.
+  expectColor(lookup(textures, none, 1.25f, 0.5f, W::UseMetadata, W::UseMetadata), {0, 0, 0, 0},
+              1e-6f, "no metadata, outside");
+  EXPECT_NEAR(lookup(textures, none, 0.25f, 0.5f, W::UseMetadata, W::UseMetadata).r, 0.25f, 1e-4f);
+}
+
+TEST_F(Texture, SrgbTexturesAreLinearisedThroughTheConfig) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const float v = 188.0f / 255;
+  const std::string rgb = constant("rgb188.png", 3, OIIO::TypeUInt8, {v, v, v});
+  const std::string rgba = constant("rgba188.png", 4, OIIO::TypeUInt8, {v, v, v, v});
+  for (const auto& [file, space, want] : {std::make_tuple(rgb, SourceColorSpace::SRGB, kLinear188),
+                                          std::make_tuple(rgb, SourceColorSpace::Auto, kLinear188),
+                                          std::make_tuple(rgb, SourceColorSpace::Raw, v),
+                                          std::make_tuple(rgba, SourceColorSpace::Auto, kLinear188),
+                                          std::make_tuple(rgba, SourceColorSpace::Raw, v)}) {
+    const auto handle = textures.open(file, space, &error);
+    ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+    const Color c = lookup(textures, handle, 0.5f, 0.5f);
+    EXPECT_NEAR(c.r, want, 1e-3f) << file << " " << int(space);
+    EXPECT_NEAR(c.g, want, 1e-3f);
+    EXPECT_NEAR(c.b, want, 1e-3f);
+    // Alpha is never decoded, and colour is not multiplied by it.
+    EXPECT_NEAR(c.a, file == rgba ? v : 1.0f, 1e-3f);
+  }
+}
+
+TEST_F(Texture, AutoFollowsMetadataThenBitDepthAndChannelCount) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const float v = 188.0f / 255;
+  auto red = [&](const std::string& file) {
+    const auto handle = textures.open(file, SourceColorSpace::Auto, &error);
+    EXPECT_NE(handle, TextureSystem::kInvalid) << error;
+    return lookup(textures, handle, 0.5f, 0.5f).r;
+  };
+  // No colour-space metadata: 16-bit, half and float data and 8-bit grey are raw.
+  EXPECT_NEAR(red(constant("rgb16.png", 3, OIIO::TypeUInt16, {v, v, v})), v, 1e-4f);
+  EXPECT_NEAR(red(constant("rgb16.tif", 3, OIIO::TypeUInt16, {v, v, v})), v, 1e-4f);
+  EXPECT_NEAR(red(constant("rgb.exr", 3, OIIO::TypeFloat, {0.5f, 0.5f, 0.5f})), 0.5f, 1e-6f);
+  EXPECT_NEAR(red(constant("half.exr", 3, OIIO::TypeHalf, {0.5f, 0.5f, 0.5f})), 0.5f, 1e-6f);
+  EXPECT_NEAR(red(constant("grey8.png", 1, OIIO::TypeUInt8, {v})), v, 1e-4f);
+  EXPECT_NEAR(red(constant("rgb8.tif", 3, OIIO::TypeUInt8, {v, v, v})), kLinear188, 1e-3f);
+  // Metadata wins: an sRGB-tagged grey PNG (sRGB chunk) and a linear-tagged 8-bit RGB PNG.
+  EXPECT_NEAR(red(constant("grey8srgb.png", 1, OIIO::TypeUInt8, {v}, 4,
+                           [](OIIO::ImageSpec& s) { s.attribute("oiio:ColorSpace", "sRGB"); })),
+              kLinear188, 1e-3f);
+  EXPECT_NEAR(red(constant("rgb8linear.png", 3, OIIO::TypeUInt8, {v, v, v}, 4,
+                           [](OIIO::ImageSpec& s) { s.attribute("oiio:ColorSpace", "linear"); })),
+              v, 1e-4f);
+  EXPECT_NEAR(red(constant("rgb16srgb.tif", 3, OIIO::TypeUInt16, {v, v, v}, 4,
+                           [](OIIO::ImageSpec& s) { s.attribute("oiio:ColorSpace", "sRGB"); })),
+              kLinear188, 1e-3f);
+}
+
+TEST_F(Texture, FilteringAveragesTheFootprintInLinearSpace) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  // 256x256 checkerboard of one-texel black and white cells.
+  std::vector<float> pixels;
+  for (int y = 0; y < 256; ++y)
+    for (int x = 0; x < 256; ++x) {
+      const float c = (x + y) % 2 == 0 ? 1.0f : 0.0f;
+      pixels.insert(pixels.end(), {c, c, c});
+    }
+  const std::string file = write("checker.png", 256, 256, 3, OIIO::TypeUInt8, pixels);
+  for (const SourceColorSpace space : {SourceColorSpace::SRGB, SourceColorSpace::Raw}) {
+    const auto handle = textures.open(file, space, &error);
+    ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+    // A ~64-texel footprint. Averaging sRGB-encoded values first would give decode(0.5) = 0.214.
+    const Color wide =
+        lookup(textures, handle, 0.4f, 0.6f, TextureWrap::Repeat, TextureWrap::Repeat, 64.0f / 256);
+    EXPECT_NEAR(wide.r, 0.5f, 0.02f) << int(space);
+    // A tiny footprint at texel centres gives the texels themselves.
+    for (const auto& [x, y] : {std::make_pair(10, 10), std::make_pair(11, 10),
+                               std::make_pair(200, 57), std::make_pair(0, 255)}) {
+      const float want = (x + y) % 2 == 0 ? 1.0f : 0.0f;
+      const Color texel = lookup(textures, handle, (x + 0.5f) / 256, 1 - (y + 0.5f) / 256,
+                                 TextureWrap::Repeat, TextureWrap::Repeat, 0.01f / 256);
+      EXPECT_NEAR(texel.r, want, 1e-3f) << "texel " << x << "," << y << " space " << int(space);
+    }
+  }
+}
+
+TEST_F(Texture, ChannelsFollowUsdRules) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const auto f = OIIO::TypeFloat;
+  const struct {
+    int channels;
+    std::vector<float> value;
+    Color want;
+  } cases[] = {{1, {0.3f}, {0.3f, 0.3f, 0.3f, 1}},
+               {2, {0.3f, 0.6f}, {0.3f, 0.3f, 0.3f, 0.6f}},
+               {3, {0.1f, 0.2f, 0.3f}, {0.1f, 0.2f, 0.3f, 1}},
+               {4, {0.1f, 0.2f, 0.3f, 0.4f}, {0.1f, 0.2f, 0.3f, 0.4f}}};
+  for (const auto& c : cases) {
+    const auto handle =
+        textures.open(constant("c" + std::to_string(c.channels) + ".exr", c.channels, f, c.value),
+                      SourceColorSpace::Auto, &error);
+    ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+    EXPECT_EQ(textures.channels(handle), c.channels);
+    expectColor(lookup(textures, handle, 0.5f, 0.5f), c.want, 1e-6f, "channel rule");
+  }
+  // Grey + alpha marked sRGB: the grey is decoded, alpha is not.
+  const float v = 188.0f / 255;
+  const auto ya =
+      textures.open(constant("ya.png", 2, OIIO::TypeUInt8, {v, v}), SourceColorSpace::SRGB, &error);
+  ASSERT_NE(ya, TextureSystem::kInvalid) << error;
+  EXPECT_EQ(textures.channels(ya), 2);
+  expectColor(lookup(textures, ya, 0.5f, 0.5f), {kLinear188, kLinear188, kLinear188, v}, 1e-3f,
+              "sRGB grey + alpha");
+}
+
+TEST_F(Texture, UdimTilesAreChosenByStAndMissingTilesHaveNoTexel) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  quadrants("tile.1001.png", OIIO::TypeUInt8);  // 8-bit RGB: sRGB under auto, converted
+  constant("tile.1002.exr", 3, OIIO::TypeFloat, {0, 1, 0});
+  constant("tile.1011.exr", 3, OIIO::TypeFloat, {0, 0, 1});
+  constant("tile.1011.png", 3, OIIO::TypeUInt8, {0.5f, 0.5f, 0.5f});
+  const auto pngs = textures.open(path("tile.<UDIM>.png"), SourceColorSpace::Auto, &error);
+  ASSERT_NE(pngs, TextureSystem::kInvalid) << error;
+  const auto exrs = textures.open(path("tile.<UDIM>.exr"), SourceColorSpace::Auto, &error);
+  ASSERT_NE(exrs, TextureSystem::kInvalid) << error;
+  EXPECT_EQ(textures.channels(exrs), 3);
+
+  // Inside tile 1001 the usual orientation holds.
+  expectColor(lookup(textures, pngs, 0.25f, 0.9f), {1, 0, 0}, 1e-3f, "1001 upper left");
+  expectColor(lookup(textures, pngs, 0.75f, 0.1f), {1, 1, 1}, 1e-3f, "1001 lower right");
+  // 1011 is one row up (t in [1, 2)); its 8-bit 0.5 is decoded per tile.
+  const float linearHalf = std::pow((128.0f / 255 + 0.055f) / 1.055f, 2.4f);
+  EXPECT_NEAR(lookup(textures, pngs, 0.5f, 1.5f).r, linearHalf, 1e-3f);
+
+  expectColor(lookup(textures, exrs, 1.5f, 0.5f), {0, 1, 0}, 1e-6f, "1002");
+  expectColor(lookup(textures, exrs, 0.5f, 1.5f), {0, 0, 1}, 1e-6f, "1011");
+  expectColor(lookup(textures, exrs, 1.99f, 0.01f), {0, 1, 0}, 1e-6f, "1002 corner");
+  for (const auto& [s, t] :
+       {std::make_pair(2.5f, 0.5f), std::make_pair(1.5f, 1.5f), std::make_pair(-0.5f, 0.5f),
+        std::make_pair(0.5f, -0.5f), std::make_pair(10.5f, 0.5f), std::make_pair(0.5f, 10.5f)}) {
+    float rgba[4] = {7, 7, 7, 7};
+    EXPECT_FALSE(textures.lookup(exrs, TextureWrap::Repeat, TextureWrap::Repeat, at(s, t), rgba))
+        << s << ", " << t;
+    EXPECT_EQ(rgba[0], 7.0f);
+    EXPECT_EQ(rgba[3], 7.0f);
+  }
+
+  const std::string pattern = path("nothing.<UDIM>.exr");
+  EXPECT_EQ(textures.open(pattern, SourceColorSpace::Auto, &error), TextureSystem::kInvalid);
+  EXPECT_NE(error.find(pattern), std::string::npos) << error;
+}
+
+TEST_F(Texture, FailuresReturnInvalidAndNameTheFile) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const std::string missing = path("missing.png");
+  EXPECT_EQ(textures.open(missing, SourceColorSpace::Auto, &error), TextureSystem::kInvalid);
+  EXPECT_NE(error.find(missing), std::string::npos) << error;
+
+  const std::string garbage = path("garbage.png");
+  std::ofstream(garbage) << "this is not a PNG file";
+  error.clear();
+  EXPECT_EQ(textures.open(garbage, SourceColorSpace::Raw, &error), TextureSystem::kInvalid);
+  EXPECT_NE(error.find(garbage), std::string::npos) << error;
+
+  float rgba[4] = {7, 7, 7, 7};
+  EXPECT_FALSE(textures.lookup(TextureSystem::kInvalid, TextureWrap::Clamp, TextureWrap::Clamp,
+                               at(0.5f, 0.5f), rgba));
+  EXPECT_FALSE(textures.lookup(42, TextureWrap::Clamp, TextureWrap::Clamp, at(0.5f, 0.5f), rgba));
+  EXPECT_EQ(rgba[0], 7.0f);
+  EXPECT_EQ(textures.channels(TextureSystem::kInvalid), 0);
+
+  // A config without an sRGB texture space cannot linearise: named file, no crash; raw still works.
+  const std::string config = path("config.ocio");
+  std::ofstream(config) << R"(ocio_profile_version: 2
+roles:
+  default: linear
+  scene_linear: linear
+displays:
+  d:
+    - !<View> {name: v, colorspace: linear}
+colorspaces:
+  - !<ColorSpace>
+    name: linear
+)";
+  TextureSystem noSrgb(config);
+  const std::string png = constant("rgb.png", 3, OIIO::TypeUInt8, {0.5f, 0.5f, 0.5f});
+  error.clear();
+  EXPECT_EQ(noSrgb.open(png, SourceColorSpace::SRGB, &error), TextureSystem::kInvalid);
+  EXPECT_NE(error.find(png), std::string::npos) << error;
+  EXPECT_NE(error.find("sRGB"), std::string::npos) << error;
+  EXPECT_NE(noSrgb.open(png, SourceColorSpace::Raw, &error), TextureSystem::kInvalid) << error;
+}
+
+TEST_F(Texture, TheSamePathAndColorSpaceGiveTheSameHandle) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const std::string file = constant("rgb.png", 3, OIIO::TypeUInt8, {0.5f, 0.5f, 0.5f});
+  const auto first = textures.open(file, SourceColorSpace::SRGB, &error);
+  ASSERT_NE(first, TextureSystem::kInvalid) << error;
+  EXPECT_EQ(textures.open(file, SourceColorSpace::SRGB, &error), first);
+  const auto raw = textures.open(file, SourceColorSpace::Raw, &error);
+  EXPECT_NE(raw, first);
+  EXPECT_EQ(textures.open(file, SourceColorSpace::Raw, &error), raw);
+}
+
+TEST_F(Texture, TheDestructorRemovesTheConvertedTextures) {
+  {
+    TextureSystem textures(kBundledConfig);
+    std::string error;
+    ASSERT_NE(textures.open(ramps("raw.exr"), SourceColorSpace::Raw, &error),
+              TextureSystem::kInvalid)
+        << error;
+    EXPECT_TRUE(convertedDirectories().empty());  // created on first need only
+  }
+  std::vector<fs::path> directories;
+  {
+    TextureSystem textures(kBundledConfig);
+    std::string error;
+    const auto handle =
+        textures.open(quadrants("q.png", OIIO::TypeUInt8), SourceColorSpace::SRGB, &error);
+    ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+    lookup(textures, handle, 0.5f, 0.5f);
+    directories = convertedDirectories();
+    ASSERT_EQ(directories.size(), 1u);
+    EXPECT_FALSE(fs::is_empty(directories[0]));
+  }
+  EXPECT_FALSE(fs::exists(directories[0]));
+}
+
+TEST_F(Texture, LookupsAreDeterministicAcrossCallsAndThreads) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  std::vector<float> pixels;
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x)
+      pixels.insert(pixels.end(),
+                    {float((x * 7 + y * 13) % 256) / 255, float(x) / 63, float(y) / 63});
+  const auto handle = textures.open(write("noise.png", 64, 64, 3, OIIO::TypeUInt8, pixels),
+                                    SourceColorSpace::Auto, &error);
+  ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+  auto run = [&](std::vector<float>* out) {
+    for (int i = 0; i < 2000; ++i) {
+      const float s = 0.37f * i - std::floor(0.37f * i), t = 0.61f * i - std::floor(0.61f * i);
+      const float width = 1e-3f * float(1 + i % 50);
+      const TextureFootprint footprint{{s, t}, {width, 0.3f * width}, {-0.2f * width, width}};
+      float rgba[4];
+      EXPECT_TRUE(
+          textures.lookup(handle, TextureWrap::Repeat, TextureWrap::Mirror, footprint, rgba));
+      out->insert(out->end(), rgba, rgba + 4);
+    }
+  };
+  std::vector<float> once, twice, threadA, threadB;
+  run(&once);
+  run(&twice);
+  std::thread a(run, &threadA), b(run, &threadB);
+  a.join();
+  b.join();
+  ASSERT_EQ(once.size(), twice.size());
+  EXPECT_EQ(std::memcmp(once.data(), twice.data(), once.size() * sizeof(float)), 0);
+  EXPECT_EQ(std::memcmp(once.data(), threadA.data(), once.size() * sizeof(float)), 0);
+  EXPECT_EQ(std::memcmp(once.data(), threadB.data(), once.size() * sizeof(float)), 0);
+}
+
+TEST_F(Texture, TheSrgbSpaceIsFoundUnderOtherConfigsNames) {
+  // An ACES-style config: the sRGB texture space under its ACES 1.x name only.
+  const std::string config = path("aces.ocio");
+  std::ofstream(config) << R"(ocio_profile_version: 2
+roles:
+  default: lin
+  scene_linear: lin
+displays:
+  d:
+    - !<View> {name: v, colorspace: lin}
+colorspaces:
+  - !<ColorSpace>
+    name: lin
+  - !<ColorSpace>
+    name: Utility - sRGB - Texture
+    from_scene_reference: !<ExponentWithLinearTransform> {gamma: 2.4, offset: 0.055, direction: inverse}
+)";
+  TextureSystem textures(config);
+  std::string error;
+  const float v = 188.0f / 255;
+  const auto handle = textures.open(constant("rgb.png", 3, OIIO::TypeUInt8, {v, v, v}),
+                                    SourceColorSpace::SRGB, &error);
+  ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+  EXPECT_NEAR(lookup(textures, handle, 0.5f, 0.5f).g, kLinear188, 1e-3f);
+}

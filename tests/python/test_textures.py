@@ -1,0 +1,317 @@
+"""UsdShade networks through the whole stack: UsdUVTexture (orientation, wrap modes, scale and
+bias, colour spaces, UDIM, fallback, filtering), UsdPrimvarReader_*, UsdTransform2d, normal maps
+and textured cut-outs.
+
+Most scenes show an emissive quad that fills the view: the material has no diffuse or specular
+reflection, so each pixel is the emission the network computes there (filtered over the pixel)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, UsdGeom, UsdShade
+
+import penumbra
+from penumbra import _core
+from stages import add_camera, add_distant_light, add_quad, bind, new_stage
+
+# The camera sees x, y in [-0.8, 0.8] of the unit quad [-1, 1]², whose st runs 0..1.
+VIEW = 0.8
+RED, GREEN, BLUE, WHITE = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 1.0, 1.0)
+
+
+def write_texture(path: Path, pixels: np.ndarray) -> Path:
+    """Writes an (H, W, C) image, top row first, as the extension says (PNG: 8 bits, no
+    transfer function applied: the values are the encoded ones)."""
+    channels = pixels.shape[2]
+    names = ["R", "G", "B", "A"][:channels] if channels > 1 else ["Y"]
+    _core.write_image(str(path), np.ascontiguousarray(pixels, dtype=np.float32), names, {})
+    return path
+
+
+def quadrants(size: int = 64) -> np.ndarray:
+    """Top-left red, top-right green, bottom-left blue, bottom-right white (as viewed)."""
+    image = np.zeros((size, size, 3), dtype=np.float32)
+    half = size // 2
+    image[:half, :half] = RED
+    image[:half, half:] = GREEN
+    image[half:, :half] = BLUE
+    image[half:, half:] = WHITE
+    return image
+
+
+def textured_stage(
+    file: str | Path,
+    *,
+    texture: dict | None = None,
+    transform: dict | None = None,
+    output: str = "rgb",
+    input_name: str = "emissiveColor",
+    st_range: tuple[float, float] = (0.0, 1.0),
+    surface: dict | None = None,
+):
+    """A quad facing the camera whose ``input_name`` reads ``output`` of a UsdUVTexture of
+    ``file`` (extra UsdUVTexture inputs in ``texture``), st from a UsdPrimvarReader_float2 of
+    "st" (spanning ``st_range`` across the quad), through a UsdTransform2d if ``transform``
+    is given. Returns (stage, texture shader)."""
+    stage = new_stage()
+    add_camera(stage, aperture=(1.6, 1.6))
+    quad = add_quad(stage, "/World/quad")
+    low, high = st_range
+    st = UsdGeom.PrimvarsAPI(quad).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex
+    )
+    st.Set([Gf.Vec2f(low, low), Gf.Vec2f(high, low), Gf.Vec2f(high, high), Gf.Vec2f(low, high)])
+
+    material = UsdShade.Material.Define(stage, "/World/Looks/textured")
+    surface_shader = UsdShade.Shader.Define(stage, "/World/Looks/textured/Surface")
+    surface_shader.CreateIdAttr("UsdPreviewSurface")
+    inputs = {"diffuseColor": (0.0, 0.0, 0.0), "specularColor": (0.0, 0.0, 0.0)}
+    inputs.update(surface or {})
+    for name, value in inputs.items():
+        surface_shader.CreateInput(name, Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*value))
+    surface_shader.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
+    material.CreateSurfaceOutput().ConnectToSource(surface_shader.ConnectableAPI(), "surface")
+
+    tex = UsdShade.Shader.Define(stage, "/World/Looks/textured/Texture")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(str(file)))
+    for name, value in (texture or {}).items():
+        if isinstance(value, str):
+            tex.CreateInput(name, Sdf.ValueTypeNames.Token).Set(value)
+        else:
+            tex.CreateInput(name, Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(*value))
+    reader = UsdShade.Shader.Define(stage, "/World/Looks/textured/StReader")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+    reader_output = reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
+    st_input = tex.CreateInput("st", Sdf.ValueTypeNames.Float2)
+    if transform is not None:
+        transform_shader = UsdShade.Shader.Define(stage, "/World/Looks/textured/Transform")
+        transform_shader.CreateIdAttr("UsdTransform2d")
+        transform_shader.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(
+            reader_output
+        )
+        for name, value in transform.items():
+            type_name = Sdf.ValueTypeNames.Float if name == "rotation" else Sdf.ValueTypeNames.Float2
+            transform_shader.CreateInput(name, type_name).Set(value)
+        st_input.ConnectToSource(
+            transform_shader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
+        )
+    else:
+        st_input.ConnectToSource(reader_output)
+    out_type = Sdf.ValueTypeNames.Float3 if output == "rgb" else Sdf.ValueTypeNames.Float
+    in_type = (
+        Sdf.ValueTypeNames.Color3f
+        if input_name in ("diffuseColor", "emissiveColor", "specularColor")
+        else (Sdf.ValueTypeNames.Normal3f if input_name == "normal" else Sdf.ValueTypeNames.Float)
+    )
+    surface_shader.CreateInput(input_name, in_type).ConnectToSource(tex.CreateOutput(output, out_type))
+    bind(quad, material)
+    return stage, tex
+
+
+def render(stage, width: int = 40, samples: int = 16) -> np.ndarray:
+    return penumbra.render(stage, camera="/cam", width=width, samples=samples)["color"]
+
+
+def at(image: np.ndarray, x: float, y: float) -> np.ndarray:
+    """The RGB at quad coordinates (x, y) in [-VIEW, VIEW] (y up), averaged over 3×3 pixels."""
+    h, w = image.shape[:2]
+    column = int((x / VIEW + 1) / 2 * w)
+    row = int((1 - y / VIEW) / 2 * h)
+    return image[row - 1 : row + 2, column - 1 : column + 2, :3].reshape(-1, 3).mean(axis=0)
+
+
+def st_to_xy(s: float, t: float) -> tuple[float, float]:
+    return 2 * s - 1, 2 * t - 1
+
+
+def test_textures_show_their_top_left_at_st_0_1(tmp_path):
+    stage, _ = textured_stage(write_texture(tmp_path / "quadrants.png", quadrants()))
+    image = render(stage)
+    # USD's st origin is the image's bottom-left corner.
+    for (s, t), color in {(0.25, 0.75): RED, (0.75, 0.75): GREEN, (0.25, 0.25): BLUE,
+                          (0.75, 0.25): WHITE}.items():
+        np.testing.assert_allclose(at(image, *st_to_xy(s, t)), color, atol=0.02)
+
+
+def test_transform2d_scales_then_rotates_then_translates(tmp_path):
+    # st' = rotate90(st * (1, 1)) + (1, 0): st (0.25, 0.25) → (-0.25, 0.25) → (0.75, 0.25).
+    stage, _ = textured_stage(
+        write_texture(tmp_path / "quadrants.png", quadrants()),
+        transform={"rotation": 90.0, "translation": Gf.Vec2f(1, 0)},
+        texture={"wrapS": "repeat", "wrapT": "repeat"},
+    )
+    image = render(stage)
+    # Quad point st → texture lookup (1 - t, s): (0.25, 0.25) → (0.75, 0.25) white;
+    # (0.25, 0.75) → (0.25, 0.25) blue; (0.75, 0.75) → (0.25, 0.75) red; (0.75, 0.25) → green.
+    for (s, t), color in {(0.25, 0.25): WHITE, (0.25, 0.75): BLUE, (0.75, 0.75): RED,
+                          (0.75, 0.25): GREEN}.items():
+        np.testing.assert_allclose(at(image, *st_to_xy(s, t)), color, atol=0.02)
+
+
+@pytest.mark.parametrize(
+    "wrap, expected_at_1_25",
+    [("repeat", BLUE), ("mirror", WHITE), ("clamp", WHITE), ("black", (0.0, 0.0, 0.0))],
+)
+def test_wrap_modes(tmp_path, wrap, expected_at_1_25):
+    # st spans [-0.5, 1.5]; the sample at s = 1.25, t = 0.25 lies beyond the right edge.
+    stage, _ = textured_stage(
+        write_texture(tmp_path / "quadrants.png", quadrants()),
+        texture={"wrapS": wrap, "wrapT": wrap},
+        st_range=(-0.5, 1.5),
+    )
+    image = render(stage)
+    x, y = (1.25 + 0.5) / 2 * 2 - 1, (0.25 + 0.5) / 2 * 2 - 1  # quad coordinates of that st
+    np.testing.assert_allclose(at(image, x, y), expected_at_1_25, atol=0.02)
+    # Inside [0, 1] every mode shows the texture itself.
+    np.testing.assert_allclose(at(image, (0.25 + 0.5) - 1, (0.75 + 0.5) - 1), RED, atol=0.02)
+
+
+def test_scale_bias_and_channel_outputs(tmp_path):
+    file = write_texture(tmp_path / "quadrants.png", quadrants())
+    stage, _ = textured_stage(
+        file, texture={"scale": (0.5, 2.0, 1.0, 1.0), "bias": (0.25, 0.0, 0.1, 0.0)}
+    )
+    np.testing.assert_allclose(
+        at(render(stage), *st_to_xy(0.75, 0.25)), (0.75, 2.0, 1.1), atol=0.03
+    )
+    # A single channel feeding a colour input is grey.
+    stage, _ = textured_stage(file, output="g")
+    image = render(stage)
+    np.testing.assert_allclose(at(image, *st_to_xy(0.75, 0.75)), (1.0, 1.0, 1.0), atol=0.02)
+    np.testing.assert_allclose(at(image, *st_to_xy(0.25, 0.75)), (0.0, 0.0, 0.0), atol=0.02)
+
+
+@pytest.mark.parametrize(
+    "color_space, expected",
+    [("sRGB", 0.5029), ("auto", 0.5029), ("raw", 188 / 255)],
+)
+def test_source_color_space(tmp_path, color_space, expected):
+    # sRGB code value 188 decodes to 0.5029 linear (IEC 61966-2-1).
+    grey = np.full((8, 8, 3), 188 / 255, dtype=np.float32)
+    stage, _ = textured_stage(
+        write_texture(tmp_path / "grey.png", grey), texture={"sourceColorSpace": color_space}
+    )
+    assert at(render(stage), 0, 0) == pytest.approx([expected] * 3, abs=0.003)
+
+
+def test_mip_mapping_filters_fine_detail_to_its_average(tmp_path):
+    # 1-texel black/white checks, sRGB-encoded, far smaller than a pixel (512 texels over 40
+    # pixels): filtered lookups average them to linear 0.5 even at one sample per pixel, where
+    # point sampling would give 0 or 1 per pixel.
+    size = 512
+    checks = ((np.indices((size, size)).sum(axis=0) % 2) * 1.0).astype(np.float32)
+    stage, _ = textured_stage(
+        write_texture(tmp_path / "checks.png", np.repeat(checks[..., None], 3, axis=2)),
+        texture={"sourceColorSpace": "sRGB"},
+    )
+    image = render(stage, samples=1)[5:-5, 5:-5, 0]
+    assert image.mean() == pytest.approx(0.5, abs=0.03)
+    assert image.std() < 0.05
+
+
+def test_udim_tiles(tmp_path):
+    for tile, color in ((1001, RED), (1002, GREEN)):
+        write_texture(tmp_path / f"paint.{tile}.png", np.tile(np.float32(color), (8, 8, 1)))
+    stage, _ = textured_stage(tmp_path / "paint.<UDIM>.png")
+    st = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/World/quad")).GetPrimvar("st")
+    st.Set([Gf.Vec2f(0, 0), Gf.Vec2f(2, 0), Gf.Vec2f(2, 1), Gf.Vec2f(0, 1)])
+    image = render(stage)
+    np.testing.assert_allclose(at(image, -0.5, 0), RED, atol=0.02)  # s = 0.5: tile 1001
+    np.testing.assert_allclose(at(image, 0.5, 0), GREEN, atol=0.02)  # s = 1.5: tile 1002
+
+
+def test_missing_texture_warns_and_uses_the_fallback(tmp_path):
+    missing = tmp_path / "nowhere.png"
+    stage, _ = textured_stage(missing, texture={"fallback": (0.2, 0.4, 0.6, 1.0)})
+    with pytest.warns(penumbra.PenumbraWarning, match="nowhere.png"):
+        image = render(stage)
+    np.testing.assert_allclose(at(image, 0, 0), (0.2, 0.4, 0.6), atol=0.01)
+
+
+def test_textured_opacity_cuts_out_per_hit(tmp_path):
+    # Alpha 0 on the left half of the texture: with opacityThreshold 0.5 the quad is cut out
+    # there, and the camera sees the default white dome (radiance 1) behind it.
+    rgba = np.ones((8, 8, 4), dtype=np.float32)
+    rgba[:, :4, 3] = 0
+    stage, _ = textured_stage(
+        write_texture(tmp_path / "mask.png", rgba),
+        output="a",
+        input_name="opacity",
+        surface={"emissiveColor": (0.0, 0.0, 4.0)},
+    )
+    surface = UsdShade.Shader.Get(stage, "/World/Looks/textured/Surface")
+    surface.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(0.5)
+    image = render(stage)
+    np.testing.assert_allclose(at(image, -0.5, 0), (1.0, 1.0, 1.0), atol=0.01)
+    np.testing.assert_allclose(at(image, 0.5, 0), (0.0, 0.0, 4.0), atol=0.01)
+
+
+def test_primvar_readers_drive_any_input():
+    # UsdPrimvarReader_float3 of a per-face "tint", and UsdPrimvarReader_float of a constant
+    # "glow" scaling... read as emission on two faces.
+    stage = new_stage()
+    add_camera(stage, aperture=(1.6, 1.6))
+    mesh = UsdGeom.Mesh.Define(stage, "/World/strip")
+    mesh.CreatePointsAttr([(-1, -1, 0), (0, -1, 0), (0, 1, 0), (-1, 1, 0), (1, -1, 0), (1, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([4, 4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3, 1, 4, 5, 2])
+    mesh.CreateSubdivisionSchemeAttr("none")
+    primvars = UsdGeom.PrimvarsAPI(mesh)
+    tint = primvars.CreatePrimvar("tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.uniform)
+    tint.Set([Gf.Vec3f(1, 0.5, 0), Gf.Vec3f(0, 0.5, 1)])
+    material = UsdShade.Material.Define(stage, "/World/Looks/tinted")
+    surface = UsdShade.Shader.Define(stage, "/World/Looks/tinted/Surface")
+    surface.CreateIdAttr("UsdPreviewSurface")
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0))
+    surface.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0))
+    surface.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
+    reader = UsdShade.Shader.Define(stage, "/World/Looks/tinted/Tint")
+    reader.CreateIdAttr("UsdPrimvarReader_float3")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("tint")
+    surface.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        reader.CreateOutput("result", Sdf.ValueTypeNames.Float3)
+    )
+    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    bind(mesh, material)
+    image = render(stage)
+    np.testing.assert_allclose(at(image, -0.5, 0), (1, 0.5, 0), atol=0.01)
+    np.testing.assert_allclose(at(image, 0.5, 0), (0, 0.5, 1), atol=0.01)
+
+    # Where the primvar is missing the reader's fallback is used; editing the primvar re-renders.
+    reader.CreateInput("fallback", Sdf.ValueTypeNames.Float3).Set(Gf.Vec3f(0.25, 0.25, 0.25))
+    reader.GetInput("varname").Set("absent")
+    np.testing.assert_allclose(at(render(stage), 0.5, 0), (0.25, 0.25, 0.25), atol=0.01)
+
+
+def test_normal_maps_bend_the_shading_normal(tmp_path):
+    # The quad faces +Z, lit by a distant light 45° towards +X. A constant normal map tilting
+    # the normal 45° towards +s (= +X here) turns it to face the light: the radiance rises by
+    # 1/cos 45°. Tilted the other way it faces 90° away and goes black. Normal maps are encoded
+    # as the spec says: raw values, scale 2, bias -1.
+    def radiance(tilt_degrees: float | None) -> float:
+        """``None``: the same material with the normal map disconnected."""
+        tilt = math.radians(tilt_degrees or 0.0)
+        encoded = np.tile(np.float32([(math.sin(tilt) + 1) / 2, 0.5, (math.cos(tilt) + 1) / 2]), (8, 8, 1))
+        stage, _ = textured_stage(
+            write_texture(tmp_path / f"normal{tilt_degrees}.exr", encoded),
+            input_name="normal",
+            texture={"scale": (2, 2, 2, 1), "bias": (-1, -1, -1, 0), "sourceColorSpace": "raw"},
+            surface={"diffuseColor": (0.5, 0.5, 0.5)},
+        )
+        if tilt_degrees is None:
+            surface = UsdShade.Shader.Get(stage, "/World/Looks/textured/Surface")
+            surface.GetInput("normal").GetAttr().ClearConnections()
+        light = add_distant_light(stage, intensity=2.0)
+        light.AddRotateYOp().Set(45.0)  # light travels along -Z turned 45° about Y: from +X
+        return float(render(stage, samples=64)[5:-5, 5:-5, :3].mean())
+
+    flat = radiance(0.0)
+    assert radiance(None) == pytest.approx(flat, rel=0.01)  # the identity map changes nothing
+    assert radiance(45.0) / flat == pytest.approx(math.sqrt(2), rel=0.03)
+    assert radiance(-45.0) / flat < 0.05
