@@ -221,6 +221,7 @@ MaterialParams fallbackSurface() {
   params.roughness = 1;
   params.useSpecularWorkflow = true;
   params.specularColor = Vec3f(0.0f);
+  params.transmissionRoughness = 0;  // displayOpacity sees clearly through, as blending does
   return params;
 }
 

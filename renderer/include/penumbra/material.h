@@ -31,8 +31,8 @@ struct MaterialParams {
 };
 
 /// The surface of meshes without a material: roughness 1 and no specular colour (within 1 % of
-/// Lambertian), 0.5 grey; the scene sets diffuseColor and opacity from displayColor and
-/// displayOpacity where they are authored.
+/// Lambertian), 0.5 grey, smooth transmission; the scene sets diffuseColor and opacity from
+/// displayColor and displayOpacity where they are authored.
 MaterialParams fallbackSurface();
 
 /// The UsdPreviewSurface inputs a shader network can drive. `Normal` is the tangent-space normal
