@@ -173,17 +173,11 @@ penumbra::Material RenderDelegate::buildMaterial(const Material& material, bool 
     connection.input = input;
     if (source.texture) {
       const TextureNode& node = *source.texture;
-      TextureReader reader;
+      TextureReader reader = node.reader;
       std::string error;
       reader.texture = scene_->textures().open(node.file, node.colorSpace, &error);
       if (reader.texture == TextureSystem::kInvalid && report)
         warn(material.id() + ": " + error + "; its fallback value is used");
-      reader.wrapS = node.wrapS;
-      reader.wrapT = node.wrapT;
-      reader.scale = node.scale;
-      reader.bias = node.bias;
-      reader.fallback = node.fallback;
-      reader.coordinates = node.coordinates;
       connection.texture = int(result.textures.size());
       result.textures.push_back(std::move(reader));
       std::tie(connection.firstChannel, connection.channelCount) =

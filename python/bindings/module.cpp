@@ -139,34 +139,35 @@ TextureNode toTextureNode(const std::string& where, const py::dict& dict) {
              const std::string at = where + "." + key;
              if (key == "file") node.file = value.cast<std::string>();
              if (key == "wrapS")
-               node.wrapS = penumbra::plugin::parseTextureWrap(value.cast<std::string>());
+               node.reader.wrapS = penumbra::plugin::parseTextureWrap(value.cast<std::string>());
              if (key == "wrapT")
-               node.wrapT = penumbra::plugin::parseTextureWrap(value.cast<std::string>());
+               node.reader.wrapT = penumbra::plugin::parseTextureWrap(value.cast<std::string>());
              if (key == "sourceColorSpace")
                node.colorSpace = penumbra::plugin::parseSourceColorSpace(value.cast<std::string>());
-             if (key == "scale") node.scale = toFloats<4>(at, value);
-             if (key == "bias") node.bias = toFloats<4>(at, value);
-             if (key == "fallback") node.fallback = toFloats<4>(at, value);
+             if (key == "scale") node.reader.scale = toFloats<4>(at, value);
+             if (key == "bias") node.reader.bias = toFloats<4>(at, value);
+             if (key == "fallback") node.reader.fallback = toFloats<4>(at, value);
              if (key == "st")
                readDict(at, value.cast<py::dict>(), {"primvar", "fallback"},
                         [&](const std::string& stKey, const py::handle& stValue) {
                           if (stKey == "primvar")
-                            node.coordinates.primvar = stValue.cast<std::string>();
+                            node.reader.coordinates.primvar = stValue.cast<std::string>();
                           else {
                             const auto st = toFloats<2>(at + ".fallback", stValue);
-                            node.coordinates.fallback = {st[0], st[1]};
+                            node.reader.coordinates.fallback = {st[0], st[1]};
                           }
                         });
              if (key == "transform")
                readDict(at, value.cast<py::dict>(), {"scale", "rotation", "translation"},
                         [&](const std::string& tKey, const py::handle& tValue) {
                           if (tKey == "rotation") {
-                            node.coordinates.rotation = tValue.cast<float>();
+                            node.reader.coordinates.rotation = tValue.cast<float>();
                             return;
                           }
                           const auto pair = toFloats<2>(at + "." + tKey, tValue);
-                          (tKey == "scale" ? node.coordinates.scale
-                                           : node.coordinates.translation) = {pair[0], pair[1]};
+                          (tKey == "scale"
+                               ? node.reader.coordinates.scale
+                               : node.reader.coordinates.translation) = {pair[0], pair[1]};
                         });
            });
   if (node.file.empty()) throw std::invalid_argument(where + ": a texture needs a 'file'");

@@ -4,29 +4,18 @@
 #include <fstream>
 
 #include "penumbra/image_io.h"
+#include "scratch_directory.h"
 
 using namespace penumbra;
 namespace fs = std::filesystem;
 
 namespace {
 
-class ImageIO : public ::testing::Test {
+class ImageIO : public penumbra::test::ScratchDirectoryTest {
  protected:
-  void SetUp() override {
-    directory_ =
-        fs::temp_directory_path() /
-        ("penumbra-image-io-" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-         "-" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(directory_);
-    fs::create_directories(directory_);
-  }
-  void TearDown() override { fs::remove_all(directory_); }
-  std::string path(const std::string& name) const { return (directory_ / name).string(); }
   size_t fileCount() const {
     return size_t(std::distance(fs::directory_iterator(directory_), fs::directory_iterator()));
   }
-
-  fs::path directory_;
 };
 
 ImageData gradient() {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "penumbra/texture.h"
+#include "scratch_directory.h"
 
 using namespace penumbra;
 namespace fs = std::filesystem;
@@ -32,14 +33,10 @@ struct Color {
   float r = 0, g = 0, b = 0, a = 1;
 };
 
-class Texture : public ::testing::Test {
+class Texture : public penumbra::test::ScratchDirectoryTest {
  protected:
   void SetUp() override {
-    directory_ =
-        fs::temp_directory_path() /
-        ("penumbra-texture-" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-         "-" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(directory_);
+    ScratchDirectoryTest::SetUp();
     fs::create_directories(directory_ / "tmp");
     // Converted textures go to a temporary directory of our own, to be checked and cleaned up.
     if (const char* tmpdir = std::getenv("TMPDIR")) savedTmpdir_ = tmpdir, hadTmpdir_ = true;
@@ -50,9 +47,8 @@ class Texture : public ::testing::Test {
       setenv("TMPDIR", savedTmpdir_.c_str(), 1);
     else
       unsetenv("TMPDIR");
-    fs::remove_all(directory_);
+    ScratchDirectoryTest::TearDown();
   }
-  std::string path(const std::string& name) const { return (directory_ / name).string(); }
 
   // Writes an image; `pixels` holds rows top (as a viewer sees it) to bottom, channels
   // interleaved, as floats in [0, 1] for integer formats.
@@ -107,7 +103,6 @@ class Texture : public ::testing::Test {
     return found;
   }
 
-  fs::path directory_;
   std::string savedTmpdir_;
   bool hadTmpdir_ = false;
 };

@@ -212,7 +212,7 @@ def test_non_preview_surface_material_falls_back_with_warning():
     assert value.min() > 0.05 and np.ptp(value) < 1e-3 * value.max()  # grey fallback
 
 
-def test_instance_proxies_are_rendered_with_proxy_paths():
+def test_native_instances_render_copies_of_one_prototype_mesh():
     stage = new_stage()
     add_camera(stage)
     add_distant_light(stage)
@@ -224,8 +224,10 @@ def test_instance_proxies_are_rendered_with_proxy_paths():
         instance.GetPrim().GetReferences().AddInternalReference("/Prototypes/tile")
         instance.GetPrim().SetInstanceable(True)
     renderer = penumbra.Renderer(stage)
-    assert {"/World/left/quad", "/World/right/quad"} <= set(renderer.delegate.prim_ids())
     image = renderer.render(**FAST)
+    ids = set(renderer.delegate.prim_ids())
+    assert "/prototypes/__Prototype_1/quad" in ids
+    assert not {"/World/left/quad", "/World/right/quad"} & ids
     assert pixel(image, 0.25, 0.5).mean() > 0.05 and pixel(image, 0.75, 0.5).mean() > 0.05
     assert pixel(image, 0.5, 0.5).mean() == 0.0
 

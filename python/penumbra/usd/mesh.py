@@ -193,7 +193,9 @@ def _primvars(
             array = array.reshape(1, -1)
         if array.ndim == 2 and array.shape[1] == 1:
             array = array.reshape(-1)
-        if array.ndim not in (1, 2) or (array.ndim == 2 and array.shape[1] > 4) or array.size == 0:
+        if array.size == 0:
+            continue  # authored without values: nothing to read
+        if array.ndim not in (1, 2) or (array.ndim == 2 and array.shape[1] > 4):
             if warn:
                 warn(
                     f"{path}: primvar {name} of type {primvar.GetTypeName()} is not 1 to 4 "

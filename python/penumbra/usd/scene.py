@@ -1,8 +1,8 @@
 """The USD scene delegate: mirrors a stage into a ``penumbra._core.RenderDelegate``.
 
 Like Hydra's UsdImaging delegate it inserts one delegate prim per supported USD prim (prim ids
-are USD paths, instance proxies included), pushes their data at a time code, and afterwards
-pushes only what changed:
+are USD paths; lights and cameras inside native prototypes as instance proxies), pushes their
+data at a time code, and afterwards pushes only what changed:
 
 * stage edits arrive as ``Usd.Notice.ObjectsChanged`` and are queued; :meth:`SceneDelegate.update`
   re-reads only the affected aspects of the affected prims (an ancestor's transform or
@@ -16,11 +16,16 @@ pushes only what changed:
 Implicit surfaces (Sphere, Cube, Cylinder, Cone, Capsule, Plane) are tessellated and tracked as
 meshes (see :mod:`.implicit`). Meshes and cameras move over the shutter (transform, points,
 lens); lights keep their transform at the frame.
+
+Meshes inside native prototypes are not instance proxies here: :mod:`.native_instancing` syncs
+each once and places its copies with an instancer rprim (sharing its BVH); it uses this
+delegate's materials and hears of the same stage edits.
 """
 
 from __future__ import annotations
 
 import enum
+import weakref
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
@@ -33,6 +38,7 @@ from .lights import is_light, light_type, sync_light
 from .material import bound_material, has_subset_bindings, read_material
 from .mesh import sync_mesh_data
 from .motion import XformCaches, transform_samples
+from .native_instancing import NativeInstancing
 from .sampling import SampleReader, Shutter, transform_might_vary, visibility_might_vary
 
 DEFAULT_PURPOSES = ("default", "proxy")
@@ -103,7 +109,11 @@ class SceneDelegate:
         self._resynced: set[Sdf.Path] = set()
         self._changed: set[Sdf.Path] = set()
         self._unsupported: dict[str, list[Sdf.Path]] = {}
-        self._reported: set[str] = set()
+        self._warn = _OnceWarner()
+        # Weak: a cycle through the helper would keep the stage alive until the next collection.
+        self._native = NativeInstancing(
+            stage, core, self.purposes, self._warn, _SceneMaterials(weakref.proxy(self))
+        )
         self._listener = Tf.Notice.Register(
             Usd.Notice.ObjectsChanged, self._on_objects_changed, stage
         )
@@ -147,6 +157,7 @@ class SceneDelegate:
                 if bits:
                     self._mark(path, bits)
         self._flush()
+        self._native.update(shutter)
         self._report_unsupported()
 
     def prim_kind(self, path: str) -> str | None:
@@ -156,12 +167,6 @@ class SceneDelegate:
 
     # ----------------------------------------------------------------------------------------
     # Warnings
-
-    def _warn(self, message: str) -> None:
-        """Warn once per distinct message for the life of this delegate."""
-        if message not in self._reported:
-            self._reported.add(message)
-            warn(message)
 
     def _report_unsupported(self) -> None:
         for type_name, paths in sorted(self._unsupported.items()):
@@ -181,6 +186,8 @@ class SceneDelegate:
         if sprim_type is not None:
             return sprim_type
         if prim.IsA(UsdGeom.Mesh) or is_implicit(prim):  # implicit surfaces: tessellated
+            if prim.IsInstanceProxy():
+                return None  # natively instanced: NativeInstancing
             purpose = UsdGeom.Imageable(prim).ComputePurpose()
             return "mesh" if purpose in self.purposes else None
         renderable = (UsdGeom.Gprim, UsdVol.Volume)  # point instancers: PointInstancerDelegate
@@ -221,6 +228,7 @@ class SceneDelegate:
             yield from self._instance_paths(path.ReplacePrefix(root, instance.GetPath()))
 
     def _process_notices(self) -> None:
+        self._native.note_changes(self._resynced, self._changed)
         resynced = {p for q in self._resynced for p in self._instance_paths(q)}
         changed = {p for q in self._changed for p in self._instance_paths(q)}
         self._resynced.clear()
@@ -393,6 +401,7 @@ class SceneDelegate:
         if material.in_core != was_in_core:
             for user in material.users:
                 self._mark(user, Dirty.BINDING)
+            self._native.invalidate()  # its meshes may use it
 
     def _read_material(self, material_path: Sdf.Path, material: _Material) -> None:
         """Read the material and insert, update or remove it in the delegate."""
@@ -414,6 +423,36 @@ class SceneDelegate:
             self.core.insert_sprim("material", path_str)
             material.in_core = True
         self.core.set_material(path_str, data.params)
+
+
+class _OnceWarner:
+    """Warns once per distinct message for the life of a delegate."""
+
+    def __init__(self) -> None:
+        self._reported: set[str] = set()
+
+    def __call__(self, message: str) -> None:
+        if message not in self._reported:
+            self._reported.add(message)
+            warn(message)
+
+
+class _SceneMaterials:
+    """The scene delegate's materials, shared with the hidden meshes of native instancing
+    (users named by their delegate ids)."""
+
+    def __init__(self, scene: SceneDelegate):
+        self._scene = scene
+
+    def acquire(self, material: Sdf.Path, user: str) -> None:
+        self._scene._acquire_material(material, Sdf.Path(user))
+
+    def release(self, material: Sdf.Path, user: str) -> None:
+        self._scene._release_material(material, Sdf.Path(user))
+
+    def material_id(self, material: Sdf.Path) -> str:
+        record = self._scene._materials.get(material)
+        return str(material) if record is not None and record.in_core else ""
 
 
 def _aspects(kind: str) -> Dirty:

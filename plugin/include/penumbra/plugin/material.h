@@ -13,16 +13,12 @@
 namespace penumbra::plugin {
 
 /// A UsdUVTexture as the scene delegate describes it: the file by path (resolved; may hold
-/// <UDIM>), its inputs, and its coordinates.
+/// <UDIM>) and colour space, and the node's other inputs (`reader.texture` is set at sync, when
+/// the file is opened).
 struct TextureNode {
   std::string file;
-  TextureWrap wrapS = TextureWrap::UseMetadata;
-  TextureWrap wrapT = TextureWrap::UseMetadata;
   SourceColorSpace colorSpace = SourceColorSpace::Auto;
-  std::array<float, 4> scale{1, 1, 1, 1};
-  std::array<float, 4> bias{0, 0, 0, 0};
-  std::array<float, 4> fallback{0, 0, 0, 1};
-  TextureCoordinates coordinates;
+  TextureReader reader;
 };
 
 /// What a connected input reads: a texture's output ("rgb", "r", "g", "b", "a"), or a primvar

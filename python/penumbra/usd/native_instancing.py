@@ -1,0 +1,190 @@
+"""Native USD instancing (instanceable prims sharing a prototype) → shared BVHs.
+
+Instead of one mesh rprim per instance proxy, each mesh inside a USD prototype is synced once,
+as a hidden mesh rprim read from the prototype prim, and one instancer rprim places it at every
+instance: the instance root's world transform × the mesh's transform relative to the prototype
+(motion-sampled over the shutter like any transform). Nested instancing — instanceable prims and
+point instancers inside prototypes, and deeper — is flattened by
+:class:`~penumbra.usd.instancers.Flattener` into the same instancers, sharing the innermost
+mesh's BVH.
+
+* Materials resolve on the instance proxy (bindings on an instance or its ancestors may differ
+  between instances): copies are grouped by (prototype mesh, resolved material), and each group
+  gets its own hidden mesh with that material.
+* Visibility and purpose are inherited through the instance and the prims inside the prototype;
+  invisible copies are dropped.
+* Lights and cameras inside prototypes stay instance proxies of the scene delegate.
+
+Top-level instances are instanceable prims outside prototypes and outside point instancers
+(whose prototypes :class:`~penumbra.usd.instancers.PointInstancerDelegate` flattens). Any edit
+that can change the placement, visibility, purpose or binding of copies — below a prototype,
+on or above an instance, a binding anywhere, prims added or removed — re-flattens the instances
+(cheap: transforms only); meshes are read again only when edited, or at a new shutter when
+time-varying (see :class:`~penumbra.usd.instancers.InstancedMeshes`).
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Callable, Iterable, Iterator
+
+import numpy as np
+from pxr import Sdf, Usd, UsdGeom, UsdShade
+
+from .instancers import (
+    Flattener,
+    Group,
+    GroupKey,
+    InstancedMeshes,
+    MaterialSource,
+    combine_segments,
+    group_leaves,
+)
+from .sampling import Shutter, visibility_might_vary
+
+
+class NativeInstancing:
+    """Mirrors the native instances of ``stage`` into ``core`` as instancer rprims."""
+
+    def __init__(
+        self,
+        stage: Usd.Stage,
+        core,
+        purposes: frozenset[str],
+        warn: Callable[[str], None],
+        materials: MaterialSource,
+    ):
+        self.stage = stage
+        self.purposes = purposes
+        self.warn = warn
+        self.meshes = InstancedMeshes(core, warn, materials)
+        self.shutter: Shutter | None = None
+        self._dirty = True
+        self._varying = False
+        self._stale: set[Sdf.Path] = set()  # edited prims: meshes below them are read again
+        self._roots: set[Sdf.Path] = set()  # top-level instances last flattened
+        self._above: set[Sdf.Path] = set()  # their ancestors
+
+    def invalidate(self) -> None:
+        """Re-flatten at the next update (e.g. a material became usable or unusable)."""
+        self._dirty = True
+
+    def note_changes(self, resynced: Iterable[Sdf.Path], changed: Iterable[Sdf.Path]) -> None:
+        """Note stage edits (the paths of ``Usd.Notice.ObjectsChanged``)."""
+        for path in (*resynced, *changed):
+            prim_path = path.GetPrimPath()
+            if self._affects_copies(path, prim_path):
+                self._dirty = True
+                self._stale.add(prim_path)
+
+    def _affects_copies(self, path: Sdf.Path, prim_path: Sdf.Path) -> bool:
+        if not path.IsPropertyPath() or path.name.startswith("material:binding"):
+            return True  # prims added or removed, or a binding that may reach instances
+        if prim_path in self._roots or prim_path in self._above:
+            return True
+        prefixes = prim_path.GetPrefixes()
+        if any(prefix in self._roots for prefix in prefixes):
+            return True
+        prototype = self.stage.GetPrimAtPath(prefixes[0]) if prefixes else None
+        return bool(prototype and prototype.IsPrototype())
+
+    def update(self, shutter: Shutter) -> None:
+        """Push the instances as edited since the last update, over ``shutter``."""
+        time_changed = shutter != self.shutter
+        if not (self._dirty or (time_changed and self._varying)):
+            return
+        self.shutter = shutter
+        flattener = Flattener(self.stage, shutter, self.warn)
+        groups = self._groups(flattener)
+        stale, self._stale = self._stale, set()
+        self.meshes.update(groups, shutter, stale, time_changed)
+        self._varying = flattener.varying or self.meshes.varying
+        self._dirty = False
+
+    def close(self) -> None:
+        """Remove every prim this put into the delegate."""
+        self.meshes.clear()
+
+    # ----------------------------------------------------------------------------------------
+
+    def _top_level_instances(self) -> Iterator[Usd.Prim]:
+        walk = iter(Usd.PrimRange(self.stage.GetPseudoRoot(), Usd.PrimDefaultPredicate))
+        for prim in walk:
+            if prim.IsA(UsdGeom.PointInstancer):  # its prototypes are its own
+                walk.PruneChildren()
+            elif prim.IsInstance():
+                walk.PruneChildren()
+                yield prim
+
+    def _groups(self, flattener: Flattener) -> dict[GroupKey, Group]:
+        """Every visible copy of every instanced mesh, grouped by (mesh, material)."""
+        by_prototype: dict[Sdf.Path, list[tuple[Usd.Prim, int, str]]] = defaultdict(list)
+        frame = self.shutter.frame
+        limit = self.shutter.max_segments
+        segments = 0  # one grid for every moving instance, so groups stack
+        roots = []
+        for instance in self._top_level_instances():
+            roots.append(instance.GetPath())
+            imageable = UsdGeom.Imageable(instance)
+            if visibility_might_vary(instance):
+                flattener.varying = True
+            if imageable.ComputeVisibility(frame) == UsdGeom.Tokens.invisible:
+                continue
+            prototype = instance.GetPrototype()
+            own = combine_segments(
+                flattener.motion_segments(instance), flattener.content_segments(prototype), limit
+            )
+            segments = combine_segments(segments, own, limit)
+            by_prototype[prototype.GetPath()].append((instance, own, imageable.ComputePurpose()))
+        self._roots = set(roots)
+        self._above = {p for root in roots for p in root.GetParentPath().GetPrefixes()}
+
+        pending = []  # (leaf, transforms (N, M, K, 4, 4), instances kept)
+        proxies: list[Usd.Prim] = []
+        for prototype_path, instances in by_prototype.items():
+            prototype = self.stage.GetPrimAtPath(prototype_path)
+            moving = any(own for _, own, _ in instances)
+            world = np.stack(
+                [_held(flattener.world(i, segments if own else 0), segments if moving else 0) for i, own, _ in instances]
+            )  # (N, K, 4, 4)
+            for leaf in flattener.expand(prototype, segments):
+                kept = [
+                    n for n, (_, _, purpose) in enumerate(instances)
+                    if (leaf.purpose or purpose) in self.purposes
+                ]
+                if not kept:
+                    continue
+                transforms = leaf.transforms[None] @ world[kept][:, None]
+                pending.append((leaf, transforms))
+                proxies.extend(
+                    self.stage.GetPrimAtPath(
+                        leaf.proxy.ReplacePrefix(prototype_path, instances[n][0].GetPath())
+                    )
+                    for n in kept
+                )
+        materials = _bound_materials(proxies)
+        groups: dict[GroupKey, Group] = {}
+        start = 0
+        for leaf, transforms in pending:
+            count = len(transforms)
+            bound = materials[start : start + count]
+            start += count
+            for material in dict.fromkeys(bound):
+                chosen = [n for n in range(count) if bound[n] == material]
+                selected = transforms[chosen]
+                group_leaves(groups, leaf, material, selected.reshape(-1, *selected.shape[2:]))
+        return groups
+
+
+def _held(matrices: np.ndarray, segments: int) -> np.ndarray:
+    """(K, 4, 4) ``matrices`` with a static transform held over the grid of ``segments``."""
+    samples = segments + 1 if segments else 1
+    return matrices if len(matrices) == samples else np.repeat(matrices[:1], samples, axis=0)
+
+
+def _bound_materials(proxies: list[Usd.Prim]) -> list[Sdf.Path | None]:
+    """The material bound to each prim (final-render purpose), resolved in one batch."""
+    if not proxies:
+        return []
+    materials, _ = UsdShade.MaterialBindingAPI.ComputeBoundMaterials(proxies, UsdShade.Tokens.full)
+    return [m.GetPath() if m else None for m in materials]
