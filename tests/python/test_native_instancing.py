@@ -295,3 +295,46 @@ def test_unreadable_prototype_mesh_warns_with_its_instance_path():
     add_instance(stage, "/World/one", "/Proto")
     with pytest.warns(penumbra.PenumbraWarning, match=r"^/World/one/empty: mesh has no points"):
         penumbra.Renderer(stage).render(**SMALL)
+
+
+def test_per_instance_primvars_colour_each_copy():
+    """displayColor authored per instance colours the copies of one shared mesh: on a point
+    instancer (vertex interpolation, one value per instance, invisibleIds masked alike) and on
+    native instance roots (a constant primvar their prototype inherits), unless the mesh authors
+    its own, which is nearer."""
+    stage = new_stage()
+    add_camera(stage)
+    add_distant_light(stage)
+    add_quad(stage, "/World/scatter/protos/tile", half_size=0.3)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/World/scatter")
+    instancer.CreatePrototypesRel().SetTargets(["/World/scatter/protos/tile"])
+    instancer.CreateProtoIndicesAttr([0, 0, 0])
+    instancer.CreatePositionsAttr([Gf.Vec3f(-1, 1, 0), Gf.Vec3f(0, 1, 0), Gf.Vec3f(1, 1, 0)])
+    instancer.CreateInvisibleIdsAttr([1])
+    colors = UsdGeom.PrimvarsAPI(instancer).CreatePrimvar(
+        "displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.vertex
+    )
+    colors.Set([Gf.Vec3f(1, 0, 0), Gf.Vec3f(0, 1, 0), Gf.Vec3f(0, 0, 1)])
+    add_quad(stage, "/Proto/tile", half_size=0.3)
+    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
+    for name, x, color in (("red", -1.0, (1, 0, 0)), ("blue", 1.0, (0, 0, 1))):
+        instance = add_instance(stage, f"/World/{name}", "/Proto", (x, -1.0, 0.0))
+        UsdGeom.PrimvarsAPI(instance).CreatePrimvar(
+            "displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant
+        ).Set([Gf.Vec3f(*color)])
+    renderer = penumbra.Renderer(stage)
+    image = renderer.render(**SMALL)
+    for x, y, channel in ((-1, 1, 0), (1, 1, 2), (-1, -1, 0), (1, -1, 2)):
+        rgb = at(image, x, y)[:3]
+        assert rgb[channel] > 0.05 and rgb.sum() - rgb[channel] < 0.01 * rgb[channel], (x, y, rgb)
+    assert at(image, 0, 1)[3] == 0.0  # the invisible copy
+    assert len(hidden_meshes(renderer)) == 1  # the native instances still share one mesh
+
+    # A displayColor on the prototype's mesh is nearer than the instances' and wins.
+    UsdGeom.Mesh(stage.GetPrimAtPath("/Proto/tile")).CreateDisplayColorPrimvar(
+        UsdGeom.Tokens.constant
+    ).Set([Gf.Vec3f(0, 1, 0)])
+    image = renderer.render(**SMALL)
+    for x in (-1, 1):
+        rgb = at(image, x, -1)[:3]
+        assert rgb[1] > 0.05 and rgb[0] + rgb[2] < 0.01 * rgb[1], (x, rgb)

@@ -39,7 +39,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade
 
 from .implicit import is_implicit
 from .material import bound_material, read_material
-from .mesh import sync_mesh_data
+from .mesh import numeric_primvar, sync_mesh_data
 from .motion import ACCELERATION_SEGMENTS, XformCaches, transform_samples
 from .sampling import SampleReader, Shutter, changes_within, transform_might_vary
 
@@ -58,6 +58,21 @@ class Leaf:
     proxy: Sdf.Path  # where the copies' material binding resolves, in the root's namespace
     purpose: str | None  # the nearest purpose authored within the root; None: inherited
     transforms: np.ndarray  # float64 (M, K, 4, 4): mesh-to-root, K = 1 or the grid's samples
+    # Per-copy primvars of enclosing point instancers: name → (M,) or (M, width) values.
+    primvars: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def nest_primvars(
+    outer: dict[str, np.ndarray], inner: dict[str, np.ndarray], outer_count: int, inner_count: int
+) -> dict[str, np.ndarray]:
+    """Per-copy primvars of ``outer_count`` × ``inner_count`` nested copies (outer index major):
+    an outer copy's value holds for all its inner copies; inner values, closer to the geometry,
+    win."""
+    nested = {name: np.repeat(values, inner_count, axis=0) for name, values in outer.items()}
+    nested.update(
+        {name: np.tile(values, (outer_count,) + (1,) * (values.ndim - 1)) for name, values in inner.items()}
+    )
+    return nested
 
 
 def combine_segments(a: int, b: int, limit: int) -> int:
@@ -216,6 +231,7 @@ class Flattener:
                 leaf.proxy.ReplacePrefix(prototype.GetPath(), instance.GetPath()),
                 leaf.purpose or purpose,
                 leaf.transforms @ placement,
+                leaf.primvars,
             )
 
     def point_instancer_leaves(self, prim: Usd.Prim, root: Usd.Prim, segments: int) -> Iterator[Leaf]:
@@ -225,7 +241,7 @@ class Flattener:
         if not copies:
             return
         placement = self.relative(prim, root, segments)
-        for prototype, transforms in copies:
+        for prototype, transforms, primvars in copies:
             between = list(_up_to(prototype.GetParent(), prim))
             if any(_invisible(p, self) for p in between):
                 continue
@@ -239,13 +255,14 @@ class Flattener:
                     leaf.proxy,
                     leaf.purpose or purpose,
                     composed.reshape(count * inner, samples, 4, 4) @ placement,
+                    nest_primvars(primvars, leaf.primvars, count, inner),
                 )
 
     def point_instancer_copies(
         self, prim: Usd.Prim, segments: int
-    ) -> list[tuple[Usd.Prim, np.ndarray]]:
-        """(prototype root, (N, K, 4, 4) copy transforms relative to the instancer) for each
-        prototype with visible copies; K = 1 unless the copies move."""
+    ) -> list[tuple[Usd.Prim, np.ndarray, dict[str, np.ndarray]]]:
+        """(prototype root, (N, K, 4, 4) copy transforms relative to the instancer, per-copy
+        primvars) for each prototype with visible copies; K = 1 unless the copies move."""
         instancer = UsdGeom.PointInstancer(prim)
         path = prim.GetPath()
         frame = self.shutter.frame
@@ -277,6 +294,7 @@ class Flattener:
             local = self._default_valued_motion(instancer, local, times)
         mask = instancer.ComputeMaskAtTime(frame)
         keep = np.asarray(mask, dtype=bool) if mask else np.ones(len(indices), dtype=bool)
+        primvars = self._instance_primvars(instancer, len(indices))
         copies = []
         for index, prototype_path in enumerate(prototypes):
             root = self.stage.GetPrimAtPath(prototype_path)
@@ -284,10 +302,39 @@ class Flattener:
                 self.warn(f"{path}: prototype {prototype_path} does not exist")
                 continue
             self.roots.add(prototype_path)
-            selected = local[keep & (indices == index)]
-            if len(selected):
-                copies.append((root, selected))
+            chosen = keep & (indices == index)
+            if chosen.any():
+                copies.append(
+                    (root, local[chosen], {name: v[chosen] for name, v in primvars.items()})
+                )
         return copies
+
+    def _instance_primvars(
+        self, instancer: UsdGeom.PointInstancer, count: int
+    ) -> dict[str, np.ndarray]:
+        """The instancer's numeric primvars, one value per instance: vertex and varying ones
+        with one value per instance, constant ones repeated (UsdGeomPointInstancer's
+        per-instance primvars)."""
+        path = str(instancer.GetPath())
+        reader = SampleReader(self.shutter.frame)
+        result = {}
+        for primvar in UsdGeom.PrimvarsAPI(instancer).GetPrimvarsWithValues():
+            interpolation = primvar.GetInterpolation()
+            if interpolation not in (UsdGeom.Tokens.constant, UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
+                continue
+            values = numeric_primvar(primvar, reader, self.warn, path)
+            if values is None:
+                continue
+            if interpolation == UsdGeom.Tokens.constant:
+                values = np.repeat(values[:1], count, axis=0)
+            elif len(values) != count:
+                self.warn(
+                    f"{path}: primvar {primvar.GetPrimvarName()} has {len(values)} values for "
+                    f"{count} instances; ignored"
+                )
+                continue
+            result[primvar.GetPrimvarName()] = values
+        return result
 
     def _default_valued_motion(
         self, instancer: UsdGeom.PointInstancer, local: np.ndarray, times: list[Usd.TimeCode]
@@ -442,6 +489,7 @@ class Group:
     mesh: Usd.Prim
     material: Sdf.Path | None
     transforms: list[np.ndarray] = field(default_factory=list)  # (N_i, K_i, 4, 4) each
+    primvars: list[dict[str, np.ndarray]] = field(default_factory=list)  # N_i rows each
 
     def stacked(self) -> np.ndarray:
         """(N, 4, 4) for static copies, else (N, K, 4, 4) with static ones held over K."""
@@ -450,19 +498,34 @@ class Group:
         stacked = parts[0] if len(parts) == 1 else np.concatenate(parts)
         return np.ascontiguousarray(stacked[:, 0] if samples == 1 else stacked)
 
+    def stacked_primvars(self) -> dict[str, np.ndarray]:
+        """Per-copy primvars in the order of :meth:`stacked`; a primvar some copies lack is
+        left out (those copies would have no value to take)."""
+        names = set.intersection(*(set(p) for p in self.primvars)) if self.primvars else set()
+        return {
+            name: np.ascontiguousarray(np.concatenate([p[name] for p in self.primvars]))
+            for name in sorted(names)
+        }
+
 
 GroupKey = tuple[Sdf.Path, Sdf.Path | None]
 
 
 def group_leaves(
-    groups: dict[GroupKey, Group], leaf: Leaf, material: Sdf.Path | None, transforms: np.ndarray
+    groups: dict[GroupKey, Group],
+    leaf: Leaf,
+    material: Sdf.Path | None,
+    transforms: np.ndarray,
+    primvars: dict[str, np.ndarray],
 ) -> None:
-    """Add ``transforms`` (copies of ``leaf``'s mesh bound to ``material``) to ``groups``."""
+    """Add ``transforms`` (copies of ``leaf``'s mesh bound to ``material``, with their per-copy
+    ``primvars``) to ``groups``."""
     key = (leaf.mesh.GetPath(), material)
     group = groups.get(key)
     if group is None:
         group = groups[key] = Group(leaf.mesh, material)
     group.transforms.append(transforms)
+    group.primvars.append(primvars)
 
 
 @dataclass
@@ -522,9 +585,11 @@ class InstancedMeshes:
                 self.core.set_mesh_material(pushed.mesh_id, material_id)
                 pushed.material_id = material_id
             transforms = group.stacked()
-            digest = _digest(transforms)
+            primvars = group.stacked_primvars()
+            digest = _digest(transforms, *primvars.values()) + str(sorted(primvars)).encode()
             if digest != pushed.digest:
                 self.core.set_instances(pushed.instancer_id, pushed.mesh_id, transforms)
+                self.core.set_instance_primvars(pushed.instancer_id, primvars)
                 pushed.digest = digest
 
     def clear(self) -> None:
@@ -568,9 +633,14 @@ class InstancedMeshes:
             self.materials.release(key[1], pushed.mesh_id)
 
 
-def _digest(transforms: np.ndarray) -> bytes:
-    """A fingerprint of copies' transforms: cheaper to keep than a million matrices."""
-    return hashlib.blake2b(memoryview(transforms), digest_size=16).digest() + bytes(str(transforms.shape), "ascii")
+def _digest(*arrays: np.ndarray) -> bytes:
+    """A fingerprint of copies' transforms (and primvars): cheaper to keep than a million
+    matrices."""
+    hasher = hashlib.blake2b(digest_size=16)
+    for array in arrays:
+        hasher.update(memoryview(np.ascontiguousarray(array)))
+        hasher.update(bytes(str(array.shape), "ascii"))
+    return hasher.digest()
 
 
 # --------------------------------------------------------------------------------------------
@@ -738,5 +808,5 @@ class PointInstancerDelegate:
             if leaf.proxy not in materials:
                 material = bound_material(self.stage.GetPrimAtPath(leaf.proxy))
                 materials[leaf.proxy] = material.GetPath() if material else None
-            group_leaves(groups, leaf, materials[leaf.proxy], leaf.transforms)
+            group_leaves(groups, leaf, materials[leaf.proxy], leaf.transforms, leaf.primvars)
         return groups

@@ -175,35 +175,53 @@ def _primvars(
     for primvar in UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance():
         name = primvar.GetPrimvarName()
         interpolation = str(primvar.GetInterpolation())
-        if name in _DEDICATED_PRIMVARS or not primvar.HasValue():
+        if name in _DEDICATED_PRIMVARS:
             continue
         if constant_only and interpolation != UsdGeom.Tokens.constant:
             continue
-        if primvar.GetElementSize() != 1:
-            if warn:
-                warn(f"{path}: primvar {name} has elementSize {primvar.GetElementSize()}; "
-                     "materials cannot read it")
-            continue
-        value = reader.flattened_primvar(primvar)
-        try:
-            array = np.asarray(value, dtype=np.float32)
-        except (TypeError, ValueError):
-            continue  # strings, tokens, assets: nothing a material reads as a number
-        if interpolation == UsdGeom.Tokens.constant and not primvar.GetTypeName().isArray:
-            array = array.reshape(1, -1)
-        if array.ndim == 2 and array.shape[1] == 1:
-            array = array.reshape(-1)
-        if array.size == 0:
-            continue  # authored without values: nothing to read
-        if array.ndim not in (1, 2) or (array.ndim == 2 and array.shape[1] > 4):
-            if warn:
-                warn(
-                    f"{path}: primvar {name} of type {primvar.GetTypeName()} is not 1 to 4 "
-                    "numbers per element; materials cannot read it"
-                )
-            continue
-        result[name] = (np.ascontiguousarray(array), interpolation)
+        values = numeric_primvar(primvar, reader, warn, path)
+        if values is not None:
+            result[name] = (values, interpolation)
     return result
+
+
+def numeric_primvar(
+    primvar: UsdGeom.Primvar,
+    reader: SampleReader,
+    warn: Callable[[str], None] | None,
+    path: str,
+) -> np.ndarray | None:
+    """The flattened values of ``primvar`` as float32 (N,) or (N, width) with width 1 to 4 (a
+    constant non-array value gives one row); ``None`` when it has no values or is not numeric
+    (with a warning when ``warn`` is given and the type could never be read)."""
+    name = primvar.GetPrimvarName()
+    if not primvar.HasValue():
+        return None
+    if primvar.GetElementSize() != 1:
+        if warn:
+            warn(
+                f"{path}: primvar {name} has elementSize {primvar.GetElementSize()}; "
+                "materials cannot read it"
+            )
+        return None
+    try:
+        array = np.asarray(reader.flattened_primvar(primvar), dtype=np.float32)
+    except (TypeError, ValueError):
+        return None  # strings, tokens, assets: nothing a material reads as a number
+    if not primvar.GetTypeName().isArray:
+        array = array.reshape(1, -1)
+    if array.ndim == 2 and array.shape[1] == 1:
+        array = array.reshape(-1)
+    if array.size == 0:
+        return None  # authored without values: nothing to read
+    if array.ndim not in (1, 2) or (array.ndim == 2 and array.shape[1] > 4):
+        if warn:
+            warn(
+                f"{path}: primvar {name} of type {primvar.GetTypeName()} is not 1 to 4 "
+                "numbers per element; materials cannot read it"
+            )
+        return None
+    return np.ascontiguousarray(array)
 
 
 def _display_color(prim: Usd.Prim, reader: SampleReader) -> tuple[np.ndarray, str]:

@@ -39,8 +39,10 @@ from .instancers import (
     MaterialSource,
     combine_segments,
     group_leaves,
+    nest_primvars,
 )
-from .sampling import Shutter, visibility_might_vary
+from .mesh import numeric_primvar
+from .sampling import SampleReader, Shutter, visibility_might_vary
 
 
 class NativeInstancing:
@@ -155,7 +157,7 @@ class NativeInstancing:
                 if not kept:
                     continue
                 transforms = leaf.transforms[None] @ world[kept][:, None]
-                pending.append((leaf, transforms))
+                pending.append((leaf, transforms, [instances[n][0].GetPath() for n in kept]))
                 proxies.extend(
                     self.stage.GetPrimAtPath(
                         leaf.proxy.ReplacePrefix(prototype_path, instances[n][0].GetPath())
@@ -163,17 +165,54 @@ class NativeInstancing:
                     for n in kept
                 )
         materials = _bound_materials(proxies)
+        inherited = {
+            path: _inherited_primvars(instance, frame, self.warn)
+            for instances in by_prototype.values()
+            for instance, _, _ in instances
+            for path in [instance.GetPath()]
+        }
         groups: dict[GroupKey, Group] = {}
         start = 0
-        for leaf, transforms in pending:
+        for leaf, transforms, kept_instances in pending:
             count = len(transforms)
             bound = materials[start : start + count]
             start += count
+            copies_per_instance = len(leaf.transforms)
+            # The instances' own constant primvars reach the mesh unless it (or its ancestors in
+            # the prototype) authors the same name, which is nearer and wins.
+            nearer = _primvar_names(leaf.mesh)
             for material in dict.fromkeys(bound):
                 chosen = [n for n in range(count) if bound[n] == material]
                 selected = transforms[chosen]
-                group_leaves(groups, leaf, material, selected.reshape(-1, *selected.shape[2:]))
+                own = [inherited[kept_instances[n]] for n in chosen]
+                names = set.intersection(*(set(values) for values in own)) - nearer
+                outer = {name: np.concatenate([values[name] for values in own]) for name in names}
+                primvars = nest_primvars(outer, leaf.primvars, len(chosen), copies_per_instance)
+                group_leaves(
+                    groups, leaf, material, selected.reshape(-1, *selected.shape[2:]), primvars
+                )
         return groups
+
+
+def _inherited_primvars(
+    instance: Usd.Prim, frame: Usd.TimeCode, warn: Callable[[str], None]
+) -> dict[str, np.ndarray]:
+    """The constant numeric primvars an instance's prototype inherits from the instance and its
+    ancestors (at ``frame``): one row each."""
+    reader = SampleReader(frame)
+    result = {}
+    for primvar in UsdGeom.PrimvarsAPI(instance).FindPrimvarsWithInheritance():
+        if primvar.GetInterpolation() != UsdGeom.Tokens.constant:
+            continue
+        values = numeric_primvar(primvar, reader, warn, str(instance.GetPath()))
+        if values is not None:
+            result[primvar.GetPrimvarName()] = values[:1]
+    return result
+
+
+def _primvar_names(mesh: Usd.Prim) -> set[str]:
+    """The primvars ``mesh`` has itself or inherits within its prototype."""
+    return {p.GetPrimvarName() for p in UsdGeom.PrimvarsAPI(mesh).FindPrimvarsWithInheritance()}
 
 
 def _held(matrices: np.ndarray, segments: int) -> np.ndarray:
