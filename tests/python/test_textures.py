@@ -315,3 +315,27 @@ def test_normal_maps_bend_the_shading_normal(tmp_path):
     assert radiance(None) == pytest.approx(flat, rel=0.01)  # the identity map changes nothing
     assert radiance(45.0) / flat == pytest.approx(math.sqrt(2), rel=0.03)
     assert radiance(-45.0) / flat < 0.05
+
+
+def srgb_to_linear(value: float) -> float:
+    return value / 12.92 if value <= 0.04045 else ((value + 0.055) / 1.055) ** 2.4
+
+
+@pytest.mark.parametrize(
+    "extension, srgb",
+    [("png", True), ("jpg", True), ("tif", True), ("tga", True), ("exr", False), ("hdr", False)],
+)
+def test_file_formats(tmp_path, extension, srgb):
+    # The quadrant texture in each format OIIO reads; 8-bit formats are sRGB-encoded under
+    # "auto", float ones are linear. JPEG is lossy: its tolerance covers the compression.
+    levels = {RED: (0.8, 0.2, 0.1), GREEN: (0.1, 0.6, 0.3), BLUE: (0.2, 0.3, 0.9), WHITE: (0.9,) * 3}
+    image = quadrants()
+    for key, value in levels.items():
+        image[np.all(image == np.float32(key), axis=2)] = value
+    stage, _ = textured_stage(write_texture(tmp_path / f"quadrants.{extension}", image))
+    rendered = render(stage)
+    tolerance = 0.03 if extension == "jpg" else 0.01
+    for (s, t), key in {(0.25, 0.75): RED, (0.75, 0.75): GREEN, (0.25, 0.25): BLUE,
+                        (0.75, 0.25): WHITE}.items():
+        expected = [srgb_to_linear(c) if srgb else c for c in levels[key]]
+        np.testing.assert_allclose(at(rendered, *st_to_xy(s, t)), expected, atol=tolerance)
