@@ -37,21 +37,23 @@ def sync_mesh_data(
     if not prim.IsA(UsdGeom.Mesh):
         return _sync_implicit(core, prim, path, reader)
     mesh = UsdGeom.Mesh(prim)
-    points = reader.get(mesh.GetPointsAttr())
-    counts = reader.get(mesh.GetFaceVertexCountsAttr())
-    indices = reader.get(mesh.GetFaceVertexIndicesAttr())
-    missing = [
-        name
-        for name, value in (
-            ("points", points),
-            ("faceVertexCounts", counts),
-            ("faceVertexIndices", indices),
-        )
-        if value is None or len(value) == 0
-    ]
+    arrays = {
+        "points": (mesh.GetPointsAttr(), _is_vec3_array),
+        "faceVertexCounts": (mesh.GetFaceVertexCountsAttr(), _is_int_array),
+        "faceVertexIndices": (mesh.GetFaceVertexIndicesAttr(), _is_int_array),
+    }
+    values = {}
+    for name, (attr, valid) in arrays.items():
+        value = reader.get(attr)
+        if value is not None and not valid(value):
+            warn(f"{path}: {name} has type {_value_type(value)}, which a mesh cannot use; skipped")
+            return False
+        values[name] = value
+    missing = [name for name, value in values.items() if value is None or len(value) == 0]
     if missing:
         warn(f"{path}: mesh has no {' and no '.join(missing)}; skipped")
         return False
+    points, counts, indices = values["points"], values["faceVertexCounts"], values["faceVertexIndices"]
 
     left_handed = reader.get(mesh.GetOrientationAttr()) == UsdGeom.Tokens.leftHanded
     scheme = reader.get(mesh.GetSubdivisionSchemeAttr()) or UsdGeom.Tokens.catmullClark
@@ -64,7 +66,7 @@ def sync_mesh_data(
         counts=counts,
         indices=indices,
         points=point_samples(mesh, at_frame, reader, warn, path),
-        normals=_normals(mesh, reader),
+        normals=_normals(mesh, reader, warn, path),
         left_handed=left_handed,
         scheme=str(scheme),
         primvars=_primvars(prim, reader, warn, path),
@@ -139,19 +141,46 @@ def _sync_implicit(core, prim: Usd.Prim, path: str, reader: SampleReader) -> boo
     return True
 
 
-def _normals(mesh: UsdGeom.Mesh, reader: SampleReader) -> tuple[np.ndarray, str]:
+# Attributes authored with another type than the schema's keep their authored type: check it.
+
+
+def _is_vec3_array(value) -> bool:
+    """Whether ``value`` is an array of 3-vectors (float or double)."""
+    array = np.asarray(value)
+    return array.ndim == 2 and array.shape[1] == 3 and array.dtype.kind == "f"
+
+
+def _is_int_array(value) -> bool:
+    array = np.asarray(value)
+    return array.ndim == 1 and array.dtype.kind in "iu"
+
+
+def _value_type(value) -> str:
+    """The authored type of ``value`` as USD's Python bindings name it (Vt.IntArray: IntArray)."""
+    return type(value).__name__
+
+
+def _normals(
+    mesh: UsdGeom.Mesh, reader: SampleReader, warn: Callable[[str], None], path: str
+) -> tuple[np.ndarray, str]:
     """Authored shading normals (``primvars:normals`` wins over ``normals``, as in USD) and their
-    interpolation; no values when none are authored or the mesh is subdivided (its limit
-    normals are used then)."""
+    interpolation; no values when none are authored, when they are not an array of 3-vectors
+    (with a warning), or when the mesh is subdivided (its limit normals are used then)."""
+    none = np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.vertex
     if reader.get(mesh.GetSubdivisionSchemeAttr()) not in (None, UsdGeom.Tokens.none):
-        return np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.vertex
+        return none
     primvar = UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetPrimvar(UsdGeom.Tokens.normals)
     if primvar and primvar.HasValue():
-        values, interpolation = reader.flattened_primvar(primvar), primvar.GetInterpolation()
+        attr, interpolation = primvar.GetAttr(), primvar.GetInterpolation()
+        values = reader.flattened_primvar(primvar)
     else:
-        values, interpolation = reader.get(mesh.GetNormalsAttr()), mesh.GetNormalsInterpolation()
-    if values is None or len(values) == 0:
-        return np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.vertex
+        attr, interpolation = mesh.GetNormalsAttr(), mesh.GetNormalsInterpolation()
+        values = reader.get(attr)
+    if values is None or len(np.asarray(values).reshape(-1)) == 0:
+        return none
+    if not _is_vec3_array(values):
+        warn(f"{path}: normals have type {_value_type(values)}, not 3-vectors; the mesh is shaded flat")
+        return none
     return np.asarray(values, dtype=np.float32).reshape(-1, 3), str(interpolation)
 
 
