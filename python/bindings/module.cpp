@@ -125,7 +125,16 @@ void readDict(const std::string& where, const py::dict& dict,
     const std::string name = py::str(key);
     if (std::none_of(keys.begin(), keys.end(), [&](const char* k) { return name == k; }))
       throw std::invalid_argument(where + ": unknown key '" + name + "'");
-    read(name, value);
+    try {
+      read(name, value);
+    } catch (const py::cast_error&) {
+      throw std::invalid_argument(where + "." + name + " has the wrong type");
+    } catch (const std::invalid_argument& error) {
+      const std::string message = error.what();
+      // Token parsers do not know where they are; say it.
+      if (message.rfind(where, 0) == 0) throw;
+      throw std::invalid_argument(where + "." + name + ": " + message);
+    }
   }
 }
 

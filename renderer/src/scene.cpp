@@ -204,9 +204,18 @@ void Scene::filterHits(const RTCFilterFunctionNArguments* args) {
     const float time = RTCRayN_time(args->ray, args->N, i);
     for (int corner = 0; corner < 3; ++corner)
       point.corners[corner] = point.mesh->cornerAt(point.triangle, corner, time);
+    context->scene->attachInstancePrimvars(RTCHitN_instID(args->hit, args->N, i, 0), &point);
     if (evaluateOpacity(*material, *context->scene->textures_, point) <
         material->constants.opacityThreshold)
       args->valid[i] = 0;
+  }
+}
+
+void Scene::attachInstancePrimvars(unsigned geomId, SurfacePoint* point) const {
+  const Placement& placement = *placements_[geomId];
+  if (placement.instancer && !placement.instancer->primvars.empty()) {
+    point->instancePrimvars = &placement.instancer->primvars;
+    point->instance = placement.copy;
   }
 }
 
@@ -322,6 +331,7 @@ void Scene::setInstances(InstancerId id, MeshId prototype, std::vector<MotionTra
   }
   copies.prototype = prototype;
   copies.visible = visible;
+  if (transforms.size() != copies.copies.size()) copies.primvars.clear();  // one value per copy
   // Reuse the Embree geometries already there; create or drop the difference.
   while (copies.copies.size() > transforms.size()) {
     releasePlacement(copies.copies.back());
@@ -429,10 +439,7 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
       hit.shadingNormal = normalize(interpolated);
   }
   hit.closed = data.closed;
-  if (placement.instancer && !placement.instancer->primvars.empty()) {
-    point.instancePrimvars = &placement.instancer->primvars;
-    point.instance = placement.copy;
-  }
+  attachInstancePrimvars(rayHit.hit.instID[0], &point);
   if (const Material* material = materialOf(mesh)) {
     if (material->varies()) {
       point.normal = hit.normal;
@@ -443,6 +450,9 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
     } else {
       hit.material = material->constants;
     }
+    // With a threshold, opacity decides presence (the filter cut out what is below it); what
+    // remains is opaque, not translucent (UsdPreviewSurface spec).
+    if (hit.material.opacityThreshold > 0) hit.material.opacity = 1;
   } else {
     hit.material = fallbackSurface();
     float value[4];

@@ -34,11 +34,16 @@ Vec2f barycentricStep(const Vec3f& e1, const Vec3f& e2, const Vec3f& dp) {
   return {(g22 * p1 - g12 * p2) / determinant, (g11 * p2 - g12 * p1) / determinant};
 }
 
-/// The copy's own value of primvar `name`, if it has one.
-const Primvar* instancePrimvar(const SurfacePoint& point, const std::string& name) {
+/// The copy's own value of primvar `name`, if it has one (NaN marks copies without one).
+const float* instanceValue(const SurfacePoint& point, const std::string& name, int* width) {
   if (!point.instancePrimvars) return nullptr;
   for (const Primvar& primvar : *point.instancePrimvars)
-    if (primvar.name == name) return &primvar;
+    if (primvar.name == name) {
+      const float* value = &primvar.values[point.instance * size_t(primvar.width)];
+      if (std::isnan(value[0])) return nullptr;
+      *width = primvar.width;
+      return value;
+    }
   return nullptr;
 }
 
@@ -48,11 +53,11 @@ CoordinatesAt coordinatesAt(const TextureCoordinates& coordinates, const Surface
     result.footprint.st = coordinates.apply(coordinates.fallback);
     return result;
   }
-  if (const Primvar* copy = instancePrimvar(point, coordinates.primvar)) {
+  int width = 0;
+  if (const float* value = instanceValue(point, coordinates.primvar, &width)) {
     // One value per copy: constant over the surface.
-    const float* value = &copy->values[point.instance * size_t(copy->width)];
     result.footprint.st =
-        coordinates.apply(copy->width >= 2 ? Vec2f{value[0], value[1]} : coordinates.fallback);
+        coordinates.apply(width >= 2 ? Vec2f{value[0], value[1]} : coordinates.fallback);
     return result;
   }
   const Primvar* primvar = point.mesh->findPrimvar(coordinates.primvar);
@@ -193,10 +198,8 @@ Vec3f applyNormalMap(const Vec3f& normal, const Vec3f& mapped, const Coordinates
 }  // namespace
 
 bool primvarAt(const SurfacePoint& point, const std::string& name, float value[4], int* width) {
-  if (const Primvar* copy = instancePrimvar(point, name)) {
-    const float* own = &copy->values[point.instance * size_t(copy->width)];
-    std::copy(own, own + copy->width, value);
-    *width = copy->width;
+  if (const float* own = instanceValue(point, name, width)) {
+    std::copy(own, own + *width, value);
     return true;
   }
   const TriangleMesh& mesh = *point.mesh;

@@ -2,6 +2,8 @@
 // cut-outs decided per hit.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
 #include "penumbra/shading.h"
@@ -225,4 +227,26 @@ TEST(Render, PerInstancePrimvarsOverrideThePrototypes) {
   EXPECT_NEAR(colorAt(emissive, -1).y, 2.0f, 1e-5f);
   RenderPass emissiveRight(delegate, "/cam", 40, 40);
   EXPECT_NEAR(colorAt(emissiveRight, 1).y, 3.0f, 1e-5f);
+
+  // A copy whose value is NaN has none of its own: the prototype's applies.
+  const float none = std::numeric_limits<float>::quiet_NaN();
+  delegate.instancer("/copies").setPrimvars({{"heat", {none, 3}, 1, Interpolation::Vertex}});
+  RenderPass partial(delegate, "/cam", 40, 40);
+  EXPECT_NEAR(colorAt(partial, -1).y, 0.25f, 1e-6f);
+
+  // Cut-outs see the copy's own values too (for every ray: the hit filter).
+  delegate.material("/glow").setParam("opacityThreshold", 0.5f);
+  plugin::InputSource keep;
+  keep.primvar = "keep";
+  keep.fallback = {1, 1, 1};
+  delegate.material("/glow").connect("opacity", keep);
+  delegate.instancer("/copies").setPrimvars({{"keep", {0, 1}, 1, Interpolation::Vertex}});
+  RenderPass cut(delegate, "/cam", 40, 40);
+  cut.execute(4);
+  const std::vector<float> rgba = cut.aov("color");
+  const auto alphaAt = [&](float x) {
+    return rgba[4 * size_t(20 * 40 + int((x + 2) / 4 * 40)) + 3];
+  };
+  EXPECT_EQ(alphaAt(-1), 0.0f);
+  EXPECT_EQ(alphaAt(1), 1.0f);
 }

@@ -338,3 +338,63 @@ def test_per_instance_primvars_colour_each_copy():
     for x in (-1, 1):
         rgb = at(image, x, -1)[:3]
         assert rgb[1] > 0.05 and rgb[0] + rgb[2] < 0.01 * rgb[1], (x, rgb)
+
+
+def red_or_blue(rgb) -> str:
+    """Which of red, blue or neither (grey) a lit pixel shows."""
+    if rgb[0] > 10 * rgb[2]:
+        return "red"
+    if rgb[2] > 10 * rgb[0]:
+        return "blue"
+    return "grey"
+
+
+def test_per_instance_primvars_follow_usd_inheritance_and_time():
+    stage = new_stage()
+    add_camera(stage)
+    add_distant_light(stage)
+    add_quad(stage, "/Proto/tile", half_size=0.3)
+    UsdGeom.Xform.Define(stage, "/Pair")
+    inner = add_instance(stage, "/Pair/inner", "/Proto", (0.0, 0.0, 0.0))
+    for path in ("/Proto", "/Pair"):
+        stage.GetPrimAtPath(path).SetSpecifier(Sdf.SpecifierClass)
+    red = [Gf.Vec3f(1, 0, 0)]
+
+    def color(prim, value, time=None, interpolation=UsdGeom.Tokens.constant):
+        primvar = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(
+            "displayColor", Sdf.ValueTypeNames.Color3fArray, interpolation
+        )
+        primvar.Set(value) if time is None else primvar.Set(value, time)
+
+    # Only one of two instances authors a colour: the other keeps the mesh's grey.
+    a = add_instance(stage, "/World/a", "/Proto", (-1.0, 1.0, 0.0))
+    add_instance(stage, "/World/b", "/Proto", (1.0, 1.0, 0.0))
+    color(a, red)
+    # A colour on an instance nested in a prototype reaches its copies.
+    color(inner, red)
+    add_instance(stage, "/World/pair", "/Pair", (-1.0, -1.0, 0.0))
+    # A point instancer's per-instance colour may be animated; its constant primvar does not
+    # override the prototype mesh's own colour (which is nearer).
+    add_quad(stage, "/World/scatter/protos/tile", half_size=0.3)
+    color(stage.GetPrimAtPath("/World/scatter/protos/tile"), [Gf.Vec3f(0, 0, 1)])
+    instancer = UsdGeom.PointInstancer.Define(stage, "/World/scatter")
+    instancer.CreatePrototypesRel().SetTargets(["/World/scatter/protos/tile"])
+    instancer.CreateProtoIndicesAttr([0])
+    instancer.CreatePositionsAttr([Gf.Vec3f(1.0, -1.0, 0.0)])
+    UsdGeom.PrimvarsAPI(instancer).CreatePrimvar(
+        "displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant
+    ).Set(red)
+
+    renderer = penumbra.Renderer(stage)
+    image = renderer.render(**SMALL)
+    assert red_or_blue(at(image, -1, 1)[:3]) == "red"
+    assert red_or_blue(at(image, 1, 1)[:3]) == "grey"
+    assert red_or_blue(at(image, -1, -1)[:3]) == "red"
+    assert red_or_blue(at(image, 1, -1)[:3]) == "blue"
+
+    # Animated per-instance colour: the same renderer follows the time code.
+    color(instancer.GetPrim(), [Gf.Vec3f(1, 0, 0)], 1.0, UsdGeom.Tokens.vertex)
+    color(instancer.GetPrim(), [Gf.Vec3f(0, 0, 1)], 2.0, UsdGeom.Tokens.vertex)
+    UsdGeom.Mesh(stage.GetPrimAtPath("/World/scatter/protos/tile")).GetDisplayColorAttr().Clear()
+    assert red_or_blue(at(renderer.render(time=1.0, **SMALL), 1, -1)[:3]) == "red"
+    assert red_or_blue(at(renderer.render(time=2.0, **SMALL), 1, -1)[:3]) == "blue"

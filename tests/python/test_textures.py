@@ -236,9 +236,12 @@ def test_missing_texture_warns_and_uses_the_fallback(tmp_path):
 
 def test_textured_opacity_cuts_out_per_hit(tmp_path):
     # Alpha 0 on the left half of the texture: with opacityThreshold 0.5 the quad is cut out
-    # there, and the camera sees the default white dome (radiance 1) behind it.
+    # there, and the camera sees the default white dome (radiance 1) behind it. With a
+    # threshold, opacity is presence: the right half (alpha 0.75) is opaque, showing only its
+    # emission.
     rgba = np.ones((8, 8, 4), dtype=np.float32)
     rgba[:, :4, 3] = 0
+    rgba[:, 4:, 3] = 0.75  # above the threshold: fully present, not translucent
     stage, _ = textured_stage(
         write_texture(tmp_path / "mask.png", rgba),
         output="a",
@@ -339,3 +342,39 @@ def test_file_formats(tmp_path, extension, srgb):
                         (0.75, 0.25): WHITE}.items():
         expected = [srgb_to_linear(c) if srgb else c for c in levels[key]]
         np.testing.assert_allclose(at(rendered, *st_to_xy(s, t)), expected, atol=tolerance)
+
+
+@pytest.mark.parametrize(
+    "texture, message",
+    [
+        ({"wrapS": "periodic"}, "unknown wrap mode 'periodic'"),
+        ({"sourceColorSpace": "linear"}, "unknown sourceColorSpace 'linear'"),
+    ],
+)
+def test_malformed_networks_warn_and_keep_the_constants(tmp_path, texture, message):
+    stage, _ = textured_stage(write_texture(tmp_path / "q.png", quadrants()), texture=texture)
+    with pytest.warns(penumbra.PenumbraWarning, match=f"/World/Looks/textured.*{message}"):
+        image = render(stage)
+    np.testing.assert_allclose(at(image, 0, 0), (0.0, 0.0, 0.0), atol=0.01)  # no emission
+
+
+def test_malformed_values_warn_and_keep_the_default(tmp_path):
+    stage, tex = textured_stage(write_texture(tmp_path / "q.png", quadrants()))
+    tex.CreateInput("scale", Sdf.ValueTypeNames.Float).Set(2.0)  # UsdUVTexture's scale is float4
+    with pytest.warns(penumbra.PenumbraWarning, match="/World/Looks/textured"):
+        image = render(stage)
+    np.testing.assert_allclose(at(image, 0, 0), (0.0, 0.0, 0.0), atol=0.01)
+
+
+def test_edits_through_a_node_graph_interface_re_render(tmp_path):
+    red = write_texture(tmp_path / "red.png", np.tile(np.float32(RED), (4, 4, 1)))
+    blue = write_texture(tmp_path / "blue.png", np.tile(np.float32(BLUE), (4, 4, 1)))
+    stage, tex = textured_stage(red)
+    graph = UsdShade.NodeGraph.Define(stage, "/World/Looks/textured/Graph")
+    file_input = graph.CreateInput("texfile", Sdf.ValueTypeNames.Asset)
+    file_input.Set(Sdf.AssetPath(str(red)))
+    tex.GetInput("file").ConnectToSource(file_input)
+    renderer = penumbra.Renderer(stage)
+    np.testing.assert_allclose(at(renderer.render(camera="/cam", width=40, samples=4)["color"], 0, 0), RED, atol=0.01)
+    file_input.Set(Sdf.AssetPath(str(blue)))
+    np.testing.assert_allclose(at(renderer.render(camera="/cam", width=40, samples=4)["color"], 0, 0), BLUE, atol=0.01)

@@ -38,7 +38,7 @@ import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade
 
 from .implicit import is_implicit
-from .material import bound_material, read_material
+from .material import bound_material, push_material, read_material
 from .mesh import numeric_primvar, sync_mesh_data
 from .motion import ACCELERATION_SEGMENTS, XformCaches, transform_samples
 from .sampling import SampleReader, Shutter, changes_within, transform_might_vary
@@ -73,6 +73,38 @@ def nest_primvars(
         {name: np.tile(values, (outer_count,) + (1,) * (values.ndim - 1)) for name, values in inner.items()}
     )
     return nested
+
+
+def inherited_primvars(
+    prim: Usd.Prim, reader: SampleReader, warn: Callable[[str], None]
+) -> dict[str, np.ndarray]:
+    """The constant numeric primvars that what is below ``prim`` (an instance) inherits from it
+    and its ancestors: one row each."""
+    result = {}
+    for primvar in UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance():
+        if primvar.GetInterpolation() != UsdGeom.Tokens.constant:
+            continue
+        values = numeric_primvar(primvar, reader, warn, str(prim.GetPath()))
+        if values is not None:
+            result[primvar.GetPrimvarName()] = values[:1]
+    return result
+
+
+def primvar_names(mesh: Usd.Prim) -> set[str]:
+    """The primvars ``mesh`` has itself or inherits within its prototype."""
+    return {p.GetPrimvarName() for p in UsdGeom.PrimvarsAPI(mesh).FindPrimvarsWithInheritance()}
+
+
+def outer_primvars(
+    inherited: dict[str, np.ndarray], per_copy: dict[str, np.ndarray], mesh: Usd.Prim, count: int
+) -> dict[str, np.ndarray]:
+    """Primvars of ``count`` copies of ``mesh`` from what encloses them: ``inherited`` (one row,
+    which the mesh's own primvars of the same name override, being nearer) under ``per_copy``
+    (one row per copy, which override the mesh's)."""
+    own = primvar_names(mesh) if inherited else set()
+    result = {n: np.repeat(v, count, axis=0) for n, v in inherited.items() if n not in own}
+    result.update(per_copy)
+    return result
 
 
 def combine_segments(a: int, b: int, limit: int) -> int:
@@ -225,13 +257,18 @@ class Flattener:
         prototype = instance.GetPrototype()
         placement = self.relative(instance, root, segments)
         purpose = _authored_purpose(instance, root.GetParent())
+        reader = SampleReader(self.shutter.frame)
+        inherited = inherited_primvars(instance, reader, self.warn)
+        self.varying |= reader.varying
         for leaf in self.expand(prototype, segments):
             yield Leaf(
                 leaf.mesh,
                 leaf.proxy.ReplacePrefix(prototype.GetPath(), instance.GetPath()),
                 leaf.purpose or purpose,
                 leaf.transforms @ placement,
-                leaf.primvars,
+                nest_primvars(
+                    outer_primvars(inherited, {}, leaf.mesh, 1), leaf.primvars, 1, len(leaf.transforms)
+                ),
             )
 
     def point_instancer_leaves(self, prim: Usd.Prim, root: Usd.Prim, segments: int) -> Iterator[Leaf]:
@@ -241,7 +278,7 @@ class Flattener:
         if not copies:
             return
         placement = self.relative(prim, root, segments)
-        for prototype, transforms, primvars in copies:
+        for prototype, transforms, primvars, inherited in copies:
             between = list(_up_to(prototype.GetParent(), prim))
             if any(_invisible(p, self) for p in between):
                 continue
@@ -255,14 +292,20 @@ class Flattener:
                     leaf.proxy,
                     leaf.purpose or purpose,
                     composed.reshape(count * inner, samples, 4, 4) @ placement,
-                    nest_primvars(primvars, leaf.primvars, count, inner),
+                    nest_primvars(
+                        outer_primvars(inherited, primvars, leaf.mesh, count),
+                        leaf.primvars,
+                        count,
+                        inner,
+                    ),
                 )
 
     def point_instancer_copies(
         self, prim: Usd.Prim, segments: int
-    ) -> list[tuple[Usd.Prim, np.ndarray, dict[str, np.ndarray]]]:
+    ) -> list[tuple[Usd.Prim, np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]]:
         """(prototype root, (N, K, 4, 4) copy transforms relative to the instancer, per-copy
-        primvars) for each prototype with visible copies; K = 1 unless the copies move."""
+        primvars, inherited primvars) for each prototype with visible copies; K = 1 unless the
+        copies move."""
         instancer = UsdGeom.PointInstancer(prim)
         path = prim.GetPath()
         frame = self.shutter.frame
@@ -294,7 +337,7 @@ class Flattener:
             local = self._default_valued_motion(instancer, local, times)
         mask = instancer.ComputeMaskAtTime(frame)
         keep = np.asarray(mask, dtype=bool) if mask else np.ones(len(indices), dtype=bool)
-        primvars = self._instance_primvars(instancer, len(indices))
+        primvars, inherited = self._instance_primvars(instancer, len(indices))
         copies = []
         for index, prototype_path in enumerate(prototypes):
             root = self.stage.GetPrimAtPath(prototype_path)
@@ -304,37 +347,32 @@ class Flattener:
             self.roots.add(prototype_path)
             chosen = keep & (indices == index)
             if chosen.any():
-                copies.append(
-                    (root, local[chosen], {name: v[chosen] for name, v in primvars.items()})
-                )
+                per_copy = {name: v[chosen] for name, v in primvars.items()}
+                copies.append((root, local[chosen], per_copy, inherited))
         return copies
 
     def _instance_primvars(
         self, instancer: UsdGeom.PointInstancer, count: int
-    ) -> dict[str, np.ndarray]:
-        """The instancer's numeric primvars, one value per instance: vertex and varying ones
-        with one value per instance, constant ones repeated (UsdGeomPointInstancer's
-        per-instance primvars)."""
+    ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """The instancer's numeric primvars: (per instance, one value each: vertex and varying
+        ones, UsdGeomPointInstancer's per-instance primvars; inherited, one value: constant and
+        uniform ones, which prototypes inherit unless they author the name themselves)."""
         path = str(instancer.GetPath())
         reader = SampleReader(self.shutter.frame)
-        result = {}
+        per_copy, inherited = {}, {}
         for primvar in UsdGeom.PrimvarsAPI(instancer).GetPrimvarsWithValues():
-            interpolation = primvar.GetInterpolation()
-            if interpolation not in (UsdGeom.Tokens.constant, UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
-                continue
+            name, interpolation = primvar.GetPrimvarName(), primvar.GetInterpolation()
             values = numeric_primvar(primvar, reader, self.warn, path)
             if values is None:
                 continue
-            if interpolation == UsdGeom.Tokens.constant:
-                values = np.repeat(values[:1], count, axis=0)
-            elif len(values) != count:
-                self.warn(
-                    f"{path}: primvar {primvar.GetPrimvarName()} has {len(values)} values for "
-                    f"{count} instances; ignored"
-                )
-                continue
-            result[primvar.GetPrimvarName()] = values
-        return result
+            if interpolation in (UsdGeom.Tokens.constant, UsdGeom.Tokens.uniform):
+                inherited[name] = values[:1]
+            elif len(values) == count:
+                per_copy[name] = values
+            else:
+                self.warn(f"{path}: primvar {name} has {len(values)} values for {count} instances; ignored")
+        self.varying |= reader.varying
+        return per_copy, inherited
 
     def _default_valued_motion(
         self, instancer: UsdGeom.PointInstancer, local: np.ndarray, times: list[Usd.TimeCode]
@@ -499,13 +537,17 @@ class Group:
         return np.ascontiguousarray(stacked[:, 0] if samples == 1 else stacked)
 
     def stacked_primvars(self) -> dict[str, np.ndarray]:
-        """Per-copy primvars in the order of :meth:`stacked`; a primvar some copies lack is
-        left out (those copies would have no value to take)."""
-        names = set.intersection(*(set(p) for p in self.primvars)) if self.primvars else set()
-        return {
-            name: np.ascontiguousarray(np.concatenate([p[name] for p in self.primvars]))
-            for name in sorted(names)
-        }
+        """Per-copy primvars in the order of :meth:`stacked`; copies without a primvar others
+        have get NaN, which tells the delegate to use the mesh's own value for them."""
+        widths = {name: values.shape[1:] for part in self.primvars for name, values in part.items()}
+        stacked = {}
+        for name in sorted(widths):
+            rows = [
+                part.get(name, np.full((len(transforms),) + widths[name], np.nan, np.float32))
+                for part, transforms in zip(self.primvars, self.transforms)
+            ]
+            stacked[name] = np.ascontiguousarray(np.concatenate(rows), dtype=np.float32)
+        return stacked
 
 
 GroupKey = tuple[Sdf.Path, Sdf.Path | None]
@@ -622,6 +664,7 @@ class InstancedMeshes:
         self.core.set_visible(pushed.mesh_id, False)  # only its copies render
         if not pushed.usable:  # no copies of an unreadable mesh
             self.core.set_instances(pushed.instancer_id, pushed.mesh_id, np.empty((0, 4, 4)))
+            self.core.set_instance_primvars(pushed.instancer_id, {})
             pushed.digest = None
         pushed.material_id = None  # re-sent with the mesh
 
@@ -698,7 +741,7 @@ class _InstancerMaterials:
         if material not in self._ids:
             self.core.insert_sprim("material", material_id)
             self._ids[material] = material_id
-        self.core.set_material(material_id, data.params)
+        push_material(self.core, material_id, data, self.warn)
 
 
 @dataclass

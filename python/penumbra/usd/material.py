@@ -144,10 +144,15 @@ class _Network:
             self.warn(f"{where} cannot vary over the surface; the input keeps its default value")
             return None
         if shader_id == "UsdUVTexture":
-            texture = self.texture(shader)
-            if texture is None:
-                fallback = self.value(shader, "fallback") or (0.0, 0.0, 0.0, 1.0)
-                return _channels(fallback, output, name in _VECTOR_INPUTS)
+            try:
+                texture = self.texture(shader)
+                if texture is None:
+                    fallback = self.value(shader, "fallback") or (0.0, 0.0, 0.0, 1.0)
+                    return _channels(fallback, output, name in _VECTOR_INPUTS)
+            except (TypeError, ValueError, AttributeError) as error:
+                self.warn(f"{where}: cannot read the network of {shader.GetPath()} ({error}); "
+                          "the input keeps its default value")
+                return None
             return {"texture": texture, "output": output}
         if shader_id.startswith("UsdPrimvarReader_"):
             reader = self.primvar_reader(shader)
@@ -239,6 +244,8 @@ def _texture_file(file_input: UsdShade.Input | None, reader: SampleReader) -> st
     producers = file_input.GetValueProducingAttributes()
     attr = producers[0] if producers else file_input.GetAttr()
     asset = reader.get(attr)
+    if isinstance(asset, str):  # authored as a string rather than an asset path
+        asset = Sdf.AssetPath(asset)
     if not asset or not asset.path:
         return ""
     if asset.resolvedPath:
@@ -257,6 +264,17 @@ def _channels(values: Any, output: str, vector: bool) -> Any:
     index = "rgba".find(output)
     value = channels[index] if 0 <= index < len(channels) else 0.0
     return (value, value, value) if vector else value
+
+
+def push_material(core, material_id: str, data: MaterialData, warn: Callable[[str], None]) -> None:
+    """Send ``data`` to the delegate's material ``material_id``. A network the delegate rejects
+    (a token or value it cannot use) is reported, and the material keeps its constant inputs."""
+    try:
+        core.set_material(material_id, data.params)
+    except (TypeError, ValueError) as error:
+        warn(f"{error}; the material renders without its shader network")
+        constants = {k: v for k, v in data.params.items() if not isinstance(v, dict)}
+        core.set_material(material_id, constants)
 
 
 def read_material(
@@ -284,7 +302,8 @@ def read_material(
         )
         return None
 
-    data = MaterialData(sources={path, shader.GetPath()})
+    # Edits anywhere in the material (its shaders, node graphs, interface inputs) re-read it.
+    data = MaterialData(sources={p.GetPath() for p in Usd.PrimRange(prim)} | {shader.GetPath()})
     network = _Network(reader, data, warn)
     defaults = _schema_defaults()
     for name in (*INPUTS, "normal"):

@@ -39,9 +39,10 @@ from .instancers import (
     MaterialSource,
     combine_segments,
     group_leaves,
+    inherited_primvars,
     nest_primvars,
+    outer_primvars,
 )
-from .mesh import numeric_primvar
 from .sampling import SampleReader, Shutter, visibility_might_vary
 
 
@@ -165,12 +166,13 @@ class NativeInstancing:
                     for n in kept
                 )
         materials = _bound_materials(proxies)
+        reader = SampleReader(frame)
         inherited = {
-            path: _inherited_primvars(instance, frame, self.warn)
+            instance.GetPath(): inherited_primvars(instance, reader, self.warn)
             for instances in by_prototype.values()
             for instance, _, _ in instances
-            for path in [instance.GetPath()]
         }
+        flattener.varying |= reader.varying
         groups: dict[GroupKey, Group] = {}
         start = 0
         for leaf, transforms, kept_instances in pending:
@@ -178,41 +180,26 @@ class NativeInstancing:
             bound = materials[start : start + count]
             start += count
             copies_per_instance = len(leaf.transforms)
-            # The instances' own constant primvars reach the mesh unless it (or its ancestors in
-            # the prototype) authors the same name, which is nearer and wins.
-            nearer = _primvar_names(leaf.mesh)
             for material in dict.fromkeys(bound):
                 chosen = [n for n in range(count) if bound[n] == material]
-                selected = transforms[chosen]
-                own = [inherited[kept_instances[n]] for n in chosen]
-                names = set.intersection(*(set(values) for values in own)) - nearer
-                outer = {name: np.concatenate([values[name] for values in own]) for name in names}
-                primvars = nest_primvars(outer, leaf.primvars, len(chosen), copies_per_instance)
-                group_leaves(
-                    groups, leaf, material, selected.reshape(-1, *selected.shape[2:]), primvars
-                )
+                if not any(inherited[kept_instances[n]] for n in chosen):
+                    selected = transforms[chosen]
+                    primvars = nest_primvars({}, leaf.primvars, len(chosen), copies_per_instance)
+                    group_leaves(
+                        groups, leaf, material, selected.reshape(-1, *selected.shape[2:]), primvars
+                    )
+                    continue
+                # Each instance's own primvars reach its copies of the mesh (unless the mesh
+                # authors the name, nearer); the group fills in what some instances lack.
+                for n in chosen:
+                    primvars = nest_primvars(
+                        outer_primvars(inherited[kept_instances[n]], {}, leaf.mesh, 1),
+                        leaf.primvars,
+                        1,
+                        copies_per_instance,
+                    )
+                    group_leaves(groups, leaf, material, transforms[n], primvars)
         return groups
-
-
-def _inherited_primvars(
-    instance: Usd.Prim, frame: Usd.TimeCode, warn: Callable[[str], None]
-) -> dict[str, np.ndarray]:
-    """The constant numeric primvars an instance's prototype inherits from the instance and its
-    ancestors (at ``frame``): one row each."""
-    reader = SampleReader(frame)
-    result = {}
-    for primvar in UsdGeom.PrimvarsAPI(instance).FindPrimvarsWithInheritance():
-        if primvar.GetInterpolation() != UsdGeom.Tokens.constant:
-            continue
-        values = numeric_primvar(primvar, reader, warn, str(instance.GetPath()))
-        if values is not None:
-            result[primvar.GetPrimvarName()] = values[:1]
-    return result
-
-
-def _primvar_names(mesh: Usd.Prim) -> set[str]:
-    """The primvars ``mesh`` has itself or inherits within its prototype."""
-    return {p.GetPrimvarName() for p in UsdGeom.PrimvarsAPI(mesh).FindPrimvarsWithInheritance()}
 
 
 def _held(matrices: np.ndarray, segments: int) -> np.ndarray:

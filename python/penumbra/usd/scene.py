@@ -35,7 +35,7 @@ from ..errors import warn
 from .camera import sync_camera
 from .implicit import is_implicit
 from .lights import is_light, light_type, sync_light
-from .material import bound_material, has_subset_bindings, read_material
+from .material import bound_material, has_subset_bindings, push_material, read_material
 from .mesh import sync_mesh_data
 from .motion import XformCaches, transform_samples
 from .native_instancing import NativeInstancing
@@ -422,7 +422,7 @@ class SceneDelegate:
         if not material.in_core:
             self.core.insert_sprim("material", path_str)
             material.in_core = True
-        self.core.set_material(path_str, data.params)
+        push_material(self.core, path_str, data, self._warn)
 
 
 class _OnceWarner:

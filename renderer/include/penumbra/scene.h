@@ -14,6 +14,7 @@
 #include "penumbra/material.h"
 #include "penumbra/mesh.h"
 #include "penumbra/motion.h"
+#include "penumbra/shading.h"
 #include "penumbra/texture.h"
 
 namespace penumbra {
@@ -156,6 +157,8 @@ class Scene {
   /// Sets the triangles' hit filters: back-face culling for single-sided meshes, cut-outs where
   /// opacity is textured and thresholded.
   void updateHitFilters(MeshRecord& mesh);
+  /// Points `point` at the per-copy primvars of the placement `geomId`, if it is such a copy.
+  void attachInstancePrimvars(unsigned geomId, SurfacePoint* point) const;
   /// Embree hit filter (any hit, intersection and occlusion rays).
   static void filterHits(const RTCFilterFunctionNArguments* args);
   void updateAllPlacements(MeshId id);

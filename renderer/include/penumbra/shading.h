@@ -20,7 +20,8 @@ struct SurfacePoint {
   /// (zero: point-sampled lookups).
   Vec3f dpdx{0.0f}, dpdy{0.0f};
   /// For instancer copies: the instancer's per-copy primvars (one value per copy, overriding the
-  /// mesh's primvars of the same name) and this copy's index.
+  /// mesh's primvars of the same name; NaN as a copy's first value: it has none, the mesh's
+  /// applies) and this copy's index.
   const std::vector<Primvar>* instancePrimvars = nullptr;
   uint32_t instance = 0;
 };
