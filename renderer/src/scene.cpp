@@ -457,9 +457,11 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
     hit.material = fallbackSurface();
     float value[4];
     int width = 0;
-    if (primvarAt(point, "displayColor", value, &width) && width >= 3)
+    // Built once: these are looked up on every hit of a mesh without a material.
+    static const std::string displayColor = "displayColor", displayOpacity = "displayOpacity";
+    if (primvarAt(point, displayColor, value, &width) && width >= 3)
       hit.material.diffuseColor = {value[0], value[1], value[2]};
-    if (primvarAt(point, "displayOpacity", value, &width)) hit.material.opacity = value[0];
+    if (primvarAt(point, displayOpacity, value, &width)) hit.material.opacity = value[0];
   }
   hit.emission = hit.material.emissiveColor;
   if (mesh.lightIndex >= 0 && size_t(mesh.lightIndex) < lights_.size()) {
