@@ -19,6 +19,12 @@ extrapolates ``velocities``/``accelerations`` only from time-sampled positions a
 ``angularVelocities`` only from time-sampled orientations; for default-valued ones Penumbra
 moves and spins each copy itself (units per second, degrees per second: DESIGN §3).
 
+Per-instance primvars travel with the copies (:attr:`Leaf.primvars`, one row per copy): a point
+instancer's vertex/varying primvars and the constant primvars of instances and instancers, which
+the copied mesh inherits unless it authors the name itself. Nested levels compose outer-major,
+the inner (nearer) level winning; a copy lacking a primvar others in its group have gets NaN,
+which the delegate reads as "use the mesh's own".
+
 :class:`InstancedMeshes` pushes grouped copies to the delegate and, on later updates, only what
 changed (new or edited meshes, changed transforms). :class:`PointInstancerDelegate` mirrors the
 point instancers that are not inside native prototypes (those are flattened with their
