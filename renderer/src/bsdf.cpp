@@ -355,9 +355,8 @@ constexpr float kClearcoatF0 = 0.04f;  // ((1 − 1.5) / (1 + 1.5))², fixed by 
 
 }  // namespace
 
-PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& diffuseAlbedo,
-                                       const Vec3f& normal, float ior,
-                                       DielectricKind dielectricKind)
+PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& normal,
+                                       float ior, DielectricKind dielectricKind)
     : frame_(normal),
       opacity_(clamp01(material.opacity)),
       clearcoat_(clamp01(material.clearcoat)),
@@ -368,7 +367,7 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
                                            ? material.roughness
                                            : material.transmissionRoughness)),
       dielectricKind_(dielectricKind) {
-  const Vec3f albedo = clamp01(diffuseAlbedo);
+  const Vec3f albedo = clamp01(material.diffuseColor);
   if (material.useSpecularWorkflow) {
     specularF0_ = clamp01(material.specularColor);
     multipleScatteringScale_ = multipleScatteringScale(specularF0_, specularAlpha_);

@@ -95,7 +95,7 @@ PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
   if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
   material.diffuseColor = spectrum.reflectance(material.diffuseColor);
   // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
-  return PreviewSurfaceBsdf(material, material.diffuseColor, hit.shadingNormal, ior,
+  return PreviewSurfaceBsdf(material, hit.shadingNormal, ior,
                             hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet);
 }
 

@@ -38,7 +38,7 @@ MaterialParams glass(float roughness) {
 }
 
 PreviewSurfaceBsdf makeBsdf(const MaterialParams& m, DielectricKind kind = DielectricKind::Solid) {
-  return PreviewSurfaceBsdf(m, m.diffuseColor, kNormal, m.ior, kind);
+  return PreviewSurfaceBsdf(m, kNormal, m.ior, kind);
 }
 
 struct Albedo {

@@ -86,12 +86,10 @@ class PreviewSurfaceBsdf {
   /// are indistinguishable from mirrors at film resolution and overflow the microfacet density.
   static constexpr float kDeltaAlpha = 1e-3f;
 
-  /// `diffuseAlbedo` overrides material.diffuseColor (the integrator passes displayColor when no
-  /// material is bound). `normal`: unit shading normal on the side of the authored front face.
-  /// `ior`: the index of refraction to use instead of material.ior (wavelength-dependent under
-  /// dispersion, see dispersiveIor); it also sets F0 in the metallic workflow.
-  PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& diffuseAlbedo,
-                     const Vec3f& normal, float ior,
+  /// `normal`: unit shading normal on the side of the authored front face. `ior`: the index of
+  /// refraction to use instead of material.ior (wavelength-dependent under dispersion, see
+  /// dispersiveIor); it also sets F0 in the metallic workflow.
+  PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& normal, float ior,
                      DielectricKind dielectricKind = DielectricKind::Solid);
 
   /// f(wo, wi) · |cos θi| over the non-delta lobes. `diffusePart`, if given, receives the
