@@ -69,6 +69,15 @@ def add_quad(
     return mesh
 
 
+def add_instance(stage: Usd.Stage, path: str, prototype: str, translate=(0.0, 0.0, 0.0)) -> Usd.Prim:
+    """An instanceable Xform referencing ``prototype`` (a prim of the stage)."""
+    xform = UsdGeom.Xform.Define(stage, path)
+    xform.AddTranslateOp().Set(Gf.Vec3d(*translate))
+    xform.GetPrim().GetReferences().AddInternalReference(prototype)
+    xform.GetPrim().SetInstanceable(True)
+    return xform.GetPrim()
+
+
 def add_distant_light(stage: Usd.Stage, path: str = "/sun", intensity: float = 3.0):
     """A distant light shining along −Z (onto quads facing +Z); normalized, so that the
     irradiance of a surface facing it is ``intensity``."""

@@ -12,6 +12,7 @@ from stages import (
     CORNELL,
     add_camera,
     add_distant_light,
+    add_instance,
     add_preview_material,
     add_quad,
     bind,
@@ -219,10 +220,7 @@ def test_native_instances_render_copies_of_one_prototype_mesh():
     add_quad(stage, "/Prototypes/tile/quad", half_size=0.4)
     stage.GetPrimAtPath("/Prototypes").SetSpecifier(Sdf.SpecifierClass)
     for name, x in (("left", -1.0), ("right", 1.0)):
-        instance = UsdGeom.Xform.Define(stage, f"/World/{name}")
-        instance.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
-        instance.GetPrim().GetReferences().AddInternalReference("/Prototypes/tile")
-        instance.GetPrim().SetInstanceable(True)
+        add_instance(stage, f"/World/{name}", "/Prototypes/tile", (x, 0.0, 0.0))
     renderer = penumbra.Renderer(stage)
     image = renderer.render(**FAST)
     ids = set(renderer.delegate.prim_ids())

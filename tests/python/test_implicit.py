@@ -13,7 +13,15 @@ import penumbra
 from penumbra.usd import implicit
 from penumbra.usd.mesh import sync_mesh_data
 from penumbra.usd.sampling import SampleReader, Shutter
-from stages import add_camera, add_distant_light, add_preview_material, bind, new_stage, pixel
+from stages import (
+    add_camera,
+    add_distant_light,
+    add_instance,
+    add_preview_material,
+    bind,
+    new_stage,
+    pixel,
+)
 
 AXES = ("X", "Y", "Z")
 FROM_Z = {"X": [2, 0, 1], "Y": [1, 2, 0], "Z": [0, 1, 2]}  # axis coords = z-spine coords[perm]
@@ -341,10 +349,7 @@ def test_purpose_instance_proxies_and_point_instancer_prototypes():
     add_distant_light(stage)
     UsdGeom.Sphere.Define(stage, "/Proto/ball").CreateRadiusAttr(0.4)
     for name, x in (("left", -1.0), ("right", 1.0)):
-        instance = UsdGeom.Xform.Define(stage, f"/World/{name}")
-        instance.AddTranslateOp().Set(Gf.Vec3d(x, 1.0, 0.0))
-        instance.GetPrim().GetReferences().AddInternalReference("/Proto")
-        instance.GetPrim().SetInstanceable(True)
+        add_instance(stage, f"/World/{name}", "/Proto", (x, 1.0, 0.0))
     stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
     guide = UsdGeom.Cylinder.Define(stage, "/World/guide")
     guide.CreatePurposeAttr(UsdGeom.Tokens.guide)

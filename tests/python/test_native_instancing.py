@@ -15,6 +15,7 @@ import penumbra
 from penumbra.usd.instancers import spin_matrices
 from stages import (
     add_camera,
+    add_instance,
     add_distant_light,
     add_preview_material,
     add_quad,
@@ -34,15 +35,6 @@ def at(image, x: float, y: float) -> np.ndarray:
 
 def hidden_meshes(renderer: penumbra.Renderer) -> list[str]:
     return sorted(p for p in renderer.delegate.prim_ids() if p.startswith("/prototypes/"))
-
-
-def add_instance(stage: Usd.Stage, path: str, prototype: str, translate=(0.0, 0.0, 0.0)) -> Usd.Prim:
-    """An instanceable Xform referencing ``prototype`` (a class prim of the stage)."""
-    xform = UsdGeom.Xform.Define(stage, path)
-    xform.AddTranslateOp().Set(Gf.Vec3d(*translate))
-    xform.GetPrim().GetReferences().AddInternalReference(prototype)
-    xform.GetPrim().SetInstanceable(True)
-    return xform.GetPrim()
 
 
 def ball_grid_stage(instanceable: bool = True) -> Usd.Stage:
