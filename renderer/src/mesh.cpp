@@ -195,10 +195,14 @@ void TriangleMesh::interpolate(const Primvar& primvar, uint32_t triangle, float 
   }
 }
 
-const Primvar* TriangleMesh::findPrimvar(const std::string& name) const {
+const Primvar* findPrimvar(const std::vector<Primvar>& primvars, const std::string& name) {
   for (const Primvar& primvar : primvars)
     if (primvar.name == name) return &primvar;
   return nullptr;
+}
+
+const Primvar* TriangleMesh::findPrimvar(const std::string& name) const {
+  return penumbra::findPrimvar(primvars, name);
 }
 
 }  // namespace penumbra

@@ -36,15 +36,13 @@ Vec2f barycentricStep(const Vec3f& e1, const Vec3f& e2, const Vec3f& dp) {
 
 /// The copy's own value of primvar `name`, if it has one (NaN marks copies without one).
 const float* instanceValue(const SurfacePoint& point, const std::string& name, int* width) {
-  if (!point.instancePrimvars) return nullptr;
-  for (const Primvar& primvar : *point.instancePrimvars)
-    if (primvar.name == name) {
-      const float* value = &primvar.values[point.instance * size_t(primvar.width)];
-      if (std::isnan(value[0])) return nullptr;
-      *width = primvar.width;
-      return value;
-    }
-  return nullptr;
+  const Primvar* primvar =
+      point.instancePrimvars ? findPrimvar(*point.instancePrimvars, name) : nullptr;
+  if (!primvar) return nullptr;
+  const float* value = &primvar->values[point.instance * size_t(primvar->width)];
+  if (std::isnan(value[0])) return nullptr;
+  *width = primvar->width;
+  return value;
 }
 
 CoordinatesAt coordinatesAt(const TextureCoordinates& coordinates, const SurfacePoint& point) {

@@ -81,6 +81,9 @@ const char* interpolationName(Interpolation interpolation);
 /// How many values a primvar of this interpolation has on `mesh`.
 size_t primvarElementCount(Interpolation interpolation, const MeshData& mesh);
 
+/// The primvar named `name` in `primvars`, or null.
+const Primvar* findPrimvar(const std::vector<Primvar>& primvars, const std::string& name);
+
 /// Throws std::invalid_argument naming the primvar when its width or value count does not fit
 /// `mesh`.
 void validatePrimvar(const Primvar& primvar, const MeshData& mesh);
