@@ -188,7 +188,6 @@ class _Network:
         if not file:
             self.warn(f"{shader.GetPath()}: UsdUVTexture has no file; its fallback is used")
             return None
-        self.data.sources.add(shader.GetPath())
         texture: dict[str, Any] = {"file": file}
         for name in _TEXTURE_TOKENS:
             value = self.value(shader, name)
