@@ -420,10 +420,8 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
   point.u = rayHit.hit.u;
   point.v = rayHit.hit.v;
   Vec3f objectCorners[3];
-  for (int corner = 0; corner < 3; ++corner) {
+  for (int corner = 0; corner < 3; ++corner)
     objectCorners[corner] = data.cornerAt(point.triangle, corner, ray.time);
-    point.corners[corner] = objectToWorld.applyToPoint(objectCorners[corner]);
-  }
 
   SurfaceHit hit;
   hit.distance = rayHit.ray.tfar;
@@ -442,6 +440,9 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
   attachInstancePrimvars(rayHit.hit.instID[0], &point);
   if (const Material* material = materialOf(mesh)) {
     if (material->varies()) {
+      // Texture footprints and tangent frames need the triangle in world space.
+      for (int corner = 0; corner < 3; ++corner)
+        point.corners[corner] = objectToWorld.applyToPoint(objectCorners[corner]);
       point.normal = hit.normal;
       point.shadingNormal = hit.shadingNormal;
       footprintOnSurface(ray.direction, hit.normal, cone.radiusAt(hit.distance), &point.dpdx,
