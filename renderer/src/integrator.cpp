@@ -26,16 +26,21 @@ struct ScatteringRecord {
   float pdf = 0;  // solid-angle density of a non-delta BSDF sample; 0: no MIS
   bool fromSurface = false;
   bool diffuse = false;  // which light multiplier (diffuse or specular) applies
+  Receiver receiver;     // the surface it left, as next-event estimation saw it there
 };
 
-/// MIS weight of a BSDF-sampled ray that met a light (`lightPdf`: its light-sampling density).
-float bsdfStrategyWeight(const ScatteringRecord& origin, float lightPdf, DirectLighting mode) {
+/// MIS weight of a BSDF-sampled ray that met light `index` (`lightPdf`: the density of sampling
+/// that point of the light once chosen).
+float bsdfStrategyWeight(const Scene& scene, const ScatteringRecord& origin, size_t index,
+                         float lightPdf, DirectLighting mode) {
   if (origin.pdf <= 0) return 1;  // camera rays and delta lobes: light sampling cannot find these
   switch (mode) {
     case DirectLighting::MultipleImportance:
-      return powerHeuristic(origin.pdf, lightPdf);
+      return powerHeuristic(origin.pdf,
+                            scene.lightSampler().probability(origin.receiver, index) * lightPdf);
     case DirectLighting::LightSamplingOnly:
-      return lightPdf > 0 ? 0.0f : 1.0f;
+      return scene.lightSampler().probability(origin.receiver, index) * lightPdf > 0 ? 0.0f
+                                                                                     : 1.0f;
     case DirectLighting::BsdfSamplingOnly:
       return 1;
   }
@@ -50,28 +55,26 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
   const std::vector<Light>& lights = scene.lights();
   Vec3f total{0.0f};
   float nearest = kInfinity;
-  for (size_t i = 0; i < lights.size(); ++i) {
-    const Light& light = lights[i];
-    std::optional<LightHit> hit;
-    if (light.isInfinite()) {
-      if (escaped) hit = light.escaped(ray.direction);
-    } else {
-      hit = light.intersect(ray.origin, ray.direction, tMax);
-    }
-    if (!hit) continue;
+  const auto add = [&](uint32_t index, const LightHit& hit) {
+    const Light& light = lights[index];
     // Light surfaces may overlap; each contributes, and the nearest defines depth. A visible
     // light (the dome too) makes the pixel opaque.
-    nearest = std::min(nearest, hit->distance);
-    if (sawLight) *sawLight = true;
-    const float lightPdf = scene.lightSelection().probability(i) * hit->pdf;
-    const float weight = bsdfStrategyWeight(origin, lightPdf, mode);
+    nearest = std::min(nearest, hit.distance);
+    *sawLight = true;
+    const float weight = bsdfStrategyWeight(scene, origin, index, hit.pdf, mode);
     // Camera rays see lights as they are; reflected light is scaled by the lobe's multiplier.
     const float multiplier = !origin.fromSurface ? 1.0f
                              : origin.diffuse    ? light.diffuseMultiplier()
                                                  : light.specularMultiplier();
-    total += spectrum.emission(hit->radiance) * (weight * multiplier);
-  }
-  if (nearestLight) *nearestLight = nearest;
+    total += spectrum.emission(hit.radiance) * (weight * multiplier);
+  };
+  scene.forEachLightHit(ray, tMax, add);
+  if (escaped)
+    for (const uint32_t index : scene.infiniteLights())
+      if (const std::optional<LightHit> hit =
+              lights[index].escaped(ray.direction, origin.receiver.normal))
+        add(index, *hit);
+  *nearestLight = nearest;
   return total;
 }
 
@@ -143,9 +146,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       float weight = 1;
       if (hit->lightIndex >= 0) {
         const size_t index = size_t(hit->lightIndex);
-        const float lightPdf = scene.lightSelection().probability(index) *
-                               lights[index].meshPdf(ray.origin, hit->position, hit->normal);
-        weight = bsdfStrategyWeight(scattering, lightPdf, settings.directLighting);
+        weight = bsdfStrategyWeight(scene, scattering, index,
+                                    lights[index].meshPdf(ray.origin, hit->position, hit->normal),
+                                    settings.directLighting);
         if (scattering.fromSurface)
           weight *= scattering.diffuse ? lights[index].diffuseMultiplier()
                                        : lights[index].specularMultiplier();
@@ -163,14 +166,23 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     }
     const PreviewSurfaceBsdf bsdf = makeBsdf(*hit, spectrum, ior);
 
-    // Next-event estimation: one light, chosen by power, sampled over its area/solid angle.
+    // Next-event estimation: one light, chosen by its estimated contribution here (lights on
+    // the surface's front and back count for translucent surfaces), sampled over its area or
+    // solid angle.
     const float lightChoice = sampler.next1D();
     const Vec2f lightSample = sampler.next2D();
-    if (!lights.empty() && !bsdf.isPurelySpecular() &&
-        settings.directLighting != DirectLighting::BsdfSamplingOnly) {
-      const size_t index = scene.lightSelection().sampleIndex(lightChoice);
+    const Vec3f facingNormal =
+        dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
+    const Receiver receiver{hit->position, bsdf.hasTransmission() ? Vec3f() : facingNormal};
+    const std::optional<LightSampler::Choice> choice =
+        !bsdf.isPurelySpecular() && settings.directLighting != DirectLighting::BsdfSamplingOnly
+            ? scene.lightSampler().sample(receiver, lightChoice)
+            : std::nullopt;
+    if (choice) {
+      const size_t index = choice->index;
       const Light& light = lights[index];
-      const std::optional<LightSample> sample = light.sample(hit->position, lightSample);
+      const std::optional<LightSample> sample =
+          light.sample(hit->position, lightSample, receiver.normal);
       Vec3f diffusePart;
       const Vec3f f = sample && sample->pdf > 0 ? bsdf.evaluate(wo, sample->direction, &diffusePart)
                                                 : Vec3f(0.0f);
@@ -179,7 +191,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
             std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
         if (!light.castsShadows() ||
             !scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time))) {
-          const float lightPdf = scene.lightSelection().probability(index) * sample->pdf;
+          const float lightPdf = choice->probability * sample->pdf;
           const float weight =
               sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
                   ? 1.0f
@@ -205,7 +217,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       break;
     throughput *= scattered->weight;
     scattering = {scattered->isDelta ? 0.0f : scattered->pdf, true,
-                  scattered->lobe == BsdfLobe::Diffuse};
+                  scattered->lobe == BsdfLobe::Diffuse, receiver};
     int& lobeBounces = scattered->lobe == BsdfLobe::Diffuse        ? diffuseBounces
                        : scattered->lobe == BsdfLobe::Transmission ? transmissionBounces
                                                                    : glossyBounces;

@@ -235,7 +235,7 @@ float Light::solidAnglePdfFromArea(const Vec3f& point, const Vec3f& lightPoint,
   return cosLight > 0 ? areaDensity * distance2 / cosLight : 0.0f;
 }
 
-std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u) const {
+std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3f& normal) const {
   LightSample result;
   Vec3f lightPoint, lightNormal;
   float areaDensity = 1 / area_;
@@ -327,10 +327,18 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u) const {
         if (!(density > 0) || !(sinPolar > 0)) return std::nullopt;
         result.radiance = radiance_ * params_.texture->lookup(uv);
         result.pdf = density / (2 * kPi * kPi * sinPolar);
-      } else {
+      } else if (isBlack(normal)) {
         result.direction = sampleUniformSphere(u);
         result.radiance = radiance_;
         result.pdf = 1 / (4 * kPi);
+      } else {
+        // A constant sky seen from a surface: cosine-weighted directions make the estimate of
+        // its (unoccluded) irradiance exact.
+        const Vec3f local = sampleCosineHemisphere(u);
+        if (!(local.z > 0)) return std::nullopt;
+        result.direction = normalize(Frame(normal).toWorld(local));
+        result.radiance = radiance_;
+        result.pdf = local.z * kInvPi;
       }
       return result;
   }
@@ -437,13 +445,13 @@ std::optional<LightHit> Light::intersect(const Vec3f& origin, const Vec3f& direc
   return hit;
 }
 
-std::optional<LightHit> Light::escaped(const Vec3f& direction) const {
+std::optional<LightHit> Light::escaped(const Vec3f& direction, const Vec3f& normal) const {
   if (!isInfinite() || isDelta()) return std::nullopt;
   LightHit hit;
   hit.distance = kInfinity;
   hit.radiance = radiance_;
   if (params_.type == LightType::Dome) {
-    hit.pdf = 1 / (4 * kPi);
+    hit.pdf = isBlack(normal) ? 1 / (4 * kPi) : std::max(0.0f, dot(direction, normal)) * kInvPi;
     if (params_.texture) {
       float sinPolar = 0;
       const Vec2f uv = domeUV(direction, &sinPolar);
@@ -463,29 +471,142 @@ float Light::meshPdf(const Vec3f& origin, const Vec3f& point, const Vec3f& norma
   return solidAnglePdfFromArea(origin, point, normal, 1 / area_);
 }
 
-float Light::power(float sceneRadius) const {
+LightBounds Light::bounds() const {
+  LightBounds bounds;
   const Vec3f mean = params_.texture ? radiance_ * params_.texture->average() : radiance_;
   const float radianceLuminance = std::max(0.0f, luminance(mean));
-  const float crossSection = kPi * sceneRadius * sceneRadius;
+  const auto include = [&bounds](const Vec3f& p) {
+    bounds.lower = {std::min(bounds.lower.x, p.x), std::min(bounds.lower.y, p.y),
+                    std::min(bounds.lower.z, p.z)};
+    bounds.upper = {std::max(bounds.upper.x, p.x), std::max(bounds.upper.y, p.y),
+                    std::max(bounds.upper.z, p.z)};
+  };
+  bounds.cosThetaO = -1;  // emits every way, unless one-sided below
   switch (params_.type) {
-    case LightType::Sphere:
-      if (params_.treatAsPoint) return radianceLuminance * 4 * kPi * kPi * radius_ * radius_;
-      return radianceLuminance * area_ * kPi;
     case LightType::Rect:
     case LightType::Disk:
+      // Disks: the parallelogram of their semi-axes holds them.
+      for (const float a : {-1.0f, 1.0f})
+        for (const float b : {-1.0f, 1.0f})
+          include(center_ + edgeU_ * (params_.type == LightType::Rect ? 0.5f * a : a) +
+                  edgeV_ * (params_.type == LightType::Rect ? 0.5f * b : b));
+      bounds.power = radianceLuminance * area_;
+      bounds.axis = normal_;
+      bounds.cosThetaO = 1;
+      break;
+    case LightType::Sphere:
+      include(center_ - Vec3f(radius_));
+      include(center_ + Vec3f(radius_));
+      bounds.power = radianceLuminance * kPi * radius_ * radius_;
+      break;
     case LightType::Cylinder:
+      for (const float end : {-0.5f, 0.5f}) {
+        include(center_ + edgeU_ * end - Vec3f(radius_));
+        include(center_ + edgeU_ * end + Vec3f(radius_));
+      }
+      bounds.power = radianceLuminance * 2 * radius_ * length(edgeU_);
+      break;
     case LightType::Mesh:
-      return radianceLuminance * area_ * kPi;
-    case LightType::Distant: {
-      const float irradiance =
-          isDelta() ? radianceLuminance
-                    : radianceLuminance * kPi * oneMinusCosHalfAngle_ * (1 + cosHalfAngle_);
-      return irradiance * crossSection;
-    }
+      for (const Vec3f& corner : *params_.meshTriangles) include(corner);
+      bounds.power = radianceLuminance * area_;
+      break;
+    case LightType::Distant:
     case LightType::Dome:
-      return radianceLuminance * kPi * 4 * crossSection;
+      break;  // infinite lights are not in the tree
   }
-  return 0;
+  return bounds;
+}
+
+float Light::irradiance() const {
+  const Vec3f mean = params_.texture ? radiance_ * params_.texture->average() : radiance_;
+  const float radianceLuminance = std::max(0.0f, luminance(mean));
+  if (params_.type == LightType::Dome) return kPi * radianceLuminance;
+  if (params_.type == LightType::Distant && !isDelta())
+    return radianceLuminance * kPi * oneMinusCosHalfAngle_ * (1 + cosHalfAngle_);
+  return radianceLuminance;
+}
+
+namespace {
+
+/// cos(max(0, a - b)) from the cosines and sines of angles a, b in [0, π].
+float cosOfClampedDifference(float cosA, float sinA, float cosB, float sinB) {
+  if (cosA >= cosB) return 1;  // a <= b
+  return cosA * cosB + sinA * sinB;
+}
+
+float sinOfClampedDifference(float cosA, float sinA, float cosB, float sinB) {
+  if (cosA >= cosB) return 0;
+  return sinA * cosB - cosA * sinB;
+}
+
+float sineOf(float cosine) {
+  return std::sqrt(std::max(0.0f, 1 - cosine * cosine));
+}
+
+}  // namespace
+
+float LightBounds::importance(const Receiver& receiver) const {
+  if (!(power > 0)) return 0;
+  const Vec3f center = centroid();
+  const Vec3f offset = receiver.position - center;
+  const float halfDiagonal2 = 0.25f * dot(upper - lower, upper - lower);
+  // Inside or near the box the distance is unknown: bound it below by the box's size.
+  const float distance2 = std::max(dot(offset, offset), halfDiagonal2);
+  const Vec3f fromLights = normalize(offset);
+  // The box seen from the receiver lies within a cone of half-angle thetaB about `fromLights`.
+  const float cosThetaB = dot(offset, offset) > halfDiagonal2
+                              ? std::sqrt(std::max(0.0f, 1 - halfDiagonal2 / distance2))
+                              : -1.0f;
+  const float sinThetaB = sineOf(cosThetaB);
+  // The smallest angle between an emission axis and a direction to the receiver.
+  const float cosThetaW = dot(axis, fromLights);
+  const float sinThetaW = sineOf(cosThetaW);
+  const float sinThetaO = sineOf(cosThetaO);
+  const float cosX = cosOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
+  const float sinX = sinOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
+  const float cosEmission = cosOfClampedDifference(cosX, sinX, cosThetaB, sinThetaB);
+  if (cosEmission <= cosThetaE) return 0;
+  float result = power * cosEmission / distance2;
+  if (!isBlack(receiver.normal)) {
+    // The smallest incidence angle on the receiving surface (either side).
+    const float cosIncidence = std::fabs(dot(fromLights, receiver.normal));
+    result *= cosOfClampedDifference(cosIncidence, sineOf(cosIncidence), cosThetaB, sinThetaB);
+  }
+  return std::max(0.0f, result);
+}
+
+LightBounds unite(const LightBounds& a, const LightBounds& b) {
+  if (!(a.power > 0) && a.lower.x > a.upper.x) return b;
+  if (!(b.power > 0) && b.lower.x > b.upper.x) return a;
+  LightBounds result;
+  result.lower = {std::min(a.lower.x, b.lower.x), std::min(a.lower.y, b.lower.y),
+                  std::min(a.lower.z, b.lower.z)};
+  result.upper = {std::max(a.upper.x, b.upper.x), std::max(a.upper.y, b.upper.y),
+                  std::max(a.upper.z, b.upper.z)};
+  result.power = a.power + b.power;
+  result.cosThetaE = std::min(a.cosThetaE, b.cosThetaE);
+  // The cone of axes: the smallest cone holding both cones.
+  const float thetaA = std::acos(std::clamp(a.cosThetaO, -1.0f, 1.0f));
+  const float thetaB = std::acos(std::clamp(b.cosThetaO, -1.0f, 1.0f));
+  const float between = std::acos(std::clamp(dot(a.axis, b.axis), -1.0f, 1.0f));
+  result.axis = a.axis;
+  result.cosThetaO = -1;
+  if (std::min(between + thetaB, kPi) <= thetaA) {
+    result.cosThetaO = a.cosThetaO;
+  } else if (std::min(between + thetaA, kPi) <= thetaB) {
+    result.axis = b.axis;
+    result.cosThetaO = b.cosThetaO;
+  } else {
+    const float theta = 0.5f * (thetaA + between + thetaB);
+    const Vec3f across = b.axis - a.axis * dot(a.axis, b.axis);
+    if (theta < kPi && length(across) > 1e-6f) {
+      // Turn a's axis towards b's by the part of the new half-angle a's cone does not cover.
+      const float turn = theta - thetaA;
+      result.axis = normalize(a.axis * std::cos(turn) + normalize(across) * std::sin(turn));
+      result.cosThetaO = std::cos(theta);
+    }
+  }
+  return result;
 }
 
 }  // namespace penumbra

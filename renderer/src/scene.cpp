@@ -69,6 +69,7 @@ Scene::~Scene() {
     releasePlacement(mesh->own);
     if (mesh->bvh) rtcReleaseScene(mesh->bvh);
   }
+  if (lightScene_) rtcReleaseScene(lightScene_);
   rtcReleaseScene(top_);
   rtcReleaseDevice(device_);
 }
@@ -381,10 +382,11 @@ void Scene::commit() {
   const float extent = std::max({bounds.upper_x - bounds.lower_x, bounds.upper_y - bounds.lower_y,
                                  bounds.upper_z - bounds.lower_z});
   sceneExtent_ = std::isfinite(extent) && extent > 0 ? extent : 1.0f;
-  std::vector<float> powers;
-  for (const Light& light : lights_)
-    powers.push_back(light.power(0.5f * sceneExtent_ * std::sqrt(3.0f)));
-  lightSelection_ = Distribution1D(std::move(powers));
+  lightSampler_ = LightSampler(lights_);
+  infiniteLights_.clear();
+  for (size_t i = 0; i < lights_.size(); ++i)
+    if (lights_[i].isInfinite()) infiniteLights_.push_back(uint32_t(i));
+  buildLightScene();
   spectral_ = std::any_of(materials_.begin(), materials_.end(), [](const Material& m) {
     return m.constants.abbeNumber > 0 && (m.constants.opacity < 1 || m.opacityVaries());
   });
@@ -471,6 +473,82 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
       hit.emission = lights_[size_t(mesh.lightIndex)].radiance();
   }
   return hit;
+}
+
+namespace {
+
+/// What an intersect call on the light BVH carries: the ray's limit and where hits go.
+struct LightTraceContext {
+  RTCIntersectContext embree;  // first member: Embree passes a pointer to it to the callbacks
+  float tMax;
+  void (*callback)(const void*, uint32_t, const LightHit&);
+  const void* visitor;
+};
+
+}  // namespace
+
+void Scene::boundLight(const RTCBoundsFunctionArguments* args) {
+  const auto* scene = static_cast<const Scene*>(args->geometryUserPtr);
+  const LightBounds bounds = scene->lights_[scene->areaLights_[args->primID]].bounds();
+  *args->bounds_o = {bounds.lower.x, bounds.lower.y, bounds.lower.z, 0,
+                     bounds.upper.x, bounds.upper.y, bounds.upper.z, 0};
+}
+
+void Scene::intersectLight(const RTCIntersectFunctionNArguments* args) {
+  // Every light met is reported and no hit is accepted, so that traversal goes on to the lights
+  // behind it: overlapping emitters all contribute.
+  if (args->valid[0] != -1) return;
+  const auto* scene = static_cast<const Scene*>(args->geometryUserPtr);
+  const auto* context = reinterpret_cast<const LightTraceContext*>(args->context);
+  const uint32_t index = scene->areaLights_[args->primID];
+  RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, args->N);
+  const Vec3f origin{RTCRayN_org_x(ray, args->N, 0), RTCRayN_org_y(ray, args->N, 0),
+                     RTCRayN_org_z(ray, args->N, 0)};
+  const Vec3f direction{RTCRayN_dir_x(ray, args->N, 0), RTCRayN_dir_y(ray, args->N, 0),
+                        RTCRayN_dir_z(ray, args->N, 0)};
+  if (const std::optional<LightHit> hit =
+          scene->lights_[index].intersect(origin, direction, context->tMax))
+    context->callback(context->visitor, index, *hit);
+}
+
+void Scene::buildLightScene() {
+  if (lightScene_) rtcReleaseScene(lightScene_);
+  lightScene_ = nullptr;
+  areaLights_.clear();
+  for (size_t i = 0; i < lights_.size(); ++i) {
+    const Light& light = lights_[i];
+    if (!light.isInfinite() && !light.isDelta() && light.type() != LightType::Mesh)
+      areaLights_.push_back(uint32_t(i));
+  }
+  if (areaLights_.empty()) return;
+  lightScene_ = rtcNewScene(device_);
+  RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
+  rtcSetGeometryUserPrimitiveCount(geometry, unsigned(areaLights_.size()));
+  rtcSetGeometryUserData(geometry, this);
+  rtcSetGeometryBoundsFunction(geometry, boundLight, nullptr);
+  rtcSetGeometryIntersectFunction(geometry, intersectLight);
+  rtcCommitGeometry(geometry);
+  rtcAttachGeometry(lightScene_, geometry);
+  rtcReleaseGeometry(geometry);
+  rtcCommitScene(lightScene_);
+  throwOnEmbreeError(device_, "build the light BVH");
+}
+
+void Scene::visitLightHits(const Ray& ray, float tMax, LightHitCallback callback,
+                           const void* visitor) const {
+  if (!lightScene_) return;
+  LightTraceContext context;
+  rtcInitIntersectContext(&context.embree);
+  context.tMax = tMax;
+  context.callback = callback;
+  context.visitor = visitor;
+  RTCRayHit rayHit;
+  rayHit.ray = toEmbreeRay(ray);
+  rayHit.ray.tnear = 0;
+  rayHit.ray.tfar = tMax;
+  rayHit.ray.time = 0;  // lights keep their transform at the frame
+  rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(lightScene_, &context.embree, &rayHit);
 }
 
 bool Scene::occluded(const Ray& ray) const {

@@ -276,17 +276,6 @@ TEST(Lights, ShapingConeCutsOffEmissionOutsideItsAngle) {
   EXPECT_NEAR(Light(p).sample({1, 0, 0}, {0.5f, 0.5f})->radiance.x, std::pow(cos45, 4.0f), 1e-3f);
 }
 
-TEST(Lights, PowerRanksLightsForSelection) {
-  LightParams dim = params(LightType::Sphere, translation(0, 2, 0));
-  LightParams bright = dim;
-  bright.intensity = 9;
-  EXPECT_NEAR(Light(bright).power(1) / Light(dim).power(1), 9, 1e-4);
-  Distribution1D choice({Light(dim).power(1), Light(bright).power(1)});
-  EXPECT_NEAR(choice.probability(1), 0.9f, 1e-6f);
-  EXPECT_EQ(choice.sampleIndex(0.05f), 0u);
-  EXPECT_EQ(choice.sampleIndex(0.5f), 1u);
-}
-
 TEST(Lights, CylinderLightsEmitFromTheirSideOnly) {
   LightParams p = params(LightType::Cylinder, translation(0, 1, 0));
   p.length = 2;

@@ -69,6 +69,31 @@ struct LightParams {
   std::shared_ptr<const std::vector<Vec3f>> meshTriangles;
 };
 
+/// Where light is received: a point, and the unit normal of its surface, or a zero normal for
+/// points that receive from both sides (translucent surfaces).
+struct Receiver {
+  Vec3f position;
+  Vec3f normal;
+};
+
+/// Bounds on what local lights emit, for choosing among them: positions, power and directions
+/// (emission axes within thetaO of `axis`, each light emitting within thetaE of its own axis).
+struct LightBounds {
+  Vec3f lower{kInfinity}, upper{-kInfinity};
+  float power = 0;  // luminance · projected area: irradiance ≈ power · cos / distance²
+  Vec3f axis{0, 0, 1};
+  float cosThetaO = 1;  // 1: every axis along `axis`; -1: any direction
+  float cosThetaE = 0;  // 0: each light emits over the hemisphere around its axis
+
+  /// An upper-bound estimate of the irradiance these lights give the receiver (0 only where
+  /// they cannot light it at all).
+  float importance(const Receiver& receiver) const;
+  Vec3f centroid() const { return (lower + upper) * 0.5f; }
+};
+
+/// The smallest bounds holding both (cones are merged as in Conty Estevez & Kulla 2018).
+LightBounds unite(const LightBounds& a, const LightBounds& b);
+
 /// A light sample as seen from a shading point.
 struct LightSample {
   Vec3f direction;     // unit, from the shading point towards the light
@@ -101,11 +126,14 @@ class Light {
   float diffuseMultiplier() const { return params_.diffuse; }
   float specularMultiplier() const { return params_.specular; }
 
-  std::optional<LightSample> sample(const Vec3f& point, Vec2f u) const;
+  /// A direction towards the light from `point`. An untextured dome is sampled cosine-weighted
+  /// about the receiving surface's unit `normal` (uniformly over the sphere for a zero normal).
+  std::optional<LightSample> sample(const Vec3f& point, Vec2f u, const Vec3f& normal = {}) const;
   /// First intersection of a ray with a finite light's emitting surface closer than tMax.
   std::optional<LightHit> intersect(const Vec3f& origin, const Vec3f& direction, float tMax) const;
-  /// Radiance and pdf for a ray that escaped the scene in `direction` (infinite lights).
-  std::optional<LightHit> escaped(const Vec3f& direction) const;
+  /// Radiance and pdf for a ray that escaped the scene in `direction` (infinite lights), leaving
+  /// a surface with `normal` (as for sample()).
+  std::optional<LightHit> escaped(const Vec3f& direction, const Vec3f& normal = {}) const;
   /// Mesh lights: the solid-angle density sample() has for a point of the mesh seen from
   /// `origin` (the integrator weighs emission found by BSDF rays with it).
   float meshPdf(const Vec3f& origin, const Vec3f& point, const Vec3f& normal) const;
@@ -113,9 +141,14 @@ class Light {
   /// The emitted radiance before texture and shaping, after all other UsdLux factors.
   const Vec3f& radiance() const { return radiance_; }
   float area() const { return area_; }
-  /// Approximate emitted power (luminance · area · solid angle), for choosing lights;
-  /// infinite lights use the radius of the scene's bounding sphere.
-  float power(float sceneRadius) const;
+  /// Local lights: where and how they emit, for the light tree.
+  LightBounds bounds() const;
+  /// Infinite lights: luminance of the irradiance on an unoccluded surface facing them.
+  float irradiance() const;
+  /// Distant lights: the direction light arrives from (unit, towards the light) and the cone's
+  /// half-angle in radians.
+  Vec3f towardsLight() const { return -normal_; }
+  float halfAngle() const { return std::acos(std::clamp(cosHalfAngle_, -1.0f, 1.0f)); }
 
  private:
   float solidAnglePdfFromArea(const Vec3f& point, const Vec3f& lightPoint, const Vec3f& lightNormal,

@@ -7,10 +7,12 @@
 
 #include <memory>
 #include <optional>
+#include <type_traits>
 #include <vector>
 
 #include "penumbra/camera.h"
 #include "penumbra/light.h"
+#include "penumbra/light_sampler.h"
 #include "penumbra/material.h"
 #include "penumbra/mesh.h"
 #include "penumbra/motion.h"
@@ -99,8 +101,22 @@ class Scene {
   const TextureSystem& textures() const { return *textures_; }
   void setLights(std::vector<Light> lights) { lights_ = std::move(lights); }
   const std::vector<Light>& lights() const { return lights_; }
-  /// Lights are chosen for next-event estimation in proportion to their power (set by commit()).
-  const Distribution1D& lightSelection() const { return lightSelection_; }
+  /// Chooses lights for next-event estimation (set by commit()).
+  const LightSampler& lightSampler() const { return lightSampler_; }
+  /// Indices of the dome and distant lights, which rays that escape the scene meet.
+  const std::vector<uint32_t>& infiniteLights() const { return infiniteLights_; }
+  /// Calls visit(lightIndex, LightHit) for each area light (rect, disk, sphere, cylinder) whose
+  /// emitting surface the ray meets before `tMax`, found through an Embree BVH of the lights.
+  /// Mesh lights are met as geometry instead (SurfaceHit::lightIndex).
+  template <class Visit>
+  void forEachLightHit(const Ray& ray, float tMax, Visit&& visit) const {
+    visitLightHits(
+        ray, tMax,
+        [](const void* visitor, uint32_t index, const LightHit& hit) {
+          (*static_cast<const std::remove_reference_t<Visit>*>(visitor))(index, hit);
+        },
+        &visit);
+  }
 
   /// Rebuilds the top-level BVH; call after edits and before tracing.
   void commit();
@@ -162,6 +178,14 @@ class Scene {
   /// Embree hit filter (any hit, intersection and occlusion rays).
   static void filterHits(const RTCFilterFunctionNArguments* args);
   void updateAllPlacements(MeshId id);
+  using LightHitCallback = void (*)(const void* visitor, uint32_t index, const LightHit& hit);
+  void visitLightHits(const Ray& ray, float tMax, LightHitCallback callback,
+                      const void* visitor) const;
+  /// Rebuilds the BVH of the area lights (lightScene_) from lights_.
+  void buildLightScene();
+  /// Embree callbacks of the light BVH's user geometry (user data: the scene).
+  static void boundLight(const RTCBoundsFunctionArguments* args);
+  static void intersectLight(const RTCIntersectFunctionNArguments* args);
 
   RTCDevice device_;
   RTCScene top_;
@@ -171,7 +195,10 @@ class Scene {
   std::vector<Material> materials_;
   std::unique_ptr<TextureSystem> textures_;
   std::vector<Light> lights_;
-  Distribution1D lightSelection_{{}};
+  LightSampler lightSampler_;
+  std::vector<uint32_t> infiniteLights_;
+  RTCScene lightScene_ = nullptr;
+  std::vector<uint32_t> areaLights_;  // light index of each primitive of lightScene_
   float sceneExtent_ = 1;
   bool spectral_ = false;
 };

@@ -1,0 +1,218 @@
+#include "penumbra/light_sampler.h"
+
+#include <algorithm>
+#include <numeric>
+
+namespace penumbra {
+namespace {
+
+constexpr int kBuckets = 12;
+/// Deeper than this the build halves the list instead of searching for the best split, so that
+/// leaf paths fit in 64 bits whatever the lights' layout.
+constexpr int kMaxSearchDepth = 32;
+
+float surfaceArea(const LightBounds& bounds) {
+  const Vec3f d = bounds.upper - bounds.lower;
+  return 2 * (d.x * d.y + d.y * d.z + d.z * d.x);
+}
+
+/// The solid-angle measure of a bounds' emission directions (Conty Estevez & Kulla 2018, eq. 1):
+/// how much of the sphere of directions its lights can send light into.
+float orientationMeasure(const LightBounds& bounds) {
+  const float thetaO = std::acos(std::clamp(bounds.cosThetaO, -1.0f, 1.0f));
+  const float thetaE = std::acos(std::clamp(bounds.cosThetaE, -1.0f, 1.0f));
+  const float thetaW = std::min(thetaO + thetaE, kPi);
+  const float sinO = std::sin(thetaO), cosO = std::cos(thetaO);
+  return 2 * kPi * (1 - cosO) + 0.5f * kPi *
+                                    (2 * thetaW * sinO - std::cos(thetaO - 2 * thetaW) -
+                                     2 * thetaO * sinO + cosO);
+}
+
+/// Surface-area-orientation heuristic cost of a group of lights (up to a common factor).
+float splitCost(const LightBounds& bounds) {
+  return bounds.power * orientationMeasure(bounds) * std::max(surfaceArea(bounds), 1e-12f);
+}
+
+}  // namespace
+
+LightSampler::LightSampler(const std::vector<Light>& lights) : paths_(lights.size()) {
+  std::vector<uint32_t> local;
+  std::vector<LightBounds> bounds(lights.size());
+  for (size_t i = 0; i < lights.size(); ++i) {
+    const Light& light = lights[i];
+    if (light.isInfinite()) {
+      const float irradiance = light.irradiance();
+      if (irradiance > 0)
+        infinite_.push_back({uint32_t(i), irradiance,
+                             light.type() == LightType::Distant ? light.towardsLight() : Vec3f(),
+                             light.type() == LightType::Distant ? light.halfAngle() : 0.0f});
+      continue;
+    }
+    bounds[i] = light.bounds();
+    if (bounds[i].power > 0) local.push_back(uint32_t(i));
+  }
+  if (!local.empty()) {
+    nodes_.reserve(2 * local.size() - 1);
+    build(local, 0, local.size(), bounds, {0, 0});
+  }
+}
+
+uint32_t LightSampler::build(std::vector<uint32_t>& lights, size_t begin, size_t end,
+                             const std::vector<LightBounds>& bounds, LeafPath path) {
+  const uint32_t index = uint32_t(nodes_.size());
+  nodes_.emplace_back();
+  if (end - begin == 1) {
+    nodes_[index].leaf = true;
+    nodes_[index].light = lights[begin];
+    nodes_[index].bounds = bounds[lights[begin]];
+    paths_[lights[begin]] = path;
+    return index;
+  }
+  const int depth = path.depth;
+  LightBounds all, centroids;
+  for (size_t i = begin; i < end; ++i) {
+    all = unite(all, bounds[lights[i]]);
+    LightBounds point;
+    point.lower = point.upper = bounds[lights[i]].centroid();
+    point.power = 1;
+    centroids = unite(centroids, point);
+  }
+  // The cheapest split into buckets along an axis of the centroids' box; without one (all
+  // centroids together, or too deep), the list is halved.
+  size_t middle = begin + (end - begin) / 2;
+  float bestCost = kInfinity;
+  int bestAxis = -1, bestBucket = 0;
+  const Vec3f extent = centroids.upper - centroids.lower;
+  for (int axis = 0; axis < 3 && depth < kMaxSearchDepth; ++axis) {
+    if (!(extent[axis] > 0)) continue;
+    LightBounds buckets[kBuckets];
+    const auto bucketOf = [&](uint32_t light) {
+      const float t = (bounds[light].centroid()[axis] - centroids.lower[axis]) / extent[axis];
+      return std::clamp(int(t * kBuckets), 0, kBuckets - 1);
+    };
+    for (size_t i = begin; i < end; ++i)
+      buckets[bucketOf(lights[i])] = unite(buckets[bucketOf(lights[i])], bounds[lights[i]]);
+    for (int split = 1; split < kBuckets; ++split) {
+      LightBounds below, above;
+      for (int b = 0; b < split; ++b) below = unite(below, buckets[b]);
+      for (int b = split; b < kBuckets; ++b) above = unite(above, buckets[b]);
+      if (!(below.power > 0) || !(above.power > 0)) continue;
+      // Long thin boxes split across their length (the regularisation of Conty Estevez & Kulla).
+      const float elongation = std::max({extent.x, extent.y, extent.z}) / extent[axis];
+      const float cost = elongation * (splitCost(below) + splitCost(above));
+      if (cost < bestCost) {
+        bestCost = cost;
+        bestAxis = axis;
+        bestBucket = split;
+      }
+    }
+    if (axis == bestAxis) {
+      // Partition now, while bucketOf describes this axis.
+      const auto firstAbove = std::partition(
+          lights.begin() + std::ptrdiff_t(begin), lights.begin() + std::ptrdiff_t(end),
+          [&](uint32_t light) { return bucketOf(light) < bestBucket; });
+      middle = size_t(firstAbove - lights.begin());
+    }
+  }
+  const uint32_t first = build(lights, begin, middle, bounds, {path.branches, depth + 1});
+  const uint32_t second =
+      build(lights, middle, end, bounds, {path.branches | (uint64_t(1) << depth), depth + 1});
+  nodes_[index].children[0] = first;
+  nodes_[index].children[1] = second;
+  nodes_[index].bounds = all;
+  return index;
+}
+
+int LightSampler::treeDepth() const {
+  int depth = 0;
+  for (const LeafPath& path : paths_) depth = std::max(depth, path.depth);
+  return depth;
+}
+
+float LightSampler::infiniteWeight(size_t i, const Receiver& receiver) const {
+  const InfiniteLight& light = infinite_[i];
+  if (isBlack(light.towardsLight) || isBlack(receiver.normal)) return light.irradiance;
+  // A distant light lights a surface by the cosine of its nearest direction, on either side; a
+  // floor keeps lights in the surface's plane selectable.
+  const float cosCenter = std::fabs(dot(light.towardsLight, receiver.normal));
+  const float angle = std::max(0.0f, std::acos(std::min(cosCenter, 1.0f)) - light.halfAngle);
+  return light.irradiance * std::max(std::cos(angle), 1e-3f);
+}
+
+float LightSampler::infiniteTotal(const Receiver& receiver) const {
+  float total = 0;
+  for (size_t i = 0; i < infinite_.size(); ++i) total += infiniteWeight(i, receiver);
+  return total;
+}
+
+float LightSampler::localShare(const Receiver& receiver) const {
+  if (nodes_.empty()) return 0;
+  const float local = nodes_[0].bounds.importance(receiver);
+  if (!(local > 0)) return 0;  // no local light can reach the receiver
+  if (infinite_.empty()) return 1;
+  const float share = local / (local + infiniteTotal(receiver));
+  return std::clamp(share, kMinSetShare, 1 - kMinSetShare);
+}
+
+std::optional<LightSampler::Choice> LightSampler::sample(const Receiver& receiver, float u) const {
+  const float localProbability = localShare(receiver);
+  if (u < localProbability) {
+    u = std::min(u / localProbability, 0x1.fffffep-1f);
+    float probability = localProbability;
+    uint32_t node = 0;
+    while (!nodes_[node].leaf) {
+      const Node& parent = nodes_[node];
+      const float first = nodes_[parent.children[0]].bounds.importance(receiver);
+      const float second = nodes_[parent.children[1]].bounds.importance(receiver);
+      if (!(first + second > 0)) return std::nullopt;
+      const float pFirst = first / (first + second);
+      if (u < pFirst) {
+        u = std::min(u / pFirst, 0x1.fffffep-1f);
+        probability *= pFirst;
+        node = parent.children[0];
+      } else {
+        u = std::min((u - pFirst) / (1 - pFirst), 0x1.fffffep-1f);
+        probability *= 1 - pFirst;
+        node = parent.children[1];
+      }
+    }
+    return Choice{nodes_[node].light, probability};
+  }
+  if (infinite_.empty()) return std::nullopt;
+  u = (u - localProbability) / (1 - localProbability);
+  const float total = infiniteTotal(receiver);
+  float cumulative = 0;
+  for (size_t i = 0; i < infinite_.size(); ++i) {
+    const float weight = infiniteWeight(i, receiver);
+    cumulative += weight;
+    if (u * total < cumulative || i + 1 == infinite_.size())
+      return Choice{infinite_[i].index, (1 - localProbability) * weight / total};
+  }
+  return std::nullopt;
+}
+
+float LightSampler::probability(const Receiver& receiver, size_t index) const {
+  const float localProbability = localShare(receiver);
+  const LeafPath& path = paths_[index];
+  if (path.depth >= 0) {
+    if (!(localProbability > 0)) return 0;
+    float probability = localProbability;
+    uint32_t node = 0;
+    for (int level = 0; level < path.depth; ++level) {
+      const Node& parent = nodes_[node];
+      const float first = nodes_[parent.children[0]].bounds.importance(receiver);
+      const float second = nodes_[parent.children[1]].bounds.importance(receiver);
+      if (!(first + second > 0)) return 0;
+      const int branch = int((path.branches >> level) & 1u);
+      probability *= (branch ? second : first) / (first + second);
+      node = parent.children[branch];
+    }
+    return probability;
+  }
+  for (size_t i = 0; i < infinite_.size(); ++i)
+    if (infinite_[i].index == index)
+      return (1 - localProbability) * infiniteWeight(i, receiver) / infiniteTotal(receiver);
+  return 0;
+}
+
+}  // namespace penumbra
