@@ -58,6 +58,7 @@ test-python:
 
 bench: build
 	$(VPY) bench/run.py cornell.usda dof.usda motion.usda glass.usda instances.usda
+	$(VPY) bench/quality.py
 	$(VPY) bench/instances.py --instances 100000
 	$(VPY) bench/instances.py --instances 1000000
 

@@ -1,0 +1,305 @@
+"""Time-to-quality benchmark (`make bench`): how long Penumbra takes to reach 5 % rRMSE on the
+shared scenes, side by side with Cycles (`../shared/cycles/README.md`), on a many-light scene,
+and the speed-up from 1 to 2 threads.
+
+rRMSE = sqrt(mean over pixels and RGB of (x - ref)² / (ref² + 0.01)). Penumbra's is estimated
+from two renders with different seeds, a and b: rRMSE ≈ rRMSE(a - b) / √2, the weights taken
+from the converged image when one is rendered (--converged-spp), else from the mean of the two
+renders at the highest sample count.
+
+Time: seconds from constructing a fresh `penumbra.Renderer` on the opened stage to the end of
+its `render` call (sync, BVH build and tracing, as Cycles' numbers; reading the USD file is not
+counted), the mean of the two seeds. Time to 5 % interpolates rRMSE against time log-log between
+the two rungs of the spp ladder around 0.05; when the ladder does not reach (or starts below)
+0.05, it is extrapolated from the last (or first) two rungs and marked with *.
+
+Every image is rendered at time code 1 (as Cycles' were). Progress goes to stderr, the
+markdown tables to stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from pxr import Usd
+
+import penumbra
+from penumbra import _core
+
+from many_lights import write_stage
+
+SHARED = Path(__file__).resolve().parents[2] / "shared"
+SCENES = SHARED / "scenes"
+CYCLES = SHARED / "cycles"
+SHARED_SCENES = ("cornell", "dof", "motion", "glass", "instances")
+TARGET_RRMSE = 0.05
+TIME_CODE = 1.0
+REC709 = np.array([0.2126, 0.7152, 0.0722])
+MANY_LIGHT_COUNTS = (10, 1000)
+THREADS_SCENE, THREADS_WIDTH, THREADS_SAMPLES = "cornell", 320, 16
+QUICK_LADDER = (4, 16)
+
+
+def progress(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+def relative_rmse(difference: np.ndarray, reference: np.ndarray) -> float:
+    """sqrt(mean(difference² / (reference² + 0.01))) over pixels and RGB."""
+    return float(np.sqrt(np.mean(difference**2 / (reference**2 + 0.01))))
+
+
+def mean_luminance(rgb: np.ndarray) -> float:
+    return float(np.mean(rgb @ REC709))
+
+
+def render_rgb(stage: Usd.Stage, width: int, samples: int, seed: int) -> tuple[np.ndarray, float]:
+    """One render by a fresh Renderer: its RGB (float64) and seconds (construction + render)."""
+    started = time.perf_counter()
+    with penumbra.Renderer(stage) as renderer:
+        image = renderer.render(time=TIME_CODE, width=width, samples=samples, seed=seed)
+        seconds = time.perf_counter() - started
+    return image["color"][..., :3].astype(np.float64), seconds
+
+
+@dataclass
+class Rung:
+    """One sample count of the ladder: mean seconds of the two seeds' renders, and rRMSE."""
+
+    samples: int
+    seconds: float
+    rrmse: float
+
+
+@dataclass
+class Crossing:
+    """Where rRMSE crosses 5 %: in seconds and samples per pixel."""
+
+    seconds: float
+    samples: float
+    extrapolated: bool
+
+
+def measure_ladder(
+    stage: Usd.Stage,
+    label: str,
+    ladder: Sequence[int],
+    seeds: tuple[int, int],
+    width: int,
+    reference: np.ndarray | None,
+) -> list[Rung]:
+    """Render every rung of ``ladder`` with both seeds; rRMSE by the two-seed estimate."""
+    renders: list[tuple[int, list[np.ndarray], float]] = []
+    for samples in ladder:
+        images, seconds = [], []
+        for seed in seeds:
+            rgb, elapsed = render_rgb(stage, width, samples, seed)
+            progress(f"{label}: {samples} spp, seed {seed}: {elapsed:.2f} s")
+            images.append(rgb)
+            seconds.append(elapsed)
+        renders.append((samples, images, sum(seconds) / len(seconds)))
+    if reference is None:
+        reference = (renders[-1][1][0] + renders[-1][1][1]) / 2
+    return [
+        Rung(samples, seconds, relative_rmse(a - b, reference) / math.sqrt(2))
+        for samples, (a, b), seconds in renders
+    ]
+
+
+def log_log_crossing(xs: Sequence[float], errors: Sequence[float]) -> tuple[float, bool]:
+    """The x at which ``errors`` reaches TARGET_RRMSE, interpolated log-log between the first
+    pair of points around it, else extrapolated from the nearest pair (then True)."""
+    pairs = [(i, i + 1) for i in range(len(xs) - 1)]
+    around = [(i, j) for i, j in pairs if errors[i] >= TARGET_RRMSE >= errors[j]]
+    if around:
+        i, j = around[0]
+    else:
+        i, j = pairs[0] if errors[0] < TARGET_RRMSE else pairs[-1]
+        if errors[j] >= errors[i]:  # not converging: no trend to extrapolate
+            return math.nan, True
+    slope = (math.log(xs[j]) - math.log(xs[i])) / (math.log(errors[j]) - math.log(errors[i]))
+    x = math.exp(math.log(xs[i]) + slope * (math.log(TARGET_RRMSE) - math.log(errors[i])))
+    return x, not around
+
+
+def crossing(rungs: Sequence[Rung]) -> Crossing:
+    errors = [rung.rrmse for rung in rungs]
+    seconds, extrapolated = log_log_crossing([rung.seconds for rung in rungs], errors)
+    samples, _ = log_log_crossing([rung.samples for rung in rungs], errors)
+    return Crossing(seconds, samples, extrapolated)
+
+
+def read_rgb(path: Path) -> np.ndarray:
+    """The R, G, B channels of an image file (Cycles' references are RGBA) as float64."""
+    pixels, names, _ = _core.read_image(str(path))
+    channels = [list(names).index(name) for name in ("R", "G", "B")]
+    return np.asarray(pixels, dtype=np.float64)[..., channels]
+
+
+def cycles_numbers(readme: Path) -> dict[str, tuple[float, float]]:
+    """Cycles' (time to 5 % in seconds, spp at 5 %) per scene, from its README's table."""
+    if not readme.is_file():
+        return {}
+    row = re.compile(r"^\|\s*(\w+)\s*\|\s*([\d.]+)\s*\|\s*([\d.]+)\s*\|", re.MULTILINE)
+    return {name: (float(t), float(spp)) for name, t, spp in row.findall(readme.read_text())}
+
+
+def format_number(value: float | None, digits: int = 3, marked: bool = False) -> str:
+    if value is None:
+        return "–"
+    text = f"{value:.{digits}g}" if abs(value) < 10**digits else f"{value:.0f}"
+    return text + ("*" if marked else "")
+
+
+def rrmse_at(rungs: Sequence[Rung], samples: int) -> float | None:
+    return next((rung.rrmse for rung in rungs if rung.samples == samples), None)
+
+
+def shared_scene_row(
+    name: str, args: argparse.Namespace, cycles: dict[str, tuple[float, float]]
+) -> str:
+    stage = Usd.Stage.Open(str(SCENES / f"{name}.usda"))
+    converged: np.ndarray | None = None
+    luminance_difference = converged_rrmse = None
+    if args.converged_spp:
+        converged, seconds = render_rgb(stage, args.width, args.converged_spp, max(args.seeds) + 1)
+        progress(f"{name}: converged, {args.converged_spp} spp: {seconds:.1f} s")
+        reference_path = CYCLES / f"{name}.exr"
+        reference = read_rgb(reference_path) if reference_path.is_file() else None
+        if reference is not None and reference.shape != converged.shape:
+            progress(f"{name}: {reference_path} is {reference.shape[1]} px wide: not compared")
+        elif reference is not None:
+            luminance_difference = 100 * (mean_luminance(converged) / mean_luminance(reference) - 1)
+            converged_rrmse = relative_rmse(converged - reference, reference)
+    rungs = measure_ladder(stage, name, args.spp, args.seeds, args.width, converged)
+    quality = crossing(rungs)
+    cycles_seconds, cycles_samples = cycles.get(name, (None, None))
+    ratio = quality.seconds / cycles_seconds if cycles_seconds else None
+    cells = [
+        name,
+        format_number(quality.samples, marked=quality.extrapolated),
+        format_number(cycles_samples),
+        format_number(quality.seconds, marked=quality.extrapolated),
+        format_number(cycles_seconds),
+        format_number(ratio, 2, marked=quality.extrapolated),
+        format_number(rrmse_at(rungs, 64), 2),
+        format_number(luminance_difference, 2),
+        format_number(converged_rrmse, 2),
+    ]
+    return "| " + " | ".join(cells) + " |"
+
+
+def shared_scenes_table(args: argparse.Namespace) -> None:
+    cycles = cycles_numbers(CYCLES / "README.md")
+    print(f"Shared scenes, {args.width} px wide, spp ladder {', '.join(map(str, args.spp))}, "
+          f"seeds {args.seeds[0]} and {args.seeds[1]}; converged: {args.converged_spp or 'not'} "
+          "rendered; * extrapolated beyond the ladder.\n")
+    print("| scene | spp at 5 % | Cycles spp at 5 % | time to 5 % (s) | Cycles (s) "
+          "| ratio | 64-spp rRMSE | converged mean lum vs Cycles (%) "
+          "| converged rRMSE vs Cycles |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for name in args.scenes:
+        try:
+            print(shared_scene_row(name, args, cycles), flush=True)
+        except penumbra.SceneError as error:
+            print(f"| {name} | failed: {error} |", flush=True)
+
+
+def many_lights_table(args: argparse.Namespace) -> None:
+    print(f"\nMany lights (bench/many_lights.py), {args.width} px wide; * extrapolated.\n")
+    print("| sphere lights | spp at 5 % | time to 5 % (s) | 64-spp rRMSE | time vs 10 lights |")
+    print("|---:|---:|---:|---:|---:|")
+    first_seconds: float | None = None
+    with tempfile.TemporaryDirectory(prefix="penumbra-many-lights-") as directory:
+        for count in MANY_LIGHT_COUNTS:
+            path = write_stage(Path(directory) / f"lights_{count}.usda", count)
+            stage = Usd.Stage.Open(str(path))
+            rungs = measure_ladder(stage, f"{count} lights", args.spp, args.seeds, args.width, None)
+            quality = crossing(rungs)
+            first_seconds = first_seconds or quality.seconds
+            print(
+                f"| {count} | {format_number(quality.samples, marked=quality.extrapolated)} "
+                f"| {format_number(quality.seconds, marked=quality.extrapolated)} "
+                f"| {format_number(rrmse_at(rungs, 64), 2)} "
+                f"| {format_number(quality.seconds / first_seconds, 2)} |",
+                flush=True,
+            )
+    print("\nTarget: time to 5 % at 1000 lights ≤ 2 × at 10 lights.")
+
+
+def threads_table() -> None:
+    """Tracing time of one renderer (synced and BVH built by a first render) per thread count;
+    CPU seconds over render seconds shows how many cores the render really had (the machine may
+    be shared)."""
+    stage = Usd.Stage.Open(str(SCENES / f"{THREADS_SCENE}.usda"))
+    print(f"\nThreads: {THREADS_SCENE}, {THREADS_WIDTH} px, {THREADS_SAMPLES} spp "
+          "(render call after a warm-up render: tracing only).\n")
+    print("| threads | render (s) | CPU (s) | speed-up |")
+    print("|---:|---:|---:|---:|")
+    images: list[np.ndarray] = []
+    with penumbra.Renderer(stage) as renderer:
+        renderer.render(time=TIME_CODE, width=THREADS_WIDTH, samples=1)
+        single: float | None = None
+        for threads in (1, 2):
+            started, cpu_started = time.perf_counter(), time.process_time()
+            image = renderer.render(
+                time=TIME_CODE, width=THREADS_WIDTH, samples=THREADS_SAMPLES, threads=threads
+            )
+            seconds = time.perf_counter() - started
+            cpu_seconds = time.process_time() - cpu_started
+            progress(f"threads {threads}: {seconds:.2f} s")
+            images.append(image["color"])
+            single = single or seconds
+            print(f"| {threads} | {seconds:.2f} | {cpu_seconds:.2f} | {single / seconds:.2f} |",
+                  flush=True)
+    identical = np.array_equal(images[0], images[1])
+    print(f"\nImages bit-identical across thread counts: {'yes' if identical else 'NO'}.")
+
+
+def parse_args() -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--scenes", nargs="+", default=list(SHARED_SCENES),
+                        help="shared scene names (files NAME.usda in ../shared/scenes)")
+    parser.add_argument("--spp", type=int, nargs="+", default=[4, 16, 64, 256],
+                        help="the ladder of samples per pixel, ascending")
+    parser.add_argument("--seeds", type=int, nargs=2, default=(1, 2))
+    parser.add_argument("--converged-spp", type=int, default=1024,
+                        help="samples per pixel of the converged image (0: skip it)")
+    parser.add_argument("--width", type=int, default=640)
+    parser.add_argument("--skip-many-lights", action="store_true")
+    parser.add_argument("--quick", action="store_true",
+                        help=f"smoke test: ladder {', '.join(map(str, QUICK_LADDER))}, "
+                        "no converged image")
+    args = parser.parse_args()
+    if args.quick:
+        args.spp, args.converged_spp = list(QUICK_LADDER), 0
+    if len(args.spp) < 2 or sorted(args.spp) != args.spp:
+        parser.error("--spp needs at least two ascending sample counts")
+    args.seeds = tuple(args.seeds)
+    return args
+
+
+def main() -> None:
+    args = parse_args()
+    if not SCENES.is_dir():
+        print(f"quality.py: skipped, the shared scenes are needed and {SCENES} is missing.")
+        return
+    shared_scenes_table(args)
+    if not args.skip_many_lights:
+        many_lights_table(args)
+    threads_table()
+
+
+if __name__ == "__main__":
+    main()
