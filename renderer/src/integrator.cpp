@@ -39,8 +39,7 @@ float bsdfStrategyWeight(const Scene& scene, const ScatteringRecord& origin, siz
       return powerHeuristic(origin.pdf,
                             scene.lightSampler().probability(origin.receiver, index) * lightPdf);
     case DirectLighting::LightSamplingOnly:
-      return scene.lightSampler().probability(origin.receiver, index) * lightPdf > 0 ? 0.0f
-                                                                                     : 1.0f;
+      return scene.lightSampler().probability(origin.receiver, index) * lightPdf > 0 ? 0.0f : 1.0f;
     case DirectLighting::BsdfSamplingOnly:
       return 1;
   }

@@ -550,8 +550,8 @@ float LightBounds::importance(const Receiver& receiver) const {
   const Vec3f center = centroid();
   const Vec3f offset = receiver.position - center;
   const float halfDiagonal2 = 0.25f * dot(upper - lower, upper - lower);
-  // Inside or near the box the distance is unknown: bound it below by the box's size.
-  const float distance2 = std::max(dot(offset, offset), halfDiagonal2);
+  // Inside or near the box the distance is unknown: bound it below by a quarter of its size.
+  const float distance2 = std::max(dot(offset, offset), 0.25f * halfDiagonal2);
   const Vec3f fromLights = normalize(offset);
   // The box seen from the receiver lies within a cone of half-angle thetaB about `fromLights`.
   const float cosThetaB = dot(offset, offset) > halfDiagonal2

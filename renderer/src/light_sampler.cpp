@@ -23,9 +23,9 @@ float orientationMeasure(const LightBounds& bounds) {
   const float thetaE = std::acos(std::clamp(bounds.cosThetaE, -1.0f, 1.0f));
   const float thetaW = std::min(thetaO + thetaE, kPi);
   const float sinO = std::sin(thetaO), cosO = std::cos(thetaO);
-  return 2 * kPi * (1 - cosO) + 0.5f * kPi *
-                                    (2 * thetaW * sinO - std::cos(thetaO - 2 * thetaW) -
-                                     2 * thetaO * sinO + cosO);
+  return 2 * kPi * (1 - cosO) +
+         0.5f * kPi *
+             (2 * thetaW * sinO - std::cos(thetaO - 2 * thetaW) - 2 * thetaO * sinO + cosO);
 }
 
 /// Surface-area-orientation heuristic cost of a group of lights (up to a common factor).

@@ -71,8 +71,8 @@ class LightSampler {
     float halfAngle = 0;   // distant lights: radians
   };
 
-  std::vector<Node> nodes_;           // nodes_[0] is the root, when there are local lights
-  std::vector<LeafPath> paths_;       // by light index
+  std::vector<Node> nodes_;      // nodes_[0] is the root, when there are local lights
+  std::vector<LeafPath> paths_;  // by light index
   std::vector<InfiniteLight> infinite_;
 };
 

@@ -1,0 +1,160 @@
+// Light selection for next-event estimation: the light tree and the split between infinite and
+// local lights.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "penumbra/light_sampler.h"
+#include "penumbra/sampler.h"
+#include "transforms.h"
+
+using namespace penumbra;
+using penumbra::test::facingDown;
+using penumbra::test::translation;
+
+namespace {
+
+/// A deterministic pseudo-random number in [0, 1) for laying out lights.
+float random01(uint32_t i, uint32_t stream) {
+  return float(hashCombine(hashUint32(stream), i) >> 8) * 0x1p-24f;
+}
+
+/// `count` lights above the plane y = 0: spheres and rects (facing down) of varied sizes and
+/// powers, spread over a 20 x 20 area.
+std::vector<Light> scatteredLights(int count) {
+  std::vector<Light> lights;
+  for (int i = 0; i < count; ++i) {
+    const uint32_t n = uint32_t(i);
+    const double x = 20 * random01(n, 1) - 10, y = 1 + 3 * random01(n, 2),
+                 z = 20 * random01(n, 3) - 10;
+    LightParams p;
+    p.intensity = 0.1f + 10 * random01(n, 4);
+    p.color = {random01(n, 5), random01(n, 6), random01(n, 7)};
+    if (i % 2) {
+      p.type = LightType::Sphere;
+      p.radius = 0.05f + 0.2f * random01(n, 8);
+      p.lightToWorld = translation(x, y, z);
+    } else {
+      p.type = LightType::Rect;
+      p.width = p.height = 0.1f + 0.5f * random01(n, 8);
+      p.lightToWorld = facingDown(x, y, z);
+    }
+    lights.emplace_back(p);
+  }
+  return lights;
+}
+
+LightParams infinite(LightType type, float intensity) {
+  LightParams p;
+  p.type = type;
+  p.intensity = intensity;
+  p.angle = 1;
+  p.normalize = true;                    // distant lights: intensity is the irradiance
+  p.lightToWorld = facingDown(0, 0, 0);  // distant: light travelling down
+  return p;
+}
+
+}  // namespace
+
+TEST(LightSampler, ProbabilitiesMatchWhatSampleReturns) {
+  std::vector<Light> lights = scatteredLights(300);
+  lights.emplace_back(infinite(LightType::Dome, 0.2f));
+  lights.emplace_back(infinite(LightType::Distant, 3));
+  const LightSampler sampler(lights);
+  for (const Receiver& receiver :
+       {Receiver{{0, 0, 0}, {0, 1, 0}}, Receiver{{5, 0.5f, -3}, {0, 0, 0}},
+        Receiver{{-9, 2, 9}, normalize(Vec3f(1, 1, 0))}}) {
+    double total = 0;
+    std::vector<double> expected(lights.size());
+    for (size_t i = 0; i < lights.size(); ++i)
+      total += expected[i] = sampler.probability(receiver, i);
+    // A walk may end in a subtree none of whose lights can reach the receiver (its bounds could,
+    // its children's cannot): that share of the walks chooses nothing, and loses nothing.
+    EXPECT_LE(total, 1.0 + 1e-5);
+    EXPECT_GT(total, 0.99);
+    const int n = 1 << 16;
+    std::vector<int> counts(lights.size());
+    int none = 0;
+    for (int j = 0; j < n; ++j) {
+      const auto choice = sampler.sample(receiver, (float(j) + 0.5f) / float(n));
+      if (!choice) {
+        ++none;
+        continue;
+      }
+      ASSERT_NEAR(choice->probability, expected[choice->index],
+                  1e-6 + 1e-4 * expected[choice->index]);
+      ++counts[choice->index];
+    }
+    // Stratified numbers: each light's share of them is its probability, to within a few
+    // strata per tree level.
+    for (size_t i = 0; i < lights.size(); ++i)
+      EXPECT_NEAR(counts[i], expected[i] * n, 40) << "light " << i;
+    EXPECT_NEAR(none, (1 - total) * n, 40);
+  }
+}
+
+TEST(LightSampler, LightsThatCannotReachTheReceiverAreNeverChosen) {
+  LightParams panel;
+  panel.type = LightType::Rect;
+  panel.lightToWorld = facingDown(0, 2, 0);  // emits downwards only
+  LightParams bulb;
+  bulb.type = LightType::Sphere;
+  bulb.radius = 0.1f;
+  bulb.lightToWorld = translation(3, 2, 0);
+  const LightSampler sampler({Light(panel), Light(bulb)});
+  const Receiver below{{0, 0, 0}, {0, 1, 0}}, above{{0, 4, 0}, {0, 1, 0}};
+  EXPECT_GT(sampler.probability(below, 0), 0.5f);  // the panel is near and bright
+  EXPECT_EQ(sampler.probability(above, 0), 0.0f);  // the panel's back faces it
+  EXPECT_FLOAT_EQ(sampler.probability(above, 1), 1.0f);
+  for (float u : {0.0f, 0.3f, 0.7f, 0.99f}) EXPECT_EQ(sampler.sample(above, u)->index, 1u);
+}
+
+TEST(LightSampler, NeitherInfiniteNorLocalLightsStarve) {
+  LightParams panel;
+  panel.type = LightType::Rect;
+  panel.lightToWorld = facingDown(0, 2, 0);
+  const Receiver receiver{{0, 0, 0}, {0, 1, 0}};
+  for (const float domeIntensity : {1e-4f, 1.0f, 1e4f}) {
+    const LightSampler sampler({Light(panel), Light(infinite(LightType::Dome, domeIntensity))});
+    const float panelShare = sampler.probability(receiver, 0);
+    EXPECT_GE(panelShare, LightSampler::kMinSetShare) << "dome intensity " << domeIntensity;
+    EXPECT_LE(panelShare, 1 - LightSampler::kMinSetShare) << "dome intensity " << domeIntensity;
+  }
+  // Between the bounds, the shares follow the estimated irradiances: a panel of radiance 1 and
+  // area 1 at 2 m gives about 1/4, a dome of radiance 0.08 gives π · 0.08.
+  const LightSampler balanced({Light(panel), Light(infinite(LightType::Dome, 0.08f))});
+  EXPECT_NEAR(balanced.probability(receiver, 1), 0.08 * M_PI / (0.08 * M_PI + 0.25), 0.02);
+}
+
+TEST(LightSampler, DistantLightsBehindTheSurfaceNormalGetFewSamples) {
+  // The sun shines straight down; a wall facing +X sees it edge-on, a floor head-on.
+  const LightSampler sampler(
+      {Light(infinite(LightType::Distant, 1)), Light(infinite(LightType::Dome, 0.05f))});
+  const float onFloor = sampler.probability({{0, 0, 0}, {0, 1, 0}}, 0);
+  const float onWall = sampler.probability({{0, 0, 0}, {1, 0, 0}}, 0);
+  EXPECT_GT(onFloor, 0.8f);
+  EXPECT_LT(onWall, 0.1f);
+  EXPECT_GT(onWall, 0.0f);  // never zero: the surface may still see part of its disk
+}
+
+TEST(LightSampler, TreeStaysShallowForThousandsOfLights) {
+  const LightSampler sampler(scatteredLights(4096));
+  EXPECT_LE(sampler.treeDepth(), 32);
+  EXPECT_GE(sampler.treeDepth(), 12);  // a binary tree over 4,096 leaves
+  // Near one corner, the lights there get a good part of the share that their own importance
+  // there would give them, were each light weighed individually.
+  const Receiver corner{{-9, 0, -9}, {0, 1, 0}};
+  const std::vector<Light> lights = scatteredLights(4096);
+  double treeShare = 0, nearImportance = 0, allImportance = 0;
+  for (size_t i = 0; i < lights.size(); ++i) {
+    const LightBounds bounds = lights[i].bounds();
+    allImportance += bounds.importance(corner);
+    if (bounds.centroid().x < -6 && bounds.centroid().z < -6) {
+      treeShare += sampler.probability(corner, i);
+      nearImportance += bounds.importance(corner);
+    }
+  }
+  // A node's lights are weighed as if they were at its centre, which undersells a near corner
+  // of a large node (measured: 0.34 against 0.68).
+  EXPECT_GT(treeShare, 0.4 * nearImportance / allImportance);
+}
