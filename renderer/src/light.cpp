@@ -68,6 +68,73 @@ std::vector<float> samplingWeights(const std::vector<Vec3f>& texels, int width, 
 
 }  // namespace
 
+/// The rectangle seen from a point, for sampling directions uniformly within the solid angle it
+/// subtends (Ureña, Fajardo & King 2013, "An Area-Preserving Parametrization for Spherical
+/// Rectangles"). Computed in double: the angles cancel badly for small rectangles.
+class SphericalRectangle {
+ public:
+  /// `corner` and the two orthogonal edges from it, seen from `point`.
+  SphericalRectangle(const Vec3f& point, const Vec3f& corner, const Vec3f& edgeX,
+                     const Vec3f& edgeY)
+      : origin_(point) {
+    const double lengthX = length(edgeX), lengthY = length(edgeY);
+    x_ = edgeX / float(lengthX);
+    y_ = edgeY / float(lengthY);
+    z_ = cross(x_, y_);
+    const Vec3f toCorner = corner - point;
+    x0_ = dot(toCorner, x_);
+    y0_ = dot(toCorner, y_);
+    z0_ = dot(toCorner, z_);
+    if (z0_ > 0) {  // work on the side of the plane facing the point
+      z0_ = -z0_;
+      z_ = -z_;
+    }
+    x1_ = x0_ + lengthX;
+    y1_ = y0_ + lengthY;
+    // Normals of the planes through the point and each edge, then the interior angles.
+    const auto planeNormal = [](double ax, double ay, double bx, double by, double z) {
+      // cross((ax, ay, z), (bx, by, z)), normalised
+      const double nx = ay * z - z * by, ny = z * bx - ax * z, nz = ax * by - ay * bx;
+      const double norm = std::sqrt(nx * nx + ny * ny + nz * nz);
+      return std::array<double, 3>{nx / norm, ny / norm, nz / norm};
+    };
+    const auto n0 = planeNormal(x0_, y0_, x1_, y0_, z0_);
+    const auto n1 = planeNormal(x1_, y0_, x1_, y1_, z0_);
+    const auto n2 = planeNormal(x1_, y1_, x0_, y1_, z0_);
+    const auto n3 = planeNormal(x0_, y1_, x0_, y0_, z0_);
+    const auto angle = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+      return std::acos(std::clamp(-(a[0] * b[0] + a[1] * b[1] + a[2] * b[2]), -1.0, 1.0));
+    };
+    const double g0 = angle(n0, n1), g1 = angle(n1, n2), g2 = angle(n2, n3), g3 = angle(n3, n0);
+    b0_ = n0[2];
+    b1_ = n2[2];
+    k_ = 2 * M_PI - g2 - g3;
+    solidAngle_ = g0 + g1 - k_;
+  }
+
+  /// Steradians; not finite or tiny when the point is (nearly) in the rectangle's plane.
+  double solidAngle() const { return solidAngle_; }
+
+  /// The point of the rectangle in direction u ∈ [0, 1)² of the parametrisation.
+  Vec3f sample(Vec2f u) const {
+    const double au = u.x * solidAngle_ + k_;
+    const double fu = (std::cos(au) * b0_ - b1_) / std::sin(au);
+    double cu = std::copysign(1.0, fu) / std::sqrt(fu * fu + b0_ * b0_);
+    cu = std::clamp(cu, -1.0, 1.0);
+    const double xu = std::clamp(-(cu * z0_) / std::sqrt(std::max(1e-30, 1 - cu * cu)), x0_, x1_);
+    const double d = std::sqrt(xu * xu + z0_ * z0_);
+    const double h0 = y0_ / std::sqrt(d * d + y0_ * y0_), h1 = y1_ / std::sqrt(d * d + y1_ * y1_);
+    const double hv = h0 + u.y * (h1 - h0), hv2 = hv * hv;
+    const double yv = hv2 < 1 - 1e-12 ? std::clamp(hv * d / std::sqrt(1 - hv2), y0_, y1_) : y1_;
+    return origin_ + x_ * float(xu) + y_ * float(yv) + z_ * float(z0_);
+  }
+
+ private:
+  Vec3f origin_, x_, y_, z_;
+  double x0_, y0_, z0_, x1_, y1_;
+  double b0_, b1_, k_, solidAngle_;
+};
+
 LightTexture::LightTexture(int width, int height, std::vector<Vec3f> texels, bool latLong)
     : width_(width),
       height_(height),
@@ -165,6 +232,7 @@ Light::Light(const LightParams& params) : params_(params) {
     if (!(area_ > 0) || !(length(normal_) > 0))
       throw std::invalid_argument("the light has zero area (check width/height/radius and scale)");
     normal_ = normalize(normal_);
+    orthogonalEdges_ = std::fabs(dot(edgeU_, edgeV_)) <= 1e-5f * length(edgeU_) * length(edgeV_);
   }
   if ((params.type == LightType::Sphere || params.type == LightType::Cylinder) && !(area_ > 0))
     throw std::invalid_argument("the light has zero radius or length");
@@ -227,6 +295,16 @@ Vec3f Light::domeDirection(Vec2f uv, float* sinPolar) const {
   return normalize(params_.lightToWorld.applyToVector(local));
 }
 
+std::optional<SphericalRectangle> Light::sphericalRect(const Vec3f& point) const {
+  // Textures are sampled by their own distribution; sheared rectangles are parallelograms.
+  if (params_.texture || !orthogonalEdges_) return std::nullopt;
+  if (!(dot(point - center_, normal_) > 0)) return std::nullopt;  // behind the emitting side
+  SphericalRectangle seen(point, center_ - (edgeU_ + edgeV_) * 0.5f, edgeU_, edgeV_);
+  // Nearly edge-on or far away, the parametrisation loses precision; area sampling is as good.
+  if (!(seen.solidAngle() > kMinSphericalSolidAngle)) return std::nullopt;
+  return seen;
+}
+
 float Light::solidAnglePdfFromArea(const Vec3f& point, const Vec3f& lightPoint,
                                    const Vec3f& lightNormal, float areaDensity) const {
   const Vec3f toLight = lightPoint - point;
@@ -246,6 +324,14 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
       Vec2f offset = {u.x - 0.5f, u.y - 0.5f};
       if (params_.type == LightType::Disk) {
         offset = concentricSampleDisk(u);
+      } else if (const std::optional<SphericalRectangle> seen = sphericalRect(point)) {
+        const Vec3f onLight = seen->sample(u);
+        const Vec3f toLight = onLight - point;
+        result.distance = length(toLight);
+        result.direction = toLight / result.distance;
+        result.radiance = radiance_ * shaping(-result.direction);
+        result.pdf = float(1 / seen->solidAngle());
+        return result;
       } else if (params_.texture) {
         float density = 0;
         const Vec2f uv = params_.texture->distribution().sample(u, &density);
@@ -441,7 +527,10 @@ std::optional<LightHit> Light::intersect(const Vec3f& origin, const Vec3f& direc
   }
   hit.distance = t;
   hit.radiance = radiance_ * texture * shaping(-direction);
-  hit.pdf = solidAnglePdfFromArea(origin, point, normal_, areaDensity);
+  const std::optional<SphericalRectangle> seen =
+      params_.type == LightType::Rect ? sphericalRect(origin) : std::nullopt;
+  hit.pdf = seen ? float(1 / seen->solidAngle())
+                 : solidAnglePdfFromArea(origin, point, normal_, areaDensity);
   return hit;
 }
 

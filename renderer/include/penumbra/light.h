@@ -110,6 +110,8 @@ struct LightHit {
   float pdf = 0;  // the solid-angle density sample() would have had for this direction
 };
 
+class SphericalRectangle;
+
 class Light {
  public:
   /// Throws std::invalid_argument for degenerate shapes (zero area, non-finite values).
@@ -151,6 +153,11 @@ class Light {
   float halfAngle() const { return std::acos(std::clamp(cosHalfAngle_, -1.0f, 1.0f)); }
 
  private:
+  /// Rect lights are sampled uniformly in the solid angle they subtend where that is at least
+  /// this (steradians), and by area elsewhere.
+  static constexpr double kMinSphericalSolidAngle = 1e-4;
+  /// The rect as seen from `point` when it is sampled by solid angle there.
+  std::optional<SphericalRectangle> sphericalRect(const Vec3f& point) const;
   float solidAnglePdfFromArea(const Vec3f& point, const Vec3f& lightPoint, const Vec3f& lightNormal,
                               float areaDensity) const;
   std::optional<float> intersectSphere(const Vec3f& origin, const Vec3f& direction) const;
@@ -178,6 +185,7 @@ class Light {
   float oneMinusCosHalfAngle_ = 0;  // kept separately for precision at small angles
   Vec3f axis_;                      // shaping axis: the light's -Z in world space
   bool shaped_ = false;
+  bool orthogonalEdges_ = false;  // rect: not sheared by its transform
   float coneCosOuter_ = -1, coneCosInner_ = -1;
   Transform worldToLight_;
   std::optional<Distribution1D> triangleChoice_;  // mesh lights: triangles by area
