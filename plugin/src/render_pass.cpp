@@ -1,5 +1,6 @@
 #include "penumbra/plugin/render_pass.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "penumbra/render.h"
@@ -20,6 +21,13 @@ int RenderPass::aovChannels(const std::string& name) {
   throw std::invalid_argument("unknown AOV '" + name + "' (known: color, depth)");
 }
 
+int RenderPass::nextConvergenceTest(int samplesDone, int minSamples) {
+  // Even counts, so that the two halves of a pixel's samples compare like with like.
+  int test = minSamples + minSamples % 2;
+  while (test <= samplesDone) test += std::max(4, test / 16 * 2);
+  return test;
+}
+
 void RenderPass::reset() {
   film_.clear();
   samplesDone_ = 0;
@@ -31,7 +39,7 @@ void RenderPass::execute(int samples) {
   delegate_.sync({cameraPrim.params(), film_.width()});
   const RenderSettingsMap& settings = delegate_.settings();
   // The target sample count does not change what a sample is; everything else does.
-  std::map<std::string, int> settingsUsed = settings.asMap();
+  std::map<std::string, double> settingsUsed = settings.asMap();
   settingsUsed.erase("samples");
   settingsUsed.erase("threads");
   if (delegate_.sceneVersion() != sceneVersion_ || cameraPrim.syncCount() != cameraSyncCount_ ||
@@ -51,9 +59,18 @@ void RenderPass::execute(int samples) {
   renderSettings.integrator.maxGlossyDepth = settings.maxGlossyDepth;
   renderSettings.integrator.maxTransmissionDepth = settings.maxTransmissionDepth;
   renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
-  renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_), uint32_t(samples),
-                renderSettings);
-  samplesDone_ += samples;
+  const int end = samplesDone_ + samples;
+  while (samplesDone_ < end && film_.activePixels() > 0) {
+    const int checkpoint = settings.adaptiveThreshold > 0
+                               ? nextConvergenceTest(samplesDone_, settings.adaptiveMinSamples)
+                               : end;
+    const int stop = std::min(end, checkpoint);
+    renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_),
+                  uint32_t(stop - samplesDone_), renderSettings);
+    samplesDone_ = stop;
+    if (stop == checkpoint) film_.updateConvergence(settings.adaptiveThreshold);
+  }
+  samplesDone_ = end;
   for (const auto& [aovName, bufferId] : aovBindings_) {
     RenderBuffer& buffer = delegate_.renderBuffer(bufferId);
     if (buffer.width() != width() || buffer.height() != height())

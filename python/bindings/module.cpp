@@ -495,7 +495,7 @@ PYBIND11_MODULE(_core, m) {
           py::arg("id"), py::arg("params"))
       .def(
           "set_render_setting",
-          [](RenderDelegate& self, const std::string& key, int value) {
+          [](RenderDelegate& self, const std::string& key, double value) {
             self.settings().set(key, value);
           },
           py::arg("key"), py::arg("value"))
@@ -518,6 +518,7 @@ PYBIND11_MODULE(_core, m) {
       .def("reset", &RenderPass::reset)
       .def("set_aov_bindings", &RenderPass::setAovBindings, py::arg("bindings"))
       .def_property_readonly("samples_done", &RenderPass::samplesDone)
+      .def_property_readonly("mean_samples", &RenderPass::meanSamples)
       .def_property_readonly("converged", &RenderPass::converged)
       .def_property_readonly("width", &RenderPass::width)
       .def_property_readonly("height", &RenderPass::height)

@@ -135,6 +135,8 @@ class Renderer:
         disable_motion_blur: bool = False,
         disable_depth_of_field: bool = False,
         progress: ProgressCallback | None = None,
+        adaptive_threshold: float = 0.0,
+        adaptive_min_samples: int = 16,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -147,7 +149,10 @@ class Renderer:
         Motion blur samples the camera's shutter, [time + shutter:open, time + shutter:close];
         ``disable_motion_blur`` (or the render settings' ``disableMotionBlur``) renders ``time``
         alone, ``disable_depth_of_field`` (or ``disableDepthOfField``) makes the camera a
-        pinhole. ``threads`` 0 uses every core. Raises :class:`penumbra.SceneError` when the
+        pinhole. ``threads`` 0 uses every core. ``adaptive_threshold`` > 0 turns on adaptive
+        sampling: from ``adaptive_min_samples`` on, a pixel stops once its estimated relative
+        error (as rRMSE measures it) is below the threshold, so ``samples`` becomes a cap; the
+        image stays a pure function of (scene, seed, samples, threshold). Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
         skipped prims are :class:`penumbra.PenumbraWarning`.
         """
@@ -186,12 +191,14 @@ class Renderer:
             ("threads", threads),
             ("maxPathDepth", max_path_depth),
             ("complexity", complexity_level(complexity)),
+            ("adaptiveThreshold", adaptive_threshold),
+            ("adaptiveMinSamples", adaptive_min_samples),
         ):
             self.delegate.set_render_setting(key, value)
         started = clock.perf_counter()
         render_pass.reset()
         step = max(1, math.ceil(samples / PROGRESS_STEPS))
-        while render_pass.samples_done < samples:
+        while not render_pass.converged:
             render_pass.execute(min(step, samples - render_pass.samples_done))
             self._forward_warnings()
             if progress is not None:
@@ -201,6 +208,8 @@ class Renderer:
         metadata = {
             "camera": camera_id,
             "samples": samples,
+            "meanSamples": round(render_pass.mean_samples, 3),
+            "adaptiveThreshold": adaptive_threshold,
             "seed": seed,
             "renderTimeSeconds": round(elapsed, 3),
             "version": _core.version(),

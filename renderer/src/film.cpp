@@ -9,18 +9,25 @@ Film::Film(int width, int height) : width_(width), height_(height) {
   if (width <= 0 || height <= 0)
     throw std::invalid_argument("film size must be positive, got " + std::to_string(width) + "x" +
                                 std::to_string(height));
-  pixels_.resize(size_t(width) * size_t(height));
+  clear();
 }
 
 void Film::clear() {
-  std::fill(pixels_.begin(), pixels_.end(), Pixel{});
+  pixels_.assign(size_t(width_) * size_t(height_), Pixel{});
+  active_.assign(pixels_.size(), 1);
+  activePixels_ = pixels_.size();
 }
 
-void Film::addSample(int x, int y, const CameraSample& sample) {
+void Film::addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample) {
   Pixel& pixel = pixels_[size_t(y) * size_t(width_) + size_t(x)];
   pixel.red += sample.radiance.x;
   pixel.green += sample.radiance.y;
   pixel.blue += sample.radiance.z;
+  if (sampleIndex % 2 == 0) {
+    pixel.evenRed += sample.radiance.x;
+    pixel.evenGreen += sample.radiance.y;
+    pixel.evenBlue += sample.radiance.z;
+  }
   pixel.alpha += sample.alpha;
   pixel.depth = std::min(pixel.depth, sample.depth);
   ++pixel.samples;
@@ -38,6 +45,46 @@ std::vector<float> Film::resolveColor() const {
     rgba[4 * i + 3] = float(pixel.alpha * scale);
   }
   return rgba;
+}
+
+double Film::squaredRelativeError(const Pixel& pixel) {
+  if (pixel.samples < 2) return kInfinity;
+  const double half = 0.5 * pixel.samples;
+  double sum = 0;
+  for (const auto& [all, even] :
+       {std::pair{pixel.red, pixel.evenRed}, std::pair{pixel.green, pixel.evenGreen},
+        std::pair{pixel.blue, pixel.evenBlue}}) {
+    const double mean = all / pixel.samples;
+    const double halfDifference = 0.5 * (even - (all - even)) / half;
+    sum += halfDifference * halfDifference / (mean * mean + 0.01);
+  }
+  return sum / 3;
+}
+
+void Film::updateConvergence(float threshold) {
+  std::vector<double> error(pixels_.size());
+  for (size_t i = 0; i < pixels_.size(); ++i) error[i] = squaredRelativeError(pixels_[i]);
+  const double limit = double(threshold) * double(threshold);
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      const size_t i = size_t(y) * size_t(width_) + size_t(x);
+      if (!active_[i]) continue;
+      double sum = 0;
+      int count = 0;
+      for (int ny = std::max(0, y - 1); ny <= std::min(height_ - 1, y + 1); ++ny)
+        for (int nx = std::max(0, x - 1); nx <= std::min(width_ - 1, x + 1); ++nx, ++count)
+          sum += error[size_t(ny) * size_t(width_) + size_t(nx)];
+      if (sum / count < limit) {
+        active_[i] = 0;
+        --activePixels_;
+      }
+    }
+}
+
+double Film::meanSamples() const {
+  double total = 0;
+  for (const Pixel& pixel : pixels_) total += pixel.samples;
+  return total / double(pixels_.size());
 }
 
 std::vector<float> Film::resolveDepth() const {

@@ -17,10 +17,13 @@ void renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_
         tbb::blocked_range2d<int>(0, film.height(), kTileSize, 0, film.width(), kTileSize),
         [&](const tbb::blocked_range2d<int>& tile) {
           for (int y = tile.rows().begin(); y < tile.rows().end(); ++y)
-            for (int x = tile.cols().begin(); x < tile.cols().end(); ++x)
+            for (int x = tile.cols().begin(); x < tile.cols().end(); ++x) {
+              if (!film.isActive(x, y)) continue;
               for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s)
                 film.addSample(
-                    x, y, renderCameraSample(scene, camera, filter, x, y, s, settings.integrator));
+                    x, y, s,
+                    renderCameraSample(scene, camera, filter, x, y, s, settings.integrator));
+            }
         });
   };
   if (settings.threads > 0) {

@@ -240,6 +240,10 @@ TEST(RenderDelegate, RejectsUnknownTypesIdsAndSettings) {
   EXPECT_THROW(delegate.removePrim("/nothing"), std::out_of_range);
   EXPECT_THROW(delegate.settings().set("spp", 4), std::invalid_argument);
   EXPECT_THROW(delegate.settings().set("samples", 0), std::invalid_argument);
+  EXPECT_THROW(delegate.settings().set("samples", 2.5), std::invalid_argument);
+  EXPECT_THROW(delegate.settings().set("adaptiveThreshold", -0.1), std::invalid_argument);
+  delegate.settings().set("adaptiveThreshold", 0.02);
+  EXPECT_FLOAT_EQ(float(delegate.settings().asMap().at("adaptiveThreshold")), 0.02f);
   delegate.insertSprim("rectLight", "/l");
   EXPECT_THROW(delegate.light("/l").setParam("radius", Vec3f(1, 1, 1)), std::invalid_argument);
   EXPECT_THROW(delegate.light("/l").setParam("shaping:ies:file", std::string("a.ies")),
@@ -476,4 +480,74 @@ TEST(Render, AHiddenDomeDoesNotStarveTheLightInAClosedRoom) {
   EXPECT_NEAR(meanChannel(domed[0], 0) / mean, 1.0, 0.02);
   EXPECT_LT(domedNoise / mean, 0.08);
   EXPECT_GT(domedNoise, roomNoise);  // the dome does take samples
+}
+
+namespace {
+
+/// A floor lit by a small rect light through a narrow gap (noisy soft shadows and indirect light)
+/// beside a uniformly emissive wall that any single sample gets right, seen by a 48x40 image.
+void adaptiveScene(RenderDelegate& delegate) {
+  lambertianFloorScene(delegate, 0.7f);
+  addFloor(delegate, "/occluder", 0.3f, 1);
+  delegate.insertSprim("rectLight", "/panel");
+  delegate.light("/panel").setParam("intensity", 20.0f);
+  delegate.light("/panel").setTransform(facingDown(0.2, 2, 0));
+  addFloor(delegate, "/glow", 10, 0.01f);
+  delegate.mesh("/glow").setTransform(translation(-10.5, 0, 0));  // covers x < -0.5
+  delegate.insertSprim("material", "/emitter");
+  delegate.material("/emitter").setParam("emissiveColor", Vec3f(0.5f));
+  delegate.material("/emitter").setParam("diffuseColor", Vec3f(0.0f));
+  delegate.material("/emitter").setParam("specularColor", Vec3f(0.0f));
+  delegate.material("/emitter").setParam("useSpecularWorkflow", 1);
+  delegate.mesh("/glow").setMaterialId("/emitter");
+  delegate.camera("/cam").setParams([] {
+    CameraParams params;
+    params.focalLength = 10;
+    params.horizontalAperture = params.verticalAperture = 10;
+    return params;
+  }());
+  delegate.settings().set("adaptiveThreshold", 0.05);
+  delegate.settings().set("adaptiveMinSamples", 8);
+}
+
+}  // namespace
+
+TEST(Render, AdaptiveSamplingIsBitIdenticalForAnyThreadCountAndSplit) {
+  const auto renderWith = [](int threads, std::vector<int> passes) {
+    RenderDelegate delegate;
+    adaptiveScene(delegate);
+    delegate.settings().set("threads", threads);
+    RenderPass pass(delegate, "/cam", 48, 40);
+    for (int samples : passes) pass.execute(samples);
+    return std::pair{pass.aov("color"), pass.meanSamples()};
+  };
+  const auto one = renderWith(1, {64});
+  EXPECT_LT(one.second, 64);  // some pixels stopped early
+  EXPECT_EQ(one, renderWith(2, {64}));
+  EXPECT_EQ(one, renderWith(2, {5, 30, 1, 28}));
+  EXPECT_EQ(one, renderWith(1, std::vector<int>(64, 1)));
+}
+
+TEST(Render, AdaptiveSamplingStopsConvergedPixelsAndKeepsTheMean) {
+  RenderDelegate delegate;
+  adaptiveScene(delegate);
+  RenderPass adaptive(delegate, "/cam", 48, 40);
+  adaptive.execute(256);
+  // The emissive half stops at the first test (8 samples); the lit floor goes on.
+  EXPECT_LT(adaptive.meanSamples(), 0.5 * 256);
+  EXPECT_GT(adaptive.meanSamples(), 0.5 * 8 + 8);
+  const std::vector<float> image = adaptive.aov("color");
+  delegate.settings().set("adaptiveThreshold", 0.0);
+  RenderPass full(delegate, "/cam", 48, 40);
+  full.execute(256);
+  EXPECT_EQ(full.meanSamples(), 256);
+  const std::vector<float> reference = full.aov("color");
+  double error = 0, emissive = 0;
+  for (size_t i = 0; i < image.size(); i += 4) {
+    error += std::pow(image[i] - reference[i], 2) / (std::pow(reference[i], 2) + 0.01);
+    if (i / 4 % 48 < 12) emissive += image[i];  // the left quarter is the emissive wall
+  }
+  EXPECT_LT(std::sqrt(error / double(image.size() / 4)), 0.05);
+  EXPECT_NEAR(meanChannel(image, 0) / meanChannel(reference, 0), 1.0, 0.01);
+  EXPECT_NEAR(emissive / (12 * 40), 0.5, 1e-3);  // its grazing Fresnel reflection aside
 }

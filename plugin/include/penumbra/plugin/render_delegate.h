@@ -41,10 +41,15 @@ struct RenderSettingsMap {
   int complexity = 0;
   /// Direct lighting estimator (a diagnostic): 0 MIS, 1 light sampling only, 2 BSDF sampling only.
   int directLighting = 0;
+  /// Adaptive sampling (0: off): a pixel stops taking samples once the estimated relative error
+  /// of its value falls below this (e.g. 0.02), checked from adaptiveMinSamples on.
+  float adaptiveThreshold = 0;
+  int adaptiveMinSamples = 16;
 
-  /// Throws std::invalid_argument for an unknown key or an out-of-range value.
-  void set(const std::string& key, int value);
-  std::map<std::string, int> asMap() const;
+  /// Throws std::invalid_argument for an unknown key, an out-of-range value or a fraction for an
+  /// integer setting.
+  void set(const std::string& key, double value);
+  std::map<std::string, double> asMap() const;
 };
 
 class RenderDelegate {

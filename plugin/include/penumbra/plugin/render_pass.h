@@ -16,13 +16,21 @@ class RenderPass {
   RenderPass(RenderDelegate& delegate, PrimId cameraId, int width, int height);
 
   /// Syncs, then renders `samples` more samples per pixel. Sample indices continue where the
-  /// previous call stopped, so execute(64) equals 4 × execute(16) bit for bit.
+  /// previous call stopped, so execute(64) equals 4 × execute(16) bit for bit. With adaptive
+  /// sampling, pixels are tested for convergence at fixed sample counts (adaptiveMinSamples, then
+  /// every eighth more, at least 4), whatever the calls' sizes.
   /// Throws std::out_of_range if the camera is not in the render index.
   void execute(int samples);
   void reset();
 
   int samplesDone() const { return samplesDone_; }
-  bool converged() const { return samplesDone_ >= delegate_.settings().samples; }
+  /// Samples per pixel actually taken, on average (fewer than samplesDone() where adaptive
+  /// sampling stopped pixels).
+  double meanSamples() const { return film_.meanSamples(); }
+  /// The target sample count is reached, or adaptive sampling has stopped every pixel.
+  bool converged() const {
+    return samplesDone_ >= delegate_.settings().samples || film_.activePixels() == 0;
+  }
   int width() const { return film_.width(); }
   int height() const { return film_.height(); }
 
@@ -38,6 +46,9 @@ class RenderPass {
   void setAovBindings(std::map<std::string, PrimId> bindings);
 
  private:
+  /// The first sample count after `samplesDone` at which adaptive sampling tests pixels.
+  static int nextConvergenceTest(int samplesDone, int minSamples);
+
   RenderDelegate& delegate_;
   PrimId cameraId_;
   Film film_;
@@ -45,7 +56,7 @@ class RenderPass {
   // What the accumulated samples were rendered with; any change restarts accumulation.
   uint64_t sceneVersion_ = ~uint64_t(0);
   int cameraSyncCount_ = -1;
-  std::map<std::string, int> settingsUsed_;
+  std::map<std::string, double> settingsUsed_;
   std::map<std::string, PrimId> aovBindings_;
 };
 
