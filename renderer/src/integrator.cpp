@@ -52,6 +52,7 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
   float nearest = kInfinity;
   for (size_t i = 0; i < lights.size(); ++i) {
     const Light& light = lights[i];
+    if (!origin.fromSurface && !light.cameraVisible()) continue;
     std::optional<LightHit> hit;
     if (light.isInfinite()) {
       if (escaped) hit = light.escaped(ray.direction);
