@@ -407,7 +407,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _UsageError as error:
         sys.stderr.write(f"{PROG}: error: {error}\n")
         return EXIT_USAGE
-    if not args.quiet:
+    if args.quiet:
+        logging.getLogger("penumbra").setLevel(logging.WARNING)
+    else:
         _report_information()
 
     tracer = Tracer(enabled=bool(args.traceToFile) or args.verbose)
