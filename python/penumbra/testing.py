@@ -1,4 +1,4 @@
-"""Golden-image tests for pytest (DESIGN.md §2.4).
+"""Golden-image tests for pytest (docs/design.md §2.4).
 
 Enable the plugin in a ``conftest.py`` with ``pytest_plugins = ["penumbra.testing"]``; then::
 

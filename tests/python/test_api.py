@@ -1,4 +1,4 @@
-"""The Python API of DESIGN §2.3 and the incremental scene delegate, through the real core."""
+"""The Python API of docs/design.md §2.3 and the incremental scene delegate, through the real core."""
 
 from __future__ import annotations
 
