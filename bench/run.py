@@ -1,5 +1,8 @@
 """Penumbra benchmarks (`make bench`): load and render times of the shared scenes.
 
+The scenes are those of ``../shared/scenes`` beside the repository (benchmark scenes shared
+with other renderers, not part of the repository); without it the benchmark says so and stops.
+
 Every scene is rendered in the same run at 640x360 with the same sample count, so the numbers
 are comparable side by side (the machines are shared and noisy: compare ratios, not seconds).
 """
@@ -7,6 +10,7 @@ are comparable side by side (the machines are shared and noisy: compare ratios, 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -39,6 +43,12 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=64)
     parser.add_argument("--width", type=int, default=640)
     args = parser.parse_args()
+    if not SCENES.is_dir():
+        sys.exit(
+            f"bench/run.py: the benchmark scenes are not here: {SCENES} does not exist "
+            "(they live beside the repository, in ../shared/scenes; tests and examples do not "
+            "need them)"
+        )
     print(f"| scene | load (s) | render {args.width}px, {args.samples} spp (s) | Mpaths/s |")
     print("|---|---|---|---|")
     for name in args.scenes:

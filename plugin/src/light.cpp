@@ -52,7 +52,8 @@ void Light::setParam(const std::string& name, const ParamValue& value) {
       {"normalize", &LightParams::normalize},
       {"enableColorTemperature", &LightParams::enableColorTemperature},
       {"treatAsPoint", &LightParams::treatAsPoint},
-      {"shadow:enable", &LightParams::shadowEnable}};
+      {"shadow:enable", &LightParams::shadowEnable},
+      {"cameraVisible", &LightParams::cameraVisible}};
   static const std::map<std::string, Vec3f LightParams::*> colors = {
       {"color", &LightParams::color}, {"shaping:focusTint", &LightParams::focusTint}};
   try {

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import resource
 import sys
 import time
 import warnings
@@ -16,9 +17,10 @@ from collections.abc import Sequence
 
 from pxr import Usd
 
+from . import _core
 from .errors import PenumbraWarning, SceneError
 from .frames import find_placeholder, frame_path, frame_spec_precision, parse_frame_spec
-from .image import COLOR_MODES
+from .image import COLOR_MODES, Image, check_output_directory, check_output_format
 from .renderer import (
     COMPLEXITIES,
     DEFAULT_MAX_PATH_DEPTH,
@@ -26,29 +28,30 @@ from .renderer import (
     DEFAULT_WIDTH,
     Renderer,
 )
-from .usd import open_stage, read_render_settings, resolve_camera
+from .trace import TRACE_FORMATS, Tracer
+from .usd import open_stage, read_render_settings, render_pass_settings, resolve_camera
+from .usd.stage import RESOLVERS
 
 PROG = "penumbra-record"
 EXIT_OK, EXIT_SCENE, EXIT_USAGE = 0, 1, 2
 
 # Flags the parser accepts (for usdrecord compatibility) that this version rejects.
 _NOT_SUPPORTED_YET = {
-    "mask": "--mask",
-    "session_layer": "--sessionLayer",
     "aov": "--aov",
     "scheduler": "--scheduler",
     "resume": "--resume",
 }
+RENDERER_NAME = "Penumbra"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser: usdrecord's flags plus Penumbra's own."""
+    """The argument parser: usdrecord's flags plus Penumbra's own (no abbreviations)."""
     parser = argparse.ArgumentParser(
         prog=PROG,
+        allow_abbrev=False,
         description="Render a USD file with Penumbra (usdrecord-compatible command line).",
         epilog=(
-            "Not supported yet (rejected with exit status 2): --mask, --sessionLayer, --aov, "
-            "--scheduler, --resume. "
+            "Not supported yet (rejected with exit status 2): --aov, --scheduler, --resume. "
             "Exit status: 0 success, 1 the scene or a file could not be rendered, 2 usage error."
         ),
     )
@@ -67,8 +70,9 @@ def build_parser() -> argparse.ArgumentParser:
         "-cam",
         metavar="CAMERA",
         help=(
-            "camera prim path, or a camera's prim name searched in the stage (default: the "
-            "render settings' camera, else main_cam)"
+            "camera prim path, or a camera's prim name searched in the stage; a relative path "
+            "of several elements is made absolute (default: main_cam, else the render "
+            "settings' camera, else the stage's only camera, else one framing the stage)"
         ),
     )
     times = usd.add_mutually_exclusive_group()
@@ -91,8 +95,9 @@ def build_parser() -> argparse.ArgumentParser:
         default=DEFAULT_WIDTH,
         metavar="WIDTH",
         help=(
-            "image width in pixels (default: %(default)s); the height follows the render "
-            "settings' resolution aspect, else the camera's aperture aspect"
+            "image width in pixels (default: %(default)s); the height is int(width / aspect) "
+            "of the camera's apertures as usdrecord computes it, or follows the render "
+            "settings' resolution"
         ),
     )
     usd.add_argument(
@@ -124,6 +129,12 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     usd.add_argument(
+        "--renderPassPrimPath",
+        "-rp",
+        metavar="PRIMPATH",
+        help="UsdRenderPass prim whose renderSource names the render settings (not with -rs)",
+    )
+    usd.add_argument(
         "--colorCorrectionMode",
         "-color",
         choices=COLOR_MODES,
@@ -134,9 +145,81 @@ def build_parser() -> argparse.ArgumentParser:
             "or disabled (default: %(default)s)"
         ),
     )
-    usd.add_argument("--mask", metavar="PRIMPATH[,PRIMPATH...]", help="not supported yet")
     usd.add_argument(
-        "--sessionLayer", dest="session_layer", metavar="SESSIONLAYER", help="not supported yet"
+        "--mask",
+        metavar="PRIMPATH[,PRIMPATH...]",
+        help=(
+            "populate the stage with only these prims, their ancestors and descendants "
+            "(comma- or space-separated)"
+        ),
+    )
+    usd.add_argument(
+        "--sessionLayer",
+        dest="session_layer",
+        metavar="SESSIONLAYER",
+        help="open the stage with this layer as its session layer (default: an anonymous one)",
+    )
+    usd.add_argument(
+        "--resolver",
+        choices=RESOLVERS,
+        default="root",
+        help=(
+            "asset resolver context: root (made for the USD file) or inherit (the "
+            "environment's default) (default: %(default)s)"
+        ),
+    )
+    usd.add_argument(
+        "--renderer",
+        "-r",
+        default=RENDERER_NAME,
+        metavar="RENDERER",
+        help=f"Hydra renderer: only {RENDERER_NAME} (default: %(default)s)",
+    )
+    usd.add_argument(
+        "--disableGpu",
+        action="store_true",
+        help="accepted for usdrecord compatibility; Penumbra renders on the CPU",
+    )
+    usd.add_argument(
+        "--disableCameraLight",
+        action="store_true",
+        help=(
+            "a stage without lights is lit only by its emissive surfaces (default: by a "
+            "camera light, which is never seen)"
+        ),
+    )
+    usd.add_argument(
+        "--enableDomeLightVisibility",
+        action="store_true",
+        help=(
+            "camera rays see dome lights (default: domes light the scene but the background "
+            "is transparent, alpha 0)"
+        ),
+    )
+    usd.add_argument(
+        "--disableDrawMode",
+        action="store_true",
+        help=(
+            "accepted for usdrecord compatibility: Penumbra ignores UsdGeomModelAPI draw "
+            "modes and always renders full geometry, as if this flag were given"
+        ),
+    )
+    usd.add_argument(
+        "--traceToFile",
+        metavar="PATH",
+        help="write a timing trace (stage open, sync, render passes, writes) to PATH",
+    )
+    usd.add_argument(
+        "--traceFormat",
+        choices=TRACE_FORMATS,
+        default="chrome",
+        help="--traceToFile's format: chrome (chrome://tracing JSON) or trace (text) "
+        "(default: %(default)s)",
+    )
+    usd.add_argument(
+        "--memstats",
+        action="store_true",
+        help="print the process's peak memory (resident set) after each frame and at the end",
     )
 
     own = parser.add_argument_group("Penumbra options")
@@ -185,29 +268,56 @@ def build_parser() -> argparse.ArgumentParser:
     )
     own.add_argument("--scheduler", metavar="ADDRESS", help="not supported yet")
     own.add_argument("--resume", action="store_true", help="not supported yet")
+    own.add_argument("--version", action="version", version=f"{PROG} {_core.version()}")
+    chatter = own.add_mutually_exclusive_group()
+    chatter.add_argument(
+        "-q", "--quiet", action="store_true", help="print only warnings and errors"
+    )
+    chatter.add_argument(
+        "-v", "--verbose", action="store_true", help="also print the sync and pass timings"
+    )
     return parser
 
 
 class _Progress:
-    """Prints ``samples done / total`` and the elapsed time of a frame on stderr: updated in
-    place on a terminal, else one line per quarter of the frame (logs stay short)."""
+    """Prints ``samples done / total``, the elapsed time and an estimate of the time left of a
+    frame on stderr: updated in place on a terminal, else one line per quarter of the frame
+    (logs stay short)."""
 
-    def __init__(self, label: str) -> None:
+    def __init__(self, label: str, interactive: bool | None = None) -> None:
         self.label = label
         self.started = time.perf_counter()
-        self.interactive = sys.stderr.isatty()
+        self.interactive = sys.stderr.isatty() if interactive is None else interactive
         self.quarters_reported = 0
 
     def __call__(self, done: int, total: int) -> None:
         elapsed = time.perf_counter() - self.started
         line = f"{self.label}: {done}/{total} samples, {elapsed:.1f} s"
         if self.interactive:
+            if 0 < done < total:
+                line += f", about {elapsed * (total - done) / done:.0f} s left"
             end = "\n" if done >= total else ""
-            sys.stderr.write(f"\r{line}{end}")
+            sys.stderr.write(f"\r\033[K{line}{end}")
         elif 4 * done // total > self.quarters_reported:
             self.quarters_reported = 4 * done // total
             sys.stderr.write(f"{line}\n")
         sys.stderr.flush()
+
+
+def peak_memory_bytes() -> int:
+    """The process's peak resident set size so far."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # Linux: kilobytes
+
+
+def frame_summary(label: str, image: Image) -> str:
+    """One line about a finished frame: time, samples, pixel samples per second, peak memory."""
+    seconds = float(image.metadata["renderTimeSeconds"])
+    samples = int(image.metadata["samples"])
+    rate = image.width * image.height * samples / max(seconds, 1e-9)
+    return (
+        f"{label}: {image.width}x{image.height}, {samples} samples/pixel in {seconds:.2f} s "
+        f"({rate / 1e6:.2f} M pixel samples/s), peak memory {peak_memory_bytes() / 2**20:.0f} MB"
+    )
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -228,6 +338,14 @@ def _check_usage(args: argparse.Namespace) -> list[float]:
     for dest, flag in _NOT_SUPPORTED_YET.items():
         if getattr(args, dest):
             raise _UsageError(f"{flag} is not supported yet")
+    if args.renderer.lower() != RENDERER_NAME.lower():
+        raise _UsageError(
+            f"--renderer {args.renderer}: {PROG} renders with {RENDERER_NAME} only"
+        )
+    if args.renderSettingsPrimPath and args.renderPassPrimPath:
+        raise _UsageError("give --renderSettingsPrimPath or --renderPassPrimPath, not both")
+    if args.traceFormat != "chrome" and not args.traceToFile:
+        raise _UsageError("--traceFormat needs --traceToFile")
     for name in ("imageWidth", "samples"):
         if getattr(args, name) < 1:
             raise _UsageError(f"--{name} must be at least 1")
@@ -235,6 +353,7 @@ def _check_usage(args: argparse.Namespace) -> list[float]:
         if getattr(args, name) < 0:
             raise _UsageError(f"--{name} cannot be negative")
     try:
+        check_output_format(args.outputImagePath)
         placeholder = find_placeholder(args.outputImagePath)
         frames = parse_frame_spec(args.frames) if args.frames is not None else []
     except ValueError as error:
@@ -281,31 +400,62 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
-    except SystemExit as exit_:  # argparse reports usage errors (2) and --help (0) this way
+    except SystemExit as exit_:  # argparse reports usage errors (2), --help and --version (0)
         return int(exit_.code or 0)
     try:
         frames = _check_usage(args)
     except _UsageError as error:
         sys.stderr.write(f"{PROG}: error: {error}\n")
         return EXIT_USAGE
-    _report_information()
+    if args.quiet:
+        logging.getLogger("penumbra").setLevel(logging.WARNING)
+    else:
+        _report_information()
 
+    tracer = Tracer(enabled=bool(args.traceToFile) or args.verbose)
     with warnings.catch_warnings():
         warnings.simplefilter("always", PenumbraWarning)
         warnings.showwarning = _show_warning
         try:
-            return _record(args, frames)
-        except (SceneError, RuntimeError) as error:  # RuntimeError: the image writer's
+            status = _record(args, frames, tracer)
+        except (SceneError, RuntimeError, OSError) as error:  # RuntimeError: the image writer's
             sys.stderr.write(f"{PROG}: error: {error}\n")
-            return EXIT_SCENE
+            status = EXIT_SCENE
         except KeyboardInterrupt:
             sys.stderr.write(f"\n{PROG}: interrupted\n")
             return 130
+    if args.verbose:
+        sys.stderr.write(tracer.report())
+    if args.memstats:
+        print(f"Peak memory (resident set): {peak_memory_bytes() / 2**20:.1f} MB")
+    if args.traceToFile:
+        try:
+            tracer.write(args.traceToFile, args.traceFormat)
+        except OSError as error:
+            sys.stderr.write(f"{PROG}: error: {args.traceToFile}: cannot write the trace: {error.strerror}\n")
+            return EXIT_SCENE
+    return status
 
 
-def _record(args: argparse.Namespace, frames: list[float]) -> int:
-    stage = open_stage(args.usdFilePath)
-    settings = read_render_settings(stage, args.renderSettingsPrimPath)
+def _render_settings_path(stage: Usd.Stage, args: argparse.Namespace) -> str | None:
+    """The render settings prim to use: ``-rs``, else the render source of the ``-rp`` render
+    pass, else none (the stage metadata then applies)."""
+    if not args.renderPassPrimPath:
+        return args.renderSettingsPrimPath
+    return render_pass_settings(stage, args.renderPassPrimPath)
+
+
+def _record(args: argparse.Namespace, frames: list[float], tracer: Tracer) -> int:
+    say = (lambda _text: None) if args.quiet else print
+    with tracer.span("open stage", file=args.usdFilePath):
+        stage = open_stage(
+            args.usdFilePath,
+            mask=(args.mask or "").replace(",", " ").split(),
+            session_layer=args.session_layer,
+            resolver=args.resolver,
+        )
+    check_output_directory(args.outputImagePath)
+    settings = read_render_settings(stage, _render_settings_path(stage, args))
     if args.defaultTime:
         time_codes = [Usd.TimeCode.Default()]
     elif frames:
@@ -315,30 +465,37 @@ def _record(args: argparse.Namespace, frames: list[float]) -> int:
     purposes = args.purposes.replace(",", " ").split()
     camera = resolve_camera(stage, args.camera, settings, time_codes[0], purposes)
 
-    print(f"Camera: {camera.GetPath()}")
+    say(f"Camera: {camera.GetPath()}")
+    say(f"Renderer plugin: {RENDERER_NAME}")
     with Renderer(stage, purposes=purposes) as renderer:
+        renderer.tracer = tracer
         for time_code in time_codes:
             frame = "default" if time_code.IsDefault() else f"{time_code.GetValue():g}"
-            print(f"Recording time code: {frame}")
-            image = renderer.render(
-                camera=str(camera.GetPath()),
-                time=time_code,
-                width=args.imageWidth,
-                samples=args.samples,
-                seed=args.seed,
-                threads=args.threads,
-                max_path_depth=args.maxPathDepth,
-                complexity=args.complexity,
-                render_settings=settings.path if settings else None,
-                disable_motion_blur=args.disable_motion_blur,
-                disable_depth_of_field=args.disable_depth_of_field,
-                progress=_Progress(f"time code {frame}"),
-            )
-            output = args.outputImagePath
-            if frames:
-                output = frame_path(output, time_code.GetValue())
-            image.write(output, color_mode=args.colorCorrectionMode)
-            print(f"Wrote {os.path.abspath(output)}")
+            say(f"Recording time code: {frame}")
+            with tracer.span(f"time code {frame}"):
+                image = renderer.render(
+                    camera=str(camera.GetPath()),
+                    time=time_code,
+                    width=args.imageWidth,
+                    samples=args.samples,
+                    seed=args.seed,
+                    threads=args.threads,
+                    max_path_depth=args.maxPathDepth,
+                    complexity=args.complexity,
+                    render_settings=settings.path if settings else None,
+                    disable_motion_blur=args.disable_motion_blur,
+                    disable_depth_of_field=args.disable_depth_of_field,
+                    dome_light_visibility=args.enableDomeLightVisibility,
+                    default_light="none" if args.disableCameraLight else "camera",
+                    progress=None if args.quiet else _Progress(f"time code {frame}"),
+                )
+                output = args.outputImagePath
+                if frames:
+                    output = frame_path(output, time_code.GetValue())
+                with tracer.span("write image", file=output):
+                    image.write(output, color_mode=args.colorCorrectionMode)
+            say(frame_summary(f"time code {frame}", image))
+            say(f"Wrote {os.path.abspath(output)}")
     return EXIT_OK
 
 

@@ -1,6 +1,6 @@
 """Errors and warnings shared by the Python layers of Penumbra.
 
-Policy (DESIGN §3 "Errors"): a problem that makes the render meaningless (no camera, unreadable
+Policy (docs/design.md §3 "Errors"): a problem that makes the render meaningless (no camera, unreadable
 file) raises :class:`SceneError`; a prim that cannot be used is skipped and reported once with a
 :class:`PenumbraWarning` whose text names the prim and the problem.
 """

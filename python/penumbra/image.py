@@ -20,6 +20,30 @@ def ocio_config_path(explicit: str | os.PathLike | None = None) -> str:
     return os.fspath(explicit or os.environ.get("OCIO") or BUNDLED_OCIO_CONFIG)
 
 COLOR_MODES = ("disabled", "sRGB", "openColorIO")
+OUTPUT_FORMATS = (".exr", ".png", ".jpg", ".jpeg", ".tif", ".tiff")
+"""The image formats Penumbra writes (by extension, any case): scene-linear EXR, and display
+formats through OCIO."""
+
+
+def check_output_format(path: str | os.PathLike) -> None:
+    """``ValueError`` naming ``path`` unless its extension is one of :data:`OUTPUT_FORMATS`."""
+    path = os.fspath(path)
+    extension = os.path.splitext(path)[1].lower()
+    if extension not in OUTPUT_FORMATS:
+        raise ValueError(
+            f"{path}: cannot write {extension or 'files without an extension'}; "
+            f"the output formats are {', '.join(OUTPUT_FORMATS)}"
+        )
+
+
+def check_output_directory(path: str | os.PathLike) -> None:
+    """``OSError`` naming ``path`` unless its directory exists and is writable."""
+    path = os.fspath(path)
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise OSError(f"{path}: directory {directory} does not exist")
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise OSError(f"{path}: directory {directory} is not writable")
 METADATA_PREFIX = "penumbra:"
 
 _CHANNEL_SUFFIXES = "RGBA"
@@ -89,11 +113,16 @@ class Image(Mapping[str, np.ndarray]):
         values: ``color_mode`` ``"openColorIO"`` (default) uses ``ocio_config``, else ``$OCIO``,
         else Penumbra's bundled config (sRGB display, "Standard" view unless ``display``/
         ``view`` say otherwise); ``"sRGB"`` applies the sRGB transfer function;
-        ``"disabled"`` writes the linear values. Errors raise ``RuntimeError`` naming the file.
+        ``"disabled"`` writes the linear values. The transform applies to un-premultiplied
+        colour; TIFF stores it premultiplied again, PNG as it is (unassociated alpha). An
+        extension not in :data:`OUTPUT_FORMATS` raises ``ValueError``, a missing or read-only
+        directory ``OSError``, other errors ``RuntimeError``, each naming the file.
         """
         if color_mode not in COLOR_MODES:
             raise ValueError(f"color_mode must be one of {COLOR_MODES}, not {color_mode!r}")
         path = os.fspath(path)
+        check_output_format(path)
+        check_output_directory(path)
         if path.lower().endswith(".exr"):
             aovs = list(self._aovs.items())
         elif "color" in self._aovs:

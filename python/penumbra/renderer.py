@@ -2,20 +2,25 @@
 
 from __future__ import annotations
 
-import logging
 import math
 import os
 import time as clock
 from collections.abc import Callable, Iterable
 
 import numpy as np
-from pxr import Usd, UsdLux
+from pxr import Sdf, Usd, UsdLux
 
 from . import _core
 from .errors import SceneError, warn
 from .image import Image, ocio_config_path
+from .trace import Tracer
 from .usd.camera import read_shutter
-from .usd.framing import DEFAULT_LIGHT_ID
+from .usd.default_light import (
+    DEFAULT_LIGHT_ID,
+    DefaultLight,
+    DefaultLightManager,
+    check_default_light,
+)
 from .usd.instancers import PointInstancerDelegate
 from .usd.lights import LIGHT_SPRIM_TYPES
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
@@ -28,8 +33,6 @@ from .usd import (
     resolve_camera,
     stage_name,
 )
-
-logger = logging.getLogger(__name__)
 
 DEFAULT_WIDTH = 960  # usdrecord's default image width
 DEFAULT_SAMPLES = 64
@@ -54,6 +57,18 @@ def _time_code(stage: Usd.Stage, time: TimeLike) -> Usd.TimeCode:
     return Usd.TimeCode(float(time))
 
 
+def as_stage(stage_or_path: Usd.Stage | str | os.PathLike) -> Usd.Stage:
+    """A stage, or the stage opened from a file path; ``TypeError`` names the types taken."""
+    if isinstance(stage_or_path, Usd.Stage):
+        return stage_or_path
+    if isinstance(stage_or_path, (str, os.PathLike)):
+        return open_stage(stage_or_path)
+    raise TypeError(
+        "expected a pxr.Usd.Stage or the path of a USD file (str or os.PathLike), not "
+        f"{type(stage_or_path).__module__}.{type(stage_or_path).__qualname__}"
+    )
+
+
 def complexity_level(complexity: str) -> int:
     """The render delegate's ``complexity`` setting for a usdrecord complexity name."""
     if complexity not in COMPLEXITIES:
@@ -62,7 +77,8 @@ def complexity_level(complexity: str) -> int:
 
 
 class Renderer:
-    """Renders a USD stage; edits to the stage are picked up incrementally.
+    """Renders a USD stage (a ``Usd.Stage``, or the path of a file to open); edits to the
+    stage are picked up incrementally.
 
     Creating a renderer syncs the stage (at its startTimeCode) into one render delegate. Each
     :meth:`render` then pushes only what changed since the previous one: edited prims (the
@@ -76,13 +92,14 @@ class Renderer:
 
     def __init__(
         self,
-        stage: Usd.Stage,
+        stage: Usd.Stage | str | os.PathLike,
         *,
         purposes: Iterable[str] = DEFAULT_PURPOSES,
         max_motion_segments: int = DEFAULT_MAX_MOTION_SEGMENTS,
     ):
         if max_motion_segments < 1:
             raise ValueError(f"max_motion_segments must be at least 1, not {max_motion_segments}")
+        stage = as_stage(stage)
         self.stage = stage
         self.max_motion_segments = max_motion_segments
         self.delegate = _core.RenderDelegate(ocio_config=ocio_config_path())
@@ -90,6 +107,9 @@ class Renderer:
         self._scene = SceneDelegate(stage, self.delegate, purposes)
         self._instancers = PointInstancerDelegate(stage, self.delegate, purposes, warn)
         self._passes: dict[tuple[str, int, int], _core.RenderPass] = {}
+        self._default_light = DefaultLightManager(self.delegate, stage_name(stage))
+        self.tracer = Tracer(enabled=False)
+        """Records timing spans of each render when enabled (``penumbra-record --traceToFile``)."""
         self._scene.update(self._still(_time_code(stage, None)))
 
     def sync(self, time: TimeLike = None) -> None:
@@ -101,10 +121,11 @@ class Renderer:
     def _still(self, time_code: Usd.TimeCode) -> Shutter:
         return Shutter(time_code, max_segments=self.max_motion_segments)
 
-    def _sync(self, shutter: Shutter, depth_of_field: bool = True) -> None:
-        self._scene.update(shutter, depth_of_field)
+    def _sync(
+        self, shutter: Shutter, depth_of_field: bool = True, dome_light_visibility: bool = True
+    ) -> None:
+        self._scene.update(shutter, depth_of_field, dome_light_visibility)
         self._instancers.update(shutter)
-        self._update_default_light()
 
     def close(self) -> None:
         """Stop tracking stage edits and drop the render passes."""
@@ -120,28 +141,31 @@ class Renderer:
 
     def render(
         self,
-        camera: str | None = None,
+        camera: str | Sdf.Path | None = None,
         time: TimeLike = None,
         width: int | None = None,
         height: int | None = None,
         *,
         samples: int = DEFAULT_SAMPLES,
         seed: int = 0,
-        aovs: Iterable[str] = ("color",),
+        aovs: str | Iterable[str] = ("color",),
         threads: int = 0,
         max_path_depth: int = DEFAULT_MAX_PATH_DEPTH,
         complexity: str = "low",
         render_settings: str | None = None,
         disable_motion_blur: bool = False,
         disable_depth_of_field: bool = False,
+        dome_light_visibility: bool = True,
+        default_light: DefaultLight = "dome",
         progress: ProgressCallback | None = None,
         adaptive_threshold: float = 0.0,
         adaptive_min_samples: int = 16,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
-        ``camera``: a prim path or bare camera name; by default the render settings' camera,
-        else ``main_cam``. ``time``: a time code (float or ``Usd.TimeCode``, e.g.
+        ``camera``: a prim path or bare camera name (``str`` or ``Sdf.Path``); by default
+        ``main_cam``, else the render settings' camera (usdrecord's order). ``aovs``: one AOV
+        name or several. ``time``: a time code (float or ``Usd.TimeCode``, e.g.
         ``Usd.TimeCode.Default()``); by default the stage's startTimeCode. ``width``: by default
         the render settings' resolution, else 960. ``height``: by default from the aspect ratio
         of the render settings' resolution, else of the camera's apertures. ``render_settings``:
@@ -149,16 +173,23 @@ class Renderer:
         Motion blur samples the camera's shutter, [time + shutter:open, time + shutter:close];
         ``disable_motion_blur`` (or the render settings' ``disableMotionBlur``) renders ``time``
         alone, ``disable_depth_of_field`` (or ``disableDepthOfField``) makes the camera a
-        pinhole. ``threads`` 0 uses every core. ``adaptive_threshold`` > 0 turns on adaptive
-        sampling: from ``adaptive_min_samples`` on, a pixel stops once its estimated relative
-        error (as rRMSE measures it) is below the threshold, so ``samples`` becomes a cap; the
-        image stays a pure function of (scene, seed, samples, threshold). Raises :class:`penumbra.SceneError` when the
+        pinhole. ``dome_light_visibility`` False hides dome lights from camera rays (they
+        still light the scene; the background is transparent, as usdrecord renders it).
+        ``default_light`` lights a stage that has no lights (UsdLux lights or
+        UsdLuxMeshLightAPI meshes): ``"dome"`` a uniform white dome of radiance 1,
+        ``"camera"`` a light from the camera that is never seen (usdrecord's default), or
+        ``"none"`` (only emissive surfaces light the stage). ``threads`` 0 uses every core.
+        ``adaptive_threshold`` > 0 turns on adaptive sampling: from ``adaptive_min_samples``
+        on, a pixel stops once its estimated relative error (as rRMSE measures it) is below
+        the threshold, so ``samples`` becomes a cap; the image stays a pure function of (scene,
+        seed, samples, threshold). Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
         skipped prims are :class:`penumbra.PenumbraWarning`.
         """
         if samples < 1:
             raise ValueError(f"samples must be at least 1, not {samples}")
-        aovs = tuple(aovs)
+        check_default_light(default_light)
+        aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
         time_code = _time_code(self.stage, time)
         settings = read_render_settings(self.stage, render_settings)
         camera_prim = resolve_camera(self.stage, camera, settings, time_code, self._scene.purposes)
@@ -174,7 +205,15 @@ class Renderer:
             disable_depth_of_field or (settings and settings.disable_depth_of_field)
         )
         shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
-        self._sync(shutter, depth_of_field)
+        with self.tracer.span("sync stage (USD to render delegate)"):
+            self._sync(shutter, depth_of_field, dome_light_visibility)
+            self._default_light.update(
+                default_light,
+                self._stage_has_lights(),
+                camera_prim,
+                time_code,
+                dome_light_visibility,
+            )
         camera_id = str(camera_prim.GetPath())
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
@@ -199,7 +238,13 @@ class Renderer:
         render_pass.reset()
         step = max(1, math.ceil(samples / PROGRESS_STEPS))
         while not render_pass.converged:
-            render_pass.execute(min(step, samples - render_pass.samples_done))
+            first, count = render_pass.samples_done, min(step, samples - render_pass.samples_done)
+            # The first execute also syncs the render delegate: dicing, BVH build.
+            name = "render pass: samples"
+            if first == 0:
+                name = "render pass: delegate sync (dicing, BVH build) and samples"
+            with self.tracer.span(name, first=first + 1, last=first + count):
+                render_pass.execute(count)
             self._forward_warnings()
             if progress is not None:
                 progress(render_pass.samples_done, samples)
@@ -226,11 +271,10 @@ class Renderer:
             self._passes[key] = _core.RenderPass(self.delegate, camera_id, width, height)
         return self._passes[key]
 
-    def _update_default_light(self) -> None:
-        """Light a stage without lights with a uniform dome (as usdrecord lights such stages by
-        default); drop it once the stage has lights of its own."""
-        has_default = self.delegate.has_prim(DEFAULT_LIGHT_ID)
-        has_lights = any(
+    def _stage_has_lights(self) -> bool:
+        """Whether the synced stage has lights of its own (UsdLux lights or meshes with
+        UsdLuxMeshLightAPI)."""
+        return any(
             self._scene.prim_kind(prim_id) in LIGHT_SPRIM_TYPES
             or (
                 self._scene.prim_kind(prim_id) == "mesh"
@@ -239,16 +283,6 @@ class Renderer:
             for prim_id in self.delegate.prim_ids()
             if prim_id != DEFAULT_LIGHT_ID
         )
-        if has_lights and has_default:
-            self.delegate.remove_prim(DEFAULT_LIGHT_ID)
-        elif not has_lights and not has_default:
-            self.delegate.insert_sprim("domeLight", DEFAULT_LIGHT_ID)
-            # A default, not a problem with the stage: reported as information, not a warning.
-            logger.info(
-                "%s: the stage has no lights; rendering under a uniform white dome light "
-                "(intensity 1)",
-                stage_name(self.stage),
-            )
 
     def _forward_warnings(self) -> None:
         for message in self.delegate.take_warnings():
@@ -262,9 +296,5 @@ def render(
     **kwargs,
 ) -> Image:
     """Render a stage (or the file at a path) once: ``Renderer(stage).render(**kwargs)``."""
-    if isinstance(stage_or_path, Usd.Stage):
-        stage = stage_or_path
-    else:
-        stage = open_stage(stage_or_path)
-    with Renderer(stage, purposes=purposes) as renderer:
+    with Renderer(stage_or_path, purposes=purposes) as renderer:
         return renderer.render(**kwargs)

@@ -1,4 +1,4 @@
-"""Golden-image tests for pytest (DESIGN.md §2.4).
+"""Golden-image tests for pytest (docs/design.md §2.4).
 
 Enable the plugin in a ``conftest.py`` with ``pytest_plugins = ["penumbra.testing"]``; then::
 
@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from . import _core
-from .diff import compare
+from .diff import compare, write_difference
 from .image import Image
 
 CHANNELS = ["R", "G", "B", "A"]
@@ -44,6 +44,9 @@ class Golden:
 
     directory: Path
     update: bool
+    failures: Path | None = None
+    """Where a failing check saves the render (``NAME.actual.exr``) and the difference
+    (``NAME.diff.exr``, golden minus render) named in its report; ``None``: not saved."""
 
     def path(self, name: str) -> Path:
         return self.directory / f"{name}.exr"
@@ -69,22 +72,41 @@ class Golden:
             pytest.fail(f"{golden}: no golden image; create it with pytest --update-goldens")
         baseline, names, _ = _core.read_image(str(golden))
         if baseline.shape != color.shape:
-            pytest.fail(f"{golden}: size {baseline.shape} differs from the render's {color.shape}")
+            saved = self._save_failure(name, baseline, color, names)
+            pytest.fail(
+                f"{golden}: size {baseline.shape} differs from the render's {color.shape}{saved}"
+            )
         result = compare(baseline, color, names, warn=fail, fail=fail)
         failed_percent = 100.0 * result.fail_pixels / result.pixels
         if failed_percent > failpercent or result.max_error > hardfail:
+            saved = self._save_failure(name, baseline, color, names)
             pytest.fail(
                 f"{golden}: {result.fail_pixels} of {result.pixels} pixels "
                 f"({failed_percent:.3f} %, allowed {failpercent} %) differ by more than {fail}; "
                 f"max error {result.max_error:.4g} at {result.max_location}, "
-                f"mean {result.mean_error:.3g}, rms {result.rms_error:.3g}"
+                f"mean {result.mean_error:.3g}, rms {result.rms_error:.3g}{saved}"
             )
+
+    def _save_failure(
+        self, name: str, baseline: np.ndarray, color: np.ndarray, names: list[str]
+    ) -> str:
+        """Save the render and the difference image; the report's sentence naming them."""
+        if self.failures is None:
+            return ""
+        self.failures.mkdir(parents=True, exist_ok=True)
+        actual = self.failures / f"{name}.actual.exr"
+        difference = self.failures / f"{name}.diff.exr"
+        _core.write_image(str(actual), color, CHANNELS, {"penumbra:golden": name})
+        write_difference(str(difference), baseline, color, names, absolute=False, scale=1.0)
+        return f"; saved {actual} and {difference}"
 
 
 @pytest.fixture
-def golden(request: pytest.FixtureRequest) -> Golden:
-    """A :class:`Golden` for the requesting test, with images in ``goldens/`` beside its file."""
+def golden(request: pytest.FixtureRequest, tmp_path: Path) -> Golden:
+    """A :class:`Golden` for the requesting test, with images in ``goldens/`` beside its file;
+    a failing check saves the render and the difference in the test's ``tmp_path``."""
     return Golden(
         directory=Path(request.node.fspath).parent / "goldens",
         update=request.config.getoption("--update-goldens"),
+        failures=tmp_path,
     )

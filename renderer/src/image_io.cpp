@@ -60,6 +60,31 @@ void applyDisplayTransform(std::vector<float>& pixels, int width, int height, in
   }
 }
 
+/// Formats whose files hold colour not premultiplied by alpha (OIIO divides premultiplied
+/// input by alpha when it writes them).
+bool storesUnassociatedAlpha(const std::string& path) {
+  const std::string extension = lowerExtension(path);
+  return extension == ".png" || extension == ".tga" || extension == ".tpic" ||
+         extension == ".webp" || extension == ".gif";
+}
+
+/// Divides (premultiplied = false) or multiplies the colour channels (the first three, those
+/// the display transform converts) of pixels with alpha in (0, 1) by their alpha; pixels of
+/// alpha 0 or 1 are left as they are.
+void setPremultiplied(std::vector<float>& pixels, int channels, int alpha, bool premultiplied) {
+  for (size_t i = 0; i < pixels.size(); i += size_t(channels)) {
+    const float a = pixels[i + size_t(alpha)];
+    if (!(a > 0 && a < 1)) continue;
+    for (int c = 0; c < std::min(channels, 3); ++c) {
+      if (c == alpha) continue;
+      if (premultiplied)
+        pixels[i + size_t(c)] *= a;
+      else
+        pixels[i + size_t(c)] /= a;
+    }
+  }
+}
+
 std::string temporaryPathFor(const fs::path& target) {
   static std::atomic<unsigned> counter{0};
   // Keep the extension last: OIIO picks the format from it.
@@ -87,12 +112,19 @@ void writeImage(const std::string& path, const ImageData& image, const DisplaySe
 
   const bool linear = isSceneLinearFormat(path);
   std::vector<float> pixels = image.pixels;
+  const std::vector<std::string>& names = image.channelNames;
+  const auto alphaChannel = std::find(names.begin(), names.end(), "A");
+  const int alpha = alphaChannel == names.end() ? -1 : int(alphaChannel - names.begin());
+  const bool unassociated = !linear && alpha >= 0 && storesUnassociatedAlpha(path);
   if (!linear) {
+    // The display transform applies to colour, not to colour premultiplied by coverage.
+    if (alpha >= 0) setPremultiplied(pixels, channels, alpha, false);
     try {
       applyDisplayTransform(pixels, image.width, image.height, channels, display);
     } catch (const std::exception& error) {
       throw std::runtime_error(path + ": " + error.what());
     }
+    if (alpha >= 0 && !unassociated) setPremultiplied(pixels, channels, alpha, true);
   }
   OIIO::ImageSpec spec(image.width, image.height, channels,
                        linear ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);
@@ -111,6 +143,8 @@ void writeImage(const std::string& path, const ImageData& image, const DisplaySe
       spec.attribute(key, std::get<float>(value));
   }
   if (linear) spec.attribute("compression", "zip");
+  // Already un-premultiplied: OIIO must not divide by alpha again (after quantizing).
+  if (unassociated) spec.attribute("oiio:UnassociatedAlpha", 1);
 
   const std::string temporary = temporaryPathFor(target);
   std::unique_ptr<OIIO::ImageOutput> output = OIIO::ImageOutput::create(path);

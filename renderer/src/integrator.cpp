@@ -56,6 +56,7 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
   float nearest = kInfinity;
   const auto add = [&](uint32_t index, const LightHit& hit) {
     const Light& light = lights[index];
+    if (!origin.fromSurface && !light.cameraVisible()) return;
     // Light surfaces may overlap; each contributes, and the nearest defines depth. A visible
     // light (the dome too) makes the pixel opaque.
     nearest = std::min(nearest, hit.distance);

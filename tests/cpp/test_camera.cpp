@@ -6,7 +6,7 @@ using namespace penumbra;
 
 namespace {
 
-// The camera of ../shared/scenes/cornell.usda: 35 mm lens on a 36 x 20.25 mm film, metres.
+// The camera of tests/assets/cornell.usda: 35 mm lens on a 36 x 20.25 mm film, metres.
 CameraParams cornellCamera() {
   CameraParams params;
   params.focalLength = 0.35f;

@@ -195,6 +195,35 @@ TEST(Render, EmissiveSurfacesAreSeenByTheCamera) {
   EXPECT_FLOAT_EQ(float(meanChannel(image, 2)), 4.0f);
 }
 
+TEST(Render, LightsHiddenFromTheCameraStillLightTheScene) {
+  // A floor filling the left half of the view under a unit dome: camera rays that miss the
+  // floor see the dome (alpha 1) unless it is hidden from them (alpha 0, black); the floor is
+  // lit the same either way.
+  const auto renderWith = [](bool cameraVisible) {
+    RenderDelegate delegate;
+    addFloor(delegate, "/floor", 50);
+    delegate.mesh("/floor").setTransform(translation(-50, 0, 0));
+    delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
+    addCamera(delegate, facingDown(0, 5, 0));
+    delegate.insertSprim("domeLight", "/sky");
+    delegate.light("/sky").setParam("cameraVisible", cameraVisible);
+    delegate.settings().set("maxPathDepth", 1);
+    return render(delegate, 4, 4, 64);
+  };
+  const std::vector<float> seen = renderWith(true), hidden = renderWith(false);
+  double floorMean = 0;
+  for (int row = 0; row < 4; ++row) {
+    const size_t floor = size_t(row * 4) * 4, sky = size_t(row * 4 + 3) * 4;
+    EXPECT_EQ(seen[sky + 3], 1.0f);
+    EXPECT_FLOAT_EQ(seen[sky], 1.0f);
+    for (size_t c = 0; c < 4; ++c) EXPECT_EQ(hidden[sky + c], 0.0f);
+    EXPECT_EQ(hidden[floor + 3], 1.0f);
+    EXPECT_EQ(hidden[floor], seen[floor]);
+    floorMean += hidden[floor] / 4.0;
+  }
+  EXPECT_NEAR(floorMean, 0.5, 0.02);
+}
+
 TEST(RenderDelegate, InvalidMeshesAreSkippedWithAWarningNamingThem) {
   RenderDelegate delegate;
   lambertianFloorScene(delegate, 0.5f);

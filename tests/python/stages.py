@@ -8,7 +8,8 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
 from penumbra.usd import implicit
 
-SCENES = Path(__file__).parents[2].parent / "shared" / "scenes"
+SCENES = Path(__file__).resolve().parents[1] / "assets"
+"""Test scenes kept in the repository (tests/assets: cornell.usda and usd-wg with its licences)."""
 CORNELL = SCENES / "cornell.usda"
 
 

@@ -1,4 +1,4 @@
-"""The Python API of DESIGN §2.3 and the incremental scene delegate, through the real core."""
+"""The Python API of docs/design.md §2.3 and the incremental scene delegate, through the real core."""
 
 from __future__ import annotations
 
@@ -299,7 +299,10 @@ def test_camera_errors():
         renderer.render(camera="/World", **SMALL)
     with pytest.raises(penumbra.SceneError, match="no camera named 'nope'"):
         renderer.render(camera="nope", **SMALL)
-    # Without a camera named anywhere, a camera framing the stage is made (session layer).
+    # Without a camera named anywhere, the stage's only camera is used (as husk does) ...
+    assert renderer.render(**SMALL).metadata["camera"] == "/cam"
+    # ... and with several, a camera framing the stage is made (session layer).
+    add_camera(stage, "/cam2")
     assert renderer.render(**SMALL).metadata["camera"] == "/PenumbraFramingCamera"
     assert renderer.render(camera="cam", **SMALL).metadata["camera"] == "/cam"
     with pytest.raises(penumbra.SceneError, match="no camera: .* no geometry to frame"):

@@ -1,4 +1,4 @@
-"""Depth of field against the thin-lens law (DESIGN §3), in a metre and a centimetre scene.
+"""Depth of field against the thin-lens law (docs/design.md §3), in a metre and a centimetre scene.
 
 A camera at the origin looks down −Z through a lens of focal length f = 0.1·focalLength and
 aperture diameter A = f/N. A point at distance d, with the focus at d_f, images to a disk of

@@ -39,14 +39,15 @@ def test_fail_warn_and_percentages(tmp_path, baseline, capsys):
         and "6 pixels (1%) over 1e-06" in out
         and "Max error  = 0.02 @ (2, 0, G)" in out
     )
-    assert main([baseline, other, "--fail", "0.02"]) == 1  # still over the warn threshold
-    assert main([baseline, other, "--fail", "0.02", "--warn", "0.02"]) == 0
+    # idiff 2.4: a comparison in which no pixel fails passes, whatever warns.
+    assert main([baseline, other, "--fail", "0.03"]) == 0
     assert main([baseline, other, "--failpercent", "1"]) == 1  # 1 % may fail, none may warn
     assert main([baseline, other, "-failpercent", "1", "-warnpercent", "1"]) == 0
     assert (
         main([baseline, other, "--failpercent", "1", "--warnpercent", "1", "--hardfail", "0.015"])
         == 2
     )
+    assert main([baseline, other, "-allowfailures", "6", "-hardfail", "0.015"]) == 0
 
 
 def test_infinite_depth_compares_equal(tmp_path):
@@ -58,16 +59,35 @@ def test_infinite_depth_compares_equal(tmp_path):
     assert main([a, b]) == 0
     depth[1, 1, 0] = 3.0
     _core.write_image(b, depth, names, {})
-    assert main([a, b, "--fail", "100"]) == 2
+    # A value infinite in one image only is not counted (idiff 2.4), whatever the threshold.
+    assert main([a, b]) == 0
 
 
-def test_size_mismatch(tmp_path, baseline, capsys):
-    assert main([baseline, write(tmp_path / "small.exr", BASE[:10])]) == 3
-    assert "do not match in size" in capsys.readouterr().out
-    assert main([baseline, str(write(tmp_path / "rgb.exr", BASE))]) == 0
+def test_size_and_channel_mismatches_fail_by_their_differences(tmp_path, baseline, capsys):
+    """As idiff 2.4: the union of the images is compared, missing values being 0."""
+    assert main([baseline, write(tmp_path / "small.exr", BASE[:10])]) == 2
+    out = capsys.readouterr().out
+    assert "Sizes differ: 30x20, 4 channels vs 30x10, 4 channels" in out
+    assert "300 pixels (50%) over 1e-06" in out
     rgb = tmp_path / "three.exr"
     _core.write_image(str(rgb), np.ascontiguousarray(BASE[..., :3]), ["R", "G", "B"], {})
-    assert main([baseline, str(rgb)]) == 3
+    assert main([baseline, str(rgb)]) == 2
+    assert main([baseline, str(rgb), "--fail", "1"]) == 0  # alpha < 1 everywhere
+
+
+def test_nan_in_one_image_is_not_counted(tmp_path, baseline, capsys):
+    nan = BASE.copy()
+    nan[3, 4, 0] = np.nan
+    assert main([baseline, write(tmp_path / "nan.exr", nan), "-v"]) == 0
+    out = capsys.readouterr().out
+    assert "Max error  = inf @ (4, 3, R)" in out and "0 pixels (0%) over 1e-06" in out
+
+
+def test_usage_errors_exit_1_as_idiff(baseline, capsys):
+    assert main([baseline]) == 1
+    assert main(["--bogus", baseline, baseline]) == 1
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.startswith("penumbra-diff ")
 
 
 def test_file_errors(tmp_path, baseline, capsys):
@@ -85,5 +105,23 @@ def test_perceptual(tmp_path, baseline):
     blotch = BASE.copy()
     blotch[5:15, 5:15, :3] = 0.0  # a visible black square
     blotch_path = write(tmp_path / "blotch.exr", blotch)
-    assert main([baseline, blotch_path, "--fail", "1", "--warn", "1"]) == 0
-    assert main([baseline, blotch_path, "--fail", "1", "--warn", "1", "--perceptual"]) == 2
+    # 83 pixels (13.8 %) differ by more than 0.5, about 100 (16 %) fail perceptually.
+    allow = ["--fail", "0.5", "--failpercent", "15", "--warnpercent", "100"]
+    assert main([baseline, blotch_path, *allow]) == 0
+    assert main([baseline, blotch_path, *allow, "--perceptual"]) == 2
+
+
+def test_golden_failure_saves_the_render_and_the_difference(tmp_path):
+    from penumbra.image import Image
+    from penumbra.testing import Golden
+
+    golden = Golden(directory=tmp_path / "goldens", update=True)
+    golden.check(Image({"color": BASE}, {}), "patch")
+    failing = Golden(directory=tmp_path / "goldens", update=False, failures=tmp_path / "out")
+    changed = BASE.copy()
+    changed[0, 0, 0] += 0.5
+    with pytest.raises(pytest.fail.Exception, match=r"saved .*patch\.actual\.exr and .*patch\.diff\.exr"):
+        failing.check(Image({"color": changed}, {}), "patch", fail=0.1)
+    difference = _core.read_image(str(tmp_path / "out" / "patch.diff.exr"))[0]
+    assert difference[0, 0, 0] == pytest.approx(-0.5) and np.count_nonzero(difference) == 1
+    np.testing.assert_array_equal(_core.read_image(str(tmp_path / "out" / "patch.actual.exr"))[0], changed)

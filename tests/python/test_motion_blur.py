@@ -32,8 +32,9 @@ def column(x: float, z: float = DEPTH, width: int = WIDTH) -> float:
 SHARP = column(RADIUS) - column(0)  # the sphere's image radius, px
 
 
-def streak_stage(shutter=(0.0, 1.0), film_height: float = 0.0036, path=None):
-    """A camera with the given shutter, a strip of film (96 px high by default), no sphere."""
+def streak_stage(shutter=(0.0, 1.0), film_height: float = 0.0036001, path=None):
+    """A camera with the given shutter, a strip of film (96 px high by default: usdrecord's
+    int(960 / aspect) of the float apertures 0.36 and 0.036 would be 95), no sphere."""
     stage = emitter_stage(path=path)
     stage.SetEndTimeCode(2)
     camera = add_camera(

@@ -61,7 +61,7 @@ def test_rect_light_irradiance():
 
 
 def test_light_exposure_and_normalize():
-    """exposure doubles per stop; normalize divides by the light's area (DESIGN §3)."""
+    """exposure doubles per stop; normalize divides by the light's area (docs/design.md §3)."""
     stage = plane_stage()
     light = UsdLux.SphereLight.Define(stage, "/World/bulb")
     light.CreateRadiusAttr(0.5)

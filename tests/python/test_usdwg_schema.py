@@ -1,4 +1,4 @@
-"""The usd-wg UsdGeom schema test assets (../shared/scenes/usd-wg/test_assets/schemaTests): every
+"""The usd-wg UsdGeom schema test assets (tests/assets/usd-wg/test_assets/schemaTests): every
 one renders, and meshes whose attributes have types a mesh cannot use are skipped with a warning
 naming them, as Storm skips them, while the others render."""
 

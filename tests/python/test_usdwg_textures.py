@@ -1,7 +1,7 @@
 """The usd-wg texture assets (issue 5): UsdUVTexture, UsdPrimvarReader_float2 and UsdTransform2d
 render with the orientation, transforms and colours the UsdPreviewSurface spec gives them.
 
-Assets (../shared/scenes/usd-wg/test_assets, not edited; every change below is made in the
+Assets (tests/assets/usd-wg/test_assets, not edited; every change below is made in the
 stage's session layer):
 
 - TextureCoordinateTest.usda: four quads, each showing one corner (0.4 × 0.4 of st space) of

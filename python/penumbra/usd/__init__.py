@@ -6,6 +6,7 @@ from .settings import (
     find_camera,
     image_size,
     read_render_settings,
+    render_pass_settings,
     resolve_camera,
 )
 from .stage import open_stage, stage_name
@@ -18,6 +19,7 @@ __all__ = [
     "image_size",
     "open_stage",
     "read_render_settings",
+    "render_pass_settings",
     "resolve_camera",
     "stage_name",
 ]

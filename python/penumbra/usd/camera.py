@@ -1,4 +1,4 @@
-"""UsdGeomCamera → the render delegate's ``camera`` sprim (USD units, see DESIGN §3), and the
+"""UsdGeomCamera → the render delegate's ``camera`` sprim (USD units, see docs/design.md §3), and the
 shutter a camera gives a frame."""
 
 from __future__ import annotations

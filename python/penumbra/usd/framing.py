@@ -1,9 +1,8 @@
-"""Defaults for stages that lack what a render needs, as usdrecord provides them: a camera
-framing the stage and a light.
+"""A camera framing the stage, for stages without one (as usdrecord frames them).
 
-The framing camera is authored in the stage's session layer (so the user's layers are never
-touched and the scene delegate picks it up like any other camera); the default light is a
-uniform dome inserted into the render delegate only.
+The framing camera is authored in the stage's session layer, so the user's layers are never
+touched and the scene delegate picks it up like any other camera. (The default light of a stage
+without lights is in :mod:`.default_light`.)
 """
 
 from __future__ import annotations
@@ -14,8 +13,6 @@ from collections.abc import Iterable
 from pxr import Gf, Sdf, Usd, UsdGeom
 
 FRAMING_CAMERA_PATH = Sdf.Path("/PenumbraFramingCamera")
-DEFAULT_LIGHT_ID = "/PenumbraDefaultLight"
-"""Id of the default dome light in the render delegate (never a prim of the stage)."""
 
 
 def framing_camera(stage: Usd.Stage, time: Usd.TimeCode, purposes: Iterable[str]) -> Usd.Prim | None:

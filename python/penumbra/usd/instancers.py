@@ -17,7 +17,7 @@ Point instancer copies come from usd-core (``ComputeInstanceTransformsAtTimes``:
 orientations, scales, the prototype root's own transform), masked by ``invisibleIds``. usd-core
 extrapolates ``velocities``/``accelerations`` only from time-sampled positions and
 ``angularVelocities`` only from time-sampled orientations; for default-valued ones Penumbra
-moves and spins each copy itself (units per second, degrees per second: DESIGN §3).
+moves and spins each copy itself (units per second, degrees per second: docs/design.md §3).
 
 Per-instance primvars travel with the copies (:attr:`Leaf.primvars`, one row per copy): a point
 instancer's vertex/varying primvars and the constant primvars of instances and instancers, which

@@ -74,8 +74,16 @@ def _getter(schema, name: str) -> Usd.Attribute:
     return getattr(schema, f"Get{name[0].upper()}{name[1:]}Attr")()
 
 
-def sync_light(core, prim: Usd.Prim, reader: SampleReader, warn: Callable[[str], None]) -> None:
-    """Push the inputs of light ``prim`` (of a type :func:`light_type` accepts) to ``core``."""
+def sync_light(
+    core,
+    prim: Usd.Prim,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    dome_light_visibility: bool = True,
+) -> None:
+    """Push the inputs of light ``prim`` (of a type :func:`light_type` accepts) to ``core``.
+    Without ``dome_light_visibility`` a dome light is not seen by camera rays (usdrecord's
+    default: the dome lights the scene, the background stays transparent)."""
     path = str(prim.GetPath())
     sprim_type = light_type(prim)
     _, schema_class, shape_inputs = next(entry for entry in _LIGHTS if entry[0] == sprim_type)
@@ -92,6 +100,7 @@ def sync_light(core, prim: Usd.Prim, reader: SampleReader, warn: Callable[[str],
         if name in params:
             params[name] = tuple(float(c) for c in params[name])
     params["texture:file"] = _texture_path(prim, schema, reader, warn)
+    params["cameraVisible"] = dome_light_visibility or sprim_type != "domeLight"
     core.set_light(path, **params)
 
 

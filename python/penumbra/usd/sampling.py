@@ -2,7 +2,7 @@
 can vary with time.
 
 A frame F seen through a camera with ``shutter:open`` o and ``shutter:close`` c covers the time
-codes [F+o, F+c] (DESIGN §3); moving prims are sampled at K uniformly spaced times over it (the
+codes [F+o, F+c] (docs/design.md §3); moving prims are sampled at K uniformly spaced times over it (the
 render delegate interprets sample k at normalised shutter time k/(K−1)). The scene delegate
 re-reads, at a new frame or shutter, only the aspects of a prim whose inputs might be
 time-varying; :class:`SampleReader` collects that fact while a prim is being read.

@@ -102,6 +102,7 @@ class SceneDelegate:
         self.time: Usd.TimeCode | None = None
         self.shutter: Shutter | None = None
         self.depth_of_field = True
+        self.dome_light_visibility = True
         self._prims: dict[Sdf.Path, _Prim] = {}
         self._materials: dict[Sdf.Path, _Material] = {}
         self._dirty: dict[Sdf.Path, Dirty] = {}
@@ -127,10 +128,12 @@ class SceneDelegate:
             self._listener.Revoke()
             self._listener = None
 
-    def update(self, shutter: Shutter, depth_of_field: bool = True) -> None:
+    def update(
+        self, shutter: Shutter, depth_of_field: bool = True, dome_light_visibility: bool = True
+    ) -> None:
         """Bring the delegate up to date with the stage over ``shutter`` (its frame, or the
         interval moving prims are sampled over); ``depth_of_field`` False makes cameras
-        pinholes.
+        pinholes; ``dome_light_visibility`` False hides dome lights from camera rays.
 
         The first call populates the delegate; later calls push only queued edits and, when
         the shutter differs from the last one, the time-varying aspects (and the cameras when
@@ -138,8 +141,14 @@ class SceneDelegate:
         """
         if self.shutter is None:
             self.shutter, self.time, self.depth_of_field = shutter, shutter.frame, depth_of_field
+            self.dome_light_visibility = dome_light_visibility
             self._resync(Sdf.Path.absoluteRootPath)
         self._process_notices()
+        if dome_light_visibility != self.dome_light_visibility:
+            self.dome_light_visibility = dome_light_visibility
+            for path, record in self._prims.items():
+                if record.kind == "domeLight":
+                    self._mark(path, Dirty.DATA)
         if shutter != self.shutter or depth_of_field != self.depth_of_field:
             time_changed = shutter != self.shutter
             lens_changed = depth_of_field != self.depth_of_field or (
@@ -336,7 +345,7 @@ class SceneDelegate:
             elif record.kind == "camera":
                 sync_camera(self.core, prim, reader, self.depth_of_field)
             else:
-                sync_light(self.core, prim, reader, self._warn)
+                sync_light(self.core, prim, reader, self._warn, self.dome_light_visibility)
             record.varying = _set_flag(record.varying, Dirty.DATA, reader.varying)
         if bits & Dirty.TRANSFORM:
             self.core.set_transform(path_str, transform_samples(prim, shutter, xform_caches))

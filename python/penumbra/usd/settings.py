@@ -8,14 +8,18 @@ the camera's apertures.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdRender, UsdUtils
 
-from ..errors import SceneError
-from .framing import framing_camera
+from ..errors import SceneError, warn
+from .framing import FRAMING_CAMERA_PATH, framing_camera
 from .stage import stage_name
+
+logger = logging.getLogger("penumbra")
 
 
 @dataclass(frozen=True)
@@ -63,48 +67,129 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
     )
 
 
-def find_camera(stage: Usd.Stage, name_or_path: str) -> Usd.Prim:
-    """The camera prim at an absolute path, or the first camera whose name is ``name_or_path``.
+CameraPath = str | Sdf.Path
+"""A camera as a prim path or a bare prim name, as ``str`` or ``Sdf.Path``."""
 
-    Instance proxies are searched too. Raises :class:`SceneError` naming the stage and the prim.
+
+def _camera_path(name_or_path: CameraPath) -> Sdf.Path | None:
+    """``name_or_path`` as an ``Sdf.Path`` (``None`` if it is no prim path)."""
+    if isinstance(name_or_path, Sdf.Path):
+        path = name_or_path
+    else:
+        text = str(name_or_path)
+        if not text or not Sdf.Path.IsValidPathString(text):
+            return None
+        path = Sdf.Path(text)
+    return path if path.IsPrimPath() or path == Sdf.Path.absoluteRootPath else None
+
+
+def render_pass_settings(stage: Usd.Stage, pass_path: str) -> str:
+    """The render settings prim named by the ``renderSource`` of the UsdRenderPass at
+    ``pass_path`` (its first target, with a warning when there are several, as usdrecord).
+    Raises :class:`SceneError` naming the pass when it is not a render pass or names no
+    source."""
+    render_pass = (
+        UsdRender.Pass(stage.GetPrimAtPath(pass_path))
+        if Sdf.Path.IsValidPathString(pass_path) and pass_path.startswith("/")
+        else None
+    )
+    if not render_pass:
+        raise SceneError(f"{stage_name(stage)}: {pass_path} is not a RenderPass prim")
+    targets = render_pass.GetRenderSourceRel().GetForwardedTargets()
+    if not targets:
+        raise SceneError(f"{stage_name(stage)}: render pass {pass_path} has no renderSource")
+    if len(targets) > 1:
+        warn(f"{pass_path}: the render pass has {len(targets)} render sources; using {targets[0]}")
+    return str(targets[0])
+
+
+def camera_at_path(stage: Usd.Stage, name_or_path: CameraPath) -> Usd.Prim | None:
+    """The camera usdrecord's ``UsdAppUtils.GetCameraAtPath`` finds, or ``None``.
+
+    An absolute path names the prim; a relative path of several elements is made absolute
+    (with a warning, as usdrecord does); a single name is searched for among the stage's
+    cameras (instance proxies too), the first in traversal order.
     """
-    if name_or_path.startswith("/"):
-        prim = (
-            stage.GetPrimAtPath(name_or_path) if Sdf.Path.IsValidPathString(name_or_path) else None
-        )
-        if not prim:
-            raise SceneError(f"{stage_name(stage)}: no prim at camera path {name_or_path}")
-        if not prim.IsA(UsdGeom.Camera):
-            raise SceneError(
-                f"{stage_name(stage)}: {name_or_path} is not a camera "
-                f"(it is a {prim.GetTypeName() or 'typeless prim'})"
-            )
+    path = _camera_path(name_or_path)
+    if path is None:
+        return None
+    if not path.IsAbsolutePath():
+        if path.pathElementCount > 1:
+            absolute = path.MakeAbsolutePath(Sdf.Path.absoluteRootPath)
+            warn(f'{stage_name(stage)}: camera path "{path}" is not absolute; using "{absolute}"')
+            path = absolute
+        else:
+            predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+            for prim in Usd.PrimRange(stage.GetPseudoRoot(), predicate):
+                if prim.GetName() == path.name and prim.IsA(UsdGeom.Camera):
+                    return prim
+            return None
+    prim = stage.GetPrimAtPath(path)
+    return prim if prim and prim.IsA(UsdGeom.Camera) else None
+
+
+def find_camera(stage: Usd.Stage, name_or_path: CameraPath) -> Usd.Prim:
+    """:func:`camera_at_path`, raising :class:`SceneError` naming the stage and the prim when
+    there is no such camera."""
+    prim = camera_at_path(stage, name_or_path)
+    if prim is not None:
         return prim
+    path = _camera_path(name_or_path)
+    if path is None:
+        raise SceneError(f"{stage_name(stage)}: {str(name_or_path)!r} is not a camera prim path")
+    if path.IsAbsolutePath() or path.pathElementCount > 1:
+        absolute = path.MakeAbsolutePath(Sdf.Path.absoluteRootPath)
+        prim = stage.GetPrimAtPath(absolute)
+        if not prim:
+            raise SceneError(f"{stage_name(stage)}: no prim at camera path {absolute}")
+        raise SceneError(
+            f"{stage_name(stage)}: {absolute} is not a camera "
+            f"(it is a {prim.GetTypeName() or 'typeless prim'})"
+        )
+    raise SceneError(f"{stage_name(stage)}: no camera named {path.name!r}")
+
+
+def _stage_cameras(stage: Usd.Stage) -> list[Usd.Prim]:
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
-    for prim in Usd.PrimRange(stage.GetPseudoRoot(), predicate):
-        if prim.GetName() == name_or_path and prim.IsA(UsdGeom.Camera):
-            return prim
-    raise SceneError(f"{stage_name(stage)}: no camera named {name_or_path!r}")
+    return [
+        prim
+        for prim in Usd.PrimRange(stage.GetPseudoRoot(), predicate)
+        if prim.IsA(UsdGeom.Camera) and prim.GetPath() != FRAMING_CAMERA_PATH
+    ]
 
 
 def resolve_camera(
     stage: Usd.Stage,
-    camera: str | None,
+    camera: CameraPath | None,
     settings: RenderSettings | None,
     time: Usd.TimeCode | None = None,
     purposes: Iterable[str] = (),
 ) -> Usd.Prim:
-    """The camera to render: ``camera`` if given, else the render settings' camera, else
-    ``main_cam``, else a camera framing the stage (at ``time``, of the geometry with
-    ``purposes``). Raises :class:`SceneError` when there is none and nothing to frame."""
-    if camera:
+    """The camera to render, in usdrecord's order: ``camera`` if given; else the stage's
+    ``main_cam`` (usdrecord's default ``--camera``), else the render settings' camera; else, as
+    husk does, the stage's only camera (named in an information message); else a camera
+    framing the stage (at ``time``, of the geometry with ``purposes``).
+
+    Raises :class:`SceneError` when the camera asked for (or the render settings') does not
+    exist, or there is no camera and nothing to frame. (usdrecord silently falls back to the
+    next choice there.)
+    """
+    if camera is not None and str(camera):
         return find_camera(stage, camera)
+    primary = camera_at_path(stage, UsdUtils.GetPrimaryCameraName())
+    if primary is not None:
+        return primary
     if settings is not None and settings.camera:
         return find_camera(stage, settings.camera)
-    try:
-        return find_camera(stage, UsdUtils.GetPrimaryCameraName())
-    except SceneError:
-        pass
+    cameras = _stage_cameras(stage)
+    if len(cameras) == 1:
+        logger.info(
+            "%s: no camera given and no %r; rendering through the stage's only camera, %s",
+            stage_name(stage),
+            UsdUtils.GetPrimaryCameraName(),
+            cameras[0].GetPath(),
+        )
+        return cameras[0]
     framing = framing_camera(stage, time or Usd.TimeCode(stage.GetStartTimeCode()), purposes)
     if framing is None:
         raise SceneError(
@@ -130,15 +215,24 @@ def image_size(
             raise ValueError(f"image height must be at least 1, not {height}")
         return width, height
     if settings is not None and settings.resolution is not None:
-        aspect = settings.resolution[1] / settings.resolution[0]
-    else:
-        geom = UsdGeom.Camera(camera)
-        horizontal = geom.GetHorizontalApertureAttr().Get(time)
-        vertical = geom.GetVerticalApertureAttr().Get(time)
-        if not horizontal or horizontal <= 0 or not vertical or vertical <= 0:
-            raise SceneError(
-                f"{camera.GetPath()}: camera apertures must be positive "
-                f"(horizontal {horizontal}, vertical {vertical})"
-            )
-        aspect = vertical / horizontal
-    return width, max(1, round(width * aspect))
+        resolution_width, resolution_height = settings.resolution
+        return width, max(1, width * resolution_height // resolution_width)
+    geom = UsdGeom.Camera(camera)
+    horizontal = geom.GetHorizontalApertureAttr().Get(time)
+    vertical = geom.GetVerticalApertureAttr().Get(time)
+    if not horizontal or horizontal <= 0 or not vertical or vertical <= 0:
+        raise SceneError(
+            f"{camera.GetPath()}: camera apertures must be positive "
+            f"(horizontal {horizontal}, vertical {vertical})"
+        )
+    return width, usdrecord_height(width, horizontal, vertical)
+
+
+def usdrecord_height(width: int, horizontal_aperture: float, vertical_aperture: float) -> int:
+    """The image height usdrecord gives a width: ``int(width / aspect)`` in single precision
+    (as UsdAppUtilsFrameRecorder computes it from GfCamera's float aspect ratio), at least 1;
+    an aspect ratio within 1e-4 of 0 counts as 1."""
+    aspect = np.float32(horizontal_aperture) / np.float32(vertical_aperture)
+    if abs(aspect) <= np.float32(1e-4):
+        aspect = np.float32(1)
+    return max(1, int(np.float32(width) / aspect))

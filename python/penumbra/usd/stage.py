@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable
 
-from pxr import Sdf, Tf, Usd
+from pxr import Ar, Sdf, Tf, Usd
 
 from ..errors import SceneError
 
@@ -24,18 +25,58 @@ def _tf_error_text(error: Tf.ErrorException) -> str:
     return str(error).strip()
 
 
-def open_stage(path: str | os.PathLike) -> Usd.Stage:
-    """Open the stage whose root layer is ``path``; :class:`SceneError` names the file."""
-    path = os.fspath(path)
+RESOLVERS = ("root", "inherit")
+"""usdrecord's ``--resolver`` choices: a resolver context for the root layer's asset, or the
+default context (inherited from the environment)."""
+
+
+def _open_layer(path: str, role: str) -> Sdf.Layer:
     try:
         layer = Sdf.Layer.FindOrOpen(path)
     except Tf.ErrorException as error:
-        raise SceneError(f"{path}: cannot read the file: {_tf_error_text(error)}") from None
+        raise SceneError(f"{path}: cannot read the {role}: {_tf_error_text(error)}") from None
     if layer is None:
-        reason = "no such file" if not os.path.exists(path) else "cannot read the file"
+        reason = "no such file" if not os.path.exists(path) else f"cannot read the {role}"
         raise SceneError(f"{path}: {reason}")
+    return layer
+
+
+def open_stage(
+    path: str | os.PathLike,
+    *,
+    mask: Iterable[str] = (),
+    session_layer: str | os.PathLike | None = None,
+    resolver: str = "root",
+) -> Usd.Stage:
+    """Open the stage whose root layer is ``path``, as usdrecord opens it: populated only with
+    the prims of ``mask`` (their ancestors and descendants) when paths are given, with the
+    layer at ``session_layer`` as its session layer (else an anonymous one), and with a
+    resolver context for ``path`` (``resolver="root"``) or the default one (``"inherit"``).
+    :class:`SceneError` names the file or prim path at fault."""
+    path = os.fspath(path)
+    if resolver not in RESOLVERS:
+        raise ValueError(f"resolver must be one of {RESOLVERS}, not {resolver!r}")
+    layer = _open_layer(path, "file")
+    session = (
+        _open_layer(os.fspath(session_layer), "session layer")
+        if session_layer
+        else Sdf.Layer.CreateAnonymous()
+    )
+    ar = Ar.GetResolver()
+    context = (
+        ar.CreateDefaultContext() if resolver == "inherit" else ar.CreateDefaultContextForAsset(path)
+    )
+    mask_paths = list(mask)
     try:
-        stage = Usd.Stage.Open(layer)
+        if mask_paths:
+            population = Usd.StagePopulationMask()
+            for mask_path in mask_paths:
+                if not Sdf.Path.IsValidPathString(mask_path) or not mask_path.startswith("/"):
+                    raise SceneError(f"{path}: --mask path {mask_path!r} is not an absolute prim path")
+                population.Add(Sdf.Path(mask_path))
+            stage = Usd.Stage.OpenMasked(layer, session, context, population)
+        else:
+            stage = Usd.Stage.Open(layer, session, context)
     except Tf.ErrorException as error:
         raise SceneError(f"{path}: cannot open the stage: {_tf_error_text(error)}") from None
     if not stage:

@@ -1,4 +1,4 @@
-// The UsdPreviewSurface BSDF (spec 2.5/2.6, DESIGN.md §3): the scattering of one shading point.
+// The UsdPreviewSurface BSDF (spec 2.5/2.6, docs/design.md §3): the scattering of one shading point.
 //
 // The surface is a mix of an opaque part (weight `opacity`) and a translucent part (weight
 // 1 − opacity). The opaque part is a stack of layers, each attenuating the ones below by the

@@ -1,4 +1,4 @@
-// Pinhole and thin-lens cameras with UsdGeomCamera's parameters (DESIGN.md §3): focal length and
+// Pinhole and thin-lens cameras with UsdGeomCamera's parameters (docs/design.md §3): focal length and
 // apertures in tenths of a scene unit, distances in scene units, looking down -Z with +Y up.
 #pragma once
 

@@ -63,6 +63,7 @@ struct LightParams {
   Vec3f focusTint{0.0f};                        // ... towards this tint
   bool shadowEnable = true;                     // ShadowAPI shadow:enable
   float diffuse = 1, specular = 1;              // multipliers of the light's effect on those lobes
+  bool cameraVisible = true;                    // false: camera rays pass through the light
   std::shared_ptr<const LightTexture> texture;  // texture:file (rect, dome)
   /// UsdLuxMeshLightAPI: the emitting triangles in world space (3 points each), front side
   /// counter-clockwise. The mesh itself is traced as geometry; the light samples its surface.
@@ -125,6 +126,8 @@ class Light {
   /// True for lights no ray can hit (point-like sphere, zero-angle distant light).
   bool isDelta() const;
   bool castsShadows() const { return params_.shadowEnable; }
+  /// False for lights camera rays do not see (they still light the scene).
+  bool cameraVisible() const { return params_.cameraVisible; }
   float diffuseMultiplier() const { return params_.diffuse; }
   float specularMultiplier() const { return params_.specular; }
 
