@@ -1,4 +1,4 @@
-// UsdLux lights (DESIGN.md §3): radiance = color · intensity · 2^exposure · blackbody
+// UsdLux lights (docs/design.md §3): radiance = color · intensity · 2^exposure · blackbody
 // [· texture] [/ world-space area if normalize]. Rect and disk lights lie in their local XY plane
 // and emit along -Z; sphere lights emit outward; cylinder lights lie along local X and emit from
 // their side; a distant light's light travels along -Z; the dome surrounds the scene (lat-long
