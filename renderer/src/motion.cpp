@@ -140,12 +140,14 @@ StepPosition locateStep(size_t stepCount, float time) {
 
 MotionTransform::MotionTransform(std::vector<Transform> steps) : steps_(std::move(steps)) {
   if (steps_.empty()) throw std::invalid_argument("a motion transform needs at least one sample");
+  if (isAnimated())
+    for (const Transform& step : steps_) decompositions_.push_back(decompose(step));
 }
 
 Transform MotionTransform::at(float time) const {
   if (!isAnimated()) return steps_.front();
   const StepPosition where = locateStep(steps_.size(), time);
-  return compose(interpolate(decompose(steps_[where.step]), decompose(steps_[where.step + 1]),
+  return compose(interpolate(decompositions_[where.step], decompositions_[where.step + 1],
                              double(where.fraction)));
 }
 

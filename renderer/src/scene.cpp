@@ -117,7 +117,7 @@ void Scene::updatePlacement(Placement& placement, bool enabled) {
     // Quaternion-decomposed steps: Embree slerps the rotation, so turns travel on arcs.
     Quaternion previous;
     for (unsigned step = 0; step < steps.size(); ++step) {
-      const TransformDecomposition d = decompose(steps[step]);
+      const TransformDecomposition& d = placement.objectToWorld.decompositions()[step];
       Quaternion q = d.rotation;
       if (q.w * previous.w + q.x * previous.x + q.y * previous.y + q.z * previous.z < 0)
         q = {-q.w, -q.x, -q.y, -q.z};  // same rotation, on the near side of the previous key

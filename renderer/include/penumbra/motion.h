@@ -48,12 +48,15 @@ class MotionTransform {
 
   bool isAnimated() const { return steps_.size() > 1; }
   const std::vector<Transform>& steps() const { return steps_; }
+  /// The steps decomposed (empty when static), once here rather than on every lookup.
+  const std::vector<TransformDecomposition>& decompositions() const { return decompositions_; }
   const Transform& first() const { return steps_.front(); }
   /// The transform at normalised shutter time `time` in [0, 1].
   Transform at(float time) const;
 
  private:
   std::vector<Transform> steps_;
+  std::vector<TransformDecomposition> decompositions_;
 };
 
 }  // namespace penumbra
