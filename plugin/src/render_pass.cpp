@@ -82,6 +82,14 @@ void RenderPass::execute(int samples) {
   }
 }
 
+RawRayThroughput RenderPass::measureRawThroughput() {
+  execute(0);  // sync
+  const penumbra::Camera camera(delegate_.camera(cameraId_).params(), film_.width(),
+                                film_.height());
+  return penumbra::measureRawThroughput(delegate_.scene(), camera, film_.width(), film_.height(),
+                                        delegate_.settings().threads);
+}
+
 void RenderPass::setAovBindings(std::map<std::string, PrimId> bindings) {
   for (const auto& [aovName, bufferId] : bindings) {
     aovChannels(aovName);

@@ -519,6 +519,24 @@ PYBIND11_MODULE(_core, m) {
       .def("set_aov_bindings", &RenderPass::setAovBindings, py::arg("bindings"))
       .def_property_readonly("samples_done", &RenderPass::samplesDone)
       .def_property_readonly("mean_samples", &RenderPass::meanSamples)
+      .def_property_readonly("rays_traced", &RenderPass::raysTraced)
+      .def(
+          "measure_raw_throughput",
+          [](RenderPass& self) {
+            penumbra::RawRayThroughput result;
+            {
+              py::gil_scoped_release release;
+              result = self.measureRawThroughput();
+            }
+            py::dict out;
+            out["primary"] = result.primary;
+            out["bounce_intersect"] = result.bounceIntersect;
+            out["bounce_occluded"] = result.bounceOccluded;
+            out["bounce_rays"] = result.bounceRays;
+            return out;
+          },
+          "Embree alone on this pass's scene and camera: rays per second of camera rays, "
+          "cosine bounce rays (intersect) and the same rays as shadow rays (occluded).")
       .def_property_readonly("converged", &RenderPass::converged)
       .def_property_readonly("width", &RenderPass::width)
       .def_property_readonly("height", &RenderPass::height)

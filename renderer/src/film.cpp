@@ -30,6 +30,7 @@ void Film::addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sam
   }
   pixel.alpha += sample.alpha;
   pixel.depth = std::min(pixel.depth, sample.depth);
+  pixel.rays += sample.rays;
   ++pixel.samples;
 }
 
@@ -79,6 +80,12 @@ void Film::updateConvergence(float threshold) {
         --activePixels_;
       }
     }
+}
+
+uint64_t Film::raysTraced() const {
+  uint64_t total = 0;
+  for (const Pixel& pixel : pixels_) total += pixel.rays;
+  return total;
 }
 
 double Film::meanSamples() const {

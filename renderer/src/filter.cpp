@@ -5,23 +5,28 @@
 
 namespace penumbra {
 namespace {
-constexpr int kBins = 1024;
-}
+constexpr int kBins = 1024;        // resolution of the tabulated profile
+constexpr int kInverseSize = 256;  // knots of the inverse CDF, equally spaced in probability
+}  // namespace
 
 PixelFilter::PixelFilter(float radius, float sigma) : radius_(radius), sigma_(sigma) {
   if (!(radius > 0) || !(sigma > 0))
     throw std::invalid_argument("pixel filter: radius and sigma must be > 0");
-  cdf_.resize(kBins + 1);
-  cdf_[0] = 0;
-  const float binWidth = 2 * radius_ / kBins;
-  double total = 0;
-  for (int i = 0; i < kBins; ++i) {
-    // Midpoint rule per bin; the distribution sampled is the piecewise-constant one tabulated here.
-    total += evaluate1D(-radius_ + (i + 0.5f) * binWidth);
-    cdf_[i + 1] = float(total);
+  std::vector<double> cdf(kBins + 1, 0.0);
+  const double binWidth = 2.0 * radius_ / kBins;
+  for (int i = 0; i < kBins; ++i)  // midpoint rule per bin
+    cdf[size_t(i) + 1] = cdf[size_t(i)] + evaluate1D(float(-radius_ + (i + 0.5) * binWidth));
+  // The inverse of the (piecewise-linear) CDF at equally spaced probabilities: sampling is then a
+  // table lookup and a lerp instead of a search.
+  inverseCdf_.resize(kInverseSize + 1);
+  size_t bin = 0;
+  for (int k = 0; k <= kInverseSize; ++k) {
+    const double target = cdf.back() * k / kInverseSize;
+    while (bin + 1 < kBins && cdf[bin + 1] < target) ++bin;
+    const double mass = cdf[bin + 1] - cdf[bin];
+    const double within = mass > 0 ? std::clamp((target - cdf[bin]) / mass, 0.0, 1.0) : 0.5;
+    inverseCdf_[size_t(k)] = float(-radius_ + (double(bin) + within) * binWidth);
   }
-  for (float& value : cdf_) value = float(value / total);
-  cdf_.back() = 1;
 }
 
 float PixelFilter::evaluate1D(float x) const {
@@ -30,11 +35,10 @@ float PixelFilter::evaluate1D(float x) const {
 }
 
 float PixelFilter::sample1D(float u) const {
-  const auto upper = std::upper_bound(cdf_.begin(), cdf_.end(), u);
-  const int bin = std::clamp(int(upper - cdf_.begin()) - 1, 0, kBins - 1);
-  const float binStart = cdf_[bin], binMass = cdf_[bin + 1] - cdf_[bin];
-  const float withinBin = binMass > 0 ? (u - binStart) / binMass : 0.5f;
-  return -radius_ + (bin + withinBin) * (2 * radius_ / kBins);
+  const float position = u * kInverseSize;
+  const int knot = std::clamp(int(position), 0, kInverseSize - 1);
+  const float within = position - float(knot);
+  return inverseCdf_[size_t(knot)] * (1 - within) + inverseCdf_[size_t(knot) + 1] * within;
 }
 
 }  // namespace penumbra

@@ -130,6 +130,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   for (int bounce = 0;; ++bounce) {
     const std::optional<SurfaceHit> hit =
         scene.intersect(ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary, cone);
+    ++result.rays;
     float nearestLight = kInfinity;
     bool sawLight = false;
     result.radiance +=
@@ -189,6 +190,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (!isBlack(f)) {
         const float tFar =
             std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
+        result.rays += light.castsShadows();
         if (!light.castsShadows() ||
             !scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time))) {
           const float lightPdf = choice->probability * sample->pdf;

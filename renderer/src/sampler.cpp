@@ -45,19 +45,6 @@ float toUnitFloat(uint32_t bits) {
 
 }  // namespace
 
-uint32_t hashUint32(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
-  return x;
-}
-
-uint32_t hashCombine(uint32_t seed, uint32_t value) {
-  return hashUint32(seed ^ (value + 0x9e3779b9u + (seed << 6) + (seed >> 2)));
-}
-
 uint32_t owenScramble(uint32_t bits, uint32_t seed) {
   return reverseBits(lowToHighPermutation(reverseBits(bits), seed));
 }

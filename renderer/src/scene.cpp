@@ -399,8 +399,7 @@ float Scene::rayEpsilon(const Vec3f& point) const {
   return 2e-5f * std::max(maxAbsComponent(point), 1e-2f * sceneExtent_);
 }
 
-std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
-                                           const RayCone& cone) const {
+RTCRayHit Scene::trace(const Ray& ray, RayKind kind) const {
   TraceContext context;
   rtcInitIntersectContext(&context.embree);
   context.cameraRay = kind == RayKind::Camera;
@@ -410,6 +409,17 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
   rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rayHit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(top_, &context.embree, &rayHit);
+  return rayHit;
+}
+
+float Scene::hitDistance(const Ray& ray, RayKind kind) const {
+  const RTCRayHit rayHit = trace(ray, kind);
+  return rayHit.hit.geomID == RTC_INVALID_GEOMETRY_ID ? kInfinity : rayHit.ray.tfar;
+}
+
+std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
+                                           const RayCone& cone) const {
+  const RTCRayHit rayHit = trace(ray, kind);
   if (rayHit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
 
   const Placement& placement = *placements_[rayHit.hit.instID[0]];

@@ -1,8 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <set>
 #include <vector>
 
+#include "penumbra/filter.h"
 #include "penumbra/sampler.h"
 
 using namespace penumbra;
@@ -92,4 +94,36 @@ TEST(Sampler, MatchesTheReferenceConstruction) {
       }
     }
   }
+}
+
+TEST(PixelFilter, OffsetsFollowTheFilterProfile) {
+  // Importance-sampled offsets must be distributed as the filter: compare their moments and
+  // histogram with the profile's, integrated numerically.
+  const PixelFilter filter;
+  const int n = 1 << 16, bins = 30;
+  std::vector<double> histogram(bins, 0.0);
+  double sum = 0, sum2 = 0;
+  for (int i = 0; i < n; ++i) {
+    const float x = filter.sampleOffset({(float(i) + 0.5f) / float(n), 0.5f}).x;
+    ASSERT_LE(std::fabs(x), filter.radius());
+    sum += x;
+    sum2 += double(x) * x;
+    histogram[size_t(
+        std::min(bins - 1, int((x + filter.radius()) / (2 * filter.radius()) * bins)))] += 1.0 / n;
+  }
+  double mass = 0, variance = 0;
+  std::vector<double> expected(bins, 0.0);
+  const int steps = 30000;
+  for (int i = 0; i < steps; ++i) {
+    const double x = -filter.radius() + (i + 0.5) * 2 * filter.radius() / steps;
+    const double weight = filter.evaluate1D(float(x));
+    mass += weight;
+    variance += weight * x * x;
+    expected[size_t(
+        std::min(bins - 1, int((x + filter.radius()) / (2 * filter.radius()) * bins)))] += weight;
+  }
+  EXPECT_NEAR(sum / n, 0.0, 1e-3);
+  EXPECT_NEAR(sum2 / n / (variance / mass), 1.0, 0.01);
+  for (int b = 0; b < bins; ++b)
+    EXPECT_NEAR(histogram[size_t(b)], expected[size_t(b)] / mass, 2e-3) << "bin " << b;
 }

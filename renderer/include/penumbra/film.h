@@ -35,6 +35,8 @@ class Film {
   size_t activePixels() const { return activePixels_; }
   /// Samples taken per pixel, on average over the image.
   double meanSamples() const;
+  /// Rays traced for all the samples (CameraSample::rays).
+  uint64_t raysTraced() const;
 
  private:
   struct Pixel {
@@ -42,6 +44,7 @@ class Film {
     double evenRed = 0, evenGreen = 0, evenBlue = 0;  // samples with an even index
     float depth = kInfinity;
     uint32_t samples = 0;
+    uint64_t rays = 0;
   };
   /// A pixel's squared relative error estimate (see updateConvergence).
   static double squaredRelativeError(const Pixel& pixel);

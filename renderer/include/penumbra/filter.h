@@ -25,7 +25,7 @@ class PixelFilter {
   float sample1D(float u) const;
 
   float radius_, sigma_;
-  std::vector<float> cdf_;  // cumulative integral of the profile over equal bins, cdf_.back() = 1
+  std::vector<float> inverseCdf_;  // offsets at equally spaced probabilities 0 .. 1
 };
 
 }  // namespace penumbra

@@ -31,6 +31,7 @@ struct CameraSample {
   Vec3f radiance;
   float alpha = 0;          // 1 when the camera ray hit a surface or saw a light (dome too)
   float depth = kInfinity;  // view-axis distance of the first hit
+  uint32_t rays = 0;        // rays traced through the scene's BVH (intersection and shadow)
 };
 
 /// Renders sample `sampleIndex` of pixel (x, y); a pure function of its arguments.

@@ -14,9 +14,19 @@
 namespace penumbra {
 
 /// A 32-bit integer hash with good avalanche (the "lowbias32" finaliser of Chris Wellons).
-uint32_t hashUint32(uint32_t x);
+/// Inline: every sample draw hashes several times.
+inline uint32_t hashUint32(uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352du;
+  x ^= x >> 15;
+  x *= 0x846ca68bu;
+  x ^= x >> 16;
+  return x;
+}
 /// Hash of two values, order-dependent.
-uint32_t hashCombine(uint32_t seed, uint32_t value);
+inline uint32_t hashCombine(uint32_t seed, uint32_t value) {
+  return hashUint32(seed ^ (value + 0x9e3779b9u + (seed << 6) + (seed >> 2)));
+}
 
 /// Owen scrambling of a 32-bit binary fraction: each bit is flipped by a hash of the bits above it.
 uint32_t owenScramble(uint32_t bits, uint32_t seed);

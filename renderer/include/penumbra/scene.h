@@ -126,6 +126,8 @@ class Scene {
 
   /// The first hit, shaded: textures are filtered over `cone`'s cross-section there.
   std::optional<SurfaceHit> intersect(const Ray& ray, RayKind kind, const RayCone& cone = {}) const;
+  /// The distance to the first hit, infinity for none: the intersection alone, unshaded.
+  float hitDistance(const Ray& ray, RayKind kind) const;
   /// True if anything blocks the segment [tNear, tFar] of the ray.
   bool occluded(const Ray& ray) const;
   /// Offset for spawning rays from `point` so that they do not re-hit its surface.
@@ -160,6 +162,8 @@ class Scene {
     std::vector<Primvar> primvars;  // one value per copy
   };
 
+  /// rtcIntersect1 through the top-level BVH, with the hit filters' context.
+  RTCRayHit trace(const Ray& ray, RayKind kind) const;
   MeshRecord& record(MeshId id);
   InstancerRecord& instancer(InstancerId id);
   std::unique_ptr<Placement> newPlacement(MeshId mesh);

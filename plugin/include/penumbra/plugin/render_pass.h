@@ -7,6 +7,7 @@
 
 #include "penumbra/film.h"
 #include "penumbra/plugin/render_delegate.h"
+#include "penumbra/throughput.h"
 
 namespace penumbra::plugin {
 
@@ -27,6 +28,11 @@ class RenderPass {
   /// Samples per pixel actually taken, on average (fewer than samplesDone() where adaptive
   /// sampling stopped pixels).
   double meanSamples() const { return film_.meanSamples(); }
+  /// Rays traced through the scene's BVH for the samples accumulated so far.
+  uint64_t raysTraced() const { return film_.raysTraced(); }
+  /// Syncs, then times Embree alone on this pass's camera and scene (see throughput.h), with
+  /// the render settings' thread count.
+  RawRayThroughput measureRawThroughput();
   /// The target sample count is reached, or adaptive sampling has stopped every pixel.
   bool converged() const {
     return samplesDone_ >= delegate_.settings().samples || film_.activePixels() == 0;

@@ -1,0 +1,75 @@
+#include "penumbra/throughput.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <atomic>
+#include <chrono>
+#include <vector>
+
+#include "penumbra/light.h"
+#include "penumbra/sampler.h"
+
+namespace penumbra {
+namespace {
+
+/// Rays per second of `trace` over `rays`, best of `repeats` runs.
+template <class Trace>
+double raysPerSecond(const std::vector<Ray>& rays, int threads, int repeats, Trace trace) {
+  double best = 0;
+  for (int run = 0; run < repeats; ++run) {
+    const auto started = std::chrono::steady_clock::now();
+    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 256),
+                        [&](const tbb::blocked_range<size_t>& range) {
+                          for (size_t i = range.begin(); i < range.end(); ++i) trace(rays[i]);
+                        });
+    });
+    const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - started;
+    best = std::max(best, double(rays.size()) / elapsed.count());
+  }
+  return best;
+}
+
+}  // namespace
+
+RawRayThroughput measureRawThroughput(const Scene& scene, const Camera& camera, int width,
+                                      int height, int threads, int repeats) {
+  std::vector<Ray> primary;
+  primary.reserve(size_t(width) * size_t(height));
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      primary.push_back(
+          camera.generateRay(float(x) + 0.5f, float(y) + 0.5f, Vec2f{0.5f, 0.5f}, 0.5f));
+  RawRayThroughput result;
+  result.primary = raysPerSecond(primary, threads, repeats, [&](const Ray& ray) {
+    return scene.hitDistance(ray, RayKind::Camera);
+  });
+  // Bounce rays leave each hit towards the side the camera ray came from, cosine-distributed.
+  std::vector<Ray> bounces;
+  for (size_t i = 0; i < primary.size(); ++i) {
+    const float distance = scene.hitDistance(primary[i], RayKind::Camera);
+    if (!std::isfinite(distance)) continue;
+    Ray bounce;
+    const Vec3f back = -primary[i].direction;
+    bounce.origin = primary[i].origin + primary[i].direction * distance;
+    bounce.origin = bounce.origin + back * scene.rayEpsilon(bounce.origin);
+    bounce.direction = normalize(
+        Frame(back).toWorld(sampleCosineHemisphere(SampleStream(0, uint32_t(i), 0, 0).next2D())));
+    bounce.tNear = 0;
+    bounce.tFar = kInfinity;
+    bounce.time = 0.5f;
+    bounces.push_back(bounce);
+  }
+  result.bounceRays = bounces.size();
+  if (bounces.empty()) return result;
+  result.bounceIntersect = raysPerSecond(bounces, threads, repeats, [&](const Ray& ray) {
+    return scene.hitDistance(ray, RayKind::Secondary);
+  });
+  result.bounceOccluded =
+      raysPerSecond(bounces, threads, repeats, [&](const Ray& ray) { return scene.occluded(ray); });
+  return result;
+}
+
+}  // namespace penumbra
