@@ -62,22 +62,43 @@ def mean_luminance(rgb: np.ndarray) -> float:
     return float(np.mean(rgb @ REC709))
 
 
-def render_rgb(stage: Usd.Stage, width: int, samples: int, seed: int) -> tuple[np.ndarray, float]:
-    """One render by a fresh Renderer: its RGB (float64) and seconds (construction + render)."""
+def render_rgb(
+    stage: Usd.Stage, width: int, samples: int, seed: int, adaptive_threshold: float = 0.0,
+    adaptive_min_samples: int = 16,
+) -> tuple[np.ndarray, float, float]:
+    """One render by a fresh Renderer: its RGB (float64), seconds (construction + render) and
+    the samples per pixel it took on average (fewer than ``samples`` with adaptive sampling)."""
     started = time.perf_counter()
     with penumbra.Renderer(stage) as renderer:
-        image = renderer.render(time=TIME_CODE, width=width, samples=samples, seed=seed)
+        image = renderer.render(
+            time=TIME_CODE, width=width, samples=samples, seed=seed,
+            adaptive_threshold=adaptive_threshold, adaptive_min_samples=adaptive_min_samples,
+        )
         seconds = time.perf_counter() - started
-    return image["color"][..., :3].astype(np.float64), seconds
+    return image["color"][..., :3].astype(np.float64), seconds, image.metadata["meanSamples"]
 
 
 @dataclass
 class Rung:
-    """One sample count of the ladder: mean seconds of the two seeds' renders, and rRMSE."""
+    """One rung of a ladder: samples per pixel taken (on average), mean seconds of the two
+    seeds' renders, and rRMSE."""
 
-    samples: int
+    samples: float
     seconds: float
     rrmse: float
+
+
+@dataclass
+class Setting:
+    """How one rung renders: a sample count, or a sample cap with an adaptive threshold."""
+
+    samples: int
+    adaptive_threshold: float = 0.0
+
+    def describe(self) -> str:
+        if self.adaptive_threshold:
+            return f"adaptive {self.adaptive_threshold:g} (≤ {self.samples} spp)"
+        return f"{self.samples} spp"
 
 
 @dataclass
@@ -92,21 +113,25 @@ class Crossing:
 def measure_ladder(
     stage: Usd.Stage,
     label: str,
-    ladder: Sequence[int],
-    seeds: tuple[int, int],
-    width: int,
+    ladder: Sequence[Setting],
+    args: argparse.Namespace,
     reference: np.ndarray | None,
 ) -> list[Rung]:
     """Render every rung of ``ladder`` with both seeds; rRMSE by the two-seed estimate."""
-    renders: list[tuple[int, list[np.ndarray], float]] = []
-    for samples in ladder:
-        images, seconds = [], []
-        for seed in seeds:
-            rgb, elapsed = render_rgb(stage, width, samples, seed)
-            progress(f"{label}: {samples} spp, seed {seed}: {elapsed:.2f} s")
+    renders: list[tuple[float, list[np.ndarray], float]] = []
+    for setting in ladder:
+        images, seconds, samples = [], [], []
+        for seed in args.seeds:
+            rgb, elapsed, taken = render_rgb(
+                stage, args.width, setting.samples, seed, setting.adaptive_threshold,
+                args.adaptive_min_samples,
+            )
+            progress(f"{label}: {setting.describe()}, seed {seed}: {elapsed:.2f} s, "
+                     f"{taken:.1f} spp")
             images.append(rgb)
             seconds.append(elapsed)
-        renders.append((samples, images, sum(seconds) / len(seconds)))
+            samples.append(taken)
+        renders.append((sum(samples) / len(samples), images, sum(seconds) / len(seconds)))
     if reference is None:
         reference = (renders[-1][1][0] + renders[-1][1][1]) / 2
     return [
@@ -164,6 +189,14 @@ def rrmse_at(rungs: Sequence[Rung], samples: int) -> float | None:
     return next((rung.rrmse for rung in rungs if rung.samples == samples), None)
 
 
+def fixed_ladder(args: argparse.Namespace) -> list[Setting]:
+    return [Setting(samples) for samples in args.spp]
+
+
+def adaptive_ladder(args: argparse.Namespace) -> list[Setting]:
+    return [Setting(args.adaptive_cap, threshold) for threshold in args.adaptive]
+
+
 def shared_scene_row(
     name: str, args: argparse.Namespace, cycles: dict[str, tuple[float, float]]
 ) -> str:
@@ -171,7 +204,9 @@ def shared_scene_row(
     converged: np.ndarray | None = None
     luminance_difference = converged_rrmse = None
     if args.converged_spp:
-        converged, seconds = render_rgb(stage, args.width, args.converged_spp, max(args.seeds) + 1)
+        converged, seconds, _ = render_rgb(
+            stage, args.width, args.converged_spp, max(args.seeds) + 1
+        )
         progress(f"{name}: converged, {args.converged_spp} spp: {seconds:.1f} s")
         reference_path = CYCLES / f"{name}.exr"
         reference = read_rgb(reference_path) if reference_path.is_file() else None
@@ -180,7 +215,7 @@ def shared_scene_row(
         elif reference is not None:
             luminance_difference = 100 * (mean_luminance(converged) / mean_luminance(reference) - 1)
             converged_rrmse = relative_rmse(converged - reference, reference)
-    rungs = measure_ladder(stage, name, args.spp, args.seeds, args.width, converged)
+    rungs = measure_ladder(stage, name, fixed_ladder(args), args, converged)
     quality = crossing(rungs)
     cycles_seconds, cycles_samples = cycles.get(name, (None, None))
     ratio = quality.seconds / cycles_seconds if cycles_seconds else None
@@ -191,6 +226,16 @@ def shared_scene_row(
         format_number(quality.seconds, marked=quality.extrapolated),
         format_number(cycles_seconds),
         format_number(ratio, 2, marked=quality.extrapolated),
+    ]
+    if args.adaptive:
+        adaptive = crossing(measure_ladder(stage, f"{name} adaptive", adaptive_ladder(args), args,
+                                           converged))
+        cells += [
+            format_number(adaptive.seconds, marked=adaptive.extrapolated),
+            format_number(adaptive.seconds / cycles_seconds if cycles_seconds else None, 2,
+                          marked=adaptive.extrapolated),
+        ]
+    cells += [
         format_number(rrmse_at(rungs, 64), 2),
         format_number(luminance_difference, 2),
         format_number(converged_rrmse, 2),
@@ -203,10 +248,15 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
     print(f"Shared scenes, {args.width} px wide, spp ladder {', '.join(map(str, args.spp))}, "
           f"seeds {args.seeds[0]} and {args.seeds[1]}; converged: {args.converged_spp or 'not'} "
           "rendered; * extrapolated beyond the ladder.\n")
-    print("| scene | spp at 5 % | Cycles spp at 5 % | time to 5 % (s) | Cycles (s) "
-          "| ratio | 64-spp rRMSE | converged mean lum vs Cycles (%) "
+    adaptive = ""
+    if args.adaptive:
+        print(f"Adaptive: thresholds {', '.join(f'{t:g}' for t in args.adaptive)}, at most "
+              f"{args.adaptive_cap} spp, tested from {args.adaptive_min_samples} spp on.\n")
+        adaptive = " adaptive time to 5 % (s) | adaptive ratio |"
+    print("| scene | spp at 5 % | Cycles spp at 5 % | time to 5 % (s) | Cycles (s) | ratio |"
+          + adaptive + " 64-spp rRMSE | converged mean lum vs Cycles (%) "
           "| converged rRMSE vs Cycles |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("|---|" + "---:|" * (8 + (2 if args.adaptive else 0)))
     for name in args.scenes:
         try:
             print(shared_scene_row(name, args, cycles), flush=True)
@@ -223,7 +273,7 @@ def many_lights_table(args: argparse.Namespace) -> None:
         for count in MANY_LIGHT_COUNTS:
             path = write_stage(Path(directory) / f"lights_{count}.usda", count)
             stage = Usd.Stage.Open(str(path))
-            rungs = measure_ladder(stage, f"{count} lights", args.spp, args.seeds, args.width, None)
+            rungs = measure_ladder(stage, f"{count} lights", fixed_ladder(args), args, None)
             quality = crossing(rungs)
             first_seconds = first_seconds or quality.seconds
             print(
@@ -265,6 +315,35 @@ def threads_table() -> None:
     print(f"\nImages bit-identical across thread counts: {'yes' if identical else 'NO'}.")
 
 
+def ray_cost_table(args: argparse.Namespace) -> None:
+    """Path tracing's rays per second against Embree's alone on the same scene and camera."""
+    width, samples = args.ray_cost_width, 16
+    print(f"\nRay cost: {width} px, {samples} spp after a warm-up render (tracing only); Embree "
+          "alone: one camera ray per pixel, cosine bounce rays from their hits (intersect and "
+          "occluded), single rays.\n")
+    print("| scene | path tracing Mrays/s | Embree camera | Embree bounce | Embree occluded "
+          "| cost per ray vs Embree |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for name in args.scenes:
+        stage = Usd.Stage.Open(str(SCENES / f"{name}.usda"))
+        with penumbra.Renderer(stage) as renderer:
+            warm = renderer.render(time=TIME_CODE, width=width, samples=1)
+            started = time.perf_counter()
+            renderer.render(time=TIME_CODE, width=width, samples=samples)
+            seconds = time.perf_counter() - started
+            height = warm["color"].shape[0]
+            render_pass = renderer._render_pass(warm.metadata["camera"], width, height)
+            rays_per_second = render_pass.rays_traced / seconds
+            raw = render_pass.measure_raw_throughput()
+        raw_rates = [raw["primary"], raw["bounce_intersect"], raw["bounce_occluded"]]
+        raw_cost = sum(1 / rate for rate in raw_rates) / len(raw_rates)
+        progress(f"{name}: {rays_per_second / 1e6:.2f} Mrays/s, Embree {raw_rates}")
+        print(f"| {name} | {rays_per_second / 1e6:.2f} | "
+              + " | ".join(f"{rate / 1e6:.1f}" for rate in raw_rates)
+              + f" | {1 / rays_per_second / raw_cost:.1f} |", flush=True)
+    print("\nTarget: path tracing cost per ray ≤ 1.5 × Embree's (mean of the three kinds).")
+
+
 def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -277,6 +356,12 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--converged-spp", type=int, default=1024,
                         help="samples per pixel of the converged image (0: skip it)")
     parser.add_argument("--width", type=int, default=640)
+    parser.add_argument("--adaptive", type=float, nargs="*", default=[0.2, 0.1, 0.05, 0.025],
+                        help="adaptive sampling thresholds, descending (none: skip adaptive)")
+    parser.add_argument("--adaptive-cap", type=int, default=1024,
+                        help="samples per pixel at most with adaptive sampling")
+    parser.add_argument("--adaptive-min-samples", type=int, default=8)
+    parser.add_argument("--ray-cost-width", type=int, default=320)
     parser.add_argument("--skip-many-lights", action="store_true")
     parser.add_argument("--quick", action="store_true",
                         help=f"smoke test: ladder {', '.join(map(str, QUICK_LADDER))}, "
@@ -284,6 +369,7 @@ def parse_args() -> argparse.Namespace:
     args = parser.parse_args()
     if args.quick:
         args.spp, args.converged_spp = list(QUICK_LADDER), 0
+        args.adaptive, args.adaptive_cap = [0.2, 0.1], 64
     if len(args.spp) < 2 or sorted(args.spp) != args.spp:
         parser.error("--spp needs at least two ascending sample counts")
     args.seeds = tuple(args.seeds)
@@ -298,6 +384,7 @@ def main() -> None:
     shared_scenes_table(args)
     if not args.skip_many_lights:
         many_lights_table(args)
+    ray_cost_table(args)
     threads_table()
 
 
