@@ -228,9 +228,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                               ? settings.maxTransmissionDepth
                               : settings.maxGlossyDepth;
     lastVertex = ++lobeBounces >= lobeLimit;
-    // Russian roulette once paths are long enough to be dim; survivors are reweighted.
-    if (bounce >= 3) {
-      const float survival = std::min(0.95f, maxComponent(throughput));
+    // Russian roulette once paths are long enough to be dim, in proportion to what they still
+    // carry; paths as bright as a camera ray's (glass, mirrors) are never cut, since cutting
+    // them saves little and adds the most variance. Survivors are reweighted.
+    if (bounce >= 3 && maxComponent(throughput) < 1) {
+      const float survival = maxComponent(throughput);
       if (rouletteSample >= survival) break;
       throughput *= 1 / survival;
     }
