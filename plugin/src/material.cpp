@@ -65,6 +65,8 @@ void Material::setParam(const std::string& name, const ParamValue& value) {
       params_.*(color->second) = paramAsColor(name, value);
     else if (name == "useSpecularWorkflow")
       params_.useSpecularWorkflow = paramAsBool(name, value);
+    else if (name == "penumbra:thinWalled")
+      params_.thinWalled = paramAsBool(name, value);
     else
       throw std::invalid_argument("unknown UsdPreviewSurface input '" + name + "'");
   } catch (const std::invalid_argument& error) {

@@ -329,7 +329,7 @@ TriangleMesh RenderDelegate::meshTriangles(Mesh& mesh, const DicingContext& dici
     for (const std::vector<Vec3f>& step : cage.pointMotion)
       result.pointMotion.push_back(tessellator.tessellate(step, rates).points);
     result.doubleSided = cage.doubleSided;
-    result.closed = isClosedSurface(cage.faceVertexCounts, cage.faceVertexIndices);
+    result.closed = isClosedSurface(cage.points, cage.faceVertexCounts, cage.faceVertexIndices);
     return result;
   } catch (const std::invalid_argument& error) {
     warn(mesh.id() + ": cannot subdivide (" + error.what() + "); rendering the control cage");

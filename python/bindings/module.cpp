@@ -433,7 +433,7 @@ PYBIND11_MODULE(_core, m) {
              float horizontalAperture, float verticalAperture, float horizontalApertureOffset,
              float verticalApertureOffset, float fStop, float focusDistance,
              std::pair<float, float> clippingRange, float shutterOpen, float shutterClose,
-             const std::string& projection) {
+             const std::string& projection, float pixelAspectRatio) {
             CameraParams params;
             params.focalLength = focalLength;
             params.horizontalAperture = horizontalAperture;
@@ -446,6 +446,7 @@ PYBIND11_MODULE(_core, m) {
             params.farClip = clippingRange.second;
             params.shutterOpen = shutterOpen;
             params.shutterClose = shutterClose;
+            params.pixelAspectRatio = pixelAspectRatio;
             if (projection == "perspective")
               params.projection = Projection::Perspective;
             else if (projection == "orthographic")
@@ -460,7 +461,7 @@ PYBIND11_MODULE(_core, m) {
           py::arg("focus_distance") = 0.0f,
           py::arg("clipping_range") = std::pair<float, float>(0.01f, 1e6f),
           py::arg("shutter_open") = 0.0f, py::arg("shutter_close") = 0.0f,
-          py::arg("projection") = "perspective")
+          py::arg("projection") = "perspective", py::arg("pixel_aspect_ratio") = 1.0f)
       .def(
           "set_camera_motion",
           [](RenderDelegate& self, const std::string& id, const FloatArray& focalLengths,

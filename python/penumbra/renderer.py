@@ -24,6 +24,7 @@ from .usd.default_light import (
 from .usd.instancers import PointInstancerDelegate
 from .usd.lights import LIGHT_SPRIM_TYPES
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
+from .usd.settings import FilmWindow, film_window
 from .usd import (
     DEFAULT_PURPOSES,
     SceneDelegate,
@@ -122,9 +123,13 @@ class Renderer:
         return Shutter(time_code, max_segments=self.max_motion_segments)
 
     def _sync(
-        self, shutter: Shutter, depth_of_field: bool = True, dome_light_visibility: bool = True
+        self,
+        shutter: Shutter,
+        depth_of_field: bool = True,
+        dome_light_visibility: bool = True,
+        film_windows: dict[str, FilmWindow] | None = None,
     ) -> None:
-        self._scene.update(shutter, depth_of_field, dome_light_visibility)
+        self._scene.update(shutter, depth_of_field, dome_light_visibility, film_windows)
         self._instancers.update(shutter)
 
     def close(self) -> None:
@@ -169,7 +174,9 @@ class Renderer:
         ``Usd.TimeCode.Default()``); by default the stage's startTimeCode. ``width``: by default
         the render settings' resolution, else 960. ``height``: by default from the aspect ratio
         of the render settings' resolution, else of the camera's apertures. ``render_settings``:
-        a UsdRenderSettings prim path, by default the stage's ``renderSettingsPrimPath``.
+        a UsdRenderSettings prim path, by default the stage's ``renderSettingsPrimPath``; its
+        ``aspectRatioConformPolicy`` and ``pixelAspectRatio`` fit the camera's aperture to the
+        image, and its ``dataWindowNDC`` crops the image to the pixels whose centres it holds.
         Motion blur samples the camera's shutter, [time + shutter:open, time + shutter:close];
         ``disable_motion_blur`` (or the render settings' ``disableMotionBlur``) renders ``time``
         alone, ``disable_depth_of_field`` (or ``disableDepthOfField``) makes the camera a
@@ -199,6 +206,8 @@ class Renderer:
             else:
                 width = DEFAULT_WIDTH
         width, height = image_size(camera_prim, time_code, width, height, settings)
+        window = film_window(settings, camera_prim, time_code, width, height)
+        camera_id = str(camera_prim.GetPath())
 
         motion_blur = not (disable_motion_blur or (settings and settings.disable_motion_blur))
         depth_of_field = not (
@@ -206,7 +215,12 @@ class Renderer:
         )
         shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
         with self.tracer.span("sync stage (USD to render delegate)"):
-            self._sync(shutter, depth_of_field, dome_light_visibility)
+            self._sync(
+                shutter,
+                depth_of_field,
+                dome_light_visibility,
+                {camera_id: window} if settings is not None else None,
+            )
             self._default_light.update(
                 default_light,
                 self._stage_has_lights(),
@@ -214,10 +228,9 @@ class Renderer:
                 time_code,
                 dome_light_visibility,
             )
-        camera_id = str(camera_prim.GetPath())
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
-        render_pass = self._render_pass(camera_id, width, height)
+        render_pass = self._render_pass(camera_id, window.width, window.height)
         unknown = sorted(set(aovs) - set(render_pass.aov_names()))
         if unknown or not aovs:
             raise ValueError(

@@ -26,9 +26,11 @@ Camera::Camera(const CameraParams& params, int imageWidth, int imageHeight)
                                 "x" + std::to_string(imageHeight));
   if (!(params.horizontalAperture > 0) || !(params.verticalAperture > 0))
     throw std::invalid_argument("camera apertures must be positive");
+  if (!(params.pixelAspectRatio > 0) || !std::isfinite(params.pixelAspectRatio))
+    throw std::invalid_argument("pixel aspect ratio must be positive");
   if (params.projection == Projection::Perspective && !(params.focalLength > 0))
     throw std::invalid_argument("camera focalLength must be positive");
-  const float imageAspect = float(imageWidth) / float(imageHeight);
+  const float imageAspect = params.pixelAspectRatio * float(imageWidth) / float(imageHeight);
   const float apertureAspect = params.horizontalAperture / params.verticalAperture;
   filmWidth_ = params.horizontalAperture;
   filmHeight_ = params.verticalAperture;
@@ -104,8 +106,9 @@ Ray Camera::generateRay(float imageX, float imageY, Vec2f lensSample, float time
 }
 
 RayCone Camera::pixelCone() const {
-  // Pixels are square after expandAperture: filmWidth_ / width_ == filmHeight_ / height_.
-  const float pixelFilm = filmWidth_ / float(width_);  // tenths of a scene unit
+  // The side of a square of a pixel's film area (pixels are square unless pixelAspectRatio).
+  const float pixelFilm =
+      std::sqrt(filmWidth_ / float(width_) * filmHeight_ / float(height_));  // tenths of a unit
   if (params_.projection == Projection::Orthographic) return {0.1f * pixelFilm, 0.0f};
   return {0.0f, pixelFilm / focalLengthAt(0)};
 }

@@ -1,6 +1,7 @@
 #include "penumbra/mesh.h"
 
 #include <algorithm>
+#include <limits>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -62,22 +63,115 @@ void validatePrimvar(const Primvar& primvar, const MeshData& mesh) {
         " floats, expected " + std::to_string(expected * size_t(primvar.width)));
 }
 
-bool isClosedSurface(const std::vector<int>& faceVertexCounts,
-                     const std::vector<int>& faceVertexIndices) {
-  std::unordered_map<uint64_t, int> edgeUses;
+namespace {
+
+/// Whether every edge of the faces with keep[face] (all when `keep` is empty) is shared by an
+/// even number of them, so that the surface bounds a volume; false when no face is kept. Edges
+/// from a vertex to itself do not count.
+bool everyEdgeIsSharedEvenly(const std::vector<int>& faceVertexCounts,
+                             const std::vector<int>& faceVertexIndices,
+                             const std::vector<bool>& keep) {
+  std::vector<uint64_t> edges;  // each use of an edge: its two vertices, smaller first
+  edges.reserve(faceVertexIndices.size());
   size_t start = 0;
-  for (const int count : faceVertexCounts) {
-    for (int k = 0; k < count; ++k) {
-      const auto a = uint32_t(faceVertexIndices[start + size_t(k)]);
-      const auto b = uint32_t(faceVertexIndices[start + size_t((k + 1) % count)]);
-      ++edgeUses[(uint64_t(std::min(a, b)) << 32) | std::max(a, b)];
-    }
+  for (size_t face = 0; face < faceVertexCounts.size(); ++face) {
+    const int count = faceVertexCounts[face];
+    if (keep.empty() || keep[face])
+      for (int k = 0; k < count; ++k) {
+        const auto a = uint32_t(faceVertexIndices[start + size_t(k)]);
+        const auto b = uint32_t(faceVertexIndices[start + size_t((k + 1) % count)]);
+        if (a != b) edges.push_back((uint64_t(std::min(a, b)) << 32) | std::max(a, b));
+      }
     start += size_t(std::max(count, 0));
   }
-  if (edgeUses.empty()) return false;
-  for (const auto& [edge, uses] : edgeUses)
-    if (uses != 2) return false;
+  if (edges.empty()) return false;
+  std::sort(edges.begin(), edges.end());
+  for (size_t run = 0; run < edges.size();) {
+    size_t next = run + 1;
+    while (next < edges.size() && edges[next] == edges[run]) ++next;
+    if ((next - run) % 2 != 0) return false;
+    run = next;
+  }
   return true;
+}
+
+}  // namespace
+
+std::vector<int> weldPoints(const std::vector<Vec3f>& points, float tolerance) {
+  std::vector<int> representative(points.size());
+  if (points.empty()) return representative;
+  Vec3f lower = points[0];
+  for (const Vec3f& p : points)
+    lower = {std::min(lower.x, p.x), std::min(lower.y, p.y), std::min(lower.z, p.z)};
+  // Cells much larger than the tolerance: most points search one cell. 21 bits per axis hold
+  // any mesh whose extent is below 2^21 cells, which kWeldTolerance guarantees.
+  const float cell = std::max(16 * tolerance, std::numeric_limits<float>::min());
+  const auto cellOf = [&](float value, float low) {
+    const float index = (value - low) / cell;
+    return index >= 0 ? uint64_t(std::min(index, float((1 << 21) - 1))) : 0;  // NaN: cell 0
+  };
+  std::unordered_map<uint64_t, std::vector<int>> cells;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Vec3f& p = points[i];
+    const uint64_t from[3] = {cellOf(p.x - tolerance, lower.x), cellOf(p.y - tolerance, lower.y),
+                              cellOf(p.z - tolerance, lower.z)};
+    const uint64_t to[3] = {cellOf(p.x + tolerance, lower.x), cellOf(p.y + tolerance, lower.y),
+                            cellOf(p.z + tolerance, lower.z)};
+    int found = -1;
+    for (uint64_t x = from[0]; x <= to[0] && found < 0; ++x)
+      for (uint64_t y = from[1]; y <= to[1] && found < 0; ++y)
+        for (uint64_t z = from[2]; z <= to[2] && found < 0; ++z) {
+          const auto candidates = cells.find((x << 42) | (y << 21) | z);
+          if (candidates == cells.end()) continue;
+          for (const int candidate : candidates->second)
+            if (length(points[size_t(candidate)] - p) <= tolerance) {
+              found = candidate;
+              break;
+            }
+        }
+    if (found < 0) {
+      found = int(i);
+      cells[(cellOf(p.x, lower.x) << 42) | (cellOf(p.y, lower.y) << 21) | cellOf(p.z, lower.z)]
+          .push_back(found);
+    }
+    representative[i] = found;
+  }
+  return representative;
+}
+
+bool isClosedSurface(const std::vector<Vec3f>& points, const std::vector<int>& faceVertexCounts,
+                     const std::vector<int>& faceVertexIndices) {
+  if (everyEdgeIsSharedEvenly(faceVertexCounts, faceVertexIndices, {})) return true;
+  if (points.empty()) return false;
+  Vec3f lower = points[0], upper = points[0];
+  for (const Vec3f& p : points) {
+    lower = {std::min(lower.x, p.x), std::min(lower.y, p.y), std::min(lower.z, p.z)};
+    upper = {std::max(upper.x, p.x), std::max(upper.y, p.y), std::max(upper.z, p.z)};
+  }
+  const Vec3f size = upper - lower;
+  const float tolerance = kWeldTolerance * std::max({size.x, size.y, size.z});
+  const std::vector<int> representative = weldPoints(points, tolerance);
+  std::vector<int> welded(faceVertexIndices.size());
+  for (size_t i = 0; i < welded.size(); ++i)
+    welded[i] = representative[size_t(faceVertexIndices[i])];
+  // Faces thinner than the tolerance (zero area: collapsed or collinear corners) bound nothing.
+  std::vector<bool> keep(faceVertexCounts.size());
+  size_t start = 0;
+  for (size_t face = 0; face < faceVertexCounts.size(); ++face) {
+    const int count = std::max(faceVertexCounts[face], 0);
+    Vec3f areaVector{0, 0, 0};  // twice the area times the unit normal (a fan about corner 0)
+    float longestEdge = 0;
+    for (int k = 0; k < count; ++k) {
+      const Vec3f& origin = points[size_t(welded[start])];
+      const Vec3f& a = points[size_t(welded[start + size_t(k)])];
+      const Vec3f& b = points[size_t(welded[start + size_t((k + 1) % count)])];
+      areaVector = areaVector + cross(a - origin, b - origin);
+      longestEdge = std::max(longestEdge, length(b - a));
+    }
+    keep[face] = length(areaVector) > 2 * tolerance * longestEdge;
+    start += size_t(count);
+  }
+  return everyEdgeIsSharedEvenly(faceVertexCounts, welded, keep);
 }
 
 TriangleMesh triangulate(const MeshData& mesh) {
@@ -125,7 +219,7 @@ TriangleMesh triangulate(const MeshData& mesh) {
   result.points = mesh.points;
   result.pointMotion = mesh.pointMotion;
   result.doubleSided = mesh.doubleSided;
-  result.closed = isClosedSurface(mesh.faceVertexCounts, mesh.faceVertexIndices);
+  result.closed = isClosedSurface(mesh.points, mesh.faceVertexCounts, mesh.faceVertexIndices);
   result.displayColor = mesh.displayColor;
   result.displayColorInterpolation = mesh.displayColorInterpolation;
   result.normals = mesh.normals;

@@ -466,6 +466,7 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
     // With a threshold, opacity decides presence (the filter cut out what is below it); what
     // remains is opaque, not translucent (UsdPreviewSurface spec).
     if (hit.material.opacityThreshold > 0) hit.material.opacity = 1;
+    if (hit.material.thinWalled) hit.closed = !*hit.material.thinWalled;
   } else {
     hit.material = fallbackSurface();
     float value[4];

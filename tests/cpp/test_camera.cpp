@@ -111,3 +111,18 @@ TEST(Camera, ConcentricDiskMappingStaysInTheDiskAndCoversIt) {
   // Uniform over the unit disk: E[r²] = 1/2.
   EXPECT_NEAR(meanRadius2 / (n * n), 0.5, 2e-3);
 }
+
+TEST(Camera, PixelAspectRatioStretchesPixelsOnTheFilm) {
+  // 100 x 100 pixels twice as wide as high cover a 2:1 aperture without expanding it.
+  CameraParams params = cornellCamera();
+  params.horizontalAperture = 0.4f;
+  params.verticalAperture = 0.2f;
+  params.pixelAspectRatio = 2;
+  const Camera camera(params, 100, 100);
+  EXPECT_FLOAT_EQ(camera.filmWidth(), 0.4f);
+  EXPECT_FLOAT_EQ(camera.filmHeight(), 0.2f);
+  const Ray corner = camera.generateRay(100, 0, {0.5f, 0.5f});
+  expectNear(corner.direction, normalize(Vec3f(0.2f / 0.35f, 0.1f / 0.35f, -1)), 1e-6f);
+  params.pixelAspectRatio = 0;
+  EXPECT_THROW(Camera(params, 100, 100), std::invalid_argument);
+}

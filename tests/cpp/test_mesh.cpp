@@ -76,3 +76,91 @@ TEST(Mesh, DisplayColorFollowsItsInterpolation) {
   EXPECT_FLOAT_EQ(colorAt(0, 0.25f, 0.5f).x, 0.5f);
   EXPECT_EQ(colorAt(0, 0, 0).x, 0);
 }
+
+namespace {
+/// A unit cube as exporters write it: 4 points of its own per face (24 points), outward quads.
+MeshData splitCube() {
+  const Vec3f corners[8] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                            {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+  const int faces[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
+                           {2, 3, 7, 6}, {1, 2, 6, 5}, {0, 4, 7, 3}};
+  MeshData mesh;
+  for (const auto& face : faces) {
+    mesh.faceVertexCounts.push_back(4);
+    for (const int corner : face) {
+      mesh.faceVertexIndices.push_back(int(mesh.points.size()));
+      mesh.points.push_back(corners[corner]);
+    }
+  }
+  return mesh;
+}
+
+bool closed(const MeshData& mesh) {
+  return isClosedSurface(mesh.points, mesh.faceVertexCounts, mesh.faceVertexIndices);
+}
+
+void removeLastFace(MeshData* mesh) {
+  mesh->faceVertexIndices.resize(mesh->faceVertexIndices.size() -
+                                 size_t(mesh->faceVertexCounts.back()));
+  mesh->faceVertexCounts.pop_back();
+}
+}  // namespace
+
+TEST(Mesh, ACubeWithSplitVerticesIsClosed) {
+  MeshData cube = splitCube();
+  EXPECT_TRUE(closed(cube));
+  EXPECT_TRUE(triangulate(cube).closed);
+  // Exporters' rounding: within the weld tolerance (1e-5 of the size) the cube stays closed.
+  cube.points[5].x += 2e-6f;
+  EXPECT_TRUE(closed(cube));
+  cube.points[5].x += 1e-3f;  // a real gap
+  EXPECT_FALSE(closed(cube));
+}
+
+TEST(Mesh, ACubeMissingAFaceIsOpen) {
+  MeshData cube = splitCube();
+  removeLastFace(&cube);
+  EXPECT_FALSE(closed(cube));
+  EXPECT_FALSE(triangulate(cube).closed);
+  EXPECT_FALSE(closed(quadAndPentagon()));
+}
+
+TEST(Mesh, ZeroAreaFacesAreIgnored) {
+  MeshData cube = splitCube();
+  // A triangle collapsed onto the cube's edge (0,0,0)-(1,0,0) (collinear corners, one of them
+  // new) and a quad
+  // collapsed to a point: their edges have no partner, yet they bound nothing.
+  cube.points.push_back({0.5f, 0, 0});
+  cube.faceVertexCounts.insert(cube.faceVertexCounts.end(), {3, 4});
+  cube.faceVertexIndices.insert(cube.faceVertexIndices.end(),
+                                {0, 3, int(cube.points.size()) - 1, 6, 6, 6, 6});
+  EXPECT_TRUE(closed(cube));
+  // A sliver of real area keeps its edges: the mesh is open.
+  cube.points.back().y = 0.01f;
+  EXPECT_FALSE(closed(cube));
+}
+
+TEST(Mesh, SolidsTouchingAlongAnEdgeAreClosed) {
+  // Two cubes sharing an edge (by index): four faces on it, two on every other edge.
+  MeshData mesh;
+  mesh.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1},
+                 {0, 1, 1}, {2, 1, 0}, {2, 2, 0}, {1, 2, 0}, {2, 1, 1}, {2, 2, 1}, {1, 2, 1}};
+  mesh.faceVertexCounts.assign(12, 4);
+  mesh.faceVertexIndices = {0, 3, 2,  1, 4, 5,  6,  7,  0, 1,  5,  4,  2, 3,  7,  6,
+                            1, 2, 6,  5, 0, 4,  7,  3,  2, 10, 9,  8,  6, 11, 12, 13,
+                            2, 8, 11, 6, 9, 10, 13, 12, 8, 9,  12, 11, 2, 6,  13, 10};
+  EXPECT_TRUE(closed(mesh));
+  // An inner wall (three faces on its edges) does not bound a solid.
+  MeshData walled = splitCube();
+  walled.points.insert(walled.points.end(),
+                       {{0.5f, 0, 0}, {0.5f, 1, 0}, {0.5f, 1, 1}, {0.5f, 0, 1}});
+  walled.faceVertexCounts.push_back(4);
+  walled.faceVertexIndices.insert(walled.faceVertexIndices.end(), {24, 25, 26, 27});
+  EXPECT_FALSE(closed(walled));
+}
+
+TEST(Mesh, WeldingKeepsTheFirstPointOfEachGroup) {
+  const std::vector<Vec3f> points = {{0, 0, 0}, {1, 0, 0}, {0, 0, 0}, {1, 0, 1e-7f}, {0, 1, 0}};
+  EXPECT_EQ(weldPoints(points, 1e-5f), (std::vector<int>{0, 1, 0, 1, 4}));
+  EXPECT_EQ(weldPoints(points, 0), (std::vector<int>{0, 1, 0, 3, 4}));
+}

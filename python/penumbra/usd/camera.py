@@ -3,11 +3,16 @@ shutter a camera gives a frame."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from pxr import Usd, UsdGeom
 
 from ..errors import SceneError
 from .sampling import DEFAULT_MAX_MOTION_SEGMENTS, SampleReader, Shutter, changes_within
+
+if TYPE_CHECKING:
+    from .settings import FilmWindow
 
 
 def read_shutter(
@@ -32,22 +37,42 @@ def read_shutter(
     return Shutter(frame, shutter_open, shutter_close, max_segments)
 
 
-def sync_camera(core, prim: Usd.Prim, reader: SampleReader, depth_of_field: bool = True) -> None:
+def sync_camera(
+    core,
+    prim: Usd.Prim,
+    reader: SampleReader,
+    depth_of_field: bool = True,
+    window: FilmWindow | None = None,
+) -> None:
     """Push the projection, apertures, lens and the reader's shutter of camera ``prim`` to
     ``core``; an animated focal length or focus distance is sampled over the shutter. Without
-    ``depth_of_field`` the camera is a pinhole (f-stop 0)."""
+    ``depth_of_field`` the camera is a pinhole (f-stop 0). ``window``: the part of the film
+    the image covers (render settings' conform policy and data window) instead of the whole
+    aperture."""
     camera = UsdGeom.Camera(prim)
     path = str(prim.GetPath())
     shutter = reader.shutter
     near, far = reader.get(camera.GetClippingRangeAttr())
     focal_attr, focus_attr = camera.GetFocalLengthAttr(), camera.GetFocusDistanceAttr()
+    horizontal = float(reader.get(camera.GetHorizontalApertureAttr()))
+    vertical = float(reader.get(camera.GetVerticalApertureAttr()))
+    horizontal_offset = float(reader.get(camera.GetHorizontalApertureOffsetAttr()))
+    vertical_offset = float(reader.get(camera.GetVerticalApertureOffsetAttr()))
+    pixel_aspect_ratio = 1.0
+    if window is not None:
+        horizontal_offset += window.horizontal_shift * horizontal
+        vertical_offset += window.vertical_shift * vertical
+        horizontal *= window.horizontal_scale
+        vertical *= window.vertical_scale
+        pixel_aspect_ratio = window.pixel_aspect_ratio
     core.set_camera(
         path,
         focal_length=float(reader.get(focal_attr)),
-        horizontal_aperture=float(reader.get(camera.GetHorizontalApertureAttr())),
-        vertical_aperture=float(reader.get(camera.GetVerticalApertureAttr())),
-        horizontal_aperture_offset=float(reader.get(camera.GetHorizontalApertureOffsetAttr())),
-        vertical_aperture_offset=float(reader.get(camera.GetVerticalApertureOffsetAttr())),
+        horizontal_aperture=horizontal,
+        vertical_aperture=vertical,
+        horizontal_aperture_offset=horizontal_offset,
+        vertical_aperture_offset=vertical_offset,
+        pixel_aspect_ratio=pixel_aspect_ratio,
         f_stop=float(reader.get(camera.GetFStopAttr())) if depth_of_field else 0.0,
         focus_distance=float(reader.get(focus_attr)),
         clipping_range=(float(near), float(far)),

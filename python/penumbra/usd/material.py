@@ -28,6 +28,7 @@ INPUTS = (
     "useSpecularWorkflow",
     "penumbra:transmissionRoughness",
     "penumbra:abbeNumber",
+    "penumbra:thinWalled",
 )
 
 

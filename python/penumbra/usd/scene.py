@@ -40,6 +40,7 @@ from .mesh import sync_mesh_data
 from .motion import XformCaches, transform_samples
 from .native_instancing import NativeInstancing
 from .sampling import SampleReader, Shutter, transform_might_vary, visibility_might_vary
+from .settings import FilmWindow
 
 DEFAULT_PURPOSES = ("default", "proxy")
 """usdrecord's default: the "default" purpose plus "proxy"."""
@@ -103,6 +104,7 @@ class SceneDelegate:
         self.shutter: Shutter | None = None
         self.depth_of_field = True
         self.dome_light_visibility = True
+        self.film_windows: dict[str, FilmWindow] = {}
         self._prims: dict[Sdf.Path, _Prim] = {}
         self._materials: dict[Sdf.Path, _Material] = {}
         self._dirty: dict[Sdf.Path, Dirty] = {}
@@ -129,11 +131,17 @@ class SceneDelegate:
             self._listener = None
 
     def update(
-        self, shutter: Shutter, depth_of_field: bool = True, dome_light_visibility: bool = True
+        self,
+        shutter: Shutter,
+        depth_of_field: bool = True,
+        dome_light_visibility: bool = True,
+        film_windows: dict[str, FilmWindow] | None = None,
     ) -> None:
         """Bring the delegate up to date with the stage over ``shutter`` (its frame, or the
         interval moving prims are sampled over); ``depth_of_field`` False makes cameras
-        pinholes; ``dome_light_visibility`` False hides dome lights from camera rays.
+        pinholes; ``dome_light_visibility`` False hides dome lights from camera rays;
+        ``film_windows`` maps camera paths to the part of their film the image covers (the
+        others show their whole aperture).
 
         The first call populates the delegate; later calls push only queued edits and, when
         the shutter differs from the last one, the time-varying aspects (and the cameras when
@@ -144,6 +152,14 @@ class SceneDelegate:
             self.dome_light_visibility = dome_light_visibility
             self._resync(Sdf.Path.absoluteRootPath)
         self._process_notices()
+        film_windows = film_windows or {}
+        if film_windows != self.film_windows:
+            for path in set(film_windows) | set(self.film_windows):
+                if film_windows.get(path) != self.film_windows.get(path):
+                    record = self._prims.get(Sdf.Path(path))
+                    if record is not None and record.kind == "camera":
+                        self._mark(Sdf.Path(path), Dirty.DATA)
+            self.film_windows = film_windows
         if dome_light_visibility != self.dome_light_visibility:
             self.dome_light_visibility = dome_light_visibility
             for path, record in self._prims.items():
@@ -343,7 +359,9 @@ class SceneDelegate:
                     record.in_core = False
                     return
             elif record.kind == "camera":
-                sync_camera(self.core, prim, reader, self.depth_of_field)
+                sync_camera(
+                    self.core, prim, reader, self.depth_of_field, self.film_windows.get(path_str)
+                )
             else:
                 sync_light(self.core, prim, reader, self._warn, self.dome_light_visibility)
             record.varying = _set_flag(record.varying, Dirty.DATA, reader.varying)

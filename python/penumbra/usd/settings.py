@@ -1,14 +1,17 @@
 """Choosing the camera and the image size of a render, as usdrecord does.
 
 The camera is the one asked for (a prim path, or a bare prim name searched in the stage), else
-the render settings' camera, else the stage's ``main_cam``. The image height follows from the
+the stage's ``main_cam``, else the render settings' camera. The image height follows from the
 width and the aspect ratio of the render settings' ``resolution`` when one is authored, else of
-the camera's apertures.
+the camera's apertures. With render settings, the part of the film the image covers follows
+UsdRender's rules (:func:`film_window`): ``aspectRatioConformPolicy``, ``pixelAspectRatio`` and
+``dataWindowNDC``.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -33,6 +36,19 @@ class RenderSettings:
     """``resolution`` when authored (the schema fallback is not a request)."""
     disable_motion_blur: bool = False
     disable_depth_of_field: bool = False
+    pixel_aspect_ratio: float = 1.0
+    aspect_ratio_conform_policy: str = "expandAperture"
+    data_window_ndc: tuple[float, float, float, float] = (0.0, 0.0, 1.0, 1.0)
+    """(xmin, ymin, xmax, ymax) of the conformed aperture, (0, 0) bottom left."""
+
+
+CONFORM_POLICIES = (
+    "expandAperture",
+    "cropAperture",
+    "adjustApertureWidth",
+    "adjustApertureHeight",
+    "adjustPixelAspectRatio",
+)
 
 
 def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSettings | None:
@@ -58,12 +74,27 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
         width, height = resolution_attr.Get()
         if width > 0 and height > 0:
             resolution = (int(width), int(height))
+    pixel_aspect_ratio = float(settings.GetPixelAspectRatioAttr().Get())
+    if not pixel_aspect_ratio > 0 or not np.isfinite(pixel_aspect_ratio):
+        raise SceneError(f"{path}: pixelAspectRatio must be positive, not {pixel_aspect_ratio}")
+    policy = str(settings.GetAspectRatioConformPolicyAttr().Get())
+    if policy not in CONFORM_POLICIES:
+        raise SceneError(
+            f"{path}: unknown aspectRatioConformPolicy {policy!r} "
+            f"(expected one of {', '.join(CONFORM_POLICIES)})"
+        )
+    x_min, y_min, x_max, y_max = (float(v) for v in settings.GetDataWindowNDCAttr().Get())
+    if not (x_min < x_max and y_min < y_max):
+        raise SceneError(f"{path}: dataWindowNDC {(x_min, y_min, x_max, y_max)} is empty")
     return RenderSettings(
         path=str(path),
         camera=str(targets[0]) if len(targets) == 1 else None,
         resolution=resolution,
         disable_motion_blur=bool(settings.GetDisableMotionBlurAttr().Get()),
         disable_depth_of_field=bool(settings.GetDisableDepthOfFieldAttr().Get()),
+        pixel_aspect_ratio=pixel_aspect_ratio,
+        aspect_ratio_conform_policy=policy,
+        data_window_ndc=(x_min, y_min, x_max, y_max),
     )
 
 
@@ -83,11 +114,28 @@ def _camera_path(name_or_path: CameraPath) -> Sdf.Path | None:
     return path if path.IsPrimPath() or path == Sdf.Path.absoluteRootPath else None
 
 
+PASS_COLLECTIONS = ("renderVisibility", "cameraVisibility", "prune", "matte")
+"""The UsdRenderPass collections, which Penumbra does not apply."""
+
+
+def _authored_collections(render_pass: UsdRender.Pass) -> list[str]:
+    """The pass's collections that are authored (and so may leave their defaults)."""
+    authored = []
+    for name in PASS_COLLECTIONS:
+        prefix = f"collection:{name}"
+        for prop in render_pass.GetPrim().GetAuthoredProperties():
+            if prop.GetName() == prefix or prop.GetName().startswith(prefix + ":"):
+                authored.append(name)
+                break
+    return authored
+
+
 def render_pass_settings(stage: Usd.Stage, pass_path: str) -> str:
     """The render settings prim named by the ``renderSource`` of the UsdRenderPass at
     ``pass_path`` (its first target, with a warning when there are several, as usdrecord).
     Raises :class:`SceneError` naming the pass when it is not a render pass or names no
-    source."""
+    source. Authored ``renderVisibility``, ``cameraVisibility``, ``prune`` and ``matte``
+    collections are not applied: a warning names them."""
     render_pass = (
         UsdRender.Pass(stage.GetPrimAtPath(pass_path))
         if Sdf.Path.IsValidPathString(pass_path) and pass_path.startswith("/")
@@ -100,6 +148,13 @@ def render_pass_settings(stage: Usd.Stage, pass_path: str) -> str:
         raise SceneError(f"{stage_name(stage)}: render pass {pass_path} has no renderSource")
     if len(targets) > 1:
         warn(f"{pass_path}: the render pass has {len(targets)} render sources; using {targets[0]}")
+    authored = _authored_collections(render_pass)
+    if authored:
+        warn(
+            f"{pass_path}: the render pass's {', '.join(authored)} "
+            f"collection{'s are' if len(authored) > 1 else ' is'} not applied; "
+            "every prim renders as without the pass"
+        )
     return str(targets[0])
 
 
@@ -206,8 +261,10 @@ def image_size(
     height: int | None = None,
     settings: RenderSettings | None = None,
 ) -> tuple[int, int]:
-    """``(width, height)``; a missing height keeps the aspect ratio of the render settings'
-    resolution when authored, else of the camera's apertures at ``time``."""
+    """``(width, height)`` of the full image (before any ``dataWindowNDC`` crop); a missing
+    height keeps the aspect ratio of the render settings' resolution when authored, else of the
+    camera's apertures at ``time`` (with the settings' ``pixelAspectRatio``: pixels that
+    wide cover the aperture)."""
     if width < 1:
         raise ValueError(f"image width must be at least 1, not {width}")
     if height is not None:
@@ -225,10 +282,11 @@ def image_size(
             f"{camera.GetPath()}: camera apertures must be positive "
             f"(horizontal {horizontal}, vertical {vertical})"
         )
-    return width, usdrecord_height(width, horizontal, vertical)
+    pixel_aspect_ratio = settings.pixel_aspect_ratio if settings is not None else 1.0
+    return width, usdrecord_height(width * pixel_aspect_ratio, horizontal, vertical)
 
 
-def usdrecord_height(width: int, horizontal_aperture: float, vertical_aperture: float) -> int:
+def usdrecord_height(width: float, horizontal_aperture: float, vertical_aperture: float) -> int:
     """The image height usdrecord gives a width: ``int(width / aspect)`` in single precision
     (as UsdAppUtilsFrameRecorder computes it from GfCamera's float aspect ratio), at least 1;
     an aspect ratio within 1e-4 of 0 counts as 1."""
@@ -236,3 +294,102 @@ def usdrecord_height(width: int, horizontal_aperture: float, vertical_aperture: 
     if abs(aspect) <= np.float32(1e-4):
         aspect = np.float32(1)
     return max(1, int(np.float32(width) / aspect))
+
+
+@dataclass(frozen=True)
+class FilmWindow:
+    """The part of a camera's film an image covers, relative to the camera's apertures (so
+    that it follows animated apertures), and the image's size in pixels."""
+
+    width: int
+    height: int
+    horizontal_scale: float = 1.0
+    """The window's width over the camera's horizontal aperture."""
+    vertical_scale: float = 1.0
+    horizontal_shift: float = 0.0
+    """The window centre's offset from the aperture's centre, over the horizontal aperture."""
+    vertical_shift: float = 0.0
+    pixel_aspect_ratio: float = 1.0
+    """Width over height of one pixel on the film."""
+
+
+def conform_aperture(
+    policy: str,
+    resolution: tuple[int, int],
+    pixel_aspect_ratio: float,
+    aperture: tuple[float, float],
+) -> tuple[tuple[float, float], float]:
+    """UsdRender's ``aspectRatioConformPolicy``: the aperture (width, height) and pixel aspect
+    ratio with which ``resolution`` pixels cover the film (as ``UsdRenderComputeSpec`` does:
+    the adjusted side makes the aperture's aspect the image's, ``pixelAspectRatio`` ×
+    width / height; ``adjustPixelAspectRatio`` changes the pixels instead)."""
+    resolution_aspect = resolution[0] / resolution[1]
+    image_aspect = pixel_aspect_ratio * resolution_aspect
+    aperture_aspect = aperture[0] / aperture[1]
+    if policy == "adjustPixelAspectRatio":
+        return aperture, aperture_aspect / resolution_aspect
+    adjust_width = {
+        "adjustApertureWidth": True,
+        "adjustApertureHeight": False,
+        "expandAperture": aperture_aspect <= image_aspect,
+        "cropAperture": aperture_aspect > image_aspect,
+    }[policy]
+    if adjust_width:
+        return (aperture[1] * image_aspect, aperture[1]), pixel_aspect_ratio
+    return (aperture[0], aperture[0] / image_aspect), pixel_aspect_ratio
+
+
+def _window_pixels(low: float, high: float, count: int) -> tuple[int, int]:
+    """The first and one past the last of ``count`` pixels along an axis whose centres
+    ((i + 0.5) / count) lie in [low, high); pixels outside [0, count) are overscan."""
+    return math.ceil(low * count - 0.5), math.ceil(high * count - 0.5)
+
+
+def film_window(
+    settings: RenderSettings | None,
+    camera: Usd.Prim,
+    time: Usd.TimeCode,
+    width: int,
+    height: int,
+) -> FilmWindow:
+    """The film window and pixel size of a ``width`` × ``height`` image under ``settings``:
+    the camera's aperture conformed to the image by the ``aspectRatioConformPolicy``, then
+    cut to the pixels whose centres lie in ``dataWindowNDC`` (a crop, or overscan beyond the
+    unit square). Without settings, the whole image (the renderer expands the aperture)."""
+    if settings is None:
+        return FilmWindow(width, height)
+    geom = UsdGeom.Camera(camera)
+    aperture = (
+        float(geom.GetHorizontalApertureAttr().Get(time)),
+        float(geom.GetVerticalApertureAttr().Get(time)),
+    )
+    if not (aperture[0] > 0 and aperture[1] > 0):
+        raise SceneError(f"{camera.GetPath()}: camera apertures must be positive {aperture}")
+    (conformed_width, conformed_height), pixel_aspect_ratio = conform_aperture(
+        settings.aspect_ratio_conform_policy,
+        (width, height),
+        settings.pixel_aspect_ratio,
+        aperture,
+    )
+    x_min, y_min, x_max, y_max = settings.data_window_ndc
+    first_column, end_column = _window_pixels(x_min, x_max, width)
+    # NDC y grows upwards, image rows downwards.
+    first_row, end_row = _window_pixels(1 - y_max, 1 - y_min, height)
+    if end_column <= first_column or end_row <= first_row:
+        raise SceneError(
+            f"{settings.path}: dataWindowNDC {settings.data_window_ndc} holds no pixel centre "
+            f"of the {width}x{height} image"
+        )
+    left, right = first_column / width, end_column / width
+    bottom, top = 1 - end_row / height, 1 - first_row / height
+    horizontal = conformed_width / aperture[0]
+    vertical = conformed_height / aperture[1]
+    return FilmWindow(
+        width=end_column - first_column,
+        height=end_row - first_row,
+        horizontal_scale=horizontal * (right - left),
+        vertical_scale=vertical * (top - bottom),
+        horizontal_shift=horizontal * ((left + right) / 2 - 0.5),
+        vertical_shift=vertical * ((bottom + top) / 2 - 0.5),
+        pixel_aspect_ratio=pixel_aspect_ratio,
+    )

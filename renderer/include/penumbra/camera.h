@@ -1,5 +1,5 @@
-// Pinhole and thin-lens cameras with UsdGeomCamera's parameters (docs/design.md §3): focal length and
-// apertures in tenths of a scene unit, distances in scene units, looking down -Z with +Y up.
+// Pinhole and thin-lens cameras with UsdGeomCamera's parameters (docs/design.md §3): focal length
+// and apertures in tenths of a scene unit, distances in scene units, looking down -Z with +Y up.
 #pragma once
 
 #include <vector>
@@ -34,9 +34,10 @@ struct CameraParams {
   float verticalAperture = 15.2908f;
   float horizontalApertureOffset = 0;
   float verticalApertureOffset = 0;
-  float fStop = 0;          // 0: pinhole
-  float focusDistance = 0;  // scene units
-  float nearClip = 1;       // scene units, along the view axis
+  float pixelAspectRatio = 1;  // width / height of one pixel on the film
+  float fStop = 0;             // 0: pinhole
+  float focusDistance = 0;     // scene units
+  float nearClip = 1;          // scene units, along the view axis
   float farClip = 1e6f;
   float shutterOpen = 0;  // time codes relative to the frame
   float shutterClose = 0;
@@ -45,8 +46,9 @@ struct CameraParams {
   std::vector<float> focusDistanceSteps;
 };
 
-/// A camera bound to an image resolution. The aperture is fitted to the image aspect by
-/// expanding it (UsdRenderSettings' default conform policy, "expandAperture").
+/// A camera bound to an image resolution. The aperture is fitted to the image aspect
+/// (pixelAspectRatio · width / height) by expanding it (UsdRenderSettings' default conform
+/// policy, "expandAperture").
 class Camera {
  public:
   /// Throws std::invalid_argument for non-positive sizes or apertures.

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,9 @@ struct MaterialParams {
   float ior = 1.5f;
   float transmissionRoughness = -1;  // inputs:penumbra:transmissionRoughness; < 0: roughness
   float abbeNumber = 0;              // inputs:penumbra:abbeNumber; 0: no dispersion
+  /// inputs:penumbra:thinWalled: whether translucency is a thin sheet (true) or the boundary of
+  /// a solid (false); unset: as the mesh's geometry says (TriangleMesh::closed).
+  std::optional<bool> thinWalled;
 };
 
 /// The surface of meshes without a material: roughness 1 and no specular colour (within 1 % of

@@ -50,8 +50,9 @@ struct TriangleMesh {
   std::vector<uint32_t> sourceFace;
   std::vector<uint32_t> cornerFaceVertex;
   bool doubleSided = false;
-  /// Every edge has exactly two faces: the mesh bounds a solid (translucent materials refract
-  /// into it); open meshes are treated as thin sheets.
+  /// The mesh bounds a solid (isClosedSurface): translucent materials refract into it unless
+  /// they say they are thin-walled; open meshes are thin sheets unless their material says
+  /// otherwise.
   bool closed = false;
   /// Shading normals (authored, or subdivision limit normals per point); empty: flat.
   std::vector<Vec3f> normals;
@@ -88,8 +89,19 @@ const Primvar* findPrimvar(const std::vector<Primvar>& primvars, const std::stri
 /// `mesh`.
 void validatePrimvar(const Primvar& primvar, const MeshData& mesh);
 
-/// True when every edge of the polygon mesh is shared by exactly two faces.
-bool isClosedSurface(const std::vector<int>& faceVertexCounts,
+/// Points closer than this fraction of a mesh's largest extent are one point when deciding
+/// whether the mesh is closed.
+constexpr float kWeldTolerance = 1e-5f;
+
+/// For each point, the index of the first point within `tolerance` of it that represents its
+/// group (itself when there is none before it).
+std::vector<int> weldPoints(const std::vector<Vec3f>& points, float tolerance);
+
+/// Whether the polygon mesh bounds a solid: every edge is shared by an even number of faces
+/// (exactly two for a manifold surface), by its indices or, failing that, once points within
+/// kWeldTolerance of the mesh's size are welded (split vertices at UV seams, hard edges or
+/// poles) and faces of zero area (thinner than that tolerance) are ignored.
+bool isClosedSurface(const std::vector<Vec3f>& points, const std::vector<int>& faceVertexCounts,
                      const std::vector<int>& faceVertexIndices);
 
 /// Validates and triangulates. Throws std::invalid_argument with a message saying what is wrong

@@ -45,7 +45,7 @@ struct SurfaceHit {
   /// fallbackSurface() with displayColor and displayOpacity for meshes without one.
   MaterialParams material;
   int lightIndex = -1;  // the mesh light this surface is (UsdLuxMeshLightAPI)
-  bool closed = false;  // the mesh bounds a solid
+  bool closed = false;  // a solid: the mesh bounds one, or its material is not thin-walled
 };
 
 /// Camera rays do not see the back faces of single-sided meshes (doubleSided = 0), as in

@@ -43,7 +43,7 @@ class Material : public Prim {
   /// Sets a constant UsdPreviewSurface input by name (diffuseColor, emissiveColor,
   /// specularColor, metallic, roughness, opacity, opacityThreshold, ior, clearcoat,
   /// clearcoatRoughness, useSpecularWorkflow, penumbra:transmissionRoughness,
-  /// penumbra:abbeNumber). Throws std::invalid_argument for an unknown name or a value of the
+  /// penumbra:abbeNumber, penumbra:thinWalled). Throws std::invalid_argument for an unknown name or a value of the
   /// wrong type.
   void setParam(const std::string& name, const ParamValue& value);
   /// Connects an input (the names above that can vary, or `normal`) to a source; throws
