@@ -13,6 +13,7 @@ from pxr import Sdf, Usd, UsdLux
 from . import _core
 from .errors import SceneError, warn
 from .image import Image, ocio_config_path
+from .memory import check_film, default_budget
 from .trace import Tracer
 from .usd.camera import read_shutter
 from .usd.default_light import (
@@ -160,6 +161,7 @@ class Renderer:
         progress: ProgressCallback | None = None,
         adaptive_threshold: float = 0.0,
         adaptive_min_samples: int = 16,
+        max_memory: int | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -182,7 +184,9 @@ class Renderer:
         ``adaptive_threshold`` > 0 turns on adaptive sampling: from ``adaptive_min_samples``
         on, a pixel stops once its estimated relative error (as rRMSE measures it) is below
         the threshold, so ``samples`` becomes a cap; the image stays a pure function of (scene,
-        seed, samples, threshold). Raises :class:`penumbra.SceneError` when the
+        seed, samples, threshold). ``max_memory``: bytes the process may hold (default: 80% of
+        physical memory), checked before the scene is synced and before a new size's film is
+        allocated. Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
         skipped prims are :class:`penumbra.PenumbraWarning`.
         """
@@ -205,6 +209,11 @@ class Renderer:
             disable_depth_of_field or (settings and settings.disable_depth_of_field)
         )
         shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
+        budget = default_budget() if max_memory is None else max_memory
+        camera_id = str(camera_prim.GetPath())
+        new_pass = (camera_id, width, height) not in self._passes
+        if new_pass:
+            check_film(width, height, budget, camera_id)
         with self.tracer.span("sync stage (USD to render delegate)"):
             self._sync(shutter, depth_of_field, dome_light_visibility)
             self._default_light.update(
@@ -214,9 +223,10 @@ class Renderer:
                 time_code,
                 dome_light_visibility,
             )
-        camera_id = str(camera_prim.GetPath())
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
+        if new_pass:  # the synced scene is in memory now; its BVH and the film are not yet
+            check_film(width, height, budget, camera_id)
         render_pass = self._render_pass(camera_id, width, height)
         unknown = sorted(set(aovs) - set(render_pass.aov_names()))
         if unknown or not aovs:
