@@ -15,7 +15,7 @@ from .errors import SceneError, warn
 from .image import Image, ocio_config_path
 from .memory import check_film, default_budget
 from .trace import Tracer
-from .usd.camera import read_shutter
+from .usd.camera import camera_problem, read_shutter
 from .usd.default_light import (
     DEFAULT_LIGHT_ID,
     DefaultLight,
@@ -197,6 +197,9 @@ class Renderer:
         time_code = _time_code(self.stage, time)
         settings = read_render_settings(self.stage, render_settings)
         camera_prim = resolve_camera(self.stage, camera, settings, time_code, self._scene.purposes)
+        problem = camera_problem(camera_prim, time_code)
+        if problem is not None:
+            raise SceneError(problem)
         if width is None:
             if settings is not None and settings.resolution is not None and height is None:
                 width = settings.resolution[0]

@@ -7,7 +7,7 @@ from collections.abc import Iterable
 
 from pxr import Ar, Sdf, Tf, Usd
 
-from ..errors import SceneError
+from ..errors import SceneError, warn
 
 
 def stage_name(stage: Usd.Stage) -> str:
@@ -81,4 +81,6 @@ def open_stage(
         raise SceneError(f"{path}: cannot open the stage: {_tf_error_text(error)}") from None
     if not stage:
         raise SceneError(f"{path}: cannot open the stage")
+    for error in stage.GetCompositionErrors():
+        warn(f"{path}: composition error, the arc is ignored: {' '.join(str(error).split())}")
     return stage
