@@ -32,9 +32,14 @@ def test_malformed_input(case: Case, tmp_path: Path, capsys) -> None:
         assert "warning" in stderr
 
 
-def test_unreadable_usd_file(tmp_path: Path, capsys) -> None:
+@pytest.mark.parametrize(
+    "content",
+    [b"#usda 1.0\n(\x00\xff{{{ def def", b'#usda 1.0\ndef Xform "a\xac" {}\n'],  # 2nd: fuzzer
+    ids=["garbage", "not UTF-8"],
+)
+def test_unreadable_usd_file(content: bytes, tmp_path: Path, capsys) -> None:
     stage = tmp_path / "garbage.usda"
-    stage.write_bytes(b"#usda 1.0\n(\x00\xff{{{ def def")
+    stage.write_bytes(content)
     assert main([str(stage), str(tmp_path / "out.png"), *SMALL]) == 1
     assert "garbage.usda" in capsys.readouterr().err
 
