@@ -13,11 +13,11 @@ DEBIAN_PACKAGES := build-essential cmake ninja-build pkg-config git \
 	python3.11 python3.11-venv python3.11-dev \
 	libembree-dev libosd-dev libopencolorio-dev libopenimageio-dev libtbb-dev \
 	libopencv-core-dev openimageio-tools opencolorio-tools libgtest-dev
-PYTHON_PACKAGES := usd-core==26.11 "numpy>=1.26" "pybind11>=2.12" "scikit-build-core>=0.10" "pytest>=8"
+PYTHON_PACKAGES := usd-core==26.11 "numpy>=1.26" "pybind11>=2.12" "scikit-build-core>=0.10" "pytest>=8" "atheris>=2.3"
 
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps venv build render test test-cpp test-python bench clean
+.PHONY: all deps venv build render test test-cpp test-python fuzz bench clean
 
 all: build
 
@@ -31,7 +31,7 @@ deps:
 		DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y --no-install-recommends $$missing; \
 	fi
 
-$(VENV)/.installed: | deps
+$(VENV)/.installed: Makefile | deps
 	$(PYTHON) -m venv $(VENV)
 	$(VPY) -m pip install --quiet --upgrade pip
 	$(VPY) -m pip install --quiet $(PYTHON_PACKAGES)
@@ -49,12 +49,17 @@ render: build
 	$(VENV)/bin/penumbra-record --samples 64 examples/cornell.usda $(EXAMPLE_IMAGE)
 
 test: build test-cpp test-python
+	$(VPY) tests/fuzz/fuzz_scene.py -runs=300 -timeout=30
 
 test-cpp:
 	ctest --test-dir $(BUILD_DIR) --output-on-failure
 
 test-python:
 	$(VPY) -m pytest -q tests/python
+
+## Longer fuzzing of the scene delegate (tests/fuzz/fuzz_scene.py); findings land in ./crash-*.
+fuzz: build
+	$(VPY) tests/fuzz/fuzz_scene.py -max_total_time=600 -timeout=30
 
 bench: build
 	$(VPY) bench/run.py cornell.usda dof.usda motion.usda glass.usda instances.usda

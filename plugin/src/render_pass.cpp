@@ -33,7 +33,7 @@ void RenderPass::reset() {
   samplesDone_ = 0;
 }
 
-void RenderPass::execute(int samples) {
+void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   if (samples < 0) throw std::invalid_argument("sample count must be >= 0");
   const Camera& cameraPrim = delegate_.camera(cameraId_);
   delegate_.sync({cameraPrim.params(), film_.width()});
@@ -65,8 +65,11 @@ void RenderPass::execute(int samples) {
                                ? nextConvergenceTest(samplesDone_, settings.adaptiveMinSamples)
                                : end;
     const int stop = std::min(end, checkpoint);
-    renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_),
-                  uint32_t(stop - samplesDone_), renderSettings);
+    if (!renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_),
+                       uint32_t(stop - samplesDone_), renderSettings, cancel)) {
+      reset();
+      throw RenderCancelled();
+    }
     samplesDone_ = stop;
     if (stop == checkpoint) film_.updateConvergence(settings.adaptiveThreshold);
   }

@@ -5,8 +5,13 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstring>
+#include <exception>
+#include <future>
 #include <stdexcept>
+#include <thread>
 
 #include "penumbra/image_io.h"
 #include "penumbra/plugin/render_delegate.h"
@@ -30,6 +35,44 @@ namespace {
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 using IntArray = py::array_t<int32_t, py::array::c_style | py::array::forcecast>;
 using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// How often a render looks for Python signals (Ctrl-C) while it runs.
+constexpr std::chrono::milliseconds kSignalPollInterval{50};
+
+// Runs `pass.execute(samples)` on a worker thread while the calling thread, without the GIL,
+// runs Python's signal handlers every kSignalPollInterval (they run only in the main thread,
+// between bytecodes, so a render holding that thread would never see Ctrl-C). A handler that
+// raises (SIGINT: KeyboardInterrupt) cancels the render, which drops its samples, and the
+// exception propagates.
+void executeInterruptibly(RenderPass& pass, int samples) {
+  std::atomic<bool> cancel{false};
+  std::exception_ptr failure;
+  std::promise<void> finished;
+  std::future<void> done = finished.get_future();
+  bool interrupted = false;
+  {
+    py::gil_scoped_release release;
+    std::thread worker([&] {
+      try {
+        pass.execute(samples, &cancel);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      finished.set_value();
+    });
+    while (done.wait_for(kSignalPollInterval) != std::future_status::ready) {
+      py::gil_scoped_acquire acquire;
+      if (PyErr_CheckSignals() != 0) {
+        interrupted = true;
+        cancel = true;
+        break;
+      }
+    }
+    worker.join();
+  }
+  if (interrupted) throw py::error_already_set();
+  if (failure) std::rethrow_exception(failure);
+}
 
 std::vector<Vec3f> toVec3Vector(const float* xyz, size_t count) {
   std::vector<Vec3f> result;
@@ -514,8 +557,7 @@ PYBIND11_MODULE(_core, m) {
   py::class_<RenderPass>(m, "RenderPass")
       .def(py::init<RenderDelegate&, std::string, int, int>(), py::arg("delegate"),
            py::arg("camera_id"), py::arg("width"), py::arg("height"), py::keep_alive<1, 2>())
-      .def("execute", &RenderPass::execute, py::arg("samples"),
-           py::call_guard<py::gil_scoped_release>())
+      .def("execute", &executeInterruptibly, py::arg("samples"))
       .def("reset", &RenderPass::reset)
       .def("set_aov_bindings", &RenderPass::setAovBindings, py::arg("bindings"))
       .def_property_readonly("samples_done", &RenderPass::samplesDone)

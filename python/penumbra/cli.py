@@ -7,19 +7,31 @@ or prim); 2 usage error (including flags Penumbra does not support yet).
 from __future__ import annotations
 
 import argparse
+import itertools
 import logging
 import os
 import resource
+import signal
 import sys
+import threading
 import time
+import traceback
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 from pxr import Usd
 
 from . import _core
 from .errors import PenumbraWarning, SceneError
-from .frames import find_placeholder, frame_path, frame_spec_precision, parse_frame_spec
+from .frames import (
+    FrameRange,
+    find_placeholder,
+    frame_path,
+    frame_spec_precision,
+    iter_frames,
+    parse_frame_spec,
+)
+from .memory import DEFAULT_BUDGET_FRACTION, parse_size
 from .image import COLOR_MODES, Image, check_output_directory, check_output_format
 from .renderer import (
     COMPLEXITIES,
@@ -34,6 +46,8 @@ from .usd.stage import RESOLVERS
 
 PROG = "penumbra-record"
 EXIT_OK, EXIT_SCENE, EXIT_USAGE = 0, 1, 2
+EXIT_INTERRUPTED = 128 + signal.SIGINT  # 130, as shells report a process Ctrl-C stopped
+EXIT_TERMINATED = 128 + signal.SIGTERM  # 143
 
 # Flags the parser accepts (for usdrecord compatibility) that this version rejects.
 _NOT_SUPPORTED_YET = {
@@ -42,6 +56,14 @@ _NOT_SUPPORTED_YET = {
     "resume": "--resume",
 }
 RENDERER_NAME = "Penumbra"
+
+
+def _memory_size(text: str) -> int:
+    """argparse type of ``--maxMemory``."""
+    try:
+        return parse_size(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -246,6 +268,16 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="N",
         help="maximum number of bounces of a path (default: %(default)s)",
     )
+    own.add_argument(
+        "--maxMemory",
+        type=_memory_size,
+        metavar="SIZE",
+        help=(
+            "memory the render may use, e.g. 8G or 512M (default: "
+            f"{DEFAULT_BUDGET_FRACTION * 100:.0f}%% of physical memory); a frame whose film would not "
+            "fit with the scene fails before rendering (exit status 1)"
+        ),
+    )
     own.add_argument("--aov", metavar="NAME[,NAME...]", help="not supported yet")
     own.add_argument(
         "--disableMotionBlur",
@@ -328,12 +360,23 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
         sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
+# The largest value of each integer flag the render delegate takes (its settings are int32,
+# the seed uint32).
+_LARGEST_VALUES = {
+    "imageWidth": 2**31 - 1,
+    "samples": 2**31 - 1,
+    "seed": 2**32 - 1,
+    "threads": 2**31 - 1,
+    "maxPathDepth": 2**31 - 1,
+}
+
+
 class _UsageError(Exception):
     """A command line that cannot be honoured (exit status 2)."""
 
 
-def _check_usage(args: argparse.Namespace) -> list[float]:
-    """Reject unsupported flags and invalid values; return the ``--frames`` time codes (empty
+def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
+    """Reject unsupported flags and invalid values; return the ``--frames`` ranges (empty
     without ``--frames``)."""
     for dest, flag in _NOT_SUPPORTED_YET.items():
         if getattr(args, dest):
@@ -349,9 +392,12 @@ def _check_usage(args: argparse.Namespace) -> list[float]:
     for name in ("imageWidth", "samples"):
         if getattr(args, name) < 1:
             raise _UsageError(f"--{name} must be at least 1")
-    for name in ("threads", "maxPathDepth"):
+    for name in ("threads", "maxPathDepth", "seed"):
         if getattr(args, name) < 0:
             raise _UsageError(f"--{name} cannot be negative")
+    for name, largest in _LARGEST_VALUES.items():
+        if getattr(args, name) > largest:
+            raise _UsageError(f"--{name} must be at most {largest}")
     try:
         check_output_format(args.outputImagePath)
         placeholder = find_placeholder(args.outputImagePath)
@@ -375,6 +421,29 @@ def _check_usage(args: argparse.Namespace) -> list[float]:
             f"the frames need {needed} decimals but placeholder {placeholder} has {decimals}"
         )
     return frames
+
+
+class _Terminated(BaseException):
+    """SIGTERM arrived: the render stops as on Ctrl-C (a BaseException, so that no ``except
+    Exception`` on the way swallows it)."""
+
+
+class _TerminateAsInterrupt:
+    """While active (in the main thread), SIGTERM raises :class:`_Terminated` where Python
+    next checks for signals; a running render pass checks every 50 ms and stops."""
+
+    def __enter__(self) -> None:
+        self.previous = None
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGTERM, self._raise)
+
+    def __exit__(self, *_exc) -> None:
+        if self.previous is not None:
+            signal.signal(signal.SIGTERM, self.previous)
+
+    @staticmethod
+    def _raise(_signum: int, _frame) -> None:
+        raise _Terminated()
 
 
 def _report_information() -> None:
@@ -413,7 +482,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _report_information()
 
     tracer = Tracer(enabled=bool(args.traceToFile) or args.verbose)
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), _TerminateAsInterrupt():
         warnings.simplefilter("always", PenumbraWarning)
         warnings.showwarning = _show_warning
         try:
@@ -422,8 +491,19 @@ def main(argv: Sequence[str] | None = None) -> int:
             sys.stderr.write(f"{PROG}: error: {error}\n")
             status = EXIT_SCENE
         except KeyboardInterrupt:
-            sys.stderr.write(f"\n{PROG}: interrupted\n")
-            return 130
+            sys.stderr.write(f"\n{PROG}: interrupted, nothing written for the frame in progress\n")
+            return EXIT_INTERRUPTED
+        except _Terminated:
+            sys.stderr.write(f"\n{PROG}: terminated, nothing written for the frame in progress\n")
+            return EXIT_TERMINATED
+        except Exception as error:  # anything else: a bug or an input nothing checked yet
+            if args.verbose:
+                traceback.print_exc()
+            sys.stderr.write(
+                f"{PROG}: error: {args.usdFilePath}: cannot render: "
+                f"{type(error).__name__}: {error}\n"
+            )
+            status = EXIT_SCENE
     if args.verbose:
         sys.stderr.write(tracer.report())
     if args.memstats:
@@ -445,8 +525,9 @@ def _render_settings_path(stage: Usd.Stage, args: argparse.Namespace) -> str | N
     return render_pass_settings(stage, args.renderPassPrimPath)
 
 
-def _record(args: argparse.Namespace, frames: list[float], tracer: Tracer) -> int:
+def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) -> int:
     say = (lambda _text: None) if args.quiet else print
+    check_output_directory(args.outputImagePath)
     with tracer.span("open stage", file=args.usdFilePath):
         stage = open_stage(
             args.usdFilePath,
@@ -454,22 +535,22 @@ def _record(args: argparse.Namespace, frames: list[float], tracer: Tracer) -> in
             session_layer=args.session_layer,
             resolver=args.resolver,
         )
-    check_output_directory(args.outputImagePath)
     settings = read_render_settings(stage, _render_settings_path(stage, args))
     if args.defaultTime:
-        time_codes = [Usd.TimeCode.Default()]
+        time_codes: Iterator[Usd.TimeCode] = iter([Usd.TimeCode.Default()])
     elif frames:
-        time_codes = [Usd.TimeCode(frame) for frame in frames]
+        time_codes = (Usd.TimeCode(frame) for frame in iter_frames(frames))
     else:
-        time_codes = [Usd.TimeCode(stage.GetStartTimeCode())]
+        time_codes = iter([Usd.TimeCode(stage.GetStartTimeCode())])
+    first_time_code = next(time_codes)
     purposes = args.purposes.replace(",", " ").split()
-    camera = resolve_camera(stage, args.camera, settings, time_codes[0], purposes)
+    camera = resolve_camera(stage, args.camera, settings, first_time_code, purposes)
 
     say(f"Camera: {camera.GetPath()}")
     say(f"Renderer plugin: {RENDERER_NAME}")
     with Renderer(stage, purposes=purposes) as renderer:
         renderer.tracer = tracer
-        for time_code in time_codes:
+        for time_code in itertools.chain([first_time_code], time_codes):
             frame = "default" if time_code.IsDefault() else f"{time_code.GetValue():g}"
             say(f"Recording time code: {frame}")
             with tracer.span(f"time code {frame}"):
@@ -488,6 +569,7 @@ def _record(args: argparse.Namespace, frames: list[float], tracer: Tracer) -> in
                     dome_light_visibility=args.enableDomeLightVisibility,
                     default_light="none" if args.disableCameraLight else "camera",
                     progress=None if args.quiet else _Progress(f"time code {frame}"),
+                    max_memory=args.maxMemory,
                 )
                 output = args.outputImagePath
                 if frames:

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Iterator
+from dataclasses import dataclass
 
 _PLACEHOLDER = re.compile(r"#+(?:\.#+)?")
 _NUMBER = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)"
@@ -19,9 +21,21 @@ _FRAME_SPEC = re.compile(
 _EPSILON = 1e-9
 
 
-def _parse_one(spec: str) -> list[float]:
-    """The time codes of one FRAMESPEC, with UsdUtils.TimeCodeRange's semantics (a reversed
-    range counts down; the stride's sign must match the direction)."""
+@dataclass(frozen=True)
+class FrameRange:
+    """``count`` time codes ``start + i * stride``: one FRAMESPEC, not expanded."""
+
+    start: float
+    stride: float
+    count: int
+
+    def __iter__(self) -> Iterator[float]:
+        return (self.start + i * self.stride for i in range(self.count))
+
+
+def _parse_one(spec: str) -> FrameRange:
+    """One FRAMESPEC, with UsdUtils.TimeCodeRange's semantics (a reversed range counts down;
+    the stride's sign must match the direction)."""
     match = _FRAME_SPEC.fullmatch(spec)
     if not match:
         raise ValueError(f"invalid FRAMESPEC {spec.strip()!r}")
@@ -34,13 +48,21 @@ def _parse_one(spec: str) -> list[float]:
         raise ValueError(
             f"invalid FRAMESPEC {spec.strip()!r}: stride {stride:g} never reaches {end:g}"
         )
-    count = math.floor((end - start) / stride + _EPSILON) + 1
-    return [start + i * stride for i in range(count)]
+    if not all(math.isfinite(value) for value in (start, end, stride)):
+        raise ValueError(f"invalid FRAMESPEC {spec.strip()!r}: frames must be finite")
+    return FrameRange(start, stride, math.floor((end - start) / stride + _EPSILON) + 1)
 
 
-def parse_frame_spec(spec: str) -> list[float]:
-    """The time codes of a comma-separated list of FRAMESPECs; ``ValueError`` if malformed."""
-    return [frame for part in spec.split(",") for frame in _parse_one(part)]
+def parse_frame_spec(spec: str) -> list[FrameRange]:
+    """The ranges of a comma-separated list of FRAMESPECs (validated, not expanded: iterate
+    them for the time codes); ``ValueError`` if malformed."""
+    return [_parse_one(part) for part in spec.split(",")]
+
+
+def iter_frames(ranges: list[FrameRange]) -> Iterator[float]:
+    """The time codes of ``ranges``, in order, generated one at a time."""
+    for frame_range in ranges:
+        yield from frame_range
 
 
 def frame_spec_precision(spec: str) -> int:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
@@ -37,13 +38,47 @@ def check_output_format(path: str | os.PathLike) -> None:
 
 
 def check_output_directory(path: str | os.PathLike) -> None:
-    """``OSError`` naming ``path`` unless its directory exists and is writable."""
+    """``OSError`` naming ``path`` unless its directory exists and is writable and ``path``
+    itself is not a directory."""
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         raise OSError(f"{path}: directory {directory} does not exist")
     if not os.access(directory, os.W_OK | os.X_OK):
         raise OSError(f"{path}: directory {directory} is not writable")
+    if os.path.isdir(path):
+        raise OSError(f"{path}: is a directory, not an image file")
+
+
+def remove_stale_temporaries(path: str | os.PathLike) -> list[str]:
+    """Remove the hidden temporary files that writers of ``path`` killed mid-write (SIGKILL,
+    power loss) left beside it; returns their paths. The image writer names them
+    ``.<stem>.tmp<pid>-<n><extension>``; those of a live process are kept."""
+    target = Path(path)
+    pattern = re.compile(
+        rf"\.{re.escape(target.stem)}\.tmp(?P<pid>\d+)-\d+{re.escape(target.suffix)}"
+    )
+    removed = []
+    for entry in os.scandir(target.parent):
+        match = pattern.fullmatch(entry.name)
+        if match and entry.is_file(follow_symlinks=False) and not _alive(int(match["pid"])):
+            try:
+                os.remove(entry.path)
+            except FileNotFoundError:  # another run cleaned it first
+                continue
+            removed.append(entry.path)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` exists (possibly another user's)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 METADATA_PREFIX = "penumbra:"
 
 _CHANNEL_SUFFIXES = "RGBA"
@@ -123,6 +158,7 @@ class Image(Mapping[str, np.ndarray]):
         path = os.fspath(path)
         check_output_format(path)
         check_output_directory(path)
+        remove_stale_temporaries(path)
         if path.lower().endswith(".exr"):
             aovs = list(self._aovs.items())
         elif "color" in self._aovs:

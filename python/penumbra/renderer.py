@@ -13,8 +13,9 @@ from pxr import Sdf, Usd, UsdLux
 from . import _core
 from .errors import SceneError, warn
 from .image import Image, ocio_config_path
+from .memory import check_film, default_budget
 from .trace import Tracer
-from .usd.camera import read_shutter
+from .usd.camera import camera_problem, read_shutter
 from .usd.default_light import (
     DEFAULT_LIGHT_ID,
     DefaultLight,
@@ -165,6 +166,7 @@ class Renderer:
         progress: ProgressCallback | None = None,
         adaptive_threshold: float = 0.0,
         adaptive_min_samples: int = 16,
+        max_memory: int | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -189,7 +191,9 @@ class Renderer:
         ``adaptive_threshold`` > 0 turns on adaptive sampling: from ``adaptive_min_samples``
         on, a pixel stops once its estimated relative error (as rRMSE measures it) is below
         the threshold, so ``samples`` becomes a cap; the image stays a pure function of (scene,
-        seed, samples, threshold). Raises :class:`penumbra.SceneError` when the
+        seed, samples, threshold). ``max_memory``: bytes the process may hold (default: 80% of
+        physical memory), checked before the scene is synced and before a new size's film is
+        allocated. Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
         skipped prims are :class:`penumbra.PenumbraWarning`.
         """
@@ -200,6 +204,9 @@ class Renderer:
         time_code = _time_code(self.stage, time)
         settings = read_render_settings(self.stage, render_settings)
         camera_prim = resolve_camera(self.stage, camera, settings, time_code, self._scene.purposes)
+        problem = camera_problem(camera_prim, time_code)
+        if problem is not None:
+            raise SceneError(problem)
         if width is None:
             if settings is not None and settings.resolution is not None and height is None:
                 width = settings.resolution[0]
@@ -214,6 +221,10 @@ class Renderer:
             disable_depth_of_field or (settings and settings.disable_depth_of_field)
         )
         shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
+        budget = default_budget() if max_memory is None else max_memory
+        new_pass = (camera_id, window.width, window.height) not in self._passes
+        if new_pass:
+            check_film(window.width, window.height, budget, camera_id)
         with self.tracer.span("sync stage (USD to render delegate)"):
             self._sync(
                 shutter,
@@ -230,6 +241,8 @@ class Renderer:
             )
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
+        if new_pass:  # the synced scene is in memory now; its BVH and the film are not yet
+            check_film(window.width, window.height, budget, camera_id)
         render_pass = self._render_pass(camera_id, window.width, window.height)
         unknown = sorted(set(aovs) - set(render_pass.aov_names()))
         if unknown or not aovs:

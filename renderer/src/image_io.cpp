@@ -85,6 +85,10 @@ void setPremultiplied(std::vector<float>& pixels, int channels, int alpha, bool 
   }
 }
 
+// The most values (floats) readImage loads: 4 GiB, e.g. a 16k x 16k RGB image; larger ones
+// (or headers claiming so) are refused before anything is allocated.
+constexpr size_t kMaxReadValues = size_t(1) << 30;
+
 std::string temporaryPathFor(const fs::path& target) {
   static std::atomic<unsigned> counter{0};
   // Keep the extension last: OIIO picks the format from it.
@@ -171,6 +175,12 @@ ImageData readImage(const std::string& path) {
   std::unique_ptr<OIIO::ImageInput> input = OIIO::ImageInput::open(path);
   if (!input) throw std::runtime_error(path + ": cannot read image: " + OIIO::geterror());
   const OIIO::ImageSpec& spec = input->spec();
+  const size_t values = size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels);
+  if (values > kMaxReadValues)
+    throw std::runtime_error(path + ": the image claims " + std::to_string(spec.width) + "x" +
+                             std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
+                             " values, more than the " + std::to_string(kMaxReadValues >> 30) +
+                             " Gi floats Penumbra reads whole");
   ImageData image;
   image.width = spec.width;
   image.height = spec.height;

@@ -9,9 +9,11 @@ namespace {
 constexpr int kTileSize = 16;
 }
 
-void renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_t firstSample,
-                   uint32_t sampleCount, const RenderSettings& settings) {
+bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_t firstSample,
+                   uint32_t sampleCount, const RenderSettings& settings,
+                   const std::atomic<bool>* cancel) {
   const PixelFilter filter;
+  const auto cancelled = [cancel] { return cancel && cancel->load(std::memory_order_relaxed); };
   const auto renderTiles = [&] {
     tbb::parallel_for(
         tbb::blocked_range2d<int>(0, film.height(), kTileSize, 0, film.width(), kTileSize),
@@ -19,10 +21,12 @@ void renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_
           for (int y = tile.rows().begin(); y < tile.rows().end(); ++y)
             for (int x = tile.cols().begin(); x < tile.cols().end(); ++x) {
               if (!film.isActive(x, y)) continue;
-              for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s)
+              for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s) {
+                if (cancelled()) return;
                 film.addSample(
                     x, y, s,
                     renderCameraSample(scene, camera, filter, x, y, s, settings.integrator));
+              }
             }
         });
   };
@@ -32,6 +36,7 @@ void renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_
   } else {
     renderTiles();
   }
+  return !cancelled();
 }
 
 }  // namespace penumbra

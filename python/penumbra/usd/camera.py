@@ -3,6 +3,7 @@ shutter a camera gives a frame."""
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -37,18 +38,63 @@ def read_shutter(
     return Shutter(frame, shutter_open, shutter_close, max_segments)
 
 
+PROJECTIONS = ("perspective", "orthographic")
+
+
+def camera_problem(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
+    """What makes camera ``prim`` unusable at ``time`` (naming the camera and the attribute),
+    or ``None``: every value rays are built from must be finite, lengths positive, the
+    clipping range 0 <= near < far, the projection known and the world transform invertible."""
+    camera = UsdGeom.Camera(prim)
+    path = prim.GetPath()
+    projection = str(camera.GetProjectionAttr().Get(time))
+    if projection not in PROJECTIONS:
+        return f"{path}: unknown projection {projection!r} (known: {', '.join(PROJECTIONS)})"
+    positive = [camera.GetHorizontalApertureAttr(), camera.GetVerticalApertureAttr()]
+    if projection == "perspective":
+        positive.append(camera.GetFocalLengthAttr())
+    for attr in positive:
+        value = float(attr.Get(time))
+        if not (math.isfinite(value) and value > 0):
+            return f"{path}: {attr.GetName()} must be a positive number, not {value:g}"
+    for attr in (camera.GetHorizontalApertureOffsetAttr(), camera.GetVerticalApertureOffsetAttr()):
+        value = float(attr.Get(time))
+        if not math.isfinite(value):
+            return f"{path}: {attr.GetName()} must be a finite number, not {value:g}"
+    for attr in (camera.GetFStopAttr(), camera.GetFocusDistanceAttr()):
+        value = float(attr.Get(time))
+        if not (math.isfinite(value) and value >= 0):
+            return f"{path}: {attr.GetName()} must be a finite number >= 0, not {value:g}"
+    near, far = (float(value) for value in camera.GetClippingRangeAttr().Get(time))
+    if not (math.isfinite(near) and math.isfinite(far) and 0 <= near < far):
+        return (
+            f"{path}: clippingRange ({near:g}, {far:g}) must be finite with 0 <= near < far "
+            "(nothing would be visible)"
+        )
+    matrix = np.array(camera.ComputeLocalToWorldTransform(time))
+    if not np.isfinite(matrix).all() or abs(np.linalg.det(matrix[:3, :3])) < 1e-30:
+        return (
+            f"{path}: the camera's world transform is not finite or not invertible "
+            "(a NaN or a zero scale in its xformOps or an ancestor's)"
+        )
+    return None
+
+
 def sync_camera(
     core,
     prim: Usd.Prim,
     reader: SampleReader,
     depth_of_field: bool = True,
     window: FilmWindow | None = None,
-) -> None:
+) -> bool:
     """Push the projection, apertures, lens and the reader's shutter of camera ``prim`` to
     ``core``; an animated focal length or focus distance is sampled over the shutter. Without
     ``depth_of_field`` the camera is a pinhole (f-stop 0). ``window``: the part of the film
     the image covers (render settings' conform policy and data window) instead of the whole
-    aperture."""
+    aperture. Returns ``False`` (pushing nothing) when the camera is unusable (see
+    :func:`camera_problem`): rendering through it then fails with that reason."""
+    if camera_problem(prim, reader.time) is not None:
+        return False
     camera = UsdGeom.Camera(prim)
     path = str(prim.GetPath())
     shutter = reader.shutter
@@ -87,4 +133,7 @@ def sync_camera(
         focal_lengths, focus_distances = (
             np.array([attr.Get(time) for time in times], dtype=np.float32) for attr in lens
         )
+        if not (np.isfinite(focal_lengths).all() and np.isfinite(focus_distances).all()):
+            return False
         core.set_camera_motion(path, focal_lengths, focus_distances)
+    return True

@@ -317,7 +317,10 @@ class Flattener:
         frame = self.shutter.frame
         prototypes = instancer.GetPrototypesRel().GetForwardedTargets()
         indices = np.asarray(instancer.GetProtoIndicesAttr().Get(frame) or [], dtype=np.int64)
-        if len(prototypes) == 0 or len(indices) == 0:
+        if len(indices) == 0:
+            return []
+        if len(prototypes) == 0:
+            self.warn(f"{path}: {len(indices)} protoIndices but no prototypes; the instancer is skipped")
             return []
         bad = (indices < 0) | (indices >= len(prototypes))
         if bad.any():

@@ -6,6 +6,8 @@ Every input the delegate knows is sent, authored or not, so that its schema fall
 
 from __future__ import annotations
 
+import math
+
 from collections.abc import Callable
 
 from pxr import Usd, UsdLux
@@ -99,9 +101,24 @@ def sync_light(
     for name in _COLOR_INPUTS:
         if name in params:
             params[name] = tuple(float(c) for c in params[name])
+    problem = _emission_problem(params)
+    if problem:
+        warn(f"{path}: {problem}; the light is skipped (intensity 0)")
+        params["intensity"] = 0.0
     params["texture:file"] = _texture_path(prim, schema, reader, warn)
     params["cameraVisible"] = dome_light_visibility or sprim_type != "domeLight"
     core.set_light(path, **params)
+
+
+def _emission_problem(params: dict) -> str | None:
+    """Why a light's inputs would give negative or non-finite radiance, or ``None``."""
+    for name, value in params.items():
+        numbers = value if isinstance(value, tuple) else (value,)
+        if any(isinstance(x, float) and not math.isfinite(x) for x in numbers):
+            return f"inputs:{name} is not finite ({value})"
+    if params["intensity"] < 0 or min(params["color"]) < 0:
+        return f"negative emission (intensity {params['intensity']:g}, color {params['color']})"
+    return None
 
 
 def _texture_path(prim: Usd.Prim, schema, reader: SampleReader, warn: Callable[[str], None]) -> str:

@@ -319,6 +319,16 @@ def read_material(
             continue  # a constant tangent-space normal other than +z is not supported
         if value is None:
             value = defaults.get(name)
+        if value is not None and not isinstance(value, dict):
+            try:
+                converted = _to_python(value)
+            except (TypeError, ValueError):
+                converted = None
+            if isinstance(converted, tuple) != (name in _VECTOR_INPUTS):
+                kind = "a 3-vector" if name in _VECTOR_INPUTS else "a number"
+                warn(f"{shader.GetPath()}: inputs:{name} holds {value!r}, not {kind}; its default is used")
+                converted = defaults.get(name)
+            value = converted
         if value is not None:
             data.params[name] = value if isinstance(value, dict) else _to_python(value)
     return data

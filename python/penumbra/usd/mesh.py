@@ -208,6 +208,10 @@ def _primvars(
             continue
         if constant_only and interpolation != UsdGeom.Tokens.constant:
             continue
+        if not UsdGeom.Primvar.IsValidInterpolation(interpolation):
+            if warn:
+                warn(f"{path}: primvars:{name} has unknown interpolation {interpolation!r}; skipped")
+            continue
         values = numeric_primvar(primvar, reader, warn, path)
         if values is not None:
             result[name] = (values, interpolation)

@@ -29,6 +29,7 @@ import weakref
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
+import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdVol
 
 from ..errors import warn
@@ -359,14 +360,21 @@ class SceneDelegate:
                     record.in_core = False
                     return
             elif record.kind == "camera":
-                sync_camera(
+                if not sync_camera(
                     self.core, prim, reader, self.depth_of_field, self.film_windows.get(path_str)
-                )
+                ):
+                    self.core.remove_prim(path_str)
+                    record.in_core = False
+                    return
             else:
                 sync_light(self.core, prim, reader, self._warn, self.dome_light_visibility)
             record.varying = _set_flag(record.varying, Dirty.DATA, reader.varying)
         if bits & Dirty.TRANSFORM:
-            self.core.set_transform(path_str, transform_samples(prim, shutter, xform_caches))
+            matrices = transform_samples(prim, shutter, xform_caches)
+            problem = _transform_problem(matrices)
+            if problem:
+                self._warn(f"{path_str}: the world transform {problem}; the prim is not rendered")
+            self.core.set_transform(path_str, matrices)
             record.varying = _set_flag(record.varying, Dirty.TRANSFORM, transform_might_vary(prim))
         if bits & Dirty.VISIBILITY:
             visibility = UsdGeom.Imageable(prim).ComputeVisibility(self.time)
@@ -480,6 +488,20 @@ class _SceneMaterials:
     def material_id(self, material: Sdf.Path) -> str:
         record = self._scene._materials.get(material)
         return str(material) if record is not None and record.in_core else ""
+
+
+MAX_COORDINATE = 1e18
+"""Beyond this distance from the origin (scene units) single-precision ray tracing cannot
+place geometry: Embree drops it."""
+
+
+def _transform_problem(matrices: np.ndarray) -> str | None:
+    """What makes local-to-world ``matrices`` (one or K motion samples) unusable, or ``None``."""
+    if not np.isfinite(matrices).all():
+        return "is not finite (a NaN or infinity in an xformOp)"
+    if np.abs(matrices[..., 3, :3]).max() > MAX_COORDINATE:
+        return f"translates it beyond {MAX_COORDINATE:g} units, where precision runs out"
+    return None
 
 
 def _aspects(kind: str) -> Dirty:

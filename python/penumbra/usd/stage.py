@@ -7,7 +7,7 @@ from collections.abc import Iterable
 
 from pxr import Ar, Sdf, Tf, Usd
 
-from ..errors import SceneError
+from ..errors import SceneError, warn
 
 
 def stage_name(stage: Usd.Stage) -> str:
@@ -18,11 +18,15 @@ def stage_name(stage: Usd.Stage) -> str:
 
 def _tf_error_text(error: Tf.ErrorException) -> str:
     """The first message of a Tf error, without USD's source-location prefix."""
-    for part in str(error).split("\n\tError in "):
+    try:
+        text = str(error)
+    except UnicodeDecodeError:  # the message quotes bytes of the file that are not UTF-8
+        return "malformed text (bytes that are not UTF-8)"
+    for part in text.split("\n\tError in "):
         _, sep, message = part.partition(" : '")
         if sep:
             return message.strip().rstrip("'").strip()
-    return str(error).strip()
+    return text.strip()
 
 
 RESOLVERS = ("root", "inherit")
@@ -81,4 +85,6 @@ def open_stage(
         raise SceneError(f"{path}: cannot open the stage: {_tf_error_text(error)}") from None
     if not stage:
         raise SceneError(f"{path}: cannot open the stage")
+    for error in stage.GetCompositionErrors():
+        warn(f"{path}: composition error, the arc is ignored: {' '.join(str(error).split())}")
     return stage

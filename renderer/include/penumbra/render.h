@@ -1,6 +1,8 @@
 // Renders a range of samples for every pixel, in parallel over image tiles (TBB).
 #pragma once
 
+#include <atomic>
+
 #include "penumbra/film.h"
 
 namespace penumbra {
@@ -11,8 +13,11 @@ struct RenderSettings {
 };
 
 /// Adds samples [firstSample, firstSample + sampleCount) of every active pixel to `film`.
-/// The scene must be committed. Deterministic for any thread count.
-void renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_t firstSample,
-                   uint32_t sampleCount, const RenderSettings& settings);
+/// The scene must be committed. Deterministic for any thread count. Once `cancel` (when given)
+/// is set, every thread stops at its next sample and false is returned: the film then holds
+/// an unknown subset of the samples and must be cleared.
+bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_t firstSample,
+                   uint32_t sampleCount, const RenderSettings& settings,
+                   const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace penumbra

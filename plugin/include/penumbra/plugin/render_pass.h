@@ -2,6 +2,8 @@
 // samples per pixel to its render buffers, restarting when the scene or camera changed.
 #pragma once
 
+#include <atomic>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -10,6 +12,12 @@
 #include "penumbra/throughput.h"
 
 namespace penumbra::plugin {
+
+/// Thrown by RenderPass::execute when its cancel flag was set.
+class RenderCancelled : public std::runtime_error {
+ public:
+  RenderCancelled() : std::runtime_error("render cancelled") {}
+};
 
 class RenderPass {
  public:
@@ -20,8 +28,10 @@ class RenderPass {
   /// previous call stopped, so execute(64) equals 4 × execute(16) bit for bit. With adaptive
   /// sampling, pixels are tested for convergence at fixed sample counts (adaptiveMinSamples, then
   /// every eighth more, at least 4), whatever the calls' sizes.
-  /// Throws std::out_of_range if the camera is not in the render index.
-  void execute(int samples);
+  /// Throws std::out_of_range if the camera is not in the render index. Setting `cancel` (from
+  /// another thread) stops the render within a sample per thread: the accumulated samples are
+  /// dropped (as by reset()) and RenderCancelled is thrown.
+  void execute(int samples, const std::atomic<bool>* cancel = nullptr);
   void reset();
 
   int samplesDone() const { return samplesDone_; }

@@ -1,0 +1,181 @@
+"""A corpus of malformed inputs, each with the outcome ``penumbra-record`` must give (render at
+64 px, 4 spp): exit 0 with a warning naming the prim (the prim is skipped or simplified), or
+exit 1 (2 for usage errors) with a message naming the prim or file. No case may crash, hang or
+print a traceback. ``test_malformed.py`` runs it; ``fuzz_scene.py`` mutates its stages."""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+BASE = """#usda 1.0
+(
+    startTimeCode = 1
+    endTimeCode = 1
+)
+def Camera "cam"
+{{
+    float focalLength = 35
+    float horizontalAperture = 36
+    float verticalAperture = 24
+    double3 xformOp:translate = (0, 0, 5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+{camera}
+}}
+def Mesh "quad" (
+    prepend apiSchemas = ["MaterialBindingAPI"]
+)
+{{
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    point3f[] points = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+{mesh}
+}}
+def SphereLight "light"
+{{
+    float inputs:intensity = 20
+    double3 xformOp:translate = (0, 0, 3)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+{light}
+}}
+{extra}
+"""
+
+
+@dataclass(frozen=True)
+class Case:
+    """One malformed input: ``exit`` status and a text ``expect``ed on stderr (prim or file
+    and the problem); ``warns`` whether exit 0 must come with that text as a warning."""
+
+    name: str
+    exit: int
+    expect: str
+    camera: str = ""
+    mesh: str = ""
+    light: str = ""
+    extra: str = ""
+    args: tuple[str, ...] = ()
+    files: dict[str, bytes] = field(default_factory=dict)  # written beside the stage
+
+    def usda(self) -> str:
+        return BASE.format(camera=self.camera, mesh=self.mesh, light=self.light, extra=self.extra)
+
+
+def png_header(width: int, height: int) -> bytes:
+    """A PNG whose header claims ``width`` × ``height`` RGB pixels but holds one byte of data."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(b"\0"))
+
+
+TEXTURED_MATERIAL = """
+def Material "mat"
+{
+    token outputs:surface.connect = </mat/surface.outputs:surface>
+    def Shader "surface"
+    {
+        uniform token info:id = "UsdPreviewSurface"
+        color3f inputs:diffuseColor.connect = </mat/tex.outputs:rgb>
+        token outputs:surface
+    }
+    def Shader "tex"
+    {
+        uniform token info:id = "UsdUVTexture"
+        asset inputs:file = @huge.png@
+        float3 outputs:rgb
+    }
+}
+"""
+
+CASES = [
+    # Cameras: the render would be meaningless → exit 1 naming the camera and attribute.
+    Case("clipping negative", 1, "/cam: clippingRange", camera="float2 clippingRange = (-1, 10)"),
+    Case("clipping infinite", 1, "/cam: clippingRange", camera="float2 clippingRange = (0.1, inf)"),
+    Case("clipping inverted", 1, "/cam: clippingRange", camera="float2 clippingRange = (10, 1)"),
+    Case("clipping empty", 1, "/cam: clippingRange", camera="float2 clippingRange = (0, 0)"),
+    Case("clipping NaN", 1, "/cam: clippingRange", camera="float2 clippingRange = (nan, 10)"),
+    Case(
+        "camera zero scale",
+        1,
+        "/cam: the camera's world transform",
+        camera='float3 xformOp:scale = (0, 0, 0)\nuniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]',
+    ),
+    Case("camera NaN translate", 1, "/cam: the camera's world transform", camera="double3 xformOp:translate = (nan, 0, 5)"),
+    Case("aperture offset NaN", 1, "/cam: horizontalApertureOffset", camera="float horizontalApertureOffset = nan"),
+    Case("focal length zero", 1, "/cam: focalLength", camera="float focalLength = 0"),
+    Case("focal length negative", 1, "/cam: focalLength", camera="float focalLength = -35"),
+    Case("focal length NaN", 1, "/cam: focalLength", camera="float focalLength = nan"),
+    Case("aperture zero", 1, "/cam: verticalAperture", camera="float verticalAperture = 0"),
+    Case("fStop negative", 1, "/cam: fStop", camera="float fStop = -2"),
+    Case("focus distance inf", 1, "/cam: focusDistance", camera="float fStop = 2\nfloat focusDistance = inf"),
+    Case("unknown projection", 1, "/cam: unknown projection 'fisheye'", camera='token projection = "fisheye"'),
+    # Sizes and memory: exit 1 before anything is allocated.
+    Case("huge width", 1, "--maxMemory", args=("-w", "100000")),
+    Case("sliver aperture", 1, "--maxMemory", camera="float horizontalAperture = 0.004", args=("--maxMemory", "1G")),
+    Case(
+        "render settings 1 x 200000",
+        1,
+        "--maxMemory",
+        extra='def RenderSettings "rs"\n{\n    rel camera = </cam>\n    uniform int2 resolution = (1, 200000)\n}',
+        args=("-rs", "/rs", "--maxMemory", "1G"),
+    ),
+    # Command line: usage errors (exit 2).
+    Case("samples past int32", 2, "--samples must be at most", args=("--samples", str(2**31))),
+    Case("width past int32", 2, "--imageWidth must be at most", args=("-w", str(2**40))),
+    Case("seed past uint32", 2, "--seed must be at most", args=("--seed", str(2**32))),
+    Case("seed negative", 2, "--seed cannot be negative", args=("--seed", "-1")),
+    Case("max memory malformed", 2, "invalid memory size", args=("--maxMemory", "lots")),
+    Case("frames not finite", 2, "frames must be finite", args=("-f", "1:" + "9" * 400)),
+    # Meshes, primvars, materials, instancers, lights: warning and skip (exit 0).
+    Case("unknown primvar interpolation", 0, "/quad", mesh='float[] primvars:foo = [1] (interpolation = "bogus")'),
+    Case("faces with fewer than 3 vertices", 0, "/quad", mesh="int[] faceVertexCounts = [2, 2]"),
+    Case("face index out of range", 0, "/quad", mesh="int[] faceVertexIndices = [0, 1, 2, 9]"),
+    Case("NaN points", 0, "/quad", mesh="point3f[] points = [(nan, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]"),
+    Case("mesh NaN transform", 0, "/quad", mesh='double3 xformOp:translate = (nan, 0, 0)\nuniform token[] xformOpOrder = ["xformOp:translate"]'),
+    Case("mesh at 1e20", 0, "/quad", mesh='double3 xformOp:translate = (1e20, 0, 0)\nuniform token[] xformOpOrder = ["xformOp:translate"]'),
+    Case("primvar count mismatch", 0, "/quad", mesh='color3f[] primvars:displayColor = [(1, 0, 0), (0, 1, 0)] (interpolation = "vertex")'),
+    Case(
+        "shader input of the wrong type",
+        0,
+        "/mat",
+        mesh='rel material:binding = </mat>',
+        extra='def Material "mat"\n{\n    token outputs:surface.connect = </mat/s.outputs:surface>\n    def Shader "s"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n        string inputs:diffuseColor = "red"\n        float3 inputs:roughness = (1, 1, 1)\n        token outputs:surface\n    }\n}',
+    ),
+    Case("point instancer without prototypes", 0, "/inst", extra='def PointInstancer "inst"\n{\n    int[] protoIndices = [0, 0]\n    point3f[] positions = [(0, 0, 0), (1, 0, 0)]\n}'),
+    Case("negative light intensity", 0, "/light", light="float inputs:intensity = -20"),
+    Case("NaN light colour", 0, "/light", light="color3f inputs:color = (nan, 1, 1)"),
+    Case("light zero scale", 0, "/light", light='float3 xformOp:scale = (0, 0, 0)\nuniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]'),
+    Case(
+        "dome texture header 60000 squared",
+        0,
+        "huge.png",
+        extra='def DomeLight "dome"\n{\n    asset inputs:texture:file = @huge.png@\n}',
+        files={"huge.png": png_header(60000, 60000)},
+    ),
+    Case(
+        "material texture header 60000 squared",
+        0,
+        "huge.png",
+        mesh='rel material:binding = </mat>\ntexCoord2f[] primvars:st = [(0, 0), (1, 0), (1, 1), (0, 1)] (interpolation = "vertex")',
+        extra=TEXTURED_MATERIAL,
+        files={"huge.png": png_header(60000, 60000)},
+    ),
+    # Files and composition: exit 1 naming the file, or a warning.
+    Case("reference cycle", 0, "composition error", extra='def "a" (references = </b>) {}\ndef "b" (references = </a>) {}'),
+    Case("missing reference", 0, "composition error", extra='def "r" (references = @missing.usda@) {}'),
+]
+
+
+def write_case(case: Case, directory: Path) -> Path:
+    """Write the case's stage (and its files) into ``directory``; returns the stage's path."""
+    for name, data in case.files.items():
+        (directory / name).write_bytes(data)
+    stage = directory / "stage.usda"
+    stage.write_text(case.usda())
+    return stage

@@ -1,0 +1,93 @@
+"""The malformed-input corpus (malformed_corpus.py): every case ends with its asserted outcome,
+no traceback, no partial output; plus malformed files and outputs."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from malformed_corpus import CASES, Case, write_case
+from penumbra.cli import main
+
+SMALL = ("-w", "64", "-spp", "4", "-q")
+
+
+@pytest.mark.parametrize("case", CASES, ids=[case.name for case in CASES])
+def test_malformed_input(case: Case, tmp_path: Path, capsys) -> None:
+    stage = write_case(case, tmp_path)
+    out = tmp_path / "out.png"
+    status = main([str(stage), str(out), *SMALL, *case.args])
+    stderr = capsys.readouterr().err
+    assert "Traceback" not in stderr
+    assert status == case.exit, stderr
+    assert case.expect in stderr
+    assert out.exists() == (status == 0)
+    if status == 0:
+        assert "warning" in stderr
+
+
+@pytest.mark.parametrize(
+    "content",
+    [b"#usda 1.0\n(\x00\xff{{{ def def", b'#usda 1.0\ndef Xform "a\xac" {}\n'],  # 2nd: fuzzer
+    ids=["garbage", "not UTF-8"],
+)
+def test_unreadable_usd_file(content: bytes, tmp_path: Path, capsys) -> None:
+    stage = tmp_path / "garbage.usda"
+    stage.write_bytes(content)
+    assert main([str(stage), str(tmp_path / "out.png"), *SMALL]) == 1
+    assert "garbage.usda" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("output", "status", "expect"),
+    [
+        ("out.xyz", 2, "cannot write .xyz"),
+        ("missing/out.png", 1, "does not exist"),
+        ("folder.png", 1, "is a directory"),
+    ],
+)
+def test_output_checked_before_rendering(
+    output: str, status: int, expect: str, tmp_path: Path, capsys
+) -> None:
+    (tmp_path / "folder.png").mkdir()
+    stage = write_case(CASES[0], tmp_path)  # would fail later (its camera); the output first
+    assert main([str(stage), str(tmp_path / output), *SMALL]) == status
+    assert expect in capsys.readouterr().err
+
+
+def test_stale_temporary_of_a_killed_writer_is_removed(tmp_path: Path, capsys) -> None:
+    case = Case("valid", 0, "")
+    stage = write_case(case, tmp_path)
+    dead_pid = 2**22 + 1  # above pid_max's default: no such process
+    stale = tmp_path / f".out.tmp{dead_pid}-0.png"
+    stale.write_bytes(b"partial")
+    live = tmp_path / f".out.tmp{os.getpid()}-99.png"  # a live writer's: kept
+    live.write_bytes(b"partial")
+    assert main([str(stage), str(tmp_path / "out.png"), *SMALL]) == 0
+    assert not stale.exists() and live.exists()
+
+
+@pytest.mark.parametrize(("signal_name", "status"), [("SIGINT", 130), ("SIGTERM", 143)])
+def test_signal_stops_a_billion_sample_render_within_a_second(
+    signal_name: str, status: int, tmp_path: Path
+) -> None:
+    stage = write_case(Case("valid", 0, ""), tmp_path)
+    out = tmp_path / "out.exr"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "penumbra.cli", str(stage), str(out), "-w", "64", "-spp", "1000000000"],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(3)  # the stage is open and the render pass running
+    sent = time.perf_counter()
+    process.send_signal(getattr(signal, signal_name))
+    assert process.wait(timeout=10) == status
+    assert time.perf_counter() - sent < 1.0
+    assert "Traceback" not in process.stderr.read()
+    assert list(tmp_path.glob("*out*")) == []
