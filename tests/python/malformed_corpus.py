@@ -113,6 +113,8 @@ CASES = [
     Case("focal length NaN", 1, "/cam: focalLength", camera="float focalLength = nan"),
     Case("aperture zero", 1, "/cam: verticalAperture", camera="float verticalAperture = 0"),
     Case("fStop negative", 1, "/cam: fStop", camera="float fStop = -2"),
+    Case("fStop of an unknown type", 1, "/cam: fStop must be a number", camera="floau fStop = -2"),
+    Case("clipping a scalar", 1, "/cam: clippingRange must be two numbers", camera="float clippingRange = 3"),
     Case("focus distance inf", 1, "/cam: focusDistance", camera="float fStop = 2\nfloat focusDistance = inf"),
     Case("unknown projection", 1, "/cam: unknown projection 'fisheye'", camera='token projection = "fisheye"'),
     # Sizes and memory: exit 1 before anything is allocated.

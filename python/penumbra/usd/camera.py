@@ -41,6 +41,13 @@ def read_shutter(
 PROJECTIONS = ("perspective", "orthographic")
 
 
+def _number(attr: Usd.Attribute, time: Usd.TimeCode) -> float | None:
+    """The attribute's value as a float, or None when it is not a number (an attribute authored
+    with the wrong or an unknown type)."""
+    value = attr.Get(time)
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
+
+
 def camera_problem(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
     """What makes camera ``prim`` unusable at ``time`` (naming the camera and the attribute),
     or ``None``: every value rays are built from must be finite, lengths positive, the
@@ -53,19 +60,34 @@ def camera_problem(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
     positive = [camera.GetHorizontalApertureAttr(), camera.GetVerticalApertureAttr()]
     if projection == "perspective":
         positive.append(camera.GetFocalLengthAttr())
+    offsets = (camera.GetHorizontalApertureOffsetAttr(), camera.GetVerticalApertureOffsetAttr())
+    lens = (camera.GetFStopAttr(), camera.GetFocusDistanceAttr())
+    for attr in (*positive, *offsets, *lens):
+        if _number(attr, time) is None:
+            return (
+                f"{path}: {attr.GetName()} must be a number, not a "
+                f"{type(attr.Get(time)).__name__} (a wrong or unknown type in the file)"
+            )
     for attr in positive:
-        value = float(attr.Get(time))
+        value = _number(attr, time)
         if not (math.isfinite(value) and value > 0):
             return f"{path}: {attr.GetName()} must be a positive number, not {value:g}"
-    for attr in (camera.GetHorizontalApertureOffsetAttr(), camera.GetVerticalApertureOffsetAttr()):
-        value = float(attr.Get(time))
+    for attr in offsets:
+        value = _number(attr, time)
         if not math.isfinite(value):
             return f"{path}: {attr.GetName()} must be a finite number, not {value:g}"
-    for attr in (camera.GetFStopAttr(), camera.GetFocusDistanceAttr()):
-        value = float(attr.Get(time))
+    for attr in lens:
+        value = _number(attr, time)
         if not (math.isfinite(value) and value >= 0):
             return f"{path}: {attr.GetName()} must be a finite number >= 0, not {value:g}"
-    near, far = (float(value) for value in camera.GetClippingRangeAttr().Get(time))
+    clipping = camera.GetClippingRangeAttr()
+    try:
+        near, far = (float(value) for value in clipping.Get(time))
+    except (TypeError, ValueError):
+        return (
+            f"{path}: clippingRange must be two numbers, not a "
+            f"{type(clipping.Get(time)).__name__} (a wrong or unknown type in the file)"
+        )
     if not (math.isfinite(near) and math.isfinite(far) and 0 <= near < far):
         return (
             f"{path}: clippingRange ({near:g}, {far:g}) must be finite with 0 <= near < far "
