@@ -33,7 +33,9 @@ const std::map<std::string, SettingField>& settingFields() {
       {"complexity", intSetting(&RenderSettingsMap::complexity, 0, 3)},
       {"directLighting", intSetting(&RenderSettingsMap::directLighting, 0, 2)},
       {"adaptiveThreshold", {nullptr, &RenderSettingsMap::adaptiveThreshold, 0, 1}},
-      {"adaptiveMinSamples", intSetting(&RenderSettingsMap::adaptiveMinSamples, 2)}};
+      {"adaptiveMinSamples", intSetting(&RenderSettingsMap::adaptiveMinSamples, 2)},
+      {"indirectClamp",
+       {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}}};
   return fields;
 }
 

@@ -59,6 +59,7 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator.maxGlossyDepth = settings.maxGlossyDepth;
   renderSettings.integrator.maxTransmissionDepth = settings.maxTransmissionDepth;
   renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
+  renderSettings.integrator.indirectClamp = settings.indirectClamp;
   const int end = samplesDone_ + samples;
   while (samplesDone_ < end && film_.activePixels() > 0) {
     const int checkpoint = settings.adaptiveThreshold > 0

@@ -166,6 +166,7 @@ class Renderer:
         progress: ProgressCallback | None = None,
         adaptive_threshold: float = 0.0,
         adaptive_min_samples: int = 16,
+        indirect_clamp: float = 0.0,
         max_memory: int | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
@@ -191,7 +192,9 @@ class Renderer:
         ``adaptive_threshold`` > 0 turns on adaptive sampling: from ``adaptive_min_samples``
         on, a pixel stops once its estimated relative error (as rRMSE measures it) is below
         the threshold, so ``samples`` becomes a cap; the image stays a pure function of (scene,
-        seed, samples, threshold). ``max_memory``: bytes the process may hold (default: 80% of
+        seed, samples, threshold). ``indirect_clamp`` > 0 limits each sample of indirect light
+        (two or more surface interactions) to that largest component, as Cycles' "clamp
+        indirect": fewer fireflies, a darker (biased) image; off by default. ``max_memory``: bytes the process may hold (default: 80% of
         physical memory), checked before the scene is synced and before a new size's film is
         allocated. Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
@@ -258,6 +261,7 @@ class Renderer:
             ("complexity", complexity_level(complexity)),
             ("adaptiveThreshold", adaptive_threshold),
             ("adaptiveMinSamples", adaptive_min_samples),
+            ("indirectClamp", indirect_clamp),
         ):
             self.delegate.set_render_setting(key, value)
         started = clock.perf_counter()
@@ -281,6 +285,7 @@ class Renderer:
             "samples": samples,
             "meanSamples": round(render_pass.mean_samples, 3),
             "adaptiveThreshold": adaptive_threshold,
+            "indirectClamp": indirect_clamp,
             "seed": seed,
             "renderTimeSeconds": round(elapsed, 3),
             "version": _core.version(),

@@ -78,6 +78,15 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
   return total;
 }
 
+/// Light reaching the camera by way of at least two surface interactions, limited (when `clamp`
+/// is positive) to that maximum component as Cycles' indirect clamp does: a biased way to cut
+/// fireflies.
+Vec3f clampIndirect(const Vec3f& contribution, int interactions, float clamp) {
+  if (clamp <= 0 || interactions < 2) return contribution;
+  const float largest = maxComponent(contribution);
+  return largest > clamp ? contribution * (clamp / largest) : contribution;
+}
+
 /// Spawns a ray from a surface point towards `direction`, offset off the surface on that side.
 Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, float tFar,
              float time) {
@@ -133,9 +142,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     ++result.rays;
     float nearestLight = kInfinity;
     bool sawLight = false;
-    result.radiance +=
+    // Light met by this ray has `bounce` interactions behind it, plus its emission.
+    result.radiance += clampIndirect(
         throughput * emittedAlongRay(scene, ray, hit ? hit->distance : ray.tFar, !hit, scattering,
-                                     settings.directLighting, spectrum, &nearestLight, &sawLight);
+                                     settings.directLighting, spectrum, &nearestLight, &sawLight),
+        bounce, settings.indirectClamp);
     if (bounce == 0) {
       const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
       if (firstHit < kInfinity) result.depth = camera.viewDepth(ray, firstHit);
@@ -154,7 +165,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           weight *= scattering.diffuse ? lights[index].diffuseMultiplier()
                                        : lights[index].specularMultiplier();
       }
-      result.radiance += throughput * spectrum.emission(hit->emission) * weight;
+      result.radiance += clampIndirect(throughput * spectrum.emission(hit->emission) * weight,
+                                       bounce, settings.indirectClamp);
     }
     if (bounce >= settings.maxPathDepth || lastVertex) break;
     const Vec3f wo = -ray.direction;
@@ -200,8 +212,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                   : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
           const Vec3f response = diffusePart * light.diffuseMultiplier() +
                                  (f - diffusePart) * light.specularMultiplier();
-          result.radiance +=
-              throughput * response * spectrum.emission(sample->radiance) * (weight / lightPdf);
+          result.radiance += clampIndirect(
+              throughput * response * spectrum.emission(sample->radiance) * (weight / lightPdf),
+              bounce + 1, settings.indirectClamp);
         }
       }
     }

@@ -580,3 +580,32 @@ TEST(Render, AdaptiveSamplingStopsConvergedPixelsAndKeepsTheMean) {
   EXPECT_NEAR(meanChannel(image, 0) / meanChannel(reference, 0), 1.0, 0.01);
   EXPECT_NEAR(emissive / (12 * 40), 0.5, 1e-3);  // its grazing Fresnel reflection aside
 }
+
+TEST(Render, IndirectClampLimitsOnlyIndirectLight) {
+  const auto renderWith = [](int maxPathDepth, float clamp) {
+    // A floor and a white ceiling 2 m above it, lit by a panel just under the ceiling: the
+    // ceiling sends much of the light back (indirect light).
+    RenderDelegate delegate;
+    addFloor(delegate, "/floor", 50);
+    delegate.mesh("/floor").setDisplayColor({Vec3f(0.7f)}, Interpolation::Constant);
+    addFloor(delegate, "/ceiling", 50, 2);
+    delegate.mesh("/ceiling").setDoubleSided(true);
+    delegate.mesh("/ceiling").setDisplayColor({Vec3f(0.8f)}, Interpolation::Constant);
+    delegate.insertSprim("rectLight", "/panel");
+    delegate.light("/panel").setParam("intensity", 10.0f);
+    delegate.light("/panel").setTransform(facingDown(0, 1.9, 0));
+    addCamera(delegate, facingDown(0.5, 1.5, 0), 5);
+    delegate.settings().set("maxPathDepth", maxPathDepth);
+    delegate.settings().set("indirectClamp", clamp);
+    return render(delegate, 24, 20, 64);
+  };
+  // Direct light (one interaction) is never clamped, however low the limit.
+  EXPECT_EQ(renderWith(1, 1e-4f), renderWith(1, 0));
+  // Indirect light is: with a tiny limit the image keeps little more than its direct light.
+  const double direct = meanChannel(renderWith(1, 0), 0);
+  const double full = meanChannel(renderWith(8, 0), 0);
+  const double clamped = meanChannel(renderWith(8, 1e-4f), 0);
+  ASSERT_GT(full, direct * 1.05);  // measured: 11 % more
+  EXPECT_LT(clamped, direct + 0.1 * (full - direct));
+  EXPECT_GE(clamped, direct * 0.999);
+}

@@ -25,6 +25,9 @@ struct IntegratorSettings {
   int maxGlossyDepth = 4;
   int maxTransmissionDepth = 8;
   DirectLighting directLighting = DirectLighting::MultipleImportance;
+  /// Largest component a sample of indirect light (two or more surface interactions) may add;
+  /// 0: no limit. Biased (darker), as Cycles' "clamp indirect"; off by default.
+  float indirectClamp = 0;
 };
 
 struct CameraSample {

@@ -45,6 +45,8 @@ struct RenderSettingsMap {
   /// of its value falls below this (e.g. 0.02), checked from adaptiveMinSamples on.
   float adaptiveThreshold = 0;
   int adaptiveMinSamples = 16;
+  /// Largest component of a sample of indirect light (0: no limit; biased, as Cycles' clamp).
+  float indirectClamp = 0;
 
   /// Throws std::invalid_argument for an unknown key, an out-of-range value or a fraction for an
   /// integer setting.
