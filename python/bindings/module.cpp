@@ -10,6 +10,7 @@
 #include <cstring>
 #include <exception>
 #include <future>
+#include <limits>
 #include <stdexcept>
 #include <thread>
 
@@ -252,12 +253,19 @@ Metadata toMetadata(const py::dict& metadata) {
   Metadata result;
   for (const auto& [key, value] : metadata) {
     const std::string name = py::str(key);
-    if (py::isinstance<py::bool_>(value) || py::isinstance<py::int_>(value))
-      result[name] = value.cast<int>();
-    else if (py::isinstance<py::float_>(value))
+    if (py::isinstance<py::bool_>(value) || py::isinstance<py::int_>(value)) {
+      int overflow = 0;
+      const long long number = PyLong_AsLongLongAndOverflow(value.ptr(), &overflow);
+      if (!overflow && number >= std::numeric_limits<int>::min() &&
+          number <= std::numeric_limits<int>::max())
+        result[name] = int(number);
+      else  // past int32 (ray counts): exact as text
+        result[name] = std::string(py::str(value));
+    } else if (py::isinstance<py::float_>(value)) {
       result[name] = value.cast<float>();
-    else
+    } else {
       result[name] = std::string(py::str(value));
+    }
   }
   return result;
 }

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import logging
+import math
 import os
 import resource
 import signal
@@ -269,6 +270,33 @@ def build_parser() -> argparse.ArgumentParser:
         help="maximum number of bounces of a path (default: %(default)s)",
     )
     own.add_argument(
+        "--adaptiveThreshold",
+        type=float,
+        default=0.0,
+        metavar="T",
+        help=(
+            "adaptive sampling: a pixel stops taking samples once its estimated relative error "
+            "is below T (e.g. 0.02); --samples is then a cap (default: 0, off)"
+        ),
+    )
+    own.add_argument(
+        "--adaptiveMinSamples",
+        type=int,
+        default=16,
+        metavar="N",
+        help="samples every pixel takes before adaptive sampling may stop it (default: %(default)s)",
+    )
+    own.add_argument(
+        "--indirectClamp",
+        type=float,
+        default=0.0,
+        metavar="L",
+        help=(
+            "limit each sample of indirect light to L (largest RGB component), as Cycles' clamp: "
+            "fewer fireflies, a biased, darker image (default: 0, off)"
+        ),
+    )
+    own.add_argument(
         "--maxMemory",
         type=_memory_size,
         metavar="SIZE",
@@ -342,13 +370,16 @@ def peak_memory_bytes() -> int:
 
 
 def frame_summary(label: str, image: Image) -> str:
-    """One line about a finished frame: time, samples, pixel samples per second, peak memory."""
-    seconds = float(image.metadata["renderTimeSeconds"])
+    """One line about a finished frame: time, samples per pixel (their mean where adaptive
+    sampling stopped pixels early), rays per second, peak memory."""
+    seconds = max(float(image.metadata["renderTimeSeconds"]), 1e-9)
     samples = int(image.metadata["samples"])
-    rate = image.width * image.height * samples / max(seconds, 1e-9)
+    mean = float(image.metadata["meanSamples"])
+    taken = f"{samples}" if mean == samples else f"{mean:.1f} (at most {samples})"
+    rays = int(image.metadata["rays"]) / seconds
     return (
-        f"{label}: {image.width}x{image.height}, {samples} samples/pixel in {seconds:.2f} s "
-        f"({rate / 1e6:.2f} M pixel samples/s), peak memory {peak_memory_bytes() / 2**20:.0f} MB"
+        f"{label}: {image.width}x{image.height}, {taken} samples/pixel in {seconds:.2f} s "
+        f"({rays / 1e6:.2f} M rays/s), peak memory {peak_memory_bytes() / 2**20:.0f} MB"
     )
 
 
@@ -368,6 +399,7 @@ _LARGEST_VALUES = {
     "seed": 2**32 - 1,
     "threads": 2**31 - 1,
     "maxPathDepth": 2**31 - 1,
+    "adaptiveMinSamples": 2**31 - 1,
 }
 
 
@@ -395,6 +427,12 @@ def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
     for name in ("threads", "maxPathDepth", "seed"):
         if getattr(args, name) < 0:
             raise _UsageError(f"--{name} cannot be negative")
+    if not 0 <= args.adaptiveThreshold <= 1:
+        raise _UsageError("--adaptiveThreshold must be in [0, 1]")
+    if args.adaptiveMinSamples < 2:
+        raise _UsageError("--adaptiveMinSamples must be at least 2")
+    if not (args.indirectClamp >= 0 and math.isfinite(args.indirectClamp)):
+        raise _UsageError("--indirectClamp must be a finite number >= 0")
     for name, largest in _LARGEST_VALUES.items():
         if getattr(args, name) > largest:
             raise _UsageError(f"--{name} must be at most {largest}")
@@ -562,6 +600,9 @@ def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) 
                     seed=args.seed,
                     threads=args.threads,
                     max_path_depth=args.maxPathDepth,
+                    adaptive_threshold=args.adaptiveThreshold,
+                    adaptive_min_samples=args.adaptiveMinSamples,
+                    indirect_clamp=args.indirectClamp,
                     complexity=args.complexity,
                     render_settings=settings.path if settings else None,
                     disable_motion_blur=args.disable_motion_blur,

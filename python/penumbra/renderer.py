@@ -284,6 +284,7 @@ class Renderer:
             "camera": camera_id,
             "samples": samples,
             "meanSamples": round(render_pass.mean_samples, 3),
+            "rays": render_pass.rays_traced,
             "adaptiveThreshold": adaptive_threshold,
             "indirectClamp": indirect_clamp,
             "seed": seed,

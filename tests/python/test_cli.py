@@ -213,3 +213,26 @@ def test_console_script_progress(tmp_path):
     assert result.returncode == 0, result.stderr
     assert "8/8 samples" in result.stderr
     assert out.exists()
+
+
+def test_adaptive_sampling_and_clamp_flags(tmp_path, capsys):
+    """--adaptiveThreshold stops converged pixels (the summary gives the mean samples taken),
+    --indirectClamp reaches the render; out-of-range values are usage errors."""
+    stage_path = tmp_path / "quad.usda"
+    lit_quad_stage(stage_path).Save()
+    out = tmp_path / "o.exr"
+    args = [str(stage_path), str(out), "-w", "32", "-spp", "64", "-cam", "/cam"]
+    assert main([*args, "--adaptiveThreshold", "0.1", "--adaptiveMinSamples", "8"]) == 0
+    assert "(at most 64) samples/pixel" in capsys.readouterr().out
+    _, _, metadata = _core.read_image(str(out))
+    assert 8 <= float(metadata["penumbra:meanSamples"]) < 64
+    assert main([*args, "--indirectClamp", "10"]) == 0
+    assert float(_core.read_image(str(out))[2]["penumbra:indirectClamp"]) == 10
+    for flag, value in (
+        ("--adaptiveThreshold", "2"),
+        ("--adaptiveMinSamples", "1"),
+        ("--indirectClamp", "-1"),
+        ("--indirectClamp", "nan"),
+    ):
+        assert main([*args, flag, value]) == 2
+        assert f"{flag} must" in capsys.readouterr().err
