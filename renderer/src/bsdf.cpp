@@ -416,6 +416,14 @@ Vec3f PreviewSurfaceBsdf::diffuseLayerCover(float cosTheta) const {
 }
 
 PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::lobeProbabilities(float cosThetaO) const {
+  if (cosThetaO == cachedCosThetaO_) return cachedProbabilities_;
+  cachedCosThetaO_ = cosThetaO;
+  cachedProbabilities_ = computeLobeProbabilities(cosThetaO);
+  return cachedProbabilities_;
+}
+
+PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabilities(
+    float cosThetaO) const {
   // Each lobe's albedo for this wo. The layers under the coat are attenuated by its
   // transmittance for wo only, the one for wi being unknown yet.
   LobeProbabilities p;

@@ -1,4 +1,5 @@
-// The UsdPreviewSurface BSDF (spec 2.5/2.6, docs/design.md §3): the scattering of one shading point.
+// The UsdPreviewSurface BSDF (spec 2.5/2.6, docs/design.md §3): the scattering of one shading
+// point.
 //
 // The surface is a mix of an opaque part (weight `opacity`) and a translucent part (weight
 // 1 − opacity). The opaque part is a stack of layers, each attenuating the ones below by the
@@ -114,6 +115,7 @@ class PreviewSurfaceBsdf {
   };
   /// Lobe choice probabilities for an outgoing direction at cos θo = cosThetaO (> 0).
   LobeProbabilities lobeProbabilities(float cosThetaO) const;
+  LobeProbabilities computeLobeProbabilities(float cosThetaO) const;
   /// Clearcoat transmittance 1 − c·E_cc(μ).
   float coatTransmittance(float cosTheta) const;
   /// Directional albedo of the specular layer the diffuse layer lies under.
@@ -150,6 +152,11 @@ class PreviewSurfaceBsdf {
   float ior_;
   float dielectricAlpha_;
   DielectricKind dielectricKind_;
+  // lobeProbabilities() for the last cos θo asked: one vertex asks for its wo several times
+  // (light sample's evaluate and pdf, then sample). A BSDF lives on one thread, within one
+  // vertex.
+  mutable float cachedCosThetaO_ = -1;
+  mutable LobeProbabilities cachedProbabilities_;
 };
 
 /// Index of refraction at `wavelengthNm` from the Cauchy fit n(λ) = A + B/λ² through n_d = iorD at
