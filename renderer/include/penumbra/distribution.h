@@ -1,5 +1,5 @@
 // Piecewise-constant distributions for importance sampling tabulated functions (light textures,
-// light selection by power).
+// mesh lights' triangles by area).
 #pragma once
 
 #include <vector>
