@@ -62,32 +62,6 @@ def mean_luminance(rgb: np.ndarray) -> float:
     return float(np.mean(rgb @ REC709))
 
 
-def render_rgb(
-    stage: Usd.Stage, width: int, samples: int, seed: int, adaptive_threshold: float = 0.0,
-    adaptive_min_samples: int = 16,
-) -> tuple[np.ndarray, float, float]:
-    """One render by a fresh Renderer: its RGB (float64), seconds (construction + render) and
-    the samples per pixel it took on average (fewer than ``samples`` with adaptive sampling)."""
-    started = time.perf_counter()
-    with penumbra.Renderer(stage) as renderer:
-        image = renderer.render(
-            time=TIME_CODE, width=width, samples=samples, seed=seed,
-            adaptive_threshold=adaptive_threshold, adaptive_min_samples=adaptive_min_samples,
-        )
-        seconds = time.perf_counter() - started
-    return image["color"][..., :3].astype(np.float64), seconds, image.metadata["meanSamples"]
-
-
-@dataclass
-class Rung:
-    """One rung of a ladder: samples per pixel taken (on average), mean seconds of the two
-    seeds' renders, and rRMSE."""
-
-    samples: float
-    seconds: float
-    rrmse: float
-
-
 @dataclass
 class Setting:
     """How one rung renders: a sample count, or a sample cap with an adaptive threshold."""
@@ -110,6 +84,32 @@ class Crossing:
     extrapolated: bool
 
 
+def render_rgb(
+    stage: Usd.Stage, args: argparse.Namespace, setting: Setting, seed: int
+) -> tuple[np.ndarray, float, float]:
+    """One render by a fresh Renderer: its RGB (float64), seconds (construction + render) and
+    the samples per pixel it took on average (fewer than ``samples`` with adaptive sampling)."""
+    started = time.perf_counter()
+    with penumbra.Renderer(stage) as renderer:
+        image = renderer.render(
+            time=TIME_CODE, width=args.width, samples=setting.samples, seed=seed,
+            adaptive_threshold=setting.adaptive_threshold,
+            adaptive_min_samples=args.adaptive_min_samples, indirect_clamp=args.indirect_clamp,
+        )
+        seconds = time.perf_counter() - started
+    return image["color"][..., :3].astype(np.float64), seconds, image.metadata["meanSamples"]
+
+
+@dataclass
+class Rung:
+    """One rung of a ladder: samples per pixel taken (on average), mean seconds of the two
+    seeds' renders, and rRMSE."""
+
+    samples: float
+    seconds: float
+    rrmse: float
+
+
 def measure_ladder(
     stage: Usd.Stage,
     label: str,
@@ -122,10 +122,7 @@ def measure_ladder(
     for setting in ladder:
         images, seconds, samples = [], [], []
         for seed in args.seeds:
-            rgb, elapsed, taken = render_rgb(
-                stage, args.width, setting.samples, seed, setting.adaptive_threshold,
-                args.adaptive_min_samples,
-            )
+            rgb, elapsed, taken = render_rgb(stage, args, setting, seed)
             progress(f"{label}: {setting.describe()}, seed {seed}: {elapsed:.2f} s, "
                      f"{taken:.1f} spp")
             images.append(rgb)
@@ -205,7 +202,7 @@ def shared_scene_row(
     luminance_difference = converged_rrmse = None
     if args.converged_spp:
         converged, seconds, _ = render_rgb(
-            stage, args.width, args.converged_spp, max(args.seeds) + 1
+            stage, args, Setting(args.converged_spp), max(args.seeds) + 1
         )
         progress(f"{name}: converged, {args.converged_spp} spp: {seconds:.1f} s")
         reference_path = CYCLES / f"{name}.exr"
@@ -245,9 +242,10 @@ def shared_scene_row(
 
 def shared_scenes_table(args: argparse.Namespace) -> None:
     cycles = cycles_numbers(CYCLES / "README.md")
+    clamp = f"indirect clamp {args.indirect_clamp:g}" if args.indirect_clamp else "no clamp"
     print(f"Shared scenes, {args.width} px wide, spp ladder {', '.join(map(str, args.spp))}, "
-          f"seeds {args.seeds[0]} and {args.seeds[1]}; converged: {args.converged_spp or 'not'} "
-          "rendered; * extrapolated beyond the ladder.\n")
+          f"seeds {args.seeds[0]} and {args.seeds[1]}, {clamp}; converged: "
+          f"{args.converged_spp or 'not'} rendered; * extrapolated beyond the ladder.\n")
     adaptive = ""
     if args.adaptive:
         print(f"Adaptive: thresholds {', '.join(f'{t:g}' for t in args.adaptive)}, at most "
@@ -361,6 +359,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--adaptive-cap", type=int, default=1024,
                         help="samples per pixel at most with adaptive sampling")
     parser.add_argument("--adaptive-min-samples", type=int, default=8)
+    parser.add_argument("--indirect-clamp", type=float, default=0.0,
+                        help="render everything with this indirect clamp (Cycles' numbers use 10)")
     parser.add_argument("--ray-cost-width", type=int, default=320)
     parser.add_argument("--skip-many-lights", action="store_true")
     parser.add_argument("--quick", action="store_true",

@@ -266,14 +266,12 @@ class Renderer:
             self.delegate.set_render_setting(key, value)
         started = clock.perf_counter()
         render_pass.reset()
+        with self.tracer.span("render delegate sync (subdivision dicing, BVH builds)"):
+            render_pass.execute(0)  # syncs what is dirty and renders nothing
         step = max(1, math.ceil(samples / PROGRESS_STEPS))
         while not render_pass.converged:
             first, count = render_pass.samples_done, min(step, samples - render_pass.samples_done)
-            # The first execute also syncs the render delegate: dicing, BVH build.
-            name = "render pass: samples"
-            if first == 0:
-                name = "render pass: delegate sync (dicing, BVH build) and samples"
-            with self.tracer.span(name, first=first + 1, last=first + count):
+            with self.tracer.span("render pass: samples", first=first + 1, last=first + count):
                 render_pass.execute(count)
             self._forward_warnings()
             if progress is not None:

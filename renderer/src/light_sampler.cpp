@@ -42,10 +42,12 @@ LightSampler::LightSampler(const std::vector<Light>& lights) : paths_(lights.siz
     const Light& light = lights[i];
     if (light.isInfinite()) {
       const float irradiance = light.irradiance();
+      const bool distant = light.type() == LightType::Distant;
+      const float cosHalfAngle = distant ? light.cosHalfAngle() : 1.0f;
       if (irradiance > 0)
-        infinite_.push_back({uint32_t(i), irradiance,
-                             light.type() == LightType::Distant ? light.towardsLight() : Vec3f(),
-                             light.type() == LightType::Distant ? light.halfAngle() : 0.0f});
+        infinite_.push_back({uint32_t(i), irradiance, distant ? light.towardsLight() : Vec3f(),
+                             cosHalfAngle,
+                             std::sqrt(std::max(0.0f, 1 - cosHalfAngle * cosHalfAngle))});
       continue;
     }
     bounds[i] = light.bounds();
@@ -134,9 +136,13 @@ float LightSampler::infiniteWeight(size_t i, const Receiver& receiver) const {
   if (isBlack(light.towardsLight) || isBlack(receiver.normal)) return light.irradiance;
   // A distant light lights a surface by the cosine of its nearest direction, on either side; a
   // floor keeps lights in the surface's plane selectable.
-  const float cosCenter = std::fabs(dot(light.towardsLight, receiver.normal));
-  const float angle = std::max(0.0f, std::acos(std::min(cosCenter, 1.0f)) - light.halfAngle);
-  return light.irradiance * std::max(std::cos(angle), 1e-3f);
+  const float cosCenter = std::min(std::fabs(dot(light.towardsLight, receiver.normal)), 1.0f);
+  // cos(max(0, centre angle − half-angle)), without inverse trigonometry.
+  const float cosNearest = cosCenter >= light.cosHalfAngle
+                               ? 1.0f
+                               : cosCenter * light.cosHalfAngle +
+                                     std::sqrt(1 - cosCenter * cosCenter) * light.sinHalfAngle;
+  return light.irradiance * std::max(cosNearest, 1e-3f);
 }
 
 float LightSampler::infiniteTotal(const Receiver& receiver) const {

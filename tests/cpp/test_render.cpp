@@ -91,19 +91,30 @@ TEST(Render, LambertianPlaneUnderRectLightMatchesAnalyticRadiance) {
   EXPECT_NEAR(meanChannel(image, 1) / (0.5 / M_PI * irradiance), 1.0, 0.02);
 }
 
+namespace {
+
+/// A grey floor under a small square occluder lit by a rect panel (soft shadows and indirect
+/// light), seen from above through a wide lens.
+void occludedPanelScene(RenderDelegate& delegate, float intensity = 1) {
+  lambertianFloorScene(delegate, 0.7f);
+  addFloor(delegate, "/occluder", 0.3f, 1);
+  delegate.insertSprim("rectLight", "/panel");
+  delegate.light("/panel").setParam("intensity", intensity);
+  delegate.light("/panel").setTransform(facingDown(0.2, 2, 0));
+  delegate.camera("/cam").setParams([] {
+    CameraParams params;
+    params.focalLength = 10;
+    params.horizontalAperture = params.verticalAperture = 10;
+    return params;
+  }());
+}
+
+}  // namespace
+
 TEST(Render, ImagesAreBitIdenticalForAnyThreadCountAndSplit) {
   const auto renderWith = [](int threads, std::vector<int> passes) {
     RenderDelegate delegate;
-    lambertianFloorScene(delegate, 0.7f);
-    addFloor(delegate, "/occluder", 0.3f, 1);
-    delegate.insertSprim("rectLight", "/panel");
-    delegate.light("/panel").setTransform(facingDown(0.2, 2, 0));
-    delegate.camera("/cam").setParams([] {
-      CameraParams params;
-      params.focalLength = 10;
-      params.horizontalAperture = params.verticalAperture = 10;
-      return params;
-    }());
+    occludedPanelScene(delegate);
     delegate.settings().set("threads", threads);
     RenderPass pass(delegate, "/cam", 48, 40);
     for (int samples : passes) pass.execute(samples);
@@ -513,14 +524,10 @@ TEST(Render, AHiddenDomeDoesNotStarveTheLightInAClosedRoom) {
 
 namespace {
 
-/// A floor lit by a small rect light through a narrow gap (noisy soft shadows and indirect light)
-/// beside a uniformly emissive wall that any single sample gets right, seen by a 48x40 image.
+/// The occluded panel's floor (noisy soft shadows and indirect light) beside a uniformly
+/// emissive wall that any single sample gets right.
 void adaptiveScene(RenderDelegate& delegate) {
-  lambertianFloorScene(delegate, 0.7f);
-  addFloor(delegate, "/occluder", 0.3f, 1);
-  delegate.insertSprim("rectLight", "/panel");
-  delegate.light("/panel").setParam("intensity", 20.0f);
-  delegate.light("/panel").setTransform(facingDown(0.2, 2, 0));
+  occludedPanelScene(delegate, 20);
   addFloor(delegate, "/glow", 10, 0.01f);
   delegate.mesh("/glow").setTransform(translation(-10.5, 0, 0));  // covers x < -0.5
   delegate.insertSprim("material", "/emitter");
@@ -529,12 +536,6 @@ void adaptiveScene(RenderDelegate& delegate) {
   delegate.material("/emitter").setParam("specularColor", Vec3f(0.0f));
   delegate.material("/emitter").setParam("useSpecularWorkflow", 1);
   delegate.mesh("/glow").setMaterialId("/emitter");
-  delegate.camera("/cam").setParams([] {
-    CameraParams params;
-    params.focalLength = 10;
-    params.horizontalAperture = params.verticalAperture = 10;
-    return params;
-  }());
   delegate.settings().set("adaptiveThreshold", 0.05);
   delegate.settings().set("adaptiveMinSamples", 8);
 }

@@ -75,7 +75,7 @@ def test_version_quiet_verbose_memstats(tmp_path, quad_file, capsys):
     assert out == "" and err == ""
     assert main([str(quad_file), str(tmp_path / "v.exr"), *TINY, "-v", "--memstats"]) == 0
     out, err = capsys.readouterr()
-    assert "Penumbra trace" in err and "render pass: delegate sync" in err
+    assert "Penumbra trace" in err and "render delegate sync" in err and "render pass" in err
     assert "Peak memory (resident set):" in out
     # One summary line per frame: size, samples, time, rate, peak memory.
     summary = [line for line in out.splitlines() if line.startswith("time code 1: 8x8")]

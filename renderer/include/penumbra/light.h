@@ -150,10 +150,10 @@ class Light {
   LightBounds bounds() const;
   /// Infinite lights: luminance of the irradiance on an unoccluded surface facing them.
   float irradiance() const;
-  /// Distant lights: the direction light arrives from (unit, towards the light) and the cone's
-  /// half-angle in radians.
+  /// Distant lights: the direction light arrives from (unit, towards the light) and the cosine
+  /// of the cone's half-angle.
   Vec3f towardsLight() const { return -normal_; }
-  float halfAngle() const { return std::acos(std::clamp(cosHalfAngle_, -1.0f, 1.0f)); }
+  float cosHalfAngle() const { return cosHalfAngle_; }
 
  private:
   /// Rect lights are sampled uniformly in the solid angle they subtend where that is at least

@@ -66,9 +66,10 @@ class LightSampler {
 
   struct InfiniteLight {
     uint32_t index = 0;
-    float irradiance = 0;  // on a surface facing it, unoccluded
-    Vec3f towardsLight;    // distant lights: the direction light comes from; dome: zero
-    float halfAngle = 0;   // distant lights: radians
+    float irradiance = 0;    // on a surface facing it, unoccluded
+    Vec3f towardsLight;      // distant lights: the direction light comes from; dome: zero
+    float cosHalfAngle = 1;  // distant lights: the cone's half-angle, as cosine and sine
+    float sinHalfAngle = 0;
   };
 
   std::vector<Node> nodes_;      // nodes_[0] is the root, when there are local lights
