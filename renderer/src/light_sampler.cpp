@@ -1,7 +1,6 @@
 #include "penumbra/light_sampler.h"
 
 #include <algorithm>
-#include <numeric>
 
 namespace penumbra {
 namespace {
@@ -151,6 +150,14 @@ float LightSampler::infiniteTotal(const Receiver& receiver) const {
   return total;
 }
 
+std::optional<float> LightSampler::firstChildProbability(const Node& parent,
+                                                         const Receiver& receiver) const {
+  const float first = nodes_[parent.children[0]].bounds.importance(receiver);
+  const float second = nodes_[parent.children[1]].bounds.importance(receiver);
+  if (!(first + second > 0)) return std::nullopt;
+  return first / (first + second);
+}
+
 float LightSampler::localShare(const Receiver& receiver) const {
   if (nodes_.empty()) return 0;
   const float local = nodes_[0].bounds.importance(receiver);
@@ -168,10 +175,9 @@ std::optional<LightSampler::Choice> LightSampler::sample(const Receiver& receive
     uint32_t node = 0;
     while (!nodes_[node].leaf) {
       const Node& parent = nodes_[node];
-      const float first = nodes_[parent.children[0]].bounds.importance(receiver);
-      const float second = nodes_[parent.children[1]].bounds.importance(receiver);
-      if (!(first + second > 0)) return std::nullopt;
-      const float pFirst = first / (first + second);
+      const std::optional<float> first = firstChildProbability(parent, receiver);
+      if (!first) return std::nullopt;
+      const float pFirst = *first;
       if (u < pFirst) {
         u = std::min(u / pFirst, 0x1.fffffep-1f);
         probability *= pFirst;
@@ -206,11 +212,10 @@ float LightSampler::probability(const Receiver& receiver, size_t index) const {
     uint32_t node = 0;
     for (int level = 0; level < path.depth; ++level) {
       const Node& parent = nodes_[node];
-      const float first = nodes_[parent.children[0]].bounds.importance(receiver);
-      const float second = nodes_[parent.children[1]].bounds.importance(receiver);
-      if (!(first + second > 0)) return 0;
+      const std::optional<float> first = firstChildProbability(parent, receiver);
+      if (!first) return 0;
       const int branch = int((path.branches >> level) & 1u);
-      probability *= (branch ? second : first) / (first + second);
+      probability *= branch ? 1 - *first : *first;
       node = parent.children[branch];
     }
     return probability;

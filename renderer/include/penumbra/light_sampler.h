@@ -58,6 +58,9 @@ class LightSampler {
   /// Builds the subtree of lights[begin, end) whose root is reached by `path`; returns its index.
   uint32_t build(std::vector<uint32_t>& lights, size_t begin, size_t end,
                  const std::vector<LightBounds>& bounds, LeafPath path);
+  /// The probability that the walk goes from `parent` to its first child at the receiver; none
+  /// where neither child's lights can reach it.
+  std::optional<float> firstChildProbability(const Node& parent, const Receiver& receiver) const;
   /// Probability of choosing the local set at the receiver (0 or 1 when a set is empty).
   float localShare(const Receiver& receiver) const;
   /// Estimated irradiance of infinite light `i` (of infinite_) at the receiver; never 0.
