@@ -560,10 +560,14 @@ float Light::meshPdf(const Vec3f& origin, const Vec3f& point, const Vec3f& norma
   return solidAnglePdfFromArea(origin, point, normal, 1 / area_);
 }
 
+float Light::meanRadianceLuminance() const {
+  const Vec3f mean = params_.texture ? radiance_ * params_.texture->average() : radiance_;
+  return std::max(0.0f, luminance(mean));
+}
+
 LightBounds Light::bounds() const {
   LightBounds bounds;
-  const Vec3f mean = params_.texture ? radiance_ * params_.texture->average() : radiance_;
-  const float radianceLuminance = std::max(0.0f, luminance(mean));
+  const float radianceLuminance = meanRadianceLuminance();
   const auto include = [&bounds](const Vec3f& p) {
     bounds.lower = {std::min(bounds.lower.x, p.x), std::min(bounds.lower.y, p.y),
                     std::min(bounds.lower.z, p.z)};
@@ -607,8 +611,7 @@ LightBounds Light::bounds() const {
 }
 
 float Light::irradiance() const {
-  const Vec3f mean = params_.texture ? radiance_ * params_.texture->average() : radiance_;
-  const float radianceLuminance = std::max(0.0f, luminance(mean));
+  const float radianceLuminance = meanRadianceLuminance();
   if (params_.type == LightType::Dome) return kPi * radianceLuminance;
   if (params_.type == LightType::Distant && !isDelta())
     return radianceLuminance * kPi * oneMinusCosHalfAngle_ * (1 + cosHalfAngle_);

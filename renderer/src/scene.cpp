@@ -492,7 +492,7 @@ namespace {
 struct LightTraceContext {
   RTCIntersectContext embree;  // first member: Embree passes a pointer to it to the callbacks
   float tMax;
-  void (*callback)(const void*, uint32_t, const LightHit&);
+  Scene::LightHitCallback callback;
   const void* visitor;
 };
 

@@ -156,6 +156,8 @@ class Light {
   float cosHalfAngle() const { return cosHalfAngle_; }
 
  private:
+  /// Luminance of the emitted radiance averaged over the texture, if any (never negative).
+  float meanRadianceLuminance() const;
   /// Rect lights are sampled uniformly in the solid angle they subtend where that is at least
   /// this (steradians), and by area elsewhere.
   static constexpr double kMinSphericalSolidAngle = 1e-4;

@@ -105,6 +105,8 @@ class Scene {
   const LightSampler& lightSampler() const { return lightSampler_; }
   /// Indices of the dome and distant lights, which rays that escape the scene meet.
   const std::vector<uint32_t>& infiniteLights() const { return infiniteLights_; }
+  /// How forEachLightHit reaches its visitor through Embree's callbacks.
+  using LightHitCallback = void (*)(const void* visitor, uint32_t index, const LightHit& hit);
   /// Calls visit(lightIndex, LightHit) for each area light (rect, disk, sphere, cylinder) whose
   /// emitting surface the ray meets before `tMax`, found through an Embree BVH of the lights.
   /// Mesh lights are met as geometry instead (SurfaceHit::lightIndex).
@@ -182,7 +184,6 @@ class Scene {
   /// Embree hit filter (any hit, intersection and occlusion rays).
   static void filterHits(const RTCFilterFunctionNArguments* args);
   void updateAllPlacements(MeshId id);
-  using LightHitCallback = void (*)(const void* visitor, uint32_t index, const LightHit& hit);
   void visitLightHits(const Ray& ray, float tMax, LightHitCallback callback,
                       const void* visitor) const;
   /// Rebuilds the BVH of the area lights (lightScene_) from lights_.
