@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import time as clock
@@ -12,10 +13,12 @@ from pxr import Sdf, Usd, UsdLux
 
 from . import _core
 from .errors import SceneError, warn
+from .denoise import GUIDE_AOVS, NOISY_COLOR, denoise_color
 from .image import Image, ocio_config_path
 from .memory import check_film, default_budget
 from .trace import Tracer
 from .usd.camera import camera_problem, read_shutter
+from .usd.camera_metadata import camera_metadata
 from .usd.default_light import (
     DEFAULT_LIGHT_ID,
     DefaultLight,
@@ -168,6 +171,7 @@ class Renderer:
         adaptive_min_samples: int = 16,
         indirect_clamp: float = 0.0,
         max_memory: int | None = None,
+        denoise: bool = False,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -247,11 +251,12 @@ class Renderer:
         if new_pass:  # the synced scene is in memory now; its BVH and the film are not yet
             check_film(window.width, window.height, budget, camera_id)
         render_pass = self._render_pass(camera_id, window.width, window.height)
-        unknown = sorted(set(aovs) - set(render_pass.aov_names()))
-        if unknown or not aovs:
-            raise ValueError(
-                f"aovs must name at least one of {render_pass.aov_names()} (unknown: {unknown})"
-            )
+        if not aovs:
+            raise ValueError(f"aovs must name at least one of {render_pass.aov_names()}")
+        if NOISY_COLOR in aovs and not denoise:
+            raise ValueError(f"the {NOISY_COLOR} AOV needs denoise=True")
+        accumulated = {aov for aov in aovs if aov != NOISY_COLOR}
+        render_pass.set_aovs(sorted(accumulated | set(GUIDE_AOVS if denoise else ())))
 
         for key, value in (
             ("samples", samples),
@@ -276,6 +281,13 @@ class Renderer:
             self._forward_warnings()
             if progress is not None:
                 progress(render_pass.samples_done, samples)
+        arrays = {name: np.array(render_pass.aov(name)) for name in accumulated | {"color"}}
+        if denoise:
+            with self.tracer.span("denoise (OIDN)"):
+                arrays[NOISY_COLOR] = arrays["color"]
+                arrays["color"] = denoise_color(
+                    arrays["color"], render_pass.aov("albedo"), render_pass.aov("normal")
+                )
         elapsed = clock.perf_counter() - started
 
         metadata = {
@@ -292,8 +304,21 @@ class Renderer:
             "shutterOpen": shutter.open,
             "shutterClose": shutter.close,
             "stage": stage_name(self.stage),
+            "renderSettings": settings.path if settings is not None else "",
+            "denoised": int(denoise),
+            **camera_metadata(
+                camera_prim,
+                time_code,
+                width,
+                height,
+                settings.aspect_ratio_conform_policy if settings else "expandAperture",
+                settings.pixel_aspect_ratio if settings else 1.0,
+            ),
         }
-        return Image({name: np.array(render_pass.aov(name)) for name in aovs}, metadata)
+        if "primId" in aovs:
+            manifest = self.delegate.prim_id_manifest()
+            metadata["primIds"] = json.dumps({str(key): path for key, path in manifest.items()})
+        return Image({name: arrays[name] for name in aovs}, metadata)
 
     def _render_pass(self, camera_id: str, width: int, height: int):
         key = (camera_id, width, height)

@@ -111,11 +111,35 @@ PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
                             hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet);
 }
 
+/// Records what the camera ray `ray` met first: a surface (`hit`), or only a light at
+/// `firstHitDistance` (infinity: nothing).
+void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
+                    float firstHitDistance, FirstHitSample* record) {
+  if (firstHitDistance < kInfinity) {
+    record->distance = length(ray.origin + ray.direction * firstHitDistance - camera.centre(ray.time));
+    record->z = camera.viewDepth(ray, firstHitDistance);
+  }
+  if (!hit) return;
+  record->hit = true;
+  record->position = hit->position;
+  record->normal = hit->shadingNormal;
+  record->cameraNormal = camera.toCameraSpace(hit->shadingNormal, ray.time);
+  record->albedo = surfaceAlbedo(hit->material);
+  record->primId = int(hit->meshId);
+  record->instanceId = hit->instance;
+  record->elementId = int(hit->mesh->sourceFace[hit->triangle]);
+  record->mesh = hit->mesh;
+  record->triangle = hit->triangle;
+  record->u = hit->u;
+  record->v = hit->v;
+  record->instancePrimvars = hit->instancePrimvars;
+}
+
 }  // namespace
 
 CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                                 int x, int y, uint32_t sampleIndex,
-                                const IntegratorSettings& settings) {
+                                const IntegratorSettings& settings, FirstHitSample* firstHitRecord) {
   SampleStream sampler(settings.seed, uint32_t(x), uint32_t(y), sampleIndex);
   const Vec2f filterOffset = filter.sampleOffset(sampler.next2D());
   const Vec2f lensSample = sampler.next2D();
@@ -151,6 +175,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
       if (firstHit < kInfinity) result.depth = camera.viewDepth(ray, firstHit);
       if (hit || sawLight) result.alpha = 1;
+      if (firstHitRecord) {
+        firstHitRecord->filterOffset = filterOffset;
+        recordFirstHit(camera, ray, hit ? &*hit : nullptr, firstHit, firstHitRecord);
+      }
     }
     if (!hit) break;
     if (!isBlack(hit->emission)) {
