@@ -31,6 +31,7 @@ from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
 from .usd.settings import FilmWindow, film_window
 from .usd import (
     DEFAULT_PURPOSES,
+    RenderSettings,
     SceneDelegate,
     image_size,
     open_stage,
@@ -161,7 +162,7 @@ class Renderer:
         threads: int = 0,
         max_path_depth: int = DEFAULT_MAX_PATH_DEPTH,
         complexity: str = "low",
-        render_settings: str | None = None,
+        render_settings: str | RenderSettings | None = None,
         disable_motion_blur: bool = False,
         disable_depth_of_field: bool = False,
         dome_light_visibility: bool = True,
@@ -181,7 +182,8 @@ class Renderer:
         ``Usd.TimeCode.Default()``); by default the stage's startTimeCode. ``width``: by default
         the render settings' resolution, else 960. ``height``: by default from the aspect ratio
         of the render settings' resolution, else of the camera's apertures. ``render_settings``:
-        a UsdRenderSettings prim path, by default the stage's ``renderSettingsPrimPath``; its
+        a UsdRenderSettings prim path (or settings already read, as render products pass them),
+        by default the stage's ``renderSettingsPrimPath``; its
         ``aspectRatioConformPolicy`` and ``pixelAspectRatio`` fit the camera's aperture to the
         image, and its ``dataWindowNDC`` crops the image to the pixels whose centres it holds.
         Motion blur samples the camera's shutter, [time + shutter:open, time + shutter:close];
@@ -209,7 +211,11 @@ class Renderer:
         check_default_light(default_light)
         aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
         time_code = _time_code(self.stage, time)
-        settings = read_render_settings(self.stage, render_settings)
+        settings = (
+            render_settings
+            if isinstance(render_settings, RenderSettings)
+            else read_render_settings(self.stage, render_settings)
+        )
         camera_prim = resolve_camera(self.stage, camera, settings, time_code, self._scene.purposes)
         problem = camera_problem(camera_prim, time_code)
         if problem is not None:
