@@ -30,8 +30,7 @@ Film::Film(int width, int height, std::vector<AovRequest> aovs) : width_(width),
   if (width <= 0 || height <= 0)
     throw std::invalid_argument("film size must be positive, got " + std::to_string(width) + "x" +
                                 std::to_string(height));
-  for (const AovRequest& aov : aovs)
-    hasIds_ = hasIds_ || isId(aov.kind);
+  for (const AovRequest& aov : aovs) hasIds_ = hasIds_ || isId(aov.kind);
   nearestStride_ = hasIds_ ? 1 : 0;
   for (AovRequest& aov : aovs) {
     if (isBuiltIn(aov.kind) || slot(aov)) continue;
@@ -79,7 +78,8 @@ void Film::clear() {
     float* nearest = nearest_.data() + i * nearestStride_;
     if (hasIds_) nearest[0] = kInfinity;
     for (const Slot& s : slots_)
-      if (isNearest(s.aov.kind)) nearest[s.offset] = s.aov.kind == AovKind::Depth ? kInfinity : -1.0f;
+      if (isNearest(s.aov.kind))
+        nearest[s.offset] = s.aov.kind == AovKind::Depth ? kInfinity : -1.0f;
   }
 }
 

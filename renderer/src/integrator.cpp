@@ -116,7 +116,8 @@ PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
 void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
                     float firstHitDistance, FirstHitSample* record) {
   if (firstHitDistance < kInfinity) {
-    record->distance = length(ray.origin + ray.direction * firstHitDistance - camera.centre(ray.time));
+    record->distance =
+        length(ray.origin + ray.direction * firstHitDistance - camera.centre(ray.time));
     record->z = camera.viewDepth(ray, firstHitDistance);
   }
   if (!hit) return;
@@ -139,7 +140,8 @@ void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
 
 CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                                 int x, int y, uint32_t sampleIndex,
-                                const IntegratorSettings& settings, FirstHitSample* firstHitRecord) {
+                                const IntegratorSettings& settings,
+                                FirstHitSample* firstHitRecord) {
   SampleStream sampler(settings.seed, uint32_t(x), uint32_t(y), sampleIndex);
   const Vec2f filterOffset = filter.sampleOffset(sampler.next2D());
   const Vec2f lensSample = sampler.next2D();

@@ -25,8 +25,8 @@ bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_
                 if (cancelled()) return;
                 if (film.wantsFirstHit()) {
                   FirstHitSample firstHit;
-                  const CameraSample sample = renderCameraSample(
-                      scene, camera, filter, x, y, s, settings.integrator, &firstHit);
+                  const CameraSample sample = renderCameraSample(scene, camera, filter, x, y, s,
+                                                                 settings.integrator, &firstHit);
                   film.addSample(x, y, s, sample, &firstHit);
                 } else {
                   film.addSample(
