@@ -12,7 +12,7 @@ from penumbra.cli import main
 
 from stages import CORNELL
 
-RENDER = dict(camera="/cam", time=1.0, width=96, seed=3)
+RENDER = dict(camera="/cam", time=1.0, width=64, seed=3)
 
 
 def rrmse(image: np.ndarray, reference: np.ndarray) -> float:
@@ -24,7 +24,7 @@ def rrmse(image: np.ndarray, reference: np.ndarray) -> float:
 @pytest.fixture(scope="module")
 def renders():
     with penumbra.Renderer(CORNELL) as renderer:
-        reference = renderer.render(samples=512, **RENDER)["color"]
+        reference = renderer.render(samples=256, **RENDER)["color"]
         raw = renderer.render(samples=8, **RENDER)
         denoised = renderer.render(samples=8, aovs=("color", "noisyColor"), denoise=True, **RENDER)
         again = renderer.render(samples=8, denoise=True, threads=1, **RENDER)
@@ -34,7 +34,7 @@ def renders():
 def test_denoising_brings_the_image_closer_to_the_converged_one(renders):
     reference, raw, denoised, _ = renders
     raw_error, denoised_error = rrmse(raw["color"], reference), rrmse(denoised["color"], reference)
-    # Measured: 8 spp raw about 0.5, denoised about 0.1.
+    # Measured against 256 spp (itself noisy, about 0.04): raw 0.22, denoised 0.087.
     assert denoised_error < 0.5 * raw_error, (raw_error, denoised_error)
     # Alpha is not denoised.
     np.testing.assert_array_equal(denoised["color"][..., 3], raw["color"][..., 3])
