@@ -437,7 +437,7 @@ def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
     if args.traceFormat != "chrome" and not args.traceToFile:
         raise _UsageError("--traceFormat needs --traceToFile")
     for name in ("imageWidth", "samples"):
-        if (getattr(args, name) or 1) < 1:
+        if getattr(args, name) is not None and getattr(args, name) < 1:
             raise _UsageError(f"--{name} must be at least 1")
     for name in ("threads", "maxPathDepth", "seed"):
         if getattr(args, name) < 0:
@@ -449,7 +449,7 @@ def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
     if not (args.indirectClamp >= 0 and math.isfinite(args.indirectClamp)):
         raise _UsageError("--indirectClamp must be a finite number >= 0")
     for name, largest in _LARGEST_VALUES.items():
-        if (getattr(args, name) or 0) > largest:
+        if getattr(args, name) is not None and getattr(args, name) > largest:
             raise _UsageError(f"--{name} must be at most {largest}")
     args.aovs = _aov_list(args.aov or "", args.denoise)
     try:
