@@ -284,3 +284,31 @@ def test_cli_aovs_without_products(tmp_path):
 )
 def test_product_path(name, frame, expected):
     assert product_path(name, frame) == expected
+
+
+def test_product_camera_and_included_purposes(tmp_path):
+    """The product's camera overrides the settings'; includedPurposes replaces --purposes (whose
+    default renders proxies): the plane is seen from 10 units, not the proxy in front of it."""
+    stage = new_stage(tmp_path / "scene.usda")
+    add_camera(stage)
+    add_camera(stage, "/far", translate=(0.0, 0.0, 10.0))
+    add_quad(stage, "/plane", half_size=6.0, color=PLANE_COLOR)
+    proxy = add_quad(stage, "/proxy", center=(0.0, 0.0, 1.0), half_size=6.0)
+    proxy.CreatePurposeAttr(UsdGeom.Tokens.proxy)
+    z = UsdRender.Var.Define(stage, "/Render/Vars/Z")
+    z.CreateSourceNameAttr("Z")
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets(["/cam"])
+    settings.CreateIncludedPurposesAttr(["default"])
+    product = UsdRender.Product.Define(stage, "/Render/Products/far")
+    product.CreateProductNameAttr("far.exr")
+    product.CreateCameraRel().SetTargets(["/far"])
+    product.CreateResolutionAttr(Gf.Vec2i(8, 8))
+    product.CreateOrderedVarsRel().SetTargets([z.GetPath()])
+    settings.CreateProductsRel().SetTargets([product.GetPath()])
+    stage.GetRootLayer().Save()
+    argv = [str(tmp_path / "scene.usda"), str(tmp_path / "out.exr"), "-spp", "1", "-q"]
+    assert main([*argv, "-rs", "/Render/Settings"]) == 0
+    pixels, names, metadata = _core.read_image(str(tmp_path / "far.exr"))
+    assert pixels.shape[:2] == (8, 8) and metadata["penumbra:camera"] == "/far"
+    np.testing.assert_allclose(layer(pixels, names, "Z"), 10.0, rtol=1e-6)
