@@ -17,9 +17,7 @@ const std::vector<std::string>& RenderPass::aovNames() {
 void RenderPass::setAovs(const std::vector<std::string>& names) {
   std::vector<AovRequest> requests;
   for (const std::string& name : names) requests.push_back(parseAov(name));
-  const bool same = std::all_of(requests.begin(), requests.end(),
-                                [&](const AovRequest& aov) { return film_.has(aov); });
-  if (same) return;
+  if (film_.accumulatesExactly(requests)) return;
   film_ = Film(film_.width(), film_.height(), std::move(requests));
   samplesDone_ = 0;
 }

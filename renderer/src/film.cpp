@@ -62,6 +62,14 @@ bool Film::has(const AovRequest& aov) const {
   return isBuiltIn(aov.kind) || slot(aov) != nullptr;
 }
 
+bool Film::accumulatesExactly(const std::vector<AovRequest>& aovs) const {
+  const auto requested = [&](const Slot& s) {
+    return std::find(aovs.begin(), aovs.end(), s.aov) != aovs.end();
+  };
+  return std::all_of(aovs.begin(), aovs.end(), [&](const AovRequest& aov) { return has(aov); }) &&
+         std::all_of(slots_.begin(), slots_.end(), requested);
+}
+
 const Film::Slot* Film::slot(const AovRequest& aov) const {
   for (const Slot& candidate : slots_)
     if (candidate.aov == aov) return &candidate;
@@ -74,7 +82,7 @@ void Film::clear() {
   activePixels_ = pixels_.size();
   sums_.assign(pixels_.size() * sumStride_, 0.0);
   nearest_.assign(pixels_.size() * nearestStride_, 0.0f);
-  for (size_t i = 0; i < pixels_.size(); ++i) {
+  for (size_t i = 0; nearestStride_ > 0 && i < pixels_.size(); ++i) {
     float* nearest = nearest_.data() + i * nearestStride_;
     if (hasIds_) nearest[0] = kInfinity;
     for (const Slot& s : slots_)

@@ -141,4 +141,6 @@ TEST(Aovs, OnlyThoseAccumulatedCanBeRead) {
   for (size_t i = 0; i < 16; ++i)  // one sample: the floor's or occluder's normal, or none
     EXPECT_NEAR(normal[3 * i + 1], alpha[i], 1e-6f);
   EXPECT_EQ(pass.aovChannels("primvars:missing"), 1);
+  pass.setAovs({});  // AOVs no longer asked for are no longer accumulated (they cost time)
+  EXPECT_THROW(pass.aov("normal"), std::invalid_argument);
 }

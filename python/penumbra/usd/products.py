@@ -35,8 +35,10 @@ AOV_NAMES = (
     "elementId",
     "sampleCount",
     "variance",
+    "noisyColor",
 )
-"""The AOVs a ``raw`` or ``intrinsic`` RenderVar may name (besides ``primvars:NAME``)."""
+"""The AOVs a ``raw`` or ``intrinsic`` RenderVar may name (besides ``primvars:NAME``);
+``noisyColor`` only with denoising."""
 AOV_ALIASES = {"cameraDepth": "depth", "N": "normal", "P": "position", "Ci": "color"}
 """Other renderers' names for the same AOVs."""
 BEAUTY_LPES = ("C.*", "C.*[<L.>O]", "C[DS]*[<L.>O]")

@@ -18,6 +18,8 @@ class Film {
   int height() const { return height_; }
   /// The AOVs resolve() serves.
   bool has(const AovRequest& aov) const;
+  /// Whether the film accumulates exactly `aovs` besides those every film has.
+  bool accumulatesExactly(const std::vector<AovRequest>& aovs) const;
   /// Whether addSample needs each sample's FirstHitSample.
   bool wantsFirstHit() const { return wantsFirstHit_; }
   /// Drops every sample and makes every pixel active again.

@@ -54,8 +54,9 @@ class RenderPass {
   /// Neye, position, albedo, primId, instanceId, elementId, primvars:NAME, sampleCount,
   /// variance; docs/aovs.md).
   static const std::vector<std::string>& aovNames();
-  /// Which AOVs to accumulate besides color, alpha, Z and sampleCount (which every pass has):
-  /// a change drops the samples taken. Throws std::invalid_argument for an unknown name.
+  /// Which AOVs to accumulate besides color, alpha, Z and sampleCount (which every pass has),
+  /// and no others (they cost time): a change drops the samples taken. Throws std::invalid_argument
+  /// for an unknown name.
   void setAovs(const std::vector<std::string>& names);
   /// Resolved buffer, row-major from the top, aovChannels(name) floats per pixel. Throws
   /// std::invalid_argument for an unknown name or one not accumulated (see setAovs).
