@@ -128,7 +128,8 @@ void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
   record->albedo = surfaceAlbedo(hit->material);
   record->primId = int(hit->meshId);
   record->instanceId = hit->instance;
-  record->elementId = int(hit->mesh->sourceFace[hit->triangle]);
+  const std::vector<uint32_t>& faces = hit->mesh->sourceFace;
+  record->elementId = hit->triangle < faces.size() ? int(faces[hit->triangle]) : -1;
   record->mesh = hit->mesh;
   record->triangle = hit->triangle;
   record->u = hit->u;
