@@ -452,6 +452,8 @@ def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
         if getattr(args, name) is not None and getattr(args, name) > largest:
             raise _UsageError(f"--{name} must be at most {largest}")
     args.aovs = _aov_list(args.aov or "", args.denoise)
+    if len(args.aovs) > 1 and not args.outputImagePath.lower().endswith(".exr"):
+        raise _UsageError(f"--aov needs an .exr output; {args.outputImagePath} holds colour only")
     try:
         check_output_format(args.outputImagePath)
         placeholder = find_placeholder(args.outputImagePath)

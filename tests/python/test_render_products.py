@@ -233,17 +233,18 @@ def test_product_without_a_name_is_an_error(tmp_path, capsys):
 
 
 @pytest.mark.parametrize(
-    "flags, message",
+    "output, flags, message",
     [
-        (["--aov", "normal,bogus"], "--aov bogus: unknown AOV"),
-        (["--aov", "noisyColor"], "--aov noisyColor needs --denoise"),
+        ("out.exr", ["--aov", "normal,bogus"], "--aov bogus: unknown AOV"),
+        ("out.exr", ["--aov", "noisyColor"], "--aov noisyColor needs --denoise"),
+        ("out.png", ["--aov", "depth"], "--aov needs an .exr output; "),
     ],
 )
-def test_aov_usage_errors(tmp_path, capsys, flags, message):
+def test_aov_usage_errors(tmp_path, capsys, output, flags, message):
     stage = new_stage(tmp_path / "scene.usda")
     add_camera(stage)
     stage.GetRootLayer().Save()
-    assert main([str(tmp_path / "scene.usda"), str(tmp_path / "out.exr"), *flags]) == 2
+    assert main([str(tmp_path / "scene.usda"), str(tmp_path / output), *flags]) == 2
     assert message in capsys.readouterr().err
 
 
