@@ -360,6 +360,7 @@ void RenderDelegate::syncMesh(Mesh& mesh, bool materialsChanged, const DicingCon
       warn(mesh.id() + ": bound material " + mesh.materialId() +
            " is not in the render index; displayColor is used");
   }
+  if (bits & DirtyVisibility) scene_->setMeshPassVisibility(mesh.handle(), mesh.passVisibility());
   if (bits != Clean || materialsChanged)
     scene_->setMeshInstance(mesh.handle(), mesh.transform(), materialIndex, mesh.visible());
   if (bits != Clean) mesh.markClean();
@@ -374,6 +375,7 @@ void RenderDelegate::syncInstancer(Instancer& copies) {
     scene_->removeInstancer(copies.handle());
     copies.setHandle(scene_->addInstancer());
   } else {
+    scene_->setInstancerPassVisibility(copies.handle(), copies.passVisibility());
     scene_->setInstances(copies.handle(), prototype->handle(), copies.transforms(),
                          copies.visible());
     try {

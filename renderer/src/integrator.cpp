@@ -151,6 +151,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
       if (firstHit < kInfinity) result.depth = camera.viewDepth(ray, firstHit);
       if (hit || sawLight) result.alpha = 1;
+      // A holdout: what lies behind it is hidden, and only lights in front of it count.
+      if (hit && hit->matte) {
+        result.alpha = sawLight ? 1 : 0;
+        break;
+      }
     }
     if (!hit) break;
     if (!isBlack(hit->emission)) {

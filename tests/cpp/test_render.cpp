@@ -235,6 +235,55 @@ TEST(Render, LightsHiddenFromTheCameraStillLightTheScene) {
   EXPECT_NEAR(floorMean, 0.5, 0.02);
 }
 
+TEST(Render, RenderPassesHideMeshesFromTheCameraOrMakeThemHoldouts) {
+  // A bright square 1 above a grey floor under a unit dome, filling the middle of the view:
+  // hidden from the camera it still shades the floor below it; as a matte its pixels are
+  // empty (colour and alpha 0). Pixels away from it are the same either way. The square is
+  // either a mesh or an instancer's copy of a hidden prototype.
+  const auto renderWith = [](PassVisibility pass, bool instanced) {
+    RenderDelegate delegate;
+    addFloor(delegate, "/floor", 50);
+    delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
+    addFloor(delegate, "/square", 1, 1);
+    delegate.mesh("/square").setDisplayColor({Vec3f(0.9f)}, Interpolation::Constant);
+    if (instanced) {
+      delegate.mesh("/square").setVisible(false);
+      delegate.insertRprim("instancer", "/copies");
+      delegate.instancer("/copies").setInstances("/square", {translation(0, 0, 0)});
+      delegate.instancer("/copies").setPassVisibility(pass);
+    } else {
+      delegate.mesh("/square").setPassVisibility(pass);
+    }
+    addCamera(delegate, facingDown(0, 5, 0), 1);  // sees x in [-2, 2] at the square's height
+    delegate.insertSprim("domeLight", "/sky");
+    delegate.settings().set("maxPathDepth", 1);
+    return render(delegate, 8, 8, 256);
+  };
+  const auto pixel = [](const std::vector<float>& rgba, int x, int y, int channel) {
+    return rgba[size_t(4 * (y * 8 + x) + channel)];
+  };
+  for (const bool instanced : {false, true}) {
+    SCOPED_TRACE(instanced ? "instancer" : "mesh");
+    const std::vector<float> seen = renderWith({}, instanced);
+    const std::vector<float> hidden = renderWith({false, false}, instanced);
+    const std::vector<float> matte = renderWith({true, true}, instanced);
+    for (int y = 3; y <= 4; ++y)
+      for (int x = 3; x <= 4; ++x) {
+        EXPECT_NEAR(pixel(seen, x, y, 0), 0.9f, 0.05f);
+        // The floor below the square, which hides about half of the sky from it.
+        EXPECT_EQ(pixel(hidden, x, y, 3), 1.0f);
+        EXPECT_LT(pixel(hidden, x, y, 0), 0.35f);
+        EXPECT_GT(pixel(hidden, x, y, 0), 0.1f);
+        for (int c = 0; c < 4; ++c) EXPECT_EQ(pixel(matte, x, y, c), 0.0f);
+      }
+    for (const int corner : {0, 7})
+      for (int c = 0; c < 4; ++c) {
+        EXPECT_EQ(pixel(hidden, corner, corner, c), pixel(seen, corner, corner, c));
+        EXPECT_EQ(pixel(matte, corner, corner, c), pixel(seen, corner, corner, c));
+      }
+  }
+}
+
 TEST(RenderDelegate, InvalidMeshesAreSkippedWithAWarningNamingThem) {
   RenderDelegate delegate;
   lambertianFloorScene(delegate, 0.5f);
