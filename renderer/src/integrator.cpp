@@ -184,45 +184,41 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     }
     const PreviewSurfaceBsdf bsdf = makeBsdf(*hit, spectrum, ior);
 
-    // Next-event estimation: one light, chosen by its estimated contribution here (lights on
-    // the surface's front and back count for translucent surfaces), sampled over its area or
-    // solid angle.
+    // Next-event estimation: every infinite light (or one, when there are many) and one local
+    // light chosen by its estimated contribution here (lights on the surface's front and back
+    // count for translucent surfaces), each sampled over its area or solid angle.
     const float lightChoice = sampler.next1D();
     const Vec2f lightSample = sampler.next2D();
     const Vec3f facingNormal =
         dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
     const Receiver receiver{hit->position, bsdf.hasTransmission() ? Vec3f() : facingNormal};
-    const std::optional<LightSampler::Choice> choice =
-        !bsdf.isPurelySpecular() && settings.directLighting != DirectLighting::BsdfSamplingOnly
-            ? scene.lightSampler().sample(receiver, lightChoice)
-            : std::nullopt;
-    if (choice) {
-      const size_t index = choice->index;
-      const Light& light = lights[index];
+    const auto sampleLight = [&](const LightSampler::Choice& choice) {
+      const Light& light = lights[choice.index];
       const std::optional<LightSample> sample =
           light.sample(hit->position, lightSample, receiver.normal);
       Vec3f diffusePart;
       const Vec3f f = sample && sample->pdf > 0 ? bsdf.evaluate(wo, sample->direction, &diffusePart)
                                                 : Vec3f(0.0f);
-      if (!isBlack(f)) {
-        const float tFar =
-            std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
-        result.rays += light.castsShadows();
-        if (!light.castsShadows() ||
-            !scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time))) {
-          const float lightPdf = choice->probability * sample->pdf;
-          const float weight =
-              sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
-                  ? 1.0f
-                  : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
-          const Vec3f response = diffusePart * light.diffuseMultiplier() +
-                                 (f - diffusePart) * light.specularMultiplier();
-          result.radiance += clampIndirect(
-              throughput * response * spectrum.emission(sample->radiance) * (weight / lightPdf),
-              bounce + 1, settings.indirectClamp);
-        }
-      }
-    }
+      if (isBlack(f)) return;
+      const float tFar =
+          std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
+      result.rays += light.castsShadows();
+      if (light.castsShadows() &&
+          scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time)))
+        return;
+      const float lightPdf = choice.probability * sample->pdf;
+      const float weight =
+          sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
+              ? 1.0f
+              : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
+      const Vec3f response =
+          diffusePart * light.diffuseMultiplier() + (f - diffusePart) * light.specularMultiplier();
+      result.radiance += clampIndirect(
+          throughput * response * spectrum.emission(sample->radiance) * (weight / lightPdf),
+          bounce + 1, settings.indirectClamp);
+    };
+    if (!bsdf.isPurelySpecular() && settings.directLighting != DirectLighting::BsdfSamplingOnly)
+      scene.lightSampler().forEachChoice(receiver, lightChoice, sampleLight);
 
     // BSDF sampling continues the path.
     const float lobeChoice = sampler.next1D();

@@ -158,57 +158,50 @@ std::optional<float> LightSampler::firstChildProbability(const Node& parent,
   return first / (first + second);
 }
 
-float LightSampler::localShare(const Receiver& receiver) const {
-  if (nodes_.empty()) return 0;
-  const float local = nodes_[0].bounds.importance(receiver);
-  if (!(local > 0)) return 0;  // no local light can reach the receiver
-  if (infinite_.empty()) return 1;
-  const float share = local / (local + infiniteTotal(receiver));
-  return std::clamp(share, kMinSetShare, 1 - kMinSetShare);
+std::optional<LightSampler::Choice> LightSampler::sampleLocal(const Receiver& receiver,
+                                                              float u) const {
+  if (nodes_.empty()) return std::nullopt;
+  float probability = 1;
+  uint32_t node = 0;
+  while (!nodes_[node].leaf) {
+    const Node& parent = nodes_[node];
+    const std::optional<float> first = firstChildProbability(parent, receiver);
+    if (!first) return std::nullopt;
+    const float pFirst = *first;
+    if (u < pFirst) {
+      u = std::min(u / pFirst, 0x1.fffffep-1f);
+      probability *= pFirst;
+      node = parent.children[0];
+    } else {
+      u = std::min((u - pFirst) / (1 - pFirst), 0x1.fffffep-1f);
+      probability *= 1 - pFirst;
+      node = parent.children[1];
+    }
+  }
+  // A lone light's node bounds are never tested by a walk: test them here.
+  if (node == 0 && !(nodes_[0].bounds.importance(receiver) > 0)) return std::nullopt;
+  return Choice{nodes_[node].light, probability};
 }
 
-std::optional<LightSampler::Choice> LightSampler::sample(const Receiver& receiver, float u) const {
-  const float localProbability = localShare(receiver);
-  if (u < localProbability) {
-    u = std::min(u / localProbability, 0x1.fffffep-1f);
-    float probability = localProbability;
-    uint32_t node = 0;
-    while (!nodes_[node].leaf) {
-      const Node& parent = nodes_[node];
-      const std::optional<float> first = firstChildProbability(parent, receiver);
-      if (!first) return std::nullopt;
-      const float pFirst = *first;
-      if (u < pFirst) {
-        u = std::min(u / pFirst, 0x1.fffffep-1f);
-        probability *= pFirst;
-        node = parent.children[0];
-      } else {
-        u = std::min((u - pFirst) / (1 - pFirst), 0x1.fffffep-1f);
-        probability *= 1 - pFirst;
-        node = parent.children[1];
-      }
-    }
-    return Choice{nodes_[node].light, probability};
-  }
+std::optional<LightSampler::Choice> LightSampler::sampleInfinite(const Receiver& receiver,
+                                                                 float u) const {
   if (infinite_.empty()) return std::nullopt;
-  u = (u - localProbability) / (1 - localProbability);
   const float total = infiniteTotal(receiver);
   float cumulative = 0;
   for (size_t i = 0; i < infinite_.size(); ++i) {
     const float weight = infiniteWeight(i, receiver);
     cumulative += weight;
     if (u * total < cumulative || i + 1 == infinite_.size())
-      return Choice{infinite_[i].index, (1 - localProbability) * weight / total};
+      return Choice{infinite_[i].index, weight / total};
   }
   return std::nullopt;
 }
 
 float LightSampler::probability(const Receiver& receiver, size_t index) const {
-  const float localProbability = localShare(receiver);
   const LeafPath& path = paths_[index];
   if (path.depth >= 0) {
-    if (!(localProbability > 0)) return 0;
-    float probability = localProbability;
+    if (path.depth == 0 && !(nodes_[0].bounds.importance(receiver) > 0)) return 0;
+    float probability = 1;
     uint32_t node = 0;
     for (int level = 0; level < path.depth; ++level) {
       const Node& parent = nodes_[node];
@@ -222,7 +215,9 @@ float LightSampler::probability(const Receiver& receiver, size_t index) const {
   }
   for (size_t i = 0; i < infinite_.size(); ++i)
     if (infinite_[i].index == index)
-      return (1 - localProbability) * infiniteWeight(i, receiver) / infiniteTotal(receiver);
+      return infinite_.size() <= kInfiniteLightsSampledEach
+                 ? 1.0f
+                 : infiniteWeight(i, receiver) / infiniteTotal(receiver);
   return 0;
 }
 

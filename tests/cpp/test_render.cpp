@@ -523,12 +523,11 @@ TEST(Render, ManyLightsSumToTheirAnalyticIrradiance) {
 }
 
 TEST(Render, AHiddenDomeDoesNotStarveTheLightInAClosedRoom) {
-  // A closed room lit by a 1 m² ceiling panel; a bright dome outside cannot reach the floor. The
-  // dome changes nothing in the mean, and the panel keeps at least a quarter of the light
-  // samples: at 16 spp the relative noise per pixel stays far below the sqrt(3 / 16) = 43 %
-  // that an unstratified quarter would give (measured: 0.4 % without the dome, 3.7 % with it;
-  // choosing lights by power gave the panel 2 % of the samples).
-  const auto renderRoom = [](bool withDome, int seed) {
+  // A closed room lit by a 1 m² ceiling panel; a bright dome outside cannot reach the floor.
+  // Infinite and local lights are sampled apart, so the dome changes nothing: the image is the
+  // same bit for bit (choosing one light per point, even with the panel kept at a quarter of
+  // the samples, multiplied the noise by 9; choosing by power, by 1,000).
+  const auto renderRoom = [](bool withDome) {
     RenderDelegate delegate;
     const float s = 2, h = 3;
     delegate.insertRprim("mesh", "/room");
@@ -554,21 +553,11 @@ TEST(Render, AHiddenDomeDoesNotStarveTheLightInAClosedRoom) {
     }
     addCamera(delegate, facingDown(0.5, 2, 0.5), 20);
     delegate.settings().set("maxPathDepth", 1);
-    delegate.settings().set("seed", seed);
     return render(delegate, 16, 16, 16);
   };
-  const auto noise = [](const std::vector<float>& a, const std::vector<float>& b) {
-    double sum = 0;
-    for (size_t i = 0; i < a.size(); i += 4) sum += (a[i] - b[i]) * (a[i] - b[i]);
-    return std::sqrt(sum / double(a.size() / 4) / 2);
-  };
-  const std::vector<float> room[2] = {renderRoom(false, 1), renderRoom(false, 2)};
-  const std::vector<float> domed[2] = {renderRoom(true, 1), renderRoom(true, 2)};
-  const double roomNoise = noise(room[0], room[1]), domedNoise = noise(domed[0], domed[1]);
-  const double mean = meanChannel(room[0], 0);
-  EXPECT_NEAR(meanChannel(domed[0], 0) / mean, 1.0, 0.02);
-  EXPECT_LT(domedNoise / mean, 0.08);
-  EXPECT_GT(domedNoise, roomNoise);  // the dome does take samples
+  const std::vector<float> room = renderRoom(false), domed = renderRoom(true);
+  EXPECT_GT(meanChannel(room, 0), 0.01);
+  EXPECT_EQ(domed, room);
 }
 
 namespace {
