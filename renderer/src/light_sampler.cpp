@@ -158,11 +158,16 @@ std::optional<float> LightSampler::firstChildProbability(const Node& parent,
   return first / (first + second);
 }
 
-std::optional<LightSampler::Choice> LightSampler::sampleLocal(const Receiver& receiver,
-                                                              float u) const {
-  if (nodes_.empty()) return std::nullopt;
+bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
+  if (node.leaf) return false;
+  const Vec3f offset = receiver.position - node.bounds.centroid();
+  const Vec3f diagonal = node.bounds.upper - node.bounds.lower;
+  return dot(offset, offset) < 0.25f * dot(diagonal, diagonal);
+}
+
+std::optional<LightSampler::Choice> LightSampler::walk(uint32_t node, const Receiver& receiver,
+                                                       float u) const {
   float probability = 1;
-  uint32_t node = 0;
   while (!nodes_[node].leaf) {
     const Node& parent = nodes_[node];
     const std::optional<float> first = firstChildProbability(parent, receiver);
@@ -178,8 +183,6 @@ std::optional<LightSampler::Choice> LightSampler::sampleLocal(const Receiver& re
       node = parent.children[1];
     }
   }
-  // A lone light's node bounds are never tested by a walk: test them here.
-  if (node == 0 && !(nodes_[0].bounds.importance(receiver) > 0)) return std::nullopt;
   return Choice{nodes_[node].light, probability};
 }
 
@@ -200,16 +203,22 @@ std::optional<LightSampler::Choice> LightSampler::sampleInfinite(const Receiver&
 float LightSampler::probability(const Receiver& receiver, size_t index) const {
   const LeafPath& path = paths_[index];
   if (path.depth >= 0) {
-    if (path.depth == 0 && !(nodes_[0].bounds.importance(receiver) > 0)) return 0;
+    if (!(nodes_[0].bounds.importance(receiver) > 0)) return 0;
     float probability = 1;
+    bool splitting = true;  // the levels above went down both children
     uint32_t node = 0;
     for (int level = 0; level < path.depth; ++level) {
       const Node& parent = nodes_[node];
+      const int branch = int((path.branches >> level) & 1u);
+      node = parent.children[branch];
+      splitting = splitting && level < kMaxSplitDepth && splits(parent, receiver);
+      if (splitting) {
+        if (!(nodes_[node].bounds.importance(receiver) > 0)) return 0;
+        continue;
+      }
       const std::optional<float> first = firstChildProbability(parent, receiver);
       if (!first) return 0;
-      const int branch = int((path.branches >> level) & 1u);
       probability *= branch ? 1 - *first : *first;
-      node = parent.children[branch];
     }
     return probability;
   }

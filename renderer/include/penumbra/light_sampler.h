@@ -8,8 +8,12 @@
 //   then never compete), otherwise one, chosen by its estimated irradiance;
 // - local lights, organised in a light tree (Conty Estevez & Kulla 2018, "Importance Sampling of
 //   Many Lights with Adaptive Tree Splitting"): each node bounds its lights' positions, emitted
-//   power and emission directions, and a single walk from the root picks one light with
-//   probability proportional to the bound on what each subtree can contribute to the point.
+//   power and emission directions, and a walk from the root picks one light with probability
+//   proportional to the bound on what each subtree can contribute to the point. Near the top
+//   of the tree, where the point lies within a node's bounding sphere, that bound says least
+//   about which child gives more: there the walk splits and goes down both children (adaptive
+//   tree splitting, Conty Estevez & Kulla 2018 §5), so that up to 2^kMaxSplitDepth local lights
+//   are sampled at a point among many lights.
 //
 // Each choice is a strategy of its own, so the estimate sums them. Every probability is a pure
 // function of (point, normal, light), so that the integrator can weigh emission met by
@@ -28,6 +32,8 @@ class LightSampler {
  public:
   /// Up to this many infinite lights, each is sampled at every shading point.
   static constexpr size_t kInfiniteLightsSampledEach = 4;
+  /// The walk through the light tree may split at the first this many levels.
+  static constexpr int kMaxSplitDepth = 2;
 
   LightSampler() = default;
   explicit LightSampler(const std::vector<Light>& lights);
@@ -46,12 +52,11 @@ class LightSampler {
     } else if (const std::optional<Choice> choice = sampleInfinite(receiver, u)) {
       visit(*choice);
     }
-    if (const std::optional<Choice> choice = sampleLocal(receiver, u)) visit(*choice);
+    if (!nodes_.empty() && nodes_[0].bounds.importance(receiver) > 0)
+      visitLocal(0, 0, receiver, u, visit);
   }
   /// The probability that forEachChoice() visits light `index` at the receiver.
   float probability(const Receiver& receiver, size_t index) const;
-  /// One local light from the tree; none when no local light can reach the receiver.
-  std::optional<Choice> sampleLocal(const Receiver& receiver, float u) const;
   /// One infinite light, chosen in proportion to its estimated irradiance at the receiver.
   std::optional<Choice> sampleInfinite(const Receiver& receiver, float u) const;
 
@@ -71,6 +76,23 @@ class LightSampler {
     int depth = -1;         // -1: not a local light
   };
 
+  /// Visits the local lights chosen below `node` (at `depth`, reached with probability 1).
+  template <class Visit>
+  void visitLocal(uint32_t node, int depth, const Receiver& receiver, float u, Visit& visit) const {
+    const Node& parent = nodes_[node];
+    if (depth < kMaxSplitDepth && splits(parent, receiver)) {
+      for (const uint32_t child : parent.children)
+        if (nodes_[child].bounds.importance(receiver) > 0)
+          visitLocal(child, depth + 1, receiver, u, visit);
+    } else if (const std::optional<Choice> choice = walk(node, receiver, u)) {
+      visit(*choice);
+    }
+  }
+  /// Whether the walk goes down both children of `node` at the receiver (below the split depth).
+  bool splits(const Node& node, const Receiver& receiver) const;
+  /// One light below `node`, chosen by a single walk from it; its probability is relative to
+  /// reaching `node`.
+  std::optional<Choice> walk(uint32_t node, const Receiver& receiver, float u) const;
   /// Builds the subtree of lights[begin, end) whose root is reached by `path`; returns its index.
   uint32_t build(std::vector<uint32_t>& lights, size_t begin, size_t end,
                  const std::vector<LightBounds>& bounds, LeafPath path);
