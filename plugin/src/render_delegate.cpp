@@ -35,7 +35,9 @@ const std::map<std::string, SettingField>& settingFields() {
       {"adaptiveThreshold", {nullptr, &RenderSettingsMap::adaptiveThreshold, 0, 1}},
       {"adaptiveMinSamples", intSetting(&RenderSettingsMap::adaptiveMinSamples, 2)},
       {"indirectClamp",
-       {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}}};
+       {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}},
+      {"glossyFilter",
+       {nullptr, &RenderSettingsMap::glossyFilter, 0, std::numeric_limits<float>::max()}}};
   return fields;
 }
 

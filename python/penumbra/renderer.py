@@ -167,6 +167,7 @@ class Renderer:
         adaptive_threshold: float = 0.0,
         adaptive_min_samples: int = 16,
         indirect_clamp: float = 0.0,
+        glossy_filter: float = 0.0,
         max_memory: int | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
@@ -194,7 +195,9 @@ class Renderer:
         the threshold, so ``samples`` becomes a cap; the image stays a pure function of (scene,
         seed, samples, threshold). ``indirect_clamp`` > 0 limits each sample of indirect light
         (two or more surface interactions) to that largest component, as Cycles' "clamp
-        indirect": fewer fireflies, a darker (biased) image; off by default. ``max_memory``: bytes the process may hold (default: 80% of
+        indirect": fewer fireflies, a darker (biased) image; off by default. ``glossy_filter`` > 0
+        blurs sharp lobes met after rougher bounces, as Cycles' "filter glossy" (1 is
+        Cycles' default): caustics converge much sooner, biased; off by default. ``max_memory``: bytes the process may hold (default: 80% of
         physical memory), checked before the scene is synced and before a new size's film is
         allocated. Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
@@ -262,6 +265,7 @@ class Renderer:
             ("adaptiveThreshold", adaptive_threshold),
             ("adaptiveMinSamples", adaptive_min_samples),
             ("indirectClamp", indirect_clamp),
+            ("glossyFilter", glossy_filter),
         ):
             self.delegate.set_render_setting(key, value)
         started = clock.perf_counter()
@@ -285,6 +289,7 @@ class Renderer:
             "rays": render_pass.rays_traced,
             "adaptiveThreshold": adaptive_threshold,
             "indirectClamp": indirect_clamp,
+            "glossyFilter": glossy_filter,
             "seed": seed,
             "renderTimeSeconds": round(elapsed, 3),
             "version": _core.version(),

@@ -102,8 +102,26 @@ Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, 
 
 /// The scattering function at a hit. `ior`: the material's, or its value at the hero
 /// wavelength under dispersion.
-PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior) {
+/// The GGX α below which the glossy filter (IntegratorSettings::glossyFilter) does not let lobes
+/// go, after bounces whose smallest direction density was `minRayPdf`; 0 where it does not act.
+float filteredAlpha(float glossyFilter, float minRayPdf) {
+  const float blurPdf = glossyFilter * minRayPdf;
+  return glossyFilter > 0 && blurPdf < 1 ? 0.5f * std::sqrt(1 - blurPdf) : 0.0f;
+}
+
+/// Roughness (√α) raised to `minAlpha`'s; transmissionRoughness < 0 follows roughness already.
+void raiseRoughness(MaterialParams& material, float minAlpha) {
+  const float minRoughness = std::sqrt(minAlpha);
+  material.roughness = std::max(material.roughness, minRoughness);
+  material.clearcoatRoughness = std::max(material.clearcoatRoughness, minRoughness);
+  if (material.transmissionRoughness >= 0)
+    material.transmissionRoughness = std::max(material.transmissionRoughness, minRoughness);
+}
+
+PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior,
+                            float minAlpha) {
   MaterialParams material = hit.material;
+  if (minAlpha > 0) raiseRoughness(material, minAlpha);
   if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
   material.diffuseColor = spectrum.reflectance(material.diffuseColor);
   // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
@@ -133,7 +151,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   Vec3f throughput{1.0f};
   ScatteringRecord scattering;
   int diffuseBounces = 0, glossyBounces = 0, transmissionBounces = 0;
-  bool lastVertex = false;  // a lobe's depth is exhausted: only collect what the ray reaches
+  bool lastVertex = false;      // a lobe's depth is exhausted: only collect what the ray reaches
+  float minRayPdf = kInfinity;  // the smallest density of a scattered direction so far
   const std::vector<Light>& lights = scene.lights();
 
   for (int bounce = 0;; ++bounce) {
@@ -182,7 +201,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       throughput = {throughput.x, 0, 0};
       ior = dispersiveIor(ior, hit->material.abbeNumber, spectrum.wavelengths.hero());
     }
-    const PreviewSurfaceBsdf bsdf = makeBsdf(*hit, spectrum, ior);
+    const PreviewSurfaceBsdf bsdf =
+        makeBsdf(*hit, spectrum, ior, filteredAlpha(settings.glossyFilter, minRayPdf));
 
     // Next-event estimation: every infinite light (or one, when there are many) and one local
     // light chosen by its estimated contribution here (lights on the surface's front and back
@@ -232,6 +252,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         scattered->transmitted)
       break;
     throughput *= scattered->weight;
+    if (!scattered->isDelta) minRayPdf = std::min(minRayPdf, scattered->pdf);
     scattering = {scattered->isDelta ? 0.0f : scattered->pdf, true,
                   scattered->lobe == BsdfLobe::Diffuse, receiver};
     int& lobeBounces = scattered->lobe == BsdfLobe::Diffuse        ? diffuseBounces
