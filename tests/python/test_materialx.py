@@ -304,3 +304,25 @@ def test_mtlx_document_parameters_reach_the_delegate():
     assert checker["sourceColorSpace"] == "sRGB"
     assert checker["file"] == str(MATERIALX_ASSETS / "quadrants.png")
     assert params("M_plastic")["clearcoat"] == 1.0
+
+
+def test_geompropvalue_reads_a_primvar_and_non_finite_values_warn():
+    from penumbra.usd.material import read_material
+    from penumbra.usd.sampling import SampleReader
+
+    stage = new_stage()
+    surface = add_mtlx_material(stage, "/Looks/m", "ND_standard_surface_surfaceshader",
+                                emission_color=(float("inf"), 0.0, 0.0), emission=1.0)
+    reader = UsdShade.Shader.Define(stage, "/Looks/m/tint")
+    reader.CreateIdAttr("ND_geompropvalue_color3")
+    reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("tint")
+    reader.CreateInput("default", Sdf.ValueTypeNames.Color3f).Set((0.1, 0.2, 0.3))
+    surface.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        reader.CreateOutput("out", Sdf.ValueTypeNames.Color3f))
+    messages = []
+    params = read_material(stage.GetPrimAtPath("/Looks/m"), SampleReader(Usd.TimeCode(1)),
+                           messages.append).params
+    assert params["diffuseColor"] == {"primvar": "tint", "fallback": pytest.approx((0.1, 0.2, 0.3))}
+    assert "emissiveColor" not in params
+    assert messages == ["/Looks/m: MaterialX node /Looks/m/Surface: emissiveColor is not "
+                        "finite; its default is used"]

@@ -67,11 +67,20 @@ def definition_default(shader_id: str, name: str) -> mv.Constant | None:
 
 
 def surface_shader(material: Usd.Prim) -> UsdShade.Shader | None:
-    """The MaterialX surface shader of ``material``, if its surface is one."""
-    for context in (RENDER_CONTEXT, UsdShade.Tokens.universalRenderContext):
-        shader, _, _ = UsdShade.Material(material).ComputeSurfaceSource(context)
-        if shader and (shader.GetShaderId() or "").startswith("ND_"):
+    """The MaterialX surface shader of ``material``: its ``mtlx`` surface, else its universal
+    one, whichever is a surface Penumbra maps; ``None`` when it has none (or a UsdPreviewSurface
+    beside an unsupported MaterialX surface)."""
+    shaders = [UsdShade.Material(material).ComputeSurfaceSource(context)[0]
+               for context in (RENDER_CONTEXT, UsdShade.Tokens.universalRenderContext)]
+    ids = [(shader.GetShaderId() or "") if shader else "" for shader in shaders]
+    for shader, shader_id in zip(shaders, ids):
+        if shader_id in SURFACES:
             return shader
+    if ids[1] == "UsdPreviewSurface":
+        return None  # an unsupported MaterialX surface beside a UsdPreviewSurface: use that
+    for shader, shader_id in zip(shaders, ids):
+        if shader_id.startswith("ND_"):
+            return shader  # unsupported: read_materialx_material warns and renders defaults
     return None
 
 
@@ -152,28 +161,15 @@ class _Network:
         key = (shader.GetPath(), output)
         if key not in self._memo:
             self.data.sources.add(shader.GetPath())
-            if shader.GetPrim().IsA(UsdShade.NodeGraph) and not shader.GetPrim().IsA(
-                UsdShade.Shader
-            ):
-                self._memo[key] = self._graph_output(shader, output)
-            else:
-                try:
-                    self._memo[key] = self._evaluate(shader, output)
-                except mv.Untranslatable as error:
-                    if not getattr(error, "node", None):
-                        error.node = shader.GetPath()  # type: ignore[attr-defined]
-                    raise
+            try:
+                if not shader.GetPrim().IsA(UsdShade.Shader):
+                    raise mv.Untranslatable(f"output {output} is not connected to a node")
+                self._memo[key] = self._evaluate(shader, output)
+            except mv.Untranslatable as error:
+                if error.node is None:
+                    error.node = shader.GetPath()
+                raise
         return self._memo[key]
-
-    def _graph_output(self, graph: UsdShade.Shader, output: str) -> mv.Value:
-        """A node graph's output, followed to the node that drives it."""
-        graph_output = UsdShade.NodeGraph(graph.GetPrim()).GetOutput(output)
-        sources = graph_output.GetConnectedSources()[0] if graph_output else []
-        if not sources:
-            raise mv.Untranslatable(f"output {output} of node graph {graph.GetPath()} is not "
-                                    "connected")
-        source = sources[0]
-        return self.node(UsdShade.Shader(source.source.GetPrim()), source.sourceName)
 
     def _evaluate(self, shader: UsdShade.Shader, output: str) -> mv.Value:
         shader_id = shader.GetShaderId() or ""
@@ -253,8 +249,8 @@ class _Network:
             self.report(shader.GetPath(), f"colour space {space!r} is not supported; the file's "
                         "own metadata decides (sRGB for 8-bit images)")
             texture["sourceColorSpace"] = "auto"
-        else:
-            texture["sourceColorSpace"] = "auto" if size >= 3 else "raw"
+        else:  # MaterialX: no colour space is the working space (linear), for every type
+            texture["sourceColorSpace"] = "raw"
         coordinates = self.input(shader, "texcoord")
         if coordinates is None:
             coordinates = mv.identity(2, primvar="st", fallback=(0.0, 0.0))
@@ -325,7 +321,7 @@ class _Surface:
         try:
             return self.network.input(self.shader, name)
         except mv.Untranslatable as error:
-            node = getattr(error, "node", None) or self.shader.GetPath()
+            node = error.node or self.shader.GetPath()
             self.network.report(node, f"{error}; {self.shader.GetPath().name}.{name} uses its "
                                 "default value")
             return self.network.default(self.shader, name)
@@ -563,10 +559,20 @@ def read_materialx_material(
             continue
         if name == "normal" and not isinstance(param, dict):
             continue
-        if not isinstance(param, dict) and not all(
-            math.isfinite(c) for c in (param if isinstance(param, tuple) else (param,))
-        ):
+        if not _finite(param):
             network.report(shader.GetPath(), f"{name} is not finite; its default is used")
             continue
         data.params[name] = param
     return data
+
+
+def _finite(param: Any) -> bool:
+    """Whether every number of a parameter (a texture's scale, bias and fallback included) is
+    finite: nothing else may reach the renderer."""
+    if isinstance(param, dict):
+        return all(_finite(v) for v in param.values())
+    if isinstance(param, (tuple, list)):
+        return all(_finite(v) for v in param)
+    if isinstance(param, float):
+        return math.isfinite(param)
+    return True

@@ -20,7 +20,12 @@ from typing import Any
 
 
 class Untranslatable(Exception):
-    """A node or combination the renderer cannot evaluate; the message says why."""
+    """A node or combination the renderer cannot evaluate; the message says why, ``node`` (set
+    by the network reader) where."""
+
+    def __init__(self, reason: str, node: Any = None):
+        super().__init__(reason)
+        self.node = node
 
 
 @dataclass(frozen=True)
