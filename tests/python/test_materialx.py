@@ -326,3 +326,12 @@ def test_geompropvalue_reads_a_primvar_and_non_finite_values_warn():
     assert "emissiveColor" not in params
     assert messages == ["/Looks/m: MaterialX node /Looks/m/Surface: emissiveColor is not "
                         "finite; its default is used"]
+
+
+def test_mix_of_a_value_with_itself_or_by_0_or_1_needs_no_folding():
+    other = mv.identity(3, texture={"file": "u.png"})
+    assert mv.mix(TEXTURE, TEXTURE, other) == TEXTURE  # OpenChessSet's subsurface mix
+    assert mv.mix(TEXTURE, other, mv.Constant((1.0,))) == TEXTURE
+    assert mv.mix(TEXTURE, other, mv.Constant((0.0,))) == other
+    with pytest.raises(mv.Untranslatable):
+        mv.mix(TEXTURE, other, mv.Constant((0.5,)))

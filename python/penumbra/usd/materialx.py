@@ -336,18 +336,20 @@ class _Surface:
         shader_input = self.shader.GetInput(name)
         return bool(shader_input) and shader_input.HasConnectedSource()
 
-    def combine(self, how: Callable[..., mv.Value], *values: mv.Value | None,
-                what: str) -> mv.Value | None:
-        """``how(*values)``, else (after a warning) the first varying operand."""
-        present = [v for v in values if v is not None]
-        if len(present) != len(values):
-            return present[0] if present else None
+    def combine(self, how: Callable[..., mv.Value], *operands: tuple[str, mv.Value | None],
+                keep: int) -> mv.Value | None:
+        """``how`` applied to the named operands' values, else (after a warning naming them)
+        the value of ``operands[keep]``."""
+        values = [value for _, value in operands]
+        if any(v is None for v in values):
+            return values[keep]
         try:
-            return how(*present)
+            return how(*values)
         except mv.Untranslatable as error:
-            self.network.report(self.shader.GetPath(), f"{what}: {error}; only the varying "
-                                "input is used")
-            return next(v for v in present if isinstance(v, mv.Affine))
+            names = ", ".join(name for name, _ in operands)
+            self.network.report(self.shader.GetPath(), f"combining {names}: {error}; "
+                                f"{operands[keep][0]} alone is used")
+            return values[keep]
 
     def ignore(self, name: str, neutral: tuple[float, ...], weight: str | None = None,
                tolerance: float = 1e-6) -> None:
@@ -432,23 +434,24 @@ def _mean(value: mv.Value) -> mv.Value:
 
 
 def _map_standard_surface(s: _Surface, mapping: _Mapping) -> None:
-    base = s.combine(mv.multiply, s("base"), s("base_color"), what="base × base_color")
+    base = s.combine(mv.multiply, ("base", s("base")), ("base_color", s("base_color")),
+                     keep=1)
     if s.connected("subsurface") or (s.constant("subsurface") or (0.0,))[0] > 0:
-        base = s.combine(mv.mix, s("subsurface_color"), base, s("subsurface"),
-                         what="subsurface mix (approximated as diffuse)")
+        base = s.combine(mv.mix, ("subsurface_color", s("subsurface_color")),
+                         ("base_color", base), ("subsurface", s("subsurface")), keep=1)
     roughness = s.constant("specular_roughness")
     extra = s.constant("transmission_extra_roughness")
     mapping.map(
         base=base, metalness=s("metalness"), roughness=s("specular_roughness"),
         ior=s("specular_IOR"),
-        specular_tint=s.combine(mv.multiply, s("specular"), s("specular_color"),
-                                what="specular × specular_color"),
+        specular_tint=s.combine(mv.multiply, ("specular", s("specular")),
+                                ("specular_color", s("specular_color")), keep=1),
         coat=s("coat"), coat_roughness=s("coat_roughness"), transmission=s("transmission"),
         transmission_roughness=roughness[0] + extra[0] if roughness and extra else None,
         abbe_number=(s.constant("transmission_dispersion") or (0.0,))[0],
         thin_walled=s("thin_walled"),
-        emission=s.combine(mv.multiply, s("emission"), s("emission_color"),
-                           what="emission × emission_color"),
+        emission=s.combine(mv.multiply, ("emission", s("emission")),
+                           ("emission_color", s("emission_color")), keep=1),
         opacity=s("opacity"), normal=s("normal") if s.connected("normal") else None,
     )
     for name, neutral, weight in (
@@ -464,27 +467,28 @@ def _map_standard_surface(s: _Surface, mapping: _Mapping) -> None:
 
 
 def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
-    base = s.combine(mv.multiply, s("base_weight"), s("base_color"),
-                     what="base_weight × base_color")
+    base = s.combine(mv.multiply, ("base_weight", s("base_weight")),
+                     ("base_color", s("base_color")), keep=1)
     if s.connected("subsurface_weight") or (s.constant("subsurface_weight") or (0.0,))[0] > 0:
-        base = s.combine(mv.mix, s("subsurface_color"), base, s("subsurface_weight"),
-                         what="subsurface mix (approximated as diffuse)")
+        base = s.combine(mv.mix, ("subsurface_color", s("subsurface_color")),
+                         ("base_color", base), ("subsurface_weight", s("subsurface_weight")),
+                         keep=1)
     dispersion = (s.constant("transmission_dispersion_scale") or (0.0,))[0]
     abbe = (s.constant("transmission_dispersion_abbe_number") or (0.0,))[0]
     roughness = s.constant("specular_roughness")
     mapping.map(
         base=base, metalness=s("base_metalness"), roughness=s("specular_roughness"),
         ior=s("specular_ior"),
-        specular_tint=s.combine(mv.multiply, s("specular_weight"), s("specular_color"),
-                                what="specular_weight × specular_color"),
+        specular_tint=s.combine(mv.multiply, ("specular_weight", s("specular_weight")),
+                                ("specular_color", s("specular_color")), keep=1),
         coat=s("coat_weight"), coat_roughness=s("coat_roughness"),
         transmission=s("transmission_weight"),
         transmission_roughness=roughness[0] if roughness else None,
         # OpenPBR: the effective Abbe number is the authored one divided by the scale.
         abbe_number=abbe / dispersion if dispersion > 0 and abbe > 0 else 0.0,
         thin_walled=s("geometry_thin_walled"),
-        emission=s.combine(mv.multiply, s("emission_luminance"), s("emission_color"),
-                           what="emission_luminance × emission_color"),
+        emission=s.combine(mv.multiply, ("emission_luminance", s("emission_luminance")),
+                           ("emission_color", s("emission_color")), keep=1),
         opacity=s("geometry_opacity"),
         normal=s("geometry_normal") if s.connected("geometry_normal") else None,
     )

@@ -134,6 +134,12 @@ def reciprocal(value: Value) -> Value:
 
 def mix(foreground: Value, background: Value, amount: Value) -> Value:
     """MaterialX mix: ``background + (foreground − background) · amount``."""
+    if foreground == background:
+        return foreground
+    if isinstance(amount, Constant) and set(amount.values) <= {0.0, 1.0} and len(
+        set(amount.values)
+    ) == 1:
+        return foreground if amount.values[0] == 1.0 else background
     if isinstance(amount, Constant):
         one_minus = affine(amount, Constant((-1.0,)), Constant((1.0,)))
         return add(multiply(foreground, amount), multiply(background, one_minus))
