@@ -335,3 +335,36 @@ def test_mix_of_a_value_with_itself_or_by_0_or_1_needs_no_folding():
     assert mv.mix(TEXTURE, other, mv.Constant((0.0,))) == other
     with pytest.raises(mv.Untranslatable):
         mv.mix(TEXTURE, other, mv.Constant((0.5,)))
+
+
+@pytest.mark.parametrize(
+    "node_def, inputs, expected",
+    [
+        # Geometric opacity is a cut-out at 0.5.
+        ("ND_standard_surface_surfaceshader", {"opacity": (0.2, 0.2, 0.2)},
+         {"opacity": 0.2, "opacityThreshold": 0.5}),
+        ("ND_open_pbr_surface_surfaceshader", {"geometry_opacity": 0.0},
+         {"opacity": 0.0, "opacityThreshold": 0.5}),
+        # Transmission is the translucent part; thin_walled makes it a sheet.
+        ("ND_standard_surface_surfaceshader",
+         {"transmission": 0.75, "thin_walled": True, "transmission_dispersion": 30.0},
+         {"opacity": 0.25, "opacityThreshold": 0.0, "penumbra:thinWalled": 1,
+          "penumbra:abbeNumber": 30.0}),
+        # A tinted dielectric specular goes through the specular workflow: F0(1.5) = 0.04.
+        ("ND_standard_surface_surfaceshader", {"specular": 0.5},
+         {"useSpecularWorkflow": 1, "specularColor": (0.02, 0.02, 0.02)}),
+        ("ND_open_pbr_surface_surfaceshader", {"emission_luminance": 4.0,
+                                               "emission_color": (1.0, 0.5, 0.25)},
+         {"emissiveColor": (4.0, 2.0, 1.0)}),
+    ],
+)
+def test_surface_inputs_map_onto_preview_surface_parameters(node_def, inputs, expected):
+    from penumbra.usd.material import read_material
+    from penumbra.usd.sampling import SampleReader
+
+    stage = new_stage()
+    add_mtlx_material(stage, "/Looks/m", node_def, **inputs)
+    params = read_material(stage.GetPrimAtPath("/Looks/m"), SampleReader(Usd.TimeCode(1)),
+                           pytest.fail).params
+    for name, value in expected.items():
+        assert params[name] == pytest.approx(value), name

@@ -255,10 +255,10 @@ class _Network:
         if coordinates is None:
             coordinates = mv.identity(2, primvar="st", fallback=(0.0, 0.0))
         if category == "tiledimage":
-            tiling = value_or(self.input(shader, "uvtiling"), (1.0, 1.0))
-            offset = value_or(self.input(shader, "uvoffset"), (0.0, 0.0))
-            image_size = value_or(self.input(shader, "realworldimagesize"), (1.0, 1.0))
-            tile_size = value_or(self.input(shader, "realworldtilesize"), (1.0, 1.0))
+            tiling = _constant_or(self.input(shader, "uvtiling"), (1.0, 1.0))
+            offset = _constant_or(self.input(shader, "uvoffset"), (0.0, 0.0))
+            image_size = _constant_or(self.input(shader, "realworldimagesize"), (1.0, 1.0))
+            tile_size = _constant_or(self.input(shader, "realworldtilesize"), (1.0, 1.0))
             ratio = tuple(t / i if i else 1.0 for t, i in zip(tile_size, image_size))
             coordinates = mv.affine(
                 coordinates,
@@ -297,7 +297,7 @@ class _Network:
         return mv.Affine(value.channels, value.scale, value.bias, texture)
 
 
-def value_or(value: mv.Value | None, default: tuple[float, ...]) -> tuple[float, ...]:
+def _constant_or(value: mv.Value | None, default: tuple[float, ...]) -> tuple[float, ...]:
     if value is None:
         return default
     if not isinstance(value, mv.Constant):
@@ -403,8 +403,9 @@ class _Mapping:
         elif specular_tint is not None and tint is None:
             self.surface.unsupported.append("varying specular weight or colour")
         transmits = not (isinstance(transmission, mv.Constant) and transmission.values[0] == 0)
-        cut_out = not (isinstance(opacity, mv.Constant)
-                       and all(v == 1.0 for v in opacity.values))
+        cut_out = opacity is not None and not (
+            isinstance(opacity, mv.Constant) and all(v == 1.0 for v in opacity.values)
+        )
         if transmits and transmission is not None:
             values["opacity"] = mv.affine(transmission, mv.Constant((-1.0,)),
                                           mv.Constant((1.0,)))
@@ -547,7 +548,11 @@ def read_materialx_material(
         network.report(shader.GetPath(), f"{', '.join(surface.unsupported)} "
                        f"{'is' if len(surface.unsupported) == 1 else 'are'} not supported by "
                        "Penumbra's BSDF and ignored (docs/materialx.md)")
-    data.params.update(mapping.params)
+    for name, param in mapping.params.items():
+        if _finite(param):
+            data.params[name] = param
+        else:
+            network.report(shader.GetPath(), f"{name} is not finite; its default is used")
     for name, value in mapping.values.items():
         if value is None:
             continue
