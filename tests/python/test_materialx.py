@@ -38,14 +38,16 @@ def _type(value) -> Sdf.ValueTypeName:
     return Sdf.ValueTypeNames.Float
 
 
-def add_mtlx_material(stage: Usd.Stage, path: str, node_def: str, **inputs) -> UsdShade.Shader:
-    """A material whose outputs:mtlx:surface is a ``node_def`` shader with the given inputs."""
+def add_mtlx_material(stage: Usd.Stage, path: str, node_def: str, context: str = "mtlx",
+                      **inputs) -> UsdShade.Shader:
+    """A material whose ``context`` surface output (``outputs:mtlx:surface``, or
+    ``outputs:surface`` for context "") is a ``node_def`` shader with the given inputs."""
     material = UsdShade.Material.Define(stage, path)
     shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
     shader.CreateIdAttr(node_def)
     for name, value in inputs.items():
         shader.CreateInput(name, _type(value)).Set(value)
-    material.CreateSurfaceOutput("mtlx").ConnectToSource(
+    material.CreateSurfaceOutput(context).ConnectToSource(
         shader.CreateOutput("out", Sdf.ValueTypeNames.Token)
     )
     return shader
@@ -69,13 +71,13 @@ def diffuse_quad_stage() -> Usd.Stage:
     return stage
 
 
+@pytest.mark.parametrize("context", ["mtlx", ""])
 @pytest.mark.parametrize("surface", SURFACES)
-def test_diffuse_quad_under_a_white_dome_returns_its_base_colour(surface):
+def test_diffuse_quad_under_a_white_dome_returns_its_base_colour(surface, context):
     node_def, specular = SURFACES[surface]
     stage = diffuse_quad_stage()
-    base_color = "base_color"
-    add_mtlx_material(stage, "/World/Looks/clay", node_def, **{base_color: TERRACOTTA,
-                                                               specular: 0.0})
+    add_mtlx_material(stage, "/World/Looks/clay", node_def, context,
+                      **{"base_color": TERRACOTTA, specular: 0.0})
     bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")),
          UsdShade.Material(stage.GetPrimAtPath("/World/Looks/clay")))
     np.testing.assert_allclose(quad_radiance(stage), TERRACOTTA, rtol=0.02)
@@ -368,3 +370,17 @@ def test_surface_inputs_map_onto_preview_surface_parameters(node_def, inputs, ex
                            pytest.fail).params
     for name, value in expected.items():
         assert params[name] == pytest.approx(value), name
+
+
+def test_an_unsupported_materialx_surface_warns_and_renders_a_default_standard_surface():
+    stage = diffuse_quad_stage()
+    add_mtlx_material(stage, "/World/Looks/gltf", "ND_gltf_pbr_surfaceshader",
+                      base_color=(0.1, 0.9, 0.1))
+    bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")),
+         UsdShade.Material(stage.GetPrimAtPath("/World/Looks/gltf")))
+    with pytest.warns(penumbra.PenumbraWarning, match="/World/Looks/gltf: .*"
+                      "ND_gltf_pbr_surfaceshader is not supported"):
+        radiance = quad_radiance(stage)
+    # standard_surface's defaults: 0.8 grey under a specular layer that, over a white dome,
+    # gives back what it takes from the diffuse layer only partly (grey, not black, not green).
+    assert np.ptp(radiance) < 0.01 and 0.75 < radiance.mean() < 0.9

@@ -100,7 +100,7 @@ def _translate(file: str, stage: Usd.Stage, root: Sdf.Path, warn: Callable[[str]
         return False
     from .materialx import library
 
-    document.importLibrary(library())
+    document.setDataLibrary(library())  # node definitions, without copying them
     _Translator(document, stage, root, os.path.dirname(file)).run()
     return True
 
