@@ -132,6 +132,7 @@ class Renderer:
         dome_light_visibility: bool = True,
         film_windows: dict[str, FilmWindow] | None = None,
     ) -> None:
+        compose_materialx_documents(self.stage, warn)  # variant edits may bring in documents
         self._scene.update(shutter, depth_of_field, dome_light_visibility, film_windows)
         self._instancers.update(shutter)
 

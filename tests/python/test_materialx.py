@@ -384,3 +384,42 @@ def test_an_unsupported_materialx_surface_warns_and_renders_a_default_standard_s
     # standard_surface's defaults: 0.8 grey under a specular layer that, over a white dome,
     # gives back what it takes from the diffuse layer only partly (grey, not black, not green).
     assert np.ptp(radiance) < 0.01 and 0.75 < radiance.mean() < 0.9
+
+
+PAINT = """<?xml version="1.0"?>
+<materialx version="1.39">
+  <standard_surface name="paint" type="surfaceshader">
+    <input name="base_color" type="color3" value="{color}" />
+    <input name="specular" type="float" value="0" />
+  </standard_surface>
+  <surfacematerial name="M_paint" type="material">
+    <input name="surfaceshader" type="surfaceshader" nodename="paint" />
+  </surfacematerial>
+</materialx>
+"""
+
+
+def test_a_variant_that_swaps_mtlx_documents_switches_the_material_on_a_live_renderer(tmp_path):
+    """StandardShaderBall's layout: one scope references a standard_surface or an OpenPBR
+    document by variant, with the same material names; switching re-renders the other one."""
+    colors = {"red": (0.7, 0.1, 0.1), "blue": (0.1, 0.2, 0.7)}
+    for name, color in colors.items():
+        (tmp_path / f"{name}.mtlx").write_text(PAINT.format(color=", ".join(map(str, color))))
+    stage = diffuse_quad_stage()
+    looks = stage.DefinePrim("/World/Looks", "Scope")
+    palette = looks.GetVariantSets().AddVariantSet("palette")
+    for name in colors:
+        palette.AddVariant(name)
+        palette.SetVariantSelection(name)
+        with palette.GetVariantEditContext():
+            looks.GetReferences().AddReference(str(tmp_path / f"{name}.mtlx"), "/MaterialX")
+    palette.SetVariantSelection("red")
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World/quad")).GetDirectBindingRel(
+    ).SetTargets([Sdf.Path("/World/Looks/Materials/M_paint")])
+
+    renderer = penumbra.Renderer(stage)
+    for name in ("red", "blue", "red"):
+        palette.SetVariantSelection(name)
+        image = renderer.render(camera="/cam", width=16, samples=64, seed=3)["color"]
+        np.testing.assert_allclose(image[..., :3].reshape(-1, 3).mean(axis=0), colors[name],
+                                   rtol=0.02, err_msg=name)

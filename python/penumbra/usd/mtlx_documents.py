@@ -8,7 +8,7 @@ surface shader and the nodes and node graphs it uses as its children), so that b
 paths resolve. The translation lives in one anonymous layer inserted as the strongest sublayer of
 the stage's session layer: under an abstract (``class``) root prim, out of the way of traversals,
 and brought to each referencing prim by an internal reference with the arc's target path. The
-user's layers are not edited.
+user's layers are not edited; the added layer's customLayerData records what it composed.
 """
 
 from __future__ import annotations
@@ -20,6 +20,9 @@ from typing import Any
 from pxr import Sdf, Usd, UsdShade
 
 HIDDEN_ROOT = Sdf.Path("/_PenumbraMaterialX")
+# customLayerData key of the layers this module adds: what they compose, so that later calls
+# only add what is new.
+_DATA_KEY = "penumbraMaterialX"
 _DEFAULT_PRIM = Sdf.Path("/MaterialX")
 
 _TYPES = {
@@ -49,39 +52,55 @@ def _mtlx_arcs(stage: Usd.Stage) -> list[tuple[Sdf.Path, str, Sdf.Path]]:
     return arcs
 
 
+def _added_layer(stage: Usd.Stage) -> Sdf.Layer | None:
+    """The session sublayer this module added to ``stage``, if any."""
+    for path in stage.GetSessionLayer().subLayerPaths:
+        layer = Sdf.Layer.Find(path)
+        if layer and _DATA_KEY in layer.customLayerData:
+            return layer
+    return None
+
+
 def compose_materialx_documents(stage: Usd.Stage, warn: Callable[[str], None]) -> set[str]:
     """Translate the ``.mtlx`` documents the stage references and compose them (see the module
-    docstring). Returns the paths of the documents, as found, so that the composition errors of
-    their original arcs can be passed over. Does nothing unless a composition error mentions a
-    ``.mtlx`` file, so stages without MaterialX documents pay nothing."""
-    if stage.GetPrimAtPath(HIDDEN_ROOT) or not any(
-        ".mtlx" in str(error) for error in stage.GetCompositionErrors()
-    ):
-        return set()  # composed already, or nothing to compose
-    arcs = _mtlx_arcs(stage)
-    if not arcs:
-        return set()
-    overs = Sdf.Layer.CreateAnonymous("materialx.usda")
-    scratch = Usd.Stage.Open(overs)
-    scratch.OverridePrim(HIDDEN_ROOT).SetSpecifier(Sdf.SpecifierClass)
-    roots: dict[str, Sdf.Path | None] = {}
-    handled: set[str] = set()
-    for prim_path, file, target in arcs:
-        if file not in roots:
-            root = HIDDEN_ROOT.AppendChild(f"document{len(roots)}")
-            roots[file] = root if _translate(file, scratch, root, warn) else None
-        if roots[file] is None:
+    docstring). Returns the paths of the documents translated, so that the composition errors
+    of their original arcs can be passed over.
+
+    Cheap to call again (the renderer does, before each sync): unless the stage's composition
+    errors naming ``.mtlx`` files have changed since the last call — a variant selection that
+    swaps documents, say — it does nothing. Otherwise the internal references are authored
+    anew for the arcs the stage has now (documents already translated are kept), in one
+    change to the added layer."""
+    errors = sorted({str(e) for e in stage.GetCompositionErrors() if ".mtlx" in str(e)})
+    layer = _added_layer(stage)
+    data = dict(layer.customLayerData[_DATA_KEY]) if layer else {"documents": {}, "errors": []}
+    documents: dict[str, str] = dict(data["documents"])  # file → translation root, "" if none
+    if list(data["errors"]) == errors:
+        return {file for file, root in documents.items() if root}
+    fresh = Sdf.Layer.CreateAnonymous("materialx.usda")
+    if layer and layer.GetPrimAtPath(HIDDEN_ROOT):
+        Sdf.CopySpec(layer, HIDDEN_ROOT, fresh, HIDDEN_ROOT)  # the translations so far
+    scratch = Usd.Stage.Open(fresh)
+    for prim_path, file, target in _mtlx_arcs(stage):
+        if file not in documents:
+            root = HIDDEN_ROOT.AppendChild(f"document{len(documents)}")
+            scratch.OverridePrim(HIDDEN_ROOT).SetSpecifier(Sdf.SpecifierClass)
+            documents[file] = str(root) if _translate(file, scratch, root, warn) else ""
+        if not documents[file]:
             continue
-        handled.add(file)
-        internal = roots[file].AppendPath(target.MakeRelativePath(Sdf.Path.absoluteRootPath))
+        internal = Sdf.Path(documents[file]).AppendPath(
+            target.MakeRelativePath(Sdf.Path.absoluteRootPath))
         if not scratch.GetPrimAtPath(internal):
             warn(f"{file}: has no prim {target}; the reference from {prim_path} stays empty")
             continue
-        scratch.OverridePrim(prim_path).GetReferences().AddInternalReference(internal)
-    if handled:
-        session = stage.GetSessionLayer()
-        session.subLayerPaths.insert(0, overs.identifier)
-    return handled
+        references = scratch.OverridePrim(prim_path).GetReferences()
+        references.AddInternalReference(internal)
+    fresh.customLayerData = {_DATA_KEY: {"documents": documents, "errors": errors}}
+    if layer:
+        layer.TransferContent(fresh)
+    else:
+        stage.GetSessionLayer().subLayerPaths.insert(0, fresh.identifier)
+    return {file for file, root in documents.items() if root}
 
 
 def _translate(file: str, stage: Usd.Stage, root: Sdf.Path, warn: Callable[[str], None]) -> bool:
