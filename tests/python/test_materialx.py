@@ -423,3 +423,20 @@ def test_a_variant_that_swaps_mtlx_documents_switches_the_material_on_a_live_ren
         image = renderer.render(camera="/cam", width=16, samples=64, seed=3)["color"]
         np.testing.assert_allclose(image[..., :3].reshape(-1, 3).mean(axis=0), colors[name],
                                    rtol=0.02, err_msg=name)
+
+
+@pytest.mark.parametrize("content, message", [
+    ("<materialx version=\"1.39\"><standard_surface", "cannot read the MaterialX document"),
+    (None, "MaterialX document not found"),
+])
+def test_a_broken_or_missing_mtlx_document_warns_naming_the_file(tmp_path, content, message):
+    document = tmp_path / "broken.mtlx"
+    if content is not None:
+        document.write_text(content)
+    stage = diffuse_quad_stage()
+    stage.DefinePrim("/World/Looks", "Scope").GetReferences().AddReference(str(document))
+    with pytest.warns(penumbra.PenumbraWarning, match=f"broken.mtlx: {message}"):
+        stage_path = tmp_path / "scene.usda"
+        stage.GetRootLayer().Export(str(stage_path))
+        opened = open_stage(stage_path)
+    assert not opened.GetPrimAtPath("/World/Looks/Materials")

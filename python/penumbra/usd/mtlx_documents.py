@@ -63,8 +63,8 @@ def _added_layer(stage: Usd.Stage) -> Sdf.Layer | None:
 
 def compose_materialx_documents(stage: Usd.Stage, warn: Callable[[str], None]) -> set[str]:
     """Translate the ``.mtlx`` documents the stage references and compose them (see the module
-    docstring). Returns the paths of the documents translated, so that the composition errors
-    of their original arcs can be passed over.
+    docstring). Returns the paths of the documents translated or reported unreadable, so that
+    the composition errors of their original arcs are not reported again.
 
     Cheap to call again (the renderer does, before each sync): unless the stage's composition
     errors naming ``.mtlx`` files have changed since the last call — a variant selection that
@@ -76,7 +76,7 @@ def compose_materialx_documents(stage: Usd.Stage, warn: Callable[[str], None]) -
     data = dict(layer.customLayerData[_DATA_KEY]) if layer else {"documents": {}, "errors": []}
     documents: dict[str, str] = dict(data["documents"])  # file → translation root, "" if none
     if list(data["errors"]) == errors:
-        return {file for file, root in documents.items() if root}
+        return set(documents)
     fresh = Sdf.Layer.CreateAnonymous("materialx.usda")
     if layer and layer.GetPrimAtPath(HIDDEN_ROOT):
         Sdf.CopySpec(layer, HIDDEN_ROOT, fresh, HIDDEN_ROOT)  # the translations so far
@@ -100,7 +100,7 @@ def compose_materialx_documents(stage: Usd.Stage, warn: Callable[[str], None]) -
         layer.TransferContent(fresh)
     else:
         stage.GetSessionLayer().subLayerPaths.insert(0, fresh.identifier)
-    return {file for file, root in documents.items() if root}
+    return set(documents)
 
 
 def _translate(file: str, stage: Usd.Stage, root: Sdf.Path, warn: Callable[[str], None]) -> bool:
@@ -114,7 +114,7 @@ def _translate(file: str, stage: Usd.Stage, root: Sdf.Path, warn: Callable[[str]
     document = mx.createDocument()
     try:
         mx.readFromXmlFile(document, file)
-    except mx.Exception as error:  # type: ignore[attr-defined]
+    except Exception as error:  # MaterialX's parse and file errors share no narrower base
         warn(f"{file}: cannot read the MaterialX document ({error}); its materials are missing")
         return False
     from .materialx import library
