@@ -24,15 +24,19 @@ from test_textures import BLUE, GREEN, RED, WHITE, at, quadrants, st_to_xy, writ
 
 MATERIALX_ASSETS = SCENES / "materialx"
 TERRACOTTA = (0.6, 0.3, 0.2)  # base_color of M_terracotta in materials.mtlx
-SURFACES = {
-    "standard_surface": ("ND_standard_surface_surfaceshader", "specular"),
-    "open_pbr_surface": ("ND_open_pbr_surface_surfaceshader", "specular_weight"),
+SURFACES = {  # node definition, and the input that switches the specular layer off
+    "standard_surface": ("ND_standard_surface_surfaceshader", {"specular": 0.0}),
+    "open_pbr_surface": ("ND_open_pbr_surface_surfaceshader", {"specular_weight": 0.0}),
+    "UsdPreviewSurface": ("ND_UsdPreviewSurface_surfaceshader",
+                          {"useSpecularWorkflow": 1, "specularColor": (0.0, 0.0, 0.0)}),
 }
 
 
 def _type(value) -> Sdf.ValueTypeName:
     if isinstance(value, bool):
         return Sdf.ValueTypeNames.Bool
+    if isinstance(value, int):
+        return Sdf.ValueTypeNames.Int
     if isinstance(value, tuple):
         return Sdf.ValueTypeNames.Color3f
     return Sdf.ValueTypeNames.Float
@@ -74,10 +78,11 @@ def diffuse_quad_stage() -> Usd.Stage:
 @pytest.mark.parametrize("context", ["mtlx", ""])
 @pytest.mark.parametrize("surface", SURFACES)
 def test_diffuse_quad_under_a_white_dome_returns_its_base_colour(surface, context):
-    node_def, specular = SURFACES[surface]
+    node_def, no_specular = SURFACES[surface]
+    base_color = "diffuseColor" if surface == "UsdPreviewSurface" else "base_color"
     stage = diffuse_quad_stage()
     add_mtlx_material(stage, "/World/Looks/clay", node_def, context,
-                      **{"base_color": TERRACOTTA, specular: 0.0})
+                      **{base_color: TERRACOTTA}, **no_specular)
     bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")),
          UsdShade.Material(stage.GetPrimAtPath("/World/Looks/clay")))
     np.testing.assert_allclose(quad_radiance(stage), TERRACOTTA, rtol=0.02)

@@ -509,8 +509,11 @@ def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
 
 def _map_preview_surface(s: _Surface, mapping: _Mapping) -> None:
     for name in INPUTS:
-        if not name.startswith("penumbra:"):
+        if not name.startswith("penumbra:") and name != "useSpecularWorkflow":
             mapping.values[name] = s(name)
+    workflow = s.constant("useSpecularWorkflow")
+    if workflow is not None:
+        mapping.params["useSpecularWorkflow"] = int(workflow[0] != 0)
     if s.connected("normal"):
         mapping.values["normal"] = s("normal")
 
