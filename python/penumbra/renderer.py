@@ -24,6 +24,7 @@ from .usd.default_light import (
 )
 from .usd.instancers import PointInstancerDelegate
 from .usd.lights import LIGHT_SPRIM_TYPES
+from .usd.mtlx_documents import compose_materialx_documents
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
 from .usd.settings import FilmWindow, film_window
 from .usd import (
@@ -62,6 +63,7 @@ def _time_code(stage: Usd.Stage, time: TimeLike) -> Usd.TimeCode:
 def as_stage(stage_or_path: Usd.Stage | str | os.PathLike) -> Usd.Stage:
     """A stage, or the stage opened from a file path; ``TypeError`` names the types taken."""
     if isinstance(stage_or_path, Usd.Stage):
+        compose_materialx_documents(stage_or_path, warn)
         return stage_or_path
     if isinstance(stage_or_path, (str, os.PathLike)):
         return open_stage(stage_or_path)
@@ -130,6 +132,7 @@ class Renderer:
         dome_light_visibility: bool = True,
         film_windows: dict[str, FilmWindow] | None = None,
     ) -> None:
+        compose_materialx_documents(self.stage, warn)  # variant edits may bring in documents
         self._scene.update(shutter, depth_of_field, dome_light_visibility, film_windows)
         self._instancers.update(shutter)
 
