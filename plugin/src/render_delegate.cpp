@@ -35,7 +35,9 @@ const std::map<std::string, SettingField>& settingFields() {
       {"adaptiveThreshold", {nullptr, &RenderSettingsMap::adaptiveThreshold, 0, 1}},
       {"adaptiveMinSamples", intSetting(&RenderSettingsMap::adaptiveMinSamples, 2)},
       {"indirectClamp",
-       {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}}};
+       {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}},
+      {"glossyFilter",
+       {nullptr, &RenderSettingsMap::glossyFilter, 0, std::numeric_limits<float>::max()}}};
   return fields;
 }
 
@@ -367,6 +369,7 @@ void RenderDelegate::syncMesh(Mesh& mesh, bool materialsChanged, const DicingCon
       warn(mesh.id() + ": bound material " + mesh.materialId() +
            " is not in the render index; displayColor is used");
   }
+  if (bits & DirtyVisibility) scene_->setMeshPassVisibility(mesh.handle(), mesh.passVisibility());
   if (bits != Clean || materialsChanged)
     scene_->setMeshInstance(mesh.handle(), mesh.transform(), materialIndex, mesh.visible());
   if (bits != Clean) mesh.markClean();
@@ -381,6 +384,7 @@ void RenderDelegate::syncInstancer(Instancer& copies) {
     scene_->removeInstancer(copies.handle());
     copies.setHandle(scene_->addInstancer());
   } else {
+    scene_->setInstancerPassVisibility(copies.handle(), copies.passVisibility());
     scene_->setInstances(copies.handle(), prototype->handle(), copies.transforms(),
                          copies.visible());
     try {

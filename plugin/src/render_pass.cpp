@@ -68,6 +68,7 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator.maxTransmissionDepth = settings.maxTransmissionDepth;
   renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
   renderSettings.integrator.indirectClamp = settings.indirectClamp;
+  renderSettings.integrator.glossyFilter = settings.glossyFilter;
   const int end = samplesDone_ + samples;
   while (samplesDone_ < end && film_.activePixels() > 0) {
     const int checkpoint = settings.adaptiveThreshold > 0

@@ -467,6 +467,21 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("id"), py::arg("visible"))
       .def(
+          "set_pass_visibility",
+          [](RenderDelegate& self, const std::string& id, bool cameraVisible, bool matte) {
+            const penumbra::PassVisibility pass{cameraVisible, matte};
+            Prim& prim = self.prim(id);
+            if (auto* mesh = dynamic_cast<Mesh*>(&prim))
+              mesh->setPassVisibility(pass);
+            else if (auto* copies = dynamic_cast<Instancer*>(&prim))
+              copies->setPassVisibility(pass);
+            else
+              throw std::invalid_argument(id + ": only meshes and instancers take pass visibility");
+          },
+          py::arg("id"), py::arg("camera_visible") = true, py::arg("matte") = false,
+          "How camera rays treat a mesh or an instancer's copies (UsdRenderPass "
+          "cameraVisibility and matte collections): hidden from them, or a holdout.")
+      .def(
           "set_instances",
           [](RenderDelegate& self, const std::string& id, const std::string& prototype,
              const DoubleArray& matrices) {

@@ -299,6 +299,16 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     own.add_argument(
+        "--glossyFilter",
+        type=float,
+        default=0.0,
+        metavar="F",
+        help=(
+            "blur sharp reflection and refraction lobes met after rougher bounces, as Cycles' "
+            "filter glossy (Cycles' default: 1): caustics converge sooner, biased (default: 0, off)"
+        ),
+    )
+    own.add_argument(
         "--maxMemory",
         type=_memory_size,
         metavar="SIZE",
@@ -446,8 +456,9 @@ def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
         raise _UsageError("--adaptiveThreshold must be in [0, 1]")
     if args.adaptiveMinSamples < 2:
         raise _UsageError("--adaptiveMinSamples must be at least 2")
-    if not (args.indirectClamp >= 0 and math.isfinite(args.indirectClamp)):
-        raise _UsageError("--indirectClamp must be a finite number >= 0")
+    for flag in ("indirectClamp", "glossyFilter"):
+        if not (getattr(args, flag) >= 0 and math.isfinite(getattr(args, flag))):
+            raise _UsageError(f"--{flag} must be a finite number >= 0")
     for name, largest in _LARGEST_VALUES.items():
         if getattr(args, name) is not None and getattr(args, name) > largest:
             raise _UsageError(f"--{name} must be at most {largest}")
@@ -635,6 +646,7 @@ def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) 
                     adaptive_threshold=args.adaptiveThreshold,
                     adaptive_min_samples=args.adaptiveMinSamples,
                     indirect_clamp=args.indirectClamp,
+                    glossy_filter=args.glossyFilter,
                     complexity=args.complexity,
                     disable_motion_blur=args.disable_motion_blur,
                     disable_depth_of_field=args.disable_depth_of_field,

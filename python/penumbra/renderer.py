@@ -27,6 +27,7 @@ from .usd.default_light import (
 )
 from .usd.instancers import PointInstancerDelegate
 from .usd.lights import LIGHT_SPRIM_TYPES
+from .usd.mtlx_documents import compose_materialx_documents
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
 from .usd.settings import FilmWindow, film_window
 from .usd import (
@@ -66,6 +67,7 @@ def _time_code(stage: Usd.Stage, time: TimeLike) -> Usd.TimeCode:
 def as_stage(stage_or_path: Usd.Stage | str | os.PathLike) -> Usd.Stage:
     """A stage, or the stage opened from a file path; ``TypeError`` names the types taken."""
     if isinstance(stage_or_path, Usd.Stage):
+        compose_materialx_documents(stage_or_path, warn)
         return stage_or_path
     if isinstance(stage_or_path, (str, os.PathLike)):
         return open_stage(stage_or_path)
@@ -134,6 +136,7 @@ class Renderer:
         dome_light_visibility: bool = True,
         film_windows: dict[str, FilmWindow] | None = None,
     ) -> None:
+        compose_materialx_documents(self.stage, warn)  # variant edits may bring in documents
         self._scene.update(shutter, depth_of_field, dome_light_visibility, film_windows)
         self._instancers.update(shutter)
 
@@ -171,6 +174,7 @@ class Renderer:
         adaptive_threshold: float = 0.0,
         adaptive_min_samples: int = 16,
         indirect_clamp: float = 0.0,
+        glossy_filter: float = 0.0,
         max_memory: int | None = None,
         denoise: bool = False,
     ) -> Image:
@@ -200,7 +204,9 @@ class Renderer:
         the threshold, so ``samples`` becomes a cap; the image stays a pure function of (scene,
         seed, samples, threshold). ``indirect_clamp`` > 0 limits each sample of indirect light
         (two or more surface interactions) to that largest component, as Cycles' "clamp
-        indirect": fewer fireflies, a darker (biased) image; off by default. ``max_memory``: bytes the process may hold (default: 80% of
+        indirect": fewer fireflies, a darker (biased) image; off by default. ``glossy_filter`` > 0
+        blurs sharp lobes met after rougher bounces, as Cycles' "filter glossy" (1 is
+        Cycles' default): caustics converge much sooner, biased; off by default. ``max_memory``: bytes the process may hold (default: 80% of
         physical memory), checked before the scene is synced and before a new size's film is
         allocated. Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
@@ -273,6 +279,7 @@ class Renderer:
             ("adaptiveThreshold", adaptive_threshold),
             ("adaptiveMinSamples", adaptive_min_samples),
             ("indirectClamp", indirect_clamp),
+            ("glossyFilter", glossy_filter),
         ):
             self.delegate.set_render_setting(key, value)
         started = clock.perf_counter()
@@ -303,6 +310,7 @@ class Renderer:
             "rays": render_pass.rays_traced,
             "adaptiveThreshold": adaptive_threshold,
             "indirectClamp": indirect_clamp,
+            "glossyFilter": glossy_filter,
             "seed": seed,
             "renderTimeSeconds": round(elapsed, 3),
             "version": _core.version(),

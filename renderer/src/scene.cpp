@@ -25,6 +25,11 @@ struct TraceContext {
   const Scene* scene;
 };
 
+// Ray mask bits of the placements: camera rays test only kCameraRays, so geometry a render pass
+// hides from the camera keeps only kOtherRays and still casts shadows and reflects.
+constexpr unsigned kCameraRays = 1u;
+constexpr unsigned kOtherRays = 2u;
+
 RTCRay toEmbreeRay(const Ray& ray) {
   RTCRay r;
   r.org_x = ray.origin.x;
@@ -140,12 +145,18 @@ void Scene::updatePlacement(Placement& placement, bool enabled) {
       rtcSetGeometryTransformQuaternion(placement.geometry, step, &embree);
     }
   }
+  rtcSetGeometryMask(placement.geometry,
+                     passOf(placement).camera ? kCameraRays | kOtherRays : kOtherRays);
   if (enabled && mesh.bvh)
     rtcEnableGeometry(placement.geometry);
   else
     rtcDisableGeometry(placement.geometry);
   rtcCommitGeometry(placement.geometry);
   throwOnEmbreeError(device_, "update an instance");
+}
+
+const PassVisibility& Scene::passOf(const Placement& placement) const {
+  return placement.instancer ? placement.instancer->pass : meshes_[placement.mesh]->pass;
 }
 
 const Material* Scene::materialOf(const MeshRecord& mesh) const {
@@ -313,6 +324,12 @@ void Scene::setMeshLight(MeshId id, int lightIndex) {
   record(id).lightIndex = lightIndex;
 }
 
+void Scene::setMeshPassVisibility(MeshId id, PassVisibility pass) {
+  MeshRecord& mesh = record(id);
+  mesh.pass = pass;
+  updatePlacement(*mesh.own, renderable(mesh) && mesh.visible);
+}
+
 Scene::InstancerId Scene::addInstancer() {
   instancers_.push_back(std::make_unique<InstancerRecord>());
   return InstancerId(instancers_.size() - 1);
@@ -360,6 +377,14 @@ void Scene::setInstancePrimvars(InstancerId id, std::vector<Primvar> primvars) {
                                   std::to_string(copies.copies.size()) + " copies of width " +
                                   std::to_string(primvar.width));
   copies.primvars = std::move(primvars);
+}
+
+void Scene::setInstancerPassVisibility(InstancerId id, PassVisibility pass) {
+  InstancerRecord& copies = instancer(id);
+  copies.pass = pass;
+  if (copies.copies.empty()) return;
+  const bool shown = renderable(record(copies.prototype)) && copies.visible;
+  for (auto& copy : copies.copies) updatePlacement(*copy, shown);
 }
 
 void Scene::removeInstancer(InstancerId id) {
@@ -422,6 +447,7 @@ RTCRayHit Scene::trace(const Ray& ray, RayKind kind) const {
   context.scene = this;
   RTCRayHit rayHit;
   rayHit.ray = toEmbreeRay(ray);
+  if (context.cameraRay) rayHit.ray.mask = kCameraRays;
   rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rayHit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(top_, &context.embree, &rayHit);
@@ -454,6 +480,10 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
   SurfaceHit hit;
   hit.distance = rayHit.ray.tfar;
   hit.position = ray.origin + ray.direction * hit.distance;
+  if (kind == RayKind::Camera && passOf(placement).matte) {
+    hit.matte = true;
+    return hit;
+  }
   hit.normal = normalize(objectToWorld.applyToNormal(
       cross(objectCorners[1] - objectCorners[0], objectCorners[2] - objectCorners[0])));
   hit.shadingNormal = hit.normal;

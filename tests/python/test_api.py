@@ -206,7 +206,8 @@ def test_non_preview_surface_material_falls_back_with_warning():
     stage = lit_quad_stage()
     material = add_preview_material(stage, "/World/Looks/odd", diffuseColor=(0.1, 0.7, 0.1))
     shader = stage.GetPrimAtPath("/World/Looks/odd/Surface")
-    shader.GetAttribute("info:id").Set("ND_standard_surface_surfaceshader")
+    # A surface Penumbra does not render (MaterialX surfaces are test_materialx's).
+    shader.GetAttribute("info:id").Set("PxrSurface")
     bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")), material)
     with pytest.warns(penumbra.PenumbraWarning, match="/World/Looks/odd.*not UsdPreviewSurface"):
         value = pixel(penumbra.Renderer(stage).render(**FAST), 0.5, 0.5)

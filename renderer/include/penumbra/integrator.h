@@ -29,6 +29,11 @@ struct IntegratorSettings {
   /// Largest component a sample of indirect light (two or more surface interactions) may add;
   /// 0: no limit. Biased (darker), as Cycles' "clamp indirect"; off by default.
   float indirectClamp = 0;
+  /// Cycles' "filter glossy": after a bounce whose direction had density p (solid angle), the
+  /// GGX α of later lobes is at least sqrt(1 − glossyFilter · p) / 2 (the smallest p of the
+  /// path so far), so that light reflected by a sharp lobe after a diffuse bounce (caustics) is
+  /// blurred instead of noisy. 0: off. Biased, off by default.
+  float glossyFilter = 0;
 };
 
 struct CameraSample {

@@ -39,12 +39,15 @@ class Mesh : public Prim {
   const Light* light() const { return light_.get(); }
   void setTransform(const MotionTransform& objectToWorld);
   void setVisible(bool visible);
+  /// How camera rays treat the mesh (a render pass's cameraVisibility and matte collections).
+  void setPassVisibility(PassVisibility pass);
 
   Scene::MeshId handle() const { return handle_; }
   const MeshData& data() const { return data_; }
   const PrimId& materialId() const { return materialId_; }
   const MotionTransform& transform() const { return objectToWorld_; }
   bool visible() const { return visible_; }
+  PassVisibility passVisibility() const { return pass_; }
   const std::string& subdivisionScheme() const { return subdivisionScheme_; }
   const SubdivisionTags& subdivisionTags() const { return tags_; }
   /// The tessellator of the current topology (built on first use, dropped when topology or tags
@@ -61,6 +64,7 @@ class Mesh : public Prim {
   PrimId materialId_;
   MotionTransform objectToWorld_;
   bool visible_ = true;
+  PassVisibility pass_;
 };
 
 }  // namespace penumbra::plugin

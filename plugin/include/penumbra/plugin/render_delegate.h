@@ -47,6 +47,8 @@ struct RenderSettingsMap {
   int adaptiveMinSamples = 16;
   /// Largest component of a sample of indirect light (0: no limit; biased, as Cycles' clamp).
   float indirectClamp = 0;
+  /// Cycles' "filter glossy" (0: off; biased): see IntegratorSettings::glossyFilter.
+  float glossyFilter = 0;
 
   /// Throws std::invalid_argument for an unknown key, an out-of-range value or a fraction for an
   /// integer setting.
