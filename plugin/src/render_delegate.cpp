@@ -169,6 +169,13 @@ T& primAs(Prim& prim, const char* typeName) {
 }
 }  // namespace
 
+std::map<uint32_t, PrimId> RenderDelegate::primIdManifest() const {
+  std::map<uint32_t, PrimId> manifest;
+  for (const auto& [id, prim] : prims_)
+    if (const auto* mesh = dynamic_cast<const Mesh*>(prim.get())) manifest[mesh->handle()] = id;
+  return manifest;
+}
+
 Mesh& RenderDelegate::mesh(const PrimId& id) {
   return primAs<Mesh>(prim(id), "mesh");
 }

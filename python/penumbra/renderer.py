@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import time as clock
@@ -12,10 +13,12 @@ from pxr import Sdf, Usd, UsdLux
 
 from . import _core
 from .errors import SceneError, warn
+from .denoise import GUIDE_AOVS, NOISY_COLOR, denoise_color
 from .image import Image, ocio_config_path
 from .memory import check_film, default_budget
 from .trace import Tracer
 from .usd.camera import camera_problem, read_shutter
+from .usd.camera_metadata import camera_metadata
 from .usd.default_light import (
     DEFAULT_LIGHT_ID,
     DefaultLight,
@@ -29,6 +32,7 @@ from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
 from .usd.settings import FilmWindow, film_window
 from .usd import (
     DEFAULT_PURPOSES,
+    RenderSettings,
     SceneDelegate,
     image_size,
     open_stage,
@@ -161,7 +165,7 @@ class Renderer:
         threads: int = 0,
         max_path_depth: int = DEFAULT_MAX_PATH_DEPTH,
         complexity: str = "low",
-        render_settings: str | None = None,
+        render_settings: str | RenderSettings | None = None,
         disable_motion_blur: bool = False,
         disable_depth_of_field: bool = False,
         dome_light_visibility: bool = True,
@@ -172,6 +176,7 @@ class Renderer:
         indirect_clamp: float = 0.0,
         glossy_filter: float = 0.0,
         max_memory: int | None = None,
+        denoise: bool = False,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -181,7 +186,8 @@ class Renderer:
         ``Usd.TimeCode.Default()``); by default the stage's startTimeCode. ``width``: by default
         the render settings' resolution, else 960. ``height``: by default from the aspect ratio
         of the render settings' resolution, else of the camera's apertures. ``render_settings``:
-        a UsdRenderSettings prim path, by default the stage's ``renderSettingsPrimPath``; its
+        a UsdRenderSettings prim path (or settings already read, as render products pass them),
+        by default the stage's ``renderSettingsPrimPath``; its
         ``aspectRatioConformPolicy`` and ``pixelAspectRatio`` fit the camera's aperture to the
         image, and its ``dataWindowNDC`` crops the image to the pixels whose centres it holds.
         Motion blur samples the camera's shutter, [time + shutter:open, time + shutter:close];
@@ -211,7 +217,11 @@ class Renderer:
         check_default_light(default_light)
         aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
         time_code = _time_code(self.stage, time)
-        settings = read_render_settings(self.stage, render_settings)
+        settings = (
+            render_settings
+            if isinstance(render_settings, RenderSettings)
+            else read_render_settings(self.stage, render_settings)
+        )
         camera_prim = resolve_camera(self.stage, camera, settings, time_code, self._scene.purposes)
         problem = camera_problem(camera_prim, time_code)
         if problem is not None:
@@ -253,11 +263,12 @@ class Renderer:
         if new_pass:  # the synced scene is in memory now; its BVH and the film are not yet
             check_film(window.width, window.height, budget, camera_id)
         render_pass = self._render_pass(camera_id, window.width, window.height)
-        unknown = sorted(set(aovs) - set(render_pass.aov_names()))
-        if unknown or not aovs:
-            raise ValueError(
-                f"aovs must name at least one of {render_pass.aov_names()} (unknown: {unknown})"
-            )
+        if not aovs:
+            raise ValueError(f"aovs must name at least one of {render_pass.aov_names()}")
+        if NOISY_COLOR in aovs and not denoise:
+            raise ValueError(f"the {NOISY_COLOR} AOV needs denoise=True")
+        accumulated = {aov for aov in aovs if aov != NOISY_COLOR}
+        render_pass.set_aovs(sorted(accumulated | set(GUIDE_AOVS if denoise else ())))
 
         for key, value in (
             ("samples", samples),
@@ -283,6 +294,13 @@ class Renderer:
             self._forward_warnings()
             if progress is not None:
                 progress(render_pass.samples_done, samples)
+        arrays = {name: np.array(render_pass.aov(name)) for name in accumulated | {"color"}}
+        if denoise:
+            with self.tracer.span("denoise (OIDN)"):
+                arrays[NOISY_COLOR] = arrays["color"]
+                arrays["color"] = denoise_color(
+                    arrays["color"], render_pass.aov("albedo"), render_pass.aov("normal")
+                )
         elapsed = clock.perf_counter() - started
 
         metadata = {
@@ -300,8 +318,21 @@ class Renderer:
             "shutterOpen": shutter.open,
             "shutterClose": shutter.close,
             "stage": stage_name(self.stage),
+            "renderSettings": settings.path if settings is not None else "",
+            "denoised": int(denoise),
+            **camera_metadata(
+                camera_prim,
+                time_code,
+                width,
+                height,
+                settings.aspect_ratio_conform_policy if settings else "expandAperture",
+                settings.pixel_aspect_ratio if settings else 1.0,
+            ),
         }
-        return Image({name: np.array(render_pass.aov(name)) for name in aovs}, metadata)
+        if "primId" in aovs:
+            manifest = self.delegate.prim_id_manifest()
+            metadata["primIds"] = json.dumps({str(key): path for key, path in manifest.items()})
+        return Image({name: arrays[name] for name in aovs}, metadata)
 
     def _render_pass(self, camera_id: str, width: int, height: int):
         key = (camera_id, width, height)

@@ -129,11 +129,38 @@ PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
                             hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet);
 }
 
+/// Records what the camera ray `ray` met first: a surface (`hit`), or only a light at
+/// `firstHitDistance` (infinity: nothing).
+void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
+                    float firstHitDistance, FirstHitSample* record) {
+  if (firstHitDistance < kInfinity) {
+    record->distance =
+        length(ray.origin + ray.direction * firstHitDistance - camera.centre(ray.time));
+    record->z = camera.viewDepth(ray, firstHitDistance);
+  }
+  if (!hit) return;
+  record->hit = true;
+  record->position = hit->position;
+  record->normal = hit->shadingNormal;
+  record->cameraNormal = camera.toCameraSpace(hit->shadingNormal, ray.time);
+  record->albedo = surfaceAlbedo(hit->material);
+  record->primId = int(hit->meshId);
+  record->instanceId = hit->instance;
+  const std::vector<uint32_t>& faces = hit->mesh->sourceFace;
+  record->elementId = hit->triangle < faces.size() ? int(faces[hit->triangle]) : -1;
+  record->mesh = hit->mesh;
+  record->triangle = hit->triangle;
+  record->u = hit->u;
+  record->v = hit->v;
+  record->instancePrimvars = hit->instancePrimvars;
+}
+
 }  // namespace
 
 CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                                 int x, int y, uint32_t sampleIndex,
-                                const IntegratorSettings& settings) {
+                                const IntegratorSettings& settings,
+                                FirstHitSample* firstHitRecord) {
   SampleStream sampler(settings.seed, uint32_t(x), uint32_t(y), sampleIndex);
   const Vec2f filterOffset = filter.sampleOffset(sampler.next2D());
   const Vec2f lensSample = sampler.next2D();
@@ -170,6 +197,12 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
       if (firstHit < kInfinity) result.depth = camera.viewDepth(ray, firstHit);
       if (hit || sawLight) result.alpha = 1;
+      if (firstHitRecord) {
+        firstHitRecord->filterOffset = filterOffset;
+        // A holdout sets the distances only: it is no surface of the image.
+        recordFirstHit(camera, ray, hit && !hit->matte ? &*hit : nullptr, firstHit,
+                       firstHitRecord);
+      }
       // A holdout: what lies behind it is hidden, and only lights in front of it count.
       if (hit && hit->matte) {
         result.alpha = sawLight ? 1 : 0;

@@ -424,6 +424,22 @@ float Scene::rayEpsilon(const Vec3f& point) const {
   return 2e-5f * std::max(maxAbsComponent(point), 1e-2f * sceneExtent_);
 }
 
+int Scene::primvarWidth(const std::string& name) const {
+  int width = 0;
+  for (const auto& mesh : meshes_)
+    if (mesh && mesh->data) {
+      if (const Primvar* primvar = mesh->data->findPrimvar(name))
+        width = std::max(width, primvar->width);
+      else if (name == "displayColor" && !mesh->data->displayColor.empty())
+        width = std::max(width, 3);
+    }
+  for (const auto& copies : instancers_)
+    if (copies)
+      if (const Primvar* primvar = penumbra::findPrimvar(copies->primvars, name))
+        width = std::max(width, primvar->width);
+  return width;
+}
+
 RTCRayHit Scene::trace(const Ray& ray, RayKind kind) const {
   TraceContext context;
   rtcInitIntersectContext(&context.embree);
@@ -480,6 +496,13 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
   }
   hit.closed = data.closed;
   attachInstancePrimvars(rayHit.hit.instID[0], &point);
+  hit.meshId = placement.mesh;
+  hit.instance = placement.instancer ? int(placement.copy) : -1;
+  hit.mesh = &data;
+  hit.triangle = point.triangle;
+  hit.u = point.u;
+  hit.v = point.v;
+  hit.instancePrimvars = point.instancePrimvars;
   if (const Material* material = materialOf(mesh)) {
     if (material->varies()) {
       // Texture footprints and tangent frames need the triangle in world space.

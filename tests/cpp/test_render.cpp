@@ -171,12 +171,12 @@ TEST(Render, SingleSidedMeshesAreInvisibleFromBehindUnlessLeftHanded) {
   EXPECT_EQ(alphaOfFloorSeenFromBelow(false, true), 1.0);
 }
 
-TEST(Render, DepthIsTheViewAxisDistanceOfTheFirstHit) {
+TEST(Render, ZIsTheViewAxisDistanceOfTheFirstHit) {
   RenderDelegate delegate;
   lambertianFloorScene(delegate, 0.5f);
   RenderPass pass(delegate, "/cam", 4, 4);
   pass.execute(4);
-  for (float depth : pass.aov("depth")) EXPECT_NEAR(depth, 5.0f, 1e-4f);
+  for (float depth : pass.aov("Z")) EXPECT_NEAR(depth, 5.0f, 1e-4f);
 }
 
 TEST(Render, DisplayColorIsTheFallbackAlbedo) {
@@ -379,7 +379,7 @@ TEST(Render, SubdivisionMeshesRenderTheirLimitSurface) {
   pass.execute(1);
   // The limit surface of a 2-unit Catmull-Clark cube passes 0.8396 from its centre at the middle
   // of each face (the cage is at 1).
-  const std::vector<float> depth = pass.aov("depth");
+  const std::vector<float> depth = pass.aov("Z");
   EXPECT_NEAR(depth[4 * 9 + 4], 5 - 0.8396, 2e-3);
   EXPECT_TRUE(delegate.takeWarnings().empty());
   // A hole removes its face: the camera then looks into the cube, at the far side's inside.
@@ -389,7 +389,7 @@ TEST(Render, SubdivisionMeshesRenderTheirLimitSurface) {
     return tags;
   }());
   pass.execute(1);
-  EXPECT_GT(pass.aov("depth")[4 * 9 + 4], 5.5f);
+  EXPECT_GT(pass.aov("Z")[4 * 9 + 4], 5.5f);
 }
 
 TEST(RenderDelegate, InstancersPlaceCopiesOfAPrototype) {
@@ -492,7 +492,7 @@ TEST(RenderDelegate, RenderPassesResolveBoundAovsIntoRenderBuffers) {
   pass.execute(2);
   EXPECT_TRUE(buffer.converged());
   EXPECT_THROW(pass.setAovBindings({{"normal", "/buffers/color"}}), std::invalid_argument);
-  EXPECT_THROW(pass.setAovBindings({{"depth", "/missing"}}), std::out_of_range);
+  EXPECT_THROW(pass.setAovBindings({{"Z", "/missing"}}), std::out_of_range);
   delegate.renderBuffer("/buffers/color").allocate(8, 8);
   EXPECT_THROW(pass.execute(1), std::invalid_argument);
 }

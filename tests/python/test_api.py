@@ -42,7 +42,7 @@ def test_design_snippet_and_incremental_edit(tmp_path):
     assert image["depth"][18, 32, 0] == pytest.approx(5.4568, rel=1e-3)
     image.write(tmp_path / "out.exr")
     pixels, names, metadata = _core.read_image(str(tmp_path / "out.exr"))
-    assert names == ["R", "G", "B", "A", "Z"]
+    assert names == ["R", "G", "B", "A", "depth"]
     np.testing.assert_array_equal(pixels[..., 4], image["depth"][..., 0])
     assert metadata["penumbra:camera"] == "/cam"
     assert metadata["penumbra:version"] == penumbra.__version__

@@ -108,7 +108,6 @@ def test_frame_usage_errors(tmp_path, capsys, output, frames, message):
 @pytest.mark.parametrize(
     "flag",
     [
-        ["--aov", "depth"],
         ["--scheduler", "tcp://farm:8786"],
         ["--resume"],
     ],

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 
+#include "penumbra/aov.h"
 #include "penumbra/camera.h"
 #include "penumbra/filter.h"
 #include "penumbra/scene.h"
@@ -42,10 +43,12 @@ struct CameraSample {
   uint32_t rays = 0;        // rays traced through the scene's BVH (intersection and shadow)
 };
 
-/// Renders sample `sampleIndex` of pixel (x, y); a pure function of its arguments.
+/// Renders sample `sampleIndex` of pixel (x, y); a pure function of its arguments. When
+/// `firstHitRecord` is given, what the camera ray met first is recorded there (for AOVs).
 CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                                 int x, int y, uint32_t sampleIndex,
-                                const IntegratorSettings& settings);
+                                const IntegratorSettings& settings,
+                                FirstHitSample* firstHitRecord = nullptr);
 
 /// Power heuristic (β = 2) weight of a strategy with density `pdf` against `otherPdf`.
 inline float powerHeuristic(float pdf, float otherPdf) {

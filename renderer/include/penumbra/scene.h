@@ -47,6 +47,13 @@ struct SurfaceHit {
   int lightIndex = -1;  // the mesh light this surface is (UsdLuxMeshLightAPI)
   bool closed = false;  // a solid: the mesh bounds one, or its material is not thin-walled
   bool matte = false;   // a holdout (PassVisibility::matte): only distance and position are set
+  // Which surface this is, for AOVs and primvar lookups (as in SurfacePoint).
+  uint32_t meshId = 0;
+  int instance = -1;  // the instancer copy hit, -1: the mesh's own placement
+  const TriangleMesh* mesh = nullptr;
+  uint32_t triangle = 0;
+  float u = 0, v = 0;
+  const std::vector<Primvar>* instancePrimvars = nullptr;
 };
 
 /// How a render pass shows a mesh or an instancer's copies (the UsdRenderPass cameraVisibility
@@ -146,6 +153,8 @@ class Scene {
   bool occluded(const Ray& ray) const;
   /// Offset for spawning rays from `point` so that they do not re-hit its surface.
   float rayEpsilon(const Vec3f& point) const;
+  /// The widest value of primvar `name` on any mesh or instancer (0: none has it).
+  int primvarWidth(const std::string& name) const;
 
  private:
   struct InstancerRecord;

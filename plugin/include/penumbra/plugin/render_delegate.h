@@ -94,6 +94,9 @@ class RenderDelegate {
   uint64_t sceneVersion() const { return sceneVersion_; }
   const Scene& scene() const { return *scene_; }
 
+  /// The mesh rprims by the id the primId AOV gives them.
+  std::map<uint32_t, PrimId> primIdManifest() const;
+
   /// Warnings raised since the last call, each naming its prim.
   std::vector<std::string> takeWarnings();
 
