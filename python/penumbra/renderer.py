@@ -242,8 +242,9 @@ class Renderer:
         shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
         budget = default_budget() if max_memory is None else max_memory
         new_pass = (camera_id, window.width, window.height) not in self._passes
+        extra_aovs = len(set(aovs) - {"color"}) + (len(GUIDE_AOVS) if denoise else 0)
         if new_pass:
-            check_film(window.width, window.height, budget, camera_id)
+            check_film(window.width, window.height, budget, camera_id, extra_aovs)
         with self.tracer.span("sync stage (USD to render delegate)"):
             self._sync(
                 shutter,
@@ -261,7 +262,7 @@ class Renderer:
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
         if new_pass:  # the synced scene is in memory now; its BVH and the film are not yet
-            check_film(window.width, window.height, budget, camera_id)
+            check_film(window.width, window.height, budget, camera_id, extra_aovs)
         render_pass = self._render_pass(camera_id, window.width, window.height)
         if not aovs:
             raise ValueError(f"aovs must name at least one of {render_pass.aov_names()}")

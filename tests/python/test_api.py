@@ -316,3 +316,21 @@ def test_render_convenience_on_a_path():
     assert image.metadata["seed"] == 3 and image.metadata["timeCode"] == 1.0
     with pytest.raises(penumbra.SceneError, match="missing.usda: no such file"):
         penumbra.render("missing.usda")
+
+
+def test_memory_budget_counts_the_aovs_asked_for():
+    """A budget that holds a colour film fails with a clear error once six more AOVs would
+    outgrow it (each AOV adds memory.AOV_BYTES_PER_PIXEL a pixel)."""
+    from penumbra import memory
+
+    renderer = penumbra.Renderer(lit_quad_stage())
+    width, height = 2000, 1000
+    colour_film = width * height * memory.FILM_BYTES_PER_PIXEL
+    six_aovs = 6 * width * height * memory.AOV_BYTES_PER_PIXEL
+    budget = memory.resident_memory() + colour_film + six_aovs // 2
+    aovs = ("color", "depth", "Z", "normal", "position", "albedo", "primId")
+    with pytest.raises(penumbra.SceneError, match="memory budget"):
+        renderer.render(camera="/cam", width=width, height=height, samples=1, aovs=aovs,
+                        max_memory=budget)
+    image = renderer.render(camera="/cam", width=width, height=height, samples=1, max_memory=budget)
+    assert image.width == width
