@@ -1,14 +1,48 @@
 #include "penumbra/plugin/render_pass.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <stdexcept>
+#include <string>
 
 #include "penumbra/render.h"
 
 namespace penumbra::plugin {
 
+namespace {
+
+/// `crop` grown by `margin` pixels on every side, then clipped to the image; throws
+/// std::invalid_argument unless `crop` is a non-empty part of the image.
+PixelRect cropWithMargin(int width, int height, const PixelRect& crop, int margin) {
+  if (width <= 0 || height <= 0)
+    throw std::invalid_argument("image size must be positive, got " + std::to_string(width) +
+                                "x" + std::to_string(height));
+  if (crop.width <= 0 || crop.height <= 0 || !PixelRect{0, 0, width, height}.contains(crop))
+    throw std::invalid_argument(
+        "crop (" + std::to_string(crop.x) + ", " + std::to_string(crop.y) + ") " +
+        std::to_string(crop.width) + "x" + std::to_string(crop.height) +
+        " is not a non-empty part of the " + std::to_string(width) + "x" +
+        std::to_string(height) + " image");
+  if (margin < 0) throw std::invalid_argument("crop margin must be >= 0");
+  const int left = std::max(0, crop.x - margin), top = std::max(0, crop.y - margin);
+  const int right = int(std::min<int64_t>(width, int64_t(crop.x) + crop.width + margin));
+  const int bottom = int(std::min<int64_t>(height, int64_t(crop.y) + crop.height + margin));
+  return {left, top, right - left, bottom - top};
+}
+
+}  // namespace
+
 RenderPass::RenderPass(RenderDelegate& delegate, PrimId cameraId, int width, int height)
-    : delegate_(delegate), cameraId_(std::move(cameraId)), film_(width, height) {}
+    : RenderPass(delegate, std::move(cameraId), width, height, PixelRect{0, 0, width, height}) {}
+
+RenderPass::RenderPass(RenderDelegate& delegate, PrimId cameraId, int width, int height,
+                       PixelRect crop, int margin)
+    : delegate_(delegate),
+      cameraId_(std::move(cameraId)),
+      imageWidth_(width),
+      imageHeight_(height),
+      crop_(crop),
+      film_(cropWithMargin(width, height, crop, margin)) {}
 
 const std::vector<std::string>& RenderPass::aovNames() {
   static const std::vector<std::string> names = {"color", "depth"};
@@ -28,6 +62,14 @@ int RenderPass::nextConvergenceTest(int samplesDone, int minSamples) {
   return test;
 }
 
+int RenderPass::adaptiveSamplingReach(int samples, int minSamples) {
+  int tests = 0;
+  for (int test = nextConvergenceTest(0, minSamples); test < samples;
+       test = nextConvergenceTest(test, minSamples))
+    ++tests;
+  return tests;
+}
+
 void RenderPass::reset() {
   film_.clear();
   samplesDone_ = 0;
@@ -36,7 +78,7 @@ void RenderPass::reset() {
 void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   if (samples < 0) throw std::invalid_argument("sample count must be >= 0");
   const Camera& cameraPrim = delegate_.camera(cameraId_);
-  delegate_.sync({cameraPrim.params(), film_.width()});
+  delegate_.sync({cameraPrim.params(), imageWidth_});
   const RenderSettingsMap& settings = delegate_.settings();
   // The target sample count does not change what a sample is; everything else does.
   std::map<std::string, double> settingsUsed = settings.asMap();
@@ -50,7 +92,9 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
     settingsUsed_ = std::move(settingsUsed);
   }
   if (samples == 0) return;
-  const penumbra::Camera camera(cameraPrim.params(), film_.width(), film_.height());
+  const int end = samplesDone_ + samples;
+  if (settings.adaptiveThreshold > 0) checkCropMargin(end);
+  const penumbra::Camera camera(cameraPrim.params(), imageWidth_, imageHeight_);
   RenderSettings renderSettings;
   renderSettings.threads = settings.threads;
   renderSettings.integrator.seed = uint32_t(settings.seed);
@@ -60,7 +104,6 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator.maxTransmissionDepth = settings.maxTransmissionDepth;
   renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
   renderSettings.integrator.indirectClamp = settings.indirectClamp;
-  const int end = samplesDone_ + samples;
   while (samplesDone_ < end && film_.activePixels() > 0) {
     const int checkpoint = settings.adaptiveThreshold > 0
                                ? nextConvergenceTest(samplesDone_, settings.adaptiveMinSamples)
@@ -86,11 +129,27 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   }
 }
 
+void RenderPass::checkCropMargin(int samples) const {
+  const int reach = adaptiveSamplingReach(samples, delegate_.settings().adaptiveMinSamples);
+  const PixelRect& film = film_.region();
+  // Each side of the crop is an image edge, or has `reach` rendered pixels beyond it.
+  const bool enough = (crop_.x == 0 || crop_.x - film.x >= reach) &&
+                      (crop_.y == 0 || crop_.y - film.y >= reach) &&
+                      (crop_.x + crop_.width == imageWidth_ ||
+                       film.x + film.width - (crop_.x + crop_.width) >= reach) &&
+                      (crop_.y + crop_.height == imageHeight_ ||
+                       film.y + film.height - (crop_.y + crop_.height) >= reach);
+  if (!enough)
+    throw std::invalid_argument(
+        "adaptive sampling at " + std::to_string(samples) +
+        " samples needs a crop margin of " + std::to_string(reach) +
+        " pixels to render the crop as the whole image would");
+}
+
 RawRayThroughput RenderPass::measureRawThroughput() {
   execute(0);  // sync
-  const penumbra::Camera camera(delegate_.camera(cameraId_).params(), film_.width(),
-                                film_.height());
-  return penumbra::measureRawThroughput(delegate_.scene(), camera, film_.width(), film_.height(),
+  const penumbra::Camera camera(delegate_.camera(cameraId_).params(), imageWidth_, imageHeight_);
+  return penumbra::measureRawThroughput(delegate_.scene(), camera, imageWidth_, imageHeight_,
                                         delegate_.settings().threads);
 }
 
@@ -103,8 +162,19 @@ void RenderPass::setAovBindings(std::map<std::string, PrimId> bindings) {
 }
 
 std::vector<float> RenderPass::aov(const std::string& name) const {
-  aovChannels(name);
-  return name == "color" ? film_.resolveColor() : film_.resolveDepth();
+  const int channels = aovChannels(name);
+  std::vector<float> film = name == "color" ? film_.resolveColor() : film_.resolveDepth();
+  const PixelRect& filmRegion = film_.region();
+  if (filmRegion == crop_) return film;
+  std::vector<float> cropped(size_t(crop_.width) * size_t(crop_.height) * size_t(channels));
+  const size_t rowValues = size_t(crop_.width) * size_t(channels);
+  for (int y = 0; y < crop_.height; ++y) {
+    const size_t filmPixel = size_t(crop_.y - filmRegion.y + y) * size_t(filmRegion.width) +
+                             size_t(crop_.x - filmRegion.x);
+    std::copy_n(film.begin() + std::ptrdiff_t(filmPixel * size_t(channels)), rowValues,
+                cropped.begin() + std::ptrdiff_t(size_t(y) * rowValues));
+  }
+  return cropped;
 }
 
 }  // namespace penumbra::plugin

@@ -80,6 +80,14 @@ def _alive(pid: int) -> bool:
         return True
     return True
 METADATA_PREFIX = "penumbra:"
+"""Files name Penumbra's metadata ``penumbra:<key>``; keys already in a namespace (standard
+attributes such as ``Exif:ImageUniqueID``) keep their name."""
+
+
+def _attribute_name(key: str) -> str:
+    """The file attribute of a metadata key (see :data:`METADATA_PREFIX`)."""
+    return key if ":" in key else METADATA_PREFIX + key
+
 
 _CHANNEL_SUFFIXES = "RGBA"
 
@@ -144,7 +152,7 @@ class Image(Mapping[str, np.ndarray]):
         """Write the image atomically; the extension picks the format.
 
         ``.exr`` holds every AOV as float channels (see :func:`channel_names`) and the metadata
-        as ``penumbra:*`` attributes. Other formats hold the ``color`` AOV converted to display
+        as ``penumbra:*`` attributes (keys with a namespace as they are). Other formats hold the ``color`` AOV converted to display
         values: ``color_mode`` ``"openColorIO"`` (default) uses ``ocio_config``, else ``$OCIO``,
         else Penumbra's bundled config (sRGB display, "Standard" view unless ``display``/
         ``view`` say otherwise); ``"sRGB"`` applies the sRGB transfer function;
@@ -178,7 +186,7 @@ class Image(Mapping[str, np.ndarray]):
             path,
             np.ascontiguousarray(np.concatenate(arrays, axis=2)),
             names,
-            {METADATA_PREFIX + key: value for key, value in self.metadata.items()},
+            {_attribute_name(key): value for key, value in self.metadata.items()},
             color_mode=color_mode,
             ocio_config=config,
             display=display,
