@@ -132,13 +132,12 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
 void RenderPass::checkCropMargin(int samples) const {
   const int reach = adaptiveSamplingReach(samples, delegate_.settings().adaptiveMinSamples);
   const PixelRect& film = film_.region();
-  // Each side of the crop is an image edge, or has `reach` rendered pixels beyond it.
-  const bool enough = (crop_.x == 0 || crop_.x - film.x >= reach) &&
-                      (crop_.y == 0 || crop_.y - film.y >= reach) &&
-                      (crop_.x + crop_.width == imageWidth_ ||
-                       film.x + film.width - (crop_.x + crop_.width) >= reach) &&
-                      (crop_.y + crop_.height == imageHeight_ ||
-                       film.y + film.height - (crop_.y + crop_.height) >= reach);
+  // On each side the film reaches the image's edge, or `reach` pixels past the crop.
+  const int filmRight = film.x + film.width, filmBottom = film.y + film.height;
+  const bool enough = (film.x == 0 || crop_.x - film.x >= reach) &&
+                      (film.y == 0 || crop_.y - film.y >= reach) &&
+                      (filmRight == imageWidth_ || filmRight - (crop_.x + crop_.width) >= reach) &&
+                      (filmBottom == imageHeight_ || filmBottom - (crop_.y + crop_.height) >= reach);
   if (!enough)
     throw std::invalid_argument(
         "adaptive sampling at " + std::to_string(samples) +

@@ -32,7 +32,6 @@ from .frames import (
     iter_frames,
     parse_frame_spec,
 )
-from .farm import FarmError, record_on_farm
 from .image import COLOR_MODES, Image, check_output_directory, check_output_format
 from .jobs import (
     DEFAULT_TIME,
@@ -548,7 +547,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         warnings.showwarning = _show_warning
         try:
             status = _record(args, frames, tracer)
-        except (SceneError, FarmError, RuntimeError, OSError) as error:  # RuntimeError: the writer's
+        except (SceneError, RuntimeError, OSError) as error:  # RuntimeError: the image writer's
             sys.stderr.write(f"{PROG}: error: {error}\n")
             status = EXIT_SCENE
         except KeyboardInterrupt:
@@ -629,6 +628,8 @@ def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) 
         return frame_path(args.outputImagePath, frame) if frames else args.outputImagePath
 
     if args.scheduler or args.workers:
+        from .farm import record_on_farm  # Dask takes a second to import: farm renders only
+
         say(f"Renderer plugin: {RENDERER_NAME}, on a Dask cluster")
         with tracer.span("render on the farm"):
             record_on_farm(

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import sys
 import time
 import uuid
@@ -32,10 +33,11 @@ from .worker import PLUGIN_NAME, JobRenderers, render_tile
 NO_WORKER_TIMEOUT = 60.0
 """Seconds a render waits while the cluster has no worker before it fails (never a hang)."""
 POLL_SECONDS = 0.5
+_log = logging.getLogger("penumbra.farm")
 MAX_TILES_PER_FRAME = 64
 
 
-class FarmError(Exception):
+class FarmError(RuntimeError):
     """The farm could not render: a frame failed (the message names it and the worker's
     message), the scheduler is unreachable, or the cluster has no workers."""
 
@@ -47,7 +49,8 @@ class FarmSummary:
     written: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
     tiles_per_frame: int = 1
-    workers: int = 0
+    workers_used: set[str] = field(default_factory=set)
+    """The addresses of the workers whose tiles made the frames written."""
 
 
 def tiles_per_frame(frames: int, workers: int) -> int:
@@ -79,7 +82,7 @@ def connect(scheduler: str | None, workers: int | None) -> Iterator[Client]:
             processes=True,
             host="127.0.0.1",
             dashboard_address=None,
-            silence_logs=logging.ERROR,
+            silence_logs=logging.CRITICAL,  # the client reports failures itself
         ) as cluster,
         Client(cluster) as client,
     ):
@@ -116,11 +119,21 @@ def record_on_farm(
         run = _FarmRun(
             client, job, output_path, bands, worker_count, resume, say, reporter, no_worker_timeout
         )
+        started = time.perf_counter()
         try:
             run.render(frames)
         finally:
             client.cancel(list(run.pending))
-        return run.summary
+        summary = run.summary
+        if summary.written:
+            count = len(summary.written)
+            tiles = f" in {bands} tiles" if bands > 1 else ""
+            say(
+                f"Rendered {count} frame{'s' if count > 1 else ''}{tiles} on "
+                f"{len(summary.workers_used)} worker{'s' if len(summary.workers_used) > 1 else ''} "
+                f"in {time.perf_counter() - started:.1f} s"
+            )
+        return summary
 
 
 def _wait_for_workers(client: Client, where: str, timeout: float) -> int:
@@ -157,10 +170,11 @@ class _FarmRun:
         self.reporter = reporter
         self.no_worker_timeout = no_worker_timeout
         self.pending: dict[Future, tuple[int, int]] = {}  # future -> (frame index, band)
+        self.workers_seen: set[str] = set()
         self.frames: dict[int, tuple[FrameTime, str, list[Tile]]] = {}
         self.warnings_seen: set[str] = set()
         self.camera_named = False
-        self.summary = FarmSummary(tiles_per_frame=bands, workers=workers)
+        self.summary = FarmSummary(tiles_per_frame=bands)
 
     def render(self, frames: Iterable[FrameTime]) -> None:
         upcoming = enumerate(frames)
@@ -174,7 +188,8 @@ class _FarmRun:
                     self._submit(*entry)
             if not self.pending:
                 return
-            for future in self._wait_for_some():
+            # Earlier frames first, so that of several failures the first frame's is reported.
+            for future in sorted(self._wait_for_some(), key=lambda done: self.pending[done]):
                 self._receive(future)
 
     def _submit(self, index: int, frame: FrameTime) -> None:
@@ -204,6 +219,17 @@ class _FarmRun:
         ``no_worker_timeout`` seconds without a worker in the cluster."""
         without_workers_since: float | None = None
         while True:
+            if self._check_workers():
+                without_workers_since = None
+            else:
+                now = time.monotonic()
+                without_workers_since = without_workers_since or now
+                if now - without_workers_since > self.no_worker_timeout:
+                    index = min(index for index, _ in self.pending.values())
+                    raise FarmError(
+                        f"time code {frame_label(self.frames[index][0])}: the cluster has had "
+                        f"no worker for {self.no_worker_timeout:g} s"
+                    )
             try:
                 done, _ = wait(
                     list(self.pending), timeout=POLL_SECONDS, return_when="FIRST_COMPLETED"
@@ -211,17 +237,14 @@ class _FarmRun:
                 return done
             except TimeoutError:
                 pass
-            if self.client.nthreads():
-                without_workers_since = None
-                continue
-            now = time.monotonic()
-            without_workers_since = without_workers_since or now
-            if now - without_workers_since > self.no_worker_timeout:
-                index = min(index for index, _ in self.pending.values())
-                raise FarmError(
-                    f"time code {frame_label(self.frames[index][0])}: the cluster has had no "
-                    f"worker for {self.no_worker_timeout:g} s"
-                )
+
+    def _check_workers(self) -> int:
+        """How many workers the cluster has; logs those that left it since the last look."""
+        workers = set(self.client.nthreads())
+        for address in sorted(self.workers_seen - workers):
+            _log.info("worker %s left the cluster; Dask gives its tiles to the others", address)
+        self.workers_seen = workers
+        return len(workers)
 
     def _receive(self, future: Future) -> None:
         index, _band = self.pending.pop(future)
@@ -231,6 +254,7 @@ class _FarmRun:
         tile: Tile = future.result()
         self._report_worker_news(tile)
         tiles.append(tile)
+        self.summary.workers_used.add(tile.worker)
         if self.reporter:
             self.reporter.tile_done()
         if len(tiles) < self.bands:
@@ -238,7 +262,7 @@ class _FarmRun:
         del self.frames[index]
         merge_tiles(tiles).write(output, color_mode=self.job.color_mode)
         self.summary.written.append(output)
-        self.say(f"Wrote {output}")
+        self.say(f"Wrote {os.path.abspath(output)}")
         if self.reporter:
             self.reporter.frame_done()
 

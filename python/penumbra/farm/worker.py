@@ -65,6 +65,7 @@ def render_tile(job_id: str, job: RenderJob, frame: FrameTime, band: int, bands:
     :class:`FrameFailed` with the worker's address and message (no traceback to ship)."""
     worker = get_worker()
     started = time.perf_counter()
+    failure: str | None = None
     try:
         with (
             worker.plugins[PLUGIN_NAME].renderer(job_id, job) as renderer,
@@ -78,7 +79,11 @@ def render_tile(job_id: str, job: RenderJob, frame: FrameTime, band: int, bands:
                 region = None if bands == 1 else (0, first, width, end - first)
                 image = renderer.render(frame, region=region)
     except Exception as error:  # reported by the client; retrying elsewhere would fail alike
-        raise FrameFailed(f"worker {worker.address}: {_describe(error)}") from None
+        failure = f"worker {worker.address}: {_describe(error)}"
+    if failure is not None:
+        # Raised outside the handler: the error's context (e.g. USD's unpicklable Tf errors)
+        # would make Dask send a bare Exception instead.
+        raise FrameFailed(failure)
     return Tile(
         first_row=first,
         end_row=end,
