@@ -113,12 +113,12 @@ def record_on_farm(
     """
     with connect(scheduler, workers) as client:
         client.register_plugin(JobRenderers(), name=PLUGIN_NAME)
-        worker_count = _wait_for_workers(client, scheduler or "the local cluster", no_worker_timeout)
+        worker_count = _wait_for_workers(
+            client, workers or 1, scheduler or "the local cluster", no_worker_timeout
+        )
         bands = tiles or tiles_per_frame(frame_count, worker_count)
         reporter = _ProgressReporter(frame_count, bands) if progress else None
-        run = _FarmRun(
-            client, job, output_path, bands, worker_count, resume, say, reporter, no_worker_timeout
-        )
+        run = _FarmRun(client, job, output_path, bands, resume, say, reporter, no_worker_timeout)
         started = time.perf_counter()
         try:
             run.render(frames)
@@ -136,11 +136,12 @@ def record_on_farm(
         return summary
 
 
-def _wait_for_workers(client: Client, where: str, timeout: float) -> int:
+def _wait_for_workers(client: Client, count: int, where: str, timeout: float) -> int:
+    """How many workers the cluster has, once it has ``count``."""
     try:
-        client.wait_for_workers(1, timeout=timeout)
+        client.wait_for_workers(count, timeout=timeout)
     except TimeoutError:
-        raise FarmError(f"no Dask worker joined {where} within {timeout:g} s") from None
+        raise FarmError(f"{where} has had fewer than {count} Dask workers for {timeout:g} s") from None
     return len(client.nthreads())
 
 
@@ -153,7 +154,6 @@ class _FarmRun:
         job: RenderJob,
         output_path: Callable[[FrameTime], str],
         bands: int,
-        workers: int,
         resume: bool,
         say: Callable[[str], None],
         reporter: _ProgressReporter | None,
@@ -164,13 +164,12 @@ class _FarmRun:
         self.job_id = uuid.uuid4().hex  # workers reopen the stage for each new run
         self.output_path = output_path
         self.bands = bands
-        self.frames_in_flight_limit = 2 * workers  # each worker has one frame queued
         self.resume = resume
         self.say = say
         self.reporter = reporter
         self.no_worker_timeout = no_worker_timeout
         self.pending: dict[Future, tuple[int, int]] = {}  # future -> (frame index, band)
-        self.workers_seen: set[str] = set()
+        self.workers_seen: set[str] = set(client.nthreads())
         self.frames: dict[int, tuple[FrameTime, str, list[Tile]]] = {}
         self.warnings_seen: set[str] = set()
         self.camera_named = False
@@ -180,7 +179,8 @@ class _FarmRun:
         upcoming = enumerate(frames)
         exhausted = False
         while True:
-            while not exhausted and len(self.frames) < self.frames_in_flight_limit:
+            # Two frames per worker in flight: one rendering, one queued (workers may join).
+            while not exhausted and len(self.frames) < 2 * max(1, len(self.workers_seen)):
                 entry = next(upcoming, None)
                 if entry is None:
                     exhausted = True
