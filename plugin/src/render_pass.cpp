@@ -15,14 +15,13 @@ namespace {
 /// std::invalid_argument unless `crop` is a non-empty part of the image.
 PixelRect cropWithMargin(int width, int height, const PixelRect& crop, int margin) {
   if (width <= 0 || height <= 0)
-    throw std::invalid_argument("image size must be positive, got " + std::to_string(width) +
-                                "x" + std::to_string(height));
+    throw std::invalid_argument("image size must be positive, got " + std::to_string(width) + "x" +
+                                std::to_string(height));
   if (crop.width <= 0 || crop.height <= 0 || !PixelRect{0, 0, width, height}.contains(crop))
-    throw std::invalid_argument(
-        "crop (" + std::to_string(crop.x) + ", " + std::to_string(crop.y) + ") " +
-        std::to_string(crop.width) + "x" + std::to_string(crop.height) +
-        " is not a non-empty part of the " + std::to_string(width) + "x" +
-        std::to_string(height) + " image");
+    throw std::invalid_argument("crop (" + std::to_string(crop.x) + ", " + std::to_string(crop.y) +
+                                ") " + std::to_string(crop.width) + "x" +
+                                std::to_string(crop.height) + " is not a non-empty part of the " +
+                                std::to_string(width) + "x" + std::to_string(height) + " image");
   if (margin < 0) throw std::invalid_argument("crop margin must be >= 0");
   const int left = std::max(0, crop.x - margin), top = std::max(0, crop.y - margin);
   const int right = int(std::min<int64_t>(width, int64_t(crop.x) + crop.width + margin));
@@ -134,15 +133,14 @@ void RenderPass::checkCropMargin(int samples) const {
   const PixelRect& film = film_.region();
   // On each side the film reaches the image's edge, or `reach` pixels past the crop.
   const int filmRight = film.x + film.width, filmBottom = film.y + film.height;
-  const bool enough = (film.x == 0 || crop_.x - film.x >= reach) &&
-                      (film.y == 0 || crop_.y - film.y >= reach) &&
-                      (filmRight == imageWidth_ || filmRight - (crop_.x + crop_.width) >= reach) &&
-                      (filmBottom == imageHeight_ || filmBottom - (crop_.y + crop_.height) >= reach);
+  const bool enough =
+      (film.x == 0 || crop_.x - film.x >= reach) && (film.y == 0 || crop_.y - film.y >= reach) &&
+      (filmRight == imageWidth_ || filmRight - (crop_.x + crop_.width) >= reach) &&
+      (filmBottom == imageHeight_ || filmBottom - (crop_.y + crop_.height) >= reach);
   if (!enough)
-    throw std::invalid_argument(
-        "adaptive sampling at " + std::to_string(samples) +
-        " samples needs a crop margin of " + std::to_string(reach) +
-        " pixels to render the crop as the whole image would");
+    throw std::invalid_argument("adaptive sampling at " + std::to_string(samples) +
+                                " samples needs a crop margin of " + std::to_string(reach) +
+                                " pixels to render the crop as the whole image would");
 }
 
 RawRayThroughput RenderPass::measureRawThroughput() {

@@ -583,8 +583,8 @@ PYBIND11_MODULE(_core, m) {
            }),
            py::arg("delegate"), py::arg("camera_id"), py::arg("width"), py::arg("height"),
            py::arg("crop") = py::none(), py::arg("margin") = 0, py::keep_alive<1, 2>())
-      .def_static("adaptive_sampling_reach", &RenderPass::adaptiveSamplingReach,
-                  py::arg("samples"), py::arg("min_samples"))
+      .def_static("adaptive_sampling_reach", &RenderPass::adaptiveSamplingReach, py::arg("samples"),
+                  py::arg("min_samples"))
       .def("execute", &executeInterruptibly, py::arg("samples"))
       .def("reset", &RenderPass::reset)
       .def("set_aov_bindings", &RenderPass::setAovBindings, py::arg("bindings"))

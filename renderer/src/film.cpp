@@ -9,9 +9,8 @@ Film::Film(int width, int height) : Film(PixelRect{0, 0, width, height}) {}
 
 Film::Film(const PixelRect& region) : region_(region) {
   if (region.width <= 0 || region.height <= 0)
-    throw std::invalid_argument("film size must be positive, got " +
-                                std::to_string(region.width) + "x" +
-                                std::to_string(region.height));
+    throw std::invalid_argument("film size must be positive, got " + std::to_string(region.width) +
+                                "x" + std::to_string(region.height));
   if (region.x < 0 || region.y < 0)
     throw std::invalid_argument("a film's pixels start at (0, 0) or later, got (" +
                                 std::to_string(region.x) + ", " + std::to_string(region.y) + ")");
@@ -113,7 +112,9 @@ uint64_t Film::samplesTaken(const std::optional<PixelRect>& within) const {
   return total;
 }
 
-double Film::meanSamples() const { return double(samplesTaken()) / double(pixels_.size()); }
+double Film::meanSamples() const {
+  return double(samplesTaken()) / double(pixels_.size());
+}
 
 std::vector<float> Film::resolveDepth() const {
   std::vector<float> depth(pixels_.size());

@@ -612,10 +612,8 @@ TEST(Render, CropsAreBitIdenticalToThePixelsOfTheWholeImage) {
     EXPECT_EQ(part.aov("color"), cropOf(whole.aov("color"), 48, 4, crop));
     EXPECT_EQ(part.aov("depth"), cropOf(whole.aov("depth"), 48, 1, crop));
   }
-  EXPECT_THROW(RenderPass(delegate, "/cam", 48, 40, PixelRect{40, 0, 9, 4}),
-               std::invalid_argument);
-  EXPECT_THROW(RenderPass(delegate, "/cam", 48, 40, PixelRect{0, 0, 0, 4}),
-               std::invalid_argument);
+  EXPECT_THROW(RenderPass(delegate, "/cam", 48, 40, PixelRect{40, 0, 9, 4}), std::invalid_argument);
+  EXPECT_THROW(RenderPass(delegate, "/cam", 48, 40, PixelRect{0, 0, 0, 4}), std::invalid_argument);
 }
 
 TEST(Render, AdaptiveCropsNeedAMarginAsWideAsTheConvergenceTestsReach) {
@@ -628,8 +626,8 @@ TEST(Render, AdaptiveCropsNeedAMarginAsWideAsTheConvergenceTestsReach) {
   RenderPass whole(delegate, "/cam", 48, 40);
   whole.execute(64);
   uint64_t samples = 0;
-  for (const PixelRect& crop : {PixelRect{0, 0, 48, 10}, PixelRect{0, 10, 48, 20},
-                                PixelRect{0, 30, 48, 10}}) {
+  for (const PixelRect& crop :
+       {PixelRect{0, 0, 48, 10}, PixelRect{0, 10, 48, 20}, PixelRect{0, 30, 48, 10}}) {
     RenderPass part(delegate, "/cam", 48, 40, crop, reach);
     part.execute(64);
     EXPECT_EQ(part.aov("color"), cropOf(whole.aov("color"), 48, 4, crop));

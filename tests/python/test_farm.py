@@ -59,8 +59,16 @@ def dask_cluster(directory: Path, workers: int) -> Iterator[Cluster]:
         for _ in range(workers):
             processes.append(
                 subprocess.Popen(
-                    [DASK, "worker", "--scheduler-file", scheduler_file, "--nthreads", "1",
-                     "--no-nanny", *common],
+                    [
+                        DASK,
+                        "worker",
+                        "--scheduler-file",
+                        scheduler_file,
+                        "--nthreads",
+                        "1",
+                        "--no-nanny",
+                        *common,
+                    ],
                     stderr=subprocess.DEVNULL,
                 )
             )
@@ -137,8 +145,16 @@ def test_a_frame_split_into_tiles_is_bit_identical_to_a_local_render(cluster, tm
     (tmp_path / "farm").mkdir()
     assert main([str(CORNELL), str(tmp_path / "local" / "frame.exr"), *flags, "-q"]) == 0
     assert (
-        main([str(CORNELL), str(tmp_path / "farm" / "frame.exr"), *flags,
-              "--scheduler", cluster.address]) == 0
+        main(
+            [
+                str(CORNELL),
+                str(tmp_path / "farm" / "frame.exr"),
+                *flags,
+                "--scheduler",
+                cluster.address,
+            ]
+        )
+        == 0
     )
     assert "Rendered 1 frame in 4 tiles on 2 workers" in capsys.readouterr().out
     assert_identical(tmp_path / "farm", tmp_path / "local")
@@ -153,8 +169,20 @@ def test_the_stage_population_and_every_setting_reach_the_workers(cluster, tmp_p
     session.write_text(
         '#usda 1.0\nover "World" {\n over "ceiling_light" {\n  float inputs:intensity = 40\n }\n}\n'
     )
-    flags = ["-w", "48", "-spp", "4", "--seed", "3", "--maxPathDepth", "2", "-color", "disabled",
-             "--purposes", "render"]
+    flags = [
+        "-w",
+        "48",
+        "-spp",
+        "4",
+        "--seed",
+        "3",
+        "--maxPathDepth",
+        "2",
+        "-color",
+        "disabled",
+        "--purposes",
+        "render",
+    ]
     population = ["--sessionLayer", str(session), "--mask", "/cam,/World/room,/World/ceiling_light"]
     for name, extra in (("plain", []), ("local", population), ("farm", population)):
         (tmp_path / name).mkdir()
@@ -162,7 +190,9 @@ def test_the_stage_population_and_every_setting_reach_the_workers(cluster, tmp_p
         assert main([str(CORNELL), str(tmp_path / name / "out.png"), *flags, *extra, *farm]) == 0
     capsys.readouterr()
     assert_identical(tmp_path / "farm", tmp_path / "local")
-    plain, local = (_core.read_image(str(tmp_path / name / "out.png"))[0] for name in ("plain", "local"))
+    plain, local = (
+        _core.read_image(str(tmp_path / name / "out.png"))[0] for name in ("plain", "local")
+    )
     assert not np.array_equal(plain, local)
 
 
@@ -227,10 +257,19 @@ def test_a_worker_killed_mid_sequence_loses_no_frame(local_sequence, tmp_path):
     """SIGKILL to the worker rendering a frame: the scheduler gives its task to the other
     worker; every frame is still written once, identical to the local render."""
     (tmp_path / "frames").mkdir()
-    with dask_cluster(tmp_path, workers=2) as own, Client(own.address, set_as_default=False) as client:
+    with (
+        dask_cluster(tmp_path, workers=2) as own,
+        Client(own.address, set_as_default=False) as client,
+    ):
         run = subprocess.Popen(
-            [*PENUMBRA_RECORD, str(ANIMATED), str(tmp_path / "frames" / "out.#.exr"), *SEQUENCE,
-             "--scheduler", own.address],
+            [
+                *PENUMBRA_RECORD,
+                str(ANIMATED),
+                str(tmp_path / "frames" / "out.#.exr"),
+                *SEQUENCE,
+                "--scheduler",
+                own.address,
+            ],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -250,8 +289,15 @@ def test_a_worker_that_cannot_open_the_stage_fails_the_frame_with_its_message(cl
     broken.write_text("#usda 1.0\ndef Xform (\n")
     for stage, problem in ((broken, "broken.usda"), (tmp_path / "missing.usda", "missing.usda")):
         run = subprocess.run(
-            [*PENUMBRA_RECORD, str(stage), str(tmp_path / "out.#.png"), "-f", "1:3",
-             "--scheduler", cluster.address],
+            [
+                *PENUMBRA_RECORD,
+                str(stage),
+                str(tmp_path / "out.#.png"),
+                "-f",
+                "1:3",
+                "--scheduler",
+                cluster.address,
+            ],
             capture_output=True,
             text=True,
             timeout=TIMEOUT,
@@ -259,7 +305,9 @@ def test_a_worker_that_cannot_open_the_stage_fails_the_frame_with_its_message(cl
         assert run.returncode == 1
         error = run.stderr.strip().splitlines()[-1]
         # Both workers fail a frame at once; either may be reported first.
-        assert re.match(r"penumbra-record: error: time code [12]: worker tcp://127\.0\.0\.1:", error)
+        assert re.match(
+            r"penumbra-record: error: time code [12]: worker tcp://127\.0\.0\.1:", error
+        )
         assert problem in error and "Traceback" not in run.stderr
     assert not list(tmp_path.glob("out*"))
 
@@ -295,8 +343,17 @@ def test_bands_cover_every_row_once_and_merge_back():
     assert tiles_per_frame(frames=1, workers=2) == 4
     image = np.arange(10 * 3 * 4, dtype=np.float32).reshape(10, 3, 4)
     tiles = [
-        Tile(first, end, 3, 10, {"color": image[first:end]}, {"samplesTaken": (end - first) * 3,
-             "rays": 1, "renderTimeSeconds": 0.5}, "/cam", "w", 0.5)
+        Tile(
+            first,
+            end,
+            3,
+            10,
+            {"color": image[first:end]},
+            {"samplesTaken": (end - first) * 3, "rays": 1, "renderTimeSeconds": 0.5},
+            "/cam",
+            "w",
+            0.5,
+        )
         for first, end in (band_rows(10, band, 4) for band in (2, 0, 3, 1))
     ]
     merged = merge_tiles(tiles)

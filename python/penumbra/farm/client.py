@@ -141,7 +141,9 @@ def _wait_for_workers(client: Client, count: int, where: str, timeout: float) ->
     try:
         client.wait_for_workers(count, timeout=timeout)
     except TimeoutError:
-        raise FarmError(f"{where} has had fewer than {count} Dask workers for {timeout:g} s") from None
+        raise FarmError(
+            f"{where} has had fewer than {count} Dask workers for {timeout:g} s"
+        ) from None
     return len(client.nthreads())
 
 
@@ -323,7 +325,9 @@ class _ProgressReporter:
             line += f", tiles {self.tiles_done}/{to_render}"
         line += f", {elapsed:.1f} s"
         if 0 < self.tiles_done < to_render:
-            line += f", about {elapsed * (to_render - self.tiles_done) / self.tiles_done:.0f} s left"
+            line += (
+                f", about {elapsed * (to_render - self.tiles_done) / self.tiles_done:.0f} s left"
+            )
         if self.interactive:
             sys.stderr.write(f"\r\033[K{line}" + ("\n" if final else ""))
         else:

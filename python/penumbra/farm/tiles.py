@@ -9,6 +9,7 @@ together gives the local render (docs/farm.md).
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -51,13 +52,14 @@ def merge_tiles(tiles: list[Tile]) -> Image:
     if len(rendered) == 1:
         return Image(first.aovs, first.metadata)
     covered = [(tile.first_row, tile.end_row) for tile in rendered]
-    if covered[0][0] != 0 or covered[-1][1] != first.height or any(
-        end != next_first for (_, end), (next_first, _) in zip(covered, covered[1:])
+    if (
+        covered[0][0] != 0
+        or covered[-1][1] != first.height
+        or any(end != next_first for (_, end), (next_first, _) in itertools.pairwise(covered))
     ):
         raise ValueError(f"tiles {covered} do not cover the {first.height} rows once")
     aovs = {
-        name: np.concatenate([tile.aovs[name] for tile in rendered], axis=0)
-        for name in first.aovs
+        name: np.concatenate([tile.aovs[name] for tile in rendered], axis=0) for name in first.aovs
     }
     samples_taken = sum(int(tile.metadata["samplesTaken"]) for tile in rendered)
     metadata = dict(first.metadata)

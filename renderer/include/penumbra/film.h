@@ -57,7 +57,9 @@ class Film {
   /// a larger image, pixels within k pixels of a crop edge inside the image may decide
   /// differently from the whole image's after k tests (see RenderPass's crop margin).
   void updateConvergence(float threshold);
-  bool isActive(int x, int y) const { return active_[size_t(y) * size_t(region_.width) + size_t(x)]; }
+  bool isActive(int x, int y) const {
+    return active_[size_t(y) * size_t(region_.width) + size_t(x)];
+  }
   size_t activePixels() const { return activePixels_; }
   /// Samples taken per pixel, on average over the film.
   double meanSamples() const;
