@@ -630,6 +630,9 @@ def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) 
     if args.scheduler or args.workers:
         from .farm import record_on_farm  # Dask takes a second to import: farm renders only
 
+        if not args.verbose:  # the farm client reports failures itself, without Dask's logs
+            for name in ("distributed", "distributed.client"):  # both have their own level
+                logging.getLogger(name).setLevel(logging.CRITICAL)
         say(f"Renderer plugin: {RENDERER_NAME}, on a Dask cluster")
         with tracer.span("render on the farm"):
             record_on_farm(

@@ -40,6 +40,7 @@ TIMEOUT = 120  # seconds: a hang fails the test instead of stalling the suite
 @dataclass
 class Cluster:
     address: str
+    scheduler: subprocess.Popen
     workers: list[subprocess.Popen]
 
 
@@ -79,7 +80,7 @@ def dask_cluster(directory: Path, workers: int) -> Iterator[Cluster]:
         with Client(scheduler_file=str(scheduler_file), set_as_default=False) as client:
             client.wait_for_workers(workers, timeout=TIMEOUT)
             address = client.scheduler.address
-        yield Cluster(address, processes[1:])
+        yield Cluster(address, processes[0], processes[1:])
     finally:
         for process in reversed(processes):  # workers first: the scheduler would wait on them
             process.kill()
@@ -282,6 +283,31 @@ def test_a_worker_killed_mid_sequence_loses_no_frame(local_sequence, tmp_path):
         assert len(client.nthreads()) == 1  # the killed worker stayed dead
     assert written("\n".join(lines)) == frame_files(local_sequence)  # each frame once
     assert_identical(tmp_path / "frames", local_sequence)
+
+
+def test_a_lost_scheduler_is_an_error_not_a_hang(tmp_path):
+    with dask_cluster(tmp_path, workers=1) as own:
+        run = subprocess.Popen(
+            [
+                *PENUMBRA_RECORD,
+                str(ANIMATED),
+                str(tmp_path / "out.#.exr"),
+                *SEQUENCE,
+                "--scheduler",
+                own.address,
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        next(line for line in run.stdout if line.startswith("Wrote "))
+        own.scheduler.kill()
+        _, stderr = run.communicate(timeout=TIMEOUT)
+    assert run.returncode == 1
+    assert stderr.strip().splitlines()[-1] == (
+        "penumbra-record: error: lost the connection to the Dask scheduler; the frames written "
+        "so far are complete (--resume renders the others)"
+    )
 
 
 def test_a_worker_that_cannot_open_the_stage_fails_the_frame_with_its_message(cluster, tmp_path):

@@ -18,23 +18,24 @@ import sys
 import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import CancelledError
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import dask.config
 from dask.utils import parse_timedelta
-from distributed import Client, Future, LocalCluster, wait
+from distributed import Client, Future, KilledWorker, LocalCluster, wait
 
 from ..errors import warn
 from ..jobs import FrameTime, RenderJob, frame_label, output_is_complete
 from .tiles import Tile, merge_tiles
-from .worker import PLUGIN_NAME, JobRenderers, render_tile
+from .worker import PLUGIN_NAME, FrameFailed, JobRenderers, render_tile
 
 NO_WORKER_TIMEOUT = 60.0
 """Seconds a render waits while the cluster has no worker before it fails (never a hang)."""
 POLL_SECONDS = 0.5
-_log = logging.getLogger("penumbra.farm")
 MAX_TILES_PER_FRAME = 64
+_log = logging.getLogger("penumbra.farm")
 
 
 class FarmError(RuntimeError):
@@ -48,7 +49,8 @@ class FarmSummary:
 
     written: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
-    tiles_per_frame: int = 1
+    tiles: int = 1
+    """Bands per frame."""
     workers_used: set[str] = field(default_factory=set)
     """The addresses of the workers whose tiles made the frames written."""
 
@@ -127,9 +129,9 @@ def record_on_farm(
         summary = run.summary
         if summary.written:
             count = len(summary.written)
-            tiles = f" in {bands} tiles" if bands > 1 else ""
+            split = f" in {bands} tiles" if bands > 1 else ""
             say(
-                f"Rendered {count} frame{'s' if count > 1 else ''}{tiles} on "
+                f"Rendered {count} frame{'s' if count > 1 else ''}{split} on "
                 f"{len(summary.workers_used)} worker{'s' if len(summary.workers_used) > 1 else ''} "
                 f"in {time.perf_counter() - started:.1f} s"
             )
@@ -175,7 +177,7 @@ class _FarmRun:
         self.frames: dict[int, tuple[FrameTime, str, list[Tile]]] = {}
         self.warnings_seen: set[str] = set()
         self.camera_named = False
-        self.summary = FarmSummary(tiles_per_frame=bands)
+        self.summary = FarmSummary(tiles=bands)
 
     def render(self, frames: Iterable[FrameTime]) -> None:
         upcoming = enumerate(frames)
@@ -190,8 +192,15 @@ class _FarmRun:
                     self._submit(*entry)
             if not self.pending:
                 return
+            try:
+                done = self._wait_for_some()
+            except (CancelledError, OSError):  # OSError: Dask's CommClosedError
+                raise FarmError(
+                    "lost the connection to the Dask scheduler; the frames written so far are "
+                    "complete (--resume renders the others)"
+                ) from None
             # Earlier frames first, so that of several failures the first frame's is reported.
-            for future in sorted(self._wait_for_some(), key=lambda done: self.pending[done]):
+            for future in sorted(done, key=lambda finished: self.pending[finished]):
                 self._receive(future)
 
     def _submit(self, index: int, frame: FrameTime) -> None:
@@ -284,10 +293,9 @@ def _failure(future: Future) -> str:
     if future.status == "cancelled":
         return "its task was cancelled (the scheduler lost it or shut down)"
     error = future.exception()
-    name = type(error).__name__
-    if name == "KilledWorker":
+    if isinstance(error, KilledWorker):
         return f"every worker that took it died ({error})"
-    return str(error) if name == "FrameFailed" else f"{name}: {error}"
+    return str(error) if isinstance(error, FrameFailed) else f"{type(error).__name__}: {error}"
 
 
 class _ProgressReporter:
