@@ -668,8 +668,8 @@ def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) 
     return EXIT_OK
 
 
-def _time_code_label(time_code: Usd.TimeCode) -> str:
-    return "default" if time_code.IsDefault() else f"{time_code.GetValue():g}"
+def _time_code_label(code: Usd.TimeCode) -> str:
+    return "default" if code.IsDefault() else f"{code.GetValue():g}"
 
 
 if __name__ == "__main__":

@@ -370,15 +370,14 @@ def test_bands_cover_every_row_once_and_merge_back():
     image = np.arange(10 * 3 * 4, dtype=np.float32).reshape(10, 3, 4)
     tiles = [
         Tile(
-            first,
-            end,
-            3,
-            10,
-            {"color": image[first:end]},
-            {"samplesTaken": (end - first) * 3, "rays": 1, "renderTimeSeconds": 0.5},
-            "/cam",
-            "w",
-            0.5,
+            first_row=first,
+            end_row=end,
+            width=3,
+            height=10,
+            aovs={"color": image[first:end]},
+            metadata={"samplesTaken": (end - first) * 3, "rays": 1, "renderTimeSeconds": 0.5},
+            camera="/cam",
+            worker="tcp://127.0.0.1:1",
         )
         for first, end in (band_rows(10, band, 4) for band in (2, 0, 3, 1))
     ]

@@ -31,7 +31,6 @@ class Tile:
     metadata: dict[str, str | int | float]
     camera: str
     worker: str
-    seconds: float
     warnings: list[str] = field(default_factory=list)
 
 

@@ -9,7 +9,6 @@ already uses every core the job's ``threads`` setting allows.
 from __future__ import annotations
 
 import threading
-import time
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -64,7 +63,6 @@ def render_tile(job_id: str, job: RenderJob, frame: FrameTime, band: int, bands:
     """The Dask task: render band ``band`` of ``bands`` of ``frame``. Any failure becomes
     :class:`FrameFailed` with the worker's address and message (no traceback to ship)."""
     worker = get_worker()
-    started = time.perf_counter()
     failure: str | None = None
     try:
         with (
@@ -93,7 +91,6 @@ def render_tile(job_id: str, job: RenderJob, frame: FrameTime, band: int, bands:
         metadata=dict(image.metadata) if image is not None else {},
         camera=renderer.camera,
         worker=worker.address,
-        seconds=time.perf_counter() - started,
         warnings=[str(warning.message) for warning in caught],
     )
 
