@@ -11,6 +11,7 @@ memory.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import os
@@ -113,6 +114,10 @@ def record_on_farm(
     for the first frame that fails, after cancelling the others; frames written by then stay
     (complete), so ``resume`` continues from them.
     """
+    if workers and job.threads == 0:
+        # "Every core" of a machine that a local cluster's workers share: each gets its part
+        # rather than N threads per core. Threads change no pixel (nor the resume key).
+        job = dataclasses.replace(job, threads=max(1, len(os.sched_getaffinity(0)) // workers))
     with connect(scheduler, workers) as client:
         client.register_plugin(JobRenderers(), name=PLUGIN_NAME)
         worker_count = _wait_for_workers(
