@@ -80,7 +80,7 @@ farm-demo: build
 	address=$$($(VPY) -c 'import json, sys; print(json.load(open(sys.argv[1]))["address"])' $$file); \
 	echo "Scheduler at $$address, two workers (logs in $(FARM_DEMO_DIR))"; \
 	$(VENV)/bin/penumbra-record examples/turntable.usda $(FARM_DEMO_DIR)/turntable.###.png \
-		-f 1:24 -w 240 -spp 16 --scheduler $$address
+		-f 1:24 -w 240 -spp 16 --scheduler $$address --threads $$(( ($$(nproc) + 1) / 2 ))
 
 bench: build
 	$(VPY) bench/run.py cornell.usda dof.usda motion.usda glass.usda instances.usda
