@@ -13,11 +13,12 @@ DEBIAN_PACKAGES := build-essential cmake ninja-build pkg-config git \
 	python3.11 python3.11-venv python3.11-dev \
 	libembree-dev libosd-dev libopencolorio-dev libopenimageio-dev libtbb-dev \
 	libopencv-core-dev openimageio-tools opencolorio-tools libgtest-dev
-PYTHON_PACKAGES := usd-core==26.11 "numpy>=1.26" "pybind11>=2.12" "scikit-build-core>=0.10" "pytest>=8" "atheris>=2.3" "materialx>=1.39" "pyoidn>=2.3"
+PYTHON_PACKAGES := usd-core==26.11 "numpy>=1.26" "pybind11>=2.12" "scikit-build-core>=0.10" "pytest>=8" "atheris>=2.3" \
+	"materialx>=1.39" "pyoidn>=2.3" "dask[distributed]==2026.8.0"
 
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps venv build render test test-cpp test-python fuzz bench clean
+.PHONY: all deps venv build render test test-cpp test-python fuzz bench farm-demo clean
 
 all: build
 
@@ -61,6 +62,25 @@ test-python:
 ## Longer fuzzing of the scene delegate (tests/fuzz/fuzz_scene.py); findings land in ./crash-*.
 fuzz: build
 	$(VPY) tests/fuzz/fuzz_scene.py -max_total_time=600 -timeout=30
+
+## A Dask scheduler and two workers on loopback render examples/turntable.usda into
+## build/farm-demo/, then stop.
+FARM_DEMO_DIR := build/farm-demo
+farm-demo: build
+	@rm -rf $(FARM_DEMO_DIR) && mkdir -p $(FARM_DEMO_DIR)
+	@set -e; dask=$(VENV)/bin/dask; file=$(FARM_DEMO_DIR)/scheduler.json; pids=; \
+	trap 'kill $$pids 2>/dev/null; wait $$pids 2>/dev/null || true' EXIT; \
+	$$dask scheduler --host 127.0.0.1 --port 0 --no-dashboard --scheduler-file $$file \
+		2> $(FARM_DEMO_DIR)/scheduler.log & pids="$$pids $$!"; \
+	for n in 1 2; do \
+		$$dask worker --scheduler-file $$file --host 127.0.0.1 --nthreads 1 --no-dashboard \
+			--name demo-$$n 2> $(FARM_DEMO_DIR)/worker-$$n.log & pids="$$pids $$!"; \
+	done; \
+	for i in $$(seq 100); do [ -s $$file ] && break; sleep 0.1; done; \
+	address=$$($(VPY) -c 'import json, sys; print(json.load(open(sys.argv[1]))["address"])' $$file); \
+	echo "Scheduler at $$address, two workers (logs in $(FARM_DEMO_DIR))"; \
+	$(VENV)/bin/penumbra-record examples/turntable.usda $(FARM_DEMO_DIR)/turntable.###.png \
+		-f 1:24 -w 240 -spp 16 --scheduler $$address --threads $$(( ($$(nproc) + 1) / 2 ))
 
 bench: build
 	$(VPY) bench/run.py cornell.usda dof.usda motion.usda glass.usda instances.usda

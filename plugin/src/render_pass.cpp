@@ -1,14 +1,47 @@
 #include "penumbra/plugin/render_pass.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <stdexcept>
+#include <string>
 
 #include "penumbra/render.h"
 
 namespace penumbra::plugin {
 
+namespace {
+
+/// `crop` grown by `margin` pixels on every side, then clipped to the image; throws
+/// std::invalid_argument unless `crop` is a non-empty part of the image.
+PixelRect cropWithMargin(int width, int height, const PixelRect& crop, int margin) {
+  if (width <= 0 || height <= 0)
+    throw std::invalid_argument("image size must be positive, got " + std::to_string(width) + "x" +
+                                std::to_string(height));
+  if (crop.width <= 0 || crop.height <= 0 || !PixelRect{0, 0, width, height}.contains(crop))
+    throw std::invalid_argument("crop (" + std::to_string(crop.x) + ", " + std::to_string(crop.y) +
+                                ") " + std::to_string(crop.width) + "x" +
+                                std::to_string(crop.height) + " is not a non-empty part of the " +
+                                std::to_string(width) + "x" + std::to_string(height) + " image");
+  if (margin < 0) throw std::invalid_argument("crop margin must be >= 0");
+  const int left = std::max(0, crop.x - margin), top = std::max(0, crop.y - margin);
+  const int right = int(std::min<int64_t>(width, int64_t(crop.x) + crop.width + margin));
+  const int bottom = int(std::min<int64_t>(height, int64_t(crop.y) + crop.height + margin));
+  return {left, top, right - left, bottom - top};
+}
+
+}  // namespace
+
 RenderPass::RenderPass(RenderDelegate& delegate, PrimId cameraId, int width, int height)
-    : delegate_(delegate), cameraId_(std::move(cameraId)), film_(width, height) {}
+    : RenderPass(delegate, std::move(cameraId), width, height, PixelRect{0, 0, width, height}) {}
+
+RenderPass::RenderPass(RenderDelegate& delegate, PrimId cameraId, int width, int height,
+                       PixelRect crop, int margin)
+    : delegate_(delegate),
+      cameraId_(std::move(cameraId)),
+      imageWidth_(width),
+      imageHeight_(height),
+      crop_(crop),
+      film_(cropWithMargin(width, height, crop, margin)) {}
 
 const std::vector<std::string>& RenderPass::aovNames() {
   return penumbra::aovNames();
@@ -18,7 +51,7 @@ void RenderPass::setAovs(const std::vector<std::string>& names) {
   std::vector<AovRequest> requests;
   for (const std::string& name : names) requests.push_back(parseAov(name));
   if (film_.accumulatesExactly(requests)) return;
-  film_ = Film(film_.width(), film_.height(), std::move(requests));
+  film_ = Film(film_.region(), std::move(requests));
   samplesDone_ = 0;
 }
 
@@ -36,6 +69,14 @@ int RenderPass::nextConvergenceTest(int samplesDone, int minSamples) {
   return test;
 }
 
+int RenderPass::adaptiveSamplingReach(int samples, int minSamples) {
+  int tests = 0;
+  for (int test = nextConvergenceTest(0, minSamples); test < samples;
+       test = nextConvergenceTest(test, minSamples))
+    ++tests;
+  return tests;
+}
+
 void RenderPass::reset() {
   film_.clear();
   samplesDone_ = 0;
@@ -44,7 +85,7 @@ void RenderPass::reset() {
 void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   if (samples < 0) throw std::invalid_argument("sample count must be >= 0");
   const Camera& cameraPrim = delegate_.camera(cameraId_);
-  delegate_.sync({cameraPrim.params(), film_.width()});
+  delegate_.sync({cameraPrim.params(), imageWidth_});
   const RenderSettingsMap& settings = delegate_.settings();
   // The target sample count does not change what a sample is; everything else does.
   std::map<std::string, double> settingsUsed = settings.asMap();
@@ -58,7 +99,9 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
     settingsUsed_ = std::move(settingsUsed);
   }
   if (samples == 0) return;
-  const penumbra::Camera camera(cameraPrim.params(), film_.width(), film_.height());
+  const int end = samplesDone_ + samples;
+  if (settings.adaptiveThreshold > 0) checkCropMargin(end);
+  const penumbra::Camera camera(cameraPrim.params(), imageWidth_, imageHeight_);
   RenderSettings renderSettings;
   renderSettings.threads = settings.threads;
   renderSettings.integrator.seed = uint32_t(settings.seed);
@@ -69,7 +112,6 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
   renderSettings.integrator.indirectClamp = settings.indirectClamp;
   renderSettings.integrator.glossyFilter = settings.glossyFilter;
-  const int end = samplesDone_ + samples;
   while (samplesDone_ < end && film_.activePixels() > 0) {
     const int checkpoint = settings.adaptiveThreshold > 0
                                ? nextConvergenceTest(samplesDone_, settings.adaptiveMinSamples)
@@ -95,11 +137,25 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   }
 }
 
+void RenderPass::checkCropMargin(int samples) const {
+  const int reach = adaptiveSamplingReach(samples, delegate_.settings().adaptiveMinSamples);
+  const PixelRect& film = film_.region();
+  // On each side the film reaches the image's edge, or `reach` pixels past the crop.
+  const int filmRight = film.x + film.width, filmBottom = film.y + film.height;
+  const bool enough =
+      (film.x == 0 || crop_.x - film.x >= reach) && (film.y == 0 || crop_.y - film.y >= reach) &&
+      (filmRight == imageWidth_ || filmRight - (crop_.x + crop_.width) >= reach) &&
+      (filmBottom == imageHeight_ || filmBottom - (crop_.y + crop_.height) >= reach);
+  if (!enough)
+    throw std::invalid_argument("adaptive sampling at " + std::to_string(samples) +
+                                " samples needs a crop margin of " + std::to_string(reach) +
+                                " pixels to render the crop as the whole image would");
+}
+
 RawRayThroughput RenderPass::measureRawThroughput() {
   execute(0);  // sync
-  const penumbra::Camera camera(delegate_.camera(cameraId_).params(), film_.width(),
-                                film_.height());
-  return penumbra::measureRawThroughput(delegate_.scene(), camera, film_.width(), film_.height(),
+  const penumbra::Camera camera(delegate_.camera(cameraId_).params(), imageWidth_, imageHeight_);
+  return penumbra::measureRawThroughput(delegate_.scene(), camera, imageWidth_, imageHeight_,
                                         delegate_.settings().threads);
 }
 
@@ -116,16 +172,23 @@ std::vector<float> RenderPass::aov(const std::string& name) const {
   const AovRequest request = parseAov(name);
   if (!film_.has(request))
     throw std::invalid_argument("AOV '" + name + "' is not accumulated by this render pass");
-  std::vector<float> values = film_.resolve(request);
+  const std::vector<float> values = film_.resolve(request);
+  // Primvars are accumulated as 4 floats: keep as many as the primvar has; a film with a margin
+  // keeps only the crop's pixels.
   const size_t stored = size_t(Film::channels(request.kind));
   const size_t wanted = size_t(aovChannels(name));
-  if (wanted == stored) return values;
-  // Primvars are accumulated as 4 floats: keep as many as the primvar has.
-  std::vector<float> trimmed(values.size() / stored * wanted);
-  for (size_t i = 0; i < values.size() / stored; ++i)
-    std::copy_n(values.begin() + ptrdiff_t(i * stored), wanted,
-                trimmed.begin() + ptrdiff_t(i * wanted));
-  return trimmed;
+  const PixelRect& filmRegion = film_.region();
+  if (wanted == stored && filmRegion == crop_) return values;
+  std::vector<float> cropped(size_t(crop_.width) * size_t(crop_.height) * wanted);
+  for (int y = 0; y < crop_.height; ++y)
+    for (int x = 0; x < crop_.width; ++x) {
+      const size_t filmPixel = size_t(crop_.y - filmRegion.y + y) * size_t(filmRegion.width) +
+                               size_t(crop_.x - filmRegion.x + x);
+      std::copy_n(
+          values.begin() + std::ptrdiff_t(filmPixel * stored), wanted,
+          cropped.begin() + std::ptrdiff_t((size_t(y) * size_t(crop_.width) + size_t(x)) * wanted));
+    }
+  return cropped;
 }
 
 }  // namespace penumbra::plugin

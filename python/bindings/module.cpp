@@ -5,12 +5,15 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstring>
 #include <exception>
 #include <future>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
@@ -27,6 +30,7 @@ using penumbra::Interpolation;
 using penumbra::Matrix44;
 using penumbra::Metadata;
 using penumbra::MotionTransform;
+using penumbra::PixelRect;
 using penumbra::Projection;
 using penumbra::Transform;
 using penumbra::Vec3f;
@@ -278,6 +282,13 @@ Metadata toMetadata(const py::dict& metadata) {
       result[name] = std::string(py::str(value));
     }
   }
+  return result;
+}
+
+py::dict toDict(const Metadata& metadata) {
+  py::dict result;
+  for (const auto& [key, value] : metadata)
+    std::visit([&, name = key](const auto& v) { result[py::str(name)] = v; }, value);
   return result;
 }
 
@@ -591,8 +602,17 @@ PYBIND11_MODULE(_core, m) {
            "The mesh prims by the value the primId AOV gives them.");
 
   py::class_<RenderPass>(m, "RenderPass")
-      .def(py::init<RenderDelegate&, std::string, int, int>(), py::arg("delegate"),
-           py::arg("camera_id"), py::arg("width"), py::arg("height"), py::keep_alive<1, 2>())
+      .def(py::init([](RenderDelegate& delegate, std::string cameraId, int width, int height,
+                       std::optional<std::array<int, 4>> crop, int margin) {
+             if (!crop) return std::make_unique<RenderPass>(delegate, cameraId, width, height);
+             const auto [x, y, cropWidth, cropHeight] = *crop;
+             return std::make_unique<RenderPass>(delegate, cameraId, width, height,
+                                                 PixelRect{x, y, cropWidth, cropHeight}, margin);
+           }),
+           py::arg("delegate"), py::arg("camera_id"), py::arg("width"), py::arg("height"),
+           py::arg("crop") = py::none(), py::arg("margin") = 0, py::keep_alive<1, 2>())
+      .def_static("adaptive_sampling_reach", &RenderPass::adaptiveSamplingReach, py::arg("samples"),
+                  py::arg("min_samples"))
       .def("execute", &executeInterruptibly, py::arg("samples"))
       .def("reset", &RenderPass::reset)
       .def("set_aov_bindings", &RenderPass::setAovBindings, py::arg("bindings"))
@@ -600,6 +620,7 @@ PYBIND11_MODULE(_core, m) {
            "Accumulate these AOVs besides color, alpha, Z and sampleCount (a change restarts).")
       .def_property_readonly("samples_done", &RenderPass::samplesDone)
       .def_property_readonly("mean_samples", &RenderPass::meanSamples)
+      .def_property_readonly("samples_taken", &RenderPass::samplesTaken)
       .def_property_readonly("rays_traced", &RenderPass::raysTraced)
       .def(
           "measure_raw_throughput",
@@ -693,10 +714,21 @@ PYBIND11_MODULE(_core, m) {
         py::array_t<float> pixels({py::ssize_t(image.height), py::ssize_t(image.width), channels});
         std::memcpy(pixels.mutable_data(), image.pixels.data(),
                     image.pixels.size() * sizeof(float));
-        py::dict metadata;
-        for (const auto& [key, value] : image.metadata)
-          std::visit([&, name = key](const auto& v) { metadata[py::str(name)] = v; }, value);
-        return py::make_tuple(pixels, image.channelNames, metadata);
+        return py::make_tuple(pixels, image.channelNames, toDict(image.metadata));
       },
       py::arg("path"));
+
+  m.def(
+      "read_image_header",
+      [](const std::string& path) {
+        ImageData image;
+        {
+          py::gil_scoped_release release;
+          image = penumbra::readImageHeader(path);
+        }
+        return py::make_tuple(image.width, image.height, image.channelNames,
+                              toDict(image.metadata));
+      },
+      py::arg("path"),
+      "(width, height, channel_names, metadata) of an image file, without its pixels.");
 }

@@ -33,19 +33,21 @@ from .frames import (
     iter_frames,
     parse_frame_spec,
 )
-from .memory import DEFAULT_BUDGET_FRACTION, parse_size
 from .image import COLOR_MODES, Image, check_output_directory, check_output_format
-from .renderer import (
-    COMPLEXITIES,
-    DEFAULT_MAX_PATH_DEPTH,
-    DEFAULT_SAMPLES,
-    DEFAULT_WIDTH,
-    Renderer,
+from .jobs import (
+    DEFAULT_TIME,
+    START_TIME,
+    FrameTime,
+    JobRenderer,
+    RenderJob,
+    absolute_path,
+    RENDER_KEY,
+    output_is_complete,
+    time_code,
 )
+from .memory import DEFAULT_BUDGET_FRACTION, parse_size
+from .renderer import COMPLEXITIES, DEFAULT_MAX_PATH_DEPTH, DEFAULT_SAMPLES, DEFAULT_WIDTH
 from .trace import TRACE_FORMATS, Tracer
-from .products import render_products
-from .usd import open_stage, read_render_settings, render_pass_settings, resolve_camera
-from .usd.products import read_products
 from .usd.stage import RESOLVERS
 
 PROG = "penumbra-record"
@@ -53,11 +55,6 @@ EXIT_OK, EXIT_SCENE, EXIT_USAGE = 0, 1, 2
 EXIT_INTERRUPTED = 128 + signal.SIGINT  # 130, as shells report a process Ctrl-C stopped
 EXIT_TERMINATED = 128 + signal.SIGTERM  # 143
 
-# Flags the parser accepts (for usdrecord compatibility) that this version rejects.
-_NOT_SUPPORTED_YET = {
-    "scheduler": "--scheduler",
-    "resume": "--resume",
-}
 RENDERER_NAME = "Penumbra"
 
 
@@ -76,7 +73,6 @@ def build_parser() -> argparse.ArgumentParser:
         allow_abbrev=False,
         description="Render a USD file with Penumbra (usdrecord-compatible command line).",
         epilog=(
-            "Not supported yet (rejected with exit status 2): --scheduler, --resume. "
             "Exit status: 0 success, 1 the scene or a file could not be rendered, 2 usage error."
         ),
     )
@@ -351,8 +347,29 @@ def build_parser() -> argparse.ArgumentParser:
             "focusDistance, fStop 0 being a pinhole; also UsdRenderSettings disableDepthOfField)"
         ),
     )
-    own.add_argument("--scheduler", metavar="ADDRESS", help="not supported yet")
-    own.add_argument("--resume", action="store_true", help="not supported yet")
+    farm = own.add_mutually_exclusive_group()
+    farm.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help=(
+            "render on the Dask cluster of this scheduler, e.g. tcp://farm:8786 (workers open "
+            "the same stage and file paths; the frames are written here)"
+        ),
+    )
+    farm.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="render on a local Dask cluster of N worker processes (loopback only)",
+    )
+    own.add_argument(
+        "--resume",
+        action="store_true",
+        help=(
+            "skip frames whose output exists and was rendered from the same stage, settings "
+            "and frame (checked by a key in the image's metadata)"
+        ),
+    )
     own.add_argument("--version", action="version", version=f"{PROG} {_core.version()}")
     chatter = own.add_mutually_exclusive_group()
     chatter.add_argument(
@@ -433,11 +450,7 @@ class _UsageError(Exception):
 
 
 def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
-    """Reject unsupported flags and invalid values; return the ``--frames`` ranges (empty
-    without ``--frames``)."""
-    for dest, flag in _NOT_SUPPORTED_YET.items():
-        if getattr(args, dest):
-            raise _UsageError(f"{flag} is not supported yet")
+    """Reject invalid values; return the ``--frames`` ranges (empty without ``--frames``)."""
     if args.renderer.lower() != RENDERER_NAME.lower():
         raise _UsageError(
             f"--renderer {args.renderer}: {PROG} renders with {RENDERER_NAME} only"
@@ -452,6 +465,8 @@ def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
     for name in ("threads", "maxPathDepth", "seed"):
         if getattr(args, name) < 0:
             raise _UsageError(f"--{name} cannot be negative")
+    if args.workers is not None and args.workers < 1:
+        raise _UsageError("--workers must be at least 1")
     if not 0 <= args.adaptiveThreshold <= 1:
         raise _UsageError("--adaptiveThreshold must be in [0, 1]")
     if args.adaptiveMinSamples < 2:
@@ -596,98 +611,112 @@ def main(argv: Sequence[str] | None = None) -> int:
     return status
 
 
-def _render_settings_path(stage: Usd.Stage, args: argparse.Namespace) -> str | None:
-    """The render settings prim to use: ``-rs``, else the render source of the ``-rp`` render
-    pass, else none (the stage metadata then applies)."""
-    if not args.renderPassPrimPath:
-        return args.renderSettingsPrimPath
-    return render_pass_settings(stage, args.renderPassPrimPath)
+def _render_job(args: argparse.Namespace, first_frame: FrameTime) -> RenderJob:
+    """Everything the flags say about the pixels, with file paths made absolute (farm workers
+    do not share this working directory)."""
+    return RenderJob(
+        usd_file=absolute_path(args.usdFilePath),
+        session_layer=absolute_path(args.session_layer) if args.session_layer else None,
+        mask=tuple((args.mask or "").replace(",", " ").split()),
+        resolver=args.resolver,
+        purposes=tuple(args.purposes.replace(",", " ").split()),
+        camera=args.camera,
+        camera_time=first_frame,
+        render_settings_path=args.renderSettingsPrimPath,
+        render_pass_path=args.renderPassPrimPath,
+        color_mode=args.colorCorrectionMode,
+        aovs=tuple(args.aovs),
+        denoise=args.denoise,
+        width=args.imageWidth,
+        samples=args.samples,
+        seed=args.seed,
+        threads=args.threads,
+        max_path_depth=args.maxPathDepth,
+        adaptive_threshold=args.adaptiveThreshold,
+        adaptive_min_samples=args.adaptiveMinSamples,
+        indirect_clamp=args.indirectClamp,
+        glossy_filter=args.glossyFilter,
+        complexity=args.complexity,
+        disable_motion_blur=args.disable_motion_blur,
+        disable_depth_of_field=args.disable_depth_of_field,
+        dome_light_visibility=args.enableDomeLightVisibility,
+        disable_camera_light=args.disableCameraLight,
+        max_memory=args.maxMemory,
+    )
+
+
+def _frames(args: argparse.Namespace, frames: list[FrameRange]) -> tuple[Iterator[FrameTime], int]:
+    """The frames to render, generated lazily, and how many there are."""
+    if args.defaultTime:
+        return iter([DEFAULT_TIME]), 1
+    if frames:
+        return iter_frames(frames), sum(frame_range.count for frame_range in frames)
+    return iter([START_TIME]), 1
 
 
 def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) -> int:
     say = (lambda _text: None) if args.quiet else print
     check_output_directory(args.outputImagePath)
-    with tracer.span("open stage", file=args.usdFilePath):
-        stage = open_stage(
-            args.usdFilePath,
-            mask=(args.mask or "").replace(",", " ").split(),
-            session_layer=args.session_layer,
-            resolver=args.resolver,
-        )
-    settings = read_render_settings(stage, _render_settings_path(stage, args))
-    plan = read_products(stage, settings) if settings is not None else None
-    if plan is not None and plan.products and args.aov:
-        warn("--aov applies to renders without render products; the products name their vars")
-    if args.defaultTime:
-        time_codes: Iterator[Usd.TimeCode] = iter([Usd.TimeCode.Default()])
-    elif frames:
-        time_codes = (Usd.TimeCode(frame) for frame in iter_frames(frames))
-    else:
-        time_codes = iter([Usd.TimeCode(stage.GetStartTimeCode())])
-    first_time_code = next(time_codes)
-    purposes = args.purposes.replace(",", " ").split()
-    if plan is not None and plan.included_purposes is not None:
-        purposes = list(plan.included_purposes)
-    camera = resolve_camera(stage, args.camera, settings, first_time_code, purposes)
+    times, count = _frames(args, frames)
+    first_frame = next(times)
+    job = _render_job(args, first_frame)
 
-    say(f"Camera: {camera.GetPath()}")
-    say(f"Renderer plugin: {RENDERER_NAME}")
-    with Renderer(stage, purposes=purposes) as renderer:
-        renderer.tracer = tracer
-        for time_code in itertools.chain([first_time_code], time_codes):
-            frame = "default" if time_code.IsDefault() else f"{time_code.GetValue():g}"
-            say(f"Recording time code: {frame}")
-            with tracer.span(f"time code {frame}"):
-                options = dict(
-                    samples=args.samples,
-                    seed=args.seed,
-                    threads=args.threads,
-                    max_path_depth=args.maxPathDepth,
-                    adaptive_threshold=args.adaptiveThreshold,
-                    adaptive_min_samples=args.adaptiveMinSamples,
-                    indirect_clamp=args.indirectClamp,
-                    glossy_filter=args.glossyFilter,
-                    complexity=args.complexity,
-                    disable_motion_blur=args.disable_motion_blur,
-                    disable_depth_of_field=args.disable_depth_of_field,
-                    dome_light_visibility=args.enableDomeLightVisibility,
-                    default_light="none" if args.disableCameraLight else "camera",
-                    progress=None if args.quiet else _Progress(f"time code {frame}"),
-                    max_memory=args.maxMemory,
-                    denoise=args.denoise,
-                )
-                output = args.outputImagePath
-                if frames:
-                    output = frame_path(output, time_code.GetValue())
-                products = []
-                if plan is not None and plan.products:
+    def output_path(frame: FrameTime) -> str:
+        return frame_path(args.outputImagePath, frame) if frames else args.outputImagePath
+
+    if args.scheduler or args.workers:
+        from .farm import record_on_farm  # Dask takes a second to import: farm renders only
+
+        if not args.verbose:  # the farm client reports failures itself, without Dask's logs
+            for name in ("distributed", "distributed.client"):  # both have their own level
+                logging.getLogger(name).setLevel(logging.CRITICAL)
+        say(f"Renderer plugin: {RENDERER_NAME}, on a Dask cluster")
+        with tracer.span("render on the farm"):
+            record_on_farm(
+                job,
+                itertools.chain([first_frame], times),
+                count,
+                output_path,
+                scheduler=args.scheduler,
+                workers=args.workers,
+                resume=args.resume,
+                say=say,
+                progress=not args.quiet,
+            )
+        return EXIT_OK
+    with JobRenderer(job, tracer) as session:
+        say(f"Camera: {session.camera}")
+        say(f"Renderer plugin: {RENDERER_NAME}")
+        for frame in itertools.chain([first_frame], times):
+            label = _time_code_label(time_code(session.renderer.stage, frame))
+            output = output_path(frame)
+            if args.resume and output_is_complete(output, job.frame_key(frame)):
+                say(f"Skipped time code {label}: {output} is complete")
+                continue
+            say(f"Recording time code: {label}")
+            progress = None if args.quiet else _Progress(f"time code {label}")
+            products: list[tuple[str, Image]] = []
+            with tracer.span(f"time code {label}"):
+                if session.products is not None:
                     # The output image holds the first product's render (all its AOVs in EXR).
-                    products = render_products(
-                        renderer,
-                        plan,
-                        time_code,
-                        os.path.dirname(os.path.abspath(output)),
-                        camera=args.camera,
-                        width=args.imageWidth,
-                        **options,
+                    products = session.render_products(
+                        frame, os.path.dirname(os.path.abspath(output)), progress
                     )
                     image = products[0][1]
+                    image.metadata[RENDER_KEY] = job.frame_key(frame)
                 else:
-                    image = renderer.render(
-                        camera=str(camera.GetPath()),
-                        time=time_code,
-                        width=args.imageWidth or DEFAULT_WIDTH,
-                        render_settings=settings.path if settings else None,
-                        aovs=args.aovs,
-                        **options,
-                    )
+                    image = session.render(frame, progress=progress)
                 with tracer.span("write image", file=output):
-                    image.write(output, color_mode=args.colorCorrectionMode)
-            say(frame_summary(f"time code {frame}", image))
+                    image.write(output, color_mode=job.color_mode)
+            say(frame_summary(f"time code {label}", image))
             for path, _ in products:
                 say(f"Wrote {os.path.abspath(path)}")
             say(f"Wrote {os.path.abspath(output)}")
     return EXIT_OK
+
+
+def _time_code_label(code: Usd.TimeCode) -> str:
+    return "default" if code.IsDefault() else f"{code.GetValue():g}"
 
 
 if __name__ == "__main__":

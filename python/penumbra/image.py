@@ -83,8 +83,17 @@ def _alive(pid: int) -> bool:
         return True
     return True
 METADATA_PREFIX = "penumbra:"
+"""Files name Penumbra's metadata ``penumbra:<key>``; the camera matrices keep OIIO's standard
+names (:data:`OIIO_METADATA`), and keys already in a namespace (standard attributes such as
+``Exif:ImageUniqueID``) keep theirs."""
 OIIO_METADATA = ("worldtocamera", "worldtoscreen")
 """Metadata written under OIIO's standard names rather than with :data:`METADATA_PREFIX`."""
+
+
+def _attribute_name(key: str) -> str:
+    """The file attribute of a metadata key (see :data:`METADATA_PREFIX`)."""
+    return key if ":" in key or key in OIIO_METADATA else METADATA_PREFIX + key
+
 
 _COLOR_SUFFIXES = "RGBA"
 _VECTOR_SUFFIXES = "xyzw"
@@ -167,7 +176,8 @@ class Image(Mapping[str, np.ndarray]):
 
         ``.exr`` holds every AOV as float channels (see :func:`channel_names`; the AOVs named
         in ``half`` as half floats) and the metadata as ``penumbra:*`` attributes (the camera
-        matrices under OIIO's names, :data:`OIIO_METADATA`). Other formats hold the ``color`` AOV converted to display
+        matrices under OIIO's names, :data:`OIIO_METADATA`; keys with a namespace as they
+        are). Other formats hold the ``color`` AOV converted to display
         values: ``color_mode`` ``"openColorIO"`` (default) uses ``ocio_config``, else ``$OCIO``,
         else Penumbra's bundled config (sRGB display, "Standard" view unless ``display``/
         ``view`` say otherwise); ``"sRGB"`` applies the sRGB transfer function;
@@ -204,10 +214,7 @@ class Image(Mapping[str, np.ndarray]):
             path,
             np.ascontiguousarray(np.concatenate(arrays, axis=2)),
             names,
-            {
-                (key if key in OIIO_METADATA else METADATA_PREFIX + key): value
-                for key, value in self.metadata.items()
-            },
+            {_attribute_name(key): value for key, value in self.metadata.items()},
             color_mode=color_mode,
             ocio_config=config,
             display=display,

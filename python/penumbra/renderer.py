@@ -29,7 +29,7 @@ from .usd.instancers import PointInstancerDelegate
 from .usd.lights import LIGHT_SPRIM_TYPES
 from .usd.mtlx_documents import compose_materialx_documents
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
-from .usd.settings import FilmWindow, film_window
+from .usd.settings import FilmWindow, RenderSettings, film_window
 from .usd import (
     DEFAULT_PURPOSES,
     RenderSettings,
@@ -177,6 +177,7 @@ class Renderer:
         glossy_filter: float = 0.0,
         max_memory: int | None = None,
         denoise: bool = False,
+        region: tuple[int, int, int, int] | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -208,7 +209,11 @@ class Renderer:
         blurs sharp lobes met after rougher bounces, as Cycles' "filter glossy" (1 is
         Cycles' default): caustics converge much sooner, biased; off by default. ``max_memory``: bytes the process may hold (default: 80% of
         physical memory), checked before the scene is synced and before a new size's film is
-        allocated. Raises :class:`penumbra.SceneError` when the
+        allocated. ``region``: ``(x, y, width, height)`` of the image's pixels (columns from the
+        left, rows from the top, as :meth:`image_size` counts them) to render alone, e.g. a farm
+        tile: the image returned holds those pixels, bit-identical to the same pixels of the
+        whole image (with adaptive sampling, the pixels around them that its convergence tests
+        look at are rendered too and dropped). Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
         skipped prims are :class:`penumbra.PenumbraWarning`.
         """
@@ -216,24 +221,18 @@ class Renderer:
             raise ValueError(f"samples must be at least 1, not {samples}")
         check_default_light(default_light)
         aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
-        time_code = _time_code(self.stage, time)
-        settings = (
-            render_settings
-            if isinstance(render_settings, RenderSettings)
-            else read_render_settings(self.stage, render_settings)
+        time_code, settings, camera_prim, (width, height), window = self._framing(
+            camera, time, width, height, render_settings
         )
-        camera_prim = resolve_camera(self.stage, camera, settings, time_code, self._scene.purposes)
-        problem = camera_problem(camera_prim, time_code)
-        if problem is not None:
-            raise SceneError(problem)
-        if width is None:
-            if settings is not None and settings.resolution is not None and height is None:
-                width = settings.resolution[0]
-            else:
-                width = DEFAULT_WIDTH
-        width, height = image_size(camera_prim, time_code, width, height, settings)
-        window = film_window(settings, camera_prim, time_code, width, height)
         camera_id = str(camera_prim.GetPath())
+        crop, margin = None, 0
+        film_width, film_height = window.width, window.height
+        if region is not None:
+            crop = _check_region(region, window.width, window.height)
+            if adaptive_threshold > 0:
+                margin = _core.RenderPass.adaptive_sampling_reach(samples, adaptive_min_samples)
+            film_width = min(film_width, crop[2] + 2 * margin)  # at most: margins stop at edges
+            film_height = min(film_height, crop[3] + 2 * margin)
 
         motion_blur = not (disable_motion_blur or (settings and settings.disable_motion_blur))
         depth_of_field = not (
@@ -241,10 +240,11 @@ class Renderer:
         )
         shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
         budget = default_budget() if max_memory is None else max_memory
-        new_pass = (camera_id, window.width, window.height) not in self._passes
+        pass_key = (camera_id, window.width, window.height, crop, margin)
+        new_pass = pass_key not in self._passes
         extra_aovs = len(set(aovs) - {"color"}) + (len(GUIDE_AOVS) if denoise else 0)
         if new_pass:
-            check_film(window.width, window.height, budget, camera_id, extra_aovs)
+            check_film(film_width, film_height, budget, camera_id, extra_aovs)
         with self.tracer.span("sync stage (USD to render delegate)"):
             self._sync(
                 shutter,
@@ -262,8 +262,8 @@ class Renderer:
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
         if new_pass:  # the synced scene is in memory now; its BVH and the film are not yet
-            check_film(window.width, window.height, budget, camera_id, extra_aovs)
-        render_pass = self._render_pass(camera_id, window.width, window.height)
+            check_film(film_width, film_height, budget, camera_id, extra_aovs)
+        render_pass = self._render_pass(pass_key)
         if not aovs:
             raise ValueError(f"aovs must name at least one of {render_pass.aov_names()}")
         if NOISY_COLOR in aovs and not denoise:
@@ -308,6 +308,7 @@ class Renderer:
             "camera": camera_id,
             "samples": samples,
             "meanSamples": round(render_pass.mean_samples, 3),
+            "samplesTaken": render_pass.samples_taken,
             "rays": render_pass.rays_traced,
             "adaptiveThreshold": adaptive_threshold,
             "indirectClamp": indirect_clamp,
@@ -335,10 +336,55 @@ class Renderer:
             metadata["primIds"] = json.dumps({str(key): path for key, path in manifest.items()})
         return Image({name: arrays[name] for name in aovs}, metadata)
 
-    def _render_pass(self, camera_id: str, width: int, height: int):
-        key = (camera_id, width, height)
+    def image_size(
+        self,
+        camera: str | Sdf.Path | None = None,
+        time: TimeLike = None,
+        width: int | None = None,
+        height: int | None = None,
+        *,
+        render_settings: str | None = None,
+    ) -> tuple[int, int]:
+        """``(width, height)`` of the image :meth:`render` gives for these arguments (after
+        the render settings' ``dataWindowNDC``)."""
+        window = self._framing(camera, time, width, height, render_settings)[4]
+        return window.width, window.height
+
+    def _framing(
+        self,
+        camera: str | Sdf.Path | None,
+        time: TimeLike,
+        width: int | None,
+        height: int | None,
+        render_settings: str | RenderSettings | None,
+    ) -> tuple[Usd.TimeCode, RenderSettings | None, Usd.Prim, tuple[int, int], FilmWindow]:
+        """The time code, render settings, camera, image size and film window of a render."""
+        time_code = _time_code(self.stage, time)
+        settings = (
+            render_settings
+            if isinstance(render_settings, RenderSettings)
+            else read_render_settings(self.stage, render_settings)
+        )
+        camera_prim = resolve_camera(self.stage, camera, settings, time_code, self._scene.purposes)
+        problem = camera_problem(camera_prim, time_code)
+        if problem is not None:
+            raise SceneError(problem)
+        if width is None:
+            if settings is not None and settings.resolution is not None and height is None:
+                width = settings.resolution[0]
+            else:
+                width = DEFAULT_WIDTH
+        width, height = image_size(camera_prim, time_code, width, height, settings)
+        window = film_window(settings, camera_prim, time_code, width, height)
+        return time_code, settings, camera_prim, (width, height), window
+
+    def _render_pass(self, key: tuple[str, int, int, tuple[int, int, int, int] | None, int]):
+        """The render pass of (camera, image width, image height, crop, margin)."""
         if key not in self._passes:
-            self._passes[key] = _core.RenderPass(self.delegate, camera_id, width, height)
+            camera_id, width, height, crop, margin = key
+            self._passes[key] = _core.RenderPass(
+                self.delegate, camera_id, width, height, crop=crop, margin=margin
+            )
         return self._passes[key]
 
     def _stage_has_lights(self) -> bool:
@@ -357,6 +403,27 @@ class Renderer:
     def _forward_warnings(self) -> None:
         for message in self.delegate.take_warnings():
             warn(message)
+
+
+def _check_region(
+    region: tuple[int, int, int, int], width: int, height: int
+) -> tuple[int, int, int, int]:
+    """``region`` as a tuple of ints; ``ValueError`` unless it is a non-empty part of the
+    ``width`` x ``height`` image."""
+    x, y, region_width, region_height = (int(value) for value in region)
+    if not (
+        region_width > 0
+        and region_height > 0
+        and 0 <= x
+        and x + region_width <= width
+        and 0 <= y
+        and y + region_height <= height
+    ):
+        raise ValueError(
+            f"region {tuple(region)} (x, y, width, height) is not a non-empty part of the "
+            f"{width}x{height} image"
+        )
+    return x, y, region_width, region_height
 
 
 def render(

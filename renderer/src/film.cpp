@@ -26,10 +26,16 @@ bool isNearest(AovKind kind) {
 
 }  // namespace
 
-Film::Film(int width, int height, std::vector<AovRequest> aovs) : width_(width), height_(height) {
-  if (width <= 0 || height <= 0)
-    throw std::invalid_argument("film size must be positive, got " + std::to_string(width) + "x" +
-                                std::to_string(height));
+Film::Film(int width, int height, std::vector<AovRequest> aovs)
+    : Film(PixelRect{0, 0, width, height}, std::move(aovs)) {}
+
+Film::Film(const PixelRect& region, std::vector<AovRequest> aovs) : region_(region) {
+  if (region.width <= 0 || region.height <= 0)
+    throw std::invalid_argument("film size must be positive, got " + std::to_string(region.width) +
+                                "x" + std::to_string(region.height));
+  if (region.x < 0 || region.y < 0)
+    throw std::invalid_argument("a film's pixels start at (0, 0) or later, got (" +
+                                std::to_string(region.x) + ", " + std::to_string(region.y) + ")");
   for (const AovRequest& aov : aovs) hasIds_ = hasIds_ || isId(aov.kind);
   nearestStride_ = hasIds_ ? 1 : 0;
   for (AovRequest& aov : aovs) {
@@ -77,7 +83,7 @@ const Film::Slot* Film::slot(const AovRequest& aov) const {
 }
 
 void Film::clear() {
-  pixels_.assign(size_t(width_) * size_t(height_), Pixel{});
+  pixels_.assign(size_t(region_.width) * size_t(region_.height), Pixel{});
   active_.assign(pixels_.size(), 1);
   activePixels_ = pixels_.size();
   sums_.assign(pixels_.size() * sumStride_, 0.0);
@@ -150,7 +156,7 @@ void Film::addFirstHit(size_t index, const CameraSample& sample, const FirstHitS
 
 void Film::addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
                      const FirstHitSample* firstHit) {
-  const size_t index = size_t(y) * size_t(width_) + size_t(x);
+  const size_t index = size_t(y) * size_t(region_.width) + size_t(x);
   Pixel& pixel = pixels_[index];
   if (!slots_.empty()) {
     static const FirstHitSample kNone;
@@ -202,15 +208,16 @@ void Film::updateConvergence(float threshold) {
   std::vector<double> error(pixels_.size());
   for (size_t i = 0; i < pixels_.size(); ++i) error[i] = squaredRelativeError(pixels_[i]);
   const double limit = double(threshold) * double(threshold);
-  for (int y = 0; y < height_; ++y)
-    for (int x = 0; x < width_; ++x) {
-      const size_t i = size_t(y) * size_t(width_) + size_t(x);
+  const int width = region_.width, height = region_.height;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const size_t i = size_t(y) * size_t(region_.width) + size_t(x);
       if (!active_[i]) continue;
       double sum = 0;
       int count = 0;
-      for (int ny = std::max(0, y - 1); ny <= std::min(height_ - 1, y + 1); ++ny)
-        for (int nx = std::max(0, x - 1); nx <= std::min(width_ - 1, x + 1); ++nx, ++count)
-          sum += error[size_t(ny) * size_t(width_) + size_t(nx)];
+      for (int ny = std::max(0, y - 1); ny <= std::min(height - 1, y + 1); ++ny)
+        for (int nx = std::max(0, x - 1); nx <= std::min(width - 1, x + 1); ++nx, ++count)
+          sum += error[size_t(ny) * size_t(width) + size_t(nx)];
       if (sum / count < limit) {
         active_[i] = 0;
         --activePixels_;
@@ -218,16 +225,32 @@ void Film::updateConvergence(float threshold) {
     }
 }
 
-uint64_t Film::raysTraced() const {
+template <typename Visit>
+void Film::forEachPixel(const std::optional<PixelRect>& within, Visit visit) const {
+  const PixelRect rect = within.value_or(region_);
+  if (!region_.contains(rect))
+    throw std::invalid_argument("pixels (" + std::to_string(rect.x) + ", " +
+                                std::to_string(rect.y) + ") " + std::to_string(rect.width) + "x" +
+                                std::to_string(rect.height) + " are not all on the film");
+  for (int y = rect.y - region_.y; y < rect.y - region_.y + rect.height; ++y)
+    for (int x = rect.x - region_.x; x < rect.x - region_.x + rect.width; ++x)
+      visit(pixels_[size_t(y) * size_t(region_.width) + size_t(x)]);
+}
+
+uint64_t Film::raysTraced(const std::optional<PixelRect>& within) const {
   uint64_t total = 0;
-  for (const Pixel& pixel : pixels_) total += pixel.rays;
+  forEachPixel(within, [&total](const Pixel& pixel) { total += pixel.rays; });
+  return total;
+}
+
+uint64_t Film::samplesTaken(const std::optional<PixelRect>& within) const {
+  uint64_t total = 0;
+  forEachPixel(within, [&total](const Pixel& pixel) { total += pixel.samples; });
   return total;
 }
 
 double Film::meanSamples() const {
-  double total = 0;
-  for (const Pixel& pixel : pixels_) total += pixel.samples;
-  return total / double(pixels_.size());
+  return double(samplesTaken()) / double(pixels_.size());
 }
 
 std::vector<float> Film::resolve(const AovRequest& aov) const {

@@ -65,6 +65,29 @@ std::string temporaryPathFor(const fs::path& target) {
   return (target.parent_path() / name).string();
 }
 
+/// An image's size, channel names and metadata (string, int, float and matrix attributes).
+ImageData headerOf(const OIIO::ImageSpec& spec) {
+  ImageData image;
+  image.width = spec.width;
+  image.height = spec.height;
+  image.channelNames = spec.channelnames;
+  for (const OIIO::ParamValue& attribute : spec.extra_attribs) {
+    const OIIO::TypeDesc type = attribute.type();
+    if (type == OIIO::TypeDesc::STRING)
+      image.metadata[attribute.name().string()] = std::string(attribute.get_string());
+    else if (type == OIIO::TypeDesc::INT)
+      image.metadata[attribute.name().string()] = attribute.get_int();
+    else if (type == OIIO::TypeDesc::FLOAT)
+      image.metadata[attribute.name().string()] = attribute.get_float();
+    else if (type == OIIO::TypeMatrix44) {
+      Matrix44 matrix;
+      std::copy_n(static_cast<const float*>(attribute.data()), 16, matrix.begin());
+      image.metadata[attribute.name().string()] = matrix;
+    }
+  }
+  return image;
+}
+
 }  // namespace
 
 void applyDisplayTransform(std::vector<float>& pixels, int width, int height, int channels,
@@ -179,6 +202,14 @@ void writeImage(const std::string& path, const ImageData& image, const DisplaySe
   }
 }
 
+ImageData readImageHeader(const std::string& path) {
+  std::unique_ptr<OIIO::ImageInput> input = OIIO::ImageInput::open(path);
+  if (!input) throw std::runtime_error(path + ": cannot read image: " + OIIO::geterror());
+  ImageData header = headerOf(input->spec());
+  input->close();
+  return header;
+}
+
 ImageData readImage(const std::string& path) {
   std::unique_ptr<OIIO::ImageInput> input = OIIO::ImageInput::open(path);
   if (!input) throw std::runtime_error(path + ": cannot read image: " + OIIO::geterror());
@@ -189,27 +220,10 @@ ImageData readImage(const std::string& path) {
                              std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
                              " values, more than the " + std::to_string(kMaxReadValues >> 30) +
                              " Gi floats Penumbra reads whole");
-  ImageData image;
-  image.width = spec.width;
-  image.height = spec.height;
-  image.channelNames = spec.channelnames;
+  ImageData image = headerOf(spec);
   image.pixels.resize(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
   if (!input->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data()))
     throw std::runtime_error(path + ": cannot read pixels: " + input->geterror());
-  for (const OIIO::ParamValue& attribute : spec.extra_attribs) {
-    const OIIO::TypeDesc type = attribute.type();
-    if (type == OIIO::TypeDesc::STRING)
-      image.metadata[attribute.name().string()] = std::string(attribute.get_string());
-    else if (type == OIIO::TypeDesc::INT)
-      image.metadata[attribute.name().string()] = attribute.get_int();
-    else if (type == OIIO::TypeDesc::FLOAT)
-      image.metadata[attribute.name().string()] = attribute.get_float();
-    else if (type == OIIO::TypeMatrix44) {
-      Matrix44 matrix;
-      std::copy_n(static_cast<const float*>(attribute.data()), 16, matrix.begin());
-      image.metadata[attribute.name().string()] = matrix;
-    }
-  }
   input->close();
   return image;
 }

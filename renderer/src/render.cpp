@@ -21,17 +21,19 @@ bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_
           for (int y = tile.rows().begin(); y < tile.rows().end(); ++y)
             for (int x = tile.cols().begin(); x < tile.cols().end(); ++x) {
               if (!film.isActive(x, y)) continue;
+              // Samples are seeded by the pixel's position in the image, not on the film.
+              const int imageX = film.region().x + x, imageY = film.region().y + y;
               for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s) {
                 if (cancelled()) return;
                 if (film.wantsFirstHit()) {
                   FirstHitSample firstHit;
-                  const CameraSample sample = renderCameraSample(scene, camera, filter, x, y, s,
-                                                                 settings.integrator, &firstHit);
+                  const CameraSample sample = renderCameraSample(
+                      scene, camera, filter, imageX, imageY, s, settings.integrator, &firstHit);
                   film.addSample(x, y, s, sample, &firstHit);
                 } else {
-                  film.addSample(
-                      x, y, s,
-                      renderCameraSample(scene, camera, filter, x, y, s, settings.integrator));
+                  film.addSample(x, y, s,
+                                 renderCameraSample(scene, camera, filter, imageX, imageY, s,
+                                                    settings.integrator));
                 }
               }
             }

@@ -620,6 +620,75 @@ TEST(Render, AdaptiveSamplingStopsConvergedPixelsAndKeepsTheMean) {
   EXPECT_NEAR(emissive / (12 * 40), 0.5, 1e-3);  // its grazing Fresnel reflection aside
 }
 
+namespace {
+
+/// The pixels `crop` of a row-major image `width` pixels wide with `channels` per pixel.
+std::vector<float> cropOf(const std::vector<float>& image, int width, int channels,
+                          const PixelRect& crop) {
+  std::vector<float> result;
+  for (int y = crop.y; y < crop.y + crop.height; ++y) {
+    const auto row = image.begin() + std::ptrdiff_t((size_t(y) * size_t(width) + size_t(crop.x)) *
+                                                    size_t(channels));
+    result.insert(result.end(), row, row + std::ptrdiff_t(crop.width * channels));
+  }
+  return result;
+}
+
+}  // namespace
+
+TEST(Render, CropsAreBitIdenticalToThePixelsOfTheWholeImage) {
+  RenderDelegate delegate;
+  occludedPanelScene(delegate);
+  // AOVs too: filtered (normal), nearest (depth) and nearest the pixel centre (primId).
+  const std::vector<std::string> aovs = {"depth", "normal", "primId"};
+  RenderPass whole(delegate, "/cam", 48, 40);
+  whole.setAovs(aovs);
+  whole.execute(16);
+  for (const PixelRect& crop : {PixelRect{0, 0, 48, 13}, PixelRect{0, 13, 48, 27},
+                                PixelRect{17, 9, 5, 21}, PixelRect{47, 39, 1, 1}}) {
+    RenderPass part(delegate, "/cam", 48, 40, crop);
+    part.setAovs(aovs);
+    part.execute(16);
+    ASSERT_EQ(part.width(), crop.width);
+    ASSERT_EQ(part.height(), crop.height);
+    EXPECT_EQ(part.aov("color"), cropOf(whole.aov("color"), 48, 4, crop));
+    EXPECT_EQ(part.aov("Z"), cropOf(whole.aov("Z"), 48, 1, crop));
+    EXPECT_EQ(part.aov("depth"), cropOf(whole.aov("depth"), 48, 1, crop));
+    EXPECT_EQ(part.aov("normal"), cropOf(whole.aov("normal"), 48, 3, crop));
+    EXPECT_EQ(part.aov("primId"), cropOf(whole.aov("primId"), 48, 1, crop));
+  }
+  EXPECT_THROW(RenderPass(delegate, "/cam", 48, 40, PixelRect{40, 0, 9, 4}), std::invalid_argument);
+  EXPECT_THROW(RenderPass(delegate, "/cam", 48, 40, PixelRect{0, 0, 0, 4}), std::invalid_argument);
+}
+
+TEST(Render, AdaptiveCropsNeedAMarginAsWideAsTheConvergenceTestsReach) {
+  RenderDelegate delegate;
+  adaptiveScene(delegate);  // tests at 8, 12, 16, ...
+  EXPECT_EQ(RenderPass::adaptiveSamplingReach(8, 8), 0);
+  EXPECT_EQ(RenderPass::adaptiveSamplingReach(9, 8), 1);
+  EXPECT_EQ(RenderPass::adaptiveSamplingReach(64, 8), 13);  // 8, 12, ..., 48, 54, 60
+  const int reach = RenderPass::adaptiveSamplingReach(64, 8);
+  RenderPass whole(delegate, "/cam", 48, 40);
+  whole.execute(64);
+  uint64_t samples = 0;
+  for (const PixelRect& crop :
+       {PixelRect{0, 0, 48, 10}, PixelRect{0, 10, 48, 20}, PixelRect{0, 30, 48, 10}}) {
+    RenderPass part(delegate, "/cam", 48, 40, crop, reach);
+    part.execute(64);
+    EXPECT_EQ(part.aov("color"), cropOf(whole.aov("color"), 48, 4, crop));
+    samples += part.samplesTaken();
+  }
+  EXPECT_EQ(samples, whole.samplesTaken());
+  EXPECT_LT(whole.meanSamples(), 64);  // adaptive sampling did stop pixels
+
+  // A narrower margin would let the crop's edge rows, whose neighbourhoods are cut short,
+  // stop pixels the whole image keeps sampling (or the reverse): refused.
+  RenderPass narrow(delegate, "/cam", 48, 40, PixelRect{0, 15, 48, 10}, reach - 1);
+  EXPECT_THROW(narrow.execute(64), std::invalid_argument);
+  RenderPass enough(delegate, "/cam", 48, 40, PixelRect{0, 15, 48, 10}, reach - 1);
+  EXPECT_NO_THROW(enough.execute(60));  // fewer samples, fewer tests
+}
+
 TEST(Render, IndirectClampLimitsOnlyIndirectLight) {
   const auto renderWith = [](int maxPathDepth, float clamp) {
     // A floor and a white ceiling 2 m above it, lit by a panel just under the ceiling: the

@@ -105,18 +105,6 @@ def test_frame_usage_errors(tmp_path, capsys, output, frames, message):
     assert not list(tmp_path.iterdir())
 
 
-@pytest.mark.parametrize(
-    "flag",
-    [
-        ["--scheduler", "tcp://farm:8786"],
-        ["--resume"],
-    ],
-)
-def test_unsupported_flags(tmp_path, capsys, flag):
-    assert main([str(CORNELL), str(tmp_path / "out.exr"), *flag]) == 2
-    assert f"penumbra-record: error: {flag[0]} is not supported yet" in capsys.readouterr().err
-
-
 def test_usage_errors(tmp_path, capsys):
     assert main([str(CORNELL)]) == 2
     assert main([str(CORNELL), str(tmp_path / "o.exr"), "-color", "ACES"]) == 2

@@ -67,7 +67,8 @@ def test_stale_temporary_of_a_killed_writer_is_removed(tmp_path: Path, capsys) -
     dead_pid = 2**22 + 1  # above pid_max's default: no such process
     stale = tmp_path / f".out.tmp{dead_pid}-0.png"
     stale.write_bytes(b"partial")
-    live = tmp_path / f".out.tmp{os.getpid()}-99.png"  # a live writer's: kept
+    # A live writer's (the parent process's: this process's own writer may reach any number).
+    live = tmp_path / f".out.tmp{os.getppid()}-0.png"
     live.write_bytes(b"partial")
     assert main([str(stage), str(tmp_path / "out.png"), *SMALL]) == 0
     assert not stale.exists() and live.exists()

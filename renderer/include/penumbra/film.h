@@ -2,20 +2,43 @@
 // so the sums, and hence the image, do not depend on how pixels are spread over threads.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "penumbra/integrator.h"
 
 namespace penumbra {
 
+/// A rectangle of an image's pixels: columns [x, x + width), rows [y, y + height), counted from
+/// the top-left pixel.
+struct PixelRect {
+  int x = 0, y = 0, width = 0, height = 0;
+
+  bool contains(const PixelRect& other) const {
+    return other.x >= x && other.y >= y && other.x + other.width <= x + width &&
+           other.y + other.height <= y + height;
+  }
+  bool operator==(const PixelRect& other) const {
+    return x == other.x && y == other.y && width == other.width && height == other.height;
+  }
+};
+
 class Film {
  public:
-  /// `aovs`: what the film accumulates besides colour, alpha, Z and the sample count, which it
-  /// always has (a film without AOVs costs nothing more than colour). Duplicates are ignored.
+  /// A film of a whole `width` x `height` image. `aovs`: what the film accumulates besides
+  /// colour, alpha, Z and the sample count, which it always has (a film without AOVs costs
+  /// nothing more than colour). Duplicates are ignored.
   Film(int width, int height, std::vector<AovRequest> aovs = {});
+  /// A film of the pixels `region` of a larger image: pixel (x, y) of the film is pixel
+  /// (region.x + x, region.y + y) of the image, whose position seeds its samples (a crop
+  /// renders exactly what the whole image holds there; see Film::updateConvergence for the
+  /// one exception).
+  explicit Film(const PixelRect& region, std::vector<AovRequest> aovs = {});
 
-  int width() const { return width_; }
-  int height() const { return height_; }
+  int width() const { return region_.width; }
+  int height() const { return region_.height; }
+  /// The image pixels this film covers.
+  const PixelRect& region() const { return region_; }
   /// The AOVs resolve() serves.
   bool has(const AovRequest& aov) const;
   /// Whether the film accumulates exactly `aovs` besides those every film has.
@@ -24,8 +47,8 @@ class Film {
   bool wantsFirstHit() const { return wantsFirstHit_; }
   /// Drops every sample and makes every pixel active again.
   void clear();
-  /// Adds sample `sampleIndex` of pixel (x, y); samples must come in index order. `firstHit`
-  /// must be given when wantsFirstHit().
+  /// Adds sample `sampleIndex` of the film's pixel (x, y) (film coordinates, as isActive's);
+  /// samples must come in index order. `firstHit` must be given when wantsFirstHit().
   void addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
                  const FirstHitSample* firstHit = nullptr);
 
@@ -48,14 +71,21 @@ class Film {
   /// odd-indexed samples (half of it estimates the standard error of the full mean), relative
   /// to its value as rRMSE weighs it (|x − ref| / sqrt(ref² + 0.01)), averaged in squares over
   /// its 3×3 neighbourhood so that one lucky estimate does not stop it. Call when every active
-  /// pixel has the same, even number of samples.
+  /// pixel has the same, even number of samples. The neighbourhood is the film's: in a crop of
+  /// a larger image, pixels within k pixels of a crop edge inside the image may decide
+  /// differently from the whole image's after k tests (see RenderPass's crop margin).
   void updateConvergence(float threshold);
-  bool isActive(int x, int y) const { return active_[size_t(y) * size_t(width_) + size_t(x)]; }
+  bool isActive(int x, int y) const {
+    return active_[size_t(y) * size_t(region_.width) + size_t(x)];
+  }
   size_t activePixels() const { return activePixels_; }
-  /// Samples taken per pixel, on average over the image.
+  /// Samples taken per pixel, on average over the film.
   double meanSamples() const;
-  /// Rays traced for all the samples (CameraSample::rays).
-  uint64_t raysTraced() const;
+  /// Samples taken by the pixels of `within` (image coordinates; default: the whole film),
+  /// which must lie in the film.
+  uint64_t samplesTaken(const std::optional<PixelRect>& within = std::nullopt) const;
+  /// Rays traced for the samples of the pixels of `within` (as samplesTaken).
+  uint64_t raysTraced(const std::optional<PixelRect>& within = std::nullopt) const;
 
  private:
   struct Pixel {
@@ -75,8 +105,11 @@ class Film {
   const Slot* slot(const AovRequest& aov) const;
   /// Adds a sample's first hit to the AOVs of pixel `index`.
   void addFirstHit(size_t index, const CameraSample& sample, const FirstHitSample& firstHit);
+  /// Calls `visit(pixel)` for each pixel of `within` (image coordinates) or of the whole film.
+  template <typename Visit>
+  void forEachPixel(const std::optional<PixelRect>& within, Visit visit) const;
 
-  int width_, height_;
+  PixelRect region_;
   std::vector<Pixel> pixels_;
   std::vector<Slot> slots_;
   bool wantsFirstHit_ = false;

@@ -53,5 +53,8 @@ void writeImage(const std::string& path, const ImageData& image, const DisplaySe
 
 /// Reads any format OIIO supports as floats. Throws std::runtime_error naming the file.
 ImageData readImage(const std::string& path);
+/// Reads only the header: size, channel names and metadata (`pixels` stays empty). Throws
+/// std::runtime_error naming the file.
+ImageData readImageHeader(const std::string& path);
 
 }  // namespace penumbra

@@ -12,7 +12,9 @@ struct RenderSettings {
   int threads = 0;  // 0: all cores
 };
 
-/// Adds samples [firstSample, firstSample + sampleCount) of every active pixel to `film`.
+/// Adds samples [firstSample, firstSample + sampleCount) of every active pixel to `film`, whose
+/// region places it in the camera's image (a film of part of the image renders exactly those
+/// pixels of the whole image).
 /// The scene must be committed. Deterministic for any thread count. Once `cancel` (when given)
 /// is set, every thread stops at its next sample and false is returned: the film then holds
 /// an unknown subset of the samples and must be cleared.

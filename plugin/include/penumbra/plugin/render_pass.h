@@ -21,8 +21,21 @@ class RenderCancelled : public std::runtime_error {
 
 class RenderPass {
  public:
-  /// Throws std::invalid_argument for a non-positive size.
+  /// Renders a `width` x `height` image. Throws std::invalid_argument for a non-positive size.
   RenderPass(RenderDelegate& delegate, PrimId cameraId, int width, int height);
+  /// Renders only the pixels `crop` of a `width` x `height` image, bit-identical to the same
+  /// pixels of the whole image (tiles of a farm). With adaptive sampling a pixel's samples
+  /// depend on its neighbours (see Film::updateConvergence), so the pass also renders up to
+  /// `margin` pixels around the crop (within the image) and discards them; execute() throws
+  /// std::invalid_argument if the margin is below adaptiveSamplingReach() for its sample count.
+  /// Throws std::invalid_argument for a crop not inside the image or a negative margin.
+  RenderPass(RenderDelegate& delegate, PrimId cameraId, int width, int height, PixelRect crop,
+             int margin = 0);
+
+  /// How far, in pixels, adaptive sampling's decisions reach in `samples` samples per pixel:
+  /// the number of convergence tests before the last sample (each test looks one pixel
+  /// further, see Film::updateConvergence).
+  static int adaptiveSamplingReach(int samples, int minSamples);
 
   /// Syncs, then renders `samples` more samples per pixel. Sample indices continue where the
   /// previous call stopped, so execute(64) equals 4 × execute(16) bit for bit. With adaptive
@@ -37,9 +50,13 @@ class RenderPass {
   int samplesDone() const { return samplesDone_; }
   /// Samples per pixel actually taken, on average (fewer than samplesDone() where adaptive
   /// sampling stopped pixels).
-  double meanSamples() const { return film_.meanSamples(); }
+  double meanSamples() const {
+    return double(samplesTaken()) / (double(crop_.width) * double(crop_.height));
+  }
+  /// Samples taken by all the pixels together.
+  uint64_t samplesTaken() const { return film_.samplesTaken(crop_); }
   /// Rays traced through the scene's BVH for the samples accumulated so far.
-  uint64_t raysTraced() const { return film_.raysTraced(); }
+  uint64_t raysTraced() const { return film_.raysTraced(crop_); }
   /// Syncs, then times Embree alone on this pass's camera and scene (see throughput.h), with
   /// the render settings' thread count.
   RawRayThroughput measureRawThroughput();
@@ -47,8 +64,9 @@ class RenderPass {
   bool converged() const {
     return samplesDone_ >= delegate_.settings().samples || film_.activePixels() == 0;
   }
-  int width() const { return film_.width(); }
-  int height() const { return film_.height(); }
+  /// The size of what the pass renders: the crop's, or the image's.
+  int width() const { return crop_.width; }
+  int height() const { return crop_.height; }
 
   /// The AOVs a pass can accumulate (penumbra::aovNames(): color, alpha, depth, Z, normal,
   /// Neye, position, albedo, primId, instanceId, elementId, primvars:NAME, sampleCount,
@@ -58,8 +76,9 @@ class RenderPass {
   /// and no others (they cost time): a change drops the samples taken. Throws std::invalid_argument
   /// for an unknown name.
   void setAovs(const std::vector<std::string>& names);
-  /// Resolved buffer, row-major from the top, aovChannels(name) floats per pixel. Throws
-  /// std::invalid_argument for an unknown name or one not accumulated (see setAovs).
+  /// Resolved buffer of the crop (or image), row-major from the top, aovChannels(name) floats
+  /// per pixel. Throws std::invalid_argument for an unknown name or one not accumulated (see
+  /// setAovs).
   std::vector<float> aov(const std::string& name) const;
   /// Floats per pixel of an AOV: 4 for color, 3 for vectors, a primvar's width as the scene's
   /// meshes have it (1 where none has it), 1 otherwise.
@@ -72,10 +91,15 @@ class RenderPass {
  private:
   /// The first sample count after `samplesDone` at which adaptive sampling tests pixels.
   static int nextConvergenceTest(int samplesDone, int minSamples);
+  /// Throws std::invalid_argument if the crop's margin is too narrow for adaptive sampling to
+  /// take `samples` samples per pixel in the crop as in the whole image.
+  void checkCropMargin(int samples) const;
 
   RenderDelegate& delegate_;
   PrimId cameraId_;
-  Film film_;
+  int imageWidth_, imageHeight_;
+  PixelRect crop_;  // the pixels aov() returns
+  Film film_;       // the crop and its margin
   int samplesDone_ = 0;
   // What the accumulated samples were rendered with; any change restarts accumulation.
   uint64_t sceneVersion_ = ~uint64_t(0);
