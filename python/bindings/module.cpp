@@ -557,6 +557,22 @@ PYBIND11_MODULE(_core, m) {
           [](RenderDelegate& self, const std::string& id) { return self.prim(id).dirtyBits(); },
           py::arg("id"))
       .def(
+          "set_dicing_camera",
+          [](RenderDelegate& self, const std::string& cameraId) {
+            self.setDicingCamera(cameraId);
+          },
+          py::arg("camera_id"))
+      .def("dicing_camera", &RenderDelegate::dicingCamera)
+      .def("sync_statistics",
+           [](const RenderDelegate& self) {
+             const RenderDelegate::SyncStatistics stats = self.syncStatistics();
+             py::dict result;
+             result["meshGeometrySyncs"] = stats.meshGeometrySyncs;
+             result["subdivisionDicings"] = stats.subdivisionDicings;
+             result["meshBvhBuilds"] = stats.meshBvhBuilds;
+             return result;
+           })
+      .def(
           "sync_count",
           [](RenderDelegate& self, const std::string& id) { return self.prim(id).syncCount(); },
           py::arg("id"))

@@ -8,7 +8,7 @@ import time as clock
 from collections.abc import Callable, Iterable
 
 import numpy as np
-from pxr import Sdf, Usd, UsdLux
+from pxr import Sdf, Usd
 
 from . import _core
 from .errors import SceneError, warn
@@ -16,14 +16,8 @@ from .image import Image, ocio_config_path
 from .memory import check_film, default_budget
 from .trace import Tracer
 from .usd.camera import camera_problem, read_shutter
-from .usd.default_light import (
-    DEFAULT_LIGHT_ID,
-    DefaultLight,
-    DefaultLightManager,
-    check_default_light,
-)
+from .usd.default_light import DefaultLight, DefaultLightManager, check_default_light
 from .usd.instancers import PointInstancerDelegate
-from .usd.lights import LIGHT_SPRIM_TYPES
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
 from .usd.settings import FilmWindow, film_window
 from .usd import (
@@ -237,7 +231,7 @@ class Renderer:
             )
             self._default_light.update(
                 default_light,
-                self._stage_has_lights(),
+                self._scene.has_lights(),
                 camera_prim,
                 time_code,
                 dome_light_visibility,
@@ -300,19 +294,6 @@ class Renderer:
         if key not in self._passes:
             self._passes[key] = _core.RenderPass(self.delegate, camera_id, width, height)
         return self._passes[key]
-
-    def _stage_has_lights(self) -> bool:
-        """Whether the synced stage has lights of its own (UsdLux lights or meshes with
-        UsdLuxMeshLightAPI)."""
-        return any(
-            self._scene.prim_kind(prim_id) in LIGHT_SPRIM_TYPES
-            or (
-                self._scene.prim_kind(prim_id) == "mesh"
-                and self.stage.GetPrimAtPath(prim_id).HasAPI(UsdLux.MeshLightAPI)
-            )
-            for prim_id in self.delegate.prim_ids()
-            if prim_id != DEFAULT_LIGHT_ID
-        )
 
     def _forward_warnings(self) -> None:
         for message in self.delegate.take_warnings():

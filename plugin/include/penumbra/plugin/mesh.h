@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,12 @@ class Mesh : public Prim {
   void setTransform(const MotionTransform& objectToWorld);
   void setVisible(bool visible);
 
+  /// The instancers placing copies of this mesh (cf. HdRprim::GetInstancerId, from the
+  /// prototype's side): kept by the render delegate as instancers sync.
+  const std::set<PrimId>& instancers() const { return instancers_; }
+  void addInstancer(const PrimId& instancer) { instancers_.insert(instancer); }
+  void removeInstancer(const PrimId& instancer) { instancers_.erase(instancer); }
+
   Scene::MeshId handle() const { return handle_; }
   const MeshData& data() const { return data_; }
   const PrimId& materialId() const { return materialId_; }
@@ -61,6 +68,7 @@ class Mesh : public Prim {
   PrimId materialId_;
   MotionTransform objectToWorld_;
   bool visible_ = true;
+  std::set<PrimId> instancers_;
 };
 
 }  // namespace penumbra::plugin
