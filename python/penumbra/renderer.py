@@ -19,7 +19,7 @@ from .usd.camera import camera_problem, read_shutter
 from .usd.default_light import DefaultLight, DefaultLightManager, check_default_light
 from .usd.instancers import PointInstancerDelegate
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
-from .usd.settings import FilmWindow, film_window
+from .usd.settings import FilmWindow, film_window, find_camera
 from .usd import (
     DEFAULT_PURPOSES,
     SceneDelegate,
@@ -162,6 +162,7 @@ class Renderer:
         adaptive_min_samples: int = 16,
         indirect_clamp: float = 0.0,
         max_memory: int | None = None,
+        dicing_camera: str | Sdf.Path | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -190,13 +191,18 @@ class Renderer:
         (two or more surface interactions) to that largest component, as Cycles' "clamp
         indirect": fewer fireflies, a darker (biased) image; off by default. ``max_memory``: bytes the process may hold (default: 80% of
         physical memory), checked before the scene is synced and before a new size's film is
-        allocated. Raises :class:`penumbra.SceneError` when the
+        allocated. ``dicing_camera``: the camera (path or bare name) subdivision surfaces are
+        diced for, from this render on; they are re-diced when it moves. By default they are
+        diced for the camera and width of the renderer's first render and kept so, so that
+        moving or switching the view camera re-dices nothing. Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
         skipped prims are :class:`penumbra.PenumbraWarning`.
         """
         if samples < 1:
             raise ValueError(f"samples must be at least 1, not {samples}")
         check_default_light(default_light)
+        if dicing_camera is not None:
+            self.delegate.set_dicing_camera(str(find_camera(self.stage, dicing_camera).GetPath()))
         aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
         time_code = _time_code(self.stage, time)
         settings = read_render_settings(self.stage, render_settings)
