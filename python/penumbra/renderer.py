@@ -17,7 +17,7 @@ from .memory import check_film, default_budget
 from .trace import Tracer
 from .usd.camera import camera_problem, read_shutter
 from .usd.default_light import DefaultLight, DefaultLightManager, check_default_light
-from .usd.instancers import PointInstancerDelegate
+from .usd.point_instancers import PointInstancerDelegate
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
 from .usd.settings import FilmWindow, film_window, find_camera
 from .usd import (
