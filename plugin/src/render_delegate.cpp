@@ -437,7 +437,8 @@ DicingContext RenderDelegate::dicingContext(const DicingContext& view) {
   if (!firstView_) firstView_ = view;
   if (dicingCamera_.empty()) return *firstView_;
   const auto found = sprims_.find(dicingCamera_);
-  const auto* camera = found == sprims_.end() ? nullptr : dynamic_cast<Camera*>(found->second.get());
+  const auto* camera =
+      found == sprims_.end() ? nullptr : dynamic_cast<Camera*>(found->second.get());
   if (!camera) {
     warn("dicing camera " + dicingCamera_ +
          " is not a camera in the render index; the first render's camera is used");
@@ -452,7 +453,8 @@ bool RenderDelegate::sync(const DicingContext& view) {
   if (dicedFor_ != dicing || dicedComplexity_ != settings_.complexity) {
     if (dicedFor_)
       for (auto& [id, prim] : rprims_)
-        if (auto* mesh = dynamic_cast<Mesh*>(prim.get()); mesh && mesh->subdivisionScheme() != "none")
+        if (auto* mesh = dynamic_cast<Mesh*>(prim.get());
+            mesh && mesh->subdivisionScheme() != "none")
           mesh->markDirty(DirtyPoints);
     dicedFor_ = dicing;
     dicedComplexity_ = settings_.complexity;

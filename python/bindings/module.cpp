@@ -592,9 +592,7 @@ PYBIND11_MODULE(_core, m) {
           py::arg("id"))
       .def(
           "set_dicing_camera",
-          [](RenderDelegate& self, const std::string& cameraId) {
-            self.setDicingCamera(cameraId);
-          },
+          [](RenderDelegate& self, const std::string& cameraId) { self.setDicingCamera(cameraId); },
           py::arg("camera_id"))
       .def("dicing_camera", &RenderDelegate::dicingCamera)
       .def("sync_statistics",
