@@ -101,7 +101,9 @@ class Renderer:
         self.delegate = _core.RenderDelegate(ocio_config=ocio_config_path())
         """The ``penumbra._core.RenderDelegate`` holding the synced scene (for inspection)."""
         self._scene = SceneDelegate(stage, self.delegate, purposes)
-        self._instancers = PointInstancerDelegate(stage, self.delegate, purposes, warn)
+        self._instancers = PointInstancerDelegate(
+            stage, self.delegate, purposes, warn, self._scene.materials
+        )
         self._passes: dict[tuple[str, int, int], _core.RenderPass] = {}
         self._default_light = DefaultLightManager(self.delegate, stage_name(stage))
         self.tracer = Tracer(enabled=False)

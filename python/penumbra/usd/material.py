@@ -50,6 +50,8 @@ def bound_materials(prims: list[Usd.Prim]) -> list[Sdf.Path | None]:
     """The paths of the materials bound to ``prims`` for final renders, as
     :func:`bound_material` gives them, computed in one batch (the binding API shares its work
     between prims with common ancestors)."""
+    if not prims:
+        return []
     materials, _ = UsdShade.MaterialBindingAPI.ComputeBoundMaterials(prims, UsdShade.Tokens.full)
     return [material.GetPath() if material else None for material in materials]
 

@@ -29,7 +29,7 @@ from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom, UsdShade
+from pxr import Sdf, Usd, UsdGeom
 
 from .flattening import (
     Flattener,
@@ -39,6 +39,7 @@ from .flattening import (
     outer_primvars,
 )
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
+from .material import bound_materials
 from .sampling import SampleReader, Shutter, visibility_might_vary
 
 
@@ -161,7 +162,7 @@ class NativeInstancing:
                     )
                     for n in kept
                 )
-        materials = _bound_materials(proxies)
+        materials = bound_materials(proxies)
         reader = SampleReader(frame)
         inherited = {
             instance.GetPath(): inherited_primvars(instance, reader, self.warn)
@@ -202,11 +203,3 @@ def _held(matrices: np.ndarray, segments: int) -> np.ndarray:
     """(K, 4, 4) ``matrices`` with a static transform held over the grid of ``segments``."""
     samples = segments + 1 if segments else 1
     return matrices if len(matrices) == samples else np.repeat(matrices[:1], samples, axis=0)
-
-
-def _bound_materials(proxies: list[Usd.Prim]) -> list[Sdf.Path | None]:
-    """The material bound to each prim (final-render purpose), resolved in one batch."""
-    if not proxies:
-        return []
-    materials, _ = UsdShade.MaterialBindingAPI.ComputeBoundMaterials(proxies, UsdShade.Tokens.full)
-    return [m.GetPath() if m else None for m in materials]

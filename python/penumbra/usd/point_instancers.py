@@ -11,73 +11,18 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
-from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade
+from pxr import Sdf, Tf, Usd, UsdGeom
 
 from .flattening import Flattener, prototype_roots, combine_segments
-from .instanced_meshes import Group, GroupKey, InstancedMeshes, group_leaves
-from .material import bound_material, push_material, read_material
-from .sampling import SampleReader, Shutter
-
-class _InstancerMaterials:
-    """The material sprims of one point instancer's meshes, named below the instancer."""
-
-    def __init__(self, stage: Usd.Stage, core, warn: Callable[[str], None], prefix: str):
-        self.stage, self.core, self.warn, self.prefix = stage, core, warn, prefix
-        self.time = Usd.TimeCode.Default()
-        self._users: dict[Sdf.Path, set[str]] = {}
-        self._ids: dict[Sdf.Path, str] = {}
-
-    def acquire(self, material: Sdf.Path, user: str) -> None:
-        if material not in self._users:
-            self._users[material] = set()
-            self._read(material)
-        self._users[material].add(user)
-
-    def release(self, material: Sdf.Path, user: str) -> None:
-        users = self._users.get(material)
-        if users is None:
-            return
-        users.discard(user)
-        if not users:
-            del self._users[material]
-            material_id = self._ids.pop(material, "")
-            if material_id:
-                self.core.remove_prim(material_id)
-
-    def material_id(self, material: Sdf.Path) -> str:
-        return self._ids.get(material, "")
-
-    def refresh(self, time: Usd.TimeCode) -> None:
-        """Re-read every material (at ``time``): they may have been edited."""
-        self.time = time
-        for material in self._users:
-            self._read(material)
-
-    def paths(self) -> Iterable[Sdf.Path]:
-        return self._users.keys()
-
-    def _read(self, material: Sdf.Path) -> None:
-        prim = self.stage.GetPrimAtPath(material)
-        data = None
-        if prim and prim.IsA(UsdShade.Material):
-            data = read_material(prim, SampleReader(self.time), self.warn)
-        material_id = f"{self.prefix}/materials{material}"
-        if data is None:
-            if self._ids.pop(material, ""):
-                self.core.remove_prim(material_id)
-            return
-        if material not in self._ids:
-            self.core.insert_sprim("material", material_id)
-            self._ids[material] = material_id
-        push_material(self.core, material_id, data, self.warn)
-
+from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
+from .material import bound_material
+from .sampling import Shutter
 
 @dataclass
 class _Instancer:
     """What one point instancer put in the delegate, and what it depends on."""
 
     meshes: InstancedMeshes
-    materials: _InstancerMaterials
     roots: set[Sdf.Path] = field(default_factory=set)  # edits below these re-flatten it
     varying: bool = False
     dirty: bool = True
@@ -86,9 +31,17 @@ class _Instancer:
 class PointInstancerDelegate:
     """Mirrors the point instancers of ``stage`` (outside native prototypes) into ``core``."""
 
-    def __init__(self, stage: Usd.Stage, core, purposes: Iterable[str], warn: Callable[[str], None]):
+    def __init__(
+        self,
+        stage: Usd.Stage,
+        core,
+        purposes: Iterable[str],
+        warn: Callable[[str], None],
+        materials: MaterialSource,
+    ):
         self.stage = stage
         self.core = core
+        self.materials = materials  # the scene delegate's registry
         self.purposes = frozenset(purposes) | {UsdGeom.Tokens.default_}
         self.warn = warn
         self.shutter: Shutter | None = None
@@ -145,15 +98,15 @@ class PointInstancerDelegate:
                 yield prim.GetPath()
 
     def _new_record(self, path: Sdf.Path) -> _Instancer:
-        materials = _InstancerMaterials(self.stage, self.core, self.warn, str(path))
-        return _Instancer(InstancedMeshes(self.core, self.warn, materials, str(path)), materials)
+        return _Instancer(InstancedMeshes(self.core, self.warn, self.materials, str(path)))
 
     def _sync(self, prim: Usd.Prim, record: _Instancer, stale: set[Sdf.Path], time_changed: bool) -> None:
         flattener = Flattener(self.stage, self.shutter, self.warn)
-        record.materials.refresh(self.shutter.frame)
         groups = self._groups(prim, flattener)
         record.meshes.update(groups, self.shutter, stale, time_changed)
-        record.roots = {prim.GetPath(), *flattener.roots, *record.materials.paths()}
+        # A material edit may make it usable or not: the copies then change material.
+        materials = {material for _, material in groups if material is not None}
+        record.roots = {prim.GetPath(), *flattener.roots, *materials}
         record.varying = flattener.varying or record.meshes.varying
         record.dirty = False
 

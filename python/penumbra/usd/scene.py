@@ -119,9 +119,9 @@ class SceneDelegate:
         self._emitters: set[Sdf.Path] = set()  # synced lights and UsdLuxMeshLightAPI meshes
         self._warn = _OnceWarner()
         # Weak: a cycle through the helper would keep the stage alive until the next collection.
-        self._native = NativeInstancing(
-            stage, core, self.purposes, self._warn, _SceneMaterials(weakref.proxy(self))
-        )
+        self.materials = _SceneMaterials(weakref.proxy(self))
+        """The one material registry, shared with native and point instancing."""
+        self._native = NativeInstancing(stage, core, self.purposes, self._warn, self.materials)
         self._listener = Tf.Notice.Register(
             Usd.Notice.ObjectsChanged, self._on_objects_changed, stage
         )
@@ -540,8 +540,8 @@ class _OnceWarner:
 
 
 class _SceneMaterials:
-    """The scene delegate's materials, shared with the hidden meshes of native instancing
-    (users named by their delegate ids)."""
+    """The scene delegate's materials, shared with the hidden meshes of native and point
+    instancing (users named by their delegate ids)."""
 
     def __init__(self, scene: SceneDelegate):
         self._scene = scene
