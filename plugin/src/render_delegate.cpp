@@ -137,13 +137,15 @@ void RenderDelegate::removePrim(const PrimId& id) {
   Prim& removed = prim(id);
   if (auto* mesh = dynamic_cast<Mesh*>(&removed)) {
     // Its instancers lose their copies (and get them back if it is inserted again).
+    // (An entry may be stale: an instancer removed, or now copying another mesh.)
     for (const PrimId& instancerId : mesh->instancers())
-      if (auto* copies = dynamic_cast<Instancer*>(rprims_.at(instancerId).get());
-          copies && copies->prototype() == id) {
-        scene_->removeInstancer(copies->handle());
-        copies->setHandle(scene_->addInstancer());
-        copies->markDirty(DirtyTransform);
-      }
+      if (const auto found = rprims_.find(instancerId); found != rprims_.end())
+        if (auto* copies = dynamic_cast<Instancer*>(found->second.get());
+            copies && copies->prototype() == id) {
+          scene_->removeInstancer(copies->handle());
+          copies->setHandle(scene_->addInstancer());
+          copies->markDirty(DirtyTransform);
+        }
     if (meshLights_.erase(id)) lightsStructureChanged_ = true;
     scene_->removeMesh(mesh->handle());
     meshesStructureChanged_ = true;
