@@ -160,22 +160,22 @@ def main() -> None:
             "| memory per mesh prim (KB) |"
         )
         print("|---|---|---|---|")
-        edit_renderer = None
+        edit_times = None
         for count in args.counts:
             path = Path(directory) / f"meshes_{count}.usdc"
             write_mesh_stage(path, count)
             seconds, cpu, per_mesh, renderer, stage = first_sample(path, count)
             print(f"| {count:,} | {seconds:.2f} | {cpu:.2f} | {per_mesh / 1024:.1f} |", flush=True)
             if count == args.edit_count:
-                edit_renderer = (renderer, stage)
+                edit_times = edits(renderer, stage)
+            renderer.close()  # stops listening to the stage: nothing of it stays alive
             del renderer, stage
-        if edit_renderer is not None:
-            times = edits(*edit_renderer)
+            gc.collect()
+        if edit_times is not None:
             print(f"\n| re-render of {args.edit_count:,} meshes (1 spp, {WIDTH} px) | s | x unchanged |")
             print("|---|---|---|")
-            for kind, seconds in times.items():
-                print(f"| {kind} | {seconds:.4f} | {seconds / times['unchanged']:.2f} |", flush=True)
-            del edit_renderer
+            for kind, seconds in edit_times.items():
+                print(f"| {kind} | {seconds:.4f} | {seconds / edit_times['unchanged']:.2f} |", flush=True)
         path = Path(directory) / "subdivided.usdc"
         write_mesh_stage(path, args.subdivided, subdivided=True)
         total, rediced = camera_move_redice(path)
