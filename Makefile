@@ -13,7 +13,7 @@ DEBIAN_PACKAGES := build-essential cmake ninja-build pkg-config git \
 	python3.11 python3.11-venv python3.11-dev \
 	libembree-dev libosd-dev libopencolorio-dev libopenimageio-dev libtbb-dev \
 	libopencv-core-dev openimageio-tools opencolorio-tools libgtest-dev
-PYTHON_PACKAGES := usd-core==26.11 "numpy>=1.26" "pybind11>=2.12" "scikit-build-core>=0.10" "pytest>=8" "atheris>=2.3"
+PYTHON_PACKAGES := usd-core==26.11 "numpy>=1.26" "pybind11>=2.12" "scikit-build-core>=0.10" "pytest>=8" "atheris>=2.3" "materialx>=1.39" "pyoidn>=2.3"
 
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
@@ -65,6 +65,7 @@ fuzz: build
 bench: build
 	$(VPY) bench/run.py cornell.usda dof.usda motion.usda glass.usda instances.usda
 	$(VPY) bench/quality.py
+	$(VPY) bench/denoise.py
 	$(VPY) bench/instances.py --instances 100000
 	$(VPY) bench/instances.py --instances 1000000
 	$(VPY) bench/sync.py

@@ -95,6 +95,7 @@ def render_rgb(
             time=TIME_CODE, width=args.width, samples=setting.samples, seed=seed,
             adaptive_threshold=setting.adaptive_threshold,
             adaptive_min_samples=args.adaptive_min_samples, indirect_clamp=args.indirect_clamp,
+            glossy_filter=args.glossy_filter,
         )
         seconds = time.perf_counter() - started
     return image["color"][..., :3].astype(np.float64), seconds, image.metadata["meanSamples"]
@@ -243,6 +244,8 @@ def shared_scene_row(
 def shared_scenes_table(args: argparse.Namespace) -> None:
     cycles = cycles_numbers(CYCLES / "README.md")
     clamp = f"indirect clamp {args.indirect_clamp:g}" if args.indirect_clamp else "no clamp"
+    if args.glossy_filter:
+        clamp += f", glossy filter {args.glossy_filter:g}"
     print(f"Shared scenes, {args.width} px wide, spp ladder {', '.join(map(str, args.spp))}, "
           f"seeds {args.seeds[0]} and {args.seeds[1]}, {clamp}; converged: "
           f"{args.converged_spp or 'not'} rendered; * extrapolated beyond the ladder.\n")
@@ -361,6 +364,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--adaptive-min-samples", type=int, default=8)
     parser.add_argument("--indirect-clamp", type=float, default=0.0,
                         help="render everything with this indirect clamp (Cycles' numbers use 10)")
+    parser.add_argument("--glossy-filter", type=float, default=0.0,
+                        help="render everything with this glossy filter (Cycles' numbers use 1)")
     parser.add_argument("--ray-cost-width", type=int, default=320)
     parser.add_argument("--skip-many-lights", action="store_true")
     parser.add_argument("--quick", action="store_true",

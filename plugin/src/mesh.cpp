@@ -98,4 +98,9 @@ void Mesh::setVisible(bool visible) {
   markDirty(DirtyVisibility);
 }
 
+void Mesh::setPassVisibility(PassVisibility pass) {
+  pass_ = pass;
+  markDirty(DirtyVisibility);
+}
+
 }  // namespace penumbra::plugin

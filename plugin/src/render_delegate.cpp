@@ -36,7 +36,9 @@ const std::map<std::string, SettingField>& settingFields() {
       {"adaptiveThreshold", {nullptr, &RenderSettingsMap::adaptiveThreshold, 0, 1}},
       {"adaptiveMinSamples", intSetting(&RenderSettingsMap::adaptiveMinSamples, 2)},
       {"indirectClamp",
-       {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}}};
+       {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}},
+      {"glossyFilter",
+       {nullptr, &RenderSettingsMap::glossyFilter, 0, std::numeric_limits<float>::max()}}};
   return fields;
 }
 
@@ -190,6 +192,13 @@ T& primAs(PrimCollection& collection, const PrimId& id, const char* typeName) {
   throw std::out_of_range(id + ": no " + typeName + " with this id in the render index");
 }
 }  // namespace
+
+std::map<uint32_t, PrimId> RenderDelegate::primIdManifest() const {
+  std::map<uint32_t, PrimId> manifest;
+  for (const auto& [id, prim] : rprims_)
+    if (const auto* mesh = dynamic_cast<const Mesh*>(prim.get())) manifest[mesh->handle()] = id;
+  return manifest;
+}
 
 Mesh& RenderDelegate::mesh(const PrimId& id) {
   return primAs<Mesh>(rprims_, id, "mesh");
@@ -398,6 +407,7 @@ void RenderDelegate::syncMesh(Mesh& mesh, const DicingContext& dicing) {
         (bits & DirtyMaterialId))
       warn(mesh.id() + ": bound material " + mesh.materialId() +
            " is not in the render index; displayColor is used");
+    if (bits & DirtyVisibility) scene_->setMeshPassVisibility(mesh.handle(), mesh.passVisibility());
     placeMesh(mesh);
   }
   if (bits != Clean) mesh.markClean();
@@ -423,6 +433,7 @@ void RenderDelegate::syncInstancer(Instancer& copies) {
   } else {
     // As in Hydra, the prototype knows its instancer (its removal drops the copies).
     prototype->addInstancer(copies.id());
+    scene_->setInstancerPassVisibility(copies.handle(), copies.passVisibility());
     scene_->setInstances(copies.handle(), prototype->handle(), copies.transforms(),
                          copies.visible());
     try {

@@ -11,14 +11,22 @@ RenderPass::RenderPass(RenderDelegate& delegate, PrimId cameraId, int width, int
     : delegate_(delegate), cameraId_(std::move(cameraId)), film_(width, height) {}
 
 const std::vector<std::string>& RenderPass::aovNames() {
-  static const std::vector<std::string> names = {"color", "depth"};
-  return names;
+  return penumbra::aovNames();
 }
 
-int RenderPass::aovChannels(const std::string& name) {
-  if (name == "color") return 4;
-  if (name == "depth") return 1;
-  throw std::invalid_argument("unknown AOV '" + name + "' (known: color, depth)");
+void RenderPass::setAovs(const std::vector<std::string>& names) {
+  std::vector<AovRequest> requests;
+  for (const std::string& name : names) requests.push_back(parseAov(name));
+  if (film_.accumulatesExactly(requests)) return;
+  film_ = Film(film_.width(), film_.height(), std::move(requests));
+  samplesDone_ = 0;
+}
+
+int RenderPass::aovChannels(const std::string& name) const {
+  const AovRequest request = parseAov(name);
+  if (request.kind == AovKind::Primvar)
+    return std::max(1, delegate_.scene().primvarWidth(request.primvar));
+  return Film::channels(request.kind);
 }
 
 int RenderPass::nextConvergenceTest(int samplesDone, int minSamples) {
@@ -60,6 +68,7 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator.maxTransmissionDepth = settings.maxTransmissionDepth;
   renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
   renderSettings.integrator.indirectClamp = settings.indirectClamp;
+  renderSettings.integrator.glossyFilter = settings.glossyFilter;
   const int end = samplesDone_ + samples;
   while (samplesDone_ < end && film_.activePixels() > 0) {
     const int checkpoint = settings.adaptiveThreshold > 0
@@ -96,15 +105,27 @@ RawRayThroughput RenderPass::measureRawThroughput() {
 
 void RenderPass::setAovBindings(std::map<std::string, PrimId> bindings) {
   for (const auto& [aovName, bufferId] : bindings) {
-    aovChannels(aovName);
+    if (!film_.has(parseAov(aovName)))
+      throw std::invalid_argument("AOV '" + aovName + "' is not accumulated by this render pass");
     delegate_.renderBuffer(bufferId);
   }
   aovBindings_ = std::move(bindings);
 }
 
 std::vector<float> RenderPass::aov(const std::string& name) const {
-  aovChannels(name);
-  return name == "color" ? film_.resolveColor() : film_.resolveDepth();
+  const AovRequest request = parseAov(name);
+  if (!film_.has(request))
+    throw std::invalid_argument("AOV '" + name + "' is not accumulated by this render pass");
+  std::vector<float> values = film_.resolve(request);
+  const size_t stored = size_t(Film::channels(request.kind));
+  const size_t wanted = size_t(aovChannels(name));
+  if (wanted == stored) return values;
+  // Primvars are accumulated as 4 floats: keep as many as the primvar has.
+  std::vector<float> trimmed(values.size() / stored * wanted);
+  for (size_t i = 0; i < values.size() / stored; ++i)
+    std::copy_n(values.begin() + ptrdiff_t(i * stored), wanted,
+                trimmed.begin() + ptrdiff_t(i * wanted));
+  return trimmed;
 }
 
 }  // namespace penumbra::plugin

@@ -24,6 +24,7 @@ using penumbra::ColorCorrection;
 using penumbra::DisplaySettings;
 using penumbra::ImageData;
 using penumbra::Interpolation;
+using penumbra::Matrix44;
 using penumbra::Metadata;
 using penumbra::MotionTransform;
 using penumbra::Projection;
@@ -263,6 +264,16 @@ Metadata toMetadata(const py::dict& metadata) {
         result[name] = std::string(py::str(value));
     } else if (py::isinstance<py::float_>(value)) {
       result[name] = value.cast<float>();
+    } else if (py::isinstance<py::array>(value) || py::isinstance<py::list>(value) ||
+               py::isinstance<py::tuple>(value)) {
+      // A 4x4 matrix (OIIO's worldtocamera, worldtoscreen), row-major.
+      const py::array_t<float, py::array::c_style | py::array::forcecast> values(
+          py::reinterpret_borrow<py::object>(value));
+      if (values.size() != 16)
+        throw std::invalid_argument("metadata " + name + ": a 4x4 matrix needs 16 numbers");
+      Matrix44 matrix;
+      std::copy_n(values.data(), 16, matrix.begin());
+      result[name] = matrix;
     } else {
       result[name] = std::string(py::str(value));
     }
@@ -490,6 +501,21 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("id"), py::arg("visible"))
       .def(
+          "set_pass_visibility",
+          [](RenderDelegate& self, const std::string& id, bool cameraVisible, bool matte) {
+            const penumbra::PassVisibility pass{cameraVisible, matte};
+            Prim& prim = self.prim(id);
+            if (auto* mesh = dynamic_cast<Mesh*>(&prim))
+              mesh->setPassVisibility(pass);
+            else if (auto* copies = dynamic_cast<Instancer*>(&prim))
+              copies->setPassVisibility(pass);
+            else
+              throw std::invalid_argument(id + ": only meshes and instancers take pass visibility");
+          },
+          py::arg("id"), py::arg("camera_visible") = true, py::arg("matte") = false,
+          "How camera rays treat a mesh or an instancer's copies (UsdRenderPass "
+          "cameraVisibility and matte collections): hidden from them, or a holdout.")
+      .def(
           "set_instances",
           [](RenderDelegate& self, const std::string& id, const std::string& prototype,
              const DoubleArray& matrices) {
@@ -608,7 +634,9 @@ PYBIND11_MODULE(_core, m) {
           "sync_count",
           [](RenderDelegate& self, const std::string& id) { return self.prim(id).syncCount(); },
           py::arg("id"))
-      .def("take_warnings", &RenderDelegate::takeWarnings);
+      .def("take_warnings", &RenderDelegate::takeWarnings)
+      .def("prim_id_manifest", &RenderDelegate::primIdManifest,
+           "The mesh prims by the value the primId AOV gives them.");
 
   py::class_<RenderPass>(m, "RenderPass")
       .def(py::init<RenderDelegate&, std::string, int, int>(), py::arg("delegate"),
@@ -616,6 +644,8 @@ PYBIND11_MODULE(_core, m) {
       .def("execute", &executeInterruptibly, py::arg("samples"))
       .def("reset", &RenderPass::reset)
       .def("set_aov_bindings", &RenderPass::setAovBindings, py::arg("bindings"))
+      .def("set_aovs", &RenderPass::setAovs, py::arg("names"),
+           "Accumulate these AOVs besides color, alpha, Z and sampleCount (a change restarts).")
       .def_property_readonly("samples_done", &RenderPass::samplesDone)
       .def_property_readonly("mean_samples", &RenderPass::meanSamples)
       .def_property_readonly("rays_traced", &RenderPass::raysTraced)
@@ -643,7 +673,7 @@ PYBIND11_MODULE(_core, m) {
       .def(
           "aov",
           [](const RenderPass& self, const std::string& name) {
-            const int channels = RenderPass::aovChannels(name);
+            const int channels = self.aovChannels(name);
             const std::vector<float> values = self.aov(name);
             py::array_t<float> result({self.height(), self.width(), channels});
             std::memcpy(result.mutable_data(), values.data(), values.size() * sizeof(float));
@@ -655,7 +685,8 @@ PYBIND11_MODULE(_core, m) {
       "write_image",
       [](const std::string& path, const FloatArray& channels, const std::vector<std::string>& names,
          const py::dict& metadata, const std::string& colorMode, const std::string& ocioConfig,
-         const std::string& display, const std::string& view) {
+         const std::string& display, const std::string& view,
+         const std::vector<bool>& halfChannels) {
         if (channels.ndim() != 3 || channels.shape(2) != py::ssize_t(names.size()))
           throw std::invalid_argument(
               path + ": pixels must have shape (H, W, C) with one name per channel");
@@ -665,13 +696,38 @@ PYBIND11_MODULE(_core, m) {
         image.channelNames = names;
         image.pixels.assign(channels.data(), channels.data() + channels.size());
         image.metadata = toMetadata(metadata);
+        image.halfChannels.assign(halfChannels.begin(), halfChannels.end());
         DisplaySettings settings{toColorCorrection(colorMode), ocioConfig, display, view};
         py::gil_scoped_release release;
         penumbra::writeImage(path, image, settings);
       },
       py::arg("path"), py::arg("channels"), py::arg("channel_names"),
       py::arg("metadata") = py::dict(), py::arg("color_mode") = "disabled",
-      py::arg("ocio_config") = "", py::arg("display") = "", py::arg("view") = "");
+      py::arg("ocio_config") = "", py::arg("display") = "", py::arg("view") = "",
+      py::arg("half_channels") = std::vector<bool>());
+
+  m.def(
+      "display_pixels",
+      [](const FloatArray& pixels, const std::string& colorMode, const std::string& ocioConfig,
+         const std::string& display, const std::string& view) {
+        if (pixels.ndim() != 3 || pixels.shape(2) < 3)
+          throw std::invalid_argument("pixels must have shape (H, W, C) with C >= 3");
+        const int height = int(pixels.shape(0)), width = int(pixels.shape(1));
+        const int channels = int(pixels.shape(2));
+        std::vector<float> values(pixels.data(), pixels.data() + pixels.size());
+        {
+          py::gil_scoped_release release;
+          penumbra::applyDisplayTransform(
+              values, width, height, channels,
+              {toColorCorrection(colorMode), ocioConfig, display, view});
+        }
+        py::array_t<float> result({pixels.shape(0), pixels.shape(1), pixels.shape(2)});
+        std::memcpy(result.mutable_data(), values.data(), values.size() * sizeof(float));
+        return result;
+      },
+      py::arg("pixels"), py::arg("color_mode") = "openColorIO", py::arg("ocio_config") = "",
+      py::arg("display") = "", py::arg("view") = "",
+      "Pixels with the display transform applied to their first three channels.");
 
   m.def(
       "read_image",

@@ -23,7 +23,8 @@ from collections.abc import Iterator, Sequence
 from pxr import Usd
 
 from . import _core
-from .errors import PenumbraWarning, SceneError
+from .denoise import NOISY_COLOR
+from .errors import PenumbraWarning, SceneError, warn
 from .frames import (
     FrameRange,
     find_placeholder,
@@ -42,7 +43,9 @@ from .renderer import (
     Renderer,
 )
 from .trace import TRACE_FORMATS, Tracer
+from .products import render_products
 from .usd import open_stage, read_render_settings, render_pass_settings, resolve_camera
+from .usd.products import read_products
 from .usd.stage import RESOLVERS
 
 PROG = "penumbra-record"
@@ -52,7 +55,6 @@ EXIT_TERMINATED = 128 + signal.SIGTERM  # 143
 
 # Flags the parser accepts (for usdrecord compatibility) that this version rejects.
 _NOT_SUPPORTED_YET = {
-    "aov": "--aov",
     "scheduler": "--scheduler",
     "resume": "--resume",
 }
@@ -74,7 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
         allow_abbrev=False,
         description="Render a USD file with Penumbra (usdrecord-compatible command line).",
         epilog=(
-            "Not supported yet (rejected with exit status 2): --aov, --scheduler, --resume. "
+            "Not supported yet (rejected with exit status 2): --scheduler, --resume. "
             "Exit status: 0 success, 1 the scene or a file could not be rendered, 2 usage error."
         ),
     )
@@ -115,10 +117,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--imageWidth",
         "-w",
         type=int,
-        default=DEFAULT_WIDTH,
         metavar="WIDTH",
         help=(
-            "image width in pixels (default: %(default)s); the height is int(width / aspect) "
+            f"image width in pixels (default: {DEFAULT_WIDTH}, or a render product's "
+            "resolution); the height is int(width / aspect) "
             "of the camera's apertures as usdrecord computes it, or follows the render "
             "settings' resolution"
         ),
@@ -297,6 +299,16 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     own.add_argument(
+        "--glossyFilter",
+        type=float,
+        default=0.0,
+        metavar="F",
+        help=(
+            "blur sharp reflection and refraction lobes met after rougher bounces, as Cycles' "
+            "filter glossy (Cycles' default: 1): caustics converge sooner, biased (default: 0, off)"
+        ),
+    )
+    own.add_argument(
         "--maxMemory",
         type=_memory_size,
         metavar="SIZE",
@@ -306,7 +318,20 @@ def build_parser() -> argparse.ArgumentParser:
             "fit with the scene fails before rendering (exit status 1)"
         ),
     )
-    own.add_argument("--aov", metavar="NAME[,NAME...]", help="not supported yet")
+    own.add_argument(
+        "--aov",
+        metavar="NAME[,NAME...]",
+        help=(
+            "AOVs written besides color (.exr only): alpha, depth, Z, normal, Neye, position, "
+            "albedo, primId, instanceId, elementId, primvars:NAME, sampleCount, variance, "
+            "noisyColor (with --denoise); render products name their own"
+        ),
+    )
+    own.add_argument(
+        "--denoise",
+        action="store_true",
+        help="denoise the colour with Intel Open Image Denoise, guided by albedo and normal",
+    )
     own.add_argument(
         "--disableMotionBlur",
         dest="disable_motion_blur",
@@ -422,7 +447,7 @@ def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
     if args.traceFormat != "chrome" and not args.traceToFile:
         raise _UsageError("--traceFormat needs --traceToFile")
     for name in ("imageWidth", "samples"):
-        if getattr(args, name) < 1:
+        if getattr(args, name) is not None and getattr(args, name) < 1:
             raise _UsageError(f"--{name} must be at least 1")
     for name in ("threads", "maxPathDepth", "seed"):
         if getattr(args, name) < 0:
@@ -431,11 +456,15 @@ def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
         raise _UsageError("--adaptiveThreshold must be in [0, 1]")
     if args.adaptiveMinSamples < 2:
         raise _UsageError("--adaptiveMinSamples must be at least 2")
-    if not (args.indirectClamp >= 0 and math.isfinite(args.indirectClamp)):
-        raise _UsageError("--indirectClamp must be a finite number >= 0")
+    for flag in ("indirectClamp", "glossyFilter"):
+        if not (getattr(args, flag) >= 0 and math.isfinite(getattr(args, flag))):
+            raise _UsageError(f"--{flag} must be a finite number >= 0")
     for name, largest in _LARGEST_VALUES.items():
-        if getattr(args, name) > largest:
+        if getattr(args, name) is not None and getattr(args, name) > largest:
             raise _UsageError(f"--{name} must be at most {largest}")
+    args.aovs = _aov_list(args.aov or "", args.denoise)
+    if len(args.aovs) > 1 and not args.outputImagePath.lower().endswith(".exr"):
+        raise _UsageError(f"--aov needs an .exr output; {args.outputImagePath} holds colour only")
     try:
         check_output_format(args.outputImagePath)
         placeholder = find_placeholder(args.outputImagePath)
@@ -459,6 +488,18 @@ def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
             f"the frames need {needed} decimals but placeholder {placeholder} has {decimals}"
         )
     return frames
+
+
+def _aov_list(text: str, denoise: bool) -> list[str]:
+    """``--aov``'s names after color; ``_UsageError`` for an unknown one."""
+    names = [name for name in text.replace(",", " ").split() if name != "color"]
+    known = set(_core.RenderPass.aov_names()) | {NOISY_COLOR}
+    for name in names:
+        if name not in known and not (name.startswith("primvars:") and len(name) > 9):
+            raise _UsageError(f"--aov {name}: unknown AOV (known: {', '.join(sorted(known))})")
+    if NOISY_COLOR in names and not denoise:
+        raise _UsageError(f"--aov {NOISY_COLOR} needs --denoise")
+    return ["color", *names]
 
 
 class _Terminated(BaseException):
@@ -574,6 +615,9 @@ def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) 
             resolver=args.resolver,
         )
     settings = read_render_settings(stage, _render_settings_path(stage, args))
+    plan = read_products(stage, settings) if settings is not None else None
+    if plan is not None and plan.products and args.aov:
+        warn("--aov applies to renders without render products; the products name their vars")
     if args.defaultTime:
         time_codes: Iterator[Usd.TimeCode] = iter([Usd.TimeCode.Default()])
     elif frames:
@@ -582,6 +626,8 @@ def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) 
         time_codes = iter([Usd.TimeCode(stage.GetStartTimeCode())])
     first_time_code = next(time_codes)
     purposes = args.purposes.replace(",", " ").split()
+    if plan is not None and plan.included_purposes is not None:
+        purposes = list(plan.included_purposes)
     camera = resolve_camera(stage, args.camera, settings, first_time_code, purposes)
 
     say(f"Camera: {camera.GetPath()}")
@@ -592,10 +638,7 @@ def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) 
             frame = "default" if time_code.IsDefault() else f"{time_code.GetValue():g}"
             say(f"Recording time code: {frame}")
             with tracer.span(f"time code {frame}"):
-                image = renderer.render(
-                    camera=str(camera.GetPath()),
-                    time=time_code,
-                    width=args.imageWidth,
+                options = dict(
                     samples=args.samples,
                     seed=args.seed,
                     threads=args.threads,
@@ -603,21 +646,46 @@ def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) 
                     adaptive_threshold=args.adaptiveThreshold,
                     adaptive_min_samples=args.adaptiveMinSamples,
                     indirect_clamp=args.indirectClamp,
+                    glossy_filter=args.glossyFilter,
                     complexity=args.complexity,
-                    render_settings=settings.path if settings else None,
                     disable_motion_blur=args.disable_motion_blur,
                     disable_depth_of_field=args.disable_depth_of_field,
                     dome_light_visibility=args.enableDomeLightVisibility,
                     default_light="none" if args.disableCameraLight else "camera",
                     progress=None if args.quiet else _Progress(f"time code {frame}"),
                     max_memory=args.maxMemory,
+                    denoise=args.denoise,
                 )
                 output = args.outputImagePath
                 if frames:
                     output = frame_path(output, time_code.GetValue())
+                products = []
+                if plan is not None and plan.products:
+                    # The output image holds the first product's render (all its AOVs in EXR).
+                    products = render_products(
+                        renderer,
+                        plan,
+                        time_code,
+                        os.path.dirname(os.path.abspath(output)),
+                        camera=args.camera,
+                        width=args.imageWidth,
+                        **options,
+                    )
+                    image = products[0][1]
+                else:
+                    image = renderer.render(
+                        camera=str(camera.GetPath()),
+                        time=time_code,
+                        width=args.imageWidth or DEFAULT_WIDTH,
+                        render_settings=settings.path if settings else None,
+                        aovs=args.aovs,
+                        **options,
+                    )
                 with tracer.span("write image", file=output):
                     image.write(output, color_mode=args.colorCorrectionMode)
             say(frame_summary(f"time code {frame}", image))
+            for path, _ in products:
+                say(f"Wrote {os.path.abspath(path)}")
             say(f"Wrote {os.path.abspath(output)}")
     return EXIT_OK
 

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import base64
+import html
 import os
 import re
-from collections.abc import Iterator, Mapping
+import tempfile
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -80,34 +83,52 @@ def _alive(pid: int) -> bool:
         return True
     return True
 METADATA_PREFIX = "penumbra:"
+OIIO_METADATA = ("worldtocamera", "worldtoscreen")
+"""Metadata written under OIIO's standard names rather than with :data:`METADATA_PREFIX`."""
 
-_CHANNEL_SUFFIXES = "RGBA"
+_COLOR_SUFFIXES = "RGBA"
+_VECTOR_SUFFIXES = "xyzw"
+COLOR_AOVS = ("color", "albedo", "variance", "noisyColor")
+"""AOVs whose channels are colours (suffixes R, G, B, A); others are vectors (x, y, z, w)."""
 
 
-def channel_names(aov: str, channels: int) -> list[str]:
-    """EXR channel names of an AOV: ``color`` is R, G, B, A; ``depth`` is Z; any other AOV is
-    a layer ``aov.R``, ``aov.G``, … (or plain ``aov`` when it has one channel)."""
-    if aov == "color":
-        return list(_CHANNEL_SUFFIXES[:channels])
-    if aov == "depth" and channels == 1:
+def channel_names(aov: str, channels: int, layer: str | None = None) -> list[str]:
+    """EXR channel names of an AOV written as ``layer`` (by default its name): ``color`` is R,
+    G, B, A and ``Z`` is Z; a one-channel AOV is the layer's name; others are the layer's
+    channels ``layer.R``, ``layer.G``, … for colours, ``layer.x``, ``layer.y``, … for vectors
+    (normals, positions, primvars), as OIIO names layered channels."""
+    layer = layer or aov
+    if aov == "color" and layer == "color":
+        return list(_COLOR_SUFFIXES[:channels])
+    if aov == "Z" and layer == "Z" and channels == 1:
         return ["Z"]
     if channels == 1:
-        return [aov]
-    return [f"{aov}.{_CHANNEL_SUFFIXES[i] if i < 4 else i}" for i in range(channels)]
+        return [layer]
+    suffixes = _COLOR_SUFFIXES if aov in COLOR_AOVS else _VECTOR_SUFFIXES
+    return [f"{layer}.{suffixes[i] if i < len(suffixes) else i}" for i in range(channels)]
 
 
 class Image(Mapping[str, np.ndarray]):
     """The AOVs of one render (``image["color"]``: float32 (H, W, 4), scene-linear) and its
     metadata (camera, samples, seed, renderTimeSeconds, version, timeCode, stage)."""
 
-    def __init__(self, aovs: Mapping[str, np.ndarray], metadata: Mapping[str, str | int | float]):
+    def __init__(
+        self,
+        aovs: Mapping[str, np.ndarray],
+        metadata: Mapping[str, object],
+        *,
+        sources: Mapping[str, str] | None = None,
+    ):
+        """``sources``: for entries not named after the AOV they hold (render products' vars),
+        that AOV's name (it decides the channel suffixes)."""
         if not aovs:
             raise ValueError("an image needs at least one AOV")
         shapes = {array.shape[:2] for array in aovs.values()}
         if len(shapes) != 1:
             raise ValueError(f"AOVs of one image must have one size, not {sorted(shapes)}")
         self._aovs = {name: np.asarray(array, dtype=np.float32) for name, array in aovs.items()}
-        self.metadata: dict[str, str | int | float] = dict(metadata)
+        self.metadata: dict[str, object] = dict(metadata)
+        self.sources = {name: (sources or {}).get(name, name) for name in self._aovs}
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
@@ -140,11 +161,13 @@ class Image(Mapping[str, np.ndarray]):
         ocio_config: str | os.PathLike | None = None,
         display: str = "",
         view: str = "",
+        half: Iterable[str] = (),
     ) -> None:
         """Write the image atomically; the extension picks the format.
 
-        ``.exr`` holds every AOV as float channels (see :func:`channel_names`) and the metadata
-        as ``penumbra:*`` attributes. Other formats hold the ``color`` AOV converted to display
+        ``.exr`` holds every AOV as float channels (see :func:`channel_names`; the AOVs named
+        in ``half`` as half floats) and the metadata as ``penumbra:*`` attributes (the camera
+        matrices under OIIO's names, :data:`OIIO_METADATA`). Other formats hold the ``color`` AOV converted to display
         values: ``color_mode`` ``"openColorIO"`` (default) uses ``ocio_config``, else ``$OCIO``,
         else Penumbra's bundled config (sRGB display, "Standard" view unless ``display``/
         ``view`` say otherwise); ``"sRGB"`` applies the sRGB transfer function;
@@ -167,10 +190,13 @@ class Image(Mapping[str, np.ndarray]):
             raise ValueError(f"{path}: only .exr can hold an image without a 'color' AOV")
         arrays: list[np.ndarray] = []
         names: list[str] = []
+        half_channels: list[bool] = []
+        half = set(half)
         for aov, array in aovs:
             array = array.reshape(array.shape[0], array.shape[1], -1)
             arrays.append(array)
-            names += channel_names(aov, array.shape[2])
+            names += channel_names(self.sources[aov], array.shape[2], aov)
+            half_channels += [aov in half] * array.shape[2]
         config = ""
         if color_mode == "openColorIO":
             config = ocio_config_path(ocio_config)
@@ -178,9 +204,94 @@ class Image(Mapping[str, np.ndarray]):
             path,
             np.ascontiguousarray(np.concatenate(arrays, axis=2)),
             names,
-            {METADATA_PREFIX + key: value for key, value in self.metadata.items()},
+            {
+                (key if key in OIIO_METADATA else METADATA_PREFIX + key): value
+                for key, value in self.metadata.items()
+            },
             color_mode=color_mode,
             ocio_config=config,
             display=display,
             view=view,
+            half_channels=half_channels,
         )
+
+    def display(
+        self,
+        view: str = "",
+        display: str = "",
+        *,
+        aov: str = "color",
+        ocio_config: str | os.PathLike | None = None,
+    ) -> np.ndarray:
+        """Display-referred RGB (float32, H x W x 3, unpremultiplied, clipped to [0, 1]) of
+        a colour AOV through OCIO: ``ocio_config``, else ``$OCIO``, else the bundled config,
+        with its default display and view unless named."""
+        pixels = self[aov]
+        rgb = pixels[..., :3]
+        if pixels.shape[2] > 3:  # the transform applies to colour, not colour times coverage
+            alpha = pixels[..., 3:4]
+            rgb = np.where(alpha > 0, rgb / np.where(alpha > 0, alpha, 1), 0)
+        shown = _core.display_pixels(
+            np.ascontiguousarray(rgb, dtype=np.float32),
+            "openColorIO",
+            ocio_config_path(ocio_config),
+            display,
+            view,
+        )
+        return np.clip(shown, 0.0, 1.0)
+
+    def _repr_png_(self) -> bytes:
+        """The colour AOV (else the first) as a PNG, for Jupyter."""
+        return png_bytes(self._preview("color" if "color" in self._aovs else next(iter(self))))
+
+    def _repr_html_(self) -> str:
+        """Every AOV side by side, each under its name, for Jupyter."""
+        cells = "".join(
+            '<figure style="margin:0 8px 8px 0">'
+            f'<img src="data:image/png;base64,{base64.b64encode(png_bytes(self._preview(name))).decode()}"/>'
+            f'<figcaption style="text-align:center">{html.escape(name)}</figcaption></figure>'
+            for name in self._aovs
+        )
+        return f'<div style="display:flex;flex-wrap:wrap">{cells}</div>'
+
+    def _preview(self, name: str) -> np.ndarray:
+        """An AOV as display RGB in [0, 1]: colours through OCIO, the rest mapped to show
+        their structure (see :func:`preview_pixels`)."""
+        if self.sources[name] in ("color", "noisyColor"):
+            return self.display(aov=name)
+        return preview_pixels(self.sources[name], self[name])
+
+
+def preview_pixels(aov: str, pixels: np.ndarray) -> np.ndarray:
+    """A non-colour AOV as RGB in [0, 1] for a glance: ids as distinct hashed colours (black:
+    nothing), distances and other single channels scaled over their finite range (near
+    bright), vectors with 3 channels (normals, positions, albedo) scaled the same way."""
+    pixels = pixels.reshape(pixels.shape[0], pixels.shape[1], -1)
+    if aov in ("primId", "instanceId", "elementId"):
+        ids = pixels[..., 0].astype(np.int64)
+        hashed = (ids + 1) * np.array([2654435761, 2246822519, 3266489917], dtype=np.int64)[:, None, None]
+        rgb = ((hashed >> 8) % 255 / 255.0).transpose(1, 2, 0)
+        return np.where((ids < 0)[..., None], 0.0, 0.25 + 0.75 * rgb)
+    finite = np.isfinite(pixels)
+    low = float(pixels[finite].min()) if finite.any() else 0.0
+    high = float(pixels[finite].max()) if finite.any() else 1.0
+    scaled = np.where(finite, (pixels - low) / max(high - low, 1e-12), 0.0)
+    if aov in ("depth", "Z"):
+        scaled = np.where(finite, 1.0 - scaled, 0.0)
+    if scaled.shape[2] >= 3:
+        return scaled[..., :3]
+    return np.repeat(scaled[..., :1], 3, axis=2)
+
+
+def png_bytes(rgb: np.ndarray) -> bytes:
+    """An 8-bit PNG of display RGB in [0, 1] (H x W x 3)."""
+    with tempfile.TemporaryDirectory() as directory:
+        path = os.path.join(directory, "preview.png")
+        _core.write_image(
+            path,
+            np.ascontiguousarray(rgb, dtype=np.float32),
+            ["R", "G", "B"],
+            color_mode="disabled",
+        )
+        with open(path, "rb") as file:
+            return file.read()

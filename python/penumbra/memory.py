@@ -17,6 +17,10 @@ FILM_BYTES_PER_PIXEL = 160
 activity) plus the resolved AOVs and the copies made on their way to the image writer (the
 issue measured about 112 at the render's peak; writing adds one more copy)."""
 
+AOV_BYTES_PER_PIXEL = 64
+"""Bytes per pixel that each AOV beyond colour adds: up to four channels, each summed in double
+precision (or kept nearest as a float) and resolved to a float copy on the way out."""
+
 _UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
 _SIZE = re.compile(r"\s*(?P<number>\d+(?:\.\d*)?|\.\d+)\s*(?P<unit>[KMGT]?)(?:i?B)?\s*", re.I)
 
@@ -58,10 +62,11 @@ def format_size(size: float) -> str:
     return f"{size:.0f} B"
 
 
-def check_film(width: int, height: int, budget: int, what: str) -> None:
-    """:class:`SceneError` naming ``what`` when a ``width`` × ``height`` film would not fit in
-    ``budget`` bytes together with what the process holds already."""
-    film = width * height * FILM_BYTES_PER_PIXEL
+def check_film(width: int, height: int, budget: int, what: str, extra_aovs: int = 0) -> None:
+    """:class:`SceneError` naming ``what`` when a ``width`` × ``height`` film, with
+    ``extra_aovs`` AOVs beyond colour, would not fit in ``budget`` bytes together with what the
+    process holds already."""
+    film = width * height * (FILM_BYTES_PER_PIXEL + extra_aovs * AOV_BYTES_PER_PIXEL)
     held = resident_memory()
     if held + film > budget:
         raise SceneError(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import time as clock
@@ -12,16 +13,20 @@ from pxr import Sdf, Usd
 
 from . import _core
 from .errors import SceneError, warn
+from .denoise import GUIDE_AOVS, NOISY_COLOR, denoise_color
 from .image import Image, ocio_config_path
 from .memory import check_film, default_budget
 from .trace import Tracer
 from .usd.camera import camera_problem, read_shutter
+from .usd.camera_metadata import camera_metadata
 from .usd.default_light import DefaultLight, DefaultLightManager, check_default_light
+from .usd.mtlx_documents import compose_materialx_documents
 from .usd.point_instancers import PointInstancerDelegate
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
 from .usd.settings import FilmWindow, film_window, find_camera
 from .usd import (
     DEFAULT_PURPOSES,
+    RenderSettings,
     SceneDelegate,
     image_size,
     open_stage,
@@ -56,6 +61,7 @@ def _time_code(stage: Usd.Stage, time: TimeLike) -> Usd.TimeCode:
 def as_stage(stage_or_path: Usd.Stage | str | os.PathLike) -> Usd.Stage:
     """A stage, or the stage opened from a file path; ``TypeError`` names the types taken."""
     if isinstance(stage_or_path, Usd.Stage):
+        compose_materialx_documents(stage_or_path, warn)
         return stage_or_path
     if isinstance(stage_or_path, (str, os.PathLike)):
         return open_stage(stage_or_path)
@@ -126,6 +132,7 @@ class Renderer:
         dome_light_visibility: bool = True,
         film_windows: dict[str, FilmWindow] | None = None,
     ) -> None:
+        compose_materialx_documents(self.stage, warn)  # variant edits may bring in documents
         self._scene.update(shutter, depth_of_field, dome_light_visibility, film_windows)
         self._instancers.update(shutter)
 
@@ -154,7 +161,7 @@ class Renderer:
         threads: int = 0,
         max_path_depth: int = DEFAULT_MAX_PATH_DEPTH,
         complexity: str = "low",
-        render_settings: str | None = None,
+        render_settings: str | RenderSettings | None = None,
         disable_motion_blur: bool = False,
         disable_depth_of_field: bool = False,
         dome_light_visibility: bool = True,
@@ -163,7 +170,9 @@ class Renderer:
         adaptive_threshold: float = 0.0,
         adaptive_min_samples: int = 16,
         indirect_clamp: float = 0.0,
+        glossy_filter: float = 0.0,
         max_memory: int | None = None,
+        denoise: bool = False,
         dicing_camera: str | Sdf.Path | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
@@ -174,7 +183,8 @@ class Renderer:
         ``Usd.TimeCode.Default()``); by default the stage's startTimeCode. ``width``: by default
         the render settings' resolution, else 960. ``height``: by default from the aspect ratio
         of the render settings' resolution, else of the camera's apertures. ``render_settings``:
-        a UsdRenderSettings prim path, by default the stage's ``renderSettingsPrimPath``; its
+        a UsdRenderSettings prim path (or settings already read, as render products pass them),
+        by default the stage's ``renderSettingsPrimPath``; its
         ``aspectRatioConformPolicy`` and ``pixelAspectRatio`` fit the camera's aperture to the
         image, and its ``dataWindowNDC`` crops the image to the pixels whose centres it holds.
         Motion blur samples the camera's shutter, [time + shutter:open, time + shutter:close];
@@ -191,7 +201,9 @@ class Renderer:
         the threshold, so ``samples`` becomes a cap; the image stays a pure function of (scene,
         seed, samples, threshold). ``indirect_clamp`` > 0 limits each sample of indirect light
         (two or more surface interactions) to that largest component, as Cycles' "clamp
-        indirect": fewer fireflies, a darker (biased) image; off by default. ``max_memory``: bytes the process may hold (default: 80% of
+        indirect": fewer fireflies, a darker (biased) image; off by default. ``glossy_filter`` > 0
+        blurs sharp lobes met after rougher bounces, as Cycles' "filter glossy" (1 is
+        Cycles' default): caustics converge much sooner, biased; off by default. ``max_memory``: bytes the process may hold (default: 80% of
         physical memory), checked before the scene is synced and before a new size's film is
         allocated. ``dicing_camera``: the camera (path or bare name) subdivision surfaces are
         diced for, from this render on; they are re-diced when it moves. By default they are
@@ -207,7 +219,11 @@ class Renderer:
             self.delegate.set_dicing_camera(str(find_camera(self.stage, dicing_camera).GetPath()))
         aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
         time_code = _time_code(self.stage, time)
-        settings = read_render_settings(self.stage, render_settings)
+        settings = (
+            render_settings
+            if isinstance(render_settings, RenderSettings)
+            else read_render_settings(self.stage, render_settings)
+        )
         camera_prim = resolve_camera(self.stage, camera, settings, time_code, self._scene.purposes)
         problem = camera_problem(camera_prim, time_code)
         if problem is not None:
@@ -228,8 +244,9 @@ class Renderer:
         shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
         budget = default_budget() if max_memory is None else max_memory
         new_pass = (camera_id, window.width, window.height) not in self._passes
+        extra_aovs = len(set(aovs) - {"color"}) + (len(GUIDE_AOVS) if denoise else 0)
         if new_pass:
-            check_film(window.width, window.height, budget, camera_id)
+            check_film(window.width, window.height, budget, camera_id, extra_aovs)
         with self.tracer.span("sync stage (USD to render delegate)"):
             self._sync(
                 shutter,
@@ -247,13 +264,14 @@ class Renderer:
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
         if new_pass:  # the synced scene is in memory now; its BVH and the film are not yet
-            check_film(window.width, window.height, budget, camera_id)
+            check_film(window.width, window.height, budget, camera_id, extra_aovs)
         render_pass = self._render_pass(camera_id, window.width, window.height)
-        unknown = sorted(set(aovs) - set(render_pass.aov_names()))
-        if unknown or not aovs:
-            raise ValueError(
-                f"aovs must name at least one of {render_pass.aov_names()} (unknown: {unknown})"
-            )
+        if not aovs:
+            raise ValueError(f"aovs must name at least one of {render_pass.aov_names()}")
+        if NOISY_COLOR in aovs and not denoise:
+            raise ValueError(f"the {NOISY_COLOR} AOV needs denoise=True")
+        accumulated = {aov for aov in aovs if aov != NOISY_COLOR}
+        render_pass.set_aovs(sorted(accumulated | set(GUIDE_AOVS if denoise else ())))
 
         for key, value in (
             ("samples", samples),
@@ -264,6 +282,7 @@ class Renderer:
             ("adaptiveThreshold", adaptive_threshold),
             ("adaptiveMinSamples", adaptive_min_samples),
             ("indirectClamp", indirect_clamp),
+            ("glossyFilter", glossy_filter),
         ):
             self.delegate.set_render_setting(key, value)
         started = clock.perf_counter()
@@ -278,6 +297,13 @@ class Renderer:
             self._forward_warnings()
             if progress is not None:
                 progress(render_pass.samples_done, samples)
+        arrays = {name: np.array(render_pass.aov(name)) for name in accumulated | {"color"}}
+        if denoise:
+            with self.tracer.span("denoise (OIDN)"):
+                arrays[NOISY_COLOR] = arrays["color"]
+                arrays["color"] = denoise_color(
+                    arrays["color"], render_pass.aov("albedo"), render_pass.aov("normal")
+                )
         elapsed = clock.perf_counter() - started
 
         metadata = {
@@ -287,6 +313,7 @@ class Renderer:
             "rays": render_pass.rays_traced,
             "adaptiveThreshold": adaptive_threshold,
             "indirectClamp": indirect_clamp,
+            "glossyFilter": glossy_filter,
             "seed": seed,
             "renderTimeSeconds": round(elapsed, 3),
             "version": _core.version(),
@@ -294,8 +321,21 @@ class Renderer:
             "shutterOpen": shutter.open,
             "shutterClose": shutter.close,
             "stage": stage_name(self.stage),
+            "renderSettings": settings.path if settings is not None else "",
+            "denoised": int(denoise),
+            **camera_metadata(
+                camera_prim,
+                time_code,
+                width,
+                height,
+                settings.aspect_ratio_conform_policy if settings else "expandAperture",
+                settings.pixel_aspect_ratio if settings else 1.0,
+            ),
         }
-        return Image({name: np.array(render_pass.aov(name)) for name in aovs}, metadata)
+        if "primId" in aovs:
+            manifest = self.delegate.prim_id_manifest()
+            metadata["primIds"] = json.dumps({str(key): path for key, path in manifest.items()})
+        return Image({name: arrays[name] for name in aovs}, metadata)
 
     def _render_pass(self, camera_id: str, width: int, height: int):
         key = (camera_id, width, height)

@@ -118,4 +118,16 @@ float Camera::viewDepth(const Ray& ray, float t) const {
   return t * dot(ray.direction, viewAxis);
 }
 
+Vec3f Camera::centre(float time) const {
+  return params_.cameraToWorld.at(time).applyToPoint(Vec3f(0.0f));
+}
+
+Vec3f Camera::toCameraSpace(const Vec3f& direction, float time) const {
+  // Projections on the camera's unit axes: the inverse rotation, whatever the transform's scale.
+  const Transform cameraToWorld = params_.cameraToWorld.at(time);
+  return {dot(direction, normalize(cameraToWorld.applyToVector({1, 0, 0}))),
+          dot(direction, normalize(cameraToWorld.applyToVector({0, 1, 0}))),
+          dot(direction, normalize(cameraToWorld.applyToVector({0, 0, 1})))};
+}
+
 }  // namespace penumbra

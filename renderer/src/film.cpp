@@ -1,25 +1,161 @@
 #include "penumbra/film.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
-namespace penumbra {
+#include "penumbra/shading.h"
 
-Film::Film(int width, int height) : width_(width), height_(height) {
+namespace penumbra {
+namespace {
+
+/// AOVs every film has: they come from the colour accumulation itself.
+bool isBuiltIn(AovKind kind) {
+  return kind == AovKind::Color || kind == AovKind::Alpha || kind == AovKind::Z ||
+         kind == AovKind::SampleCount;
+}
+
+bool isId(AovKind kind) {
+  return kind == AovKind::PrimId || kind == AovKind::InstanceId || kind == AovKind::ElementId;
+}
+
+/// Whether the AOV keeps one value per pixel in nearest_ rather than sums in sums_.
+bool isNearest(AovKind kind) {
+  return kind == AovKind::Depth || isId(kind);
+}
+
+}  // namespace
+
+Film::Film(int width, int height, std::vector<AovRequest> aovs) : width_(width), height_(height) {
   if (width <= 0 || height <= 0)
     throw std::invalid_argument("film size must be positive, got " + std::to_string(width) + "x" +
                                 std::to_string(height));
+  for (const AovRequest& aov : aovs) hasIds_ = hasIds_ || isId(aov.kind);
+  nearestStride_ = hasIds_ ? 1 : 0;
+  for (AovRequest& aov : aovs) {
+    if (isBuiltIn(aov.kind) || slot(aov)) continue;
+    wantsFirstHit_ = wantsFirstHit_ || aov.needsFirstHit();
+    size_t& stride = isNearest(aov.kind) ? nearestStride_ : sumStride_;
+    slots_.push_back({std::move(aov), stride});
+    stride += size_t(channels(slots_.back().aov.kind));
+  }
   clear();
+}
+
+int Film::channels(AovKind kind) {
+  switch (kind) {
+    case AovKind::Color:
+    case AovKind::Primvar:
+      return 4;
+    case AovKind::Normal:
+    case AovKind::CameraNormal:
+    case AovKind::Position:
+    case AovKind::Albedo:
+    case AovKind::Variance:
+      return 3;
+    default:
+      return 1;
+  }
+}
+
+bool Film::has(const AovRequest& aov) const {
+  return isBuiltIn(aov.kind) || slot(aov) != nullptr;
+}
+
+bool Film::accumulatesExactly(const std::vector<AovRequest>& aovs) const {
+  const auto requested = [&](const Slot& s) {
+    return std::find(aovs.begin(), aovs.end(), s.aov) != aovs.end();
+  };
+  return std::all_of(aovs.begin(), aovs.end(), [&](const AovRequest& aov) { return has(aov); }) &&
+         std::all_of(slots_.begin(), slots_.end(), requested);
+}
+
+const Film::Slot* Film::slot(const AovRequest& aov) const {
+  for (const Slot& candidate : slots_)
+    if (candidate.aov == aov) return &candidate;
+  return nullptr;
 }
 
 void Film::clear() {
   pixels_.assign(size_t(width_) * size_t(height_), Pixel{});
   active_.assign(pixels_.size(), 1);
   activePixels_ = pixels_.size();
+  sums_.assign(pixels_.size() * sumStride_, 0.0);
+  nearest_.assign(pixels_.size() * nearestStride_, 0.0f);
+  for (size_t i = 0; nearestStride_ > 0 && i < pixels_.size(); ++i) {
+    float* nearest = nearest_.data() + i * nearestStride_;
+    if (hasIds_) nearest[0] = kInfinity;
+    for (const Slot& s : slots_)
+      if (isNearest(s.aov.kind))
+        nearest[s.offset] = s.aov.kind == AovKind::Depth ? kInfinity : -1.0f;
+  }
 }
 
-void Film::addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample) {
-  Pixel& pixel = pixels_[size_t(y) * size_t(width_) + size_t(x)];
+void Film::addFirstHit(size_t index, const CameraSample& sample, const FirstHitSample& firstHit) {
+  double* sums = sums_.data() + index * sumStride_;
+  float* nearest = nearest_.data() + index * nearestStride_;
+  bool nearestToCentre = false;
+  if (hasIds_) {
+    const float distance = firstHit.filterOffset.x * firstHit.filterOffset.x +
+                           firstHit.filterOffset.y * firstHit.filterOffset.y;
+    if (distance < nearest[0]) {
+      nearest[0] = distance;
+      nearestToCentre = true;
+    }
+  }
+  const auto add3 = [](double* sum, const Vec3f& value) {
+    sum[0] += value.x;
+    sum[1] += value.y;
+    sum[2] += value.z;
+  };
+  for (const Slot& s : slots_) {
+    switch (s.aov.kind) {
+      case AovKind::Depth:
+        nearest[s.offset] = std::min(nearest[s.offset], firstHit.distance);
+        break;
+      case AovKind::PrimId:
+        if (nearestToCentre) nearest[s.offset] = float(firstHit.primId);
+        break;
+      case AovKind::InstanceId:
+        if (nearestToCentre) nearest[s.offset] = float(firstHit.instanceId);
+        break;
+      case AovKind::ElementId:
+        if (nearestToCentre) nearest[s.offset] = float(firstHit.elementId);
+        break;
+      case AovKind::Variance:
+        add3(sums + s.offset, sample.radiance * sample.radiance);
+        break;
+      default:
+        if (!firstHit.hit) break;
+        if (s.aov.kind == AovKind::Normal) add3(sums + s.offset, firstHit.normal);
+        if (s.aov.kind == AovKind::CameraNormal) add3(sums + s.offset, firstHit.cameraNormal);
+        if (s.aov.kind == AovKind::Position) add3(sums + s.offset, firstHit.position);
+        if (s.aov.kind == AovKind::Albedo) add3(sums + s.offset, firstHit.albedo);
+        if (s.aov.kind == AovKind::Primvar) {
+          SurfacePoint point;
+          point.mesh = firstHit.mesh;
+          point.triangle = firstHit.triangle;
+          point.u = firstHit.u;
+          point.v = firstHit.v;
+          point.instancePrimvars = firstHit.instancePrimvars;
+          point.instance = uint32_t(std::max(firstHit.instanceId, 0));
+          float value[4] = {0, 0, 0, 0};
+          int valueWidth = 0;
+          if (primvarAt(point, s.aov.primvar, value, &valueWidth))
+            for (int c = 0; c < valueWidth; ++c) sums[s.offset + size_t(c)] += value[c];
+        }
+    }
+  }
+}
+
+void Film::addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
+                     const FirstHitSample* firstHit) {
+  const size_t index = size_t(y) * size_t(width_) + size_t(x);
+  Pixel& pixel = pixels_[index];
+  if (!slots_.empty()) {
+    static const FirstHitSample kNone;
+    addFirstHit(index, sample, firstHit ? *firstHit : kNone);
+  }
   pixel.red += sample.radiance.x;
   pixel.green += sample.radiance.y;
   pixel.blue += sample.radiance.z;
@@ -92,6 +228,53 @@ double Film::meanSamples() const {
   double total = 0;
   for (const Pixel& pixel : pixels_) total += pixel.samples;
   return total / double(pixels_.size());
+}
+
+std::vector<float> Film::resolve(const AovRequest& aov) const {
+  switch (aov.kind) {
+    case AovKind::Color:
+      return resolveColor();
+    case AovKind::Z:
+      return resolveDepth();
+    case AovKind::Alpha: {
+      std::vector<float> alpha(pixels_.size(), 0.0f);
+      for (size_t i = 0; i < pixels_.size(); ++i)
+        if (pixels_[i].samples > 0) alpha[i] = float(pixels_[i].alpha / pixels_[i].samples);
+      return alpha;
+    }
+    case AovKind::SampleCount: {
+      std::vector<float> count(pixels_.size());
+      for (size_t i = 0; i < pixels_.size(); ++i) count[i] = float(pixels_[i].samples);
+      return count;
+    }
+    default:
+      break;
+  }
+  const Slot* found = slot(aov);
+  if (!found) throw std::invalid_argument("the film does not accumulate this AOV");
+  const size_t channelCount = size_t(channels(aov.kind));
+  std::vector<float> values(pixels_.size() * channelCount, 0.0f);
+  for (size_t i = 0; i < pixels_.size(); ++i) {
+    float* out = values.data() + i * channelCount;
+    if (isNearest(aov.kind)) {
+      out[0] = nearest_[i * nearestStride_ + found->offset];
+      continue;
+    }
+    const Pixel& pixel = pixels_[i];
+    if (pixel.samples == 0) continue;
+    const double* sums = sums_.data() + i * sumStride_ + found->offset;
+    const double n = pixel.samples;
+    if (aov.kind == AovKind::Variance) {
+      // The variance of the pixel's mean: the samples' unbiased variance over their count.
+      if (pixel.samples < 2) continue;
+      const double means[3] = {pixel.red / n, pixel.green / n, pixel.blue / n};
+      for (size_t c = 0; c < 3; ++c)
+        out[c] = float(std::max(0.0, (sums[c] - n * means[c] * means[c]) / (n - 1)) / n);
+      continue;
+    }
+    for (size_t c = 0; c < channelCount; ++c) out[c] = float(sums[c] / n);
+  }
+  return values;
 }
 
 std::vector<float> Film::resolveDepth() const {

@@ -28,38 +28,6 @@ float srgbEncode(float linear) {
   return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1 / 2.4f) - 0.055f;
 }
 
-/// Applies the display transform to the first three channels, in place.
-void applyDisplayTransform(std::vector<float>& pixels, int width, int height, int channels,
-                           const DisplaySettings& display) {
-  if (channels < 3 || display.mode == ColorCorrection::Disabled) return;
-  if (display.mode == ColorCorrection::SRGB) {
-    for (size_t i = 0; i < pixels.size(); i += size_t(channels))
-      for (int c = 0; c < 3; ++c) pixels[i + size_t(c)] = srgbEncode(pixels[i + size_t(c)]);
-    return;
-  }
-  try {
-    const OCIO::ConstConfigRcPtr config =
-        display.ocioConfig.empty() ? OCIO::GetCurrentConfig()
-                                   : OCIO::Config::CreateFromFile(display.ocioConfig.c_str());
-    const std::string displayName =
-        display.display.empty() ? config->getDefaultDisplay() : display.display;
-    const std::string viewName =
-        display.view.empty() ? config->getDefaultView(displayName.c_str()) : display.view;
-    const OCIO::ConstProcessorRcPtr processor =
-        config->getProcessor(OCIO::ROLE_SCENE_LINEAR, displayName.c_str(), viewName.c_str(),
-                             OCIO::TRANSFORM_DIR_FORWARD);
-    const OCIO::ConstCPUProcessorRcPtr cpu = processor->getDefaultCPUProcessor();
-    // Only R, G, B are transformed: describe them as strided channels of the interleaved image.
-    const ptrdiff_t channelStride = sizeof(float);
-    const ptrdiff_t pixelStride = ptrdiff_t(channels) * ptrdiff_t(sizeof(float));
-    OCIO::PackedImageDesc description(pixels.data(), width, height, 3, OCIO::BIT_DEPTH_F32,
-                                      channelStride, pixelStride, pixelStride * width);
-    cpu->apply(description);
-  } catch (const OCIO::Exception& error) {
-    throw std::runtime_error(std::string("OpenColorIO: ") + error.what());
-  }
-}
-
 /// Formats whose files hold colour not premultiplied by alpha (OIIO divides premultiplied
 /// input by alpha when it writes them).
 bool storesUnassociatedAlpha(const std::string& path) {
@@ -99,6 +67,37 @@ std::string temporaryPathFor(const fs::path& target) {
 
 }  // namespace
 
+void applyDisplayTransform(std::vector<float>& pixels, int width, int height, int channels,
+                           const DisplaySettings& display) {
+  if (channels < 3 || display.mode == ColorCorrection::Disabled) return;
+  if (display.mode == ColorCorrection::SRGB) {
+    for (size_t i = 0; i < pixels.size(); i += size_t(channels))
+      for (int c = 0; c < 3; ++c) pixels[i + size_t(c)] = srgbEncode(pixels[i + size_t(c)]);
+    return;
+  }
+  try {
+    const OCIO::ConstConfigRcPtr config =
+        display.ocioConfig.empty() ? OCIO::GetCurrentConfig()
+                                   : OCIO::Config::CreateFromFile(display.ocioConfig.c_str());
+    const std::string displayName =
+        display.display.empty() ? config->getDefaultDisplay() : display.display;
+    const std::string viewName =
+        display.view.empty() ? config->getDefaultView(displayName.c_str()) : display.view;
+    const OCIO::ConstProcessorRcPtr processor =
+        config->getProcessor(OCIO::ROLE_SCENE_LINEAR, displayName.c_str(), viewName.c_str(),
+                             OCIO::TRANSFORM_DIR_FORWARD);
+    const OCIO::ConstCPUProcessorRcPtr cpu = processor->getDefaultCPUProcessor();
+    // Only R, G, B are transformed: describe them as strided channels of the interleaved image.
+    const ptrdiff_t channelStride = sizeof(float);
+    const ptrdiff_t pixelStride = ptrdiff_t(channels) * ptrdiff_t(sizeof(float));
+    OCIO::PackedImageDesc description(pixels.data(), width, height, 3, OCIO::BIT_DEPTH_F32,
+                                      channelStride, pixelStride, pixelStride * width);
+    cpu->apply(description);
+  } catch (const OCIO::Exception& error) {
+    throw std::runtime_error(std::string("OpenColorIO: ") + error.what());
+  }
+}
+
 bool isSceneLinearFormat(const std::string& path) {
   const std::string extension = lowerExtension(path);
   return extension == ".exr" || extension == ".hdr";
@@ -109,6 +108,8 @@ void writeImage(const std::string& path, const ImageData& image, const DisplaySe
   if (image.width <= 0 || image.height <= 0 || channels == 0 ||
       image.pixels.size() != size_t(image.width) * size_t(image.height) * size_t(channels))
     throw std::runtime_error(path + ": image data does not match its size and channels");
+  if (!image.halfChannels.empty() && image.halfChannels.size() != size_t(channels))
+    throw std::runtime_error(path + ": one half/float choice per channel is needed");
   const fs::path target(path);
   if (!target.parent_path().empty() && !fs::is_directory(target.parent_path()))
     throw std::runtime_error(path + ": directory " + target.parent_path().string() +
@@ -138,11 +139,18 @@ void writeImage(const std::string& path, const ImageData& image, const DisplaySe
     if (name == "A") spec.alpha_channel = c;
     if (name == "Z") spec.z_channel = c;
   }
+  const bool anyHalf = std::any_of(image.halfChannels.begin(), image.halfChannels.end(),
+                                   [](uint8_t half) { return half != 0; });
+  if (linear && anyHalf)
+    for (const uint8_t half : image.halfChannels)
+      spec.channelformats.push_back(half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
   for (const auto& [key, value] : image.metadata) {
     if (const auto* text = std::get_if<std::string>(&value))
       spec.attribute(key, *text);
     else if (const auto* integer = std::get_if<int>(&value))
       spec.attribute(key, *integer);
+    else if (const auto* matrix = std::get_if<Matrix44>(&value))
+      spec.attribute(key, OIIO::TypeMatrix44, matrix->data());
     else
       spec.attribute(key, std::get<float>(value));
   }
@@ -196,6 +204,11 @@ ImageData readImage(const std::string& path) {
       image.metadata[attribute.name().string()] = attribute.get_int();
     else if (type == OIIO::TypeDesc::FLOAT)
       image.metadata[attribute.name().string()] = attribute.get_float();
+    else if (type == OIIO::TypeMatrix44) {
+      Matrix44 matrix;
+      std::copy_n(static_cast<const float*>(attribute.data()), 16, matrix.begin());
+      image.metadata[attribute.name().string()] = matrix;
+    }
   }
   input->close();
   return image;

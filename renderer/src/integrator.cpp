@@ -102,8 +102,26 @@ Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, 
 
 /// The scattering function at a hit. `ior`: the material's, or its value at the hero
 /// wavelength under dispersion.
-PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior) {
+/// The GGX α below which the glossy filter (IntegratorSettings::glossyFilter) does not let lobes
+/// go, after bounces whose smallest direction density was `minRayPdf`; 0 where it does not act.
+float filteredAlpha(float glossyFilter, float minRayPdf) {
+  const float blurPdf = glossyFilter * minRayPdf;
+  return glossyFilter > 0 && blurPdf < 1 ? 0.5f * std::sqrt(1 - blurPdf) : 0.0f;
+}
+
+/// Roughness (√α) raised to `minAlpha`'s; transmissionRoughness < 0 follows roughness already.
+void raiseRoughness(MaterialParams& material, float minAlpha) {
+  const float minRoughness = std::sqrt(minAlpha);
+  material.roughness = std::max(material.roughness, minRoughness);
+  material.clearcoatRoughness = std::max(material.clearcoatRoughness, minRoughness);
+  if (material.transmissionRoughness >= 0)
+    material.transmissionRoughness = std::max(material.transmissionRoughness, minRoughness);
+}
+
+PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior,
+                            float minAlpha) {
   MaterialParams material = hit.material;
+  if (minAlpha > 0) raiseRoughness(material, minAlpha);
   if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
   material.diffuseColor = spectrum.reflectance(material.diffuseColor);
   // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
@@ -111,11 +129,38 @@ PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
                             hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet);
 }
 
+/// Records what the camera ray `ray` met first: a surface (`hit`), or only a light at
+/// `firstHitDistance` (infinity: nothing).
+void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
+                    float firstHitDistance, FirstHitSample* record) {
+  if (firstHitDistance < kInfinity) {
+    record->distance =
+        length(ray.origin + ray.direction * firstHitDistance - camera.centre(ray.time));
+    record->z = camera.viewDepth(ray, firstHitDistance);
+  }
+  if (!hit) return;
+  record->hit = true;
+  record->position = hit->position;
+  record->normal = hit->shadingNormal;
+  record->cameraNormal = camera.toCameraSpace(hit->shadingNormal, ray.time);
+  record->albedo = surfaceAlbedo(hit->material);
+  record->primId = int(hit->meshId);
+  record->instanceId = hit->instance;
+  const std::vector<uint32_t>& faces = hit->mesh->sourceFace;
+  record->elementId = hit->triangle < faces.size() ? int(faces[hit->triangle]) : -1;
+  record->mesh = hit->mesh;
+  record->triangle = hit->triangle;
+  record->u = hit->u;
+  record->v = hit->v;
+  record->instancePrimvars = hit->instancePrimvars;
+}
+
 }  // namespace
 
 CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                                 int x, int y, uint32_t sampleIndex,
-                                const IntegratorSettings& settings) {
+                                const IntegratorSettings& settings,
+                                FirstHitSample* firstHitRecord) {
   SampleStream sampler(settings.seed, uint32_t(x), uint32_t(y), sampleIndex);
   const Vec2f filterOffset = filter.sampleOffset(sampler.next2D());
   const Vec2f lensSample = sampler.next2D();
@@ -133,7 +178,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   Vec3f throughput{1.0f};
   ScatteringRecord scattering;
   int diffuseBounces = 0, glossyBounces = 0, transmissionBounces = 0;
-  bool lastVertex = false;  // a lobe's depth is exhausted: only collect what the ray reaches
+  bool lastVertex = false;      // a lobe's depth is exhausted: only collect what the ray reaches
+  float minRayPdf = kInfinity;  // the smallest density of a scattered direction so far
   const std::vector<Light>& lights = scene.lights();
 
   for (int bounce = 0;; ++bounce) {
@@ -151,6 +197,17 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
       if (firstHit < kInfinity) result.depth = camera.viewDepth(ray, firstHit);
       if (hit || sawLight) result.alpha = 1;
+      if (firstHitRecord) {
+        firstHitRecord->filterOffset = filterOffset;
+        // A holdout sets the distances only: it is no surface of the image.
+        recordFirstHit(camera, ray, hit && !hit->matte ? &*hit : nullptr, firstHit,
+                       firstHitRecord);
+      }
+      // A holdout: what lies behind it is hidden, and only lights in front of it count.
+      if (hit && hit->matte) {
+        result.alpha = sawLight ? 1 : 0;
+        break;
+      }
     }
     if (!hit) break;
     if (!isBlack(hit->emission)) {
@@ -177,47 +234,44 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       throughput = {throughput.x, 0, 0};
       ior = dispersiveIor(ior, hit->material.abbeNumber, spectrum.wavelengths.hero());
     }
-    const PreviewSurfaceBsdf bsdf = makeBsdf(*hit, spectrum, ior);
+    const PreviewSurfaceBsdf bsdf =
+        makeBsdf(*hit, spectrum, ior, filteredAlpha(settings.glossyFilter, minRayPdf));
 
-    // Next-event estimation: one light, chosen by its estimated contribution here (lights on
-    // the surface's front and back count for translucent surfaces), sampled over its area or
-    // solid angle.
+    // Next-event estimation: every infinite light (or one, when there are many) and one local
+    // light chosen by its estimated contribution here (lights on the surface's front and back
+    // count for translucent surfaces), each sampled over its area or solid angle.
     const float lightChoice = sampler.next1D();
     const Vec2f lightSample = sampler.next2D();
     const Vec3f facingNormal =
         dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
     const Receiver receiver{hit->position, bsdf.hasTransmission() ? Vec3f() : facingNormal};
-    const std::optional<LightSampler::Choice> choice =
-        !bsdf.isPurelySpecular() && settings.directLighting != DirectLighting::BsdfSamplingOnly
-            ? scene.lightSampler().sample(receiver, lightChoice)
-            : std::nullopt;
-    if (choice) {
-      const size_t index = choice->index;
-      const Light& light = lights[index];
+    const auto sampleLight = [&](const LightSampler::Choice& choice) {
+      const Light& light = lights[choice.index];
       const std::optional<LightSample> sample =
           light.sample(hit->position, lightSample, receiver.normal);
       Vec3f diffusePart;
       const Vec3f f = sample && sample->pdf > 0 ? bsdf.evaluate(wo, sample->direction, &diffusePart)
                                                 : Vec3f(0.0f);
-      if (!isBlack(f)) {
-        const float tFar =
-            std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
-        result.rays += light.castsShadows();
-        if (!light.castsShadows() ||
-            !scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time))) {
-          const float lightPdf = choice->probability * sample->pdf;
-          const float weight =
-              sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
-                  ? 1.0f
-                  : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
-          const Vec3f response = diffusePart * light.diffuseMultiplier() +
-                                 (f - diffusePart) * light.specularMultiplier();
-          result.radiance += clampIndirect(
-              throughput * response * spectrum.emission(sample->radiance) * (weight / lightPdf),
-              bounce + 1, settings.indirectClamp);
-        }
-      }
-    }
+      if (isBlack(f)) return;
+      const float tFar =
+          std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
+      result.rays += light.castsShadows();
+      if (light.castsShadows() &&
+          scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time)))
+        return;
+      const float lightPdf = choice.probability * sample->pdf;
+      const float weight =
+          sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
+              ? 1.0f
+              : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
+      const Vec3f response =
+          diffusePart * light.diffuseMultiplier() + (f - diffusePart) * light.specularMultiplier();
+      result.radiance += clampIndirect(
+          throughput * response * spectrum.emission(sample->radiance) * (weight / lightPdf),
+          bounce + 1, settings.indirectClamp);
+    };
+    if (!bsdf.isPurelySpecular() && settings.directLighting != DirectLighting::BsdfSamplingOnly)
+      scene.lightSampler().forEachChoice(receiver, lightChoice, sampleLight);
 
     // BSDF sampling continues the path.
     const float lobeChoice = sampler.next1D();
@@ -231,6 +285,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         scattered->transmitted)
       break;
     throughput *= scattered->weight;
+    if (!scattered->isDelta) minRayPdf = std::min(minRayPdf, scattered->pdf);
     scattering = {scattered->isDelta ? 0.0f : scattered->pdf, true,
                   scattered->lobe == BsdfLobe::Diffuse, receiver};
     int& lobeBounces = scattered->lobe == BsdfLobe::Diffuse        ? diffuseBounces

@@ -158,71 +158,75 @@ std::optional<float> LightSampler::firstChildProbability(const Node& parent,
   return first / (first + second);
 }
 
-float LightSampler::localShare(const Receiver& receiver) const {
-  if (nodes_.empty()) return 0;
-  const float local = nodes_[0].bounds.importance(receiver);
-  if (!(local > 0)) return 0;  // no local light can reach the receiver
-  if (infinite_.empty()) return 1;
-  const float share = local / (local + infiniteTotal(receiver));
-  return std::clamp(share, kMinSetShare, 1 - kMinSetShare);
+bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
+  if (node.leaf) return false;
+  const Vec3f offset = receiver.position - node.bounds.centroid();
+  const Vec3f diagonal = node.bounds.upper - node.bounds.lower;
+  return dot(offset, offset) < 0.25f * dot(diagonal, diagonal);
 }
 
-std::optional<LightSampler::Choice> LightSampler::sample(const Receiver& receiver, float u) const {
-  const float localProbability = localShare(receiver);
-  if (u < localProbability) {
-    u = std::min(u / localProbability, 0x1.fffffep-1f);
-    float probability = localProbability;
-    uint32_t node = 0;
-    while (!nodes_[node].leaf) {
-      const Node& parent = nodes_[node];
-      const std::optional<float> first = firstChildProbability(parent, receiver);
-      if (!first) return std::nullopt;
-      const float pFirst = *first;
-      if (u < pFirst) {
-        u = std::min(u / pFirst, 0x1.fffffep-1f);
-        probability *= pFirst;
-        node = parent.children[0];
-      } else {
-        u = std::min((u - pFirst) / (1 - pFirst), 0x1.fffffep-1f);
-        probability *= 1 - pFirst;
-        node = parent.children[1];
-      }
+std::optional<LightSampler::Choice> LightSampler::walk(uint32_t node, const Receiver& receiver,
+                                                       float u) const {
+  float probability = 1;
+  while (!nodes_[node].leaf) {
+    const Node& parent = nodes_[node];
+    const std::optional<float> first = firstChildProbability(parent, receiver);
+    if (!first) return std::nullopt;
+    const float pFirst = *first;
+    if (u < pFirst) {
+      u = std::min(u / pFirst, 0x1.fffffep-1f);
+      probability *= pFirst;
+      node = parent.children[0];
+    } else {
+      u = std::min((u - pFirst) / (1 - pFirst), 0x1.fffffep-1f);
+      probability *= 1 - pFirst;
+      node = parent.children[1];
     }
-    return Choice{nodes_[node].light, probability};
   }
+  return Choice{nodes_[node].light, probability};
+}
+
+std::optional<LightSampler::Choice> LightSampler::sampleInfinite(const Receiver& receiver,
+                                                                 float u) const {
   if (infinite_.empty()) return std::nullopt;
-  u = (u - localProbability) / (1 - localProbability);
   const float total = infiniteTotal(receiver);
   float cumulative = 0;
   for (size_t i = 0; i < infinite_.size(); ++i) {
     const float weight = infiniteWeight(i, receiver);
     cumulative += weight;
     if (u * total < cumulative || i + 1 == infinite_.size())
-      return Choice{infinite_[i].index, (1 - localProbability) * weight / total};
+      return Choice{infinite_[i].index, weight / total};
   }
   return std::nullopt;
 }
 
 float LightSampler::probability(const Receiver& receiver, size_t index) const {
-  const float localProbability = localShare(receiver);
   const LeafPath& path = paths_[index];
   if (path.depth >= 0) {
-    if (!(localProbability > 0)) return 0;
-    float probability = localProbability;
+    if (!(nodes_[0].bounds.importance(receiver) > 0)) return 0;
+    float probability = 1;
+    bool splitting = true;  // the levels above went down both children
     uint32_t node = 0;
     for (int level = 0; level < path.depth; ++level) {
       const Node& parent = nodes_[node];
+      const int branch = int((path.branches >> level) & 1u);
+      node = parent.children[branch];
+      splitting = splitting && level < kMaxSplitDepth && splits(parent, receiver);
+      if (splitting) {
+        if (!(nodes_[node].bounds.importance(receiver) > 0)) return 0;
+        continue;
+      }
       const std::optional<float> first = firstChildProbability(parent, receiver);
       if (!first) return 0;
-      const int branch = int((path.branches >> level) & 1u);
       probability *= branch ? 1 - *first : *first;
-      node = parent.children[branch];
     }
     return probability;
   }
   for (size_t i = 0; i < infinite_.size(); ++i)
     if (infinite_[i].index == index)
-      return (1 - localProbability) * infiniteWeight(i, receiver) / infiniteTotal(receiver);
+      return infinite_.size() <= kInfiniteLightsSampledEach
+                 ? 1.0f
+                 : infiniteWeight(i, receiver) / infiniteTotal(receiver);
   return 0;
 }
 

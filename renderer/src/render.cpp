@@ -23,9 +23,16 @@ bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_
               if (!film.isActive(x, y)) continue;
               for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s) {
                 if (cancelled()) return;
-                film.addSample(
-                    x, y, s,
-                    renderCameraSample(scene, camera, filter, x, y, s, settings.integrator));
+                if (film.wantsFirstHit()) {
+                  FirstHitSample firstHit;
+                  const CameraSample sample = renderCameraSample(scene, camera, filter, x, y, s,
+                                                                 settings.integrator, &firstHit);
+                  film.addSample(x, y, s, sample, &firstHit);
+                } else {
+                  film.addSample(
+                      x, y, s,
+                      renderCameraSample(scene, camera, filter, x, y, s, settings.integrator));
+                }
               }
             }
         });

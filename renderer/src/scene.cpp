@@ -26,6 +26,11 @@ struct TraceContext {
   const Scene* scene;
 };
 
+// Ray mask bits of the placements: camera rays test only kCameraRays, so geometry a render pass
+// hides from the camera keeps only kOtherRays and still casts shadows and reflects.
+constexpr unsigned kCameraRays = 1u;
+constexpr unsigned kOtherRays = 2u;
+
 RTCRay toEmbreeRay(const Ray& ray) {
   RTCRay r;
   r.org_x = ray.origin.x;
@@ -141,12 +146,18 @@ void Scene::updatePlacement(Placement& placement, bool enabled) {
       rtcSetGeometryTransformQuaternion(placement.geometry, step, &embree);
     }
   }
+  rtcSetGeometryMask(placement.geometry,
+                     passOf(placement).camera ? kCameraRays | kOtherRays : kOtherRays);
   if (enabled && mesh.bvh)
     rtcEnableGeometry(placement.geometry);
   else
     rtcDisableGeometry(placement.geometry);
   rtcCommitGeometry(placement.geometry);
   throwOnEmbreeError(device_, "update an instance");
+}
+
+const PassVisibility& Scene::passOf(const Placement& placement) const {
+  return placement.instancer ? placement.instancer->pass : meshes_[placement.mesh]->pass;
 }
 
 const Material* Scene::materialOf(const MeshRecord& mesh) const {
@@ -348,6 +359,12 @@ void Scene::setMeshLight(MeshId id, int lightIndex) {
   record(id).lightIndex = lightIndex;
 }
 
+void Scene::setMeshPassVisibility(MeshId id, PassVisibility pass) {
+  MeshRecord& mesh = record(id);
+  mesh.pass = pass;
+  updatePlacement(*mesh.own, renderable(mesh) && mesh.visible);
+}
+
 Scene::InstancerId Scene::addInstancer() {
   instancers_.push_back(std::make_unique<InstancerRecord>());
   return InstancerId(instancers_.size() - 1);
@@ -397,6 +414,14 @@ void Scene::setInstancePrimvars(InstancerId id, std::vector<Primvar> primvars) {
   copies.primvars = std::move(primvars);
 }
 
+void Scene::setInstancerPassVisibility(InstancerId id, PassVisibility pass) {
+  InstancerRecord& copies = instancer(id);
+  copies.pass = pass;
+  if (copies.copies.empty()) return;
+  const bool shown = renderable(record(copies.prototype)) && copies.visible;
+  for (auto& copy : copies.copies) updatePlacement(*copy, shown);
+}
+
 void Scene::removeInstancer(InstancerId id) {
   InstancerRecord& copies = instancer(id);
   if (!copies.copies.empty()) {
@@ -434,6 +459,22 @@ float Scene::rayEpsilon(const Vec3f& point) const {
   return 2e-5f * std::max(maxAbsComponent(point), 1e-2f * sceneExtent_);
 }
 
+int Scene::primvarWidth(const std::string& name) const {
+  int width = 0;
+  for (const auto& mesh : meshes_)
+    if (mesh && mesh->data) {
+      if (const Primvar* primvar = mesh->data->findPrimvar(name))
+        width = std::max(width, primvar->width);
+      else if (name == "displayColor" && !mesh->data->displayColor.empty())
+        width = std::max(width, 3);
+    }
+  for (const auto& copies : instancers_)
+    if (copies)
+      if (const Primvar* primvar = penumbra::findPrimvar(copies->primvars, name))
+        width = std::max(width, primvar->width);
+  return width;
+}
+
 RTCRayHit Scene::trace(const Ray& ray, RayKind kind) const {
   TraceContext context;
   rtcInitIntersectContext(&context.embree);
@@ -441,6 +482,7 @@ RTCRayHit Scene::trace(const Ray& ray, RayKind kind) const {
   context.scene = this;
   RTCRayHit rayHit;
   rayHit.ray = toEmbreeRay(ray);
+  if (context.cameraRay) rayHit.ray.mask = kCameraRays;
   rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rayHit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(top_, &context.embree, &rayHit);
@@ -473,6 +515,10 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
   SurfaceHit hit;
   hit.distance = rayHit.ray.tfar;
   hit.position = ray.origin + ray.direction * hit.distance;
+  if (kind == RayKind::Camera && passOf(placement).matte) {
+    hit.matte = true;
+    return hit;
+  }
   hit.normal = normalize(objectToWorld.applyToNormal(
       cross(objectCorners[1] - objectCorners[0], objectCorners[2] - objectCorners[0])));
   hit.shadingNormal = hit.normal;
@@ -485,6 +531,13 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
   }
   hit.closed = data.closed;
   attachInstancePrimvars(rayHit.hit.instID[0], &point);
+  hit.meshId = placement.mesh;
+  hit.instance = placement.instancer ? int(placement.copy) : -1;
+  hit.mesh = &data;
+  hit.triangle = point.triangle;
+  hit.u = point.u;
+  hit.v = point.v;
+  hit.instancePrimvars = point.instancePrimvars;
   if (const Material* material = materialOf(mesh)) {
     if (material->varies()) {
       // Texture footprints and tangent frames need the triangle in world space.

@@ -56,40 +56,65 @@ LightParams infinite(LightType type, float intensity) {
 
 }  // namespace
 
-TEST(LightSampler, ProbabilitiesMatchWhatSampleReturns) {
-  std::vector<Light> lights = scatteredLights(300);
-  lights.emplace_back(infinite(LightType::Dome, 0.2f));
-  lights.emplace_back(infinite(LightType::Distant, 3));
-  const LightSampler sampler(lights);
-  for (const Receiver& receiver :
-       {Receiver{{0, 0, 0}, {0, 1, 0}}, Receiver{{5, 0.5f, -3}, {0, 0, 0}},
-        Receiver{{-9, 2, 9}, normalize(Vec3f(1, 1, 0))}}) {
-    double total = 0;
-    std::vector<double> expected(lights.size());
-    for (size_t i = 0; i < lights.size(); ++i)
-      total += expected[i] = sampler.probability(receiver, i);
-    // A walk may end in a subtree none of whose lights can reach the receiver (its bounds could,
-    // its children's cannot): that share of the walks chooses nothing, and loses nothing.
-    EXPECT_LE(total, 1.0 + 1e-5);
-    EXPECT_GT(total, 0.99);
-    const int n = 1 << 16;
-    std::vector<int> counts(lights.size());
-    int none = 0;
-    for (int j = 0; j < n; ++j) {
-      const auto choice = sampler.sample(receiver, (float(j) + 0.5f) / float(n));
-      if (!choice) {
-        ++none;
-        continue;
+namespace {
+
+/// How often each light is visited by forEachChoice over `n` stratified numbers, checking each
+/// choice's probability against `expected`; `noLocal` counts the numbers for which no local
+/// light (index below `localCount`) was chosen.
+std::vector<int> choiceCounts(const LightSampler& sampler, const Receiver& receiver, int n,
+                              const std::vector<double>& expected, size_t localCount,
+                              int* noLocal) {
+  std::vector<int> counts(expected.size());
+  *noLocal = 0;
+  for (int j = 0; j < n; ++j) {
+    bool local = false;
+    sampler.forEachChoice(receiver, (float(j) + 0.5f) / float(n), [&](LightSampler::Choice c) {
+      EXPECT_NEAR(c.probability, expected[c.index], 1e-6 + 1e-4 * expected[c.index]);
+      ++counts[c.index];
+      local |= c.index < localCount;
+    });
+    *noLocal += !local;
+  }
+  return counts;
+}
+
+}  // namespace
+
+TEST(LightSampler, ProbabilitiesMatchWhatForEachChoiceVisits) {
+  // 300 local lights and a few infinite ones (each sampled), then more infinite lights than are
+  // sampled each (one chosen by its irradiance): within each set, a light's share of the
+  // choices is its probability.
+  for (const int infiniteCount : {2, int(LightSampler::kInfiniteLightsSampledEach) + 2}) {
+    SCOPED_TRACE(infiniteCount);
+    std::vector<Light> lights = scatteredLights(300);
+    for (int i = 0; i < infiniteCount; ++i)
+      lights.emplace_back(infinite(i % 2 ? LightType::Distant : LightType::Dome, 0.2f + float(i)));
+    const LightSampler sampler(lights);
+    const bool eachInfinite = infiniteCount <= int(LightSampler::kInfiniteLightsSampledEach);
+    for (const Receiver& receiver :
+         {Receiver{{0, 0, 0}, {0, 1, 0}}, Receiver{{5, 0.5f, -3}, {0, 0, 0}},
+          Receiver{{-9, 2, 9}, normalize(Vec3f(1, 1, 0))}}) {
+      double localTotal = 0, infiniteTotal = 0;
+      std::vector<double> expected(lights.size());
+      for (size_t i = 0; i < lights.size(); ++i)
+        (i < 300 ? localTotal : infiniteTotal) += expected[i] = sampler.probability(receiver, i);
+      // Each walk (one, or one per split subtree) chooses one light, or none where it ends in a
+      // subtree none of whose lights can reach the receiver (its bounds could, its children's
+      // cannot): that share of the walks loses nothing.
+      EXPECT_LE(localTotal, (1 << LightSampler::kMaxSplitDepth) + 1e-5);
+      EXPECT_GT(localTotal, 0.99);
+      EXPECT_NEAR(infiniteTotal, eachInfinite ? infiniteCount : 1.0, 1e-5);
+      const int n = 1 << 16;
+      int noLocal = 0;
+      const std::vector<int> counts = choiceCounts(sampler, receiver, n, expected, 300, &noLocal);
+      // Stratified numbers: each light's share of them is its probability, to within a few
+      // strata per tree level.
+      for (size_t i = 0; i < lights.size(); ++i)
+        EXPECT_NEAR(counts[i], expected[i] * n, 40) << "light " << i;
+      if (localTotal < 1) {
+        EXPECT_NEAR(noLocal, (1 - localTotal) * n, 40);
       }
-      ASSERT_NEAR(choice->probability, expected[choice->index],
-                  1e-6 + 1e-4 * expected[choice->index]);
-      ++counts[choice->index];
     }
-    // Stratified numbers: each light's share of them is its probability, to within a few
-    // strata per tree level.
-    for (size_t i = 0; i < lights.size(); ++i)
-      EXPECT_NEAR(counts[i], expected[i] * n, 40) << "light " << i;
-    EXPECT_NEAR(none, (1 - total) * n, 40);
   }
 }
 
@@ -106,33 +131,68 @@ TEST(LightSampler, LightsThatCannotReachTheReceiverAreNeverChosen) {
   EXPECT_GT(sampler.probability(below, 0), 0.5f);  // the panel is near and bright
   EXPECT_EQ(sampler.probability(above, 0), 0.0f);  // the panel's back faces it
   EXPECT_FLOAT_EQ(sampler.probability(above, 1), 1.0f);
-  for (float u : {0.0f, 0.3f, 0.7f, 0.99f}) EXPECT_EQ(sampler.sample(above, u)->index, 1u);
+  for (float u : {0.0f, 0.3f, 0.7f, 0.99f})
+    sampler.forEachChoice(above, u, [](LightSampler::Choice c) { EXPECT_EQ(c.index, 1u); });
+}
+
+TEST(LightSampler, NearbyLightsAreEachSampledWhereTheTreeCannotTellThemApart) {
+  // Two equal bulbs 2 m apart: midway below them both are sampled (the walk splits at the
+  // root); far away, one walk picks one of them.
+  LightParams bulb;
+  bulb.type = LightType::Sphere;
+  bulb.radius = 0.1f;
+  bulb.lightToWorld = translation(-1, 1, 0);
+  LightParams other = bulb;
+  other.lightToWorld = translation(1, 1, 0);
+  const LightSampler sampler({Light(bulb), Light(other)});
+  const auto visits = [&](const Receiver& receiver, float u) {
+    std::vector<size_t> visited;
+    sampler.forEachChoice(receiver, u, [&](LightSampler::Choice c) {
+      EXPECT_EQ(c.probability, sampler.probability(receiver, c.index));
+      visited.push_back(c.index);
+    });
+    return visited;
+  };
+  const Receiver between{{0, 0, 0}, {0, 1, 0}}, far{{0, 0, 10}, {0, 0, -1}};
+  EXPECT_EQ(visits(between, 0.3f), (std::vector<size_t>{0, 1}));
+  EXPECT_EQ(sampler.probability(between, 0), 1.0f);
+  EXPECT_EQ(visits(far, 0.3f).size(), 1u);
+  EXPECT_NEAR(sampler.probability(far, 0) + sampler.probability(far, 1), 1.0, 1e-6);
 }
 
 TEST(LightSampler, NeitherInfiniteNorLocalLightsStarve) {
+  // However bright the dome, the panel is sampled at every point that it can light, and the
+  // dome too.
   LightParams panel;
   panel.type = LightType::Rect;
   panel.lightToWorld = facingDown(0, 2, 0);
   const Receiver receiver{{0, 0, 0}, {0, 1, 0}};
   for (const float domeIntensity : {1e-4f, 1.0f, 1e4f}) {
     const LightSampler sampler({Light(panel), Light(infinite(LightType::Dome, domeIntensity))});
-    const float panelShare = sampler.probability(receiver, 0);
-    EXPECT_GE(panelShare, LightSampler::kMinSetShare) << "dome intensity " << domeIntensity;
-    EXPECT_LE(panelShare, 1 - LightSampler::kMinSetShare) << "dome intensity " << domeIntensity;
+    for (const float u : {0.0f, 0.5f, 0.99f}) {
+      std::vector<size_t> visited;
+      sampler.forEachChoice(receiver, u,
+                            [&](LightSampler::Choice c) { visited.push_back(c.index); });
+      EXPECT_EQ(visited, (std::vector<size_t>{1, 0})) << "dome intensity " << domeIntensity;
+    }
+    EXPECT_EQ(sampler.probability(receiver, 0), 1.0f);
+    EXPECT_EQ(sampler.probability(receiver, 1), 1.0f);
   }
-  // Between the bounds, the shares follow the estimated irradiances: a panel of radiance 1 and
-  // area 1 at 2 m gives about 1/4, a dome of radiance 0.08 gives π · 0.08.
-  const LightSampler balanced({Light(panel), Light(infinite(LightType::Dome, 0.08f))});
-  EXPECT_NEAR(balanced.probability(receiver, 1), 0.08 * M_PI / (0.08 * M_PI + 0.25), 0.02);
 }
 
-TEST(LightSampler, DistantLightsBehindTheSurfaceNormalGetFewSamples) {
-  // The sun shines straight down; a wall facing +X sees it edge-on, a floor head-on.
-  const LightSampler sampler(
-      {Light(infinite(LightType::Distant, 1)), Light(infinite(LightType::Dome, 0.05f))});
+TEST(LightSampler, AmongManyInfiniteLightsThoseBehindTheSurfaceGetFewSamples) {
+  // Suns shining straight down beside a faint dome: a wall facing +X sees them edge-on, a floor
+  // head-on. (Up to kInfiniteLightsSampledEach infinite lights are each sampled everywhere:
+  // here there is one more.)
+  std::vector<Light> lights;
+  for (size_t i = 0; i < LightSampler::kInfiniteLightsSampledEach; ++i)
+    lights.emplace_back(infinite(LightType::Distant, 1));
+  lights.emplace_back(infinite(LightType::Dome, 0.05f));
+  const LightSampler sampler(lights);
   const float onFloor = sampler.probability({{0, 0, 0}, {0, 1, 0}}, 0);
   const float onWall = sampler.probability({{0, 0, 0}, {1, 0, 0}}, 0);
-  EXPECT_GT(onFloor, 0.8f);
+  const float suns = float(LightSampler::kInfiniteLightsSampledEach);
+  EXPECT_GT(onFloor, 0.8f / suns);
   EXPECT_LT(onWall, 0.1f);
   EXPECT_GT(onWall, 0.0f);  // never zero: the surface may still see part of its disk
 }

@@ -42,7 +42,7 @@ def test_design_snippet_and_incremental_edit(tmp_path):
     assert image["depth"][18, 32, 0] == pytest.approx(5.4568, rel=1e-3)
     image.write(tmp_path / "out.exr")
     pixels, names, metadata = _core.read_image(str(tmp_path / "out.exr"))
-    assert names == ["R", "G", "B", "A", "Z"]
+    assert names == ["R", "G", "B", "A", "depth"]
     np.testing.assert_array_equal(pixels[..., 4], image["depth"][..., 0])
     assert metadata["penumbra:camera"] == "/cam"
     assert metadata["penumbra:version"] == penumbra.__version__
@@ -206,7 +206,8 @@ def test_non_preview_surface_material_falls_back_with_warning():
     stage = lit_quad_stage()
     material = add_preview_material(stage, "/World/Looks/odd", diffuseColor=(0.1, 0.7, 0.1))
     shader = stage.GetPrimAtPath("/World/Looks/odd/Surface")
-    shader.GetAttribute("info:id").Set("ND_standard_surface_surfaceshader")
+    # A surface Penumbra does not render (MaterialX surfaces are test_materialx's).
+    shader.GetAttribute("info:id").Set("PxrSurface")
     bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")), material)
     with pytest.warns(penumbra.PenumbraWarning, match="/World/Looks/odd.*not UsdPreviewSurface"):
         value = pixel(penumbra.Renderer(stage).render(**FAST), 0.5, 0.5)
@@ -315,3 +316,21 @@ def test_render_convenience_on_a_path():
     assert image.metadata["seed"] == 3 and image.metadata["timeCode"] == 1.0
     with pytest.raises(penumbra.SceneError, match="missing.usda: no such file"):
         penumbra.render("missing.usda")
+
+
+def test_memory_budget_counts_the_aovs_asked_for():
+    """A budget that holds a colour film fails with a clear error once six more AOVs would
+    outgrow it (each AOV adds memory.AOV_BYTES_PER_PIXEL a pixel)."""
+    from penumbra import memory
+
+    renderer = penumbra.Renderer(lit_quad_stage())
+    width, height = 2000, 1000
+    colour_film = width * height * memory.FILM_BYTES_PER_PIXEL
+    six_aovs = 6 * width * height * memory.AOV_BYTES_PER_PIXEL
+    budget = memory.resident_memory() + colour_film + six_aovs // 2
+    aovs = ("color", "depth", "Z", "normal", "position", "albedo", "primId")
+    with pytest.raises(penumbra.SceneError, match="memory budget"):
+        renderer.render(camera="/cam", width=width, height=height, samples=1, aovs=aovs,
+                        max_memory=budget)
+    image = renderer.render(camera="/cam", width=width, height=height, samples=1, max_memory=budget)
+    assert image.width == width

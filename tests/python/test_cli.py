@@ -108,7 +108,6 @@ def test_frame_usage_errors(tmp_path, capsys, output, frames, message):
 @pytest.mark.parametrize(
     "flag",
     [
-        ["--aov", "depth"],
         ["--scheduler", "tcp://farm:8786"],
         ["--resume"],
     ],
@@ -217,7 +216,7 @@ def test_console_script_progress(tmp_path):
 
 def test_adaptive_sampling_and_clamp_flags(tmp_path, capsys):
     """--adaptiveThreshold stops converged pixels (the summary gives the mean samples taken),
-    --indirectClamp reaches the render; out-of-range values are usage errors."""
+    --indirectClamp and --glossyFilter reach the render; out-of-range values are usage errors."""
     stage_path = tmp_path / "quad.usda"
     lit_quad_stage(stage_path).Save()
     out = tmp_path / "o.exr"
@@ -228,11 +227,15 @@ def test_adaptive_sampling_and_clamp_flags(tmp_path, capsys):
     assert 8 <= float(metadata["penumbra:meanSamples"]) < 64
     assert main([*args, "--indirectClamp", "10"]) == 0
     assert float(_core.read_image(str(out))[2]["penumbra:indirectClamp"]) == 10
+    assert main([*args, "--glossyFilter", "1"]) == 0
+    assert float(_core.read_image(str(out))[2]["penumbra:glossyFilter"]) == 1
     for flag, value in (
         ("--adaptiveThreshold", "2"),
         ("--adaptiveMinSamples", "1"),
         ("--indirectClamp", "-1"),
         ("--indirectClamp", "nan"),
+        ("--glossyFilter", "-0.5"),
+        ("--glossyFilter", "inf"),
     ):
         assert main([*args, flag, value]) == 2
         assert f"{flag} must" in capsys.readouterr().err

@@ -20,13 +20,15 @@ def test_render_buffers_receive_bound_aovs():
     delegate.insert_bprim("renderBuffer", "/depth")
     delegate.allocate_render_buffer("/depth", 8, 8)
     render_pass = _core.RenderPass(delegate, "/cam", 8, 8)
-    render_pass.set_aov_bindings({"depth": "/depth"})
+    render_pass.set_aov_bindings({"Z": "/depth"})
     render_pass.execute(1)
     depth, converged = delegate.render_buffer("/depth")
     assert depth.shape == (8, 8, 1) and not converged
-    np.testing.assert_array_equal(depth, render_pass.aov("depth"))
+    np.testing.assert_array_equal(depth, render_pass.aov("Z"))
     assert depth[4, 4, 0] == pytest.approx(5.0)
     with pytest.raises(ValueError, match="unknown AOV"):
+        render_pass.set_aov_bindings({"bogus": "/depth"})
+    with pytest.raises(ValueError, match="not accumulated"):
         render_pass.set_aov_bindings({"normal": "/depth"})
     with pytest.raises(KeyError, match="/nowhere"):
         render_pass.set_aov_bindings({"color": "/nowhere"})

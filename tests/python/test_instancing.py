@@ -3,6 +3,8 @@ protoIndices, masked by invisibleIds, sharing one BVH per prototype mesh."""
 
 from __future__ import annotations
 
+import json
+
 import pytest
 from pxr import Gf, UsdGeom, Vt
 
@@ -91,3 +93,21 @@ def test_copies_blur_along_their_velocities():
     assert color_at(blurred, 0.3, 1)[3] == 0
     sharp = renderer.render(**SMALL, disable_motion_blur=True)
     assert color_at(sharp, -0.5, 1)[3] == 0 and color_at(sharp, -1, 1)[3] == 1
+
+
+def test_id_aovs_tell_copies_apart():
+    stage, _ = instancer_stage()
+    # Ids keep the sample nearest each pixel's centre: with 8, one lies well inside the copy.
+    image = penumbra.Renderer(stage).render(aovs=("primId", "instanceId"), **{**SMALL, "samples": 8})
+    manifest = json.loads(image.metadata["primIds"])
+
+    def ids_at(x: float, y: float) -> tuple[str | None, int]:
+        pixel = {name: int(ids[..., 0][int((2 - y) / 4 * 40), int((x + 2) / 4 * 40)])
+                 for name, ids in image.items()}  # fmt: skip
+        return manifest.get(str(pixel["primId"])), pixel["instanceId"]
+
+    copies = [ids_at(x, y) for x, y in ((-1, 1), (1, 1), (-1, -1), (1, -1))]
+    # primId: the prototype mesh (red, blue, blue, red); instanceId: the copy of it.
+    assert [path.rsplit("/", 1)[-1] for path, _ in copies] == ["red", "blue", "blue", "red"]
+    assert len(set(copies)) == 4 and all(copy >= 0 for _, copy in copies)
+    assert ids_at(0, 0) == (None, -1)  # nothing there

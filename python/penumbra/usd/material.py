@@ -296,10 +296,16 @@ def read_material(
     read; the others get UsdPreviewSurface's schema defaults. Inputs connected to a shader
     network Penumbra evaluates (UsdUVTexture with UsdPrimvarReader_float2 and UsdTransform2d
     coordinates; UsdPrimvarReader_*) become connection descriptions; other networks leave the
-    input at its default, with a warning. Returns ``None`` (after a warning) when the material
+    input at its default, with a warning. MaterialX surfaces (``outputs:mtlx:surface``) are read
+    by ``materialx``. Returns ``None`` (after a warning) when the material
     has no UsdPreviewSurface surface.
     """
     path = prim.GetPath()
+    from .materialx import read_materialx_material, surface_shader  # it imports this module
+
+    mtlx_shader = surface_shader(prim)
+    if mtlx_shader:
+        return read_materialx_material(prim, mtlx_shader, reader, warn)
     shader, _, _ = UsdShade.Material(prim).ComputeSurfaceSource()
     if not shader:
         warn(f"{path}: material has no surface shader; bound meshes use their displayColor")

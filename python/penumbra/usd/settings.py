@@ -35,6 +35,7 @@ class RenderSettings:
     resolution: tuple[int, int] | None
     """``resolution`` when authored (the schema fallback is not a request)."""
     disable_motion_blur: bool = False
+    """``disableMotionBlur``, or the deprecated ``instantaneousShutter``."""
     disable_depth_of_field: bool = False
     pixel_aspect_ratio: float = 1.0
     aspect_ratio_conform_policy: str = "expandAperture"
@@ -90,7 +91,8 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
         path=str(path),
         camera=str(targets[0]) if len(targets) == 1 else None,
         resolution=resolution,
-        disable_motion_blur=bool(settings.GetDisableMotionBlurAttr().Get()),
+        disable_motion_blur=bool(settings.GetDisableMotionBlurAttr().Get())
+        or bool(settings.GetInstantaneousShutterAttr().Get()),
         disable_depth_of_field=bool(settings.GetDisableDepthOfFieldAttr().Get()),
         pixel_aspect_ratio=pixel_aspect_ratio,
         aspect_ratio_conform_policy=policy,

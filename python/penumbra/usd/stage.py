@@ -8,6 +8,7 @@ from collections.abc import Iterable
 from pxr import Ar, Sdf, Tf, Usd
 
 from ..errors import SceneError, warn
+from .mtlx_documents import compose_materialx_documents
 
 
 def stage_name(stage: Usd.Stage) -> str:
@@ -85,6 +86,9 @@ def open_stage(
         raise SceneError(f"{path}: cannot open the stage: {_tf_error_text(error)}") from None
     if not stage:
         raise SceneError(f"{path}: cannot open the stage")
+    documents = compose_materialx_documents(stage, warn)
     for error in stage.GetCompositionErrors():
+        if any(os.path.basename(document) in str(error) for document in documents):
+            continue  # translated by compose_materialx_documents
         warn(f"{path}: composition error, the arc is ignored: {' '.join(str(error).split())}")
     return stage

@@ -63,6 +63,10 @@ class Camera {
   RayCone pixelCone() const;
   /// Distance along the view axis of the point at parameter t of a ray this camera generated.
   float viewDepth(const Ray& ray, float t) const;
+  /// The camera's centre (the pinhole, or the lens's centre) at normalised shutter time `time`.
+  Vec3f centre(float time) const;
+  /// A world-space direction in camera space (+X right, +Y up, looking down -Z) at `time`.
+  Vec3f toCameraSpace(const Vec3f& direction, float time) const;
 
   /// Lens radius in scene units (0 for a pinhole) at the start of the shutter.
   float lensRadius() const { return lensRadiusAt(0); }

@@ -10,15 +10,34 @@ namespace penumbra {
 
 class Film {
  public:
-  Film(int width, int height);
+  /// `aovs`: what the film accumulates besides colour, alpha, Z and the sample count, which it
+  /// always has (a film without AOVs costs nothing more than colour). Duplicates are ignored.
+  Film(int width, int height, std::vector<AovRequest> aovs = {});
 
   int width() const { return width_; }
   int height() const { return height_; }
+  /// The AOVs resolve() serves.
+  bool has(const AovRequest& aov) const;
+  /// Whether the film accumulates exactly `aovs` besides those every film has.
+  bool accumulatesExactly(const std::vector<AovRequest>& aovs) const;
+  /// Whether addSample needs each sample's FirstHitSample.
+  bool wantsFirstHit() const { return wantsFirstHit_; }
   /// Drops every sample and makes every pixel active again.
   void clear();
-  /// Adds sample `sampleIndex` of pixel (x, y); samples must come in index order.
-  void addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample);
+  /// Adds sample `sampleIndex` of pixel (x, y); samples must come in index order. `firstHit`
+  /// must be given when wantsFirstHit().
+  void addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
+                 const FirstHitSample* firstHit = nullptr);
 
+  /// Floats per pixel of an AOV (4 for primvars, whatever their width).
+  static int channels(AovKind kind);
+  /// The AOV per pixel, row-major from the top row, channels() floats each. How samples
+  /// combine: filtered AOVs (color, alpha, normals, position, albedo, primvars) average all of
+  /// them, misses counting as zero, as colour does; depth and Z keep the nearest hit (infinity
+  /// where nothing was hit); ids keep the sample nearest the pixel centre (the first such in
+  /// sample order; -1: it hit nothing). Throws std::invalid_argument for an AOV the film does
+  /// not have.
+  std::vector<float> resolve(const AovRequest& aov) const;
   /// Averaged scene-linear RGBA, row-major from the top row, 4 floats per pixel.
   std::vector<float> resolveColor() const;
   /// Nearest view-axis depth per pixel (infinity where nothing was hit).
@@ -48,9 +67,24 @@ class Film {
   };
   /// A pixel's squared relative error estimate (see updateConvergence).
   static double squaredRelativeError(const Pixel& pixel);
+  /// Where an AOV's per-pixel data starts: in sums_ (filtered AOVs, variance) or in nearest_.
+  struct Slot {
+    AovRequest aov;
+    size_t offset;
+  };
+  const Slot* slot(const AovRequest& aov) const;
+  /// Adds a sample's first hit to the AOVs of pixel `index`.
+  void addFirstHit(size_t index, const CameraSample& sample, const FirstHitSample& firstHit);
 
   int width_, height_;
   std::vector<Pixel> pixels_;
+  std::vector<Slot> slots_;
+  bool wantsFirstHit_ = false;
+  bool hasIds_ = false;       // nearest_ starts with the squared centre distance of the ids
+  size_t sumStride_ = 0;      // doubles per pixel in sums_
+  size_t nearestStride_ = 0;  // floats per pixel in nearest_
+  std::vector<double> sums_;
+  std::vector<float> nearest_;
   std::vector<uint8_t> active_;
   size_t activePixels_ = 0;
 };

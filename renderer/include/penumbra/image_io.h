@@ -1,6 +1,7 @@
 // Image files through OpenImageIO; display transforms through OpenColorIO.
 #pragma once
 
+#include <array>
 #include <map>
 #include <string>
 #include <variant>
@@ -8,7 +9,9 @@
 
 namespace penumbra {
 
-using MetadataValue = std::variant<std::string, int, float>;
+/// A 4x4 matrix, row-major (as OIIO's `worldtocamera`, `worldtoscreen`: row vectors).
+using Matrix44 = std::array<float, 16>;
+using MetadataValue = std::variant<std::string, int, float, Matrix44>;
 using Metadata = std::map<std::string, MetadataValue>;
 
 /// How display-referred formats (PNG, JPEG, TIFF, ...) encode scene-linear pixels.
@@ -29,8 +32,15 @@ struct ImageData {
   int width = 0, height = 0;
   std::vector<std::string> channelNames;
   std::vector<float> pixels;  // interleaved, row-major from the top row
+  /// Per channel, non-zero to store it as half floats (EXR only); empty: all float.
+  std::vector<uint8_t> halfChannels;
   Metadata metadata;
 };
+
+/// Applies `display`'s transform to the first three channels of interleaved pixels, in place
+/// (nothing for fewer channels). Throws std::runtime_error for OCIO failures.
+void applyDisplayTransform(std::vector<float>& pixels, int width, int height, int channels,
+                           const DisplaySettings& display);
 
 /// True for formats that store floats in scene-linear (EXR, HDR); others are display-referred.
 bool isSceneLinearFormat(const std::string& path);

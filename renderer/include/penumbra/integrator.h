@@ -6,6 +6,7 @@
 
 #include <cstdint>
 
+#include "penumbra/aov.h"
 #include "penumbra/camera.h"
 #include "penumbra/filter.h"
 #include "penumbra/scene.h"
@@ -28,6 +29,11 @@ struct IntegratorSettings {
   /// Largest component a sample of indirect light (two or more surface interactions) may add;
   /// 0: no limit. Biased (darker), as Cycles' "clamp indirect"; off by default.
   float indirectClamp = 0;
+  /// Cycles' "filter glossy": after a bounce whose direction had density p (solid angle), the
+  /// GGX α of later lobes is at least sqrt(1 − glossyFilter · p) / 2 (the smallest p of the
+  /// path so far), so that light reflected by a sharp lobe after a diffuse bounce (caustics) is
+  /// blurred instead of noisy. 0: off. Biased, off by default.
+  float glossyFilter = 0;
 };
 
 struct CameraSample {
@@ -37,10 +43,12 @@ struct CameraSample {
   uint32_t rays = 0;        // rays traced through the scene's BVH (intersection and shadow)
 };
 
-/// Renders sample `sampleIndex` of pixel (x, y); a pure function of its arguments.
+/// Renders sample `sampleIndex` of pixel (x, y); a pure function of its arguments. When
+/// `firstHitRecord` is given, what the camera ray met first is recorded there (for AOVs).
 CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                                 int x, int y, uint32_t sampleIndex,
-                                const IntegratorSettings& settings);
+                                const IntegratorSettings& settings,
+                                FirstHitSample* firstHitRecord = nullptr);
 
 /// Power heuristic (β = 2) weight of a strategy with density `pdf` against `otherPdf`.
 inline float powerHeuristic(float pdf, float otherPdf) {

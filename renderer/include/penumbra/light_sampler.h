@@ -1,16 +1,23 @@
 // Choosing the light that next-event estimation samples at a shading point.
 //
-// Lights fall into two sets that are estimated differently, so that neither starves the other:
-// infinite lights (dome, distant), whose contribution does not depend on where the point is, and
-// local lights, organised in a light tree (Conty Estevez & Kulla 2018, "Importance Sampling of
-// Many Lights with Adaptive Tree Splitting"): each node bounds its lights' positions, emitted
-// power and emission directions, and a single walk from the root picks a light with probability
-// proportional to the bound on what each subtree can contribute to the point. The set itself is
-// chosen per point in proportion to the two estimates (kept within [kMinSetShare, 1 -
-// kMinSetShare] when both sets are present, because neither estimate knows about occlusion).
+// Lights fall into two sets, each sampled once per shading point, so that neither starves the
+// other (choosing between them by estimated contribution cannot know about occlusion, and a
+// wrong guess there is the largest source of noise in scenes lit by a sky and a lamp):
+// - infinite lights (dome, distant), whose contribution does not depend on where the point is:
+//   each of them is sampled when there are at most kInfiniteLightsSampledEach (a sun and a sky
+//   then never compete), otherwise one, chosen by its estimated irradiance;
+// - local lights, organised in a light tree (Conty Estevez & Kulla 2018, "Importance Sampling of
+//   Many Lights with Adaptive Tree Splitting"): each node bounds its lights' positions, emitted
+//   power and emission directions, and a walk from the root picks one light with probability
+//   proportional to the bound on what each subtree can contribute to the point. Near the top
+//   of the tree, where the point lies within a node's bounding sphere, that bound says least
+//   about which child gives more: there the walk splits and goes down both children (adaptive
+//   tree splitting, Conty Estevez & Kulla 2018 §5), so that up to 2^kMaxSplitDepth local lights
+//   are sampled at a point among many lights.
 //
-// Every probability is a pure function of (point, normal, light), so that the integrator can
-// weigh emission met by BSDF-sampled rays against light sampling (multiple importance sampling).
+// Each choice is a strategy of its own, so the estimate sums them. Every probability is a pure
+// function of (point, normal, light), so that the integrator can weigh emission met by
+// BSDF-sampled rays against light sampling (multiple importance sampling).
 #pragma once
 
 #include <cstdint>
@@ -23,8 +30,10 @@ namespace penumbra {
 
 class LightSampler {
  public:
-  /// Share of light samples each set keeps, whatever the estimates say, when both are present.
-  static constexpr float kMinSetShare = 0.25f;
+  /// Up to this many infinite lights, each is sampled at every shading point.
+  static constexpr size_t kInfiniteLightsSampledEach = 4;
+  /// The walk through the light tree may split at the first this many levels.
+  static constexpr int kMaxSplitDepth = 2;
 
   LightSampler() = default;
   explicit LightSampler(const std::vector<Light>& lights);
@@ -33,11 +42,23 @@ class LightSampler {
     size_t index = 0;
     float probability = 0;
   };
-  /// A light for next-event estimation at the receiver, from one uniform number; none when no
-  /// light can reach it.
-  std::optional<Choice> sample(const Receiver& receiver, float u) const;
-  /// The probability that sample() picks light `index` at the receiver.
+  /// Calls `visit(Choice)` for each light next-event estimation samples at the receiver (see
+  /// above), from one uniform number. A choice's probability is that of its light within its
+  /// set, so the caller adds up what each choice gives.
+  template <class Visit>
+  void forEachChoice(const Receiver& receiver, float u, Visit&& visit) const {
+    if (infinite_.size() <= kInfiniteLightsSampledEach) {
+      for (const InfiniteLight& light : infinite_) visit(Choice{light.index, 1.0f});
+    } else if (const std::optional<Choice> choice = sampleInfinite(receiver, u)) {
+      visit(*choice);
+    }
+    if (!nodes_.empty() && nodes_[0].bounds.importance(receiver) > 0)
+      visitLocal(0, 0, receiver, u, visit);
+  }
+  /// The probability that forEachChoice() visits light `index` at the receiver.
   float probability(const Receiver& receiver, size_t index) const;
+  /// One infinite light, chosen in proportion to its estimated irradiance at the receiver.
+  std::optional<Choice> sampleInfinite(const Receiver& receiver, float u) const;
 
   /// Depth of the light tree (for tests and statistics).
   int treeDepth() const;
@@ -55,14 +76,29 @@ class LightSampler {
     int depth = -1;         // -1: not a local light
   };
 
+  /// Visits the local lights chosen below `node` (at `depth`, reached with probability 1).
+  template <class Visit>
+  void visitLocal(uint32_t node, int depth, const Receiver& receiver, float u, Visit& visit) const {
+    const Node& parent = nodes_[node];
+    if (depth < kMaxSplitDepth && splits(parent, receiver)) {
+      for (const uint32_t child : parent.children)
+        if (nodes_[child].bounds.importance(receiver) > 0)
+          visitLocal(child, depth + 1, receiver, u, visit);
+    } else if (const std::optional<Choice> choice = walk(node, receiver, u)) {
+      visit(*choice);
+    }
+  }
+  /// Whether the walk goes down both children of `node` at the receiver (below the split depth).
+  bool splits(const Node& node, const Receiver& receiver) const;
+  /// One light below `node`, chosen by a single walk from it; its probability is relative to
+  /// reaching `node`.
+  std::optional<Choice> walk(uint32_t node, const Receiver& receiver, float u) const;
   /// Builds the subtree of lights[begin, end) whose root is reached by `path`; returns its index.
   uint32_t build(std::vector<uint32_t>& lights, size_t begin, size_t end,
                  const std::vector<LightBounds>& bounds, LeafPath path);
   /// The probability that the walk goes from `parent` to its first child at the receiver; none
   /// where neither child's lights can reach it.
   std::optional<float> firstChildProbability(const Node& parent, const Receiver& receiver) const;
-  /// Probability of choosing the local set at the receiver (0 or 1 when a set is empty).
-  float localShare(const Receiver& receiver) const;
   /// Estimated irradiance of infinite light `i` (of infinite_) at the receiver; never 0.
   float infiniteWeight(size_t i, const Receiver& receiver) const;
   float infiniteTotal(const Receiver& receiver) const;

@@ -46,6 +46,21 @@ struct SurfaceHit {
   MaterialParams material;
   int lightIndex = -1;  // the mesh light this surface is (UsdLuxMeshLightAPI)
   bool closed = false;  // a solid: the mesh bounds one, or its material is not thin-walled
+  bool matte = false;   // a holdout (PassVisibility::matte): only distance and position are set
+  // Which surface this is, for AOVs and primvar lookups (as in SurfacePoint).
+  uint32_t meshId = 0;
+  int instance = -1;  // the instancer copy hit, -1: the mesh's own placement
+  const TriangleMesh* mesh = nullptr;
+  uint32_t triangle = 0;
+  float u = 0, v = 0;
+  const std::vector<Primvar>* instancePrimvars = nullptr;
+};
+
+/// How a render pass shows a mesh or an instancer's copies (the UsdRenderPass cameraVisibility
+/// and matte collections). Either way the geometry still casts shadows and shows in reflections.
+struct PassVisibility {
+  bool camera = true;  // false: camera rays pass through it
+  bool matte = false;  // camera rays that meet it end there, adding no colour and no alpha
 };
 
 /// Camera rays do not see the back faces of single-sided meshes (doubleSided = 0), as in
@@ -81,6 +96,8 @@ class Scene {
   /// Makes the mesh the emitting surface of light `lightIndex` (a LightType::Mesh light), or
   /// not (-1): its front side then shows the light's radiance.
   void setMeshLight(MeshId id, int lightIndex);
+  /// How camera rays treat the mesh itself (not its instancers' copies).
+  void setMeshPassVisibility(MeshId id, PassVisibility pass);
 
   /// Copies of a mesh (its geometry and material), one per transform, sharing its BVH: memory
   /// grows with the number of copies, not with their triangles. The mesh itself need not be
@@ -94,6 +111,8 @@ class Scene {
   /// colours copies without a material. Throws std::invalid_argument for a count that does not
   /// match the copies.
   void setInstancePrimvars(InstancerId id, std::vector<Primvar> primvars);
+  /// How camera rays treat the instancer's copies.
+  void setInstancerPassVisibility(InstancerId id, PassVisibility pass);
 
   /// Materials are referenced by index. Where a material's opacity is below its non-zero
   /// opacityThreshold the surface is cut out: whole meshes for constant opacity, per hit for
@@ -137,6 +156,8 @@ class Scene {
   bool occluded(const Ray& ray) const;
   /// Offset for spawning rays from `point` so that they do not re-hit its surface.
   float rayEpsilon(const Vec3f& point) const;
+  /// The widest value of primvar `name` on any mesh or instancer (0: none has it).
+  int primvarWidth(const std::string& name) const;
 
  private:
   struct InstancerRecord;
@@ -157,12 +178,14 @@ class Scene {
     int materialIndex = kNoMaterial;
     int lightIndex = -1;
     bool visible = true;
+    PassVisibility pass;
     std::unique_ptr<Placement> own;
     std::vector<InstancerId> instancers;  // those placing copies of this mesh
   };
   struct InstancerRecord {
     MeshId prototype = 0;
     bool visible = true;
+    PassVisibility pass;
     std::vector<std::unique_ptr<Placement>> copies;
     std::vector<Primvar> primvars;  // one value per copy
   };
@@ -173,8 +196,10 @@ class Scene {
   InstancerRecord& instancer(InstancerId id);
   std::unique_ptr<Placement> newPlacement(MeshId mesh);
   void releasePlacement(std::unique_ptr<Placement>& placement);
-  /// Pushes a placement's BVH, transform and enabled state to Embree.
+  /// Pushes a placement's BVH, transform, enabled state and ray mask to Embree.
   void updatePlacement(Placement& placement, bool enabled);
+  /// The pass visibility of a placement's owner: its instancer's, or its mesh's.
+  const PassVisibility& passOf(const Placement& placement) const;
   /// Whether copies of a mesh render: it has geometry and its material does not cut it out.
   bool renderable(const MeshRecord& mesh) const;
   /// The mesh's material, or null.

@@ -24,6 +24,11 @@ class Instancer : public Prim {
     visible_ = visible;
     markDirty(DirtyVisibility);
   }
+  /// How camera rays treat the copies (a render pass's cameraVisibility and matte collections).
+  void setPassVisibility(PassVisibility pass) {
+    pass_ = pass;
+    markDirty(DirtyVisibility);
+  }
   /// Per-copy primvars (one value per copy, in the order of the transforms), overriding the
   /// prototype's.
   void setPrimvars(std::vector<Primvar> primvars) {
@@ -36,6 +41,7 @@ class Instancer : public Prim {
   const PrimId& prototype() const { return prototype_; }
   const std::vector<MotionTransform>& transforms() const { return transforms_; }
   bool visible() const { return visible_; }
+  PassVisibility passVisibility() const { return pass_; }
   const std::vector<Primvar>& primvars() const { return primvars_; }
 
  private:
@@ -43,6 +49,7 @@ class Instancer : public Prim {
   PrimId prototype_;
   std::vector<MotionTransform> transforms_;
   bool visible_ = true;
+  PassVisibility pass_;
   std::vector<Primvar> primvars_;
 };
 

@@ -40,6 +40,8 @@ class Mesh : public Prim {
   const Light* light() const { return light_.get(); }
   void setTransform(const MotionTransform& objectToWorld);
   void setVisible(bool visible);
+  /// How camera rays treat the mesh (a render pass's cameraVisibility and matte collections).
+  void setPassVisibility(PassVisibility pass);
 
   /// The instancers placing copies of this mesh (cf. HdRprim::GetInstancerId, from the
   /// prototype's side): kept by the render delegate as instancers sync.
@@ -52,6 +54,7 @@ class Mesh : public Prim {
   const PrimId& materialId() const { return materialId_; }
   const MotionTransform& transform() const { return objectToWorld_; }
   bool visible() const { return visible_; }
+  PassVisibility passVisibility() const { return pass_; }
   const std::string& subdivisionScheme() const { return subdivisionScheme_; }
   const SubdivisionTags& subdivisionTags() const { return tags_; }
   /// The tessellator of the current topology (built on first use, dropped when topology or tags
@@ -68,6 +71,7 @@ class Mesh : public Prim {
   PrimId materialId_;
   MotionTransform objectToWorld_;
   bool visible_ = true;
+  PassVisibility pass_;
   std::set<PrimId> instancers_;
 };
 

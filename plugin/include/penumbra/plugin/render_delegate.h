@@ -49,6 +49,8 @@ struct RenderSettingsMap {
   int adaptiveMinSamples = 16;
   /// Largest component of a sample of indirect light (0: no limit; biased, as Cycles' clamp).
   float indirectClamp = 0;
+  /// Cycles' "filter glossy" (0: off; biased): see IntegratorSettings::glossyFilter.
+  float glossyFilter = 0;
 
   /// Throws std::invalid_argument for an unknown key, an out-of-range value or a fraction for an
   /// integer setting.
@@ -108,6 +110,9 @@ class RenderDelegate {
   };
   SyncStatistics syncStatistics() const;
   const Scene& scene() const { return *scene_; }
+
+  /// The mesh rprims by the id the primId AOV gives them.
+  std::map<uint32_t, PrimId> primIdManifest() const;
 
   /// Warnings raised since the last call, each naming its prim.
   std::vector<std::string> takeWarnings();

@@ -50,12 +50,20 @@ class RenderPass {
   int width() const { return film_.width(); }
   int height() const { return film_.height(); }
 
-  /// AOV names: "color" (RGBA) and "depth".
+  /// The AOVs a pass can accumulate (penumbra::aovNames(): color, alpha, depth, Z, normal,
+  /// Neye, position, albedo, primId, instanceId, elementId, primvars:NAME, sampleCount,
+  /// variance; docs/aovs.md).
   static const std::vector<std::string>& aovNames();
-  /// Resolved buffer, row-major from the top: 4 floats per pixel for color, 1 for depth.
-  /// Throws std::invalid_argument for an unknown name.
+  /// Which AOVs to accumulate besides color, alpha, Z and sampleCount (which every pass has),
+  /// and no others (they cost time): a change drops the samples taken. Throws std::invalid_argument
+  /// for an unknown name.
+  void setAovs(const std::vector<std::string>& names);
+  /// Resolved buffer, row-major from the top, aovChannels(name) floats per pixel. Throws
+  /// std::invalid_argument for an unknown name or one not accumulated (see setAovs).
   std::vector<float> aov(const std::string& name) const;
-  static int aovChannels(const std::string& name);
+  /// Floats per pixel of an AOV: 4 for color, 3 for vectors, a primvar's width as the scene's
+  /// meshes have it (1 where none has it), 1 otherwise.
+  int aovChannels(const std::string& name) const;
   /// AOV bindings (cf. HdRenderPassAovBinding): after every execute() each bound AOV is
   /// resolved into its render buffer, which must have the pass's size. Throws
   /// std::invalid_argument for an unknown AOV, std::out_of_range for a missing buffer.

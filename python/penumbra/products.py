@@ -1,0 +1,88 @@
+"""Rendering UsdRender products: one EXR per product, each var a named channel set
+(docs/aovs.md, "Render products")."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+
+from pxr import Usd
+
+from .denoise import NOISY_COLOR
+from .errors import SceneError, warn
+from .image import Image, check_output_directory, check_output_format
+from .renderer import Renderer
+from .usd.products import ProductPlan, RenderProduct, product_path
+
+
+def render_products(
+    renderer: Renderer,
+    plan: ProductPlan,
+    time_code: Usd.TimeCode,
+    directory: str,
+    *,
+    camera: str | None = None,
+    width: int | None = None,
+    denoise: bool = False,
+    on_render: Callable[[Image], None] | None = None,
+    **render_options,
+) -> list[tuple[str, Image]]:
+    """Render every product of ``plan`` at ``time_code`` and write it (atomically) to its
+    ``productName`` with the frame substituted, relative to ``directory``. Products that share
+    camera and settings are rendered once with all their vars. ``camera`` (a command line's)
+    overrides the products'; ``width`` scales each product's resolution (None: as authored).
+    ``denoise`` denoises the colour vars; a var whose sourceName is ``noisyColor`` keeps the
+    colour as rendered. Returns each product's path and image; ``on_render`` sees each render.
+    """
+    frame = None if time_code.IsDefault() else time_code.GetValue()
+    groups: dict[tuple, list[RenderProduct]] = {}
+    for product in plan.products:
+        groups.setdefault((product.settings, camera or product.settings.camera), []).append(product)
+    written = []
+    for (settings, group_camera), products in groups.items():
+        aovs = ["color"] + sorted(
+            {var.aov for product in products for var in product.vars} - {"color"}
+        )
+        if NOISY_COLOR in aovs and not denoise:
+            aovs.remove(NOISY_COLOR)
+            warn(f"{products[0].path}: a {NOISY_COLOR} var needs --denoise; skipped")
+        image = renderer.render(
+            camera=group_camera,
+            time=time_code,
+            width=width,
+            render_settings=settings,
+            aovs=aovs,
+            denoise=denoise,
+            **render_options,
+        )
+        if on_render is not None:
+            on_render(image)
+        for product in products:
+            path = os.path.join(directory, product_path(product.name, frame))
+            _write_product(product, image, path)
+            written.append((path, image))
+    return written
+
+
+def _write_product(product: RenderProduct, image: Image, path: str) -> None:
+    """The product's vars from ``image`` in one file: the first colour var as the unlayered R,
+    G, B, A, every other var as channels named after its prim."""
+    layers, sources, half = {}, {}, []
+    for var in product.vars:
+        if var.aov not in image:
+            continue  # noisyColor without denoising, reported once already
+        layer = "color" if var.aov == "color" and "color" not in layers else var.layer
+        if layer in layers:
+            warn(f"{var.path}: another var of {product.path} is named {layer}; skipped")
+            continue
+        layers[layer] = image[var.aov]
+        sources[layer] = var.aov
+        if var.half:
+            half.append(layer)
+    try:
+        check_output_format(path)
+        check_output_directory(path)
+    except (ValueError, OSError) as error:
+        raise SceneError(f"{product.path}: productName: {error}") from None
+    metadata = {**image.metadata, "renderProduct": product.path}
+    Image(layers, metadata, sources=sources).write(path, half=half)

@@ -1,0 +1,447 @@
+"""MaterialX materials (docs/materialx.md): standard_surface and open_pbr_surface networks
+authored in USD and in referenced .mtlx documents, checked against analytic values.
+
+Under a white dome of radiance 1 and nothing else, a Lambertian surface of albedo ρ has radiance
+ρ, and a closed object made of an energy-conserving, non-absorbing BSDF has radiance 1 (the
+white furnace)."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+import penumbra
+from penumbra.usd import materialx_values as mv
+from penumbra.usd import open_stage
+from penumbra.usd.material import bound_material
+from stages import SCENES, add_camera, add_preview_material, add_quad, add_sphere_mesh, bind, \
+    new_stage
+from test_textures import BLUE, GREEN, RED, WHITE, at, quadrants, st_to_xy, write_texture
+
+MATERIALX_ASSETS = SCENES / "materialx"
+TERRACOTTA = (0.6, 0.3, 0.2)  # base_color of M_terracotta in materials.mtlx
+SURFACES = {  # node definition, and the input that switches the specular layer off
+    "standard_surface": ("ND_standard_surface_surfaceshader", {"specular": 0.0}),
+    "open_pbr_surface": ("ND_open_pbr_surface_surfaceshader", {"specular_weight": 0.0}),
+    "UsdPreviewSurface": ("ND_UsdPreviewSurface_surfaceshader",
+                          {"useSpecularWorkflow": 1, "specularColor": (0.0, 0.0, 0.0)}),
+}
+
+
+def _type(value) -> Sdf.ValueTypeName:
+    if isinstance(value, bool):
+        return Sdf.ValueTypeNames.Bool
+    if isinstance(value, int):
+        return Sdf.ValueTypeNames.Int
+    if isinstance(value, tuple):
+        return Sdf.ValueTypeNames.Color3f
+    return Sdf.ValueTypeNames.Float
+
+
+def add_mtlx_material(stage: Usd.Stage, path: str, node_def: str, context: str = "mtlx",
+                      **inputs) -> UsdShade.Shader:
+    """A material whose ``context`` surface output (``outputs:mtlx:surface``, or
+    ``outputs:surface`` for context "") is a ``node_def`` shader with the given inputs."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr(node_def)
+    for name, value in inputs.items():
+        shader.CreateInput(name, _type(value)).Set(value)
+    material.CreateSurfaceOutput(context).ConnectToSource(
+        shader.CreateOutput("out", Sdf.ValueTypeNames.Token)
+    )
+    return shader
+
+
+def white_dome(stage: Usd.Stage) -> None:
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateIntensityAttr(1.0)
+
+
+def quad_radiance(stage: Usd.Stage) -> np.ndarray:
+    """Mean RGB of a view filled by the quad of :func:`diffuse_quad_stage`."""
+    image = penumbra.render(stage, camera="/cam", width=16, samples=64, seed=3)["color"]
+    return image[..., :3].reshape(-1, 3).mean(axis=0)
+
+
+def diffuse_quad_stage() -> Usd.Stage:
+    stage = new_stage()
+    add_camera(stage, aperture=(1.6, 1.6))  # sees [-0.8, 0.8]² of the unit quad
+    add_quad(stage, "/World/quad")
+    white_dome(stage)
+    return stage
+
+
+@pytest.mark.parametrize("context", ["mtlx", ""])
+@pytest.mark.parametrize("surface", SURFACES)
+def test_diffuse_quad_under_a_white_dome_returns_its_base_colour(surface, context):
+    node_def, no_specular = SURFACES[surface]
+    base_color = "diffuseColor" if surface == "UsdPreviewSurface" else "base_color"
+    stage = diffuse_quad_stage()
+    add_mtlx_material(stage, "/World/Looks/clay", node_def, context,
+                      **{base_color: TERRACOTTA}, **no_specular)
+    bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")),
+         UsdShade.Material(stage.GetPrimAtPath("/World/Looks/clay")))
+    np.testing.assert_allclose(quad_radiance(stage), TERRACOTTA, rtol=0.02)
+
+
+def furnace_radiance(material_builder) -> float:
+    """Mean radiance of a closed sphere filling the view under a white dome."""
+    stage = new_stage()
+    add_camera(stage, translate=(0, 0, 4), focal_length=50.0, aperture=(2.0, 2.0))
+    sphere = add_sphere_mesh(stage, "/World/ball", rings=48, sectors=96)
+    white_dome(stage)
+    bind(sphere, material_builder(stage))
+    image = penumbra.render(stage, camera="/cam", width=16, samples=256, seed=5,
+                            max_path_depth=64)["color"]
+    return float(image[..., :3].mean())
+
+
+def _mtlx(node_def: str, **inputs):
+    def build(stage):
+        add_mtlx_material(stage, "/World/Looks/m", node_def, **inputs)
+        return UsdShade.Material(stage.GetPrimAtPath("/World/Looks/m"))
+    return build
+
+
+def _preview(**inputs):
+    return lambda stage: add_preview_material(stage, "/World/Looks/m", **inputs)
+
+
+@pytest.mark.parametrize(
+    "variant, builder",
+    [
+        ("standard_surface metal",
+         _mtlx("ND_standard_surface_surfaceshader", base_color=(1.0, 1.0, 1.0), metalness=1.0,
+               specular_roughness=0.5)),
+        ("open_pbr_surface metal",
+         _mtlx("ND_open_pbr_surface_surfaceshader", base_color=(1.0, 1.0, 1.0),
+               base_metalness=1.0, specular_roughness=0.5)),
+        ("standard_surface glass",
+         _mtlx("ND_standard_surface_surfaceshader", transmission=1.0, specular_roughness=0.0)),
+        ("open_pbr_surface glass",
+         _mtlx("ND_open_pbr_surface_surfaceshader", transmission_weight=1.0,
+               specular_roughness=0.0)),
+    ],
+)
+def test_metal_and_glass_pass_the_white_furnace_like_usd_preview_surface(variant, builder):
+    if "metal" in variant:
+        counterpart = _preview(diffuseColor=(1.0, 1.0, 1.0), metallic=1.0, roughness=0.5)
+    else:
+        counterpart = _preview(opacity=0.0, roughness=0.0)
+    radiance, preview = furnace_radiance(builder), furnace_radiance(counterpart)
+    assert radiance == pytest.approx(1.0, abs=0.03)
+    assert radiance == pytest.approx(preview, abs=0.005)
+
+
+def test_textured_standard_surface_shows_its_quadrants_the_right_way_up(tmp_path):
+    """StandardShaderBall's chain: image_color3 (texcoord_vector2) → extract_vector3... here
+    convert and extract rebuild the colour channel by channel, which must fold back into one
+    texture lookup."""
+    file = write_texture(tmp_path / "quadrants.png", quadrants())
+    stage = new_stage()
+    add_camera(stage, aperture=(1.6, 1.6))
+    quad = add_quad(stage, "/World/quad")
+    st = UsdGeom.PrimvarsAPI(quad).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex
+    )
+    st.Set([Gf.Vec2f(0, 0), Gf.Vec2f(1, 0), Gf.Vec2f(1, 1), Gf.Vec2f(0, 1)])
+    surface = add_mtlx_material(stage, "/World/Looks/tex", "ND_standard_surface_surfaceshader",
+                                base=0.0, specular=0.0, emission=1.0)
+
+    def node(name: str, node_def: str, output_type=Sdf.ValueTypeNames.Color3f):
+        shader = UsdShade.Shader.Define(stage, f"/World/Looks/tex/{name}")
+        shader.CreateIdAttr(node_def)
+        return shader, shader.CreateOutput("out", output_type)
+
+    texcoord, texcoord_out = node("uv", "ND_texcoord_vector2", Sdf.ValueTypeNames.Float2)
+    image, image_out = node("image", "ND_image_vector3", Sdf.ValueTypeNames.Float3)
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(str(file)))
+    image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(texcoord_out)
+    channels = []
+    for index in range(3):
+        extract, extract_out = node(f"extract{index}", "ND_extract_vector3",
+                                    Sdf.ValueTypeNames.Float)
+        extract.CreateInput("in", Sdf.ValueTypeNames.Float3).ConnectToSource(image_out)
+        extract.CreateInput("index", Sdf.ValueTypeNames.Int).Set(index)
+        channels.append(extract_out)
+    combine, combine_out = node("combine", "ND_combine3_vector3", Sdf.ValueTypeNames.Float3)
+    for index, channel in enumerate(channels):
+        combine.CreateInput(f"in{index + 1}", Sdf.ValueTypeNames.Float).ConnectToSource(channel)
+    convert, convert_out = node("convert", "ND_convert_vector3_color3")
+    convert.CreateInput("in", Sdf.ValueTypeNames.Float3).ConnectToSource(combine_out)
+    surface.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(convert_out)
+    bind(quad, UsdShade.Material(stage.GetPrimAtPath("/World/Looks/tex")))
+
+    image = penumbra.render(stage, camera="/cam", width=40, samples=16)["color"]
+    # MaterialX's texture coordinates, like USD's st, start at the image's bottom-left corner.
+    for (s, t), color in {(0.25, 0.75): RED, (0.75, 0.75): GREEN, (0.25, 0.25): BLUE,
+                          (0.75, 0.25): WHITE}.items():
+        np.testing.assert_allclose(at(image, *st_to_xy(s, t)), color, atol=0.02)
+
+
+def mtlx_reference_stage(tmp_path: Path, material: str) -> Path:
+    """A stage file whose /World/Looks references materials.mtlx and whose quad is bound to
+    ``material`` in it, under a white dome."""
+    stage = diffuse_quad_stage()
+    looks = stage.DefinePrim("/World/Looks", "Scope")
+    looks.GetReferences().AddReference(str(MATERIALX_ASSETS / "materials.mtlx"), "/MaterialX")
+    quad = stage.GetPrimAtPath("/World/quad")
+    UsdShade.MaterialBindingAPI.Apply(quad).GetDirectBindingRel().SetTargets(
+        [Sdf.Path(f"/World/Looks/Materials/{material}")]
+    )
+    path = tmp_path / "scene.usda"
+    stage.GetRootLayer().Export(str(path))
+    return path
+
+
+def test_a_mtlx_reference_binds_and_renders(tmp_path):
+    path = mtlx_reference_stage(tmp_path, "M_terracotta")
+    original = path.read_text()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        stage = open_stage(path)
+        radiance = quad_radiance(stage)
+    messages = [str(w.message) for w in caught if w.category is penumbra.PenumbraWarning]
+    assert not messages  # neither the failed arc nor the material is reported
+    material = bound_material(stage.GetPrimAtPath("/World/quad"))
+    assert material is not None
+    assert material.GetPath() == Sdf.Path("/World/Looks/Materials/M_terracotta")
+    np.testing.assert_allclose(radiance, TERRACOTTA, rtol=0.02)
+    assert path.read_text() == original  # the user's layer is not edited
+    assert not stage.GetRootLayer().dirty
+
+
+def test_variants_switch_between_mtlx_materials():
+    stage = open_stage(MATERIALX_ASSETS / "spheres.usda")
+    floor = stage.GetPrimAtPath("/World/Floor")
+    looks = floor.GetVariantSet("look")
+    for look, material in (("checker", "M_checker"), ("terracotta", "M_terracotta")):
+        looks.SetVariantSelection(look)
+        bound = bound_material(floor)
+        assert bound is not None and bound.GetPath().name == material
+        assert bound.IsA(UsdShade.Material)
+
+
+def test_unknown_node_in_a_mtlx_document_warns_by_name_and_keeps_the_default(tmp_path):
+    path = mtlx_reference_stage(tmp_path, "M_mystery")
+    with pytest.warns(penumbra.PenumbraWarning,
+                      match=r"M_mystery: MaterialX node .*/M_mystery/mystery: "
+                            r"penumbra_unknown_pattern") as caught:
+        radiance = quad_radiance(open_stage(path))
+    assert sum("mystery" in str(w.message) for w in caught) == 1
+    # base_color falls back to its default (0.8), not to Penumbra's 0.18 grey.
+    np.testing.assert_allclose(radiance, (0.8, 0.8, 0.8), rtol=0.02)
+
+
+def test_unknown_node_in_usd_warns_by_name():
+    stage = diffuse_quad_stage()
+    surface = add_mtlx_material(stage, "/World/Looks/odd", "ND_standard_surface_surfaceshader",
+                                specular=0.0)
+    odd = UsdShade.Shader.Define(stage, "/World/Looks/odd/Noise")
+    odd.CreateIdAttr("ND_penumbra_nonexistent_color3")
+    surface.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        odd.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    )
+    bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")),
+         UsdShade.Material(stage.GetPrimAtPath("/World/Looks/odd")))
+    with pytest.warns(penumbra.PenumbraWarning,
+                      match="/World/Looks/odd: MaterialX node /World/Looks/odd/Noise: "
+                            "ND_penumbra_nonexistent_color3"):
+        radiance = quad_radiance(stage)
+    np.testing.assert_allclose(radiance, (0.8, 0.8, 0.8), rtol=0.02)
+
+
+# The folding of pattern networks into one texture lookup (penumbra.usd.materialx_values).
+TEXTURE = mv.identity(3, texture={"file": "t.png"})
+
+
+def test_arithmetic_on_a_texture_folds_into_scale_and_bias():
+    value = mv.add(mv.multiply(TEXTURE, mv.Constant((0.5,))), mv.Constant((0.1, 0.2, 0.3)))
+    param = mv.to_parameter(value, vector=True)
+    assert param["output"] == "rgb"
+    assert param["texture"]["scale"] == (0.5, 0.5, 0.5, 1.0)
+    assert param["texture"]["bias"] == pytest.approx((0.1, 0.2, 0.3, 0.0))
+
+
+def test_mix_of_a_texture_and_a_constant_folds():
+    value = mv.mix(TEXTURE, mv.Constant((1.0, 1.0, 1.0)), mv.Constant((0.25,)))
+    param = mv.to_parameter(value, vector=True)
+    assert param["texture"]["scale"] == (0.25, 0.25, 0.25, 1.0)
+    assert param["texture"]["bias"] == (0.75, 0.75, 0.75, 0.0)
+
+
+def test_constants_fold_and_two_textures_do_not():
+    assert mv.clamp(mv.add(mv.Constant((0.7,)), mv.Constant((0.6,))), mv.Constant((0.0,)),
+                    mv.Constant((1.0,))) == mv.Constant((1.0,))
+    with pytest.raises(mv.Untranslatable):
+        mv.multiply(TEXTURE, TEXTURE)
+    with pytest.raises(mv.Untranslatable):
+        mv.clamp(mv.multiply(TEXTURE, mv.Constant((2.0,))), mv.Constant((0.0,)),
+                 mv.Constant((1.0,)))
+
+
+def test_an_extracted_channel_reads_that_channel():
+    param = mv.to_parameter(mv.extract(TEXTURE, 1), vector=False)
+    assert param == {"texture": {"file": "t.png"}, "output": "g"}
+
+
+def test_mtlx_document_parameters_reach_the_delegate():
+    """OpenPBR dispersion feeds the spectral path (Abbe number 20 / scale 0.5), tiledimage's
+    uvtiling becomes the texture transform, and a constant multiply its scale."""
+    from penumbra.usd.material import read_material
+    from penumbra.usd.sampling import SampleReader
+
+    stage = open_stage(MATERIALX_ASSETS / "spheres.usda")
+    looks = "/World/Looks/Materials/"
+
+    def params(name: str) -> dict:
+        data = read_material(stage.GetPrimAtPath(looks + name), SampleReader(Usd.TimeCode(1)),
+                             pytest.fail)
+        return data.params
+
+    glass = params("M_glass")
+    assert glass["opacity"] == 0.0 and glass["penumbra:abbeNumber"] == pytest.approx(40.0)
+    checker = params("M_checker")["diffuseColor"]["texture"]
+    assert checker["transform"] == {"scale": (2.0, 2.0), "translation": (0.0, 0.0)}
+    assert checker["scale"] == pytest.approx((0.8, 0.8, 0.8, 1.0))
+    assert checker["sourceColorSpace"] == "sRGB"
+    assert checker["file"] == str(MATERIALX_ASSETS / "quadrants.png")
+    assert params("M_plastic")["clearcoat"] == 1.0
+
+
+def test_geompropvalue_reads_a_primvar_and_non_finite_values_warn():
+    from penumbra.usd.material import read_material
+    from penumbra.usd.sampling import SampleReader
+
+    stage = new_stage()
+    surface = add_mtlx_material(stage, "/Looks/m", "ND_standard_surface_surfaceshader",
+                                emission_color=(float("inf"), 0.0, 0.0), emission=1.0)
+    reader = UsdShade.Shader.Define(stage, "/Looks/m/tint")
+    reader.CreateIdAttr("ND_geompropvalue_color3")
+    reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("tint")
+    reader.CreateInput("default", Sdf.ValueTypeNames.Color3f).Set((0.1, 0.2, 0.3))
+    surface.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        reader.CreateOutput("out", Sdf.ValueTypeNames.Color3f))
+    messages = []
+    params = read_material(stage.GetPrimAtPath("/Looks/m"), SampleReader(Usd.TimeCode(1)),
+                           messages.append).params
+    assert params["diffuseColor"] == {"primvar": "tint", "fallback": pytest.approx((0.1, 0.2, 0.3))}
+    assert "emissiveColor" not in params
+    assert messages == ["/Looks/m: MaterialX node /Looks/m/Surface: emissiveColor is not "
+                        "finite; its default is used"]
+
+
+def test_mix_of_a_value_with_itself_or_by_0_or_1_needs_no_folding():
+    other = mv.identity(3, texture={"file": "u.png"})
+    assert mv.mix(TEXTURE, TEXTURE, other) == TEXTURE  # OpenChessSet's subsurface mix
+    assert mv.mix(TEXTURE, other, mv.Constant((1.0,))) == TEXTURE
+    assert mv.mix(TEXTURE, other, mv.Constant((0.0,))) == other
+    with pytest.raises(mv.Untranslatable):
+        mv.mix(TEXTURE, other, mv.Constant((0.5,)))
+
+
+@pytest.mark.parametrize(
+    "node_def, inputs, expected",
+    [
+        # Geometric opacity is a cut-out at 0.5.
+        ("ND_standard_surface_surfaceshader", {"opacity": (0.2, 0.2, 0.2)},
+         {"opacity": 0.2, "opacityThreshold": 0.5}),
+        ("ND_open_pbr_surface_surfaceshader", {"geometry_opacity": 0.0},
+         {"opacity": 0.0, "opacityThreshold": 0.5}),
+        # Transmission is the translucent part; thin_walled makes it a sheet.
+        ("ND_standard_surface_surfaceshader",
+         {"transmission": 0.75, "thin_walled": True, "transmission_dispersion": 30.0},
+         {"opacity": 0.25, "opacityThreshold": 0.0, "penumbra:thinWalled": 1,
+          "penumbra:abbeNumber": 30.0}),
+        # A tinted dielectric specular goes through the specular workflow: F0(1.5) = 0.04.
+        ("ND_standard_surface_surfaceshader", {"specular": 0.5},
+         {"useSpecularWorkflow": 1, "specularColor": (0.02, 0.02, 0.02)}),
+        ("ND_open_pbr_surface_surfaceshader", {"emission_luminance": 4.0,
+                                               "emission_color": (1.0, 0.5, 0.25)},
+         {"emissiveColor": (4.0, 2.0, 1.0)}),
+    ],
+)
+def test_surface_inputs_map_onto_preview_surface_parameters(node_def, inputs, expected):
+    from penumbra.usd.material import read_material
+    from penumbra.usd.sampling import SampleReader
+
+    stage = new_stage()
+    add_mtlx_material(stage, "/Looks/m", node_def, **inputs)
+    params = read_material(stage.GetPrimAtPath("/Looks/m"), SampleReader(Usd.TimeCode(1)),
+                           pytest.fail).params
+    for name, value in expected.items():
+        assert params[name] == pytest.approx(value), name
+
+
+def test_an_unsupported_materialx_surface_warns_and_renders_a_default_standard_surface():
+    stage = diffuse_quad_stage()
+    add_mtlx_material(stage, "/World/Looks/gltf", "ND_gltf_pbr_surfaceshader",
+                      base_color=(0.1, 0.9, 0.1))
+    bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")),
+         UsdShade.Material(stage.GetPrimAtPath("/World/Looks/gltf")))
+    with pytest.warns(penumbra.PenumbraWarning, match="/World/Looks/gltf: .*"
+                      "ND_gltf_pbr_surfaceshader is not supported"):
+        radiance = quad_radiance(stage)
+    # standard_surface's defaults: 0.8 grey under a specular layer that, over a white dome,
+    # gives back what it takes from the diffuse layer only partly (grey, not black, not green).
+    assert np.ptp(radiance) < 0.01 and 0.75 < radiance.mean() < 0.9
+
+
+PAINT = """<?xml version="1.0"?>
+<materialx version="1.39">
+  <standard_surface name="paint" type="surfaceshader">
+    <input name="base_color" type="color3" value="{color}" />
+    <input name="specular" type="float" value="0" />
+  </standard_surface>
+  <surfacematerial name="M_paint" type="material">
+    <input name="surfaceshader" type="surfaceshader" nodename="paint" />
+  </surfacematerial>
+</materialx>
+"""
+
+
+def test_a_variant_that_swaps_mtlx_documents_switches_the_material_on_a_live_renderer(tmp_path):
+    """StandardShaderBall's layout: one scope references a standard_surface or an OpenPBR
+    document by variant, with the same material names; switching re-renders the other one."""
+    colors = {"red": (0.7, 0.1, 0.1), "blue": (0.1, 0.2, 0.7)}
+    for name, color in colors.items():
+        (tmp_path / f"{name}.mtlx").write_text(PAINT.format(color=", ".join(map(str, color))))
+    stage = diffuse_quad_stage()
+    looks = stage.DefinePrim("/World/Looks", "Scope")
+    palette = looks.GetVariantSets().AddVariantSet("palette")
+    for name in colors:
+        palette.AddVariant(name)
+        palette.SetVariantSelection(name)
+        with palette.GetVariantEditContext():
+            looks.GetReferences().AddReference(str(tmp_path / f"{name}.mtlx"), "/MaterialX")
+    palette.SetVariantSelection("red")
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World/quad")).GetDirectBindingRel(
+    ).SetTargets([Sdf.Path("/World/Looks/Materials/M_paint")])
+
+    renderer = penumbra.Renderer(stage)
+    for name in ("red", "blue", "red"):
+        palette.SetVariantSelection(name)
+        image = renderer.render(camera="/cam", width=16, samples=64, seed=3)["color"]
+        np.testing.assert_allclose(image[..., :3].reshape(-1, 3).mean(axis=0), colors[name],
+                                   rtol=0.02, err_msg=name)
+
+
+@pytest.mark.parametrize("content, message", [
+    ("<materialx version=\"1.39\"><standard_surface", "cannot read the MaterialX document"),
+    (None, "MaterialX document not found"),
+])
+def test_a_broken_or_missing_mtlx_document_warns_naming_the_file(tmp_path, content, message):
+    document = tmp_path / "broken.mtlx"
+    if content is not None:
+        document.write_text(content)
+    stage = diffuse_quad_stage()
+    stage.DefinePrim("/World/Looks", "Scope").GetReferences().AddReference(str(document))
+    with pytest.warns(penumbra.PenumbraWarning, match=f"broken.mtlx: {message}"):
+        stage_path = tmp_path / "scene.usda"
+        stage.GetRootLayer().Export(str(stage_path))
+        opened = open_stage(stage_path)
+    assert not opened.GetPrimAtPath("/World/Looks/Materials")
