@@ -88,6 +88,7 @@ bench: build
 	$(VPY) bench/denoise.py
 	$(VPY) bench/instances.py --instances 100000
 	$(VPY) bench/instances.py --instances 1000000
+	$(VPY) bench/sync.py
 
 clean:
 	rm -rf build $(VENV)

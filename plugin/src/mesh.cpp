@@ -16,6 +16,7 @@ void Mesh::setTopology(std::vector<int> counts, std::vector<int> indices, bool l
 
 void Mesh::setLight(bool enabled, const std::vector<std::pair<std::string, ParamValue>>& params) {
   if (!enabled) {
+    if (!light_) return;  // nothing changes: no sync needed
     light_.reset();
   } else {
     auto light = std::make_unique<Light>(id(), LightType::Mesh);

@@ -1,5 +1,6 @@
 #include "penumbra/plugin/render_delegate.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -84,18 +85,27 @@ RenderDelegate::RenderDelegate(const std::string& colorConfig)
 
 // The scene (and its Embree objects) must go before the device.
 RenderDelegate::~RenderDelegate() {
-  prims_.clear();
+  rprims_.clear();
+  sprims_.clear();
+  bprims_.clear();
   scene_.reset();
 }
 
+namespace {
+using PrimCollection = std::map<PrimId, std::unique_ptr<Prim>>;
+}  // namespace
+
 void RenderDelegate::insertRprim(const std::string& type, const PrimId& id) {
   if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
+  std::unique_ptr<Prim> inserted;
   if (type == "mesh")
-    prims_[id] = std::make_unique<Mesh>(id, scene_->addMesh());
+    inserted = std::make_unique<Mesh>(id, scene_->addMesh());
   else if (type == "instancer")
-    prims_[id] = std::make_unique<Instancer>(id, scene_->addInstancer());
+    inserted = std::make_unique<Instancer>(id, scene_->addInstancer());
   else
     throw std::invalid_argument(id + ": unsupported rprim type '" + type + "'");
+  inserted->track(&changeTracker_);
+  rprims_[id] = std::move(inserted);
   meshesStructureChanged_ = true;
 }
 
@@ -103,96 +113,118 @@ void RenderDelegate::insertBprim(const std::string& type, const PrimId& id) {
   if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
   if (type != "renderBuffer")
     throw std::invalid_argument(id + ": unsupported bprim type '" + type + "'");
-  prims_[id] = std::make_unique<RenderBuffer>(id);
+  auto& inserted = bprims_[id] = std::make_unique<RenderBuffer>(id);
+  inserted->track(&changeTracker_);
 }
 
 void RenderDelegate::insertSprim(const std::string& type, const PrimId& id) {
   if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
+  std::unique_ptr<Prim> inserted;
   if (type == "camera") {
-    prims_[id] = std::make_unique<Camera>(id);
+    inserted = std::make_unique<Camera>(id);
   } else if (type == "material") {
-    prims_[id] = std::make_unique<Material>(id);
+    inserted = std::make_unique<Material>(id);
     materialsStructureChanged_ = true;
   } else if (isLightTypeName(type)) {
-    prims_[id] = std::make_unique<Light>(id, lightTypeFromName(type));
+    inserted = std::make_unique<Light>(id, lightTypeFromName(type));
     lightsStructureChanged_ = true;
   } else {
     throw std::invalid_argument(id + ": unsupported sprim type '" + type + "'");
   }
+  inserted->track(&changeTracker_);
+  sprims_[id] = std::move(inserted);
 }
 
 void RenderDelegate::removePrim(const PrimId& id) {
   Prim& removed = prim(id);
   if (auto* mesh = dynamic_cast<Mesh*>(&removed)) {
-    // Instancers of this mesh lose their copies (and get them back if it is inserted again).
-    for (auto& [otherId, other] : prims_)
-      if (auto* copies = dynamic_cast<Instancer*>(other.get());
-          copies && copies->prototype() == id) {
-        scene_->removeInstancer(copies->handle());
-        copies->setHandle(scene_->addInstancer());
-        copies->markDirty(DirtyTransform);
-      }
-    if (mesh->light()) lightsStructureChanged_ = true;
+    // Its instancers lose their copies (and get them back if it is inserted again).
+    // (An entry may be stale: an instancer removed, or now copying another mesh.)
+    for (const PrimId& instancerId : mesh->instancers())
+      if (const auto found = rprims_.find(instancerId); found != rprims_.end())
+        if (auto* copies = dynamic_cast<Instancer*>(found->second.get());
+            copies && copies->prototype() == id) {
+          scene_->removeInstancer(copies->handle());
+          copies->setHandle(scene_->addInstancer());
+          copies->markDirty(DirtyTransform);
+        }
+    if (meshLights_.erase(id)) lightsStructureChanged_ = true;
     scene_->removeMesh(mesh->handle());
     meshesStructureChanged_ = true;
   }
   if (auto* copies = dynamic_cast<Instancer*>(&removed)) {
     scene_->removeInstancer(copies->handle());
+    if (const auto found = rprims_.find(copies->prototype()); found != rprims_.end())
+      if (auto* prototype = dynamic_cast<Mesh*>(found->second.get()))
+        prototype->removeInstancer(id);
     meshesStructureChanged_ = true;
   }
   if (dynamic_cast<Material*>(&removed)) materialsStructureChanged_ = true;
   if (dynamic_cast<Light*>(&removed)) lightsStructureChanged_ = true;
-  prims_.erase(id);
+  changeTracker_.forget(id);
+  if (!rprims_.erase(id) && !sprims_.erase(id)) bprims_.erase(id);
 }
 
 bool RenderDelegate::hasPrim(const PrimId& id) const {
-  return prims_.count(id) != 0;
+  return rprims_.count(id) != 0 || sprims_.count(id) != 0 || bprims_.count(id) != 0;
 }
 
 std::vector<PrimId> RenderDelegate::primIds() const {
   std::vector<PrimId> ids;
-  for (const auto& entry : prims_) ids.push_back(entry.first);
+  for (const PrimCollection* collection : {&rprims_, &sprims_, &bprims_})
+    for (const auto& entry : *collection) ids.push_back(entry.first);
+  std::sort(ids.begin(), ids.end());
   return ids;
 }
 
 Prim& RenderDelegate::prim(const PrimId& id) {
-  const auto found = prims_.find(id);
-  if (found == prims_.end()) throw std::out_of_range(id + ": no such prim in the render index");
-  return *found->second;
+  for (PrimCollection* collection : {&rprims_, &sprims_, &bprims_})
+    if (const auto found = collection->find(id); found != collection->end()) return *found->second;
+  throw std::out_of_range(id + ": no such prim in the render index");
 }
 
 namespace {
 template <typename T>
-T& primAs(Prim& prim, const char* typeName) {
-  if (auto* typed = dynamic_cast<T*>(&prim)) return *typed;
-  throw std::out_of_range(prim.id() + ": prim is not a " + typeName);
+T& primAs(PrimCollection& collection, const PrimId& id, const char* typeName) {
+  const auto found = collection.find(id);
+  if (found != collection.end())
+    if (auto* typed = dynamic_cast<T*>(found->second.get())) return *typed;
+  throw std::out_of_range(id + ": no " + typeName + " with this id in the render index");
 }
 }  // namespace
 
 std::map<uint32_t, PrimId> RenderDelegate::primIdManifest() const {
   std::map<uint32_t, PrimId> manifest;
-  for (const auto& [id, prim] : prims_)
+  for (const auto& [id, prim] : rprims_)
     if (const auto* mesh = dynamic_cast<const Mesh*>(prim.get())) manifest[mesh->handle()] = id;
   return manifest;
 }
 
 Mesh& RenderDelegate::mesh(const PrimId& id) {
-  return primAs<Mesh>(prim(id), "mesh");
+  return primAs<Mesh>(rprims_, id, "mesh");
 }
 RenderBuffer& RenderDelegate::renderBuffer(const PrimId& id) {
-  return primAs<RenderBuffer>(prim(id), "render buffer");
+  return primAs<RenderBuffer>(bprims_, id, "render buffer");
 }
 Instancer& RenderDelegate::instancer(const PrimId& id) {
-  return primAs<Instancer>(prim(id), "instancer");
+  return primAs<Instancer>(rprims_, id, "instancer");
 }
 Camera& RenderDelegate::camera(const PrimId& id) {
-  return primAs<Camera>(prim(id), "camera");
+  return primAs<Camera>(sprims_, id, "camera");
 }
 Light& RenderDelegate::light(const PrimId& id) {
-  return primAs<Light>(prim(id), "light");
+  return primAs<Light>(sprims_, id, "light");
 }
 Material& RenderDelegate::material(const PrimId& id) {
-  return primAs<Material>(prim(id), "material");
+  return primAs<Material>(sprims_, id, "material");
+}
+
+void RenderDelegate::setDicingCamera(PrimId cameraId) {
+  dicingCamera_ = std::move(cameraId);
+}
+
+RenderDelegate::SyncStatistics RenderDelegate::syncStatistics() const {
+  return {meshGeometrySyncs_, subdivisionDicings_, scene_->meshBvhBuilds()};
 }
 
 std::vector<std::string> RenderDelegate::takeWarnings() {
@@ -227,18 +259,21 @@ penumbra::Material RenderDelegate::buildMaterial(const Material& material, bool 
   return result;
 }
 
-void RenderDelegate::syncMaterials() {
+bool RenderDelegate::syncMaterials() {
   std::vector<penumbra::Material> materials;
-  materialIndex_.clear();
-  for (auto& [id, prim] : prims_) {
+  std::map<PrimId, int> indices;
+  for (auto& [id, prim] : sprims_) {
     if (auto* material = dynamic_cast<Material*>(prim.get())) {
-      materialIndex_[id] = int(materials.size());
+      indices[id] = int(materials.size());
       // Problems (missing textures) are reported when the material changes, not every sync.
       materials.push_back(buildMaterial(*material, material->dirtyBits() != Clean));
       if (material->dirtyBits() != Clean) material->markClean();
     }
   }
   scene_->setMaterials(std::move(materials));
+  const bool indicesChanged = indices != materialIndex_;
+  materialIndex_ = std::move(indices);
+  return indicesChanged;
 }
 
 void RenderDelegate::syncLights() {
@@ -252,8 +287,13 @@ void RenderDelegate::syncLights() {
       return -1;
     }
   };
-  for (auto& [id, prim] : prims_) {
-    if (auto* light = dynamic_cast<Light*>(prim.get())) {
+  // Light sprims and mesh lights, in id order (the order lights are sampled in).
+  std::map<PrimId, Prim*> emitters;
+  for (auto& [id, prim] : sprims_)
+    if (dynamic_cast<Light*>(prim.get())) emitters[id] = prim.get();
+  for (const PrimId& id : meshLights_) emitters[id] = rprims_.at(id).get();
+  for (auto& [id, prim] : emitters) {
+    if (auto* light = dynamic_cast<Light*>(prim)) {
       if (light->dirtyBits() & DirtyParams) {
         try {
           light->loadTexture();
@@ -263,9 +303,9 @@ void RenderDelegate::syncLights() {
       }
       if (light->visible()) add(id, light->params());
       if (light->dirtyBits() != Clean) light->markClean();
-    } else if (auto* mesh = dynamic_cast<Mesh*>(prim.get())) {
+    } else if (auto* mesh = dynamic_cast<Mesh*>(prim)) {
       int index = -1;
-      if (mesh->light() && mesh->visible()) {
+      if (mesh->visible()) {
         // The light samples the polygons (the cage of a subdivision surface) at shutter open.
         LightParams params = mesh->light()->params();
         auto corners = std::make_shared<std::vector<Vec3f>>();
@@ -297,6 +337,7 @@ TriangleMesh RenderDelegate::meshTriangles(Mesh& mesh, const DicingContext& dici
   const std::optional<SubdivisionScheme> scheme = parseSubdivisionScheme(mesh.subdivisionScheme());
   if (!scheme) return triangulate(mesh.data());
   const MeshData& cage = mesh.data();
+  ++subdivisionDicings_;
   try {
     const LimitSurfaceTessellator& tessellator = *mesh.tessellator(*scheme);
     // Dice each base face finely enough that its facets stay within a fraction of a pixel of
@@ -348,11 +389,12 @@ TriangleMesh RenderDelegate::meshTriangles(Mesh& mesh, const DicingContext& dici
   }
 }
 
-void RenderDelegate::syncMesh(Mesh& mesh, bool materialsChanged, const DicingContext& dicing) {
+void RenderDelegate::syncMesh(Mesh& mesh, const DicingContext& dicing) {
   const uint32_t bits = mesh.dirtyBits();
   if (bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided)) {
     for (const std::string& problem : mesh.dropInvalidPrimvars())
       warn(mesh.id() + ": " + problem + "; materials reading it use their fallback");
+    ++meshGeometrySyncs_;
     try {
       scene_->setMeshGeometry(mesh.handle(), meshTriangles(mesh, dicing));
     } catch (const std::invalid_argument& error) {
@@ -360,30 +402,37 @@ void RenderDelegate::syncMesh(Mesh& mesh, bool materialsChanged, const DicingCon
       scene_->clearMeshGeometry(mesh.handle());
     }
   }
-  int materialIndex = Scene::kNoMaterial;
-  if (!mesh.materialId().empty()) {
-    const auto found = materialIndex_.find(mesh.materialId());
-    if (found != materialIndex_.end())
-      materialIndex = found->second;
-    else if (bits & DirtyMaterialId)
+  if (bits & (DirtyMaterialId | DirtyTransform | DirtyVisibility)) {
+    if (!mesh.materialId().empty() && !materialIndex_.count(mesh.materialId()) &&
+        (bits & DirtyMaterialId))
       warn(mesh.id() + ": bound material " + mesh.materialId() +
            " is not in the render index; displayColor is used");
+    if (bits & DirtyVisibility) scene_->setMeshPassVisibility(mesh.handle(), mesh.passVisibility());
+    placeMesh(mesh);
   }
-  if (bits & DirtyVisibility) scene_->setMeshPassVisibility(mesh.handle(), mesh.passVisibility());
-  if (bits != Clean || materialsChanged)
-    scene_->setMeshInstance(mesh.handle(), mesh.transform(), materialIndex, mesh.visible());
   if (bits != Clean) mesh.markClean();
 }
 
+void RenderDelegate::placeMesh(Mesh& mesh) {
+  int materialIndex = Scene::kNoMaterial;
+  if (!mesh.materialId().empty()) {
+    const auto found = materialIndex_.find(mesh.materialId());
+    if (found != materialIndex_.end()) materialIndex = found->second;
+  }
+  scene_->setMeshInstance(mesh.handle(), mesh.transform(), materialIndex, mesh.visible());
+}
+
 void RenderDelegate::syncInstancer(Instancer& copies) {
-  const auto found = prims_.find(copies.prototype());
-  auto* prototype = found == prims_.end() ? nullptr : dynamic_cast<Mesh*>(found->second.get());
+  const auto found = rprims_.find(copies.prototype());
+  auto* prototype = found == rprims_.end() ? nullptr : dynamic_cast<Mesh*>(found->second.get());
   if (!prototype) {
     warn(copies.id() + ": prototype " + copies.prototype() +
          " is not a mesh in the render index; the instances are skipped");
     scene_->removeInstancer(copies.handle());
     copies.setHandle(scene_->addInstancer());
   } else {
+    // As in Hydra, the prototype knows its instancer (its removal drops the copies).
+    prototype->addInstancer(copies.id());
     scene_->setInstancerPassVisibility(copies.handle(), copies.passVisibility());
     scene_->setInstances(copies.handle(), prototype->handle(), copies.transforms(),
                          copies.visible());
@@ -397,48 +446,82 @@ void RenderDelegate::syncInstancer(Instancer& copies) {
   copies.markClean();
 }
 
-bool RenderDelegate::sync(const DicingContext& dicing) {
-  // A new dicing camera or complexity re-dices every subdivision surface.
+DicingContext RenderDelegate::dicingContext(const DicingContext& view) {
+  if (!firstView_) firstView_ = view;
+  if (dicingCamera_.empty()) return *firstView_;
+  const auto found = sprims_.find(dicingCamera_);
+  const auto* camera =
+      found == sprims_.end() ? nullptr : dynamic_cast<Camera*>(found->second.get());
+  if (!camera) {
+    warn("dicing camera " + dicingCamera_ +
+         " is not a camera in the render index; the first render's camera is used");
+    return *firstView_;
+  }
+  return {camera->params(), firstView_->imageWidth};
+}
+
+bool RenderDelegate::sync(const DicingContext& view) {
+  // A new dicing context or complexity re-dices every subdivision surface.
+  const DicingContext dicing = dicingContext(view);
   if (dicedFor_ != dicing || dicedComplexity_ != settings_.complexity) {
-    for (auto& [id, prim] : prims_)
-      if (auto* mesh = dynamic_cast<Mesh*>(prim.get()); mesh && mesh->subdivisionScheme() != "none")
-        mesh->markDirty(DirtyPoints);
+    if (dicedFor_)
+      for (auto& [id, prim] : rprims_)
+        if (auto* mesh = dynamic_cast<Mesh*>(prim.get());
+            mesh && mesh->subdivisionScheme() != "none")
+          mesh->markDirty(DirtyPoints);
     dicedFor_ = dicing;
     dicedComplexity_ = settings_.complexity;
   }
-  bool materialsDirty = materialsStructureChanged_, lightsDirty = lightsStructureChanged_;
-  bool meshesDirty = meshesStructureChanged_, camerasDirty = false;
-  for (const auto& [id, prim] : prims_) {
-    if (prim->dirtyBits() == Clean) continue;
-    if (dynamic_cast<Material*>(prim.get()))
-      materialsDirty = true;
-    else if (dynamic_cast<Light*>(prim.get()))
-      lightsDirty = true;
-    else if (dynamic_cast<Mesh*>(prim.get()) || dynamic_cast<Instancer*>(prim.get()))
+  bool lightsDirty = lightsStructureChanged_, meshesDirty = meshesStructureChanged_;
+  bool materialsDirty = materialsStructureChanged_, camerasDirty = false;
+  std::set<PrimId> dirtyMaterials;
+  std::vector<Mesh*> dirtyMeshes;
+  std::vector<Instancer*> dirtyInstancers;
+  for (const PrimId& id : changeTracker_.take()) {
+    if (const auto found = rprims_.find(id); found != rprims_.end()) {
       meshesDirty = true;
-    else if (dynamic_cast<Camera*>(prim.get()))
-      camerasDirty = true;
+      if (auto* mesh = dynamic_cast<Mesh*>(found->second.get())) {
+        dirtyMeshes.push_back(mesh);
+        // Mesh lights follow their meshes' geometry, transform, visibility and light inputs.
+        if (mesh->light()) {
+          meshLights_.insert(id);
+          lightsDirty = true;
+        } else if (meshLights_.erase(id)) {
+          scene_->setMeshLight(mesh->handle(), -1);
+          lightsDirty = true;
+        }
+      } else if (auto* copies = dynamic_cast<Instancer*>(found->second.get())) {
+        dirtyInstancers.push_back(copies);
+      }
+    } else if (const auto sprim = sprims_.find(id); sprim != sprims_.end()) {
+      Prim& changed = *sprim->second;
+      if (dynamic_cast<Material*>(&changed)) {
+        materialsDirty = true;
+        dirtyMaterials.insert(id);
+      } else if (dynamic_cast<Light*>(&changed)) {
+        lightsDirty = true;
+      } else if (changed.dirtyBits() != Clean) {  // cameras
+        camerasDirty = true;
+        changed.markClean();
+      }
+    } else if (const auto bprim = bprims_.find(id); bprim != bprims_.end()) {
+      bprim->second->markClean();
+    }
   }
-  // Mesh lights follow their meshes' geometry, transform and light inputs.
-  for (const auto& [id, prim] : prims_)
-    if (auto* mesh = dynamic_cast<Mesh*>(prim.get());
-        mesh && mesh->dirtyBits() != Clean && (mesh->light() || (mesh->dirtyBits() & DirtyParams)))
-      lightsDirty = true;
-  if (materialsDirty) syncMaterials();
+  if (materialsDirty) {
+    // The users of a changed material are placed again (it may cut them out now), all meshes
+    // when materials moved in the index; their own data is not synced again.
+    const bool indicesChanged = syncMaterials();
+    for (auto& [id, prim] : rprims_)
+      if (auto* user = dynamic_cast<Mesh*>(prim.get());
+          user && !user->materialId().empty() &&
+          (indicesChanged || dirtyMaterials.count(user->materialId())))
+        placeMesh(*user);
+  }
   if (lightsDirty) syncLights();
-  if (meshesDirty || materialsDirty) {
-    for (auto& [id, prim] : prims_)
-      if (auto* mesh = dynamic_cast<Mesh*>(prim.get())) syncMesh(*mesh, materialsDirty, dicing);
-    // After the meshes: copies follow their prototype's geometry, placed by the scene.
-    for (auto& [id, prim] : prims_)
-      if (auto* copies = dynamic_cast<Instancer*>(prim.get());
-          copies && copies->dirtyBits() != Clean)
-        syncInstancer(*copies);
-  }
-  for (auto& [id, prim] : prims_)
-    if ((dynamic_cast<Camera*>(prim.get()) || dynamic_cast<RenderBuffer*>(prim.get())) &&
-        prim->dirtyBits() != Clean)
-      prim->markClean();
+  for (Mesh* dirtyMesh : dirtyMeshes) syncMesh(*dirtyMesh, dicing);
+  // After the meshes: copies follow their prototype's geometry, placed by the scene.
+  for (Instancer* copies : dirtyInstancers) syncInstancer(*copies);
   materialsStructureChanged_ = lightsStructureChanged_ = meshesStructureChanged_ = false;
   const bool sceneChanged = materialsDirty || lightsDirty || meshesDirty;
   if (sceneChanged) {

@@ -302,6 +302,28 @@ ColorCorrection toColorCorrection(const std::string& mode) {
 
 }  // namespace
 
+/// Points of shape (N, 3), or (K, N, 3) for K samples over the shutter.
+void setMeshPoints(Mesh& mesh, const FloatArray& points) {
+  if (points.ndim() == 2) return mesh.setPoints(toVec3Array(points, "points"));
+  if (points.ndim() != 3 || points.shape(2) != 3 || points.shape(0) < 1)
+    throw std::invalid_argument(mesh.id() + ": points must have shape (N, 3) or (K, N, 3)");
+  const size_t count = size_t(points.shape(1));
+  std::vector<std::vector<Vec3f>> motion;
+  for (py::ssize_t k = 1; k < points.shape(0); ++k)
+    motion.push_back(toVec3Vector(points.data() + 3 * count * size_t(k), count));
+  mesh.setPoints(toVec3Vector(points.data(), count), std::move(motion));
+}
+
+/// Primvars as {name: (values, interpolation)}.
+std::vector<penumbra::Primvar> toMeshPrimvars(const std::string& id, const py::dict& primvars) {
+  std::vector<penumbra::Primvar> values;
+  for (const auto& [key, value] : primvars) {
+    const auto [array, interpolation] = value.cast<std::pair<FloatArray, std::string>>();
+    values.push_back(toPrimvar(id, py::str(key), array, toInterpolation(interpolation)));
+  }
+  return values;
+}
+
 PYBIND11_MODULE(_core, m) {
   m.doc() = "Penumbra's render delegate and image I/O (see docs/core-api.md)";
   py::register_exception_translator([](std::exception_ptr pointer) {
@@ -376,16 +398,33 @@ PYBIND11_MODULE(_core, m) {
           py::arg("corner_sharpnesses") = FloatArray(), py::arg("crease_indices") = IntArray(),
           py::arg("crease_lengths") = IntArray(), py::arg("crease_sharpnesses") = FloatArray())
       .def(
+          "set_mesh",
+          [](RenderDelegate& self, const std::string& id, const IntArray& counts,
+             const IntArray& indices, bool leftHanded, const std::string& subdivisionScheme,
+             const FloatArray& points, bool doubleSided, const FloatArray& displayColor,
+             const std::string& displayColorInterpolation, const FloatArray& normals,
+             const std::string& normalsInterpolation, const py::dict& primvars) {
+            // One call per mesh for what the setters below send one by one.
+            Mesh& mesh = self.mesh(id);
+            mesh.setTopology(toIntVector(counts, "face_vertex_counts"),
+                             toIntVector(indices, "face_vertex_indices"), leftHanded,
+                             subdivisionScheme);
+            setMeshPoints(mesh, points);
+            mesh.setDoubleSided(doubleSided);
+            mesh.setDisplayColor(toVec3Array(displayColor, "display colour"),
+                                 toInterpolation(displayColorInterpolation));
+            mesh.setNormals(toVec3Array(normals, "normals"), toInterpolation(normalsInterpolation));
+            mesh.setPrimvars(toMeshPrimvars(id, primvars));
+          },
+          py::arg("id"), py::kw_only(), py::arg("face_vertex_counts"),
+          py::arg("face_vertex_indices"), py::arg("left_handed"), py::arg("subdivision_scheme"),
+          py::arg("points"), py::arg("double_sided"), py::arg("display_color"),
+          py::arg("display_color_interpolation"), py::arg("normals"),
+          py::arg("normals_interpolation"), py::arg("primvars"))
+      .def(
           "set_mesh_points",
           [](RenderDelegate& self, const std::string& id, const FloatArray& points) {
-            if (points.ndim() == 2) return self.mesh(id).setPoints(toVec3Array(points, "points"));
-            if (points.ndim() != 3 || points.shape(2) != 3 || points.shape(0) < 1)
-              throw std::invalid_argument(id + ": points must have shape (N, 3) or (K, N, 3)");
-            const size_t count = size_t(points.shape(1));
-            std::vector<std::vector<Vec3f>> motion;
-            for (py::ssize_t k = 1; k < points.shape(0); ++k)
-              motion.push_back(toVec3Vector(points.data() + 3 * count * size_t(k), count));
-            self.mesh(id).setPoints(toVec3Vector(points.data(), count), std::move(motion));
+            setMeshPoints(self.mesh(id), points);
           },
           py::arg("id"), py::arg("points"))
       .def(
@@ -424,12 +463,7 @@ PYBIND11_MODULE(_core, m) {
       .def(
           "set_mesh_primvars",
           [](RenderDelegate& self, const std::string& id, const py::dict& primvars) {
-            std::vector<penumbra::Primvar> values;
-            for (const auto& [key, value] : primvars) {
-              const auto [array, interpolation] = value.cast<std::pair<FloatArray, std::string>>();
-              values.push_back(toPrimvar(id, py::str(key), array, toInterpolation(interpolation)));
-            }
-            self.mesh(id).setPrimvars(std::move(values));
+            self.mesh(id).setPrimvars(toMeshPrimvars(id, primvars));
           },
           py::arg("id"), py::arg("primvars"))
       .def(
@@ -593,6 +627,20 @@ PYBIND11_MODULE(_core, m) {
           "dirty_bits",
           [](RenderDelegate& self, const std::string& id) { return self.prim(id).dirtyBits(); },
           py::arg("id"))
+      .def(
+          "set_dicing_camera",
+          [](RenderDelegate& self, const std::string& cameraId) { self.setDicingCamera(cameraId); },
+          py::arg("camera_id"))
+      .def("dicing_camera", &RenderDelegate::dicingCamera)
+      .def("sync_statistics",
+           [](const RenderDelegate& self) {
+             const RenderDelegate::SyncStatistics stats = self.syncStatistics();
+             py::dict result;
+             result["meshGeometrySyncs"] = stats.meshGeometrySyncs;
+             result["subdivisionDicings"] = stats.subdivisionDicings;
+             result["meshBvhBuilds"] = stats.meshBvhBuilds;
+             return result;
+           })
       .def(
           "sync_count",
           [](RenderDelegate& self, const std::string& id) { return self.prim(id).syncCount(); },

@@ -9,7 +9,7 @@ import time as clock
 from collections.abc import Callable, Iterable
 
 import numpy as np
-from pxr import Sdf, Usd, UsdLux
+from pxr import Sdf, Usd
 
 from . import _core
 from .errors import SceneError, warn
@@ -19,17 +19,11 @@ from .memory import check_film, default_budget
 from .trace import Tracer
 from .usd.camera import camera_problem, read_shutter
 from .usd.camera_metadata import camera_metadata
-from .usd.default_light import (
-    DEFAULT_LIGHT_ID,
-    DefaultLight,
-    DefaultLightManager,
-    check_default_light,
-)
-from .usd.instancers import PointInstancerDelegate
-from .usd.lights import LIGHT_SPRIM_TYPES
+from .usd.default_light import DefaultLight, DefaultLightManager, check_default_light
 from .usd.mtlx_documents import compose_materialx_documents
+from .usd.point_instancers import PointInstancerDelegate
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
-from .usd.settings import FilmWindow, RenderSettings, film_window
+from .usd.settings import FilmWindow, film_window, find_camera
 from .usd import (
     DEFAULT_PURPOSES,
     RenderSettings,
@@ -113,7 +107,9 @@ class Renderer:
         self.delegate = _core.RenderDelegate(ocio_config=ocio_config_path())
         """The ``penumbra._core.RenderDelegate`` holding the synced scene (for inspection)."""
         self._scene = SceneDelegate(stage, self.delegate, purposes)
-        self._instancers = PointInstancerDelegate(stage, self.delegate, purposes, warn)
+        self._instancers = PointInstancerDelegate(
+            stage, self.delegate, purposes, warn, self._scene.materials
+        )
         self._passes: dict[tuple[str, int, int], _core.RenderPass] = {}
         self._default_light = DefaultLightManager(self.delegate, stage_name(stage))
         self.tracer = Tracer(enabled=False)
@@ -178,6 +174,7 @@ class Renderer:
         max_memory: int | None = None,
         denoise: bool = False,
         region: tuple[int, int, int, int] | None = None,
+        dicing_camera: str | Sdf.Path | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -213,13 +210,19 @@ class Renderer:
         left, rows from the top, as :meth:`image_size` counts them) to render alone, e.g. a farm
         tile: the image returned holds those pixels, bit-identical to the same pixels of the
         whole image (with adaptive sampling, the pixels around them that its convergence tests
-        look at are rendered too and dropped). Raises :class:`penumbra.SceneError` when the
+        look at are rendered too and dropped). ``dicing_camera``: the camera (path or bare
+        name) subdivision surfaces are diced for, from this render on; they are re-diced when it
+        moves. By default they are diced for the camera and width of the renderer's first
+        render and kept so, so that moving or switching the view camera re-dices nothing.
+        Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
         skipped prims are :class:`penumbra.PenumbraWarning`.
         """
         if samples < 1:
             raise ValueError(f"samples must be at least 1, not {samples}")
         check_default_light(default_light)
+        if dicing_camera is not None:
+            self.delegate.set_dicing_camera(str(find_camera(self.stage, dicing_camera).GetPath()))
         aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
         time_code, settings, camera_prim, (width, height), window = self._framing(
             camera, time, width, height, render_settings
@@ -254,7 +257,7 @@ class Renderer:
             )
             self._default_light.update(
                 default_light,
-                self._stage_has_lights(),
+                self._scene.has_lights(),
                 camera_prim,
                 time_code,
                 dome_light_visibility,
@@ -386,19 +389,6 @@ class Renderer:
                 self.delegate, camera_id, width, height, crop=crop, margin=margin
             )
         return self._passes[key]
-
-    def _stage_has_lights(self) -> bool:
-        """Whether the synced stage has lights of its own (UsdLux lights or meshes with
-        UsdLuxMeshLightAPI)."""
-        return any(
-            self._scene.prim_kind(prim_id) in LIGHT_SPRIM_TYPES
-            or (
-                self._scene.prim_kind(prim_id) == "mesh"
-                and self.stage.GetPrimAtPath(prim_id).HasAPI(UsdLux.MeshLightAPI)
-            )
-            for prim_id in self.delegate.prim_ids()
-            if prim_id != DEFAULT_LIGHT_ID
-        )
 
     def _forward_warnings(self) -> None:
         for message in self.delegate.take_warnings():

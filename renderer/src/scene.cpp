@@ -1,6 +1,7 @@
 #include "penumbra/scene.h"
 
 #include <algorithm>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -258,8 +259,41 @@ void Scene::removeMesh(MeshId id) {
   meshes_[id].reset();
 }
 
+namespace {
+
+template <typename T>
+bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+/// Whether two meshes have the same triangles at the same points (bit for bit) at every step.
+bool sameSurface(const TriangleMesh& a, const TriangleMesh& b) {
+  if (!sameBits(a.triangles, b.triangles) || !sameBits(a.points, b.points) ||
+      a.pointMotion.size() != b.pointMotion.size())
+    return false;
+  for (size_t step = 0; step < a.pointMotion.size(); ++step)
+    if (!sameBits(a.pointMotion[step], b.pointMotion[step])) return false;
+  return true;
+}
+}  // namespace
+
 void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
   MeshRecord& mesh = record(id);
+  if (mesh.data && mesh.triangles && sameSurface(data, *mesh.data)) {
+    // Same surface: its BVH stands; the hit filter follows the sidedness.
+    const bool sidednessChanged = data.doubleSided != mesh.data->doubleSided;
+    mesh.data = std::make_shared<const TriangleMesh>(std::move(data));
+    if (sidednessChanged) {
+      rtcSetGeometryIntersectFilterFunction(
+          mesh.triangles, mesh.cutoutFilter || !mesh.data->doubleSided ? filterHits : nullptr);
+      rtcCommitGeometry(mesh.triangles);
+      rtcCommitScene(mesh.bvh);
+      throwOnEmbreeError(device_, "update a mesh's hit filters");
+    }
+    return;
+  }
   RTCScene bvh = nullptr;
   if (!data.triangles.empty()) {
     bvh = rtcNewScene(device_);
@@ -294,6 +328,7 @@ void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
     rtcReleaseGeometry(triangles);  // `bvh` keeps it
     rtcCommitScene(bvh);
     throwOnEmbreeError(device_, "build a mesh BVH");
+    ++meshBvhBuilds_;
     mesh.triangles = triangles;
   } else {
     mesh.triangles = nullptr;

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <numeric>
+#include <set>
 
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
@@ -426,6 +427,28 @@ TEST(RenderDelegate, InstancersPlaceCopiesOfAPrototype) {
   EXPECT_EQ(
       warnings[0],
       "/copies: prototype /proto is not a mesh in the render index; the instances are skipped");
+}
+
+TEST(RenderDelegate, PrototypesKnowTheirInstancers) {
+  RenderDelegate delegate;
+  addFloor(delegate, "/a", 0.25f);
+  addFloor(delegate, "/b", 0.25f);
+  delegate.insertRprim("instancer", "/copies");
+  delegate.instancer("/copies").setInstances("/a", {translation(-1, 0, 0)});
+  addCamera(delegate, facingDown(0, 5, 0), 1);
+  RenderPass pass(delegate, "/cam", 8, 8);
+  pass.execute(1);
+  EXPECT_EQ(delegate.mesh("/a").instancers(), std::set<PrimId>{"/copies"});
+  // Copying another mesh leaves a stale entry on the first: removing it must not touch the
+  // copies, nor fail once the instancer itself is gone.
+  delegate.instancer("/copies").setInstances("/b", {translation(1, 0, 0)});
+  pass.execute(1);
+  EXPECT_EQ(delegate.mesh("/b").instancers(), std::set<PrimId>{"/copies"});
+  delegate.removePrim("/copies");
+  EXPECT_TRUE(delegate.mesh("/b").instancers().empty());
+  delegate.removePrim("/a");
+  pass.execute(1);
+  EXPECT_TRUE(delegate.takeWarnings().empty());
 }
 
 TEST(Render, MeshLightsMatchTheEquivalentRectLight) {

@@ -322,7 +322,7 @@ class RecordingCore:
         self.calls = {}
 
     def __getattr__(self, name):
-        return lambda *args, **kwargs: self.calls.setdefault(name, []).append(args)
+        return lambda *args, **kwargs: self.calls.setdefault(name, []).append((args, kwargs))
 
 
 def test_a_radius_keyed_within_the_shutter_gives_deformation_samples():
@@ -333,14 +333,14 @@ def test_a_radius_keyed_within_the_shutter_gives_deformation_samples():
     reader = SampleReader(Usd.TimeCode(1.0), Shutter(Usd.TimeCode(1.0), -0.5, 0.5))
     assert sync_mesh_data(core, ball.GetPrim(), reader, lambda message: None)
     assert reader.varying
-    (_, points), = core.calls["set_mesh_points"]
+    (_, mesh), = core.calls["set_mesh"]  # one call per mesh
+    points = mesh["points"]
     assert points.ndim == 3 and points.shape[0] >= 2
     radii = np.linalg.norm(points[:, 0], axis=-1)  # the bottom pole over the shutter
     assert radii[0] == pytest.approx(1.0) and radii[-1] == pytest.approx(1.5)
-    (_, counts, indices, left_handed, scheme), = core.calls["set_mesh_topology"]
-    assert (left_handed, scheme) == (False, "none")
-    (_, normals, interpolation), = core.calls["set_mesh_normals"]
-    assert interpolation == "faceVarying" and normals.shape == (len(indices), 3)
+    assert (mesh["left_handed"], mesh["subdivision_scheme"]) == (False, "none")
+    normals, indices = mesh["normals"], mesh["face_vertex_indices"]
+    assert mesh["normals_interpolation"] == "faceVarying" and normals.shape == (len(indices), 3)
 
 
 def test_purpose_instance_proxies_and_point_instancer_prototypes():

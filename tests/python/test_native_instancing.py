@@ -12,7 +12,7 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
 import penumbra
-from penumbra.usd.instancers import spin_matrices
+from penumbra.usd.flattening import spin_matrices
 from stages import (
     add_camera,
     add_instance,

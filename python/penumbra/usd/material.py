@@ -46,6 +46,16 @@ def bound_material(prim: Usd.Prim) -> Usd.Prim | None:
     return material.GetPrim() if material else None
 
 
+def bound_materials(prims: list[Usd.Prim]) -> list[Sdf.Path | None]:
+    """The paths of the materials bound to ``prims`` for final renders, as
+    :func:`bound_material` gives them, computed in one batch (the binding API shares its work
+    between prims with common ancestors)."""
+    if not prims:
+        return []
+    materials, _ = UsdShade.MaterialBindingAPI.ComputeBoundMaterials(prims, UsdShade.Tokens.full)
+    return [material.GetPath() if material else None for material in materials]
+
+
 def has_subset_bindings(prim: Usd.Prim) -> bool:
     """Whether ``prim`` binds materials per face through GeomSubsets."""
     return bool(UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets())

@@ -37,17 +37,19 @@ def sync_mesh_data(
     if not prim.IsA(UsdGeom.Mesh):
         return _sync_implicit(core, prim, path, reader)
     mesh = UsdGeom.Mesh(prim)
-    arrays = {
-        "points": (mesh.GetPointsAttr(), _is_vec3_array),
-        "faceVertexCounts": (mesh.GetFaceVertexCountsAttr(), _is_int_array),
-        "faceVertexIndices": (mesh.GetFaceVertexIndicesAttr(), _is_int_array),
-    }
     values = {}
-    for name, (attr, valid) in arrays.items():
+    for name, attr, valid in (
+        ("points", mesh.GetPointsAttr(), _as_vec3_array),
+        ("faceVertexCounts", mesh.GetFaceVertexCountsAttr(), _as_int_array),
+        ("faceVertexIndices", mesh.GetFaceVertexIndicesAttr(), _as_int_array),
+    ):
         value = reader.get(attr)
-        if value is not None and not valid(value):
-            warn(f"{path}: {name} has type {_value_type(value)}, which a mesh cannot use; skipped")
-            return False
+        if value is not None:
+            array = valid(value)
+            if array is None:
+                warn(f"{path}: {name} has type {_value_type(value)}, which a mesh cannot use; skipped")
+                return False
+            value = array
         values[name] = value
     missing = [name for name, value in values.items() if value is None or len(value) == 0]
     if missing:
@@ -56,8 +58,7 @@ def sync_mesh_data(
     points, counts, indices = values["points"], values["faceVertexCounts"], values["faceVertexIndices"]
 
     left_handed = reader.get(mesh.GetOrientationAttr()) == UsdGeom.Tokens.leftHanded
-    scheme = reader.get(mesh.GetSubdivisionSchemeAttr()) or UsdGeom.Tokens.catmullClark
-    at_frame = np.asarray(points, dtype=np.float32).reshape(-1, 3)
+    scheme = str(reader.get(mesh.GetSubdivisionSchemeAttr()) or UsdGeom.Tokens.catmullClark)
     push_mesh(
         core,
         prim,
@@ -65,10 +66,10 @@ def sync_mesh_data(
         reader,
         counts=counts,
         indices=indices,
-        points=point_samples(mesh, at_frame, reader, warn, path),
-        normals=_normals(mesh, reader, warn, path),
+        points=point_samples(mesh, points, reader, warn, path),
+        normals=_normals(mesh, scheme, reader, warn, path),
         left_handed=left_handed,
-        scheme=str(scheme),
+        scheme=scheme,
         primvars=_primvars(prim, reader, warn, path),
     )
     if scheme != UsdGeom.Tokens.none:
@@ -90,26 +91,28 @@ def push_mesh(
     scheme: str = UsdGeom.Tokens.none,
     primvars: dict[str, tuple[np.ndarray, str]] | None = None,
 ) -> None:
-    """Push a polygon mesh (or subdivision cage) of gprim ``prim`` as delegate prim ``path``:
-    the given topology, points (float32 (N, 3) or (K, N, 3) motion samples), normals
-    (values, interpolation) and primvars (name → (values, interpolation); by default the
-    gprim's constant ones), then what the gprim itself says — sidedness, displayColor and
-    UsdLuxMeshLightAPI."""
-    core.set_mesh_topology(
-        path,
-        np.asarray(counts, dtype=np.int32),
-        np.asarray(indices, dtype=np.int32),
-        left_handed,
-        scheme,
-    )
-    core.set_mesh_points(path, points)
-    core.set_mesh_double_sided(path, bool(reader.get(UsdGeom.Gprim(prim).GetDoubleSidedAttr())))
-    colors, interpolation = _display_color(prim, reader)
-    core.set_mesh_display_color(path, colors, interpolation)
-    core.set_mesh_normals(path, *normals)
+    """Push a polygon mesh (or subdivision cage) of gprim ``prim`` as delegate prim ``path``
+    in one call: the given topology, points (float32 (N, 3) or (K, N, 3) motion samples),
+    normals (values, interpolation) and primvars (name → (values, interpolation); by default
+    the gprim's constant ones), with what the gprim itself says — sidedness and displayColor;
+    then its UsdLuxMeshLightAPI."""
     if primvars is None:
         primvars = _primvars(prim, reader, None, path, constant_only=True)
-    core.set_mesh_primvars(path, primvars)
+    colors, interpolation = _display_color(prim, reader)
+    core.set_mesh(
+        path,
+        face_vertex_counts=np.asarray(counts, dtype=np.int32),
+        face_vertex_indices=np.asarray(indices, dtype=np.int32),
+        left_handed=left_handed,
+        subdivision_scheme=scheme,
+        points=points,
+        double_sided=bool(reader.get(UsdGeom.Gprim(prim).GetDoubleSidedAttr())),
+        display_color=colors,
+        display_color_interpolation=interpolation,
+        normals=normals[0],
+        normals_interpolation=normals[1],
+        primvars=primvars,
+    )
     sync_mesh_light(core, prim, path, reader)
 
 
@@ -144,15 +147,21 @@ def _sync_implicit(core, prim: Usd.Prim, path: str, reader: SampleReader) -> boo
 # Attributes authored with another type than the schema's keep their authored type: check it.
 
 
-def _is_vec3_array(value) -> bool:
-    """Whether ``value`` is an array of 3-vectors (float or double)."""
+def _as_vec3_array(value) -> np.ndarray | None:
+    """``value`` as float32 (N, 3) if it is an array of 3-vectors (float or double), else
+    ``None``."""
     array = np.asarray(value)
-    return array.ndim == 2 and array.shape[1] == 3 and array.dtype.kind == "f"
+    if array.ndim == 2 and array.shape[1] == 3 and array.dtype.kind == "f":
+        return array.astype(np.float32, copy=False)
+    return None
 
 
-def _is_int_array(value) -> bool:
+def _as_int_array(value) -> np.ndarray | None:
+    """``value`` as an int32 array if it is an array of integers, else ``None``."""
     array = np.asarray(value)
-    return array.ndim == 1 and array.dtype.kind in "iu"
+    if array.ndim == 1 and array.dtype.kind in "iu":
+        return array.astype(np.int32, copy=False)
+    return None
 
 
 def _value_type(value) -> str:
@@ -161,13 +170,13 @@ def _value_type(value) -> str:
 
 
 def _normals(
-    mesh: UsdGeom.Mesh, reader: SampleReader, warn: Callable[[str], None], path: str
+    mesh: UsdGeom.Mesh, scheme: str, reader: SampleReader, warn: Callable[[str], None], path: str
 ) -> tuple[np.ndarray, str]:
     """Authored shading normals (``primvars:normals`` wins over ``normals``, as in USD) and their
     interpolation; no values when none are authored, when they are not an array of 3-vectors
     (with a warning), or when the mesh is subdivided (its limit normals are used then)."""
     none = np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.vertex
-    if reader.get(mesh.GetSubdivisionSchemeAttr()) not in (None, UsdGeom.Tokens.none):
+    if scheme != UsdGeom.Tokens.none:
         return none
     primvar = UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetPrimvar(UsdGeom.Tokens.normals)
     if primvar and primvar.HasValue():
@@ -178,10 +187,11 @@ def _normals(
         values = reader.get(attr)
     if values is None or len(np.asarray(values).reshape(-1)) == 0:
         return none
-    if not _is_vec3_array(values):
+    array = _as_vec3_array(values)
+    if array is None:
         warn(f"{path}: normals have type {_value_type(values)}, not 3-vectors; the mesh is shaded flat")
         return none
-    return np.asarray(values, dtype=np.float32).reshape(-1, 3), str(interpolation)
+    return array, str(interpolation)
 
 
 # Primvars the delegate receives through their own calls.

@@ -5,7 +5,7 @@ as a hidden mesh rprim read from the prototype prim, and one instancer rprim pla
 instance: the instance root's world transform × the mesh's transform relative to the prototype
 (motion-sampled over the shutter like any transform). Nested instancing — instanceable prims and
 point instancers inside prototypes, and deeper — is flattened by
-:class:`~penumbra.usd.instancers.Flattener` into the same instancers, sharing the innermost
+:class:`~penumbra.usd.flattening.Flattener` into the same instancers, sharing the innermost
 mesh's BVH.
 
 * Materials resolve on the instance proxy (bindings on an instance or its ancestors may differ
@@ -16,11 +16,11 @@ mesh's BVH.
 * Lights and cameras inside prototypes stay instance proxies of the scene delegate.
 
 Top-level instances are instanceable prims outside prototypes and outside point instancers
-(whose prototypes :class:`~penumbra.usd.instancers.PointInstancerDelegate` flattens). Any edit
+(whose prototypes :class:`~penumbra.usd.point_instancers.PointInstancerDelegate` flattens). Any edit
 that can change the placement, visibility, purpose or binding of copies — below a prototype,
 on or above an instance, a binding anywhere, prims added or removed — re-flattens the instances
 (cheap: transforms only); meshes are read again only when edited, or at a new shutter when
-time-varying (see :class:`~penumbra.usd.instancers.InstancedMeshes`).
+time-varying (see :class:`~penumbra.usd.instanced_meshes.InstancedMeshes`).
 """
 
 from __future__ import annotations
@@ -29,20 +29,17 @@ from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom, UsdShade
+from pxr import Sdf, Usd, UsdGeom
 
-from .instancers import (
+from .flattening import (
     Flattener,
-    Group,
-    GroupKey,
-    InstancedMeshes,
-    MaterialSource,
     combine_segments,
-    group_leaves,
     inherited_primvars,
     nest_primvars,
     outer_primvars,
 )
+from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
+from .material import bound_materials
 from .sampling import SampleReader, Shutter, visibility_might_vary
 
 
@@ -165,7 +162,7 @@ class NativeInstancing:
                     )
                     for n in kept
                 )
-        materials = _bound_materials(proxies)
+        materials = bound_materials(proxies)
         reader = SampleReader(frame)
         inherited = {
             instance.GetPath(): inherited_primvars(instance, reader, self.warn)
@@ -206,11 +203,3 @@ def _held(matrices: np.ndarray, segments: int) -> np.ndarray:
     """(K, 4, 4) ``matrices`` with a static transform held over the grid of ``segments``."""
     samples = segments + 1 if segments else 1
     return matrices if len(matrices) == samples else np.repeat(matrices[:1], samples, axis=0)
-
-
-def _bound_materials(proxies: list[Usd.Prim]) -> list[Sdf.Path | None]:
-    """The material bound to each prim (final-render purpose), resolved in one batch."""
-    if not proxies:
-        return []
-    materials, _ = UsdShade.MaterialBindingAPI.ComputeBoundMaterials(proxies, UsdShade.Tokens.full)
-    return [m.GetPath() if m else None for m in materials]

@@ -24,36 +24,37 @@ delegate's materials and hears of the same stage edits.
 
 from __future__ import annotations
 
-import enum
 import weakref
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdVol
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade, UsdVol
 
 from ..errors import warn
 from .camera import sync_camera
 from .implicit import is_implicit
 from .lights import is_light, light_type, sync_light
-from .material import bound_material, has_subset_bindings, push_material, read_material
+from .material import bound_materials, has_subset_bindings, push_material, read_material
 from .mesh import sync_mesh_data
 from .motion import XformCaches, transform_samples
 from .native_instancing import NativeInstancing
-from .sampling import SampleReader, Shutter, transform_might_vary, visibility_might_vary
+from .inherited import InheritedState
+from .sampling import SampleReader, Shutter
 from .settings import FilmWindow
 
 DEFAULT_PURPOSES = ("default", "proxy")
 """usdrecord's default: the "default" purpose plus "proxy"."""
 
 
-class Dirty(enum.IntFlag):
-    """The aspects of a prim that can be re-read independently."""
+class Dirty:
+    """The aspects of a prim that can be re-read independently: bits of a plain ``int`` (an
+    ``enum.IntFlag`` costs microseconds per operation, which a sync of 100,000 prims feels)."""
 
-    DATA = enum.auto()  # the prim's own attributes (geometry, camera, light inputs)
-    TRANSFORM = enum.auto()
-    VISIBILITY = enum.auto()
-    BINDING = enum.auto()  # meshes: which material is bound
+    DATA = 1  # the prim's own attributes (geometry, camera, light inputs)
+    TRANSFORM = 2
+    VISIBILITY = 4
+    BINDING = 8  # meshes: which material is bound
     ALL = DATA | TRANSFORM | VISIBILITY | BINDING
 
 
@@ -72,7 +73,7 @@ class _Prim:
 
     kind: str  # the delegate's prim type: "mesh", "camera", "rectLight", ...
     in_core: bool = False  # False while the prim is unusable (e.g. a mesh without points)
-    varying: Dirty = Dirty(0)  # aspects whose inputs might vary with time
+    varying: int = 0  # aspects whose inputs might vary with time
     material: str = ""  # meshes: id of the bound material ("" = none)
 
 
@@ -108,16 +109,19 @@ class SceneDelegate:
         self.film_windows: dict[str, FilmWindow] = {}
         self._prims: dict[Sdf.Path, _Prim] = {}
         self._materials: dict[Sdf.Path, _Material] = {}
-        self._dirty: dict[Sdf.Path, Dirty] = {}
+        self._dirty: dict[Sdf.Path, int] = {}
         self._dirty_materials: set[Sdf.Path] = set()
         self._resynced: set[Sdf.Path] = set()
         self._changed: set[Sdf.Path] = set()
         self._unsupported: dict[str, list[Sdf.Path]] = {}
+        self._roles: dict[str, str | None] = {}
+        self._inherited = InheritedState()
+        self._emitters: set[Sdf.Path] = set()  # synced lights and UsdLuxMeshLightAPI meshes
         self._warn = _OnceWarner()
         # Weak: a cycle through the helper would keep the stage alive until the next collection.
-        self._native = NativeInstancing(
-            stage, core, self.purposes, self._warn, _SceneMaterials(weakref.proxy(self))
-        )
+        self.materials = _SceneMaterials(weakref.proxy(self))
+        """The one material registry, shared with native and point instancing."""
+        self._native = NativeInstancing(stage, core, self.purposes, self._warn, self.materials)
         self._listener = Tf.Notice.Register(
             Usd.Notice.ObjectsChanged, self._on_objects_changed, stage
         )
@@ -177,14 +181,21 @@ class SceneDelegate:
                 )
             self.shutter, self.time, self.depth_of_field = shutter, shutter.frame, depth_of_field
             for path, record in self._prims.items():
-                bits = record.varying if time_changed else Dirty(0)
+                bits = record.varying if time_changed else 0
                 if lens_changed and record.kind == "camera":
                     bits |= Dirty.DATA
                 if bits:
                     self._mark(path, bits)
+        self._inherited.at(self.time)
         self._flush()
+        self._inherited.forget()  # the stage may be edited before the next update
         self._native.update(shutter)
         self._report_unsupported()
+
+    def has_lights(self) -> bool:
+        """Whether the synced stage has lights of its own (UsdLux lights or meshes with
+        UsdLuxMeshLightAPI), known without looking at its prims again."""
+        return bool(self._emitters)
 
     def prim_kind(self, path: str) -> str | None:
         """The delegate prim type tracked at ``path`` (``None`` if untracked)."""
@@ -206,22 +217,40 @@ class SceneDelegate:
 
     def _classify(self, prim: Usd.Prim) -> str | None:
         """The delegate prim type for ``prim``, or ``None`` when it is not rendered."""
-        if prim.IsA(UsdGeom.Camera):
-            return "camera"
-        sprim_type = light_type(prim)
-        if sprim_type is not None:
-            return sprim_type
-        if prim.IsA(UsdGeom.Mesh) or is_implicit(prim):  # implicit surfaces: tessellated
-            if prim.IsInstanceProxy():
+        role = self._role_of_type(prim)
+        if role in ("mesh", "unsupported"):
+            if role == "mesh" and prim.IsInstanceProxy():
                 return None  # natively instanced: NativeInstancing
-            purpose = UsdGeom.Imageable(prim).ComputePurpose()
-            return "mesh" if purpose in self.purposes else None
-        renderable = (UsdGeom.Gprim, UsdVol.Volume)  # point instancers: PointInstancerDelegate
-        if any(prim.IsA(schema) for schema in renderable) or is_light(prim):
-            if UsdGeom.Imageable(prim).ComputePurpose() in self.purposes:
+            if self._inherited.purpose(prim) not in self.purposes:
+                return None
+            if role == "mesh":
+                return "mesh"
+        elif role is not None:
+            return role  # a camera or a light
+        if role == "unsupported" or is_light(prim):
+            if role is not None or self._inherited.purpose(prim) in self.purposes:
                 type_name = prim.GetTypeName() or "untyped"
                 self._unsupported.setdefault(type_name, []).append(prim.GetPath())
         return None
+
+    def _role_of_type(self, prim: Usd.Prim) -> str | None:
+        """What prims of ``prim``'s type are (as UsdImaging finds its prim adapters by type
+        name): "camera", a light type, "mesh" (meshes and implicit surfaces), "unsupported"
+        (other gprims and volumes) or ``None``; decided once per type name by its schema."""
+        type_name = prim.GetTypeName()
+        if type_name in self._roles:
+            return self._roles[type_name]
+        role: str | None = None
+        if prim.IsA(UsdGeom.Camera):
+            role = "camera"
+        elif (sprim_type := light_type(prim)) is not None:
+            role = sprim_type
+        elif prim.IsA(UsdGeom.Mesh) or is_implicit(prim):
+            role = "mesh"
+        elif prim.IsA(UsdGeom.Gprim) or prim.IsA(UsdVol.Volume):
+            role = "unsupported"  # point instancers: PointInstancerDelegate
+        self._roles[type_name] = role
+        return role
 
     def _traverse(self, root: Usd.Prim) -> Iterator[tuple[Sdf.Path, str]]:
         """``(path, kind)`` of the prims to render under ``root`` (instance proxies included;
@@ -292,15 +321,23 @@ class SceneDelegate:
         elif prim_path in self._prims:
             self._mark(prim_path, Dirty.DATA if name else Dirty.ALL)
 
-    def _mark(self, path: Sdf.Path, bits: Dirty) -> None:
+    def _mark(self, path: Sdf.Path, bits: int) -> None:
         record = self._prims.get(path)
         if record is not None:
-            self._dirty[path] = self._dirty.get(path, Dirty(0)) | (bits & _aspects(record.kind))
+            self._dirty[path] = self._dirty.get(path, 0) | (bits & _aspects(record.kind))
 
-    def _mark_subtree(self, root: Sdf.Path, bits: Dirty) -> None:
-        for path in self._prims:
-            if path.HasPrefix(root):
-                self._mark(path, bits)
+    def _mark_subtree(self, root: Sdf.Path, bits: int) -> None:
+        for path in self._tracked_under(root):
+            self._mark(path, bits)
+
+    def _tracked_under(self, root: Sdf.Path) -> list[Sdf.Path]:
+        """The tracked prims at or below ``root``, found in time proportional to the subtree
+        (an edit of one leaf prim costs no walk over every tracked prim)."""
+        prim = self.stage.GetPrimAtPath(root)
+        if not prim:
+            return [path for path in self._prims if path.HasPrefix(root)]
+        subtree = Usd.PrimRange(prim, Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate))
+        return [p.GetPath() for p in subtree if p.GetPath() in self._prims]
 
     def _resync(self, root: Sdf.Path) -> None:
         """Re-populate the subtree at ``root``: remove what is gone, insert what is new, and
@@ -322,6 +359,7 @@ class SceneDelegate:
     def _remove(self, path: Sdf.Path) -> None:
         record = self._prims.pop(path)
         self._dirty.pop(path, None)
+        self._emitters.discard(path)
         if record.in_core:
             self.core.remove_prim(str(path))
         if record.material:
@@ -334,15 +372,37 @@ class SceneDelegate:
         while self._dirty or self._dirty_materials:
             xform_caches = XformCaches()
             dirty, self._dirty = self._dirty, {}
-            for path in sorted(dirty):
-                if path in self._prims:
-                    self._sync_prim(path, dirty[path], xform_caches)
+            paths = [path for path in sorted(dirty) if path in self._prims]
+            bound = self._bound_materials(
+                path
+                for path in paths
+                if self._prims[path].kind == "mesh"
+                and (dirty[path] & Dirty.BINDING or not self._prims[path].in_core)
+            )
+            for path in paths:
+                self._sync_prim(path, dirty[path], xform_caches, bound)
             materials, self._dirty_materials = self._dirty_materials, set()
             for path in sorted(materials):
                 if path in self._materials:
                     self._sync_material(path)
 
-    def _sync_prim(self, path: Sdf.Path, bits: Dirty, xform_caches: XformCaches) -> None:
+    def _bound_materials(self, paths: Iterable[Sdf.Path]) -> dict[Sdf.Path, Sdf.Path | None]:
+        """The materials bound to the meshes at ``paths``, computed in one batch."""
+        prims = [self.stage.GetPrimAtPath(path) for path in paths]
+        if not prims:
+            return {}
+        return {
+            prim.GetPath(): material_path
+            for prim, material_path in zip(prims, bound_materials(prims))
+        }
+
+    def _sync_prim(
+        self,
+        path: Sdf.Path,
+        bits: int,
+        xform_caches: XformCaches,
+        bound: dict[Sdf.Path, Sdf.Path | None],
+    ) -> None:
         record = self._prims[path]
         prim = self.stage.GetPrimAtPath(path)
         if not record.in_core:
@@ -358,7 +418,12 @@ class SceneDelegate:
                 if not sync_mesh_data(self.core, prim, reader, self._warn):
                     self.core.remove_prim(path_str)
                     record.in_core = False
+                    self._emitters.discard(path)
                     return
+                if prim.HasAPI(UsdLux.MeshLightAPI):
+                    self._emitters.add(path)
+                else:
+                    self._emitters.discard(path)
             elif record.kind == "camera":
                 if not sync_camera(
                     self.core, prim, reader, self.depth_of_field, self.film_windows.get(path_str)
@@ -368,6 +433,7 @@ class SceneDelegate:
                     return
             else:
                 sync_light(self.core, prim, reader, self._warn, self.dome_light_visibility)
+                self._emitters.add(path)
             record.varying = _set_flag(record.varying, Dirty.DATA, reader.varying)
         if bits & Dirty.TRANSFORM:
             matrices = transform_samples(prim, shutter, xform_caches)
@@ -375,15 +441,16 @@ class SceneDelegate:
             if problem:
                 self._warn(f"{path_str}: the world transform {problem}; the prim is not rendered")
             self.core.set_transform(path_str, matrices)
-            record.varying = _set_flag(record.varying, Dirty.TRANSFORM, transform_might_vary(prim))
-        if bits & Dirty.VISIBILITY:
-            visibility = UsdGeom.Imageable(prim).ComputeVisibility(self.time)
-            self.core.set_visible(path_str, visibility != UsdGeom.Tokens.invisible)
             record.varying = _set_flag(
-                record.varying, Dirty.VISIBILITY, visibility_might_vary(prim)
+                record.varying, Dirty.TRANSFORM, self._inherited.transform_might_vary(prim)
+            )
+        if bits & Dirty.VISIBILITY:
+            self.core.set_visible(path_str, self._inherited.visible(prim))
+            record.varying = _set_flag(
+                record.varying, Dirty.VISIBILITY, self._inherited.visibility_might_vary(prim)
             )
         if bits & Dirty.BINDING:
-            self._sync_binding(path, record, prim)
+            self._sync_binding(path, record, prim, bound[path])
 
     def _insert(self, path: str, kind: str) -> None:
         if kind == "mesh":
@@ -391,14 +458,14 @@ class SceneDelegate:
         else:
             self.core.insert_sprim(kind, path)
 
-    def _sync_binding(self, path: Sdf.Path, record: _Prim, prim: Usd.Prim) -> None:
+    def _sync_binding(
+        self, path: Sdf.Path, record: _Prim, prim: Usd.Prim, material_path: Sdf.Path | None
+    ) -> None:
         if has_subset_bindings(prim):
             self._warn(
                 f"{path}: per-face material bindings (GeomSubsets) are not supported yet; "
                 "the mesh's own binding is used"
             )
-        material_prim = bound_material(prim)
-        material_path = material_prim.GetPath() if material_prim else None
         old = Sdf.Path(record.material) if record.material else None
         if material_path != old:
             if old is not None:
@@ -473,8 +540,8 @@ class _OnceWarner:
 
 
 class _SceneMaterials:
-    """The scene delegate's materials, shared with the hidden meshes of native instancing
-    (users named by their delegate ids)."""
+    """The scene delegate's materials, shared with the hidden meshes of native and point
+    instancing (users named by their delegate ids)."""
 
     def __init__(self, scene: SceneDelegate):
         self._scene = scene
@@ -504,11 +571,11 @@ def _transform_problem(matrices: np.ndarray) -> str | None:
     return None
 
 
-def _aspects(kind: str) -> Dirty:
+def _aspects(kind: str) -> int:
     return _ASPECTS.get(kind, _LIGHT_ASPECTS)
 
 
-def _set_flag(flags: Dirty, flag: Dirty, on: bool) -> Dirty:
+def _set_flag(flags: int, flag: int, on: bool) -> int:
     return flags | flag if on else flags & ~flag
 
 

@@ -82,8 +82,11 @@ class Scene {
 
   MeshId addMesh();
   void removeMesh(MeshId id);
-  /// Replaces the mesh's geometry and rebuilds its BVH.
+  /// Replaces the mesh's geometry and rebuilds its BVH, unless its points and triangles are
+  /// those it has already (a primvar or sidedness edit): then only the shading data changes.
   void setMeshGeometry(MeshId id, TriangleMesh mesh);
+  /// How many mesh BVHs setMeshGeometry has built.
+  uint64_t meshBvhBuilds() const { return meshBvhBuilds_; }
   /// Drops the mesh's geometry (it stays registered but renders nothing).
   void clearMeshGeometry(MeshId id);
   /// Places the mesh; an animated transform gives Embree multi-segment instance motion.
@@ -231,6 +234,7 @@ class Scene {
   std::vector<uint32_t> areaLights_;  // light index of each primitive of lightScene_
   float sceneExtent_ = 1;
   bool spectral_ = false;
+  uint64_t meshBvhBuilds_ = 0;
 };
 
 }  // namespace penumbra

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,12 @@ class Mesh : public Prim {
   /// How camera rays treat the mesh (a render pass's cameraVisibility and matte collections).
   void setPassVisibility(PassVisibility pass);
 
+  /// The instancers placing copies of this mesh (cf. HdRprim::GetInstancerId, from the
+  /// prototype's side): kept by the render delegate as instancers sync.
+  const std::set<PrimId>& instancers() const { return instancers_; }
+  void addInstancer(const PrimId& instancer) { instancers_.insert(instancer); }
+  void removeInstancer(const PrimId& instancer) { instancers_.erase(instancer); }
+
   Scene::MeshId handle() const { return handle_; }
   const MeshData& data() const { return data_; }
   const PrimId& materialId() const { return materialId_; }
@@ -65,6 +72,7 @@ class Mesh : public Prim {
   MotionTransform objectToWorld_;
   bool visible_ = true;
   PassVisibility pass_;
+  std::set<PrimId> instancers_;
 };
 
 }  // namespace penumbra::plugin

@@ -1,10 +1,13 @@
 // Base of every prim in the render index, with Hydra's change tracking: the scene delegate's
-// setters store data and raise dirty bits; the render delegate syncs a prim only when any are
-// set, then clears them.
+// setters store data and raise dirty bits; the first bit raised puts the prim on its change
+// tracker's dirty list, so that the render delegate's sync visits only dirty prims (see
+// docs/architecture.md).
 #pragma once
 
 #include <cstdint>
+#include <set>
 #include <string>
+#include <utility>
 #include <variant>
 
 #include "penumbra/math.h"
@@ -32,6 +35,20 @@ enum DirtyBits : uint32_t {
 /// materials use; asset paths arrive resolved, as strings).
 using ParamValue = std::variant<bool, int, float, Vec3f, std::string>;
 
+/// The ids of the prims with dirty bits raised since the last sync (cf. HdChangeTracker's
+/// dirty list), in id order so that sync is deterministic.
+class ChangeTracker {
+ public:
+  void markDirty(const PrimId& id) { dirty_.insert(id); }
+  void forget(const PrimId& id) { dirty_.erase(id); }
+  bool empty() const { return dirty_.empty(); }
+  /// The dirty list, emptied.
+  std::set<PrimId> take() { return std::exchange(dirty_, {}); }
+
+ private:
+  std::set<PrimId> dirty_;
+};
+
 class Prim {
  public:
   explicit Prim(PrimId id) : id_(std::move(id)) {}
@@ -41,7 +58,15 @@ class Prim {
 
   const PrimId& id() const { return id_; }
   uint32_t dirtyBits() const { return dirtyBits_; }
-  void markDirty(uint32_t bits) { dirtyBits_ |= bits; }
+  void markDirty(uint32_t bits) {
+    if (tracker_ && bits != Clean) tracker_->markDirty(id_);
+    dirtyBits_ |= bits;
+  }
+  /// Reports the prim's edits to `tracker` from now on (null: to nobody); a prim starts dirty.
+  void track(ChangeTracker* tracker) {
+    tracker_ = tracker;
+    if (tracker_ && dirtyBits_ != Clean) tracker_->markDirty(id_);
+  }
   void markClean() {
     dirtyBits_ = Clean;
     ++syncCount_;
@@ -53,6 +78,7 @@ class Prim {
   PrimId id_;
   uint32_t dirtyBits_ = AllDirty;
   int syncCount_ = 0;
+  ChangeTracker* tracker_ = nullptr;
 };
 
 }  // namespace penumbra::plugin

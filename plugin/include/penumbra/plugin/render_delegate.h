@@ -1,10 +1,12 @@
-// The render delegate (cf. HdRenderDelegate + HdRenderIndex): creates and owns prims by id,
-// holds the render settings, and syncs dirty prims into the renderer's Scene.
+// The render delegate (cf. HdRenderDelegate + HdRenderIndex): creates and owns prims by id in
+// separate rprim, sprim and bprim collections, holds the render settings, and syncs the prims
+// on its change tracker's dirty list into the renderer's Scene (docs/architecture.md).
 #pragma once
 
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -18,7 +20,7 @@
 
 namespace penumbra::plugin {
 
-/// What subdivision surfaces are diced for: the camera and resolution of the render pass.
+/// What subdivision surfaces are diced for: a camera and an image width.
 struct DicingContext {
   CameraParams camera;
   int imageWidth = 960;
@@ -86,12 +88,27 @@ class RenderDelegate {
   RenderSettingsMap& settings() { return settings_; }
   const RenderSettingsMap& settings() const { return settings_; }
 
-  /// Syncs every dirty prim into the scene and commits it; subdivision surfaces are diced for
-  /// `dicing` (and re-diced when it changes). Returns true if anything a render depends on
-  /// changed (scene contents or any camera), so that passes restart accumulation.
-  bool sync(const DicingContext& dicing);
+  /// The camera subdivision surfaces are diced for, followed as it moves (re-dicing them).
+  /// Empty (the default): the camera and width of the first render, kept thereafter, so that
+  /// moving or switching the view camera re-dices nothing.
+  void setDicingCamera(PrimId cameraId);
+  const PrimId& dicingCamera() const { return dicingCamera_; }
+
+  /// Syncs the dirty prims into the scene and commits it. `view`: the camera and width of the
+  /// pass asking, which become the dicing context of the first sync when no dicing camera is
+  /// set. Returns true if anything a render depends on changed (scene contents or any camera),
+  /// so that passes restart accumulation.
+  bool sync(const DicingContext& view);
   /// Incremented by every sync that changed the scene's contents.
   uint64_t sceneVersion() const { return sceneVersion_; }
+  /// What syncs have cost so far: meshes triangulated or diced, of which subdivision
+  /// surfaces diced, and mesh BVHs built (a mesh whose triangles did not change keeps its BVH).
+  struct SyncStatistics {
+    uint64_t meshGeometrySyncs = 0;
+    uint64_t subdivisionDicings = 0;
+    uint64_t meshBvhBuilds = 0;
+  };
+  SyncStatistics syncStatistics() const;
   const Scene& scene() const { return *scene_; }
 
   /// The mesh rprims by the id the primId AOV gives them.
@@ -102,27 +119,42 @@ class RenderDelegate {
 
  private:
   void warn(std::string message) { warnings_.push_back(std::move(message)); }
-  void syncMaterials();
+  /// The dicing context for this sync, given the pass's view.
+  DicingContext dicingContext(const DicingContext& view);
+  /// Rebuilds the scene's materials; returns whether any material's index changed.
+  bool syncMaterials();
   /// The renderer's material for a material sprim, its textures opened; `report`: warn about
   /// textures that cannot be read.
   penumbra::Material buildMaterial(const Material& material, bool report);
   void syncLights();
-  void syncMesh(Mesh& mesh, bool materialsChanged, const DicingContext& dicing);
+  void syncMesh(Mesh& mesh, const DicingContext& dicing);
+  /// Places the mesh with its transform, material and visibility.
+  void placeMesh(Mesh& mesh);
   void syncInstancer(Instancer& instancer);
   /// The triangles to render for a mesh: its polygons, or its diced limit surface.
   TriangleMesh meshTriangles(Mesh& mesh, const DicingContext& dicing);
 
   Device device_;
   std::unique_ptr<Scene> scene_;
-  std::map<PrimId, std::unique_ptr<Prim>> prims_;
+  // The render index (cf. HdRenderIndex): rprims (meshes, instancers), sprims (cameras,
+  // materials, lights), bprims (render buffers), and the change tracker their setters report to.
+  std::map<PrimId, std::unique_ptr<Prim>> rprims_;
+  std::map<PrimId, std::unique_ptr<Prim>> sprims_;
+  std::map<PrimId, std::unique_ptr<Prim>> bprims_;
+  ChangeTracker changeTracker_;
+  std::set<PrimId> meshLights_;  // meshes with UsdLuxMeshLightAPI
   std::map<PrimId, int> materialIndex_;
   RenderSettingsMap settings_;
   std::vector<std::string> warnings_;
   bool materialsStructureChanged_ = false;
   bool lightsStructureChanged_ = false;
   bool meshesStructureChanged_ = false;
+  PrimId dicingCamera_;
+  std::optional<DicingContext> firstView_;  // the default dicing context
   std::optional<DicingContext> dicedFor_;
   int dicedComplexity_ = 0;
+  uint64_t meshGeometrySyncs_ = 0;
+  uint64_t subdivisionDicings_ = 0;
   uint64_t sceneVersion_ = 0;
 };
 

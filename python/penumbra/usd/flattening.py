@@ -1,4 +1,4 @@
-"""Instancing → the render delegate's instancer rprims.
+"""Instancing flattened: every instanced mesh with the transforms of all its copies.
 
 Every instanced mesh — a mesh inside a UsdGeomPointInstancer prototype or inside a native USD
 prototype (instanceable prims, see :mod:`.native_instancing`) — becomes one hidden mesh rprim per
@@ -25,27 +25,21 @@ the copied mesh inherits unless it authors the name itself. Nested levels compos
 the inner (nearer) level winning; a copy lacking a primvar others in its group have gets NaN,
 which the delegate reads as "use the mesh's own".
 
-:class:`InstancedMeshes` pushes grouped copies to the delegate and, on later updates, only what
-changed (new or edited meshes, changed transforms). :class:`PointInstancerDelegate` mirrors the
-point instancers that are not inside native prototypes (those are flattened with their
-prototype); an edit under an instancer, its prototypes or the materials they use re-flattens
-that instancer.
+(:mod:`.instanced_meshes` pushes the flattened copies; :mod:`.point_instancers` mirrors point
+instancers.)
 """
 
 from __future__ import annotations
 
-import hashlib
 import math
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade
+from pxr import Sdf, Usd, UsdGeom
 
 from .implicit import is_implicit
-from .material import bound_material, push_material, read_material
-from .mesh import numeric_primvar, sync_mesh_data
+from .mesh import numeric_primvar
 from .motion import ACCELERATION_SEGMENTS, XformCaches, transform_samples
 from .sampling import SampleReader, Shutter, changes_within, transform_might_vary
 
@@ -188,7 +182,7 @@ class Flattener:
                     total = combine_segments(total, nested, limit)
                 elif kind == "point instancer":
                     total = combine_segments(total, self.point_instancer_segments(prim), limit)
-                    for prototype in _prototype_roots(prim):
+                    for prototype in prototype_roots(prim):
                         nested = self.content_segments(prototype)
                         total = combine_segments(total, nested, limit)
             self._segments[path] = total
@@ -476,7 +470,8 @@ def user_facing_path(prim: Usd.Prim) -> Sdf.Path:
     return user_facing_path(instances[0]).AppendPath(path.MakeRelativePath(root.GetPath()))
 
 
-def _prototype_roots(prim: Usd.Prim) -> Iterator[Usd.Prim]:
+def prototype_roots(prim: Usd.Prim) -> Iterator[Usd.Prim]:
+    """The prototype root prims of point instancer ``prim``."""
     stage = prim.GetStage()
     for path in UsdGeom.PointInstancer(prim).GetPrototypesRel().GetForwardedTargets():
         root = stage.GetPrimAtPath(path)
@@ -511,354 +506,3 @@ def _authored_purpose(prim: Usd.Prim, stop: Usd.Prim) -> str | None:
         if imageable and imageable.GetPurposeAttr().HasAuthoredValue():
             return str(imageable.GetPurposeAttr().Get())
     return None
-
-
-# --------------------------------------------------------------------------------------------
-# Pushing grouped copies
-
-
-class MaterialSource(Protocol):
-    """Where instanced meshes get their material sprims (reference-counted by user id)."""
-
-    def acquire(self, material: Sdf.Path, user: str) -> None: ...
-
-    def release(self, material: Sdf.Path, user: str) -> None: ...
-
-    def material_id(self, material: Sdf.Path) -> str:
-        """The delegate id of the material, "" when it cannot be used."""
-        ...
-
-
-@dataclass
-class Group:
-    """All copies of one mesh rendered with one material."""
-
-    mesh: Usd.Prim
-    material: Sdf.Path | None
-    transforms: list[np.ndarray] = field(default_factory=list)  # (N_i, K_i, 4, 4) each
-    primvars: list[dict[str, np.ndarray]] = field(default_factory=list)  # N_i rows each
-
-    def stacked(self) -> np.ndarray:
-        """(N, 4, 4) for static copies, else (N, K, 4, 4) with static ones held over K."""
-        samples = max(t.shape[1] for t in self.transforms)
-        parts = [t if t.shape[1] == samples else t.repeat(samples, axis=1) for t in self.transforms]
-        stacked = parts[0] if len(parts) == 1 else np.concatenate(parts)
-        return np.ascontiguousarray(stacked[:, 0] if samples == 1 else stacked)
-
-    def stacked_primvars(self) -> dict[str, np.ndarray]:
-        """Per-copy primvars in the order of :meth:`stacked`; copies without a primvar others
-        have get NaN, which tells the delegate to use the mesh's own value for them."""
-        widths = {name: values.shape[1:] for part in self.primvars for name, values in part.items()}
-        stacked = {}
-        for name in sorted(widths):
-            rows = [
-                part.get(name, np.full((len(transforms),) + widths[name], np.nan, np.float32))
-                for part, transforms in zip(self.primvars, self.transforms)
-            ]
-            stacked[name] = np.ascontiguousarray(np.concatenate(rows), dtype=np.float32)
-        return stacked
-
-
-GroupKey = tuple[Sdf.Path, Sdf.Path | None]
-
-
-def group_leaves(
-    groups: dict[GroupKey, Group],
-    leaf: Leaf,
-    material: Sdf.Path | None,
-    transforms: np.ndarray,
-    primvars: dict[str, np.ndarray],
-) -> None:
-    """Add ``transforms`` (copies of ``leaf``'s mesh bound to ``material``, with their per-copy
-    ``primvars``) to ``groups``."""
-    key = (leaf.mesh.GetPath(), material)
-    group = groups.get(key)
-    if group is None:
-        group = groups[key] = Group(leaf.mesh, material)
-    group.transforms.append(transforms)
-    group.primvars.append(primvars)
-
-
-@dataclass
-class _Pushed:
-    mesh_id: str
-    instancer_id: str
-    material_id: str | None = None  # None: not sent yet
-    digest: bytes | None = None  # of the copies' transforms last sent (None: not sent)
-    varying: bool = False  # the mesh's data might change with time
-    usable: bool = True  # False when the mesh could not be read (no instancer then)
-
-
-class InstancedMeshes:
-    """Hidden mesh + instancer rprims for groups of copies, updated by difference: a mesh is
-    re-read only when new, edited or time-varying; copies are re-sent only when they moved."""
-
-    def __init__(self, core, warn: Callable[[str], None], materials: MaterialSource, prefix: str = ""):
-        self.core = core
-        self.warn = warn
-        self.materials = materials
-        self.prefix = prefix
-        self._pushed: dict[GroupKey, _Pushed] = {}
-
-    @property
-    def varying(self) -> bool:
-        """Whether any pushed mesh's data might change with time."""
-        return any(p.varying for p in self._pushed.values())
-
-    def ids(self) -> Iterator[str]:
-        for pushed in self._pushed.values():
-            yield pushed.mesh_id
-            yield pushed.instancer_id
-
-    def update(
-        self,
-        groups: dict[GroupKey, Group],
-        shutter: Shutter,
-        stale: Iterable[Sdf.Path] = (),
-        time_changed: bool = False,
-    ) -> None:
-        """Make the delegate hold exactly ``groups``; meshes below any ``stale`` path (and
-        time-varying ones when ``time_changed``) are read again."""
-        stale = list(stale)
-        for key in [k for k in self._pushed if k not in groups]:
-            self._remove(key)
-        for key in sorted(groups, key=str):
-            group = groups[key]
-            pushed = self._pushed.get(key)
-            if pushed is None:
-                pushed = self._pushed[key] = self._insert(key, group, shutter)
-            elif (time_changed and pushed.varying) or any(key[0].HasPrefix(p) for p in stale):
-                self._read_mesh(pushed, group, shutter)
-            if not pushed.usable:
-                continue
-            material_id = self.materials.material_id(key[1]) if key[1] else ""
-            if material_id != pushed.material_id:
-                self.core.set_mesh_material(pushed.mesh_id, material_id)
-                pushed.material_id = material_id
-            transforms = group.stacked()
-            primvars = group.stacked_primvars()
-            digest = _digest(transforms, *primvars.values()) + str(sorted(primvars)).encode()
-            if digest != pushed.digest:
-                self.core.set_instances(pushed.instancer_id, pushed.mesh_id, transforms)
-                self.core.set_instance_primvars(pushed.instancer_id, primvars)
-                pushed.digest = digest
-
-    def clear(self) -> None:
-        for key in list(self._pushed):
-            self._remove(key)
-
-    def _insert(self, key: GroupKey, group: Group, shutter: Shutter) -> _Pushed:
-        mesh_path, material = key
-        suffix = f"/materials{material}" if material else ""
-        pushed = _Pushed(
-            mesh_id=f"{self.prefix}/prototypes{mesh_path}{suffix}",
-            instancer_id=f"{self.prefix}/instances{mesh_path}{suffix}",
-        )
-        if material:
-            self.materials.acquire(material, pushed.mesh_id)
-        self.core.insert_rprim("mesh", pushed.mesh_id)
-        self.core.insert_rprim("instancer", pushed.instancer_id)
-        self._read_mesh(pushed, group, shutter)
-        return pushed
-
-    def _read_mesh(self, pushed: _Pushed, group: Group, shutter: Shutter) -> None:
-        reader = SampleReader(shutter.frame, shutter)
-        name = str(user_facing_path(group.mesh))
-
-        def warn(message: str) -> None:  # name the prim the user knows, not the hidden id
-            self.warn(message.replace(pushed.mesh_id, name))
-
-        pushed.usable = sync_mesh_data(self.core, group.mesh, reader, warn, pushed.mesh_id)
-        pushed.varying = reader.varying
-        self.core.set_visible(pushed.mesh_id, False)  # only its copies render
-        if not pushed.usable:  # no copies of an unreadable mesh
-            self.core.set_instances(pushed.instancer_id, pushed.mesh_id, np.empty((0, 4, 4)))
-            self.core.set_instance_primvars(pushed.instancer_id, {})
-            pushed.digest = None
-        pushed.material_id = None  # re-sent with the mesh
-
-    def _remove(self, key: GroupKey) -> None:
-        pushed = self._pushed.pop(key)
-        self.core.remove_prim(pushed.instancer_id)  # copies before their prototype
-        self.core.remove_prim(pushed.mesh_id)
-        if key[1]:
-            self.materials.release(key[1], pushed.mesh_id)
-
-
-def _digest(*arrays: np.ndarray) -> bytes:
-    """A fingerprint of copies' transforms (and primvars): cheaper to keep than a million
-    matrices."""
-    hasher = hashlib.blake2b(digest_size=16)
-    for array in arrays:
-        hasher.update(memoryview(np.ascontiguousarray(array)))
-        hasher.update(bytes(str(array.shape), "ascii"))
-    return hasher.digest()
-
-
-# --------------------------------------------------------------------------------------------
-# Point instancers
-
-
-class _InstancerMaterials:
-    """The material sprims of one point instancer's meshes, named below the instancer."""
-
-    def __init__(self, stage: Usd.Stage, core, warn: Callable[[str], None], prefix: str):
-        self.stage, self.core, self.warn, self.prefix = stage, core, warn, prefix
-        self.time = Usd.TimeCode.Default()
-        self._users: dict[Sdf.Path, set[str]] = {}
-        self._ids: dict[Sdf.Path, str] = {}
-
-    def acquire(self, material: Sdf.Path, user: str) -> None:
-        if material not in self._users:
-            self._users[material] = set()
-            self._read(material)
-        self._users[material].add(user)
-
-    def release(self, material: Sdf.Path, user: str) -> None:
-        users = self._users.get(material)
-        if users is None:
-            return
-        users.discard(user)
-        if not users:
-            del self._users[material]
-            material_id = self._ids.pop(material, "")
-            if material_id:
-                self.core.remove_prim(material_id)
-
-    def material_id(self, material: Sdf.Path) -> str:
-        return self._ids.get(material, "")
-
-    def refresh(self, time: Usd.TimeCode) -> None:
-        """Re-read every material (at ``time``): they may have been edited."""
-        self.time = time
-        for material in self._users:
-            self._read(material)
-
-    def paths(self) -> Iterable[Sdf.Path]:
-        return self._users.keys()
-
-    def _read(self, material: Sdf.Path) -> None:
-        prim = self.stage.GetPrimAtPath(material)
-        data = None
-        if prim and prim.IsA(UsdShade.Material):
-            data = read_material(prim, SampleReader(self.time), self.warn)
-        material_id = f"{self.prefix}/materials{material}"
-        if data is None:
-            if self._ids.pop(material, ""):
-                self.core.remove_prim(material_id)
-            return
-        if material not in self._ids:
-            self.core.insert_sprim("material", material_id)
-            self._ids[material] = material_id
-        push_material(self.core, material_id, data, self.warn)
-
-
-@dataclass
-class _Instancer:
-    """What one point instancer put in the delegate, and what it depends on."""
-
-    meshes: InstancedMeshes
-    materials: _InstancerMaterials
-    roots: set[Sdf.Path] = field(default_factory=set)  # edits below these re-flatten it
-    varying: bool = False
-    dirty: bool = True
-
-
-class PointInstancerDelegate:
-    """Mirrors the point instancers of ``stage`` (outside native prototypes) into ``core``."""
-
-    def __init__(self, stage: Usd.Stage, core, purposes: Iterable[str], warn: Callable[[str], None]):
-        self.stage = stage
-        self.core = core
-        self.purposes = frozenset(purposes) | {UsdGeom.Tokens.default_}
-        self.warn = warn
-        self.shutter: Shutter | None = None
-        self._instancers: dict[Sdf.Path, _Instancer] = {}
-        self._structure_changed = True  # prims were added or removed: look for instancers
-        self._stale: set[Sdf.Path] = set()  # edited prims (their meshes are read again)
-        self._listener = Tf.Notice.Register(Usd.Notice.ObjectsChanged, self._on_changed, stage)
-
-    def close(self) -> None:
-        if self._listener is not None:
-            self._listener.Revoke()
-            self._listener = None
-
-    def _on_changed(self, notice, _sender) -> None:
-        changed = [*notice.GetResyncedPaths(), *notice.GetChangedInfoOnlyPaths()]
-        if any(not path.IsPropertyPath() for path in notice.GetResyncedPaths()):
-            self._structure_changed = True
-        for path in changed:
-            prim_path = path.GetPrimPath()
-            self._stale.add(prim_path)
-            binding = path.IsPropertyPath() and path.name.startswith("material:binding")
-            for record in self._instancers.values():
-                if binding or any(
-                    prim_path.HasPrefix(root) or root.HasPrefix(prim_path) for root in record.roots
-                ):
-                    record.dirty = True
-
-    def update(self, shutter: Shutter) -> None:
-        """Re-flatten the point instancers whose inputs changed (or, at a new frame or shutter,
-        might vary with time) and push what differs."""
-        time_changed = shutter != self.shutter
-        self.shutter = shutter
-        if self._structure_changed:
-            self._structure_changed = False
-            found = set(self._find())
-            for path in [p for p in self._instancers if p not in found]:
-                self._instancers.pop(path).meshes.clear()
-            for path in found:
-                if path not in self._instancers:
-                    self._instancers[path] = self._new_record(path)
-                self._instancers[path].dirty = True
-        stale, self._stale = self._stale, set()
-        for path, record in self._instancers.items():
-            if record.dirty or (time_changed and record.varying):
-                self._sync(self.stage.GetPrimAtPath(path), record, stale, time_changed)
-
-    def _find(self) -> Iterator[Sdf.Path]:
-        """Point instancers outside native prototypes and outside other instancers' prototypes
-        (those are flattened into their outer instancer)."""
-        walk = iter(Usd.PrimRange(self.stage.GetPseudoRoot(), Usd.PrimDefaultPredicate))
-        for prim in walk:
-            if prim.IsA(UsdGeom.PointInstancer):
-                walk.PruneChildren()
-                yield prim.GetPath()
-
-    def _new_record(self, path: Sdf.Path) -> _Instancer:
-        materials = _InstancerMaterials(self.stage, self.core, self.warn, str(path))
-        return _Instancer(InstancedMeshes(self.core, self.warn, materials, str(path)), materials)
-
-    def _sync(self, prim: Usd.Prim, record: _Instancer, stale: set[Sdf.Path], time_changed: bool) -> None:
-        flattener = Flattener(self.stage, self.shutter, self.warn)
-        record.materials.refresh(self.shutter.frame)
-        groups = self._groups(prim, flattener)
-        record.meshes.update(groups, self.shutter, stale, time_changed)
-        record.roots = {prim.GetPath(), *flattener.roots, *record.materials.paths()}
-        record.varying = flattener.varying or record.meshes.varying
-        record.dirty = False
-
-    def _groups(self, prim: Usd.Prim, flattener: Flattener) -> dict[GroupKey, Group]:
-        imageable = UsdGeom.Imageable(prim)
-        purpose = imageable.ComputePurpose()
-        if imageable.GetVisibilityAttr().ValueMightBeTimeVarying():
-            flattener.varying = True
-        if imageable.ComputeVisibility(self.shutter.frame) == UsdGeom.Tokens.invisible:
-            return {}
-        limit = self.shutter.max_segments
-        segments = combine_segments(
-            flattener.motion_segments(prim), flattener.point_instancer_segments(prim), limit
-        )
-        for prototype in _prototype_roots(prim):
-            segments = combine_segments(segments, flattener.content_segments(prototype), limit)
-        groups: dict[GroupKey, Group] = {}
-        materials: dict[Sdf.Path, Sdf.Path | None] = {}
-        leaves = flattener.point_instancer_leaves(prim, self.stage.GetPseudoRoot(), segments)
-        for leaf in leaves:
-            if (leaf.purpose or purpose) not in self.purposes:
-                continue
-            if leaf.proxy not in materials:
-                material = bound_material(self.stage.GetPrimAtPath(leaf.proxy))
-                materials[leaf.proxy] = material.GetPath() if material else None
-            group_leaves(groups, leaf, materials[leaf.proxy], leaf.transforms, leaf.primvars)
-        return groups

@@ -1,0 +1,199 @@
+"""Grouped copies of instanced meshes → hidden mesh rprims and instancer rprims.
+
+:class:`InstancedMeshes` pushes the copies :mod:`.flattening` found, grouped by mesh and bound
+material (:class:`Group`), to the delegate and, on later updates, only what changed (new or
+edited meshes, changed transforms): every group is one hidden mesh rprim (its geometry read once,
+from the prim that holds it) and one instancer rprim naming it as its prototype, so that Embree
+shares the mesh's BVH among all copies.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+from pxr import Sdf, Usd
+
+from .flattening import Leaf, user_facing_path
+from .mesh import sync_mesh_data
+from .sampling import SampleReader, Shutter
+
+class MaterialSource(Protocol):
+    """Where instanced meshes get their material sprims (reference-counted by user id)."""
+
+    def acquire(self, material: Sdf.Path, user: str) -> None: ...
+
+    def release(self, material: Sdf.Path, user: str) -> None: ...
+
+    def material_id(self, material: Sdf.Path) -> str:
+        """The delegate id of the material, "" when it cannot be used."""
+        ...
+
+
+@dataclass
+class Group:
+    """All copies of one mesh rendered with one material."""
+
+    mesh: Usd.Prim
+    material: Sdf.Path | None
+    transforms: list[np.ndarray] = field(default_factory=list)  # (N_i, K_i, 4, 4) each
+    primvars: list[dict[str, np.ndarray]] = field(default_factory=list)  # N_i rows each
+
+    def stacked(self) -> np.ndarray:
+        """(N, 4, 4) for static copies, else (N, K, 4, 4) with static ones held over K."""
+        samples = max(t.shape[1] for t in self.transforms)
+        parts = [t if t.shape[1] == samples else t.repeat(samples, axis=1) for t in self.transforms]
+        stacked = parts[0] if len(parts) == 1 else np.concatenate(parts)
+        return np.ascontiguousarray(stacked[:, 0] if samples == 1 else stacked)
+
+    def stacked_primvars(self) -> dict[str, np.ndarray]:
+        """Per-copy primvars in the order of :meth:`stacked`; copies without a primvar others
+        have get NaN, which tells the delegate to use the mesh's own value for them."""
+        widths = {name: values.shape[1:] for part in self.primvars for name, values in part.items()}
+        stacked = {}
+        for name in sorted(widths):
+            rows = [
+                part.get(name, np.full((len(transforms),) + widths[name], np.nan, np.float32))
+                for part, transforms in zip(self.primvars, self.transforms)
+            ]
+            stacked[name] = np.ascontiguousarray(np.concatenate(rows), dtype=np.float32)
+        return stacked
+
+
+GroupKey = tuple[Sdf.Path, Sdf.Path | None]
+
+
+def group_leaves(
+    groups: dict[GroupKey, Group],
+    leaf: Leaf,
+    material: Sdf.Path | None,
+    transforms: np.ndarray,
+    primvars: dict[str, np.ndarray],
+) -> None:
+    """Add ``transforms`` (copies of ``leaf``'s mesh bound to ``material``, with their per-copy
+    ``primvars``) to ``groups``."""
+    key = (leaf.mesh.GetPath(), material)
+    group = groups.get(key)
+    if group is None:
+        group = groups[key] = Group(leaf.mesh, material)
+    group.transforms.append(transforms)
+    group.primvars.append(primvars)
+
+
+@dataclass
+class _Pushed:
+    mesh_id: str
+    instancer_id: str
+    material_id: str | None = None  # None: not sent yet
+    digest: bytes | None = None  # of the copies' transforms last sent (None: not sent)
+    varying: bool = False  # the mesh's data might change with time
+    usable: bool = True  # False when the mesh could not be read (no instancer then)
+
+
+class InstancedMeshes:
+    """Hidden mesh + instancer rprims for groups of copies, updated by difference: a mesh is
+    re-read only when new, edited or time-varying; copies are re-sent only when they moved."""
+
+    def __init__(self, core, warn: Callable[[str], None], materials: MaterialSource, prefix: str = ""):
+        self.core = core
+        self.warn = warn
+        self.materials = materials
+        self.prefix = prefix
+        self._pushed: dict[GroupKey, _Pushed] = {}
+
+    @property
+    def varying(self) -> bool:
+        """Whether any pushed mesh's data might change with time."""
+        return any(p.varying for p in self._pushed.values())
+
+    def ids(self) -> Iterator[str]:
+        for pushed in self._pushed.values():
+            yield pushed.mesh_id
+            yield pushed.instancer_id
+
+    def update(
+        self,
+        groups: dict[GroupKey, Group],
+        shutter: Shutter,
+        stale: Iterable[Sdf.Path] = (),
+        time_changed: bool = False,
+    ) -> None:
+        """Make the delegate hold exactly ``groups``; meshes below any ``stale`` path (and
+        time-varying ones when ``time_changed``) are read again."""
+        stale = list(stale)
+        for key in [k for k in self._pushed if k not in groups]:
+            self._remove(key)
+        for key in sorted(groups, key=str):
+            group = groups[key]
+            pushed = self._pushed.get(key)
+            if pushed is None:
+                pushed = self._pushed[key] = self._insert(key, group, shutter)
+            elif (time_changed and pushed.varying) or any(key[0].HasPrefix(p) for p in stale):
+                self._read_mesh(pushed, group, shutter)
+            if not pushed.usable:
+                continue
+            material_id = self.materials.material_id(key[1]) if key[1] else ""
+            if material_id != pushed.material_id:
+                self.core.set_mesh_material(pushed.mesh_id, material_id)
+                pushed.material_id = material_id
+            transforms = group.stacked()
+            primvars = group.stacked_primvars()
+            digest = _digest(transforms, *primvars.values()) + str(sorted(primvars)).encode()
+            if digest != pushed.digest:
+                self.core.set_instances(pushed.instancer_id, pushed.mesh_id, transforms)
+                self.core.set_instance_primvars(pushed.instancer_id, primvars)
+                pushed.digest = digest
+
+    def clear(self) -> None:
+        for key in list(self._pushed):
+            self._remove(key)
+
+    def _insert(self, key: GroupKey, group: Group, shutter: Shutter) -> _Pushed:
+        mesh_path, material = key
+        suffix = f"/materials{material}" if material else ""
+        pushed = _Pushed(
+            mesh_id=f"{self.prefix}/prototypes{mesh_path}{suffix}",
+            instancer_id=f"{self.prefix}/instances{mesh_path}{suffix}",
+        )
+        if material:
+            self.materials.acquire(material, pushed.mesh_id)
+        self.core.insert_rprim("mesh", pushed.mesh_id)
+        self.core.insert_rprim("instancer", pushed.instancer_id)
+        self._read_mesh(pushed, group, shutter)
+        return pushed
+
+    def _read_mesh(self, pushed: _Pushed, group: Group, shutter: Shutter) -> None:
+        reader = SampleReader(shutter.frame, shutter)
+        name = str(user_facing_path(group.mesh))
+
+        def warn(message: str) -> None:  # name the prim the user knows, not the hidden id
+            self.warn(message.replace(pushed.mesh_id, name))
+
+        pushed.usable = sync_mesh_data(self.core, group.mesh, reader, warn, pushed.mesh_id)
+        pushed.varying = reader.varying
+        self.core.set_visible(pushed.mesh_id, False)  # only its copies render
+        if not pushed.usable:  # no copies of an unreadable mesh
+            self.core.set_instances(pushed.instancer_id, pushed.mesh_id, np.empty((0, 4, 4)))
+            self.core.set_instance_primvars(pushed.instancer_id, {})
+            pushed.digest = None
+        pushed.material_id = None  # re-sent with the mesh
+
+    def _remove(self, key: GroupKey) -> None:
+        pushed = self._pushed.pop(key)
+        self.core.remove_prim(pushed.instancer_id)  # copies before their prototype
+        self.core.remove_prim(pushed.mesh_id)
+        if key[1]:
+            self.materials.release(key[1], pushed.mesh_id)
+
+
+def _digest(*arrays: np.ndarray) -> bytes:
+    """A fingerprint of copies' transforms (and primvars): cheaper to keep than a million
+    matrices."""
+    hasher = hashlib.blake2b(digest_size=16)
+    for array in arrays:
+        hasher.update(memoryview(np.ascontiguousarray(array)))
+        hasher.update(bytes(str(array.shape), "ascii"))
+    return hasher.digest()

@@ -1,0 +1,136 @@
+"""UsdGeomPointInstancer → the render delegate's instancer rprims.
+
+:class:`PointInstancerDelegate` mirrors the point instancers that are not inside native
+prototypes (those are flattened with their prototype, see :mod:`.native_instancing`); an edit
+under an instancer, its prototypes or the materials they use re-flattens that instancer
+(:mod:`.flattening`), and :mod:`.instanced_meshes` pushes what differs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+
+from pxr import Sdf, Tf, Usd, UsdGeom
+
+from .flattening import Flattener, prototype_roots, combine_segments
+from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
+from .material import bound_material
+from .sampling import Shutter
+
+@dataclass
+class _Instancer:
+    """What one point instancer put in the delegate, and what it depends on."""
+
+    meshes: InstancedMeshes
+    roots: set[Sdf.Path] = field(default_factory=set)  # edits below these re-flatten it
+    varying: bool = False
+    dirty: bool = True
+
+
+class PointInstancerDelegate:
+    """Mirrors the point instancers of ``stage`` (outside native prototypes) into ``core``."""
+
+    def __init__(
+        self,
+        stage: Usd.Stage,
+        core,
+        purposes: Iterable[str],
+        warn: Callable[[str], None],
+        materials: MaterialSource,
+    ):
+        self.stage = stage
+        self.core = core
+        self.materials = materials  # the scene delegate's registry
+        self.purposes = frozenset(purposes) | {UsdGeom.Tokens.default_}
+        self.warn = warn
+        self.shutter: Shutter | None = None
+        self._instancers: dict[Sdf.Path, _Instancer] = {}
+        self._structure_changed = True  # prims were added or removed: look for instancers
+        self._stale: set[Sdf.Path] = set()  # edited prims (their meshes are read again)
+        self._listener = Tf.Notice.Register(Usd.Notice.ObjectsChanged, self._on_changed, stage)
+
+    def close(self) -> None:
+        if self._listener is not None:
+            self._listener.Revoke()
+            self._listener = None
+
+    def _on_changed(self, notice, _sender) -> None:
+        changed = [*notice.GetResyncedPaths(), *notice.GetChangedInfoOnlyPaths()]
+        if any(not path.IsPropertyPath() for path in notice.GetResyncedPaths()):
+            self._structure_changed = True
+        for path in changed:
+            prim_path = path.GetPrimPath()
+            self._stale.add(prim_path)
+            binding = path.IsPropertyPath() and path.name.startswith("material:binding")
+            for record in self._instancers.values():
+                if binding or any(
+                    prim_path.HasPrefix(root) or root.HasPrefix(prim_path) for root in record.roots
+                ):
+                    record.dirty = True
+
+    def update(self, shutter: Shutter) -> None:
+        """Re-flatten the point instancers whose inputs changed (or, at a new frame or shutter,
+        might vary with time) and push what differs."""
+        time_changed = shutter != self.shutter
+        self.shutter = shutter
+        if self._structure_changed:
+            self._structure_changed = False
+            found = set(self._find())
+            for path in [p for p in self._instancers if p not in found]:
+                self._instancers.pop(path).meshes.clear()
+            for path in found:
+                if path not in self._instancers:
+                    self._instancers[path] = self._new_record(path)
+                self._instancers[path].dirty = True
+        stale, self._stale = self._stale, set()
+        for path, record in self._instancers.items():
+            if record.dirty or (time_changed and record.varying):
+                self._sync(self.stage.GetPrimAtPath(path), record, stale, time_changed)
+
+    def _find(self) -> Iterator[Sdf.Path]:
+        """Point instancers outside native prototypes and outside other instancers' prototypes
+        (those are flattened into their outer instancer)."""
+        walk = iter(Usd.PrimRange(self.stage.GetPseudoRoot(), Usd.PrimDefaultPredicate))
+        for prim in walk:
+            if prim.IsA(UsdGeom.PointInstancer):
+                walk.PruneChildren()
+                yield prim.GetPath()
+
+    def _new_record(self, path: Sdf.Path) -> _Instancer:
+        return _Instancer(InstancedMeshes(self.core, self.warn, self.materials, str(path)))
+
+    def _sync(self, prim: Usd.Prim, record: _Instancer, stale: set[Sdf.Path], time_changed: bool) -> None:
+        flattener = Flattener(self.stage, self.shutter, self.warn)
+        groups = self._groups(prim, flattener)
+        record.meshes.update(groups, self.shutter, stale, time_changed)
+        # A material edit may make it usable or not: the copies then change material.
+        materials = {material for _, material in groups if material is not None}
+        record.roots = {prim.GetPath(), *flattener.roots, *materials}
+        record.varying = flattener.varying or record.meshes.varying
+        record.dirty = False
+
+    def _groups(self, prim: Usd.Prim, flattener: Flattener) -> dict[GroupKey, Group]:
+        imageable = UsdGeom.Imageable(prim)
+        purpose = imageable.ComputePurpose()
+        if imageable.GetVisibilityAttr().ValueMightBeTimeVarying():
+            flattener.varying = True
+        if imageable.ComputeVisibility(self.shutter.frame) == UsdGeom.Tokens.invisible:
+            return {}
+        limit = self.shutter.max_segments
+        segments = combine_segments(
+            flattener.motion_segments(prim), flattener.point_instancer_segments(prim), limit
+        )
+        for prototype in prototype_roots(prim):
+            segments = combine_segments(segments, flattener.content_segments(prototype), limit)
+        groups: dict[GroupKey, Group] = {}
+        materials: dict[Sdf.Path, Sdf.Path | None] = {}
+        leaves = flattener.point_instancer_leaves(prim, self.stage.GetPseudoRoot(), segments)
+        for leaf in leaves:
+            if (leaf.purpose or purpose) not in self.purposes:
+                continue
+            if leaf.proxy not in materials:
+                material = bound_material(self.stage.GetPrimAtPath(leaf.proxy))
+                materials[leaf.proxy] = material.GetPath() if material else None
+            group_leaves(groups, leaf, materials[leaf.proxy], leaf.transforms, leaf.primvars)
+        return groups

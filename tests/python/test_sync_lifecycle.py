@@ -1,0 +1,138 @@
+"""The render delegate's lifecycle (docs/architecture.md): each kind of edit syncs only what it
+must — no re-dicing or BVH rebuild for a primvar, sidedness, material, visibility or transform
+edit — the image after edits is bit-identical to a fresh render of the edited stage, and
+moving the view camera re-dices nothing unless a dicing camera is asked for and moved."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, UsdGeom
+
+import penumbra
+from stages import add_camera, add_preview_material, add_quad, bind, lit_quad_stage
+from test_api import sync_counts
+
+FAST = dict(camera="/cam", width=32, samples=4)
+
+
+def subdivided_cube(stage, path: str, center=(0.0, 0.0, 0.0)) -> UsdGeom.Mesh:
+    """A Catmull-Clark cube of side 1 (its limit surface is a rounded blob)."""
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr(
+        [Gf.Vec3f(x - 0.5, y - 0.5, z - 0.5) for x in (0, 1) for y in (0, 1) for z in (0, 1)]
+    )
+    mesh.CreateFaceVertexCountsAttr([4] * 6)
+    mesh.CreateFaceVertexIndicesAttr(
+        [0, 1, 3, 2, 2, 3, 7, 6, 6, 7, 5, 4, 4, 5, 1, 0, 1, 5, 7, 3, 4, 0, 2, 6]
+    )
+    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.catmullClark)
+    mesh.AddTranslateOp().Set(Gf.Vec3d(*center))
+    return mesh
+
+
+def edit_stage():
+    stage = lit_quad_stage()
+    add_quad(stage, "/World/painted", center=(1.2, 1.2, 0.1), half_size=0.5, color=(0.2, 0.6, 0.2))
+    # Wound clockwise: the camera sees its back, which a single-sided mesh does not show.
+    flipped = add_quad(stage, "/World/flipped", center=(1.2, -1.2, 0.1), half_size=0.5)
+    flipped.CreateOrientationAttr(UsdGeom.Tokens.leftHanded)
+    material = add_preview_material(stage, "/World/Looks/paint", diffuseColor=(0.1, 0.7, 0.1))
+    bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")), material)
+    subdivided_cube(stage, "/World/blob", center=(-1.0, -1.0, 0.5))
+    return stage
+
+
+def _set_display_color(stage):
+    UsdGeom.Gprim(stage.GetPrimAtPath("/World/painted")).GetDisplayColorAttr().Set(
+        [Gf.Vec3f(0.9, 0.1, 0.1)]
+    )
+
+
+def _set_double_sided(stage):
+    UsdGeom.Gprim(stage.GetPrimAtPath("/World/flipped")).GetDoubleSidedAttr().Set(True)
+
+
+def _set_material_input(stage):
+    shader = stage.GetPrimAtPath("/World/Looks/paint/Surface")
+    shader.GetAttribute("inputs:diffuseColor").Set(Gf.Vec3f(0.7, 0.1, 0.1))
+
+
+def _move(stage):
+    stage.GetPrimAtPath("/World/painted").GetAttribute("xformOp:translate").Set(
+        Gf.Vec3d(0.9, 1.1, 0.1)
+    )
+
+
+def _move_subdivided(stage):
+    stage.GetPrimAtPath("/World/blob").GetAttribute("xformOp:translate").Set(
+        Gf.Vec3d(-0.8, -1.0, 0.5)
+    )
+
+
+def _hide(stage):
+    UsdGeom.Imageable(stage.GetPrimAtPath("/World/painted")).MakeInvisible()
+
+
+def _set_points(stage):
+    UsdGeom.Mesh(stage.GetPrimAtPath("/World/painted")).GetPointsAttr().Set(
+        [Gf.Vec3f(-0.4, -0.5, 0), Gf.Vec3f(0.5, -0.5, 0), Gf.Vec3f(0.5, 0.5, 0), Gf.Vec3f(-0.5, 0.5, 0)]
+    )
+
+
+# edit, the prims it syncs again, mesh geometry syncs, BVH builds, subdivision dicings
+EDITS = {
+    "displayColor": (_set_display_color, {"/World/painted"}, 1, 0, 0),
+    "doubleSided": (_set_double_sided, {"/World/flipped"}, 1, 0, 0),
+    "material input": (_set_material_input, {"/World/Looks/paint"}, 0, 0, 0),
+    "transform": (_move, {"/World/painted"}, 0, 0, 0),
+    "subdivision surface transform": (_move_subdivided, {"/World/blob"}, 0, 0, 0),
+    "visibility": (_hide, {"/World/painted"}, 0, 0, 0),
+    "points": (_set_points, {"/World/painted"}, 1, 1, 0),
+}
+
+
+@pytest.mark.parametrize("kind", EDITS)
+def test_an_edit_syncs_only_what_it_must(kind):
+    edit, synced, geometry_syncs, bvh_builds, dicings = EDITS[kind]
+    stage = edit_stage()
+    renderer = penumbra.Renderer(stage)
+    before_image = renderer.render(**FAST)
+    before, stats = sync_counts(renderer), renderer.delegate.sync_statistics()
+    edit(stage)
+    edited = renderer.render(**FAST)
+    after, stats_after = sync_counts(renderer), renderer.delegate.sync_statistics()
+    assert {p for p in after if after[p] != before[p]} == synced
+    assert stats_after["meshGeometrySyncs"] - stats["meshGeometrySyncs"] == geometry_syncs
+    assert stats_after["meshBvhBuilds"] - stats["meshBvhBuilds"] == bvh_builds
+    assert stats_after["subdivisionDicings"] - stats["subdivisionDicings"] == dicings
+    assert not np.array_equal(edited["color"], before_image["color"])  # the edit shows
+    fresh = penumbra.Renderer(stage).render(**FAST)
+    np.testing.assert_array_equal(edited["color"], fresh["color"])
+
+
+def test_moving_or_switching_the_view_camera_re_dices_nothing():
+    stage = edit_stage()
+    add_camera(stage, "/side", translate=(2.0, 0.0, 5.0))
+    renderer = penumbra.Renderer(stage)
+    renderer.render(**FAST)
+    stats = renderer.delegate.sync_statistics()
+    blob = renderer.delegate.sync_count("/World/blob")
+    stage.GetPrimAtPath("/cam").GetAttribute("xformOp:translate").Set(Gf.Vec3d(0.5, 0.0, 2.0))
+    renderer.render(**FAST)
+    renderer.render(**{**FAST, "camera": "/side", "width": 48})
+    assert renderer.delegate.sync_statistics() == stats
+    assert renderer.delegate.sync_count("/World/blob") == blob
+
+
+def test_a_dicing_camera_re_dices_as_it_moves():
+    stage = edit_stage()
+    renderer = penumbra.Renderer(stage)
+    renderer.render(**FAST, dicing_camera="/cam")
+    assert renderer.delegate.dicing_camera() == "/cam"
+    dicings = renderer.delegate.sync_statistics()["subdivisionDicings"]
+    stage.GetPrimAtPath("/cam").GetAttribute("xformOp:translate").Set(Gf.Vec3d(0.0, 0.0, 2.0))
+    moved = renderer.render(**FAST)
+    assert renderer.delegate.sync_statistics()["subdivisionDicings"] == dicings + 1
+    # The blob is diced for the camera where it is now, as a fresh renderer dices it.
+    np.testing.assert_array_equal(moved["color"], penumbra.Renderer(stage).render(**FAST)["color"])
