@@ -1,6 +1,7 @@
 #include "penumbra/plugin/render_delegate.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -224,7 +225,8 @@ void RenderDelegate::setDicingCamera(PrimId cameraId) {
 }
 
 RenderDelegate::SyncStatistics RenderDelegate::syncStatistics() const {
-  return {meshGeometrySyncs_, subdivisionDicings_, scene_->meshBvhBuilds()};
+  return {meshGeometrySyncs_, subdivisionDicings_, scene_->meshBvhBuilds(), tessellationSeconds_,
+          scene_->bvhBuildSeconds()};
 }
 
 std::vector<std::string> RenderDelegate::takeWarnings() {
@@ -396,7 +398,11 @@ void RenderDelegate::syncMesh(Mesh& mesh, const DicingContext& dicing) {
       warn(mesh.id() + ": " + problem + "; materials reading it use their fallback");
     ++meshGeometrySyncs_;
     try {
-      scene_->setMeshGeometry(mesh.handle(), meshTriangles(mesh, dicing));
+      const auto started = std::chrono::steady_clock::now();
+      TriangleMesh triangles = meshTriangles(mesh, dicing);
+      tessellationSeconds_ +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      scene_->setMeshGeometry(mesh.handle(), std::move(triangles));
     } catch (const std::invalid_argument& error) {
       warn(mesh.id() + ": " + error.what() + "; the mesh is skipped");
       scene_->clearMeshGeometry(mesh.handle());

@@ -639,6 +639,8 @@ PYBIND11_MODULE(_core, m) {
              result["meshGeometrySyncs"] = stats.meshGeometrySyncs;
              result["subdivisionDicings"] = stats.subdivisionDicings;
              result["meshBvhBuilds"] = stats.meshBvhBuilds;
+             result["tessellationSeconds"] = stats.tessellationSeconds;
+             result["bvhBuildSeconds"] = stats.bvhBuildSeconds;
              return result;
            })
       .def(

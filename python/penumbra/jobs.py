@@ -158,7 +158,7 @@ class JobRenderer:
             stage, job.camera, settings, time_code(stage, job.camera_time), purposes
         )
         self.camera = str(camera.GetPath())
-        self.renderer = Renderer(stage, purposes=purposes)
+        self.renderer = Renderer(stage, purposes=purposes, render_pass=job.render_pass_path)
         self.renderer.tracer = tracer
 
     def close(self) -> None:

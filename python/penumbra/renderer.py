@@ -23,6 +23,7 @@ from .usd.default_light import DefaultLight, DefaultLightManager, check_default_
 from .usd.mtlx_documents import compose_materialx_documents
 from .usd.point_instancers import PointInstancerDelegate
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
+from .usd.render_pass import render_pass_collections
 from .usd.settings import FilmWindow, film_window, find_camera
 from .usd import (
     DEFAULT_PURPOSES,
@@ -90,6 +91,10 @@ class Renderer:
     ``purposes``: the UsdGeomImageable purposes rendered; "default" is always included and the
     default, ``("default", "proxy")``, is usdrecord's. ``max_motion_segments``: at most this many
     uniform steps (that many + 1 motion samples) over a frame's shutter for one prim.
+    ``render_pass``: a UsdRenderPass prim whose collections decide what renders
+    (``penumbra-record -rp``): ``prune`` and prims outside ``renderVisibility`` are left out,
+    prims outside ``cameraVisibility`` are hidden from camera rays only, ``matte`` prims are
+    holdouts (no colour, no alpha); read once, when the renderer is created.
     """
 
     def __init__(
@@ -98,6 +103,7 @@ class Renderer:
         *,
         purposes: Iterable[str] = DEFAULT_PURPOSES,
         max_motion_segments: int = DEFAULT_MAX_MOTION_SEGMENTS,
+        render_pass: str | Sdf.Path | None = None,
     ):
         if max_motion_segments < 1:
             raise ValueError(f"max_motion_segments must be at least 1, not {max_motion_segments}")
@@ -106,9 +112,10 @@ class Renderer:
         self.max_motion_segments = max_motion_segments
         self.delegate = _core.RenderDelegate(ocio_config=ocio_config_path())
         """The ``penumbra._core.RenderDelegate`` holding the synced scene (for inspection)."""
-        self._scene = SceneDelegate(stage, self.delegate, purposes)
+        collections = render_pass_collections(stage, render_pass) if render_pass else None
+        self._scene = SceneDelegate(stage, self.delegate, purposes, collections)
         self._instancers = PointInstancerDelegate(
-            stage, self.delegate, purposes, warn, self._scene.materials
+            stage, self.delegate, purposes, warn, self._scene.materials, collections
         )
         self._passes: dict[tuple[str, int, int], _core.RenderPass] = {}
         self._default_light = DefaultLightManager(self.delegate, stage_name(stage))
@@ -289,7 +296,9 @@ class Renderer:
         started = clock.perf_counter()
         render_pass.reset()
         with self.tracer.span("render delegate sync (subdivision dicing, BVH builds)"):
+            started_us, before = self.tracer.now_us(), self.delegate.sync_statistics()
             render_pass.execute(0)  # syncs what is dirty and renders nothing
+            self._trace_sync(started_us, before)
         step = max(1, math.ceil(samples / PROGRESS_STEPS))
         while not render_pass.converged:
             first, count = render_pass.samples_done, min(step, samples - render_pass.samples_done)
@@ -380,6 +389,29 @@ class Renderer:
         width, height = image_size(camera_prim, time_code, width, height, settings)
         window = film_window(settings, camera_prim, time_code, width, height)
         return time_code, settings, camera_prim, (width, height), window
+
+    def _trace_sync(self, started_us: float, before: dict) -> None:
+        """Add the render delegate's time in tessellation (triangulation and subdivision
+        dicing) and in acceleration structures (BVHs, light tree) since ``before`` to the trace
+        as two spans, one after the other from ``started_us`` (each the total of its kind)."""
+        if not self.tracer.enabled:
+            return
+        after = self.delegate.sync_statistics()
+        dicing_us = (after["tessellationSeconds"] - before["tessellationSeconds"]) * 1e6
+        bvh_us = (after["bvhBuildSeconds"] - before["bvhBuildSeconds"]) * 1e6
+        self.tracer.add(
+            "tessellation (triangulation, subdivision dicing)",
+            started_us,
+            dicing_us,
+            meshes=after["meshGeometrySyncs"] - before["meshGeometrySyncs"],
+            dicings=after["subdivisionDicings"] - before["subdivisionDicings"],
+        )
+        self.tracer.add(
+            "acceleration structures (BVH builds, light tree)",
+            started_us + dicing_us,
+            bvh_us,
+            meshBvhBuilds=after["meshBvhBuilds"] - before["meshBvhBuilds"],
+        )
 
     def _render_pass(self, key: tuple[str, int, int, tuple[int, int, int, int] | None, int]):
         """The render pass of (camera, image width, image height, crop, margin)."""

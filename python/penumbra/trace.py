@@ -54,6 +54,18 @@ class Tracer:
             self._depth -= 1
             record.duration_us = self._now_us() - record.start_us
 
+    def now_us(self) -> float:
+        """Microseconds since the tracer was made (the clock of its spans)."""
+        return self._now_us()
+
+    def add(
+        self, name: str, start_us: float, duration_us: float, **args: str | int | float
+    ) -> None:
+        """Record a span measured elsewhere (e.g. totals the C++ side keeps) inside the span
+        open now."""
+        if self.enabled:
+            self.spans.append(Span(name, start_us, duration_us, self._depth, dict(args)))
+
     def chrome(self) -> dict:
         """The spans as a Chrome trace event document."""
         pid, tid = os.getpid(), threading.get_ident() % 2**31

@@ -1,6 +1,7 @@
 #include "penumbra/scene.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -326,7 +327,10 @@ void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
     rtcCommitGeometry(triangles);
     rtcAttachGeometry(bvh, triangles);
     rtcReleaseGeometry(triangles);  // `bvh` keeps it
+    const auto started = std::chrono::steady_clock::now();
     rtcCommitScene(bvh);
+    bvhBuildSeconds_ +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     throwOnEmbreeError(device_, "build a mesh BVH");
     ++meshBvhBuilds_;
     mesh.triangles = triangles;
@@ -433,6 +437,7 @@ void Scene::removeInstancer(InstancerId id) {
 }
 
 void Scene::commit() {
+  const auto started = std::chrono::steady_clock::now();
   for (auto& mesh : meshes_)
     if (mesh) updateHitFilters(*mesh);  // materials may have changed
   rtcCommitScene(top_);
@@ -447,6 +452,8 @@ void Scene::commit() {
   for (size_t i = 0; i < lights_.size(); ++i)
     if (lights_[i].isInfinite()) infiniteLights_.push_back(uint32_t(i));
   buildLightScene();
+  bvhBuildSeconds_ +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   spectral_ = std::any_of(materials_.begin(), materials_.end(), [](const Material& m) {
     return m.constants.abbeNumber > 0 && (m.constants.opacity < 1 || m.opacityVaries());
   });

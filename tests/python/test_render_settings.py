@@ -4,15 +4,13 @@ schema (UsdRenderSettingsBase) by hand."""
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pytest
 from pxr import Gf, Usd, UsdGeom, UsdRender
 
 import penumbra
-from penumbra.errors import PenumbraWarning, SceneError
-from penumbra.usd.settings import conform_aperture, render_pass_settings
+from penumbra.errors import SceneError
+from penumbra.usd.settings import conform_aperture
 
 from stages import add_preview_material, bind, new_stage
 
@@ -150,16 +148,3 @@ def test_bad_settings_are_scene_errors():
     stage = settings_stage((100, 100), policy="stretch")
     with pytest.raises(SceneError, match="aspectRatioConformPolicy"):
         penumbra.render(stage, render_settings="/Render/Settings", samples=1)
-
-
-def test_render_pass_collections_are_named_as_not_applied():
-    stage = settings_stage((100, 100))
-    render_pass = UsdRender.Pass.Define(stage, "/Render/Pass")
-    render_pass.GetRenderSourceRel().SetTargets(["/Render/Settings"])
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # collections at their defaults: no warning
-        assert render_pass_settings(stage, "/Render/Pass") == "/Render/Settings"
-    render_pass.GetRenderVisibilityCollectionAPI().GetExcludesRel().AddTarget("/quad")
-    Usd.CollectionAPI(render_pass.GetPrim(), "prune").GetIncludesRel().AddTarget("/quad")
-    with pytest.warns(PenumbraWarning, match="renderVisibility, prune collections are not"):
-        render_pass_settings(stage, "/Render/Pass")

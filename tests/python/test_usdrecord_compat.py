@@ -96,6 +96,15 @@ def test_trace_to_file(tmp_path, quad_file, trace_format):
     assert names.count("sync stage (USD to render delegate)") == 2
     assert names.count("write image") == 2 and "open stage" in names
     assert all(event["ph"] == "X" and event["dur"] >= 0 for event in events)
+    # Tessellation and acceleration structures inside the render delegate's sync, in order.
+    first_sync = next(e for e in events if e["name"].startswith("render delegate sync"))
+    parts = [e for e in events if e["name"].startswith(("tessellation", "acceleration"))]
+    assert [p["name"].split()[0] for p in parts[:2]] == ["tessellation", "acceleration"]
+    assert parts[0]["args"]["meshes"] == 1  # the first frame triangulates the quad
+    assert parts[1]["ts"] == pytest.approx(parts[0]["ts"] + parts[0]["dur"], abs=1)
+    for part in parts[:2]:
+        assert first_sync["ts"] <= part["ts"]
+        assert part["ts"] + part["dur"] <= first_sync["ts"] + first_sync["dur"] + 1
 
 
 def test_mask_session_layer_and_render_pass(tmp_path, capsys):

@@ -19,6 +19,7 @@ from pxr import Sdf, Usd
 
 from .flattening import Leaf, user_facing_path
 from .mesh import sync_mesh_data
+from .render_pass import SHOWN, PassVisibility
 from .sampling import SampleReader, Shutter
 
 class MaterialSource(Protocol):
@@ -63,7 +64,8 @@ class Group:
         return stacked
 
 
-GroupKey = tuple[Sdf.Path, Sdf.Path | None]
+GroupKey = tuple[Sdf.Path, Sdf.Path | None, PassVisibility]
+"""(mesh, bound material, how the render pass shows the copies)."""
 
 
 def group_leaves(
@@ -72,10 +74,11 @@ def group_leaves(
     material: Sdf.Path | None,
     transforms: np.ndarray,
     primvars: dict[str, np.ndarray],
+    shown: PassVisibility = SHOWN,
 ) -> None:
     """Add ``transforms`` (copies of ``leaf``'s mesh bound to ``material``, with their per-copy
-    ``primvars``) to ``groups``."""
-    key = (leaf.mesh.GetPath(), material)
+    ``primvars``, shown by the render pass as ``shown``) to ``groups``."""
+    key = (leaf.mesh.GetPath(), material, shown)
     group = groups.get(key)
     if group is None:
         group = groups[key] = Group(leaf.mesh, material)
@@ -152,8 +155,10 @@ class InstancedMeshes:
             self._remove(key)
 
     def _insert(self, key: GroupKey, group: Group, shutter: Shutter) -> _Pushed:
-        mesh_path, material = key
+        mesh_path, material, shown = key
         suffix = f"/materials{material}" if material else ""
+        if shown != SHOWN:  # copies the render pass shows otherwise are an instancer of their own
+            suffix += f"/pass{'' if shown.camera else '/cameraHidden'}{'/matte' if shown.matte else ''}"
         pushed = _Pushed(
             mesh_id=f"{self.prefix}/prototypes{mesh_path}{suffix}",
             instancer_id=f"{self.prefix}/instances{mesh_path}{suffix}",
@@ -162,6 +167,8 @@ class InstancedMeshes:
             self.materials.acquire(material, pushed.mesh_id)
         self.core.insert_rprim("mesh", pushed.mesh_id)
         self.core.insert_rprim("instancer", pushed.instancer_id)
+        if shown != SHOWN:
+            self.core.set_pass_visibility(pushed.instancer_id, shown.camera, shown.matte)
         self._read_mesh(pushed, group, shutter)
         return pushed
 

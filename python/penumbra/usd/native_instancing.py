@@ -40,6 +40,7 @@ from .flattening import (
 )
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
 from .material import bound_materials
+from .render_pass import SHOWN, RenderPassCollections
 from .sampling import SampleReader, Shutter, visibility_might_vary
 
 
@@ -53,9 +54,11 @@ class NativeInstancing:
         purposes: frozenset[str],
         warn: Callable[[str], None],
         materials: MaterialSource,
+        render_pass: RenderPassCollections | None = None,
     ):
         self.stage = stage
         self.purposes = purposes
+        self.render_pass = render_pass
         self.warn = warn
         self.meshes = InstancedMeshes(core, warn, materials)
         self.shutter: Shutter | None = None
@@ -130,6 +133,8 @@ class NativeInstancing:
                 flattener.varying = True
             if imageable.ComputeVisibility(frame) == UsdGeom.Tokens.invisible:
                 continue
+            if self.render_pass is not None and not self.render_pass.rendered(instance.GetPath()):
+                continue
             prototype = instance.GetPrototype()
             own = combine_segments(
                 flattener.motion_segments(instance), flattener.content_segments(prototype), limit
@@ -177,13 +182,22 @@ class NativeInstancing:
             bound = materials[start : start + count]
             start += count
             copies_per_instance = len(leaf.transforms)
-            for material in dict.fromkeys(bound):
-                chosen = [n for n in range(count) if bound[n] == material]
+            shown = [
+                self.render_pass.visibility(path) if self.render_pass is not None else SHOWN
+                for path in kept_instances
+            ]
+            for material, pass_shown in dict.fromkeys(zip(bound, shown)):
+                chosen = [n for n in range(count) if (bound[n], shown[n]) == (material, pass_shown)]
                 if not any(inherited[kept_instances[n]] for n in chosen):
                     selected = transforms[chosen]
                     primvars = nest_primvars({}, leaf.primvars, len(chosen), copies_per_instance)
                     group_leaves(
-                        groups, leaf, material, selected.reshape(-1, *selected.shape[2:]), primvars
+                        groups,
+                        leaf,
+                        material,
+                        selected.reshape(-1, *selected.shape[2:]),
+                        primvars,
+                        pass_shown,
                     )
                     continue
                 # Each instance's own primvars reach its copies of the mesh (unless the mesh
@@ -195,7 +209,7 @@ class NativeInstancing:
                         1,
                         copies_per_instance,
                     )
-                    group_leaves(groups, leaf, material, transforms[n], primvars)
+                    group_leaves(groups, leaf, material, transforms[n], primvars, pass_shown)
         return groups
 
 

@@ -16,6 +16,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom
 from .flattening import Flattener, prototype_roots, combine_segments
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
 from .material import bound_material
+from .render_pass import SHOWN, RenderPassCollections
 from .sampling import Shutter
 
 @dataclass
@@ -38,9 +39,11 @@ class PointInstancerDelegate:
         purposes: Iterable[str],
         warn: Callable[[str], None],
         materials: MaterialSource,
+        render_pass: RenderPassCollections | None = None,
     ):
         self.stage = stage
         self.core = core
+        self.render_pass = render_pass
         self.materials = materials  # the scene delegate's registry
         self.purposes = frozenset(purposes) | {UsdGeom.Tokens.default_}
         self.warn = warn
@@ -105,7 +108,7 @@ class PointInstancerDelegate:
         groups = self._groups(prim, flattener)
         record.meshes.update(groups, self.shutter, stale, time_changed)
         # A material edit may make it usable or not: the copies then change material.
-        materials = {material for _, material in groups if material is not None}
+        materials = {material for _, material, _ in groups if material is not None}
         record.roots = {prim.GetPath(), *flattener.roots, *materials}
         record.varying = flattener.varying or record.meshes.varying
         record.dirty = False
@@ -117,6 +120,11 @@ class PointInstancerDelegate:
             flattener.varying = True
         if imageable.ComputeVisibility(self.shutter.frame) == UsdGeom.Tokens.invisible:
             return {}
+        shown = SHOWN
+        if self.render_pass is not None:
+            if not self.render_pass.rendered(prim.GetPath()):
+                return {}
+            shown = self.render_pass.visibility(prim.GetPath())
         limit = self.shutter.max_segments
         segments = combine_segments(
             flattener.motion_segments(prim), flattener.point_instancer_segments(prim), limit
@@ -132,5 +140,7 @@ class PointInstancerDelegate:
             if leaf.proxy not in materials:
                 material = bound_material(self.stage.GetPrimAtPath(leaf.proxy))
                 materials[leaf.proxy] = material.GetPath() if material else None
-            group_leaves(groups, leaf, materials[leaf.proxy], leaf.transforms, leaf.primvars)
+            group_leaves(
+                groups, leaf, materials[leaf.proxy], leaf.transforms, leaf.primvars, shown
+            )
         return groups

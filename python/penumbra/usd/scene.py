@@ -39,6 +39,7 @@ from .material import bound_materials, has_subset_bindings, push_material, read_
 from .mesh import sync_mesh_data
 from .motion import XformCaches, transform_samples
 from .native_instancing import NativeInstancing
+from .render_pass import RenderPassCollections
 from .inherited import InheritedState
 from .sampling import SampleReader, Shutter
 from .settings import FilmWindow
@@ -95,12 +96,19 @@ class SceneDelegate:
     """Mirrors ``stage`` into ``core`` (a ``penumbra._core.RenderDelegate``).
 
     ``purposes``: the UsdGeomImageable purposes whose geometry is rendered ("default" is always
-    included).
+    included). ``render_pass``: the collections of the UsdRenderPass rendered, if any.
     """
 
-    def __init__(self, stage: Usd.Stage, core, purposes: Iterable[str] = DEFAULT_PURPOSES):
+    def __init__(
+        self,
+        stage: Usd.Stage,
+        core,
+        purposes: Iterable[str] = DEFAULT_PURPOSES,
+        render_pass: RenderPassCollections | None = None,
+    ):
         self.stage = stage
         self.core = core
+        self.render_pass = render_pass
         self.purposes = frozenset(purposes) | {UsdGeom.Tokens.default_}
         self.time: Usd.TimeCode | None = None
         self.shutter: Shutter | None = None
@@ -121,7 +129,9 @@ class SceneDelegate:
         # Weak: a cycle through the helper would keep the stage alive until the next collection.
         self.materials = _SceneMaterials(weakref.proxy(self))
         """The one material registry, shared with native and point instancing."""
-        self._native = NativeInstancing(stage, core, self.purposes, self._warn, self.materials)
+        self._native = NativeInstancing(
+            stage, core, self.purposes, self._warn, self.materials, render_pass
+        )
         self._listener = Tf.Notice.Register(
             Usd.Notice.ObjectsChanged, self._on_objects_changed, stage
         )
@@ -445,7 +455,12 @@ class SceneDelegate:
                 record.varying, Dirty.TRANSFORM, self._inherited.transform_might_vary(prim)
             )
         if bits & Dirty.VISIBILITY:
-            self.core.set_visible(path_str, self._inherited.visible(prim))
+            passes = self.render_pass
+            visible = self._inherited.visible(prim) and (passes is None or passes.rendered(path))
+            self.core.set_visible(path_str, visible)
+            if passes is not None and record.kind == "mesh":
+                shown = passes.visibility(path)
+                self.core.set_pass_visibility(path_str, shown.camera, shown.matte)
             record.varying = _set_flag(
                 record.varying, Dirty.VISIBILITY, self._inherited.visibility_might_vary(prim)
             )

@@ -20,6 +20,7 @@ from pxr import Sdf, Usd, UsdGeom, UsdRender, UsdUtils
 
 from ..errors import SceneError, warn
 from .framing import FRAMING_CAMERA_PATH, framing_camera
+from .render_pass import render_pass_collections
 from .stage import stage_name
 
 logger = logging.getLogger("penumbra")
@@ -116,47 +117,17 @@ def _camera_path(name_or_path: CameraPath) -> Sdf.Path | None:
     return path if path.IsPrimPath() or path == Sdf.Path.absoluteRootPath else None
 
 
-PASS_COLLECTIONS = ("renderVisibility", "cameraVisibility", "prune", "matte")
-"""The UsdRenderPass collections, which Penumbra does not apply."""
-
-
-def _authored_collections(render_pass: UsdRender.Pass) -> list[str]:
-    """The pass's collections that are authored (and so may leave their defaults)."""
-    authored = []
-    for name in PASS_COLLECTIONS:
-        prefix = f"collection:{name}"
-        for prop in render_pass.GetPrim().GetAuthoredProperties():
-            if prop.GetName() == prefix or prop.GetName().startswith(prefix + ":"):
-                authored.append(name)
-                break
-    return authored
-
-
 def render_pass_settings(stage: Usd.Stage, pass_path: str) -> str:
     """The render settings prim named by the ``renderSource`` of the UsdRenderPass at
     ``pass_path`` (its first target, with a warning when there are several, as usdrecord).
     Raises :class:`SceneError` naming the pass when it is not a render pass or names no
-    source. Authored ``renderVisibility``, ``cameraVisibility``, ``prune`` and ``matte``
-    collections are not applied: a warning names them."""
-    render_pass = (
-        UsdRender.Pass(stage.GetPrimAtPath(pass_path))
-        if Sdf.Path.IsValidPathString(pass_path) and pass_path.startswith("/")
-        else None
-    )
-    if not render_pass:
-        raise SceneError(f"{stage_name(stage)}: {pass_path} is not a RenderPass prim")
+    source. (Its collections are applied by the scene delegate: see ``render_pass.py``.)"""
+    render_pass = render_pass_collections(stage, pass_path).render_pass
     targets = render_pass.GetRenderSourceRel().GetForwardedTargets()
     if not targets:
         raise SceneError(f"{stage_name(stage)}: render pass {pass_path} has no renderSource")
     if len(targets) > 1:
         warn(f"{pass_path}: the render pass has {len(targets)} render sources; using {targets[0]}")
-    authored = _authored_collections(render_pass)
-    if authored:
-        warn(
-            f"{pass_path}: the render pass's {', '.join(authored)} "
-            f"collection{'s are' if len(authored) > 1 else ' is'} not applied; "
-            "every prim renders as without the pass"
-        )
     return str(targets[0])
 
 

@@ -87,6 +87,9 @@ class Scene {
   void setMeshGeometry(MeshId id, TriangleMesh mesh);
   /// How many mesh BVHs setMeshGeometry has built.
   uint64_t meshBvhBuilds() const { return meshBvhBuilds_; }
+  /// Seconds spent building acceleration structures so far: meshes' BVHs, the top-level BVH,
+  /// the light tree and the lights' BVH.
+  double bvhBuildSeconds() const { return bvhBuildSeconds_; }
   /// Drops the mesh's geometry (it stays registered but renders nothing).
   void clearMeshGeometry(MeshId id);
   /// Places the mesh; an animated transform gives Embree multi-segment instance motion.
@@ -235,6 +238,7 @@ class Scene {
   float sceneExtent_ = 1;
   bool spectral_ = false;
   uint64_t meshBvhBuilds_ = 0;
+  double bvhBuildSeconds_ = 0;
 };
 
 }  // namespace penumbra

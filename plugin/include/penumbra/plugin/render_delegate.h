@@ -107,6 +107,8 @@ class RenderDelegate {
     uint64_t meshGeometrySyncs = 0;
     uint64_t subdivisionDicings = 0;
     uint64_t meshBvhBuilds = 0;
+    double tessellationSeconds = 0;  // triangulating and dicing meshes
+    double bvhBuildSeconds = 0;      // meshes' BVHs, the top-level BVH and the lights'
   };
   SyncStatistics syncStatistics() const;
   const Scene& scene() const { return *scene_; }
@@ -155,6 +157,7 @@ class RenderDelegate {
   int dicedComplexity_ = 0;
   uint64_t meshGeometrySyncs_ = 0;
   uint64_t subdivisionDicings_ = 0;
+  double tessellationSeconds_ = 0;
   uint64_t sceneVersion_ = 0;
 };
 

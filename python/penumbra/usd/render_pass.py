@@ -1,0 +1,73 @@
+"""A UsdRenderPass's collections (``penumbra-record -rp``), as each prim renders under them.
+
+* ``prune`` (empty unless authored): prims removed from the render, with their descendants;
+* ``renderVisibility`` (everything unless authored): prims outside it render nothing;
+* ``cameraVisibility`` (everything unless authored): prims outside it are not seen by camera
+  rays, but still cast shadows, show in reflections and light the scene;
+* ``matte`` (empty unless authored): holdouts: camera rays that meet them end there, adding no
+  colour and no alpha, so they hide what is behind them in the image.
+
+Membership is evaluated with ``Usd.CollectionAPI``'s membership queries (includes, excludes,
+expansion rules and membership expressions alike) on the paths of the prims as composed; for
+instanced geometry, the path of the native instance or point instancer that places it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pxr import Sdf, Usd, UsdRender
+
+from ..errors import SceneError
+from .stage import stage_name
+
+
+@dataclass(frozen=True)
+class PassVisibility:
+    """How a render pass shows one prim (when it is rendered at all)."""
+
+    camera: bool = True
+    matte: bool = False
+
+
+SHOWN = PassVisibility()
+"""A prim that no collection of the pass changes."""
+
+
+class RenderPassCollections:
+    """The membership queries of one render pass's collections."""
+
+    def __init__(self, render_pass: UsdRender.Pass):
+        self.render_pass = render_pass
+        prim = render_pass.GetPrim()
+        self._queries = {
+            name: Usd.CollectionAPI(prim, name).ComputeMembershipQuery()
+            for name in ("prune", "renderVisibility", "cameraVisibility", "matte")
+        }
+
+    def rendered(self, path: Sdf.Path) -> bool:
+        """Whether the prim at ``path`` renders at all (not pruned, render-visible)."""
+        return not self._queries["prune"].IsPathIncluded(path) and self._queries[
+            "renderVisibility"
+        ].IsPathIncluded(path)
+
+    def visibility(self, path: Sdf.Path) -> PassVisibility:
+        """How camera rays treat the prim at ``path`` (which :meth:`rendered` renders)."""
+        return PassVisibility(
+            camera=self._queries["cameraVisibility"].IsPathIncluded(path),
+            matte=self._queries["matte"].IsPathIncluded(path),
+        )
+
+
+def render_pass_collections(stage: Usd.Stage, pass_path: str | Sdf.Path) -> RenderPassCollections:
+    """The collections of the UsdRenderPass at ``pass_path``; :class:`SceneError` naming it when
+    it is not a render pass."""
+    text = str(pass_path)
+    render_pass = (
+        UsdRender.Pass(stage.GetPrimAtPath(text))
+        if Sdf.Path.IsValidPathString(text) and text.startswith("/")
+        else None
+    )
+    if not render_pass:
+        raise SceneError(f"{stage_name(stage)}: {text} is not a RenderPass prim")
+    return RenderPassCollections(render_pass)
