@@ -30,7 +30,11 @@ SURFACES = (STANDARD_SURFACE, OPEN_PBR_SURFACE, PREVIEW_SURFACE)
 
 _SIZES = {"float": 1, "integer": 1, "boolean": 1, "vector2": 2, "color3": 3, "vector3": 3,
           "color4": 4, "vector4": 4}
-_VECTOR_PARAMS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "normal"})
+_VECTOR_PARAMS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "normal",
+                            "penumbra:sheenColor"})
+# The sheen is Penumbra's extension of the delegate's inputs; it may vary like the others.
+_SHEEN_PARAMS = ("penumbra:sheen", "penumbra:sheenColor", "penumbra:sheenRoughness")
+_CONNECTABLE = CONNECTABLE | frozenset(_SHEEN_PARAMS)
 # MaterialX address modes → UsdUVTexture wrap modes.
 _ADDRESS_MODES = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "constant": "black"}
 # Colour spaces Penumbra decodes: as a texture's sourceColorSpace, and on constants.
@@ -382,11 +386,15 @@ class _Mapping:
             coat: mv.Value | None, coat_roughness: mv.Value | None,
             transmission: mv.Value | None, transmission_roughness: float | None,
             abbe_number: float, thin_walled: mv.Value | None, emission: mv.Value | None,
-            opacity: mv.Value | None, normal: mv.Value | None) -> None:
+            opacity: mv.Value | None, normal: mv.Value | None,
+            sheen: tuple[mv.Value | None, mv.Value | None, mv.Value | None]) -> None:
         values = self.values
         values.update(diffuseColor=base, metallic=metalness, roughness=roughness, ior=ior,
                       clearcoat=coat, clearcoatRoughness=coat_roughness, emissiveColor=emission,
                       normal=normal)
+        # Weight, colour and roughness; nothing is sent for a sheen weight of 0.
+        if sheen[0] is not None and sheen[0] != mv.Constant((0.0,)):
+            values.update(zip(_SHEEN_PARAMS, sheen))
         tint = specular_tint.values if isinstance(specular_tint, mv.Constant) else None
         if tint is not None and any(abs(t - 1.0) > 1e-6 for t in tint):
             if (
@@ -442,6 +450,15 @@ def _map_standard_surface(s: _Surface, mapping: _Mapping) -> None:
                          ("base_color", base), ("subsurface", s("subsurface")), keep=1)
     roughness = s.constant("specular_roughness")
     extra = s.constant("transmission_extra_roughness")
+    # standard_surface's sheen lies on the diffuse base only, not on the metal mixed beside it:
+    # its weight is the dielectric fraction's.
+    sheen = s("sheen")
+    metalness = s.constant("metalness")
+    if metalness is not None:
+        sheen = s.combine(mv.multiply, ("sheen", sheen),
+                          ("1 - metalness", mv.Constant((1.0 - metalness[0],))), keep=0)
+    elif sheen != mv.Constant((0.0,)):
+        s.unsupported.append("sheen over a varying metalness (the sheen covers the metal too)")
     mapping.map(
         base=base, metalness=s("metalness"), roughness=s("specular_roughness"),
         ior=s("specular_IOR"),
@@ -454,9 +471,10 @@ def _map_standard_surface(s: _Surface, mapping: _Mapping) -> None:
         emission=s.combine(mv.multiply, ("emission", s("emission")),
                            ("emission_color", s("emission_color")), keep=1),
         opacity=s("opacity"), normal=s("normal") if s.connected("normal") else None,
+        sheen=(sheen, s("sheen_color"), s("sheen_roughness")),
     )
     for name, neutral, weight in (
-        ("sheen", (0.0,), None), ("specular_anisotropy", (0.0,), None),
+        ("specular_anisotropy", (0.0,), None),
         ("diffuse_roughness", (0.0,), None), ("coat_color", (1.0,), "coat"),
         ("coat_IOR", (1.5,), "coat"), ("coat_anisotropy", (0.0,), "coat"),
         ("transmission_color", (1.0,), "transmission"),
@@ -492,9 +510,9 @@ def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
                            ("emission_color", s("emission_color")), keep=1),
         opacity=s("geometry_opacity"),
         normal=s("geometry_normal") if s.connected("geometry_normal") else None,
+        sheen=(s("fuzz_weight"), s("fuzz_color"), s("fuzz_roughness")),
     )
     for name, neutral, weight, tolerance in (
-        ("fuzz_weight", (0.0,), None, 1e-6),
         ("specular_roughness_anisotropy", (0.0,), None, 1e-6),
         ("base_diffuse_roughness", (0.0,), None, 1e-6),
         ("coat_color", (1.0,), "coat_weight", 1e-6),
@@ -560,7 +578,7 @@ def read_materialx_material(
         if value is None:
             continue
         vector = name in _VECTOR_PARAMS
-        if isinstance(value, mv.Affine) and name not in CONNECTABLE:
+        if isinstance(value, mv.Affine) and name not in _CONNECTABLE:
             network.report(shader.GetPath(), f"{name} cannot vary over the surface; its "
                            "default is used")
             continue

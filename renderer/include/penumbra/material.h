@@ -24,6 +24,12 @@ struct MaterialParams {
   float roughness = 0.5f;
   float clearcoat = 0;
   float clearcoatRoughness = 0.01f;
+  /// inputs:penumbra:sheen, sheenColor, sheenRoughness: a sheen layer (fabric, dust) over the
+  /// opaque part, with weight `sheen` (0: none), colour `sheenColor` and roughness
+  /// `sheenRoughness`, the Charlie distribution's α (bsdf.h).
+  float sheen = 0;
+  Vec3f sheenColor{1.0f};
+  float sheenRoughness = 0.3f;
   float opacity = 1;
   float opacityThreshold = 0;
   float ior = 1.5f;
@@ -49,6 +55,9 @@ enum class MaterialInput : uint8_t {
   Roughness,
   Clearcoat,
   ClearcoatRoughness,
+  Sheen,
+  SheenColor,
+  SheenRoughness,
   Opacity,
   Ior,
   Normal,
