@@ -61,19 +61,21 @@ void Material::setParam(const std::string& name, const ParamValue& value) {
       {"diffuseColor", &MaterialParams::diffuseColor},
       {"emissiveColor", &MaterialParams::emissiveColor},
       {"specularColor", &MaterialParams::specularColor},
+      {"penumbra:clearcoatColor", &MaterialParams::clearcoatColor},
       {"penumbra:sheenColor", &MaterialParams::sheenColor}};
-  // The sheen inputs must be finite (the BSDF clamps them to their ranges); the older inputs
-  // keep their lenient handling (the BSDF reads NaN as 0).
-  const bool sheenInput = name.rfind("penumbra:sheen", 0) == 0;
+  // The sheen and coat colour inputs must be finite (the BSDF clamps them to their ranges); the
+  // older inputs keep their lenient handling (the BSDF reads NaN as 0).
+  const bool checkedInput =
+      name.rfind("penumbra:sheen", 0) == 0 || name == "penumbra:clearcoatColor";
   try {
     if (const auto number = numbers.find(name); number != numbers.end()) {
       const float parsed = paramAsFloat(name, value);
-      if (sheenInput && !std::isfinite(parsed))
+      if (checkedInput && !std::isfinite(parsed))
         throw std::invalid_argument(name + " must be finite");
       params_.*(number->second) = parsed;
     } else if (const auto color = colors.find(name); color != colors.end()) {
       const Vec3f parsed = paramAsColor(name, value);
-      if (sheenInput &&
+      if (checkedInput &&
           !(std::isfinite(parsed.x) && std::isfinite(parsed.y) && std::isfinite(parsed.z)))
         throw std::invalid_argument(name + " must be finite");
       params_.*(color->second) = parsed;
@@ -98,6 +100,7 @@ void Material::connect(const std::string& input, InputSource source) {
       {"roughness", MaterialInput::Roughness},
       {"clearcoat", MaterialInput::Clearcoat},
       {"clearcoatRoughness", MaterialInput::ClearcoatRoughness},
+      {"penumbra:clearcoatColor", MaterialInput::ClearcoatColor},
       {"penumbra:sheen", MaterialInput::Sheen},
       {"penumbra:sheenColor", MaterialInput::SheenColor},
       {"penumbra:sheenRoughness", MaterialInput::SheenRoughness},

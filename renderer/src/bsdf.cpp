@@ -495,6 +495,8 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
       opacity_(clamp01(material.opacity)),
       clearcoat_(clamp01(material.clearcoat)),
       coatAlpha_(microfacetAlpha(material.clearcoatRoughness)),
+      coatTint_(lerp(Vec3f(1.0f), clamp01(material.clearcoatColor), clearcoat_)),
+      coatTinted_(coatTint_.x != 1 || coatTint_.y != 1 || coatTint_.z != 1),
       sheen_(clamp01(material.sheen)),
       sheenColor_(clamp01(material.sheenColor)),
       sheenAlpha_(std::max(clamp01(material.sheenRoughness), kMinSheenAlpha)),
@@ -548,6 +550,10 @@ float PreviewSurfaceBsdf::coatTransmittance(float cosTheta) const {
                  SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.albedo(cosTheta).x;
 }
 
+Vec3f PreviewSurfaceBsdf::tintUnderCoat(const Vec3f& value) const {
+  return coatTinted_ ? value * coatTint_ : value;
+}
+
 float PreviewSurfaceBsdf::sheenAlbedo(float cosTheta) const {
   return sheen_ * sheenTables().albedo(cosTheta, sheenAlpha_);
 }
@@ -581,15 +587,15 @@ PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabiliti
     const float below = underSheen * coat;
     p.coat = underSheen * (1 - coat);
     if (specularAlpha_ == 0) {
-      p.specular = below * luminance(schlickFresnel(specularF0_, cosThetaO));
+      p.specular = below * luminance(tintUnderCoat(schlickFresnel(specularF0_, cosThetaO)));
     } else {
       const GgxAlbedoTable::Albedo e = ggxAlbedoTable().directional(cosThetaO, specularAlpha_);
-      p.specular = below * luminance(specularF0_ * e.scale + Vec3f(e.bias));
-      p.multipleScattering =
-          below * luminance(multipleScatteringScale_) * std::max(0.0f, 1 - e.scale - e.bias);
+      p.specular = below * luminance(tintUnderCoat(specularF0_ * e.scale + Vec3f(e.bias)));
+      p.multipleScattering = below * luminance(tintUnderCoat(multipleScatteringScale_)) *
+                             std::max(0.0f, 1 - e.scale - e.bias);
     }
-    p.diffuse =
-        below * luminance(diffuseReflectance_ * (Vec3f(1.0f) - diffuseLayerCover(cosThetaO)));
+    p.diffuse = below * luminance(tintUnderCoat(diffuseReflectance_ *
+                                                (Vec3f(1.0f) - diffuseLayerCover(cosThetaO))));
   }
   p.dielectric = 1 - opacity_;  // its albedo is 1: energy-compensated, and nothing is absorbed
   const float total =
@@ -632,8 +638,8 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
     base += diffuse;
   }
   const float coat = coatTransmittance(wo.z) * coatTransmittance(wi.z);
-  if (diffusePart) *diffusePart = diffuse * (coat * opacity_);
-  Vec3f value = base * coat;
+  if (diffusePart) *diffusePart = tintUnderCoat(diffuse) * (coat * opacity_);
+  Vec3f value = tintUnderCoat(base) * coat;
   if (clearcoat_ > 0 && coatAlpha_ > 0) {
     value += Vec3f(clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), dot(wo, h)).x *
                    ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_));
@@ -845,7 +851,8 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
     case 1:  // specular layer, single scattering
       if (specularAlpha_ == 0) {
         const float coat = coatTransmittance(wo.z);
-        return delta(mirror, schlickFresnel(specularF0_, wo.z) * (opacity_ * coat * coat),
+        return delta(mirror,
+                     tintUnderCoat(schlickFresnel(specularF0_, wo.z)) * (opacity_ * coat * coat),
                      p.specular, BsdfLobe::Specular);
       }
       wi = reflect(wo, sampleGgxVisibleNormal(wo, specularAlpha_, u));

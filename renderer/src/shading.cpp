@@ -130,6 +130,9 @@ void assign(MaterialParams& params, MaterialInput input, const float* value) {
     case MaterialInput::ClearcoatRoughness:
       params.clearcoatRoughness = value[0];
       break;
+    case MaterialInput::ClearcoatColor:
+      params.clearcoatColor = color;
+      break;
     case MaterialInput::Sheen:
       params.sheen = value[0];
       break;
@@ -237,8 +240,8 @@ MaterialParams fallbackSurface() {
 
 bool isVectorInput(MaterialInput input) {
   return input == MaterialInput::DiffuseColor || input == MaterialInput::EmissiveColor ||
-         input == MaterialInput::SpecularColor || input == MaterialInput::SheenColor ||
-         input == MaterialInput::Normal;
+         input == MaterialInput::SpecularColor || input == MaterialInput::ClearcoatColor ||
+         input == MaterialInput::SheenColor || input == MaterialInput::Normal;
 }
 
 Vec2f TextureCoordinates::applyLinear(Vec2f dst) const {

@@ -317,6 +317,7 @@ TEST(BsdfSample, WeightIsEvaluateOverPdf) {
   m.clearcoat = 0.5f;
   m.clearcoatRoughness = 0.1f;
   m.opacity = 0.7f;
+  m.clearcoatColor = Vec3f(0.9f, 0.6f, 0.3f);
   m.sheen = 0.6f;
   m.sheenColor = Vec3f(0.3f, 0.9f, 0.6f);
   m.sheenRoughness = 0.5f;
@@ -533,6 +534,49 @@ TEST(BsdfSheen, ZeroSheenLeavesTheBsdfUnchanged) {
       EXPECT_EQ(sa->pdf, sb->pdf);
       EXPECT_TRUE(sa->direction.x == sb->direction.x && sa->direction.z == sb->direction.z);
     }
+  }
+}
+
+// The clearcoat's colour tints what lies under it, not the coat's own (white) reflection.
+TEST(BsdfLayers, ClearcoatColorTintsTheLayersUnderIt) {
+  MaterialParams clear;
+  clear.diffuseColor = Vec3f(1.0f);
+  clear.roughness = 0.4f;
+  clear.clearcoat = 1;
+  clear.clearcoatRoughness = 0.3f;
+  MaterialParams tinted = clear;
+  tinted.clearcoatColor = Vec3f(1.0f, 0.5f, 0.25f);
+  const PreviewSurfaceBsdf a = makeBsdf(clear), b = makeBsdf(tinted);
+  int checked = 0;
+  for (uint32_t i = 0; i < 256; ++i) {
+    SampleStream stream(8, 8, 8, i);
+    const Vec2f u = stream.next2D(), v = stream.next2D();
+    const Vec3f wo = directionAt(0.05f + 0.95f * u.x, 2 * kPi * u.y);
+    const Vec3f wi = directionAt(0.05f + 0.95f * v.x, 2 * kPi * v.y);
+    const Vec3f fa = a.evaluate(wo, wi), fb = b.evaluate(wo, wi);
+    EXPECT_EQ(fa.x, fb.x);  // red is untinted
+    // f = coat + tint × under: what the tint removes from green and blue is in ratio 0.5 : 0.75.
+    const Vec3f removed = fa - fb;
+    EXPECT_NEAR(removed.z, 1.5f * removed.y, 1e-4f * fa.y + 1e-7f);
+    EXPECT_GT(removed.y, 0.0f);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 256);
+  for (float cosTheta : {0.1f, 0.6f, 1.0f}) {
+    Vec3f clearTotal(0.0f), tintedTotal(0.0f);
+    const uint32_t n = 1u << 14;
+    for (uint32_t i = 0; i < n; ++i) {
+      SampleStream stream(3, 1, 4, i);
+      const float uLobe = stream.next1D();
+      const Vec2f u = stream.next2D();
+      if (const std::optional<BsdfSample> s = a.sample(directionAt(cosTheta), uLobe, u))
+        clearTotal += s->weight / float(n);
+      if (const std::optional<BsdfSample> s = b.sample(directionAt(cosTheta), uLobe, u))
+        tintedTotal += s->weight / float(n);
+    }
+    EXPECT_NEAR(tintedTotal.x, clearTotal.x, 0.01f) << "cos " << cosTheta;
+    EXPECT_LT(tintedTotal.y, 0.6f * clearTotal.y + 0.1f) << "cos " << cosTheta;
+    EXPECT_LT(tintedTotal.z, tintedTotal.y) << "cos " << cosTheta;
   }
 }
 

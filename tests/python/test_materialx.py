@@ -363,6 +363,11 @@ def test_mix_of_a_value_with_itself_or_by_0_or_1_needs_no_folding():
         ("ND_open_pbr_surface_surfaceshader", {"emission_luminance": 4.0,
                                                "emission_color": (1.0, 0.5, 0.25)},
          {"emissiveColor": (4.0, 2.0, 1.0)}),
+        # Coat colour tints what lies under the coat (no warning any more).
+        ("ND_standard_surface_surfaceshader", {"coat": 1.0, "coat_color": (0.9, 0.5, 0.2)},
+         {"clearcoat": 1.0, "penumbra:clearcoatColor": (0.9, 0.5, 0.2)}),
+        ("ND_open_pbr_surface_surfaceshader", {"coat_weight": 0.5, "coat_color": (0.2, 0.4, 0.8)},
+         {"clearcoat": 0.5, "penumbra:clearcoatColor": (0.2, 0.4, 0.8)}),
     ],
 )
 def test_surface_inputs_map_onto_preview_surface_parameters(node_def, inputs, expected):
@@ -524,7 +529,7 @@ def test_sheen_parameters_reach_the_delegate_and_a_metal_has_no_standard_surface
             dust["penumbra:sheenRoughness"]) == (0.5, (1.0, 1.0, 1.0), 0.5)
 
 
-def test_the_delegate_takes_sheen_inputs_and_rejects_non_finite_ones():
+def test_the_delegate_takes_sheen_and_coat_colour_inputs_and_rejects_non_finite_ones():
     from penumbra import _core
 
     delegate = _core.RenderDelegate()
@@ -533,7 +538,9 @@ def test_the_delegate_takes_sheen_inputs_and_rejects_non_finite_ones():
                                  "penumbra:sheenRoughness": 0.4})
     delegate.set_material("/m", {"penumbra:sheen": {"primvar": "fuzz"},
                                  "penumbra:sheenColor": {"primvar": "fuzzColor"}})
+    delegate.set_material("/m", {"penumbra:clearcoatColor": (0.9, 0.5, 0.2)})
     for name, value in (("penumbra:sheen", float("nan")),
+                        ("penumbra:clearcoatColor", (float("inf"), 1.0, 1.0)),
                         ("penumbra:sheenRoughness", float("inf")),
                         ("penumbra:sheenColor", (1.0, float("nan"), 0.0))):
         with pytest.raises(ValueError, match=f"/m: {name} must be finite"):

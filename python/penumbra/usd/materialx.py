@@ -31,10 +31,11 @@ SURFACES = (STANDARD_SURFACE, OPEN_PBR_SURFACE, PREVIEW_SURFACE)
 _SIZES = {"float": 1, "integer": 1, "boolean": 1, "vector2": 2, "color3": 3, "vector3": 3,
           "color4": 4, "vector4": 4}
 _VECTOR_PARAMS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "normal",
-                            "penumbra:sheenColor"})
-# The sheen is Penumbra's extension of the delegate's inputs; it may vary like the others.
+                            "penumbra:clearcoatColor", "penumbra:sheenColor"})
+# The sheen and coat colour are Penumbra's extensions of the delegate's inputs; they may vary
+# like the others.
 _SHEEN_PARAMS = ("penumbra:sheen", "penumbra:sheenColor", "penumbra:sheenRoughness")
-_CONNECTABLE = CONNECTABLE | frozenset(_SHEEN_PARAMS)
+_CONNECTABLE = CONNECTABLE | frozenset(_SHEEN_PARAMS) | {"penumbra:clearcoatColor"}
 # MaterialX address modes → UsdUVTexture wrap modes.
 _ADDRESS_MODES = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "constant": "black"}
 # Colour spaces Penumbra decodes: as a texture's sourceColorSpace, and on constants.
@@ -384,7 +385,8 @@ class _Mapping:
     def map(self, *, base: mv.Value | None, metalness: mv.Value | None,
             roughness: mv.Value | None, ior: mv.Value | None, specular_tint: mv.Value | None,
             coat: mv.Value | None, coat_roughness: mv.Value | None,
-            transmission: mv.Value | None, transmission_roughness: float | None,
+            coat_color: mv.Value | None, transmission: mv.Value | None,
+            transmission_roughness: float | None,
             abbe_number: float, thin_walled: mv.Value | None, emission: mv.Value | None,
             opacity: mv.Value | None, normal: mv.Value | None,
             sheen: tuple[mv.Value | None, mv.Value | None, mv.Value | None]) -> None:
@@ -392,7 +394,10 @@ class _Mapping:
         values.update(diffuseColor=base, metallic=metalness, roughness=roughness, ior=ior,
                       clearcoat=coat, clearcoatRoughness=coat_roughness, emissiveColor=emission,
                       normal=normal)
-        # Weight, colour and roughness; nothing is sent for a sheen weight of 0.
+        # Nothing is sent for a coat or sheen weight of 0, or a white coat.
+        if coat != mv.Constant((0.0,)) and coat_color is not None and \
+                coat_color != mv.Constant((1.0, 1.0, 1.0)):
+            values["penumbra:clearcoatColor"] = coat_color
         if sheen[0] is not None and sheen[0] != mv.Constant((0.0,)):
             values.update(zip(_SHEEN_PARAMS, sheen))
         tint = specular_tint.values if isinstance(specular_tint, mv.Constant) else None
@@ -464,7 +469,8 @@ def _map_standard_surface(s: _Surface, mapping: _Mapping) -> None:
         ior=s("specular_IOR"),
         specular_tint=s.combine(mv.multiply, ("specular", s("specular")),
                                 ("specular_color", s("specular_color")), keep=1),
-        coat=s("coat"), coat_roughness=s("coat_roughness"), transmission=s("transmission"),
+        coat=s("coat"), coat_roughness=s("coat_roughness"), coat_color=s("coat_color"),
+        transmission=s("transmission"),
         transmission_roughness=roughness[0] + extra[0] if roughness and extra else None,
         abbe_number=(s.constant("transmission_dispersion") or (0.0,))[0],
         thin_walled=s("thin_walled"),
@@ -475,7 +481,7 @@ def _map_standard_surface(s: _Surface, mapping: _Mapping) -> None:
     )
     for name, neutral, weight in (
         ("specular_anisotropy", (0.0,), None),
-        ("diffuse_roughness", (0.0,), None), ("coat_color", (1.0,), "coat"),
+        ("diffuse_roughness", (0.0,), None),
         ("coat_IOR", (1.5,), "coat"), ("coat_anisotropy", (0.0,), "coat"),
         ("transmission_color", (1.0,), "transmission"),
         ("transmission_depth", (0.0,), "transmission"),
@@ -501,7 +507,7 @@ def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
         specular_tint=s.combine(mv.multiply, ("specular_weight", s("specular_weight")),
                                 ("specular_color", s("specular_color")), keep=1),
         coat=s("coat_weight"), coat_roughness=s("coat_roughness"),
-        transmission=s("transmission_weight"),
+        coat_color=s("coat_color"), transmission=s("transmission_weight"),
         transmission_roughness=roughness[0] if roughness else None,
         # OpenPBR: the effective Abbe number is the authored one divided by the scale.
         abbe_number=abbe / dispersion if dispersion > 0 and abbe > 0 else 0.0,
@@ -515,7 +521,6 @@ def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
     for name, neutral, weight, tolerance in (
         ("specular_roughness_anisotropy", (0.0,), None, 1e-6),
         ("base_diffuse_roughness", (0.0,), None, 1e-6),
-        ("coat_color", (1.0,), "coat_weight", 1e-6),
         ("coat_ior", (1.5,), "coat_weight", 0.15),  # the BSDF's coat has ior 1.5
         ("coat_roughness_anisotropy", (0.0,), "coat_weight", 1e-6),
         ("transmission_color", (1.0,), "transmission_weight", 1e-6),

@@ -7,7 +7,8 @@
 //   sheen      Charlie microfibre distribution (Estevez and Kulla 2017), α = sheenRoughness
 //              (≥ 0.01), Smith height-correlated masking-shadowing with Λ computed numerically,
 //              no Fresnel, × sheen × sheenColor (Penumbra's extension; none when sheen is 0)
-//   clearcoat  GGX, α = clearcoatRoughness², Schlick F0 = 0.04 (ior 1.5), white, × `clearcoat`
+//   clearcoat  GGX, α = clearcoatRoughness², Schlick F0 = 0.04 (ior 1.5), white, × `clearcoat`;
+//              what lies under it is tinted by 1 − clearcoat + clearcoat × clearcoatColor
 //   specular   GGX, α = roughness², Schlick from F0 to F90 = 1 — F0 = specularColor (specular
 //              workflow) or ((1 − ior)/(1 + ior))² mixed towards diffuseColor by `metallic`
 //              (metallic workflow) — plus Kulla–Conty multiple-scattering compensation
@@ -126,6 +127,8 @@ class PreviewSurfaceBsdf {
   LobeProbabilities computeLobeProbabilities(float cosThetaO) const;
   /// Clearcoat transmittance 1 − c·E_cc(μ).
   float coatTransmittance(float cosTheta) const;
+  /// `value` (of a layer under the clearcoat) tinted by the coat's colour.
+  Vec3f tintUnderCoat(const Vec3f& value) const;
   /// Directional albedo of the sheen layer, weight included and colour excluded: s·E_sh(μ).
   float sheenAlbedo(float cosTheta) const;
   /// Directional albedo of the specular layer the diffuse layer lies under.
@@ -148,6 +151,8 @@ class PreviewSurfaceBsdf {
   // Clearcoat; α = 0 marks a delta lobe, here and below.
   float clearcoat_;
   float coatAlpha_;
+  Vec3f coatTint_;  // of the layers under the coat
+  bool coatTinted_;
   // Sheen (0: none) and its Charlie α.
   float sheen_;
   Vec3f sheenColor_;
