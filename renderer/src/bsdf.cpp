@@ -495,17 +495,20 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
       opacity_(clamp01(material.opacity)),
       clearcoat_(clamp01(material.clearcoat)),
       coatAlpha_(microfacetAlpha(material.clearcoatRoughness)),
-      coatTint_(lerp(Vec3f(1.0f), clamp01(material.clearcoatColor), clearcoat_)),
-      coatTinted_(coatTint_.x != 1 || coatTint_.y != 1 || coatTint_.z != 1),
       sheen_(clamp01(material.sheen)),
-      sheenColor_(clamp01(material.sheenColor)),
-      sheenAlpha_(std::max(clamp01(material.sheenRoughness), kMinSheenAlpha)),
       specularAlpha_(microfacetAlpha(material.roughness)),
       ior_(std::isfinite(ior) && ior > 0 ? ior : 1.0f),
       dielectricAlpha_(microfacetAlpha(material.transmissionRoughness < 0
                                            ? material.roughness
                                            : material.transmissionRoughness)),
       dielectricKind_(dielectricKind) {
+  // The coat tint and the sheen are set up only where they act: materials without them cost
+  // what they did before.
+  if (clearcoat_ > 0) coatTint_ = lerp(Vec3f(1.0f), clamp01(material.clearcoatColor), clearcoat_);
+  if (sheen_ > 0) {
+    sheenColor_ = clamp01(material.sheenColor);
+    sheenAlpha_ = std::max(clamp01(material.sheenRoughness), kMinSheenAlpha);
+  }
   const Vec3f albedo = clamp01(material.diffuseColor);
   if (material.useSpecularWorkflow) {
     specularF0_ = clamp01(material.specularColor);
@@ -551,7 +554,7 @@ float PreviewSurfaceBsdf::coatTransmittance(float cosTheta) const {
 }
 
 Vec3f PreviewSurfaceBsdf::tintUnderCoat(const Vec3f& value) const {
-  return coatTinted_ ? value * coatTint_ : value;
+  return value * coatTint_;  // exact (bit-identical) where the tint is 1
 }
 
 float PreviewSurfaceBsdf::sheenAlbedo(float cosTheta) const {

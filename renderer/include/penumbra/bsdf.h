@@ -151,12 +151,11 @@ class PreviewSurfaceBsdf {
   // Clearcoat; α = 0 marks a delta lobe, here and below.
   float clearcoat_;
   float coatAlpha_;
-  Vec3f coatTint_;  // of the layers under the coat
-  bool coatTinted_;
+  Vec3f coatTint_{1.0f};  // of the layers under the coat
   // Sheen (0: none) and its Charlie α.
   float sheen_;
-  Vec3f sheenColor_;
-  float sheenAlpha_;
+  Vec3f sheenColor_{0.0f};
+  float sheenAlpha_ = 1;
   // Specular layer.
   float specularAlpha_;
   Vec3f specularF0_;
