@@ -561,6 +561,10 @@ float PreviewSurfaceBsdf::sheenAlbedo(float cosTheta) const {
   return sheen_ * sheenTables().albedo(cosTheta, sheenAlpha_);
 }
 
+float PreviewSurfaceBsdf::sheenTransmittance(float cosThetaO) const {
+  return sheen_ > 0 ? 1 - sheenAlbedo(cosThetaO) : 1.0f;
+}
+
 Vec3f PreviewSurfaceBsdf::diffuseLayerCover(float cosTheta) const {
   return SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}.albedo(
       cosTheta);
@@ -845,7 +849,8 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
     case 0:  // clearcoat
       if (coatAlpha_ == 0) {
         return delta(mirror,
-                     Vec3f(opacity_ * clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), wo.z).x),
+                     Vec3f(opacity_ * clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), wo.z).x *
+                           sheenTransmittance(wo.z)),
                      p.coat, BsdfLobe::Specular);
       }
       wi = reflect(wo, sampleGgxVisibleNormal(wo, coatAlpha_, u));
@@ -855,7 +860,8 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
       if (specularAlpha_ == 0) {
         const float coat = coatTransmittance(wo.z);
         return delta(mirror,
-                     tintUnderCoat(schlickFresnel(specularF0_, wo.z)) * (opacity_ * coat * coat),
+                     tintUnderCoat(schlickFresnel(specularF0_, wo.z)) *
+                         (opacity_ * coat * coat * sheenTransmittance(wo.z)),
                      p.specular, BsdfLobe::Specular);
       }
       wi = reflect(wo, sampleGgxVisibleNormal(wo, specularAlpha_, u));

@@ -509,6 +509,24 @@ TEST(BsdfSheen, WhiteDiffuseUnderAWhiteSheenReflectsEverything) {
   EXPECT_NEAR(total.y, total.z, 0.005f);
 }
 
+// The delta lobes under the sheen (a mirror, a smooth clearcoat) lose what the sheen reflects too.
+TEST(BsdfSheen, MirrorUnderAWhiteSheenReflectsEverything) {
+  MaterialParams mirror = whiteMetal(0);
+  mirror.sheen = 1;
+  mirror.sheenRoughness = 0.4f;
+  MaterialParams coated = sheenOverWhiteDiffuse(0.4f);
+  coated.clearcoat = 1;
+  coated.clearcoatRoughness = 0;
+  for (float cosTheta : {0.1f, 0.5f, 1.0f}) {
+    EXPECT_NEAR(furnace(makeBsdf(mirror), directionAt(cosTheta)).radiance, 1.0, 0.005)
+        << "cos " << cosTheta;
+    // The clearcoat drops the light bouncing between coat and base (BsdfLayers above).
+    const double albedo = furnace(makeBsdf(coated), directionAt(cosTheta)).radiance;
+    EXPECT_LE(albedo, 1.005) << "cos " << cosTheta;
+    EXPECT_GE(albedo, 0.85) << "cos " << cosTheta;
+  }
+}
+
 TEST(BsdfSheen, ZeroSheenLeavesTheBsdfUnchanged) {
   MaterialParams plain;
   plain.diffuseColor = Vec3f(0.6f, 0.4f, 0.2f);

@@ -131,6 +131,8 @@ class PreviewSurfaceBsdf {
   Vec3f tintUnderCoat(const Vec3f& value) const;
   /// Directional albedo of the sheen layer, weight included and colour excluded: s·E_sh(μ).
   float sheenAlbedo(float cosTheta) const;
+  /// What the sheen lets through to the layers under it for wo at cos θo: 1 − s·E_sh(μo).
+  float sheenTransmittance(float cosThetaO) const;
   /// Directional albedo of the specular layer the diffuse layer lies under.
   Vec3f diffuseLayerCover(float cosTheta) const;
   /// Everything below in the local frame (z = shading normal); "opaque" functions expect
