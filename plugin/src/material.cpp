@@ -1,5 +1,6 @@
 #include "penumbra/plugin/material.h"
 
+#include <cmath>
 #include <map>
 
 #include "penumbra/plugin/param_value.h"
@@ -53,17 +54,32 @@ void Material::setParam(const std::string& name, const ParamValue& value) {
       {"opacityThreshold", &MaterialParams::opacityThreshold},
       {"ior", &MaterialParams::ior},
       {"penumbra:transmissionRoughness", &MaterialParams::transmissionRoughness},
-      {"penumbra:abbeNumber", &MaterialParams::abbeNumber}};
+      {"penumbra:abbeNumber", &MaterialParams::abbeNumber},
+      {"penumbra:sheen", &MaterialParams::sheen},
+      {"penumbra:sheenRoughness", &MaterialParams::sheenRoughness}};
   static const std::map<std::string, Vec3f MaterialParams::*> colors = {
       {"diffuseColor", &MaterialParams::diffuseColor},
       {"emissiveColor", &MaterialParams::emissiveColor},
-      {"specularColor", &MaterialParams::specularColor}};
+      {"specularColor", &MaterialParams::specularColor},
+      {"penumbra:clearcoatColor", &MaterialParams::clearcoatColor},
+      {"penumbra:sheenColor", &MaterialParams::sheenColor}};
+  // The sheen and coat colour inputs must be finite (the BSDF clamps them to their ranges); the
+  // older inputs keep their lenient handling (the BSDF reads NaN as 0).
+  const bool checkedInput =
+      name.rfind("penumbra:sheen", 0) == 0 || name == "penumbra:clearcoatColor";
   try {
-    if (const auto number = numbers.find(name); number != numbers.end())
-      params_.*(number->second) = paramAsFloat(name, value);
-    else if (const auto color = colors.find(name); color != colors.end())
-      params_.*(color->second) = paramAsColor(name, value);
-    else if (name == "useSpecularWorkflow")
+    if (const auto number = numbers.find(name); number != numbers.end()) {
+      const float parsed = paramAsFloat(name, value);
+      if (checkedInput && !std::isfinite(parsed))
+        throw std::invalid_argument(name + " must be finite");
+      params_.*(number->second) = parsed;
+    } else if (const auto color = colors.find(name); color != colors.end()) {
+      const Vec3f parsed = paramAsColor(name, value);
+      if (checkedInput &&
+          !(std::isfinite(parsed.x) && std::isfinite(parsed.y) && std::isfinite(parsed.z)))
+        throw std::invalid_argument(name + " must be finite");
+      params_.*(color->second) = parsed;
+    } else if (name == "useSpecularWorkflow")
       params_.useSpecularWorkflow = paramAsBool(name, value);
     else if (name == "penumbra:thinWalled")
       params_.thinWalled = paramAsBool(name, value);
@@ -84,6 +100,10 @@ void Material::connect(const std::string& input, InputSource source) {
       {"roughness", MaterialInput::Roughness},
       {"clearcoat", MaterialInput::Clearcoat},
       {"clearcoatRoughness", MaterialInput::ClearcoatRoughness},
+      {"penumbra:clearcoatColor", MaterialInput::ClearcoatColor},
+      {"penumbra:sheen", MaterialInput::Sheen},
+      {"penumbra:sheenColor", MaterialInput::SheenColor},
+      {"penumbra:sheenRoughness", MaterialInput::SheenRoughness},
       {"opacity", MaterialInput::Opacity},
       {"ior", MaterialInput::Ior},
       {"normal", MaterialInput::Normal}};

@@ -311,6 +311,140 @@ const GgxDielectricAlbedoTable& ggxDielectricAlbedoTable() {
   return table;
 }
 
+// --- Sheen: the "Charlie" distribution (Estevez and Kulla 2017) ---
+
+/// The smallest sheen α: below it (sin θh)^(1/α) underflows and the lobe carries no energy.
+constexpr float kMinSheenAlpha = 0.01f;
+
+/// The Charlie distribution of microfibre normals D(h) = (2 + 1/α) sin^(1/α) θh / (2π),
+/// normalised so that ∫ D(h) cos θh dh = 1.
+float charlieDensity(float cosThetaH, float alpha) {
+  const float sin2ThetaH = std::max(0.0f, 1 - cosThetaH * cosThetaH);
+  return (2 + 1 / alpha) * std::pow(sin2ThetaH, 0.5f / alpha) / (2 * kPi);
+}
+
+/// Uniform over the hemisphere z > 0 (density 1/(2π)): the sheen scatters most towards grazing
+/// directions, which cosine-weighted sampling would starve.
+Vec3f sampleUniformHemisphere(Vec2f u) {
+  const float z = u.x;
+  const float radius = std::sqrt(std::max(0.0f, 1 - z * z));
+  const float phi = 2 * kPi * u.y;
+  return {radius * std::cos(phi), radius * std::sin(phi), z};
+}
+constexpr float kUniformHemispherePdf = 1 / (2 * kPi);
+
+/// The sheen as a microfacet lobe without Fresnel: f cos θi = D(h) G2(wo, wi) / (4 cos θo), with
+/// Smith's height-correlated G2 = 1 / (1 + Λ(wo) + Λ(wi)). Smith's Λ of the Charlie distribution
+/// has no closed form (Estevez and Kulla fit one); it is computed here from its definition,
+/// 1 + Λ(ω) = ∫ max(0, ω·m) D(m) dm / cos θ (the microfibres' projected area seen from ω over
+/// the macro surface's). Tabulated at first use (only when a material has sheen), with the
+/// lobe's directional albedo E(μ) for albedo scaling, over √α and √μ (μ = cos θ) on [0, 1] (α
+/// clamped to kMinSheenAlpha), end points included: about 0.1 s, once.
+class SheenTables {
+ public:
+  static constexpr int kSize = 32;
+  static constexpr int kAreaSteps = 512;               // quadrature over cos θm per area entry
+  static constexpr int kCosines = 64, kAzimuths = 32;  // quadrature grid per albedo entry
+
+  SheenTables() {
+    for (int row = 0; row < kSize; ++row) {
+      const float alpha = rowAlpha(row);
+      for (int column = 0; column < kSize; ++column)
+        projectedArea_[row * kSize + column] = integrateProjectedArea(columnCosine(column), alpha);
+    }
+    for (int row = 0; row < kSize; ++row) {
+      const float alpha = rowAlpha(row);
+      for (int column = 0; column < kSize; ++column) {
+        const float cosThetaO = columnCosine(column);
+        const Vec3f wo(std::sqrt(1 - cosThetaO * cosThetaO), 0, cosThetaO);
+        const float lambdaO = lambda(cosThetaO, alpha);
+        double sum = 0;
+        for (int i = 0; i < kCosines; ++i) {
+          const float z = (float(i) + 0.5f) / kCosines;
+          const float radius = std::sqrt(1 - z * z);
+          const float lambdaI = lambda(z, alpha);
+          for (int j = 0; j < kAzimuths; ++j) {
+            const float phi = kPi * (float(j) + 0.5f) / kAzimuths;
+            const Vec3f wi(radius * std::cos(phi), radius * std::sin(phi), z);
+            sum += reflection(wo, wi, alpha, lambdaO, lambdaI);
+          }
+        }
+        // dωi = d(cos θi) dφ, doubled for φ in [π, 2π].
+        albedo_[row * kSize + column] = float(sum * 2 * kPi / (double(kCosines) * kAzimuths));
+      }
+    }
+  }
+
+  /// Smith's Λ for a direction at cos θ = cosTheta (> 0).
+  float lambda(float cosTheta, float alpha) const {
+    return std::max(0.0f, lookup(projectedArea_, cosTheta, alpha) / cosTheta - 1);
+  }
+  /// Directional albedo of the white lobe.
+  float albedo(float cosTheta, float alpha) const { return lookup(albedo_, cosTheta, alpha); }
+
+  /// f · cos θi of the white lobe for wo.z, wi.z > 0, given Λ(wo) and Λ(wi).
+  static float reflection(const Vec3f& wo, const Vec3f& wi, float alpha, float lambdaO,
+                          float lambdaI) {
+    const Vec3f h = normalize(wo + wi);
+    return charlieDensity(h.z, alpha) / ((1 + lambdaO + lambdaI) * 4 * wo.z);
+  }
+
+ private:
+  // Rows are spaced evenly in √α, which resolves the small α where the albedo changes fastest.
+  static float rowAlpha(int row) {
+    return std::max(square(float(row) / (kSize - 1)), kMinSheenAlpha);
+  }
+  // Columns are spaced evenly in √μ: the albedo changes fastest towards grazing angles. At μ = 0,
+  // Λ is infinite; evaluate just above.
+  static float columnCosine(int column) {
+    return std::max(square(float(column) / (kSize - 1)), 1e-3f);
+  }
+
+  /// ∫ max(0, ω·m) D(m) dm for ω at cos θ = cosTheta: over φm in closed form (ω·m = a cos φm + b
+  /// is positive on an arc), over cos θm by the midpoint rule.
+  static float integrateProjectedArea(float cosTheta, float alpha) {
+    const double sinTheta = std::sqrt(std::max(0.0, 1.0 - double(cosTheta) * cosTheta));
+    double sum = 0;
+    for (int k = 0; k < kAreaSteps; ++k) {
+      const double z = (k + 0.5) / kAreaSteps;
+      const double a = sinTheta * std::sqrt(1 - z * z), b = cosTheta * z;
+      double arc;
+      if (b >= a) {
+        arc = 2 * kPi * b;
+      } else {
+        const double phi0 = std::acos(-b / a);
+        arc = 2 * (a * std::sin(phi0) + b * phi0);
+      }
+      sum += arc * charlieDensity(float(z), alpha);
+    }
+    return float(sum / kAreaSteps);
+  }
+
+  float lookup(const std::array<float, kSize * kSize>& table, float cosTheta, float alpha) const {
+    const GridCell r = gridCell(std::sqrt(alpha), kSize), m = gridCell(std::sqrt(cosTheta), kSize);
+    const float* row0 = &table[r.index * kSize];
+    const float* row1 = row0 + kSize;
+    const float lower = row0[m.index] + m.fraction * (row0[m.index + 1] - row0[m.index]);
+    const float upper = row1[m.index] + m.fraction * (row1[m.index + 1] - row1[m.index]);
+    return lower + r.fraction * (upper - lower);
+  }
+
+  std::array<float, kSize * kSize> projectedArea_{}, albedo_{};
+};
+
+const SheenTables& sheenTables() {
+  static const SheenTables tables;  // built once, thread-safe, immutable afterwards
+  return tables;
+}
+
+/// f · cos θi of the white sheen lobe with weight 1, for wo.z, wi.z > 0. Symmetric in wo and wi
+/// once divided by cos θi.
+float sheenReflection(const Vec3f& wo, const Vec3f& wi, float alpha) {
+  const SheenTables& tables = sheenTables();
+  return SheenTables::reflection(wo, wi, alpha, tables.lambda(wo.z, alpha),
+                                 tables.lambda(wi.z, alpha));
+}
+
 /// A specular layer: GGX (or a mirror when alpha = 0) with Schlick's Fresnel from f0 to 1 and a
 /// Kulla–Conty multiple-scattering term scaled by `multipleScattering`.
 struct SpecularLayer {
@@ -361,12 +495,20 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
       opacity_(clamp01(material.opacity)),
       clearcoat_(clamp01(material.clearcoat)),
       coatAlpha_(microfacetAlpha(material.clearcoatRoughness)),
+      sheen_(clamp01(material.sheen)),
       specularAlpha_(microfacetAlpha(material.roughness)),
       ior_(std::isfinite(ior) && ior > 0 ? ior : 1.0f),
       dielectricAlpha_(microfacetAlpha(material.transmissionRoughness < 0
                                            ? material.roughness
                                            : material.transmissionRoughness)),
       dielectricKind_(dielectricKind) {
+  // The coat tint and the sheen are set up only where they act: materials without them cost
+  // what they did before.
+  if (clearcoat_ > 0) coatTint_ = lerp(Vec3f(1.0f), clamp01(material.clearcoatColor), clearcoat_);
+  if (sheen_ > 0) {
+    sheenColor_ = clamp01(material.sheenColor);
+    sheenAlpha_ = std::max(clamp01(material.sheenRoughness), kMinSheenAlpha);
+  }
   const Vec3f albedo = clamp01(material.diffuseColor);
   if (material.useSpecularWorkflow) {
     specularF0_ = clamp01(material.specularColor);
@@ -398,8 +540,9 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
 
 bool PreviewSurfaceBsdf::isPurelySpecular() const {
   const bool opaqueIsDelta =
-      opacity_ == 0 || ((clearcoat_ == 0 || coatAlpha_ == 0) && specularAlpha_ == 0 &&
-                        isBlack(diffuseReflectance_ * diffuseNormalization_));
+      opacity_ == 0 ||
+      (sheen_ == 0 && (clearcoat_ == 0 || coatAlpha_ == 0) && specularAlpha_ == 0 &&
+       isBlack(diffuseReflectance_ * diffuseNormalization_));
   const bool translucentIsDelta = opacity_ == 1 || dielectricAlpha_ == 0 || ior_ == 1;
   return opaqueIsDelta && translucentIsDelta;
 }
@@ -408,6 +551,18 @@ float PreviewSurfaceBsdf::coatTransmittance(float cosTheta) const {
   if (clearcoat_ == 0) return 1;
   return 1 - clearcoat_ *
                  SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.albedo(cosTheta).x;
+}
+
+Vec3f PreviewSurfaceBsdf::tintUnderCoat(const Vec3f& value) const {
+  return value * coatTint_;  // exact (bit-identical) where the tint is 1
+}
+
+float PreviewSurfaceBsdf::sheenAlbedo(float cosTheta) const {
+  return sheen_ * sheenTables().albedo(cosTheta, sheenAlpha_);
+}
+
+float PreviewSurfaceBsdf::sheenTransmittance(float cosThetaO) const {
+  return sheen_ > 0 ? 1 - sheenAlbedo(cosThetaO) : 1.0f;
 }
 
 Vec3f PreviewSurfaceBsdf::diffuseLayerCover(float cosTheta) const {
@@ -428,24 +583,33 @@ PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabiliti
   // transmittance for wo only, the one for wi being unknown yet.
   LobeProbabilities p;
   if (opacity_ > 0) {
+    // What the sheen lets through to the layers below (albedo scaling: for wo only).
+    float underSheen = opacity_;
+    if (sheen_ > 0) {
+      const float sheen = sheenAlbedo(cosThetaO);
+      p.sheen = opacity_ * luminance(sheenColor_) * sheen;
+      underSheen = opacity_ * (1 - sheen);
+    }
     const float coat = coatTransmittance(cosThetaO);
-    const float below = opacity_ * coat;
-    p.coat = opacity_ * (1 - coat);
+    const float below = underSheen * coat;
+    p.coat = underSheen * (1 - coat);
     if (specularAlpha_ == 0) {
-      p.specular = below * luminance(schlickFresnel(specularF0_, cosThetaO));
+      p.specular = below * luminance(tintUnderCoat(schlickFresnel(specularF0_, cosThetaO)));
     } else {
       const GgxAlbedoTable::Albedo e = ggxAlbedoTable().directional(cosThetaO, specularAlpha_);
-      p.specular = below * luminance(specularF0_ * e.scale + Vec3f(e.bias));
-      p.multipleScattering =
-          below * luminance(multipleScatteringScale_) * std::max(0.0f, 1 - e.scale - e.bias);
+      p.specular = below * luminance(tintUnderCoat(specularF0_ * e.scale + Vec3f(e.bias)));
+      p.multipleScattering = below * luminance(tintUnderCoat(multipleScatteringScale_)) *
+                             std::max(0.0f, 1 - e.scale - e.bias);
     }
-    p.diffuse =
-        below * luminance(diffuseReflectance_ * (Vec3f(1.0f) - diffuseLayerCover(cosThetaO)));
+    p.diffuse = below * luminance(tintUnderCoat(diffuseReflectance_ *
+                                                (Vec3f(1.0f) - diffuseLayerCover(cosThetaO))));
   }
   p.dielectric = 1 - opacity_;  // its albedo is 1: energy-compensated, and nothing is absorbed
-  const float total = p.coat + p.specular + p.multipleScattering + p.diffuse + p.dielectric;
+  const float total =
+      p.coat + p.specular + p.multipleScattering + p.diffuse + p.sheen + p.dielectric;
   if (!(total > 0)) return {};
   const float scale = 1 / total;
+  p.sheen *= scale;
   p.coat *= scale;
   p.specular *= scale;
   p.multipleScattering *= scale;
@@ -481,11 +645,16 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
     base += diffuse;
   }
   const float coat = coatTransmittance(wo.z) * coatTransmittance(wi.z);
-  if (diffusePart) *diffusePart = diffuse * (coat * opacity_);
-  Vec3f value = base * coat;
+  if (diffusePart) *diffusePart = tintUnderCoat(diffuse) * (coat * opacity_);
+  Vec3f value = tintUnderCoat(base) * coat;
   if (clearcoat_ > 0 && coatAlpha_ > 0) {
     value += Vec3f(clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), dot(wo, h)).x *
                    ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_));
+  }
+  if (sheen_ > 0) {
+    const float underSheen = 1 - sheenAlbedo(wo.z);
+    if (diffusePart) *diffusePart *= underSheen;
+    value = value * underSheen + sheenColor_ * (sheen_ * sheenReflection(wo, wi, sheenAlpha_));
   }
   return value * opacity_;
 }
@@ -497,6 +666,7 @@ float PreviewSurfaceBsdf::pdfOpaque(const Vec3f& wo, const Vec3f& wi,
   float density = (p.multipleScattering + p.diffuse) * wi.z * kInvPi;
   if (specularAlpha_ > 0) density += p.specular * ggxReflectionPdf(wo, h, specularAlpha_);
   if (coatAlpha_ > 0) density += p.coat * ggxReflectionPdf(wo, h, coatAlpha_);
+  if (sheen_ > 0) density += p.sheen * kUniformHemispherePdf;
   return density;
 }
 
@@ -638,11 +808,11 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
 
   // Picks lobe k if uLobe falls in its interval and rescales uLobe to [0, 1) within it, so that
   // the dielectric can reuse it for its reflect/refract choice.
-  const std::array<float, 5> probabilities{p.coat, p.specular, p.multipleScattering, p.diffuse,
-                                           p.dielectric};
+  const std::array<float, 6> probabilities{p.coat,    p.specular, p.multipleScattering,
+                                           p.diffuse, p.sheen,    p.dielectric};
   int lobe = -1;
   float cumulative = 0;
-  for (int k = 0; k < 5; ++k) {
+  for (int k = 0; k < 6; ++k) {
     if (probabilities[k] > 0 && uLobe < cumulative + probabilities[k]) {
       lobe = k;
       uLobe = std::min((uLobe - cumulative) / probabilities[k], 0.99999994f);
@@ -651,7 +821,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
     cumulative += probabilities[k];
   }
   if (lobe < 0) {  // rounding left uLobe past the last interval: take the last non-empty lobe
-    for (int k = 4; k >= 0 && lobe < 0; --k) {
+    for (int k = 5; k >= 0 && lobe < 0; --k) {
       if (probabilities[k] > 0) lobe = k;
     }
     if (lobe < 0) return std::nullopt;
@@ -679,7 +849,8 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
     case 0:  // clearcoat
       if (coatAlpha_ == 0) {
         return delta(mirror,
-                     Vec3f(opacity_ * clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), wo.z).x),
+                     Vec3f(opacity_ * clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), wo.z).x *
+                           sheenTransmittance(wo.z)),
                      p.coat, BsdfLobe::Specular);
       }
       wi = reflect(wo, sampleGgxVisibleNormal(wo, coatAlpha_, u));
@@ -688,7 +859,9 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
     case 1:  // specular layer, single scattering
       if (specularAlpha_ == 0) {
         const float coat = coatTransmittance(wo.z);
-        return delta(mirror, schlickFresnel(specularF0_, wo.z) * (opacity_ * coat * coat),
+        return delta(mirror,
+                     tintUnderCoat(schlickFresnel(specularF0_, wo.z)) *
+                         (opacity_ * coat * coat * sheenTransmittance(wo.z)),
                      p.specular, BsdfLobe::Specular);
       }
       wi = reflect(wo, sampleGgxVisibleNormal(wo, specularAlpha_, u));
@@ -701,6 +874,10 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
     case 3:
       wi = sampleCosineHemisphere(u);
       result.lobe = BsdfLobe::Diffuse;
+      break;
+    case 4:
+      wi = sampleUniformHemisphere(u);
+      result.lobe = BsdfLobe::Glossy;
       break;
     default: {  // translucent part
       const float eta = flipped ? 1 / ior_ : ior_;

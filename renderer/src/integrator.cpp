@@ -124,6 +124,10 @@ PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
   if (minAlpha > 0) raiseRoughness(material, minAlpha);
   if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
   material.diffuseColor = spectrum.reflectance(material.diffuseColor);
+  if (spectrum.spectral && material.sheen > 0)
+    material.sheenColor = spectrum.reflectance(material.sheenColor);
+  if (spectrum.spectral && material.clearcoat > 0)
+    material.clearcoatColor = spectrum.reflectance(material.clearcoatColor);
   // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
   return PreviewSurfaceBsdf(material, hit.shadingNormal, ior,
                             hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet);

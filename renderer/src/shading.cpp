@@ -130,6 +130,18 @@ void assign(MaterialParams& params, MaterialInput input, const float* value) {
     case MaterialInput::ClearcoatRoughness:
       params.clearcoatRoughness = value[0];
       break;
+    case MaterialInput::ClearcoatColor:
+      params.clearcoatColor = color;
+      break;
+    case MaterialInput::Sheen:
+      params.sheen = value[0];
+      break;
+    case MaterialInput::SheenColor:
+      params.sheenColor = color;
+      break;
+    case MaterialInput::SheenRoughness:
+      params.sheenRoughness = value[0];
+      break;
     case MaterialInput::Opacity:
       params.opacity = value[0];
       break;
@@ -228,7 +240,8 @@ MaterialParams fallbackSurface() {
 
 bool isVectorInput(MaterialInput input) {
   return input == MaterialInput::DiffuseColor || input == MaterialInput::EmissiveColor ||
-         input == MaterialInput::SpecularColor || input == MaterialInput::Normal;
+         input == MaterialInput::SpecularColor || input == MaterialInput::ClearcoatColor ||
+         input == MaterialInput::SheenColor || input == MaterialInput::Normal;
 }
 
 Vec2f TextureCoordinates::applyLinear(Vec2f dst) const {

@@ -363,6 +363,11 @@ def test_mix_of_a_value_with_itself_or_by_0_or_1_needs_no_folding():
         ("ND_open_pbr_surface_surfaceshader", {"emission_luminance": 4.0,
                                                "emission_color": (1.0, 0.5, 0.25)},
          {"emissiveColor": (4.0, 2.0, 1.0)}),
+        # Coat colour tints what lies under the coat (no warning any more).
+        ("ND_standard_surface_surfaceshader", {"coat": 1.0, "coat_color": (0.9, 0.5, 0.2)},
+         {"clearcoat": 1.0, "penumbra:clearcoatColor": (0.9, 0.5, 0.2)}),
+        ("ND_open_pbr_surface_surfaceshader", {"coat_weight": 0.5, "coat_color": (0.2, 0.4, 0.8)},
+         {"clearcoat": 0.5, "penumbra:clearcoatColor": (0.2, 0.4, 0.8)}),
     ],
 )
 def test_surface_inputs_map_onto_preview_surface_parameters(node_def, inputs, expected):
@@ -445,3 +450,98 @@ def test_a_broken_or_missing_mtlx_document_warns_naming_the_file(tmp_path, conte
         stage.GetRootLayer().Export(str(stage_path))
         opened = open_stage(stage_path)
     assert not opened.GetPrimAtPath("/World/Looks/Materials")
+
+
+def sheen_sphere_image(node_def: str, **inputs) -> np.ndarray:
+    """A unit sphere (dark grey diffuse, no specular layer) under a white dome, seen whole: RGB
+    and the radius of each pixel's line of sight in the z = 0 plane."""
+    stage = new_stage()
+    add_camera(stage)  # sees [-2, 2]² of the z = 0 plane; the sphere's silhouette has radius 1.02
+    sphere = add_sphere_mesh(stage, "/World/ball", rings=64, sectors=128)
+    white_dome(stage)
+    add_mtlx_material(stage, "/World/Looks/cloth", node_def, **inputs)
+    bind(sphere, UsdShade.Material(stage.GetPrimAtPath("/World/Looks/cloth")))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", penumbra.PenumbraWarning)  # sheen is not ignored any more
+        return penumbra.render(stage, camera="/cam", width=64, samples=64, seed=7)["color"][..., :3]
+
+
+def _zones(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean RGB of the sphere's rim (grazing view, radius 0.85–0.95, away from the silhouette
+    at 1.02 where the pixel filter sees the dome) and of its centre (radius < 0.4)."""
+    size = image.shape[0]
+    coordinates = (np.arange(size) + 0.5) / size * 4 - 2
+    radius = np.hypot(*np.meshgrid(coordinates, coordinates))
+    rim = image[(radius > 0.85) & (radius < 0.95)].mean(axis=0)
+    centre = image[radius < 0.4].mean(axis=0)
+    return rim, centre
+
+
+@pytest.mark.parametrize(
+    "node_def, base, sheen",
+    [
+        ("ND_standard_surface_surfaceshader",
+         {"base_color": (0.1, 0.1, 0.1), "specular": 0.0},
+         {"sheen": 1.0, "sheen_color": (1.0, 0.2, 0.2), "sheen_roughness": 0.3}),
+        ("ND_open_pbr_surface_surfaceshader",
+         {"base_color": (0.1, 0.1, 0.1), "specular_weight": 0.0},
+         {"fuzz_weight": 1.0, "fuzz_color": (1.0, 0.2, 0.2), "fuzz_roughness": 0.5}),
+    ],
+)
+def test_sheen_and_fuzz_light_a_coloured_rim_at_grazing_angles(node_def, base, sheen):
+    """Under a white dome the sheen reflects its colour most at grazing angles, and the base
+    loses what the sheen reflects (albedo scaling): the rim turns red, the centre barely
+    changes. The sheen's albedo (docs/materialx.md) is 0.04–0.09 at normal incidence and
+    0.4–0.8 towards grazing for these roughnesses. Measured (standard_surface): rim red 0.38
+    against 0.16 without sheen, centre red 0.15 against 0.10."""
+    rim_plain, centre_plain = _zones(sheen_sphere_image(node_def, **base))
+    rim, centre = _zones(sheen_sphere_image(node_def, **base, **sheen))
+    np.testing.assert_allclose(centre_plain, 0.1, atol=0.01)  # the 0.1 grey base
+    assert np.ptp(rim_plain) < 0.005  # grey, brighter by the (white) Fresnel at F0 = 0
+    assert rim[0] > rim_plain[0] + 0.15  # brighter …
+    assert rim[0] > 2 * rim[1] and rim[1] == pytest.approx(rim[2], abs=0.01)  # … and red
+    assert abs(centre[0] - centre_plain[0]) < 0.5 * (rim[0] - rim_plain[0])
+
+
+def test_sheen_parameters_reach_the_delegate_and_a_metal_has_no_standard_surface_sheen():
+    from penumbra.usd.material import read_material
+    from penumbra.usd.sampling import SampleReader
+
+    stage = new_stage()
+    add_mtlx_material(stage, "/Looks/velvet", "ND_standard_surface_surfaceshader", sheen=0.8,
+                      sheen_color=(0.2, 0.3, 0.9), sheen_roughness=0.6, metalness=0.25)
+    add_mtlx_material(stage, "/Looks/gold", "ND_standard_surface_surfaceshader", sheen=1.0,
+                      metalness=1.0)
+    add_mtlx_material(stage, "/Looks/dust", "ND_open_pbr_surface_surfaceshader",
+                      fuzz_weight=0.5)
+
+    def params(path: str) -> dict:
+        return read_material(stage.GetPrimAtPath(path), SampleReader(Usd.TimeCode(1)),
+                             pytest.fail).params
+
+    velvet = params("/Looks/velvet")
+    assert velvet["penumbra:sheen"] == pytest.approx(0.6)  # 0.8 × (1 − metalness)
+    assert velvet["penumbra:sheenColor"] == pytest.approx((0.2, 0.3, 0.9))
+    assert velvet["penumbra:sheenRoughness"] == pytest.approx(0.6)
+    assert not any(name.startswith("penumbra:sheen") for name in params("/Looks/gold"))
+    dust = params("/Looks/dust")  # OpenPBR's fuzz defaults: white, roughness 0.5
+    assert (dust["penumbra:sheen"], dust["penumbra:sheenColor"],
+            dust["penumbra:sheenRoughness"]) == (0.5, (1.0, 1.0, 1.0), 0.5)
+
+
+def test_the_delegate_takes_sheen_and_coat_colour_inputs_and_rejects_non_finite_ones():
+    from penumbra import _core
+
+    delegate = _core.RenderDelegate()
+    delegate.insert_sprim("material", "/m")
+    delegate.set_material("/m", {"penumbra:sheen": 1.0, "penumbra:sheenColor": (1.0, 0.5, 0.2),
+                                 "penumbra:sheenRoughness": 0.4})
+    delegate.set_material("/m", {"penumbra:sheen": {"primvar": "fuzz"},
+                                 "penumbra:sheenColor": {"primvar": "fuzzColor"}})
+    delegate.set_material("/m", {"penumbra:clearcoatColor": (0.9, 0.5, 0.2)})
+    for name, value in (("penumbra:sheen", float("nan")),
+                        ("penumbra:clearcoatColor", (float("inf"), 1.0, 1.0)),
+                        ("penumbra:sheenRoughness", float("inf")),
+                        ("penumbra:sheenColor", (1.0, float("nan"), 0.0))):
+        with pytest.raises(ValueError, match=f"/m: {name} must be finite"):
+            delegate.set_material("/m", {name: value})

@@ -30,7 +30,12 @@ SURFACES = (STANDARD_SURFACE, OPEN_PBR_SURFACE, PREVIEW_SURFACE)
 
 _SIZES = {"float": 1, "integer": 1, "boolean": 1, "vector2": 2, "color3": 3, "vector3": 3,
           "color4": 4, "vector4": 4}
-_VECTOR_PARAMS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "normal"})
+_VECTOR_PARAMS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "normal",
+                            "penumbra:clearcoatColor", "penumbra:sheenColor"})
+# The sheen and coat colour are Penumbra's extensions of the delegate's inputs; they may vary
+# like the others.
+_SHEEN_PARAMS = ("penumbra:sheen", "penumbra:sheenColor", "penumbra:sheenRoughness")
+_CONNECTABLE = CONNECTABLE | frozenset(_SHEEN_PARAMS) | {"penumbra:clearcoatColor"}
 # MaterialX address modes → UsdUVTexture wrap modes.
 _ADDRESS_MODES = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "constant": "black"}
 # Colour spaces Penumbra decodes: as a texture's sourceColorSpace, and on constants.
@@ -380,13 +385,21 @@ class _Mapping:
     def map(self, *, base: mv.Value | None, metalness: mv.Value | None,
             roughness: mv.Value | None, ior: mv.Value | None, specular_tint: mv.Value | None,
             coat: mv.Value | None, coat_roughness: mv.Value | None,
-            transmission: mv.Value | None, transmission_roughness: float | None,
+            coat_color: mv.Value | None, transmission: mv.Value | None,
+            transmission_roughness: float | None,
             abbe_number: float, thin_walled: mv.Value | None, emission: mv.Value | None,
-            opacity: mv.Value | None, normal: mv.Value | None) -> None:
+            opacity: mv.Value | None, normal: mv.Value | None,
+            sheen: tuple[mv.Value | None, mv.Value | None, mv.Value | None]) -> None:
         values = self.values
         values.update(diffuseColor=base, metallic=metalness, roughness=roughness, ior=ior,
                       clearcoat=coat, clearcoatRoughness=coat_roughness, emissiveColor=emission,
                       normal=normal)
+        # Nothing is sent for a coat or sheen weight of 0, or a white coat.
+        if coat != mv.Constant((0.0,)) and coat_color is not None and \
+                coat_color != mv.Constant((1.0, 1.0, 1.0)):
+            values["penumbra:clearcoatColor"] = coat_color
+        if sheen[0] is not None and sheen[0] != mv.Constant((0.0,)):
+            values.update(zip(_SHEEN_PARAMS, sheen))
         tint = specular_tint.values if isinstance(specular_tint, mv.Constant) else None
         if tint is not None and any(abs(t - 1.0) > 1e-6 for t in tint):
             if (
@@ -442,22 +455,33 @@ def _map_standard_surface(s: _Surface, mapping: _Mapping) -> None:
                          ("base_color", base), ("subsurface", s("subsurface")), keep=1)
     roughness = s.constant("specular_roughness")
     extra = s.constant("transmission_extra_roughness")
+    # standard_surface's sheen lies on the diffuse base only, not on the metal mixed beside it:
+    # its weight is the dielectric fraction's.
+    sheen = s("sheen")
+    metalness = s.constant("metalness")
+    if metalness is not None:
+        sheen = s.combine(mv.multiply, ("sheen", sheen),
+                          ("1 - metalness", mv.Constant((1.0 - metalness[0],))), keep=0)
+    elif sheen != mv.Constant((0.0,)):
+        s.unsupported.append("sheen over a varying metalness (the sheen covers the metal too)")
     mapping.map(
         base=base, metalness=s("metalness"), roughness=s("specular_roughness"),
         ior=s("specular_IOR"),
         specular_tint=s.combine(mv.multiply, ("specular", s("specular")),
                                 ("specular_color", s("specular_color")), keep=1),
-        coat=s("coat"), coat_roughness=s("coat_roughness"), transmission=s("transmission"),
+        coat=s("coat"), coat_roughness=s("coat_roughness"), coat_color=s("coat_color"),
+        transmission=s("transmission"),
         transmission_roughness=roughness[0] + extra[0] if roughness and extra else None,
         abbe_number=(s.constant("transmission_dispersion") or (0.0,))[0],
         thin_walled=s("thin_walled"),
         emission=s.combine(mv.multiply, ("emission", s("emission")),
                            ("emission_color", s("emission_color")), keep=1),
         opacity=s("opacity"), normal=s("normal") if s.connected("normal") else None,
+        sheen=(sheen, s("sheen_color"), s("sheen_roughness")),
     )
     for name, neutral, weight in (
-        ("sheen", (0.0,), None), ("specular_anisotropy", (0.0,), None),
-        ("diffuse_roughness", (0.0,), None), ("coat_color", (1.0,), "coat"),
+        ("specular_anisotropy", (0.0,), None),
+        ("diffuse_roughness", (0.0,), None),
         ("coat_IOR", (1.5,), "coat"), ("coat_anisotropy", (0.0,), "coat"),
         ("transmission_color", (1.0,), "transmission"),
         ("transmission_depth", (0.0,), "transmission"),
@@ -483,7 +507,7 @@ def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
         specular_tint=s.combine(mv.multiply, ("specular_weight", s("specular_weight")),
                                 ("specular_color", s("specular_color")), keep=1),
         coat=s("coat_weight"), coat_roughness=s("coat_roughness"),
-        transmission=s("transmission_weight"),
+        coat_color=s("coat_color"), transmission=s("transmission_weight"),
         transmission_roughness=roughness[0] if roughness else None,
         # OpenPBR: the effective Abbe number is the authored one divided by the scale.
         abbe_number=abbe / dispersion if dispersion > 0 and abbe > 0 else 0.0,
@@ -492,12 +516,11 @@ def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
                            ("emission_color", s("emission_color")), keep=1),
         opacity=s("geometry_opacity"),
         normal=s("geometry_normal") if s.connected("geometry_normal") else None,
+        sheen=(s("fuzz_weight"), s("fuzz_color"), s("fuzz_roughness")),
     )
     for name, neutral, weight, tolerance in (
-        ("fuzz_weight", (0.0,), None, 1e-6),
         ("specular_roughness_anisotropy", (0.0,), None, 1e-6),
         ("base_diffuse_roughness", (0.0,), None, 1e-6),
-        ("coat_color", (1.0,), "coat_weight", 1e-6),
         ("coat_ior", (1.5,), "coat_weight", 0.15),  # the BSDF's coat has ior 1.5
         ("coat_roughness_anisotropy", (0.0,), "coat_weight", 1e-6),
         ("transmission_color", (1.0,), "transmission_weight", 1e-6),
@@ -560,7 +583,7 @@ def read_materialx_material(
         if value is None:
             continue
         vector = name in _VECTOR_PARAMS
-        if isinstance(value, mv.Affine) and name not in CONNECTABLE:
+        if isinstance(value, mv.Affine) and name not in _CONNECTABLE:
             network.report(shader.GetPath(), f"{name} cannot vary over the surface; its "
                            "default is used")
             continue

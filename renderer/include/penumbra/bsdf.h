@@ -4,7 +4,11 @@
 // The surface is a mix of an opaque part (weight `opacity`) and a translucent part (weight
 // 1 − opacity). The opaque part is a stack of layers, each attenuating the ones below by the
 // energy it reflects:
-//   clearcoat  GGX, α = clearcoatRoughness², Schlick F0 = 0.04 (ior 1.5), white, × `clearcoat`
+//   sheen      Charlie microfibre distribution (Estevez and Kulla 2017), α = sheenRoughness
+//              (≥ 0.01), Smith height-correlated masking-shadowing with Λ computed numerically,
+//              no Fresnel, × sheen × sheenColor (Penumbra's extension; none when sheen is 0)
+//   clearcoat  GGX, α = clearcoatRoughness², Schlick F0 = 0.04 (ior 1.5), white, × `clearcoat`;
+//              what lies under it is tinted by 1 − clearcoat + clearcoat × clearcoatColor
 //   specular   GGX, α = roughness², Schlick from F0 to F90 = 1 — F0 = specularColor (specular
 //              workflow) or ((1 − ior)/(1 + ior))² mixed towards diffuseColor by `metallic`
 //              (metallic workflow) — plus Kulla–Conty multiple-scattering compensation
@@ -29,14 +33,19 @@
 // diffuse surface under any specular layer reflect exactly all energy. The layers under the
 // clearcoat are scaled by (1 − c·E_cc(μo))(1 − c·E_cc(μi)) — light crosses the coat twice — which
 // is reciprocal and never creates energy but drops the light bouncing between coat and base (a
-// white rough metal under a full coat keeps 86–95 %).
+// white rough metal under a full coat keeps 86–95 %). Everything under the sheen is scaled by
+// 1 − sheen·E_sh(μo), E_sh being the white sheen lobe's directional albedo (albedo scaling, as
+// MaterialX's layer node): exact in energy over any base (a white diffuse base under a white
+// sheen reflects everything) but, like the rough dielectric below, not reciprocal. The sheen is
+// sampled uniformly over the hemisphere (it scatters most towards grazing directions).
 //
 // Energy. The conductor/specular lobe gets Kulla–Conty's reciprocal multiple-scattering term; the
 // rough dielectric is divided by its single-scattering albedo for wo (albedo scaling), which
 // conserves energy for every wo but is not reciprocal — fine for a path tracer tracing from the
-// camera, wrong for light tracing. Both albedos are tabulated numerically at first use (about
+// camera, wrong for light tracing. The albedos are tabulated numerically at first use (about
 // 20 ms for the GGX reflection table, 50 ms for the dielectric one, built only when a rough
-// dielectric is first evaluated).
+// dielectric is first evaluated, and 0.1 s for the sheen's, built only when a sheen is first
+// evaluated).
 #pragma once
 
 #include <cstdint>
@@ -111,13 +120,19 @@ class PreviewSurfaceBsdf {
 
  private:
   struct LobeProbabilities {
-    float coat = 0, specular = 0, multipleScattering = 0, diffuse = 0, dielectric = 0;
+    float coat = 0, specular = 0, multipleScattering = 0, diffuse = 0, sheen = 0, dielectric = 0;
   };
   /// Lobe choice probabilities for an outgoing direction at cos θo = cosThetaO (> 0).
   LobeProbabilities lobeProbabilities(float cosThetaO) const;
   LobeProbabilities computeLobeProbabilities(float cosThetaO) const;
   /// Clearcoat transmittance 1 − c·E_cc(μ).
   float coatTransmittance(float cosTheta) const;
+  /// `value` (of a layer under the clearcoat) tinted by the coat's colour.
+  Vec3f tintUnderCoat(const Vec3f& value) const;
+  /// Directional albedo of the sheen layer, weight included and colour excluded: s·E_sh(μ).
+  float sheenAlbedo(float cosTheta) const;
+  /// What the sheen lets through to the layers under it for wo at cos θo: 1 − s·E_sh(μo).
+  float sheenTransmittance(float cosThetaO) const;
   /// Directional albedo of the specular layer the diffuse layer lies under.
   Vec3f diffuseLayerCover(float cosTheta) const;
   /// Everything below in the local frame (z = shading normal); "opaque" functions expect
@@ -138,6 +153,11 @@ class PreviewSurfaceBsdf {
   // Clearcoat; α = 0 marks a delta lobe, here and below.
   float clearcoat_;
   float coatAlpha_;
+  Vec3f coatTint_{1.0f};  // of the layers under the coat
+  // Sheen (0: none) and its Charlie α.
+  float sheen_;
+  Vec3f sheenColor_{0.0f};
+  float sheenAlpha_ = 1;
   // Specular layer.
   float specularAlpha_;
   Vec3f specularF0_;

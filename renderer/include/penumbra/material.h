@@ -24,6 +24,16 @@ struct MaterialParams {
   float roughness = 0.5f;
   float clearcoat = 0;
   float clearcoatRoughness = 0.01f;
+  /// inputs:penumbra:clearcoatColor: the colour of the light crossing the clearcoat; what lies
+  /// under it is tinted by 1 − clearcoat + clearcoat × clearcoatColor (as MaterialX's
+  /// standard_surface and open_pbr_surface do).
+  Vec3f clearcoatColor{1.0f};
+  /// inputs:penumbra:sheen, sheenColor, sheenRoughness: a sheen layer (fabric, dust) over the
+  /// opaque part, with weight `sheen` (0: none), colour `sheenColor` and roughness
+  /// `sheenRoughness`, the Charlie distribution's α (bsdf.h).
+  float sheen = 0;
+  Vec3f sheenColor{1.0f};
+  float sheenRoughness = 0.3f;
   float opacity = 1;
   float opacityThreshold = 0;
   float ior = 1.5f;
@@ -49,6 +59,10 @@ enum class MaterialInput : uint8_t {
   Roughness,
   Clearcoat,
   ClearcoatRoughness,
+  ClearcoatColor,
+  Sheen,
+  SheenColor,
+  SheenRoughness,
   Opacity,
   Ior,
   Normal,

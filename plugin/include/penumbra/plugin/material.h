@@ -43,8 +43,9 @@ class Material : public Prim {
   /// Sets a constant UsdPreviewSurface input by name (diffuseColor, emissiveColor,
   /// specularColor, metallic, roughness, opacity, opacityThreshold, ior, clearcoat,
   /// clearcoatRoughness, useSpecularWorkflow, penumbra:transmissionRoughness,
-  /// penumbra:abbeNumber, penumbra:thinWalled). Throws std::invalid_argument for an unknown name or a value of the
-  /// wrong type.
+  /// penumbra:abbeNumber, penumbra:thinWalled, penumbra:clearcoatColor, penumbra:sheen,
+  /// penumbra:sheenColor, penumbra:sheenRoughness). Throws std::invalid_argument for an unknown
+  /// name, a value of the wrong type or a non-finite sheen or coat colour value.
   void setParam(const std::string& name, const ParamValue& value);
   /// Connects an input (the names above that can vary, or `normal`) to a source; throws
   /// std::invalid_argument for an input that cannot be connected or an unknown output.
