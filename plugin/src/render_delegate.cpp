@@ -35,7 +35,8 @@ const std::map<std::string, SettingField>& settingFields() {
       {"adaptiveThreshold", {nullptr, &RenderSettingsMap::adaptiveThreshold, 0, 1}},
       {"adaptiveMinSamples", intSetting(&RenderSettingsMap::adaptiveMinSamples, 2)},
       {"indirectClamp",
-       {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}}};
+       {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}},
+      {"textureCacheMB", intSetting(&RenderSettingsMap::textureCacheMB, 16)}};
   return fields;
 }
 
@@ -247,7 +248,7 @@ void RenderDelegate::syncLights() {
     if (auto* light = dynamic_cast<Light*>(prim.get())) {
       if (light->dirtyBits() & DirtyParams) {
         try {
-          light->loadTexture();
+          light->loadTexture(scene_->sharedTextures());
         } catch (const std::runtime_error& error) {
           warn(id + ": " + error.what() + "; the light renders without its texture");
         }
@@ -387,6 +388,7 @@ void RenderDelegate::syncInstancer(Instancer& copies) {
 }
 
 bool RenderDelegate::sync(const DicingContext& dicing) {
+  scene_->textures().setCacheSize(size_t(settings_.textureCacheMB) << 20);
   // A new dicing camera or complexity re-dices every subdivision surface.
   if (dicedFor_ != dicing || dicedComplexity_ != settings_.complexity) {
     for (auto& [id, prim] : prims_)

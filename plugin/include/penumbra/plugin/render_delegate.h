@@ -47,6 +47,9 @@ struct RenderSettingsMap {
   int adaptiveMinSamples = 16;
   /// Largest component of a sample of indirect light (0: no limit; biased, as Cycles' clamp).
   float indirectClamp = 0;
+  /// Memory of the texture tile cache in MiB: texture lookups hold about this much texture data
+  /// whatever the textures' resolution.
+  int textureCacheMB = int(TextureSystem::kDefaultCacheBytes >> 20);
 
   /// Throws std::invalid_argument for an unknown key, an out-of-range value or a fraction for an
   /// integer setting.

@@ -1,0 +1,173 @@
+"""Peak memory and time of renders with one huge texture (a material's and a dome light's).
+
+Writes a ``SIZE``² 8-bit RGB PNG of a simple pattern (a 16k² one is about 1 MB) and two
+stages into a temporary directory, renders each with ``penumbra-record`` (64 px, 4 spp) in a
+subprocess and prints its peak resident memory (``getrusage``) and wall time. Needs nothing
+outside the repository.
+
+    python bench/texture_memory.py --size 16384
+    python bench/texture_memory.py --size 8192 --record /other/checkout/.venv/bin/penumbra-record
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+import zlib
+from pathlib import Path
+
+CHECKER = 256  # texels per square of the pattern
+
+
+def write_pattern_png(path: Path, size: int) -> None:
+    """A ``size``² RGB checkerboard of red and blue squares, streamed row by row (rows repeat,
+    so zlib keeps the file small)."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    squares = [bytes((200, 40, 40)) * CHECKER, bytes((40, 60, 200)) * CHECKER]
+    count = -(-size // CHECKER)
+    rows = [
+        b"\0" + b"".join(squares[(i + parity) % 2] for i in range(count))[: 3 * size]
+        for parity in (0, 1)
+    ]
+    compressor = zlib.compressobj(6)
+    with path.open("wb") as png:
+        png.write(b"\x89PNG\r\n\x1a\n")
+        png.write(chunk(b"IHDR", struct.pack(">IIBBBBB", size, size, 8, 2, 0, 0, 0)))
+        data = bytearray()
+        for y in range(size):
+            data += compressor.compress(rows[(y // CHECKER) % 2])
+            if len(data) > 1 << 20:
+                png.write(chunk(b"IDAT", bytes(data)))
+                data.clear()
+        data += compressor.flush()
+        png.write(chunk(b"IDAT", bytes(data)))
+        png.write(chunk(b"IEND", b""))
+
+
+CAMERA = """
+def Camera "cam"
+{
+    double3 xformOp:translate = (0, 0, 3)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+MATERIAL_STAGE = (
+    "#usda 1.0\n"
+    + CAMERA
+    + """
+def Mesh "quad"
+{
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    point3f[] points = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+    texCoord2f[] primvars:st = [(0, 0), (1, 0), (1, 1), (0, 1)] (interpolation = "vertex")
+    rel material:binding = </mat>
+}
+def Material "mat"
+{
+    token outputs:surface.connect = </mat/surface.outputs:surface>
+    def Shader "surface"
+    {
+        uniform token info:id = "UsdPreviewSurface"
+        color3f inputs:diffuseColor.connect = </mat/tex.outputs:rgb>
+        token outputs:surface
+    }
+    def Shader "tex"
+    {
+        uniform token info:id = "UsdUVTexture"
+        asset inputs:file = @pattern.png@
+        float2 inputs:st.connect = </mat/st.outputs:result>
+        float3 outputs:rgb
+    }
+    def Shader "st"
+    {
+        uniform token info:id = "UsdPrimvarReader_float2"
+        string inputs:varname = "st"
+        float2 outputs:result
+    }
+}
+def DistantLight "sun"
+{
+    float inputs:intensity = 3
+}
+"""
+)
+
+DOME_STAGE = (
+    "#usda 1.0\n"
+    + CAMERA
+    + """
+def Sphere "ball"
+{
+    double radius = 0.8
+}
+def DomeLight "dome"
+{
+    asset inputs:texture:file = @pattern.png@
+}
+"""
+)
+
+
+def measure(record: str, stage: Path, output: Path) -> tuple[float, float]:
+    """Peak resident MiB and wall seconds of one ``penumbra-record`` run in a child process."""
+    started = time.perf_counter()
+    subprocess.run(
+        [record, "-w", "64", "--samples", "4", "--enableDomeLightVisibility", str(stage), str(output)],
+        check=True,
+        stdout=subprocess.DEVNULL,
+    )
+    seconds = time.perf_counter() - started
+    peak_kib = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss  # the largest child so far
+    return peak_kib / 1024, seconds
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=16384, help="texture width and height")
+    parser.add_argument(
+        "--record",
+        default=str(Path(sys.executable).with_name("penumbra-record")),
+        help="the penumbra-record to measure (default: this environment's)",
+    )
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory(prefix="penumbra-texture-bench-") as directory:
+        root = Path(directory)
+        started = time.perf_counter()
+        write_pattern_png(root / "pattern.png", args.size)
+        megabytes = (root / "pattern.png").stat().st_size / 2**20
+        print(
+            f"{args.size}² PNG: {megabytes:.1f} MiB, written in {time.perf_counter() - started:.1f} s"
+        )
+        # Each case runs in its own child; ru_maxrss of RUSAGE_CHILDREN is a maximum over all
+        # children, so the smaller case (the dome) would hide behind the material: run each
+        # case through a fresh intermediate process.
+        for name, text in (("material", MATERIAL_STAGE), ("dome", DOME_STAGE)):
+            stage = root / f"{name}.usda"
+            stage.write_text(text)
+            result = subprocess.run(
+                [sys.executable, __file__, "--child", args.record, str(stage), str(root / f"{name}.exr")],
+                check=True,
+                capture_output=True,
+                text=True,
+            )
+            peak, seconds = (float(value) for value in result.stdout.split())
+            print(f"{name:8s} peak RSS {peak:8.0f} MiB   {seconds:6.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 5 and sys.argv[1] == "--child":
+        peak, seconds = measure(sys.argv[2], Path(sys.argv[3]), Path(sys.argv[4]))
+        print(peak, seconds)
+        sys.exit(0)
+    sys.exit(main())
