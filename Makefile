@@ -17,7 +17,7 @@ PYTHON_PACKAGES := usd-core==26.11 "numpy>=1.26" "pybind11>=2.12" "scikit-build-
 
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps venv build render test test-cpp test-python fuzz bench clean
+.PHONY: all deps venv build render test test-cpp test-python fuzz sanitize bench clean
 
 all: build
 
@@ -61,6 +61,29 @@ test-python:
 ## Longer fuzzing of the scene delegate (tests/fuzz/fuzz_scene.py); findings land in ./crash-*.
 fuzz: build
 	$(VPY) tests/fuzz/fuzz_scene.py -max_total_time=600 -timeout=30
+
+## ASan + UBSan: the C++ libraries, tests and module built with both sanitizers in their own
+## directory, then the C++ tests and the Python tests run under them (README, "Sanitizers").
+## Python itself is not instrumented: libasan is preloaded into it and its leaks are not
+## reported (LeakSanitizer would list the interpreter's own allocations at exit).
+SANITIZE_DIR := build/sanitize
+SANITIZERS := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
+SANITIZER_OPTIONS := \
+	ASAN_OPTIONS=detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitize/lsan.supp
+
+sanitize: venv
+	cmake -S . -B $(SANITIZE_DIR) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+		-DCMAKE_CXX_FLAGS="$(SANITIZERS)" -DCMAKE_EXE_LINKER_FLAGS="$(SANITIZERS)" \
+		-DCMAKE_SHARED_LINKER_FLAGS="$(SANITIZERS)" -DCMAKE_MODULE_LINKER_FLAGS="$(SANITIZERS)" \
+		-DPython_EXECUTABLE=$(CURDIR)/$(VPY) -Dpybind11_DIR=$$($(VPY) -m pybind11 --cmakedir)
+	cmake --build $(SANITIZE_DIR)
+	$(SANITIZER_OPTIONS) ctest --test-dir $(SANITIZE_DIR) --output-on-failure
+	$(VPY) tests/sanitize/python_env.py $(SANITIZE_DIR)
+	$(SANITIZER_OPTIONS) ASAN_OPTIONS=detect_leaks=0:detect_stack_use_after_return=1 \
+		LD_PRELOAD=$$(gcc -print-file-name=libasan.so) \
+		$(SANITIZE_DIR)/venv/bin/python -m pytest -q -p no:cacheprovider tests/python
 
 bench: build
 	$(VPY) bench/run.py cornell.usda dof.usda motion.usda glass.usda instances.usda

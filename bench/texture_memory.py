@@ -1,6 +1,6 @@
 """Peak memory and time of renders with one huge texture (a material's and a dome light's).
 
-Writes a ``SIZE``² 8-bit RGB PNG of a simple pattern (a 16k² one is about 1 MB) and two
+Writes a ``SIZE``² 8-bit RGB PNG of a simple pattern (a 16k² one is 3.3 MB) and two
 stages into a temporary directory, renders each with ``penumbra-record`` (64 px, 4 spp) in a
 subprocess and prints its peak resident memory (``getrusage``) and wall time. Needs nothing
 outside the repository.
@@ -13,44 +13,14 @@ from __future__ import annotations
 
 import argparse
 import resource
-import struct
 import subprocess
 import sys
 import tempfile
 import time
-import zlib
 from pathlib import Path
 
-CHECKER = 256  # texels per square of the pattern
-
-
-def write_pattern_png(path: Path, size: int) -> None:
-    """A ``size``² RGB checkerboard of red and blue squares, streamed row by row (rows repeat,
-    so zlib keeps the file small)."""
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-    squares = [bytes((200, 40, 40)) * CHECKER, bytes((40, 60, 200)) * CHECKER]
-    count = -(-size // CHECKER)
-    rows = [
-        b"\0" + b"".join(squares[(i + parity) % 2] for i in range(count))[: 3 * size]
-        for parity in (0, 1)
-    ]
-    compressor = zlib.compressobj(6)
-    with path.open("wb") as png:
-        png.write(b"\x89PNG\r\n\x1a\n")
-        png.write(chunk(b"IHDR", struct.pack(">IIBBBBB", size, size, 8, 2, 0, 0, 0)))
-        data = bytearray()
-        for y in range(size):
-            data += compressor.compress(rows[(y // CHECKER) % 2])
-            if len(data) > 1 << 20:
-                png.write(chunk(b"IDAT", bytes(data)))
-                data.clear()
-        data += compressor.flush()
-        png.write(chunk(b"IDAT", bytes(data)))
-        png.write(chunk(b"IEND", b""))
-
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "python"))
+from pattern_png import write_pattern_png  # noqa: E402  (the tests' writer, shared)
 
 CAMERA = """
 def Camera "cam"

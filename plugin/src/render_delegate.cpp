@@ -387,6 +387,21 @@ void RenderDelegate::syncInstancer(Instancer& copies) {
   copies.markClean();
 }
 
+size_t RenderDelegate::estimatedSyncBytes() const {
+  size_t bytes = 0;
+  for (const auto& [id, prim] : prims_) {
+    if (prim->dirtyBits() == Clean) continue;
+    if (const auto* mesh = dynamic_cast<const Mesh*>(prim.get()); mesh && mesh->visible())
+      bytes += estimatedBuildBytes(mesh->data(), mesh->subdivisionScheme() != "none");
+    else if (const auto* copies = dynamic_cast<const Instancer*>(prim.get());
+             copies && copies->visible())
+      bytes += estimatedInstanceBytes(
+          copies->transforms().size(),
+          copies->transforms().empty() ? 1 : copies->transforms()[0].steps().size());
+  }
+  return bytes;
+}
+
 bool RenderDelegate::sync(const DicingContext& dicing) {
   scene_->textures().setCacheSize(size_t(settings_.textureCacheMB) << 20);
   // A new dicing camera or complexity re-dices every subdivision surface.

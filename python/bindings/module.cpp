@@ -560,6 +560,7 @@ PYBIND11_MODULE(_core, m) {
           "sync_count",
           [](RenderDelegate& self, const std::string& id) { return self.prim(id).syncCount(); },
           py::arg("id"))
+      .def("estimated_sync_bytes", &RenderDelegate::estimatedSyncBytes)
       .def("take_warnings", &RenderDelegate::takeWarnings);
 
   py::class_<RenderPass>(m, "RenderPass")

@@ -32,7 +32,7 @@ from .frames import (
     iter_frames,
     parse_frame_spec,
 )
-from .memory import DEFAULT_BUDGET_FRACTION, parse_size
+from .memory import DEFAULT_BUDGET_FRACTION, MIN_TEXTURE_CACHE, parse_size
 from .image import COLOR_MODES, Image, check_output_directory, check_output_format
 from .renderer import (
     COMPLEXITIES,
@@ -65,6 +65,14 @@ def _memory_size(text: str) -> int:
         return parse_size(text)
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _texture_cache_size(text: str) -> int:
+    """argparse type of ``--textureCacheSize``."""
+    size = _memory_size(text)
+    if size < MIN_TEXTURE_CACHE:
+        raise argparse.ArgumentTypeError(f"texture cache size {text!r} is below 16M")
+    return size
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -302,8 +310,18 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SIZE",
         help=(
             "memory the render may use, e.g. 8G or 512M (default: "
-            f"{DEFAULT_BUDGET_FRACTION * 100:.0f}%% of physical memory); a frame whose film would not "
-            "fit with the scene fails before rendering (exit status 1)"
+            f"{DEFAULT_BUDGET_FRACTION * 100:.0f}%% of physical memory); a frame whose film, "
+            "geometry and acceleration structures would not fit with the scene and the texture "
+            "cache fails before rendering (exit status 1)"
+        ),
+    )
+    own.add_argument(
+        "--textureCacheSize",
+        type=_texture_cache_size,
+        metavar="SIZE",
+        help=(
+            "memory for texture tiles, whatever the textures' resolution, e.g. 256M (default: "
+            "1/8 of --maxMemory, at most 512M; at least 16M); part of the --maxMemory budget"
         ),
     )
     own.add_argument("--aov", metavar="NAME[,NAME...]", help="not supported yet")
@@ -611,6 +629,7 @@ def _record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) 
                     default_light="none" if args.disableCameraLight else "camera",
                     progress=None if args.quiet else _Progress(f"time code {frame}"),
                     max_memory=args.maxMemory,
+                    texture_cache=args.textureCacheSize,
                 )
                 output = args.outputImagePath
                 if frames:

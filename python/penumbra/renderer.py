@@ -13,7 +13,13 @@ from pxr import Sdf, Usd, UsdLux
 from . import _core
 from .errors import SceneError, warn
 from .image import Image, ocio_config_path
-from .memory import check_film, default_budget
+from .memory import (
+    MIN_TEXTURE_CACHE,
+    check_film,
+    check_scene_build,
+    default_budget,
+    texture_cache_size,
+)
 from .trace import Tracer
 from .usd.camera import camera_problem, read_shutter
 from .usd.default_light import (
@@ -168,6 +174,7 @@ class Renderer:
         adaptive_min_samples: int = 16,
         indirect_clamp: float = 0.0,
         max_memory: int | None = None,
+        texture_cache: int | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -195,13 +202,17 @@ class Renderer:
         seed, samples, threshold). ``indirect_clamp`` > 0 limits each sample of indirect light
         (two or more surface interactions) to that largest component, as Cycles' "clamp
         indirect": fewer fireflies, a darker (biased) image; off by default. ``max_memory``: bytes the process may hold (default: 80% of
-        physical memory), checked before the scene is synced and before a new size's film is
-        allocated. Raises :class:`penumbra.SceneError` when the
+        physical memory), checked before the scene is synced, before a new size's film is
+        allocated and before the scene's geometry and acceleration structures are built.
+        ``texture_cache``: bytes of texture tiles kept in memory, whatever the textures'
+        resolution (default: 1/8 of ``max_memory``, at most 512 MiB); counted in the budget. Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
         skipped prims are :class:`penumbra.PenumbraWarning`.
         """
         if samples < 1:
             raise ValueError(f"samples must be at least 1, not {samples}")
+        if texture_cache is not None and texture_cache < MIN_TEXTURE_CACHE:
+            raise ValueError(f"texture_cache must be at least 16 MiB, not {texture_cache} bytes")
         check_default_light(default_light)
         aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
         time_code = _time_code(self.stage, time)
@@ -225,9 +236,10 @@ class Renderer:
         )
         shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
         budget = default_budget() if max_memory is None else max_memory
+        cache = texture_cache_size(budget) if texture_cache is None else texture_cache
         new_pass = (camera_id, window.width, window.height) not in self._passes
         if new_pass:
-            check_film(window.width, window.height, budget, camera_id)
+            check_film(window.width, window.height, budget, camera_id, cache)
         with self.tracer.span("sync stage (USD to render delegate)"):
             self._sync(
                 shutter,
@@ -245,7 +257,7 @@ class Renderer:
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
         if new_pass:  # the synced scene is in memory now; its BVH and the film are not yet
-            check_film(window.width, window.height, budget, camera_id)
+            check_film(window.width, window.height, budget, camera_id, cache)
         render_pass = self._render_pass(camera_id, window.width, window.height)
         unknown = sorted(set(aovs) - set(render_pass.aov_names()))
         if unknown or not aovs:
@@ -262,10 +274,12 @@ class Renderer:
             ("adaptiveThreshold", adaptive_threshold),
             ("adaptiveMinSamples", adaptive_min_samples),
             ("indirectClamp", indirect_clamp),
+            ("textureCacheMB", cache >> 20),
         ):
             self.delegate.set_render_setting(key, value)
         started = clock.perf_counter()
         render_pass.reset()
+        check_scene_build(self.delegate.estimated_sync_bytes(), budget, stage_name(self.stage), cache)
         with self.tracer.span("render delegate sync (subdivision dicing, BVH builds)"):
             render_pass.execute(0)  # syncs what is dirty and renders nothing
         step = max(1, math.ceil(samples / PROGRESS_STEPS))

@@ -91,6 +91,10 @@ class RenderDelegate {
   /// `dicing` (and re-diced when it changes). Returns true if anything a render depends on
   /// changed (scene contents or any camera), so that passes restart accumulation.
   bool sync(const DicingContext& dicing);
+  /// Bytes the next sync will allocate to build the dirty meshes and instancers (an estimate
+  /// from their counts, penumbra::estimatedBuildBytes), to be checked against a memory budget
+  /// before it runs.
+  size_t estimatedSyncBytes() const;
   /// Incremented by every sync that changed the scene's contents.
   uint64_t sceneVersion() const { return sceneVersion_; }
   const Scene& scene() const { return *scene_; }
