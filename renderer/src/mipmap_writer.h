@@ -1,6 +1,7 @@
 // Writes an image as a tiled, MIP-mapped OpenEXR texture in memory that does not grow with the
 // image's height: level 0 is read one band of scanlines at a time, each coarser level is
-// spooled to a temporary file while the level above it is written (docs/design.md, textures).
+// spooled to a temporary file while the level above it is written (docs/design.md §3,
+// Resources).
 #pragma once
 
 #include <OpenImageIO/imageio.h>
