@@ -69,7 +69,7 @@ fuzz: build
 SANITIZE_DIR := build/sanitize
 SANITIZERS := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 SANITIZER_OPTIONS := \
-	ASAN_OPTIONS=detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+	ASAN_OPTIONS=detect_leaks=1 \
 	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitize/lsan.supp
 
@@ -81,7 +81,7 @@ sanitize: venv
 	cmake --build $(SANITIZE_DIR)
 	$(SANITIZER_OPTIONS) ctest --test-dir $(SANITIZE_DIR) --output-on-failure
 	$(VPY) tests/sanitize/python_env.py $(SANITIZE_DIR)
-	$(SANITIZER_OPTIONS) ASAN_OPTIONS=detect_leaks=0:detect_stack_use_after_return=1 \
+	$(SANITIZER_OPTIONS) ASAN_OPTIONS=detect_leaks=0 \
 		LD_PRELOAD=$$(gcc -print-file-name=libasan.so) \
 		$(SANITIZE_DIR)/venv/bin/python -m pytest -q -p no:cacheprovider tests/python
 

@@ -165,11 +165,17 @@ std::shared_ptr<const LightTexture> LightTexture::load(std::shared_ptr<TextureSy
   std::vector<Vec3f> level;
   if (!textures->readLevel(handle, kDistributionTexels, &width, &height, &level))
     throw std::runtime_error(path + ": cannot read the texture's MIP levels");
+  int fullWidth = 0, fullHeight = 0;
+  textures->resolution(handle, &fullWidth, &fullHeight);
   auto texture = std::make_shared<LightTexture>(width, height, std::move(level), latLong);
-  texture->texels_.clear();
-  texture->texels_.shrink_to_fit();
-  texture->textures_ = std::move(textures);
-  texture->handle_ = handle;
+  // A texture small enough to be its own distribution's level stays in memory (lookups there
+  // are several times cheaper than through the cache); a larger one is read through the cache.
+  if (width != fullWidth || height != fullHeight) {
+    texture->texels_.clear();
+    texture->texels_.shrink_to_fit();
+    texture->textures_ = std::move(textures);
+    texture->handle_ = handle;
+  }
   return texture;
 }
 

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "penumbra/light.h"
 #include "penumbra/texture.h"
 #include "scratch_directory.h"
 
@@ -576,4 +577,34 @@ TEST_F(Texture, TheCacheSizeIsASettingWithAFloor) {
   EXPECT_EQ(textures.cacheSize(), size_t(64) << 20);
   textures.setCacheSize(1);
   EXPECT_EQ(textures.cacheSize(), size_t(16) << 20);
+}
+
+// A lat-long texture larger than a light's distribution keeps only a MIP level in memory; its
+// lookups still see every full-resolution texel, and its average and sampling follow the image.
+TEST_F(Texture, LargeLightTexturesAreSampledFromAMipLevelAndLookedUpInFull) {
+  const int width = 4096, height = 1024;  // 4 Mi texels: the distribution is the 2048x512 level
+  std::vector<float> pixels(size_t(width) * height * 3, 0.25f);
+  const int spotX = 1001, spotY = 301;  // one bright texel
+  for (int c = 0; c < 3; ++c) pixels[(size_t(spotY) * width + spotX) * 3 + c] = 4096.0f;
+  auto textures = std::make_shared<TextureSystem>(kBundledConfig);
+  const auto light = LightTexture::load(
+      textures, write("sky.exr", width, height, 3, OIIO::TypeFloat, pixels), /*latLong=*/true);
+
+  const Vec2f spot{(spotX + 0.5f) / width, (spotY + 0.5f) / height};
+  EXPECT_EQ(light->lookup(spot).x, 4096.0f);
+  EXPECT_EQ(light->lookup({spot.x + 1.0f / width, spot.y}).x, 0.25f);
+  // The bright texel's coarse cell is sampled (4096 / 4 + 0.25 * 3 / 4) / 0.25 times as often
+  // as a dim cell of its row.
+  const float ratio =
+      light->distribution().density(spot) / light->distribution().density({spot.x + 0.25f, spot.y});
+  EXPECT_NEAR(ratio, (4096.0f / 4 + 0.75f * 0.25f) / 0.25f, 1.0f);
+  // The mean over solid angle: the background plus the spot's share of it (its row's weight).
+  const double rowSine = std::sin(M_PI * (spotY / 2 + 0.5) / (height / 2));
+  const double weights = [&] {
+    double sum = 0;
+    for (int y = 0; y < height / 2; ++y) sum += std::sin(M_PI * (y + 0.5) / (height / 2));
+    return sum * (width / 2);
+  }();
+  const double expected = 0.25 + (4096.0 - 0.25) / 4 * rowSine / weights;
+  EXPECT_NEAR(light->average().x, expected, 1e-4 * expected);
 }

@@ -28,10 +28,11 @@ class LightTexture {
   /// Texels in memory. `latLong`: a dome's lat-long map, whose rows are weighted by sin(polar
   /// angle) for sampling.
   LightTexture(int width, int height, std::vector<Vec3f> texels, bool latLong);
-  /// Opens `path` in `textures` (values as stored: no colour-space conversion). Lookups read the
-  /// full resolution through the texture cache; the sampling distribution and the average come
-  /// from the finest MIP level of at most kDistributionTexels texels, so memory does not grow
-  /// with the resolution. Throws std::runtime_error naming the file.
+  /// Opens `path` in `textures` (values as stored: no colour-space conversion). The sampling
+  /// distribution and the average come from the finest MIP level of at most
+  /// kDistributionTexels texels; a texture larger than that is looked up through the texture
+  /// cache, a smaller one kept in memory, so memory does not grow with the resolution. Throws
+  /// std::runtime_error naming the file.
   static std::shared_ptr<const LightTexture> load(std::shared_ptr<TextureSystem> textures,
                                                   const std::string& path, bool latLong);
 
@@ -46,7 +47,7 @@ class LightTexture {
 
  private:
   int width_, height_;
-  std::vector<Vec3f> texels_;  // empty when read through textures_
+  std::vector<Vec3f> texels_;  // empty when looked up through textures_
   std::shared_ptr<const TextureSystem> textures_;
   TextureSystem::Handle handle_ = TextureSystem::kInvalid;
   Distribution2D distribution_;
