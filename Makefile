@@ -90,6 +90,7 @@ bench: build
 	$(VPY) bench/quality.py
 	$(VPY) bench/instances.py --instances 100000
 	$(VPY) bench/instances.py --instances 1000000
+	$(VPY) bench/texture_memory.py --size 16384
 
 clean:
 	rm -rf build $(VENV)

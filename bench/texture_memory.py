@@ -88,17 +88,18 @@ def DomeLight "dome"
 )
 
 
-def measure(record: str, stage: Path, output: Path) -> tuple[float, float]:
-    """Peak resident MiB and wall seconds of one ``penumbra-record`` run in a child process."""
+def measure(record: str, stage: Path, output: Path, extra: list[str]) -> tuple[float, float, float]:
+    """Peak resident MiB, wall seconds and CPU seconds of one ``penumbra-record`` run in a child
+    process (CPU time says more than wall time on a shared machine)."""
     started = time.perf_counter()
     subprocess.run(
-        [record, "-w", "64", "--samples", "4", "--enableDomeLightVisibility", str(stage), str(output)],
+        [record, "-w", "64", "--samples", "4", "--enableDomeLightVisibility", *extra, str(stage), str(output)],
         check=True,
         stdout=subprocess.DEVNULL,
     )
     seconds = time.perf_counter() - started
-    peak_kib = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss  # the largest child so far
-    return peak_kib / 1024, seconds
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)  # this process's only child
+    return usage.ru_maxrss / 1024, seconds, usage.ru_utime + usage.ru_stime
 
 
 def main() -> int:
@@ -109,7 +110,11 @@ def main() -> int:
         default=str(Path(sys.executable).with_name("penumbra-record")),
         help="the penumbra-record to measure (default: this environment's)",
     )
+    parser.add_argument(
+        "--textureCacheSize", metavar="SIZE", help="passed on to penumbra-record (default: its own)"
+    )
     args = parser.parse_args()
+    extra = ["--textureCacheSize", args.textureCacheSize] if args.textureCacheSize else []
     with tempfile.TemporaryDirectory(prefix="penumbra-texture-bench-") as directory:
         root = Path(directory)
         started = time.perf_counter()
@@ -118,26 +123,24 @@ def main() -> int:
         print(
             f"{args.size}² PNG: {megabytes:.1f} MiB, written in {time.perf_counter() - started:.1f} s"
         )
-        # Each case runs in its own child; ru_maxrss of RUSAGE_CHILDREN is a maximum over all
-        # children, so the smaller case (the dome) would hide behind the material: run each
-        # case through a fresh intermediate process.
+        # RUSAGE_CHILDREN sums and maximises over all children, so each case is measured
+        # by a fresh intermediate process with one child.
         for name, text in (("material", MATERIAL_STAGE), ("dome", DOME_STAGE)):
             stage = root / f"{name}.usda"
             stage.write_text(text)
             result = subprocess.run(
-                [sys.executable, __file__, "--child", args.record, str(stage), str(root / f"{name}.exr")],
+                [sys.executable, __file__, "--child", args.record, str(stage), str(root / f"{name}.exr"), *extra],
                 check=True,
                 capture_output=True,
                 text=True,
             )
-            peak, seconds = (float(value) for value in result.stdout.split())
-            print(f"{name:8s} peak RSS {peak:8.0f} MiB   {seconds:6.1f} s")
+            peak, seconds, cpu = (float(value) for value in result.stdout.split())
+            print(f"{name:8s} peak RSS {peak:8.0f} MiB   {seconds:6.1f} s wall   {cpu:6.1f} s CPU")
     return 0
 
 
 if __name__ == "__main__":
-    if len(sys.argv) == 5 and sys.argv[1] == "--child":
-        peak, seconds = measure(sys.argv[2], Path(sys.argv[3]), Path(sys.argv[4]))
-        print(peak, seconds)
+    if len(sys.argv) >= 5 and sys.argv[1] == "--child":
+        print(*measure(sys.argv[2], Path(sys.argv[3]), Path(sys.argv[4]), sys.argv[5:]))
         sys.exit(0)
     sys.exit(main())
