@@ -64,14 +64,20 @@ fuzz: build
 
 ## ASan + UBSan: the C++ libraries, tests and module built with both sanitizers in their own
 ## directory, then the C++ tests and the Python tests run under them (README, "Sanitizers").
-## Python itself is not instrumented: libasan is preloaded into it and its leaks are not
-## reported (LeakSanitizer would list the interpreter's own allocations at exit).
+## Python itself is not instrumented: libasan is preloaded into it (with libstdc++, which the
+## interpreter does not link: ASan must find the real __cxa_throw when it starts) and its leaks
+## are not reported (LeakSanitizer would list the interpreter's own allocations at exit).
+## --capture=sys leaves file descriptor 2 alone, so that a sanitizer's report is seen.
 SANITIZE_DIR := build/sanitize
 SANITIZERS := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
-SANITIZER_OPTIONS := \
-	ASAN_OPTIONS=detect_leaks=1 \
-	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitize/lsan.supp
+## new_delete_type_mismatch=0: OpenImageIO 2.4's TextureSystem::destroy deletes its
+## implementation through the base class, whose destructor is not virtual (sized delete of 1
+## byte for a 184-byte object); ASan has no per-library suppression for this check.
+ASAN_COMMON := new_delete_type_mismatch=0
+SANITIZER_OPTIONS := UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+## Timing assertions are meaningless in an instrumented build (several times slower).
+SANITIZE_SKIP_CPP := SpectrumUpsampling.TableBuildsQuickly
+SANITIZE_SKIP_PYTHON := test_signal_stops_a_billion_sample_render_within_a_second
 
 sanitize: venv
 	cmake -S . -B $(SANITIZE_DIR) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
@@ -79,11 +85,13 @@ sanitize: venv
 		-DCMAKE_SHARED_LINKER_FLAGS="$(SANITIZERS)" -DCMAKE_MODULE_LINKER_FLAGS="$(SANITIZERS)" \
 		-DPython_EXECUTABLE=$(CURDIR)/$(VPY) -Dpybind11_DIR=$$($(VPY) -m pybind11 --cmakedir)
 	cmake --build $(SANITIZE_DIR)
-	$(SANITIZER_OPTIONS) ctest --test-dir $(SANITIZE_DIR) --output-on-failure
+	$(SANITIZER_OPTIONS) ASAN_OPTIONS=$(ASAN_COMMON):detect_leaks=1 \
+		ctest --test-dir $(SANITIZE_DIR) --output-on-failure -E '$(SANITIZE_SKIP_CPP)'
 	$(VPY) tests/sanitize/python_env.py $(SANITIZE_DIR)
-	$(SANITIZER_OPTIONS) ASAN_OPTIONS=detect_leaks=0 \
-		LD_PRELOAD=$$(gcc -print-file-name=libasan.so) \
-		$(SANITIZE_DIR)/venv/bin/python -m pytest -q -p no:cacheprovider tests/python
+	$(SANITIZER_OPTIONS) ASAN_OPTIONS=$(ASAN_COMMON):detect_leaks=0 \
+		LD_PRELOAD="$$(gcc -print-file-name=libasan.so) $$(gcc -print-file-name=libstdc++.so)" \
+		$(SANITIZE_DIR)/venv/bin/python -m pytest -q -p no:cacheprovider --capture=sys \
+		tests/python -k 'not $(SANITIZE_SKIP_PYTHON)'
 
 bench: build
 	$(VPY) bench/run.py cornell.usda dof.usda motion.usda glass.usda instances.usda
