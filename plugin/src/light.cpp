@@ -75,12 +75,13 @@ void Light::setParam(const std::string& name, const ParamValue& value) {
   markDirty(DirtyParams);
 }
 
-void Light::loadTexture() {
+void Light::loadTexture(std::shared_ptr<TextureSystem> textures) {
   if (textureFile_ == loadedTextureFile_) return;
   loadedTextureFile_ = textureFile_;
   params_.texture.reset();
   if (!textureFile_.empty())
-    params_.texture = LightTexture::load(textureFile_, params_.type == LightType::Dome);
+    params_.texture =
+        LightTexture::load(std::move(textures), textureFile_, params_.type == LightType::Dome);
 }
 
 void Light::setTransform(const MotionTransform& lightToWorld) {

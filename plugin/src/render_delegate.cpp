@@ -39,7 +39,8 @@ const std::map<std::string, SettingField>& settingFields() {
       {"indirectClamp",
        {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}},
       {"glossyFilter",
-       {nullptr, &RenderSettingsMap::glossyFilter, 0, std::numeric_limits<float>::max()}}};
+       {nullptr, &RenderSettingsMap::glossyFilter, 0, std::numeric_limits<float>::max()}},
+      {"textureCacheMB", intSetting(&RenderSettingsMap::textureCacheMB, 16)}};
   return fields;
 }
 
@@ -298,7 +299,7 @@ void RenderDelegate::syncLights() {
     if (auto* light = dynamic_cast<Light*>(prim)) {
       if (light->dirtyBits() & DirtyParams) {
         try {
-          light->loadTexture();
+          light->loadTexture(scene_->sharedTextures());
         } catch (const std::runtime_error& error) {
           warn(id + ": " + error.what() + "; the light renders without its texture");
         }
@@ -466,7 +467,24 @@ DicingContext RenderDelegate::dicingContext(const DicingContext& view) {
   return {camera->params(), firstView_->imageWidth};
 }
 
+size_t RenderDelegate::estimatedSyncBytes() const {
+  size_t bytes = 0;
+  for (const PrimId& id : changeTracker_.dirty()) {
+    const auto found = rprims_.find(id);
+    if (found == rprims_.end()) continue;
+    const Prim* prim = found->second.get();
+    if (const auto* mesh = dynamic_cast<const Mesh*>(prim); mesh && mesh->visible())
+      bytes += estimatedBuildBytes(mesh->data(), mesh->subdivisionScheme() != "none");
+    else if (const auto* copies = dynamic_cast<const Instancer*>(prim); copies && copies->visible())
+      bytes += estimatedInstanceBytes(
+          copies->transforms().size(),
+          copies->transforms().empty() ? 1 : copies->transforms()[0].steps().size());
+  }
+  return bytes;
+}
+
 bool RenderDelegate::sync(const DicingContext& view) {
+  scene_->textures().setCacheSize(size_t(settings_.textureCacheMB) << 20);
   // A new dicing context or complexity re-dices every subdivision surface.
   const DicingContext dicing = dicingContext(view);
   if (dicedFor_ != dicing || dicedComplexity_ != settings_.complexity) {

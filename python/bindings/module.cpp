@@ -647,6 +647,7 @@ PYBIND11_MODULE(_core, m) {
           "sync_count",
           [](RenderDelegate& self, const std::string& id) { return self.prim(id).syncCount(); },
           py::arg("id"))
+      .def("estimated_sync_bytes", &RenderDelegate::estimatedSyncBytes)
       .def("take_warnings", &RenderDelegate::takeWarnings)
       .def("prim_id_manifest", &RenderDelegate::primIdManifest,
            "The mesh prims by the value the primId AOV gives them.");

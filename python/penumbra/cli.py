@@ -33,6 +33,7 @@ from .frames import (
     iter_frames,
     parse_frame_spec,
 )
+from .memory import DEFAULT_BUDGET_FRACTION, MIN_TEXTURE_CACHE, parse_size
 from .image import COLOR_MODES, Image, check_output_directory, check_output_format
 from .jobs import (
     DEFAULT_TIME,
@@ -45,7 +46,6 @@ from .jobs import (
     output_is_complete,
     time_code,
 )
-from .memory import DEFAULT_BUDGET_FRACTION, parse_size
 from .renderer import COMPLEXITIES, DEFAULT_MAX_PATH_DEPTH, DEFAULT_SAMPLES, DEFAULT_WIDTH
 from .trace import TRACE_FORMATS, Tracer
 from .usd.stage import RESOLVERS
@@ -64,6 +64,14 @@ def _memory_size(text: str) -> int:
         return parse_size(text)
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _texture_cache_size(text: str) -> int:
+    """argparse type of ``--textureCacheSize``."""
+    size = _memory_size(text)
+    if size < MIN_TEXTURE_CACHE:
+        raise argparse.ArgumentTypeError(f"texture cache size {text!r} is below 16M")
+    return size
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -310,8 +318,18 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SIZE",
         help=(
             "memory the render may use, e.g. 8G or 512M (default: "
-            f"{DEFAULT_BUDGET_FRACTION * 100:.0f}%% of physical memory); a frame whose film would not "
-            "fit with the scene fails before rendering (exit status 1)"
+            f"{DEFAULT_BUDGET_FRACTION * 100:.0f}%% of physical memory); a frame whose film, "
+            "geometry and acceleration structures would not fit with the scene and the texture "
+            "cache fails before rendering (exit status 1)"
+        ),
+    )
+    own.add_argument(
+        "--textureCacheSize",
+        type=_texture_cache_size,
+        metavar="SIZE",
+        help=(
+            "memory for texture tiles, whatever the textures' resolution, e.g. 256M (default: "
+            "1/8 of --maxMemory, at most 512M; at least 16M); part of the --maxMemory budget"
         ),
     )
     own.add_argument(
@@ -642,6 +660,7 @@ def _render_job(args: argparse.Namespace, first_frame: FrameTime) -> RenderJob:
         dome_light_visibility=args.enableDomeLightVisibility,
         disable_camera_light=args.disableCameraLight,
         max_memory=args.maxMemory,
+        texture_cache=args.textureCacheSize,
     )
 
 

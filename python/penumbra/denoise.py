@@ -1,7 +1,16 @@
 """Denoising with Intel Open Image Denoise (the ``pyoidn`` package), guided by the albedo and
-normal AOVs (docs/aovs.md, "Denoising")."""
+normal AOVs (docs/aovs.md, "Denoising").
+
+OIDN runs in a child process (``python -m penumbra._oidn``): its wheel brings its own TBB, and
+loading it beside the TBB that Embree and the renderer use made later renders in the same
+process crash.
+"""
 
 from __future__ import annotations
+
+import io
+import subprocess
+import sys
 
 import numpy as np
 
@@ -14,15 +23,23 @@ NOISY_COLOR = "noisyColor"
 def denoise_color(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """``color`` (H, W, 4: scene-linear RGB and alpha) with its RGB denoised by OIDN's ``RT``
     filter at high quality, in HDR mode, guided by ``albedo`` and world-space ``normal`` (H, W,
-    3) which are prefiltered by OIDN (they are averages of few samples too). Alpha is kept."""
-    import pyoidn  # imported here: only denoising renders load OIDN's ~100 MB of weights
-
-    rgb = np.ascontiguousarray(np.maximum(color[..., :3], 0.0), dtype=np.float32)
-    denoised = pyoidn.denoise(
-        rgb,
+    3) which are prefiltered by OIDN (they are averages of few samples too). Alpha is kept.
+    ``RuntimeError`` with the denoiser's message when it fails."""
+    request = io.BytesIO()
+    np.savez(
+        request,
+        rgb=np.ascontiguousarray(np.maximum(color[..., :3], 0.0), dtype=np.float32),
         albedo=np.ascontiguousarray(np.clip(albedo, 0.0, 1.0), dtype=np.float32),
         normal=np.ascontiguousarray(np.clip(normal, -1.0, 1.0), dtype=np.float32),
-        hdr=True,
-        quality="high",
     )
+    result = subprocess.run(
+        [sys.executable, "-m", "penumbra._oidn"],
+        input=request.getvalue(),
+        capture_output=True,
+        check=False,
+    )
+    if result.returncode != 0:
+        message = result.stderr.decode(errors="replace").strip().splitlines()
+        raise RuntimeError(f"the denoiser failed: {message[-1] if message else result.returncode}")
+    denoised = np.load(io.BytesIO(result.stdout))["rgb"]
     return np.concatenate([denoised, color[..., 3:]], axis=2).astype(np.float32)

@@ -38,7 +38,7 @@ RENDER_KEY = "Exif:ImageUniqueID"
 as 32 hexadecimal digits), which every output format keeps (EXR, PNG, JPEG and TIFF)."""
 
 # Settings that change how a frame is computed but not a bit of its pixels.
-_NOT_IN_KEY = ("threads", "max_memory")
+_NOT_IN_KEY = ("threads", "max_memory", "texture_cache")
 _URI_SCHEME = re.compile(r"[A-Za-z][A-Za-z0-9+.-]+:")
 
 
@@ -83,6 +83,7 @@ class RenderJob:
     dome_light_visibility: bool = False
     disable_camera_light: bool = False
     max_memory: int | None = None
+    texture_cache: int | None = None
 
     def frame_key(self, frame: FrameTime) -> str:
         """A hash of everything that decides the pixels of ``frame`` (stage, population,
@@ -198,6 +199,7 @@ class JobRenderer:
             default_light="none" if job.disable_camera_light else "camera",
             progress=progress,
             max_memory=job.max_memory,
+            texture_cache=job.texture_cache,
             denoise=job.denoise,
         )
 

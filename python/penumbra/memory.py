@@ -20,6 +20,10 @@ issue measured about 112 at the render's peak; writing adds one more copy)."""
 AOV_BYTES_PER_PIXEL = 64
 """Bytes per pixel that each AOV beyond colour adds: up to four channels, each summed in double
 precision (or kept nearest as a float) and resolved to a float copy on the way out."""
+MIN_TEXTURE_CACHE = 16 * 2**20
+"""The texture cache is never smaller: below that, lookups thrash."""
+MAX_TEXTURE_CACHE = 512 * 2**20
+"""Without ``--textureCacheSize``, the texture cache takes 1/8 of the budget, at most this."""
 
 _UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
 _SIZE = re.compile(r"\s*(?P<number>\d+(?:\.\d*)?|\.\d+)\s*(?P<unit>[KMGT]?)(?:i?B)?\s*", re.I)
@@ -62,15 +66,37 @@ def format_size(size: float) -> str:
     return f"{size:.0f} B"
 
 
-def check_film(width: int, height: int, budget: int, what: str, extra_aovs: int = 0) -> None:
+def texture_cache_size(budget: int) -> int:
+    """The texture cache's share of ``budget`` when none is given: 1/8 of it, at most
+    :data:`MAX_TEXTURE_CACHE` and at least :data:`MIN_TEXTURE_CACHE`."""
+    return max(MIN_TEXTURE_CACHE, min(MAX_TEXTURE_CACHE, budget // 8))
+
+
+def check_film(
+    width: int, height: int, budget: int, what: str, extra_aovs: int = 0, reserved: int = 0
+) -> None:
     """:class:`SceneError` naming ``what`` when a ``width`` × ``height`` film, with
     ``extra_aovs`` AOVs beyond colour, would not fit in ``budget`` bytes together with what the
-    process holds already."""
+    process holds already and ``reserved`` bytes promised elsewhere (the texture cache)."""
     film = width * height * (FILM_BYTES_PER_PIXEL + extra_aovs * AOV_BYTES_PER_PIXEL)
-    held = resident_memory()
+    held = resident_memory() + reserved
     if held + film > budget:
         raise SceneError(
             f"{what}: a {width}x{height} image needs about {format_size(film)} for its film "
-            f"and AOVs; with the {format_size(held)} the scene holds, that is more than the "
-            f"memory budget of {format_size(budget)} (--maxMemory)"
+            f"and AOVs; with the {format_size(held)} the scene holds (texture cache included), "
+            f"that is more than the memory budget of {format_size(budget)} (--maxMemory)"
+        )
+
+
+def check_scene_build(estimate: int, budget: int, what: str, reserved: int = 0) -> None:
+    """:class:`SceneError` naming ``what`` when building the scene's geometry and acceleration
+    structures (``estimate`` bytes, from the render delegate) would not fit in ``budget``
+    bytes together with what the process holds and ``reserved`` bytes promised elsewhere."""
+    held = resident_memory() + reserved
+    if held + estimate > budget:
+        raise SceneError(
+            f"{what}: building the scene's geometry and acceleration structures needs about "
+            f"{format_size(estimate)}; with the {format_size(held)} the process holds (texture "
+            f"cache included), that is more than the memory budget of {format_size(budget)} "
+            "(--maxMemory)"
         )

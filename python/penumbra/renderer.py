@@ -15,7 +15,13 @@ from . import _core
 from .errors import SceneError, warn
 from .denoise import GUIDE_AOVS, NOISY_COLOR, denoise_color
 from .image import Image, ocio_config_path
-from .memory import check_film, default_budget
+from .memory import (
+    MIN_TEXTURE_CACHE,
+    check_film,
+    check_scene_build,
+    default_budget,
+    texture_cache_size,
+)
 from .trace import Tracer
 from .usd.camera import camera_problem, read_shutter
 from .usd.camera_metadata import camera_metadata
@@ -182,6 +188,7 @@ class Renderer:
         denoise: bool = False,
         region: tuple[int, int, int, int] | None = None,
         dicing_camera: str | Sdf.Path | None = None,
+        texture_cache: int | None = None,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -212,8 +219,11 @@ class Renderer:
         indirect": fewer fireflies, a darker (biased) image; off by default. ``glossy_filter`` > 0
         blurs sharp lobes met after rougher bounces, as Cycles' "filter glossy" (1 is
         Cycles' default): caustics converge much sooner, biased; off by default. ``max_memory``: bytes the process may hold (default: 80% of
-        physical memory), checked before the scene is synced and before a new size's film is
-        allocated. ``region``: ``(x, y, width, height)`` of the image's pixels (columns from the
+        physical memory), checked before the scene is synced, before a new size's film is
+        allocated and before the scene's geometry and acceleration structures are built.
+        ``texture_cache``: bytes of texture tiles kept in memory, whatever the textures'
+        resolution (default: 1/8 of ``max_memory``, at most 512 MiB); counted in the budget.
+        ``region``: ``(x, y, width, height)`` of the image's pixels (columns from the
         left, rows from the top, as :meth:`image_size` counts them) to render alone, e.g. a farm
         tile: the image returned holds those pixels, bit-identical to the same pixels of the
         whole image (with adaptive sampling, the pixels around them that its convergence tests
@@ -227,6 +237,8 @@ class Renderer:
         """
         if samples < 1:
             raise ValueError(f"samples must be at least 1, not {samples}")
+        if texture_cache is not None and texture_cache < MIN_TEXTURE_CACHE:
+            raise ValueError(f"texture_cache must be at least 16 MiB, not {texture_cache} bytes")
         check_default_light(default_light)
         if dicing_camera is not None:
             self.delegate.set_dicing_camera(str(find_camera(self.stage, dicing_camera).GetPath()))
@@ -250,11 +262,12 @@ class Renderer:
         )
         shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
         budget = default_budget() if max_memory is None else max_memory
+        cache = texture_cache_size(budget) if texture_cache is None else texture_cache
         pass_key = (camera_id, window.width, window.height, crop, margin)
         new_pass = pass_key not in self._passes
         extra_aovs = len(set(aovs) - {"color"}) + (len(GUIDE_AOVS) if denoise else 0)
         if new_pass:
-            check_film(film_width, film_height, budget, camera_id, extra_aovs)
+            check_film(film_width, film_height, budget, camera_id, extra_aovs, cache)
         with self.tracer.span("sync stage (USD to render delegate)"):
             self._sync(
                 shutter,
@@ -272,7 +285,7 @@ class Renderer:
         if self._scene.prim_kind(camera_id) != "camera":
             raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
         if new_pass:  # the synced scene is in memory now; its BVH and the film are not yet
-            check_film(film_width, film_height, budget, camera_id, extra_aovs)
+            check_film(film_width, film_height, budget, camera_id, extra_aovs, cache)
         render_pass = self._render_pass(pass_key)
         if not aovs:
             raise ValueError(f"aovs must name at least one of {render_pass.aov_names()}")
@@ -291,10 +304,14 @@ class Renderer:
             ("adaptiveMinSamples", adaptive_min_samples),
             ("indirectClamp", indirect_clamp),
             ("glossyFilter", glossy_filter),
+            ("textureCacheMB", cache >> 20),
         ):
             self.delegate.set_render_setting(key, value)
         started = clock.perf_counter()
         render_pass.reset()
+        check_scene_build(
+            self.delegate.estimated_sync_bytes(), budget, stage_name(self.stage), cache
+        )
         with self.tracer.span("render delegate sync (subdivision dicing, BVH builds)"):
             started_us, before = self.tracer.now_us(), self.delegate.sync_statistics()
             render_pass.execute(0)  # syncs what is dirty and renders nothing

@@ -299,4 +299,28 @@ const Primvar* TriangleMesh::findPrimvar(const std::string& name) const {
   return penumbra::findPrimvar(primvars, name);
 }
 
+// Measured on polygon grids of 1M and 2M triangles (half a point per triangle, no primvars,
+// one motion step): the process's peak grew by 170 bytes per triangle while they were built;
+// a Catmull-Clark grid diced for a 16-pixel image, by 449 bytes per cage triangle. Points are
+// counted apart, per motion step, so that meshes of many points and deforming meshes are not
+// underestimated.
+constexpr size_t kBuildBytesPerTriangle = 140;
+constexpr size_t kBuildBytesPerPointStep = 64;
+// An Embree instance, its transforms and our placement record (a rounded-up estimate).
+constexpr size_t kBytesPerInstance = 160;
+constexpr size_t kBytesPerInstanceKey = 64;
+
+size_t estimatedBuildBytes(const MeshData& mesh, bool subdivided) {
+  size_t triangles = 0;
+  for (const int count : mesh.faceVertexCounts)
+    if (count >= 3) triangles += subdivided ? 2 * size_t(count) : size_t(count) - 2;
+  const size_t steps = 1 + mesh.pointMotion.size();
+  const size_t points = subdivided ? triangles / 2 : mesh.points.size();
+  return triangles * kBuildBytesPerTriangle + points * steps * kBuildBytesPerPointStep;
+}
+
+size_t estimatedInstanceBytes(size_t copies, size_t motionKeys) {
+  return copies * (kBytesPerInstance + motionKeys * kBytesPerInstanceKey);
+}
+
 }  // namespace penumbra

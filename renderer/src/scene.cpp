@@ -62,7 +62,7 @@ Device::~Device() {
 Scene::Scene(const Device& device, const std::string& colorConfig)
     : device_(device.get()),
       top_(rtcNewScene(device_)),
-      textures_(std::make_unique<TextureSystem>(colorConfig)) {
+      textures_(std::make_shared<TextureSystem>(colorConfig)) {
   rtcRetainDevice(device_);
   throwOnEmbreeError(device_, "create a scene");
 }

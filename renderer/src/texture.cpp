@@ -6,11 +6,16 @@
 // periodic and mirror: 1 - t shifts by a whole period and reflects about an integer), so wrapping
 // happens in OIIO.
 //
-// Colour: sRGB-encoded textures are decoded to the OCIO config's scene_linear role before any
-// filtering (averaging encoded values darkens mip levels). The decoded image is written as a
-// tiled, mip-mapped half/float OpenEXR texture into a private temporary directory, and that is
-// what OIIO reads. Raw textures are read from the original file; untiled or unmipped files are
-// tiled and mip-mapped on the fly by the ImageCache ("autotile", "automip").
+// Memory: lookups read tiles of MIP levels through OIIO's cache, whose size is bounded
+// (setCacheSize), so memory does not grow with a texture's resolution. OIIO can only do that
+// for files that are tiled and MIP-mapped; its on-the-fly tiling and MIP-mapping ("autotile",
+// "automip") keep whole images in the cache. Every other file is prepared once when opened: read
+// one band of scanlines at a time and written as a tiled, MIP-mapped half/float OpenEXR texture
+// into a private temporary directory (mipmap_writer.h), and that is what OIIO reads.
+//
+// Colour: sRGB-encoded textures are decoded to the OCIO config's scene_linear role while they
+// are prepared, before any filtering (averaging encoded values darkens MIP levels). Raw textures
+// that are tiled and MIP-mapped already are read from the original file.
 //
 // Alpha: values come back as stored in the file. PNG colour is not premultiplied by alpha (the
 // ImageCache's "unassociatedalpha"), so a cut-out's diffuse colour is not darkened at its edges.
@@ -21,8 +26,7 @@
 #include "penumbra/texture.h"
 
 #include <OpenColorIO/OpenColorIO.h>
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/imagecache.h>
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/texture.h>
 
@@ -30,6 +34,7 @@
 #include <array>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -37,6 +42,8 @@
 #include <map>
 #include <utility>
 #include <vector>
+
+#include "mipmap_writer.h"
 
 namespace OCIO = OCIO_NAMESPACE;
 namespace fs = std::filesystem;
@@ -51,6 +58,10 @@ using OiioHandle = OIIO::TextureSystem::TextureHandle;
 constexpr const char* kUdimToken = "<UDIM>";
 constexpr int kUdimFirst = 1001;
 constexpr int kUdimTiles = 100;  // 1001–1100: 10 tiles across (s), 10 rows up (t)
+
+// The largest texture taken (32k x 32k): the prepared copy on disk grows with the texel count,
+// and a header can claim any size.
+constexpr uint64_t kMaxTexels = uint64_t(1) << 30;
 
 // Names under which configs carry the sRGB texture encoding (OCIO resolves aliases).
 constexpr const char* kSrgbNames[] = {"sRGB - Texture", "srgb_texture", "sRGB",
@@ -180,8 +191,15 @@ bool autoIsSrgb(const OIIO::ImageSpec& spec, const std::string& format, const st
 // One image file as OIIO's TextureSystem reads it.
 struct Tile {
   OiioHandle* handle = nullptr;
+  std::string path;  // the file OIIO reads (the prepared copy, if any)
   int channels = 0;
+  int x = 0, y = 0, width = 0, height = 0;  // level 0's data window
 };
+
+// rgb from a texel of `channels` values, by USD's channel rules.
+Vec3f toRgb(const float* value, int channels) {
+  return channels >= 3 ? Vec3f(value[0], value[1], value[2]) : Vec3f(value[0]);
+}
 
 struct File {
   Tile tile;
@@ -212,17 +230,19 @@ struct TextureSystem::Impl {
   float luma[3] = {0.2126f, 0.7152f, 0.0722f};
 
   fs::path directory;  // converted textures; created on first need
-  int convertedCount = 0;
+  int preparedCount = 0;
 
   explicit Impl(const std::string& config) : ocioConfigPath(config) {
     oiio = OIIO::TextureSystem::create(/*shared=*/false);
-    oiio->attribute("automip", 1);
-    oiio->attribute("autotile", 64);
     oiio->attribute("unassociatedalpha", 1);
+    oiio->attribute("max_memory_MB", float(kDefaultCacheBytes >> 20));
   }
 
   ~Impl() {
-    if (oiio) OIIO::TextureSystem::destroy(oiio);  // closes the files before they are removed
+    // Tearing the private ImageCache down too: without it, each scene's cache (and its tiles)
+    // outlived the scene (found by LeakSanitizer, make sanitize). Closes the files before they
+    // are removed.
+    if (oiio) OIIO::TextureSystem::destroy(oiio, /*teardown_imagecache=*/true);
     if (!directory.empty()) {
       std::error_code ignored;
       fs::remove_all(directory, ignored);
@@ -281,11 +301,38 @@ struct TextureSystem::Impl {
     return true;
   }
 
-  // Decodes `file` from sRGB to scene-linear and writes it as a tiled, mip-mapped OpenEXR
-  // texture; *texture is its path.
-  bool linearise(const std::string& file, const OIIO::ImageSpec& fileSpec, std::string* texture,
-                 std::string* error) {
-    if (!loadOcio()) {
+  // The sRGB decoding of one row of `channels` floats: colour channels (all but alpha, at most
+  // three) to scene_linear; a grey channel becomes the decoded grey's luminance.
+  detail::RowTransform srgbDecoder(const OIIO::ImageSpec& spec) const {
+    std::vector<int> color;
+    for (int c = 0; c < std::min(spec.nchannels, 4) && color.size() < 3; ++c)
+      if (c != spec.alpha_channel) color.push_back(c);
+    if (color.empty()) return {};
+    return [color, processor = toLinear, luma = std::array<float, 3>{luma[0], luma[1], luma[2]}](
+               float* row, int width, int channels) {
+      std::vector<float> rgb(size_t(width) * 3);
+      for (int x = 0; x < width; ++x)
+        for (int k = 0; k < 3; ++k)
+          rgb[3 * size_t(x) + k] = row[size_t(x) * channels + color[color.size() == 3 ? k : 0]];
+      OCIO::PackedImageDesc description(rgb.data(), width, 1, 3);
+      processor->apply(description);
+      for (int x = 0; x < width; ++x) {
+        const float* value = &rgb[3 * size_t(x)];
+        if (color.size() == 3) {
+          for (int k = 0; k < 3; ++k) row[size_t(x) * channels + color[k]] = value[k];
+        } else {
+          row[size_t(x) * channels + color[0]] =
+              luma[0] * value[0] + luma[1] * value[1] + luma[2] * value[2];
+        }
+      }
+    };
+  }
+
+  // Writes `file` as a tiled, MIP-mapped OpenEXR texture (sRGB decoded to scene-linear first if
+  // `srgb`), streaming it so that memory does not grow with its height; *texture is its path.
+  bool prepare(const std::string& file, const OIIO::ImageSpec& fileSpec, bool srgb,
+               std::string* texture, std::string* error) {
+    if (srgb && !loadOcio()) {
       *error = file + ": sourceColorSpace sRGB: " + ocioError;
       return false;
     }
@@ -295,59 +342,20 @@ struct TextureSystem::Impl {
     }
     OIIO::ImageSpec readConfig;
     readConfig.attribute("oiio:UnassociatedAlpha", 1);  // decode colour, not colour × alpha
-    OIIO::ImageBuf image(file, 0, 0, nullptr, &readConfig);
-    if (!image.read(0, 0, /*force=*/true, OIIO::TypeFloat)) {
-      *error = file + ": cannot read the image: " + trimmed(image.geterror());
+    auto input = OIIO::ImageInput::open(file, &readConfig);
+    if (!input) {
+      *error = file + ": cannot read the image: " + trimmed(OIIO::geterror());
       return false;
     }
-    const OIIO::ROI roi = image.roi();
-    const int channels = image.nchannels(), width = roi.width();
-    std::vector<int> color;  // colour channels: all but alpha, at most three
-    for (int c = 0; c < channels && color.size() < 3; ++c)
-      if (c != image.spec().alpha_channel) color.push_back(c);
-    if (!color.empty()) {
-      std::vector<float> row(size_t(width) * channels), rgb(size_t(width) * 3);
-      for (int y = roi.ybegin; y < roi.yend; ++y) {
-        const OIIO::ROI line(roi.xbegin, roi.xend, y, y + 1, roi.zbegin, roi.zbegin + 1, 0,
-                             channels);
-        image.get_pixels(line, OIIO::TypeFloat, row.data());
-        for (int x = 0; x < width; ++x)
-          for (int k = 0; k < 3; ++k)
-            rgb[3 * x + k] = row[size_t(x) * channels + color[color.size() == 3 ? k : 0]];
-        OCIO::PackedImageDesc description(rgb.data(), width, 1, 3);
-        toLinear->apply(description);
-        for (int x = 0; x < width; ++x) {
-          const float* value = &rgb[3 * x];
-          if (color.size() == 3) {
-            for (int k = 0; k < 3; ++k) row[size_t(x) * channels + color[k]] = value[k];
-          } else {  // grey: the decoded grey's luminance
-            row[size_t(x) * channels + color[0]] =
-                luma[0] * value[0] + luma[1] * value[1] + luma[2] * value[2];
-          }
-        }
-        image.set_pixels(line, OIIO::TypeFloat, row.data());
-      }
-    }
-    image.specmod().erase_attribute("oiio:UnassociatedAlpha");
-    image.specmod().erase_attribute("oiio:ColorSpace");
-
     const OIIO::TypeDesc::BASETYPE base = OIIO::TypeDesc::BASETYPE(fileSpec.format.basetype);
     const bool half = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8 ||
                       base == OIIO::TypeDesc::HALF;  // half keeps 8-bit data exactly enough
-    OIIO::ImageSpec config;
-    config.format = half ? OIIO::TypeHalf : OIIO::TypeFloat;
-    config.tile_width = config.tile_height = 64;
-    config.tile_depth = 1;
-    config.attribute("maketx:fileformatname", "openexr");
-    config.attribute("maketx:ignore_unassoc", 1);
-    config.attribute("maketx:hash", 0);
-    config.attribute("oiio:ColorSpace", "scene_linear");
-    const std::string output =
-        (directory / ("texture-" + std::to_string(convertedCount++) + ".exr")).string();
-    if (!OIIO::ImageBufAlgo::make_texture(OIIO::ImageBufAlgo::MakeTxTexture, image, output,
-                                          config)) {
-      *error = file + ": cannot write the linearised texture " + output + ": " +
-               trimmed(OIIO::geterror());
+    const std::string name = "texture-" + std::to_string(preparedCount++);
+    const std::string output = (directory / (name + ".exr")).string();
+    if (!detail::writeMipmappedTexture(*input, output, half ? OIIO::TypeHalf : OIIO::TypeFloat,
+                                       srgb ? srgbDecoder(fileSpec) : detail::RowTransform{},
+                                       (directory / (name + ".spool")).string(), error)) {
+      *error = file + ": cannot prepare the texture " + output + ": " + trimmed(*error);
       return false;
     }
     *texture = output;
@@ -364,6 +372,7 @@ struct TextureSystem::Impl {
     }
     OIIO::ImageSpec spec;
     std::string format;
+    bool mipmapped = false;
     {
       auto input = OIIO::ImageInput::open(file);
       if (!input) {
@@ -372,9 +381,17 @@ struct TextureSystem::Impl {
       }
       spec = input->spec();
       format = input->format_name();
+      OIIO::ImageSpec level1;
+      mipmapped = input->seek_subimage(0, 1, level1);
     }
     if (spec.nchannels < 1 || spec.width < 1 || spec.height < 1) {
       *error = file + ": the image has no pixels";
+      return false;
+    }
+    if (uint64_t(spec.width) * uint64_t(spec.height) > kMaxTexels) {
+      *error = file + ": the image claims " + std::to_string(spec.width) + "x" +
+               std::to_string(spec.height) + " texels, more than the " +
+               std::to_string(kMaxTexels >> 20) + " Mi texels Penumbra takes as a texture";
       return false;
     }
     const bool srgb = colorSpace == SourceColorSpace::SRGB ||
@@ -386,9 +403,14 @@ struct TextureSystem::Impl {
     }
     File opened;
     metadataWraps(spec, &opened.metadataS, &opened.metadataT);
+    // Files that are tiled and MIP-mapped already (e.g. by maketx) are read as they are, unless
+    // they must be decoded; every other file is prepared once, since OIIO's on-the-fly tiling
+    // and MIP-mapping ("autotile", "automip") keeps whole images in its cache.
     std::string texture = file;
-    if (srgb && !linearise(file, spec, &texture, error)) return false;
+    const bool ready = spec.tile_width > 0 && mipmapped && spec.nchannels <= 4;
+    if ((srgb || !ready) && !prepare(file, spec, srgb, &texture, error)) return false;
     opened.tile.handle = oiio->get_texture_handle(OIIO::ustring(texture));
+    opened.tile.path = texture;
     OIIO::ImageSpec textureSpec;
     if (!opened.tile.handle || !oiio->good(opened.tile.handle) ||
         !oiio->get_imagespec(opened.tile.handle, nullptr, 0, textureSpec)) {
@@ -396,6 +418,10 @@ struct TextureSystem::Impl {
       return false;
     }
     opened.tile.channels = std::min(textureSpec.nchannels, 4);
+    opened.tile.x = textureSpec.x;
+    opened.tile.y = textureSpec.y;
+    opened.tile.width = textureSpec.width;
+    opened.tile.height = textureSpec.height;
     files.emplace(key, opened);
     *result = opened;
     return true;
@@ -449,6 +475,72 @@ TextureSystem::Handle TextureSystem::open(const std::string& path, SourceColorSp
 int TextureSystem::channels(Handle handle) const {
   if (handle < 0 || size_t(handle) >= impl_->textures.size()) return 0;
   return impl_->textures[size_t(handle)].channels;
+}
+
+void TextureSystem::setCacheSize(size_t bytes) {
+  constexpr size_t kMinimum = size_t(16) << 20;
+  impl_->oiio->attribute("max_memory_MB", float(std::max(bytes, kMinimum) >> 20));
+}
+
+size_t TextureSystem::cacheSize() const {
+  float megabytes = 0;
+  impl_->oiio->getattribute("max_memory_MB", megabytes);
+  return size_t(megabytes) << 20;
+}
+
+bool TextureSystem::resolution(Handle handle, int* width, int* height) const {
+  if (handle < 0 || size_t(handle) >= impl_->textures.size()) return false;
+  const Texture& texture = impl_->textures[size_t(handle)];
+  if (texture.udim) return false;
+  *width = texture.single.width;
+  *height = texture.single.height;
+  return true;
+}
+
+bool TextureSystem::readLevel(Handle handle, size_t maxTexels, int* width, int* height,
+                              std::vector<Vec3f>* rgb) const {
+  if (handle < 0 || size_t(handle) >= impl_->textures.size()) return false;
+  const Texture& texture = impl_->textures[size_t(handle)];
+  if (texture.udim) return false;
+  OIIO::ImageCache* cache = impl_->oiio->imagecache();
+  const OIIO::ustring path(texture.single.path);
+  OIIO::ImageSpec spec;
+  int level = 0;
+  if (!cache->get_imagespec(path, spec, 0, level)) return false;
+  for (OIIO::ImageSpec coarser; size_t(spec.width) * size_t(spec.height) > maxTexels &&
+                                cache->get_imagespec(path, coarser, 0, level + 1);) {
+    spec = coarser;
+    ++level;
+  }
+  const int channels = texture.single.channels;
+  std::vector<float> values(size_t(spec.width) * size_t(spec.height) * size_t(channels));
+  OIIO::TextureOpt options;
+  if (!impl_->oiio->get_texels(texture.single.handle, nullptr, options, level, spec.x,
+                               spec.x + spec.width, spec.y, spec.y + spec.height, 0, 1, 0, channels,
+                               OIIO::TypeFloat, values.data()))
+    return false;
+  rgb->resize(size_t(spec.width) * size_t(spec.height));
+  for (size_t i = 0; i < rgb->size(); ++i)
+    (*rgb)[i] = toRgb(&values[i * size_t(channels)], channels);
+  *width = spec.width;
+  *height = spec.height;
+  return true;
+}
+
+Vec3f TextureSystem::texel(Handle handle, Vec2f uv) const {
+  if (handle < 0 || size_t(handle) >= impl_->textures.size()) return Vec3f(0.0f);
+  const Texture& texture = impl_->textures[size_t(handle)];
+  if (texture.udim) return Vec3f(0.0f);
+  const Tile& tile = texture.single;
+  const int x = tile.x + std::clamp(int(uv.x * float(tile.width)), 0, tile.width - 1);
+  const int y = tile.y + std::clamp(int(uv.y * float(tile.height)), 0, tile.height - 1);
+  float value[4] = {0, 0, 0, 0};
+  OIIO::TextureOpt options;
+  OIIO::TextureSystem* oiio = impl_->oiio;
+  if (!oiio->get_texels(tile.handle, oiio->get_perthread_info(), options, 0, x, x + 1, y, y + 1, 0,
+                        1, 0, tile.channels, OIIO::TypeFloat, value))
+    return Vec3f(0.0f);
+  return toRgb(value, tile.channels);
 }
 
 bool TextureSystem::lookup(Handle handle, TextureWrap wrapS, TextureWrap wrapT,

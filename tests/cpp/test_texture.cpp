@@ -1,4 +1,6 @@
 // TextureSystem: orientation, wrap modes, colour spaces, filtering, channel rules, UDIM, errors.
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
@@ -13,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "penumbra/light.h"
 #include "penumbra/texture.h"
 #include "scratch_directory.h"
 
@@ -101,6 +104,18 @@ class Texture : public penumbra::test::ScratchDirectoryTest {
       if (entry.path().filename().string().rfind("penumbra-textures-", 0) == 0)
         found.push_back(entry.path());
     return found;
+  }
+
+  // ramps() as a tiled, MIP-mapped texture (maketx's work), which is read as it is.
+  std::string mipmapped(const std::string& name) const {
+    const std::string file = path(name);
+    OIIO::ImageBuf image(ramps("untiled-" + name));
+    OIIO::ImageSpec config;
+    config.tile_width = config.tile_height = 8;
+    EXPECT_TRUE(
+        OIIO::ImageBufAlgo::make_texture(OIIO::ImageBufAlgo::MakeTxTexture, image, file, config))
+        << OIIO::geterror();
+    return file;
   }
 
   std::string savedTmpdir_;
@@ -408,7 +423,7 @@ TEST_F(Texture, TheDestructorRemovesTheConvertedTextures) {
   {
     TextureSystem textures(kBundledConfig);
     std::string error;
-    ASSERT_NE(textures.open(ramps("raw.exr"), SourceColorSpace::Raw, &error),
+    ASSERT_NE(textures.open(mipmapped("raw.exr"), SourceColorSpace::Raw, &error),
               TextureSystem::kInvalid)
         << error;
     EXPECT_TRUE(convertedDirectories().empty());  // created on first need only
@@ -486,4 +501,110 @@ colorspaces:
                                     SourceColorSpace::SRGB, &error);
   ASSERT_NE(handle, TextureSystem::kInvalid) << error;
   EXPECT_NEAR(lookup(textures, handle, 0.5f, 0.5f).g, kLinear188, 1e-3f);
+}
+
+// A 5x3 image (odd sizes: every coarser texel straddles input texels) is prepared into levels
+// 2x1 and 1x1, each texel the area-weighted mean of the texels under it; level 0 is unchanged.
+TEST_F(Texture, PreparedMipLevelsAreAreaWeightedMeans) {
+  std::vector<float> pixels;
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 5; ++x) pixels.push_back(float(x + 5 * y));
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const auto handle = textures.open(write("odd.exr", 5, 3, 1, OIIO::TypeFloat, pixels),
+                                    SourceColorSpace::Raw, &error);
+  ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+  int width = 0, height = 0;
+  ASSERT_TRUE(textures.resolution(handle, &width, &height));
+  EXPECT_EQ(width, 5);
+  EXPECT_EQ(height, 3);
+
+  std::vector<Vec3f> level;
+  ASSERT_TRUE(textures.readLevel(handle, 15, &width, &height, &level));
+  ASSERT_EQ(width * height, 15);
+  for (size_t i = 0; i < level.size(); ++i) EXPECT_EQ(level[i].x, float(i));
+
+  // Level 1 is 2x1: columns [0, 2.5) and [2.5, 5) of all three rows.
+  ASSERT_TRUE(textures.readLevel(handle, 2, &width, &height, &level));
+  ASSERT_EQ(width, 2);
+  ASSERT_EQ(height, 1);
+  const auto mean = [&](float x0, float x1) {
+    double sum = 0, area = 0;
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 5; ++x) {
+        const double overlap = std::max(0.0, std::min<double>(x + 1, x1) - std::max<double>(x, x0));
+        sum += overlap * pixels[size_t(x + 5 * y)];
+        area += overlap;
+      }
+    return float(sum / area);
+  };
+  EXPECT_NEAR(level[0].x, mean(0, 2.5f), 1e-5f);
+  EXPECT_NEAR(level[1].x, mean(2.5f, 5), 1e-5f);
+  ASSERT_TRUE(textures.readLevel(handle, 1, &width, &height, &level));
+  ASSERT_EQ(width * height, 1);
+  EXPECT_NEAR(level[0].x, 7.0f, 1e-5f);  // the mean of 0..14
+}
+
+// texel(): the nearest full-resolution texel, uv from the top-left corner, clamped; sRGB files
+// come back decoded.
+TEST_F(Texture, TexelReadsTheNearestFullResolutionTexel) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const auto handle =
+      textures.open(quadrants("q.png", OIIO::TypeUInt8), SourceColorSpace::Raw, &error);
+  ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+  const Vec3f topLeft = textures.texel(handle, {0.1f, 0.1f});
+  const Vec3f bottomLeft = textures.texel(handle, {0.49f, 0.51f});
+  const Vec3f outside = textures.texel(handle, {2.0f, -1.0f});  // clamped: the top-right texel
+  EXPECT_EQ(topLeft.x, 1.0f);
+  EXPECT_EQ(topLeft.y, 0.0f);
+  EXPECT_EQ(bottomLeft.z, 1.0f);
+  EXPECT_EQ(bottomLeft.x, 0.0f);
+  EXPECT_EQ(outside.y, 1.0f);
+  EXPECT_EQ(outside.x, 0.0f);
+
+  const auto srgb =
+      textures.open(constant("grey.png", 3, OIIO::TypeUInt8, std::vector<float>(3, 188.0f / 255)),
+                    SourceColorSpace::SRGB, &error);
+  ASSERT_NE(srgb, TextureSystem::kInvalid) << error;
+  EXPECT_NEAR(textures.texel(srgb, {0.5f, 0.5f}).y, kLinear188, 1e-3f);
+}
+
+TEST_F(Texture, TheCacheSizeIsASettingWithAFloor) {
+  TextureSystem textures(kBundledConfig);
+  EXPECT_EQ(textures.cacheSize(), TextureSystem::kDefaultCacheBytes);
+  textures.setCacheSize(size_t(64) << 20);
+  EXPECT_EQ(textures.cacheSize(), size_t(64) << 20);
+  textures.setCacheSize(1);
+  EXPECT_EQ(textures.cacheSize(), size_t(16) << 20);
+}
+
+// A lat-long texture larger than a light's distribution keeps only a MIP level in memory; its
+// lookups still see every full-resolution texel, and its average and sampling follow the image.
+TEST_F(Texture, LargeLightTexturesAreSampledFromAMipLevelAndLookedUpInFull) {
+  const int width = 4096, height = 1024;  // 4 Mi texels: the distribution is the 2048x512 level
+  std::vector<float> pixels(size_t(width) * height * 3, 0.25f);
+  const int spotX = 1001, spotY = 301;  // one bright texel
+  for (int c = 0; c < 3; ++c) pixels[(size_t(spotY) * width + spotX) * 3 + c] = 4096.0f;
+  auto textures = std::make_shared<TextureSystem>(kBundledConfig);
+  const auto light = LightTexture::load(
+      textures, write("sky.exr", width, height, 3, OIIO::TypeFloat, pixels), /*latLong=*/true);
+
+  const Vec2f spot{(spotX + 0.5f) / width, (spotY + 0.5f) / height};
+  EXPECT_EQ(light->lookup(spot).x, 4096.0f);
+  EXPECT_EQ(light->lookup({spot.x + 1.0f / width, spot.y}).x, 0.25f);
+  // The bright texel's coarse cell is sampled (4096 / 4 + 0.25 * 3 / 4) / 0.25 times as often
+  // as a dim cell of its row.
+  const float ratio =
+      light->distribution().density(spot) / light->distribution().density({spot.x + 0.25f, spot.y});
+  EXPECT_NEAR(ratio, (4096.0f / 4 + 0.75f * 0.25f) / 0.25f, 1.0f);
+  // The mean over solid angle: the background plus the spot's share of it (its row's weight).
+  const double rowSine = std::sin(M_PI * (spotY / 2 + 0.5) / (height / 2));
+  const double weights = [&] {
+    double sum = 0;
+    for (int y = 0; y < height / 2; ++y) sum += std::sin(M_PI * (y + 0.5) / (height / 2));
+    return sum * (width / 2);
+  }();
+  const double expected = 0.25 + (4096.0 - 0.25) / 4 * rowSine / weights;
+  EXPECT_NEAR(light->average().x, expected, 1e-4 * expected);
 }

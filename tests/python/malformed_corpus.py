@@ -133,6 +133,7 @@ CASES = [
     Case("seed past uint32", 2, "--seed must be at most", args=("--seed", str(2**32))),
     Case("seed negative", 2, "--seed cannot be negative", args=("--seed", "-1")),
     Case("max memory malformed", 2, "invalid memory size", args=("--maxMemory", "lots")),
+    Case("texture cache too small", 2, "below 16M", args=("--textureCacheSize", "1M")),
     Case("frames not finite", 2, "frames must be finite", args=("-f", "1:" + "9" * 400)),
     # Meshes, primvars, materials, instancers, lights: warning and skip (exit 0).
     Case("unknown primvar interpolation", 0, "/quad", mesh='float[] primvars:foo = [1] (interpolation = "bogus")'),

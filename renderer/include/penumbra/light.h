@@ -16,6 +16,7 @@
 
 #include "penumbra/distribution.h"
 #include "penumbra/math.h"
+#include "penumbra/texture.h"
 
 namespace penumbra {
 
@@ -24,12 +25,21 @@ enum class LightType { Rect, Disk, Sphere, Cylinder, Distant, Dome, Mesh };
 /// An emission texture (scene-linear RGB, row 0 at the top) with its sampling distribution.
 class LightTexture {
  public:
-  /// `latLong`: a dome's lat-long map, whose rows are weighted by sin(polar angle) for sampling.
+  /// Texels in memory. `latLong`: a dome's lat-long map, whose rows are weighted by sin(polar
+  /// angle) for sampling.
   LightTexture(int width, int height, std::vector<Vec3f> texels, bool latLong);
-  /// Reads an image through OIIO. Throws std::runtime_error naming the file.
-  static std::shared_ptr<const LightTexture> load(const std::string& path, bool latLong);
+  /// Opens `path` in `textures` (values as stored: no colour-space conversion). The sampling
+  /// distribution and the average come from the finest MIP level of at most
+  /// kDistributionTexels texels; a texture larger than that is looked up through the texture
+  /// cache, a smaller one kept in memory, so memory does not grow with the resolution. Throws
+  /// std::runtime_error naming the file.
+  static std::shared_ptr<const LightTexture> load(std::shared_ptr<TextureSystem> textures,
+                                                  const std::string& path, bool latLong);
 
-  /// Nearest texel at (u, v) in [0, 1)², v = 0 at the top row.
+  /// Cells of the sampling distribution of a loaded texture, at most (a 2048 x 1024 lat-long).
+  static constexpr size_t kDistributionTexels = size_t(1) << 21;
+
+  /// Nearest full-resolution texel at (u, v) in [0, 1)², v = 0 at the top row.
   Vec3f lookup(Vec2f uv) const;
   const Distribution2D& distribution() const { return distribution_; }
   /// Mean texel value (for latLong maps: weighted by solid angle).
@@ -37,7 +47,9 @@ class LightTexture {
 
  private:
   int width_, height_;
-  std::vector<Vec3f> texels_;
+  std::vector<Vec3f> texels_;  // empty when looked up through textures_
+  std::shared_ptr<const TextureSystem> textures_;
+  TextureSystem::Handle handle_ = TextureSystem::kInvalid;
   Distribution2D distribution_;
   Vec3f average_;
 };

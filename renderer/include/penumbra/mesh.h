@@ -108,4 +108,13 @@ bool isClosedSurface(const std::vector<Vec3f>& points, const std::vector<int>& f
 /// (counts that do not add up, indices out of range, primvar sizes, non-finite points).
 TriangleMesh triangulate(const MeshData& mesh);
 
+/// Bytes that building `mesh` for rendering allocates at its peak (triangulation, Embree's
+/// buffers and BVH, the closed-surface test), estimated from its counts before anything is
+/// built, for memory budgets. A subdivision surface (`subdivided`) is counted as diced once,
+/// a lower bound: dicing finer multiplies its size by 4 per level.
+size_t estimatedBuildBytes(const MeshData& mesh, bool subdivided);
+
+/// Bytes of the same for `copies` instances of a prototype, with `motionKeys` transforms each.
+size_t estimatedInstanceBytes(size_t copies, size_t motionKeys);
+
 }  // namespace penumbra

@@ -124,6 +124,8 @@ class Scene {
   /// The textures materials read; open files here before referencing them.
   TextureSystem& textures() { return *textures_; }
   const TextureSystem& textures() const { return *textures_; }
+  /// The same, for what may outlive the scene (light textures read through it).
+  const std::shared_ptr<TextureSystem>& sharedTextures() { return textures_; }
   void setLights(std::vector<Light> lights) { lights_ = std::move(lights); }
   const std::vector<Light>& lights() const { return lights_; }
   /// Chooses lights for next-event estimation (set by commit()).
@@ -229,7 +231,7 @@ class Scene {
   std::vector<std::unique_ptr<InstancerRecord>> instancers_;  // by InstancerId
   std::vector<const Placement*> placements_;                  // by Embree geomID
   std::vector<Material> materials_;
-  std::unique_ptr<TextureSystem> textures_;
+  std::shared_ptr<TextureSystem> textures_;
   std::vector<Light> lights_;
   LightSampler lightSampler_;
   std::vector<uint32_t> infiniteLights_;

@@ -1,9 +1,12 @@
-// Image textures for UsdUVTexture: filtered, mip-mapped lookups through a private OpenImageIO
-// TextureSystem, with sRGB textures linearised (through OpenColorIO) before they are filtered.
+// Image textures for UsdUVTexture and light textures: filtered, mip-mapped lookups through a
+// private OpenImageIO TextureSystem whose tile cache is bounded, with sRGB textures linearised
+// (through OpenColorIO) before they are filtered.
 #pragma once
 
+#include <cstddef>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "penumbra/math.h"  // Vec2f
 
@@ -30,6 +33,9 @@ class TextureSystem {
   using Handle = int;
   static constexpr Handle kInvalid = -1;
 
+  /// The tile cache's size unless setCacheSize says otherwise.
+  static constexpr size_t kDefaultCacheBytes = size_t(256) << 20;
+
   /// ocioConfig: path of the OCIO config used to linearise sRGB textures (empty: $OCIO).
   explicit TextureSystem(const std::string& ocioConfig = {});
   ~TextureSystem();  // also removes any converted-texture files it wrote
@@ -44,6 +50,27 @@ class TextureSystem {
 
   /// Channels in the file (1–4); 0 for an invalid handle.
   int channels(Handle handle) const;
+
+  /// Bounds the memory of the tile cache shared by every texture (at least 16 MiB). Whatever
+  /// the textures' resolution, lookups then hold about this much texture data. Called between
+  /// renders, never concurrently with lookup().
+  void setCacheSize(size_t bytes);
+  size_t cacheSize() const;
+
+  /// The full-resolution size of a texture that is not a UDIM set; false otherwise.
+  bool resolution(Handle handle, int* width, int* height) const;
+
+  /// The finest MIP level with at most `maxTexels` texels (each the mean of the full-resolution
+  /// texels it covers), as RGB with the channel rules of lookup(), rows from the top. For
+  /// summaries that must not grow with the resolution (a light's sampling distribution). False
+  /// for a UDIM set, an invalid handle or a read error.
+  bool readLevel(Handle handle, size_t maxTexels, int* width, int* height,
+                 std::vector<Vec3f>* rgb) const;
+
+  /// The full-resolution texel nearest to uv ∈ [0, 1)² (origin at the top-left corner, v down,
+  /// clamped to the image), unfiltered, as RGB with the channel rules of lookup(). Black for a
+  /// UDIM set or an invalid handle. Thread-safe.
+  Vec3f texel(Handle handle, Vec2f uv) const;
 
   /// Filtered, mip-mapped lookup. Writes rgba with USD's channel rules: 1 channel → (c,c,c,1),
   /// 2 → (c,c,c,a), 3 → (r,g,b,1), 4 → rgba. Returns false (rgba untouched) where there is no

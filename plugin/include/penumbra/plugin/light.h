@@ -17,9 +17,10 @@ class Light : public Prim {
   /// shaping:focus, shaping:focusTint, shadow:enable).
   /// Throws std::invalid_argument for an unknown name or a value of the wrong type.
   void setParam(const std::string& name, const ParamValue& value);
-  /// Loads texture:file if it changed since the last call. Throws std::runtime_error naming the
-  /// file when it cannot be read (the light then renders untextured).
-  void loadTexture();
+  /// Loads texture:file (through `textures`) if it changed since the last call. Throws
+  /// std::runtime_error naming the file when it cannot be read (the light then renders
+  /// untextured).
+  void loadTexture(std::shared_ptr<TextureSystem> textures);
   /// Lights keep their transform at the start of the shutter (motion blur of lights is not
   /// supported yet): only the first sample is used.
   void setTransform(const MotionTransform& lightToWorld);

@@ -42,6 +42,8 @@ class ChangeTracker {
   void markDirty(const PrimId& id) { dirty_.insert(id); }
   void forget(const PrimId& id) { dirty_.erase(id); }
   bool empty() const { return dirty_.empty(); }
+  /// The dirty list, kept.
+  const std::set<PrimId>& dirty() const { return dirty_; }
   /// The dirty list, emptied.
   std::set<PrimId> take() { return std::exchange(dirty_, {}); }
 

@@ -51,6 +51,9 @@ struct RenderSettingsMap {
   float indirectClamp = 0;
   /// Cycles' "filter glossy" (0: off; biased): see IntegratorSettings::glossyFilter.
   float glossyFilter = 0;
+  /// Memory of the texture tile cache in MiB: texture lookups hold about this much texture data
+  /// whatever the textures' resolution.
+  int textureCacheMB = int(TextureSystem::kDefaultCacheBytes >> 20);
 
   /// Throws std::invalid_argument for an unknown key, an out-of-range value or a fraction for an
   /// integer setting.
@@ -99,6 +102,10 @@ class RenderDelegate {
   /// set. Returns true if anything a render depends on changed (scene contents or any camera),
   /// so that passes restart accumulation.
   bool sync(const DicingContext& view);
+  /// Bytes the next sync will allocate to build the dirty meshes and instancers (an estimate
+  /// from their counts, penumbra::estimatedBuildBytes), to be checked against a memory budget
+  /// before it runs.
+  size_t estimatedSyncBytes() const;
   /// Incremented by every sync that changed the scene's contents.
   uint64_t sceneVersion() const { return sceneVersion_; }
   /// What syncs have cost so far: meshes triangulated or diced, of which subdivision
