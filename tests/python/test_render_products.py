@@ -313,3 +313,44 @@ def test_product_camera_and_included_purposes(tmp_path):
     pixels, names, metadata = _core.read_image(str(tmp_path / "far.exr"))
     assert pixels.shape[:2] == (8, 8) and metadata["penumbra:camera"] == "/far"
     np.testing.assert_allclose(layer(pixels, names, "Z"), 10.0, rtol=1e-6)
+
+
+def test_per_product_motion_blur_and_depth_of_field_switches(tmp_path):
+    """A product's disableMotionBlur renders its frame alone (the shutter in its metadata is
+    one instant) and disableDepthOfField renders through a pinhole: the defocused quad's edges,
+    a band of grey pixels in the other product, are sharp."""
+    stage = new_stage(tmp_path / "scene.usda")
+    camera = add_camera(stage)
+    camera.CreateFStopAttr(0.5)
+    camera.CreateFocusDistanceAttr(1.0)  # the quad, 5 units away, is far out of focus
+    camera.CreateShutterOpenAttr(0.0)
+    camera.CreateShutterCloseAttr(0.5)
+    quad = add_quad(stage, "/quad", half_size=1.0)
+    quad.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([Gf.Vec3f(1.0, 1.0, 1.0)])
+    add_distant_light(stage)
+    color = UsdRender.Var.Define(stage, "/Render/Vars/color")
+    color.CreateSourceNameAttr("C.*")
+    color.CreateSourceTypeAttr("lpe")
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets(["/cam"])
+    products = []
+    for name, motion_blur, depth_of_field in (("lens", True, True), ("pinhole", False, False)):
+        product = UsdRender.Product.Define(stage, f"/Render/Products/{name}")
+        product.CreateProductNameAttr(f"{name}.exr")
+        product.CreateResolutionAttr(Gf.Vec2i(32, 32))
+        product.CreateDisableMotionBlurAttr(not motion_blur)
+        product.CreateDisableDepthOfFieldAttr(not depth_of_field)
+        product.CreateOrderedVarsRel().SetTargets([color.GetPath()])
+        products.append(product.GetPath())
+    settings.CreateProductsRel().SetTargets(products)
+    stage.GetRootLayer().Save()
+    argv = [str(tmp_path / "scene.usda"), str(tmp_path / "out.exr"), "-spp", "16", "-q"]
+    assert main([*argv, "-rs", "/Render/Settings"]) == 0
+    grey = {}
+    for name in ("lens", "pinhole"):
+        pixels, names, metadata = _core.read_image(str(tmp_path / f"{name}.exr"))
+        red = pixels[..., names.index("R")]
+        grey[name] = int(np.count_nonzero((red > 0.1 * red.max()) & (red < 0.9 * red.max())))
+        shutter = float(metadata["penumbra:shutterOpen"]), float(metadata["penumbra:shutterClose"])
+        assert (shutter[0] == shutter[1]) == (name == "pinhole"), (name, shutter)
+    assert grey["lens"] > 3 * grey["pinhole"], grey
