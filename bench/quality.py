@@ -333,7 +333,7 @@ def ray_cost_table(args: argparse.Namespace) -> None:
             renderer.render(time=TIME_CODE, width=width, samples=samples)
             seconds = time.perf_counter() - started
             height = warm["color"].shape[0]
-            render_pass = renderer._render_pass(warm.metadata["camera"], width, height)
+            render_pass = renderer._render_pass((warm.metadata["camera"], width, height, None, 0))
             rays_per_second = render_pass.rays_traced / seconds
             raw = render_pass.measure_raw_throughput()
         raw_rates = [raw["primary"], raw["bounce_intersect"], raw["bounce_occluded"]]

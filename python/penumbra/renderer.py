@@ -43,6 +43,8 @@ from .usd import (
 )
 
 DEFAULT_WIDTH = 960  # usdrecord's default image width
+PassKey = tuple[str, int, int, tuple[int, int, int, int] | None, int]
+"""What identifies a render pass: camera, image width and height, crop (or None) and margin."""
 DEFAULT_SAMPLES = 64
 DEFAULT_MAX_PATH_DEPTH = 8
 COMPLEXITIES = ("low", "medium", "high", "veryhigh")
@@ -123,7 +125,7 @@ class Renderer:
         self._instancers = PointInstancerDelegate(
             stage, self.delegate, purposes, warn, self._scene.materials, collections
         )
-        self._passes: dict[tuple[str, int, int], _core.RenderPass] = {}
+        self._passes: dict[PassKey, _core.RenderPass] = {}
         self._default_light = DefaultLightManager(self.delegate, stage_name(stage))
         self.tracer = Tracer(enabled=False)
         """Records timing spans of each render when enabled (``penumbra-record --traceToFile``)."""
@@ -430,7 +432,7 @@ class Renderer:
             meshBvhBuilds=after["meshBvhBuilds"] - before["meshBvhBuilds"],
         )
 
-    def _render_pass(self, key: tuple[str, int, int, tuple[int, int, int, int] | None, int]):
+    def _render_pass(self, key: PassKey):
         """The render pass of (camera, image width, image height, crop, margin)."""
         if key not in self._passes:
             camera_id, width, height, crop, margin = key
