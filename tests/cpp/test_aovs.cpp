@@ -9,10 +9,13 @@
 
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
+#include "scene_builders.h"
 #include "transforms.h"
 
 using namespace penumbra;
 using namespace penumbra::plugin;
+using penumbra::test::addCamera;
+using penumbra::test::addFloor;
 using penumbra::test::facingDown;
 
 namespace {
@@ -26,24 +29,13 @@ const std::vector<std::string> kEveryAov = {
 void floorAndOccluder(RenderDelegate& delegate) {
   for (const auto& [id, halfSize, y] :
        {std::tuple{"/floor", 4.0f, 0.0f}, std::tuple{"/occluder", 0.5f, 1.0f}}) {
-    delegate.insertRprim("mesh", id);
-    Mesh& mesh = delegate.mesh(id);
-    mesh.setPoints({{-halfSize, y, -halfSize},
-                    {-halfSize, y, halfSize},
-                    {halfSize, y, halfSize},
-                    {halfSize, y, -halfSize}});
-    mesh.setTopology({4}, {0, 1, 2, 3}, false, "none");
-    mesh.setDisplayColor({Vec3f(0.6f)}, Interpolation::Constant);
+    addFloor(delegate, id, halfSize, y);
+    delegate.mesh(id).setDisplayColor({Vec3f(0.6f)}, Interpolation::Constant);
   }
   delegate.mesh("/occluder").setPrimvars({{"heat", {0.25f, 0.75f}, 2, Interpolation::Constant}});
   delegate.insertSprim("rectLight", "/panel");
   delegate.light("/panel").setTransform(facingDown(0.3, 2, 0));
-  delegate.insertSprim("camera", "/cam");
-  CameraParams params;
-  params.focalLength = 10;
-  params.horizontalAperture = params.verticalAperture = 10;
-  delegate.camera("/cam").setParams(params);
-  delegate.camera("/cam").setTransform(facingDown(0, 5, 0));
+  addCamera(delegate, facingDown(0, 5, 0), 1);  // sees x and z in [-2.5, 2.5]
 }
 
 }  // namespace

@@ -6,35 +6,17 @@
 
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
+#include "scene_builders.h"
 #include "transforms.h"
 
 using namespace penumbra;
+using penumbra::test::addCamera;
+using penumbra::test::addFloor;
 using penumbra::test::facingDown;
 using penumbra::test::translation;
 using namespace penumbra::plugin;
 
 namespace {
-
-/// A square in the XZ plane at height y, facing +Y (counter-clockwise seen from above).
-void addFloor(RenderDelegate& delegate, const PrimId& id, float halfSize, float y = 0) {
-  delegate.insertRprim("mesh", id);
-  Mesh& mesh = delegate.mesh(id);
-  mesh.setPoints({{-halfSize, y, -halfSize},
-                  {-halfSize, y, halfSize},
-                  {halfSize, y, halfSize},
-                  {halfSize, y, -halfSize}});
-  mesh.setTopology({4}, {0, 1, 2, 3}, false, "none");
-}
-
-void addCamera(RenderDelegate& delegate, const Transform& transform, float focalLength = 50) {
-  delegate.insertSprim("camera", "/cam");
-  CameraParams params;
-  params.focalLength = focalLength;
-  params.horizontalAperture = params.verticalAperture = 1;
-  params.nearClip = 0.01f;
-  delegate.camera("/cam").setParams(params);
-  delegate.camera("/cam").setTransform(transform);
-}
 
 /// A grey floor (displayColor without a material: Lambertian) seen from straight above through
 /// a narrow lens.
