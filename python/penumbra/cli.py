@@ -24,7 +24,7 @@ from pxr import Usd
 
 from . import _core
 from .denoise import NOISY_COLOR
-from .errors import PenumbraWarning, SceneError, warn
+from .errors import PenumbraWarning, SceneError
 from .frames import (
     FrameRange,
     find_placeholder,

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Gf, Usd, UsdGeom, UsdRender
+from pxr import Gf, UsdGeom, UsdRender
 
 import penumbra
 from penumbra.errors import SceneError

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Gf, UsdLux
+from pxr import UsdLux
 
 import penumbra
 from penumbra import _core

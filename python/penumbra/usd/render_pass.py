@@ -38,7 +38,6 @@ class RenderPassCollections:
     """The membership queries of one render pass's collections."""
 
     def __init__(self, render_pass: UsdRender.Pass):
-        self.render_pass = render_pass
         prim = render_pass.GetPrim()
         self._queries = {
             name: Usd.CollectionAPI(prim, name).ComputeMembershipQuery()
@@ -59,9 +58,8 @@ class RenderPassCollections:
         )
 
 
-def render_pass_collections(stage: Usd.Stage, pass_path: str | Sdf.Path) -> RenderPassCollections:
-    """The collections of the UsdRenderPass at ``pass_path``; :class:`SceneError` naming it when
-    it is not a render pass."""
+def find_render_pass(stage: Usd.Stage, pass_path: str | Sdf.Path) -> UsdRender.Pass:
+    """The UsdRenderPass at ``pass_path``; :class:`SceneError` naming it when it is none."""
     text = str(pass_path)
     render_pass = (
         UsdRender.Pass(stage.GetPrimAtPath(text))
@@ -70,4 +68,9 @@ def render_pass_collections(stage: Usd.Stage, pass_path: str | Sdf.Path) -> Rend
     )
     if not render_pass:
         raise SceneError(f"{stage_name(stage)}: {text} is not a RenderPass prim")
-    return RenderPassCollections(render_pass)
+    return render_pass
+
+
+def render_pass_collections(stage: Usd.Stage, pass_path: str | Sdf.Path) -> RenderPassCollections:
+    """The collections of the UsdRenderPass at ``pass_path`` (see :func:`find_render_pass`)."""
+    return RenderPassCollections(find_render_pass(stage, pass_path))

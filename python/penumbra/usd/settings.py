@@ -20,7 +20,7 @@ from pxr import Sdf, Usd, UsdGeom, UsdRender, UsdUtils
 
 from ..errors import SceneError, warn
 from .framing import FRAMING_CAMERA_PATH, framing_camera
-from .render_pass import render_pass_collections
+from .render_pass import find_render_pass
 from .stage import stage_name
 
 logger = logging.getLogger("penumbra")
@@ -122,7 +122,7 @@ def render_pass_settings(stage: Usd.Stage, pass_path: str) -> str:
     ``pass_path`` (its first target, with a warning when there are several, as usdrecord).
     Raises :class:`SceneError` naming the pass when it is not a render pass or names no
     source. (Its collections are applied by the scene delegate: see ``render_pass.py``.)"""
-    render_pass = render_pass_collections(stage, pass_path).render_pass
+    render_pass = find_render_pass(stage, pass_path)
     targets = render_pass.GetRenderSourceRel().GetForwardedTargets()
     if not targets:
         raise SceneError(f"{stage_name(stage)}: render pass {pass_path} has no renderSource")
