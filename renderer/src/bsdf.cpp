@@ -455,7 +455,10 @@ struct SpecularLayer {
   /// Directional albedo E(μ): everything the layer reflects for light from μ.
   Vec3f albedo(float cosTheta) const {
     if (alpha == 0) return schlickFresnel(f0, cosTheta);
-    const GgxAlbedoTable::Albedo e = ggxAlbedoTable().directional(cosTheta, alpha);
+    return albedo(ggxAlbedoTable().directional(cosTheta, alpha));
+  }
+  /// The same for a rough layer, from the table's entry for μ and α.
+  Vec3f albedo(const GgxAlbedoTable::Albedo& e) const {
     return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
   }
   /// Hemispherical average 2∫E(μ)μ dμ.
@@ -536,6 +539,10 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
   };
   diffuseNormalization_ = {normalization(coverAverage.x), normalization(coverAverage.y),
                            normalization(coverAverage.z)};
+  if (specularAlpha_ > 0) {
+    const GgxAlbedoTable::Albedo average = ggxAlbedoTable().average(specularAlpha_);
+    specularAverageLoss_ = std::max(0.0f, 1 - average.scale - average.bias);
+  }
 }
 
 bool PreviewSurfaceBsdf::isPurelySpecular() const {
@@ -565,23 +572,31 @@ float PreviewSurfaceBsdf::sheenTransmittance(float cosThetaO) const {
   return sheen_ > 0 ? 1 - sheenAlbedo(cosThetaO) : 1.0f;
 }
 
-Vec3f PreviewSurfaceBsdf::diffuseLayerCover(float cosTheta) const {
-  return SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}.albedo(
-      cosTheta);
+const PreviewSurfaceBsdf::Outgoing& PreviewSurfaceBsdf::outgoing(float cosThetaO) const {
+  if (cosThetaO != cachedCosThetaO_) {
+    cachedCosThetaO_ = cosThetaO;
+    cachedOutgoing_ = computeOutgoing(cosThetaO);
+  }
+  return cachedOutgoing_;
 }
 
-PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::lobeProbabilities(float cosThetaO) const {
-  if (cosThetaO == cachedCosThetaO_) return cachedProbabilities_;
-  cachedCosThetaO_ = cosThetaO;
-  cachedProbabilities_ = computeLobeProbabilities(cosThetaO);
-  return cachedProbabilities_;
-}
+PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(float cosThetaO) const {
+  Outgoing outgoing;
+  const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_};
+  GgxAlbedoTable::Albedo e;  // of the rough specular layer for wo
+  if (specularAlpha_ == 0) {
+    outgoing.underSpecular = Vec3f(1.0f) - cover.albedo(cosThetaO);
+  } else {
+    e = ggxAlbedoTable().directional(cosThetaO, specularAlpha_);
+    outgoing.specularLoss = std::max(0.0f, 1 - e.scale - e.bias);
+    outgoing.underSpecular = Vec3f(1.0f) - cover.albedo(e);
+  }
+  outgoing.coatTransmittance = coatTransmittance(cosThetaO);
+  outgoing.sheenTransmittance = sheenTransmittance(cosThetaO);
 
-PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabilities(
-    float cosThetaO) const {
   // Each lobe's albedo for this wo. The layers under the coat are attenuated by its
   // transmittance for wo only, the one for wi being unknown yet.
-  LobeProbabilities p;
+  LobeProbabilities& p = outgoing.probabilities;
   if (opacity_ > 0) {
     // What the sheen lets through to the layers below (albedo scaling: for wo only).
     float underSheen = opacity_;
@@ -590,24 +605,25 @@ PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabiliti
       p.sheen = opacity_ * luminance(sheenColor_) * sheen;
       underSheen = opacity_ * (1 - sheen);
     }
-    const float coat = coatTransmittance(cosThetaO);
+    const float coat = outgoing.coatTransmittance;
     const float below = underSheen * coat;
     p.coat = underSheen * (1 - coat);
     if (specularAlpha_ == 0) {
       p.specular = below * luminance(tintUnderCoat(schlickFresnel(specularF0_, cosThetaO)));
     } else {
-      const GgxAlbedoTable::Albedo e = ggxAlbedoTable().directional(cosThetaO, specularAlpha_);
       p.specular = below * luminance(tintUnderCoat(specularF0_ * e.scale + Vec3f(e.bias)));
-      p.multipleScattering = below * luminance(tintUnderCoat(multipleScatteringScale_)) *
-                             std::max(0.0f, 1 - e.scale - e.bias);
+      p.multipleScattering =
+          below * luminance(tintUnderCoat(multipleScatteringScale_)) * outgoing.specularLoss;
     }
-    p.diffuse = below * luminance(tintUnderCoat(diffuseReflectance_ *
-                                                (Vec3f(1.0f) - diffuseLayerCover(cosThetaO))));
+    p.diffuse = below * luminance(tintUnderCoat(diffuseReflectance_ * outgoing.underSpecular));
   }
   p.dielectric = 1 - opacity_;  // its albedo is 1: energy-compensated, and nothing is absorbed
   const float total =
       p.coat + p.specular + p.multipleScattering + p.diffuse + p.sheen + p.dielectric;
-  if (!(total > 0)) return {};
+  if (!(total > 0)) {
+    p = {};
+    return outgoing;
+  }
   const float scale = 1 / total;
   p.sheen *= scale;
   p.coat *= scale;
@@ -615,36 +631,37 @@ PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabiliti
   p.multipleScattering *= scale;
   p.diffuse *= scale;
   p.dielectric *= scale;
-  return p;
+  return outgoing;
 }
 
 Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
                                          Vec3f* diffusePart) const {
   if (wi.z <= 0) return Vec3f(0.0f);
+  const Outgoing& forWo = outgoing(wo.z);
   const Vec3f h = normalize(wo + wi);
-  Vec3f base(0.0f);
+  const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_};
+  Vec3f base(0.0f), underSpecularForWi(1.0f);
   if (specularAlpha_ > 0) {
     base += schlickFresnel(specularF0_, dot(wo, h)) *
             ggxReflectionWithoutFresnel(wo, wi, h, specularAlpha_);
-    const GgxAlbedoTable& table = ggxAlbedoTable();
-    const GgxAlbedoTable::Albedo eo = table.directional(wo.z, specularAlpha_);
-    const GgxAlbedoTable::Albedo ei = table.directional(wi.z, specularAlpha_);
-    const GgxAlbedoTable::Albedo average = table.average(specularAlpha_);
-    const float averageLoss = 1 - average.scale - average.bias;
-    if (averageLoss > 0) {
-      base += multipleScatteringScale_ *
-              (std::max(0.0f, 1 - eo.scale - eo.bias) * std::max(0.0f, 1 - ei.scale - ei.bias) *
-               wi.z / (kPi * averageLoss));
+    // The diffuse layer's cover is the specular layer, with its own F0: one table entry each.
+    const GgxAlbedoTable::Albedo ei = ggxAlbedoTable().directional(wi.z, specularAlpha_);
+    if (specularAverageLoss_ > 0) {
+      base +=
+          multipleScatteringScale_ * (forWo.specularLoss * std::max(0.0f, 1 - ei.scale - ei.bias) *
+                                      wi.z / (kPi * specularAverageLoss_));
     }
+    underSpecularForWi = Vec3f(1.0f) - cover.albedo(ei);
+  } else {
+    underSpecularForWi = Vec3f(1.0f) - cover.albedo(wi.z);
   }
   Vec3f diffuse(0.0f);
   if (!isBlack(diffuseReflectance_)) {
-    diffuse = diffuseReflectance_ * diffuseNormalization_ *
-              (Vec3f(1.0f) - diffuseLayerCover(wo.z)) * (Vec3f(1.0f) - diffuseLayerCover(wi.z)) *
-              wi.z;
+    diffuse = diffuseReflectance_ * diffuseNormalization_ * forWo.underSpecular *
+              underSpecularForWi * wi.z;
     base += diffuse;
   }
-  const float coat = coatTransmittance(wo.z) * coatTransmittance(wi.z);
+  const float coat = forWo.coatTransmittance * coatTransmittance(wi.z);
   if (diffusePart) *diffusePart = tintUnderCoat(diffuse) * (coat * opacity_);
   Vec3f value = tintUnderCoat(base) * coat;
   if (clearcoat_ > 0 && coatAlpha_ > 0) {
@@ -652,7 +669,7 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
                    ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_));
   }
   if (sheen_ > 0) {
-    const float underSheen = 1 - sheenAlbedo(wo.z);
+    const float underSheen = forWo.sheenTransmittance;
     if (diffusePart) *diffusePart *= underSheen;
     value = value * underSheen + sheenColor_ * (sheen_ * sheenReflection(wo, wi, sheenAlpha_));
   }

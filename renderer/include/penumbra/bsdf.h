@@ -122,9 +122,20 @@ class PreviewSurfaceBsdf {
   struct LobeProbabilities {
     float coat = 0, specular = 0, multipleScattering = 0, diffuse = 0, sheen = 0, dielectric = 0;
   };
-  /// Lobe choice probabilities for an outgoing direction at cos θo = cosThetaO (> 0).
-  LobeProbabilities lobeProbabilities(float cosThetaO) const;
-  LobeProbabilities computeLobeProbabilities(float cosThetaO) const;
+  /// What depends on the outgoing direction alone (cos θo = cosThetaO > 0): the lobe choice
+  /// probabilities and the factors for wo of evaluateOpaque.
+  struct Outgoing {
+    LobeProbabilities probabilities;
+    float specularLoss = 0;     // 1 − E(μo) of the rough specular layer (single scattering)
+    Vec3f underSpecular{1.0f};  // 1 − E(μo) of the diffuse layer's cover
+    float coatTransmittance = 1;
+    float sheenTransmittance = 1;
+  };
+  const Outgoing& outgoing(float cosThetaO) const;
+  Outgoing computeOutgoing(float cosThetaO) const;
+  LobeProbabilities lobeProbabilities(float cosThetaO) const {
+    return outgoing(cosThetaO).probabilities;
+  }
   /// Clearcoat transmittance 1 − c·E_cc(μ).
   float coatTransmittance(float cosTheta) const;
   /// `value` (of a layer under the clearcoat) tinted by the coat's colour.
@@ -133,8 +144,7 @@ class PreviewSurfaceBsdf {
   float sheenAlbedo(float cosTheta) const;
   /// What the sheen lets through to the layers under it for wo at cos θo: 1 − s·E_sh(μo).
   float sheenTransmittance(float cosThetaO) const;
-  /// Directional albedo of the specular layer the diffuse layer lies under.
-  Vec3f diffuseLayerCover(float cosTheta) const;
+
   /// Everything below in the local frame (z = shading normal); "opaque" functions expect
   /// wo.z > 0, "dielectric" functions wo.z > 0 and the relative index η = n(wi side)/n(wo side)
   /// of the reflection–refraction pair (1 for a thin sheet).
@@ -172,11 +182,12 @@ class PreviewSurfaceBsdf {
   float ior_;
   float dielectricAlpha_;
   DielectricKind dielectricKind_;
-  // lobeProbabilities() for the last cos θo asked: one vertex asks for its wo several times
-  // (light sample's evaluate and pdf, then sample). A BSDF lives on one thread, within one
-  // vertex.
+  // 1 − E_avg of the rough specular layer (0 when it is a mirror or loses nothing).
+  float specularAverageLoss_ = 0;
+  // outgoing() for the last cos θo asked: one vertex asks for its wo several times (each light
+  // sample's evaluate and pdf, then sample). A BSDF lives on one thread, within one vertex.
   mutable float cachedCosThetaO_ = -1;
-  mutable LobeProbabilities cachedProbabilities_;
+  mutable Outgoing cachedOutgoing_;
 };
 
 /// Index of refraction at `wavelengthNm` from the Cauchy fit n(λ) = A + B/λ² through n_d = iorD at
