@@ -7,8 +7,9 @@ prims laid out as OpenUSD's usdMtlx lays them out (``/MaterialX/Materials/<mater
 surface shader and the nodes and node graphs it uses as its children), so that bindings to those
 paths resolve. The translation lives in one anonymous layer inserted as the strongest sublayer of
 the stage's session layer: under an abstract (``class``) root prim, out of the way of traversals,
-and brought to each referencing prim by an internal reference with the arc's target path. The
-user's layers are not edited; the added layer's customLayerData records what it composed.
+and brought to each referencing prim by an internal reference with the arc's target path
+(inside instance prototypes, through a patch prim each instance references). The user's layers
+are not edited; the added layer's customLayerData records what it composed.
 """
 
 from __future__ import annotations
