@@ -15,6 +15,7 @@ from pxr import Sdf, Usd, UsdShade
 
 import penumbra
 from penumbra.usd import open_stage
+from penumbra.usd.color_spaces import constant_to_scene_linear
 from stages import add_camera, add_quad, bind, new_stage
 from test_materialx import add_mtlx_material
 from test_textures import at, render, textured_stage, write_texture
@@ -124,6 +125,16 @@ def test_a_constant_colour_in_acescg_is_converted(tmp_path):
     surface.GetInput("emission_color").GetAttr().SetColorSpace("acescg")
     bind(quad, UsdShade.Material(stage.GetPrimAtPath("/World/Looks/M")))
     np.testing.assert_allclose(quiet(stage), AP1_TO_REC709 @ COLOUR, rtol=1e-4, atol=1e-5)
+
+
+def test_constants_in_the_working_space_are_kept_exactly():
+    report = pytest.fail
+    rgba = (0.1, 0.2, 0.3, 0.5)
+    for name in ("", "raw", "lin_rec709", "lin_rec709_scene", "scene_linear"):
+        assert constant_to_scene_linear(rgba, name, report) is rgba
+    converted = constant_to_scene_linear(COLOUR + (0.5,), "lin_ap1", report)
+    np.testing.assert_allclose(converted[:3], AP1_TO_REC709 @ COLOUR, rtol=1e-6)
+    assert converted[3] == 0.5  # alpha is not a colour
 
 
 def test_a_conversion_node_decodes_a_raw_texture(tmp_path):

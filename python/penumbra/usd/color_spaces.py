@@ -35,8 +35,14 @@ def authored_color_space(*attrs: Usd.Attribute) -> str:
 
 
 @lru_cache(maxsize=256)
-def _config_has(name: str, config: str) -> bool:
-    return bool(_core.find_texture_color_space(name, config))
+def _config_name(name: str, config: str) -> str:
+    """The name of colour space ``name`` in the OCIO config at ``config``; "" when it has none."""
+    return _core.find_texture_color_space(name, config)
+
+
+@lru_cache(maxsize=4096)
+def _to_scene_linear(rgb: tuple[float, ...], name: str, config: str) -> tuple[float, ...]:
+    return tuple(float(c) for c in _core.to_scene_linear(rgb, name, config))
 
 
 def texture_color_space(name: str, report: Callable[[str], None]) -> dict[str, str]:
@@ -48,7 +54,7 @@ def texture_color_space(name: str, report: Callable[[str], None]) -> dict[str, s
         return {"sourceColorSpace": "sRGB"}
     if name not in RAW_NAMES:
         config = ocio_config_path()
-        if _config_has(name, config):
+        if _config_name(name, config):
             return {"colorSpace": name}
         report(f"colour space {name!r} is not in the OCIO config {config}; the texture is read "
                "as raw values")
@@ -63,9 +69,11 @@ def constant_to_scene_linear(rgb: tuple[float, ...], name: str,
     if name in RAW_NAMES or len(rgb) < 3:
         return rgb
     config = ocio_config_path()
-    converted = _core.to_scene_linear(tuple(rgb[:3]), name, config)
-    if converted is None:
+    space = _config_name(name, config)
+    if not space:
         report(f"colour space {name!r} is not in the OCIO config {config}; the value is used as "
                "it is")
         return rgb
-    return tuple(float(c) for c in converted) + tuple(rgb[3:])
+    if space == _config_name("scene_linear", config):
+        return rgb  # the working space already: not even rounded to single precision
+    return _to_scene_linear(tuple(rgb[:3]), name, config) + tuple(rgb[3:])
