@@ -61,6 +61,11 @@ def texture_color_space(name: str, report: Callable[[str], None]) -> dict[str, s
     return {"sourceColorSpace": "raw"}
 
 
+def _srgb_to_linear(c: float) -> float:
+    """The sRGB transfer function's inverse (IEC 61966-2-1)."""
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+
 def constant_to_scene_linear(rgb: tuple[float, ...], name: str,
                              report: Callable[[str], None]) -> tuple[float, ...]:
     """The first three values of ``rgb`` converted from colour space ``name`` to scene-linear
@@ -68,6 +73,8 @@ def constant_to_scene_linear(rgb: tuple[float, ...], name: str,
     reported and the values are used as they are."""
     if name in RAW_NAMES or len(rgb) < 3:
         return rgb
+    if name in SRGB_NAMES:
+        return tuple(_srgb_to_linear(c) for c in rgb[:3]) + tuple(rgb[3:])
     config = ocio_config_path()
     space = _config_name(name, config)
     if not space:

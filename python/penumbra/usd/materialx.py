@@ -19,8 +19,7 @@ from typing import Any
 from pxr import Sdf, Usd, UsdShade
 
 from . import materialx_values as mv
-from .color_spaces import SRGB_NAMES, authored_color_space, constant_to_scene_linear, \
-    texture_color_space
+from .color_spaces import authored_color_space, constant_to_scene_linear, texture_color_space
 from .material import CONNECTABLE, INPUTS, MaterialData, _texture_file
 from .sampling import SampleReader
 
@@ -90,10 +89,6 @@ def surface_shader(material: Usd.Prim) -> UsdShade.Shader | None:
     return None
 
 
-def _srgb_to_linear(c: float) -> float:
-    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
-
-
 def _constant(value: Any) -> mv.Constant:
     if isinstance(value, (bool, int, float)):
         return mv.Constant((float(value),))
@@ -154,12 +149,8 @@ class _Network:
         one, converted to it."""
         if value.size not in (3, 4):
             return value
-        space = authored_color_space(attr)
-        if space in SRGB_NAMES:
-            rgb = tuple(_srgb_to_linear(c) for c in value.values[:3])
-            return mv.Constant(rgb + value.values[3:])
         return mv.Constant(constant_to_scene_linear(
-            value.values, space,
+            value.values, authored_color_space(attr),
             lambda message: self.report(shader.GetPath(), f"{attr.GetName()}: {message}")))
 
     # Nodes.
@@ -293,9 +284,6 @@ class _Network:
                           space: str) -> mv.Value:
         """``value`` converted from colour space ``space`` (a ``<space>_to_lin_rec709`` node)."""
         if isinstance(value, mv.Constant):
-            if space in SRGB_NAMES:
-                return mv.Constant(tuple(_srgb_to_linear(c) for c in value.values[:3])
-                                   + value.values[3:])
             return mv.Constant(constant_to_scene_linear(
                 value.values, space, lambda message: self.report(shader.GetPath(), message)))
         identity = all(s == 1.0 for s in value.scale) and all(b == 0.0 for b in value.bias)
