@@ -79,11 +79,17 @@ class SampleReader:
     (or, through :meth:`depends_on_shutter`, once what was read depends on the frame or shutter).
 
     ``shutter``: the interval motion is sampled over, by default ``time`` alone.
+    ``note_variability`` False: the caller finds out later whether what it read might vary
+    (the reads then cost one USD call less each); ``varying`` is then set only by
+    :meth:`depends_on_shutter`.
     """
 
-    def __init__(self, time: Usd.TimeCode, shutter: Shutter | None = None) -> None:
+    def __init__(
+        self, time: Usd.TimeCode, shutter: Shutter | None = None, note_variability: bool = True
+    ) -> None:
         self.time = time
         self.shutter = shutter or Shutter(time)
+        self.note_variability = note_variability
         self.varying = False
 
     def depends_on_shutter(self) -> None:
@@ -92,13 +98,13 @@ class SampleReader:
 
     def get(self, attr: Usd.Attribute) -> Any:
         """The value of ``attr`` at the reader's time (``None`` if it has none)."""
-        if attr.ValueMightBeTimeVarying():
+        if self.note_variability and attr.ValueMightBeTimeVarying():
             self.varying = True
         return attr.Get(self.time)
 
     def flattened_primvar(self, primvar: UsdGeom.Primvar) -> Any:
         """The de-indexed value of ``primvar`` at the reader's time (``None`` if it has none)."""
-        if primvar.ValueMightBeTimeVarying():
+        if self.note_variability and primvar.ValueMightBeTimeVarying():
             self.varying = True
         return primvar.ComputeFlattened(self.time)
 
