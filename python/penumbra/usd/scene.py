@@ -40,6 +40,7 @@ from .material import bound_materials, has_subset_bindings, push_material, read_
 from .mesh import Authored, data_might_vary, sync_mesh_data
 from .motion import XformCaches, transform_samples
 from .native_instancing import NativeInstancing
+from .point_instancers import PointInstancerDelegate
 from .render_pass import RenderPassCollections
 from .inherited import InheritedState
 from .sampling import SampleReader, Shutter
@@ -134,6 +135,10 @@ class SceneDelegate:
         self._native = NativeInstancing(
             stage, core, self.purposes, self._warn, self.materials, render_pass
         )
+        self._point_instancers = PointInstancerDelegate(
+            stage, core, self.purposes, warn, self.materials, render_pass
+        )
+        # The one listener: native and point instancing hear of edits from it.
         self._listener = Tf.Notice.Register(
             Usd.Notice.ObjectsChanged, self._on_objects_changed, stage
         )
@@ -204,6 +209,7 @@ class SceneDelegate:
         self._flush()
         self._inherited.forget()  # the stage may be edited before the next update
         self._native.update(shutter)
+        self._point_instancers.update(shutter)
         self._report_unsupported()
 
     def _find_variability(self) -> None:
@@ -315,6 +321,7 @@ class SceneDelegate:
 
     def _process_notices(self) -> None:
         self._native.note_changes(self._resynced, self._changed)
+        self._point_instancers.note_changes(self._resynced, self._changed)
         resynced = {p for q in self._resynced for p in self._instance_paths(q)}
         changed = {p for q in self._changed for p in self._instance_paths(q)}
         self._resynced.clear()
