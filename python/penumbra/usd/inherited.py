@@ -129,7 +129,7 @@ class InheritedState:
         # Prims that are not imageable pass purpose and visibility down but have none of their own.
         opinions = (_PURPOSE in authored or _VISIBILITY in authored) and prim.IsA(UsdGeom.Imageable)
         purpose, inheritable = up.purpose, up.purpose_inheritable
-        if opinions and not inheritable and _PURPOSE in authored:
+        if opinions and _PURPOSE in authored:  # its own opinion wins over an ancestor's
             attr = prim.GetAttribute(_PURPOSE)
             if attr.HasAuthoredValue():
                 purpose, inheritable = attr.Get(), True

@@ -78,6 +78,8 @@ class _Prim:
     in_core: bool = False  # False while the prim is unusable (e.g. a mesh without points)
     varying: int = 0  # aspects whose inputs might vary with time
     unknown: int = 0  # aspects whose variability is found out at the first new time
+    # Meshes whose data varies: attribute queries reused at each new time (dropped on edits).
+    queries: dict[str, Usd.AttributeQuery] | None = None
     material: str = ""  # meshes: id of the bound material ("" = none)
 
 
@@ -204,7 +206,7 @@ class SceneDelegate:
                 if lens_changed and record.kind == "camera":
                     bits |= Dirty.DATA
                 if bits:
-                    self._mark(path, bits)
+                    self._mark(path, bits, edited=False)
         self._inherited.at(self.time)
         self._flush()
         self._inherited.forget()  # the stage may be edited before the next update
@@ -299,7 +301,7 @@ class SceneDelegate:
             kind = self._classify(prim)
             if kind is not None:
                 yield prim.GetPath(), kind
-            if prim.IsA(UsdGeom.PointInstancer):
+            elif prim.IsA(UsdGeom.PointInstancer):  # not a rendered kind itself
                 it.PruneChildren()
 
     # ----------------------------------------------------------------------------------------
@@ -359,9 +361,13 @@ class SceneDelegate:
         elif prim_path in self._prims:
             self._mark(prim_path, Dirty.DATA if name else Dirty.ALL)
 
-    def _mark(self, path: Sdf.Path, bits: int) -> None:
+    def _mark(self, path: Sdf.Path, bits: int, edited: bool = True) -> None:
+        """Mark aspects ``bits`` of a tracked prim dirty; ``edited``: because the stage changed
+        (rather than the time), which makes its attribute queries stale."""
         record = self._prims.get(path)
         if record is not None:
+            if edited and bits & Dirty.DATA:
+                record.queries = None
             self._dirty[path] = self._dirty.get(path, 0) | (bits & _aspects(record.kind))
 
     def _mark_subtree(self, root: Sdf.Path, bits: int) -> None:
@@ -461,10 +467,15 @@ class SceneDelegate:
         path_str = str(path)
         shutter = self.shutter if record.kind in _MOVING_KINDS else Shutter(self.time)
         if bits & Dirty.DATA:
-            # A mesh's variability is found out at the first new time (_find_variability).
-            reader = SampleReader(self.time, shutter, note_variability=record.kind != "mesh")
+            # A mesh's variability is found out at the first new time (_find_variability);
+            # one known to vary reads through queries kept from one time to the next.
+            if record.kind == "mesh" and record.varying & Dirty.DATA and record.queries is None:
+                record.queries = {}
+            note = record.kind != "mesh" or record.queries is not None
+            reader = SampleReader(self.time, shutter, note, record.queries)
             if record.kind == "mesh":
-                if not sync_mesh_data(batch, prim, reader, self._warn, authored=self._authored(prim)):
+                authored = self._authored(prim)
+                if not sync_mesh_data(batch, prim, reader, self._warn, path_str, authored):
                     self.core.remove_prim(path_str)
                     record.in_core = False
                     self._emitters.discard(path)
