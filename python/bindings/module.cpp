@@ -482,10 +482,9 @@ PYBIND11_MODULE(_core, m) {
                 throw std::invalid_argument("set_meshes takes tuples of set_mesh's 12 arguments");
               setMesh(self, mesh[0].cast<std::string>(), mesh[1].cast<IntArray>(),
                       mesh[2].cast<IntArray>(), mesh[3].cast<bool>(), mesh[4].cast<std::string>(),
-                      mesh[5].cast<FloatArray>(), mesh[6].cast<bool>(),
-                      mesh[7].cast<FloatArray>(), mesh[8].cast<std::string>(),
-                      mesh[9].cast<FloatArray>(), mesh[10].cast<std::string>(),
-                      mesh[11].cast<py::dict>());
+                      mesh[5].cast<FloatArray>(), mesh[6].cast<bool>(), mesh[7].cast<FloatArray>(),
+                      mesh[8].cast<std::string>(), mesh[9].cast<FloatArray>(),
+                      mesh[10].cast<std::string>(), mesh[11].cast<py::dict>());
             }
           },
           py::arg("meshes"),
