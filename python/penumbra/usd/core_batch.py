@@ -10,6 +10,10 @@ from collections.abc import Callable
 
 import numpy as np
 
+CHUNK = 1024
+"""Meshes queued at most before they are sent: the queued arrays (and the USD values they view)
+stay bounded however many meshes a sync pushes, for one call per thousand meshes."""
+
 MAX_COORDINATE = 1e18
 """Beyond this distance from the origin (scene units) single-precision ray tracing cannot
 place geometry: Embree drops it."""
@@ -47,6 +51,9 @@ class CoreBatch:
                 data["primvars"],
             )
         )
+        if len(self._meshes) >= CHUNK:
+            self.core.set_meshes(self._meshes)
+            self._meshes = []
 
     def set_mesh_subdivision_tags(self, path: str, **tags) -> None:
         self.core.set_mesh_subdivision_tags(path, **tags)

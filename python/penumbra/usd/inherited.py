@@ -41,6 +41,8 @@ class InheritedState:
     def __init__(self) -> None:
         self._states: dict[Sdf.Path, _Inherited] = {}
         self._authored: dict[Sdf.Path, frozenset[str]] = {}
+        # Prims of a kind mostly author the same properties: one set serves them all.
+        self._name_sets: dict[frozenset[str], frozenset[str]] = {}
         self._visible: dict[Sdf.Path, bool] = {}  # at the current time
         self._transform_varies: dict[Sdf.Path, bool] = {}
         self._primvars: dict[Sdf.Path, tuple[UsdGeom.Primvar, ...]] = {}  # for descendants
@@ -50,6 +52,7 @@ class InheritedState:
         for cache in (self._states, self._authored, self._visible, self._transform_varies):
             cache.clear()
         self._primvars.clear()
+        self._name_sets.clear()
 
     def at(self, time: Usd.TimeCode) -> None:
         """Read visibility at ``time`` from now on."""
@@ -62,7 +65,8 @@ class InheritedState:
         path = prim.GetPath()
         names = self._authored.get(path)
         if names is None:
-            names = self._authored[path] = frozenset(prim.GetAuthoredPropertyNames())
+            names = frozenset(prim.GetAuthoredPropertyNames())
+            names = self._authored[path] = self._name_sets.setdefault(names, names)
         return names
 
     def purpose(self, prim: Usd.Prim) -> str:

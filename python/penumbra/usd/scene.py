@@ -28,7 +28,6 @@ import weakref
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
-import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade, UsdVol
 
 from ..errors import warn
