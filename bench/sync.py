@@ -179,7 +179,8 @@ def main() -> None:
                   "| x unchanged |")
             print("|---|---|---|")
             for kind, seconds in times.items():
-                print(f"| {kind} | {seconds:.4f} | {seconds / times['unchanged']:.2f} |", flush=True)
+                ratio = seconds / times["unchanged"]
+                print(f"| {kind} | {seconds:.4f} | {ratio:.2f} |", flush=True)
         path = Path(directory) / "subdivided.usdc"
         write_mesh_stage(path, args.subdivided, subdivided=True)
         total, rediced = camera_move_redice(path)

@@ -96,7 +96,9 @@ class InheritedState:
         varies = self._transform_varies.get(path)
         if varies is None:
             parent = prim.GetParent()
-            varies = bool(parent) and not parent.IsPseudoRoot() and self.transform_might_vary(parent)
+            varies = (
+                bool(parent) and not parent.IsPseudoRoot() and self.transform_might_vary(parent)
+            )
             if any(name.startswith("xformOp") for name in self.authored(prim)):  # and xformOpOrder
                 xformable = UsdGeom.Xformable(prim)
                 if xformable:
@@ -118,7 +120,8 @@ class InheritedState:
             primvars = self.inherited_primvars(parent)
             if any(name.startswith("primvars:") for name in self.authored(parent)):
                 api = UsdGeom.PrimvarsAPI(parent)
-                primvars = tuple(api.FindIncrementallyInheritablePrimvars(list(primvars))) or primvars
+                found = api.FindIncrementallyInheritablePrimvars(list(primvars))
+                primvars = tuple(found) or primvars  # none: the parent adds nothing
             self._primvars[path] = primvars
         return primvars
 

@@ -214,7 +214,7 @@ class SceneDelegate:
         self._report_unsupported()
 
     def _find_variability(self) -> None:
-        """Find out which aspects of the meshes synced without noting it might vary with time
+        """Find out which aspects of the prims synced without noting it might vary with time
         (a render of one frame never needs to know)."""
         for path, record in self._prims.items():
             if not record.unknown:
