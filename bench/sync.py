@@ -8,7 +8,8 @@ Stages are generated into a temporary directory (nothing from ../shared is read)
   time from ``Usd.Stage.Open`` to the first sample (one sample per pixel at 64x36), and the
   resident memory it added per mesh prim.
 * At 10,000 meshes: an unchanged re-render, then a re-render after editing one mesh's
-  displayColor, one material input, one mesh's transform (each one sample per pixel).
+  displayColor, one material input, one mesh's transform (each one sample per pixel), at
+  64x36 (where an edit's fixed costs weigh most) and at 960x540 (a viewport's size).
 * A stage of subdivision surfaces: how many of them are re-diced when the camera moves.
 
 The machine may be shared: the CPU column (this process's threads) is steadier than wall time.
@@ -32,6 +33,7 @@ import penumbra
 
 MATERIALS = 8
 WIDTH = 64
+EDIT_WIDTHS = (WIDTH, 960)
 _CUBE_COUNTS = [4] * 6
 _CUBE_INDICES = [0, 1, 3, 2, 2, 3, 7, 6, 6, 7, 5, 4, 4, 5, 1, 0, 1, 5, 7, 3, 4, 0, 2, 6]
 
@@ -94,9 +96,9 @@ def resident_mb() -> float:
         return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
 
 
-def render(renderer: penumbra.Renderer) -> float:
+def render(renderer: penumbra.Renderer, width: int = WIDTH) -> float:
     started = time.perf_counter()
-    renderer.render(camera="/cam", width=WIDTH, samples=1)
+    renderer.render(camera="/cam", width=width, samples=1)
     return time.perf_counter() - started
 
 
@@ -113,11 +115,11 @@ def first_sample(path: Path, count: int) -> tuple[float, float, float, penumbra.
     return seconds, cpu, (resident_mb() - before) * 2**20 / count, renderer, stage
 
 
-def edits(renderer: penumbra.Renderer, stage: Usd.Stage) -> dict[str, float]:
-    """Seconds per re-render (medians): unchanged, and after each kind of edit (three edits
-    of each kind, each followed by a render)."""
-    render(renderer)
-    results = {"unchanged": statistics.median(render(renderer) for _ in range(5))}
+def edits(renderer: penumbra.Renderer, stage: Usd.Stage, width: int) -> dict[str, float]:
+    """Seconds per re-render of ``width`` pixels across (medians): unchanged, and after each
+    kind of edit (three edits of each kind, each followed by a render)."""
+    render(renderer, width)
+    results = {"unchanged": statistics.median(render(renderer, width) for _ in range(5))}
     color = UsdGeom.Gprim(stage.GetPrimAtPath("/World/c17")).GetDisplayColorAttr()
     shader_input = UsdShade.Shader(stage.GetPrimAtPath("/Looks/m3/surface")).GetInput("diffuseColor")
     translate = stage.GetPrimAtPath("/World/c23").GetAttribute("xformOp:translate")
@@ -130,7 +132,7 @@ def edits(renderer: penumbra.Renderer, stage: Usd.Stage) -> dict[str, float]:
         seconds = []
         for k in range(3):
             edit(k)
-            seconds.append(render(renderer))
+            seconds.append(render(renderer, width))
         results[kind] = statistics.median(seconds)
     return results
 
@@ -152,6 +154,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--counts", type=int, nargs="+", default=[10_000, 100_000])
     parser.add_argument("--edit-count", type=int, default=10_000)
+    parser.add_argument("--edit-widths", type=int, nargs="+", default=list(EDIT_WIDTHS))
     parser.add_argument("--subdivided", type=int, default=200)
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as directory:
@@ -160,22 +163,24 @@ def main() -> None:
             "| memory per mesh prim (KB) |"
         )
         print("|---|---|---|---|")
-        edit_times = None
+        edit_times: dict[int, dict[str, float]] = {}
         for count in args.counts:
             path = Path(directory) / f"meshes_{count}.usdc"
             write_mesh_stage(path, count)
             seconds, cpu, per_mesh, renderer, stage = first_sample(path, count)
             print(f"| {count:,} | {seconds:.2f} | {cpu:.2f} | {per_mesh / 1024:.1f} |", flush=True)
             if count == args.edit_count:
-                edit_times = edits(renderer, stage)
+                edit_times = {width: edits(renderer, stage, width) for width in args.edit_widths}
             renderer.close()  # stops listening to the stage: nothing of it stays alive
             del renderer, stage
             gc.collect()
-        if edit_times is not None:
-            print(f"\n| re-render of {args.edit_count:,} meshes (1 spp, {WIDTH} px) | s | x unchanged |")
+        for width, times in edit_times.items():
+            print(f"\n| re-render of {args.edit_count:,} meshes (1 spp, {width} px wide) | s "
+                  "| x unchanged |")
             print("|---|---|---|")
-            for kind, seconds in edit_times.items():
-                print(f"| {kind} | {seconds:.4f} | {seconds / edit_times['unchanged']:.2f} |", flush=True)
+            for kind, seconds in times.items():
+                ratio = seconds / times["unchanged"]
+                print(f"| {kind} | {seconds:.4f} | {ratio:.2f} |", flush=True)
         path = Path(directory) / "subdivided.usdc"
         write_mesh_stage(path, args.subdivided, subdivided=True)
         total, rediced = camera_move_redice(path)

@@ -1,8 +1,18 @@
 #include "penumbra/plugin/mesh.h"
 
+#include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <stdexcept>
 
 namespace penumbra::plugin {
+
+bool DicingContext::operator==(const DicingContext& other) const {
+  const CameraParams &a = camera, &b = other.camera;
+  return imageWidth == other.imageWidth && a.cameraToWorld.first().m == b.cameraToWorld.first().m &&
+         a.focalLength == b.focalLength && a.horizontalAperture == b.horizontalAperture &&
+         a.projection == b.projection && a.nearClip == b.nearClip;
+}
 
 void Mesh::setTopology(std::vector<int> counts, std::vector<int> indices, bool leftHanded,
                        std::string subdivisionScheme) {
@@ -101,6 +111,100 @@ void Mesh::setVisible(bool visible) {
 void Mesh::setPassVisibility(PassVisibility pass) {
   pass_ = pass;
   markDirty(DirtyVisibility);
+}
+
+void Mesh::sync(SyncContext& context) {
+  const uint32_t bits = dirtyBits();
+  Scene& scene = context.scene;
+  if (bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided)) {
+    for (const std::string& problem : dropInvalidPrimvars())
+      context.warn(id() + ": " + problem + "; materials reading it use their fallback");
+    ++context.counters.meshGeometrySyncs;
+    try {
+      const auto started = std::chrono::steady_clock::now();
+      TriangleMesh surface = triangles(context);
+      context.counters.tessellationSeconds +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      scene.setMeshGeometry(handle_, std::move(surface));
+    } catch (const std::invalid_argument& error) {
+      context.warn(id() + ": " + error.what() + "; the mesh is skipped");
+      scene.clearMeshGeometry(handle_);
+    }
+  }
+  if (bits & (DirtyMaterialId | DirtyTransform | DirtyVisibility)) {
+    if (!materialId_.empty() && !context.materialIndex.count(materialId_) &&
+        (bits & DirtyMaterialId))
+      context.warn(id() + ": bound material " + materialId_ +
+                   " is not in the render index; displayColor is used");
+    if (bits & DirtyVisibility) scene.setMeshPassVisibility(handle_, pass_);
+    place(context);
+  }
+  if (bits != Clean) markClean();
+}
+
+void Mesh::place(SyncContext& context) const {
+  int materialIndex = Scene::kNoMaterial;
+  if (!materialId_.empty()) {
+    const auto found = context.materialIndex.find(materialId_);
+    if (found != context.materialIndex.end()) materialIndex = found->second;
+  }
+  context.scene.setMeshInstance(handle_, objectToWorld_, materialIndex, visible_);
+}
+
+TriangleMesh Mesh::triangles(SyncContext& context) {
+  const std::optional<SubdivisionScheme> scheme = parseSubdivisionScheme(subdivisionScheme_);
+  if (!scheme) return triangulate(data_);
+  const MeshData& cage = data_;
+  ++context.counters.subdivisionDicings;
+  try {
+    const LimitSurfaceTessellator& limit = *tessellator(*scheme);
+    // Dice each base face finely enough that its facets stay within a fraction of a pixel of
+    // the limit surface at its distance from the camera (halved per complexity level).
+    const CameraParams& camera = context.dicing.camera;
+    const Transform& objectToWorld = objectToWorld_.first();
+    const Vec3f eye = camera.cameraToWorld.first().applyToPoint({0, 0, 0});
+    const float pixelAngle =
+        camera.projection == Projection::Perspective
+            ? camera.horizontalAperture / camera.focalLength / float(context.dicing.imageWidth)
+            : 0.0f;
+    const float pixelWidth = 0.1f * camera.horizontalAperture / float(context.dicing.imageWidth);
+    const float fraction = std::ldexp(1.0f, -context.complexity);
+    // World-space curvature bounds: the transform's largest stretch scales them.
+    const float stretch = std::max({length(objectToWorld.applyToVector({1, 0, 0})),
+                                    length(objectToWorld.applyToVector({0, 1, 0})),
+                                    length(objectToWorld.applyToVector({0, 0, 1}))});
+    std::vector<int> rates(limit.faceCount(), 1);
+    std::vector<const std::vector<Vec3f>*> samples = {&cage.points};
+    for (const std::vector<Vec3f>& step : cage.pointMotion) samples.push_back(&step);
+    size_t faceStart = 0;
+    std::vector<size_t> faceStarts;
+    for (const int count : cage.faceVertexCounts)
+      faceStarts.push_back(faceStart), faceStart += size_t(count);
+    for (const std::vector<Vec3f>* points : samples) {
+      const std::vector<float> bounds = limit.curvatureBounds(*points);
+      for (size_t face = 0; face < rates.size() && face < cage.faceVertexCounts.size(); ++face) {
+        float nearest = kInfinity;
+        for (int k = 0; k < cage.faceVertexCounts[face]; ++k) {
+          const Vec3f p = objectToWorld.applyToPoint(
+              (*points)[size_t(cage.faceVertexIndices[faceStarts[face] + size_t(k)])]);
+          nearest = std::min(nearest, length(p - eye));
+        }
+        const float footprint =
+            pixelAngle > 0 ? std::max(nearest, camera.nearClip) * pixelAngle : pixelWidth;
+        rates[face] = std::max(rates[face],
+                               tessellationRateFor(bounds[face] * stretch, fraction * footprint));
+      }
+    }
+    TriangleMesh result = limit.tessellate(cage.points, rates);
+    for (const std::vector<Vec3f>& step : cage.pointMotion)
+      result.pointMotion.push_back(limit.tessellate(step, rates).points);
+    result.doubleSided = cage.doubleSided;
+    result.closed = isClosedSurface(cage.points, cage.faceVertexCounts, cage.faceVertexIndices);
+    return result;
+  } catch (const std::invalid_argument& error) {
+    context.warn(id() + ": cannot subdivide (" + error.what() + "); rendering the control cage");
+    return triangulate(cage);
+  }
 }
 
 }  // namespace penumbra::plugin

@@ -226,8 +226,8 @@ void RenderDelegate::setDicingCamera(PrimId cameraId) {
 }
 
 RenderDelegate::SyncStatistics RenderDelegate::syncStatistics() const {
-  return {meshGeometrySyncs_, subdivisionDicings_, scene_->meshBvhBuilds(), tessellationSeconds_,
-          scene_->bvhBuildSeconds()};
+  return {counters_.meshGeometrySyncs, counters_.subdivisionDicings, scene_->meshBvhBuilds(),
+          counters_.tessellationSeconds, scene_->bvhBuildSeconds()};
 }
 
 std::vector<std::string> RenderDelegate::takeWarnings() {
@@ -329,128 +329,13 @@ void RenderDelegate::syncLights() {
   scene_->setLights(std::move(lights));
 }
 
-bool DicingContext::operator==(const DicingContext& other) const {
-  const CameraParams &a = camera, &b = other.camera;
-  return imageWidth == other.imageWidth && a.cameraToWorld.first().m == b.cameraToWorld.first().m &&
-         a.focalLength == b.focalLength && a.horizontalAperture == b.horizontalAperture &&
-         a.projection == b.projection && a.nearClip == b.nearClip;
-}
-
-TriangleMesh RenderDelegate::meshTriangles(Mesh& mesh, const DicingContext& dicing) {
-  const std::optional<SubdivisionScheme> scheme = parseSubdivisionScheme(mesh.subdivisionScheme());
-  if (!scheme) return triangulate(mesh.data());
-  const MeshData& cage = mesh.data();
-  ++subdivisionDicings_;
-  try {
-    const LimitSurfaceTessellator& tessellator = *mesh.tessellator(*scheme);
-    // Dice each base face finely enough that its facets stay within a fraction of a pixel of
-    // the limit surface at its distance from the camera (halved per complexity level).
-    const CameraParams& camera = dicing.camera;
-    const Transform& objectToWorld = mesh.transform().first();
-    const Vec3f eye = camera.cameraToWorld.first().applyToPoint({0, 0, 0});
-    const float pixelAngle =
-        camera.projection == Projection::Perspective
-            ? camera.horizontalAperture / camera.focalLength / float(dicing.imageWidth)
-            : 0.0f;
-    const float pixelWidth = 0.1f * camera.horizontalAperture / float(dicing.imageWidth);
-    const float fraction = std::ldexp(1.0f, -settings_.complexity);
-    // World-space curvature bounds: the transform's largest stretch scales them.
-    const float stretch = std::max({length(objectToWorld.applyToVector({1, 0, 0})),
-                                    length(objectToWorld.applyToVector({0, 1, 0})),
-                                    length(objectToWorld.applyToVector({0, 0, 1}))});
-    std::vector<int> rates(tessellator.faceCount(), 1);
-    std::vector<const std::vector<Vec3f>*> samples = {&cage.points};
-    for (const std::vector<Vec3f>& step : cage.pointMotion) samples.push_back(&step);
-    size_t faceStart = 0;
-    std::vector<size_t> faceStarts;
-    for (const int count : cage.faceVertexCounts)
-      faceStarts.push_back(faceStart), faceStart += size_t(count);
-    for (const std::vector<Vec3f>* points : samples) {
-      const std::vector<float> bounds = tessellator.curvatureBounds(*points);
-      for (size_t face = 0; face < rates.size() && face < cage.faceVertexCounts.size(); ++face) {
-        float nearest = kInfinity;
-        for (int k = 0; k < cage.faceVertexCounts[face]; ++k) {
-          const Vec3f p = objectToWorld.applyToPoint(
-              (*points)[size_t(cage.faceVertexIndices[faceStarts[face] + size_t(k)])]);
-          nearest = std::min(nearest, length(p - eye));
-        }
-        const float footprint =
-            pixelAngle > 0 ? std::max(nearest, camera.nearClip) * pixelAngle : pixelWidth;
-        rates[face] = std::max(rates[face],
-                               tessellationRateFor(bounds[face] * stretch, fraction * footprint));
-      }
-    }
-    TriangleMesh result = tessellator.tessellate(cage.points, rates);
-    for (const std::vector<Vec3f>& step : cage.pointMotion)
-      result.pointMotion.push_back(tessellator.tessellate(step, rates).points);
-    result.doubleSided = cage.doubleSided;
-    result.closed = isClosedSurface(cage.points, cage.faceVertexCounts, cage.faceVertexIndices);
-    return result;
-  } catch (const std::invalid_argument& error) {
-    warn(mesh.id() + ": cannot subdivide (" + error.what() + "); rendering the control cage");
-    return triangulate(cage);
-  }
-}
-
-void RenderDelegate::syncMesh(Mesh& mesh, const DicingContext& dicing) {
-  const uint32_t bits = mesh.dirtyBits();
-  if (bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided)) {
-    for (const std::string& problem : mesh.dropInvalidPrimvars())
-      warn(mesh.id() + ": " + problem + "; materials reading it use their fallback");
-    ++meshGeometrySyncs_;
-    try {
-      const auto started = std::chrono::steady_clock::now();
-      TriangleMesh triangles = meshTriangles(mesh, dicing);
-      tessellationSeconds_ +=
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-      scene_->setMeshGeometry(mesh.handle(), std::move(triangles));
-    } catch (const std::invalid_argument& error) {
-      warn(mesh.id() + ": " + error.what() + "; the mesh is skipped");
-      scene_->clearMeshGeometry(mesh.handle());
-    }
-  }
-  if (bits & (DirtyMaterialId | DirtyTransform | DirtyVisibility)) {
-    if (!mesh.materialId().empty() && !materialIndex_.count(mesh.materialId()) &&
-        (bits & DirtyMaterialId))
-      warn(mesh.id() + ": bound material " + mesh.materialId() +
-           " is not in the render index; displayColor is used");
-    if (bits & DirtyVisibility) scene_->setMeshPassVisibility(mesh.handle(), mesh.passVisibility());
-    placeMesh(mesh);
-  }
-  if (bits != Clean) mesh.markClean();
-}
-
-void RenderDelegate::placeMesh(Mesh& mesh) {
-  int materialIndex = Scene::kNoMaterial;
-  if (!mesh.materialId().empty()) {
-    const auto found = materialIndex_.find(mesh.materialId());
-    if (found != materialIndex_.end()) materialIndex = found->second;
-  }
-  scene_->setMeshInstance(mesh.handle(), mesh.transform(), materialIndex, mesh.visible());
-}
-
-void RenderDelegate::syncInstancer(Instancer& copies) {
+Mesh* RenderDelegate::prototypeOf(const Instancer& copies) {
   const auto found = rprims_.find(copies.prototype());
   auto* prototype = found == rprims_.end() ? nullptr : dynamic_cast<Mesh*>(found->second.get());
-  if (!prototype) {
+  if (!prototype)
     warn(copies.id() + ": prototype " + copies.prototype() +
          " is not a mesh in the render index; the instances are skipped");
-    scene_->removeInstancer(copies.handle());
-    copies.setHandle(scene_->addInstancer());
-  } else {
-    // As in Hydra, the prototype knows its instancer (its removal drops the copies).
-    prototype->addInstancer(copies.id());
-    scene_->setInstancerPassVisibility(copies.handle(), copies.passVisibility());
-    scene_->setInstances(copies.handle(), prototype->handle(), copies.transforms(),
-                         copies.visible());
-    try {
-      scene_->setInstancePrimvars(copies.handle(), copies.primvars());
-    } catch (const std::invalid_argument& error) {
-      warn(copies.id() + ": " + error.what() + "; the per-instance primvars are ignored");
-      scene_->setInstancePrimvars(copies.handle(), {});
-    }
-  }
-  copies.markClean();
+  return prototype;
 }
 
 DicingContext RenderDelegate::dicingContext(const DicingContext& view) {
@@ -532,6 +417,7 @@ bool RenderDelegate::sync(const DicingContext& view) {
       bprim->second->markClean();
     }
   }
+  SyncContext context{*scene_, materialIndex_, dicing, settings_.complexity, warnings_, counters_};
   if (materialsDirty) {
     // The users of a changed material are placed again (it may cut them out now), all meshes
     // when materials moved in the index; their own data is not synced again.
@@ -540,12 +426,12 @@ bool RenderDelegate::sync(const DicingContext& view) {
       if (auto* user = dynamic_cast<Mesh*>(prim.get());
           user && !user->materialId().empty() &&
           (indicesChanged || dirtyMaterials.count(user->materialId())))
-        placeMesh(*user);
+        user->place(context);
   }
   if (lightsDirty) syncLights();
-  for (Mesh* dirtyMesh : dirtyMeshes) syncMesh(*dirtyMesh, dicing);
+  for (Mesh* dirtyMesh : dirtyMeshes) dirtyMesh->sync(context);
   // After the meshes: copies follow their prototype's geometry, placed by the scene.
-  for (Instancer* copies : dirtyInstancers) syncInstancer(*copies);
+  for (Instancer* copies : dirtyInstancers) copies->sync(context, prototypeOf(*copies));
   materialsStructureChanged_ = lightsStructureChanged_ = meshesStructureChanged_ = false;
   const bool sceneChanged = materialsDirty || lightsDirty || meshesDirty;
   if (sceneChanged) {

@@ -327,6 +327,59 @@ std::vector<penumbra::Primvar> toMeshPrimvars(const std::string& id, const py::d
   return values;
 }
 
+/// What `set_mesh` sends, for one mesh (docs/core-api.md).
+void setMesh(RenderDelegate& delegate, const std::string& id, const IntArray& counts,
+             const IntArray& indices, bool leftHanded, const std::string& subdivisionScheme,
+             const FloatArray& points, bool doubleSided, const FloatArray& displayColor,
+             const std::string& displayColorInterpolation, const FloatArray& normals,
+             const std::string& normalsInterpolation, const py::dict& primvars) {
+  Mesh& mesh = delegate.mesh(id);
+  mesh.setTopology(toIntVector(counts, "face_vertex_counts"),
+                   toIntVector(indices, "face_vertex_indices"), leftHanded, subdivisionScheme);
+  setMeshPoints(mesh, points);
+  mesh.setDoubleSided(doubleSided);
+  mesh.setDisplayColor(toVec3Array(displayColor, "display colour"),
+                       toInterpolation(displayColorInterpolation));
+  mesh.setNormals(toVec3Array(normals, "normals"), toInterpolation(normalsInterpolation));
+  mesh.setPrimvars(toMeshPrimvars(id, primvars));
+}
+
+/// `set_transform` of one prim: a mesh, a camera or a light.
+void setTransform(RenderDelegate& delegate, const std::string& id, const DoubleArray& matrix) {
+  const MotionTransform transform = toMotionTransform(matrix);
+  Prim& prim = delegate.prim(id);
+  if (auto* mesh = dynamic_cast<Mesh*>(&prim))
+    mesh->setTransform(transform);
+  else if (auto* camera = dynamic_cast<Camera*>(&prim))
+    camera->setTransform(transform);
+  else if (auto* light = dynamic_cast<Light*>(&prim))
+    light->setTransform(transform);
+  else
+    throw std::invalid_argument(id + ": this prim has no transform");
+}
+
+/// `set_visible` of one prim: a mesh, a light or an instancer.
+void setVisible(RenderDelegate& delegate, const std::string& id, bool visible) {
+  Prim& prim = delegate.prim(id);
+  if (auto* mesh = dynamic_cast<Mesh*>(&prim))
+    mesh->setVisible(visible);
+  else if (auto* light = dynamic_cast<Light*>(&prim))
+    light->setVisible(visible);
+  else if (auto* copies = dynamic_cast<Instancer*>(&prim))
+    copies->setVisible(visible);
+  else
+    throw std::invalid_argument(id + ": this prim has no visibility");
+}
+
+/// Calls `set(ids[i], values[i])` for each i: the batched setters, one call for many prims.
+template <typename Value, typename Set>
+void forEachPrim(const std::vector<std::string>& ids, const std::vector<Value>& values, Set set) {
+  if (ids.size() != values.size())
+    throw std::invalid_argument("a batch needs as many values (" + std::to_string(values.size()) +
+                                ") as prim ids (" + std::to_string(ids.size()) + ")");
+  for (size_t i = 0; i < ids.size(); ++i) set(ids[i], values[i]);
+}
+
 PYBIND11_MODULE(_core, m) {
   m.doc() = "Penumbra's render delegate and image I/O (see docs/core-api.md)";
   py::register_exception_translator([](std::exception_ptr pointer) {
@@ -342,6 +395,12 @@ PYBIND11_MODULE(_core, m) {
   py::class_<RenderDelegate>(m, "RenderDelegate")
       .def(py::init<const std::string&>(), py::arg("ocio_config") = "")
       .def("insert_rprim", &RenderDelegate::insertRprim, py::arg("type"), py::arg("id"))
+      .def(
+          "insert_rprims",
+          [](RenderDelegate& self, const std::string& type, const std::vector<std::string>& ids) {
+            for (const std::string& id : ids) self.insertRprim(type, id);
+          },
+          py::arg("type"), py::arg("ids"), "insert_rprim for each of `ids`, in one call.")
       .def("insert_sprim", &RenderDelegate::insertSprim, py::arg("type"), py::arg("id"))
       .def("insert_bprim", &RenderDelegate::insertBprim, py::arg("type"), py::arg("id"))
       .def(
@@ -408,22 +467,32 @@ PYBIND11_MODULE(_core, m) {
              const std::string& displayColorInterpolation, const FloatArray& normals,
              const std::string& normalsInterpolation, const py::dict& primvars) {
             // One call per mesh for what the setters below send one by one.
-            Mesh& mesh = self.mesh(id);
-            mesh.setTopology(toIntVector(counts, "face_vertex_counts"),
-                             toIntVector(indices, "face_vertex_indices"), leftHanded,
-                             subdivisionScheme);
-            setMeshPoints(mesh, points);
-            mesh.setDoubleSided(doubleSided);
-            mesh.setDisplayColor(toVec3Array(displayColor, "display colour"),
-                                 toInterpolation(displayColorInterpolation));
-            mesh.setNormals(toVec3Array(normals, "normals"), toInterpolation(normalsInterpolation));
-            mesh.setPrimvars(toMeshPrimvars(id, primvars));
+            setMesh(self, id, counts, indices, leftHanded, subdivisionScheme, points, doubleSided,
+                    displayColor, displayColorInterpolation, normals, normalsInterpolation,
+                    primvars);
           },
           py::arg("id"), py::kw_only(), py::arg("face_vertex_counts"),
           py::arg("face_vertex_indices"), py::arg("left_handed"), py::arg("subdivision_scheme"),
           py::arg("points"), py::arg("double_sided"), py::arg("display_color"),
           py::arg("display_color_interpolation"), py::arg("normals"),
           py::arg("normals_interpolation"), py::arg("primvars"))
+      .def(
+          "set_meshes",
+          [](RenderDelegate& self, const py::list& meshes) {
+            for (const py::handle& item : meshes) {
+              const auto mesh = py::reinterpret_borrow<py::tuple>(item);
+              if (mesh.size() != 12)
+                throw std::invalid_argument("set_meshes takes tuples of set_mesh's 12 arguments");
+              setMesh(self, mesh[0].cast<std::string>(), mesh[1].cast<IntArray>(),
+                      mesh[2].cast<IntArray>(), mesh[3].cast<bool>(), mesh[4].cast<std::string>(),
+                      mesh[5].cast<FloatArray>(), mesh[6].cast<bool>(), mesh[7].cast<FloatArray>(),
+                      mesh[8].cast<std::string>(), mesh[9].cast<FloatArray>(),
+                      mesh[10].cast<std::string>(), mesh[11].cast<py::dict>());
+            }
+          },
+          py::arg("meshes"),
+          "set_mesh for many meshes in one call: tuples of its arguments in its order (id, "
+          "face_vertex_counts, ..., primvars).")
       .def(
           "set_mesh_points",
           [](RenderDelegate& self, const std::string& id, const FloatArray& points) {
@@ -486,34 +555,43 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("id"), py::arg("material_id"))
       .def(
+          "set_mesh_materials",
+          [](RenderDelegate& self, const std::vector<std::string>& ids,
+             const std::vector<std::string>& materialIds) {
+            forEachPrim(ids, materialIds, [&](const std::string& id, const std::string& material) {
+              self.mesh(id).setMaterialId(material);
+            });
+          },
+          py::arg("ids"), py::arg("material_ids"), "set_mesh_material for many meshes.")
+      .def(
           "set_transform",
           [](RenderDelegate& self, const std::string& id, const DoubleArray& matrix) {
-            const MotionTransform transform = toMotionTransform(matrix);
-            Prim& prim = self.prim(id);
-            if (auto* mesh = dynamic_cast<Mesh*>(&prim))
-              mesh->setTransform(transform);
-            else if (auto* camera = dynamic_cast<Camera*>(&prim))
-              camera->setTransform(transform);
-            else if (auto* light = dynamic_cast<Light*>(&prim))
-              light->setTransform(transform);
-            else
-              throw std::invalid_argument(id + ": this prim has no transform");
+            setTransform(self, id, matrix);
           },
           py::arg("id"), py::arg("matrix"))
       .def(
+          "set_transforms",
+          [](RenderDelegate& self, const std::vector<std::string>& ids,
+             const std::vector<DoubleArray>& matrices) {
+            forEachPrim(ids, matrices, [&](const std::string& id, const DoubleArray& matrix) {
+              setTransform(self, id, matrix);
+            });
+          },
+          py::arg("ids"), py::arg("matrices"), "set_transform for many prims.")
+      .def(
           "set_visible",
           [](RenderDelegate& self, const std::string& id, bool visible) {
-            Prim& prim = self.prim(id);
-            if (auto* mesh = dynamic_cast<Mesh*>(&prim))
-              mesh->setVisible(visible);
-            else if (auto* light = dynamic_cast<Light*>(&prim))
-              light->setVisible(visible);
-            else if (auto* copies = dynamic_cast<Instancer*>(&prim))
-              copies->setVisible(visible);
-            else
-              throw std::invalid_argument(id + ": this prim has no visibility");
+            setVisible(self, id, visible);
           },
           py::arg("id"), py::arg("visible"))
+      .def(
+          "set_visibilities",
+          [](RenderDelegate& self, const std::vector<std::string>& ids,
+             const std::vector<bool>& visible) {
+            forEachPrim(ids, visible,
+                        [&](const std::string& id, bool shown) { setVisible(self, id, shown); });
+          },
+          py::arg("ids"), py::arg("visible"), "set_visible for many prims.")
       .def(
           "set_pass_visibility",
           [](RenderDelegate& self, const std::string& id, bool cameraVisible, bool matte) {

@@ -27,7 +27,6 @@ from .usd.camera import camera_problem, read_shutter
 from .usd.camera_metadata import camera_metadata
 from .usd.default_light import DefaultLight, DefaultLightManager, check_default_light
 from .usd.mtlx_documents import compose_materialx_documents
-from .usd.point_instancers import PointInstancerDelegate
 from .usd.sampling import DEFAULT_MAX_MOTION_SEGMENTS, Shutter
 from .usd.render_pass import render_pass_collections
 from .usd.settings import FilmWindow, film_window, find_camera
@@ -122,9 +121,6 @@ class Renderer:
         """The ``penumbra._core.RenderDelegate`` holding the synced scene (for inspection)."""
         collections = render_pass_collections(stage, render_pass) if render_pass else None
         self._scene = SceneDelegate(stage, self.delegate, purposes, collections)
-        self._instancers = PointInstancerDelegate(
-            stage, self.delegate, purposes, warn, self._scene.materials, collections
-        )
         self._passes: dict[PassKey, _core.RenderPass] = {}
         self._default_light = DefaultLightManager(self.delegate, stage_name(stage))
         self.tracer = Tracer(enabled=False)
@@ -149,12 +145,10 @@ class Renderer:
     ) -> None:
         compose_materialx_documents(self.stage, warn)  # variant edits may bring in documents
         self._scene.update(shutter, depth_of_field, dome_light_visibility, film_windows)
-        self._instancers.update(shutter)
 
     def close(self) -> None:
         """Stop tracking stage edits and drop the render passes."""
         self._scene.close()
-        self._instancers.close()
         self._passes.clear()
 
     def __enter__(self) -> Renderer:

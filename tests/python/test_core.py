@@ -1,4 +1,4 @@
-"""penumbra._core directly: render buffers bound to a render pass."""
+"""penumbra._core directly: render buffers bound to a render pass; batched setters."""
 
 from __future__ import annotations
 
@@ -32,3 +32,59 @@ def test_render_buffers_receive_bound_aovs():
         render_pass.set_aov_bindings({"normal": "/depth"})
     with pytest.raises(KeyError, match="/nowhere"):
         render_pass.set_aov_bindings({"color": "/nowhere"})
+
+
+def _quad_scene(delegate, batched: bool):
+    """Two quads at depths 4 and 6 seen by a camera, sent one setter call per prim or batched."""
+    corners = np.array([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], np.float32)
+    ids = ["/near", "/far"]
+    matrices = [np.eye(4), np.eye(4)]
+    matrices[0][3, 2], matrices[1][3, 2] = 1.0, -1.0
+    counts, indices = np.array([4], np.int32), np.array([0, 1, 2, 3], np.int32)
+    color = np.array([[0.8, 0.2, 0.2]], np.float32)
+    no_normals = np.empty((0, 3), np.float32)
+    mesh = (counts, indices, False, "none", corners, True, color, "constant")
+    mesh += (no_normals, "vertex", {})
+    if batched:
+        delegate.insert_rprims("mesh", ids)
+        delegate.set_meshes([(prim_id, *mesh) for prim_id in ids])
+        delegate.set_transforms(ids, matrices)
+        delegate.set_visibilities(ids, [False, True])
+        delegate.set_mesh_materials(ids, ["", ""])
+    else:
+        names = ("face_vertex_counts", "face_vertex_indices", "left_handed", "subdivision_scheme",
+                 "points", "double_sided", "display_color", "display_color_interpolation",
+                 "normals", "normals_interpolation", "primvars")
+        for prim_id, matrix, visible in zip(ids, matrices, (False, True)):
+            delegate.insert_rprim("mesh", prim_id)
+            delegate.set_mesh(prim_id, **dict(zip(names, mesh)))
+            delegate.set_transform(prim_id, matrix)
+            delegate.set_visible(prim_id, visible)
+            delegate.set_mesh_material(prim_id, "")
+    delegate.insert_sprim("camera", "/cam")
+    delegate.set_camera("/cam", focal_length=5, horizontal_aperture=4, vertical_aperture=4)
+    delegate.set_transform("/cam", np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 5, 1]], float))
+    delegate.insert_sprim("domeLight", "/sky")
+
+
+def test_batched_setters_match_one_call_per_prim():
+    images = []
+    for batched in (False, True):
+        delegate = _core.RenderDelegate()
+        _quad_scene(delegate, batched)
+        render_pass = _core.RenderPass(delegate, "/cam", 8, 8)
+        render_pass.execute(2)
+        images.append(render_pass.aov("Z"))
+    np.testing.assert_array_equal(images[0], images[1])
+    assert images[1][4, 4, 0] == pytest.approx(6.0)  # the far quad: the near one is hidden
+
+
+def test_batched_setters_reject_lists_of_different_lengths():
+    delegate = _core.RenderDelegate()
+    delegate.insert_rprims("mesh", ["/a", "/b"])
+    with pytest.raises(ValueError, match="as many values"):
+        delegate.set_visibilities(["/a", "/b"], [True])
+    with pytest.raises(KeyError, match="/missing"):
+        delegate.set_transforms(["/missing"], [np.eye(4)])
+    with pytest.raises(ValueError, match="12 arguments"):
+        delegate.set_meshes([("/a", np.array([3], np.int32))])

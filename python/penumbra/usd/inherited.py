@@ -1,69 +1,149 @@
 """What a prim inherits from its ancestors and the scene delegate needs at every sync: purpose,
-visibility, and whether its transform or visibility might vary with time (docs/architecture.md,
-"Scene delegate").
+visibility, constant primvars, and whether its transform or visibility might vary with time
+(docs/architecture.md, "Scene delegate").
 
-Variability has no USD query: it is computed once per prim and handed down to its children, so
-that a sync walks each ancestor once rather than once per descendant. Purpose and visibility
-are USD's own computations (``UsdGeomImageable``), whose ancestor walks run in C++ and cost less
-than handing values down in Python (measured: about 3 µs a prim, against 10 µs or more).
+Each is computed once per prim and handed down to its children (as UsdImaging's inherited-value
+caches do), so that a sync reads each ancestor once rather than once per descendant. A prim's
+own opinions are read only when it has authored them: :meth:`InheritedState.authored` lists the
+properties with an authored opinion once per prim (one USD call), and what is not in it has its
+schema's fallback, which neither overrides the inherited value nor varies with time.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from pxr import Sdf, Usd, UsdGeom
+
+_PURPOSE = UsdGeom.Tokens.purpose
+_VISIBILITY = UsdGeom.Tokens.visibility
+
+
+@dataclass(frozen=True)
+class _Inherited:
+    """The time-independent inherited state of one prim (cf. UsdGeomImageable::PurposeInfo)."""
+
+    purpose: str
+    purpose_inheritable: bool  # an ancestor or the prim authored it: its descendants take it
+    visibility_might_vary: bool
+    imageable_opinions: bool  # the prim is imageable and authored purpose or visibility
+
+
+_ROOT = _Inherited(UsdGeom.Tokens.default_, False, False, False)
 
 
 class InheritedState:
     """Inherited state of the prims of one sync; :meth:`forget` it afterwards (the stage may be
-    edited before the next sync) and call :meth:`at` before reading visibility at a new time."""
+    edited before the next sync) and call :meth:`at` before reading visibility at a new time.
+    Each kind of state is computed only when asked for (a leaf mesh's primvars for children,
+    say, never are)."""
 
     def __init__(self) -> None:
-        # path → (transform might vary, visibility might vary)
-        self._variability: dict[Sdf.Path, tuple[bool, bool]] = {}
+        self._states: dict[Sdf.Path, _Inherited] = {}
+        self._authored: dict[Sdf.Path, frozenset[str]] = {}
+        # Prims of a kind mostly author the same properties: one set serves them all.
+        self._name_sets: dict[frozenset[str], frozenset[str]] = {}
+        self._visible: dict[Sdf.Path, bool] = {}  # at the current time
+        self._transform_varies: dict[Sdf.Path, bool] = {}
+        self._primvars: dict[Sdf.Path, tuple[UsdGeom.Primvar, ...]] = {}  # for descendants
         self._time = Usd.TimeCode.Default()
 
     def forget(self) -> None:
-        self._variability.clear()
+        for cache in (self._states, self._authored, self._visible, self._transform_varies):
+            cache.clear()
+        self._primvars.clear()
+        self._name_sets.clear()
 
     def at(self, time: Usd.TimeCode) -> None:
         """Read visibility at ``time`` from now on."""
+        if time != self._time:
+            self._visible.clear()
         self._time = time
 
-    @staticmethod
-    def purpose(prim: Usd.Prim) -> str:
+    def authored(self, prim: Usd.Prim) -> frozenset[str]:
+        """The names of the properties of ``prim`` with an authored opinion (in any layer)."""
+        path = prim.GetPath()
+        names = self._authored.get(path)
+        if names is None:
+            names = frozenset(prim.GetAuthoredPropertyNames())
+            names = self._authored[path] = self._name_sets.setdefault(names, names)
+        return names
+
+    def purpose(self, prim: Usd.Prim) -> str:
         """The computed purpose of ``prim``."""
-        return UsdGeom.Imageable(prim).ComputePurpose()
+        return self._of(prim).purpose
+
+    def visibility_might_vary(self, prim: Usd.Prim) -> bool:
+        """Whether the computed visibility of ``prim`` might change with time."""
+        return self._of(prim).visibility_might_vary
 
     def visible(self, prim: Usd.Prim) -> bool:
         """Whether ``prim`` and all its ancestors are visible at the current time."""
-        return UsdGeom.Imageable(prim).ComputeVisibility(self._time) != UsdGeom.Tokens.invisible
+        path = prim.GetPath()
+        visible = self._visible.get(path)
+        if visible is None:
+            parent = prim.GetParent()
+            visible = not parent or parent.IsPseudoRoot() or self.visible(parent)
+            if visible and self._of(prim).imageable_opinions and _VISIBILITY in self.authored(prim):
+                visible = prim.GetAttribute(_VISIBILITY).Get(self._time) != UsdGeom.Tokens.invisible
+            self._visible[path] = visible
+        return visible
 
     def transform_might_vary(self, prim: Usd.Prim) -> bool:
         """Whether the local-to-world transform of ``prim`` might change with time: an xformOp
         of it or of an ancestor (up to a ``!resetXformStack!``) is time-sampled."""
-        return self._of(prim)[0]
-
-    def visibility_might_vary(self, prim: Usd.Prim) -> bool:
-        """Whether the computed visibility of ``prim`` might change with time."""
-        return self._of(prim)[1]
-
-    def _of(self, prim: Usd.Prim) -> tuple[bool, bool]:
         path = prim.GetPath()
-        state = self._variability.get(path)
+        varies = self._transform_varies.get(path)
+        if varies is None:
+            parent = prim.GetParent()
+            varies = (
+                bool(parent) and not parent.IsPseudoRoot() and self.transform_might_vary(parent)
+            )
+            if any(name.startswith("xformOp") for name in self.authored(prim)):  # and xformOpOrder
+                xformable = UsdGeom.Xformable(prim)
+                if xformable:
+                    if xformable.TransformMightBeTimeVarying():
+                        varies = True
+                    elif xformable.GetResetXformStack():
+                        varies = False
+            self._transform_varies[path] = varies
+        return varies
+
+    def inherited_primvars(self, prim: Usd.Prim) -> tuple[UsdGeom.Primvar, ...]:
+        """The constant primvars ``prim`` inherits from its ancestors (not its own)."""
+        parent = prim.GetParent()
+        if not parent or parent.IsPseudoRoot():
+            return ()
+        path = parent.GetPath()
+        primvars = self._primvars.get(path)
+        if primvars is None:
+            primvars = self.inherited_primvars(parent)
+            if any(name.startswith("primvars:") for name in self.authored(parent)):
+                api = UsdGeom.PrimvarsAPI(parent)
+                found = api.FindIncrementallyInheritablePrimvars(list(primvars))
+                primvars = tuple(found) or primvars  # none: the parent adds nothing
+            self._primvars[path] = primvars
+        return primvars
+
+    def _of(self, prim: Usd.Prim) -> _Inherited:
+        path = prim.GetPath()
+        state = self._states.get(path)
         if state is not None:
             return state
         parent = prim.GetParent()
-        transform, visibility = (
-            (False, False) if not parent or parent.IsPseudoRoot() else self._of(parent)
+        up = _ROOT if not parent or parent.IsPseudoRoot() else self._of(parent)
+        authored = self.authored(prim)
+        # Prims that are not imageable pass purpose and visibility down but have none of their own.
+        opinions = (_PURPOSE in authored or _VISIBILITY in authored) and prim.IsA(UsdGeom.Imageable)
+        purpose, inheritable = up.purpose, up.purpose_inheritable
+        if opinions and _PURPOSE in authored:  # its own opinion wins over an ancestor's
+            attr = prim.GetAttribute(_PURPOSE)
+            if attr.HasAuthoredValue():
+                purpose, inheritable = attr.Get(), True
+        visibility_varies = up.visibility_might_vary or (
+            opinions
+            and _VISIBILITY in authored
+            and prim.GetAttribute(_VISIBILITY).ValueMightBeTimeVarying()
         )
-        xformable = UsdGeom.Xformable(prim)
-        if xformable:
-            if xformable.TransformMightBeTimeVarying():
-                transform = True
-            elif xformable.GetResetXformStack():
-                transform = False
-        if not visibility:
-            attr = prim.GetAttribute(UsdGeom.Tokens.visibility)
-            visibility = bool(attr) and attr.ValueMightBeTimeVarying()
-        state = self._variability[path] = (transform, visibility)
+        state = self._states[path] = _Inherited(purpose, inheritable, visibility_varies, opinions)
         return state

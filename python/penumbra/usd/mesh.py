@@ -10,6 +10,9 @@ instancing and incremental edits are the meshes' own."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cache
+from typing import Any
 
 import numpy as np
 from pxr import Usd, UsdGeom
@@ -20,30 +23,43 @@ from .motion import point_samples
 from .sampling import SampleReader, changes_within
 
 
+@dataclass(frozen=True)
+class Authored:
+    """What the scene delegate already knows of a gprim (docs/architecture.md, "Scene delegate"):
+    the names of its properties with an authored opinion and the constant primvars it inherits.
+    Attributes not in ``names`` have their schema fallback, so they are not read."""
+
+    names: frozenset[str]
+    inherited_primvars: tuple[UsdGeom.Primvar, ...]
+
+
 def sync_mesh_data(
     core,
     prim: Usd.Prim,
     reader: SampleReader,
     warn: Callable[[str], None],
     prim_id: str | None = None,
+    authored: Authored | None = None,
 ) -> bool:
     """Push the topology, points, sidedness and displayColor of ``prim`` (a UsdGeomMesh or an
     implicit surface) to ``core`` (as the delegate prim ``prim_id``, by default the prim's path).
+    ``authored``: what is known of the prim's opinions (without it every attribute is read).
 
     Returns ``False`` (after a warning naming the prim) when the mesh has no points or no
     topology; nothing is pushed then. Index ranges are validated by the delegate at sync.
     """
     path = prim_id or str(prim.GetPath())
     if not prim.IsA(UsdGeom.Mesh):
-        return _sync_implicit(core, prim, path, reader)
+        return _sync_implicit(core, prim, path, reader, authored)
     mesh = UsdGeom.Mesh(prim)
+    attributes = _Attributes(prim, reader, authored)
     values = {}
-    for name, attr, valid in (
-        ("points", mesh.GetPointsAttr(), _as_vec3_array),
-        ("faceVertexCounts", mesh.GetFaceVertexCountsAttr(), _as_int_array),
-        ("faceVertexIndices", mesh.GetFaceVertexIndicesAttr(), _as_int_array),
+    for name, valid in (
+        ("points", _as_vec3_array),
+        ("faceVertexCounts", _as_int_array),
+        ("faceVertexIndices", _as_int_array),
     ):
-        value = reader.get(attr)
+        value = attributes.get(name)
         if value is not None:
             array = valid(value)
             if array is None:
@@ -57,8 +73,9 @@ def sync_mesh_data(
         return False
     points, counts, indices = values["points"], values["faceVertexCounts"], values["faceVertexIndices"]
 
-    left_handed = reader.get(mesh.GetOrientationAttr()) == UsdGeom.Tokens.leftHanded
-    scheme = str(reader.get(mesh.GetSubdivisionSchemeAttr()) or UsdGeom.Tokens.catmullClark)
+    left_handed = attributes.get(UsdGeom.Tokens.orientation) == UsdGeom.Tokens.leftHanded
+    scheme = str(attributes.get(UsdGeom.Tokens.subdivisionScheme) or UsdGeom.Tokens.catmullClark)
+    velocities = attributes.might_have(UsdGeom.Tokens.velocities)
     push_mesh(
         core,
         prim,
@@ -66,15 +83,62 @@ def sync_mesh_data(
         reader,
         counts=counts,
         indices=indices,
-        points=point_samples(mesh, points, reader, warn, path),
-        normals=_normals(mesh, scheme, reader, warn, path),
+        points=point_samples(mesh, points, reader, warn, path, velocities),
+        normals=_normals(mesh, scheme, attributes, warn, path),
         left_handed=left_handed,
         scheme=scheme,
-        primvars=_primvars(prim, reader, warn, path),
+        primvars=_primvars(prim, reader, warn, path, authored=authored),
+        authored=authored,
     )
     if scheme != UsdGeom.Tokens.none:
-        _sync_subdivision_tags(core, path, mesh, reader)
+        _sync_subdivision_tags(core, path, attributes)
     return True
+
+
+_PLACEMENT = frozenset({UsdGeom.Tokens.visibility, UsdGeom.Tokens.purpose})
+
+
+def data_might_vary(prim: Usd.Prim, authored: Authored) -> bool:
+    """Whether what :func:`sync_mesh_data` reads of ``prim`` might change with the time or the
+    shutter (for a read that did not note it). Conservative: any authored attribute but those
+    placing the prim, any inherited primvar, or velocities (points extrapolated over the
+    shutter)."""
+    names = authored.names
+    if UsdGeom.Tokens.velocities in names or UsdGeom.Tokens.accelerations in names:
+        return True
+    for name in names:
+        if name.startswith("xformOp") or name in _PLACEMENT:
+            continue
+        attr = prim.GetAttribute(name)  # relationships give an invalid attribute
+        if attr and attr.ValueMightBeTimeVarying():
+            return True
+    return any(primvar.ValueMightBeTimeVarying() for primvar in authored.inherited_primvars)
+
+
+class _Attributes:
+    """Reads a gprim's attributes by name at the reader's time; one the prim has no opinion on
+    (when ``authored`` says so) gives its schema fallback without a USD call."""
+
+    def __init__(self, prim: Usd.Prim, reader: SampleReader, authored: Authored | None) -> None:
+        self.prim = prim
+        self.reader = reader
+        self.names = authored.names if authored is not None else None
+
+    def might_have(self, name: str) -> bool:
+        """Whether the prim may have an opinion on ``name`` (False: certainly none)."""
+        return self.names is None or name in self.names
+
+    def get(self, name: str) -> Any:
+        if not self.might_have(name):
+            return _mesh_fallback(name)
+        return self.reader.get(self.prim.GetAttribute(name))
+
+
+@cache
+def _mesh_fallback(name: str) -> Any:
+    """The fallback value of UsdGeomMesh's attribute ``name`` (of it or of UsdGeomGprim)."""
+    definition = Usd.SchemaRegistry().FindConcretePrimDefinition("Mesh")
+    return definition.GetAttributeFallbackValue(name)
 
 
 def push_mesh(
@@ -90,15 +154,17 @@ def push_mesh(
     left_handed: bool = False,
     scheme: str = UsdGeom.Tokens.none,
     primvars: dict[str, tuple[np.ndarray, str]] | None = None,
+    authored: Authored | None = None,
 ) -> None:
     """Push a polygon mesh (or subdivision cage) of gprim ``prim`` as delegate prim ``path``
     in one call: the given topology, points (float32 (N, 3) or (K, N, 3) motion samples),
     normals (values, interpolation) and primvars (name → (values, interpolation); by default
     the gprim's constant ones), with what the gprim itself says — sidedness and displayColor;
-    then its UsdLuxMeshLightAPI."""
+    then its UsdLuxMeshLightAPI. ``authored``: as for :func:`sync_mesh_data`."""
     if primvars is None:
-        primvars = _primvars(prim, reader, None, path, constant_only=True)
-    colors, interpolation = _display_color(prim, reader)
+        primvars = _primvars(prim, reader, None, path, constant_only=True, authored=authored)
+    colors, interpolation = _display_color(prim, reader, authored)
+    attributes = _Attributes(prim, reader, authored)
     core.set_mesh(
         path,
         face_vertex_counts=np.asarray(counts, dtype=np.int32),
@@ -106,7 +172,7 @@ def push_mesh(
         left_handed=left_handed,
         subdivision_scheme=scheme,
         points=points,
-        double_sided=bool(reader.get(UsdGeom.Gprim(prim).GetDoubleSidedAttr())),
+        double_sided=bool(attributes.get(UsdGeom.Tokens.doubleSided)),
         display_color=colors,
         display_color_interpolation=interpolation,
         normals=normals[0],
@@ -116,7 +182,9 @@ def push_mesh(
     sync_mesh_light(core, prim, path, reader)
 
 
-def _sync_implicit(core, prim: Usd.Prim, path: str, reader: SampleReader) -> bool:
+def _sync_implicit(
+    core, prim: Usd.Prim, path: str, reader: SampleReader, authored: Authored | None
+) -> bool:
     """Tessellate implicit surface ``prim`` (at the reader's time, and over its shutter when
     a shaping attribute changes within it) and push it as a polygon mesh with smooth normals."""
     attrs = implicit.shape_attributes(prim)
@@ -126,8 +194,8 @@ def _sync_implicit(core, prim: Usd.Prim, path: str, reader: SampleReader) -> boo
     points = generated.points
     shutter = reader.shutter
     if shutter.blurred and any(changes_within(attr, shutter.interval) for attr in attrs):
-        authored = [t for attr in attrs for t in attr.GetTimeSamplesInInterval(shutter.interval)]
-        times = shutter.times(shutter.segments(authored))
+        keys = [t for attr in attrs for t in attr.GetTimeSamplesInInterval(shutter.interval)]
+        times = shutter.times(shutter.segments(keys))
         samples = np.stack([implicit.tessellate(prim, time).points for time in times])
         if not all(np.array_equal(sample, samples[0]) for sample in samples):
             points = samples
@@ -140,6 +208,7 @@ def _sync_implicit(core, prim: Usd.Prim, path: str, reader: SampleReader) -> boo
         indices=generated.indices,
         points=points,
         normals=(generated.normals, UsdGeom.Tokens.faceVarying),
+        authored=authored,
     )
     return True
 
@@ -170,7 +239,11 @@ def _value_type(value) -> str:
 
 
 def _normals(
-    mesh: UsdGeom.Mesh, scheme: str, reader: SampleReader, warn: Callable[[str], None], path: str
+    mesh: UsdGeom.Mesh,
+    scheme: str,
+    attributes: _Attributes,
+    warn: Callable[[str], None],
+    path: str,
 ) -> tuple[np.ndarray, str]:
     """Authored shading normals (``primvars:normals`` wins over ``normals``, as in USD) and their
     interpolation; no values when none are authored, when they are not an array of 3-vectors
@@ -178,13 +251,16 @@ def _normals(
     none = np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.vertex
     if scheme != UsdGeom.Tokens.none:
         return none
+    if not (attributes.might_have("primvars:normals") or attributes.might_have("normals")):
+        return none
+    reader = attributes.reader
     primvar = UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetPrimvar(UsdGeom.Tokens.normals)
     if primvar and primvar.HasValue():
-        attr, interpolation = primvar.GetAttr(), primvar.GetInterpolation()
+        interpolation = primvar.GetInterpolation()
         values = reader.flattened_primvar(primvar)
     else:
-        attr, interpolation = mesh.GetNormalsAttr(), mesh.GetNormalsInterpolation()
-        values = reader.get(attr)
+        interpolation = mesh.GetNormalsInterpolation()
+        values = reader.get(mesh.GetNormalsAttr())
     if values is None or len(np.asarray(values).reshape(-1)) == 0:
         return none
     array = _as_vec3_array(values)
@@ -204,14 +280,22 @@ def _primvars(
     warn: Callable[[str], None] | None,
     path: str,
     constant_only: bool = False,
+    authored: Authored | None = None,
 ) -> dict[str, tuple[np.ndarray, str]]:
     """The numeric primvars of ``prim`` (own, and constant ones inherited from ancestors) that
     materials may read, flattened, as float32 (N,) or (N, width) arrays with their interpolation.
     Non-numeric primvars and widths above 4 are left out (with a warning when ``warn`` is given);
     ``constant_only`` keeps just constant ones (for generated topology, which authored
-    per-element data cannot match)."""
+    per-element data cannot match). ``authored``: as for :func:`sync_mesh_data`."""
     result: dict[str, tuple[np.ndarray, str]] = {}
-    for primvar in UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance():
+    if authored is None:
+        primvars = UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance()
+    elif _has_other_primvars(authored):
+        inherited = list(authored.inherited_primvars)
+        primvars = UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance(inherited)
+    else:
+        primvars = []
+    for primvar in primvars:
         name = primvar.GetPrimvarName()
         interpolation = str(primvar.GetInterpolation())
         if name in _DEDICATED_PRIMVARS:
@@ -267,38 +351,69 @@ def numeric_primvar(
     return np.ascontiguousarray(array)
 
 
-def _display_color(prim: Usd.Prim, reader: SampleReader) -> tuple[np.ndarray, str]:
+def _has_other_primvars(authored: Authored) -> bool:
+    """Whether a gprim has (or inherits) primvars besides those with their own calls."""
+    own = (
+        name
+        for name in authored.names
+        if name.startswith("primvars:") and not name.endswith(":indices")
+    )
+    return any(name[9:] not in _DEDICATED_PRIMVARS for name in own) or any(
+        primvar.GetPrimvarName() not in _DEDICATED_PRIMVARS
+        for primvar in authored.inherited_primvars
+    )
+
+
+def _display_color(
+    prim: Usd.Prim, reader: SampleReader, authored: Authored | None = None
+) -> tuple[np.ndarray, str]:
     """The flattened displayColor of ``prim`` (own or inherited constant primvar) and its
     interpolation; no values when none is authored (the delegate then uses its grey fallback)."""
-    primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(
-        UsdGeom.Tokens.primvarsDisplayColor
-    )
+    attribute = UsdGeom.Tokens.primvarsDisplayColor
+    if authored is None:
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(attribute)
+    elif attribute in authored.names:
+        primvar = UsdGeom.Primvar(prim.GetAttribute(attribute))
+        if f"{attribute}:indices" not in authored.names:  # not indexed: flat as it is
+            return _colors(reader.get(primvar.GetAttr()), primvar)
+    else:
+        inherited = [
+            p for p in authored.inherited_primvars if p.GetPrimvarName() == "displayColor"
+        ]
+        primvar = inherited[0] if inherited else None
     if primvar and primvar.HasValue():
-        values = reader.flattened_primvar(primvar)
-        if values is not None and len(values) > 0:
-            colors = np.asarray(values, dtype=np.float32).reshape(-1, 3)
-            return colors, str(primvar.GetInterpolation())
+        return _colors(reader.flattened_primvar(primvar), primvar)
+    return _colors(None, primvar)
+
+
+def _colors(values, primvar: UsdGeom.Primvar | None) -> tuple[np.ndarray, str]:
+    """Flat displayColor ``values`` of ``primvar`` as float32 (N, 3) and their interpolation;
+    none (the delegate's grey fallback) when there are no values."""
+    if values is not None and len(values) > 0:
+        colors = np.asarray(values, dtype=np.float32).reshape(-1, 3)
+        return colors, str(primvar.GetInterpolation())
     return np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.constant
 
 
-def _sync_subdivision_tags(core, path: str, mesh: UsdGeom.Mesh, reader: SampleReader) -> None:
+def _sync_subdivision_tags(core, path: str, attributes: _Attributes) -> None:
     """Push the subdivision tags (boundary rules, creases, corners, holes) of a subdivided mesh."""
 
-    def array(attr: Usd.Attribute, dtype) -> np.ndarray:
-        value = reader.get(attr)
+    def array(name: str, dtype) -> np.ndarray:
+        value = attributes.get(name)
         return np.asarray(value if value is not None else [], dtype=dtype)
 
+    tokens = UsdGeom.Tokens
     core.set_mesh_subdivision_tags(
         path,
-        interpolate_boundary=str(reader.get(mesh.GetInterpolateBoundaryAttr())),
+        interpolate_boundary=str(attributes.get(tokens.interpolateBoundary)),
         face_varying_linear_interpolation=str(
-            reader.get(mesh.GetFaceVaryingLinearInterpolationAttr())
+            attributes.get(tokens.faceVaryingLinearInterpolation)
         ),
-        triangle_subdivision_rule=str(reader.get(mesh.GetTriangleSubdivisionRuleAttr())),
-        hole_indices=array(mesh.GetHoleIndicesAttr(), np.int32),
-        corner_indices=array(mesh.GetCornerIndicesAttr(), np.int32),
-        corner_sharpnesses=array(mesh.GetCornerSharpnessesAttr(), np.float32),
-        crease_indices=array(mesh.GetCreaseIndicesAttr(), np.int32),
-        crease_lengths=array(mesh.GetCreaseLengthsAttr(), np.int32),
-        crease_sharpnesses=array(mesh.GetCreaseSharpnessesAttr(), np.float32),
+        triangle_subdivision_rule=str(attributes.get(tokens.triangleSubdivisionRule)),
+        hole_indices=array(tokens.holeIndices, np.int32),
+        corner_indices=array(tokens.cornerIndices, np.int32),
+        corner_sharpnesses=array(tokens.cornerSharpnesses, np.float32),
+        crease_indices=array(tokens.creaseIndices, np.int32),
+        crease_lengths=array(tokens.creaseLengths, np.int32),
+        crease_sharpnesses=array(tokens.creaseSharpnesses, np.float32),
     )

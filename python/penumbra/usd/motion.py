@@ -106,15 +106,16 @@ def point_samples(
     reader: SampleReader,
     warn: Callable[[str], None],
     path: str,
+    velocities_might_be_authored: bool = True,
 ) -> np.ndarray:
     """The object-space points of ``mesh`` over the reader's shutter: float32 (N, 3), or
     (K, N, 3) when they deform or move with velocities. ``points``: float32 (N, 3) at the
-    reader's time (also the fallback when the topology changes within the shutter)."""
+    reader's time (also the fallback when the topology changes within the shutter).
+    ``velocities_might_be_authored`` False: the caller knows the mesh has no velocities."""
     shutter = reader.shutter
-    attr = mesh.GetPointsAttr()
-    if shutter.blurred and changes_within(attr, shutter.interval):
+    if shutter.blurred and changes_within(mesh.GetPointsAttr(), shutter.interval):
         samples = _deformation(mesh, shutter, len(points), warn, path)
-    elif mesh.GetVelocitiesAttr().HasAuthoredValue():
+    elif velocities_might_be_authored and mesh.GetVelocitiesAttr().HasAuthoredValue():
         reader.depends_on_shutter()  # extrapolated over the shutter from the frame's sample
         samples = _velocity_motion(mesh, shutter, warn, path) if shutter.blurred else None
     else:

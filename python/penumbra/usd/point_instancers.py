@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
-from pxr import Sdf, Tf, Usd, UsdGeom
+from pxr import Sdf, Usd, UsdGeom
 
 from .flattening import Flattener, prototype_roots, combine_segments
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
@@ -30,7 +30,8 @@ class _Instancer:
 
 
 class PointInstancerDelegate:
-    """Mirrors the point instancers of ``stage`` (outside native prototypes) into ``core``."""
+    """Mirrors the point instancers of ``stage`` (outside native prototypes) into ``core``;
+    hears of stage edits through :meth:`note_changes` (from the scene delegate's listener)."""
 
     def __init__(
         self,
@@ -51,18 +52,13 @@ class PointInstancerDelegate:
         self._instancers: dict[Sdf.Path, _Instancer] = {}
         self._structure_changed = True  # prims were added or removed: look for instancers
         self._stale: set[Sdf.Path] = set()  # edited prims (their meshes are read again)
-        self._listener = Tf.Notice.Register(Usd.Notice.ObjectsChanged, self._on_changed, stage)
 
-    def close(self) -> None:
-        if self._listener is not None:
-            self._listener.Revoke()
-            self._listener = None
-
-    def _on_changed(self, notice, _sender) -> None:
-        changed = [*notice.GetResyncedPaths(), *notice.GetChangedInfoOnlyPaths()]
-        if any(not path.IsPropertyPath() for path in notice.GetResyncedPaths()):
+    def note_changes(self, resynced: Iterable[Sdf.Path], changed: Iterable[Sdf.Path]) -> None:
+        """Note stage edits (paths of ``Usd.Notice.ObjectsChanged``) for the next update."""
+        resynced = list(resynced)
+        if any(not path.IsPropertyPath() for path in resynced):
             self._structure_changed = True
-        for path in changed:
+        for path in [*resynced, *changed]:
             prim_path = path.GetPrimPath()
             self._stale.add(prim_path)
             binding = path.IsPropertyPath() and path.name.startswith("material:binding")

@@ -79,11 +79,24 @@ class SampleReader:
     (or, through :meth:`depends_on_shutter`, once what was read depends on the frame or shutter).
 
     ``shutter``: the interval motion is sampled over, by default ``time`` alone.
+    ``note_variability`` False: the caller finds out later whether what it read might vary
+    (the reads then cost one USD call less each); ``varying`` is then set only by
+    :meth:`depends_on_shutter`. ``queries``: attribute queries by attribute name, kept by the
+    caller from one time to the next (a query resolves where the values come from once; it
+    must be dropped when the stage is edited), filled as attributes are read.
     """
 
-    def __init__(self, time: Usd.TimeCode, shutter: Shutter | None = None) -> None:
+    def __init__(
+        self,
+        time: Usd.TimeCode,
+        shutter: Shutter | None = None,
+        note_variability: bool = True,
+        queries: dict[str, Usd.AttributeQuery] | None = None,
+    ) -> None:
         self.time = time
         self.shutter = shutter or Shutter(time)
+        self.note_variability = note_variability
+        self.queries = queries
         self.varying = False
 
     def depends_on_shutter(self) -> None:
@@ -92,13 +105,19 @@ class SampleReader:
 
     def get(self, attr: Usd.Attribute) -> Any:
         """The value of ``attr`` at the reader's time (``None`` if it has none)."""
-        if attr.ValueMightBeTimeVarying():
+        if self.queries is not None:
+            name = attr.GetName()
+            query = self.queries.get(name)
+            if query is None:
+                query = self.queries[name] = Usd.AttributeQuery(attr)
+            attr = query  # answers as the attribute does, from its resolved sources
+        if self.note_variability and attr.ValueMightBeTimeVarying():
             self.varying = True
         return attr.Get(self.time)
 
     def flattened_primvar(self, primvar: UsdGeom.Primvar) -> Any:
         """The de-indexed value of ``primvar`` at the reader's time (``None`` if it has none)."""
-        if primvar.ValueMightBeTimeVarying():
+        if self.note_variability and primvar.ValueMightBeTimeVarying():
             self.varying = True
         return primvar.ComputeFlattened(self.time)
 

@@ -28,17 +28,18 @@ import weakref
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
-import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade, UsdVol
 
 from ..errors import warn
 from .camera import sync_camera
 from .implicit import is_implicit
 from .lights import is_light, light_type, sync_light
+from .core_batch import CoreBatch
 from .material import bound_materials, has_subset_bindings, push_material, read_material
-from .mesh import sync_mesh_data
+from .mesh import Authored, data_might_vary, sync_mesh_data
 from .motion import XformCaches, transform_samples
 from .native_instancing import NativeInstancing
+from .point_instancers import PointInstancerDelegate
 from .render_pass import RenderPassCollections
 from .inherited import InheritedState
 from .sampling import SampleReader, Shutter
@@ -75,6 +76,9 @@ class _Prim:
     kind: str  # the delegate's prim type: "mesh", "camera", "rectLight", ...
     in_core: bool = False  # False while the prim is unusable (e.g. a mesh without points)
     varying: int = 0  # aspects whose inputs might vary with time
+    unknown: int = 0  # aspects whose variability is found out at the first new time
+    # Meshes whose data varies: attribute queries reused at each new time (dropped on edits).
+    queries: dict[str, Usd.AttributeQuery] | None = None
     material: str = ""  # meshes: id of the bound material ("" = none)
 
 
@@ -132,6 +136,10 @@ class SceneDelegate:
         self._native = NativeInstancing(
             stage, core, self.purposes, self._warn, self.materials, render_pass
         )
+        self._point_instancers = PointInstancerDelegate(
+            stage, core, self.purposes, warn, self.materials, render_pass
+        )
+        # The one listener: native and point instancing hear of edits from it.
         self._listener = Tf.Notice.Register(
             Usd.Notice.ObjectsChanged, self._on_objects_changed, stage
         )
@@ -189,18 +197,38 @@ class SceneDelegate:
                 self._dirty_materials.update(
                     path for path, material in self._materials.items() if material.varying
                 )
+            if time_changed:
+                self._find_variability()
             self.shutter, self.time, self.depth_of_field = shutter, shutter.frame, depth_of_field
             for path, record in self._prims.items():
                 bits = record.varying if time_changed else 0
                 if lens_changed and record.kind == "camera":
                     bits |= Dirty.DATA
                 if bits:
-                    self._mark(path, bits)
+                    self._mark(path, bits, edited=False)
         self._inherited.at(self.time)
         self._flush()
         self._inherited.forget()  # the stage may be edited before the next update
         self._native.update(shutter)
+        self._point_instancers.update(shutter)
         self._report_unsupported()
+
+    def _find_variability(self) -> None:
+        """Find out which aspects of the prims synced without noting it might vary with time
+        (a render of one frame never needs to know)."""
+        for path, record in self._prims.items():
+            if not record.unknown:
+                continue
+            prim = self.stage.GetPrimAtPath(path)
+            if record.unknown & Dirty.DATA and data_might_vary(prim, self._authored(prim)):
+                record.varying |= Dirty.DATA
+            if record.unknown & Dirty.TRANSFORM and self._inherited.transform_might_vary(prim):
+                record.varying |= Dirty.TRANSFORM
+            record.unknown = 0
+        self._inherited.forget()
+
+    def _authored(self, prim: Usd.Prim) -> Authored:
+        return Authored(self._inherited.authored(prim), self._inherited.inherited_primvars(prim))
 
     def has_lights(self) -> bool:
         """Whether the synced stage has lights of its own (UsdLux lights or meshes with
@@ -272,7 +300,7 @@ class SceneDelegate:
             kind = self._classify(prim)
             if kind is not None:
                 yield prim.GetPath(), kind
-            if prim.IsA(UsdGeom.PointInstancer):
+            elif prim.IsA(UsdGeom.PointInstancer):  # not a rendered kind itself
                 it.PruneChildren()
 
     # ----------------------------------------------------------------------------------------
@@ -294,6 +322,7 @@ class SceneDelegate:
 
     def _process_notices(self) -> None:
         self._native.note_changes(self._resynced, self._changed)
+        self._point_instancers.note_changes(self._resynced, self._changed)
         resynced = {p for q in self._resynced for p in self._instance_paths(q)}
         changed = {p for q in self._changed for p in self._instance_paths(q)}
         self._resynced.clear()
@@ -331,9 +360,13 @@ class SceneDelegate:
         elif prim_path in self._prims:
             self._mark(prim_path, Dirty.DATA if name else Dirty.ALL)
 
-    def _mark(self, path: Sdf.Path, bits: int) -> None:
+    def _mark(self, path: Sdf.Path, bits: int, edited: bool = True) -> None:
+        """Mark aspects ``bits`` of a tracked prim dirty; ``edited``: because the stage changed
+        (rather than the time), which makes its attribute queries stale."""
         record = self._prims.get(path)
         if record is not None:
+            if edited and bits & Dirty.DATA:
+                record.queries = None
             self._dirty[path] = self._dirty.get(path, 0) | (bits & _aspects(record.kind))
 
     def _mark_subtree(self, root: Sdf.Path, bits: int) -> None:
@@ -383,22 +416,34 @@ class SceneDelegate:
             xform_caches = XformCaches()
             dirty, self._dirty = self._dirty, {}
             paths = [path for path in sorted(dirty) if path in self._prims]
+            prims = {path: self.stage.GetPrimAtPath(path) for path in paths}
             bound = self._bound_materials(
-                path
+                prims[path]
                 for path in paths
                 if self._prims[path].kind == "mesh"
                 and (dirty[path] & Dirty.BINDING or not self._prims[path].in_core)
             )
+            entering = [path for path in paths if not self._prims[path].in_core]
+            meshes = [str(path) for path in entering if self._prims[path].kind == "mesh"]
+            self.core.insert_rprims("mesh", meshes)
+            for path in entering:
+                record = self._prims[path]
+                if record.kind != "mesh":
+                    self.core.insert_sprim(record.kind, str(path))
+                record.in_core = True
+                dirty[path] = _aspects(record.kind)  # a prim entering the delegate needs everything
+            batch = CoreBatch(self.core, self._warn)
             for path in paths:
-                self._sync_prim(path, dirty[path], xform_caches, bound)
+                self._sync_prim(path, prims[path], dirty[path], xform_caches, bound, batch)
+            batch.send()
             materials, self._dirty_materials = self._dirty_materials, set()
             for path in sorted(materials):
                 if path in self._materials:
                     self._sync_material(path)
 
-    def _bound_materials(self, paths: Iterable[Sdf.Path]) -> dict[Sdf.Path, Sdf.Path | None]:
-        """The materials bound to the meshes at ``paths``, computed in one batch."""
-        prims = [self.stage.GetPrimAtPath(path) for path in paths]
+    def _bound_materials(self, prims: Iterable[Usd.Prim]) -> dict[Sdf.Path, Sdf.Path | None]:
+        """The materials bound to the meshes ``prims``, computed in one batch."""
+        prims = list(prims)
         if not prims:
             return {}
         return {
@@ -409,23 +454,27 @@ class SceneDelegate:
     def _sync_prim(
         self,
         path: Sdf.Path,
+        prim: Usd.Prim,
         bits: int,
         xform_caches: XformCaches,
         bound: dict[Sdf.Path, Sdf.Path | None],
+        batch: CoreBatch,
     ) -> None:
+        """Read the aspects ``bits`` of the tracked prim at ``path`` (in the delegate: inserted
+        by :meth:`_flush`) and queue them in ``batch``."""
         record = self._prims[path]
-        prim = self.stage.GetPrimAtPath(path)
-        if not record.in_core:
-            bits = _aspects(record.kind)  # a prim entering the delegate needs everything
         path_str = str(path)
         shutter = self.shutter if record.kind in _MOVING_KINDS else Shutter(self.time)
         if bits & Dirty.DATA:
-            reader = SampleReader(self.time, shutter)
-            if not record.in_core:
-                self._insert(path_str, record.kind)
-                record.in_core = True
+            # A mesh's variability is found out at the first new time (_find_variability);
+            # one known to vary reads through queries kept from one time to the next.
+            if record.kind == "mesh" and record.varying & Dirty.DATA and record.queries is None:
+                record.queries = {}
+            note = record.kind != "mesh" or record.queries is not None
+            reader = SampleReader(self.time, shutter, note, record.queries)
             if record.kind == "mesh":
-                if not sync_mesh_data(self.core, prim, reader, self._warn):
+                authored = self._authored(prim)
+                if not sync_mesh_data(batch, prim, reader, self._warn, path_str, authored):
                     self.core.remove_prim(path_str)
                     record.in_core = False
                     self._emitters.discard(path)
@@ -445,19 +494,16 @@ class SceneDelegate:
                 sync_light(self.core, prim, reader, self._warn, self.dome_light_visibility)
                 self._emitters.add(path)
             record.varying = _set_flag(record.varying, Dirty.DATA, reader.varying)
+            if not reader.note_variability:
+                record.unknown |= Dirty.DATA
         if bits & Dirty.TRANSFORM:
-            matrices = transform_samples(prim, shutter, xform_caches)
-            problem = _transform_problem(matrices)
-            if problem:
-                self._warn(f"{path_str}: the world transform {problem}; the prim is not rendered")
-            self.core.set_transform(path_str, matrices)
-            record.varying = _set_flag(
-                record.varying, Dirty.TRANSFORM, self._inherited.transform_might_vary(prim)
-            )
+            batch.set_transform(path_str, transform_samples(prim, shutter, xform_caches))
+            record.varying &= ~Dirty.TRANSFORM
+            record.unknown |= Dirty.TRANSFORM
         if bits & Dirty.VISIBILITY:
             passes = self.render_pass
             visible = self._inherited.visible(prim) and (passes is None or passes.rendered(path))
-            self.core.set_visible(path_str, visible)
+            batch.set_visible(path_str, visible)
             if passes is not None and record.kind == "mesh":
                 shown = passes.visibility(path)
                 self.core.set_pass_visibility(path_str, shown.camera, shown.matte)
@@ -465,18 +511,17 @@ class SceneDelegate:
                 record.varying, Dirty.VISIBILITY, self._inherited.visibility_might_vary(prim)
             )
         if bits & Dirty.BINDING:
-            self._sync_binding(path, record, prim, bound[path])
-
-    def _insert(self, path: str, kind: str) -> None:
-        if kind == "mesh":
-            self.core.insert_rprim(kind, path)
-        else:
-            self.core.insert_sprim(kind, path)
+            self._sync_binding(path, record, prim, bound[path], batch)
 
     def _sync_binding(
-        self, path: Sdf.Path, record: _Prim, prim: Usd.Prim, material_path: Sdf.Path | None
+        self,
+        path: Sdf.Path,
+        record: _Prim,
+        prim: Usd.Prim,
+        material_path: Sdf.Path | None,
+        batch: CoreBatch,
     ) -> None:
-        if has_subset_bindings(prim):
+        if prim.GetChildrenNames() and has_subset_bindings(prim):  # subsets are children
             self._warn(
                 f"{path}: per-face material bindings (GeomSubsets) are not supported yet; "
                 "the mesh's own binding is used"
@@ -491,7 +536,7 @@ class SceneDelegate:
         if material_path is not None and self._materials[material_path].in_core:
             material_id = str(material_path)
         record.material = str(material_path) if material_path is not None else ""
-        self.core.set_mesh_material(str(path), material_id)
+        batch.set_mesh_material(str(path), material_id)
 
     def _acquire_material(self, material_path: Sdf.Path, user: Sdf.Path) -> None:
         material = self._materials.get(material_path)
@@ -570,20 +615,6 @@ class _SceneMaterials:
     def material_id(self, material: Sdf.Path) -> str:
         record = self._scene._materials.get(material)
         return str(material) if record is not None and record.in_core else ""
-
-
-MAX_COORDINATE = 1e18
-"""Beyond this distance from the origin (scene units) single-precision ray tracing cannot
-place geometry: Embree drops it."""
-
-
-def _transform_problem(matrices: np.ndarray) -> str | None:
-    """What makes local-to-world ``matrices`` (one or K motion samples) unusable, or ``None``."""
-    if not np.isfinite(matrices).all():
-        return "is not finite (a NaN or infinity in an xformOp)"
-    if np.abs(matrices[..., 3, :3]).max() > MAX_COORDINATE:
-        return f"translates it beyond {MAX_COORDINATE:g} units, where precision runs out"
-    return None
 
 
 def _aspects(kind: str) -> int:

@@ -6,9 +6,12 @@
 #include <vector>
 
 #include "penumbra/plugin/prim.h"
+#include "penumbra/plugin/sync_context.h"
 #include "penumbra/scene.h"
 
 namespace penumbra::plugin {
+
+class Mesh;
 
 class Instancer : public Prim {
  public:
@@ -35,6 +38,11 @@ class Instancer : public Prim {
     primvars_ = std::move(primvars);
     markDirty(DirtyPrimvar);
   }
+
+  /// Places its copies of `prototype` (null: the prototype is not a mesh in the render index,
+  /// so there are none) in the scene; then it is clean. The render delegate syncs instancers
+  /// after meshes: the copies follow their prototype's geometry.
+  void sync(SyncContext& context, Mesh* prototype);
 
   Scene::InstancerId handle() const { return handle_; }
   void setHandle(Scene::InstancerId handle) { handle_ = handle; }

@@ -9,6 +9,7 @@
 #include "penumbra/mesh.h"
 #include "penumbra/plugin/light.h"
 #include "penumbra/plugin/prim.h"
+#include "penumbra/plugin/sync_context.h"
 #include "penumbra/scene.h"
 #include "penumbra/subdivision.h"
 
@@ -49,6 +50,14 @@ class Mesh : public Prim {
   void addInstancer(const PrimId& instancer) { instancers_.insert(instancer); }
   void removeInstancer(const PrimId& instancer) { instancers_.erase(instancer); }
 
+  /// Syncs what its dirty bits say changed into the scene (cf. HdMesh::Sync): triangulates or
+  /// dices its geometry (the scene keeps the BVH when the triangles are the same), places its
+  /// instance; then it is clean.
+  void sync(SyncContext& context);
+  /// Places its instance with its transform, material and visibility (a material it is bound to
+  /// changed or moved in the scene's list).
+  void place(SyncContext& context) const;
+
   Scene::MeshId handle() const { return handle_; }
   const MeshData& data() const { return data_; }
   const PrimId& materialId() const { return materialId_; }
@@ -62,6 +71,9 @@ class Mesh : public Prim {
   const LimitSurfaceTessellator* tessellator(SubdivisionScheme scheme);
 
  private:
+  /// The triangles to render: its polygons, or its diced limit surface.
+  TriangleMesh triangles(SyncContext& context);
+
   Scene::MeshId handle_;
   MeshData data_;
   std::string subdivisionScheme_ = "none";

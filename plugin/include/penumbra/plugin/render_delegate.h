@@ -16,18 +16,10 @@
 #include "penumbra/plugin/material.h"
 #include "penumbra/plugin/mesh.h"
 #include "penumbra/plugin/render_buffer.h"
+#include "penumbra/plugin/sync_context.h"
 #include "penumbra/scene.h"
 
 namespace penumbra::plugin {
-
-/// What subdivision surfaces are diced for: a camera and an image width.
-struct DicingContext {
-  CameraParams camera;
-  int imageWidth = 960;
-
-  bool operator==(const DicingContext& other) const;
-  bool operator!=(const DicingContext& other) const { return !(*this == other); }
-};
 
 /// Render settings; unknown keys are rejected.
 struct RenderSettingsMap {
@@ -97,10 +89,11 @@ class RenderDelegate {
   void setDicingCamera(PrimId cameraId);
   const PrimId& dicingCamera() const { return dicingCamera_; }
 
-  /// Syncs the dirty prims into the scene and commits it. `view`: the camera and width of the
-  /// pass asking, which become the dicing context of the first sync when no dicing camera is
-  /// set. Returns true if anything a render depends on changed (scene contents or any camera),
-  /// so that passes restart accumulation.
+  /// Syncs the dirty prims into the scene and commits it (cf. HdRenderIndex::SyncAll: each
+  /// dirty prim syncs itself from its dirty bits, given a SyncContext). `view`: the camera and
+  /// width of the pass asking, which become the dicing context of the first sync when no dicing
+  /// camera is set. Returns true if anything a render depends on changed (scene contents or any
+  /// camera), so that passes restart accumulation.
   bool sync(const DicingContext& view);
   /// Bytes the next sync will allocate to build the dirty meshes and instancers (an estimate
   /// from their counts, penumbra::estimatedBuildBytes), to be checked against a memory budget
@@ -136,12 +129,8 @@ class RenderDelegate {
   /// textures that cannot be read.
   penumbra::Material buildMaterial(const Material& material, bool report);
   void syncLights();
-  void syncMesh(Mesh& mesh, const DicingContext& dicing);
-  /// Places the mesh with its transform, material and visibility.
-  void placeMesh(Mesh& mesh);
-  void syncInstancer(Instancer& instancer);
-  /// The triangles to render for a mesh: its polygons, or its diced limit surface.
-  TriangleMesh meshTriangles(Mesh& mesh, const DicingContext& dicing);
+  /// The mesh an instancer copies, or null (with a warning) if there is none.
+  Mesh* prototypeOf(const Instancer& instancer);
 
   Device device_;
   std::unique_ptr<Scene> scene_;
@@ -162,9 +151,7 @@ class RenderDelegate {
   std::optional<DicingContext> firstView_;  // the default dicing context
   std::optional<DicingContext> dicedFor_;
   int dicedComplexity_ = 0;
-  uint64_t meshGeometrySyncs_ = 0;
-  uint64_t subdivisionDicings_ = 0;
-  double tessellationSeconds_ = 0;
+  SyncCounters counters_;
   uint64_t sceneVersion_ = 0;
 };
 

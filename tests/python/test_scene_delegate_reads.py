@@ -1,0 +1,107 @@
+"""How the scene delegate reads a stage cheaply (docs/architecture.md, "Scene delegate"): state
+inherited from ancestors handed down per parent agrees with USD's own computations, attribute
+queries of time-varying meshes are reused from one time to the next but never outlive a stage
+edit, and batched pushes check world transforms as single calls did."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom
+
+import penumbra
+from penumbra.usd.inherited import InheritedState
+from stages import add_quad, lit_quad_stage, pixel
+from test_api import FAST, sync_counts
+
+
+def test_inherited_purpose_visibility_and_primvars_agree_with_usd():
+    stage = Usd.Stage.CreateInMemory()
+    time = Usd.TimeCode(2.0)
+    guide = UsdGeom.Xform.Define(stage, "/guide")
+    guide.CreatePurposeAttr(UsdGeom.Tokens.guide)
+    UsdGeom.Mesh.Define(stage, "/guide/render_inside").CreatePurposeAttr(UsdGeom.Tokens.render)
+    untyped = stage.DefinePrim("/guide/untyped")  # not imageable: its opinions do not count
+    untyped.CreateAttribute("purpose", Sdf.ValueTypeNames.Token).Set(UsdGeom.Tokens.proxy)
+    untyped.CreateAttribute("visibility", Sdf.ValueTypeNames.Token).Set(UsdGeom.Tokens.invisible)
+    UsdGeom.Mesh.Define(stage, "/guide/untyped/mesh")
+    plain = UsdGeom.Xform.Define(stage, "/plain")
+    primvars = UsdGeom.PrimvarsAPI(plain)
+    primvars.CreatePrimvar("tint", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(1, 0, 0))
+    primvars.CreatePrimvar("uniform", Sdf.ValueTypeNames.Float, UsdGeom.Tokens.uniform).Set(1)
+    proxy = UsdGeom.Mesh.Define(stage, "/plain/proxy")
+    proxy.CreatePurposeAttr(UsdGeom.Tokens.proxy)
+    blinking = UsdGeom.Xform.Define(stage, "/plain/blinking")
+    blinking.CreateVisibilityAttr().Set(UsdGeom.Tokens.invisible, 2.0)
+    blinking.CreateVisibilityAttr().Set(UsdGeom.Tokens.inherited, 3.0)
+    shadowing = UsdGeom.Mesh.Define(stage, "/plain/blinking/mesh")
+    UsdGeom.PrimvarsAPI(shadowing).CreatePrimvar("tint", Sdf.ValueTypeNames.Color3f).Set(
+        Gf.Vec3f(0, 1, 0)
+    )
+
+    state = InheritedState()
+    state.at(time)
+    for prim in stage.Traverse():
+        imageable = UsdGeom.Imageable(prim)
+        assert state.purpose(prim) == imageable.ComputePurpose(), prim.GetPath()
+        expected_visible = imageable.ComputeVisibility(time) != UsdGeom.Tokens.invisible
+        assert state.visible(prim) == expected_visible, prim.GetPath()
+        # What a prim inherits: the constant primvars its parent has or inherits.
+        expected = {
+            p.GetPrimvarName()
+            for p in UsdGeom.PrimvarsAPI(prim.GetParent()).FindPrimvarsWithInheritance()
+            if p.GetInterpolation() == UsdGeom.Tokens.constant
+        } if not prim.GetParent().IsPseudoRoot() else set()
+        assert {p.GetPrimvarName() for p in state.inherited_primvars(prim)} == expected
+    mesh = stage.GetPrimAtPath("/plain/blinking/mesh")
+    assert state.visibility_might_vary(mesh)
+    assert not state.visibility_might_vary(stage.GetPrimAtPath("/plain/proxy"))
+    state.at(Usd.TimeCode(3.0))  # visibility is read anew at another time
+    assert state.visible(mesh)
+
+
+def test_queries_of_a_deforming_mesh_do_not_outlive_a_stage_edit():
+    stage = lit_quad_stage()
+    mover = add_quad(stage, "/World/mover", half_size=0.3, color=(1, 0, 0))
+    points = mover.GetPointsAttr()
+    square = np.array(points.Get(), dtype=np.float32)
+    for time, dx in ((1.0, -1.2), (2.0, 0.0), (3.0, 1.2)):
+        points.Set([Gf.Vec3f(*(p + (dx, 0, 0.5))) for p in square], time)
+    renderer = penumbra.Renderer(stage)
+    renderer.render(time=1.0, **FAST)
+    at_2 = renderer.render(time=2.0, **FAST)  # read through queries from here on
+    assert pixel(at_2, 0.5, 0.5)[0] > 2 * pixel(at_2, 0.5, 0.5)[1]  # red mover in the middle
+    # A stronger opinion (the session layer) than the samples the queries resolved to.
+    with Usd.EditContext(stage, stage.GetSessionLayer()):
+        points.Set([Gf.Vec3f(*(p + (-1.2, 0, 0.5))) for p in square], 3.0)
+    before = sync_counts(renderer)
+    at_3 = renderer.render(time=3.0, **FAST)
+    assert sync_counts(renderer)["/World/mover"] == before["/World/mover"] + 1
+    assert pixel(at_3, 0.17, 0.5)[0] > 2 * pixel(at_3, 0.17, 0.5)[1]  # on the left, not right
+    fresh = penumbra.Renderer(stage).render(time=3.0, **FAST)
+    np.testing.assert_array_equal(at_3["color"], fresh["color"])
+
+
+def test_a_static_stage_rendered_at_another_time_resyncs_nothing():
+    stage = lit_quad_stage()
+    add_quad(stage, "/World/still", center=(0.5, 0.5, 0.1), half_size=0.3, color=(0, 1, 0))
+    renderer = penumbra.Renderer(stage)
+    renderer.render(time=1.0, **FAST)  # variability found out here
+    before = sync_counts(renderer)
+    renderer.render(time=2.0, **FAST)
+    assert sync_counts(renderer) == before
+
+
+def test_each_unusable_transform_of_a_batch_is_reported_and_not_rendered():
+    stage = lit_quad_stage()
+    add_quad(stage, "/World/nan", center=(float("nan"), 0, 0), half_size=0.3)
+    add_quad(stage, "/World/far", center=(1e19, 0, 0), half_size=0.3)
+    add_quad(stage, "/World/fine", center=(0, 0, 0.1), half_size=0.3, color=(1, 0, 0))
+    with pytest.warns(penumbra.PenumbraWarning) as record:
+        image = penumbra.Renderer(stage).render(**FAST)
+    messages = [str(warning.message) for warning in record]
+    assert sum("/World/nan: the world transform is not finite" in m for m in messages) == 1
+    far = "/World/far: the world transform translates it beyond 1e+18"
+    assert sum(far in m for m in messages) == 1
+    assert not any("/World/fine" in m for m in messages)
+    assert pixel(image, 0.5, 0.5)[0] > 2 * pixel(image, 0.5, 0.5)[1]
