@@ -543,21 +543,16 @@ bool convertToSceneLinear(const std::string& ocioConfig, const std::string& name
                           std::string* error) {
   std::string ignored;
   if (!error) error = &ignored;
-  const std::string configName = ocioConfig.empty() ? "$OCIO" : "\"" + ocioConfig + "\"";
+  const std::string spaceName = findTextureColorSpace(ocioConfig, name, error);
+  if (spaceName.empty()) return false;
   try {
-    const auto config = loadConfig(ocioConfig);
-    const auto space = colorSpaceNamed(*config, name);
-    if (!space) {
-      *error = "the OCIO config " + configName + " has no colour space \"" + name + "\"";
-      return false;
-    }
-    config->getProcessor(space->getName(), OCIO::ROLE_SCENE_LINEAR)
+    loadConfig(ocioConfig)
+        ->getProcessor(spaceName.c_str(), OCIO::ROLE_SCENE_LINEAR)
         ->getDefaultCPUProcessor()
         ->applyRGB(rgb);
     return true;
   } catch (const OCIO::Exception& exception) {
-    *error = "cannot convert \"" + name + "\" with the OCIO config " + configName + ": " +
-             exception.what();
+    *error = "cannot convert \"" + name + "\" to scene-linear: " + exception.what();
     return false;
   }
 }
