@@ -67,35 +67,47 @@ Vec3f mirrorThroughSurface(const Vec3f& w) {
   return {w.x, w.y, -w.z};
 }
 
-// --- GGX (Trowbridge–Reitz) microfacets, isotropic, in the local frame (z = macro normal) ---
+// --- GGX (Trowbridge–Reitz) microfacets, in the local frame (z = macro normal) ---
+// GgxAlpha (bsdf.h) holds α along x and y. The isotropic formulas are kept apart from the
+// anisotropic ones: they are what every isotropic material computed before anisotropy existed,
+// bit for bit, and they are cheaper.
 
-/// Distribution of microfacet normals D(h), per unit solid angle of h.
-float ggxDensity(const Vec3f& h, float alpha) {
+/// Distribution of microfacet normals D(h), per unit solid angle of h:
+/// 1 / (π αx αy (hx²/αx² + hy²/αy² + hz²)²).
+float ggxDensity(const Vec3f& h, GgxAlpha alpha) {
   if (h.z <= 0) return 0;
-  const float alpha2 = alpha * alpha;
-  const float d = h.z * h.z * (alpha2 - 1) + 1;
-  return alpha2 / (kPi * d * d);
+  if (alpha.isotropic()) {
+    const float alpha2 = alpha.x * alpha.x;
+    const float d = h.z * h.z * (alpha2 - 1) + 1;
+    return alpha2 / (kPi * d * d);
+  }
+  const float d = square(h.x / alpha.x) + square(h.y / alpha.y) + h.z * h.z;
+  return 1 / (kPi * alpha.x * alpha.y * d * d);
 }
-/// Smith's Λ(w): G1 = 1 / (1 + Λ).
-float ggxLambda(const Vec3f& w, float alpha) {
+/// Smith's Λ(w) = (√(1 + α(φ)² tan² θ) − 1) / 2, with α(φ)² = (αx² wx² + αy² wy²) / sin² θ
+/// the roughness along w's azimuth: G1 = 1 / (1 + Λ).
+float ggxLambda(const Vec3f& w, GgxAlpha alpha) {
   const float cos2 = w.z * w.z;
   if (cos2 == 0) return kInfinity;
-  const float tan2 = std::max(0.0f, 1 - cos2) / cos2;
-  return 0.5f * (std::sqrt(1 + alpha * alpha * tan2) - 1);
+  const float sin2 = std::max(0.0f, 1 - cos2);
+  const float alpha2 = alpha.isotropic() || sin2 == 0
+                           ? alpha.x * alpha.x
+                           : (square(alpha.x * w.x) + square(alpha.y * w.y)) / sin2;
+  return 0.5f * (std::sqrt(1 + alpha2 * (sin2 / cos2)) - 1);
 }
-float ggxMasking(const Vec3f& w, float alpha) {
+float ggxMasking(const Vec3f& w, GgxAlpha alpha) {
   return 1 / (1 + ggxLambda(w, alpha));
 }
 /// Height-correlated masking-shadowing G2 (Heitz 2014).
-float ggxMaskingShadowing(const Vec3f& wo, const Vec3f& wi, float alpha) {
+float ggxMaskingShadowing(const Vec3f& wo, const Vec3f& wi, GgxAlpha alpha) {
   return 1 / (1 + ggxLambda(wo, alpha) + ggxLambda(wi, alpha));
 }
 /// A microfacet normal distributed as the normals visible from wo (wo.z > 0), with density
-/// G1(wo) max(0, wo·h) D(h) / wo.z (Heitz 2018): in the configuration stretched to α = 1 the
-/// visible normals are uniform over the projected hemisphere, i.e. over a disk of which the part
-/// hidden behind the hemisphere's silhouette is folded onto the visible half.
-Vec3f sampleGgxVisibleNormal(const Vec3f& wo, float alpha, Vec2f u) {
-  const Vec3f view = normalize(Vec3f(alpha * wo.x, alpha * wo.y, wo.z));
+/// G1(wo) max(0, wo·h) D(h) / wo.z (Heitz 2018): in the configuration stretched by (1/αx, 1/αy)
+/// to α = 1 the visible normals are uniform over the projected hemisphere, i.e. over a disk of
+/// which the part hidden behind the hemisphere's silhouette is folded onto the visible half.
+Vec3f sampleGgxVisibleNormal(const Vec3f& wo, GgxAlpha alpha, Vec2f u) {
+  const Vec3f view = normalize(Vec3f(alpha.x * wo.x, alpha.y * wo.y, wo.z));
   const float lengthXY2 = view.x * view.x + view.y * view.y;
   const Vec3f tangent =
       lengthXY2 > 0 ? Vec3f(-view.y, view.x, 0) / std::sqrt(lengthXY2) : Vec3f(1, 0, 0);
@@ -111,18 +123,20 @@ Vec3f sampleGgxVisibleNormal(const Vec3f& wo, float alpha, Vec2f u) {
       (1 - visibleFraction) * std::sqrt(std::max(0.0f, 1 - p1 * p1)) + visibleFraction * diskY;
   const Vec3f stretched =
       tangent * p1 + bitangent * p2 + view * std::sqrt(std::max(0.0f, 1 - p1 * p1 - p2 * p2));
-  return normalize(Vec3f(alpha * stretched.x, alpha * stretched.y, std::max(1e-7f, stretched.z)));
+  return normalize(
+      Vec3f(alpha.x * stretched.x, alpha.y * stretched.y, std::max(1e-7f, stretched.z)));
 }
-float ggxVisibleNormalPdf(const Vec3f& wo, const Vec3f& h, float alpha) {
+float ggxVisibleNormalPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
   return ggxMasking(wo, alpha) * std::max(0.0f, dot(wo, h)) * ggxDensity(h, alpha) / wo.z;
 }
 
 /// f · cos θi of single-scattering GGX reflection without Fresnel: D G2 / (4 cos θo).
-float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, const Vec3f& h, float alpha) {
+float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, const Vec3f& h,
+                                  GgxAlpha alpha) {
   return ggxDensity(h, alpha) * ggxMaskingShadowing(wo, wi, alpha) / (4 * wo.z);
 }
 /// Solid-angle density of wi = reflect(wo, h) with h sampled by sampleGgxVisibleNormal.
-float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, float alpha) {
+float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
   const float cosThetaOH = dot(wo, h);
   return cosThetaOH > 0 ? ggxVisibleNormalPdf(wo, h, alpha) / (4 * cosThetaOH) : 0.0f;
 }
@@ -138,6 +152,41 @@ GridCell gridCell(float coordinate, int size) {
   const float x = clamp01(coordinate) * float(size - 1);
   const int index = std::min(int(x), size - 2);
   return {index, x - float(index)};
+}
+
+/// 2∫ f(μ) μ dμ of the piecewise-linear interpolant of f at μ_k = k/(count − 1): on each
+/// segment the integrand is quadratic and Simpson's rule is exact.
+float hemisphericalAverage(const float* values, int count) {
+  const double width = 1.0 / (count - 1);
+  double sum = 0;
+  for (int k = 0; k + 1 < count; ++k) {
+    const double mu0 = k * width, mu1 = (k + 1) * width;
+    sum += width * (values[k] * (2 * mu0 + mu1) + values[k + 1] * (mu0 + 2 * mu1)) / 6;
+  }
+  return float(2 * sum);
+}
+
+/// Both terms of a GGX lobe's Schlick-Fresnel albedo (GgxAlbedoTable) for light from wo, by
+/// kStrata² stratified visible-normal samples.
+template <int kStrata>
+void integrateGgxAlbedo(const Vec3f& wo, GgxAlpha alpha, float* scale, float* bias) {
+  double scaleSum = 0, biasSum = 0;
+  const float masking = ggxMasking(wo, alpha);
+  for (int i = 0; i < kStrata; ++i) {
+    for (int j = 0; j < kStrata; ++j) {
+      const Vec2f u{(float(i) + 0.5f) / kStrata, (float(j) + 0.5f) / kStrata};
+      const Vec3f h = sampleGgxVisibleNormal(wo, alpha, u);
+      const Vec3f wi = reflect(wo, h);
+      if (wi.z <= 0) continue;
+      // f cos θi / pdf for visible-normal sampling is G2 / G1(wo).
+      const float weight = ggxMaskingShadowing(wo, wi, alpha) / masking;
+      const float fresnel = schlickWeight(dot(wo, h));
+      scaleSum += weight * (1 - fresnel);
+      biasSum += weight * fresnel;
+    }
+  }
+  *scale = float(scaleSum / (kStrata * kStrata));
+  *bias = float(biasSum / (kStrata * kStrata));
 }
 
 /// E_F(μ, α) = F0·A(μ, α) + B(μ, α) is the directional albedo of single-scattering GGX reflection
@@ -157,25 +206,11 @@ class GgxAlbedoTable {
         // At μ = 0 the integral has a limit but the sampling does not; evaluate just above.
         const float cosThetaO = std::max(float(column) / (kSize - 1), 1e-3f);
         const Vec3f wo(std::sqrt(1 - cosThetaO * cosThetaO), 0, cosThetaO);
-        double scale = 0, bias = 0;
-        for (int i = 0; i < kStrata; ++i) {
-          for (int j = 0; j < kStrata; ++j) {
-            const Vec2f u{(float(i) + 0.5f) / kStrata, (float(j) + 0.5f) / kStrata};
-            const Vec3f h = sampleGgxVisibleNormal(wo, alpha, u);
-            const Vec3f wi = reflect(wo, h);
-            if (wi.z <= 0) continue;
-            // f cos θi / pdf for visible-normal sampling is G2 / G1(wo).
-            const float weight = ggxMaskingShadowing(wo, wi, alpha) / ggxMasking(wo, alpha);
-            const float fresnel = schlickWeight(dot(wo, h));
-            scale += weight * (1 - fresnel);
-            bias += weight * fresnel;
-          }
-        }
-        scale_[row * kSize + column] = float(scale / (kStrata * kStrata));
-        bias_[row * kSize + column] = float(bias / (kStrata * kStrata));
+        integrateGgxAlbedo<kStrata>(wo, alpha, &scale_[row * kSize + column],
+                                    &bias_[row * kSize + column]);
       }
-      averageScale_[row] = hemisphericalAverage(&scale_[row * kSize]);
-      averageBias_[row] = hemisphericalAverage(&bias_[row * kSize]);
+      averageScale_[row] = hemisphericalAverage(&scale_[row * kSize], kSize);
+      averageBias_[row] = hemisphericalAverage(&bias_[row * kSize], kSize);
     }
   }
 
@@ -204,17 +239,6 @@ class GgxAlbedoTable {
 
  private:
   static GridCell cell(float coordinate) { return gridCell(coordinate, kSize); }
-  /// 2∫ f(μ) μ dμ of the piecewise-linear interpolant of f at μ_k = k/(kSize − 1): on each
-  /// segment the integrand is quadratic and Simpson's rule is exact.
-  static float hemisphericalAverage(const float* values) {
-    const double width = 1.0 / (kSize - 1);
-    double sum = 0;
-    for (int k = 0; k + 1 < kSize; ++k) {
-      const double mu0 = k * width, mu1 = (k + 1) * width;
-      sum += width * (values[k] * (2 * mu0 + mu1) + values[k + 1] * (mu0 + 2 * mu1)) / 6;
-    }
-    return float(2 * sum);
-  }
 
   std::array<float, kSize * kSize> scale_{}, bias_{};
   std::array<float, kSize> averageScale_{}, averageBias_{};
@@ -223,6 +247,120 @@ class GgxAlbedoTable {
 const GgxAlbedoTable& ggxAlbedoTable() {
   static const GgxAlbedoTable table;  // built once, thread-safe, immutable afterwards
   return table;
+}
+
+/// The albedo terms A and B of GgxAlbedoTable for anisotropic lobes, which depend on the
+/// azimuth φ of the direction too. Tabulated over μ = cos θ on [0, 1], φ folded into [0, π/2]
+/// (the lobe is symmetric about both axes), √(αx / kMaxAlpha) on [0, 1] (OpenPBR's αx reaches √2)
+/// and αy / αx on [0, 1] (the larger α is along x; lookups swap the axes otherwise), end points
+/// included. Computed at first use (about 0.15 s), only when an anisotropic lobe is first
+/// evaluated.
+class AnisotropicGgxAlbedoTable {
+ public:
+  static constexpr int kCosines = 16, kAzimuths = 8, kRoughnesses = 12, kRatios = 8;
+  static constexpr int kStrata = 12;  // kStrata² samples per entry
+  static constexpr float kMaxAlpha = 1.41421356f;
+
+  AnisotropicGgxAlbedoTable() {
+    for (int r = 0; r < kRoughnesses; ++r) {
+      for (int q = 0; q < kRatios; ++q) {
+        const GgxAlpha alpha = nodeAlpha(r, q);
+        for (int a = 0; a < kAzimuths; ++a) {
+          const float phi = 0.5f * kPi * float(a) / (kAzimuths - 1);
+          for (int m = 0; m < kCosines; ++m) {
+            // At μ = 0 the integral has a limit but the sampling does not; evaluate just above.
+            const float cosThetaO = std::max(float(m) / (kCosines - 1), 1e-3f);
+            const float sinThetaO = std::sqrt(1 - cosThetaO * cosThetaO);
+            const Vec3f wo(sinThetaO * std::cos(phi), sinThetaO * std::sin(phi), cosThetaO);
+            const int i = index(r, q, a, m);
+            integrateGgxAlbedo<kStrata>(wo, alpha, &scale_[size_t(i)], &bias_[size_t(i)]);
+          }
+        }
+        // (1/π) ∫ E μ dμ dφ: Simpson-exact in μ, trapezoidal in φ.
+        double scale = 0, bias = 0;
+        for (int a = 0; a < kAzimuths; ++a) {
+          const double weight = (a == 0 || a == kAzimuths - 1 ? 0.5 : 1.0) / (kAzimuths - 1);
+          scale += weight * hemisphericalAverage(&scale_[size_t(index(r, q, a, 0))], kCosines);
+          bias += weight * hemisphericalAverage(&bias_[size_t(index(r, q, a, 0))], kCosines);
+        }
+        averageScale_[size_t(r * kRatios + q)] = float(scale);
+        averageBias_[size_t(r * kRatios + q)] = float(bias);
+      }
+    }
+  }
+
+  /// A and B for light from local direction w (w.z > 0).
+  GgxAlbedoTable::Albedo directional(const Vec3f& w, GgxAlpha alpha) const {
+    const float x = alpha.x >= alpha.y ? w.x : w.y, y = alpha.x >= alpha.y ? w.y : w.x;
+    const GridCell a = gridCell(std::atan2(std::fabs(y), std::fabs(x)) / (0.5f * kPi), kAzimuths);
+    const GridCell m = gridCell(w.z, kCosines);
+    const auto [r, q] = cells(alpha);
+    GgxAlbedoTable::Albedo result;
+    for (int corner = 0; corner < 16; ++corner) {
+      const int dr = corner & 1, dq = (corner >> 1) & 1, da = (corner >> 2) & 1, dm = corner >> 3;
+      const float weight = (dr ? r.fraction : 1 - r.fraction) * (dq ? q.fraction : 1 - q.fraction) *
+                           (da ? a.fraction : 1 - a.fraction) * (dm ? m.fraction : 1 - m.fraction);
+      const size_t i = size_t(index(r.index + dr, q.index + dq, a.index + da, m.index + dm));
+      result.scale += weight * scale_[i];
+      result.bias += weight * bias_[i];
+    }
+    return result;
+  }
+  /// (1/π) ∫ A μ dω and (1/π) ∫ B μ dω over the hemisphere.
+  GgxAlbedoTable::Albedo average(GgxAlpha alpha) const {
+    const auto [r, q] = cells(alpha);
+    GgxAlbedoTable::Albedo result;
+    for (int corner = 0; corner < 4; ++corner) {
+      const int dr = corner & 1, dq = corner >> 1;
+      const float weight = (dr ? r.fraction : 1 - r.fraction) * (dq ? q.fraction : 1 - q.fraction);
+      const size_t i = size_t((r.index + dr) * kRatios + q.index + dq);
+      result.scale += weight * averageScale_[i];
+      result.bias += weight * averageBias_[i];
+    }
+    return result;
+  }
+
+ private:
+  static int index(int roughness, int ratio, int azimuth, int cosine) {
+    return ((roughness * kRatios + ratio) * kAzimuths + azimuth) * kCosines + cosine;
+  }
+  static GgxAlpha nodeAlpha(int roughness, int ratio) {
+    const float alongX = std::max(kMaxAlpha * square(float(roughness) / (kRoughnesses - 1)),
+                                  PreviewSurfaceBsdf::kDeltaAlpha);
+    return {alongX,
+            std::max(alongX * float(ratio) / (kRatios - 1), PreviewSurfaceBsdf::kDeltaAlpha)};
+  }
+  static std::pair<GridCell, GridCell> cells(GgxAlpha alpha) {
+    const float larger = std::max(alpha.x, alpha.y), smaller = std::min(alpha.x, alpha.y);
+    return {gridCell(std::sqrt(larger / kMaxAlpha), kRoughnesses),
+            gridCell(larger > 0 ? smaller / larger : 1.0f, kRatios)};
+  }
+
+  std::array<float, kRoughnesses * kRatios * kAzimuths * kCosines> scale_{}, bias_{};
+  std::array<float, kRoughnesses * kRatios> averageScale_{}, averageBias_{};
+};
+
+const AnisotropicGgxAlbedoTable& anisotropicGgxAlbedoTable() {
+  static const AnisotropicGgxAlbedoTable table;  // built once, thread-safe, immutable afterwards
+  return table;
+}
+
+/// The anisotropic table's lookup, kept out of line (with its table's initialisation) so that
+/// ggxDirectionalAlbedo stays small.
+GgxAlbedoTable::Albedo anisotropicGgxDirectionalAlbedo(const Vec3f& w, GgxAlpha alpha) {
+  return anisotropicGgxAlbedoTable().directional(w, alpha);
+}
+/// A GGX lobe's albedo terms for light from local direction w (w.z > 0; isotropic lobes read
+/// only w.z), and their hemispherical averages. Always inlined: the isotropic lookup is on every
+/// evaluation's path, and was inlined before anisotropy existed.
+[[gnu::always_inline]] inline GgxAlbedoTable::Albedo ggxDirectionalAlbedo(const Vec3f& w,
+                                                                          GgxAlpha alpha) {
+  if (alpha.isotropic()) return ggxAlbedoTable().directional(w.z, alpha.x);
+  return anisotropicGgxDirectionalAlbedo(w, alpha);
+}
+GgxAlbedoTable::Albedo ggxAverageAlbedo(GgxAlpha alpha) {
+  return alpha.isotropic() ? ggxAlbedoTable().average(alpha.x)
+                           : anisotropicGgxAlbedoTable().average(alpha);
 }
 
 /// Directional albedo E(μ, α, η) of single-scattering GGX on a solid dielectric interface: the
@@ -448,20 +586,21 @@ float sheenReflection(const Vec3f& wo, const Vec3f& wi, float alpha) {
 /// A specular layer: GGX (or a mirror when alpha = 0) with Schlick's Fresnel from f0 to 1 and a
 /// Kulla–Conty multiple-scattering term scaled by `multipleScattering`.
 struct SpecularLayer {
-  float alpha;
+  GgxAlpha alpha;
   Vec3f f0;
   Vec3f multipleScattering;
 
-  /// Directional albedo E(μ): everything the layer reflects for light from μ.
-  Vec3f albedo(float cosTheta) const {
-    if (alpha == 0) return schlickFresnel(f0, cosTheta);
-    const GgxAlbedoTable::Albedo e = ggxAlbedoTable().directional(cosTheta, alpha);
+  /// Directional albedo E(w): everything the layer reflects for light from local direction w
+  /// (only w.z matters to isotropic lobes).
+  Vec3f albedo(const Vec3f& w) const {
+    if (alpha.x == 0) return schlickFresnel(f0, w.z);
+    const GgxAlbedoTable::Albedo e = ggxDirectionalAlbedo(w, alpha);
     return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
   }
-  /// Hemispherical average 2∫E(μ)μ dμ.
+  /// Hemispherical average (1/π) ∫ E(w) cos θ dw.
   Vec3f averageAlbedo() const {
-    if (alpha == 0) return schlickAverage(f0);
-    const GgxAlbedoTable::Albedo e = ggxAlbedoTable().average(alpha);
+    if (alpha.x == 0) return schlickAverage(f0);
+    const GgxAlbedoTable::Albedo e = ggxAverageAlbedo(alpha);
     return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
   }
 };
@@ -470,10 +609,9 @@ struct SpecularLayer {
 /// (1 − E(μo))(1 − E(μi)) / (π (1 − E_avg)), which by itself reflects 1 − E(μo): the energy of
 /// the light that bounces more than once between microfacets, each bounce attenuated by the
 /// average Fresnel reflectance.
-Vec3f multipleScatteringScale(const Vec3f& f0, float alpha) {
-  if (alpha == 0) return Vec3f(0.0f);
-  const GgxAlbedoTable::Albedo e = ggxAlbedoTable().average(alpha);
-  const float averageAlbedo = e.scale + e.bias;
+/// `averageAlbedo`: E_avg of the white lobe (0 for a delta lobe, which has no such term).
+Vec3f multipleScatteringScale(const Vec3f& f0, float averageAlbedo) {
+  if (averageAlbedo == 0) return Vec3f(0.0f);
   const Vec3f fresnel = schlickAverage(f0);
   const auto scale = [&](float f) { return f * f * averageAlbedo / (1 - f * (1 - averageAlbedo)); };
   return {scale(fresnel.x), scale(fresnel.y), scale(fresnel.z)};
@@ -485,23 +623,54 @@ float microfacetAlpha(float roughness) {
   return alpha < PreviewSurfaceBsdf::kDeltaAlpha ? 0.0f : alpha;
 }
 
+/// A lobe's (αx, αy) for a roughness and an anisotropy (MaterialParams::anisotropyModel); 0
+/// (a delta lobe) where αx is below kDeltaAlpha, αy at least kDeltaAlpha otherwise.
+GgxAlpha lobeAlpha(float roughness, float anisotropy, AnisotropyModel model) {
+  if (!(anisotropy > 0)) return microfacetAlpha(roughness);
+  const float alpha = square(clamp01(roughness));
+  const float a = clamp01(anisotropy);
+  float alongX = 0, alongY = 0;
+  if (model == AnisotropyModel::OpenPbr) {
+    alongX = alpha * std::sqrt(2 / (1 + square(1 - a)));
+    alongY = (1 - a) * alongX;
+  } else {
+    const float aspect = std::sqrt(1 - std::min(a, 0.98f));
+    alongX = std::min(alpha / aspect, 1.0f);
+    alongY = alpha * aspect;
+  }
+  if (alongX < PreviewSurfaceBsdf::kDeltaAlpha) return 0.0f;
+  return {alongX, std::max(alongY, PreviewSurfaceBsdf::kDeltaAlpha)};
+}
+
 constexpr float kClearcoatF0 = 0.04f;  // ((1 − 1.5) / (1 + 1.5))², fixed by the spec
 
 }  // namespace
 
 PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& normal,
-                                       float ior, DielectricKind dielectricKind)
+                                       float ior, DielectricKind dielectricKind,
+                                       const Vec3f& tangent)
     : frame_(normal),
       opacity_(clamp01(material.opacity)),
       clearcoat_(clamp01(material.clearcoat)),
-      coatAlpha_(microfacetAlpha(material.clearcoatRoughness)),
+      coatAlpha_(lobeAlpha(material.clearcoatRoughness, material.clearcoatAnisotropy,
+                           material.anisotropyModel)),
       sheen_(clamp01(material.sheen)),
-      specularAlpha_(microfacetAlpha(material.roughness)),
+      specularAlpha_(lobeAlpha(material.roughness, material.anisotropy, material.anisotropyModel)),
       ior_(std::isfinite(ior) && ior > 0 ? ior : 1.0f),
       dielectricAlpha_(microfacetAlpha(material.transmissionRoughness < 0
                                            ? material.roughness
                                            : material.transmissionRoughness)),
       dielectricKind_(dielectricKind) {
+  if (!specularAlpha_.isotropic() || !coatAlpha_.isotropic()) {
+    // x along the tangent turned by the rotation (counter-clockwise about the normal).
+    frame_ = Frame::withTangent(normal, tangent);
+    const float angle =
+        2 * kPi * (std::isfinite(material.anisotropyRotation) ? material.anisotropyRotation : 0.0f);
+    const float c = std::cos(angle), s = std::sin(angle);
+    const Vec3f turned = frame_.s * c + frame_.t * s;
+    frame_.t = frame_.t * c - frame_.s * s;
+    frame_.s = turned;
+  }
   // The coat tint and the sheen are set up only where they act: materials without them cost
   // what they did before.
   if (clearcoat_ > 0) coatTint_ = lerp(Vec3f(1.0f), clamp01(material.clearcoatColor), clearcoat_);
@@ -509,10 +678,16 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     sheenColor_ = clamp01(material.sheenColor);
     sheenAlpha_ = std::max(clamp01(material.sheenRoughness), kMinSheenAlpha);
   }
+  float averageAlbedo = 0;
+  if (specularAlpha_.x > 0) {
+    const GgxAlbedoTable::Albedo average = ggxAverageAlbedo(specularAlpha_);
+    averageAlbedo = average.scale + average.bias;
+    specularAverageLoss_ = 1 - average.scale - average.bias;
+  }
   const Vec3f albedo = clamp01(material.diffuseColor);
   if (material.useSpecularWorkflow) {
     specularF0_ = clamp01(material.specularColor);
-    multipleScatteringScale_ = multipleScatteringScale(specularF0_, specularAlpha_);
+    multipleScatteringScale_ = multipleScatteringScale(specularF0_, averageAlbedo);
     diffuseReflectance_ = albedo;
     diffuseCoverF0_ = specularF0_;
     diffuseCoverMultipleScattering_ = multipleScatteringScale_;
@@ -523,9 +698,9 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     const Vec3f dielectricF0(square((1 - ior_) / (1 + ior_)));
     specularF0_ = lerp(dielectricF0, albedo, metallic);
     diffuseCoverF0_ = dielectricF0;
-    diffuseCoverMultipleScattering_ = multipleScatteringScale(dielectricF0, specularAlpha_);
+    diffuseCoverMultipleScattering_ = multipleScatteringScale(dielectricF0, averageAlbedo);
     multipleScatteringScale_ = diffuseCoverMultipleScattering_ * (1 - metallic) +
-                               multipleScatteringScale(albedo, specularAlpha_) * metallic;
+                               multipleScatteringScale(albedo, averageAlbedo) * metallic;
     diffuseReflectance_ = albedo * (1 - metallic);
   }
   const Vec3f coverAverage =
@@ -541,16 +716,15 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
 bool PreviewSurfaceBsdf::isPurelySpecular() const {
   const bool opaqueIsDelta =
       opacity_ == 0 ||
-      (sheen_ == 0 && (clearcoat_ == 0 || coatAlpha_ == 0) && specularAlpha_ == 0 &&
+      (sheen_ == 0 && (clearcoat_ == 0 || coatAlpha_.x == 0) && specularAlpha_.x == 0 &&
        isBlack(diffuseReflectance_ * diffuseNormalization_));
   const bool translucentIsDelta = opacity_ == 1 || dielectricAlpha_ == 0 || ior_ == 1;
   return opaqueIsDelta && translucentIsDelta;
 }
 
-float PreviewSurfaceBsdf::coatTransmittance(float cosTheta) const {
+float PreviewSurfaceBsdf::coatTransmittance(const Vec3f& w) const {
   if (clearcoat_ == 0) return 1;
-  return 1 - clearcoat_ *
-                 SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.albedo(cosTheta).x;
+  return 1 - clearcoat_ * SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.albedo(w).x;
 }
 
 Vec3f PreviewSurfaceBsdf::tintUnderCoat(const Vec3f& value) const {
@@ -565,9 +739,8 @@ float PreviewSurfaceBsdf::sheenTransmittance(float cosThetaO) const {
   return sheen_ > 0 ? 1 - sheenAlbedo(cosThetaO) : 1.0f;
 }
 
-Vec3f PreviewSurfaceBsdf::diffuseLayerCover(float cosTheta) const {
-  return SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}.albedo(
-      cosTheta);
+Vec3f PreviewSurfaceBsdf::diffuseLayerCover(const Vec3f& w) const {
+  return SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}.albedo(w);
 }
 
 PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::lobeProbabilities(float cosThetaO) const {
@@ -582,6 +755,9 @@ PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabiliti
   // Each lobe's albedo for this wo. The layers under the coat are attenuated by its
   // transmittance for wo only, the one for wi being unknown yet.
   LobeProbabilities p;
+  // Only cos θo is known here: anisotropic lobes are taken at azimuth 0 (the choice need only
+  // be the same in sample() and pdf()).
+  const Vec3f wo(0, 0, cosThetaO);
   if (opacity_ > 0) {
     // What the sheen lets through to the layers below (albedo scaling: for wo only).
     float underSheen = opacity_;
@@ -590,19 +766,20 @@ PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabiliti
       p.sheen = opacity_ * luminance(sheenColor_) * sheen;
       underSheen = opacity_ * (1 - sheen);
     }
-    const float coat = coatTransmittance(cosThetaO);
+    const float coat = coatTransmittance(wo);
     const float below = underSheen * coat;
     p.coat = underSheen * (1 - coat);
-    if (specularAlpha_ == 0) {
+    if (specularAlpha_.x == 0) {
       p.specular = below * luminance(tintUnderCoat(schlickFresnel(specularF0_, cosThetaO)));
     } else {
-      const GgxAlbedoTable::Albedo e = ggxAlbedoTable().directional(cosThetaO, specularAlpha_);
+      const GgxAlbedoTable::Albedo e = ggxDirectionalAlbedo(wo, specularAlpha_);
       p.specular = below * luminance(tintUnderCoat(specularF0_ * e.scale + Vec3f(e.bias)));
       p.multipleScattering = below * luminance(tintUnderCoat(multipleScatteringScale_)) *
                              std::max(0.0f, 1 - e.scale - e.bias);
     }
-    p.diffuse = below * luminance(tintUnderCoat(diffuseReflectance_ *
-                                                (Vec3f(1.0f) - diffuseLayerCover(cosThetaO))));
+    p.diffuse =
+        below *
+        luminance(tintUnderCoat(diffuseReflectance_ * (Vec3f(1.0f) - diffuseLayerCover(wo))));
   }
   p.dielectric = 1 - opacity_;  // its albedo is 1: energy-compensated, and nothing is absorbed
   const float total =
@@ -623,31 +800,27 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
   if (wi.z <= 0) return Vec3f(0.0f);
   const Vec3f h = normalize(wo + wi);
   Vec3f base(0.0f);
-  if (specularAlpha_ > 0) {
+  if (specularAlpha_.x > 0) {
     base += schlickFresnel(specularF0_, dot(wo, h)) *
             ggxReflectionWithoutFresnel(wo, wi, h, specularAlpha_);
-    const GgxAlbedoTable& table = ggxAlbedoTable();
-    const GgxAlbedoTable::Albedo eo = table.directional(wo.z, specularAlpha_);
-    const GgxAlbedoTable::Albedo ei = table.directional(wi.z, specularAlpha_);
-    const GgxAlbedoTable::Albedo average = table.average(specularAlpha_);
-    const float averageLoss = 1 - average.scale - average.bias;
-    if (averageLoss > 0) {
+    const GgxAlbedoTable::Albedo eo = ggxDirectionalAlbedo(wo, specularAlpha_);
+    const GgxAlbedoTable::Albedo ei = ggxDirectionalAlbedo(wi, specularAlpha_);
+    if (specularAverageLoss_ > 0) {
       base += multipleScatteringScale_ *
               (std::max(0.0f, 1 - eo.scale - eo.bias) * std::max(0.0f, 1 - ei.scale - ei.bias) *
-               wi.z / (kPi * averageLoss));
+               wi.z / (kPi * specularAverageLoss_));
     }
   }
   Vec3f diffuse(0.0f);
   if (!isBlack(diffuseReflectance_)) {
-    diffuse = diffuseReflectance_ * diffuseNormalization_ *
-              (Vec3f(1.0f) - diffuseLayerCover(wo.z)) * (Vec3f(1.0f) - diffuseLayerCover(wi.z)) *
-              wi.z;
+    diffuse = diffuseReflectance_ * diffuseNormalization_ * (Vec3f(1.0f) - diffuseLayerCover(wo)) *
+              (Vec3f(1.0f) - diffuseLayerCover(wi)) * wi.z;
     base += diffuse;
   }
-  const float coat = coatTransmittance(wo.z) * coatTransmittance(wi.z);
+  const float coat = coatTransmittance(wo) * coatTransmittance(wi);
   if (diffusePart) *diffusePart = tintUnderCoat(diffuse) * (coat * opacity_);
   Vec3f value = tintUnderCoat(base) * coat;
-  if (clearcoat_ > 0 && coatAlpha_ > 0) {
+  if (clearcoat_ > 0 && coatAlpha_.x > 0) {
     value += Vec3f(clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), dot(wo, h)).x *
                    ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_));
   }
@@ -664,8 +837,8 @@ float PreviewSurfaceBsdf::pdfOpaque(const Vec3f& wo, const Vec3f& wi,
   if (wi.z <= 0) return 0;
   const Vec3f h = normalize(wo + wi);
   float density = (p.multipleScattering + p.diffuse) * wi.z * kInvPi;
-  if (specularAlpha_ > 0) density += p.specular * ggxReflectionPdf(wo, h, specularAlpha_);
-  if (coatAlpha_ > 0) density += p.coat * ggxReflectionPdf(wo, h, coatAlpha_);
+  if (specularAlpha_.x > 0) density += p.specular * ggxReflectionPdf(wo, h, specularAlpha_);
+  if (coatAlpha_.x > 0) density += p.coat * ggxReflectionPdf(wo, h, coatAlpha_);
   if (sheen_ > 0) density += p.sheen * kUniformHemispherePdf;
   return density;
 }
@@ -847,7 +1020,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
   const Vec3f mirror(-wo.x, -wo.y, wo.z);
   switch (lobe) {
     case 0:  // clearcoat
-      if (coatAlpha_ == 0) {
+      if (coatAlpha_.x == 0) {
         return delta(mirror,
                      Vec3f(opacity_ * clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), wo.z).x *
                            sheenTransmittance(wo.z)),
@@ -857,8 +1030,8 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
       result.lobe = BsdfLobe::Glossy;
       break;
     case 1:  // specular layer, single scattering
-      if (specularAlpha_ == 0) {
-        const float coat = coatTransmittance(wo.z);
+      if (specularAlpha_.x == 0) {
+        const float coat = coatTransmittance(wo);
         return delta(mirror,
                      tintUnderCoat(schlickFresnel(specularF0_, wo.z)) *
                          (opacity_ * coat * coat * sheenTransmittance(wo.z)),

@@ -142,6 +142,15 @@ void assign(MaterialParams& params, MaterialInput input, const float* value) {
     case MaterialInput::SheenRoughness:
       params.sheenRoughness = value[0];
       break;
+    case MaterialInput::Anisotropy:
+      params.anisotropy = value[0];
+      break;
+    case MaterialInput::ClearcoatAnisotropy:
+      params.clearcoatAnisotropy = value[0];
+      break;
+    case MaterialInput::AnisotropyRotation:
+      params.anisotropyRotation = value[0];
+      break;
     case MaterialInput::Opacity:
       params.opacity = value[0];
       break;
@@ -182,18 +191,25 @@ void evaluateConnections(const Material& material, const TextureSystem& textures
   }
 }
 
+/// ∂P/∂s and ∂P/∂t of the triangle at `point` for texture coordinates changing by d1 and d2
+/// along its edges from corner 0 to corners 1 and 2; false where they give no frame.
+bool textureTangents(Vec2f d1, Vec2f d2, const SurfacePoint& point, Vec3f* dpds, Vec3f* dpdt) {
+  const float determinant = d1.x * d2.y - d1.y * d2.x;
+  if (std::abs(determinant) < 1e-12f) return false;
+  const Vec3f e1 = point.corners[1] - point.corners[0];
+  const Vec3f e2 = point.corners[2] - point.corners[0];
+  *dpds = (e1 * d2.y - e2 * d1.y) / determinant;
+  *dpdt = (e2 * d1.x - e1 * d2.x) / determinant;
+  return true;
+}
+
 /// The shading normal bent by a tangent-space normal `mapped` (x along +s, y along +t, z along
 /// the normal), or the normal unchanged where the texture coordinates give no tangent frame.
 Vec3f applyNormalMap(const Vec3f& normal, const Vec3f& mapped, const CoordinatesAt* coordinates,
                      const SurfacePoint& point) {
-  if (!coordinates) return normal;
-  const Vec2f d1 = coordinates->edge1, d2 = coordinates->edge2;
-  const float determinant = d1.x * d2.y - d1.y * d2.x;
-  if (std::abs(determinant) < 1e-12f) return normal;
-  const Vec3f e1 = point.corners[1] - point.corners[0];
-  const Vec3f e2 = point.corners[2] - point.corners[0];
-  const Vec3f dpds = (e1 * d2.y - e2 * d1.y) / determinant;
-  const Vec3f dpdt = (e2 * d1.x - e1 * d2.x) / determinant;
+  Vec3f dpds, dpdt;
+  if (!coordinates || !textureTangents(coordinates->edge1, coordinates->edge2, point, &dpds, &dpdt))
+    return normal;
   const Vec3f tangent = dpds - normal * dot(normal, dpds);
   if (!(length(tangent) > 0)) return normal;
   const Vec3f s = normalize(tangent);
@@ -258,6 +274,28 @@ Vec2f TextureCoordinates::apply(Vec2f st) const {
 bool Material::opacityVaries() const {
   return std::any_of(connections.begin(), connections.end(),
                      [](const InputConnection& c) { return c.input == MaterialInput::Opacity; });
+}
+
+bool Material::mayBeAnisotropic() const {
+  return constants.anisotropy > 0 || constants.clearcoatAnisotropy > 0 ||
+         std::any_of(connections.begin(), connections.end(), [](const InputConnection& c) {
+           return c.input == MaterialInput::Anisotropy ||
+                  c.input == MaterialInput::ClearcoatAnisotropy;
+         });
+}
+
+Vec3f surfaceTangent(const SurfacePoint& point, const Transform& objectToWorld) {
+  static const std::string tangentName = "tangent";  // looked up on every anisotropic hit
+  float value[4];
+  int width = 0;
+  if (primvarAt(point, tangentName, value, &width) && width >= 3)
+    return objectToWorld.applyToVector({value[0], value[1], value[2]});
+  TextureCoordinates st;
+  st.primvar = "st";
+  const CoordinatesAt coordinates = coordinatesAt(st, point);
+  Vec3f dpds, dpdt;
+  return textureTangents(coordinates.edge1, coordinates.edge2, point, &dpds, &dpdt) ? dpds
+                                                                                    : Vec3f(0.0f);
 }
 
 void footprintOnSurface(const Vec3f& direction, const Vec3f& normal, float radius, Vec3f* dpdx,

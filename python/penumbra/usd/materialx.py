@@ -35,7 +35,10 @@ _VECTOR_PARAMS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "n
 # The sheen and coat colour are Penumbra's extensions of the delegate's inputs; they may vary
 # like the others.
 _SHEEN_PARAMS = ("penumbra:sheen", "penumbra:sheenColor", "penumbra:sheenRoughness")
-_CONNECTABLE = CONNECTABLE | frozenset(_SHEEN_PARAMS) | {"penumbra:clearcoatColor"}
+_ANISOTROPY_PARAMS = ("penumbra:anisotropy", "penumbra:clearcoatAnisotropy",
+                      "penumbra:anisotropyRotation")
+_CONNECTABLE = CONNECTABLE | frozenset(_SHEEN_PARAMS) | frozenset(_ANISOTROPY_PARAMS) | {
+    "penumbra:clearcoatColor"}
 # MaterialX address modes → UsdUVTexture wrap modes.
 _ADDRESS_MODES = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "constant": "black"}
 # Colour spaces Penumbra decodes: as a texture's sourceColorSpace, and on constants.
@@ -440,6 +443,21 @@ class _Mapping:
         if isinstance(thin_walled, mv.Constant) and thin_walled.values[0]:
             self.params["penumbra:thinWalled"] = 1
 
+    def anisotropy(self, model: str, specular: mv.Value | None, coat: mv.Value | None,
+                   rotation: mv.Value | None) -> None:
+        """Anisotropic specular and coat lobes (``model``: the renderer's name of the surface's
+        roughness mapping), stretched along the mesh's tangent turned by ``rotation`` (turns).
+        Nothing is sent for isotropic lobes."""
+        zero = mv.Constant((0.0,))
+        sent = {name: value for name, value in zip(_ANISOTROPY_PARAMS[:2], (specular, coat))
+                if value is not None and value != zero}
+        if not sent:
+            return
+        self.values.update(sent)
+        if rotation is not None and rotation != zero:
+            self.values["penumbra:anisotropyRotation"] = rotation
+        self.params["penumbra:anisotropyModel"] = model
+
 
 def _mean(value: mv.Value) -> mv.Value:
     if isinstance(value, mv.Constant):
@@ -479,16 +497,32 @@ def _map_standard_surface(s: _Surface, mapping: _Mapping) -> None:
         opacity=s("opacity"), normal=s("normal") if s.connected("normal") else None,
         sheen=(sheen, s("sheen_color"), s("sheen_roughness")),
     )
+    _standard_surface_anisotropy(s, mapping)
     for name, neutral, weight in (
-        ("specular_anisotropy", (0.0,), None),
         ("diffuse_roughness", (0.0,), None),
-        ("coat_IOR", (1.5,), "coat"), ("coat_anisotropy", (0.0,), "coat"),
+        ("coat_IOR", (1.5,), "coat"),
         ("transmission_color", (1.0,), "transmission"),
         ("transmission_depth", (0.0,), "transmission"),
         ("transmission_scatter", (0.0,), "transmission"),
         ("thin_film_thickness", (0.0,), None),
     ):
         s.ignore(name, neutral, weight)
+
+
+def _standard_surface_anisotropy(s: _Surface, mapping: _Mapping) -> None:
+    """One tangent serves both lobes: the specular rotation where the specular lobe is
+    anisotropic, else the coat's."""
+    coat = None if s.constant("coat") == (0.0,) else s("coat_anisotropy")
+    specular = s("specular_anisotropy")
+    isotropic = mv.Constant((0.0,))
+    rotation = s("specular_rotation")
+    if specular in (None, isotropic):
+        rotation = s("coat_rotation")
+    elif coat not in (None, isotropic) and s("coat_rotation") != rotation:
+        s.unsupported.append("coat_rotation other than specular_rotation")
+    if s.connected("tangent") and (specular, coat) != (isotropic, isotropic):
+        s.unsupported.append("tangent")
+    mapping.anisotropy("standardSurface", specular, coat, rotation)
 
 
 def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
@@ -518,11 +552,15 @@ def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
         normal=s("geometry_normal") if s.connected("geometry_normal") else None,
         sheen=(s("fuzz_weight"), s("fuzz_color"), s("fuzz_roughness")),
     )
+    coat_anisotropy = None if s.constant("coat_weight") == (0.0,) else s(
+        "coat_roughness_anisotropy")
+    mapping.anisotropy("openPBR", s("specular_roughness_anisotropy"), coat_anisotropy, None)
+    for tangent in ("geometry_tangent", "geometry_coat_tangent"):
+        if s.connected(tangent):
+            s.unsupported.append(tangent)
     for name, neutral, weight, tolerance in (
-        ("specular_roughness_anisotropy", (0.0,), None, 1e-6),
         ("base_diffuse_roughness", (0.0,), None, 1e-6),
         ("coat_ior", (1.5,), "coat_weight", 0.15),  # the BSDF's coat has ior 1.5
-        ("coat_roughness_anisotropy", (0.0,), "coat_weight", 1e-6),
         ("transmission_color", (1.0,), "transmission_weight", 1e-6),
         ("transmission_depth", (0.0,), "transmission_weight", 1e-6),
         ("thin_film_weight", (0.0,), None, 1e-6),

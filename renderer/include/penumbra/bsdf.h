@@ -7,9 +7,11 @@
 //   sheen      Charlie microfibre distribution (Estevez and Kulla 2017), α = sheenRoughness
 //              (≥ 0.01), Smith height-correlated masking-shadowing with Λ computed numerically,
 //              no Fresnel, × sheen × sheenColor (Penumbra's extension; none when sheen is 0)
-//   clearcoat  GGX, α = clearcoatRoughness², Schlick F0 = 0.04 (ior 1.5), white, × `clearcoat`;
+//   clearcoat  GGX, α = clearcoatRoughness² (stretched by clearcoatAnisotropy), Schlick F0 = 0.04
+//              (ior 1.5), white, × `clearcoat`;
 //              what lies under it is tinted by 1 − clearcoat + clearcoat × clearcoatColor
-//   specular   GGX, α = roughness², Schlick from F0 to F90 = 1 — F0 = specularColor (specular
+//   specular   GGX, α = roughness² (stretched by anisotropy), Schlick from F0 to F90 = 1 —
+//              F0 = specularColor (specular
 //              workflow) or ((1 − ior)/(1 + ior))² mixed towards diffuseColor by `metallic`
 //              (metallic workflow) — plus Kulla–Conty multiple-scattering compensation
 //   diffuse    Lambertian, diffuseColor (× (1 − metallic) in the metallic workflow)
@@ -18,6 +20,13 @@
 // Every GGX lobe is sampled by its visible normals (Heitz 2018) and uses Smith's
 // height-correlated masking-shadowing; α below kDeltaAlpha makes the lobe a perfect mirror or
 // refractor (a delta lobe).
+//
+// Anisotropy. The specular and clearcoat lobes may have different α along the shading tangent
+// (αx) and bitangent (αy), from roughness and anisotropy by MaterialParams::anisotropyModel; the
+// tangent is the one given to the constructor turned by anisotropyRotation. Their directional
+// albedos (for the layering and the multiple-scattering term) depend on the azimuth too and come
+// from a second table (about 0.15 s at first use of an anisotropic lobe); the lobe choice takes
+// wo at azimuth 0. The translucent part stays isotropic.
 //
 // Conventions: directions are in world space, unit length, and point away from the surface; `wo`
 // points towards where the ray came from. Values are for radiance transport (the integrator traces
@@ -55,6 +64,15 @@
 #include "penumbra/math.h"
 
 namespace penumbra {
+
+/// GGX roughness α along the local frame's x (the shading tangent) and y (bitangent) axes.
+struct GgxAlpha {
+  float x = 0, y = 0;
+  GgxAlpha() = default;
+  GgxAlpha(float alpha) : x(alpha), y(alpha) {}  // NOLINT(google-explicit-constructor): isotropic
+  GgxAlpha(float alongX, float alongY) : x(alongX), y(alongY) {}
+  bool isotropic() const { return x == y; }
+};
 
 enum class BsdfLobe : uint8_t {
   Diffuse,
@@ -98,9 +116,12 @@ class PreviewSurfaceBsdf {
 
   /// `normal`: unit shading normal on the side of the authored front face. `ior`: the index of
   /// refraction to use instead of material.ior (wavelength-dependent under dispersion, see
-  /// dispersiveIor); it also sets F0 in the metallic workflow.
+  /// dispersiveIor); it also sets F0 in the metallic workflow. `tangent`: the surface's tangent
+  /// (SurfaceHit::tangent), read only by anisotropic lobes; where it is zero or along the normal
+  /// they take a fixed tangent of the normal's (Frame(normal).s).
   PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& normal, float ior,
-                     DielectricKind dielectricKind = DielectricKind::Solid);
+                     DielectricKind dielectricKind = DielectricKind::Solid,
+                     const Vec3f& tangent = Vec3f(0.0f));
 
   /// f(wo, wi) · |cos θi| over the non-delta lobes. `diffusePart`, if given, receives the
   /// diffuse lobe's share (lights scale diffuse and specular response separately).
@@ -125,16 +146,18 @@ class PreviewSurfaceBsdf {
   /// Lobe choice probabilities for an outgoing direction at cos θo = cosThetaO (> 0).
   LobeProbabilities lobeProbabilities(float cosThetaO) const;
   LobeProbabilities computeLobeProbabilities(float cosThetaO) const;
-  /// Clearcoat transmittance 1 − c·E_cc(μ).
-  float coatTransmittance(float cosTheta) const;
+  /// Clearcoat transmittance 1 − c·E_cc(w) for light from local direction w (isotropic coats
+  /// read only w.z).
+  float coatTransmittance(const Vec3f& w) const;
   /// `value` (of a layer under the clearcoat) tinted by the coat's colour.
   Vec3f tintUnderCoat(const Vec3f& value) const;
   /// Directional albedo of the sheen layer, weight included and colour excluded: s·E_sh(μ).
   float sheenAlbedo(float cosTheta) const;
   /// What the sheen lets through to the layers under it for wo at cos θo: 1 − s·E_sh(μo).
   float sheenTransmittance(float cosThetaO) const;
-  /// Directional albedo of the specular layer the diffuse layer lies under.
-  Vec3f diffuseLayerCover(float cosTheta) const;
+  /// Directional albedo of the specular layer the diffuse layer lies under, for light from local
+  /// direction w.
+  Vec3f diffuseLayerCover(const Vec3f& w) const;
   /// Everything below in the local frame (z = shading normal); "opaque" functions expect
   /// wo.z > 0, "dielectric" functions wo.z > 0 and the relative index η = n(wi side)/n(wo side)
   /// of the reflection–refraction pair (1 for a thin sheet).
@@ -152,14 +175,16 @@ class PreviewSurfaceBsdf {
   float opacity_;
   // Clearcoat; α = 0 marks a delta lobe, here and below.
   float clearcoat_;
-  float coatAlpha_;
+  GgxAlpha coatAlpha_;
   Vec3f coatTint_{1.0f};  // of the layers under the coat
   // Sheen (0: none) and its Charlie α.
   float sheen_;
   Vec3f sheenColor_{0.0f};
   float sheenAlpha_ = 1;
-  // Specular layer.
-  float specularAlpha_;
+  // Specular layer; the average loss is 1 − E_avg of its white GGX lobe (the Kulla–Conty
+  // lobe's normalisation).
+  GgxAlpha specularAlpha_;
+  float specularAverageLoss_ = 0;
   Vec3f specularF0_;
   Vec3f multipleScatteringScale_;  // Kulla–Conty F_ms (F_avg² E_avg / (1 − F_avg (1 − E_avg)))
   // Diffuse layer and the specular layer it lies under (the dielectric one in the metallic

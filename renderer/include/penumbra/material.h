@@ -14,6 +14,16 @@
 
 namespace penumbra {
 
+/// How a roughness r and an anisotropy a in [0, 1] become the GGX α along the shading tangent
+/// (αx) and bitangent (αy); a = 0 is the isotropic α = r² either way (docs/materialx.md).
+enum class AnisotropyModel : uint8_t {
+  /// OpenPBR's: αx = r² √(2 / (1 + (1 − a)²)), αy = (1 − a) αx.
+  OpenPbr,
+  /// MaterialX's standard_surface (roughness_anisotropy node): with k = √(1 − min(a, 0.98)),
+  /// αx = min(r² / k, 1), αy = r² k.
+  StandardSurface,
+};
+
 /// The UsdPreviewSurface parameters at one shading point.
 struct MaterialParams {
   Vec3f diffuseColor{0.18f};
@@ -34,6 +44,14 @@ struct MaterialParams {
   float sheen = 0;
   Vec3f sheenColor{1.0f};
   float sheenRoughness = 0.3f;
+  /// inputs:penumbra:anisotropy and penumbra:clearcoatAnisotropy (0: isotropic) stretch the
+  /// specular and clearcoat lobes along the shading tangent as `anisotropyModel` says;
+  /// penumbra:anisotropyRotation turns that tangent (the mesh's ∂P/∂s, see SurfaceHit::tangent)
+  /// about the normal, in turns (1 = 360°), counter-clockwise seen from the normal's side.
+  float anisotropy = 0;
+  float clearcoatAnisotropy = 0;
+  float anisotropyRotation = 0;
+  AnisotropyModel anisotropyModel = AnisotropyModel::OpenPbr;
   float opacity = 1;
   float opacityThreshold = 0;
   float ior = 1.5f;
@@ -63,6 +81,9 @@ enum class MaterialInput : uint8_t {
   Sheen,
   SheenColor,
   SheenRoughness,
+  Anisotropy,
+  ClearcoatAnisotropy,
+  AnisotropyRotation,
   Opacity,
   Ior,
   Normal,
@@ -122,6 +143,8 @@ struct Material {
   bool varies() const { return !connections.empty(); }
   /// Whether opacity varies over the surface (cut-outs are then decided per hit).
   bool opacityVaries() const;
+  /// Whether any lobe may be anisotropic (shading points then need a tangent).
+  bool mayBeAnisotropic() const;
 };
 
 }  // namespace penumbra

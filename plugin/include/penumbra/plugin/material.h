@@ -44,8 +44,10 @@ class Material : public Prim {
   /// specularColor, metallic, roughness, opacity, opacityThreshold, ior, clearcoat,
   /// clearcoatRoughness, useSpecularWorkflow, penumbra:transmissionRoughness,
   /// penumbra:abbeNumber, penumbra:thinWalled, penumbra:clearcoatColor, penumbra:sheen,
-  /// penumbra:sheenColor, penumbra:sheenRoughness). Throws std::invalid_argument for an unknown
-  /// name, a value of the wrong type or a non-finite sheen or coat colour value.
+  /// penumbra:sheenColor, penumbra:sheenRoughness, penumbra:anisotropy,
+  /// penumbra:clearcoatAnisotropy, penumbra:anisotropyRotation, penumbra:anisotropyModel
+  /// ("openPBR" or "standardSurface")). Throws std::invalid_argument for an unknown name, a value
+  /// of the wrong type, a non-finite sheen, coat colour or anisotropy value or an unknown model.
   void setParam(const std::string& name, const ParamValue& value);
   /// Connects an input (the names above that can vary, or `normal`) to a source; throws
   /// std::invalid_argument for an input that cannot be connected or an unknown output.
