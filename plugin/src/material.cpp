@@ -122,6 +122,21 @@ void Material::connect(const std::string& input, InputSource source) {
   try {
     const MaterialInput connected = parseToken(inputs, input, "connectable input");
     if (source.texture) parseTextureOutput(source.output);
+    if (!source.program.empty()) {
+      // Texture indices are assigned at sync; check the rest now, with each texture node given
+      // an index of its own.
+      ExpressionProgram program;
+      size_t textures = 0;
+      for (const ProgramNode& node : source.program) {
+        program.nodes.push_back(node.node);
+        if (node.node.op == ExpressionOp::Texture) {
+          if (!node.texture) throw std::invalid_argument("a texture node needs a texture");
+          program.nodes.back().texture = int(textures++);
+        }
+      }
+      if (const std::string problem = program.problem(textures); !problem.empty())
+        throw std::invalid_argument(input + ": " + problem);
+    }
     connections_.emplace_back(connected, std::move(source));
   } catch (const std::invalid_argument& error) {
     throw std::invalid_argument(id() + ": " + error.what());

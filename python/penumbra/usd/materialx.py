@@ -217,11 +217,11 @@ class _Network:
         if category == "add":
             return mv.add(value("in1"), value("in2"))
         if category == "subtract":
-            return mv.add(value("in1"), mv.negate(value("in2")))
+            return mv.subtract(value("in1"), value("in2"))
         if category == "multiply":
             return mv.multiply(value("in1"), value("in2"))
         if category == "divide":
-            return mv.multiply(value("in1"), mv.reciprocal(value("in2")))
+            return mv.divide(value("in1"), value("in2"))
         if category == "mix":
             return mv.mix(value("fg"), value("bg"), value("mix"))
         if category == "clamp":
@@ -275,7 +275,8 @@ class _Network:
             )
         if isinstance(coordinates, mv.Constant):
             texture["st"] = {"fallback": tuple(mv.resize(coordinates, 2).values)}  # type: ignore
-        elif coordinates.texture is None and coordinates.channels[:2] == (0, 1):
+        elif isinstance(coordinates, mv.Affine) and coordinates.texture is None and \
+                coordinates.channels[:2] == (0, 1):
             texture["st"] = {"primvar": coordinates.primvar,
                              "fallback": tuple((coordinates.fallback + (0.0, 0.0))[:2])}
             if coordinates.scale[:2] != (1.0, 1.0) or coordinates.bias[:2] != (0.0, 0.0):
@@ -298,8 +299,9 @@ class _Network:
         if isinstance(value, mv.Constant):
             return mv.Constant(tuple(_srgb_to_linear(c) for c in value.values[:3])
                                + value.values[3:])
-        identity = all(s == 1.0 for s in value.scale) and all(b == 0.0 for b in value.bias)
-        if value.texture is None or not identity:
+        identity = isinstance(value, mv.Affine) and all(s == 1.0 for s in value.scale) and all(
+            b == 0.0 for b in value.bias)
+        if not identity or value.texture is None:  # type: ignore[union-attr]
             raise mv.Untranslatable("sRGB decoding of anything but an unscaled texture")
         texture = dict(value.texture, sourceColorSpace="sRGB")
         return mv.Affine(value.channels, value.scale, value.bias, texture)
@@ -621,7 +623,7 @@ def read_materialx_material(
         if value is None:
             continue
         vector = name in _VECTOR_PARAMS
-        if isinstance(value, mv.Affine) and name not in _CONNECTABLE:
+        if not isinstance(value, mv.Constant) and name not in _CONNECTABLE:
             network.report(shader.GetPath(), f"{name} cannot vary over the surface; its "
                            "default is used")
             continue

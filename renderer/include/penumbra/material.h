@@ -120,9 +120,49 @@ struct TextureReader {
   TextureCoordinates coordinates;
 };
 
-/// What drives one input: channels of a texture reader's output, or a mesh primvar.
+/// The operations of an ExpressionProgram. Every value has four channels; arithmetic is
+/// component-wise.
+enum class ExpressionOp : uint8_t {
+  Constant,     // `value`
+  Texture,      // Material::textures[texture]'s output (texel × scale + bias, or its fallback)
+  Primvar,      // primvar `primvar` at the point, zero-padded; `value` where the mesh lacks it
+  Swizzle,      // out[k] = a[channels[k]]
+  Concatenate,  // a's first channels[0] channels, then b's first ones
+  Add,          // a + b
+  Subtract,     // a − b
+  Multiply,     // a × b
+  Divide,       // a / b, 0 where b is 0
+  Mix,          // b + (a − b) × c (MaterialX mix: a foreground, b background, c amount)
+  Clamp,        // min(max(a, b), c)
+};
+
+/// One node of an ExpressionProgram; a, b and c are its operands, earlier nodes of the program.
+struct ExpressionNode {
+  ExpressionOp op = ExpressionOp::Constant;
+  std::array<uint8_t, 3> operands{0, 0, 0};
+  std::array<uint8_t, 4> channels{0, 1, 2, 3};
+  std::array<float, 4> value{0, 0, 0, 0};
+  int texture = -1;  // index into Material::textures
+  std::string primvar;
+};
+
+/// A pattern network that does not reduce to one texture lookup or primvar (a product of two
+/// textures, a texture mixed with a primvar by a mask, …): its nodes in evaluation order, the
+/// last one giving the input's value. Evaluated at each shading point without allocation.
+struct ExpressionProgram {
+  static constexpr size_t kMaxNodes = 64;
+  std::vector<ExpressionNode> nodes;
+
+  /// What makes the program unusable (empty: nothing): no nodes or more than kMaxNodes, an
+  /// operand that is not an earlier node, a channel outside 0..3, a non-finite constant or
+  /// fallback, a texture index outside [0, textureCount).
+  std::string problem(size_t textureCount) const;
+};
+
+/// What drives one input: channels of a texture reader's output, a mesh primvar, or a program.
 struct InputConnection {
   MaterialInput input = MaterialInput::DiffuseColor;
+  int program = -1;  // index into Material::programs; -1: a texture or primvar reader
   int texture = -1;  // index into Material::textures; -1: a primvar reader
   /// The output read: its first channel (r 0, g 1, b 2, a 3) and channel count (1, or 3 for
   /// rgb). A one-channel output feeding a colour input is broadcast to grey.
@@ -137,6 +177,7 @@ struct InputConnection {
 struct Material {
   MaterialParams constants;
   std::vector<TextureReader> textures;
+  std::vector<ExpressionProgram> programs;
   std::vector<InputConnection> connections;
 
   /// Whether any input varies over the surface.

@@ -135,6 +135,10 @@ class RenderDelegate {
   /// The renderer's material for a material sprim, its textures opened; `report`: warn about
   /// textures that cannot be read.
   penumbra::Material buildMaterial(const Material& material, bool report);
+  /// Opens `node`'s file (a warning when it cannot be, if `report`) and appends its reader to
+  /// `result`'s textures; returns its index.
+  int openTexture(const Material& material, const TextureNode& node, bool report,
+                  penumbra::Material* result);
   void syncLights();
   void syncMesh(Mesh& mesh, const DicingContext& dicing);
   /// Places the mesh with its transform, material and visibility.
