@@ -140,19 +140,17 @@ def test_isotropic_surfaces_send_no_anisotropy():
 
 
 def test_a_coat_rotation_other_than_the_specular_one_warns():
-    with pytest.warns(penumbra.PenumbraWarning, match="coat_rotation other than "
-                      "specular_rotation"):
-        warned = []
-        from penumbra.usd.material import read_material
-        from penumbra.usd.sampling import SampleReader
+    from penumbra.usd.material import read_material
+    from penumbra.usd.sampling import SampleReader
 
-        stage = new_stage()
-        add_mtlx_material(stage, "/Looks/m", STANDARD, specular_anisotropy=0.5, coat=1.0,
-                          coat_anisotropy=0.5, coat_rotation=0.25)
-        read_material(stage.GetPrimAtPath("/Looks/m"), SampleReader(Usd.TimeCode(1)),
-                      lambda message: warned.append(message) or warnings.warn(
-                          message, penumbra.PenumbraWarning))
-    assert len(warned) == 1
+    stage = new_stage()
+    add_mtlx_material(stage, "/Looks/m", STANDARD, specular_anisotropy=0.5, coat=1.0,
+                      coat_anisotropy=0.5, coat_rotation=0.25)
+    messages: list[str] = []
+    params = read_material(stage.GetPrimAtPath("/Looks/m"), SampleReader(Usd.TimeCode(1)),
+                           messages.append).params
+    assert len(messages) == 1 and "coat_rotation other than specular_rotation" in messages[0]
+    assert "penumbra:anisotropyRotation" not in params  # the specular lobe's: 0
 
 
 def test_the_delegate_rejects_non_finite_anisotropy_and_unknown_models():
@@ -169,3 +167,24 @@ def test_the_delegate_rejects_non_finite_anisotropy_and_unknown_models():
             delegate.set_material("/m", {name: float("nan")})
     with pytest.raises(ValueError, match="unknown anisotropy model 'ward'"):
         delegate.set_material("/m", {"penumbra:anisotropyModel": "ward"})
+
+
+@pytest.mark.parametrize("anisotropy, warned", [(0.5, True), (0.0, False)])
+def test_a_connected_tangent_warns_only_where_a_lobe_is_anisotropic(anisotropy, warned):
+    from penumbra.usd.material import read_material
+    from penumbra.usd.sampling import SampleReader
+
+    stage = new_stage()
+    surface = add_mtlx_material(stage, "/Looks/m", OPEN_PBR,
+                                specular_roughness_anisotropy=anisotropy)
+    tangent = UsdShade.Shader.Define(stage, "/Looks/m/tangent")
+    tangent.CreateIdAttr("ND_geompropvalue_vector3")
+    tangent.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("brush")
+    surface.CreateInput("geometry_tangent", Sdf.ValueTypeNames.Vector3f).ConnectToSource(
+        tangent.CreateOutput("out", Sdf.ValueTypeNames.Vector3f))
+    messages: list[str] = []
+    read_material(stage.GetPrimAtPath("/Looks/m"), SampleReader(Usd.TimeCode(1)),
+                  messages.append)
+    assert [m for m in messages if "geometry_tangent" in m] == (
+        ["/Looks/m: MaterialX node /Looks/m/Surface: geometry_tangent is not supported by "
+         "Penumbra's BSDF and ignored (docs/materialx.md)"] if warned else [])

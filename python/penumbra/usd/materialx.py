@@ -522,9 +522,13 @@ def _standard_surface_anisotropy(s: _Surface, mapping: _Mapping) -> None:
         rotation = s("coat_rotation")
     elif coat not in (None, isotropic) and s("coat_rotation") != rotation:
         s.unsupported.append("coat_rotation other than specular_rotation")
-    if s.connected("tangent") and (specular, coat) != (isotropic, isotropic):
+    if s.connected("tangent") and _anisotropic(specular, coat):
         s.unsupported.append("tangent")
     mapping.anisotropy("standardSurface", specular, coat, rotation)
+
+
+def _anisotropic(*anisotropies: mv.Value | None) -> bool:
+    return any(a not in (None, mv.Constant((0.0,))) for a in anisotropies)
 
 
 def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
@@ -554,11 +558,13 @@ def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
         normal=s("geometry_normal") if s.connected("geometry_normal") else None,
         sheen=(s("fuzz_weight"), s("fuzz_color"), s("fuzz_roughness")),
     )
+    specular_anisotropy = s("specular_roughness_anisotropy")
     coat_anisotropy = None if s.constant("coat_weight") == (0.0,) else s(
         "coat_roughness_anisotropy")
-    mapping.anisotropy("openPBR", s("specular_roughness_anisotropy"), coat_anisotropy, None)
-    for tangent in ("geometry_tangent", "geometry_coat_tangent"):
-        if s.connected(tangent):
+    mapping.anisotropy("openPBR", specular_anisotropy, coat_anisotropy, None)
+    for tangent, anisotropy in (("geometry_tangent", specular_anisotropy),
+                                ("geometry_coat_tangent", coat_anisotropy)):
+        if s.connected(tangent) and _anisotropic(anisotropy):
             s.unsupported.append(tangent)
     for name, neutral, weight, tolerance in (
         ("base_diffuse_roughness", (0.0,), None, 1e-6),
