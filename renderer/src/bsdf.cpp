@@ -68,15 +68,16 @@ Vec3f mirrorThroughSurface(const Vec3f& w) {
 }
 
 // --- GGX (Trowbridge–Reitz) microfacets, in the local frame (z = macro normal) ---
-// GgxAlpha (bsdf.h) holds α along x and y. The isotropic formulas are kept apart from the
-// anisotropic ones: they are what every isotropic material computed before anisotropy existed,
-// bit for bit, and they are cheaper.
+// GgxAlpha (bsdf.h) holds α along x and y. The isotropic formulas (kAnisotropic false) are kept
+// apart from the anisotropic ones: they are what every isotropic material computed before
+// anisotropy existed, bit for bit, and cheaper. Each public function decides once which to use.
 
 /// Distribution of microfacet normals D(h), per unit solid angle of h:
 /// 1 / (π αx αy (hx²/αx² + hy²/αy² + hz²)²).
-float ggxDensity(const Vec3f& h, GgxAlpha alpha) {
+template <bool kAnisotropic>
+float ggxDensityOf(const Vec3f& h, GgxAlpha alpha) {
   if (h.z <= 0) return 0;
-  if (alpha.isotropic()) {
+  if (!kAnisotropic) {
     const float alpha2 = alpha.x * alpha.x;
     const float d = h.z * h.z * (alpha2 - 1) + 1;
     return alpha2 / (kPi * d * d);
@@ -84,23 +85,33 @@ float ggxDensity(const Vec3f& h, GgxAlpha alpha) {
   const float d = square(h.x / alpha.x) + square(h.y / alpha.y) + h.z * h.z;
   return 1 / (kPi * alpha.x * alpha.y * d * d);
 }
-/// Smith's Λ(w) = (√(1 + α(φ)² tan² θ) − 1) / 2, with α(φ)² = (αx² wx² + αy² wy²) / sin² θ
-/// the roughness along w's azimuth: G1 = 1 / (1 + Λ).
-float ggxLambda(const Vec3f& w, GgxAlpha alpha) {
+/// Smith's Λ(w) = (√(1 + (αx² wx² + αy² wy²) / wz²) − 1) / 2: G1 = 1 / (1 + Λ).
+template <bool kAnisotropic>
+float ggxLambdaOf(const Vec3f& w, GgxAlpha alpha) {
   const float cos2 = w.z * w.z;
   if (cos2 == 0) return kInfinity;
-  const float sin2 = std::max(0.0f, 1 - cos2);
-  const float alpha2 = alpha.isotropic() || sin2 == 0
-                           ? alpha.x * alpha.x
-                           : (square(alpha.x * w.x) + square(alpha.y * w.y)) / sin2;
-  return 0.5f * (std::sqrt(1 + alpha2 * (sin2 / cos2)) - 1);
-}
-float ggxMasking(const Vec3f& w, GgxAlpha alpha) {
-  return 1 / (1 + ggxLambda(w, alpha));
+  if (!kAnisotropic) {
+    const float tan2 = std::max(0.0f, 1 - cos2) / cos2;
+    return 0.5f * (std::sqrt(1 + alpha.x * alpha.x * tan2) - 1);
+  }
+  const float projected2 = square(alpha.x * w.x) + square(alpha.y * w.y);
+  return 0.5f * (std::sqrt(1 + projected2 / cos2) - 1);
 }
 /// Height-correlated masking-shadowing G2 (Heitz 2014).
+template <bool kAnisotropic>
+float ggxMaskingShadowingOf(const Vec3f& wo, const Vec3f& wi, GgxAlpha alpha) {
+  return 1 / (1 + ggxLambdaOf<kAnisotropic>(wo, alpha) + ggxLambdaOf<kAnisotropic>(wi, alpha));
+}
+
+float ggxDensity(const Vec3f& h, GgxAlpha alpha) {
+  return alpha.isotropic() ? ggxDensityOf<false>(h, alpha) : ggxDensityOf<true>(h, alpha);
+}
+float ggxMasking(const Vec3f& w, GgxAlpha alpha) {
+  return 1 / (1 + (alpha.isotropic() ? ggxLambdaOf<false>(w, alpha) : ggxLambdaOf<true>(w, alpha)));
+}
 float ggxMaskingShadowing(const Vec3f& wo, const Vec3f& wi, GgxAlpha alpha) {
-  return 1 / (1 + ggxLambda(wo, alpha) + ggxLambda(wi, alpha));
+  return alpha.isotropic() ? ggxMaskingShadowingOf<false>(wo, wi, alpha)
+                           : ggxMaskingShadowingOf<true>(wo, wi, alpha);
 }
 /// A microfacet normal distributed as the normals visible from wo (wo.z > 0), with density
 /// G1(wo) max(0, wo·h) D(h) / wo.z (Heitz 2018): in the configuration stretched by (1/αx, 1/αy)
@@ -126,14 +137,22 @@ Vec3f sampleGgxVisibleNormal(const Vec3f& wo, GgxAlpha alpha, Vec2f u) {
   return normalize(
       Vec3f(alpha.x * stretched.x, alpha.y * stretched.y, std::max(1e-7f, stretched.z)));
 }
+template <bool kAnisotropic>
+float ggxVisibleNormalPdfOf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
+  return 1 / (1 + ggxLambdaOf<kAnisotropic>(wo, alpha)) * std::max(0.0f, dot(wo, h)) *
+         ggxDensityOf<kAnisotropic>(h, alpha) / wo.z;
+}
 float ggxVisibleNormalPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
-  return ggxMasking(wo, alpha) * std::max(0.0f, dot(wo, h)) * ggxDensity(h, alpha) / wo.z;
+  return alpha.isotropic() ? ggxVisibleNormalPdfOf<false>(wo, h, alpha)
+                           : ggxVisibleNormalPdfOf<true>(wo, h, alpha);
 }
 
 /// f · cos θi of single-scattering GGX reflection without Fresnel: D G2 / (4 cos θo).
 float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, const Vec3f& h,
                                   GgxAlpha alpha) {
-  return ggxDensity(h, alpha) * ggxMaskingShadowing(wo, wi, alpha) / (4 * wo.z);
+  if (alpha.isotropic())
+    return ggxDensityOf<false>(h, alpha) * ggxMaskingShadowingOf<false>(wo, wi, alpha) / (4 * wo.z);
+  return ggxDensityOf<true>(h, alpha) * ggxMaskingShadowingOf<true>(wo, wi, alpha) / (4 * wo.z);
 }
 /// Solid-angle density of wi = reflect(wo, h) with h sampled by sampleGgxVisibleNormal.
 float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
@@ -597,10 +616,11 @@ struct SpecularLayer {
     const GgxAlbedoTable::Albedo e = ggxDirectionalAlbedo(w, alpha);
     return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
   }
-  /// Hemispherical average (1/π) ∫ E(w) cos θ dw.
-  Vec3f averageAlbedo() const {
+  /// Hemispherical average (1/π) ∫ E(w) cos θ dw, given ggxAverageAlbedo(alpha) (looked up
+  /// once per BSDF).
+  Vec3f averageAlbedo(const GgxAlbedoTable::Albedo& lobeAverage) const {
     if (alpha.x == 0) return schlickAverage(f0);
-    const GgxAlbedoTable::Albedo e = ggxAverageAlbedo(alpha);
+    const GgxAlbedoTable::Albedo& e = lobeAverage;
     return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
   }
 };
@@ -678,11 +698,12 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     sheenColor_ = clamp01(material.sheenColor);
     sheenAlpha_ = std::max(clamp01(material.sheenRoughness), kMinSheenAlpha);
   }
+  GgxAlbedoTable::Albedo lobeAverage;  // of the white specular lobe
   float averageAlbedo = 0;
   if (specularAlpha_.x > 0) {
-    const GgxAlbedoTable::Albedo average = ggxAverageAlbedo(specularAlpha_);
-    averageAlbedo = average.scale + average.bias;
-    specularAverageLoss_ = 1 - average.scale - average.bias;
+    lobeAverage = ggxAverageAlbedo(specularAlpha_);
+    averageAlbedo = lobeAverage.scale + lobeAverage.bias;
+    specularAverageLoss_ = 1 - lobeAverage.scale - lobeAverage.bias;
   }
   const Vec3f albedo = clamp01(material.diffuseColor);
   if (material.useSpecularWorkflow) {
@@ -704,8 +725,8 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     diffuseReflectance_ = albedo * (1 - metallic);
   }
   const Vec3f coverAverage =
-      SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}
-          .averageAlbedo();
+      SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}.averageAlbedo(
+          lobeAverage);
   const auto normalization = [](float average) {
     return average < 1 - 1e-4f ? kInvPi / (1 - average) : 0.0f;
   };
