@@ -21,6 +21,7 @@
 #include "penumbra/image_io.h"
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
+#include "penumbra/texture.h"
 
 namespace py = pybind11;
 using penumbra::CameraParams;
@@ -193,8 +194,8 @@ void readDict(const std::string& where, const py::dict& dict,
 TextureNode toTextureNode(const std::string& where, const py::dict& dict) {
   TextureNode node;
   readDict(where, dict,
-           {"file", "wrapS", "wrapT", "sourceColorSpace", "scale", "bias", "fallback", "st",
-            "transform"},
+           {"file", "wrapS", "wrapT", "sourceColorSpace", "colorSpace", "scale", "bias", "fallback",
+            "st", "transform"},
            [&](const std::string& key, const py::handle& value) {
              const std::string at = where + "." + key;
              if (key == "file") node.file = value.cast<std::string>();
@@ -203,7 +204,9 @@ TextureNode toTextureNode(const std::string& where, const py::dict& dict) {
              if (key == "wrapT")
                node.reader.wrapT = penumbra::plugin::parseTextureWrap(value.cast<std::string>());
              if (key == "sourceColorSpace")
-               node.colorSpace = penumbra::plugin::parseSourceColorSpace(value.cast<std::string>());
+               node.colorSpace.source =
+                   penumbra::plugin::parseSourceColorSpace(value.cast<std::string>());
+             if (key == "colorSpace") node.colorSpace.name = value.cast<std::string>();
              if (key == "scale") node.reader.scale = toFloats<4>(at, value);
              if (key == "bias") node.reader.bias = toFloats<4>(at, value);
              if (key == "fallback") node.reader.fallback = toFloats<4>(at, value);
@@ -850,4 +853,24 @@ PYBIND11_MODULE(_core, m) {
       },
       py::arg("path"),
       "(width, height, channel_names, metadata) of an image file, without its pixels.");
+
+  m.def(
+      "find_texture_color_space",
+      [](const std::string& name, const std::string& ocioConfig) {
+        return penumbra::findTextureColorSpace(ocioConfig, name);
+      },
+      py::arg("name"), py::arg("ocio_config") = "",
+      "The name of the colour space `name` denotes in the OCIO config (empty: $OCIO), as texture "
+      "colorSpace accepts it; \"\" when the config has none.");
+
+  m.def(
+      "to_scene_linear",
+      [](std::array<float, 3> rgb, const std::string& name,
+         const std::string& ocioConfig) -> std::optional<std::array<float, 3>> {
+        if (!penumbra::convertToSceneLinear(ocioConfig, name, rgb.data())) return std::nullopt;
+        return rgb;
+      },
+      py::arg("rgb"), py::arg("color_space"), py::arg("ocio_config") = "",
+      "`rgb` converted from the named colour space to the OCIO config's scene_linear role (as "
+      "textures in that colour space are); None when the config has no such colour space.");
 }

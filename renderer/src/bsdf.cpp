@@ -613,7 +613,10 @@ struct SpecularLayer {
   /// (only w.z matters to isotropic lobes).
   Vec3f albedo(const Vec3f& w) const {
     if (alpha.x == 0) return schlickFresnel(f0, w.z);
-    const GgxAlbedoTable::Albedo e = ggxDirectionalAlbedo(w, alpha);
+    return albedo(ggxDirectionalAlbedo(w, alpha));
+  }
+  /// The same for a rough layer, from the table's entry for w and α.
+  Vec3f albedo(const GgxAlbedoTable::Albedo& e) const {
     return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
   }
   /// Hemispherical average (1/π) ∫ E(w) cos θ dw, given ggxAverageAlbedo(alpha) (looked up
@@ -703,7 +706,7 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
   if (specularAlpha_.x > 0) {
     lobeAverage = ggxAverageAlbedo(specularAlpha_);
     averageAlbedo = lobeAverage.scale + lobeAverage.bias;
-    specularAverageLoss_ = 1 - lobeAverage.scale - lobeAverage.bias;
+    specularAverageLoss_ = std::max(0.0f, 1 - lobeAverage.scale - lobeAverage.bias);
   }
   const Vec3f albedo = clamp01(material.diffuseColor);
   if (material.useSpecularWorkflow) {
@@ -760,25 +763,32 @@ float PreviewSurfaceBsdf::sheenTransmittance(float cosThetaO) const {
   return sheen_ > 0 ? 1 - sheenAlbedo(cosThetaO) : 1.0f;
 }
 
-Vec3f PreviewSurfaceBsdf::diffuseLayerCover(const Vec3f& w) const {
-  return SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}.albedo(w);
+const PreviewSurfaceBsdf::Outgoing& PreviewSurfaceBsdf::outgoing(const Vec3f& wo) const {
+  if (wo.z != cachedWo_.z || wo.x != cachedWo_.x || wo.y != cachedWo_.y) {
+    cachedWo_ = wo;
+    cachedOutgoing_ = computeOutgoing(wo);
+  }
+  return cachedOutgoing_;
 }
 
-PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::lobeProbabilities(float cosThetaO) const {
-  if (cosThetaO == cachedCosThetaO_) return cachedProbabilities_;
-  cachedCosThetaO_ = cosThetaO;
-  cachedProbabilities_ = computeLobeProbabilities(cosThetaO);
-  return cachedProbabilities_;
-}
+PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(const Vec3f& wo) const {
+  const float cosThetaO = wo.z;
+  Outgoing outgoing;
+  const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_};
+  GgxAlbedoTable::Albedo e;  // of the rough specular layer for wo
+  if (specularAlpha_.x == 0) {
+    outgoing.underSpecular = Vec3f(1.0f) - cover.albedo(wo);
+  } else {
+    e = ggxDirectionalAlbedo(wo, specularAlpha_);
+    outgoing.specularLoss = std::max(0.0f, 1 - e.scale - e.bias);
+    outgoing.underSpecular = Vec3f(1.0f) - cover.albedo(e);
+  }
+  outgoing.coatTransmittance = coatTransmittance(wo);
+  outgoing.sheenTransmittance = sheenTransmittance(cosThetaO);
 
-PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabilities(
-    float cosThetaO) const {
   // Each lobe's albedo for this wo. The layers under the coat are attenuated by its
   // transmittance for wo only, the one for wi being unknown yet.
-  LobeProbabilities p;
-  // Only cos θo is known here: anisotropic lobes are taken at azimuth 0 (the choice need only
-  // be the same in sample() and pdf()).
-  const Vec3f wo(0, 0, cosThetaO);
+  LobeProbabilities& p = outgoing.probabilities;
   if (opacity_ > 0) {
     // What the sheen lets through to the layers below (albedo scaling: for wo only).
     float underSheen = opacity_;
@@ -787,25 +797,25 @@ PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabiliti
       p.sheen = opacity_ * luminance(sheenColor_) * sheen;
       underSheen = opacity_ * (1 - sheen);
     }
-    const float coat = coatTransmittance(wo);
+    const float coat = outgoing.coatTransmittance;
     const float below = underSheen * coat;
     p.coat = underSheen * (1 - coat);
     if (specularAlpha_.x == 0) {
       p.specular = below * luminance(tintUnderCoat(schlickFresnel(specularF0_, cosThetaO)));
     } else {
-      const GgxAlbedoTable::Albedo e = ggxDirectionalAlbedo(wo, specularAlpha_);
       p.specular = below * luminance(tintUnderCoat(specularF0_ * e.scale + Vec3f(e.bias)));
-      p.multipleScattering = below * luminance(tintUnderCoat(multipleScatteringScale_)) *
-                             std::max(0.0f, 1 - e.scale - e.bias);
+      p.multipleScattering =
+          below * luminance(tintUnderCoat(multipleScatteringScale_)) * outgoing.specularLoss;
     }
-    p.diffuse =
-        below *
-        luminance(tintUnderCoat(diffuseReflectance_ * (Vec3f(1.0f) - diffuseLayerCover(wo))));
+    p.diffuse = below * luminance(tintUnderCoat(diffuseReflectance_ * outgoing.underSpecular));
   }
   p.dielectric = 1 - opacity_;  // its albedo is 1: energy-compensated, and nothing is absorbed
   const float total =
       p.coat + p.specular + p.multipleScattering + p.diffuse + p.sheen + p.dielectric;
-  if (!(total > 0)) return {};
+  if (!(total > 0)) {
+    p = {};
+    return outgoing;
+  }
   const float scale = 1 / total;
   p.sheen *= scale;
   p.coat *= scale;
@@ -813,32 +823,37 @@ PreviewSurfaceBsdf::LobeProbabilities PreviewSurfaceBsdf::computeLobeProbabiliti
   p.multipleScattering *= scale;
   p.diffuse *= scale;
   p.dielectric *= scale;
-  return p;
+  return outgoing;
 }
 
 Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
                                          Vec3f* diffusePart) const {
   if (wi.z <= 0) return Vec3f(0.0f);
+  const Outgoing& forWo = outgoing(wo);
   const Vec3f h = normalize(wo + wi);
-  Vec3f base(0.0f);
+  const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_};
+  Vec3f base(0.0f), underSpecularForWi(1.0f);
   if (specularAlpha_.x > 0) {
     base += schlickFresnel(specularF0_, dot(wo, h)) *
             ggxReflectionWithoutFresnel(wo, wi, h, specularAlpha_);
-    const GgxAlbedoTable::Albedo eo = ggxDirectionalAlbedo(wo, specularAlpha_);
+    // The diffuse layer's cover is the specular layer, with its own F0: one table entry each.
     const GgxAlbedoTable::Albedo ei = ggxDirectionalAlbedo(wi, specularAlpha_);
     if (specularAverageLoss_ > 0) {
-      base += multipleScatteringScale_ *
-              (std::max(0.0f, 1 - eo.scale - eo.bias) * std::max(0.0f, 1 - ei.scale - ei.bias) *
-               wi.z / (kPi * specularAverageLoss_));
+      base +=
+          multipleScatteringScale_ * (forWo.specularLoss * std::max(0.0f, 1 - ei.scale - ei.bias) *
+                                      wi.z / (kPi * specularAverageLoss_));
     }
+    underSpecularForWi = Vec3f(1.0f) - cover.albedo(ei);
+  } else {
+    underSpecularForWi = Vec3f(1.0f) - cover.albedo(wi);
   }
   Vec3f diffuse(0.0f);
   if (!isBlack(diffuseReflectance_)) {
-    diffuse = diffuseReflectance_ * diffuseNormalization_ * (Vec3f(1.0f) - diffuseLayerCover(wo)) *
-              (Vec3f(1.0f) - diffuseLayerCover(wi)) * wi.z;
+    diffuse = diffuseReflectance_ * diffuseNormalization_ * forWo.underSpecular *
+              underSpecularForWi * wi.z;
     base += diffuse;
   }
-  const float coat = coatTransmittance(wo) * coatTransmittance(wi);
+  const float coat = forWo.coatTransmittance * coatTransmittance(wi);
   if (diffusePart) *diffusePart = tintUnderCoat(diffuse) * (coat * opacity_);
   Vec3f value = tintUnderCoat(base) * coat;
   if (clearcoat_ > 0 && coatAlpha_.x > 0) {
@@ -846,7 +861,7 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
                    ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_));
   }
   if (sheen_ > 0) {
-    const float underSheen = 1 - sheenAlbedo(wo.z);
+    const float underSheen = forWo.sheenTransmittance;
     if (diffusePart) *diffusePart *= underSheen;
     value = value * underSheen + sheenColor_ * (sheen_ * sheenReflection(wo, wi, sheenAlpha_));
   }
@@ -984,7 +999,7 @@ float PreviewSurfaceBsdf::pdf(const Vec3f& woWorld, const Vec3f& wiWorld) const 
   const OrientedPair pair = orient(frame_, woWorld, wiWorld);
   const Vec3f &wo = pair.wo, &wi = pair.wi;
   if (wo.z == 0 || wi.z == 0) return 0;
-  const LobeProbabilities p = lobeProbabilities(wo.z);
+  const LobeProbabilities p = lobeProbabilities(wo);
   float density = p.dielectric < 1 ? pdfOpaque(wo, wi, p) : 0.0f;
   if (p.dielectric > 0 && dielectricAlpha_ > 0 && ior_ != 1) {
     density += p.dielectric * pdfDielectric(wo, wi, pair.flipped ? 1 / ior_ : ior_);
@@ -998,7 +1013,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
   const bool flipped = wo.z < 0;
   if (flipped) wo.z = -wo.z;
   if (!(wo.z > 0)) return std::nullopt;
-  const LobeProbabilities p = lobeProbabilities(wo.z);
+  const LobeProbabilities p = lobeProbabilities(wo);
 
   // Picks lobe k if uLobe falls in its interval and rescales uLobe to [0, 1) within it, so that
   // the dielectric can reuse it for its reflect/refract choice.

@@ -205,8 +205,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (firstHitRecord) {
         firstHitRecord->filterOffset = filterOffset;
         // A holdout sets the distances only: it is no surface of the image.
-        recordFirstHit(camera, ray, hit && !hit->matte ? &*hit : nullptr, firstHit,
-                       firstHitRecord);
+        recordFirstHit(camera, ray, hit && !hit->matte ? &*hit : nullptr, firstHit, firstHitRecord);
       }
       // A holdout: what lies behind it is hidden, and only lights in front of it count.
       if (hit && hit->matte) {
@@ -245,13 +244,16 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     // Next-event estimation: every infinite light (or one, when there are many) and one local
     // light chosen by its estimated contribution here (lights on the surface's front and back
     // count for translucent surfaces), each sampled over its area or solid angle.
-    const float lightChoice = sampler.next1D();
-    const Vec2f lightSample = sampler.next2D();
+    // Each light sampled here draws its point from a dimension of its own (its choice's slot).
+    const float infiniteChoice = sampler.next1D();
+    const float localChoice = sampler.next1D();
+    const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
     const Vec3f facingNormal =
         dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
     const Receiver receiver{hit->position, bsdf.hasTransmission() ? Vec3f() : facingNormal};
     const auto sampleLight = [&](const LightSampler::Choice& choice) {
       const Light& light = lights[choice.index];
+      const Vec2f lightSample = sampler.draw2D(firstLightDimension + choice.slot);
       const std::optional<LightSample> sample =
           light.sample(hit->position, lightSample, receiver.normal);
       Vec3f diffusePart;
@@ -276,7 +278,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           bounce + 1, settings.indirectClamp);
     };
     if (!bsdf.isPurelySpecular() && settings.directLighting != DirectLighting::BsdfSamplingOnly)
-      scene.lightSampler().forEachChoice(receiver, lightChoice, sampleLight);
+      scene.lightSampler().forEachChoice(receiver, infiniteChoice, localChoice, sampleLight);
 
     // BSDF sampling continues the path.
     const float lobeChoice = sampler.next1D();

@@ -39,6 +39,29 @@ int halved(int size) {
   return std::max(1, size / 2);
 }
 
+// Rows [first, last) of the image's level 0 (relative to its data window), `channels` floats a
+// texel, into `rows`. A tiled file is read as the whole tiles that cover them (OIIO 2.4's
+// read_scanlines stops with a division by zero on tiled files, e.g. maketx's).
+bool readRows(OIIO::ImageInput& input, int first, int last, int channels,
+              std::vector<float>* tileRows, float* rows) {
+  const OIIO::ImageSpec& spec = input.spec();
+  if (spec.tile_width <= 0 || spec.tile_height <= 0)
+    return input.read_scanlines(0, 0, spec.y + first, spec.y + last, 0, 0, channels,
+                                OIIO::TypeFloat, rows);
+  const int tileFirst = first / spec.tile_height * spec.tile_height;
+  const int tileLast =
+      std::min(spec.height, (last + spec.tile_height - 1) / spec.tile_height * spec.tile_height);
+  const size_t rowValues = size_t(spec.width) * size_t(channels);
+  tileRows->resize(rowValues * size_t(tileLast - tileFirst));
+  if (!input.read_tiles(0, 0, spec.x, spec.x + spec.width, spec.y + tileFirst, spec.y + tileLast,
+                        spec.z, spec.z + std::max(1, spec.depth), 0, channels, OIIO::TypeFloat,
+                        tileRows->data()))
+    return false;
+  std::copy(tileRows->begin() + std::ptrdiff_t(rowValues * size_t(first - tileFirst)),
+            tileRows->begin() + std::ptrdiff_t(rowValues * size_t(last - tileFirst)), rows);
+  return true;
+}
+
 // Builds the next MIP level from the rows of one level, streamed from top to bottom: each
 // output row is emitted as soon as the last input row under it has been added.
 class LevelReducer {
@@ -173,11 +196,10 @@ bool writeMipmappedTexture(OIIO::ImageInput& input, const std::string& output,
     TileRowWriter tiles(*out, width, height, channels);
     LevelReducer reducer(width, height, channels);
     const auto emit = spoolRow(spoolOut.get(), size_t(reducer.width()) * size_t(channels));
-    std::vector<float> band(rowValues * size_t(std::min(height, kTextureTileSize)));
+    std::vector<float> band(rowValues * size_t(std::min(height, kTextureTileSize))), tileRows;
     for (int first = 0; first < height; first += kTextureTileSize) {
       const int last = std::min(height, first + kTextureTileSize);
-      if (!input.read_scanlines(0, 0, source.y + first, source.y + last, 0, 0, channels,
-                                OIIO::TypeFloat, band.data())) {
+      if (!readRows(input, first, last, channels, &tileRows, band.data())) {
         *error = "cannot read the image: " + input.geterror();
         return false;
       }

@@ -63,13 +63,14 @@ uint32_t sobolDimension1(uint32_t index) {
 
 SampleStream::SampleStream(uint32_t seed, uint32_t pixelX, uint32_t pixelY, uint32_t sampleIndex)
     : pixelSeed_(hashCombine(hashCombine(hashUint32(seed), pixelX), pixelY)),
-      sampleIndex_(sampleIndex) {}
+      reversedSampleIndex_(reverseBits(sampleIndex)) {}
 
-Vec2f SampleStream::next2D() {
-  const uint32_t dimensionSeed = hashCombine(pixelSeed_, dimension_++);
+Vec2f SampleStream::draw2D(uint32_t dimension) const {
+  const uint32_t dimensionSeed = hashCombine(pixelSeed_, dimension);
   // Scrambling the index in base-2 reversed order permutes aligned blocks of 2^k indices among
-  // themselves, so every power-of-two prefix remains a (0,k,2)-net (Burley 2020, §4).
-  const uint32_t index = owenScramble(sampleIndex_, dimensionSeed);
+  // themselves, so every power-of-two prefix remains a (0,k,2)-net (Burley 2020, §4). This is
+  // owenScramble(sampleIndex, dimensionSeed), its first reversal done once per stream.
+  const uint32_t index = reverseBits(lowToHighPermutation(reversedSampleIndex_, dimensionSeed));
   // owenScramble(p, s) = reverse(permute(reverse(p), s)): the Sobol points are produced already
   // reversed, which saves two reversals each (same values as owenScramble(sobolDimensionN(i))).
   const uint32_t x = reverseBits(lowToHighPermutation(index, hashCombine(dimensionSeed, 1)));
@@ -78,9 +79,9 @@ Vec2f SampleStream::next2D() {
   return {toUnitFloat(x), toUnitFloat(y)};
 }
 
-float SampleStream::next1D() {
-  const uint32_t dimensionSeed = hashCombine(pixelSeed_, dimension_++);
-  const uint32_t index = owenScramble(sampleIndex_, dimensionSeed);
+float SampleStream::draw1D(uint32_t dimension) const {
+  const uint32_t dimensionSeed = hashCombine(pixelSeed_, dimension);
+  const uint32_t index = reverseBits(lowToHighPermutation(reversedSampleIndex_, dimensionSeed));
   return toUnitFloat(reverseBits(lowToHighPermutation(index, hashCombine(dimensionSeed, 1))));
 }
 

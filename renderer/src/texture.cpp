@@ -13,9 +13,12 @@
 // one band of scanlines at a time and written as a tiled, MIP-mapped half/float OpenEXR texture
 // into a private temporary directory (mipmap_writer.h), and that is what OIIO reads.
 //
-// Colour: sRGB-encoded textures are decoded to the OCIO config's scene_linear role while they
-// are prepared, before any filtering (averaging encoded values darkens MIP levels). Raw textures
-// that are tiled and MIP-mapped already are read from the original file.
+// Colour: textures in a colour space other than scene_linear (sRGB-encoded ones, and any colour
+// space of the OCIO config named by MaterialX or USD metadata) are converted to the OCIO
+// config's scene_linear role once, while they are prepared, before any filtering (averaging
+// encoded values darkens MIP levels); lookups then read converted texels. A colour space that is
+// scene_linear itself, or data, needs no conversion. Textures needing none that are tiled and
+// MIP-mapped already are read from the original file.
 //
 // Alpha: values come back as stored in the file. PNG colour is not premultiplied by alpha (the
 // ImageCache's "unassociatedalpha"), so a cut-out's diffuse colour is not darkened at its edges.
@@ -40,6 +43,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -66,6 +70,36 @@ constexpr uint64_t kMaxTexels = uint64_t(1) << 30;
 // Names under which configs carry the sRGB texture encoding (OCIO resolves aliases).
 constexpr const char* kSrgbNames[] = {"sRGB - Texture", "srgb_texture", "sRGB",
                                       "Utility - sRGB - Texture"};
+
+// MaterialX's colour-space names (docs/materialx.md) and the Color Interop Forum's identifiers
+// for the same encodings, which recent configs (the ACES ones among them) carry as aliases.
+// Penumbra's bundled config has MaterialX's names as aliases itself.
+constexpr std::pair<const char*, const char*> kInteropNames[] = {
+    {"srgb_texture", "srgb_rec709_scene"},
+    {"lin_rec709", "lin_rec709_scene"},
+    {"acescg", "lin_ap1_scene"},
+    {"lin_ap1", "lin_ap1_scene"},
+    {"g22_rec709", "g22_rec709_scene"},
+    {"g18_rec709", "g18_rec709_scene"},
+    {"g22_ap1", "g22_ap1_scene"},
+    {"lin_displayp3", "lin_p3d65_scene"},
+    {"srgb_displayp3", "srgb_p3d65_scene"},
+    {"lin_adobergb", "lin_adobergb_scene"},
+    {"adobergb", "g22_adobergb_scene"}};
+
+OCIO::ConstConfigRcPtr loadConfig(const std::string& path) {
+  return path.empty() ? OCIO::GetCurrentConfig() : OCIO::Config::CreateFromFile(path.c_str());
+}
+
+// The colour space `name` denotes in `config` (see findTextureColorSpace); null if none.
+OCIO::ConstColorSpaceRcPtr colorSpaceNamed(const OCIO::Config& config, const std::string& name) {
+  if (name.empty()) return nullptr;
+  if (auto space = config.getColorSpace(name.c_str())) return space;
+  for (const auto& [materialx, interop] : kInteropNames)
+    if (name == materialx)
+      if (auto space = config.getColorSpace(interop)) return space;
+  return nullptr;
+}
 
 std::string lower(std::string text) {
   std::transform(text.begin(), text.end(), text.begin(),
@@ -220,19 +254,23 @@ struct TextureSystem::Impl {
   std::string ocioConfigPath;
   OIIO::TextureSystem* oiio = nullptr;
   std::vector<Texture> textures;
-  std::map<std::pair<std::string, SourceColorSpace>, Handle> handles;
-  std::map<std::pair<std::string, bool>, File> files;  // (file, linearised)
+  std::map<std::tuple<std::string, SourceColorSpace, std::string>, Handle> handles;
+  // (file, the colour space it is converted from; empty: none)
+  std::map<std::pair<std::string, std::string>, File> files;
 
-  // The sRGB → scene_linear conversion, set up when the first sRGB texture is opened.
+  // The OCIO config, loaded when the first texture needs converting.
   bool ocioLoaded = false;
   std::string ocioError;
-  OCIO::ConstCPUProcessorRcPtr toLinear;
+  OCIO::ConstConfigRcPtr config;
+  std::string srgbSpace;         // the config's sRGB texture colour space; empty if none
+  std::string sceneLinearSpace;  // the colour space of its scene_linear role
   float luma[3] = {0.2126f, 0.7152f, 0.0722f};
+  std::map<std::string, OCIO::ConstCPUProcessorRcPtr> toLinear;  // by source colour space
 
   fs::path directory;  // converted textures; created on first need
   int preparedCount = 0;
 
-  explicit Impl(const std::string& config) : ocioConfigPath(config) {
+  explicit Impl(const std::string& configPath) : ocioConfigPath(configPath) {
     oiio = OIIO::TextureSystem::create(/*shared=*/false);
     oiio->attribute("unassociatedalpha", 1);
     oiio->attribute("max_memory_MB", float(kDefaultCacheBytes >> 20));
@@ -254,33 +292,76 @@ struct TextureSystem::Impl {
   }
 
   bool loadOcio() {
-    if (ocioLoaded) return bool(toLinear);
+    if (ocioLoaded) return bool(config);
     ocioLoaded = true;
     try {
-      const OCIO::ConstConfigRcPtr config =
-          ocioConfigPath.empty() ? OCIO::GetCurrentConfig()
-                                 : OCIO::Config::CreateFromFile(ocioConfigPath.c_str());
-      const char* source = nullptr;
-      for (const char* name : kSrgbNames)
-        if (config->getColorSpace(name)) {
-          source = name;
-          break;
-        }
-      if (!source) {
-        ocioError = "the OCIO config " + configName() +
-                    " has no sRGB texture colour space (tried \"sRGB - Texture\", "
-                    "\"srgb_texture\", \"sRGB\", \"Utility - sRGB - Texture\")";
+      config = loadConfig(ocioConfigPath);
+      const auto sceneLinear = config->getColorSpace(OCIO::ROLE_SCENE_LINEAR);
+      if (!sceneLinear) {
+        ocioError = "the OCIO config " + configName() + " has no scene_linear role";
+        config.reset();
         return false;
       }
-      toLinear = config->getProcessor(source, OCIO::ROLE_SCENE_LINEAR)->getDefaultCPUProcessor();
+      sceneLinearSpace = sceneLinear->getName();
+      for (const char* name : kSrgbNames)
+        if (const auto space = config->getColorSpace(name)) {
+          srgbSpace = space->getName();
+          break;
+        }
       double coefficients[3];
       config->getDefaultLumaCoefs(coefficients);
       for (int i = 0; i < 3; ++i) luma[i] = float(coefficients[i]);
     } catch (const OCIO::Exception& exception) {
-      ocioError = "cannot linearise with the OCIO config " + configName() + ": " + exception.what();
-      toLinear.reset();
+      ocioError = "cannot read the OCIO config " + configName() + ": " + exception.what();
+      config.reset();
     }
-    return bool(toLinear);
+    return bool(config);
+  }
+
+  // The colour space a file in `space` is converted from (empty: none), or false with *error.
+  // sourceColorSpace auto is decided per file by the caller (it needs the file's metadata).
+  bool conversionFrom(const TextureColorSpace& space, std::string* source, std::string* error) {
+    source->clear();
+    if (space.name.empty() && space.source != SourceColorSpace::SRGB) return true;
+    if (!loadOcio()) {
+      *error = ocioError;
+      return false;
+    }
+    if (space.name.empty()) {
+      if (srgbSpace.empty()) {
+        *error = "sourceColorSpace sRGB: the OCIO config " + configName() +
+                 " has no sRGB texture colour space (tried \"sRGB - Texture\", "
+                 "\"srgb_texture\", \"sRGB\", \"Utility - sRGB - Texture\")";
+        return false;
+      }
+      *source = srgbSpace;
+      return true;
+    }
+    const auto named = colorSpaceNamed(*config, space.name);
+    if (!named) {
+      *error = "the OCIO config " + configName() + " has no colour space \"" + space.name + "\"";
+      return false;
+    }
+    if (!named->isData() && named->getName() != sceneLinearSpace) *source = named->getName();
+    return true;
+  }
+
+  // The conversion from colour space `source` to scene_linear, made once per colour space.
+  bool processor(const std::string& source, OCIO::ConstCPUProcessorRcPtr* result,
+                 std::string* error) {
+    auto& cached = toLinear[source];
+    if (!cached) {
+      try {
+        cached =
+            config->getProcessor(source.c_str(), OCIO::ROLE_SCENE_LINEAR)->getDefaultCPUProcessor();
+      } catch (const OCIO::Exception& exception) {
+        *error = "cannot convert \"" + source + "\" to scene_linear with the OCIO config " +
+                 configName() + ": " + exception.what();
+        return false;
+      }
+    }
+    *result = cached;
+    return true;
   }
 
   bool makeDirectory(std::string* error) {
@@ -301,14 +382,15 @@ struct TextureSystem::Impl {
     return true;
   }
 
-  // The sRGB decoding of one row of `channels` floats: colour channels (all but alpha, at most
-  // three) to scene_linear; a grey channel becomes the decoded grey's luminance.
-  detail::RowTransform srgbDecoder(const OIIO::ImageSpec& spec) const {
+  // The conversion of one row of `channels` floats: colour channels (all but alpha, at most
+  // three) to scene_linear; a grey channel becomes the converted grey's luminance.
+  detail::RowTransform decoder(const OIIO::ImageSpec& spec,
+                               const OCIO::ConstCPUProcessorRcPtr& conversion) const {
     std::vector<int> color;
     for (int c = 0; c < std::min(spec.nchannels, 4) && color.size() < 3; ++c)
       if (c != spec.alpha_channel) color.push_back(c);
     if (color.empty()) return {};
-    return [color, processor = toLinear, luma = std::array<float, 3>{luma[0], luma[1], luma[2]}](
+    return [color, processor = conversion, luma = std::array<float, 3>{luma[0], luma[1], luma[2]}](
                float* row, int width, int channels) {
       std::vector<float> rgb(size_t(width) * 3);
       for (int x = 0; x < width; ++x)
@@ -328,12 +410,14 @@ struct TextureSystem::Impl {
     };
   }
 
-  // Writes `file` as a tiled, MIP-mapped OpenEXR texture (sRGB decoded to scene-linear first if
-  // `srgb`), streaming it so that memory does not grow with its height; *texture is its path.
-  bool prepare(const std::string& file, const OIIO::ImageSpec& fileSpec, bool srgb,
+  // Writes `file` as a tiled, MIP-mapped OpenEXR texture (converted from colour space `source`
+  // to scene-linear first, unless `source` is empty), streaming it so that memory does not grow
+  // with its height; *texture is its path.
+  bool prepare(const std::string& file, const OIIO::ImageSpec& fileSpec, const std::string& source,
                std::string* texture, std::string* error) {
-    if (srgb && !loadOcio()) {
-      *error = file + ": sourceColorSpace sRGB: " + ocioError;
+    OCIO::ConstCPUProcessorRcPtr toScene;
+    if (!source.empty() && !processor(source, &toScene, error)) {
+      *error = file + ": " + *error;
       return false;
     }
     if (!makeDirectory(error)) {
@@ -352,9 +436,10 @@ struct TextureSystem::Impl {
                       base == OIIO::TypeDesc::HALF;  // half keeps 8-bit data exactly enough
     const std::string name = "texture-" + std::to_string(preparedCount++);
     const std::string output = (directory / (name + ".exr")).string();
-    if (!detail::writeMipmappedTexture(*input, output, half ? OIIO::TypeHalf : OIIO::TypeFloat,
-                                       srgb ? srgbDecoder(fileSpec) : detail::RowTransform{},
-                                       (directory / (name + ".spool")).string(), error)) {
+    if (!detail::writeMipmappedTexture(
+            *input, output, half ? OIIO::TypeHalf : OIIO::TypeFloat,
+            toScene ? decoder(fileSpec, toScene) : detail::RowTransform{},
+            (directory / (name + ".spool")).string(), error)) {
       *error = file + ": cannot prepare the texture " + output + ": " + trimmed(*error);
       return false;
     }
@@ -363,7 +448,7 @@ struct TextureSystem::Impl {
   }
 
   // Prepares one image file for lookups (shared between handles that read it the same way).
-  bool openFile(const std::string& file, SourceColorSpace colorSpace, File* result,
+  bool openFile(const std::string& file, const TextureColorSpace& colorSpace, File* result,
                 std::string* error) {
     std::error_code code;
     if (!fs::exists(file, code)) {
@@ -394,9 +479,15 @@ struct TextureSystem::Impl {
                std::to_string(kMaxTexels >> 20) + " Mi texels Penumbra takes as a texture";
       return false;
     }
-    const bool srgb = colorSpace == SourceColorSpace::SRGB ||
-                      (colorSpace == SourceColorSpace::Auto && autoIsSrgb(spec, format, file));
-    const auto key = std::make_pair(file, srgb);
+    const bool autoSrgb = colorSpace.name.empty() && colorSpace.source == SourceColorSpace::Auto &&
+                          autoIsSrgb(spec, format, file);
+    std::string source;
+    if (!conversionFrom(autoSrgb ? TextureColorSpace(SourceColorSpace::SRGB) : colorSpace, &source,
+                        error)) {
+      *error = file + ": " + *error;
+      return false;
+    }
+    const auto key = std::make_pair(file, source);
     if (auto found = files.find(key); found != files.end()) {
       *result = found->second;
       return true;
@@ -404,11 +495,11 @@ struct TextureSystem::Impl {
     File opened;
     metadataWraps(spec, &opened.metadataS, &opened.metadataT);
     // Files that are tiled and MIP-mapped already (e.g. by maketx) are read as they are, unless
-    // they must be decoded; every other file is prepared once, since OIIO's on-the-fly tiling
+    // they must be converted; every other file is prepared once, since OIIO's on-the-fly tiling
     // and MIP-mapping ("autotile", "automip") keeps whole images in its cache.
     std::string texture = file;
     const bool ready = spec.tile_width > 0 && mipmapped && spec.nchannels <= 4;
-    if ((srgb || !ready) && !prepare(file, spec, srgb, &texture, error)) return false;
+    if ((!source.empty() || !ready) && !prepare(file, spec, source, &texture, error)) return false;
     opened.tile.handle = oiio->get_texture_handle(OIIO::ustring(texture));
     opened.tile.path = texture;
     OIIO::ImageSpec textureSpec;
@@ -433,11 +524,49 @@ TextureSystem::TextureSystem(const std::string& ocioConfig)
 
 TextureSystem::~TextureSystem() = default;
 
-TextureSystem::Handle TextureSystem::open(const std::string& path, SourceColorSpace colorSpace,
-                                          std::string* error) {
+std::string findTextureColorSpace(const std::string& ocioConfig, const std::string& name,
+                                  std::string* error) {
   std::string ignored;
   if (!error) error = &ignored;
-  const auto key = std::make_pair(path, colorSpace);
+  const std::string configName = ocioConfig.empty() ? "$OCIO" : "\"" + ocioConfig + "\"";
+  try {
+    const auto config = loadConfig(ocioConfig);
+    if (const auto space = colorSpaceNamed(*config, name)) return space->getName();
+    *error = "the OCIO config " + configName + " has no colour space \"" + name + "\"";
+  } catch (const OCIO::Exception& exception) {
+    *error = "cannot read the OCIO config " + configName + ": " + exception.what();
+  }
+  return {};
+}
+
+bool convertToSceneLinear(const std::string& ocioConfig, const std::string& name, float rgb[3],
+                          std::string* error) {
+  std::string ignored;
+  if (!error) error = &ignored;
+  const std::string configName = ocioConfig.empty() ? "$OCIO" : "\"" + ocioConfig + "\"";
+  try {
+    const auto config = loadConfig(ocioConfig);
+    const auto space = colorSpaceNamed(*config, name);
+    if (!space) {
+      *error = "the OCIO config " + configName + " has no colour space \"" + name + "\"";
+      return false;
+    }
+    config->getProcessor(space->getName(), OCIO::ROLE_SCENE_LINEAR)
+        ->getDefaultCPUProcessor()
+        ->applyRGB(rgb);
+    return true;
+  } catch (const OCIO::Exception& exception) {
+    *error = "cannot convert \"" + name + "\" with the OCIO config " + configName + ": " +
+             exception.what();
+    return false;
+  }
+}
+
+TextureSystem::Handle TextureSystem::open(const std::string& path,
+                                          const TextureColorSpace& colorSpace, std::string* error) {
+  std::string ignored;
+  if (!error) error = &ignored;
+  const auto key = std::make_tuple(path, colorSpace.source, colorSpace.name);
   if (auto found = impl_->handles.find(key); found != impl_->handles.end()) return found->second;
 
   Texture texture;

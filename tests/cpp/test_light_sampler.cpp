@@ -68,7 +68,8 @@ std::vector<int> choiceCounts(const LightSampler& sampler, const Receiver& recei
   *noLocal = 0;
   for (int j = 0; j < n; ++j) {
     bool local = false;
-    sampler.forEachChoice(receiver, (float(j) + 0.5f) / float(n), [&](LightSampler::Choice c) {
+    const float u = (float(j) + 0.5f) / float(n);
+    sampler.forEachChoice(receiver, u, u, [&](LightSampler::Choice c) {
       EXPECT_NEAR(c.probability, expected[c.index], 1e-6 + 1e-4 * expected[c.index]);
       ++counts[c.index];
       local |= c.index < localCount;
@@ -132,7 +133,7 @@ TEST(LightSampler, LightsThatCannotReachTheReceiverAreNeverChosen) {
   EXPECT_EQ(sampler.probability(above, 0), 0.0f);  // the panel's back faces it
   EXPECT_FLOAT_EQ(sampler.probability(above, 1), 1.0f);
   for (float u : {0.0f, 0.3f, 0.7f, 0.99f})
-    sampler.forEachChoice(above, u, [](LightSampler::Choice c) { EXPECT_EQ(c.index, 1u); });
+    sampler.forEachChoice(above, u, u, [](LightSampler::Choice c) { EXPECT_EQ(c.index, 1u); });
 }
 
 TEST(LightSampler, NearbyLightsAreEachSampledWhereTheTreeCannotTellThemApart) {
@@ -147,7 +148,7 @@ TEST(LightSampler, NearbyLightsAreEachSampledWhereTheTreeCannotTellThemApart) {
   const LightSampler sampler({Light(bulb), Light(other)});
   const auto visits = [&](const Receiver& receiver, float u) {
     std::vector<size_t> visited;
-    sampler.forEachChoice(receiver, u, [&](LightSampler::Choice c) {
+    sampler.forEachChoice(receiver, u, u, [&](LightSampler::Choice c) {
       EXPECT_EQ(c.probability, sampler.probability(receiver, c.index));
       visited.push_back(c.index);
     });
@@ -155,6 +156,11 @@ TEST(LightSampler, NearbyLightsAreEachSampledWhereTheTreeCannotTellThemApart) {
   };
   const Receiver between{{0, 0, 0}, {0, 1, 0}}, far{{0, 0, 10}, {0, 0, -1}};
   EXPECT_EQ(visits(between, 0.3f), (std::vector<size_t>{0, 1}));
+  std::vector<uint32_t> slots;
+  sampler.forEachChoice(between, 0.3f, 0.3f,
+                        [&](LightSampler::Choice c) { slots.push_back(c.slot); });
+  const uint32_t firstLocal = LightSampler::kInfiniteLightsSampledEach;
+  EXPECT_EQ(slots, (std::vector<uint32_t>{firstLocal, firstLocal + 1}));
   EXPECT_EQ(sampler.probability(between, 0), 1.0f);
   EXPECT_EQ(visits(far, 0.3f).size(), 1u);
   EXPECT_NEAR(sampler.probability(far, 0) + sampler.probability(far, 1), 1.0, 1e-6);
@@ -171,9 +177,14 @@ TEST(LightSampler, NeitherInfiniteNorLocalLightsStarve) {
     const LightSampler sampler({Light(panel), Light(infinite(LightType::Dome, domeIntensity))});
     for (const float u : {0.0f, 0.5f, 0.99f}) {
       std::vector<size_t> visited;
-      sampler.forEachChoice(receiver, u,
-                            [&](LightSampler::Choice c) { visited.push_back(c.index); });
+      std::vector<uint32_t> slots;
+      sampler.forEachChoice(receiver, u, u, [&](LightSampler::Choice c) {
+        visited.push_back(c.index);
+        slots.push_back(c.slot);
+      });
       EXPECT_EQ(visited, (std::vector<size_t>{1, 0})) << "dome intensity " << domeIntensity;
+      // Each set draws from its own slots: the panel's do not depend on the dome being there.
+      EXPECT_EQ(slots, (std::vector<uint32_t>{0, LightSampler::kInfiniteLightsSampledEach}));
     }
     EXPECT_EQ(sampler.probability(receiver, 0), 1.0f);
     EXPECT_EQ(sampler.probability(receiver, 1), 1.0f);

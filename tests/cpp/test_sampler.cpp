@@ -96,6 +96,24 @@ TEST(Sampler, MatchesTheReferenceConstruction) {
   }
 }
 
+// Reserved dimensions are the ones next1D/next2D would have drawn, and the draws after a
+// reservation do not depend on how many of the reserved ones were used.
+TEST(Sampler, ReservedDimensionsAreDrawnOnDemand) {
+  SampleStream sequential(5, 1, 2, 9), reserving(5, 1, 2, 9);
+  const Vec2f first = sequential.next2D();
+  const float second = sequential.next1D();
+  const Vec2f third = sequential.next2D();
+  const Vec2f after = sequential.next2D();
+  const uint32_t block = reserving.reserve(3);
+  EXPECT_EQ(block, 0u);
+  EXPECT_EQ(reserving.draw2D(block + 2).x, third.x);
+  EXPECT_EQ(reserving.draw2D(block).y, first.y);
+  EXPECT_EQ(reserving.draw1D(block + 1), second);
+  const Vec2f next = reserving.next2D();
+  EXPECT_EQ(next.x, after.x);
+  EXPECT_EQ(next.y, after.y);
+}
+
 TEST(PixelFilter, OffsetsFollowTheFilterProfile) {
   // Importance-sampled offsets must be distributed as the filter: compare their moments and
   // histogram with the profile's, integrated numerically.

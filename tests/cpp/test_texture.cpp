@@ -419,6 +419,140 @@ TEST_F(Texture, TheSamePathAndColorSpaceGiveTheSameHandle) {
   EXPECT_EQ(textures.open(file, SourceColorSpace::Raw, &error), raw);
 }
 
+// MaterialX's AP1 → linear Rec.709 matrix (cmlib's ND_acescg_to_lin_rec709), for column vectors.
+constexpr float kAp1ToRec709[3][3] = {{1.705050992658f, -0.621792120657f, -0.083258872001f},
+                                      {-0.130256417507f, 1.140804736575f, -0.010548319068f},
+                                      {-0.024003356805f, -0.128968976065f, 1.15297233287f}};
+
+Color fromAp1(float r, float g, float b) {
+  const float in[3] = {r, g, b};
+  float out[3];
+  for (int i = 0; i < 3; ++i)
+    out[i] = kAp1ToRec709[i][0] * in[0] + kAp1ToRec709[i][1] * in[1] + kAp1ToRec709[i][2] * in[2];
+  return {out[0], out[1], out[2], 1.0f};
+}
+
+TEST_F(Texture, NamedColourSpacesAreConvertedToSceneLinearOnce) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  // ACEScg under MaterialX's name, its alias and the Color Interop Forum's: the matrix.
+  const std::string ap1 = constant("ap1.exr", 3, OIIO::TypeFloat, {0.2f, 0.5f, 0.8f});
+  const Color want = fromAp1(0.2f, 0.5f, 0.8f);
+  TextureSystem::Handle acescg = TextureSystem::kInvalid;
+  for (const char* name : {"acescg", "lin_ap1", "lin_ap1_scene", "ACEScg"}) {
+    const auto handle = textures.open(ap1, TextureColorSpace::named(name), &error);
+    ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+    expectColor(lookup(textures, handle, 0.5f, 0.5f), want, 1e-5f, name);
+    if (acescg == TextureSystem::kInvalid) acescg = handle;
+  }
+  // The same file raw is another texture, unconverted.
+  const auto raw = textures.open(ap1, SourceColorSpace::Raw, &error);
+  EXPECT_NE(raw, acescg);
+  expectColor(lookup(textures, raw, 0.5f, 0.5f), {0.2f, 0.5f, 0.8f, 1.0f}, 1e-6f, "raw");
+
+  // Pure power encodings on 8-bit data (prepared as half: 1e-3), colour and grey; alpha kept.
+  const float v = 188.0f / 255;
+  const std::string rgba = constant("g22.png", 4, OIIO::TypeUInt8, {v, v, v, v});
+  const std::string grey = constant("g18.png", 1, OIIO::TypeUInt8, {v});
+  const auto g22 = textures.open(rgba, TextureColorSpace::named("g22_rec709"), &error);
+  ASSERT_NE(g22, TextureSystem::kInvalid) << error;
+  const float p22 = std::pow(v, 2.2f);
+  expectColor(lookup(textures, g22, 0.5f, 0.5f), {p22, p22, p22, v}, 1e-3f, "g22_rec709");
+  const auto g18 = textures.open(grey, TextureColorSpace::named("g18_rec709"), &error);
+  ASSERT_NE(g18, TextureSystem::kInvalid) << error;
+  const float p18 = std::pow(v, 1.8f);
+  expectColor(lookup(textures, g18, 0.5f, 0.5f), {p18, p18, p18, 1.0f}, 1e-3f, "g18_rec709");
+  // A power encoding in AP1: the power, then the matrix.
+  const auto g22ap1 = textures.open(rgba, TextureColorSpace::named("g22_ap1"), &error);
+  ASSERT_NE(g22ap1, TextureSystem::kInvalid) << error;
+  Color ap1Want = fromAp1(p22, p22, p22);
+  ap1Want.a = v;
+  expectColor(lookup(textures, g22ap1, 0.5f, 0.5f), ap1Want, 2e-3f, "g22_ap1");
+  // srgb_texture by name is sourceColorSpace sRGB, bit for bit.
+  const auto named = textures.open(rgba, TextureColorSpace::named("srgb_texture"), &error);
+  const auto srgb = textures.open(rgba, SourceColorSpace::SRGB, &error);
+  const Color a = lookup(textures, named, 0.5f, 0.5f), b = lookup(textures, srgb, 0.5f, 0.5f);
+  EXPECT_EQ(std::memcmp(&a, &b, sizeof a), 0);
+  EXPECT_NEAR(a.r, kLinear188, 1e-3f);
+}
+
+TEST_F(Texture, SceneLinearAndDataColourSpacesNeedNoConversion) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const std::string file = mipmapped("ready.exr");
+  for (const char* name : {"lin_rec709", "scene_linear", "raw", "data"})
+    EXPECT_NE(textures.open(file, TextureColorSpace::named(name), &error), TextureSystem::kInvalid)
+        << error;
+  EXPECT_TRUE(convertedDirectories().empty()) << "a tiled, MIP-mapped file was copied";
+  // Converting one reads its tiles (into a prepared copy).
+  const auto acescg = textures.open(file, TextureColorSpace::named("acescg"), &error);
+  ASSERT_NE(acescg, TextureSystem::kInvalid) << error;
+  EXPECT_EQ(convertedDirectories().size(), 1u);
+  const Vec3f texel = textures.texel(acescg, {3.5f / 16, 5.5f / 16});  // ramps(): x 3, y 5
+  const Color want = fromAp1(3.5f / 16, 1 - 5.5f / 16, 0);
+  EXPECT_NEAR(texel.x, want.r, 1e-5f);
+  EXPECT_NEAR(texel.y, want.g, 1e-5f);
+  EXPECT_NEAR(texel.z, want.b, 1e-5f);
+}
+
+TEST_F(Texture, AnUnknownColourSpaceNameIsAnErrorNamingFileAndName) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const std::string file = constant("rgb.exr", 3, OIIO::TypeFloat, {0.5f, 0.5f, 0.5f});
+  EXPECT_EQ(textures.open(file, TextureColorSpace::named("no_such_space"), &error),
+            TextureSystem::kInvalid);
+  EXPECT_NE(error.find(file), std::string::npos) << error;
+  EXPECT_NE(error.find("no_such_space"), std::string::npos) << error;
+  EXPECT_EQ(findTextureColorSpace(kBundledConfig, "no_such_space", &error), "");
+  EXPECT_NE(error.find("no_such_space"), std::string::npos) << error;
+  float rgb[3] = {0.5f, 0.5f, 0.5f};
+  EXPECT_FALSE(convertToSceneLinear(kBundledConfig, "no_such_space", rgb));
+  EXPECT_EQ(rgb[0], 0.5f);
+}
+
+TEST_F(Texture, MaterialxNamesAreFoundInTheBundledConfigAndThroughInteropAliases) {
+  // Every colour space of MaterialX's specification (cmlib) is in the bundled config.
+  for (const char* name : {"srgb_texture", "lin_rec709", "g22_rec709", "g18_rec709",
+                           "rec709_display", "acescg", "lin_ap1", "g22_ap1", "g18_ap1",
+                           "lin_adobergb", "adobergb", "lin_displayp3", "srgb_displayp3"})
+    EXPECT_NE(findTextureColorSpace(kBundledConfig, name), "") << name;
+  // Constants convert like textures: Display P3 white stays white, lin_rec709 is unchanged.
+  float white[3] = {1, 1, 1};
+  ASSERT_TRUE(convertToSceneLinear(kBundledConfig, "srgb_displayp3", white));
+  for (float c : white) EXPECT_NEAR(c, 1.0f, 1e-4f);
+  float same[3] = {0.25f, 0.5f, 0.75f};
+  ASSERT_TRUE(convertToSceneLinear(kBundledConfig, "lin_rec709", same));
+  EXPECT_EQ(same[2], 0.75f);
+  // A config with only the Color Interop Forum's identifiers (as recent ACES configs carry)
+  // still serves MaterialX's names.
+  const std::string config = path("interop.ocio");
+  std::ofstream(config) << R"(ocio_profile_version: 2.1
+roles:
+  default: Linear Rec.709 (sRGB)
+  scene_linear: Linear Rec.709 (sRGB)
+displays:
+  d:
+    - !<View> {name: v, colorspace: Linear Rec.709 (sRGB)}
+colorspaces:
+  - !<ColorSpace>
+    name: Linear Rec.709 (sRGB)
+    aliases: [lin_rec709_scene]
+  - !<ColorSpace>
+    name: ACEScg
+    aliases: [lin_ap1_scene]
+    to_scene_reference: !<MatrixTransform> {matrix: [1.705050992658, -0.621792120657, -0.083258872001, 0, -0.130256417507, 1.140804736575, -0.010548319068, 0, -0.024003356805, -0.128968976065, 1.15297233287, 0, 0, 0, 0, 1]}
+)";
+  EXPECT_EQ(findTextureColorSpace(config, "acescg"), "ACEScg");
+  EXPECT_EQ(findTextureColorSpace(config, "lin_rec709"), "Linear Rec.709 (sRGB)");
+  EXPECT_EQ(findTextureColorSpace(config, "g22_rec709"), "");
+  TextureSystem textures(config);
+  std::string error;
+  const auto handle = textures.open(constant("ap1.exr", 3, OIIO::TypeFloat, {0.2f, 0.5f, 0.8f}),
+                                    TextureColorSpace::named("lin_ap1"), &error);
+  ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+  expectColor(lookup(textures, handle, 0.5f, 0.5f), fromAp1(0.2f, 0.5f, 0.8f), 1e-5f, "interop");
+}
+
 TEST_F(Texture, TheDestructorRemovesTheConvertedTextures) {
   {
     TextureSystem textures(kBundledConfig);

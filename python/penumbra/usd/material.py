@@ -9,6 +9,7 @@ from typing import Any
 
 from pxr import Gf, Sdf, Sdr, Usd, UsdShade
 
+from .color_spaces import texture_color_space
 from .sampling import SampleReader
 
 PREVIEW_SURFACE = "UsdPreviewSurface"
@@ -113,7 +114,9 @@ _TEXTURE_VECTORS = ("scale", "bias", "fallback")
 class _Network:
     """Reads the shader network behind one material's inputs, noting every prim it reads."""
 
-    def __init__(self, reader: SampleReader, data: MaterialData, warn: Callable[[str], None]):
+    def __init__(self, reader: SampleReader, data: MaterialData, warn: Callable[[str], None],
+                 material: Sdf.Path):
+        self.material = material
         self.reader = reader
         self.data = data
         self.warn = warn
@@ -208,6 +211,12 @@ class _Network:
             value = self.value(shader, name)
             if value is not None:
                 texture[name] = tuple(float(c) for c in value)
+        # colorSpace metadata on the file decides where sourceColorSpace leaves it to the file
+        # (auto); it may name any colour space of the OCIO config (docs/materialx.md).
+        space = shader.GetInput("file").GetAttr().GetMetadata("colorSpace") or ""
+        if space and texture.get("sourceColorSpace", "auto") == "auto":
+            texture.update(texture_color_space(space, lambda message: self.warn(
+                f"{self.material}: UsdUVTexture {shader.GetPath()}: {message}")))
         st_input = shader.GetInput("st")
         if st_input:
             texture.update(self.coordinates(st_input))
@@ -320,7 +329,7 @@ def read_material(
 
     # Edits anywhere in the material (its shaders, node graphs, interface inputs) re-read it.
     data = MaterialData(sources={p.GetPath() for p in Usd.PrimRange(prim)} | {shader.GetPath()})
-    network = _Network(reader, data, warn)
+    network = _Network(reader, data, warn, path)
     defaults = _schema_defaults()
     for name in (*INPUTS, "normal"):
         value = None

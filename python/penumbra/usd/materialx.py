@@ -19,6 +19,7 @@ from typing import Any
 from pxr import Sdf, Usd, UsdShade
 
 from . import materialx_values as mv
+from .color_spaces import authored_color_space, constant_to_scene_linear, texture_color_space
 from .material import CONNECTABLE, INPUTS, MaterialData, _texture_file
 from .sampling import SampleReader
 
@@ -41,9 +42,8 @@ _CONNECTABLE = CONNECTABLE | frozenset(_SHEEN_PARAMS) | frozenset(_ANISOTROPY_PA
     "penumbra:clearcoatColor"}
 # MaterialX address modes → UsdUVTexture wrap modes.
 _ADDRESS_MODES = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "constant": "black"}
-# Colour spaces Penumbra decodes: as a texture's sourceColorSpace, and on constants.
-_SRGB_SPACES = frozenset({"srgb_texture", "sRGB", "srgb_rec709"})
-_LINEAR_SPACES = frozenset({"lin_rec709", "raw", "scene_linear", "linear", "lin_srgb", ""})
+# MaterialX's conversions to the working space (cmlib): <colour space>_to_lin_rec709.
+_TO_WORKING_SPACE = "_to_lin_rec709"
 
 
 @cache
@@ -90,10 +90,6 @@ def surface_shader(material: Usd.Prim) -> UsdShade.Shader | None:
         if shader_id.startswith("ND_"):
             return shader  # unsupported: read_materialx_material warns and renders defaults
     return None
-
-
-def _srgb_to_linear(c: float) -> float:
-    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
 
 
 def _constant(value: Any) -> mv.Constant:
@@ -152,17 +148,13 @@ class _Network:
 
     def _decode(self, value: mv.Constant, attr: Usd.Attribute,
                 shader: UsdShade.Shader) -> mv.Constant:
-        """A constant colour authored in a colour space other than the working (linear Rec.709)
-        one, linearised."""
-        space = attr.GetMetadata("colorSpace") or ""
-        if space in _LINEAR_SPACES or value.size not in (3, 4):
+        """A constant colour authored in a colour space other than the working (scene-linear)
+        one, converted to it."""
+        if value.size not in (3, 4):
             return value
-        if space in _SRGB_SPACES:
-            rgb = tuple(_srgb_to_linear(c) for c in value.values[:3])
-            return mv.Constant(rgb + value.values[3:])
-        self.report(shader.GetPath(), f"colour space {space!r} of {attr.GetName()} is not "
-                    "supported; the value is used as linear Rec.709")
-        return value
+        return mv.Constant(constant_to_scene_linear(
+            value.values, authored_color_space(attr),
+            lambda message: self.report(shader.GetPath(), f"{attr.GetName()}: {message}")))
 
     # Nodes.
     def node(self, shader: UsdShade.Shader, output: str) -> mv.Value:
@@ -228,8 +220,9 @@ class _Network:
             return mv.clamp(value("in"), value("low"), value("high"))
         if category == "normalmap":
             return self._normal_map(value("in"), value("scale"))
-        if category == "srgb_texture_to_lin_rec709":
-            return self._linearise(value("in"))
+        if category.endswith(_TO_WORKING_SPACE):
+            return self._to_working_space(shader, value("in"),
+                                          category[:-len(_TO_WORKING_SPACE)])
         raise mv.Untranslatable(f"{category} nodes ({shader_id}) are not supported")
 
     def _image(self, shader: UsdShade.Shader, category: str, size: int) -> mv.Value:
@@ -247,18 +240,14 @@ class _Network:
             mode = "periodic" if category == "tiledimage" else self.string(
                 shader, f"{axis}addressmode", "periodic")
             texture[wrap] = _ADDRESS_MODES.get(mode, "repeat")
-        file_attr = shader.GetInput("file").GetAttr()
-        space = file_attr.GetMetadata("colorSpace") or ""
-        if space in _SRGB_SPACES:
-            texture["sourceColorSpace"] = "sRGB"
-        elif space and space in _LINEAR_SPACES:
-            texture["sourceColorSpace"] = "raw"
-        elif space:
-            self.report(shader.GetPath(), f"colour space {space!r} is not supported; the file's "
-                        "own metadata decides (sRGB for 8-bit images)")
-            texture["sourceColorSpace"] = "auto"
-        else:  # MaterialX: no colour space is the working space (linear), for every type
-            texture["sourceColorSpace"] = "raw"
+        # The file input's colour space (usdMtlx authors the one it inherits in the document),
+        # else that of the interface input it is connected to. MaterialX: no colour space is the
+        # working space (linear), for every type.
+        file_input = shader.GetInput("file")
+        space = authored_color_space(file_input.GetAttr(),
+                                     *file_input.GetValueProducingAttributes()[:1])
+        texture.update(texture_color_space(
+            space, lambda message: self.report(shader.GetPath(), message)))
         coordinates = self.input(shader, "texcoord")
         if coordinates is None:
             coordinates = mv.identity(2, primvar="st", fallback=(0.0, 0.0))
@@ -295,15 +284,22 @@ class _Network:
         sx, sy = mv.resize(scale, 2).values  # type: ignore[union-attr]
         return mv.affine(value, mv.Constant((2 * sx, 2 * sy, 2.0)), mv.Constant((-sx, -sy, -1.0)))
 
-    def _linearise(self, value: mv.Value) -> mv.Value:
+    def _to_working_space(self, shader: UsdShade.Shader, value: mv.Value,
+                          space: str) -> mv.Value:
+        """``value`` converted from colour space ``space`` (a ``<space>_to_lin_rec709`` node)."""
         if isinstance(value, mv.Constant):
-            return mv.Constant(tuple(_srgb_to_linear(c) for c in value.values[:3])
-                               + value.values[3:])
-        identity = isinstance(value, mv.Affine) and all(s == 1.0 for s in value.scale) and all(
-            b == 0.0 for b in value.bias)
-        if not identity or value.texture is None:  # type: ignore[union-attr]
-            raise mv.Untranslatable("sRGB decoding of anything but an unscaled texture")
-        texture = dict(value.texture, sourceColorSpace="sRGB")
+            return mv.Constant(constant_to_scene_linear(
+                value.values, space, lambda message: self.report(shader.GetPath(), message)))
+        if not isinstance(value, mv.Affine):
+            raise mv.Untranslatable(f"{space} decoding of anything but a texture")
+        identity = all(s == 1.0 for s in value.scale) and all(b == 0.0 for b in value.bias)
+        raw = value.texture is not None and value.texture.get("sourceColorSpace") == "raw" \
+            and "colorSpace" not in value.texture
+        if not (raw and identity):
+            raise mv.Untranslatable(f"{space} decoding of anything but an unscaled texture "
+                                    "without a colour space")
+        texture = dict(value.texture, **texture_color_space(  # type: ignore[arg-type]
+            space, lambda message: self.report(shader.GetPath(), message)))
         return mv.Affine(value.channels, value.scale, value.bias, texture)
 
 

@@ -7,8 +7,9 @@ prims laid out as OpenUSD's usdMtlx lays them out (``/MaterialX/Materials/<mater
 surface shader and the nodes and node graphs it uses as its children), so that bindings to those
 paths resolve. The translation lives in one anonymous layer inserted as the strongest sublayer of
 the stage's session layer: under an abstract (``class``) root prim, out of the way of traversals,
-and brought to each referencing prim by an internal reference with the arc's target path. The
-user's layers are not edited; the added layer's customLayerData records what it composed.
+and brought to each referencing prim by an internal reference with the arc's target path
+(inside instance prototypes, through a patch prim each instance references). The user's layers
+are not edited; the added layer's customLayerData records what it composed.
 """
 
 from __future__ import annotations
@@ -24,6 +25,8 @@ HIDDEN_ROOT = Sdf.Path("/_PenumbraMaterialX")
 # only add what is new.
 _DATA_KEY = "penumbraMaterialX"
 _DEFAULT_PRIM = Sdf.Path("/MaterialX")
+# The overs for arcs inside instance prototypes, one prim per prototype.
+_PATCH_ROOT = HIDDEN_ROOT.AppendChild("instancePatches")
 
 _TYPES = {
     "float": Sdf.ValueTypeNames.Float, "integer": Sdf.ValueTypeNames.Int,
@@ -35,21 +38,44 @@ _TYPES = {
 }
 
 
+def _prim_arcs(prim: Usd.Prim) -> list[tuple[str, Sdf.Path]]:
+    """(resolved .mtlx file, target prim path) for every reference or payload to a MaterialX
+    document authored in the prim stack of ``prim``."""
+    arcs = []
+    for spec in prim.GetPrimStack():
+        items = [*spec.referenceList.GetAddedOrExplicitItems(),
+                 *spec.payloadList.GetAddedOrExplicitItems()]
+        for item in items:
+            if item.assetPath.lower().endswith(".mtlx"):
+                target = item.primPath if not item.primPath.isEmpty else _DEFAULT_PRIM
+                arcs.append((spec.layer.ComputeAbsolutePath(item.assetPath), target))
+    return arcs
+
+
 def _mtlx_arcs(stage: Usd.Stage) -> list[tuple[Sdf.Path, str, Sdf.Path]]:
     """(prim, resolved .mtlx file, target prim path) for every reference or payload to a
-    MaterialX document authored in the prim stacks of the stage."""
-    arcs = []
-    for prim in Usd.PrimRange.Stage(stage, Usd.PrimAllPrimsPredicate):
-        for spec in prim.GetPrimStack():
-            items = [*spec.referenceList.GetAddedOrExplicitItems(),
-                     *spec.payloadList.GetAddedOrExplicitItems()]
-            for item in items:
-                if not item.assetPath.lower().endswith(".mtlx"):
-                    continue
-                file = spec.layer.ComputeAbsolutePath(item.assetPath)
-                target = item.primPath if not item.primPath.isEmpty else _DEFAULT_PRIM
-                arcs.append((prim.GetPath(), file, target))
-    return arcs
+    MaterialX document authored in the prim stacks of the stage (outside instances)."""
+    return [(prim.GetPath(), file, target)
+            for prim in Usd.PrimRange.Stage(stage, Usd.PrimAllPrimsPredicate)
+            for file, target in _prim_arcs(prim)]
+
+
+def _prototype_arcs(
+    stage: Usd.Stage,
+) -> list[tuple[list[Sdf.Path], list[tuple[Sdf.Path, str, Sdf.Path]]]]:
+    """For each instance prototype whose prims author arcs to MaterialX documents: the paths
+    of its instances (those outside other prototypes) and the arcs, each as (prim path
+    relative to the prototype, resolved .mtlx file, target prim path)."""
+    found = []
+    for prototype in stage.GetPrototypes():
+        arcs = [(prim.GetPath().MakeRelativePath(prototype.GetPath()), file, target)
+                for prim in Usd.PrimRange(prototype, Usd.PrimAllPrimsPredicate)
+                if prim != prototype
+                for file, target in _prim_arcs(prim)]
+        instances = [p.GetPath() for p in prototype.GetInstances() if not p.IsInPrototype()]
+        if arcs and instances:
+            found.append((instances, arcs))
+    return found
 
 
 def _added_layer(stage: Usd.Stage) -> Sdf.Layer | None:
@@ -80,21 +106,43 @@ def compose_materialx_documents(stage: Usd.Stage, warn: Callable[[str], None]) -
     fresh = Sdf.Layer.CreateAnonymous("materialx.usda")
     if layer and layer.GetPrimAtPath(HIDDEN_ROOT):
         Sdf.CopySpec(layer, HIDDEN_ROOT, fresh, HIDDEN_ROOT)  # the translations so far
+        if fresh.GetPrimAtPath(_PATCH_ROOT):  # authored anew below
+            del fresh.GetPrimAtPath(HIDDEN_ROOT).nameChildren[_PATCH_ROOT.name]
     scratch = Usd.Stage.Open(fresh)
-    for prim_path, file, target in _mtlx_arcs(stage):
+
+    def translation(file: str, target: Sdf.Path, referrer: Sdf.Path) -> Sdf.Path | None:
+        """The translated prim standing for ``target`` in ``file`` (translated on first use);
+        None, after a warning if needed, when there is none."""
         if file not in documents:
             root = HIDDEN_ROOT.AppendChild(f"document{len(documents)}")
             scratch.OverridePrim(HIDDEN_ROOT).SetSpecifier(Sdf.SpecifierClass)
             documents[file] = str(root) if _translate(file, scratch, root, warn) else ""
         if not documents[file]:
-            continue
+            return None
         internal = Sdf.Path(documents[file]).AppendPath(
             target.MakeRelativePath(Sdf.Path.absoluteRootPath))
         if not scratch.GetPrimAtPath(internal):
-            warn(f"{file}: has no prim {target}; the reference from {prim_path} stays empty")
-            continue
-        references = scratch.OverridePrim(prim_path).GetReferences()
-        references.AddInternalReference(internal)
+            warn(f"{file}: has no prim {target}; the reference from {referrer} stays empty")
+            return None
+        return internal
+
+    for prim_path, file, target in _mtlx_arcs(stage):
+        internal = translation(file, target, prim_path)
+        if internal is not None:
+            scratch.OverridePrim(prim_path).GetReferences().AddInternalReference(internal)
+    # Inside instances, the prims are instance proxies that take no opinions of their own; the
+    # overs go into a patch prim that each instance references, so that they become part of
+    # the arcs its prototype is composed from (instances that shared a prototype still do).
+    for index, (instances, arcs) in enumerate(_prototype_arcs(stage)):
+        patch = _PATCH_ROOT.AppendChild(f"prototype{index}")
+        for relative, file, target in arcs:
+            internal = translation(file, target, instances[0].AppendPath(relative))
+            if internal is not None:
+                scratch.OverridePrim(patch.AppendPath(relative)).GetReferences() \
+                    .AddInternalReference(internal)
+        if scratch.GetPrimAtPath(patch):
+            for instance in instances:
+                scratch.OverridePrim(instance).GetReferences().AddInternalReference(patch)
     fresh.customLayerData = {_DATA_KEY: {"documents": documents, "errors": errors}}
     if layer:
         layer.TransferContent(fresh)

@@ -143,9 +143,18 @@ class PreviewSurfaceBsdf {
   struct LobeProbabilities {
     float coat = 0, specular = 0, multipleScattering = 0, diffuse = 0, sheen = 0, dielectric = 0;
   };
-  /// Lobe choice probabilities for an outgoing direction at cos θo = cosThetaO (> 0).
-  LobeProbabilities lobeProbabilities(float cosThetaO) const;
-  LobeProbabilities computeLobeProbabilities(float cosThetaO) const;
+  /// What depends on the outgoing direction alone (wo, local, wo.z > 0): the lobe choice
+  /// probabilities and the factors for wo of evaluateOpaque. Isotropic lobes read only wo.z.
+  struct Outgoing {
+    LobeProbabilities probabilities;
+    float specularLoss = 0;     // 1 − E(wo) of the rough specular layer (single scattering)
+    Vec3f underSpecular{1.0f};  // 1 − E(wo) of the diffuse layer's cover
+    float coatTransmittance = 1;
+    float sheenTransmittance = 1;
+  };
+  const Outgoing& outgoing(const Vec3f& wo) const;
+  Outgoing computeOutgoing(const Vec3f& wo) const;
+  LobeProbabilities lobeProbabilities(const Vec3f& wo) const { return outgoing(wo).probabilities; }
   /// Clearcoat transmittance 1 − c·E_cc(w) for light from local direction w (isotropic coats
   /// read only w.z).
   float coatTransmittance(const Vec3f& w) const;
@@ -155,9 +164,7 @@ class PreviewSurfaceBsdf {
   float sheenAlbedo(float cosTheta) const;
   /// What the sheen lets through to the layers under it for wo at cos θo: 1 − s·E_sh(μo).
   float sheenTransmittance(float cosThetaO) const;
-  /// Directional albedo of the specular layer the diffuse layer lies under, for light from local
-  /// direction w.
-  Vec3f diffuseLayerCover(const Vec3f& w) const;
+
   /// Everything below in the local frame (z = shading normal); "opaque" functions expect
   /// wo.z > 0, "dielectric" functions wo.z > 0 and the relative index η = n(wi side)/n(wo side)
   /// of the reflection–refraction pair (1 for a thin sheet).
@@ -181,10 +188,8 @@ class PreviewSurfaceBsdf {
   float sheen_;
   Vec3f sheenColor_{0.0f};
   float sheenAlpha_ = 1;
-  // Specular layer; the average loss is 1 − E_avg of its white GGX lobe (the Kulla–Conty
-  // lobe's normalisation).
+  // Specular layer.
   GgxAlpha specularAlpha_;
-  float specularAverageLoss_ = 0;
   Vec3f specularF0_;
   Vec3f multipleScatteringScale_;  // Kulla–Conty F_ms (F_avg² E_avg / (1 − F_avg (1 − E_avg)))
   // Diffuse layer and the specular layer it lies under (the dielectric one in the metallic
@@ -197,11 +202,13 @@ class PreviewSurfaceBsdf {
   float ior_;
   float dielectricAlpha_;
   DielectricKind dielectricKind_;
-  // lobeProbabilities() for the last cos θo asked: one vertex asks for its wo several times
-  // (light sample's evaluate and pdf, then sample). A BSDF lives on one thread, within one
+  // 1 − E_avg of the rough specular layer (0 when it is a mirror or loses nothing).
+  float specularAverageLoss_ = 0;
+  // outgoing() for the last wo asked (zero: none yet): one vertex asks for its wo several times
+  // (each light sample's evaluate and pdf, then sample). A BSDF lives on one thread, within one
   // vertex.
-  mutable float cachedCosThetaO_ = -1;
-  mutable LobeProbabilities cachedProbabilities_;
+  mutable Vec3f cachedWo_{0.0f};
+  mutable Outgoing cachedOutgoing_;
 };
 
 /// Index of refraction at `wavelengthNm` from the Cauchy fit n(λ) = A + B/λ² through n_d = iorD at

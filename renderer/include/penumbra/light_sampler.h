@@ -41,19 +41,31 @@ class LightSampler {
   struct Choice {
     size_t index = 0;
     float probability = 0;
+    /// Which of the point's kMaxChoices light samples this choice takes: infinite lights the
+    /// first kInfiniteLightsSampledEach, local lights the rest, so that the lights of one set
+    /// draw the same numbers whatever the other set holds.
+    uint32_t slot = 0;
   };
+  /// At most this many choices per shading point: every infinite light sampled each, and as
+  /// many local lights as the splitting walk can reach.
+  static constexpr uint32_t kMaxChoices =
+      uint32_t(kInfiniteLightsSampledEach) + (1u << kMaxSplitDepth);
+
   /// Calls `visit(Choice)` for each light next-event estimation samples at the receiver (see
-  /// above), from one uniform number. A choice's probability is that of its light within its
-  /// set, so the caller adds up what each choice gives.
+  /// above), at most kMaxChoices times: `uInfinite` chooses among many infinite lights, `uLocal`
+  /// walks the tree. A choice's probability is that of its light within its set, so the caller
+  /// adds up what each choice gives.
   template <class Visit>
-  void forEachChoice(const Receiver& receiver, float u, Visit&& visit) const {
+  void forEachChoice(const Receiver& receiver, float uInfinite, float uLocal, Visit&& visit) const {
     if (infinite_.size() <= kInfiniteLightsSampledEach) {
-      for (const InfiniteLight& light : infinite_) visit(Choice{light.index, 1.0f});
-    } else if (const std::optional<Choice> choice = sampleInfinite(receiver, u)) {
+      uint32_t slot = 0;
+      for (const InfiniteLight& light : infinite_) visit(Choice{light.index, 1.0f, slot++});
+    } else if (const std::optional<Choice> choice = sampleInfinite(receiver, uInfinite)) {
       visit(*choice);
     }
+    uint32_t localSlot = uint32_t(kInfiniteLightsSampledEach);
     if (!nodes_.empty() && nodes_[0].bounds.importance(receiver) > 0)
-      visitLocal(0, 0, receiver, u, visit);
+      visitLocal(0, 0, receiver, uLocal, localSlot, visit);
   }
   /// The probability that forEachChoice() visits light `index` at the receiver.
   float probability(const Receiver& receiver, size_t index) const;
@@ -77,14 +89,17 @@ class LightSampler {
   };
 
   /// Visits the local lights chosen below `node` (at `depth`, reached with probability 1).
+  /// `slot` is the next local choice's slot.
   template <class Visit>
-  void visitLocal(uint32_t node, int depth, const Receiver& receiver, float u, Visit& visit) const {
+  void visitLocal(uint32_t node, int depth, const Receiver& receiver, float u, uint32_t& slot,
+                  Visit& visit) const {
     const Node& parent = nodes_[node];
     if (depth < kMaxSplitDepth && splits(parent, receiver)) {
       for (const uint32_t child : parent.children)
         if (nodes_[child].bounds.importance(receiver) > 0)
-          visitLocal(child, depth + 1, receiver, u, visit);
-    } else if (const std::optional<Choice> choice = walk(node, receiver, u)) {
+          visitLocal(child, depth + 1, receiver, u, slot, visit);
+    } else if (std::optional<Choice> choice = walk(node, receiver, u)) {
+      choice->slot = slot++;
       visit(*choice);
     }
   }

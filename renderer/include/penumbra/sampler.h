@@ -39,13 +39,23 @@ class SampleStream {
  public:
   SampleStream(uint32_t seed, uint32_t pixelX, uint32_t pixelY, uint32_t sampleIndex);
 
-  float next1D();
-  Vec2f next2D();
+  float next1D() { return draw1D(dimension_++); }
+  Vec2f next2D() { return draw2D(dimension_++); }
+  /// Sets aside `count` dimensions for draws that may or may not be made (as many as a decision
+  /// might need at most), so that the dimensions after them do not depend on how many were
+  /// made; returns the first. Draw them with draw1D/draw2D(first + k).
+  uint32_t reserve(uint32_t count) {
+    const uint32_t first = dimension_;
+    dimension_ += count;
+    return first;
+  }
+  float draw1D(uint32_t dimension) const;
+  Vec2f draw2D(uint32_t dimension) const;
   uint32_t dimension() const { return dimension_; }
 
  private:
   uint32_t pixelSeed_;
-  uint32_t sampleIndex_;
+  uint32_t reversedSampleIndex_;  // the index is only ever scrambled in base-2 reversed order
   uint32_t dimension_ = 0;
 };
 

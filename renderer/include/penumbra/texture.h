@@ -1,11 +1,13 @@
 // Image textures for UsdUVTexture and light textures: filtered, mip-mapped lookups through a
-// private OpenImageIO TextureSystem whose tile cache is bounded, with sRGB textures linearised
-// (through OpenColorIO) before they are filtered.
+// private OpenImageIO TextureSystem whose tile cache is bounded, with textures in a colour space
+// other than the scene-linear one (sRGB, ACEScg, …) converted through OpenColorIO before they
+// are filtered.
 #pragma once
 
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "penumbra/math.h"  // Vec2f
@@ -18,6 +20,36 @@ enum class TextureWrap { Black, Clamp, Repeat, Mirror, UseMetadata };
 /// UsdUVTexture sourceColorSpace.
 enum class SourceColorSpace { Auto, Raw, SRGB };
 
+/// How a texture's values are encoded: UsdUVTexture's sourceColorSpace, or a colour space of the
+/// OCIO config by name (MaterialX's `colorspace`, USD's `colorSpace` metadata), which overrides
+/// it. Named colour spaces are found as findTextureColorSpace finds them.
+struct TextureColorSpace {
+  // Implicit: a sourceColorSpace is a colour space.
+  TextureColorSpace(SourceColorSpace sourceColorSpace = SourceColorSpace::Auto)  // NOLINT
+      : source(sourceColorSpace) {}
+  static TextureColorSpace named(std::string name) {
+    TextureColorSpace space(SourceColorSpace::Raw);
+    space.name = std::move(name);
+    return space;
+  }
+  SourceColorSpace source;
+  std::string name;  // empty: `source` decides
+};
+
+/// The name of the colour space that `name` denotes in the OCIO config at `ocioConfig` (empty:
+/// $OCIO): `name` itself, an alias or a role, else, for MaterialX's colour-space names
+/// (`lin_ap1`, `g22_rec709`, …), the Color Interop Forum's equivalent (`lin_ap1_scene`, …).
+/// Empty when the config has none or cannot be read; *error (if given) then says why.
+std::string findTextureColorSpace(const std::string& ocioConfig, const std::string& name,
+                                  std::string* error = nullptr);
+
+/// Converts `rgb` in place from colour space `name` (found as findTextureColorSpace finds it) to
+/// the scene_linear role of the OCIO config at `ocioConfig` (empty: $OCIO), as textures in that
+/// colour space are: for a material's constant colours. False (with *error) when the config has
+/// no such colour space or cannot be read.
+bool convertToSceneLinear(const std::string& ocioConfig, const std::string& name, float rgb[3],
+                          std::string* error = nullptr);
+
 /// A lookup's position and screen-space footprint in USD texture coordinates (st: origin at the
 /// image's bottom-left corner, t up; one unit = one image / one UDIM tile).
 struct TextureFootprint {
@@ -27,7 +59,8 @@ struct TextureFootprint {
 };
 
 /// The textures of one scene. Values come back as stored in the file (colour not multiplied by
-/// alpha), sRGB-encoded colour converted to the OCIO config's scene_linear role.
+/// alpha), colour converted from the texture's colour space to the OCIO config's scene_linear
+/// role.
 class TextureSystem {
  public:
   using Handle = int;
@@ -36,17 +69,18 @@ class TextureSystem {
   /// The tile cache's size unless setCacheSize says otherwise.
   static constexpr size_t kDefaultCacheBytes = size_t(256) << 20;
 
-  /// ocioConfig: path of the OCIO config used to linearise sRGB textures (empty: $OCIO).
+  /// ocioConfig: path of the OCIO config used to convert textures (empty: $OCIO).
   explicit TextureSystem(const std::string& ocioConfig = {});
   ~TextureSystem();  // also removes any converted-texture files it wrote
   TextureSystem(const TextureSystem&) = delete;
   TextureSystem& operator=(const TextureSystem&) = delete;
 
   /// Opens `path` (may contain the token <UDIM>) for lookups. Same (path, colorSpace) → same
-  /// handle. On failure (missing/unreadable file, UDIM pattern with no tiles, no sRGB colour space
-  /// in the config) returns kInvalid and sets *error to a message naming the file and what is
-  /// wrong. Called from one thread at a time (scene sync), never concurrently with lookup().
-  Handle open(const std::string& path, SourceColorSpace colorSpace, std::string* error);
+  /// handle; a file read in two colour spaces is two textures. On failure (missing/unreadable
+  /// file, UDIM pattern with no tiles, no sRGB or no such named colour space in the config)
+  /// returns kInvalid and sets *error to a message naming the file and what is wrong. Called
+  /// from one thread at a time (scene sync), never concurrently with lookup().
+  Handle open(const std::string& path, const TextureColorSpace& colorSpace, std::string* error);
 
   /// Channels in the file (1–4); 0 for an invalid handle.
   int channels(Handle handle) const;

@@ -12,12 +12,12 @@
 
 namespace penumbra::plugin {
 
-/// A UsdUVTexture as the scene delegate describes it: the file by path (resolved; may hold
-/// <UDIM>) and colour space, and the node's other inputs (`reader.texture` is set at sync, when
-/// the file is opened).
+/// A UsdUVTexture (or MaterialX image) as the scene delegate describes it: the file by path
+/// (resolved; may hold <UDIM>) and colour space, and the node's other inputs (`reader.texture`
+/// is set at sync, when the file is opened).
 struct TextureNode {
   std::string file;
-  SourceColorSpace colorSpace = SourceColorSpace::Auto;
+  TextureColorSpace colorSpace;
   TextureReader reader;
 };
 
