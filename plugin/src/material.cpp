@@ -56,17 +56,23 @@ void Material::setParam(const std::string& name, const ParamValue& value) {
       {"penumbra:transmissionRoughness", &MaterialParams::transmissionRoughness},
       {"penumbra:abbeNumber", &MaterialParams::abbeNumber},
       {"penumbra:sheen", &MaterialParams::sheen},
-      {"penumbra:sheenRoughness", &MaterialParams::sheenRoughness}};
+      {"penumbra:sheenRoughness", &MaterialParams::sheenRoughness},
+      {"penumbra:anisotropy", &MaterialParams::anisotropy},
+      {"penumbra:clearcoatAnisotropy", &MaterialParams::clearcoatAnisotropy},
+      {"penumbra:anisotropyRotation", &MaterialParams::anisotropyRotation}};
   static const std::map<std::string, Vec3f MaterialParams::*> colors = {
       {"diffuseColor", &MaterialParams::diffuseColor},
       {"emissiveColor", &MaterialParams::emissiveColor},
       {"specularColor", &MaterialParams::specularColor},
       {"penumbra:clearcoatColor", &MaterialParams::clearcoatColor},
       {"penumbra:sheenColor", &MaterialParams::sheenColor}};
-  // The sheen and coat colour inputs must be finite (the BSDF clamps them to their ranges); the
-  // older inputs keep their lenient handling (the BSDF reads NaN as 0).
+  static const std::map<std::string, AnisotropyModel> anisotropyModels = {
+      {"openPBR", AnisotropyModel::OpenPbr}, {"standardSurface", AnisotropyModel::StandardSurface}};
+  // The sheen, coat colour and anisotropy inputs must be finite (the BSDF clamps them to their
+  // ranges); the older inputs keep their lenient handling (the BSDF reads NaN as 0).
   const bool checkedInput =
-      name.rfind("penumbra:sheen", 0) == 0 || name == "penumbra:clearcoatColor";
+      name.rfind("penumbra:sheen", 0) == 0 || name == "penumbra:clearcoatColor" ||
+      name.rfind("penumbra:anisotropy", 0) == 0 || name == "penumbra:clearcoatAnisotropy";
   try {
     if (const auto number = numbers.find(name); number != numbers.end()) {
       const float parsed = paramAsFloat(name, value);
@@ -83,6 +89,9 @@ void Material::setParam(const std::string& name, const ParamValue& value) {
       params_.useSpecularWorkflow = paramAsBool(name, value);
     else if (name == "penumbra:thinWalled")
       params_.thinWalled = paramAsBool(name, value);
+    else if (name == "penumbra:anisotropyModel")
+      params_.anisotropyModel =
+          parseToken(anisotropyModels, paramAsString(name, value), "anisotropy model");
     else
       throw std::invalid_argument("unknown UsdPreviewSurface input '" + name + "'");
   } catch (const std::invalid_argument& error) {
@@ -104,12 +113,30 @@ void Material::connect(const std::string& input, InputSource source) {
       {"penumbra:sheen", MaterialInput::Sheen},
       {"penumbra:sheenColor", MaterialInput::SheenColor},
       {"penumbra:sheenRoughness", MaterialInput::SheenRoughness},
+      {"penumbra:anisotropy", MaterialInput::Anisotropy},
+      {"penumbra:clearcoatAnisotropy", MaterialInput::ClearcoatAnisotropy},
+      {"penumbra:anisotropyRotation", MaterialInput::AnisotropyRotation},
       {"opacity", MaterialInput::Opacity},
       {"ior", MaterialInput::Ior},
       {"normal", MaterialInput::Normal}};
   try {
     const MaterialInput connected = parseToken(inputs, input, "connectable input");
     if (source.texture) parseTextureOutput(source.output);
+    if (!source.program.empty()) {
+      // Texture indices are assigned at sync; check the rest now, with each texture node given
+      // an index of its own.
+      ExpressionProgram program;
+      size_t textures = 0;
+      for (const ProgramNode& node : source.program) {
+        program.nodes.push_back(node.node);
+        if (node.node.op == ExpressionOp::Texture) {
+          if (!node.texture) throw std::invalid_argument("a texture node needs a texture");
+          program.nodes.back().texture = int(textures++);
+        }
+      }
+      if (const std::string problem = program.problem(textures); !problem.empty())
+        throw std::invalid_argument(input + ": " + problem);
+    }
     connections_.emplace_back(connected, std::move(source));
   } catch (const std::invalid_argument& error) {
     throw std::invalid_argument(id() + ": " + error.what());

@@ -236,21 +236,35 @@ std::vector<std::string> RenderDelegate::takeWarnings() {
   return taken;
 }
 
+int RenderDelegate::openTexture(const Material& material, const TextureNode& node, bool report,
+                                penumbra::Material* result) {
+  TextureReader reader = node.reader;
+  std::string error;
+  reader.texture = scene_->textures().open(node.file, node.colorSpace, &error);
+  if (reader.texture == TextureSystem::kInvalid && report)
+    warn(material.id() + ": " + error + "; its fallback value is used");
+  result->textures.push_back(std::move(reader));
+  return int(result->textures.size() - 1);
+}
+
 penumbra::Material RenderDelegate::buildMaterial(const Material& material, bool report) {
   penumbra::Material result;
   result.constants = material.params();
   for (const auto& [input, source] : material.connections()) {
     InputConnection connection;
     connection.input = input;
-    if (source.texture) {
-      const TextureNode& node = *source.texture;
-      TextureReader reader = node.reader;
-      std::string error;
-      reader.texture = scene_->textures().open(node.file, node.colorSpace, &error);
-      if (reader.texture == TextureSystem::kInvalid && report)
-        warn(material.id() + ": " + error + "; its fallback value is used");
-      connection.texture = int(result.textures.size());
-      result.textures.push_back(std::move(reader));
+    if (!source.program.empty()) {
+      ExpressionProgram program;
+      for (const ProgramNode& node : source.program) {
+        program.nodes.push_back(node.node);
+        if (node.texture)
+          program.nodes.back().texture = openTexture(material, *node.texture, report, &result);
+      }
+      connection.program = int(result.programs.size());
+      connection.channelCount = isVectorInput(input) ? 3 : 1;
+      result.programs.push_back(std::move(program));
+    } else if (source.texture) {
+      connection.texture = openTexture(material, *source.texture, report, &result);
       std::tie(connection.firstChannel, connection.channelCount) =
           parseTextureOutput(source.output);
     } else {

@@ -12,6 +12,7 @@
 #include <exception>
 #include <future>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -26,6 +27,7 @@ namespace py = pybind11;
 using penumbra::CameraParams;
 using penumbra::ColorCorrection;
 using penumbra::DisplaySettings;
+using penumbra::ExpressionOp;
 using penumbra::ImageData;
 using penumbra::Interpolation;
 using penumbra::Matrix44;
@@ -235,16 +237,79 @@ TextureNode toTextureNode(const std::string& where, const py::dict& dict) {
   return node;
 }
 
-/// A connected input's source: {"texture": {...}, "output": "rgb"} or
-/// {"primvar": name, "fallback": value}.
+/// Up to 4 small non-negative integers (operand indices, channels), zero-padded.
+std::array<uint8_t, 4> toIndices(const std::string& where, const py::handle& value, size_t most) {
+  const auto items = value.cast<std::vector<int>>();
+  if (items.size() > most)
+    throw std::invalid_argument(where + " takes at most " + std::to_string(most) + " entries");
+  std::array<uint8_t, 4> result{0, 0, 0, 0};
+  for (size_t i = 0; i < items.size(); ++i) {
+    if (items[i] < 0 || items[i] > 255) throw std::invalid_argument(where + " is out of range");
+    result[i] = uint8_t(items[i]);
+  }
+  return result;
+}
+
+/// A pattern program node (docs/core-api.md, set_material): {"op": name, "in": [operands],
+/// "channels": [...], "split": n, "value": (4 floats), "texture": {...}, "primvar": name,
+/// "fallback": (4 floats)}.
+ProgramNode toProgramNode(const std::string& where, const py::dict& dict) {
+  static const std::map<std::string, ExpressionOp> ops = {
+      {"constant", ExpressionOp::Constant},
+      {"texture", ExpressionOp::Texture},
+      {"primvar", ExpressionOp::Primvar},
+      {"swizzle", ExpressionOp::Swizzle},
+      {"concatenate", ExpressionOp::Concatenate},
+      {"add", ExpressionOp::Add},
+      {"subtract", ExpressionOp::Subtract},
+      {"multiply", ExpressionOp::Multiply},
+      {"divide", ExpressionOp::Divide},
+      {"mix", ExpressionOp::Mix},
+      {"clamp", ExpressionOp::Clamp}};
+  ProgramNode node;
+  bool hasOp = false;
+  readDict(where, dict,
+           {"op", "in", "channels", "split", "value", "texture", "primvar", "fallback"},
+           [&](const std::string& key, const py::handle& value) {
+             const std::string at = where + "." + key;
+             if (key == "op") {
+               const auto op = ops.find(value.cast<std::string>());
+               if (op == ops.end())
+                 throw std::invalid_argument("unknown program operation '" +
+                                             value.cast<std::string>() + "'");
+               node.node.op = op->second;
+               hasOp = true;
+             }
+             if (key == "in") {
+               const std::array<uint8_t, 4> operands = toIndices(at, value, 3);
+               std::copy_n(operands.begin(), 3, node.node.operands.begin());
+             }
+             if (key == "channels") node.node.channels = toIndices(at, value, 4);
+             if (key == "split") node.node.channels[0] = toIndices(at, py::make_tuple(value), 1)[0];
+             if (key == "value" || key == "fallback") node.node.value = toFloats<4>(at, value);
+             if (key == "texture") node.texture = toTextureNode(at, value.cast<py::dict>());
+             if (key == "primvar") node.node.primvar = value.cast<std::string>();
+           });
+  if (!hasOp) throw std::invalid_argument(where + ": a program node needs an 'op'");
+  return node;
+}
+
+/// A connected input's source: {"texture": {...}, "output": "rgb"},
+/// {"primvar": name, "fallback": value} or {"program": [nodes]}.
 InputSource toInputSource(const std::string& where, const py::dict& dict) {
   InputSource source;
-  readDict(where, dict, {"texture", "output", "primvar", "fallback"},
+  readDict(where, dict, {"texture", "output", "primvar", "fallback", "program"},
            [&](const std::string& key, const py::handle& value) {
              if (key == "texture")
                source.texture = toTextureNode(where + ".texture", value.cast<py::dict>());
              if (key == "output") source.output = value.cast<std::string>();
              if (key == "primvar") source.primvar = value.cast<std::string>();
+             if (key == "program") {
+               const py::list nodes = value.cast<py::list>();
+               for (size_t i = 0; i < nodes.size(); ++i)
+                 source.program.push_back(toProgramNode(
+                     where + ".program[" + std::to_string(i) + "]", nodes[i].cast<py::dict>()));
+             }
              if (key == "fallback") {
                if (py::hasattr(value, "__len__"))
                  source.fallback = toFloats<3>(where + ".fallback", value);
@@ -252,8 +317,11 @@ InputSource toInputSource(const std::string& where, const py::dict& dict) {
                  source.fallback.fill(value.cast<float>());
              }
            });
-  if (source.texture.has_value() == !source.primvar.empty())
-    throw std::invalid_argument(where + ": a connection names either a texture or a primvar");
+  if (int(source.texture.has_value()) + int(!source.primvar.empty()) +
+          int(!source.program.empty()) !=
+      1)
+    throw std::invalid_argument(where +
+                                ": a connection names one of a texture, a primvar or a program");
   return source;
 }
 

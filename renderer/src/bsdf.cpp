@@ -67,35 +67,58 @@ Vec3f mirrorThroughSurface(const Vec3f& w) {
   return {w.x, w.y, -w.z};
 }
 
-// --- GGX (Trowbridge–Reitz) microfacets, isotropic, in the local frame (z = macro normal) ---
+// --- GGX (Trowbridge–Reitz) microfacets, in the local frame (z = macro normal) ---
+// GgxAlpha (bsdf.h) holds α along x and y. The isotropic formulas (kAnisotropic false) are kept
+// apart from the anisotropic ones: they are what every isotropic material computed before
+// anisotropy existed, bit for bit, and cheaper. Each public function decides once which to use.
 
-/// Distribution of microfacet normals D(h), per unit solid angle of h.
-float ggxDensity(const Vec3f& h, float alpha) {
+/// Distribution of microfacet normals D(h), per unit solid angle of h:
+/// 1 / (π αx αy (hx²/αx² + hy²/αy² + hz²)²).
+template <bool kAnisotropic>
+float ggxDensityOf(const Vec3f& h, GgxAlpha alpha) {
   if (h.z <= 0) return 0;
-  const float alpha2 = alpha * alpha;
-  const float d = h.z * h.z * (alpha2 - 1) + 1;
-  return alpha2 / (kPi * d * d);
+  if (!kAnisotropic) {
+    const float alpha2 = alpha.x * alpha.x;
+    const float d = h.z * h.z * (alpha2 - 1) + 1;
+    return alpha2 / (kPi * d * d);
+  }
+  const float d = square(h.x / alpha.x) + square(h.y / alpha.y) + h.z * h.z;
+  return 1 / (kPi * alpha.x * alpha.y * d * d);
 }
-/// Smith's Λ(w): G1 = 1 / (1 + Λ).
-float ggxLambda(const Vec3f& w, float alpha) {
+/// Smith's Λ(w) = (√(1 + (αx² wx² + αy² wy²) / wz²) − 1) / 2: G1 = 1 / (1 + Λ).
+template <bool kAnisotropic>
+float ggxLambdaOf(const Vec3f& w, GgxAlpha alpha) {
   const float cos2 = w.z * w.z;
   if (cos2 == 0) return kInfinity;
-  const float tan2 = std::max(0.0f, 1 - cos2) / cos2;
-  return 0.5f * (std::sqrt(1 + alpha * alpha * tan2) - 1);
-}
-float ggxMasking(const Vec3f& w, float alpha) {
-  return 1 / (1 + ggxLambda(w, alpha));
+  if (!kAnisotropic) {
+    const float tan2 = std::max(0.0f, 1 - cos2) / cos2;
+    return 0.5f * (std::sqrt(1 + alpha.x * alpha.x * tan2) - 1);
+  }
+  const float projected2 = square(alpha.x * w.x) + square(alpha.y * w.y);
+  return 0.5f * (std::sqrt(1 + projected2 / cos2) - 1);
 }
 /// Height-correlated masking-shadowing G2 (Heitz 2014).
-float ggxMaskingShadowing(const Vec3f& wo, const Vec3f& wi, float alpha) {
-  return 1 / (1 + ggxLambda(wo, alpha) + ggxLambda(wi, alpha));
+template <bool kAnisotropic>
+float ggxMaskingShadowingOf(const Vec3f& wo, const Vec3f& wi, GgxAlpha alpha) {
+  return 1 / (1 + ggxLambdaOf<kAnisotropic>(wo, alpha) + ggxLambdaOf<kAnisotropic>(wi, alpha));
+}
+
+float ggxDensity(const Vec3f& h, GgxAlpha alpha) {
+  return alpha.isotropic() ? ggxDensityOf<false>(h, alpha) : ggxDensityOf<true>(h, alpha);
+}
+float ggxMasking(const Vec3f& w, GgxAlpha alpha) {
+  return 1 / (1 + (alpha.isotropic() ? ggxLambdaOf<false>(w, alpha) : ggxLambdaOf<true>(w, alpha)));
+}
+float ggxMaskingShadowing(const Vec3f& wo, const Vec3f& wi, GgxAlpha alpha) {
+  return alpha.isotropic() ? ggxMaskingShadowingOf<false>(wo, wi, alpha)
+                           : ggxMaskingShadowingOf<true>(wo, wi, alpha);
 }
 /// A microfacet normal distributed as the normals visible from wo (wo.z > 0), with density
-/// G1(wo) max(0, wo·h) D(h) / wo.z (Heitz 2018): in the configuration stretched to α = 1 the
-/// visible normals are uniform over the projected hemisphere, i.e. over a disk of which the part
-/// hidden behind the hemisphere's silhouette is folded onto the visible half.
-Vec3f sampleGgxVisibleNormal(const Vec3f& wo, float alpha, Vec2f u) {
-  const Vec3f view = normalize(Vec3f(alpha * wo.x, alpha * wo.y, wo.z));
+/// G1(wo) max(0, wo·h) D(h) / wo.z (Heitz 2018): in the configuration stretched by (1/αx, 1/αy)
+/// to α = 1 the visible normals are uniform over the projected hemisphere, i.e. over a disk of
+/// which the part hidden behind the hemisphere's silhouette is folded onto the visible half.
+Vec3f sampleGgxVisibleNormal(const Vec3f& wo, GgxAlpha alpha, Vec2f u) {
+  const Vec3f view = normalize(Vec3f(alpha.x * wo.x, alpha.y * wo.y, wo.z));
   const float lengthXY2 = view.x * view.x + view.y * view.y;
   const Vec3f tangent =
       lengthXY2 > 0 ? Vec3f(-view.y, view.x, 0) / std::sqrt(lengthXY2) : Vec3f(1, 0, 0);
@@ -111,18 +134,28 @@ Vec3f sampleGgxVisibleNormal(const Vec3f& wo, float alpha, Vec2f u) {
       (1 - visibleFraction) * std::sqrt(std::max(0.0f, 1 - p1 * p1)) + visibleFraction * diskY;
   const Vec3f stretched =
       tangent * p1 + bitangent * p2 + view * std::sqrt(std::max(0.0f, 1 - p1 * p1 - p2 * p2));
-  return normalize(Vec3f(alpha * stretched.x, alpha * stretched.y, std::max(1e-7f, stretched.z)));
+  return normalize(
+      Vec3f(alpha.x * stretched.x, alpha.y * stretched.y, std::max(1e-7f, stretched.z)));
 }
-float ggxVisibleNormalPdf(const Vec3f& wo, const Vec3f& h, float alpha) {
-  return ggxMasking(wo, alpha) * std::max(0.0f, dot(wo, h)) * ggxDensity(h, alpha) / wo.z;
+template <bool kAnisotropic>
+float ggxVisibleNormalPdfOf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
+  return 1 / (1 + ggxLambdaOf<kAnisotropic>(wo, alpha)) * std::max(0.0f, dot(wo, h)) *
+         ggxDensityOf<kAnisotropic>(h, alpha) / wo.z;
+}
+float ggxVisibleNormalPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
+  return alpha.isotropic() ? ggxVisibleNormalPdfOf<false>(wo, h, alpha)
+                           : ggxVisibleNormalPdfOf<true>(wo, h, alpha);
 }
 
 /// f · cos θi of single-scattering GGX reflection without Fresnel: D G2 / (4 cos θo).
-float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, const Vec3f& h, float alpha) {
-  return ggxDensity(h, alpha) * ggxMaskingShadowing(wo, wi, alpha) / (4 * wo.z);
+float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, const Vec3f& h,
+                                  GgxAlpha alpha) {
+  if (alpha.isotropic())
+    return ggxDensityOf<false>(h, alpha) * ggxMaskingShadowingOf<false>(wo, wi, alpha) / (4 * wo.z);
+  return ggxDensityOf<true>(h, alpha) * ggxMaskingShadowingOf<true>(wo, wi, alpha) / (4 * wo.z);
 }
 /// Solid-angle density of wi = reflect(wo, h) with h sampled by sampleGgxVisibleNormal.
-float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, float alpha) {
+float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
   const float cosThetaOH = dot(wo, h);
   return cosThetaOH > 0 ? ggxVisibleNormalPdf(wo, h, alpha) / (4 * cosThetaOH) : 0.0f;
 }
@@ -138,6 +171,41 @@ GridCell gridCell(float coordinate, int size) {
   const float x = clamp01(coordinate) * float(size - 1);
   const int index = std::min(int(x), size - 2);
   return {index, x - float(index)};
+}
+
+/// 2∫ f(μ) μ dμ of the piecewise-linear interpolant of f at μ_k = k/(count − 1): on each
+/// segment the integrand is quadratic and Simpson's rule is exact.
+float hemisphericalAverage(const float* values, int count) {
+  const double width = 1.0 / (count - 1);
+  double sum = 0;
+  for (int k = 0; k + 1 < count; ++k) {
+    const double mu0 = k * width, mu1 = (k + 1) * width;
+    sum += width * (values[k] * (2 * mu0 + mu1) + values[k + 1] * (mu0 + 2 * mu1)) / 6;
+  }
+  return float(2 * sum);
+}
+
+/// Both terms of a GGX lobe's Schlick-Fresnel albedo (GgxAlbedoTable) for light from wo, by
+/// kStrata² stratified visible-normal samples.
+template <int kStrata>
+void integrateGgxAlbedo(const Vec3f& wo, GgxAlpha alpha, float* scale, float* bias) {
+  double scaleSum = 0, biasSum = 0;
+  const float masking = ggxMasking(wo, alpha);
+  for (int i = 0; i < kStrata; ++i) {
+    for (int j = 0; j < kStrata; ++j) {
+      const Vec2f u{(float(i) + 0.5f) / kStrata, (float(j) + 0.5f) / kStrata};
+      const Vec3f h = sampleGgxVisibleNormal(wo, alpha, u);
+      const Vec3f wi = reflect(wo, h);
+      if (wi.z <= 0) continue;
+      // f cos θi / pdf for visible-normal sampling is G2 / G1(wo).
+      const float weight = ggxMaskingShadowing(wo, wi, alpha) / masking;
+      const float fresnel = schlickWeight(dot(wo, h));
+      scaleSum += weight * (1 - fresnel);
+      biasSum += weight * fresnel;
+    }
+  }
+  *scale = float(scaleSum / (kStrata * kStrata));
+  *bias = float(biasSum / (kStrata * kStrata));
 }
 
 /// E_F(μ, α) = F0·A(μ, α) + B(μ, α) is the directional albedo of single-scattering GGX reflection
@@ -157,25 +225,11 @@ class GgxAlbedoTable {
         // At μ = 0 the integral has a limit but the sampling does not; evaluate just above.
         const float cosThetaO = std::max(float(column) / (kSize - 1), 1e-3f);
         const Vec3f wo(std::sqrt(1 - cosThetaO * cosThetaO), 0, cosThetaO);
-        double scale = 0, bias = 0;
-        for (int i = 0; i < kStrata; ++i) {
-          for (int j = 0; j < kStrata; ++j) {
-            const Vec2f u{(float(i) + 0.5f) / kStrata, (float(j) + 0.5f) / kStrata};
-            const Vec3f h = sampleGgxVisibleNormal(wo, alpha, u);
-            const Vec3f wi = reflect(wo, h);
-            if (wi.z <= 0) continue;
-            // f cos θi / pdf for visible-normal sampling is G2 / G1(wo).
-            const float weight = ggxMaskingShadowing(wo, wi, alpha) / ggxMasking(wo, alpha);
-            const float fresnel = schlickWeight(dot(wo, h));
-            scale += weight * (1 - fresnel);
-            bias += weight * fresnel;
-          }
-        }
-        scale_[row * kSize + column] = float(scale / (kStrata * kStrata));
-        bias_[row * kSize + column] = float(bias / (kStrata * kStrata));
+        integrateGgxAlbedo<kStrata>(wo, alpha, &scale_[row * kSize + column],
+                                    &bias_[row * kSize + column]);
       }
-      averageScale_[row] = hemisphericalAverage(&scale_[row * kSize]);
-      averageBias_[row] = hemisphericalAverage(&bias_[row * kSize]);
+      averageScale_[row] = hemisphericalAverage(&scale_[row * kSize], kSize);
+      averageBias_[row] = hemisphericalAverage(&bias_[row * kSize], kSize);
     }
   }
 
@@ -204,17 +258,6 @@ class GgxAlbedoTable {
 
  private:
   static GridCell cell(float coordinate) { return gridCell(coordinate, kSize); }
-  /// 2∫ f(μ) μ dμ of the piecewise-linear interpolant of f at μ_k = k/(kSize − 1): on each
-  /// segment the integrand is quadratic and Simpson's rule is exact.
-  static float hemisphericalAverage(const float* values) {
-    const double width = 1.0 / (kSize - 1);
-    double sum = 0;
-    for (int k = 0; k + 1 < kSize; ++k) {
-      const double mu0 = k * width, mu1 = (k + 1) * width;
-      sum += width * (values[k] * (2 * mu0 + mu1) + values[k + 1] * (mu0 + 2 * mu1)) / 6;
-    }
-    return float(2 * sum);
-  }
 
   std::array<float, kSize * kSize> scale_{}, bias_{};
   std::array<float, kSize> averageScale_{}, averageBias_{};
@@ -223,6 +266,120 @@ class GgxAlbedoTable {
 const GgxAlbedoTable& ggxAlbedoTable() {
   static const GgxAlbedoTable table;  // built once, thread-safe, immutable afterwards
   return table;
+}
+
+/// The albedo terms A and B of GgxAlbedoTable for anisotropic lobes, which depend on the
+/// azimuth φ of the direction too. Tabulated over μ = cos θ on [0, 1], φ folded into [0, π/2]
+/// (the lobe is symmetric about both axes), √(αx / kMaxAlpha) on [0, 1] (OpenPBR's αx reaches √2)
+/// and αy / αx on [0, 1] (the larger α is along x; lookups swap the axes otherwise), end points
+/// included. Computed at first use (about 0.15 s), only when an anisotropic lobe is first
+/// evaluated.
+class AnisotropicGgxAlbedoTable {
+ public:
+  static constexpr int kCosines = 16, kAzimuths = 8, kRoughnesses = 12, kRatios = 8;
+  static constexpr int kStrata = 12;  // kStrata² samples per entry
+  static constexpr float kMaxAlpha = 1.41421356f;
+
+  AnisotropicGgxAlbedoTable() {
+    for (int r = 0; r < kRoughnesses; ++r) {
+      for (int q = 0; q < kRatios; ++q) {
+        const GgxAlpha alpha = nodeAlpha(r, q);
+        for (int a = 0; a < kAzimuths; ++a) {
+          const float phi = 0.5f * kPi * float(a) / (kAzimuths - 1);
+          for (int m = 0; m < kCosines; ++m) {
+            // At μ = 0 the integral has a limit but the sampling does not; evaluate just above.
+            const float cosThetaO = std::max(float(m) / (kCosines - 1), 1e-3f);
+            const float sinThetaO = std::sqrt(1 - cosThetaO * cosThetaO);
+            const Vec3f wo(sinThetaO * std::cos(phi), sinThetaO * std::sin(phi), cosThetaO);
+            const int i = index(r, q, a, m);
+            integrateGgxAlbedo<kStrata>(wo, alpha, &scale_[size_t(i)], &bias_[size_t(i)]);
+          }
+        }
+        // (1/π) ∫ E μ dμ dφ: Simpson-exact in μ, trapezoidal in φ.
+        double scale = 0, bias = 0;
+        for (int a = 0; a < kAzimuths; ++a) {
+          const double weight = (a == 0 || a == kAzimuths - 1 ? 0.5 : 1.0) / (kAzimuths - 1);
+          scale += weight * hemisphericalAverage(&scale_[size_t(index(r, q, a, 0))], kCosines);
+          bias += weight * hemisphericalAverage(&bias_[size_t(index(r, q, a, 0))], kCosines);
+        }
+        averageScale_[size_t(r * kRatios + q)] = float(scale);
+        averageBias_[size_t(r * kRatios + q)] = float(bias);
+      }
+    }
+  }
+
+  /// A and B for light from local direction w (w.z > 0).
+  GgxAlbedoTable::Albedo directional(const Vec3f& w, GgxAlpha alpha) const {
+    const float x = alpha.x >= alpha.y ? w.x : w.y, y = alpha.x >= alpha.y ? w.y : w.x;
+    const GridCell a = gridCell(std::atan2(std::fabs(y), std::fabs(x)) / (0.5f * kPi), kAzimuths);
+    const GridCell m = gridCell(w.z, kCosines);
+    const auto [r, q] = cells(alpha);
+    GgxAlbedoTable::Albedo result;
+    for (int corner = 0; corner < 16; ++corner) {
+      const int dr = corner & 1, dq = (corner >> 1) & 1, da = (corner >> 2) & 1, dm = corner >> 3;
+      const float weight = (dr ? r.fraction : 1 - r.fraction) * (dq ? q.fraction : 1 - q.fraction) *
+                           (da ? a.fraction : 1 - a.fraction) * (dm ? m.fraction : 1 - m.fraction);
+      const size_t i = size_t(index(r.index + dr, q.index + dq, a.index + da, m.index + dm));
+      result.scale += weight * scale_[i];
+      result.bias += weight * bias_[i];
+    }
+    return result;
+  }
+  /// (1/π) ∫ A μ dω and (1/π) ∫ B μ dω over the hemisphere.
+  GgxAlbedoTable::Albedo average(GgxAlpha alpha) const {
+    const auto [r, q] = cells(alpha);
+    GgxAlbedoTable::Albedo result;
+    for (int corner = 0; corner < 4; ++corner) {
+      const int dr = corner & 1, dq = corner >> 1;
+      const float weight = (dr ? r.fraction : 1 - r.fraction) * (dq ? q.fraction : 1 - q.fraction);
+      const size_t i = size_t((r.index + dr) * kRatios + q.index + dq);
+      result.scale += weight * averageScale_[i];
+      result.bias += weight * averageBias_[i];
+    }
+    return result;
+  }
+
+ private:
+  static int index(int roughness, int ratio, int azimuth, int cosine) {
+    return ((roughness * kRatios + ratio) * kAzimuths + azimuth) * kCosines + cosine;
+  }
+  static GgxAlpha nodeAlpha(int roughness, int ratio) {
+    const float alongX = std::max(kMaxAlpha * square(float(roughness) / (kRoughnesses - 1)),
+                                  PreviewSurfaceBsdf::kDeltaAlpha);
+    return {alongX,
+            std::max(alongX * float(ratio) / (kRatios - 1), PreviewSurfaceBsdf::kDeltaAlpha)};
+  }
+  static std::pair<GridCell, GridCell> cells(GgxAlpha alpha) {
+    const float larger = std::max(alpha.x, alpha.y), smaller = std::min(alpha.x, alpha.y);
+    return {gridCell(std::sqrt(larger / kMaxAlpha), kRoughnesses),
+            gridCell(larger > 0 ? smaller / larger : 1.0f, kRatios)};
+  }
+
+  std::array<float, kRoughnesses * kRatios * kAzimuths * kCosines> scale_{}, bias_{};
+  std::array<float, kRoughnesses * kRatios> averageScale_{}, averageBias_{};
+};
+
+const AnisotropicGgxAlbedoTable& anisotropicGgxAlbedoTable() {
+  static const AnisotropicGgxAlbedoTable table;  // built once, thread-safe, immutable afterwards
+  return table;
+}
+
+/// The anisotropic table's lookup, kept out of line (with its table's initialisation) so that
+/// ggxDirectionalAlbedo stays small.
+GgxAlbedoTable::Albedo anisotropicGgxDirectionalAlbedo(const Vec3f& w, GgxAlpha alpha) {
+  return anisotropicGgxAlbedoTable().directional(w, alpha);
+}
+/// A GGX lobe's albedo terms for light from local direction w (w.z > 0; isotropic lobes read
+/// only w.z), and their hemispherical averages. Always inlined: the isotropic lookup is on every
+/// evaluation's path, and was inlined before anisotropy existed.
+[[gnu::always_inline]] inline GgxAlbedoTable::Albedo ggxDirectionalAlbedo(const Vec3f& w,
+                                                                          GgxAlpha alpha) {
+  if (alpha.isotropic()) return ggxAlbedoTable().directional(w.z, alpha.x);
+  return anisotropicGgxDirectionalAlbedo(w, alpha);
+}
+GgxAlbedoTable::Albedo ggxAverageAlbedo(GgxAlpha alpha) {
+  return alpha.isotropic() ? ggxAlbedoTable().average(alpha.x)
+                           : anisotropicGgxAlbedoTable().average(alpha);
 }
 
 /// Directional albedo E(μ, α, η) of single-scattering GGX on a solid dielectric interface: the
@@ -448,23 +605,25 @@ float sheenReflection(const Vec3f& wo, const Vec3f& wi, float alpha) {
 /// A specular layer: GGX (or a mirror when alpha = 0) with Schlick's Fresnel from f0 to 1 and a
 /// Kulla–Conty multiple-scattering term scaled by `multipleScattering`.
 struct SpecularLayer {
-  float alpha;
+  GgxAlpha alpha;
   Vec3f f0;
   Vec3f multipleScattering;
 
-  /// Directional albedo E(μ): everything the layer reflects for light from μ.
-  Vec3f albedo(float cosTheta) const {
-    if (alpha == 0) return schlickFresnel(f0, cosTheta);
-    return albedo(ggxAlbedoTable().directional(cosTheta, alpha));
+  /// Directional albedo E(w): everything the layer reflects for light from local direction w
+  /// (only w.z matters to isotropic lobes).
+  Vec3f albedo(const Vec3f& w) const {
+    if (alpha.x == 0) return schlickFresnel(f0, w.z);
+    return albedo(ggxDirectionalAlbedo(w, alpha));
   }
-  /// The same for a rough layer, from the table's entry for μ and α.
+  /// The same for a rough layer, from the table's entry for w and α.
   Vec3f albedo(const GgxAlbedoTable::Albedo& e) const {
     return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
   }
-  /// Hemispherical average 2∫E(μ)μ dμ.
-  Vec3f averageAlbedo() const {
-    if (alpha == 0) return schlickAverage(f0);
-    const GgxAlbedoTable::Albedo e = ggxAlbedoTable().average(alpha);
+  /// Hemispherical average (1/π) ∫ E(w) cos θ dw, given ggxAverageAlbedo(alpha) (looked up
+  /// once per BSDF).
+  Vec3f averageAlbedo(const GgxAlbedoTable::Albedo& lobeAverage) const {
+    if (alpha.x == 0) return schlickAverage(f0);
+    const GgxAlbedoTable::Albedo& e = lobeAverage;
     return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
   }
 };
@@ -473,10 +632,9 @@ struct SpecularLayer {
 /// (1 − E(μo))(1 − E(μi)) / (π (1 − E_avg)), which by itself reflects 1 − E(μo): the energy of
 /// the light that bounces more than once between microfacets, each bounce attenuated by the
 /// average Fresnel reflectance.
-Vec3f multipleScatteringScale(const Vec3f& f0, float alpha) {
-  if (alpha == 0) return Vec3f(0.0f);
-  const GgxAlbedoTable::Albedo e = ggxAlbedoTable().average(alpha);
-  const float averageAlbedo = e.scale + e.bias;
+/// `averageAlbedo`: E_avg of the white lobe (0 for a delta lobe, which has no such term).
+Vec3f multipleScatteringScale(const Vec3f& f0, float averageAlbedo) {
+  if (averageAlbedo == 0) return Vec3f(0.0f);
   const Vec3f fresnel = schlickAverage(f0);
   const auto scale = [&](float f) { return f * f * averageAlbedo / (1 - f * (1 - averageAlbedo)); };
   return {scale(fresnel.x), scale(fresnel.y), scale(fresnel.z)};
@@ -488,23 +646,54 @@ float microfacetAlpha(float roughness) {
   return alpha < PreviewSurfaceBsdf::kDeltaAlpha ? 0.0f : alpha;
 }
 
+/// A lobe's (αx, αy) for a roughness and an anisotropy (MaterialParams::anisotropyModel); 0
+/// (a delta lobe) where αx is below kDeltaAlpha, αy at least kDeltaAlpha otherwise.
+GgxAlpha lobeAlpha(float roughness, float anisotropy, AnisotropyModel model) {
+  if (!(anisotropy > 0)) return microfacetAlpha(roughness);
+  const float alpha = square(clamp01(roughness));
+  const float a = clamp01(anisotropy);
+  float alongX = 0, alongY = 0;
+  if (model == AnisotropyModel::OpenPbr) {
+    alongX = alpha * std::sqrt(2 / (1 + square(1 - a)));
+    alongY = (1 - a) * alongX;
+  } else {
+    const float aspect = std::sqrt(1 - std::min(a, 0.98f));
+    alongX = std::min(alpha / aspect, 1.0f);
+    alongY = alpha * aspect;
+  }
+  if (alongX < PreviewSurfaceBsdf::kDeltaAlpha) return 0.0f;
+  return {alongX, std::max(alongY, PreviewSurfaceBsdf::kDeltaAlpha)};
+}
+
 constexpr float kClearcoatF0 = 0.04f;  // ((1 − 1.5) / (1 + 1.5))², fixed by the spec
 
 }  // namespace
 
 PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& normal,
-                                       float ior, DielectricKind dielectricKind)
+                                       float ior, DielectricKind dielectricKind,
+                                       const Vec3f& tangent)
     : frame_(normal),
       opacity_(clamp01(material.opacity)),
       clearcoat_(clamp01(material.clearcoat)),
-      coatAlpha_(microfacetAlpha(material.clearcoatRoughness)),
+      coatAlpha_(lobeAlpha(material.clearcoatRoughness, material.clearcoatAnisotropy,
+                           material.anisotropyModel)),
       sheen_(clamp01(material.sheen)),
-      specularAlpha_(microfacetAlpha(material.roughness)),
+      specularAlpha_(lobeAlpha(material.roughness, material.anisotropy, material.anisotropyModel)),
       ior_(std::isfinite(ior) && ior > 0 ? ior : 1.0f),
       dielectricAlpha_(microfacetAlpha(material.transmissionRoughness < 0
                                            ? material.roughness
                                            : material.transmissionRoughness)),
       dielectricKind_(dielectricKind) {
+  if (!specularAlpha_.isotropic() || !coatAlpha_.isotropic()) {
+    // x along the tangent turned by the rotation (counter-clockwise about the normal).
+    frame_ = Frame::withTangent(normal, tangent);
+    const float angle =
+        2 * kPi * (std::isfinite(material.anisotropyRotation) ? material.anisotropyRotation : 0.0f);
+    const float c = std::cos(angle), s = std::sin(angle);
+    const Vec3f turned = frame_.s * c + frame_.t * s;
+    frame_.t = frame_.t * c - frame_.s * s;
+    frame_.s = turned;
+  }
   // The coat tint and the sheen are set up only where they act: materials without them cost
   // what they did before.
   if (clearcoat_ > 0) coatTint_ = lerp(Vec3f(1.0f), clamp01(material.clearcoatColor), clearcoat_);
@@ -512,10 +701,17 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     sheenColor_ = clamp01(material.sheenColor);
     sheenAlpha_ = std::max(clamp01(material.sheenRoughness), kMinSheenAlpha);
   }
+  GgxAlbedoTable::Albedo lobeAverage;  // of the white specular lobe
+  float averageAlbedo = 0;
+  if (specularAlpha_.x > 0) {
+    lobeAverage = ggxAverageAlbedo(specularAlpha_);
+    averageAlbedo = lobeAverage.scale + lobeAverage.bias;
+    specularAverageLoss_ = std::max(0.0f, 1 - lobeAverage.scale - lobeAverage.bias);
+  }
   const Vec3f albedo = clamp01(material.diffuseColor);
   if (material.useSpecularWorkflow) {
     specularF0_ = clamp01(material.specularColor);
-    multipleScatteringScale_ = multipleScatteringScale(specularF0_, specularAlpha_);
+    multipleScatteringScale_ = multipleScatteringScale(specularF0_, averageAlbedo);
     diffuseReflectance_ = albedo;
     diffuseCoverF0_ = specularF0_;
     diffuseCoverMultipleScattering_ = multipleScatteringScale_;
@@ -526,38 +722,33 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     const Vec3f dielectricF0(square((1 - ior_) / (1 + ior_)));
     specularF0_ = lerp(dielectricF0, albedo, metallic);
     diffuseCoverF0_ = dielectricF0;
-    diffuseCoverMultipleScattering_ = multipleScatteringScale(dielectricF0, specularAlpha_);
+    diffuseCoverMultipleScattering_ = multipleScatteringScale(dielectricF0, averageAlbedo);
     multipleScatteringScale_ = diffuseCoverMultipleScattering_ * (1 - metallic) +
-                               multipleScatteringScale(albedo, specularAlpha_) * metallic;
+                               multipleScatteringScale(albedo, averageAlbedo) * metallic;
     diffuseReflectance_ = albedo * (1 - metallic);
   }
   const Vec3f coverAverage =
-      SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}
-          .averageAlbedo();
+      SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}.averageAlbedo(
+          lobeAverage);
   const auto normalization = [](float average) {
     return average < 1 - 1e-4f ? kInvPi / (1 - average) : 0.0f;
   };
   diffuseNormalization_ = {normalization(coverAverage.x), normalization(coverAverage.y),
                            normalization(coverAverage.z)};
-  if (specularAlpha_ > 0) {
-    const GgxAlbedoTable::Albedo average = ggxAlbedoTable().average(specularAlpha_);
-    specularAverageLoss_ = std::max(0.0f, 1 - average.scale - average.bias);
-  }
 }
 
 bool PreviewSurfaceBsdf::isPurelySpecular() const {
   const bool opaqueIsDelta =
       opacity_ == 0 ||
-      (sheen_ == 0 && (clearcoat_ == 0 || coatAlpha_ == 0) && specularAlpha_ == 0 &&
+      (sheen_ == 0 && (clearcoat_ == 0 || coatAlpha_.x == 0) && specularAlpha_.x == 0 &&
        isBlack(diffuseReflectance_ * diffuseNormalization_));
   const bool translucentIsDelta = opacity_ == 1 || dielectricAlpha_ == 0 || ior_ == 1;
   return opaqueIsDelta && translucentIsDelta;
 }
 
-float PreviewSurfaceBsdf::coatTransmittance(float cosTheta) const {
+float PreviewSurfaceBsdf::coatTransmittance(const Vec3f& w) const {
   if (clearcoat_ == 0) return 1;
-  return 1 - clearcoat_ *
-                 SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.albedo(cosTheta).x;
+  return 1 - clearcoat_ * SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.albedo(w).x;
 }
 
 Vec3f PreviewSurfaceBsdf::tintUnderCoat(const Vec3f& value) const {
@@ -572,26 +763,27 @@ float PreviewSurfaceBsdf::sheenTransmittance(float cosThetaO) const {
   return sheen_ > 0 ? 1 - sheenAlbedo(cosThetaO) : 1.0f;
 }
 
-const PreviewSurfaceBsdf::Outgoing& PreviewSurfaceBsdf::outgoing(float cosThetaO) const {
-  if (cosThetaO != cachedCosThetaO_) {
-    cachedCosThetaO_ = cosThetaO;
-    cachedOutgoing_ = computeOutgoing(cosThetaO);
+const PreviewSurfaceBsdf::Outgoing& PreviewSurfaceBsdf::outgoing(const Vec3f& wo) const {
+  if (wo.z != cachedWo_.z || wo.x != cachedWo_.x || wo.y != cachedWo_.y) {
+    cachedWo_ = wo;
+    cachedOutgoing_ = computeOutgoing(wo);
   }
   return cachedOutgoing_;
 }
 
-PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(float cosThetaO) const {
+PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(const Vec3f& wo) const {
+  const float cosThetaO = wo.z;
   Outgoing outgoing;
   const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_};
   GgxAlbedoTable::Albedo e;  // of the rough specular layer for wo
-  if (specularAlpha_ == 0) {
-    outgoing.underSpecular = Vec3f(1.0f) - cover.albedo(cosThetaO);
+  if (specularAlpha_.x == 0) {
+    outgoing.underSpecular = Vec3f(1.0f) - cover.albedo(wo);
   } else {
-    e = ggxAlbedoTable().directional(cosThetaO, specularAlpha_);
+    e = ggxDirectionalAlbedo(wo, specularAlpha_);
     outgoing.specularLoss = std::max(0.0f, 1 - e.scale - e.bias);
     outgoing.underSpecular = Vec3f(1.0f) - cover.albedo(e);
   }
-  outgoing.coatTransmittance = coatTransmittance(cosThetaO);
+  outgoing.coatTransmittance = coatTransmittance(wo);
   outgoing.sheenTransmittance = sheenTransmittance(cosThetaO);
 
   // Each lobe's albedo for this wo. The layers under the coat are attenuated by its
@@ -608,7 +800,7 @@ PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(float cosThetaO
     const float coat = outgoing.coatTransmittance;
     const float below = underSheen * coat;
     p.coat = underSheen * (1 - coat);
-    if (specularAlpha_ == 0) {
+    if (specularAlpha_.x == 0) {
       p.specular = below * luminance(tintUnderCoat(schlickFresnel(specularF0_, cosThetaO)));
     } else {
       p.specular = below * luminance(tintUnderCoat(specularF0_ * e.scale + Vec3f(e.bias)));
@@ -637,15 +829,15 @@ PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(float cosThetaO
 Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
                                          Vec3f* diffusePart) const {
   if (wi.z <= 0) return Vec3f(0.0f);
-  const Outgoing& forWo = outgoing(wo.z);
+  const Outgoing& forWo = outgoing(wo);
   const Vec3f h = normalize(wo + wi);
   const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_};
   Vec3f base(0.0f), underSpecularForWi(1.0f);
-  if (specularAlpha_ > 0) {
+  if (specularAlpha_.x > 0) {
     base += schlickFresnel(specularF0_, dot(wo, h)) *
             ggxReflectionWithoutFresnel(wo, wi, h, specularAlpha_);
     // The diffuse layer's cover is the specular layer, with its own F0: one table entry each.
-    const GgxAlbedoTable::Albedo ei = ggxAlbedoTable().directional(wi.z, specularAlpha_);
+    const GgxAlbedoTable::Albedo ei = ggxDirectionalAlbedo(wi, specularAlpha_);
     if (specularAverageLoss_ > 0) {
       base +=
           multipleScatteringScale_ * (forWo.specularLoss * std::max(0.0f, 1 - ei.scale - ei.bias) *
@@ -653,7 +845,7 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
     }
     underSpecularForWi = Vec3f(1.0f) - cover.albedo(ei);
   } else {
-    underSpecularForWi = Vec3f(1.0f) - cover.albedo(wi.z);
+    underSpecularForWi = Vec3f(1.0f) - cover.albedo(wi);
   }
   Vec3f diffuse(0.0f);
   if (!isBlack(diffuseReflectance_)) {
@@ -661,10 +853,10 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
               underSpecularForWi * wi.z;
     base += diffuse;
   }
-  const float coat = forWo.coatTransmittance * coatTransmittance(wi.z);
+  const float coat = forWo.coatTransmittance * coatTransmittance(wi);
   if (diffusePart) *diffusePart = tintUnderCoat(diffuse) * (coat * opacity_);
   Vec3f value = tintUnderCoat(base) * coat;
-  if (clearcoat_ > 0 && coatAlpha_ > 0) {
+  if (clearcoat_ > 0 && coatAlpha_.x > 0) {
     value += Vec3f(clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), dot(wo, h)).x *
                    ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_));
   }
@@ -681,8 +873,8 @@ float PreviewSurfaceBsdf::pdfOpaque(const Vec3f& wo, const Vec3f& wi,
   if (wi.z <= 0) return 0;
   const Vec3f h = normalize(wo + wi);
   float density = (p.multipleScattering + p.diffuse) * wi.z * kInvPi;
-  if (specularAlpha_ > 0) density += p.specular * ggxReflectionPdf(wo, h, specularAlpha_);
-  if (coatAlpha_ > 0) density += p.coat * ggxReflectionPdf(wo, h, coatAlpha_);
+  if (specularAlpha_.x > 0) density += p.specular * ggxReflectionPdf(wo, h, specularAlpha_);
+  if (coatAlpha_.x > 0) density += p.coat * ggxReflectionPdf(wo, h, coatAlpha_);
   if (sheen_ > 0) density += p.sheen * kUniformHemispherePdf;
   return density;
 }
@@ -807,7 +999,7 @@ float PreviewSurfaceBsdf::pdf(const Vec3f& woWorld, const Vec3f& wiWorld) const 
   const OrientedPair pair = orient(frame_, woWorld, wiWorld);
   const Vec3f &wo = pair.wo, &wi = pair.wi;
   if (wo.z == 0 || wi.z == 0) return 0;
-  const LobeProbabilities p = lobeProbabilities(wo.z);
+  const LobeProbabilities p = lobeProbabilities(wo);
   float density = p.dielectric < 1 ? pdfOpaque(wo, wi, p) : 0.0f;
   if (p.dielectric > 0 && dielectricAlpha_ > 0 && ior_ != 1) {
     density += p.dielectric * pdfDielectric(wo, wi, pair.flipped ? 1 / ior_ : ior_);
@@ -821,7 +1013,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
   const bool flipped = wo.z < 0;
   if (flipped) wo.z = -wo.z;
   if (!(wo.z > 0)) return std::nullopt;
-  const LobeProbabilities p = lobeProbabilities(wo.z);
+  const LobeProbabilities p = lobeProbabilities(wo);
 
   // Picks lobe k if uLobe falls in its interval and rescales uLobe to [0, 1) within it, so that
   // the dielectric can reuse it for its reflect/refract choice.
@@ -864,7 +1056,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
   const Vec3f mirror(-wo.x, -wo.y, wo.z);
   switch (lobe) {
     case 0:  // clearcoat
-      if (coatAlpha_ == 0) {
+      if (coatAlpha_.x == 0) {
         return delta(mirror,
                      Vec3f(opacity_ * clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), wo.z).x *
                            sheenTransmittance(wo.z)),
@@ -874,8 +1066,8 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
       result.lobe = BsdfLobe::Glossy;
       break;
     case 1:  // specular layer, single scattering
-      if (specularAlpha_ == 0) {
-        const float coat = coatTransmittance(wo.z);
+      if (specularAlpha_.x == 0) {
+        const float coat = coatTransmittance(wo);
         return delta(mirror,
                      tintUnderCoat(schlickFresnel(specularF0_, wo.z)) *
                          (opacity_ * coat * coat * sheenTransmittance(wo.z)),

@@ -130,7 +130,8 @@ PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
     material.clearcoatColor = spectrum.reflectance(material.clearcoatColor);
   // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
   return PreviewSurfaceBsdf(material, hit.shadingNormal, ior,
-                            hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet);
+                            hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet,
+                            hit.tangent);
 }
 
 /// Records what the camera ray `ray` met first: a surface (`hit`), or only a light at

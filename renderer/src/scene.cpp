@@ -546,10 +546,13 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
   hit.v = point.v;
   hit.instancePrimvars = point.instancePrimvars;
   if (const Material* material = materialOf(mesh)) {
-    if (material->varies()) {
+    const bool anisotropic = material->mayBeAnisotropic();
+    if (material->varies() || anisotropic) {
       // Texture footprints and tangent frames need the triangle in world space.
       for (int corner = 0; corner < 3; ++corner)
         point.corners[corner] = objectToWorld.applyToPoint(objectCorners[corner]);
+    }
+    if (material->varies()) {
       point.normal = hit.normal;
       point.shadingNormal = hit.shadingNormal;
       footprintOnSurface(ray.direction, hit.normal, cone.radiusAt(hit.distance), &point.dpdx,
@@ -558,6 +561,7 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
     } else {
       hit.material = material->constants;
     }
+    if (anisotropic) hit.tangent = surfaceTangent(point, objectToWorld);
     // With a threshold, opacity decides presence (the filter cut out what is below it); what
     // remains is opaque, not translucent (UsdPreviewSurface spec).
     if (hit.material.opacityThreshold > 0) hit.material.opacity = 1;

@@ -142,6 +142,15 @@ void assign(MaterialParams& params, MaterialInput input, const float* value) {
     case MaterialInput::SheenRoughness:
       params.sheenRoughness = value[0];
       break;
+    case MaterialInput::Anisotropy:
+      params.anisotropy = value[0];
+      break;
+    case MaterialInput::ClearcoatAnisotropy:
+      params.clearcoatAnisotropy = value[0];
+      break;
+    case MaterialInput::AnisotropyRotation:
+      params.anisotropyRotation = value[0];
+      break;
     case MaterialInput::Opacity:
       params.opacity = value[0];
       break;
@@ -151,6 +160,75 @@ void assign(MaterialParams& params, MaterialInput input, const float* value) {
     case MaterialInput::Normal:
       break;  // bends the shading normal instead
   }
+}
+
+/// The value of `program` (ExpressionProgram::problem() empty) at `point`, and, in `*coordinates`
+/// and `*hasCoordinates`, the coordinates of its first texture (normal maps take their tangent
+/// frame from them). Values live on the stack: nothing is allocated.
+std::array<float, 4> evaluateProgram(const Material& material, const ExpressionProgram& program,
+                                     const TextureSystem& textures, const SurfacePoint& point,
+                                     CoordinatesAt* coordinates, bool* hasCoordinates) {
+  std::array<std::array<float, 4>, ExpressionProgram::kMaxNodes> values;
+  *hasCoordinates = false;
+  for (size_t i = 0; i < program.nodes.size(); ++i) {
+    const ExpressionNode& node = program.nodes[i];
+    const std::array<float, 4>& a = values[node.operands[0]];
+    const std::array<float, 4>& b = values[node.operands[1]];
+    const std::array<float, 4>& c = values[node.operands[2]];
+    std::array<float, 4>& out = values[i];
+    const auto componentWise = [&](auto f) {
+      for (size_t k = 0; k < 4; ++k) out[k] = f(a[k], b[k], c[k]);
+    };
+    switch (node.op) {
+      case ExpressionOp::Constant:
+        out = node.value;
+        break;
+      case ExpressionOp::Texture: {
+        const TextureReader& reader = material.textures[size_t(node.texture)];
+        const CoordinatesAt at = coordinatesAt(reader.coordinates, point);
+        out = sampleTexture(reader, textures, at);
+        if (!*hasCoordinates) *coordinates = at, *hasCoordinates = true;
+        break;
+      }
+      case ExpressionOp::Primvar: {
+        float value[4] = {0, 0, 0, 0};
+        int width = 0;
+        if (primvarAt(point, node.primvar, value, &width)) {
+          for (int k = 0; k < 4; ++k) out[size_t(k)] = k < width ? value[k] : 0.0f;
+        } else {
+          out = node.value;
+        }
+        break;
+      }
+      case ExpressionOp::Swizzle:
+        for (size_t k = 0; k < 4; ++k) out[k] = a[node.channels[k]];
+        break;
+      case ExpressionOp::Concatenate:
+        for (size_t k = 0; k < 4; ++k)
+          out[k] = k < node.channels[0] ? a[k] : b[k - node.channels[0]];
+        break;
+      case ExpressionOp::Add:
+        componentWise([](float x, float y, float) { return x + y; });
+        break;
+      case ExpressionOp::Subtract:
+        componentWise([](float x, float y, float) { return x - y; });
+        break;
+      case ExpressionOp::Multiply:
+        componentWise([](float x, float y, float) { return x * y; });
+        break;
+      case ExpressionOp::Divide:
+        componentWise([](float x, float y, float) { return y != 0 ? x / y : 0.0f; });
+        break;
+      case ExpressionOp::Mix:
+        componentWise([](float fg, float bg, float amount) { return bg + (fg - bg) * amount; });
+        break;
+      case ExpressionOp::Clamp:
+        componentWise(
+            [](float x, float low, float high) { return std::min(std::max(x, low), high); });
+        break;
+    }
+  }
+  return values[program.nodes.size() - 1];
 }
 
 /// Evaluates connections of `material` (those `wanted` accepts) at `point`, calling
@@ -166,6 +244,17 @@ void evaluateConnections(const Material& material, const TextureSystem& textures
     if (!wanted(connection)) continue;
     float value[4] = {0, 0, 0, 0};
     int width = connection.channelCount;
+    if (connection.program >= 0) {
+      CoordinatesAt programCoordinates;
+      bool hasCoordinates = false;
+      const std::array<float, 4> result =
+          evaluateProgram(material, material.programs[size_t(connection.program)], textures, point,
+                          &programCoordinates, &hasCoordinates);
+      std::copy_n(result.begin(), width, value);
+      if (width == 1) value[1] = value[2] = value[0];
+      use(connection, value, hasCoordinates ? &programCoordinates : nullptr);
+      continue;
+    }
     if (connection.texture >= 0) {
       if (connection.texture != cachedReader) {
         const TextureReader& reader = material.textures[size_t(connection.texture)];
@@ -182,18 +271,25 @@ void evaluateConnections(const Material& material, const TextureSystem& textures
   }
 }
 
+/// ∂P/∂s and ∂P/∂t of the triangle at `point` for texture coordinates changing by d1 and d2
+/// along its edges from corner 0 to corners 1 and 2; false where they give no frame.
+bool textureTangents(Vec2f d1, Vec2f d2, const SurfacePoint& point, Vec3f* dpds, Vec3f* dpdt) {
+  const float determinant = d1.x * d2.y - d1.y * d2.x;
+  if (std::abs(determinant) < 1e-12f) return false;
+  const Vec3f e1 = point.corners[1] - point.corners[0];
+  const Vec3f e2 = point.corners[2] - point.corners[0];
+  *dpds = (e1 * d2.y - e2 * d1.y) / determinant;
+  *dpdt = (e2 * d1.x - e1 * d2.x) / determinant;
+  return true;
+}
+
 /// The shading normal bent by a tangent-space normal `mapped` (x along +s, y along +t, z along
 /// the normal), or the normal unchanged where the texture coordinates give no tangent frame.
 Vec3f applyNormalMap(const Vec3f& normal, const Vec3f& mapped, const CoordinatesAt* coordinates,
                      const SurfacePoint& point) {
-  if (!coordinates) return normal;
-  const Vec2f d1 = coordinates->edge1, d2 = coordinates->edge2;
-  const float determinant = d1.x * d2.y - d1.y * d2.x;
-  if (std::abs(determinant) < 1e-12f) return normal;
-  const Vec3f e1 = point.corners[1] - point.corners[0];
-  const Vec3f e2 = point.corners[2] - point.corners[0];
-  const Vec3f dpds = (e1 * d2.y - e2 * d1.y) / determinant;
-  const Vec3f dpdt = (e2 * d1.x - e1 * d2.x) / determinant;
+  Vec3f dpds, dpdt;
+  if (!coordinates || !textureTangents(coordinates->edge1, coordinates->edge2, point, &dpds, &dpdt))
+    return normal;
   const Vec3f tangent = dpds - normal * dot(normal, dpds);
   if (!(length(tangent) > 0)) return normal;
   const Vec3f s = normalize(tangent);
@@ -258,6 +354,53 @@ Vec2f TextureCoordinates::apply(Vec2f st) const {
 bool Material::opacityVaries() const {
   return std::any_of(connections.begin(), connections.end(),
                      [](const InputConnection& c) { return c.input == MaterialInput::Opacity; });
+}
+
+std::string ExpressionProgram::problem(size_t textureCount) const {
+  if (nodes.empty() || nodes.size() > kMaxNodes)
+    return "a program has 1 to " + std::to_string(kMaxNodes) + " nodes, not " +
+           std::to_string(nodes.size());
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const ExpressionNode& node = nodes[i];
+    const std::string where = "program node " + std::to_string(i) + ": ";
+    for (const uint8_t operand : node.operands)
+      if (i > 0 ? operand >= i : operand != 0) return where + "an operand is not an earlier node";
+    if (i == 0 && node.op != ExpressionOp::Constant && node.op != ExpressionOp::Texture &&
+        node.op != ExpressionOp::Primvar)
+      return where + "the first node must be a constant, a texture or a primvar";
+    for (const uint8_t channel : node.channels)
+      if (channel > 3) return where + "channels are 0 to 3";
+    if (node.op == ExpressionOp::Concatenate && (node.channels[0] < 1 || node.channels[0] > 3))
+      return where + "a concatenation takes 1 to 3 channels of its first operand";
+    for (const float v : node.value)
+      if (!std::isfinite(v)) return where + "constants and fallbacks must be finite";
+    if (node.op == ExpressionOp::Texture &&
+        (node.texture < 0 || size_t(node.texture) >= textureCount))
+      return where + "no such texture";
+  }
+  return {};
+}
+
+bool Material::mayBeAnisotropic() const {
+  return constants.anisotropy > 0 || constants.clearcoatAnisotropy > 0 ||
+         std::any_of(connections.begin(), connections.end(), [](const InputConnection& c) {
+           return c.input == MaterialInput::Anisotropy ||
+                  c.input == MaterialInput::ClearcoatAnisotropy;
+         });
+}
+
+Vec3f surfaceTangent(const SurfacePoint& point, const Transform& objectToWorld) {
+  static const std::string tangentName = "tangent";  // looked up on every anisotropic hit
+  float value[4];
+  int width = 0;
+  if (primvarAt(point, tangentName, value, &width) && width >= 3)
+    return objectToWorld.applyToVector({value[0], value[1], value[2]});
+  TextureCoordinates st;
+  st.primvar = "st";
+  const CoordinatesAt coordinates = coordinatesAt(st, point);
+  Vec3f dpds, dpdt;
+  return textureTangents(coordinates.edge1, coordinates.edge2, point, &dpds, &dpdt) ? dpds
+                                                                                    : Vec3f(0.0f);
 }
 
 void footprintOnSurface(const Vec3f& direction, const Vec3f& normal, float radius, Vec3f* dpdx,

@@ -60,8 +60,20 @@ MaterialParams sheenAlone(float sheenRoughness) {
   return m;
 }
 
+/// A white metal whose lobe is stretched along the tangent.
+MaterialParams anisotropicWhiteMetal(float roughness, float anisotropy,
+                                     AnisotropyModel model = AnisotropyModel::OpenPbr) {
+  MaterialParams m = whiteMetal(roughness);
+  m.anisotropy = anisotropy;
+  m.anisotropyModel = model;
+  return m;
+}
+
+/// A tangent off the normal's fixed frame (not orthogonal to kNormal: the BSDF projects it).
+const Vec3f kTangent = normalize(Vec3f(1.0f, 0.4f, 0.2f));
+
 PreviewSurfaceBsdf makeBsdf(const MaterialParams& m, DielectricKind kind = DielectricKind::Solid) {
-  return PreviewSurfaceBsdf(m, kNormal, m.ior, kind);
+  return PreviewSurfaceBsdf(m, kNormal, m.ior, kind, kTangent);
 }
 
 struct Albedo {
@@ -223,8 +235,14 @@ TEST(BsdfPdf, IntegratesToTheFractionOfNonDeltaSamples) {
   sheened.sheen = 0.8f;
   sheened.sheenColor = Vec3f(0.9f, 0.5f, 0.7f);
   sheened.sheenRoughness = 0.4f;
+  MaterialParams anisotropicCoat = coated;
+  anisotropicCoat.anisotropy = 0.7f;
+  anisotropicCoat.clearcoatAnisotropy = 0.5f;
+  anisotropicCoat.anisotropyRotation = 0.1f;
   for (const MaterialParams& m :
-       {whiteMetal(0.6f), glass(0.5f), coated, translucent, sheened, sheenAlone(0.3f)}) {
+       {whiteMetal(0.6f), glass(0.5f), coated, translucent, sheened, sheenAlone(0.3f),
+        anisotropicWhiteMetal(0.5f, 0.8f),
+        anisotropicWhiteMetal(0.6f, 0.6f, AnisotropyModel::StandardSurface), anisotropicCoat}) {
     const PreviewSurfaceBsdf bsdf = makeBsdf(m);
     for (float cosTheta : {0.3f, 0.9f, -0.6f}) {
       const Vec3f wo = directionAt(cosTheta);
@@ -260,7 +278,9 @@ TEST(BsdfPdf, MatchesTheHistogramOfSampledDirections) {
       {coated, DielectricKind::Solid},
       {translucent, DielectricKind::Solid},
       {sheenOverWhiteDiffuse(0.3f, Vec3f(0.8f, 0.6f, 0.4f)), DielectricKind::Solid},
-      {sheenAlone(0.5f), DielectricKind::Solid}};
+      {sheenAlone(0.5f), DielectricKind::Solid},
+      {anisotropicWhiteMetal(0.5f, 0.9f), DielectricKind::Solid},
+      {anisotropicWhiteMetal(0.4f, 0.7f, AnisotropyModel::StandardSurface), DielectricKind::Solid}};
   for (const auto& [m, kind] : cases) {
     const PreviewSurfaceBsdf bsdf = makeBsdf(m, kind);
     for (float cosTheta : {0.5f, -0.9f}) {
@@ -321,6 +341,9 @@ TEST(BsdfSample, WeightIsEvaluateOverPdf) {
   m.sheen = 0.6f;
   m.sheenColor = Vec3f(0.3f, 0.9f, 0.6f);
   m.sheenRoughness = 0.5f;
+  m.anisotropy = 0.6f;
+  m.clearcoatAnisotropy = 0.3f;
+  m.anisotropyRotation = 0.3f;
   const PreviewSurfaceBsdf bsdf = makeBsdf(m);
   int checked = 0;
   for (float cosTheta : {0.2f, 0.8f, -0.4f}) {
@@ -355,7 +378,11 @@ TEST(BsdfEvaluate, ReflectionIsReciprocal) {
   int checked = 0;
   // Rough glass is left out: its energy compensation divides by the albedo for wo; so are
   // layers under a sheen (same albedo scaling), but the sheen lobe itself is symmetric.
-  for (const MaterialParams& m : {layered, specularWorkflow, sheenAlone(0.4f)}) {
+  MaterialParams anisotropic = layered;
+  anisotropic.anisotropy = 0.8f;
+  anisotropic.clearcoatAnisotropy = 0.4f;
+  anisotropic.anisotropyRotation = 0.2f;
+  for (const MaterialParams& m : {layered, specularWorkflow, sheenAlone(0.4f), anisotropic}) {
     const PreviewSurfaceBsdf bsdf = makeBsdf(m);
     for (uint32_t i = 0; i < 256; ++i) {
       SampleStream stream(9, 9, 9, i);
@@ -372,7 +399,7 @@ TEST(BsdfEvaluate, ReflectionIsReciprocal) {
       if (forward.x > 0) ++checked;
     }
   }
-  EXPECT_GT(checked, 250);
+  EXPECT_GT(checked, 330);
 }
 
 TEST(BsdfGlossy, LobeWidthGrowsWithRoughness) {
@@ -606,5 +633,86 @@ TEST(BsdfDispersion, CauchyFitThroughTheAbbeNumber) {
   EXPECT_GT(dispersiveIor(nd, vd, 400), dispersiveIor(nd, vd, 700));  // normal dispersion
   for (float wavelength : {380.0f, 486.1f, 587.6f, 780.0f}) {
     EXPECT_EQ(dispersiveIor(nd, 0, wavelength), nd);
+  }
+}
+
+TEST(BsdfAnisotropy, WhiteMetalKeepsTheIsotropicEnergy) {
+  // The multiple-scattering term compensates the single-scattering lobe's loss by the azimuthal
+  // albedo table: energy never exceeds 1 (beyond the table's interpolation error) and stays close
+  // to the isotropic lobe's.
+  for (const AnisotropyModel model : {AnisotropyModel::OpenPbr, AnisotropyModel::StandardSurface}) {
+    for (float roughness : {0.3f, 0.6f, 0.9f}) {
+      for (float anisotropy : {0.5f, 0.9f}) {
+        const PreviewSurfaceBsdf bsdf =
+            makeBsdf(anisotropicWhiteMetal(roughness, anisotropy, model));
+        const PreviewSurfaceBsdf isotropic = makeBsdf(whiteMetal(roughness));
+        for (float cosTheta : {0.1f, 0.4f, 1.0f}) {
+          for (float phi : {0.0f, 0.8f, 1.6f}) {
+            const Vec3f wo = directionAt(cosTheta, phi);
+            const double albedo = furnace(bsdf, wo, 1, 1u << 14).radiance;
+            const double reference = furnace(isotropic, wo, 1, 1u << 14).radiance;
+            const auto where = [&] {
+              return ::testing::Message()
+                     << "model " << int(model) << " roughness " << roughness << " anisotropy "
+                     << anisotropy << " cos " << cosTheta << " phi " << phi;
+            };
+            EXPECT_LE(albedo, 1.01) << where();
+            EXPECT_NEAR(albedo, reference, 0.03) << where();
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(BsdfAnisotropy, NoAnisotropyIgnoresTangentAndRotation) {
+  MaterialParams m = whiteMetal(0.4f);
+  m.clearcoat = 0.5f;
+  m.clearcoatRoughness = 0.3f;
+  const PreviewSurfaceBsdf plain(m, kNormal, m.ior);
+  m.anisotropyRotation = 0.3f;
+  m.anisotropyModel = AnisotropyModel::StandardSurface;
+  const PreviewSurfaceBsdf turned(m, kNormal, m.ior, DielectricKind::Solid, kTangent);
+  for (uint32_t i = 0; i < 64; ++i) {
+    SampleStream stream(3, 1, 4, i);
+    const Vec2f a = stream.next2D(), b = stream.next2D();
+    const Vec3f wo = directionAt(a.x, 2 * kPi * a.y), wi = directionAt(b.x, 2 * kPi * b.y);
+    const Vec3f f = plain.evaluate(wo, wi), g = turned.evaluate(wo, wi);
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(f[c], g[c]);  // bit-identical
+    EXPECT_EQ(plain.pdf(wo, wi), turned.pdf(wo, wi));
+  }
+}
+
+namespace {
+/// Second moments of the reflected directions' offsets from the mirror direction, along `along`
+/// and `across` (unit vectors in the surface's plane), for light arriving along the normal.
+std::pair<double, double> spreadOfReflection(const PreviewSurfaceBsdf& bsdf, const Vec3f& along,
+                                             const Vec3f& across) {
+  double alongSum = 0, acrossSum = 0;
+  const uint32_t n = 1u << 14;
+  for (uint32_t i = 0; i < n; ++i) {
+    SampleStream stream(5, 5, 5, i);
+    const float uLobe = stream.next1D();
+    const std::optional<BsdfSample> s = bsdf.sample(kNormal, uLobe, stream.next2D());
+    if (!s) continue;
+    const float x = dot(s->direction, along), y = dot(s->direction, across);
+    alongSum += x * x;
+    acrossSum += y * y;
+  }
+  return {alongSum / n, acrossSum / n};
+}
+}  // namespace
+
+TEST(BsdfAnisotropy, LobeStretchesAlongTheTurnedTangent) {
+  const Frame frame = Frame::withTangent(kNormal, kTangent);
+  for (const AnisotropyModel model : {AnisotropyModel::OpenPbr, AnisotropyModel::StandardSurface}) {
+    MaterialParams m = anisotropicWhiteMetal(0.4f, 0.8f, model);
+    const auto [alongTangent, alongBitangent] = spreadOfReflection(makeBsdf(m), frame.s, frame.t);
+    EXPECT_GT(alongTangent, 4 * alongBitangent) << int(model);
+    // A quarter turn counter-clockwise about the normal: the tangent becomes the bitangent.
+    m.anisotropyRotation = 0.25f;
+    const auto [turnedTangent, turnedBitangent] = spreadOfReflection(makeBsdf(m), frame.s, frame.t);
+    EXPECT_GT(turnedBitangent, 4 * turnedTangent) << int(model);
+    EXPECT_NEAR(turnedBitangent, alongTangent, 0.05 * alongTangent) << int(model);
   }
 }

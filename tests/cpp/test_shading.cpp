@@ -116,6 +116,99 @@ TEST(Shading, PrimvarReadersInterpolateEveryInterpolation) {
   EXPECT_EQ(evaluateMaterial(constant, textures, point, &normal).metallic, 0.625f);
 }
 
+namespace {
+
+ExpressionNode leaf(ExpressionOp op, std::array<float, 4> value, std::string primvar = {}) {
+  ExpressionNode node;
+  node.op = op;
+  node.value = value;
+  node.primvar = std::move(primvar);
+  return node;
+}
+ExpressionNode operation(ExpressionOp op, std::array<uint8_t, 3> operands,
+                         std::array<uint8_t, 4> channels = {0, 1, 2, 3}) {
+  ExpressionNode node;
+  node.op = op;
+  node.operands = operands;
+  node.channels = channels;
+  return node;
+}
+
+/// The diffuse colour a program gives at `point`.
+Vec3f programValue(std::vector<ExpressionNode> nodes, const SurfacePoint& point) {
+  Material material;
+  ExpressionProgram program;
+  program.nodes = std::move(nodes);
+  EXPECT_EQ(program.problem(0), "");
+  material.programs.push_back(std::move(program));
+  InputConnection connection;
+  connection.input = MaterialInput::DiffuseColor;
+  connection.program = 0;
+  material.connections.push_back(connection);
+  TextureSystem textures;
+  Vec3f normal = point.shadingNormal;
+  return evaluateMaterial(material, textures, point, &normal).diffuseColor;
+}
+
+}  // namespace
+
+TEST(Shading, ProgramsEvaluateEveryOperationExactly) {
+  TriangleMesh mesh = unitSquare();
+  mesh.primvars = {{"x", {0, 1, 1, 0}, 1, Interpolation::Vertex}};
+  const SurfacePoint point = pointOn(mesh, 0, 0.5f, 0.25f);  // x = 0.75
+  const auto value = [&](ExpressionNode last) {
+    return programValue({leaf(ExpressionOp::Constant, {0.5f, 2, 4, 8}),
+                         leaf(ExpressionOp::Primvar, {9, 9, 9, 9}, "x"),
+                         leaf(ExpressionOp::Constant, {0, 1, 0.25f, 0}), last},
+                        point);
+  };
+  const auto expectColor = [](const Vec3f& c, float x, float y, float z) {
+    EXPECT_FLOAT_EQ(c.x, x);
+    EXPECT_FLOAT_EQ(c.y, y);
+    EXPECT_FLOAT_EQ(c.z, z);
+  };
+  // The primvar is zero-padded: (0.75, 0, 0, 0).
+  expectColor(value(operation(ExpressionOp::Add, {0, 1, 0})), 1.25f, 2, 4);
+  expectColor(value(operation(ExpressionOp::Subtract, {0, 1, 0})), -0.25f, 2, 4);
+  expectColor(value(operation(ExpressionOp::Multiply, {0, 1, 0})), 0.375f, 0, 0);
+  expectColor(value(operation(ExpressionOp::Divide, {1, 0, 0})), 1.5f, 0, 0);
+  expectColor(value(operation(ExpressionOp::Divide, {0, 2, 0})), 0, 2, 16);  // x / 0 = 0
+  // mix(fg, bg, amount) = bg + (fg − bg) × amount.
+  expectColor(value(operation(ExpressionOp::Mix, {0, 1, 2})), 0.75f, 2, 1);
+  expectColor(value(operation(ExpressionOp::Clamp, {1, 2, 0})), 0.5f, 1, 0.25f);
+  expectColor(value(operation(ExpressionOp::Swizzle, {0, 0, 0}, {3, 3, 0, 0})), 8, 8, 0.5f);
+  expectColor(value(operation(ExpressionOp::Concatenate, {1, 0, 0}, {1, 0, 0, 0})), 0.75f, 0.5f, 2);
+  // Where the mesh lacks the primvar, its fallback.
+  expectColor(programValue({leaf(ExpressionOp::Primvar, {1, 2, 3, 4}, "absent")}, point), 1, 2, 3);
+}
+
+TEST(Shading, ProgramsWithProblemsAreNamed) {
+  ExpressionProgram program;
+  EXPECT_NE(program.problem(0), "");
+  program.nodes = {leaf(ExpressionOp::Constant, {1, 0, 0, 0}),
+                   operation(ExpressionOp::Add, {0, 1, 0})};
+  EXPECT_EQ(program.problem(0), "program node 1: an operand is not an earlier node");
+  program.nodes = {leaf(ExpressionOp::Texture, {0, 0, 0, 0})};
+  EXPECT_EQ(program.problem(0), "program node 0: no such texture");
+  program.nodes[0].texture = 0;
+  EXPECT_EQ(program.problem(1), "");
+}
+
+TEST(Shading, SurfaceTangentFollowsTheTangentPrimvarElseSt) {
+  TriangleMesh mesh = unitSquare();
+  const Transform identity;
+  // No st: no tangent (the BSDF picks one).
+  EXPECT_EQ(length(surfaceTangent(pointOn(mesh, 0, 0.3f, 0.3f), identity)), 0.0f);
+  // st turned by 90°: s grows along +y.
+  mesh.primvars = {{"st", {0, 0, 0, -1, 1, -1, 1, 0}, 2, Interpolation::Vertex}};
+  const Vec3f fromSt = normalize(surfaceTangent(pointOn(mesh, 1, 0.3f, 0.3f), identity));
+  EXPECT_NEAR(fromSt.y, 1.0f, 1e-6f);
+  mesh.primvars.push_back({"tangent", {1, 1, 0}, 3, Interpolation::Constant});
+  const Vec3f fromPrimvar = surfaceTangent(pointOn(mesh, 1, 0.3f, 0.3f), identity);
+  EXPECT_EQ(fromPrimvar.x, 1.0f);
+  EXPECT_EQ(fromPrimvar.y, 1.0f);
+}
+
 TEST(Shading, FootprintsStretchAlongTheDirectionAtGrazingIncidence) {
   Vec3f dpdx, dpdy;
   footprintOnSurface({0, 0, -1}, {0, 0, 1}, 0.01f, &dpdx, &dpdy);

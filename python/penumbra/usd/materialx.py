@@ -36,7 +36,10 @@ _VECTOR_PARAMS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "n
 # The sheen and coat colour are Penumbra's extensions of the delegate's inputs; they may vary
 # like the others.
 _SHEEN_PARAMS = ("penumbra:sheen", "penumbra:sheenColor", "penumbra:sheenRoughness")
-_CONNECTABLE = CONNECTABLE | frozenset(_SHEEN_PARAMS) | {"penumbra:clearcoatColor"}
+_ANISOTROPY_PARAMS = ("penumbra:anisotropy", "penumbra:clearcoatAnisotropy",
+                      "penumbra:anisotropyRotation")
+_CONNECTABLE = CONNECTABLE | frozenset(_SHEEN_PARAMS) | frozenset(_ANISOTROPY_PARAMS) | {
+    "penumbra:clearcoatColor"}
 # MaterialX address modes → UsdUVTexture wrap modes.
 _ADDRESS_MODES = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "constant": "black"}
 # MaterialX's conversions to the working space (cmlib): <colour space>_to_lin_rec709.
@@ -206,11 +209,11 @@ class _Network:
         if category == "add":
             return mv.add(value("in1"), value("in2"))
         if category == "subtract":
-            return mv.add(value("in1"), mv.negate(value("in2")))
+            return mv.subtract(value("in1"), value("in2"))
         if category == "multiply":
             return mv.multiply(value("in1"), value("in2"))
         if category == "divide":
-            return mv.multiply(value("in1"), mv.reciprocal(value("in2")))
+            return mv.divide(value("in1"), value("in2"))
         if category == "mix":
             return mv.mix(value("fg"), value("bg"), value("mix"))
         if category == "clamp":
@@ -261,7 +264,8 @@ class _Network:
             )
         if isinstance(coordinates, mv.Constant):
             texture["st"] = {"fallback": tuple(mv.resize(coordinates, 2).values)}  # type: ignore
-        elif coordinates.texture is None and coordinates.channels[:2] == (0, 1):
+        elif isinstance(coordinates, mv.Affine) and coordinates.texture is None and \
+                coordinates.channels[:2] == (0, 1):
             texture["st"] = {"primvar": coordinates.primvar,
                              "fallback": tuple((coordinates.fallback + (0.0, 0.0))[:2])}
             if coordinates.scale[:2] != (1.0, 1.0) or coordinates.bias[:2] != (0.0, 0.0):
@@ -286,13 +290,15 @@ class _Network:
         if isinstance(value, mv.Constant):
             return mv.Constant(constant_to_scene_linear(
                 value.values, space, lambda message: self.report(shader.GetPath(), message)))
+        if not isinstance(value, mv.Affine):
+            raise mv.Untranslatable(f"{space} decoding of anything but a texture")
         identity = all(s == 1.0 for s in value.scale) and all(b == 0.0 for b in value.bias)
         raw = value.texture is not None and value.texture.get("sourceColorSpace") == "raw" \
             and "colorSpace" not in value.texture
         if not (raw and identity):
             raise mv.Untranslatable(f"{space} decoding of anything but an unscaled texture "
                                     "without a colour space")
-        texture = dict(value.texture, **texture_color_space(
+        texture = dict(value.texture, **texture_color_space(  # type: ignore[arg-type]
             space, lambda message: self.report(shader.GetPath(), message)))
         return mv.Affine(value.channels, value.scale, value.bias, texture)
 
@@ -435,6 +441,21 @@ class _Mapping:
         if isinstance(thin_walled, mv.Constant) and thin_walled.values[0]:
             self.params["penumbra:thinWalled"] = 1
 
+    def anisotropy(self, model: str, specular: mv.Value | None, coat: mv.Value | None,
+                   rotation: mv.Value | None) -> None:
+        """Anisotropic specular and coat lobes (``model``: the renderer's name of the surface's
+        roughness mapping), stretched along the mesh's tangent turned by ``rotation`` (turns).
+        Nothing is sent for isotropic lobes."""
+        zero = mv.Constant((0.0,))
+        sent = {name: value for name, value in zip(_ANISOTROPY_PARAMS[:2], (specular, coat))
+                if value is not None and value != zero}
+        if not sent:
+            return
+        self.values.update(sent)
+        if rotation is not None and rotation != zero:
+            self.values["penumbra:anisotropyRotation"] = rotation
+        self.params["penumbra:anisotropyModel"] = model
+
 
 def _mean(value: mv.Value) -> mv.Value:
     if isinstance(value, mv.Constant):
@@ -474,16 +495,36 @@ def _map_standard_surface(s: _Surface, mapping: _Mapping) -> None:
         opacity=s("opacity"), normal=s("normal") if s.connected("normal") else None,
         sheen=(sheen, s("sheen_color"), s("sheen_roughness")),
     )
+    _standard_surface_anisotropy(s, mapping)
     for name, neutral, weight in (
-        ("specular_anisotropy", (0.0,), None),
         ("diffuse_roughness", (0.0,), None),
-        ("coat_IOR", (1.5,), "coat"), ("coat_anisotropy", (0.0,), "coat"),
+        ("coat_IOR", (1.5,), "coat"),
         ("transmission_color", (1.0,), "transmission"),
         ("transmission_depth", (0.0,), "transmission"),
         ("transmission_scatter", (0.0,), "transmission"),
         ("thin_film_thickness", (0.0,), None),
     ):
         s.ignore(name, neutral, weight)
+
+
+def _standard_surface_anisotropy(s: _Surface, mapping: _Mapping) -> None:
+    """One tangent serves both lobes: the specular rotation where the specular lobe is
+    anisotropic, else the coat's."""
+    coat = None if s.constant("coat") == (0.0,) else s("coat_anisotropy")
+    specular = s("specular_anisotropy")
+    isotropic = mv.Constant((0.0,))
+    rotation = s("specular_rotation")
+    if specular in (None, isotropic):
+        rotation = s("coat_rotation")
+    elif coat not in (None, isotropic) and s("coat_rotation") != rotation:
+        s.unsupported.append("coat_rotation other than specular_rotation")
+    if s.connected("tangent") and _anisotropic(specular, coat):
+        s.unsupported.append("tangent")
+    mapping.anisotropy("standardSurface", specular, coat, rotation)
+
+
+def _anisotropic(*anisotropies: mv.Value | None) -> bool:
+    return any(a not in (None, mv.Constant((0.0,))) for a in anisotropies)
 
 
 def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
@@ -513,11 +554,17 @@ def _map_open_pbr(s: _Surface, mapping: _Mapping) -> None:
         normal=s("geometry_normal") if s.connected("geometry_normal") else None,
         sheen=(s("fuzz_weight"), s("fuzz_color"), s("fuzz_roughness")),
     )
+    specular_anisotropy = s("specular_roughness_anisotropy")
+    coat_anisotropy = None if s.constant("coat_weight") == (0.0,) else s(
+        "coat_roughness_anisotropy")
+    mapping.anisotropy("openPBR", specular_anisotropy, coat_anisotropy, None)
+    for tangent, anisotropy in (("geometry_tangent", specular_anisotropy),
+                                ("geometry_coat_tangent", coat_anisotropy)):
+        if s.connected(tangent) and _anisotropic(anisotropy):
+            s.unsupported.append(tangent)
     for name, neutral, weight, tolerance in (
-        ("specular_roughness_anisotropy", (0.0,), None, 1e-6),
         ("base_diffuse_roughness", (0.0,), None, 1e-6),
         ("coat_ior", (1.5,), "coat_weight", 0.15),  # the BSDF's coat has ior 1.5
-        ("coat_roughness_anisotropy", (0.0,), "coat_weight", 1e-6),
         ("transmission_color", (1.0,), "transmission_weight", 1e-6),
         ("transmission_depth", (0.0,), "transmission_weight", 1e-6),
         ("thin_film_weight", (0.0,), None, 1e-6),
@@ -578,7 +625,7 @@ def read_materialx_material(
         if value is None:
             continue
         vector = name in _VECTOR_PARAMS
-        if isinstance(value, mv.Affine) and name not in _CONNECTABLE:
+        if not isinstance(value, mv.Constant) and name not in _CONNECTABLE:
             network.report(shader.GetPath(), f"{name} cannot vary over the surface; its "
                            "default is used")
             continue

@@ -7,9 +7,11 @@
 //   sheen      Charlie microfibre distribution (Estevez and Kulla 2017), α = sheenRoughness
 //              (≥ 0.01), Smith height-correlated masking-shadowing with Λ computed numerically,
 //              no Fresnel, × sheen × sheenColor (Penumbra's extension; none when sheen is 0)
-//   clearcoat  GGX, α = clearcoatRoughness², Schlick F0 = 0.04 (ior 1.5), white, × `clearcoat`;
+//   clearcoat  GGX, α = clearcoatRoughness² (stretched by clearcoatAnisotropy), Schlick F0 = 0.04
+//              (ior 1.5), white, × `clearcoat`;
 //              what lies under it is tinted by 1 − clearcoat + clearcoat × clearcoatColor
-//   specular   GGX, α = roughness², Schlick from F0 to F90 = 1 — F0 = specularColor (specular
+//   specular   GGX, α = roughness² (stretched by anisotropy), Schlick from F0 to F90 = 1 —
+//              F0 = specularColor (specular
 //              workflow) or ((1 − ior)/(1 + ior))² mixed towards diffuseColor by `metallic`
 //              (metallic workflow) — plus Kulla–Conty multiple-scattering compensation
 //   diffuse    Lambertian, diffuseColor (× (1 − metallic) in the metallic workflow)
@@ -18,6 +20,13 @@
 // Every GGX lobe is sampled by its visible normals (Heitz 2018) and uses Smith's
 // height-correlated masking-shadowing; α below kDeltaAlpha makes the lobe a perfect mirror or
 // refractor (a delta lobe).
+//
+// Anisotropy. The specular and clearcoat lobes may have different α along the shading tangent
+// (αx) and bitangent (αy), from roughness and anisotropy by MaterialParams::anisotropyModel; the
+// tangent is the one given to the constructor turned by anisotropyRotation. Their directional
+// albedos (for the layering and the multiple-scattering term) depend on the azimuth too and come
+// from a second table (about 0.15 s at first use of an anisotropic lobe); the lobe choice takes
+// wo at azimuth 0. The translucent part stays isotropic.
 //
 // Conventions: directions are in world space, unit length, and point away from the surface; `wo`
 // points towards where the ray came from. Values are for radiance transport (the integrator traces
@@ -55,6 +64,15 @@
 #include "penumbra/math.h"
 
 namespace penumbra {
+
+/// GGX roughness α along the local frame's x (the shading tangent) and y (bitangent) axes.
+struct GgxAlpha {
+  float x = 0, y = 0;
+  GgxAlpha() = default;
+  GgxAlpha(float alpha) : x(alpha), y(alpha) {}  // NOLINT(google-explicit-constructor): isotropic
+  GgxAlpha(float alongX, float alongY) : x(alongX), y(alongY) {}
+  bool isotropic() const { return x == y; }
+};
 
 enum class BsdfLobe : uint8_t {
   Diffuse,
@@ -98,9 +116,12 @@ class PreviewSurfaceBsdf {
 
   /// `normal`: unit shading normal on the side of the authored front face. `ior`: the index of
   /// refraction to use instead of material.ior (wavelength-dependent under dispersion, see
-  /// dispersiveIor); it also sets F0 in the metallic workflow.
+  /// dispersiveIor); it also sets F0 in the metallic workflow. `tangent`: the surface's tangent
+  /// (SurfaceHit::tangent), read only by anisotropic lobes; where it is zero or along the normal
+  /// they take a fixed tangent of the normal's (Frame(normal).s).
   PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& normal, float ior,
-                     DielectricKind dielectricKind = DielectricKind::Solid);
+                     DielectricKind dielectricKind = DielectricKind::Solid,
+                     const Vec3f& tangent = Vec3f(0.0f));
 
   /// f(wo, wi) · |cos θi| over the non-delta lobes. `diffusePart`, if given, receives the
   /// diffuse lobe's share (lights scale diffuse and specular response separately).
@@ -122,22 +143,21 @@ class PreviewSurfaceBsdf {
   struct LobeProbabilities {
     float coat = 0, specular = 0, multipleScattering = 0, diffuse = 0, sheen = 0, dielectric = 0;
   };
-  /// What depends on the outgoing direction alone (cos θo = cosThetaO > 0): the lobe choice
-  /// probabilities and the factors for wo of evaluateOpaque.
+  /// What depends on the outgoing direction alone (wo, local, wo.z > 0): the lobe choice
+  /// probabilities and the factors for wo of evaluateOpaque. Isotropic lobes read only wo.z.
   struct Outgoing {
     LobeProbabilities probabilities;
-    float specularLoss = 0;     // 1 − E(μo) of the rough specular layer (single scattering)
-    Vec3f underSpecular{1.0f};  // 1 − E(μo) of the diffuse layer's cover
+    float specularLoss = 0;     // 1 − E(wo) of the rough specular layer (single scattering)
+    Vec3f underSpecular{1.0f};  // 1 − E(wo) of the diffuse layer's cover
     float coatTransmittance = 1;
     float sheenTransmittance = 1;
   };
-  const Outgoing& outgoing(float cosThetaO) const;
-  Outgoing computeOutgoing(float cosThetaO) const;
-  LobeProbabilities lobeProbabilities(float cosThetaO) const {
-    return outgoing(cosThetaO).probabilities;
-  }
-  /// Clearcoat transmittance 1 − c·E_cc(μ).
-  float coatTransmittance(float cosTheta) const;
+  const Outgoing& outgoing(const Vec3f& wo) const;
+  Outgoing computeOutgoing(const Vec3f& wo) const;
+  LobeProbabilities lobeProbabilities(const Vec3f& wo) const { return outgoing(wo).probabilities; }
+  /// Clearcoat transmittance 1 − c·E_cc(w) for light from local direction w (isotropic coats
+  /// read only w.z).
+  float coatTransmittance(const Vec3f& w) const;
   /// `value` (of a layer under the clearcoat) tinted by the coat's colour.
   Vec3f tintUnderCoat(const Vec3f& value) const;
   /// Directional albedo of the sheen layer, weight included and colour excluded: s·E_sh(μ).
@@ -162,14 +182,14 @@ class PreviewSurfaceBsdf {
   float opacity_;
   // Clearcoat; α = 0 marks a delta lobe, here and below.
   float clearcoat_;
-  float coatAlpha_;
+  GgxAlpha coatAlpha_;
   Vec3f coatTint_{1.0f};  // of the layers under the coat
   // Sheen (0: none) and its Charlie α.
   float sheen_;
   Vec3f sheenColor_{0.0f};
   float sheenAlpha_ = 1;
   // Specular layer.
-  float specularAlpha_;
+  GgxAlpha specularAlpha_;
   Vec3f specularF0_;
   Vec3f multipleScatteringScale_;  // Kulla–Conty F_ms (F_avg² E_avg / (1 − F_avg (1 − E_avg)))
   // Diffuse layer and the specular layer it lies under (the dielectric one in the metallic
@@ -184,9 +204,10 @@ class PreviewSurfaceBsdf {
   DielectricKind dielectricKind_;
   // 1 − E_avg of the rough specular layer (0 when it is a mirror or loses nothing).
   float specularAverageLoss_ = 0;
-  // outgoing() for the last cos θo asked: one vertex asks for its wo several times (each light
-  // sample's evaluate and pdf, then sample). A BSDF lives on one thread, within one vertex.
-  mutable float cachedCosThetaO_ = -1;
+  // outgoing() for the last wo asked (zero: none yet): one vertex asks for its wo several times
+  // (each light sample's evaluate and pdf, then sample). A BSDF lives on one thread, within one
+  // vertex.
+  mutable Vec3f cachedWo_{0.0f};
   mutable Outgoing cachedOutgoing_;
 };
 

@@ -14,6 +14,16 @@
 
 namespace penumbra {
 
+/// How a roughness r and an anisotropy a in [0, 1] become the GGX α along the shading tangent
+/// (αx) and bitangent (αy); a = 0 is the isotropic α = r² either way (docs/materialx.md).
+enum class AnisotropyModel : uint8_t {
+  /// OpenPBR's: αx = r² √(2 / (1 + (1 − a)²)), αy = (1 − a) αx.
+  OpenPbr,
+  /// MaterialX's standard_surface (roughness_anisotropy node): with k = √(1 − min(a, 0.98)),
+  /// αx = min(r² / k, 1), αy = r² k.
+  StandardSurface,
+};
+
 /// The UsdPreviewSurface parameters at one shading point.
 struct MaterialParams {
   Vec3f diffuseColor{0.18f};
@@ -34,6 +44,14 @@ struct MaterialParams {
   float sheen = 0;
   Vec3f sheenColor{1.0f};
   float sheenRoughness = 0.3f;
+  /// inputs:penumbra:anisotropy and penumbra:clearcoatAnisotropy (0: isotropic) stretch the
+  /// specular and clearcoat lobes along the shading tangent as `anisotropyModel` says;
+  /// penumbra:anisotropyRotation turns that tangent (the mesh's ∂P/∂s, see SurfaceHit::tangent)
+  /// about the normal, in turns (1 = 360°), counter-clockwise seen from the normal's side.
+  float anisotropy = 0;
+  float clearcoatAnisotropy = 0;
+  float anisotropyRotation = 0;
+  AnisotropyModel anisotropyModel = AnisotropyModel::OpenPbr;
   float opacity = 1;
   float opacityThreshold = 0;
   float ior = 1.5f;
@@ -63,6 +81,9 @@ enum class MaterialInput : uint8_t {
   Sheen,
   SheenColor,
   SheenRoughness,
+  Anisotropy,
+  ClearcoatAnisotropy,
+  AnisotropyRotation,
   Opacity,
   Ior,
   Normal,
@@ -99,9 +120,49 @@ struct TextureReader {
   TextureCoordinates coordinates;
 };
 
-/// What drives one input: channels of a texture reader's output, or a mesh primvar.
+/// The operations of an ExpressionProgram. Every value has four channels; arithmetic is
+/// component-wise.
+enum class ExpressionOp : uint8_t {
+  Constant,     // `value`
+  Texture,      // Material::textures[texture]'s output (texel × scale + bias, or its fallback)
+  Primvar,      // primvar `primvar` at the point, zero-padded; `value` where the mesh lacks it
+  Swizzle,      // out[k] = a[channels[k]]
+  Concatenate,  // a's first channels[0] channels, then b's first ones
+  Add,          // a + b
+  Subtract,     // a − b
+  Multiply,     // a × b
+  Divide,       // a / b, 0 where b is 0
+  Mix,          // b + (a − b) × c (MaterialX mix: a foreground, b background, c amount)
+  Clamp,        // min(max(a, b), c)
+};
+
+/// One node of an ExpressionProgram; a, b and c are its operands, earlier nodes of the program.
+struct ExpressionNode {
+  ExpressionOp op = ExpressionOp::Constant;
+  std::array<uint8_t, 3> operands{0, 0, 0};
+  std::array<uint8_t, 4> channels{0, 1, 2, 3};
+  std::array<float, 4> value{0, 0, 0, 0};
+  int texture = -1;  // index into Material::textures
+  std::string primvar;
+};
+
+/// A pattern network that does not reduce to one texture lookup or primvar (a product of two
+/// textures, a texture mixed with a primvar by a mask, …): its nodes in evaluation order, the
+/// last one giving the input's value. Evaluated at each shading point without allocation.
+struct ExpressionProgram {
+  static constexpr size_t kMaxNodes = 64;
+  std::vector<ExpressionNode> nodes;
+
+  /// What makes the program unusable (empty: nothing): no nodes or more than kMaxNodes, an
+  /// operand that is not an earlier node, a channel outside 0..3, a non-finite constant or
+  /// fallback, a texture index outside [0, textureCount).
+  std::string problem(size_t textureCount) const;
+};
+
+/// What drives one input: channels of a texture reader's output, a mesh primvar, or a program.
 struct InputConnection {
   MaterialInput input = MaterialInput::DiffuseColor;
+  int program = -1;  // index into Material::programs; -1: a texture or primvar reader
   int texture = -1;  // index into Material::textures; -1: a primvar reader
   /// The output read: its first channel (r 0, g 1, b 2, a 3) and channel count (1, or 3 for
   /// rgb). A one-channel output feeding a colour input is broadcast to grey.
@@ -116,12 +177,15 @@ struct InputConnection {
 struct Material {
   MaterialParams constants;
   std::vector<TextureReader> textures;
+  std::vector<ExpressionProgram> programs;
   std::vector<InputConnection> connections;
 
   /// Whether any input varies over the surface.
   bool varies() const { return !connections.empty(); }
   /// Whether opacity varies over the surface (cut-outs are then decided per hit).
   bool opacityVaries() const;
+  /// Whether any lobe may be anisotropic (shading points then need a tangent).
+  bool mayBeAnisotropic() const;
 };
 
 }  // namespace penumbra

@@ -101,6 +101,17 @@ struct Frame {
     s = {1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x};
     t = {b, sign + n.y * n.y * a, -n.y};
   }
+  /// The frame whose s is `tangent` made orthogonal to the normal (t = n × s, right-handed);
+  /// Frame(normal) where the tangent is (nearly) parallel to the normal or not finite.
+  static Frame withTangent(const Vec3f& normal, const Vec3f& tangent) {
+    Frame frame(normal);
+    const Vec3f inPlane = tangent - normal * dot(normal, tangent);
+    const float len = std::sqrt(dot(inPlane, inPlane));
+    if (!(len > 1e-6f * std::sqrt(dot(tangent, tangent))) || !std::isfinite(len)) return frame;
+    frame.s = inPlane / len;
+    frame.t = cross(normal, frame.s);
+    return frame;
+  }
   Vec3f toWorld(const Vec3f& v) const { return s * v.x + t * v.y + n * v.z; }
   Vec3f toLocal(const Vec3f& v) const { return {dot(v, s), dot(v, t), dot(v, n)}; }
 };

@@ -41,6 +41,8 @@ struct SurfaceHit {
   Vec3f normal;         // unit geometric normal on the authored front side
   Vec3f shadingNormal;  // unit, interpolated where the mesh has normals, on the same side
   Vec3f emission;       // emitted radiance
+  /// Where the material may be anisotropic: the surface's tangent (surfaceTangent); else zero.
+  Vec3f tangent{0.0f};
   /// The bound material's parameters evaluated here (textures, primvar readers, normal map), or
   /// fallbackSurface() with displayColor and displayOpacity for meshes without one.
   MaterialParams material;

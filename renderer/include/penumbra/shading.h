@@ -42,6 +42,12 @@ void footprintOnSurface(const Vec3f& direction, const Vec3f& normal, float radiu
 MaterialParams evaluateMaterial(const Material& material, const TextureSystem& textures,
                                 const SurfacePoint& point, Vec3f* shadingNormal);
 
+/// The direction anisotropic lobes stretch along at `point` (world space, not normalised): the
+/// mesh's `tangent` primvar (object space, mapped by `objectToWorld`) where it has one, else
+/// ∂P/∂s of its `st` texture coordinates, else zero (the BSDF then picks a fixed tangent).
+/// Needs point.corners.
+Vec3f surfaceTangent(const SurfacePoint& point, const Transform& objectToWorld);
+
 /// Just the opacity at `point` (for cut-outs, decided while tracing; point-sampled).
 float evaluateOpacity(const Material& material, const TextureSystem& textures,
                       const SurfacePoint& point);

@@ -21,13 +21,22 @@ struct TextureNode {
   TextureReader reader;
 };
 
-/// What a connected input reads: a texture's output ("rgb", "r", "g", "b", "a"), or a primvar
-/// (with the value used where a mesh lacks it).
+/// A node of a pattern program as the scene delegate describes it: Texture nodes name their
+/// texture by description (`node.texture` is set at sync, when the file is opened).
+struct ProgramNode {
+  ExpressionNode node;
+  std::optional<TextureNode> texture;
+};
+
+/// What a connected input reads: a texture's output ("rgb", "r", "g", "b", "a"), a primvar
+/// (with the value used where a mesh lacks it), or a program (ExpressionProgram: its last node's
+/// first three channels, or first channel for a float input).
 struct InputSource {
   std::optional<TextureNode> texture;
   std::string output = "rgb";
   std::string primvar;
   std::array<float, 3> fallback{0, 0, 0};
+  std::vector<ProgramNode> program;
 };
 
 /// UsdUVTexture token parsers; they throw std::invalid_argument naming the token.
@@ -44,11 +53,14 @@ class Material : public Prim {
   /// specularColor, metallic, roughness, opacity, opacityThreshold, ior, clearcoat,
   /// clearcoatRoughness, useSpecularWorkflow, penumbra:transmissionRoughness,
   /// penumbra:abbeNumber, penumbra:thinWalled, penumbra:clearcoatColor, penumbra:sheen,
-  /// penumbra:sheenColor, penumbra:sheenRoughness). Throws std::invalid_argument for an unknown
-  /// name, a value of the wrong type or a non-finite sheen or coat colour value.
+  /// penumbra:sheenColor, penumbra:sheenRoughness, penumbra:anisotropy,
+  /// penumbra:clearcoatAnisotropy, penumbra:anisotropyRotation, penumbra:anisotropyModel
+  /// ("openPBR" or "standardSurface")). Throws std::invalid_argument for an unknown name, a value
+  /// of the wrong type, a non-finite sheen, coat colour or anisotropy value or an unknown model.
   void setParam(const std::string& name, const ParamValue& value);
   /// Connects an input (the names above that can vary, or `normal`) to a source; throws
-  /// std::invalid_argument for an input that cannot be connected or an unknown output.
+  /// std::invalid_argument for an input that cannot be connected, an unknown output or a
+  /// program with a problem (ExpressionProgram::problem).
   void connect(const std::string& input, InputSource source);
   /// Back to the schema's fallback values, unconnected.
   void resetParams();

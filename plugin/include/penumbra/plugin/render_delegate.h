@@ -128,6 +128,10 @@ class RenderDelegate {
   /// The renderer's material for a material sprim, its textures opened; `report`: warn about
   /// textures that cannot be read.
   penumbra::Material buildMaterial(const Material& material, bool report);
+  /// Opens `node`'s file (a warning when it cannot be, if `report`) and appends its reader to
+  /// `result`'s textures; returns its index.
+  int openTexture(const Material& material, const TextureNode& node, bool report,
+                  penumbra::Material* result);
   void syncLights();
   /// The mesh an instancer copies, or null (with a warning) if there is none.
   Mesh* prototypeOf(const Instancer& instancer);
