@@ -167,13 +167,17 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                 const IntegratorSettings& settings,
                                 FirstHitSample* firstHitRecord) {
   SampleStream sampler(settings.seed, uint32_t(x), uint32_t(y), sampleIndex);
-  const Vec2f filterOffset = filter.sampleOffset(sampler.next2D());
-  const Vec2f lensSample = sampler.next2D();
-  const float shutterTime = sampler.next1D();
+  // Where on the pixel and where on the lens are stratified jointly: with depth of field, each
+  // pixel sees the scene through the whole lens. So are shutter time and wavelength.
+  const Sample4D pixelAndLens = sampler.next4D();
+  const Vec2f filterOffset = filter.sampleOffset({pixelAndLens.x, pixelAndLens.y});
+  const Vec2f lensSample{pixelAndLens.z, pixelAndLens.w};
+  const Vec2f timeAndWavelength = sampler.next2D();
+  const float shutterTime = timeAndWavelength.x;
   PathSpectrum spectrum;
-  if (scene.spectral()) {  // drawn only then, so that RGB renders keep their samples
+  if (scene.spectral()) {
     spectrum.spectral = true;
-    spectrum.wavelengths = sampleWavelengths(sampler.next1D());
+    spectrum.wavelengths = sampleWavelengths(timeAndWavelength.y);
   }
   Ray ray = camera.generateRay(float(x) + 0.5f + filterOffset.x, float(y) + 0.5f + filterOffset.y,
                                lensSample, shutterTime);
@@ -245,8 +249,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     // light chosen by its estimated contribution here (lights on the surface's front and back
     // count for translucent surfaces), each sampled over its area or solid angle.
     // Each light sampled here draws its point from a dimension of its own (its choice's slot).
-    const float infiniteChoice = sampler.next1D();
-    const float localChoice = sampler.next1D();
+    const Vec2f lightChoices = sampler.next2D();
+    const float infiniteChoice = lightChoices.x, localChoice = lightChoices.y;
     const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
     const Vec3f facingNormal =
         dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
@@ -280,10 +284,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     if (!bsdf.isPurelySpecular() && settings.directLighting != DirectLighting::BsdfSamplingOnly)
       scene.lightSampler().forEachChoice(receiver, infiniteChoice, localChoice, sampleLight);
 
-    // BSDF sampling continues the path.
-    const float lobeChoice = sampler.next1D();
-    const Vec2f directionSample = sampler.next2D();
-    const float rouletteSample = sampler.next1D();
+    // BSDF sampling continues the path; the lobe and the direction in it are stratified jointly.
+    const Sample4D scatteringSample = sampler.next4D();
+    const float lobeChoice = scatteringSample.x;
+    const Vec2f directionSample{scatteringSample.y, scatteringSample.z};
+    const float rouletteSample = scatteringSample.w;
     const std::optional<BsdfSample> scattered = bsdf.sample(wo, lobeChoice, directionSample);
     if (!scattered || isBlack(scattered->weight)) break;
     // A direction on the other side of the geometric surface than the lobe intends (possible

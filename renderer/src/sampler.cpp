@@ -24,18 +24,47 @@ uint32_t lowToHighPermutation(uint32_t x, uint32_t seed) {
   return x;
 }
 
-/// The second Sobol dimension with its bits reversed, through byte tables (the generator matrix
-/// is linear over GF(2), so each byte of the index contributes independently).
-uint32_t sobolDimension1Reversed(uint32_t index) {
+/// Sobol dimension `dimension` (1 to 3) with its bits reversed, through byte tables (the
+/// generator matrix is linear over GF(2), so each byte of the index contributes independently).
+uint32_t sobolReversed(int dimension, uint32_t index) {
+  using ByteTables = std::array<std::array<uint32_t, 256>, 4>;
   static const auto tables = [] {
-    std::array<std::array<uint32_t, 256>, 4> result{};
-    for (uint32_t byte = 0; byte < 4; ++byte)
-      for (uint32_t value = 0; value < 256; ++value)
-        result[byte][value] = reverseBits(sobolDimension1(value << (8 * byte)));
+    std::array<ByteTables, 3> result{};
+    for (int d = 0; d < 3; ++d)
+      for (uint32_t byte = 0; byte < 4; ++byte)
+        for (uint32_t value = 0; value < 256; ++value) {
+          const uint32_t at = value << (8 * byte);
+          result[size_t(d)][byte][value] = reverseBits(d == 0   ? sobolDimension1(at)
+                                                       : d == 1 ? sobolDimension2(at)
+                                                                : sobolDimension3(at));
+        }
     return result;
   }();
-  return tables[0][index & 0xffu] ^ tables[1][(index >> 8) & 0xffu] ^
-         tables[2][(index >> 16) & 0xffu] ^ tables[3][index >> 24];
+  const ByteTables& table = tables[size_t(dimension - 1)];
+  return table[0][index & 0xffu] ^ table[1][(index >> 8) & 0xffu] ^
+         table[2][(index >> 16) & 0xffu] ^ table[3][index >> 24];
+}
+
+/// A Sobol dimension from its primitive polynomial of degree `degree` (inner coefficients
+/// `coefficients`, highest first) and initial direction integers m_1..m_degree (Joe and Kuo).
+uint32_t sobolFromPolynomial(uint32_t index, int degree, uint32_t coefficients,
+                             const std::array<uint32_t, 3>& initial) {
+  std::array<uint32_t, 32> m{};  // direction integers m_k, k = 1..32 at m[k - 1]
+  for (int k = 0; k < 32; ++k) {
+    if (k < degree) {
+      m[size_t(k)] = initial[size_t(k)];
+      continue;
+    }
+    // m_k = 2 a_1 m_{k-1} ^ 4 a_2 m_{k-2} ^ ... ^ 2^s m_{k-s} ^ m_{k-s}
+    uint32_t value = m[size_t(k - degree)] ^ (m[size_t(k - degree)] << degree);
+    for (int j = 1; j < degree; ++j)
+      if ((coefficients >> (degree - 1 - j)) & 1u) value ^= m[size_t(k - j)] << j;
+    m[size_t(k)] = value;
+  }
+  uint32_t result = 0;
+  for (int k = 0; index != 0; ++k, index >>= 1)
+    if (index & 1u) result ^= m[size_t(k)] << (31 - k);
+  return result;
 }
 
 /// Maps a 32-bit fraction to [0, 1) without ever rounding up to 1.
@@ -54,11 +83,15 @@ uint32_t sobolDimension0(uint32_t index) {
 }
 
 uint32_t sobolDimension1(uint32_t index) {
-  // Direction numbers of the second Sobol dimension (primitive polynomial x + 1).
-  uint32_t result = 0;
-  for (uint32_t direction = 1u << 31; index != 0; index >>= 1, direction ^= direction >> 1)
-    if (index & 1u) result ^= direction;
-  return result;
+  return sobolFromPolynomial(index, 1, 0, {1, 0, 0});  // x + 1
+}
+
+uint32_t sobolDimension2(uint32_t index) {
+  return sobolFromPolynomial(index, 2, 1, {1, 3, 0});  // x² + x + 1
+}
+
+uint32_t sobolDimension3(uint32_t index) {
+  return sobolFromPolynomial(index, 3, 1, {1, 3, 1});  // x³ + x + 1
 }
 
 SampleStream::SampleStream(uint32_t seed, uint32_t pixelX, uint32_t pixelY, uint32_t sampleIndex)
@@ -74,9 +107,20 @@ Vec2f SampleStream::draw2D(uint32_t dimension) const {
   // owenScramble(p, s) = reverse(permute(reverse(p), s)): the Sobol points are produced already
   // reversed, which saves two reversals each (same values as owenScramble(sobolDimensionN(i))).
   const uint32_t x = reverseBits(lowToHighPermutation(index, hashCombine(dimensionSeed, 1)));
-  const uint32_t y = reverseBits(
-      lowToHighPermutation(sobolDimension1Reversed(index), hashCombine(dimensionSeed, 2)));
+  const uint32_t y =
+      reverseBits(lowToHighPermutation(sobolReversed(1, index), hashCombine(dimensionSeed, 2)));
   return {toUnitFloat(x), toUnitFloat(y)};
+}
+
+Sample4D SampleStream::draw4D(uint32_t dimension) const {
+  const uint32_t dimensionSeed = hashCombine(pixelSeed_, dimension);
+  const uint32_t index = reverseBits(lowToHighPermutation(reversedSampleIndex_, dimensionSeed));
+  const auto scrambled = [&](uint32_t reversedSobol, uint32_t component) {
+    return toUnitFloat(
+        reverseBits(lowToHighPermutation(reversedSobol, hashCombine(dimensionSeed, component))));
+  };
+  return {scrambled(index, 1), scrambled(sobolReversed(1, index), 2),
+          scrambled(sobolReversed(2, index), 3), scrambled(sobolReversed(3, index), 4)};
 }
 
 float SampleStream::draw1D(uint32_t dimension) const {

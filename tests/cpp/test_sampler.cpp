@@ -96,6 +96,34 @@ TEST(Sampler, MatchesTheReferenceConstruction) {
   }
 }
 
+// Sobol's third and fourth dimensions, from Joe and Kuo's direction numbers (x² + x + 1 with
+// m = 1, 3; x³ + x + 1 with m = 1, 3, 1), in natural (not Gray-code) order.
+TEST(Sampler, SobolDimensionsTwoAndThree) {
+  const float third[8] = {0, 0.5f, 0.75f, 0.25f, 0.375f, 0.875f, 0.625f, 0.125f};
+  const float fourth[8] = {0, 0.5f, 0.75f, 0.25f, 0.125f, 0.625f, 0.875f, 0.375f};
+  for (uint32_t i = 0; i < 8; ++i) {
+    EXPECT_EQ(float(sobolDimension2(i)) * 0x1p-32f, third[i]) << i;
+    EXPECT_EQ(float(sobolDimension3(i)) * 0x1p-32f, fourth[i]) << i;
+  }
+  EXPECT_EQ(sobolDimension2(16), 29u << 27);  // m_5 = 2 m_4 ^ 4 m_3 ^ m_3 = 18 ^ 12 ^ 3
+}
+
+// A 4D draw stratifies its four numbers jointly: the first 256 samples of a pixel put 16 in
+// each of the 16 orthants of the unit hypercube (the scrambled Sobol points form a
+// (3,8,4)-net), and its first two numbers are the 2D draw's.
+TEST(Sampler, FourDimensionalDrawsAreJointlyStratified) {
+  std::vector<int> cells(16);
+  for (uint32_t s = 0; s < 256; ++s) {
+    const SampleStream stream(3, 7, 11, s);
+    const Sample4D p = stream.draw4D(5);
+    const Vec2f pair = stream.draw2D(5);
+    EXPECT_EQ(p.x, pair.x);
+    EXPECT_EQ(p.y, pair.y);
+    ++cells[size_t((p.x >= 0.5f) + 2 * (p.y >= 0.5f) + 4 * (p.z >= 0.5f) + 8 * (p.w >= 0.5f))];
+  }
+  for (const int count : cells) EXPECT_EQ(count, 16);
+}
+
 // Reserved dimensions are the ones next1D/next2D would have drawn, and the draws after a
 // reservation do not depend on how many of the reserved ones were used.
 TEST(Sampler, ReservedDimensionsAreDrawnOnDemand) {

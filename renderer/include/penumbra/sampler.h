@@ -1,10 +1,13 @@
 // Deterministic low-discrepancy sampling: every value is a pure function of
 // (seed, pixel, sample index, dimension), so images do not depend on threads or tile order.
 //
-// Each dimension (a 1D or 2D draw) takes the first two dimensions of the Sobol sequence at a
-// shuffled sample index and Owen-scrambles them with hash-derived seeds (Burley 2020, "Practical
-// Hash-based Owen Scrambling"). Within one pixel the first 2^k samples of every 2D draw form a
-// (0,k,2)-net; draws of different dimensions are decorrelated by the per-dimension shuffle.
+// Each dimension of the stream (a 1D, 2D or 4D draw) takes the first one, two or four dimensions
+// of the Sobol sequence at a shuffled sample index and Owen-scrambles each with a hash-derived
+// seed (Burley 2020, "Practical Hash-based Owen Scrambling"). Within one pixel the first 2^k
+// samples of every 2D draw form a (0,k,2)-net, and those of a 4D draw a (3,k,4)-net: decisions
+// that act together (pixel position and lens position, lobe choice and direction) are drawn from
+// one 4D draw so that they are stratified jointly. Draws of different dimensions are
+// decorrelated by the per-dimension shuffle.
 #pragma once
 
 #include <cstdint>
@@ -30,9 +33,17 @@ inline uint32_t hashCombine(uint32_t seed, uint32_t value) {
 
 /// Owen scrambling of a 32-bit binary fraction: each bit is flipped by a hash of the bits above it.
 uint32_t owenScramble(uint32_t bits, uint32_t seed);
-/// The first two dimensions of the Sobol (0,2)-sequence, as 32-bit fractions.
+/// The first four dimensions of the Sobol sequence (Joe and Kuo's direction numbers), as 32-bit
+/// fractions; the first two form a (0,2)-sequence.
 uint32_t sobolDimension0(uint32_t index);
 uint32_t sobolDimension1(uint32_t index);
+uint32_t sobolDimension2(uint32_t index);
+uint32_t sobolDimension3(uint32_t index);
+
+/// Four numbers of one 4D draw.
+struct Sample4D {
+  float x, y, z, w;
+};
 
 /// The random numbers of one camera sample: draw them in a fixed order.
 class SampleStream {
@@ -41,6 +52,7 @@ class SampleStream {
 
   float next1D() { return draw1D(dimension_++); }
   Vec2f next2D() { return draw2D(dimension_++); }
+  Sample4D next4D() { return draw4D(dimension_++); }
   /// Sets aside `count` dimensions for draws that may or may not be made (as many as a decision
   /// might need at most), so that the dimensions after them do not depend on how many were
   /// made; returns the first. Draw them with draw1D/draw2D(first + k).
@@ -51,6 +63,8 @@ class SampleStream {
   }
   float draw1D(uint32_t dimension) const;
   Vec2f draw2D(uint32_t dimension) const;
+  /// Its first two numbers are draw2D(dimension)'s.
+  Sample4D draw4D(uint32_t dimension) const;
   uint32_t dimension() const { return dimension_; }
 
  private:
