@@ -137,27 +137,48 @@ Vec3f sampleGgxVisibleNormal(const Vec3f& wo, GgxAlpha alpha, Vec2f u) {
   return normalize(
       Vec3f(alpha.x * stretched.x, alpha.y * stretched.y, std::max(1e-7f, stretched.z)));
 }
+float ggxLambda(const Vec3f& w, GgxAlpha alpha) {
+  return alpha.isotropic() ? ggxLambdaOf<false>(w, alpha) : ggxLambdaOf<true>(w, alpha);
+}
+/// The visible-normal density given Λ(wo) = lambdaO (lobes evaluated many times for one wo keep
+/// it, see PreviewSurfaceBsdf::Outgoing).
 template <bool kAnisotropic>
-float ggxVisibleNormalPdfOf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
-  return 1 / (1 + ggxLambdaOf<kAnisotropic>(wo, alpha)) * std::max(0.0f, dot(wo, h)) *
-         ggxDensityOf<kAnisotropic>(h, alpha) / wo.z;
+float ggxVisibleNormalPdfOf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha, float lambdaO) {
+  return 1 / (1 + lambdaO) * std::max(0.0f, dot(wo, h)) * ggxDensityOf<kAnisotropic>(h, alpha) /
+         wo.z;
 }
 float ggxVisibleNormalPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
-  return alpha.isotropic() ? ggxVisibleNormalPdfOf<false>(wo, h, alpha)
-                           : ggxVisibleNormalPdfOf<true>(wo, h, alpha);
+  const float lambdaO = ggxLambda(wo, alpha);
+  return alpha.isotropic() ? ggxVisibleNormalPdfOf<false>(wo, h, alpha, lambdaO)
+                           : ggxVisibleNormalPdfOf<true>(wo, h, alpha, lambdaO);
 }
 
-/// f · cos θi of single-scattering GGX reflection without Fresnel: D G2 / (4 cos θo).
+/// f · cos θi of single-scattering GGX reflection without Fresnel: D G2 / (4 cos θo), given
+/// Λ(wo) = lambdaO.
+float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, const Vec3f& h, GgxAlpha alpha,
+                                  float lambdaO) {
+  if (alpha.isotropic()) {
+    const float maskingShadowing = 1 / (1 + lambdaO + ggxLambdaOf<false>(wi, alpha));
+    return ggxDensityOf<false>(h, alpha) * maskingShadowing / (4 * wo.z);
+  }
+  const float maskingShadowing = 1 / (1 + lambdaO + ggxLambdaOf<true>(wi, alpha));
+  return ggxDensityOf<true>(h, alpha) * maskingShadowing / (4 * wo.z);
+}
 float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, const Vec3f& h,
                                   GgxAlpha alpha) {
-  if (alpha.isotropic())
-    return ggxDensityOf<false>(h, alpha) * ggxMaskingShadowingOf<false>(wo, wi, alpha) / (4 * wo.z);
-  return ggxDensityOf<true>(h, alpha) * ggxMaskingShadowingOf<true>(wo, wi, alpha) / (4 * wo.z);
+  return ggxReflectionWithoutFresnel(wo, wi, h, alpha, ggxLambda(wo, alpha));
 }
-/// Solid-angle density of wi = reflect(wo, h) with h sampled by sampleGgxVisibleNormal.
-float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
+/// Solid-angle density of wi = reflect(wo, h) with h sampled by sampleGgxVisibleNormal, given
+/// Λ(wo) = lambdaO.
+float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha, float lambdaO) {
   const float cosThetaOH = dot(wo, h);
-  return cosThetaOH > 0 ? ggxVisibleNormalPdf(wo, h, alpha) / (4 * cosThetaOH) : 0.0f;
+  if (!(cosThetaOH > 0)) return 0.0f;
+  const float visible = alpha.isotropic() ? ggxVisibleNormalPdfOf<false>(wo, h, alpha, lambdaO)
+                                          : ggxVisibleNormalPdfOf<true>(wo, h, alpha, lambdaO);
+  return visible / (4 * cosThetaOH);
+}
+float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
+  return ggxReflectionPdf(wo, h, alpha, ggxLambda(wo, alpha));
 }
 
 // --- Directional albedos of GGX lobes, for energy compensation ---
@@ -785,6 +806,8 @@ PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(const Vec3f& wo
   }
   outgoing.coatTransmittance = coatTransmittance(wo);
   outgoing.sheenTransmittance = sheenTransmittance(cosThetaO);
+  if (specularAlpha_.x > 0) outgoing.specularLambda = ggxLambda(wo, specularAlpha_);
+  if (coatAlpha_.x > 0) outgoing.coatLambda = ggxLambda(wo, coatAlpha_);
 
   // Each lobe's albedo for this wo. The layers under the coat are attenuated by its
   // transmittance for wo only, the one for wi being unknown yet.
@@ -835,7 +858,7 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
   Vec3f base(0.0f), underSpecularForWi(1.0f);
   if (specularAlpha_.x > 0) {
     base += schlickFresnel(specularF0_, dot(wo, h)) *
-            ggxReflectionWithoutFresnel(wo, wi, h, specularAlpha_);
+            ggxReflectionWithoutFresnel(wo, wi, h, specularAlpha_, forWo.specularLambda);
     // The diffuse layer's cover is the specular layer, with its own F0: one table entry each.
     const GgxAlbedoTable::Albedo ei = ggxDirectionalAlbedo(wi, specularAlpha_);
     if (specularAverageLoss_ > 0) {
@@ -858,7 +881,7 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
   Vec3f value = tintUnderCoat(base) * coat;
   if (clearcoat_ > 0 && coatAlpha_.x > 0) {
     value += Vec3f(clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), dot(wo, h)).x *
-                   ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_));
+                   ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_, forWo.coatLambda));
   }
   if (sheen_ > 0) {
     const float underSheen = forWo.sheenTransmittance;
@@ -868,13 +891,14 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
   return value * opacity_;
 }
 
-float PreviewSurfaceBsdf::pdfOpaque(const Vec3f& wo, const Vec3f& wi,
-                                    const LobeProbabilities& p) const {
+float PreviewSurfaceBsdf::pdfOpaque(const Vec3f& wo, const Vec3f& wi, const Outgoing& forWo) const {
   if (wi.z <= 0) return 0;
+  const LobeProbabilities& p = forWo.probabilities;
   const Vec3f h = normalize(wo + wi);
   float density = (p.multipleScattering + p.diffuse) * wi.z * kInvPi;
-  if (specularAlpha_.x > 0) density += p.specular * ggxReflectionPdf(wo, h, specularAlpha_);
-  if (coatAlpha_.x > 0) density += p.coat * ggxReflectionPdf(wo, h, coatAlpha_);
+  if (specularAlpha_.x > 0)
+    density += p.specular * ggxReflectionPdf(wo, h, specularAlpha_, forWo.specularLambda);
+  if (coatAlpha_.x > 0) density += p.coat * ggxReflectionPdf(wo, h, coatAlpha_, forWo.coatLambda);
   if (sheen_ > 0) density += p.sheen * kUniformHemispherePdf;
   return density;
 }
@@ -999,8 +1023,9 @@ float PreviewSurfaceBsdf::pdf(const Vec3f& woWorld, const Vec3f& wiWorld) const 
   const OrientedPair pair = orient(frame_, woWorld, wiWorld);
   const Vec3f &wo = pair.wo, &wi = pair.wi;
   if (wo.z == 0 || wi.z == 0) return 0;
-  const LobeProbabilities p = lobeProbabilities(wo);
-  float density = p.dielectric < 1 ? pdfOpaque(wo, wi, p) : 0.0f;
+  const Outgoing& forWo = outgoing(wo);
+  const LobeProbabilities& p = forWo.probabilities;
+  float density = p.dielectric < 1 ? pdfOpaque(wo, wi, forWo) : 0.0f;
   if (p.dielectric > 0 && dielectricAlpha_ > 0 && ior_ != 1) {
     density += p.dielectric * pdfDielectric(wo, wi, pair.flipped ? 1 / ior_ : ior_);
   }

@@ -151,6 +151,7 @@ class PreviewSurfaceBsdf {
     Vec3f underSpecular{1.0f};  // 1 − E(wo) of the diffuse layer's cover
     float coatTransmittance = 1;
     float sheenTransmittance = 1;
+    float specularLambda = 0, coatLambda = 0;  // Smith Λ(wo) of the rough specular and coat
   };
   const Outgoing& outgoing(const Vec3f& wo) const;
   Outgoing computeOutgoing(const Vec3f& wo) const;
@@ -169,7 +170,7 @@ class PreviewSurfaceBsdf {
   /// wo.z > 0, "dielectric" functions wo.z > 0 and the relative index η = n(wi side)/n(wo side)
   /// of the reflection–refraction pair (1 for a thin sheet).
   Vec3f evaluateOpaque(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart = nullptr) const;
-  float pdfOpaque(const Vec3f& wo, const Vec3f& wi, const LobeProbabilities& p) const;
+  float pdfOpaque(const Vec3f& wo, const Vec3f& wi, const Outgoing& forWo) const;
   float evaluateDielectric(const Vec3f& wo, const Vec3f& wi, float eta) const;
   float evaluateDielectricSingleScattering(const Vec3f& wo, const Vec3f& wi, float eta) const;
   /// Directional albedo of the single-scattering dielectric lobe (reflected plus transmitted flux).
