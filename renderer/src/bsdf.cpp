@@ -1038,7 +1038,8 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
   const bool flipped = wo.z < 0;
   if (flipped) wo.z = -wo.z;
   if (!(wo.z > 0)) return std::nullopt;
-  const LobeProbabilities p = lobeProbabilities(wo);
+  const Outgoing forWo = outgoing(wo);
+  const LobeProbabilities& p = forWo.probabilities;
 
   // Picks lobe k if uLobe falls in its interval and rescales uLobe to [0, 1) within it, so that
   // the dielectric can reuse it for its reflect/refract choice.
@@ -1084,7 +1085,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
       if (coatAlpha_.x == 0) {
         return delta(mirror,
                      Vec3f(opacity_ * clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), wo.z).x *
-                           sheenTransmittance(wo.z)),
+                           forWo.sheenTransmittance),
                      p.coat, BsdfLobe::Specular);
       }
       wi = reflect(wo, sampleGgxVisibleNormal(wo, coatAlpha_, u));
@@ -1092,10 +1093,10 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
       break;
     case 1:  // specular layer, single scattering
       if (specularAlpha_.x == 0) {
-        const float coat = coatTransmittance(wo);
+        const float coat = forWo.coatTransmittance;
         return delta(mirror,
                      tintUnderCoat(schlickFresnel(specularF0_, wo.z)) *
-                         (opacity_ * coat * coat * sheenTransmittance(wo.z)),
+                         (opacity_ * coat * coat * forWo.sheenTransmittance),
                      p.specular, BsdfLobe::Specular);
       }
       wi = reflect(wo, sampleGgxVisibleNormal(wo, specularAlpha_, u));

@@ -155,7 +155,6 @@ class PreviewSurfaceBsdf {
   };
   const Outgoing& outgoing(const Vec3f& wo) const;
   Outgoing computeOutgoing(const Vec3f& wo) const;
-  LobeProbabilities lobeProbabilities(const Vec3f& wo) const { return outgoing(wo).probabilities; }
   /// Clearcoat transmittance 1 − c·E_cc(w) for light from local direction w (isotropic coats
   /// read only w.z).
   float coatTransmittance(const Vec3f& w) const;
