@@ -4,6 +4,7 @@
 #include <limits>
 #include <stdexcept>
 #include <unordered_map>
+#include <utility>
 
 #include "penumbra/motion.h"
 
@@ -53,14 +54,15 @@ const char* interpolationName(Interpolation interpolation) {
 
 void validatePrimvar(const Primvar& primvar, const MeshData& mesh) {
   if (primvar.width < 1 || primvar.width > 4)
-    throw std::invalid_argument("primvar " + primvar.name + " has width " +
+    throw std::invalid_argument("primvar " + primvar.name.str() + " has width " +
                                 std::to_string(primvar.width) + "; 1 to 4 are supported");
   const size_t expected = primvarElementCount(primvar.interpolation, mesh);
   if (primvar.values.size() != expected * size_t(primvar.width))
-    throw std::invalid_argument(
-        "primvar " + primvar.name + " (" + interpolationName(primvar.interpolation) + ", width " +
-        std::to_string(primvar.width) + ") has " + std::to_string(primvar.values.size()) +
-        " floats, expected " + std::to_string(expected * size_t(primvar.width)));
+    throw std::invalid_argument("primvar " + primvar.name.str() + " (" +
+                                interpolationName(primvar.interpolation) + ", width " +
+                                std::to_string(primvar.width) + ") has " +
+                                std::to_string(primvar.values.size()) + " floats, expected " +
+                                std::to_string(expected * size_t(primvar.width)));
 }
 
 namespace {
@@ -289,13 +291,17 @@ void TriangleMesh::interpolate(const Primvar& primvar, uint32_t triangle, float 
   }
 }
 
-const Primvar* findPrimvar(const std::vector<Primvar>& primvars, const std::string& name) {
+PrimvarName::PrimvarName(std::string name) : name_(std::move(name)) {
+  for (const char c : name_) key_ = (key_ ^ uint8_t(c)) * 1099511628211ull;
+}
+
+const Primvar* findPrimvar(const std::vector<Primvar>& primvars, const PrimvarName& name) {
   for (const Primvar& primvar : primvars)
     if (primvar.name == name) return &primvar;
   return nullptr;
 }
 
-const Primvar* TriangleMesh::findPrimvar(const std::string& name) const {
+const Primvar* TriangleMesh::findPrimvar(const PrimvarName& name) const {
   return penumbra::findPrimvar(primvars, name);
 }
 

@@ -280,8 +280,34 @@ bool sameSurface(const TriangleMesh& a, const TriangleMesh& b) {
 }
 }  // namespace
 
+void Scene::checkPrimvarName(const PrimvarName& name) const {
+  const auto found = primvarNames_.find(name.key());
+  if (found != primvarNames_.end() && found->second != name.str())
+    throw std::invalid_argument("primvar names '" + found->second + "' and '" + name.str() +
+                                "' have the same 64-bit key; rename one of them");
+}
+
+void Scene::registerPrimvarName(const PrimvarName& name) {
+  if (name.empty()) return;
+  checkPrimvarName(name);
+  primvarNames_.emplace(name.key(), name.str());
+}
+
+void Scene::setMaterials(std::vector<Material> materials) {
+  for (const Material& material : materials) {
+    for (const InputConnection& connection : material.connections)
+      registerPrimvarName(connection.primvar);
+    for (const TextureReader& reader : material.textures)
+      registerPrimvarName(reader.coordinates.primvar);
+    for (const ExpressionProgram& program : material.programs)
+      for (const ExpressionNode& node : program.nodes) registerPrimvarName(node.primvar);
+  }
+  materials_ = std::move(materials);
+}
+
 void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
   MeshRecord& mesh = record(id);
+  for (const Primvar& primvar : data.primvars) registerPrimvarName(primvar.name);
   if (mesh.data && mesh.triangles && sameSurface(data, *mesh.data)) {
     // Same surface: its BVH stands; the hit filter follows the sidedness.
     const bool sidednessChanged = data.doubleSided != mesh.data->doubleSided;
@@ -408,13 +434,15 @@ void Scene::setInstances(InstancerId id, MeshId prototype, std::vector<MotionTra
 
 void Scene::setInstancePrimvars(InstancerId id, std::vector<Primvar> primvars) {
   InstancerRecord& copies = instancer(id);
-  for (const Primvar& primvar : primvars)
+  for (const Primvar& primvar : primvars) {
+    registerPrimvarName(primvar.name);
     if (primvar.width < 1 || primvar.width > 4 ||
         primvar.values.size() != copies.copies.size() * size_t(primvar.width))
-      throw std::invalid_argument("per-instance primvar " + primvar.name + " has " +
+      throw std::invalid_argument("per-instance primvar " + primvar.name.str() + " has " +
                                   std::to_string(primvar.values.size()) + " floats for " +
                                   std::to_string(copies.copies.size()) + " copies of width " +
                                   std::to_string(primvar.width));
+  }
   copies.primvars = std::move(primvars);
 }
 
@@ -466,13 +494,14 @@ float Scene::rayEpsilon(const Vec3f& point) const {
   return 2e-5f * std::max(maxAbsComponent(point), 1e-2f * sceneExtent_);
 }
 
-int Scene::primvarWidth(const std::string& name) const {
+int Scene::primvarWidth(const PrimvarName& name) const {
+  checkPrimvarName(name);
   int width = 0;
   for (const auto& mesh : meshes_)
     if (mesh && mesh->data) {
       if (const Primvar* primvar = mesh->data->findPrimvar(name))
         width = std::max(width, primvar->width);
-      else if (name == "displayColor" && !mesh->data->displayColor.empty())
+      else if (name == PrimvarName("displayColor") && !mesh->data->displayColor.empty())
         width = std::max(width, 3);
     }
   for (const auto& copies : instancers_)

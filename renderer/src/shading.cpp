@@ -35,7 +35,7 @@ Vec2f barycentricStep(const Vec3f& e1, const Vec3f& e2, const Vec3f& dp) {
 }
 
 /// The copy's own value of primvar `name`, if it has one (NaN marks copies without one).
-const float* instanceValue(const SurfacePoint& point, const std::string& name, int* width) {
+const float* instanceValue(const SurfacePoint& point, const PrimvarName& name, int* width) {
   const Primvar* primvar =
       point.instancePrimvars ? findPrimvar(*point.instancePrimvars, name) : nullptr;
   if (!primvar) return nullptr;
@@ -303,7 +303,7 @@ Vec3f applyNormalMap(const Vec3f& normal, const Vec3f& mapped, const Coordinates
 
 }  // namespace
 
-bool primvarAt(const SurfacePoint& point, const std::string& name, float value[4], int* width) {
+bool primvarAt(const SurfacePoint& point, const PrimvarName& name, float value[4], int* width) {
   if (const float* own = instanceValue(point, name, width)) {
     std::copy(own, own + *width, value);
     return true;
@@ -314,7 +314,8 @@ bool primvarAt(const SurfacePoint& point, const std::string& name, float value[4
     *width = primvar->width;
     return true;
   }
-  if (name == "displayColor" && !mesh.displayColor.empty()) {
+  static const PrimvarName displayColor("displayColor");
+  if (name == displayColor && !mesh.displayColor.empty()) {
     const Vec3f color = mesh.interpolate(mesh.displayColor, mesh.displayColorInterpolation,
                                          point.triangle, point.u, point.v);
     value[0] = color.x, value[1] = color.y, value[2] = color.z;
@@ -390,13 +391,16 @@ bool Material::mayBeAnisotropic() const {
 }
 
 Vec3f surfaceTangent(const SurfacePoint& point, const Transform& objectToWorld) {
-  static const std::string tangentName = "tangent";  // looked up on every anisotropic hit
+  static const PrimvarName tangentName("tangent");  // looked up on every anisotropic hit
   float value[4];
   int width = 0;
   if (primvarAt(point, tangentName, value, &width) && width >= 3)
     return objectToWorld.applyToVector({value[0], value[1], value[2]});
-  TextureCoordinates st;
-  st.primvar = "st";
+  static const TextureCoordinates st = [] {
+    TextureCoordinates coordinates;
+    coordinates.primvar = "st";
+    return coordinates;
+  }();
   const CoordinatesAt coordinates = coordinatesAt(st, point);
   Vec3f dpds, dpdt;
   return textureTangents(coordinates.edge1, coordinates.edge2, point, &dpds, &dpdt) ? dpds

@@ -336,7 +336,7 @@ Vec3f combinePoints(const std::vector<float>& points, Far::ConstIndexArray indic
 
 /// A cage primvar prepared for evaluation on the patches.
 struct RefinedPrimvar {
-  std::string name;
+  PrimvarName name;
   Interpolation interpolation;
   int width;
   std::vector<float> values;  // as authored (constant, uniform) or refined (the others)

@@ -14,6 +14,30 @@ MeshData quadAndPentagon() {
 }
 }  // namespace
 
+TEST(PrimvarName, KeyIsFnv1aOfTheName) {
+  // The reference values of FNV-1a, 64 bits (Fowler, Noll and Vo's test vectors).
+  EXPECT_EQ(PrimvarName("").key(), 0xcbf29ce484222325ull);
+  EXPECT_EQ(PrimvarName("a").key(), 0xaf63dc4c8601ec8cull);
+  EXPECT_EQ(PrimvarName("foobar").key(), 0x85944171f73967e8ull);
+  EXPECT_EQ(PrimvarName(std::string("st")), PrimvarName("st"));
+  EXPECT_NE(PrimvarName("st"), PrimvarName("st1"));
+  EXPECT_NE(PrimvarName("st"), PrimvarName("ts"));
+  EXPECT_TRUE(PrimvarName().empty());
+  EXPECT_EQ(PrimvarName("tangent").str(), "tangent");
+}
+
+TEST(PrimvarName, FindsThePrimvarOfTheName) {
+  std::vector<Primvar> primvars(3);
+  primvars[0].name = "st";
+  primvars[1].name = "s";
+  primvars[2].name = "t";
+  EXPECT_EQ(findPrimvar(primvars, "s"), &primvars[1]);
+  EXPECT_EQ(findPrimvar(primvars, "t"), &primvars[2]);
+  EXPECT_EQ(findPrimvar(primvars, "st"), &primvars[0]);
+  EXPECT_EQ(findPrimvar(primvars, "ts"), nullptr);
+  EXPECT_EQ(findPrimvar(primvars, ""), nullptr);
+}
+
 TEST(Mesh, PolygonsAreTriangulatedAsFans) {
   const TriangleMesh mesh = triangulate(quadAndPentagon());
   ASSERT_EQ(mesh.triangles.size(), 3u * 5);

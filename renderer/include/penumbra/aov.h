@@ -30,7 +30,7 @@ enum class AovKind {
 
 struct AovRequest {
   AovKind kind = AovKind::Color;
-  std::string primvar;  // for AovKind::Primvar
+  PrimvarName primvar;  // for AovKind::Primvar
 
   bool operator==(const AovRequest& other) const {
     return kind == other.kind && primvar == other.primvar;

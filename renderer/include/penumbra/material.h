@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "penumbra/math.h"
+#include "penumbra/mesh.h"
 #include "penumbra/texture.h"
 
 namespace penumbra {
@@ -95,7 +96,7 @@ bool isVectorInput(MaterialInput input);
 /// The texture coordinates a UsdUVTexture reads: a UsdPrimvarReader_float2 (its primvar where the
 /// mesh has it, else its fallback), through a UsdTransform2d when one is connected.
 struct TextureCoordinates {
-  std::string primvar;  // empty: `fallback` everywhere
+  PrimvarName primvar;  // empty: `fallback` everywhere
   Vec2f fallback{0, 0};
   // UsdTransform2d: result = in * scale * rotate * translate (rotation in degrees,
   // counter-clockwise).
@@ -143,7 +144,7 @@ struct ExpressionNode {
   std::array<uint8_t, 4> channels{0, 1, 2, 3};
   std::array<float, 4> value{0, 0, 0, 0};
   int texture = -1;  // index into Material::textures
-  std::string primvar;
+  PrimvarName primvar;
 };
 
 /// A pattern network that does not reduce to one texture lookup or primvar (a product of two
@@ -168,7 +169,7 @@ struct InputConnection {
   /// rgb). A one-channel output feeding a colour input is broadcast to grey.
   int firstChannel = 0;
   int channelCount = 3;
-  std::string primvar;                     // primvar readers: the primvar's name
+  PrimvarName primvar;                     // primvar readers: the primvar's name
   std::array<float, 3> fallback{0, 0, 0};  // primvar readers: where the mesh lacks the primvar
 };
 

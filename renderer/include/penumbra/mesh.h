@@ -2,6 +2,7 @@
 // triangulation.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -13,11 +14,33 @@ namespace penumbra {
 /// and vertex differ only on subdivision surfaces (linear versus limit evaluation).
 enum class Interpolation { Constant, Uniform, Varying, Vertex, FaceVarying };
 
+/// A primvar's name and a 64-bit key (FNV-1a) computed once, where the name is set at sync, so
+/// that the lookups made at every hit compare integers instead of strings. Equal keys are taken
+/// as equal names: Scene rejects two names of one key wherever names enter it (a chance of about
+/// n²/2⁶⁵ for n distinct names).
+class PrimvarName {
+ public:
+  PrimvarName() = default;
+  PrimvarName(std::string name);  // NOLINT(google-explicit-constructor): names are set as strings
+  PrimvarName(const char* name) : PrimvarName(std::string(name)) {}  // NOLINT
+
+  const std::string& str() const { return name_; }
+  uint64_t key() const { return key_; }
+  bool empty() const { return name_.empty(); }
+  bool operator==(const PrimvarName& other) const { return key_ == other.key_; }
+  bool operator!=(const PrimvarName& other) const { return key_ != other.key_; }
+
+ private:
+  std::string name_;
+  uint64_t key_ = kEmptyKey;
+  static constexpr uint64_t kEmptyKey = 14695981039346656037ull;  // FNV-1a of no bytes
+};
+
 /// A named per-mesh value array besides points, normals and displayColor (e.g. `st`, or any
 /// primvar a material reads): `width` floats per element, as many elements as `interpolation`
 /// says. Indexed primvars arrive flattened.
 struct Primvar {
-  std::string name;
+  PrimvarName name;
   std::vector<float> values;
   int width = 1;  // 1 to 4
   Interpolation interpolation = Interpolation::Vertex;
@@ -74,7 +97,7 @@ struct TriangleMesh {
   /// Where corner `corner` (0..2) of `triangle` finds its value in data of this interpolation.
   size_t cornerElement(Interpolation interpolation, uint32_t triangle, int corner) const;
   /// The primvar named `name`, or null.
-  const Primvar* findPrimvar(const std::string& name) const;
+  const Primvar* findPrimvar(const PrimvarName& name) const;
 };
 
 /// USD's token for an interpolation ("faceVarying", ...).
@@ -83,7 +106,7 @@ const char* interpolationName(Interpolation interpolation);
 size_t primvarElementCount(Interpolation interpolation, const MeshData& mesh);
 
 /// The primvar named `name` in `primvars`, or null.
-const Primvar* findPrimvar(const std::vector<Primvar>& primvars, const std::string& name);
+const Primvar* findPrimvar(const std::vector<Primvar>& primvars, const PrimvarName& name);
 
 /// Throws std::invalid_argument naming the primvar when its width or value count does not fit
 /// `mesh`.

@@ -7,7 +7,9 @@
 
 #include <memory>
 #include <optional>
+#include <string>
 #include <type_traits>
+#include <unordered_map>
 #include <vector>
 
 #include "penumbra/camera.h"
@@ -122,7 +124,7 @@ class Scene {
   /// Materials are referenced by index. Where a material's opacity is below its non-zero
   /// opacityThreshold the surface is cut out: whole meshes for constant opacity, per hit for
   /// textured opacity. Their texture handles refer to textures().
-  void setMaterials(std::vector<Material> materials) { materials_ = std::move(materials); }
+  void setMaterials(std::vector<Material> materials);
   /// The textures materials read; open files here before referencing them.
   TextureSystem& textures() { return *textures_; }
   const TextureSystem& textures() const { return *textures_; }
@@ -164,7 +166,7 @@ class Scene {
   /// Offset for spawning rays from `point` so that they do not re-hit its surface.
   float rayEpsilon(const Vec3f& point) const;
   /// The widest value of primvar `name` on any mesh or instancer (0: none has it).
-  int primvarWidth(const std::string& name) const;
+  int primvarWidth(const PrimvarName& name) const;
 
  private:
   struct InstancerRecord;
@@ -223,6 +225,11 @@ class Scene {
                       const void* visitor) const;
   /// Rebuilds the BVH of the area lights (lightScene_) from lights_.
   void buildLightScene();
+  /// Remembers a primvar name entering the scene. Throws std::invalid_argument when another
+  /// name has its key, so that lookups by key never mistake one primvar for another.
+  void registerPrimvarName(const PrimvarName& name);
+  /// The same check, for a name that is looked up without being stored (an AOV's).
+  void checkPrimvarName(const PrimvarName& name) const;
   /// Embree callbacks of the light BVH's user geometry (user data: the scene).
   static void boundLight(const RTCBoundsFunctionArguments* args);
   static void intersectLight(const RTCIntersectFunctionNArguments* args);
@@ -233,6 +240,7 @@ class Scene {
   std::vector<std::unique_ptr<InstancerRecord>> instancers_;  // by InstancerId
   std::vector<const Placement*> placements_;                  // by Embree geomID
   std::vector<Material> materials_;
+  std::unordered_map<uint64_t, std::string> primvarNames_;  // by key, every name registered
   std::shared_ptr<TextureSystem> textures_;
   std::vector<Light> lights_;
   LightSampler lightSampler_;

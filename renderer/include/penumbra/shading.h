@@ -28,7 +28,7 @@ struct SurfacePoint {
 
 /// Primvar `name` at `point`: the copy's own value, else the mesh's (displayColor included).
 /// Writes up to 4 floats and their count; false when neither has it.
-bool primvarAt(const SurfacePoint& point, const std::string& name, float value[4], int* width);
+bool primvarAt(const SurfacePoint& point, const PrimvarName& name, float value[4], int* width);
 
 /// The ray footprint on a surface: a ray cone of radius `radius` at the point, arriving along
 /// `direction`, laid on the plane of `normal` (stretched along the direction's projection by
