@@ -268,7 +268,7 @@ penumbra::Material RenderDelegate::buildMaterial(const Material& material, bool 
       std::tie(connection.firstChannel, connection.channelCount) =
           parseTextureOutput(source.output);
     } else {
-      connection.primvar = source.primvar;
+      connection.primvar = PrimvarName(source.primvar);
       connection.fallback = source.fallback;
     }
     result.connections.push_back(std::move(connection));

@@ -151,7 +151,7 @@ penumbra::Primvar toPrimvar(const std::string& id, const std::string& name, cons
   if (array.ndim() != 1 && array.ndim() != 2)
     throw std::invalid_argument(id + ": primvar " + name + " must have shape (N,) or (N, width)");
   penumbra::Primvar primvar;
-  primvar.name = name;
+  primvar.name = penumbra::PrimvarName(name);
   primvar.width = array.ndim() == 1 ? 1 : int(array.shape(1));
   primvar.values.assign(array.data(), array.data() + array.size());
   primvar.interpolation = interpolation;
@@ -214,7 +214,8 @@ TextureNode toTextureNode(const std::string& where, const py::dict& dict) {
                readDict(at, value.cast<py::dict>(), {"primvar", "fallback"},
                         [&](const std::string& stKey, const py::handle& stValue) {
                           if (stKey == "primvar")
-                            node.reader.coordinates.primvar = stValue.cast<std::string>();
+                            node.reader.coordinates.primvar =
+                                penumbra::PrimvarName(stValue.cast<std::string>());
                           else {
                             const auto st = toFloats<2>(at + ".fallback", stValue);
                             node.reader.coordinates.fallback = {st[0], st[1]};
@@ -288,7 +289,8 @@ ProgramNode toProgramNode(const std::string& where, const py::dict& dict) {
              if (key == "split") node.node.channels[0] = toIndices(at, py::make_tuple(value), 1)[0];
              if (key == "value" || key == "fallback") node.node.value = toFloats<4>(at, value);
              if (key == "texture") node.texture = toTextureNode(at, value.cast<py::dict>());
-             if (key == "primvar") node.node.primvar = value.cast<std::string>();
+             if (key == "primvar")
+               node.node.primvar = penumbra::PrimvarName(value.cast<std::string>());
            });
   if (!hasOp) throw std::invalid_argument(where + ": a program node needs an 'op'");
   return node;

@@ -44,7 +44,7 @@ AovRequest parseAov(const std::string& name) {
     if (name == known) return {kind, {}};
   const std::string prefix = kPrimvarPrefix;
   if (name.size() > prefix.size() && name.compare(0, prefix.size(), prefix) == 0)
-    return {AovKind::Primvar, name.substr(prefix.size())};
+    return {AovKind::Primvar, PrimvarName(name.substr(prefix.size()))};
   std::string list;
   for (const std::string& known : aovNames()) list += (list.empty() ? "" : ", ") + known;
   throw std::invalid_argument("unknown AOV '" + name + "' (known: " + list + ")");

@@ -600,7 +600,7 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
     float value[4];
     int width = 0;
     // Built once: these are looked up on every hit of a mesh without a material.
-    static const std::string displayColor = "displayColor", displayOpacity = "displayOpacity";
+    static const PrimvarName displayColor("displayColor"), displayOpacity("displayOpacity");
     if (primvarAt(point, displayColor, value, &width) && width >= 3)
       hit.material.diffuseColor = {value[0], value[1], value[2]};
     if (primvarAt(point, displayOpacity, value, &width)) hit.material.opacity = value[0];

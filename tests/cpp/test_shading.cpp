@@ -39,7 +39,7 @@ Material readsPrimvar(MaterialInput input, const std::string& primvar,
   Material material;
   InputConnection connection;
   connection.input = input;
-  connection.primvar = primvar;
+  connection.primvar = PrimvarName(primvar);
   connection.fallback = fallback;
   material.connections.push_back(connection);
   return material;
@@ -122,7 +122,7 @@ ExpressionNode leaf(ExpressionOp op, std::array<float, 4> value, std::string pri
   ExpressionNode node;
   node.op = op;
   node.value = value;
-  node.primvar = std::move(primvar);
+  node.primvar = PrimvarName(std::move(primvar));
   return node;
 }
 ExpressionNode operation(ExpressionOp op, std::array<uint8_t, 3> operands,

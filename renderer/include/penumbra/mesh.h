@@ -21,8 +21,9 @@ enum class Interpolation { Constant, Uniform, Varying, Vertex, FaceVarying };
 class PrimvarName {
  public:
   PrimvarName() = default;
-  PrimvarName(std::string name);  // NOLINT(google-explicit-constructor): names are set as strings
-  PrimvarName(const char* name) : PrimvarName(std::string(name)) {}  // NOLINT
+  // Explicit from a string, so that a hot path cannot hash a name on every call unawares.
+  explicit PrimvarName(std::string name);
+  PrimvarName(const char* name) : PrimvarName(std::string(name)) {}  // NOLINT: literals in code
 
   const std::string& str() const { return name_; }
   uint64_t key() const { return key_; }
