@@ -1,6 +1,7 @@
 #include "penumbra/plugin/light.h"
 
 #include <map>
+#include <stdexcept>
 
 #include "penumbra/plugin/param_value.h"
 
@@ -75,13 +76,39 @@ void Light::setParam(const std::string& name, const ParamValue& value) {
   markDirty(DirtyParams);
 }
 
-void Light::loadTexture(std::shared_ptr<TextureSystem> textures) {
+void Light::loadTexture(SyncContext& context) {
   if (textureFile_ == loadedTextureFile_) return;
   loadedTextureFile_ = textureFile_;
   params_.texture.reset();
-  if (!textureFile_.empty())
-    params_.texture =
-        LightTexture::load(std::move(textures), textureFile_, params_.type == LightType::Dome);
+  if (textureFile_.empty()) return;
+  ++context.counters.lightTextureLoads;
+  params_.texture = LightTexture::load(context.scene.sharedTextures(), textureFile_,
+                                       params_.type == LightType::Dome);
+}
+
+void Light::setMeshTriangles(std::shared_ptr<const std::vector<Vec3f>> triangles) {
+  params_.meshTriangles = std::move(triangles);
+  markDirty(DirtyParams);
+}
+
+void Light::sync(SyncContext& context) {
+  if (dirtyBits() & DirtyParams) {
+    try {
+      loadTexture(context);
+    } catch (const std::runtime_error& error) {
+      context.warn(id() + ": " + error.what() + "; the light renders without its texture");
+    }
+  }
+  rendered_.reset();
+  if (visible_) {
+    ++context.counters.lightBuilds;
+    try {
+      rendered_.emplace(params_);
+    } catch (const std::invalid_argument& error) {
+      context.warn(id() + ": " + error.what() + "; the light is skipped");
+    }
+  }
+  markClean();
 }
 
 void Light::setTransform(const MotionTransform& lightToWorld) {

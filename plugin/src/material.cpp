@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <map>
+#include <tuple>
 
 #include "penumbra/plugin/param_value.h"
 
@@ -17,6 +18,20 @@ Value parseToken(const std::map<std::string, Value>& tokens, const std::string& 
   for (const auto& [name, value] : tokens) known += (known.empty() ? "" : ", ") + name;
   throw std::invalid_argument("unknown " + std::string(what) + " '" + token + "' (expected " +
                               known + ")");
+}
+
+/// Opens `node`'s file for `material` (a warning when it cannot be) and appends its reader to
+/// `result`'s textures; returns its index.
+int openTexture(const Material& material, const TextureNode& node, SyncContext& context,
+                penumbra::Material* result) {
+  TextureReader reader = node.reader;
+  std::string error;
+  reader.texture = context.scene.textures().open(node.file, node.colorSpace, &error);
+  ++context.counters.materialTextureOpens;
+  if (reader.texture == TextureSystem::kInvalid)
+    context.warn(material.id() + ": " + error + "; its fallback value is used");
+  result->textures.push_back(std::move(reader));
+  return int(result->textures.size() - 1);
 }
 
 }  // namespace
@@ -148,6 +163,37 @@ void Material::resetParams() {
   params_ = MaterialParams{};
   connections_.clear();
   markDirty(DirtyParams);
+}
+
+void Material::sync(SyncContext& context) {
+  penumbra::Material result;
+  result.constants = params_;
+  for (const auto& [input, source] : connections_) {
+    InputConnection connection;
+    connection.input = input;
+    if (!source.program.empty()) {
+      ExpressionProgram program;
+      for (const ProgramNode& node : source.program) {
+        program.nodes.push_back(node.node);
+        if (node.texture)
+          program.nodes.back().texture = openTexture(*this, *node.texture, context, &result);
+      }
+      connection.program = int(result.programs.size());
+      connection.channelCount = isVectorInput(input) ? 3 : 1;
+      result.programs.push_back(std::move(program));
+    } else if (source.texture) {
+      connection.texture = openTexture(*this, *source.texture, context, &result);
+      std::tie(connection.firstChannel, connection.channelCount) =
+          parseTextureOutput(source.output);
+    } else {
+      connection.primvar = PrimvarName(source.primvar);
+      connection.fallback = source.fallback;
+    }
+    result.connections.push_back(std::move(connection));
+  }
+  ++context.counters.materialBuilds;
+  context.scene.setMaterial(size_t(context.materialIndex.at(id())), std::move(result));
+  markClean();
 }
 
 }  // namespace penumbra::plugin

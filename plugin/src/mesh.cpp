@@ -131,7 +131,7 @@ void Mesh::sync(SyncContext& context) {
       scene.clearMeshGeometry(handle_);
     }
   }
-  if (bits & (DirtyMaterialId | DirtyTransform | DirtyVisibility)) {
+  if (bits & kPlacementDirtyBits) {
     if (!materialId_.empty() && !context.materialIndex.count(materialId_) &&
         (bits & DirtyMaterialId))
       context.warn(id() + ": bound material " + materialId_ +
@@ -139,7 +139,27 @@ void Mesh::sync(SyncContext& context) {
     if (bits & DirtyVisibility) scene.setMeshPassVisibility(handle_, pass_);
     place(context);
   }
+  if (light_ && (bits & kLightDirtyBits)) syncLight(context);
   if (bits != Clean) markClean();
+}
+
+void Mesh::syncLight(SyncContext& context) {
+  std::shared_ptr<std::vector<Vec3f>> corners;
+  if (visible_) {
+    try {
+      const TriangleMesh polygons = triangulate(data_);
+      const Transform& toWorld = objectToWorld_.first();
+      corners = std::make_shared<std::vector<Vec3f>>();
+      corners->reserve(polygons.triangles.size());
+      for (const uint32_t point : polygons.triangles)
+        corners->push_back(toWorld.applyToPoint(polygons.points[point]));
+    } catch (const std::invalid_argument&) {
+      // The mesh itself is skipped with a warning (above).
+    }
+  }
+  light_->setVisible(corners != nullptr);
+  light_->setMeshTriangles(std::move(corners));
+  light_->sync(context);
 }
 
 void Mesh::place(SyncContext& context) const {

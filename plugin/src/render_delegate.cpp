@@ -126,10 +126,19 @@ void RenderDelegate::insertSprim(const std::string& type, const PrimId& id) {
     inserted = std::make_unique<Camera>(id);
   } else if (type == "material") {
     inserted = std::make_unique<Material>(id);
+    int index;
+    if (freeMaterialIndices_.empty()) {
+      index = int(scene_->materialCount());
+      scene_->setMaterial(size_t(index), {});  // its own is built at its sync
+    } else {
+      index = *freeMaterialIndices_.begin();
+      freeMaterialIndices_.erase(freeMaterialIndices_.begin());
+    }
+    materialIndex_[id] = index;
+    materialsInsertedOrRemoved_.insert(id);
     materialsStructureChanged_ = true;
   } else if (isLightTypeName(type)) {
-    inserted = std::make_unique<Light>(id, lightTypeFromName(type));
-    lightsStructureChanged_ = true;
+    inserted = std::make_unique<Light>(id, lightTypeFromName(type));  // joins the lights at sync
   } else {
     throw std::invalid_argument(id + ": unsupported sprim type '" + type + "'");
   }
@@ -150,7 +159,7 @@ void RenderDelegate::removePrim(const PrimId& id) {
           copies->setHandle(scene_->addInstancer());
           copies->markDirty(DirtyTransform);
         }
-    if (meshLights_.erase(id)) lightsStructureChanged_ = true;
+    if (lightIndex_.erase(id)) lightsStructureChanged_ = true;
     scene_->removeMesh(mesh->handle());
     meshesStructureChanged_ = true;
   }
@@ -161,8 +170,15 @@ void RenderDelegate::removePrim(const PrimId& id) {
         prototype->removeInstancer(id);
     meshesStructureChanged_ = true;
   }
-  if (dynamic_cast<Material*>(&removed)) materialsStructureChanged_ = true;
-  if (dynamic_cast<Light*>(&removed)) lightsStructureChanged_ = true;
+  if (dynamic_cast<Material*>(&removed)) {
+    const int index = materialIndex_.at(id);
+    scene_->setMaterial(size_t(index), {});  // unused until another material takes the index
+    freeMaterialIndices_.insert(index);
+    materialIndex_.erase(id);
+    materialsInsertedOrRemoved_.insert(id);
+    materialsStructureChanged_ = true;
+  }
+  if (dynamic_cast<Light*>(&removed) && lightIndex_.erase(id)) lightsStructureChanged_ = true;
   changeTracker_.forget(id);
   if (!rprims_.erase(id) && !sprims_.erase(id)) bprims_.erase(id);
 }
@@ -226,8 +242,10 @@ void RenderDelegate::setDicingCamera(PrimId cameraId) {
 }
 
 RenderDelegate::SyncStatistics RenderDelegate::syncStatistics() const {
-  return {counters_.meshGeometrySyncs, counters_.subdivisionDicings, scene_->meshBvhBuilds(),
-          counters_.tessellationSeconds, scene_->bvhBuildSeconds()};
+  return {
+      counters_.meshGeometrySyncs,    counters_.subdivisionDicings, scene_->meshBvhBuilds(),
+      counters_.tessellationSeconds,  scene_->bvhBuildSeconds(),    counters_.materialBuilds,
+      counters_.materialTextureOpens, counters_.lightBuilds,        counters_.lightTextureLoads};
 }
 
 std::vector<std::string> RenderDelegate::takeWarnings() {
@@ -236,111 +254,63 @@ std::vector<std::string> RenderDelegate::takeWarnings() {
   return taken;
 }
 
-int RenderDelegate::openTexture(const Material& material, const TextureNode& node, bool report,
-                                penumbra::Material* result) {
-  TextureReader reader = node.reader;
-  std::string error;
-  reader.texture = scene_->textures().open(node.file, node.colorSpace, &error);
-  if (reader.texture == TextureSystem::kInvalid && report)
-    warn(material.id() + ": " + error + "; its fallback value is used");
-  result->textures.push_back(std::move(reader));
-  return int(result->textures.size() - 1);
+void RenderDelegate::placeUsersOfNewAndRemovedMaterials(SyncContext& context) {
+  if (materialsInsertedOrRemoved_.empty()) return;
+  for (auto& [id, prim] : rprims_)
+    if (auto* user = dynamic_cast<Mesh*>(prim.get());
+        user && !(user->dirtyBits() & Mesh::kPlacementDirtyBits) &&
+        materialsInsertedOrRemoved_.count(user->materialId()))
+      user->place(context);
+  materialsInsertedOrRemoved_.clear();
 }
 
-penumbra::Material RenderDelegate::buildMaterial(const Material& material, bool report) {
-  penumbra::Material result;
-  result.constants = material.params();
-  for (const auto& [input, source] : material.connections()) {
-    InputConnection connection;
-    connection.input = input;
-    if (!source.program.empty()) {
-      ExpressionProgram program;
-      for (const ProgramNode& node : source.program) {
-        program.nodes.push_back(node.node);
-        if (node.texture)
-          program.nodes.back().texture = openTexture(material, *node.texture, report, &result);
-      }
-      connection.program = int(result.programs.size());
-      connection.channelCount = isVectorInput(input) ? 3 : 1;
-      result.programs.push_back(std::move(program));
-    } else if (source.texture) {
-      connection.texture = openTexture(material, *source.texture, report, &result);
-      std::tie(connection.firstChannel, connection.channelCount) =
-          parseTextureOutput(source.output);
-    } else {
-      connection.primvar = PrimvarName(source.primvar);
-      connection.fallback = source.fallback;
-    }
-    result.connections.push_back(std::move(connection));
-  }
-  return result;
+const penumbra::Light* RenderDelegate::renderedLight(const PrimId& id) const {
+  if (const auto sprim = sprims_.find(id); sprim != sprims_.end())
+    if (const auto* light = dynamic_cast<const Light*>(sprim->second.get()))
+      return light->rendered();
+  if (const auto rprim = rprims_.find(id); rprim != rprims_.end())
+    if (const auto* mesh = dynamic_cast<const Mesh*>(rprim->second.get()); mesh && mesh->light())
+      return mesh->light()->rendered();
+  return nullptr;
 }
 
-bool RenderDelegate::syncMaterials() {
-  std::vector<penumbra::Material> materials;
-  std::map<PrimId, int> indices;
-  for (auto& [id, prim] : sprims_) {
-    if (auto* material = dynamic_cast<Material*>(prim.get())) {
-      indices[id] = int(materials.size());
-      // Problems (missing textures) are reported when the material changes, not every sync.
-      materials.push_back(buildMaterial(*material, material->dirtyBits() != Clean));
-      if (material->dirtyBits() != Clean) material->markClean();
-    }
+void RenderDelegate::lightSynced(const PrimId& id) {
+  const bool emits = renderedLight(id) != nullptr;
+  const auto listed = lightIndex_.find(id);
+  if (emits && listed != lightIndex_.end()) {
+    lightsSynced_.insert(id);
+    return;
   }
-  scene_->setMaterials(std::move(materials));
-  const bool indicesChanged = indices != materialIndex_;
-  materialIndex_ = std::move(indices);
-  return indicesChanged;
+  if (emits) {
+    lightIndex_.emplace(id, -1);  // its index is given by updateLightList
+  } else if (listed != lightIndex_.end()) {
+    lightIndex_.erase(listed);
+    if (const auto rprim = rprims_.find(id); rprim != rprims_.end())
+      if (const auto* mesh = dynamic_cast<const Mesh*>(rprim->second.get()))
+        scene_->setMeshLight(mesh->handle(), -1);
+  } else {
+    return;  // neither listed nor emitting
+  }
+  lightsStructureChanged_ = true;
 }
 
-void RenderDelegate::syncLights() {
-  std::vector<penumbra::Light> lights;
-  const auto add = [&](const PrimId& id, const LightParams& params) {
-    try {
-      lights.emplace_back(params);
-      return int(lights.size()) - 1;
-    } catch (const std::invalid_argument& error) {
-      warn(id + ": " + error.what() + "; the light is skipped");
-      return -1;
+void RenderDelegate::updateLightList() {
+  if (lightsStructureChanged_) {
+    std::vector<penumbra::Light> lights;
+    lights.reserve(lightIndex_.size());
+    for (auto& [id, index] : lightIndex_) {
+      index = int(lights.size());
+      lights.push_back(*renderedLight(id));
+      if (const auto rprim = rprims_.find(id); rprim != rprims_.end())
+        if (const auto* mesh = dynamic_cast<const Mesh*>(rprim->second.get()))
+          scene_->setMeshLight(mesh->handle(), index);
     }
-  };
-  // Light sprims and mesh lights, in id order (the order lights are sampled in).
-  std::map<PrimId, Prim*> emitters;
-  for (auto& [id, prim] : sprims_)
-    if (dynamic_cast<Light*>(prim.get())) emitters[id] = prim.get();
-  for (const PrimId& id : meshLights_) emitters[id] = rprims_.at(id).get();
-  for (auto& [id, prim] : emitters) {
-    if (auto* light = dynamic_cast<Light*>(prim)) {
-      if (light->dirtyBits() & DirtyParams) {
-        try {
-          light->loadTexture(scene_->sharedTextures());
-        } catch (const std::runtime_error& error) {
-          warn(id + ": " + error.what() + "; the light renders without its texture");
-        }
-      }
-      if (light->visible()) add(id, light->params());
-      if (light->dirtyBits() != Clean) light->markClean();
-    } else if (auto* mesh = dynamic_cast<Mesh*>(prim)) {
-      int index = -1;
-      if (mesh->visible()) {
-        // The light samples the polygons (the cage of a subdivision surface) at shutter open.
-        LightParams params = mesh->light()->params();
-        auto corners = std::make_shared<std::vector<Vec3f>>();
-        try {
-          const TriangleMesh triangles = triangulate(mesh->data());
-          const Transform& toWorld = mesh->transform().first();
-          for (const uint32_t point : triangles.triangles)
-            corners->push_back(toWorld.applyToPoint(triangles.points[point]));
-          params.meshTriangles = std::move(corners);
-          index = add(id, params);
-        } catch (const std::invalid_argument&) {
-          // The mesh itself is skipped with a warning at its sync.
-        }
-      }
-      scene_->setMeshLight(mesh->handle(), index);
-    }
+    scene_->setLights(std::move(lights));
+  } else {
+    for (const PrimId& id : lightsSynced_)
+      scene_->setLight(size_t(lightIndex_.at(id)), *renderedLight(id));
   }
-  scene_->setLights(std::move(lights));
+  lightsSynced_.clear();
 }
 
 Mesh* RenderDelegate::prototypeOf(const Instancer& copies) {
@@ -395,34 +365,24 @@ bool RenderDelegate::sync(const DicingContext& view) {
     dicedFor_ = dicing;
     dicedComplexity_ = settings_.complexity;
   }
-  bool lightsDirty = lightsStructureChanged_, meshesDirty = meshesStructureChanged_;
-  bool materialsDirty = materialsStructureChanged_, camerasDirty = false;
-  std::set<PrimId> dirtyMaterials;
+  bool meshesDirty = meshesStructureChanged_, camerasDirty = false;
+  std::vector<Material*> dirtyMaterials;
+  std::vector<Light*> dirtyLights;
   std::vector<Mesh*> dirtyMeshes;
   std::vector<Instancer*> dirtyInstancers;
   for (const PrimId& id : changeTracker_.take()) {
     if (const auto found = rprims_.find(id); found != rprims_.end()) {
       meshesDirty = true;
-      if (auto* mesh = dynamic_cast<Mesh*>(found->second.get())) {
+      if (auto* mesh = dynamic_cast<Mesh*>(found->second.get()))
         dirtyMeshes.push_back(mesh);
-        // Mesh lights follow their meshes' geometry, transform, visibility and light inputs.
-        if (mesh->light()) {
-          meshLights_.insert(id);
-          lightsDirty = true;
-        } else if (meshLights_.erase(id)) {
-          scene_->setMeshLight(mesh->handle(), -1);
-          lightsDirty = true;
-        }
-      } else if (auto* copies = dynamic_cast<Instancer*>(found->second.get())) {
+      else if (auto* copies = dynamic_cast<Instancer*>(found->second.get()))
         dirtyInstancers.push_back(copies);
-      }
     } else if (const auto sprim = sprims_.find(id); sprim != sprims_.end()) {
       Prim& changed = *sprim->second;
-      if (dynamic_cast<Material*>(&changed)) {
-        materialsDirty = true;
-        dirtyMaterials.insert(id);
-      } else if (dynamic_cast<Light*>(&changed)) {
-        lightsDirty = true;
+      if (auto* material = dynamic_cast<Material*>(&changed)) {
+        dirtyMaterials.push_back(material);
+      } else if (auto* light = dynamic_cast<Light*>(&changed)) {
+        dirtyLights.push_back(light);
       } else if (changed.dirtyBits() != Clean) {  // cameras
         camerasDirty = true;
         changed.markClean();
@@ -432,20 +392,25 @@ bool RenderDelegate::sync(const DicingContext& view) {
     }
   }
   SyncContext context{*scene_, materialIndex_, dicing, settings_.complexity, warnings_, counters_};
-  if (materialsDirty) {
-    // The users of a changed material are placed again (it may cut them out now), all meshes
-    // when materials moved in the index; their own data is not synced again.
-    const bool indicesChanged = syncMaterials();
-    for (auto& [id, prim] : rprims_)
-      if (auto* user = dynamic_cast<Mesh*>(prim.get());
-          user && !user->materialId().empty() &&
-          (indicesChanged || dirtyMaterials.count(user->materialId())))
-        user->place(context);
+  // Sprims before rprims, as in Hydra: meshes place themselves with their material's index.
+  // Each dirty material builds its own entry of the scene's list; meshes bound to one keep its
+  // index and follow it there (Scene::setMaterial).
+  for (Material* material : dirtyMaterials) material->sync(context);
+  placeUsersOfNewAndRemovedMaterials(context);
+  for (Light* light : dirtyLights) {
+    light->sync(context);
+    lightSynced(light->id());
   }
-  if (lightsDirty) syncLights();
-  for (Mesh* dirtyMesh : dirtyMeshes) dirtyMesh->sync(context);
+  for (Mesh* dirtyMesh : dirtyMeshes) {
+    const bool lightSyncs = dirtyMesh->dirtyBits() & Mesh::kLightDirtyBits;
+    dirtyMesh->sync(context);
+    if (lightSyncs) lightSynced(dirtyMesh->id());  // a mesh light, or one no longer
+  }
   // After the meshes: copies follow their prototype's geometry, placed by the scene.
   for (Instancer* copies : dirtyInstancers) copies->sync(context, prototypeOf(*copies));
+  const bool materialsDirty = materialsStructureChanged_ || !dirtyMaterials.empty();
+  const bool lightsDirty = lightsStructureChanged_ || !lightsSynced_.empty();
+  updateLightList();
   materialsStructureChanged_ = lightsStructureChanged_ = meshesStructureChanged_ = false;
   const bool sceneChanged = materialsDirty || lightsDirty || meshesDirty;
   if (sceneChanged) {

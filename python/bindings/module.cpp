@@ -792,6 +792,10 @@ PYBIND11_MODULE(_core, m) {
              result["meshBvhBuilds"] = stats.meshBvhBuilds;
              result["tessellationSeconds"] = stats.tessellationSeconds;
              result["bvhBuildSeconds"] = stats.bvhBuildSeconds;
+             result["materialBuilds"] = stats.materialBuilds;
+             result["materialTextureOpens"] = stats.materialTextureOpens;
+             result["lightBuilds"] = stats.lightBuilds;
+             result["lightTextureLoads"] = stats.lightTextureLoads;
              return result;
            })
       .def(

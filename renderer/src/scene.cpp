@@ -166,12 +166,19 @@ const Material* Scene::materialOf(const MeshRecord& mesh) const {
   return &materials_[size_t(mesh.materialIndex)];
 }
 
+namespace {
+/// Whether a material cuts whole meshes out (constant opacity below its threshold).
+bool cutsOut(const Material& material) {
+  const MaterialParams& constants = material.constants;
+  return !material.opacityVaries() && constants.opacityThreshold > 0 &&
+         constants.opacity < constants.opacityThreshold;
+}
+}  // namespace
+
 bool Scene::renderable(const MeshRecord& mesh) const {
   if (!mesh.bvh) return false;
   const Material* material = materialOf(mesh);
-  if (!material || material->opacityVaries()) return true;
-  const MaterialParams& constants = material->constants;
-  return !(constants.opacityThreshold > 0 && constants.opacity < constants.opacityThreshold);
+  return !material || !cutsOut(*material);
 }
 
 void Scene::updateHitFilters(MeshRecord& mesh) {
@@ -293,18 +300,6 @@ void Scene::registerPrimvarName(const PrimvarName& name) {
   primvarNames_.emplace(name.key(), name.str());
 }
 
-void Scene::setMaterials(std::vector<Material> materials) {
-  for (const Material& material : materials) {
-    for (const InputConnection& connection : material.connections)
-      registerPrimvarName(connection.primvar);
-    for (const TextureReader& reader : material.textures)
-      registerPrimvarName(reader.coordinates.primvar);
-    for (const ExpressionProgram& program : material.programs)
-      for (const ExpressionNode& node : program.nodes) registerPrimvarName(node.primvar);
-  }
-  materials_ = std::move(materials);
-}
-
 void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
   MeshRecord& mesh = record(id);
   for (const Primvar& primvar : data.primvars) registerPrimvarName(primvar.name);
@@ -382,7 +377,38 @@ void Scene::setMeshInstance(MeshId id, const MotionTransform& objectToWorld, int
   mesh.own->objectToWorld = objectToWorld;
   mesh.materialIndex = materialIndex;
   mesh.visible = visible;
+  updateHitFilters(mesh);
   updateAllPlacements(id);
+}
+
+void Scene::setMaterial(size_t index, Material material) {
+  if (index > materials_.size())
+    throw std::out_of_range("material index " + std::to_string(index) + " past the " +
+                            std::to_string(materials_.size()) + " materials");
+  for (const InputConnection& connection : material.connections)
+    registerPrimvarName(connection.primvar);
+  for (const TextureReader& reader : material.textures)
+    registerPrimvarName(reader.coordinates.primvar);
+  for (const ExpressionProgram& program : material.programs)
+    for (const ExpressionNode& node : program.nodes) registerPrimvarName(node.primvar);
+  if (index == materials_.size()) materials_.emplace_back();
+  const bool cutOutBefore = cutsOut(materials_[index]);
+  materials_[index] = std::move(material);
+  const bool placementsChange = cutsOut(materials_[index]) != cutOutBefore;
+  for (MeshId id = 0; id < meshes_.size(); ++id) {
+    MeshRecord* mesh = meshes_[id].get();
+    if (!mesh || mesh->materialIndex != int(index)) continue;
+    updateHitFilters(*mesh);
+    if (placementsChange) updateAllPlacements(id);
+  }
+}
+
+void Scene::setLight(size_t index, Light light) {
+  if (index >= lights_.size())
+    throw std::out_of_range("light index " + std::to_string(index) + " past the " +
+                            std::to_string(lights_.size()) + " lights");
+  lights_[index] = std::move(light);
+  lightsChanged_ = true;
 }
 
 void Scene::setMeshLight(MeshId id, int lightIndex) {
@@ -466,8 +492,6 @@ void Scene::removeInstancer(InstancerId id) {
 
 void Scene::commit() {
   const auto started = std::chrono::steady_clock::now();
-  for (auto& mesh : meshes_)
-    if (mesh) updateHitFilters(*mesh);  // materials may have changed
   rtcCommitScene(top_);
   throwOnEmbreeError(device_, "build the scene BVH");
   RTCBounds bounds;
@@ -475,11 +499,14 @@ void Scene::commit() {
   const float extent = std::max({bounds.upper_x - bounds.lower_x, bounds.upper_y - bounds.lower_y,
                                  bounds.upper_z - bounds.lower_z});
   sceneExtent_ = std::isfinite(extent) && extent > 0 ? extent : 1.0f;
-  lightSampler_ = LightSampler(lights_);
-  infiniteLights_.clear();
-  for (size_t i = 0; i < lights_.size(); ++i)
-    if (lights_[i].isInfinite()) infiniteLights_.push_back(uint32_t(i));
-  buildLightScene();
+  if (lightsChanged_) {
+    lightSampler_ = LightSampler(lights_);
+    infiniteLights_.clear();
+    for (size_t i = 0; i < lights_.size(); ++i)
+      if (lights_[i].isInfinite()) infiniteLights_.push_back(uint32_t(i));
+    buildLightScene();
+    lightsChanged_ = false;
+  }
   bvhBuildSeconds_ +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   spectral_ = std::any_of(materials_.begin(), materials_.end(), [](const Material& m) {

@@ -124,13 +124,26 @@ class Scene {
   /// Materials are referenced by index. Where a material's opacity is below its non-zero
   /// opacityThreshold the surface is cut out: whole meshes for constant opacity, per hit for
   /// textured opacity. Their texture handles refer to textures().
-  void setMaterials(std::vector<Material> materials);
+  /// Sets the material at `index` (at most materialCount(): that appends one), leaving the
+  /// others as they are; the meshes using it follow (cut-outs, hit filters). A slot no mesh uses
+  /// any longer is given a default Material, which renders nothing and disperses no light.
+  /// Throws std::out_of_range for an index past the end.
+  void setMaterial(size_t index, Material material);
+  size_t materialCount() const { return materials_.size(); }
   /// The textures materials read; open files here before referencing them.
   TextureSystem& textures() { return *textures_; }
   const TextureSystem& textures() const { return *textures_; }
   /// The same, for what may outlive the scene (light textures read through it).
   const std::shared_ptr<TextureSystem>& sharedTextures() { return textures_; }
-  void setLights(std::vector<Light> lights) { lights_ = std::move(lights); }
+  /// The lights, in the order they are sampled in (their order decides which sample numbers
+  /// each light draws: keep it stable). The light sampler is rebuilt at commit().
+  void setLights(std::vector<Light> lights) {
+    lights_ = std::move(lights);
+    lightsChanged_ = true;
+  }
+  /// Replaces light `index` alone (a parameter edit), the others kept as they are. Throws
+  /// std::out_of_range for an index past the end.
+  void setLight(size_t index, Light light);
   const std::vector<Light>& lights() const { return lights_; }
   /// Chooses lights for next-event estimation (set by commit()).
   const LightSampler& lightSampler() const { return lightSampler_; }
@@ -151,7 +164,8 @@ class Scene {
         &visit);
   }
 
-  /// Rebuilds the top-level BVH; call after edits and before tracing.
+  /// Rebuilds the top-level BVH, and the light sampler and the lights' BVH if lights changed;
+  /// call after edits and before tracing.
   void commit();
   /// True when a material disperses light (abbeNumber > 0 on a translucent material): paths
   /// are then traced spectrally (set by commit()).
@@ -247,6 +261,7 @@ class Scene {
   std::vector<uint32_t> infiniteLights_;
   RTCScene lightScene_ = nullptr;
   std::vector<uint32_t> areaLights_;  // light index of each primitive of lightScene_
+  bool lightsChanged_ = true;         // since the last commit()
   float sceneExtent_ = 1;
   bool spectral_ = false;
   uint64_t meshBvhBuilds_ = 0;

@@ -9,6 +9,7 @@
 
 #include "penumbra/material.h"
 #include "penumbra/plugin/prim.h"
+#include "penumbra/plugin/sync_context.h"
 
 namespace penumbra::plugin {
 
@@ -64,6 +65,12 @@ class Material : public Prim {
   void connect(const std::string& input, InputSource source);
   /// Back to the schema's fallback values, unconnected.
   void resetParams();
+
+  /// Builds its renderer material, opening its textures (a warning names each that cannot be
+  /// read: once per change, since only a dirty material syncs), into its own index of the
+  /// scene's material list (cf. HdMaterial::Sync). The other materials stay as they are; the
+  /// meshes bound to it follow its cut-outs (Scene::setMaterial). Then it is clean.
+  void sync(SyncContext& context);
 
   const MaterialParams& params() const { return params_; }
   /// The connected inputs, in the order they were connected.

@@ -37,8 +37,14 @@ class Mesh : public Prim {
   /// UsdLuxMeshLightAPI: the mesh also emits, and is sampled as a light, with these inputs
   /// (names as Light::setParam). `enabled` false removes the light.
   void setLight(bool enabled, const std::vector<std::pair<std::string, ParamValue>>& params);
-  /// The mesh's light inputs, if it is a mesh light.
+  /// The mesh's light, if it is a mesh light.
   const Light* light() const { return light_.get(); }
+  /// The dirty bits on which its sync places its instance again.
+  static constexpr uint32_t kPlacementDirtyBits =
+      DirtyMaterialId | DirtyTransform | DirtyVisibility;
+  /// The dirty bits on which a mesh light's sync builds its light again.
+  static constexpr uint32_t kLightDirtyBits =
+      DirtyTopology | DirtyPoints | DirtyTransform | DirtyVisibility | DirtyParams;
   void setTransform(const MotionTransform& objectToWorld);
   void setVisible(bool visible);
   /// How camera rays treat the mesh (a render pass's cameraVisibility and matte collections).
@@ -52,7 +58,8 @@ class Mesh : public Prim {
 
   /// Syncs what its dirty bits say changed into the scene (cf. HdMesh::Sync): triangulates or
   /// dices its geometry (the scene keeps the BVH when the triangles are the same), places its
-  /// instance; then it is clean.
+  /// instance, syncs its light (on kLightDirtyBits; the render delegate puts it in the scene's
+  /// light list); then it is clean.
   void sync(SyncContext& context);
   /// Places its instance with its transform, material and visibility (a material it is bound to
   /// changed or moved in the scene's list).
@@ -73,6 +80,9 @@ class Mesh : public Prim {
  private:
   /// The triangles to render: its polygons, or its diced limit surface.
   TriangleMesh triangles(SyncContext& context);
+  /// Gives its light the polygons it emits from (the cage of a subdivision surface) in world
+  /// space at shutter open, or hides it (the mesh is hidden or invalid), and syncs it.
+  void syncLight(SyncContext& context);
 
   Scene::MeshId handle_;
   MeshData data_;

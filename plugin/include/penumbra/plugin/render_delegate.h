@@ -102,13 +102,19 @@ class RenderDelegate {
   /// Incremented by every sync that changed the scene's contents.
   uint64_t sceneVersion() const { return sceneVersion_; }
   /// What syncs have cost so far: meshes triangulated or diced, of which subdivision
-  /// surfaces diced, and mesh BVHs built (a mesh whose triangles did not change keeps its BVH).
+  /// surfaces diced, and mesh BVHs built (a mesh whose triangles did not change keeps its BVH);
+  /// renderer materials built and the textures they opened; renderer lights built (mesh lights
+  /// too) and light textures loaded.
   struct SyncStatistics {
     uint64_t meshGeometrySyncs = 0;
     uint64_t subdivisionDicings = 0;
     uint64_t meshBvhBuilds = 0;
     double tessellationSeconds = 0;  // triangulating and dicing meshes
     double bvhBuildSeconds = 0;      // meshes' BVHs, the top-level BVH and the lights'
+    uint64_t materialBuilds = 0;
+    uint64_t materialTextureOpens = 0;
+    uint64_t lightBuilds = 0;
+    uint64_t lightTextureLoads = 0;
   };
   SyncStatistics syncStatistics() const;
   const Scene& scene() const { return *scene_; }
@@ -123,16 +129,18 @@ class RenderDelegate {
   void warn(std::string message) { warnings_.push_back(std::move(message)); }
   /// The dicing context for this sync, given the pass's view.
   DicingContext dicingContext(const DicingContext& view);
-  /// Rebuilds the scene's materials; returns whether any material's index changed.
-  bool syncMaterials();
-  /// The renderer's material for a material sprim, its textures opened; `report`: warn about
-  /// textures that cannot be read.
-  penumbra::Material buildMaterial(const Material& material, bool report);
-  /// Opens `node`'s file (a warning when it cannot be, if `report`) and appends its reader to
-  /// `result`'s textures; returns its index.
-  int openTexture(const Material& material, const TextureNode& node, bool report,
-                  penumbra::Material* result);
-  void syncLights();
+  /// Places again the meshes bound to a material inserted or removed since the last sync (they
+  /// render with it now, or with their displayColor).
+  void placeUsersOfNewAndRemovedMaterials(SyncContext& context);
+  /// After `id` (a light sprim or a mesh) synced its light: the light joins, stays in (its entry
+  /// to be updated in place) or leaves the scene's light list.
+  void lightSynced(const PrimId& id);
+  /// Puts the synced lights in the scene's list: the whole list again when lights joined or
+  /// left it (the others' renderer lights copied as they are, not built again), else each
+  /// synced light in place.
+  void updateLightList();
+  /// The renderer light of a light sprim or mesh light, or null.
+  const penumbra::Light* renderedLight(const PrimId& id) const;
   /// The mesh an instancer copies, or null (with a warning) if there is none.
   Mesh* prototypeOf(const Instancer& instancer);
 
@@ -144,12 +152,19 @@ class RenderDelegate {
   std::map<PrimId, std::unique_ptr<Prim>> sprims_;
   std::map<PrimId, std::unique_ptr<Prim>> bprims_;
   ChangeTracker changeTracker_;
-  std::set<PrimId> meshLights_;  // meshes with UsdLuxMeshLightAPI
+  // Each material sprim's index in the scene's material list, from its insertion to its
+  // removal; indices freed by removals are used again, lowest first.
   std::map<PrimId, int> materialIndex_;
+  std::set<int> freeMaterialIndices_;
+  std::set<PrimId> materialsInsertedOrRemoved_;  // since the last sync
+  // The lights in the scene's list (light sprims and mesh lights), by id: the order they are
+  // sampled in, so that images do not depend on the order of edits. Each holds its index there.
+  std::map<PrimId, int> lightIndex_;
+  std::set<PrimId> lightsSynced_;  // in this sync, staying in the list
   RenderSettingsMap settings_;
   std::vector<std::string> warnings_;
   bool materialsStructureChanged_ = false;
-  bool lightsStructureChanged_ = false;
+  bool lightsStructureChanged_ = false;  // lights joined or left the list
   bool meshesStructureChanged_ = false;
   PrimId dicingCamera_;
   std::optional<DicingContext> firstView_;  // the default dicing context

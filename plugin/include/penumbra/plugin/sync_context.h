@@ -1,6 +1,7 @@
 // What a prim's sync reads and changes besides the prim itself (cf. Hydra's HdRenderParam, which
-// HdRprim::Sync receives): the scene, the material indices, the dicing context, the warnings and
-// the sync counters. The render delegate builds one per sync (docs/architecture.md).
+// HdRprim::Sync and HdSprim::Sync receive): the scene, the material indices, the dicing context,
+// the warnings and the sync counters. The render delegate builds one per sync
+// (docs/architecture.md).
 #pragma once
 
 #include <cstdint>
@@ -28,12 +29,17 @@ struct DicingContext {
 struct SyncCounters {
   uint64_t meshGeometrySyncs = 0;
   uint64_t subdivisionDicings = 0;
-  double tessellationSeconds = 0;  // triangulating and dicing meshes
+  double tessellationSeconds = 0;     // triangulating and dicing meshes
+  uint64_t materialBuilds = 0;        // renderer materials built (Material::sync)
+  uint64_t materialTextureOpens = 0;  // textures those builds opened
+  uint64_t lightBuilds = 0;           // renderer lights built (Light::sync), mesh lights too
+  uint64_t lightTextureLoads = 0;     // light textures (texture:file) loaded
 };
 
 struct SyncContext {
   Scene& scene;
-  /// The scene's index of each material sprim.
+  /// The scene's index of each material sprim: fixed from its insertion to its removal, so
+  /// that an edit of one material leaves the meshes bound to others as they are.
   const std::map<PrimId, int>& materialIndex;
   const DicingContext& dicing;
   /// RenderSettingsMap::complexity: how finely subdivision surfaces are diced.
