@@ -1,17 +1,22 @@
 """The render delegate's lifecycle (docs/architecture.md): each kind of edit syncs only what it
 must — no re-dicing or BVH rebuild for a primvar, sidedness, material, visibility or transform
-edit — the image after edits is bit-identical to a fresh render of the edited stage, and
-moving the view camera re-dices nothing unless a dicing camera is asked for and moved."""
+edit; an edit of one material or light builds that sprim alone, opening no other material's
+textures and loading no other light's — the image after edits is bit-identical to a fresh
+render of the edited stage, and moving the view camera re-dices nothing unless a dicing camera
+is asked for and moved."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
-from pxr import Gf, UsdGeom
+from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
 
 import penumbra
 from stages import add_camera, add_preview_material, add_quad, bind, lit_quad_stage
 from test_api import sync_counts
+from test_textures import quadrants, write_texture
 
 FAST = dict(camera="/cam", width=32, samples=4)
 
@@ -136,3 +141,122 @@ def test_a_dicing_camera_re_dices_as_it_moves():
     assert renderer.delegate.sync_statistics()["subdivisionDicings"] == dicings + 1
     # The blob is diced for the camera where it is now, as a fresh renderer dices it.
     np.testing.assert_array_equal(moved["color"], penumbra.Renderer(stage).render(**FAST)["color"])
+
+
+def textured_material(stage, path: str, file) -> UsdShade.Material:
+    """A UsdPreviewSurface whose diffuseColor reads a UsdUVTexture of ``file``."""
+    material = add_preview_material(stage, path, roughness=0.5)
+    texture = UsdShade.Shader.Define(stage, f"{path}/Texture")
+    texture.CreateIdAttr("UsdUVTexture")
+    texture.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(str(file)))
+    surface = UsdShade.Shader(stage.GetPrimAtPath(f"{path}/Surface"))
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        texture.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    )
+    return material
+
+
+def sprim_stage(tmp_path):
+    """edit_stage with a textured material on /World/painted, a material whose texture is
+    missing on /World/flipped, and a textured dome and a rect light besides the sun."""
+    stage = edit_stage()
+    checker = write_texture(tmp_path / "checker.exr", quadrants(8))
+    painted = UsdGeom.Mesh(stage.GetPrimAtPath("/World/painted"))
+    bind(painted, textured_material(stage, "/World/Looks/textured", checker))
+    flipped = UsdGeom.Mesh(stage.GetPrimAtPath("/World/flipped"))
+    bind(flipped, textured_material(stage, "/World/Looks/missing", tmp_path / "nowhere.exr"))
+    sky = np.zeros((4, 8, 3), dtype=np.float32)
+    sky[:, :, 0] = np.linspace(0.1, 0.8, 8)
+    sky[:, :, 1] = 0.3
+    dome = UsdLux.DomeLight.Define(stage, "/World/sky")
+    dome.CreateIntensityAttr(0.5)
+    dome.CreateTextureFileAttr(Sdf.AssetPath(str(write_texture(tmp_path / "sky.exr", sky))))
+    rect = UsdLux.RectLight.Define(stage, "/World/panel")
+    rect.CreateIntensityAttr(4.0)
+    rect.AddTranslateOp().Set(Gf.Vec3d(0.5, 0.5, 2.0))
+    return stage
+
+
+def render_quietly(renderer) -> tuple[dict, list[str]]:
+    """A render of the FAST view, and the messages of the warnings it gave."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        image = renderer.render(**FAST)
+    messages = [str(w.message) for w in caught if issubclass(w.category, penumbra.PenumbraWarning)]
+    return image, messages
+
+
+def fresh_render(stage) -> np.ndarray:
+    return render_quietly(penumbra.Renderer(stage))[0]["color"]
+
+
+def test_a_material_edit_builds_that_material_alone(tmp_path):
+    stage = sprim_stage(tmp_path)
+    renderer = penumbra.Renderer(stage)
+    before, messages = render_quietly(renderer)
+    assert any("nowhere.exr" in m for m in messages)  # reported when it first syncs
+    counts, stats = sync_counts(renderer), renderer.delegate.sync_statistics()
+
+    _set_material_input(stage)  # /World/Looks/paint, untextured
+    edited, messages = render_quietly(renderer)
+    after = renderer.delegate.sync_statistics()
+    assert {p for p, n in sync_counts(renderer).items() if n != counts[p]} == {"/World/Looks/paint"}
+    assert after["materialBuilds"] - stats["materialBuilds"] == 1
+    assert after["materialTextureOpens"] == stats["materialTextureOpens"]  # none reopened
+    assert messages == []  # the missing texture is not reported again
+    assert not np.array_equal(edited["color"], before["color"])
+    np.testing.assert_array_equal(edited["color"], fresh_render(stage))
+
+    # A textured material opens its own texture, and no other.
+    shader = stage.GetPrimAtPath("/World/Looks/textured/Surface")
+    shader.GetAttribute("inputs:roughness").Set(0.2)
+    edited, _ = render_quietly(renderer)
+    final = renderer.delegate.sync_statistics()
+    assert final["materialBuilds"] - after["materialBuilds"] == 1
+    assert final["materialTextureOpens"] - after["materialTextureOpens"] == 1
+    np.testing.assert_array_equal(edited["color"], fresh_render(stage))
+
+
+def test_a_light_edit_builds_that_light_alone(tmp_path):
+    stage = sprim_stage(tmp_path)
+    renderer = penumbra.Renderer(stage)
+    before, _ = render_quietly(renderer)
+    counts, stats = sync_counts(renderer), renderer.delegate.sync_statistics()
+    assert stats["lightTextureLoads"] == 1  # the dome's
+
+    UsdLux.RectLight(stage.GetPrimAtPath("/World/panel")).GetIntensityAttr().Set(12.0)
+    edited, _ = render_quietly(renderer)
+    after = renderer.delegate.sync_statistics()
+    assert {p for p, n in sync_counts(renderer).items() if n != counts[p]} == {"/World/panel"}
+    assert after["lightBuilds"] - stats["lightBuilds"] == 1
+    assert after["lightTextureLoads"] == stats["lightTextureLoads"]
+    assert after["materialBuilds"] == stats["materialBuilds"]
+    assert not np.array_equal(edited["color"], before["color"])
+    np.testing.assert_array_equal(edited["color"], fresh_render(stage))
+
+
+def test_lights_added_hidden_and_removed_match_a_fresh_render(tmp_path):
+    stage = sprim_stage(tmp_path)
+    renderer = penumbra.Renderer(stage)
+    render_quietly(renderer)
+    stats = renderer.delegate.sync_statistics()
+    # /World/bulb sorts before /World/panel and /World/sky: they move along the light list.
+    bulb = UsdLux.SphereLight.Define(stage, "/World/bulb")
+    bulb.CreateIntensityAttr(6.0)
+    bulb.CreateRadiusAttr(0.2)
+    bulb.AddTranslateOp().Set(Gf.Vec3d(-0.5, 0.5, 1.0))
+    edits = [
+        lambda: None,
+        lambda: UsdGeom.Imageable(stage.GetPrimAtPath("/World/panel")).MakeInvisible(),
+        lambda: stage.RemovePrim("/World/bulb"),
+        lambda: UsdGeom.Imageable(stage.GetPrimAtPath("/World/panel")).MakeVisible(),
+    ]
+    images = []
+    for edit in edits:
+        edit()
+        image, _ = render_quietly(renderer)
+        np.testing.assert_array_equal(image["color"], fresh_render(stage))
+        images.append(image["color"])
+    assert not np.array_equal(images[0], images[1]) and not np.array_equal(images[1], images[2])
+    # The dome's texture was loaded once, whatever came and went around it.
+    assert renderer.delegate.sync_statistics()["lightTextureLoads"] == stats["lightTextureLoads"]
