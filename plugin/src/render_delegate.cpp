@@ -274,8 +274,9 @@ const penumbra::Light* RenderDelegate::renderedLight(const PrimId& id) const {
   return nullptr;
 }
 
-void RenderDelegate::lightSynced(const PrimId& id) {
-  const bool emits = renderedLight(id) != nullptr;
+void RenderDelegate::lightSynced(const PrimId& id, const penumbra::Light* rendered,
+                                 const Mesh* mesh) {
+  const bool emits = rendered != nullptr;
   const auto listed = lightIndex_.find(id);
   if (emits && listed != lightIndex_.end()) {
     lightsSynced_.insert(id);
@@ -285,9 +286,7 @@ void RenderDelegate::lightSynced(const PrimId& id) {
     lightIndex_.emplace(id, -1);  // its index is given by updateLightList
   } else if (listed != lightIndex_.end()) {
     lightIndex_.erase(listed);
-    if (const auto rprim = rprims_.find(id); rprim != rprims_.end())
-      if (const auto* mesh = dynamic_cast<const Mesh*>(rprim->second.get()))
-        scene_->setMeshLight(mesh->handle(), -1);
+    if (mesh) scene_->setMeshLight(mesh->handle(), -1);
   } else {
     return;  // neither listed nor emitting
   }
@@ -399,12 +398,14 @@ bool RenderDelegate::sync(const DicingContext& view) {
   placeUsersOfNewAndRemovedMaterials(context);
   for (Light* light : dirtyLights) {
     light->sync(context);
-    lightSynced(light->id());
+    lightSynced(light->id(), light->rendered(), nullptr);
   }
   for (Mesh* dirtyMesh : dirtyMeshes) {
     const bool lightSyncs = dirtyMesh->dirtyBits() & Mesh::kLightDirtyBits;
     dirtyMesh->sync(context);
-    if (lightSyncs) lightSynced(dirtyMesh->id());  // a mesh light, or one no longer
+    if (lightSyncs)  // a mesh light, or one no longer
+      lightSynced(dirtyMesh->id(), dirtyMesh->light() ? dirtyMesh->light()->rendered() : nullptr,
+                  dirtyMesh);
   }
   // After the meshes: copies follow their prototype's geometry, placed by the scene.
   for (Instancer* copies : dirtyInstancers) copies->sync(context, prototypeOf(*copies));

@@ -132,9 +132,9 @@ class RenderDelegate {
   /// Places again the meshes bound to a material inserted or removed since the last sync (they
   /// render with it now, or with their displayColor).
   void placeUsersOfNewAndRemovedMaterials(SyncContext& context);
-  /// After `id` (a light sprim or a mesh) synced its light: the light joins, stays in (its entry
-  /// to be updated in place) or leaves the scene's light list.
-  void lightSynced(const PrimId& id);
+  /// After `id` (a light sprim, or `mesh`) synced its light, now `rendered` (null: it does not
+  /// render): the light joins, stays in (its entry to be replaced) or leaves the scene's list.
+  void lightSynced(const PrimId& id, const penumbra::Light* rendered, const Mesh* mesh);
   /// Puts the synced lights in the scene's list: the whole list again when lights joined or
   /// left it (the others' renderer lights copied as they are, not built again), else each
   /// synced light in place.
