@@ -235,6 +235,12 @@ Light::Light(const LightParams& params) : params_(params) {
                         length(cross(corners[i + 1] - corners[i], corners[i + 2] - corners[i])));
         area_ += areas.back();
       }
+      for (const Vec3f& corner : corners) {
+        meshLower_ = {std::min(meshLower_.x, corner.x), std::min(meshLower_.y, corner.y),
+                      std::min(meshLower_.z, corner.z)};
+        meshUpper_ = {std::max(meshUpper_.x, corner.x), std::max(meshUpper_.y, corner.y),
+                      std::max(meshUpper_.z, corner.z)};
+      }
       triangleChoice_.emplace(std::move(areas));
       break;
     }
@@ -614,7 +620,8 @@ LightBounds Light::bounds() const {
       bounds.power = radianceLuminance * 2 * radius_ * length(edgeU_);
       break;
     case LightType::Mesh:
-      for (const Vec3f& corner : *params_.meshTriangles) include(corner);
+      include(meshLower_);
+      include(meshUpper_);
       bounds.power = radianceLuminance * area_;
       break;
     case LightType::Distant:

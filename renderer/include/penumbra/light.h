@@ -206,6 +206,9 @@ class Light {
   float coneCosOuter_ = -1, coneCosInner_ = -1;
   Transform worldToLight_;
   std::optional<Distribution1D> triangleChoice_;  // mesh lights: triangles by area
+  // Mesh lights: the box of their triangles, found once (the light tree asks for it whenever
+  // any light changes).
+  Vec3f meshLower_{kInfinity}, meshUpper_{-kInfinity};
 };
 
 /// Directions uniformly distributed in a cone around +Z whose half angle h has
