@@ -173,6 +173,10 @@ bool cutsOut(const Material& material) {
   return !material.opacityVaries() && constants.opacityThreshold > 0 &&
          constants.opacity < constants.opacityThreshold;
 }
+/// Whether a material cuts surfaces out per hit (textured opacity with a threshold).
+bool cutsOutPerHit(const Material& material) {
+  return material.opacityVaries() && material.constants.opacityThreshold > 0;
+}
 }  // namespace
 
 bool Scene::renderable(const MeshRecord& mesh) const {
@@ -184,8 +188,7 @@ bool Scene::renderable(const MeshRecord& mesh) const {
 void Scene::updateHitFilters(MeshRecord& mesh) {
   if (!mesh.triangles) return;
   const Material* material = materialOf(mesh);
-  const bool cutouts =
-      material && material->opacityVaries() && material->constants.opacityThreshold > 0;
+  const bool cutouts = material && cutsOutPerHit(*material);
   if (cutouts == mesh.cutoutFilter) return;
   mesh.cutoutFilter = cutouts;
   rtcSetGeometryIntersectFilterFunction(mesh.triangles,
@@ -392,9 +395,13 @@ void Scene::setMaterial(size_t index, Material material) {
   for (const ExpressionProgram& program : material.programs)
     for (const ExpressionNode& node : program.nodes) registerPrimvarName(node.primvar);
   if (index == materials_.size()) materials_.emplace_back();
-  const bool cutOutBefore = cutsOut(materials_[index]);
-  materials_[index] = std::move(material);
-  const bool placementsChange = cutsOut(materials_[index]) != cutOutBefore;
+  Material& replaced = materials_[index];
+  // Only cut-outs make the meshes using a material depend on it outside of shading; unless they
+  // change (seldom), those meshes are not even looked for.
+  const bool placementsChange = cutsOut(material) != cutsOut(replaced);
+  const bool filtersChange = cutsOutPerHit(material) != cutsOutPerHit(replaced);
+  replaced = std::move(material);
+  if (!placementsChange && !filtersChange) return;
   for (MeshId id = 0; id < meshes_.size(); ++id) {
     MeshRecord* mesh = meshes_[id].get();
     if (!mesh || mesh->materialIndex != int(index)) continue;

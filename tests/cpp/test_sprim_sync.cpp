@@ -29,7 +29,9 @@ namespace {
 /// compares it with a fresh delegate given the second.
 struct SceneSpec {
   Vec3f diffuseA{0.8f, 0.2f, 0.2f};
-  bool materialA = true;  // "/looks/a", bound to "/left"
+  float opacityA = 1;             // below 0.5 it cuts "/left" out
+  bool opacityTexturedA = false;  // the checker's red: cut out where that is below 0.5
+  bool materialA = true;          // "/looks/a", bound to "/left"
   bool materialC = false;
   float panelIntensity = 2;
   bool panelVisible = true;
@@ -68,7 +70,10 @@ class SprimSync : public penumbra::test::ScratchDirectoryTest {
     }
     delegate.mesh("/left").setMaterialId("/looks/a");
     delegate.mesh("/right").setMaterialId("/looks/b");
-    if (spec.materialA) insertMaterialA(delegate, spec.diffuseA);
+    if (spec.materialA) {
+      delegate.insertSprim("material", "/looks/a");
+      setMaterialA(delegate.material("/looks/a"), spec);
+    }
     delegate.insertSprim("material", "/looks/b");
     InputSource checker;
     checker.texture = TextureNode{path("checker.exr"), {}, {}};
@@ -93,9 +98,18 @@ class SprimSync : public penumbra::test::ScratchDirectoryTest {
     if (spec.rightEmits) delegate.mesh("/right").setLight(true, {{"intensity", 3.0f}});
   }
 
-  static void insertMaterialA(RenderDelegate& delegate, Vec3f diffuse) {
-    delegate.insertSprim("material", "/looks/a");
-    delegate.material("/looks/a").setParam("diffuseColor", diffuse);
+  void setMaterialA(plugin::Material& material, const SceneSpec& spec) const {
+    material.resetParams();
+    material.setParam("diffuseColor", spec.diffuseA);
+    material.setParam("opacityThreshold", 0.5f);
+    material.setParam("opacity", spec.opacityA);
+    if (spec.opacityTexturedA) {
+      InputSource red;
+      red.texture = TextureNode{path("checker.exr"), {}, {}};
+      red.texture->reader.coordinates.fallback = {0.25f, 0.75f};  // the red texel
+      red.output = "r";
+      material.connect("opacity", red);
+    }
   }
   /// Bright and bound to nothing: a mesh given its index by mistake would show it.
   static void insertMaterialC(RenderDelegate& delegate) {
@@ -151,7 +165,7 @@ TEST_F(SprimSync, AMaterialEditBuildsThatMaterialAlone) {
 
   SceneSpec edited;
   edited.diffuseA = {0.2f, 0.2f, 0.8f};
-  delegate.material("/looks/a").setParam("diffuseColor", edited.diffuseA);
+  setMaterialA(delegate.material("/looks/a"), edited);
   const std::vector<float> after = render(delegate);
   EXPECT_EQ(synced(counts, syncCounts(delegate)), std::vector<PrimId>{"/looks/a"});
   EXPECT_EQ(delegate.syncStatistics().materialBuilds, stats.materialBuilds + 1);
@@ -184,7 +198,8 @@ TEST_F(SprimSync, MaterialIndicesStayFixedAcrossRemovalAndReuse) {
   // Meshes are placed again, not synced; the other materials are not built again.
   EXPECT_EQ(synced(counts, syncCounts(delegate)), std::vector<PrimId>{"/looks/c"});
 
-  insertMaterialA(delegate, SceneSpec{}.diffuseA);
+  delegate.insertSprim("material", "/looks/a");
+  setMaterialA(delegate.material("/looks/a"), {});
   edited.materialA = true;
   EXPECT_EQ(render(delegate), freshRender(edited));
 }
@@ -237,4 +252,27 @@ TEST_F(SprimSync, LightsJoinAndLeaveTheListInIdOrder) {
   EXPECT_EQ(render(delegate), freshRender({}));
   // The dome kept its texture throughout.
   EXPECT_EQ(delegate.syncStatistics().lightTextureLoads, stats.lightTextureLoads);
+}
+
+TEST_F(SprimSync, AMaterialEditCutsItsMeshOutAndBackIn) {
+  RenderDelegate delegate;
+  buildScene(delegate, {});
+  const std::vector<float> whole = render(delegate);
+  const auto counts = syncCounts(delegate);
+  SceneSpec edited;
+  edited.opacityA = 0.2f;  // "/left" is cut out whole
+  setMaterialA(delegate.material("/looks/a"), edited);
+  const std::vector<float> cutOut = render(delegate);
+  EXPECT_NE(cutOut, whole);
+  EXPECT_EQ(cutOut, freshRender(edited));
+  edited.opacityA = 0;
+  edited.opacityTexturedA = true;  // cut out per hit, where the texel's red is below 0.5
+  setMaterialA(delegate.material("/looks/a"), edited);
+  const std::vector<float> perHit = render(delegate);
+  EXPECT_NE(perHit, cutOut);  // the texel is red: nothing is cut out
+  EXPECT_EQ(perHit, freshRender(edited));
+  setMaterialA(delegate.material("/looks/a"), {});
+  EXPECT_EQ(render(delegate), whole);
+  // The mesh followed its material without being synced.
+  EXPECT_EQ(synced(counts, syncCounts(delegate)), std::vector<PrimId>{"/looks/a"});
 }

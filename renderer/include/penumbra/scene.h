@@ -125,8 +125,9 @@ class Scene {
   /// opacityThreshold the surface is cut out: whole meshes for constant opacity, per hit for
   /// textured opacity. Their texture handles refer to textures().
   /// Sets the material at `index` (at most materialCount(): that appends one), leaving the
-  /// others as they are; the meshes using it follow (cut-outs, hit filters). A slot no mesh uses
-  /// any longer is given a default Material, which renders nothing and disperses no light.
+  /// others as they are; the meshes using it follow (cut-outs, hit filters), looked for only if
+  /// its cut-outs change. An index no mesh uses any longer is given a default Material, which
+  /// disperses no light.
   /// Throws std::out_of_range for an index past the end.
   void setMaterial(size_t index, Material material);
   size_t materialCount() const { return materials_.size(); }
