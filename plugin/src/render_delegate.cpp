@@ -264,50 +264,39 @@ void RenderDelegate::placeUsersOfNewAndRemovedMaterials(SyncContext& context) {
   materialsInsertedOrRemoved_.clear();
 }
 
-const penumbra::Light* RenderDelegate::renderedLight(const PrimId& id) const {
-  if (const auto sprim = sprims_.find(id); sprim != sprims_.end())
-    if (const auto* light = dynamic_cast<const Light*>(sprim->second.get()))
-      return light->rendered();
-  if (const auto rprim = rprims_.find(id); rprim != rprims_.end())
-    if (const auto* mesh = dynamic_cast<const Mesh*>(rprim->second.get()); mesh && mesh->light())
-      return mesh->light()->rendered();
-  return nullptr;
-}
-
-void RenderDelegate::lightSynced(const PrimId& id, const penumbra::Light* rendered,
+void RenderDelegate::lightSynced(const PrimId& id, std::optional<penumbra::Light> rendered,
                                  const Mesh* mesh) {
-  const bool emits = rendered != nullptr;
   const auto listed = lightIndex_.find(id);
-  if (emits && listed != lightIndex_.end()) {
-    lightsSynced_.insert(id);
-    return;
-  }
-  if (emits) {
-    lightIndex_.emplace(id, -1);  // its index is given by updateLightList
+  if (rendered) {
+    lightsSynced_.insert_or_assign(id, std::move(*rendered));
+    if (listed != lightIndex_.end()) return;  // it replaces its own entry
+    lightIndex_.emplace(id, -1);              // it joins: updateLightList gives it its index
   } else if (listed != lightIndex_.end()) {
-    lightIndex_.erase(listed);
+    lightIndex_.erase(listed);  // it leaves
     if (mesh) scene_->setMeshLight(mesh->handle(), -1);
   } else {
-    return;  // neither listed nor emitting
+    return;  // it neither renders nor did
   }
   lightsStructureChanged_ = true;
 }
 
 void RenderDelegate::updateLightList() {
   if (lightsStructureChanged_) {
-    std::vector<penumbra::Light> lights;
+    std::vector<penumbra::Light> previous = scene_->releaseLights(), lights;
     lights.reserve(lightIndex_.size());
     for (auto& [id, index] : lightIndex_) {
-      index = int(lights.size());
-      lights.push_back(*renderedLight(id));
+      const auto synced = lightsSynced_.find(id);
+      lights.push_back(
+          std::move(synced != lightsSynced_.end() ? synced->second : previous.at(size_t(index))));
+      index = int(lights.size()) - 1;
       if (const auto rprim = rprims_.find(id); rprim != rprims_.end())
         if (const auto* mesh = dynamic_cast<const Mesh*>(rprim->second.get()))
           scene_->setMeshLight(mesh->handle(), index);
     }
     scene_->setLights(std::move(lights));
   } else {
-    for (const PrimId& id : lightsSynced_)
-      scene_->setLight(size_t(lightIndex_.at(id)), *renderedLight(id));
+    for (auto& [id, light] : lightsSynced_)
+      scene_->setLight(size_t(lightIndex_.at(id)), std::move(light));
   }
   lightsSynced_.clear();
 }
@@ -398,14 +387,15 @@ bool RenderDelegate::sync(const DicingContext& view) {
   placeUsersOfNewAndRemovedMaterials(context);
   for (Light* light : dirtyLights) {
     light->sync(context);
-    lightSynced(light->id(), light->rendered(), nullptr);
+    lightSynced(light->id(), light->takeRendered(), nullptr);
   }
   for (Mesh* dirtyMesh : dirtyMeshes) {
     const bool lightSyncs = dirtyMesh->dirtyBits() & Mesh::kLightDirtyBits;
     dirtyMesh->sync(context);
-    if (lightSyncs)  // a mesh light, or one no longer
-      lightSynced(dirtyMesh->id(), dirtyMesh->light() ? dirtyMesh->light()->rendered() : nullptr,
-                  dirtyMesh);
+    if (lightSyncs) {  // a mesh light, or one no longer
+      Light* light = dirtyMesh->light();
+      lightSynced(dirtyMesh->id(), light ? light->takeRendered() : std::nullopt, dirtyMesh);
+    }
   }
   // After the meshes: copies follow their prototype's geometry, placed by the scene.
   for (Instancer* copies : dirtyInstancers) copies->sync(context, prototypeOf(*copies));

@@ -10,6 +10,7 @@
 #include <string>
 #include <type_traits>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "penumbra/camera.h"
@@ -145,6 +146,11 @@ class Scene {
   /// Replaces light `index` alone (a parameter edit), the others kept as they are. Throws
   /// std::out_of_range for an index past the end.
   void setLight(size_t index, Light light);
+  /// Moves the lights out (to be put back, reordered, by setLights before the next render).
+  std::vector<Light> releaseLights() {
+    lightsChanged_ = true;
+    return std::exchange(lights_, {});
+  }
   const std::vector<Light>& lights() const { return lights_; }
   /// Chooses lights for next-event estimation (set by commit()).
   const LightSampler& lightSampler() const { return lightSampler_; }

@@ -4,6 +4,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "penumbra/light.h"
@@ -33,11 +34,12 @@ class Light : public Prim {
   /// Builds its renderer light from what its dirty bits say changed (cf. HdLight::Sync):
   /// texture:file is loaded only when the file changed (a warning names a file that cannot be
   /// read: the light then renders untextured), and a light whose inputs are invalid is skipped
-  /// with a warning, once per change. Then it is clean; the render delegate puts rendered() in
-  /// the scene's light list.
+  /// with a warning, once per change. Then it is clean; the render delegate moves the light
+  /// into the scene's light list (takeRendered).
   void sync(SyncContext& context);
-  /// The renderer light built by the last sync; null if it is hidden or was skipped.
-  const penumbra::Light* rendered() const { return rendered_ ? &*rendered_ : nullptr; }
+  /// The renderer light built by the last sync, handed over once; none if the light is hidden
+  /// or was skipped.
+  std::optional<penumbra::Light> takeRendered() { return std::exchange(rendered_, std::nullopt); }
 
   const LightParams& params() const { return params_; }
   bool visible() const { return visible_; }

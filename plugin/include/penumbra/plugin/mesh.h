@@ -39,6 +39,7 @@ class Mesh : public Prim {
   void setLight(bool enabled, const std::vector<std::pair<std::string, ParamValue>>& params);
   /// The mesh's light, if it is a mesh light.
   const Light* light() const { return light_.get(); }
+  Light* light() { return light_.get(); }
   /// The dirty bits on which its sync places its instance again.
   static constexpr uint32_t kPlacementDirtyBits =
       DirtyMaterialId | DirtyTransform | DirtyVisibility;

@@ -132,15 +132,13 @@ class RenderDelegate {
   /// Places again the meshes bound to a material inserted or removed since the last sync (they
   /// render with it now, or with their displayColor).
   void placeUsersOfNewAndRemovedMaterials(SyncContext& context);
-  /// After `id` (a light sprim, or `mesh`) synced its light, now `rendered` (null: it does not
-  /// render): the light joins, stays in (its entry to be replaced) or leaves the scene's list.
-  void lightSynced(const PrimId& id, const penumbra::Light* rendered, const Mesh* mesh);
+  /// After `id` (a light sprim, or `mesh`) synced its light into `rendered` (none: it does not
+  /// render now): the light joins the scene's list, replaces its entry there, or leaves it.
+  void lightSynced(const PrimId& id, std::optional<penumbra::Light> rendered, const Mesh* mesh);
   /// Puts the synced lights in the scene's list: the whole list again when lights joined or
-  /// left it (the others' renderer lights copied as they are, not built again), else each
-  /// synced light in place.
+  /// left it (the others' renderer lights moved along as they are, not built again), else each
+  /// synced light in its own entry.
   void updateLightList();
-  /// The renderer light of a light sprim or mesh light, or null.
-  const penumbra::Light* renderedLight(const PrimId& id) const;
   /// The mesh an instancer copies, or null (with a warning) if there is none.
   Mesh* prototypeOf(const Instancer& instancer);
 
@@ -160,7 +158,7 @@ class RenderDelegate {
   // The lights in the scene's list (light sprims and mesh lights), by id: the order they are
   // sampled in, so that images do not depend on the order of edits. Each holds its index there.
   std::map<PrimId, int> lightIndex_;
-  std::set<PrimId> lightsSynced_;  // in this sync, staying in the list
+  std::map<PrimId, penumbra::Light> lightsSynced_;  // built in this sync, for the list
   RenderSettingsMap settings_;
   std::vector<std::string> warnings_;
   bool materialsStructureChanged_ = false;
