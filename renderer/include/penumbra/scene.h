@@ -129,7 +129,8 @@ class Scene {
   /// others as they are; the meshes using it follow (cut-outs, hit filters), looked for only if
   /// its cut-outs change. An index no mesh uses any longer is given a default Material, which
   /// disperses no light.
-  /// Throws std::out_of_range for an index past the end.
+  /// Throws std::out_of_range for an index past the end, std::invalid_argument (leaving the
+  /// list as it was) for a primvar name whose 64-bit key another name has.
   void setMaterial(size_t index, Material material);
   size_t materialCount() const { return materials_.size(); }
   /// The textures materials read; open files here before referencing them.
