@@ -122,6 +122,7 @@ bench: build
 	$(VPY) bench/instances.py --instances 100000
 	$(VPY) bench/instances.py --instances 1000000
 	$(VPY) bench/sync.py
+	$(VPY) bench/sprim_sync.py
 	$(VPY) bench/texture_memory.py --size 16384
 
 clean:
