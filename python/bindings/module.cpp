@@ -595,6 +595,12 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("id"), py::arg("enabled"))
       .def(
+          "disable_mesh_lights",
+          [](RenderDelegate& self, const std::vector<std::string>& ids) {
+            for (const std::string& id : ids) self.mesh(id).setLight(false, {});
+          },
+          py::arg("ids"), "set_mesh_light(id, False) for many meshes.")
+      .def(
           "set_mesh_normals",
           [](RenderDelegate& self, const std::string& id, const FloatArray& normals,
              const std::string& interpolation) {

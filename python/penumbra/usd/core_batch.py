@@ -31,6 +31,7 @@ class CoreBatch:
         self._transforms: tuple[list[str], list[np.ndarray]] = ([], [])
         self._visible: tuple[list[str], list[bool]] = ([], [])
         self._materials: tuple[list[str], list[str]] = ([], [])
+        self._not_lights: list[str] = []  # meshes without UsdLuxMeshLightAPI: most of them
 
     # The setters mesh.py calls (as on the delegate itself).
 
@@ -59,7 +60,10 @@ class CoreBatch:
         self.core.set_mesh_subdivision_tags(path, **tags)
 
     def set_mesh_light(self, path: str, enabled: bool, **params) -> None:
-        self.core.set_mesh_light(path, enabled, **params)
+        if enabled:
+            self.core.set_mesh_light(path, enabled, **params)
+        else:
+            self._not_lights.append(path)
 
     # The scene delegate's own.
 
@@ -81,6 +85,9 @@ class CoreBatch:
         if self._meshes:
             self.core.set_meshes(self._meshes)
             self._meshes = []
+        if self._not_lights:
+            self.core.disable_mesh_lights(self._not_lights)
+            self._not_lights = []
         if self._transforms[0]:
             self._check_transforms(*self._transforms)
             self.core.set_transforms(*self._transforms)
