@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, lru_cache
 from typing import Any
 
 import numpy as np
@@ -49,33 +49,34 @@ def sync_mesh_data(
     topology; nothing is pushed then. Index ranges are validated by the delegate at sync.
     """
     path = prim_id or str(prim.GetPath())
-    if not prim.IsA(UsdGeom.Mesh):
+    # A prim typed "Mesh" needs no schema lookup; types derived from it still do.
+    if prim.GetTypeName() != "Mesh" and not prim.IsA(UsdGeom.Mesh):
         return _sync_implicit(core, prim, path, reader, authored)
-    mesh = UsdGeom.Mesh(prim)
     attributes = _Attributes(prim, reader, authored)
-    values = {}
-    for name, valid in (
-        ("points", _as_vec3_array),
-        ("faceVertexCounts", _as_int_array),
-        ("faceVertexIndices", _as_int_array),
-    ):
-        value = attributes.get(name)
+    get = attributes.get
+    arrays = []
+    for name, valid in _TOPOLOGY:
+        value = get(name)
         if value is not None:
             array = valid(value)
             if array is None:
                 warn(f"{path}: {name} has type {_value_type(value)}, which a mesh cannot use; skipped")
                 return False
             value = array
-        values[name] = value
-    missing = [name for name, value in values.items() if value is None or len(value) == 0]
+        arrays.append(value)
+    missing = [
+        name for (name, _), value in zip(_TOPOLOGY, arrays) if value is None or len(value) == 0
+    ]
     if missing:
         warn(f"{path}: mesh has no {' and no '.join(missing)}; skipped")
         return False
-    points, counts, indices = values["points"], values["faceVertexCounts"], values["faceVertexIndices"]
+    points, counts, indices = arrays
 
-    left_handed = attributes.get(UsdGeom.Tokens.orientation) == UsdGeom.Tokens.leftHanded
-    scheme = str(attributes.get(UsdGeom.Tokens.subdivisionScheme) or UsdGeom.Tokens.catmullClark)
+    left_handed = get(UsdGeom.Tokens.orientation) == UsdGeom.Tokens.leftHanded
+    scheme = str(get(UsdGeom.Tokens.subdivisionScheme) or UsdGeom.Tokens.catmullClark)
     velocities = attributes.might_have(UsdGeom.Tokens.velocities)
+    if velocities or reader.shutter.blurred:  # else the points are those at the frame
+        points = point_samples(UsdGeom.Mesh(prim), points, reader, warn, path, velocities)
     push_mesh(
         core,
         prim,
@@ -83,12 +84,13 @@ def sync_mesh_data(
         reader,
         counts=counts,
         indices=indices,
-        points=point_samples(mesh, points, reader, warn, path, velocities),
-        normals=_normals(mesh, scheme, attributes, warn, path),
+        points=points,
+        normals=_normals(prim, scheme, attributes, warn, path),
         left_handed=left_handed,
         scheme=scheme,
         primvars=_primvars(prim, reader, warn, path, authored=authored),
         authored=authored,
+        attributes=attributes,
     )
     if scheme != UsdGeom.Tokens.none:
         _sync_subdivision_tags(core, path, attributes)
@@ -129,7 +131,7 @@ class _Attributes:
         return self.names is None or name in self.names
 
     def get(self, name: str) -> Any:
-        if not self.might_have(name):
+        if self.names is not None and name not in self.names:
             return _mesh_fallback(name)
         return self.reader.get(self.prim.GetAttribute(name))
 
@@ -155,20 +157,23 @@ def push_mesh(
     scheme: str = UsdGeom.Tokens.none,
     primvars: dict[str, tuple[np.ndarray, str]] | None = None,
     authored: Authored | None = None,
+    attributes: _Attributes | None = None,
 ) -> None:
     """Push a polygon mesh (or subdivision cage) of gprim ``prim`` as delegate prim ``path``
     in one call: the given topology, points (float32 (N, 3) or (K, N, 3) motion samples),
     normals (values, interpolation) and primvars (name → (values, interpolation); by default
     the gprim's constant ones), with what the gprim itself says — sidedness and displayColor;
-    then its UsdLuxMeshLightAPI. ``authored``: as for :func:`sync_mesh_data`."""
+    then its UsdLuxMeshLightAPI. ``authored``: as for :func:`sync_mesh_data`; ``attributes``:
+    the reader of the prim's attributes the caller already made from them."""
     if primvars is None:
         primvars = _primvars(prim, reader, None, path, constant_only=True, authored=authored)
     colors, interpolation = _display_color(prim, reader, authored)
-    attributes = _Attributes(prim, reader, authored)
+    if attributes is None:
+        attributes = _Attributes(prim, reader, authored)
     core.set_mesh(
         path,
-        face_vertex_counts=np.asarray(counts, dtype=np.int32),
-        face_vertex_indices=np.asarray(indices, dtype=np.int32),
+        face_vertex_counts=_int32(counts),
+        face_vertex_indices=_int32(indices),
         left_handed=left_handed,
         subdivision_scheme=scheme,
         points=points,
@@ -216,12 +221,16 @@ def _sync_implicit(
 # Attributes authored with another type than the schema's keep their authored type: check it.
 
 
+# np.asarray without a dtype is several times faster on Vt arrays than with one; the usual
+# Vec3fArray and IntArray need no conversion after it.
+
+
 def _as_vec3_array(value) -> np.ndarray | None:
     """``value`` as float32 (N, 3) if it is an array of 3-vectors (float or double), else
     ``None``."""
     array = np.asarray(value)
     if array.ndim == 2 and array.shape[1] == 3 and array.dtype.kind == "f":
-        return array.astype(np.float32, copy=False)
+        return array if array.dtype == np.float32 else array.astype(np.float32)
     return None
 
 
@@ -229,8 +238,22 @@ def _as_int_array(value) -> np.ndarray | None:
     """``value`` as an int32 array if it is an array of integers, else ``None``."""
     array = np.asarray(value)
     if array.ndim == 1 and array.dtype.kind in "iu":
-        return array.astype(np.int32, copy=False)
+        return array if array.dtype == np.int32 else array.astype(np.int32)
     return None
+
+
+def _int32(values) -> np.ndarray:
+    """Integer ``values`` as an int32 array (not copied when they are one)."""
+    if isinstance(values, np.ndarray) and values.dtype == np.int32:
+        return values
+    return np.asarray(values, dtype=np.int32)
+
+
+_TOPOLOGY = (
+    ("points", _as_vec3_array),
+    ("faceVertexCounts", _as_int_array),
+    ("faceVertexIndices", _as_int_array),
+)
 
 
 def _value_type(value) -> str:
@@ -239,7 +262,7 @@ def _value_type(value) -> str:
 
 
 def _normals(
-    mesh: UsdGeom.Mesh,
+    prim: Usd.Prim,
     scheme: str,
     attributes: _Attributes,
     warn: Callable[[str], None],
@@ -248,13 +271,14 @@ def _normals(
     """Authored shading normals (``primvars:normals`` wins over ``normals``, as in USD) and their
     interpolation; no values when none are authored, when they are not an array of 3-vectors
     (with a warning), or when the mesh is subdivided (its limit normals are used then)."""
-    none = np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.vertex
+    none = _NO_VECTORS, UsdGeom.Tokens.vertex
     if scheme != UsdGeom.Tokens.none:
         return none
     if not (attributes.might_have("primvars:normals") or attributes.might_have("normals")):
         return none
     reader = attributes.reader
-    primvar = UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetPrimvar(UsdGeom.Tokens.normals)
+    mesh = UsdGeom.Mesh(prim)
+    primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(UsdGeom.Tokens.normals)
     if primvar and primvar.HasValue():
         interpolation = primvar.GetInterpolation()
         values = reader.flattened_primvar(primvar)
@@ -269,6 +293,9 @@ def _normals(
         return none
     return array, str(interpolation)
 
+
+_NO_VECTORS = np.empty((0, 3), dtype=np.float32)
+_NO_VECTORS.flags.writeable = False  # shared by every mesh without normals or displayColor
 
 # Primvars the delegate receives through their own calls.
 _DEDICATED_PRIMVARS = frozenset({"displayColor", "normals"})
@@ -353,15 +380,21 @@ def numeric_primvar(
 
 def _has_other_primvars(authored: Authored) -> bool:
     """Whether a gprim has (or inherits) primvars besides those with their own calls."""
-    own = (
-        name
-        for name in authored.names
-        if name.startswith("primvars:") and not name.endswith(":indices")
-    )
-    return any(name[9:] not in _DEDICATED_PRIMVARS for name in own) or any(
+    return _names_other_primvars(authored.names) or any(
         primvar.GetPrimvarName() not in _DEDICATED_PRIMVARS
         for primvar in authored.inherited_primvars
     )
+
+
+@lru_cache(maxsize=256)  # prims of a kind share one set of names (InheritedState.authored)
+def _names_other_primvars(names: frozenset[str]) -> bool:
+    """Whether property ``names`` include primvars besides those with their own calls."""
+    own = (name for name in names if name.startswith("primvars:") and not name.endswith(":indices"))
+    return any(name[9:] not in _DEDICATED_PRIMVARS for name in own)
+
+
+_DISPLAY_COLOR = UsdGeom.Tokens.primvarsDisplayColor
+_DISPLAY_COLOR_INDICES = f"{_DISPLAY_COLOR}:indices"
 
 
 def _display_color(
@@ -369,13 +402,14 @@ def _display_color(
 ) -> tuple[np.ndarray, str]:
     """The flattened displayColor of ``prim`` (own or inherited constant primvar) and its
     interpolation; no values when none is authored (the delegate then uses its grey fallback)."""
-    attribute = UsdGeom.Tokens.primvarsDisplayColor
+    attribute = _DISPLAY_COLOR
     if authored is None:
         primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(attribute)
     elif attribute in authored.names:
-        primvar = UsdGeom.Primvar(prim.GetAttribute(attribute))
-        if f"{attribute}:indices" not in authored.names:  # not indexed: flat as it is
-            return _colors(reader.get(primvar.GetAttr()), primvar)
+        attr = prim.GetAttribute(attribute)
+        primvar = UsdGeom.Primvar(attr)
+        if _DISPLAY_COLOR_INDICES not in authored.names:  # not indexed: flat as it is
+            return _colors(reader.get(attr), primvar)
     else:
         inherited = [
             p for p in authored.inherited_primvars if p.GetPrimvarName() == "displayColor"
@@ -390,9 +424,11 @@ def _colors(values, primvar: UsdGeom.Primvar | None) -> tuple[np.ndarray, str]:
     """Flat displayColor ``values`` of ``primvar`` as float32 (N, 3) and their interpolation;
     none (the delegate's grey fallback) when there are no values."""
     if values is not None and len(values) > 0:
-        colors = np.asarray(values, dtype=np.float32).reshape(-1, 3)
-        return colors, str(primvar.GetInterpolation())
-    return np.empty((0, 3), dtype=np.float32), UsdGeom.Tokens.constant
+        colors = np.asarray(values)
+        if colors.dtype != np.float32:
+            colors = colors.astype(np.float32)
+        return colors.reshape(-1, 3), str(primvar.GetInterpolation())
+    return _NO_VECTORS, UsdGeom.Tokens.constant
 
 
 def _sync_subdivision_tags(core, path: str, attributes: _Attributes) -> None:

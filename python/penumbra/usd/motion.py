@@ -55,7 +55,7 @@ def transform_samples(prim: Usd.Prim, shutter: Shutter, caches: XformCaches) -> 
         return [caches.world(prim, time) for time in shutter.times(segments)]
 
     if not (shutter.blurred and transform_might_vary(prim)):
-        return np.array(caches.world(prim, shutter.frame), dtype=np.float64)
+        return np.asarray(caches.world(prim, shutter.frame))  # float64: no conversion
     segments = shutter.segments(_xform_sample_times(prim, shutter.interval))
     matrices = world(segments)
     while 2 * segments <= shutter.max_segments:

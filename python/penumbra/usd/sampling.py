@@ -105,6 +105,8 @@ class SampleReader:
 
     def get(self, attr: Usd.Attribute) -> Any:
         """The value of ``attr`` at the reader's time (``None`` if it has none)."""
+        if self.queries is None and not self.note_variability:  # a first sync's usual read
+            return attr.Get(self.time)
         if self.queries is not None:
             name = attr.GetName()
             query = self.queries.get(name)
