@@ -42,22 +42,24 @@ def test_inherited_purpose_visibility_and_primvars_agree_with_usd():
     state = InheritedState()
     state.at(time)
     for prim in stage.Traverse():
+        path = prim.GetPath()
         imageable = UsdGeom.Imageable(prim)
-        assert state.purpose(prim) == imageable.ComputePurpose(), prim.GetPath()
+        assert state.purpose(prim, path) == imageable.ComputePurpose(), prim.GetPath()
         expected_visible = imageable.ComputeVisibility(time) != UsdGeom.Tokens.invisible
-        assert state.visible(prim) == expected_visible, prim.GetPath()
+        assert state.visible(prim, path) == expected_visible, prim.GetPath()
         # What a prim inherits: the constant primvars its parent has or inherits.
         expected = {
             p.GetPrimvarName()
             for p in UsdGeom.PrimvarsAPI(prim.GetParent()).FindPrimvarsWithInheritance()
             if p.GetInterpolation() == UsdGeom.Tokens.constant
         } if not prim.GetParent().IsPseudoRoot() else set()
-        assert {p.GetPrimvarName() for p in state.inherited_primvars(prim)} == expected
+        assert {p.GetPrimvarName() for p in state.inherited_primvars(prim, path)} == expected
     mesh = stage.GetPrimAtPath("/plain/blinking/mesh")
-    assert state.visibility_might_vary(mesh)
-    assert not state.visibility_might_vary(stage.GetPrimAtPath("/plain/proxy"))
+    assert state.visibility_might_vary(mesh, mesh.GetPath())
+    proxy_prim = stage.GetPrimAtPath("/plain/proxy")
+    assert not state.visibility_might_vary(proxy_prim, proxy_prim.GetPath())
     state.at(Usd.TimeCode(3.0))  # visibility is read anew at another time
-    assert state.visible(mesh)
+    assert state.visible(mesh, mesh.GetPath())
 
 
 def test_queries_of_a_deforming_mesh_do_not_outlive_a_stage_edit():

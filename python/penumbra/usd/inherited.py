@@ -60,47 +60,58 @@ class InheritedState:
             self._visible.clear()
         self._time = time
 
-    def authored(self, prim: Usd.Prim) -> frozenset[str]:
-        """The names of the properties of ``prim`` with an authored opinion (in any layer)."""
-        path = prim.GetPath()
+    def authored(self, prim: Usd.Prim, path: Sdf.Path) -> frozenset[str]:
+        """The names of the properties of ``prim`` (at ``path``) with an authored opinion (in
+        any layer)."""
         names = self._authored.get(path)
         if names is None:
             names = frozenset(prim.GetAuthoredPropertyNames())
             names = self._authored[path] = self._name_sets.setdefault(names, names)
         return names
 
-    def purpose(self, prim: Usd.Prim) -> str:
+    # Every method takes the prim's path as well: the caller has it, and asking the prim for
+    # it again costs more than the rest of a cached answer. A prim's parent is fetched only
+    # when nothing is known of it yet (prims are mostly visited parents first).
+
+    def purpose(self, prim: Usd.Prim, path: Sdf.Path) -> str:
         """The computed purpose of ``prim``."""
-        return self._of(prim).purpose
+        return self._of(prim, path).purpose
 
-    def visibility_might_vary(self, prim: Usd.Prim) -> bool:
+    def visibility_might_vary(self, prim: Usd.Prim, path: Sdf.Path) -> bool:
         """Whether the computed visibility of ``prim`` might change with time."""
-        return self._of(prim).visibility_might_vary
+        return self._of(prim, path).visibility_might_vary
 
-    def visible(self, prim: Usd.Prim) -> bool:
+    def visible(self, prim: Usd.Prim, path: Sdf.Path) -> bool:
         """Whether ``prim`` and all its ancestors are visible at the current time."""
-        path = prim.GetPath()
         visible = self._visible.get(path)
         if visible is None:
-            parent = prim.GetParent()
-            visible = not parent or parent.IsPseudoRoot() or self.visible(parent)
-            if visible and self._of(prim).imageable_opinions and _VISIBILITY in self.authored(prim):
-                visible = prim.GetAttribute(_VISIBILITY).Get(self._time) != UsdGeom.Tokens.invisible
+            if path.pathElementCount <= 1:
+                visible = True
+            else:
+                parent_path = path.GetParentPath()
+                visible = self._visible.get(parent_path)
+                if visible is None:
+                    visible = self.visible(prim.GetParent(), parent_path)
+            if visible and self._of(prim, path).imageable_opinions:
+                if _VISIBILITY in self.authored(prim, path):
+                    value = prim.GetAttribute(_VISIBILITY).Get(self._time)
+                    visible = value != UsdGeom.Tokens.invisible
             self._visible[path] = visible
         return visible
 
-    def transform_might_vary(self, prim: Usd.Prim) -> bool:
+    def transform_might_vary(self, prim: Usd.Prim, path: Sdf.Path) -> bool:
         """Whether the local-to-world transform of ``prim`` might change with time: an xformOp
         of it or of an ancestor (up to a ``!resetXformStack!``) is time-sampled."""
-        path = prim.GetPath()
         varies = self._transform_varies.get(path)
         if varies is None:
-            parent = prim.GetParent()
-            varies = (
-                bool(parent) and not parent.IsPseudoRoot() and self.transform_might_vary(parent)
-            )
-            if any(name.startswith("xformOp") for name in self.authored(prim)):  # and xformOpOrder
-                xformable = UsdGeom.Xformable(prim)
+            varies = False
+            if path.pathElementCount > 1:
+                parent_path = path.GetParentPath()
+                varies = self._transform_varies.get(parent_path)
+                if varies is None:
+                    varies = self.transform_might_vary(prim.GetParent(), parent_path)
+            if any(name.startswith("xformOp") for name in self.authored(prim, path)):
+                xformable = UsdGeom.Xformable(prim)  # and xformOpOrder
                 if xformable:
                     if xformable.TransformMightBeTimeVarying():
                         varies = True
@@ -109,30 +120,32 @@ class InheritedState:
             self._transform_varies[path] = varies
         return varies
 
-    def inherited_primvars(self, prim: Usd.Prim) -> tuple[UsdGeom.Primvar, ...]:
+    def inherited_primvars(self, prim: Usd.Prim, path: Sdf.Path) -> tuple[UsdGeom.Primvar, ...]:
         """The constant primvars ``prim`` inherits from its ancestors (not its own)."""
-        parent = prim.GetParent()
-        if not parent or parent.IsPseudoRoot():
+        if path.pathElementCount <= 1:
             return ()
-        path = parent.GetPath()
-        primvars = self._primvars.get(path)
+        parent_path = path.GetParentPath()
+        primvars = self._primvars.get(parent_path)
         if primvars is None:
-            primvars = self.inherited_primvars(parent)
-            if any(name.startswith("primvars:") for name in self.authored(parent)):
+            parent = prim.GetParent()
+            primvars = self.inherited_primvars(parent, parent_path)
+            if any(name.startswith("primvars:") for name in self.authored(parent, parent_path)):
                 api = UsdGeom.PrimvarsAPI(parent)
                 found = api.FindIncrementallyInheritablePrimvars(list(primvars))
                 primvars = tuple(found) or primvars  # none: the parent adds nothing
-            self._primvars[path] = primvars
+            self._primvars[parent_path] = primvars
         return primvars
 
-    def _of(self, prim: Usd.Prim) -> _Inherited:
-        path = prim.GetPath()
+    def _of(self, prim: Usd.Prim, path: Sdf.Path) -> _Inherited:
         state = self._states.get(path)
         if state is not None:
             return state
-        parent = prim.GetParent()
-        up = _ROOT if not parent or parent.IsPseudoRoot() else self._of(parent)
-        authored = self.authored(prim)
+        if path.pathElementCount <= 1:
+            up = _ROOT
+        else:
+            parent_path = path.GetParentPath()
+            up = self._states.get(parent_path) or self._of(prim.GetParent(), parent_path)
+        authored = self.authored(prim, path)
         # Prims that are not imageable pass purpose and visibility down but have none of their own.
         opinions = (_PURPOSE in authored or _VISIBILITY in authored) and prim.IsA(UsdGeom.Imageable)
         purpose, inheritable = up.purpose, up.purpose_inheritable

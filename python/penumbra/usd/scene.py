@@ -124,6 +124,8 @@ class SceneDelegate:
         self._dirty: dict[Sdf.Path, int] = {}
         self._dirty_materials: set[Sdf.Path] = set()
         self._resynced: set[Sdf.Path] = set()
+        # Prims found by the traversals of this update, for its flush (no second look-up).
+        self._found: dict[Sdf.Path, Usd.Prim] = {}
         self._changed: set[Sdf.Path] = set()
         self._unsupported: dict[str, list[Sdf.Path]] = {}
         self._roles: dict[str, str | None] = {}
@@ -220,15 +222,18 @@ class SceneDelegate:
             if not record.unknown:
                 continue
             prim = self.stage.GetPrimAtPath(path)
-            if record.unknown & Dirty.DATA and data_might_vary(prim, self._authored(prim)):
+            if record.unknown & Dirty.DATA and data_might_vary(prim, self._authored(prim, path)):
                 record.varying |= Dirty.DATA
-            if record.unknown & Dirty.TRANSFORM and self._inherited.transform_might_vary(prim):
+            if record.unknown & Dirty.TRANSFORM and self._inherited.transform_might_vary(
+                prim, path
+            ):
                 record.varying |= Dirty.TRANSFORM
             record.unknown = 0
         self._inherited.forget()
 
-    def _authored(self, prim: Usd.Prim) -> Authored:
-        return Authored(self._inherited.authored(prim), self._inherited.inherited_primvars(prim))
+    def _authored(self, prim: Usd.Prim, path: Sdf.Path) -> Authored:
+        inherited = self._inherited
+        return Authored(inherited.authored(prim, path), inherited.inherited_primvars(prim, path))
 
     def has_lights(self) -> bool:
         """Whether the synced stage has lights of its own (UsdLux lights or meshes with
@@ -253,22 +258,23 @@ class SceneDelegate:
     # ----------------------------------------------------------------------------------------
     # Classification
 
-    def _classify(self, prim: Usd.Prim) -> str | None:
-        """The delegate prim type for ``prim``, or ``None`` when it is not rendered."""
+    def _classify(self, prim: Usd.Prim, path: Sdf.Path) -> str | None:
+        """The delegate prim type for ``prim`` (at ``path``), or ``None`` when it is not
+        rendered."""
         role = self._role_of_type(prim)
         if role in ("mesh", "unsupported"):
             if role == "mesh" and prim.IsInstanceProxy():
                 return None  # natively instanced: NativeInstancing
-            if self._inherited.purpose(prim) not in self.purposes:
+            if self._inherited.purpose(prim, path) not in self.purposes:
                 return None
             if role == "mesh":
                 return "mesh"
         elif role is not None:
             return role  # a camera or a light
         if role == "unsupported" or is_light(prim):
-            if role is not None or self._inherited.purpose(prim) in self.purposes:
+            if role is not None or self._inherited.purpose(prim, path) in self.purposes:
                 type_name = prim.GetTypeName() or "untyped"
-                self._unsupported.setdefault(type_name, []).append(prim.GetPath())
+                self._unsupported.setdefault(type_name, []).append(path)
         return None
 
     def _role_of_type(self, prim: Usd.Prim) -> str | None:
@@ -290,16 +296,17 @@ class SceneDelegate:
         self._roles[type_name] = role
         return role
 
-    def _traverse(self, root: Usd.Prim) -> Iterator[tuple[Sdf.Path, str]]:
-        """``(path, kind)`` of the prims to render under ``root`` (instance proxies included;
-        prototypes below a PointInstancer are not rendered on their own)."""
+    def _traverse(self, root: Usd.Prim) -> Iterator[tuple[Sdf.Path, str, Usd.Prim]]:
+        """``(path, kind, prim)`` of the prims to render under ``root`` (instance proxies
+        included; prototypes below a PointInstancer are not rendered on their own)."""
         if not root or any(p.IsA(UsdGeom.PointInstancer) for p in _ancestors(root)):
             return
         it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
         for prim in it:
-            kind = self._classify(prim)
+            path = prim.GetPath()
+            kind = self._classify(prim, path)
             if kind is not None:
-                yield prim.GetPath(), kind
+                yield path, kind, prim
             elif prim.IsA(UsdGeom.PointInstancer):  # not a rendered kind itself
                 it.PruneChildren()
 
@@ -385,7 +392,10 @@ class SceneDelegate:
     def _resync(self, root: Sdf.Path) -> None:
         """Re-populate the subtree at ``root``: remove what is gone, insert what is new, and
         re-read everything else in it."""
-        wanted = dict(self._traverse(self.stage.GetPrimAtPath(root)))
+        wanted = {}
+        for path, kind, prim in self._traverse(self.stage.GetPrimAtPath(root)):
+            wanted[path] = kind
+            self._found[path] = prim
         for path in [p for p in self._prims if p.HasPrefix(root)]:
             if wanted.get(path) != self._prims[path].kind:
                 self._remove(path)
@@ -416,9 +426,10 @@ class SceneDelegate:
             xform_caches = XformCaches()
             dirty, self._dirty = self._dirty, {}
             paths = [path for path in sorted(dirty) if path in self._prims]
-            prims = {path: self.stage.GetPrimAtPath(path) for path in paths}
+            found, self._found = self._found, {}
+            prims = {path: found.get(path) or self.stage.GetPrimAtPath(path) for path in paths}
             bound = self._bound_materials(
-                prims[path]
+                (path, prims[path])
                 for path in paths
                 if self._prims[path].kind == "mesh"
                 and (dirty[path] & Dirty.BINDING or not self._prims[path].in_core)
@@ -441,15 +452,15 @@ class SceneDelegate:
                 if path in self._materials:
                     self._sync_material(path)
 
-    def _bound_materials(self, prims: Iterable[Usd.Prim]) -> dict[Sdf.Path, Sdf.Path | None]:
-        """The materials bound to the meshes ``prims``, computed in one batch."""
-        prims = list(prims)
-        if not prims:
+    def _bound_materials(
+        self, meshes: Iterable[tuple[Sdf.Path, Usd.Prim]]
+    ) -> dict[Sdf.Path, Sdf.Path | None]:
+        """The materials bound to ``meshes`` (paths and prims), computed in one batch."""
+        meshes = list(meshes)
+        if not meshes:
             return {}
-        return {
-            prim.GetPath(): material_path
-            for prim, material_path in zip(prims, bound_materials(prims))
-        }
+        paths = [path for path, _ in meshes]
+        return dict(zip(paths, bound_materials([prim for _, prim in meshes])))
 
     def _sync_prim(
         self,
@@ -463,17 +474,18 @@ class SceneDelegate:
         """Read the aspects ``bits`` of the tracked prim at ``path`` (in the delegate: inserted
         by :meth:`_flush`) and queue them in ``batch``."""
         record = self._prims[path]
+        kind = record.kind
         path_str = str(path)
-        shutter = self.shutter if record.kind in _MOVING_KINDS else Shutter(self.time)
+        shutter = self.shutter if kind in _MOVING_KINDS else Shutter(self.time)
         if bits & Dirty.DATA:
             # A mesh's variability is found out at the first new time (_find_variability);
             # one known to vary reads through queries kept from one time to the next.
-            if record.kind == "mesh" and record.varying & Dirty.DATA and record.queries is None:
+            if kind == "mesh" and record.varying & Dirty.DATA and record.queries is None:
                 record.queries = {}
-            note = record.kind != "mesh" or record.queries is not None
+            note = kind != "mesh" or record.queries is not None
             reader = SampleReader(self.time, shutter, note, record.queries)
-            if record.kind == "mesh":
-                authored = self._authored(prim)
+            if kind == "mesh":
+                authored = self._authored(prim, path)
                 if not sync_mesh_data(batch, prim, reader, self._warn, path_str, authored):
                     self.core.remove_prim(path_str)
                     record.in_core = False
@@ -483,7 +495,7 @@ class SceneDelegate:
                     self._emitters.add(path)
                 else:
                     self._emitters.discard(path)
-            elif record.kind == "camera":
+            elif kind == "camera":
                 if not sync_camera(
                     self.core, prim, reader, self.depth_of_field, self.film_windows.get(path_str)
                 ):
@@ -502,20 +514,21 @@ class SceneDelegate:
             record.unknown |= Dirty.TRANSFORM
         if bits & Dirty.VISIBILITY:
             passes = self.render_pass
-            visible = self._inherited.visible(prim) and (passes is None or passes.rendered(path))
-            batch.set_visible(path_str, visible)
-            if passes is not None and record.kind == "mesh":
+            visible = self._inherited.visible(prim, path)
+            batch.set_visible(path_str, visible and (passes is None or passes.rendered(path)))
+            if passes is not None and kind == "mesh":
                 shown = passes.visibility(path)
                 self.core.set_pass_visibility(path_str, shown.camera, shown.matte)
             record.varying = _set_flag(
-                record.varying, Dirty.VISIBILITY, self._inherited.visibility_might_vary(prim)
+                record.varying, Dirty.VISIBILITY, self._inherited.visibility_might_vary(prim, path)
             )
         if bits & Dirty.BINDING:
-            self._sync_binding(path, record, prim, bound[path], batch)
+            self._sync_binding(path, path_str, record, prim, bound[path], batch)
 
     def _sync_binding(
         self,
         path: Sdf.Path,
+        path_str: str,
         record: _Prim,
         prim: Usd.Prim,
         material_path: Sdf.Path | None,
@@ -536,7 +549,7 @@ class SceneDelegate:
         if material_path is not None and self._materials[material_path].in_core:
             material_id = str(material_path)
         record.material = str(material_path) if material_path is not None else ""
-        batch.set_mesh_material(str(path), material_id)
+        batch.set_mesh_material(path_str, material_id)
 
     def _acquire_material(self, material_path: Sdf.Path, user: Sdf.Path) -> None:
         material = self._materials.get(material_path)
