@@ -1,15 +1,17 @@
 """How the scene delegate reads a stage cheaply (docs/architecture.md, "Scene delegate"): state
 inherited from ancestors handed down per parent agrees with USD's own computations, attribute
 queries of time-varying meshes are reused from one time to the next but never outlive a stage
-edit, and batched pushes check world transforms as single calls did."""
+edit, batched pushes check world transforms as single calls did, and the fast path for plain
+meshes sends what the general path does."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 import penumbra
+from penumbra.usd import mesh as mesh_module
 from penumbra.usd.inherited import InheritedState
 from stages import add_quad, lit_quad_stage, pixel
 from test_api import FAST, sync_counts
@@ -107,3 +109,74 @@ def test_each_unusable_transform_of_a_batch_is_reported_and_not_rendered():
     assert sum(far in m for m in messages) == 1
     assert not any("/World/fine" in m for m in messages)
     assert pixel(image, 0.5, 0.5)[0] > 2 * pixel(image, 0.5, 0.5)[1]
+
+
+def _mixed_mesh_stage() -> Usd.Stage:
+    """Meshes the fast path reads (colours own or none, vertex colours, left-handed, double-sided,
+    subdivided, purpose and visibility authored) beside meshes it leaves to the
+    general path (normals, indexed colours, a material primvar, inherited colours)."""
+    stage = lit_quad_stage()
+    spots = iter((x, y) for y in (-1.5, -0.5, 0.5, 1.5) for x in (-1.5, -0.5, 0.5, 1.5))
+
+    def quad(name: str, color=(0.8, 0.3, 0.1), parent: str = "/World") -> UsdGeom.Mesh:
+        x, y = next(spots)
+        return add_quad(stage, f"{parent}/{name}", center=(x, y, 0.2), half_size=0.4, color=color)
+
+    quad("plain")
+    quad("uncoloured", color=None)
+    # Left-handed, these quads face away: seen only when double-sided.
+    quad("left_handed").CreateOrientationAttr(UsdGeom.Tokens.leftHanded)
+    double_sided = quad("double_sided", color=(0.2, 0.9, 0.3))
+    double_sided.CreateOrientationAttr(UsdGeom.Tokens.leftHanded)
+    double_sided.CreateDoubleSidedAttr(True)
+    per_vertex = quad("per_vertex", color=None)
+    per_vertex.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(
+        [Gf.Vec3f(1, 0, 0), Gf.Vec3f(0, 1, 0), Gf.Vec3f(0, 0, 1), Gf.Vec3f(1, 1, 1)]
+    )
+    quad("subdivided").CreateSubdivisionSchemeAttr(UsdGeom.Tokens.catmullClark)
+    quad("proxy_purpose").CreatePurposeAttr(UsdGeom.Tokens.proxy)
+    quad("hidden").CreateVisibilityAttr(UsdGeom.Tokens.invisible)
+    tilted = quad("normals")
+    tilted.CreateNormalsAttr([Gf.Vec3f(0.6, 0, 0.8)] * 4)
+    tilted.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+    indexed = quad("indexed", color=None)
+    colors = indexed.CreateDisplayColorPrimvar(UsdGeom.Tokens.uniform)
+    colors.Set([Gf.Vec3f(0.1, 0.2, 0.9), Gf.Vec3f(0.9, 0.9, 0.1)])
+    colors.SetIndices(Vt.IntArray([1]))
+    UsdGeom.PrimvarsAPI(quad("with_st")).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex
+    ).Set([(0, 0), (1, 0), (1, 1), (0, 1)])
+    group = UsdGeom.Xform.Define(stage, "/World/tinted")
+    UsdGeom.PrimvarsAPI(group).CreatePrimvar(
+        "displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant
+    ).Set([Gf.Vec3f(0.3, 0.3, 1.0)])
+    quad("inherits_colour", color=None, parent="/World/tinted")
+    return stage
+
+
+_FAST_PATH_MESHES = {
+    "plain", "uncoloured", "double_sided", "left_handed", "per_vertex", "subdivided",
+    "proxy_purpose", "hidden", "quad",  # lit_quad_stage's own quad
+}
+
+
+def test_fast_path_meshes_render_as_the_general_path_reads_them(monkeypatch):
+    stage = _mixed_mesh_stage()
+    fast_path = mesh_module._sync_plain_mesh
+    taken: list[str] = []
+
+    def recording(core, prim, *args):
+        pushed = fast_path(core, prim, *args)
+        if pushed:
+            taken.append(prim.GetName())
+        return pushed
+
+    monkeypatch.setattr(mesh_module, "_sync_plain_mesh", recording)
+    fast = penumbra.Renderer(stage).render(**FAST)
+    assert set(taken) == _FAST_PATH_MESHES
+    monkeypatch.setattr(mesh_module, "_is_plain", lambda names: False)
+    taken.clear()
+    general = penumbra.Renderer(stage).render(**FAST)
+    assert not taken
+    np.testing.assert_array_equal(fast["color"], general["color"])
+    assert fast["color"].std() > 0.05  # the meshes are in view

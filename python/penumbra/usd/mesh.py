@@ -10,12 +10,11 @@ instancing and incremental edits are the meshes' own."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from functools import cache, lru_cache
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
-from pxr import Usd, UsdGeom
+from pxr import Usd, UsdGeom, UsdLux
 
 from . import implicit
 from .lights import sync_mesh_light
@@ -23,8 +22,7 @@ from .motion import point_samples
 from .sampling import SampleReader, changes_within
 
 
-@dataclass(frozen=True)
-class Authored:
+class Authored(NamedTuple):  # a tuple: built per mesh, faster than a dataclass
     """What the scene delegate already knows of a gprim (docs/architecture.md, "Scene delegate"):
     the names of its properties with an authored opinion and the constant primvars it inherits.
     Attributes not in ``names`` have their schema fallback, so they are not read."""
@@ -49,8 +47,18 @@ def sync_mesh_data(
     topology; nothing is pushed then. Index ranges are validated by the delegate at sync.
     """
     path = prim_id or str(prim.GetPath())
+    type_name = prim.GetTypeName()
+    if (
+        type_name == "Mesh"
+        and authored is not None
+        and reader.plain
+        and not authored.inherited_primvars
+        and _is_plain(authored.names)
+        and _sync_plain_mesh(core, prim, path, reader.time, authored.names)
+    ):
+        return True
     # A prim typed "Mesh" needs no schema lookup; types derived from it still do.
-    if prim.GetTypeName() != "Mesh" and not prim.IsA(UsdGeom.Mesh):
+    if type_name != "Mesh" and not prim.IsA(UsdGeom.Mesh):
         return _sync_implicit(core, prim, path, reader, authored)
     attributes = _Attributes(prim, reader, authored)
     get = attributes.get
@@ -94,6 +102,75 @@ def sync_mesh_data(
     )
     if scheme != UsdGeom.Tokens.none:
         _sync_subdivision_tags(core, path, attributes)
+    return True
+
+
+# The fast path for the common mesh: read at one time without noting variability, with none
+# of the properties below and no inherited primvars. It sends what the general path above
+# would (tests/python/test_scene_delegate_reads.py compares their images) in a fraction of
+# the calls; anything else, including every mesh the general path would warn about, takes the
+# general path.
+_NOT_PLAIN = frozenset(
+    {
+        UsdGeom.Tokens.velocities,
+        UsdGeom.Tokens.accelerations,
+        UsdGeom.Tokens.normals,
+        "primvars:normals",
+        "primvars:displayColor:indices",
+    }
+)
+
+
+@lru_cache(maxsize=256)  # prims of a kind share one set of names (InheritedState.authored)
+def _is_plain(names: frozenset[str]) -> bool:
+    """Whether a mesh with authored properties ``names`` can take the fast path."""
+    return names.isdisjoint(_NOT_PLAIN) and not _names_other_primvars(names)
+
+
+def _sync_plain_mesh(core, prim: Usd.Prim, path: str, time: Usd.TimeCode, names) -> bool:
+    """Push plain mesh ``prim`` as :func:`sync_mesh_data` would; ``False`` (nothing pushed)
+    when its topology or colours need the general path's checks and warnings."""
+    get_attribute = prim.GetAttribute
+    points = _as_vec3_array(get_attribute("points").Get(time))
+    counts = _as_int_array(get_attribute("faceVertexCounts").Get(time))
+    indices = _as_int_array(get_attribute("faceVertexIndices").Get(time))
+    if points is None or counts is None or indices is None:
+        return False
+    if not (len(points) and len(counts) and len(indices)):
+        return False
+    if prim.HasAPI(UsdLux.MeshLightAPI):
+        return False
+    scheme = UsdGeom.Tokens.catmullClark
+    if UsdGeom.Tokens.subdivisionScheme in names:
+        scheme = str(get_attribute(UsdGeom.Tokens.subdivisionScheme).Get(time) or scheme)
+    colors, interpolation = _NO_VECTORS, UsdGeom.Tokens.constant
+    if _DISPLAY_COLOR in names:
+        attr = get_attribute(_DISPLAY_COLOR)
+        colors, interpolation = _colors(attr.Get(time), UsdGeom.Primvar(attr))
+    left_handed = (
+        UsdGeom.Tokens.orientation in names
+        and get_attribute(UsdGeom.Tokens.orientation).Get(time) == UsdGeom.Tokens.leftHanded
+    )
+    double_sided = UsdGeom.Tokens.doubleSided in names and bool(
+        get_attribute(UsdGeom.Tokens.doubleSided).Get(time)
+    )
+    core.set_mesh(
+        path,
+        face_vertex_counts=counts,
+        face_vertex_indices=indices,
+        left_handed=left_handed,
+        subdivision_scheme=scheme,
+        points=points,
+        double_sided=double_sided,
+        display_color=colors,
+        display_color_interpolation=interpolation,
+        normals=_NO_VECTORS,
+        normals_interpolation=UsdGeom.Tokens.vertex,
+        primvars={},
+    )
+    core.set_mesh_light(path, False)
+    if scheme != UsdGeom.Tokens.none:
+        _sync_subdivision_tags(core, path, _Attributes(prim, SampleReader(time), Authored(names, ())))
     return True
 
 

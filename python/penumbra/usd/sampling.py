@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 from pxr import Gf, Usd, UsdGeom
@@ -35,7 +36,7 @@ class Shutter:
     close: float = 0.0
     max_segments: int = DEFAULT_MAX_MOTION_SEGMENTS
 
-    @property
+    @cached_property  # asked per prim; not a field, so not compared
     def blurred(self) -> bool:
         """Whether the interval has a length (motion is sampled)."""
         return not self.frame.IsDefault() and self.close > self.open
@@ -98,6 +99,11 @@ class SampleReader:
         self.note_variability = note_variability
         self.queries = queries
         self.varying = False
+
+    @property
+    def plain(self) -> bool:
+        """Whether reads are plain: at one time, noting nothing (a first sync of a mesh)."""
+        return self.queries is None and not self.note_variability and not self.shutter.blurred
 
     def depends_on_shutter(self) -> None:
         """Note that what was read must be re-read at another frame or shutter."""
