@@ -32,6 +32,8 @@ class CoreBatch:
         self._visible: tuple[list[str], list[bool]] = ([], [])
         self._materials: tuple[list[str], list[str]] = ([], [])
         self._not_lights: list[str] = []  # meshes without UsdLuxMeshLightAPI: most of them
+        self.mesh_lights: set[str] = set()
+        """The meshes made lights (UsdLuxMeshLightAPI) through this batch."""
 
     # The setters mesh.py calls (as on the delegate itself).
 
@@ -62,6 +64,7 @@ class CoreBatch:
     def set_mesh_light(self, path: str, enabled: bool, **params) -> None:
         if enabled:
             self.core.set_mesh_light(path, enabled, **params)
+            self.mesh_lights.add(path)
         else:
             self._not_lights.append(path)
 

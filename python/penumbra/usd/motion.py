@@ -37,13 +37,17 @@ class XformCaches:
 
     def __init__(self) -> None:
         self._caches: dict[float | None, UsdGeom.XformCache] = {}
+        self._last: tuple[Usd.TimeCode | None, UsdGeom.XformCache | None] = (None, None)
 
     def world(self, prim: Usd.Prim, time: Usd.TimeCode) -> Gf.Matrix4d:
         """The local-to-world transform of ``prim`` at ``time``."""
-        key = None if time.IsDefault() else time.GetValue()
-        cache = self._caches.get(key)
-        if cache is None:
-            cache = self._caches[key] = UsdGeom.XformCache(time)
+        last_time, cache = self._last
+        if time is not last_time:  # prims of a sync mostly ask at the same frame's object
+            key = None if time.IsDefault() else time.GetValue()
+            cache = self._caches.get(key)
+            if cache is None:
+                cache = self._caches[key] = UsdGeom.XformCache(time)
+            self._last = time, cache
         return cache.GetLocalToWorldTransform(prim)
 
 

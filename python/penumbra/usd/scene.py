@@ -28,7 +28,7 @@ import weakref
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
-from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade, UsdVol
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdVol
 
 from ..errors import warn
 from .camera import sync_camera
@@ -434,18 +434,22 @@ class SceneDelegate:
                 if self._prims[path].kind == "mesh"
                 and (dirty[path] & Dirty.BINDING or not self._prims[path].in_core)
             )
-            entering = [path for path in paths if not self._prims[path].in_core]
-            meshes = [str(path) for path in entering if self._prims[path].kind == "mesh"]
+            ids = [str(path) for path in paths]  # the delegate's prim ids
+            entering = [n for n, path in enumerate(paths) if not self._prims[path].in_core]
+            meshes = [ids[n] for n in entering if self._prims[paths[n]].kind == "mesh"]
             self.core.insert_rprims("mesh", meshes)
-            for path in entering:
-                record = self._prims[path]
+            for n in entering:
+                record = self._prims[paths[n]]
                 if record.kind != "mesh":
-                    self.core.insert_sprim(record.kind, str(path))
+                    self.core.insert_sprim(record.kind, ids[n])
                 record.in_core = True
-                dirty[path] = _aspects(record.kind)  # a prim entering the delegate needs everything
+                # A prim entering the delegate needs everything.
+                dirty[paths[n]] = _aspects(record.kind)
             batch = CoreBatch(self.core, self._warn)
-            for path in paths:
-                self._sync_prim(path, prims[path], dirty[path], xform_caches, bound, batch)
+            for path, path_str in zip(paths, ids):
+                self._sync_prim(
+                    path, path_str, prims[path], dirty[path], xform_caches, bound, batch
+                )
             batch.send()
             materials, self._dirty_materials = self._dirty_materials, set()
             for path in sorted(materials):
@@ -465,17 +469,17 @@ class SceneDelegate:
     def _sync_prim(
         self,
         path: Sdf.Path,
+        path_str: str,
         prim: Usd.Prim,
         bits: int,
         xform_caches: XformCaches,
         bound: dict[Sdf.Path, Sdf.Path | None],
         batch: CoreBatch,
     ) -> None:
-        """Read the aspects ``bits`` of the tracked prim at ``path`` (in the delegate: inserted
-        by :meth:`_flush`) and queue them in ``batch``."""
+        """Read the aspects ``bits`` of the tracked prim at ``path`` (delegate id ``path_str``;
+        in the delegate: inserted by :meth:`_flush`) and queue them in ``batch``."""
         record = self._prims[path]
         kind = record.kind
-        path_str = str(path)
         shutter = self.shutter if kind in _MOVING_KINDS else Shutter(self.time)
         if bits & Dirty.DATA:
             # A mesh's variability is found out at the first new time (_find_variability);
@@ -491,7 +495,7 @@ class SceneDelegate:
                     record.in_core = False
                     self._emitters.discard(path)
                     return
-                if prim.HasAPI(UsdLux.MeshLightAPI):
+                if path_str in batch.mesh_lights:  # it has UsdLuxMeshLightAPI
                     self._emitters.add(path)
                 else:
                     self._emitters.discard(path)
