@@ -8,12 +8,21 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
 import penumbra
 from penumbra.usd import mesh as mesh_module
 from penumbra.usd.inherited import InheritedState
-from stages import add_quad, lit_quad_stage, pixel
+from stages import (
+    add_camera,
+    add_distant_light,
+    add_preview_material,
+    add_quad,
+    bind,
+    lit_quad_stage,
+    new_stage,
+    pixel,
+)
 from test_api import FAST, sync_counts
 
 
@@ -180,3 +189,50 @@ def test_fast_path_meshes_render_as_the_general_path_reads_them(monkeypatch):
     assert not taken
     np.testing.assert_array_equal(fast["color"], general["color"])
     assert fast["color"].std() > 0.05  # the meshes are in view
+
+
+def test_bindings_on_ancestors_and_collections_reach_meshes_as_usd_resolves_them():
+    # Only meshes with a binding on themselves or an ancestor are given to UsdShade to resolve:
+    # each kind of binding must still arrive.
+    stage = new_stage()
+    add_camera(stage)
+    add_distant_light(stage)
+    looks = {
+        name: add_preview_material(stage, f"/Looks/{name}", diffuseColor=color, roughness=1.0)
+        for name, color in (("red", (0.8, 0.05, 0.05)), ("green", (0.05, 0.8, 0.05)),
+                            ("blue", (0.05, 0.05, 0.8)))
+    }
+    spots = iter((-1.6, -0.8, 0.0, 0.8, 1.6))
+
+    def quad(parent: str) -> UsdGeom.Mesh:
+        UsdGeom.Xform.Define(stage, parent)
+        x = next(spots)
+        return add_quad(stage, f"{parent}/q", center=(x, 0, 0), half_size=0.3, color=(1, 1, 1))
+
+    bind(quad("/World/direct"), looks["red"])
+    quad("/World/inherited")
+    bind(UsdGeom.Xform(stage.GetPrimAtPath("/World/inherited")), looks["green"])
+    quad("/World/collection")
+    owner = UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World/collection"))
+    targets = Usd.CollectionAPI.Apply(owner.GetPrim(), "set")
+    targets.GetIncludesRel().AddTarget("/World/collection/q")
+    owner.Bind(targets, looks["blue"])
+    bind(quad("/World/stronger"), looks["green"])
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World/stronger")).Bind(
+        looks["red"], UsdShade.Tokens.strongerThanDescendants
+    )
+    quad("/World/unbound")
+    expected = {"direct": "red", "inherited": "green", "collection": "blue", "stronger": "red"}
+    for group, name in expected.items():  # the premise: what UsdShade resolves
+        mesh = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(f"/World/{group}/q"))
+        assert mesh.ComputeBoundMaterial()[0].GetPath() == looks[name].GetPath()
+
+    image = penumbra.Renderer(stage).render(camera="/cam", width=40, samples=4)
+    channel = {"red": 0, "green": 1, "blue": 2}
+    for u, group in zip((0.1, 0.3, 0.5, 0.7, 0.9), list(expected) + ["unbound"]):
+        rgb = pixel(image, u, 0.5)
+        if group == "unbound":  # its white displayColor
+            assert min(rgb) > 0.5 * max(rgb) > 0, group
+        else:
+            dominant = channel[expected[group]]
+            assert rgb[dominant] > 3 * max(np.delete(rgb, dominant)), group

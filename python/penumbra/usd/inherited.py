@@ -11,7 +11,8 @@ schema's fallback, which neither overrides the inherited value nor varies with t
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from functools import lru_cache
+from typing import NamedTuple
 
 from pxr import Sdf, Usd, UsdGeom
 
@@ -19,17 +20,24 @@ _PURPOSE = UsdGeom.Tokens.purpose
 _VISIBILITY = UsdGeom.Tokens.visibility
 
 
-@dataclass(frozen=True)
-class _Inherited:
+class _Inherited(NamedTuple):  # a tuple: made per prim, faster than a dataclass
     """The time-independent inherited state of one prim (cf. UsdGeomImageable::PurposeInfo)."""
 
     purpose: str
     purpose_inheritable: bool  # an ancestor or the prim authored it: its descendants take it
     visibility_might_vary: bool
     imageable_opinions: bool  # the prim is imageable and authored purpose or visibility
+    bindings: bool  # the prim or an ancestor authored a material binding (of any kind)
 
 
-_ROOT = _Inherited(UsdGeom.Tokens.default_, False, False, False)
+_ROOT = _Inherited(UsdGeom.Tokens.default_, False, False, False, False)
+
+
+@lru_cache(maxsize=256)  # prims of a kind share one set of names (InheritedState.authored)
+def _binds(names: frozenset[str]) -> bool:
+    """Whether properties ``names`` include a material binding (direct or collection-based,
+    of any purpose: all are named ``material:binding...``)."""
+    return any(name.startswith("material:binding") for name in names)
 
 
 class InheritedState:
@@ -76,6 +84,11 @@ class InheritedState:
     def purpose(self, prim: Usd.Prim, path: Sdf.Path) -> str:
         """The computed purpose of ``prim``."""
         return self._of(prim, path).purpose
+
+    def might_have_material(self, prim: Usd.Prim, path: Sdf.Path) -> bool:
+        """Whether a material may be bound to ``prim``: only bindings authored on it or on an
+        ancestor can bind one (UsdShadeMaterialBindingAPI), so without any it has none."""
+        return self._of(prim, path).bindings
 
     def visibility_might_vary(self, prim: Usd.Prim, path: Sdf.Path) -> bool:
         """Whether the computed visibility of ``prim`` might change with time."""
@@ -158,5 +171,7 @@ class InheritedState:
             and _VISIBILITY in authored
             and prim.GetAttribute(_VISIBILITY).ValueMightBeTimeVarying()
         )
-        state = self._states[path] = _Inherited(purpose, inheritable, visibility_varies, opinions)
+        bindings = up.bindings or _binds(authored)
+        state = _Inherited(purpose, inheritable, visibility_varies, opinions, bindings)
+        self._states[path] = state
         return state

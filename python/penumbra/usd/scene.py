@@ -459,12 +459,19 @@ class SceneDelegate:
     def _bound_materials(
         self, meshes: Iterable[tuple[Sdf.Path, Usd.Prim]]
     ) -> dict[Sdf.Path, Sdf.Path | None]:
-        """The materials bound to ``meshes`` (paths and prims), computed in one batch."""
-        meshes = list(meshes)
-        if not meshes:
-            return {}
-        paths = [path for path, _ in meshes]
-        return dict(zip(paths, bound_materials([prim for _, prim in meshes])))
+        """The materials bound to ``meshes`` (paths and prims), computed in one batch for those
+        that may have one."""
+        bound: dict[Sdf.Path, Sdf.Path | None] = {}
+        binding = []
+        for path, prim in meshes:
+            if self._inherited.might_have_material(prim, path):
+                binding.append((path, prim))
+            else:
+                bound[path] = None
+        if binding:
+            found = bound_materials([prim for _, prim in binding])
+            bound.update(zip((path for path, _ in binding), found))
+        return bound
 
     def _sync_prim(
         self,
