@@ -11,7 +11,7 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
 import penumbra
-from penumbra.usd import mesh as mesh_module
+from penumbra.usd import scene as scene_module
 from penumbra.usd.inherited import InheritedState
 from stages import (
     add_camera,
@@ -171,19 +171,18 @@ _FAST_PATH_MESHES = {
 
 def test_fast_path_meshes_render_as_the_general_path_reads_them(monkeypatch):
     stage = _mixed_mesh_stage()
-    fast_path = mesh_module._sync_plain_mesh
+    fast_path = scene_module.push_plain_meshes
     taken: list[str] = []
 
-    def recording(core, prim, *args):
-        pushed = fast_path(core, prim, *args)
-        if pushed:
-            taken.append(prim.GetName())
+    def recording(core, prims, *args):
+        pushed = fast_path(core, prims, *args)
+        taken.extend(prim.GetName() for prim, usable in zip(prims, pushed) if usable)
         return pushed
 
-    monkeypatch.setattr(mesh_module, "_sync_plain_mesh", recording)
+    monkeypatch.setattr(scene_module, "push_plain_meshes", recording)
     fast = penumbra.Renderer(stage).render(**FAST)
     assert set(taken) == _FAST_PATH_MESHES
-    monkeypatch.setattr(mesh_module, "_is_plain", lambda names: False)
+    monkeypatch.setattr(scene_module, "is_plain", lambda names: False)
     taken.clear()
     general = penumbra.Renderer(stage).render(**FAST)
     assert not taken

@@ -37,21 +37,36 @@ class CoreBatch:
 
     # The setters mesh.py calls (as on the delegate itself).
 
-    def set_mesh(self, path: str, **data) -> None:
+    def set_mesh(
+        self,
+        path: str,
+        *,
+        face_vertex_counts: np.ndarray,
+        face_vertex_indices: np.ndarray,
+        left_handed: bool,
+        subdivision_scheme: str,
+        points: np.ndarray,
+        double_sided: bool,
+        display_color: np.ndarray,
+        display_color_interpolation: str,
+        normals: np.ndarray,
+        normals_interpolation: str,
+        primvars: dict,
+    ) -> None:
         self._meshes.append(
             (
                 path,
-                data["face_vertex_counts"],
-                data["face_vertex_indices"],
-                data["left_handed"],
-                data["subdivision_scheme"],
-                data["points"],
-                data["double_sided"],
-                data["display_color"],
-                data["display_color_interpolation"],
-                data["normals"],
-                data["normals_interpolation"],
-                data["primvars"],
+                face_vertex_counts,
+                face_vertex_indices,
+                left_handed,
+                subdivision_scheme,
+                points,
+                double_sided,
+                display_color,
+                display_color_interpolation,
+                normals,
+                normals_interpolation,
+                primvars,
             )
         )
         if len(self._meshes) >= CHUNK:

@@ -47,18 +47,8 @@ def sync_mesh_data(
     topology; nothing is pushed then. Index ranges are validated by the delegate at sync.
     """
     path = prim_id or str(prim.GetPath())
-    type_name = prim.GetTypeName()
-    if (
-        type_name == "Mesh"
-        and authored is not None
-        and reader.plain
-        and not authored.inherited_primvars
-        and _is_plain(authored.names)
-        and _sync_plain_mesh(core, prim, path, reader.time, authored.names)
-    ):
-        return True
     # A prim typed "Mesh" needs no schema lookup; types derived from it still do.
-    if type_name != "Mesh" and not prim.IsA(UsdGeom.Mesh):
+    if prim.GetTypeName() != "Mesh" and not prim.IsA(UsdGeom.Mesh):
         return _sync_implicit(core, prim, path, reader, authored)
     attributes = _Attributes(prim, reader, authored)
     get = attributes.get
@@ -105,11 +95,12 @@ def sync_mesh_data(
     return True
 
 
-# The fast path for the common mesh: read at one time without noting variability, with none
-# of the properties below and no inherited primvars. It sends what the general path above
-# would (tests/python/test_scene_delegate_reads.py compares their images) in a fraction of
-# the calls; anything else, including every mesh the general path would warn about, takes the
-# general path.
+# The fast path for the common mesh (docs/architecture.md, "Scene delegate"): typed Mesh, read
+# at one time without noting variability, with none of the properties below and no inherited
+# primvars. Such meshes are read attribute by attribute across a whole sync, which costs a
+# fraction of the general path's calls per mesh, and are sent as the general path would send
+# them (tests/python/test_scene_delegate_reads.py compares the images); any other mesh,
+# including every one the general path would warn about, takes the general path.
 _NOT_PLAIN = frozenset(
     {
         UsdGeom.Tokens.velocities,
@@ -122,56 +113,80 @@ _NOT_PLAIN = frozenset(
 
 
 @lru_cache(maxsize=256)  # prims of a kind share one set of names (InheritedState.authored)
-def _is_plain(names: frozenset[str]) -> bool:
-    """Whether a mesh with authored properties ``names`` can take the fast path."""
+def is_plain(names: frozenset[str]) -> bool:
+    """Whether a mesh with authored properties ``names`` (and no inherited primvars) can take
+    the fast path of :func:`push_plain_meshes`."""
     return names.isdisjoint(_NOT_PLAIN) and not _names_other_primvars(names)
 
 
-def _sync_plain_mesh(core, prim: Usd.Prim, path: str, time: Usd.TimeCode, names) -> bool:
-    """Push plain mesh ``prim`` as :func:`sync_mesh_data` would; ``False`` (nothing pushed)
-    when its topology or colours need the general path's checks and warnings."""
-    get_attribute = prim.GetAttribute
-    points = _as_vec3_array(get_attribute("points").Get(time))
-    counts = _as_int_array(get_attribute("faceVertexCounts").Get(time))
-    indices = _as_int_array(get_attribute("faceVertexIndices").Get(time))
-    if points is None or counts is None or indices is None:
-        return False
-    if not (len(points) and len(counts) and len(indices)):
-        return False
-    if prim.HasAPI(UsdLux.MeshLightAPI):
-        return False
-    scheme = UsdGeom.Tokens.catmullClark
-    if UsdGeom.Tokens.subdivisionScheme in names:
-        scheme = str(get_attribute(UsdGeom.Tokens.subdivisionScheme).Get(time) or scheme)
-    colors, interpolation = _NO_VECTORS, UsdGeom.Tokens.constant
-    if _DISPLAY_COLOR in names:
-        attr = get_attribute(_DISPLAY_COLOR)
-        colors, interpolation = _colors(attr.Get(time), UsdGeom.Primvar(attr))
-    left_handed = (
-        UsdGeom.Tokens.orientation in names
-        and get_attribute(UsdGeom.Tokens.orientation).Get(time) == UsdGeom.Tokens.leftHanded
-    )
-    double_sided = UsdGeom.Tokens.doubleSided in names and bool(
-        get_attribute(UsdGeom.Tokens.doubleSided).Get(time)
-    )
-    core.set_mesh(
-        path,
-        face_vertex_counts=counts,
-        face_vertex_indices=indices,
-        left_handed=left_handed,
-        subdivision_scheme=scheme,
-        points=points,
-        double_sided=double_sided,
-        display_color=colors,
-        display_color_interpolation=interpolation,
-        normals=_NO_VECTORS,
-        normals_interpolation=UsdGeom.Tokens.vertex,
-        primvars={},
-    )
-    core.set_mesh_light(path, False)
-    if scheme != UsdGeom.Tokens.none:
-        _sync_subdivision_tags(core, path, _Attributes(prim, SampleReader(time), Authored(names, ())))
-    return True
+def push_plain_meshes(
+    core, prims: list[Usd.Prim], names: list[frozenset[str]], ids: list[str], time: Usd.TimeCode
+) -> list[bool]:
+    """Push the plain meshes ``prims`` (authored property names ``names``, delegate ids
+    ``ids``; see :func:`is_plain`) at ``time`` as :func:`sync_mesh_data` would, and say for each
+    whether it was pushed: not when its topology needs the general path's checks and warnings
+    or when it has UsdLuxMeshLightAPI (nothing is sent for it then)."""
+    tokens = UsdGeom.Tokens
+
+    def column(name: str) -> list:
+        """Attribute ``name`` of each mesh at ``time`` (``None`` where not authored)."""
+        return [
+            prim.GetAttribute(name).Get(time) if name in authored else None
+            for prim, authored in zip(prims, names)
+        ]
+
+    points = [prim.GetAttribute("points").Get(time) for prim in prims]
+    counts = [prim.GetAttribute("faceVertexCounts").Get(time) for prim in prims]
+    indices = [prim.GetAttribute("faceVertexIndices").Get(time) for prim in prims]
+    lights = [prim.HasAPI(UsdLux.MeshLightAPI) for prim in prims]
+    schemes = column(tokens.subdivisionScheme)
+    orientations = column(tokens.orientation)
+    double_sided = column(tokens.doubleSided)
+    color_attributes = [
+        prim.GetAttribute(_DISPLAY_COLOR) if _DISPLAY_COLOR in authored else None
+        for prim, authored in zip(prims, names)
+    ]
+    pushed = []
+    for n, path in enumerate(ids):
+        mesh_points = _as_vec3_array(points[n])
+        mesh_counts = _as_int_array(counts[n])
+        mesh_indices = _as_int_array(indices[n])
+        usable = (
+            mesh_points is not None
+            and mesh_counts is not None
+            and mesh_indices is not None
+            and len(mesh_points) > 0
+            and len(mesh_counts) > 0
+            and len(mesh_indices) > 0
+            and not lights[n]
+        )
+        pushed.append(usable)
+        if not usable:
+            continue
+        colors, interpolation = _NO_VECTORS, tokens.constant
+        attribute = color_attributes[n]
+        if attribute is not None:
+            colors, interpolation = _colors(attribute.Get(time), UsdGeom.Primvar(attribute))
+        scheme = str(schemes[n] or tokens.catmullClark)
+        core.set_mesh(
+            path,
+            face_vertex_counts=mesh_counts,
+            face_vertex_indices=mesh_indices,
+            left_handed=orientations[n] == tokens.leftHanded,
+            subdivision_scheme=scheme,
+            points=mesh_points,
+            double_sided=bool(double_sided[n]),
+            display_color=colors,
+            display_color_interpolation=interpolation,
+            normals=_NO_VECTORS,
+            normals_interpolation=tokens.vertex,
+            primvars={},
+        )
+        core.set_mesh_light(path, False)
+        if scheme != tokens.none:
+            attributes = _Attributes(prims[n], SampleReader(time), Authored(names[n], ()))
+            _sync_subdivision_tags(core, path, attributes)
+    return pushed
 
 
 _PLACEMENT = frozenset({UsdGeom.Tokens.visibility, UsdGeom.Tokens.purpose})

@@ -100,11 +100,6 @@ class SampleReader:
         self.queries = queries
         self.varying = False
 
-    @property
-    def plain(self) -> bool:
-        """Whether reads are plain: at one time, noting nothing (a first sync of a mesh)."""
-        return self.queries is None and not self.note_variability and not self.shutter.blurred
-
     def depends_on_shutter(self) -> None:
         """Note that what was read must be re-read at another frame or shutter."""
         self.varying = True

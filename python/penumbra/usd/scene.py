@@ -36,7 +36,7 @@ from .implicit import is_implicit
 from .lights import is_light, light_type, sync_light
 from .core_batch import CoreBatch
 from .material import bound_materials, has_subset_bindings, push_material, read_material
-from .mesh import Authored, data_might_vary, sync_mesh_data
+from .mesh import Authored, data_might_vary, is_plain, push_plain_meshes, sync_mesh_data
 from .motion import XformCaches, transform_samples
 from .native_instancing import NativeInstancing
 from .point_instancers import PointInstancerDelegate
@@ -446,10 +446,21 @@ class SceneDelegate:
                 # A prim entering the delegate needs everything.
                 dirty[paths[n]] = _aspects(record.kind)
             batch = CoreBatch(self.core, self._warn)
-            for path, path_str in zip(paths, ids):
-                self._sync_prim(
-                    path, path_str, prims[path], dirty[path], xform_caches, bound, batch
-                )
+            meshes = []
+            for n, path in enumerate(paths):
+                if self._prims[path].kind == "mesh":
+                    meshes.append(n)
+                else:
+                    self._sync_prim(path, ids[n], prims[path], dirty[path], xform_caches, batch)
+            self._sync_meshes(
+                [paths[n] for n in meshes],
+                [ids[n] for n in meshes],
+                prims,
+                dirty,
+                xform_caches,
+                bound,
+                batch,
+            )
             batch.send()
             materials, self._dirty_materials = self._dirty_materials, set()
             for path in sorted(materials):
@@ -480,33 +491,16 @@ class SceneDelegate:
         prim: Usd.Prim,
         bits: int,
         xform_caches: XformCaches,
-        bound: dict[Sdf.Path, Sdf.Path | None],
         batch: CoreBatch,
     ) -> None:
-        """Read the aspects ``bits`` of the tracked prim at ``path`` (delegate id ``path_str``;
-        in the delegate: inserted by :meth:`_flush`) and queue them in ``batch``."""
+        """Read the aspects ``bits`` of the tracked camera or light at ``path`` (delegate id
+        ``path_str``; in the delegate: inserted by :meth:`_flush`) and queue them in ``batch``."""
         record = self._prims[path]
         kind = record.kind
         shutter = self.shutter if kind in _MOVING_KINDS else Shutter(self.time)
         if bits & Dirty.DATA:
-            # A mesh's variability is found out at the first new time (_find_variability);
-            # one known to vary reads through queries kept from one time to the next.
-            if kind == "mesh" and record.varying & Dirty.DATA and record.queries is None:
-                record.queries = {}
-            note = kind != "mesh" or record.queries is not None
-            reader = SampleReader(self.time, shutter, note, record.queries)
-            if kind == "mesh":
-                authored = self._authored(prim, path)
-                if not sync_mesh_data(batch, prim, reader, self._warn, path_str, authored):
-                    self.core.remove_prim(path_str)
-                    record.in_core = False
-                    self._emitters.discard(path)
-                    return
-                if path_str in batch.mesh_lights:  # it has UsdLuxMeshLightAPI
-                    self._emitters.add(path)
-                else:
-                    self._emitters.discard(path)
-            elif kind == "camera":
+            reader = SampleReader(self.time, shutter)
+            if kind == "camera":
                 if not sync_camera(
                     self.core, prim, reader, self.depth_of_field, self.film_windows.get(path_str)
                 ):
@@ -517,8 +511,6 @@ class SceneDelegate:
                 sync_light(self.core, prim, reader, self._warn, self.dome_light_visibility)
                 self._emitters.add(path)
             record.varying = _set_flag(record.varying, Dirty.DATA, reader.varying)
-            if not reader.note_variability:
-                record.unknown |= Dirty.DATA
         if bits & Dirty.TRANSFORM:
             batch.set_transform(path_str, transform_samples(prim, shutter, xform_caches))
             record.varying &= ~Dirty.TRANSFORM
@@ -527,14 +519,117 @@ class SceneDelegate:
             passes = self.render_pass
             visible = self._inherited.visible(prim, path)
             batch.set_visible(path_str, visible and (passes is None or passes.rendered(path)))
-            if passes is not None and kind == "mesh":
-                shown = passes.visibility(path)
-                self.core.set_pass_visibility(path_str, shown.camera, shown.matte)
             record.varying = _set_flag(
                 record.varying, Dirty.VISIBILITY, self._inherited.visibility_might_vary(prim, path)
             )
-        if bits & Dirty.BINDING:
-            self._sync_binding(path, path_str, record, prim, bound[path], batch)
+
+    def _sync_meshes(
+        self,
+        paths: list[Sdf.Path],
+        ids: list[str],
+        prims: dict[Sdf.Path, Usd.Prim],
+        dirty: dict[Sdf.Path, int],
+        xform_caches: XformCaches,
+        bound: dict[Sdf.Path, Sdf.Path | None],
+        batch: CoreBatch,
+    ) -> None:
+        """Read the dirty aspects of the tracked meshes at ``paths`` (delegate ids ``ids``; in
+        the delegate: inserted by :meth:`_flush`) and queue them in ``batch``, one aspect at a
+        time across all of them: plain meshes' data is read in columns
+        (:func:`~penumbra.usd.mesh.push_plain_meshes`), the others' mesh by mesh."""
+        records = [self._prims[path] for path in paths]
+        bits = [dirty[path] for path in paths]
+        shutter = self.shutter
+        inherited = self._inherited
+        plain: list[int] = []
+        general: list[int] = []
+        authored: dict[int, Authored] = {}
+        for n, path in enumerate(paths):
+            if not bits[n] & Dirty.DATA:
+                continue
+            record, prim = records[n], prims[path]
+            # A mesh's variability is found out at the first new time (_find_variability);
+            # one known to vary reads through queries kept from one time to the next.
+            if record.varying & Dirty.DATA and record.queries is None:
+                record.queries = {}
+            known = authored[n] = self._authored(prim, path)
+            if (
+                record.queries is None
+                and not shutter.blurred
+                and not known.inherited_primvars
+                and is_plain(known.names)
+                and prim.GetTypeName() == "Mesh"
+            ):
+                plain.append(n)
+            else:
+                general.append(n)
+        pushed = push_plain_meshes(
+            batch,
+            [prims[paths[n]] for n in plain],
+            [authored[n].names for n in plain],
+            [ids[n] for n in plain],
+            self.time,
+        )
+        for n, usable in zip(plain, pushed):
+            if usable:
+                records[n].varying &= ~Dirty.DATA  # read without noting variability:
+                records[n].unknown |= Dirty.DATA  # found out at the first new time
+                self._emitters.discard(paths[n])
+            else:
+                general.append(n)
+        removed = set()
+        for n in sorted(general):
+            if not self._sync_mesh_data(paths[n], ids[n], prims[paths[n]], records[n], authored[n], batch):
+                removed.add(n)
+        for n, path in enumerate(paths):
+            if bits[n] & Dirty.TRANSFORM and n not in removed:
+                batch.set_transform(ids[n], transform_samples(prims[path], shutter, xform_caches))
+                records[n].varying &= ~Dirty.TRANSFORM
+                records[n].unknown |= Dirty.TRANSFORM
+        passes = self.render_pass
+        for n, path in enumerate(paths):
+            if bits[n] & Dirty.VISIBILITY and n not in removed:
+                prim = prims[path]
+                visible = inherited.visible(prim, path)
+                batch.set_visible(ids[n], visible and (passes is None or passes.rendered(path)))
+                if passes is not None:
+                    shown = passes.visibility(path)
+                    self.core.set_pass_visibility(ids[n], shown.camera, shown.matte)
+                records[n].varying = _set_flag(
+                    records[n].varying,
+                    Dirty.VISIBILITY,
+                    inherited.visibility_might_vary(prim, path),
+                )
+        for n, path in enumerate(paths):
+            if bits[n] & Dirty.BINDING and n not in removed:
+                self._sync_binding(path, ids[n], records[n], prims[path], bound[path], batch)
+
+    def _sync_mesh_data(
+        self,
+        path: Sdf.Path,
+        path_str: str,
+        prim: Usd.Prim,
+        record: _Prim,
+        authored: Authored,
+        batch: CoreBatch,
+    ) -> bool:
+        """Read a mesh's data through the general path (:func:`~penumbra.usd.mesh.sync_mesh_data`);
+        ``False`` when it is unusable, and then removed from the delegate."""
+        queries = record.queries
+        reader = SampleReader(self.time, self.shutter, queries is not None, queries)
+        if not sync_mesh_data(batch, prim, reader, self._warn, path_str, authored):
+            self.core.remove_prim(path_str)
+            record.in_core = False
+            self._emitters.discard(path)
+            return False
+        if path_str in batch.mesh_lights:  # it has UsdLuxMeshLightAPI
+            self._emitters.add(path)
+        else:
+            self._emitters.discard(path)
+        record.varying = _set_flag(record.varying, Dirty.DATA, reader.varying)
+        if not reader.note_variability:
+            record.unknown |= Dirty.DATA
+        return True
 
     def _sync_binding(
         self,
