@@ -317,26 +317,34 @@ def _sync_implicit(
 # Vec3fArray and IntArray need no conversion after it.
 
 
+_FLOAT32 = np.dtype(np.float32)
+_INT32 = np.dtype(np.int32)
+
+
 def _as_vec3_array(value) -> np.ndarray | None:
     """``value`` as float32 (N, 3) if it is an array of 3-vectors (float or double), else
     ``None``."""
     array = np.asarray(value)
-    if array.ndim == 2 and array.shape[1] == 3 and array.dtype.kind == "f":
-        return array if array.dtype == np.float32 else array.astype(np.float32)
-    return None
+    if array.ndim != 2 or array.shape[1] != 3:
+        return None
+    if array.dtype == _FLOAT32:
+        return array
+    return array.astype(np.float32) if array.dtype.kind == "f" else None
 
 
 def _as_int_array(value) -> np.ndarray | None:
     """``value`` as an int32 array if it is an array of integers, else ``None``."""
     array = np.asarray(value)
-    if array.ndim == 1 and array.dtype.kind in "iu":
-        return array if array.dtype == np.int32 else array.astype(np.int32)
-    return None
+    if array.ndim != 1:
+        return None
+    if array.dtype == _INT32:
+        return array
+    return array.astype(np.int32) if array.dtype.kind in "iu" else None
 
 
 def _int32(values) -> np.ndarray:
     """Integer ``values`` as an int32 array (not copied when they are one)."""
-    if isinstance(values, np.ndarray) and values.dtype == np.int32:
+    if isinstance(values, np.ndarray) and values.dtype == _INT32:
         return values
     return np.asarray(values, dtype=np.int32)
 
@@ -517,7 +525,7 @@ def _colors(values, primvar: UsdGeom.Primvar | None) -> tuple[np.ndarray, str]:
     none (the delegate's grey fallback) when there are no values."""
     if values is not None and len(values) > 0:
         colors = np.asarray(values)
-        if colors.dtype != np.float32:
+        if colors.dtype != _FLOAT32:
             colors = colors.astype(np.float32)
         return colors.reshape(-1, 3), str(primvar.GetInterpolation())
     return _NO_VECTORS, UsdGeom.Tokens.constant

@@ -39,8 +39,8 @@ class XformCaches:
         self._caches: dict[float | None, UsdGeom.XformCache] = {}
         self._last: tuple[Usd.TimeCode | None, UsdGeom.XformCache | None] = (None, None)
 
-    def world(self, prim: Usd.Prim, time: Usd.TimeCode) -> Gf.Matrix4d:
-        """The local-to-world transform of ``prim`` at ``time``."""
+    def at(self, time: Usd.TimeCode) -> UsdGeom.XformCache:
+        """The cache of transforms at ``time``."""
         last_time, cache = self._last
         if time is not last_time:  # prims of a sync mostly ask at the same frame's object
             key = None if time.IsDefault() else time.GetValue()
@@ -48,7 +48,11 @@ class XformCaches:
             if cache is None:
                 cache = self._caches[key] = UsdGeom.XformCache(time)
             self._last = time, cache
-        return cache.GetLocalToWorldTransform(prim)
+        return cache
+
+    def world(self, prim: Usd.Prim, time: Usd.TimeCode) -> Gf.Matrix4d:
+        """The local-to-world transform of ``prim`` at ``time``."""
+        return self.at(time).GetLocalToWorldTransform(prim)
 
 
 def transform_samples(prim: Usd.Prim, shutter: Shutter, caches: XformCaches) -> np.ndarray:
@@ -70,6 +74,17 @@ def transform_samples(prim: Usd.Prim, shutter: Shutter, caches: XformCaches) -> 
     if all(matrix == matrices[0] for matrix in matrices):
         return np.array(matrices[0], dtype=np.float64)
     return np.array([np.array(matrix) for matrix in matrices], dtype=np.float64)
+
+
+def transforms_samples(
+    prims: list[Usd.Prim], shutter: Shutter, caches: XformCaches
+) -> list[np.ndarray]:
+    """:func:`transform_samples` of each of ``prims`` (without motion, in one pass through the
+    frame's cache)."""
+    if shutter.blurred:
+        return [transform_samples(prim, shutter, caches) for prim in prims]
+    world = caches.at(shutter.frame).GetLocalToWorldTransform
+    return [np.asarray(world(prim)) for prim in prims]
 
 
 def _xform_sample_times(prim: Usd.Prim, interval: Gf.Interval) -> set[float]:

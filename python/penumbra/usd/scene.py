@@ -37,7 +37,7 @@ from .lights import is_light, light_type, sync_light
 from .core_batch import CoreBatch
 from .material import bound_materials, has_subset_bindings, push_material, read_material
 from .mesh import Authored, data_might_vary, is_plain, push_plain_meshes, sync_mesh_data
-from .motion import XformCaches, transform_samples
+from .motion import XformCaches, transform_samples, transforms_samples
 from .native_instancing import NativeInstancing
 from .point_instancers import PointInstancerDelegate
 from .render_pass import RenderPassCollections
@@ -69,7 +69,7 @@ _LIGHT_ASPECTS = Dirty.DATA | Dirty.TRANSFORM | Dirty.VISIBILITY
 _MOVING_KINDS = frozenset({"mesh", "camera"})  # prims sampled over the shutter
 
 
-@dataclass
+@dataclass(slots=True)  # one per tracked prim: slots keep it small
 class _Prim:
     """A tracked rprim or sprim."""
 
@@ -581,11 +581,12 @@ class SceneDelegate:
         for n in sorted(general):
             if not self._sync_mesh_data(paths[n], ids[n], prims[paths[n]], records[n], authored[n], batch):
                 removed.add(n)
-        for n, path in enumerate(paths):
-            if bits[n] & Dirty.TRANSFORM and n not in removed:
-                batch.set_transform(ids[n], transform_samples(prims[path], shutter, xform_caches))
-                records[n].varying &= ~Dirty.TRANSFORM
-                records[n].unknown |= Dirty.TRANSFORM
+        moved = [n for n in range(len(paths)) if bits[n] & Dirty.TRANSFORM and n not in removed]
+        matrices = transforms_samples([prims[paths[n]] for n in moved], shutter, xform_caches)
+        for n, samples in zip(moved, matrices):
+            batch.set_transform(ids[n], samples)
+            records[n].varying &= ~Dirty.TRANSFORM
+            records[n].unknown |= Dirty.TRANSFORM
         passes = self.render_pass
         for n, path in enumerate(paths):
             if bits[n] & Dirty.VISIBILITY and n not in removed:
