@@ -452,11 +452,13 @@ class SceneDelegate:
                     meshes.append(n)
                 else:
                     self._sync_prim(path, ids[n], prims[path], dirty[path], xform_caches, batch)
+            new = {paths[n] for n in entering}
             self._sync_meshes(
                 [paths[n] for n in meshes],
                 [ids[n] for n in meshes],
                 prims,
                 dirty,
+                new,
                 xform_caches,
                 bound,
                 batch,
@@ -529,14 +531,16 @@ class SceneDelegate:
         ids: list[str],
         prims: dict[Sdf.Path, Usd.Prim],
         dirty: dict[Sdf.Path, int],
+        new: set[Sdf.Path],
         xform_caches: XformCaches,
         bound: dict[Sdf.Path, Sdf.Path | None],
         batch: CoreBatch,
     ) -> None:
         """Read the dirty aspects of the tracked meshes at ``paths`` (delegate ids ``ids``; in
-        the delegate: inserted by :meth:`_flush`) and queue them in ``batch``, one aspect at a
-        time across all of them: plain meshes' data is read in columns
-        (:func:`~penumbra.usd.mesh.push_plain_meshes`), the others' mesh by mesh."""
+        the delegate: inserted by :meth:`_flush`, those in ``new`` just now) and queue them in
+        ``batch``, one aspect at a time across all of them: plain meshes' data is read in
+        columns (:func:`~penumbra.usd.mesh.push_plain_meshes`), the others' mesh by mesh. A new
+        mesh is visible and unbound in the delegate: those values are not sent again."""
         records = [self._prims[path] for path in paths]
         bits = [dirty[path] for path in paths]
         shutter = self.shutter
@@ -592,7 +596,9 @@ class SceneDelegate:
             if bits[n] & Dirty.VISIBILITY and n not in removed:
                 prim = prims[path]
                 visible = inherited.visible(prim, path)
-                batch.set_visible(ids[n], visible and (passes is None or passes.rendered(path)))
+                visible = visible and (passes is None or passes.rendered(path))
+                if not visible or path not in new:
+                    batch.set_visible(ids[n], visible)
                 if passes is not None:
                     shown = passes.visibility(path)
                     self.core.set_pass_visibility(ids[n], shown.camera, shown.matte)
@@ -603,7 +609,9 @@ class SceneDelegate:
                 )
         for n, path in enumerate(paths):
             if bits[n] & Dirty.BINDING and n not in removed:
-                self._sync_binding(path, ids[n], records[n], prims[path], bound[path], batch)
+                self._sync_binding(
+                    path, ids[n], records[n], prims[path], bound[path], batch, path in new
+                )
 
     def _sync_mesh_data(
         self,
@@ -640,7 +648,10 @@ class SceneDelegate:
         prim: Usd.Prim,
         material_path: Sdf.Path | None,
         batch: CoreBatch,
+        new: bool,
     ) -> None:
+        """Bind mesh ``path`` to ``material_path``; ``new``: the mesh has just entered the
+        delegate, unbound."""
         if prim.GetChildrenNames() and has_subset_bindings(prim):  # subsets are children
             self._warn(
                 f"{path}: per-face material bindings (GeomSubsets) are not supported yet; "
@@ -656,7 +667,8 @@ class SceneDelegate:
         if material_path is not None and self._materials[material_path].in_core:
             material_id = str(material_path)
         record.material = str(material_path) if material_path is not None else ""
-        batch.set_mesh_material(path_str, material_id)
+        if material_id or not new:
+            batch.set_mesh_material(path_str, material_id)
 
     def _acquire_material(self, material_path: Sdf.Path, user: Sdf.Path) -> None:
         material = self._materials.get(material_path)
