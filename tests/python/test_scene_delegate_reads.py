@@ -66,9 +66,9 @@ def test_inherited_purpose_visibility_and_primvars_agree_with_usd():
         } if not prim.GetParent().IsPseudoRoot() else set()
         assert {p.GetPrimvarName() for p in state.inherited_primvars(prim, path)} == expected
     mesh = stage.GetPrimAtPath("/plain/blinking/mesh")
-    assert state.visibility_might_vary(mesh, mesh.GetPath())
+    assert state.visibility(mesh, mesh.GetPath())[1]  # might vary
     proxy_prim = stage.GetPrimAtPath("/plain/proxy")
-    assert not state.visibility_might_vary(proxy_prim, proxy_prim.GetPath())
+    assert not state.visibility(proxy_prim, proxy_prim.GetPath())[1]
     state.at(Usd.TimeCode(3.0))  # visibility is read anew at another time
     assert state.visible(mesh, mesh.GetPath())
 

@@ -90,9 +90,10 @@ class InheritedState:
         ancestor can bind one (UsdShadeMaterialBindingAPI), so without any it has none."""
         return self._of(prim, path).bindings
 
-    def visibility_might_vary(self, prim: Usd.Prim, path: Sdf.Path) -> bool:
-        """Whether the computed visibility of ``prim`` might change with time."""
-        return self._of(prim, path).visibility_might_vary
+    def visibility(self, prim: Usd.Prim, path: Sdf.Path) -> tuple[bool, bool]:
+        """Whether ``prim`` is visible (:meth:`visible`), and whether its computed visibility
+        might change with time."""
+        return self.visible(prim, path), self._of(prim, path).visibility_might_vary
 
     def visible(self, prim: Usd.Prim, path: Sdf.Path) -> bool:
         """Whether ``prim`` and all its ancestors are visible at the current time."""

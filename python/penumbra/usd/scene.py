@@ -24,9 +24,11 @@ delegate's materials and hears of the same stage edits.
 
 from __future__ import annotations
 
+import gc
 import weakref
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass
+from contextlib import contextmanager
+from dataclasses import dataclass, field
 
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdVol
 
@@ -172,6 +174,16 @@ class SceneDelegate:
         the shutter differs from the last one, the time-varying aspects (and the cameras when
         its offsets or ``depth_of_field`` changed).
         """
+        with _cyclic_gc_paused():
+            self._update(shutter, depth_of_field, dome_light_visibility, film_windows)
+
+    def _update(
+        self,
+        shutter: Shutter,
+        depth_of_field: bool,
+        dome_light_visibility: bool,
+        film_windows: dict[str, FilmWindow] | None,
+    ) -> None:
         if self.shutter is None:
             self.shutter, self.time, self.depth_of_field = shutter, shutter.frame, depth_of_field
             self.dome_light_visibility = dome_light_visibility
@@ -425,65 +437,62 @@ class SceneDelegate:
         while self._dirty or self._dirty_materials:
             xform_caches = XformCaches()
             dirty, self._dirty = self._dirty, {}
-            paths = [path for path in sorted(dirty) if path in self._prims]
             found, self._found = self._found, {}
-            prims = {path: found.get(path) or self.stage.GetPrimAtPath(path) for path in paths}
-            bound = self._bound_materials(
-                (path, prims[path])
-                for path in paths
-                if self._prims[path].kind == "mesh"
-                and (dirty[path] & Dirty.BINDING or not self._prims[path].in_core)
+            paths = [path for path in sorted(dirty) if path in self._prims]
+            todo = _Flush(
+                paths=paths,
+                ids=[str(path) for path in paths],  # the delegate's prim ids
+                prims=[found.get(path) or self.stage.GetPrimAtPath(path) for path in paths],
+                records=[self._prims[path] for path in paths],
+                bits=[dirty[path] for path in paths],
             )
-            ids = [str(path) for path in paths]  # the delegate's prim ids
-            entering = [n for n, path in enumerate(paths) if not self._prims[path].in_core]
-            meshes = [ids[n] for n in entering if self._prims[paths[n]].kind == "mesh"]
-            self.core.insert_rprims("mesh", meshes)
-            for n in entering:
-                record = self._prims[paths[n]]
-                if record.kind != "mesh":
-                    self.core.insert_sprim(record.kind, ids[n])
-                record.in_core = True
-                # A prim entering the delegate needs everything.
-                dirty[paths[n]] = _aspects(record.kind)
+            todo.new = [not record.in_core for record in todo.records]
+            binding = [
+                n
+                for n, record in enumerate(todo.records)
+                if record.kind == "mesh" and (todo.bits[n] & Dirty.BINDING or todo.new[n])
+            ]
+            todo.bound = [None] * len(paths)
+            for n, material in zip(binding, self._bound_materials(todo.subset(binding))):
+                todo.bound[n] = material
+            self.core.insert_rprims(
+                "mesh",
+                [todo.ids[n] for n, record in enumerate(todo.records) if todo.new[n] and record.kind == "mesh"],
+            )
+            for n, record in enumerate(todo.records):
+                if todo.new[n]:
+                    if record.kind != "mesh":
+                        self.core.insert_sprim(record.kind, todo.ids[n])
+                    record.in_core = True
+                    todo.bits[n] = _aspects(record.kind)  # entering the delegate: everything
             batch = CoreBatch(self.core, self._warn)
             meshes = []
-            for n, path in enumerate(paths):
-                if self._prims[path].kind == "mesh":
+            for n, record in enumerate(todo.records):
+                if record.kind == "mesh":
                     meshes.append(n)
                 else:
-                    self._sync_prim(path, ids[n], prims[path], dirty[path], xform_caches, batch)
-            new = {paths[n] for n in entering}
-            self._sync_meshes(
-                [paths[n] for n in meshes],
-                [ids[n] for n in meshes],
-                prims,
-                dirty,
-                new,
-                xform_caches,
-                bound,
-                batch,
-            )
+                    self._sync_prim(
+                        paths[n], todo.ids[n], todo.prims[n], todo.bits[n], xform_caches, batch
+                    )
+            self._sync_meshes(todo.subset(meshes), xform_caches, batch)
             batch.send()
             materials, self._dirty_materials = self._dirty_materials, set()
             for path in sorted(materials):
                 if path in self._materials:
                     self._sync_material(path)
 
-    def _bound_materials(
-        self, meshes: Iterable[tuple[Sdf.Path, Usd.Prim]]
-    ) -> dict[Sdf.Path, Sdf.Path | None]:
-        """The materials bound to ``meshes`` (paths and prims), computed in one batch for those
-        that may have one."""
-        bound: dict[Sdf.Path, Sdf.Path | None] = {}
-        binding = []
-        for path, prim in meshes:
-            if self._inherited.might_have_material(prim, path):
-                binding.append((path, prim))
-            else:
-                bound[path] = None
-        if binding:
-            found = bound_materials([prim for _, prim in binding])
-            bound.update(zip((path for path, _ in binding), found))
+    def _bound_materials(self, meshes: _Flush) -> list[Sdf.Path | None]:
+        """The materials bound to ``meshes``, computed in one batch for those that may have
+        one."""
+        inherited = self._inherited
+        binding = [
+            n
+            for n, (prim, path) in enumerate(zip(meshes.prims, meshes.paths))
+            if inherited.might_have_material(prim, path)
+        ]
+        bound: list[Sdf.Path | None] = [None] * len(meshes.paths)
+        for n, material in zip(binding, bound_materials([meshes.prims[n] for n in binding])):
+            bound[n] = material
         return bound
 
     def _sync_prim(
@@ -519,30 +528,23 @@ class SceneDelegate:
             record.unknown |= Dirty.TRANSFORM
         if bits & Dirty.VISIBILITY:
             passes = self.render_pass
-            visible = self._inherited.visible(prim, path)
+            visible, might_vary = self._inherited.visibility(prim, path)
             batch.set_visible(path_str, visible and (passes is None or passes.rendered(path)))
-            record.varying = _set_flag(
-                record.varying, Dirty.VISIBILITY, self._inherited.visibility_might_vary(prim, path)
-            )
+            record.varying = _set_flag(record.varying, Dirty.VISIBILITY, might_vary)
 
-    def _sync_meshes(
-        self,
-        paths: list[Sdf.Path],
-        ids: list[str],
-        prims: dict[Sdf.Path, Usd.Prim],
-        dirty: dict[Sdf.Path, int],
-        new: set[Sdf.Path],
-        xform_caches: XformCaches,
-        bound: dict[Sdf.Path, Sdf.Path | None],
-        batch: CoreBatch,
-    ) -> None:
-        """Read the dirty aspects of the tracked meshes at ``paths`` (delegate ids ``ids``; in
-        the delegate: inserted by :meth:`_flush`, those in ``new`` just now) and queue them in
-        ``batch``, one aspect at a time across all of them: plain meshes' data is read in
-        columns (:func:`~penumbra.usd.mesh.push_plain_meshes`), the others' mesh by mesh. A new
-        mesh is visible and unbound in the delegate: those values are not sent again."""
-        records = [self._prims[path] for path in paths]
-        bits = [dirty[path] for path in paths]
+    def _sync_meshes(self, meshes: _Flush, xform_caches: XformCaches, batch: CoreBatch) -> None:
+        """Read the dirty aspects of tracked ``meshes`` (in the delegate: inserted by
+        :meth:`_flush`) and queue them in ``batch``, one aspect at a time across all of them:
+        plain meshes' data is read in columns (:func:`~penumbra.usd.mesh.push_plain_meshes`),
+        the others' mesh by mesh. A new mesh is visible and unbound in the delegate: those
+        values are not sent again."""
+        paths, ids, prims, records, bits = (
+            meshes.paths,
+            meshes.ids,
+            meshes.prims,
+            meshes.records,
+            meshes.bits,
+        )
         shutter = self.shutter
         inherited = self._inherited
         plain: list[int] = []
@@ -551,7 +553,7 @@ class SceneDelegate:
         for n, path in enumerate(paths):
             if not bits[n] & Dirty.DATA:
                 continue
-            record, prim = records[n], prims[path]
+            record, prim = records[n], prims[n]
             # A mesh's variability is found out at the first new time (_find_variability);
             # one known to vary reads through queries kept from one time to the next.
             if record.varying & Dirty.DATA and record.queries is None:
@@ -569,7 +571,7 @@ class SceneDelegate:
                 general.append(n)
         pushed = push_plain_meshes(
             batch,
-            [prims[paths[n]] for n in plain],
+            [prims[n] for n in plain],
             [authored[n].names for n in plain],
             [ids[n] for n in plain],
             self.time,
@@ -583,10 +585,10 @@ class SceneDelegate:
                 general.append(n)
         removed = set()
         for n in sorted(general):
-            if not self._sync_mesh_data(paths[n], ids[n], prims[paths[n]], records[n], authored[n], batch):
+            if not self._sync_mesh_data(paths[n], ids[n], prims[n], records[n], authored[n], batch):
                 removed.add(n)
         moved = [n for n in range(len(paths)) if bits[n] & Dirty.TRANSFORM and n not in removed]
-        matrices = transforms_samples([prims[paths[n]] for n in moved], shutter, xform_caches)
+        matrices = transforms_samples([prims[n] for n in moved], shutter, xform_caches)
         for n, samples in zip(moved, matrices):
             batch.set_transform(ids[n], samples)
             records[n].varying &= ~Dirty.TRANSFORM
@@ -594,23 +596,18 @@ class SceneDelegate:
         passes = self.render_pass
         for n, path in enumerate(paths):
             if bits[n] & Dirty.VISIBILITY and n not in removed:
-                prim = prims[path]
-                visible = inherited.visible(prim, path)
+                visible, might_vary = inherited.visibility(prims[n], path)
                 visible = visible and (passes is None or passes.rendered(path))
-                if not visible or path not in new:
+                if not visible or not meshes.new[n]:
                     batch.set_visible(ids[n], visible)
                 if passes is not None:
                     shown = passes.visibility(path)
                     self.core.set_pass_visibility(ids[n], shown.camera, shown.matte)
-                records[n].varying = _set_flag(
-                    records[n].varying,
-                    Dirty.VISIBILITY,
-                    inherited.visibility_might_vary(prim, path),
-                )
+                records[n].varying = _set_flag(records[n].varying, Dirty.VISIBILITY, might_vary)
         for n, path in enumerate(paths):
             if bits[n] & Dirty.BINDING and n not in removed:
                 self._sync_binding(
-                    path, ids[n], records[n], prims[path], bound[path], batch, path in new
+                    path, ids[n], records[n], prims[n], meshes.bound[n], batch, meshes.new[n]
                 )
 
     def _sync_mesh_data(
@@ -747,6 +744,42 @@ class _SceneMaterials:
     def material_id(self, material: Sdf.Path) -> str:
         record = self._scene._materials.get(material)
         return str(material) if record is not None and record.in_core else ""
+
+
+@dataclass
+class _Flush:
+    """The dirty tracked prims of one flush, as lists aligned by index."""
+
+    paths: list[Sdf.Path]
+    ids: list[str]
+    prims: list[Usd.Prim]
+    records: list[_Prim]
+    bits: list[int]  # the aspects to read
+    new: list[bool] = field(default_factory=list)  # entering the delegate
+    bound: list[Sdf.Path | None] = field(default_factory=list)  # meshes' bound materials
+
+    def subset(self, indices: list[int]) -> _Flush:
+        def pick(values: list) -> list:
+            return [values[n] for n in indices] if values else []
+
+        return _Flush(
+            *(pick(v) for v in (self.paths, self.ids, self.prims, self.records, self.bits)),
+            new=pick(self.new),
+            bound=pick(self.bound),
+        )
+
+
+@contextmanager
+def _cyclic_gc_paused() -> Iterator[None]:
+    """Pause Python's cyclic garbage collector: a sync allocates objects by the hundred thousand
+    (none of them in cycles), and each full collection would walk all of them again."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 def _aspects(kind: str) -> int:
