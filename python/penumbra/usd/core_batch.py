@@ -53,7 +53,7 @@ class CoreBatch:
         normals_interpolation: str,
         primvars: dict,
     ) -> None:
-        self._meshes.append(
+        self.add_mesh(
             (
                 path,
                 face_vertex_counts,
@@ -69,6 +69,11 @@ class CoreBatch:
                 primvars,
             )
         )
+
+    def add_mesh(self, mesh: tuple) -> None:
+        """Queue ``set_mesh``'s arguments as one ``set_meshes`` tuple (id first, then the
+        others in ``set_mesh``'s order)."""
+        self._meshes.append(mesh)
         if len(self._meshes) >= CHUNK:
             self.core.set_meshes(self._meshes)
             self._meshes = []
@@ -89,6 +94,11 @@ class CoreBatch:
         """Queue local-to-world ``matrices`` ((4, 4) or (K, 4, 4)) of prim ``path``."""
         self._transforms[0].append(path)
         self._transforms[1].append(matrices)
+
+    def set_transforms(self, paths: list[str], matrices: list[np.ndarray]) -> None:
+        """:meth:`set_transform` for each of ``paths``."""
+        self._transforms[0].extend(paths)
+        self._transforms[1].extend(matrices)
 
     def set_visible(self, path: str, visible: bool) -> None:
         self._visible[0].append(path)

@@ -17,6 +17,7 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdLux
 
 from . import implicit
+from .core_batch import CoreBatch
 from .lights import sync_mesh_light
 from .motion import point_samples
 from .sampling import SampleReader, changes_within
@@ -120,12 +121,16 @@ def is_plain(names: frozenset[str]) -> bool:
 
 
 def push_plain_meshes(
-    core, prims: list[Usd.Prim], names: list[frozenset[str]], ids: list[str], time: Usd.TimeCode
+    batch: CoreBatch,
+    prims: list[Usd.Prim],
+    names: list[frozenset[str]],
+    ids: list[str],
+    time: Usd.TimeCode,
 ) -> list[bool]:
-    """Push the plain meshes ``prims`` (authored property names ``names``, delegate ids
-    ``ids``; see :func:`is_plain`) at ``time`` as :func:`sync_mesh_data` would, and say for each
-    whether it was pushed: not when its topology needs the general path's checks and warnings
-    or when it has UsdLuxMeshLightAPI (nothing is sent for it then)."""
+    """Queue in ``batch`` the plain meshes ``prims`` (authored property names ``names``,
+    delegate ids ``ids``; see :func:`is_plain`) at ``time`` as :func:`sync_mesh_data` would
+    send them, and say for each whether it was: not when its topology needs the general path's
+    checks and warnings or when it has UsdLuxMeshLightAPI."""
     tokens = UsdGeom.Tokens
 
     def column(name: str) -> list:
@@ -135,9 +140,9 @@ def push_plain_meshes(
             for prim, authored in zip(prims, names)
         ]
 
-    points = [prim.GetAttribute("points").Get(time) for prim in prims]
-    counts = [prim.GetAttribute("faceVertexCounts").Get(time) for prim in prims]
-    indices = [prim.GetAttribute("faceVertexIndices").Get(time) for prim in prims]
+    points = [_as_vec3_array(prim.GetAttribute("points").Get(time)) for prim in prims]
+    counts = [_as_int_array(prim.GetAttribute("faceVertexCounts").Get(time)) for prim in prims]
+    indices = [_as_int_array(prim.GetAttribute("faceVertexIndices").Get(time)) for prim in prims]
     lights = [prim.HasAPI(UsdLux.MeshLightAPI) for prim in prims]
     schemes = column(tokens.subdivisionScheme)
     orientations = column(tokens.orientation)
@@ -146,11 +151,10 @@ def push_plain_meshes(
         prim.GetAttribute(_DISPLAY_COLOR) if _DISPLAY_COLOR in authored else None
         for prim, authored in zip(prims, names)
     ]
+    colors = [attr.Get(time) if attr is not None else None for attr in color_attributes]
     pushed = []
     for n, path in enumerate(ids):
-        mesh_points = _as_vec3_array(points[n])
-        mesh_counts = _as_int_array(counts[n])
-        mesh_indices = _as_int_array(indices[n])
+        mesh_points, mesh_counts, mesh_indices = points[n], counts[n], indices[n]
         usable = (
             mesh_points is not None
             and mesh_counts is not None
@@ -163,29 +167,30 @@ def push_plain_meshes(
         pushed.append(usable)
         if not usable:
             continue
-        colors, interpolation = _NO_VECTORS, tokens.constant
-        attribute = color_attributes[n]
-        if attribute is not None:
-            colors, interpolation = _colors(attribute.Get(time), UsdGeom.Primvar(attribute))
+        mesh_colors, interpolation = _NO_VECTORS, tokens.constant
+        if colors[n] is not None:
+            mesh_colors, interpolation = _colors(colors[n], UsdGeom.Primvar(color_attributes[n]))
         scheme = str(schemes[n] or tokens.catmullClark)
-        core.set_mesh(
-            path,
-            face_vertex_counts=mesh_counts,
-            face_vertex_indices=mesh_indices,
-            left_handed=orientations[n] == tokens.leftHanded,
-            subdivision_scheme=scheme,
-            points=mesh_points,
-            double_sided=bool(double_sided[n]),
-            display_color=colors,
-            display_color_interpolation=interpolation,
-            normals=_NO_VECTORS,
-            normals_interpolation=tokens.vertex,
-            primvars={},
+        batch.add_mesh(
+            (
+                path,
+                mesh_counts,
+                mesh_indices,
+                orientations[n] == tokens.leftHanded,
+                scheme,
+                mesh_points,
+                bool(double_sided[n]),
+                mesh_colors,
+                interpolation,
+                _NO_VECTORS,  # normals
+                tokens.vertex,
+                {},  # primvars
+            )
         )
-        core.set_mesh_light(path, False)
+        batch.set_mesh_light(path, False)
         if scheme != tokens.none:
             attributes = _Attributes(prims[n], SampleReader(time), Authored(names[n], ()))
-            _sync_subdivision_tags(core, path, attributes)
+            _sync_subdivision_tags(batch, path, attributes)
     return pushed
 
 

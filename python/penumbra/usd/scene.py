@@ -589,8 +589,8 @@ class SceneDelegate:
                 removed.add(n)
         moved = [n for n in range(len(paths)) if bits[n] & Dirty.TRANSFORM and n not in removed]
         matrices = transforms_samples([prims[n] for n in moved], shutter, xform_caches)
-        for n, samples in zip(moved, matrices):
-            batch.set_transform(ids[n], samples)
+        batch.set_transforms([ids[n] for n in moved], matrices)
+        for n in moved:
             records[n].varying &= ~Dirty.TRANSFORM
             records[n].unknown |= Dirty.TRANSFORM
         passes = self.render_pass
