@@ -173,6 +173,9 @@ class InheritedState:
             and prim.GetAttribute(_VISIBILITY).ValueMightBeTimeVarying()
         )
         bindings = up.bindings or _binds(authored)
-        state = _Inherited(purpose, inheritable, visibility_varies, opinions, bindings)
+        if opinions or up.imageable_opinions or bindings != up.bindings:
+            state = _Inherited(purpose, inheritable, visibility_varies, opinions, bindings)
+        else:
+            state = up  # the same in every field: most prims
         self._states[path] = state
         return state

@@ -412,9 +412,11 @@ class SceneDelegate:
             if wanted.get(path) != self._prims[path].kind:
                 self._remove(path)
         for path, kind in wanted.items():
-            if path not in self._prims:
+            if path in self._prims:
+                self._mark(path, Dirty.ALL)
+            else:  # new: marked as _mark would, without looking it up again
                 self._prims[path] = _Prim(kind)
-            self._mark(path, Dirty.ALL)
+                self._dirty[path] = _aspects(kind)
         for material_path, material in self._materials.items():
             if material_path.HasPrefix(root) or any(s.HasPrefix(root) for s in material.sources):
                 self._dirty_materials.add(material_path)
