@@ -608,9 +608,15 @@ class SceneDelegate:
                 records[n].varying = _set_flag(records[n].varying, Dirty.VISIBILITY, might_vary)
         for n, path in enumerate(paths):
             if bits[n] & Dirty.BINDING and n not in removed:
-                self._sync_binding(
-                    path, ids[n], records[n], prims[n], meshes.bound[n], batch, meshes.new[n]
-                )
+                material, record = meshes.bound[n], records[n]
+                if (
+                    material is None
+                    and not record.material
+                    and meshes.new[n]
+                    and not prims[n].GetChildrenNames()
+                ):
+                    continue  # unbound here and in the delegate, and no subsets to warn about
+                self._sync_binding(path, ids[n], record, prims[n], material, batch, meshes.new[n])
 
     def _sync_mesh_data(
         self,
