@@ -235,3 +235,14 @@ def test_bindings_on_ancestors_and_collections_reach_meshes_as_usd_resolves_them
         else:
             dominant = channel[expected[group]]
             assert rgb[dominant] > 3 * max(np.delete(rgb, dominant)), group
+
+
+def test_path_order_key_sorts_prim_paths_as_sdf_does():
+    names = ["a", "b", "A", "Z", "z", "a_b", "ab", "a0", "a9", "_x", "c1", "c10", "c2", "é"]
+    rng = np.random.default_rng(7)
+    paths = {
+        "/" + "/".join(rng.choice(names, size=int(rng.integers(1, 5))))
+        for _ in range(2000)
+    }
+    expected = [str(p) for p in sorted(Sdf.Path(p) for p in paths)]
+    assert sorted(paths, key=scene_module.path_order_key) == expected

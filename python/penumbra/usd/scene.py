@@ -440,10 +440,13 @@ class SceneDelegate:
             xform_caches = XformCaches()
             dirty, self._dirty = self._dirty, {}
             found, self._found = self._found, {}
-            paths = [path for path in sorted(dirty) if path in self._prims]
+            tracked = [path for path in dirty if path in self._prims]
+            ids = [str(path) for path in tracked]  # the delegate's prim ids
+            order = sorted(range(len(tracked)), key=lambda n: path_order_key(ids[n]))
+            paths = [tracked[n] for n in order]
             todo = _Flush(
                 paths=paths,
-                ids=[str(path) for path in paths],  # the delegate's prim ids
+                ids=[ids[n] for n in order],
                 prims=[found.get(path) or self.stage.GetPrimAtPath(path) for path in paths],
                 records=[self._prims[path] for path in paths],
                 bits=[dirty[path] for path in paths],
@@ -788,6 +791,13 @@ def _cyclic_gc_paused() -> Iterator[None]:
     finally:
         if enabled:
             gc.enable()
+
+
+def path_order_key(path: str) -> list[str]:
+    """A sort key putting prim paths (as strings) in ``Sdf.Path`` order: name by name from the
+    root, a parent before its children. Sorting by it is several times faster than comparing
+    ``Sdf.Path`` objects from Python, and a flush inserts its prims in this order."""
+    return path.split("/")
 
 
 def _aspects(kind: str) -> int:
