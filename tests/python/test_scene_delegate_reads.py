@@ -58,6 +58,7 @@ def test_inherited_purpose_visibility_and_primvars_agree_with_usd():
         assert state.purpose(prim, path) == imageable.ComputePurpose(), prim.GetPath()
         expected_visible = imageable.ComputeVisibility(time) != UsdGeom.Tokens.invisible
         assert state.visible(prim, path) == expected_visible, prim.GetPath()
+        assert state.visibility(prim, path)[0] == expected_visible, prim.GetPath()
         # What a prim inherits: the constant primvars its parent has or inherits.
         expected = {
             p.GetPrimvarName()

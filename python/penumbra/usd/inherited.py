@@ -28,9 +28,10 @@ class _Inherited(NamedTuple):  # a tuple: made per prim, faster than a dataclass
     visibility_might_vary: bool
     imageable_opinions: bool  # the prim is imageable and authored purpose or visibility
     bindings: bool  # the prim or an ancestor authored a material binding (of any kind)
+    hideable: bool  # the prim or an ancestor authored visibility: it may be invisible
 
 
-_ROOT = _Inherited(UsdGeom.Tokens.default_, False, False, False, False)
+_ROOT = _Inherited(UsdGeom.Tokens.default_, False, False, False, False, False)
 
 
 @lru_cache(maxsize=256)  # prims of a kind share one set of names (InheritedState.authored)
@@ -93,7 +94,10 @@ class InheritedState:
     def visibility(self, prim: Usd.Prim, path: Sdf.Path) -> tuple[bool, bool]:
         """Whether ``prim`` is visible (:meth:`visible`), and whether its computed visibility
         might change with time."""
-        return self.visible(prim, path), self._of(prim, path).visibility_might_vary
+        state = self._of(prim, path)
+        if not state.hideable:  # most prims: no visibility authored above them
+            return True, False
+        return self.visible(prim, path), state.visibility_might_vary
 
     def visible(self, prim: Usd.Prim, path: Sdf.Path) -> bool:
         """Whether ``prim`` and all its ancestors are visible at the current time."""
@@ -173,8 +177,11 @@ class InheritedState:
             and prim.GetAttribute(_VISIBILITY).ValueMightBeTimeVarying()
         )
         bindings = up.bindings or _binds(authored)
+        hideable = up.hideable or (opinions and _VISIBILITY in authored)
         if opinions or up.imageable_opinions or bindings != up.bindings:
-            state = _Inherited(purpose, inheritable, visibility_varies, opinions, bindings)
+            state = _Inherited(
+                purpose, inheritable, visibility_varies, opinions, bindings, hideable
+            )
         else:
             state = up  # the same in every field: most prims
         self._states[path] = state
