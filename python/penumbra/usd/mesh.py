@@ -167,9 +167,11 @@ def push_plain_meshes(
         pushed.append(usable)
         if not usable:
             continue
-        mesh_colors, interpolation = _NO_VECTORS, tokens.constant
-        if colors[n] is not None:
-            mesh_colors, interpolation = _colors(colors[n], UsdGeom.Primvar(color_attributes[n]))
+        mesh_colors, interpolation = _color_array(colors[n]), tokens.constant
+        if mesh_colors is None:
+            mesh_colors = _NO_VECTORS
+        else:  # what UsdGeomPrimvar::GetInterpolation reads, without making a primvar
+            interpolation = str(color_attributes[n].GetMetadata(_INTERPOLATION) or interpolation)
         scheme = str(schemes[n] or tokens.catmullClark)
         batch.add_mesh(
             (
@@ -500,6 +502,7 @@ def _names_other_primvars(names: frozenset[str]) -> bool:
 
 _DISPLAY_COLOR = UsdGeom.Tokens.primvarsDisplayColor
 _DISPLAY_COLOR_INDICES = f"{_DISPLAY_COLOR}:indices"
+_INTERPOLATION = UsdGeom.Tokens.interpolation
 
 
 def _display_color(
@@ -528,12 +531,20 @@ def _display_color(
 def _colors(values, primvar: UsdGeom.Primvar | None) -> tuple[np.ndarray, str]:
     """Flat displayColor ``values`` of ``primvar`` as float32 (N, 3) and their interpolation;
     none (the delegate's grey fallback) when there are no values."""
-    if values is not None and len(values) > 0:
-        colors = np.asarray(values)
-        if colors.dtype != _FLOAT32:
-            colors = colors.astype(np.float32)
-        return colors.reshape(-1, 3), str(primvar.GetInterpolation())
-    return _NO_VECTORS, UsdGeom.Tokens.constant
+    colors = _color_array(values)
+    if colors is None:
+        return _NO_VECTORS, UsdGeom.Tokens.constant
+    return colors, str(primvar.GetInterpolation())
+
+
+def _color_array(values) -> np.ndarray | None:
+    """Flat displayColor ``values`` as float32 (N, 3); ``None`` when there are none."""
+    if values is None or len(values) == 0:
+        return None
+    colors = np.asarray(values)
+    if colors.dtype != _FLOAT32:
+        colors = colors.astype(np.float32)
+    return colors.reshape(-1, 3)
 
 
 def _sync_subdivision_tags(core, path: str, attributes: _Attributes) -> None:
