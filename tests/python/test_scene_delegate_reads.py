@@ -6,9 +6,11 @@ meshes sends what the general path does."""
 
 from __future__ import annotations
 
+import gc
+
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
 import penumbra
 from penumbra.usd import scene as scene_module
@@ -247,3 +249,39 @@ def test_path_order_key_sorts_prim_paths_as_sdf_does():
     }
     expected = [str(p) for p in sorted(Sdf.Path(p) for p in paths)]
     assert sorted(paths, key=scene_module.path_order_key) == expected
+
+
+def test_mesh_light_api_applied_then_removed_renders_as_a_fresh_delegate():
+    # A UsdLuxMeshLightAPI mesh is read by the general path, the others by the fast path, and
+    # the meshes that are not lights are switched off in one batched call: an edit either way
+    # must leave the delegate as a fresh sync of the edited stage would.
+    stage = new_stage()
+    add_camera(stage)
+    add_quad(stage, "/World/floor", half_size=2.0, color=(0.5, 0.5, 0.5))
+    lamp = add_quad(stage, "/World/lamp", center=(0, 0, 0.5), half_size=0.3, color=(0.2, 0.2, 0.2))
+    UsdLux.MeshLightAPI.Apply(lamp.GetPrim())
+    UsdLux.LightAPI(lamp.GetPrim()).CreateIntensityAttr(20.0)
+    renderer = penumbra.Renderer(stage)
+    lit = renderer.render(**FAST)
+    np.testing.assert_array_equal(lit["color"], penumbra.Renderer(stage).render(**FAST)["color"])
+
+    lamp.GetPrim().RemoveAPI(UsdLux.MeshLightAPI)
+    unlit = renderer.render(**FAST)
+    np.testing.assert_array_equal(unlit["color"], penumbra.Renderer(stage).render(**FAST)["color"])
+    assert pixel(lit, 0.5, 0.5)[0] > 4 * pixel(unlit, 0.5, 0.5)[0]  # the lamp itself glowed
+
+    UsdLux.MeshLightAPI.Apply(lamp.GetPrim())
+    np.testing.assert_array_equal(renderer.render(**FAST)["color"], lit["color"])
+
+
+def test_a_sync_leaves_the_garbage_collector_as_it_found_it():
+    stage = lit_quad_stage()
+    assert gc.isenabled()
+    penumbra.Renderer(stage).render(**FAST)
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        penumbra.Renderer(stage).render(**FAST)
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
