@@ -460,10 +460,12 @@ class SceneDelegate:
             todo.bound = [None] * len(paths)
             for n, material in zip(binding, self._bound_materials(todo.subset(binding))):
                 todo.bound[n] = material
-            self.core.insert_rprims(
-                "mesh",
-                [todo.ids[n] for n, record in enumerate(todo.records) if todo.new[n] and record.kind == "mesh"],
-            )
+            entering_meshes = [
+                todo.ids[n]
+                for n, record in enumerate(todo.records)
+                if todo.new[n] and record.kind == "mesh"
+            ]
+            self.core.insert_rprims("mesh", entering_meshes)
             for n, record in enumerate(todo.records):
                 if todo.new[n]:
                     if record.kind != "mesh":
@@ -590,7 +592,8 @@ class SceneDelegate:
                 general.append(n)
         removed = set()
         for n in sorted(general):
-            if not self._sync_mesh_data(paths[n], ids[n], prims[n], records[n], authored[n], batch):
+            record = records[n]
+            if not self._sync_mesh_data(paths[n], ids[n], prims[n], record, authored[n], batch):
                 removed.add(n)
         moved = [n for n in range(len(paths)) if bits[n] & Dirty.TRANSFORM and n not in removed]
         matrices = transforms_samples([prims[n] for n in moved], shutter, xform_caches)
