@@ -111,6 +111,8 @@ class NativeInstancing:
     # ----------------------------------------------------------------------------------------
 
     def _top_level_instances(self) -> Iterator[Usd.Prim]:
+        if not self.stage.GetPrototypes():  # no instances at all: no walk over every prim
+            return
         walk = iter(Usd.PrimRange(self.stage.GetPseudoRoot(), Usd.PrimDefaultPredicate))
         for prim in walk:
             if prim.IsA(UsdGeom.PointInstancer):  # its prototypes are its own
