@@ -11,8 +11,9 @@ from collections.abc import Callable
 import numpy as np
 
 CHUNK = 1024
-"""Meshes queued at most before they are sent: the queued arrays (and the USD values they view)
-stay bounded however many meshes a sync pushes, for one call per thousand meshes."""
+"""Meshes (and transforms) queued at most before they are sent: the queued arrays (and the USD
+values they view) stay bounded however many meshes a sync pushes, for one call per thousand
+meshes. The scene delegate reads plain meshes and transforms in chunks of this size too."""
 
 MAX_COORDINATE = 1e18
 """Beyond this distance from the origin (scene units) single-precision ray tracing cannot
@@ -96,9 +97,11 @@ class CoreBatch:
         self._transforms[1].append(matrices)
 
     def set_transforms(self, paths: list[str], matrices: list[np.ndarray]) -> None:
-        """:meth:`set_transform` for each of ``paths``."""
+        """:meth:`set_transform` for each of ``paths`` (sent when a chunk's worth is queued)."""
         self._transforms[0].extend(paths)
         self._transforms[1].extend(matrices)
+        if len(self._transforms[0]) >= CHUNK:
+            self._send_transforms()
 
     def set_visible(self, path: str, visible: bool) -> None:
         self._visible[0].append(path)
@@ -117,15 +120,18 @@ class CoreBatch:
             self.core.disable_mesh_lights(self._not_lights)
             self._not_lights = []
         if self._transforms[0]:
-            self._check_transforms(*self._transforms)
-            self.core.set_transforms(*self._transforms)
-            self._transforms = ([], [])
+            self._send_transforms()
         if self._visible[0]:
             self.core.set_visibilities(*self._visible)
             self._visible = ([], [])
         if self._materials[0]:
             self.core.set_mesh_materials(*self._materials)
             self._materials = ([], [])
+
+    def _send_transforms(self) -> None:
+        self._check_transforms(*self._transforms)
+        self.core.set_transforms(*self._transforms)
+        self._transforms = ([], [])
 
     def _check_transforms(self, paths: list[str], matrices: list[np.ndarray]) -> None:
         """Warn about each prim whose world transform is unusable (the delegate then does not

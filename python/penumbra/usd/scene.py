@@ -36,7 +36,7 @@ from ..errors import warn
 from .camera import sync_camera
 from .implicit import is_implicit
 from .lights import is_light, light_type, sync_light
-from .core_batch import CoreBatch
+from .core_batch import CHUNK, CoreBatch
 from .material import bound_materials, has_subset_bindings, push_material, read_material
 from .mesh import Authored, data_might_vary, is_plain, push_plain_meshes, sync_mesh_data
 from .motion import XformCaches, transform_samples, transforms_samples
@@ -576,13 +576,16 @@ class SceneDelegate:
                 plain.append(n)
             else:
                 general.append(n)
-        pushed = push_plain_meshes(
-            batch,
-            [prims[n] for n in plain],
-            [authored[n].names for n in plain],
-            [ids[n] for n in plain],
-            self.time,
-        )
+        pushed: list[bool] = []
+        for start in range(0, len(plain), CHUNK):  # a chunk's values stay in the CPU's caches
+            chunk = plain[start : start + CHUNK]
+            pushed += push_plain_meshes(
+                batch,
+                [prims[n] for n in chunk],
+                [authored[n].names for n in chunk],
+                [ids[n] for n in chunk],
+                self.time,
+            )
         for n, usable in zip(plain, pushed):
             if usable:
                 records[n].varying &= ~Dirty.DATA  # read without noting variability:
@@ -596,8 +599,10 @@ class SceneDelegate:
             if not self._sync_mesh_data(paths[n], ids[n], prims[n], record, authored[n], batch):
                 removed.add(n)
         moved = [n for n in range(len(paths)) if bits[n] & Dirty.TRANSFORM and n not in removed]
-        matrices = transforms_samples([prims[n] for n in moved], shutter, xform_caches)
-        batch.set_transforms([ids[n] for n in moved], matrices)
+        for start in range(0, len(moved), CHUNK):
+            chunk = moved[start : start + CHUNK]
+            matrices = transforms_samples([prims[n] for n in chunk], shutter, xform_caches)
+            batch.set_transforms([ids[n] for n in chunk], matrices)
         for n in moved:
             records[n].varying &= ~Dirty.TRANSFORM
             records[n].unknown |= Dirty.TRANSFORM
