@@ -20,8 +20,9 @@ _PURPOSE = UsdGeom.Tokens.purpose
 _VISIBILITY = UsdGeom.Tokens.visibility
 
 
-class _Inherited(NamedTuple):  # a tuple: made per prim, faster than a dataclass
-    """The time-independent inherited state of one prim (cf. UsdGeomImageable::PurposeInfo)."""
+class Inherited(NamedTuple):  # a tuple: made per prim, faster than a dataclass
+    """The time-independent inherited state of one prim (cf. UsdGeomImageable::PurposeInfo);
+    prims whose state equals their parent's share its record."""
 
     purpose: str
     purpose_inheritable: bool  # an ancestor or the prim authored it: its descendants take it
@@ -31,7 +32,7 @@ class _Inherited(NamedTuple):  # a tuple: made per prim, faster than a dataclass
     hideable: bool  # the prim or an ancestor authored visibility: it may be invisible
 
 
-_ROOT = _Inherited(UsdGeom.Tokens.default_, False, False, False, False, False)
+_ROOT = Inherited(UsdGeom.Tokens.default_, False, False, False, False, False)
 
 
 @lru_cache(maxsize=256)  # prims of a kind share one set of names (InheritedState.authored)
@@ -48,7 +49,7 @@ class InheritedState:
     say, never are)."""
 
     def __init__(self) -> None:
-        self._states: dict[Sdf.Path, _Inherited] = {}
+        self._states: dict[Sdf.Path, Inherited] = {}
         self._authored: dict[Sdf.Path, frozenset[str]] = {}
         # Prims of a kind mostly author the same properties: one set serves them all.
         self._name_sets: dict[frozenset[str], frozenset[str]] = {}
@@ -84,17 +85,15 @@ class InheritedState:
 
     def purpose(self, prim: Usd.Prim, path: Sdf.Path) -> str:
         """The computed purpose of ``prim``."""
-        return self._of(prim, path).purpose
+        return self.state(prim, path).purpose
 
-    def might_have_material(self, prim: Usd.Prim, path: Sdf.Path) -> bool:
-        """Whether a material may be bound to ``prim``: only bindings authored on it or on an
-        ancestor can bind one (UsdShadeMaterialBindingAPI), so without any it has none."""
-        return self._of(prim, path).bindings
-
-    def visibility(self, prim: Usd.Prim, path: Sdf.Path) -> tuple[bool, bool]:
+    def visibility(
+        self, prim: Usd.Prim, path: Sdf.Path, state: Inherited | None = None
+    ) -> tuple[bool, bool]:
         """Whether ``prim`` is visible (:meth:`visible`), and whether its computed visibility
-        might change with time."""
-        state = self._of(prim, path)
+        might change with time; ``state``: its :meth:`state`, if the caller has it."""
+        if state is None:
+            state = self.state(prim, path)
         if not state.hideable:  # most prims: no visibility authored above them
             return True, False
         return self.visible(prim, path), state.visibility_might_vary
@@ -110,7 +109,7 @@ class InheritedState:
                 visible = self._visible.get(parent_path)
                 if visible is None:
                     visible = self.visible(prim.GetParent(), parent_path)
-            if visible and self._of(prim, path).imageable_opinions:
+            if visible and self.state(prim, path).imageable_opinions:
                 if _VISIBILITY in self.authored(prim, path):
                     value = prim.GetAttribute(_VISIBILITY).Get(self._time)
                     visible = value != UsdGeom.Tokens.invisible
@@ -154,7 +153,10 @@ class InheritedState:
             self._primvars[parent_path] = primvars
         return primvars
 
-    def _of(self, prim: Usd.Prim, path: Sdf.Path) -> _Inherited:
+    def state(self, prim: Usd.Prim, path: Sdf.Path) -> Inherited:
+        """The inherited state of ``prim`` (at ``path``). Its ``bindings`` says whether a
+        material may be bound to it: only a binding authored on it or on an ancestor binds one
+        (UsdShadeMaterialBindingAPI), so without any it has none."""
         state = self._states.get(path)
         if state is not None:
             return state
@@ -162,7 +164,7 @@ class InheritedState:
             up = _ROOT
         else:
             parent_path = path.GetParentPath()
-            up = self._states.get(parent_path) or self._of(prim.GetParent(), parent_path)
+            up = self._states.get(parent_path) or self.state(prim.GetParent(), parent_path)
         authored = self.authored(prim, path)
         # Prims that are not imageable pass purpose and visibility down but have none of their own.
         opinions = (_PURPOSE in authored or _VISIBILITY in authored) and prim.IsA(UsdGeom.Imageable)
@@ -179,7 +181,7 @@ class InheritedState:
         bindings = up.bindings or _binds(authored)
         hideable = up.hideable or (opinions and _VISIBILITY in authored)
         if opinions or up.imageable_opinions or bindings != up.bindings:
-            state = _Inherited(
+            state = Inherited(
                 purpose, inheritable, visibility_varies, opinions, bindings, hideable
             )
         else:

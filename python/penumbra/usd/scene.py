@@ -43,7 +43,7 @@ from .motion import XformCaches, transform_samples, transforms_samples
 from .native_instancing import NativeInstancing
 from .point_instancers import PointInstancerDelegate
 from .render_pass import RenderPassCollections
-from .inherited import InheritedState
+from .inherited import Inherited, InheritedState
 from .sampling import SampleReader, Shutter
 from .settings import FilmWindow
 
@@ -126,8 +126,9 @@ class SceneDelegate:
         self._dirty: dict[Sdf.Path, int] = {}
         self._dirty_materials: set[Sdf.Path] = set()
         self._resynced: set[Sdf.Path] = set()
-        # Prims found by the traversals of this update, for its flush (no second look-up).
-        self._found: dict[Sdf.Path, Usd.Prim] = {}
+        # Prims found by the traversals of this update, for its flush (no second look-up), with
+        # the inherited state of the meshes among them.
+        self._found: dict[Sdf.Path, tuple[Usd.Prim, Inherited | None]] = {}
         self._changed: set[Sdf.Path] = set()
         self._unsupported: dict[str, list[Sdf.Path]] = {}
         self._roles: dict[str, str | None] = {}
@@ -270,24 +271,25 @@ class SceneDelegate:
     # ----------------------------------------------------------------------------------------
     # Classification
 
-    def _classify(self, prim: Usd.Prim, path: Sdf.Path) -> str | None:
+    def _classify(self, prim: Usd.Prim, path: Sdf.Path) -> tuple[str | None, Inherited | None]:
         """The delegate prim type for ``prim`` (at ``path``), or ``None`` when it is not
-        rendered."""
+        rendered; with its inherited state when it is a mesh."""
         role = self._role_of_type(prim)
         if role in ("mesh", "unsupported"):
             if role == "mesh" and prim.IsInstanceProxy():
-                return None  # natively instanced: NativeInstancing
-            if self._inherited.purpose(prim, path) not in self.purposes:
-                return None
+                return None, None  # natively instanced: NativeInstancing
+            state = self._inherited.state(prim, path)
+            if state.purpose not in self.purposes:
+                return None, None
             if role == "mesh":
-                return "mesh"
+                return "mesh", state
         elif role is not None:
-            return role  # a camera or a light
+            return role, None  # a camera or a light
         if role == "unsupported" or is_light(prim):
             if role is not None or self._inherited.purpose(prim, path) in self.purposes:
                 type_name = prim.GetTypeName() or "untyped"
                 self._unsupported.setdefault(type_name, []).append(path)
-        return None
+        return None, None
 
     def _role_of_type(self, prim: Usd.Prim) -> str | None:
         """What prims of ``prim``'s type are (as UsdImaging finds its prim adapters by type
@@ -308,17 +310,20 @@ class SceneDelegate:
         self._roles[type_name] = role
         return role
 
-    def _traverse(self, root: Usd.Prim) -> Iterator[tuple[Sdf.Path, str, Usd.Prim]]:
-        """``(path, kind, prim)`` of the prims to render under ``root`` (instance proxies
-        included; prototypes below a PointInstancer are not rendered on their own)."""
+    def _traverse(
+        self, root: Usd.Prim
+    ) -> Iterator[tuple[Sdf.Path, str, Usd.Prim, Inherited | None]]:
+        """``(path, kind, prim, inherited state of a mesh)`` of the prims to render under
+        ``root`` (instance proxies included; prototypes below a PointInstancer are not rendered
+        on their own)."""
         if not root or any(p.IsA(UsdGeom.PointInstancer) for p in _ancestors(root)):
             return
         it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
         for prim in it:
             path = prim.GetPath()
-            kind = self._classify(prim, path)
+            kind, state = self._classify(prim, path)
             if kind is not None:
-                yield path, kind, prim
+                yield path, kind, prim, state
             elif prim.IsA(UsdGeom.PointInstancer):  # not a rendered kind itself
                 it.PruneChildren()
 
@@ -405,9 +410,9 @@ class SceneDelegate:
         """Re-populate the subtree at ``root``: remove what is gone, insert what is new, and
         re-read everything else in it."""
         wanted = {}
-        for path, kind, prim in self._traverse(self.stage.GetPrimAtPath(root)):
+        for path, kind, prim, state in self._traverse(self.stage.GetPrimAtPath(root)):
             wanted[path] = kind
-            self._found[path] = prim
+            self._found[path] = prim, state
         for path in [p for p in self._prims if p.HasPrefix(root)]:
             if wanted.get(path) != self._prims[path].kind:
                 self._remove(path)
@@ -444,10 +449,12 @@ class SceneDelegate:
             ids = [str(path) for path in tracked]  # the delegate's prim ids
             order = sorted(range(len(tracked)), key=lambda n: path_order_key(ids[n]))
             paths = [tracked[n] for n in order]
+            seen = [found.get(path) or (self.stage.GetPrimAtPath(path), None) for path in paths]
             todo = _Flush(
                 paths=paths,
                 ids=[ids[n] for n in order],
-                prims=[found.get(path) or self.stage.GetPrimAtPath(path) for path in paths],
+                prims=[prim for prim, _ in seen],
+                states=[state for _, state in seen],
                 records=[self._prims[path] for path in paths],
                 bits=[dirty[path] for path in paths],
             )
@@ -491,11 +498,10 @@ class SceneDelegate:
     def _bound_materials(self, meshes: _Flush) -> list[Sdf.Path | None]:
         """The materials bound to ``meshes``, computed in one batch for those that may have
         one."""
-        inherited = self._inherited
         binding = [
             n
-            for n, (prim, path) in enumerate(zip(meshes.prims, meshes.paths))
-            if inherited.might_have_material(prim, path)
+            for n, (prim, path, state) in enumerate(zip(meshes.prims, meshes.paths, meshes.states))
+            if (state or self._inherited.state(prim, path)).bindings
         ]
         bound: list[Sdf.Path | None] = [None] * len(meshes.paths)
         for n, material in zip(binding, bound_materials([meshes.prims[n] for n in binding])):
@@ -609,7 +615,7 @@ class SceneDelegate:
         passes = self.render_pass
         for n, path in enumerate(paths):
             if bits[n] & Dirty.VISIBILITY and n not in removed:
-                visible, might_vary = inherited.visibility(prims[n], path)
+                visible, might_vary = inherited.visibility(prims[n], path, meshes.states[n])
                 visible = visible and (passes is None or passes.rendered(path))
                 if not visible or not meshes.new[n]:
                     batch.set_visible(ids[n], visible)
@@ -772,6 +778,7 @@ class _Flush:
     paths: list[Sdf.Path]
     ids: list[str]
     prims: list[Usd.Prim]
+    states: list[Inherited | None]  # meshes found by this update's traversals: their state
     records: list[_Prim]
     bits: list[int]  # the aspects to read
     new: list[bool] = field(default_factory=list)  # entering the delegate
@@ -781,8 +788,9 @@ class _Flush:
         def pick(values: list) -> list:
             return [values[n] for n in indices] if values else []
 
+        fields = (self.paths, self.ids, self.prims, self.states, self.records, self.bits)
         return _Flush(
-            *(pick(v) for v in (self.paths, self.ids, self.prims, self.records, self.bits)),
+            *(pick(v) for v in fields),
             new=pick(self.new),
             bound=pick(self.bound),
         )
