@@ -551,22 +551,13 @@ class SceneDelegate:
         plain meshes' data is read in columns (:func:`~penumbra.usd.mesh.push_plain_meshes`),
         the others' mesh by mesh. A new mesh is visible and unbound in the delegate: those
         values are not sent again."""
-        paths, ids, prims, records, bits = (
-            meshes.paths,
-            meshes.ids,
-            meshes.prims,
-            meshes.records,
-            meshes.bits,
-        )
-        shutter = self.shutter
-        inherited = self._inherited
         plain: list[int] = []
         general: list[int] = []
         authored: dict[int, Authored] = {}
-        for n, path in enumerate(paths):
-            if not bits[n] & Dirty.DATA:
+        for n, path in enumerate(meshes.paths):
+            if not meshes.bits[n] & Dirty.DATA:
                 continue
-            record, prim = records[n], prims[n]
+            record, prim = meshes.records[n], meshes.prims[n]
             # A mesh's variability is found out at the first new time (_find_variability);
             # one known to vary reads through queries kept from one time to the next.
             if record.varying & Dirty.DATA and record.queries is None:
@@ -574,7 +565,7 @@ class SceneDelegate:
             known = authored[n] = self._authored(prim, path)
             if (
                 record.queries is None
-                and not shutter.blurred
+                and not self.shutter.blurred
                 and not known.inherited_primvars
                 and is_plain(known.names)
                 and prim.GetTypeName() == "Mesh"
@@ -582,6 +573,23 @@ class SceneDelegate:
                 plain.append(n)
             else:
                 general.append(n)
+        removed = self._sync_data(meshes, plain, general, authored, batch)
+        self._sync_transforms(meshes, removed, xform_caches, batch)
+        self._sync_visibilities(meshes, removed, batch)
+        self._sync_bindings(meshes, removed, batch)
+
+    def _sync_data(
+        self,
+        meshes: _Flush,
+        plain: list[int],
+        general: list[int],
+        authored: dict[int, Authored],
+        batch: CoreBatch,
+    ) -> set[int]:
+        """Queue the data of ``meshes`` (indices into the flush's lists): the ``plain`` ones in
+        columns, the ``general`` ones (and plain ones the fast path declined) mesh by mesh.
+        Returns the indices of the meshes found unusable, which are removed from the delegate."""
+        paths, ids, prims, records = meshes.paths, meshes.ids, meshes.prims, meshes.records
         pushed: list[bool] = []
         for start in range(0, len(plain), CHUNK):  # a chunk's values stay in the CPU's caches
             chunk = plain[start : start + CHUNK]
@@ -601,39 +609,54 @@ class SceneDelegate:
                 general.append(n)
         removed = set()
         for n in sorted(general):
-            record = records[n]
-            if not self._sync_mesh_data(paths[n], ids[n], prims[n], record, authored[n], batch):
+            if not self._sync_mesh_data(paths[n], ids[n], prims[n], records[n], authored[n], batch):
                 removed.add(n)
-        moved = [n for n in range(len(paths)) if bits[n] & Dirty.TRANSFORM and n not in removed]
+        return removed
+
+    def _sync_transforms(
+        self, meshes: _Flush, removed: set[int], xform_caches: XformCaches, batch: CoreBatch
+    ) -> None:
+        """Queue the world transforms of the moved ``meshes``, a chunk at a time."""
+        ids, prims, records, bits = meshes.ids, meshes.prims, meshes.records, meshes.bits
+        moved = [n for n in range(len(ids)) if bits[n] & Dirty.TRANSFORM and n not in removed]
         for start in range(0, len(moved), CHUNK):
             chunk = moved[start : start + CHUNK]
-            matrices = transforms_samples([prims[n] for n in chunk], shutter, xform_caches)
+            matrices = transforms_samples([prims[n] for n in chunk], self.shutter, xform_caches)
             batch.set_transforms([ids[n] for n in chunk], matrices)
         for n in moved:
             records[n].varying &= ~Dirty.TRANSFORM
             records[n].unknown |= Dirty.TRANSFORM
+
+    def _sync_visibilities(self, meshes: _Flush, removed: set[int], batch: CoreBatch) -> None:
+        """Queue the visibility (and render-pass visibility) of ``meshes`` whose visibility is
+        dirty; a new mesh's default, visible, is not sent."""
         passes = self.render_pass
-        for n, path in enumerate(paths):
-            if bits[n] & Dirty.VISIBILITY and n not in removed:
-                visible, might_vary = inherited.visibility(prims[n], path, meshes.states[n])
-                visible = visible and (passes is None or passes.rendered(path))
-                if not visible or not meshes.new[n]:
-                    batch.set_visible(ids[n], visible)
-                if passes is not None:
-                    shown = passes.visibility(path)
-                    self.core.set_pass_visibility(ids[n], shown.camera, shown.matte)
-                records[n].varying = _set_flag(records[n].varying, Dirty.VISIBILITY, might_vary)
-        for n, path in enumerate(paths):
-            if bits[n] & Dirty.BINDING and n not in removed:
-                material, record = meshes.bound[n], records[n]
-                if (
-                    material is None
-                    and not record.material
-                    and meshes.new[n]
-                    and not prims[n].GetChildrenNames()
-                ):
-                    continue  # unbound here and in the delegate, and no subsets to warn about
-                self._sync_binding(path, ids[n], record, prims[n], material, batch, meshes.new[n])
+        for n, path in enumerate(meshes.paths):
+            if not meshes.bits[n] & Dirty.VISIBILITY or n in removed:
+                continue
+            visible, might_vary = self._inherited.visibility(
+                meshes.prims[n], path, meshes.states[n]
+            )
+            visible = visible and (passes is None or passes.rendered(path))
+            if not visible or not meshes.new[n]:
+                batch.set_visible(meshes.ids[n], visible)
+            if passes is not None:
+                shown = passes.visibility(path)
+                self.core.set_pass_visibility(meshes.ids[n], shown.camera, shown.matte)
+            record = meshes.records[n]
+            record.varying = _set_flag(record.varying, Dirty.VISIBILITY, might_vary)
+
+    def _sync_bindings(self, meshes: _Flush, removed: set[int], batch: CoreBatch) -> None:
+        """Queue the material bindings of ``meshes`` whose binding is dirty; a new mesh that is
+        unbound and has no subsets to warn about needs nothing sent."""
+        for n, path in enumerate(meshes.paths):
+            if not meshes.bits[n] & Dirty.BINDING or n in removed:
+                continue
+            material, record, prim = meshes.bound[n], meshes.records[n], meshes.prims[n]
+            new = meshes.new[n]
+            if material is None and not record.material and new and not prim.GetChildrenNames():
+                continue  # unbound here and in the delegate, and no subsets to warn about
+            self._sync_binding(path, meshes.ids[n], record, prim, material, batch, new)
 
     def _sync_mesh_data(
         self,
