@@ -69,6 +69,12 @@ class Network:
                 shader.CreateInput(input_name, Sdf.ValueTypeNames.String).Set(value)
         return shader.CreateOutput("out", output_type)
 
+    def add_tint(self) -> None:
+        """The quad's constant colour primvar ``tint`` (TINT), for geompropvalue nodes."""
+        UsdGeom.PrimvarsAPI(self.quad).CreatePrimvar(
+            "tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant
+        ).Set([Gf.Vec3f(*TINT)])
+
     def render(self, emission_color: UsdShade.Output) -> list[np.ndarray]:
         """The radiance at each quadrant's centre, in the order of QUADRANTS."""
         self.surface.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(
@@ -92,9 +98,7 @@ def test_a_product_of_two_textures_is_evaluated_per_shading_point(tmp_path):
 
 def test_a_texture_mixed_with_a_primvar_by_a_mask_texture(tmp_path):
     network = Network()
-    UsdGeom.PrimvarsAPI(network.quad).CreatePrimvar(
-        "tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant
-    ).Set([Gf.Vec3f(*TINT)])
+    network.add_tint()
     colours = network.node("colours", "ND_image_color3",
                            file=quadrant_texture(tmp_path / "colours.exr", COLOURS))
     tint = network.node("tint", "ND_geompropvalue_color3", geomprop="tint")
@@ -110,9 +114,7 @@ def test_clamp_subtract_and_combine_of_different_sources(tmp_path):
     """combine3 of a texture's channel, a primvar and a constant, minus another texture,
     clamped to [0, 0.5]."""
     network = Network()
-    UsdGeom.PrimvarsAPI(network.quad).CreatePrimvar(
-        "tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant
-    ).Set([Gf.Vec3f(*TINT)])
+    network.add_tint()
     colours = network.node("colours", "ND_image_color3",
                            file=quadrant_texture(tmp_path / "colours.exr", COLOURS))
     factors = network.node("factors", "ND_image_color3",
