@@ -535,7 +535,7 @@ int Scene::primvarWidth(const PrimvarName& name) const {
     if (mesh && mesh->data) {
       if (const Primvar* primvar = mesh->data->findPrimvar(name))
         width = std::max(width, primvar->width);
-      else if (name == PrimvarName("displayColor") && !mesh->data->displayColor.empty())
+      else if (name == displayColorName() && !mesh->data->displayColor.empty())
         width = std::max(width, 3);
     }
   for (const auto& copies : instancers_)
@@ -633,9 +633,9 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray, RayKind kind,
     hit.material = fallbackSurface();
     float value[4];
     int width = 0;
-    // Built once: these are looked up on every hit of a mesh without a material.
-    static const PrimvarName displayColor("displayColor"), displayOpacity("displayOpacity");
-    if (primvarAt(point, displayColor, value, &width) && width >= 3)
+    // Built once: looked up on every hit of a mesh without a material.
+    static const PrimvarName displayOpacity("displayOpacity");
+    if (primvarAt(point, displayColorName(), value, &width) && width >= 3)
       hit.material.diffuseColor = {value[0], value[1], value[2]};
     if (primvarAt(point, displayOpacity, value, &width)) hit.material.opacity = value[0];
   }

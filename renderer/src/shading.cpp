@@ -314,8 +314,7 @@ bool primvarAt(const SurfacePoint& point, const PrimvarName& name, float value[4
     *width = primvar->width;
     return true;
   }
-  static const PrimvarName displayColor("displayColor");
-  if (name == displayColor && !mesh.displayColor.empty()) {
+  if (name == displayColorName() && !mesh.displayColor.empty()) {
     const Vec3f color = mesh.interpolate(mesh.displayColor, mesh.displayColorInterpolation,
                                          point.triangle, point.u, point.v);
     value[0] = color.x, value[1] = color.y, value[2] = color.z;

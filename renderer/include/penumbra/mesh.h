@@ -37,6 +37,12 @@ class PrimvarName {
   static constexpr uint64_t kEmptyKey = 14695981039346656037ull;  // FNV-1a of no bytes
 };
 
+/// The name primvar lookups know a mesh's displayColor by (it is kept apart from its primvars).
+inline const PrimvarName& displayColorName() {
+  static const PrimvarName name("displayColor");
+  return name;
+}
+
 /// A named per-mesh value array besides points, normals and displayColor (e.g. `st`, or any
 /// primvar a material reads): `width` floats per element, as many elements as `interpolation`
 /// says. Indexed primvars arrive flattened.
