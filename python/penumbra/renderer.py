@@ -143,7 +143,8 @@ class Renderer:
         dome_light_visibility: bool = True,
         film_windows: dict[str, FilmWindow] | None = None,
     ) -> None:
-        compose_materialx_documents(self.stage, warn)  # variant edits may bring in documents
+        if self._scene.take_prims_resynced():  # variant edits may bring in documents
+            compose_materialx_documents(self.stage, warn)
         self._scene.update(shutter, depth_of_field, dome_light_visibility, film_windows)
 
     def close(self) -> None:

@@ -126,6 +126,7 @@ class SceneDelegate:
         self._dirty: dict[Sdf.Path, int] = {}
         self._dirty_materials: set[Sdf.Path] = set()
         self._resynced: set[Sdf.Path] = set()
+        self._prims_resynced = True  # since take_prims_resynced(); the stage is new to us
         # Prims found by the traversals of this update, for its flush (no second look-up), with
         # the inherited state of the meshes among them.
         self._found: dict[Sdf.Path, tuple[Usd.Prim, Inherited | None]] = {}
@@ -330,8 +331,18 @@ class SceneDelegate:
     # ----------------------------------------------------------------------------------------
     # Change tracking
 
+    def take_prims_resynced(self) -> bool:
+        """Whether prims were resynced since the last call: their composition (variant
+        selections, references, sublayers) may have changed."""
+        resynced, self._prims_resynced = self._prims_resynced, False
+        return resynced
+
     def _on_objects_changed(self, notice, _sender) -> None:
-        self._resynced.update(notice.GetResyncedPaths())
+        resynced = notice.GetResyncedPaths()
+        self._prims_resynced = self._prims_resynced or any(
+            not path.IsPropertyPath() for path in resynced
+        )
+        self._resynced.update(resynced)
         self._changed.update(notice.GetChangedInfoOnlyPaths())
 
     def _instance_paths(self, path: Sdf.Path) -> Iterator[Sdf.Path]:
