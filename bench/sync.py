@@ -7,9 +7,11 @@ Stages are generated into a temporary directory (nothing from ../shared is read)
   to one of eight UsdPreviewSurface materials), a camera and a distant light. Reported: the
   time from ``Usd.Stage.Open`` to the first sample (one sample per pixel at 64x36), and the
   resident memory it added per mesh prim.
-* At 10,000 meshes: an unchanged re-render, then a re-render after editing one mesh's
+* At 10,000 meshes: an unchanged re-render, and a re-render after editing one mesh's
   displayColor, one material input, one mesh's transform (each one sample per pixel), at
-  64x36 (where an edit's fixed costs weigh most) and at 960x540 (a viewport's size).
+  64x36 (where an edit's fixed costs weigh most) and at 960x540 (a viewport's size); each
+  edited re-render follows an unchanged one, and its ratio is to that neighbour (medians of
+  five).
 * A stage of subdivision surfaces: how many of them are re-diced when the camera moves.
 
 The machine may be shared: the CPU column (this process's threads) is steadier than wall time.
@@ -115,11 +117,15 @@ def first_sample(path: Path, count: int) -> tuple[float, float, float, penumbra.
     return seconds, cpu, (resident_mb() - before) * 2**20 / count, renderer, stage
 
 
-def edits(renderer: penumbra.Renderer, stage: Usd.Stage, width: int) -> dict[str, float]:
-    """Seconds per re-render of ``width`` pixels across (medians): unchanged, and after each
-    kind of edit (three edits of each kind, each followed by a render)."""
-    render(renderer, width)
-    results = {"unchanged": statistics.median(render(renderer, width) for _ in range(5))}
+def edits(
+    renderer: penumbra.Renderer, stage: Usd.Stage, width: int
+) -> dict[str, tuple[float, float]]:
+    """For an unchanged re-render of ``width`` pixels across and after each kind of edit: the
+    median seconds and the median ratio to an unchanged re-render. Each edited re-render
+    follows an unchanged one, five rounds of each kind, so that each ratio compares
+    neighbours (the machine's speed drifts)."""
+    for _ in range(2):
+        render(renderer, width)
     color = UsdGeom.Gprim(stage.GetPrimAtPath("/World/c17")).GetDisplayColorAttr()
     shader_input = UsdShade.Shader(stage.GetPrimAtPath("/Looks/m3/surface")).GetInput("diffuseColor")
     translate = stage.GetPrimAtPath("/World/c23").GetAttribute("xformOp:translate")
@@ -128,12 +134,18 @@ def edits(renderer: penumbra.Renderer, stage: Usd.Stage, width: int) -> dict[str
         "material input": lambda k: shader_input.Set(Gf.Vec3f(0.9, 0.1 * k, 0.1)),
         "transform": lambda k: translate.Set(translate.Get() + Gf.Vec3d(0, 0.1, 0)),
     }
-    for kind, edit in kinds.items():
-        seconds = []
-        for k in range(3):
+    unchanged: list[float] = []
+    edited: dict[str, list[float]] = {kind: [] for kind in kinds}
+    ratios: dict[str, list[float]] = {kind: [] for kind in kinds}
+    for k in range(5):
+        for kind, edit in kinds.items():
+            unchanged.append(render(renderer, width))
             edit(k)
-            seconds.append(render(renderer, width))
-        results[kind] = statistics.median(seconds)
+            edited[kind].append(render(renderer, width))
+            ratios[kind].append(edited[kind][-1] / unchanged[-1])
+    results = {"unchanged": (statistics.median(unchanged), 1.0)}
+    for kind in kinds:
+        results[kind] = (statistics.median(edited[kind]), statistics.median(ratios[kind]))
     return results
 
 
@@ -163,7 +175,7 @@ def main() -> None:
             "| memory per mesh prim (KB) |"
         )
         print("|---|---|---|---|")
-        edit_times: dict[int, dict[str, float]] = {}
+        edit_times: dict[int, dict[str, tuple[float, float]]] = {}
         for count in args.counts:
             path = Path(directory) / f"meshes_{count}.usdc"
             write_mesh_stage(path, count)
@@ -178,8 +190,7 @@ def main() -> None:
             print(f"\n| re-render of {args.edit_count:,} meshes (1 spp, {width} px wide) | s "
                   "| x unchanged |")
             print("|---|---|---|")
-            for kind, seconds in times.items():
-                ratio = seconds / times["unchanged"]
+            for kind, (seconds, ratio) in times.items():
                 print(f"| {kind} | {seconds:.4f} | {ratio:.2f} |", flush=True)
         path = Path(directory) / "subdivided.usdc"
         write_mesh_stage(path, args.subdivided, subdivided=True)
