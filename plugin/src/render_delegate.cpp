@@ -242,10 +242,18 @@ void RenderDelegate::setDicingCamera(PrimId cameraId) {
 }
 
 RenderDelegate::SyncStatistics RenderDelegate::syncStatistics() const {
-  return {
-      counters_.meshGeometrySyncs,    counters_.subdivisionDicings, scene_->meshBvhBuilds(),
-      counters_.tessellationSeconds,  scene_->bvhBuildSeconds(),    counters_.materialBuilds,
-      counters_.materialTextureOpens, counters_.lightBuilds,        counters_.lightTextureLoads};
+  SyncStatistics statistics;
+  statistics.meshGeometrySyncs = counters_.meshGeometrySyncs;
+  statistics.subdivisionDicings = counters_.subdivisionDicings;
+  statistics.meshBvhBuilds = scene_->meshBvhBuilds();
+  statistics.topLevelBvhPrimitives = scene_->topLevelBvhPrimitives();
+  statistics.tessellationSeconds = counters_.tessellationSeconds;
+  statistics.bvhBuildSeconds = scene_->bvhBuildSeconds();
+  statistics.materialBuilds = counters_.materialBuilds;
+  statistics.materialTextureOpens = counters_.materialTextureOpens;
+  statistics.lightBuilds = counters_.lightBuilds;
+  statistics.lightTextureLoads = counters_.lightTextureLoads;
+  return statistics;
 }
 
 std::vector<std::string> RenderDelegate::takeWarnings() {
@@ -340,7 +348,7 @@ size_t RenderDelegate::estimatedSyncBytes() const {
   return bytes;
 }
 
-bool RenderDelegate::sync(const DicingContext& view) {
+bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
   scene_->textures().setCacheSize(size_t(settings_.textureCacheMB) << 20);
   // A new dicing context or complexity re-dices every subdivision surface.
   const DicingContext dicing = dicingContext(view);
@@ -404,10 +412,9 @@ bool RenderDelegate::sync(const DicingContext& view) {
   updateLightList();
   materialsStructureChanged_ = lightsStructureChanged_ = meshesStructureChanged_ = false;
   const bool sceneChanged = materialsDirty || lightsDirty || meshesDirty;
-  if (sceneChanged) {
-    scene_->commit();
-    ++sceneVersion_;
-  }
+  // Folding the overlay changes how rays find hits, not which: no new scene version.
+  if (scene_->prepareForSamples(cameraSamples) || sceneChanged) scene_->commit();
+  if (sceneChanged) ++sceneVersion_;
   return sceneChanged || camerasDirty;
 }
 

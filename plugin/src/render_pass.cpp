@@ -85,8 +85,11 @@ void RenderPass::reset() {
 void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   if (samples < 0) throw std::invalid_argument("sample count must be >= 0");
   const Camera& cameraPrim = delegate_.camera(cameraId_);
-  delegate_.sync({cameraPrim.params(), imageWidth_});
   const RenderSettingsMap& settings = delegate_.settings();
+  // The render's samples in all (callers step towards the "samples" setting a few at a time).
+  const uint64_t plannedSamples = uint64_t(std::max(samples, settings.samples));
+  delegate_.sync({cameraPrim.params(), imageWidth_},
+                 uint64_t(film_.width()) * uint64_t(film_.height()) * plannedSamples);
   // The target sample count does not change what a sample is; everything else does.
   std::map<std::string, double> settingsUsed = settings.asMap();
   settingsUsed.erase("samples");

@@ -796,6 +796,7 @@ PYBIND11_MODULE(_core, m) {
              result["meshGeometrySyncs"] = stats.meshGeometrySyncs;
              result["subdivisionDicings"] = stats.subdivisionDicings;
              result["meshBvhBuilds"] = stats.meshBvhBuilds;
+             result["topLevelBvhPrimitives"] = stats.topLevelBvhPrimitives;
              result["tessellationSeconds"] = stats.tessellationSeconds;
              result["bvhBuildSeconds"] = stats.bvhBuildSeconds;
              result["materialBuilds"] = stats.materialBuilds;

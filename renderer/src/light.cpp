@@ -236,10 +236,8 @@ Light::Light(const LightParams& params) : params_(params) {
         area_ += areas.back();
       }
       for (const Vec3f& corner : corners) {
-        meshLower_ = {std::min(meshLower_.x, corner.x), std::min(meshLower_.y, corner.y),
-                      std::min(meshLower_.z, corner.z)};
-        meshUpper_ = {std::max(meshUpper_.x, corner.x), std::max(meshUpper_.y, corner.y),
-                      std::max(meshUpper_.z, corner.z)};
+        meshLower_ = componentMin(meshLower_, corner);
+        meshUpper_ = componentMax(meshUpper_, corner);
       }
       triangleChoice_.emplace(std::move(areas));
       break;
@@ -589,10 +587,8 @@ LightBounds Light::bounds() const {
   LightBounds bounds;
   const float radianceLuminance = meanRadianceLuminance();
   const auto include = [&bounds](const Vec3f& p) {
-    bounds.lower = {std::min(bounds.lower.x, p.x), std::min(bounds.lower.y, p.y),
-                    std::min(bounds.lower.z, p.z)};
-    bounds.upper = {std::max(bounds.upper.x, p.x), std::max(bounds.upper.y, p.y),
-                    std::max(bounds.upper.z, p.z)};
+    bounds.lower = componentMin(bounds.lower, p);
+    bounds.upper = componentMax(bounds.upper, p);
   };
   bounds.cosThetaO = -1;  // emits every way, unless one-sided below
   switch (params_.type) {
@@ -692,10 +688,8 @@ LightBounds unite(const LightBounds& a, const LightBounds& b) {
   if (!(a.power > 0) && a.lower.x > a.upper.x) return b;
   if (!(b.power > 0) && b.lower.x > b.upper.x) return a;
   LightBounds result;
-  result.lower = {std::min(a.lower.x, b.lower.x), std::min(a.lower.y, b.lower.y),
-                  std::min(a.lower.z, b.lower.z)};
-  result.upper = {std::max(a.upper.x, b.upper.x), std::max(a.upper.y, b.upper.y),
-                  std::max(a.upper.z, b.upper.z)};
+  result.lower = componentMin(a.lower, b.lower);
+  result.upper = componentMax(a.upper, b.upper);
   result.power = a.power + b.power;
   result.cosThetaE = std::min(a.cosThetaE, b.cosThetaE);
   // The cone of axes: the smallest cone holding both cones.

@@ -103,8 +103,7 @@ std::vector<int> weldPoints(const std::vector<Vec3f>& points, float tolerance) {
   std::vector<int> representative(points.size());
   if (points.empty()) return representative;
   Vec3f lower = points[0];
-  for (const Vec3f& p : points)
-    lower = {std::min(lower.x, p.x), std::min(lower.y, p.y), std::min(lower.z, p.z)};
+  for (const Vec3f& p : points) lower = componentMin(lower, p);
   // Cells much larger than the tolerance: most points search one cell. 21 bits per axis hold
   // any mesh whose extent is below 2^21 cells, which kWeldTolerance guarantees.
   const float cell = std::max(16 * tolerance, std::numeric_limits<float>::min());
@@ -147,8 +146,8 @@ bool isClosedSurface(const std::vector<Vec3f>& points, const std::vector<int>& f
   if (points.empty()) return false;
   Vec3f lower = points[0], upper = points[0];
   for (const Vec3f& p : points) {
-    lower = {std::min(lower.x, p.x), std::min(lower.y, p.y), std::min(lower.z, p.z)};
-    upper = {std::max(upper.x, p.x), std::max(upper.y, p.y), std::max(upper.z, p.z)};
+    lower = componentMin(lower, p);
+    upper = componentMax(upper, p);
   }
   const Vec3f size = upper - lower;
   const float tolerance = kWeldTolerance * std::max({size.x, size.y, size.z});

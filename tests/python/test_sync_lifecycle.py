@@ -19,6 +19,8 @@ from test_api import sync_counts
 from test_textures import quadrants, write_texture
 
 FAST = dict(camera="/cam", width=32, samples=4)
+# The faces of a cube whose corner k is at (k & 4, k & 2, k & 1), counter-clockwise from outside.
+CUBE_FACE_INDICES = [0, 1, 3, 2, 2, 3, 7, 6, 6, 7, 5, 4, 4, 5, 1, 0, 1, 5, 7, 3, 4, 0, 2, 6]
 
 
 def subdivided_cube(stage, path: str, center=(0.0, 0.0, 0.0)) -> UsdGeom.Mesh:
@@ -28,9 +30,7 @@ def subdivided_cube(stage, path: str, center=(0.0, 0.0, 0.0)) -> UsdGeom.Mesh:
         [Gf.Vec3f(x - 0.5, y - 0.5, z - 0.5) for x in (0, 1) for y in (0, 1) for z in (0, 1)]
     )
     mesh.CreateFaceVertexCountsAttr([4] * 6)
-    mesh.CreateFaceVertexIndicesAttr(
-        [0, 1, 3, 2, 2, 3, 7, 6, 6, 7, 5, 4, 4, 5, 1, 0, 1, 5, 7, 3, 4, 0, 2, 6]
-    )
+    mesh.CreateFaceVertexIndicesAttr(CUBE_FACE_INDICES)
     mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.catmullClark)
     mesh.AddTranslateOp().Set(Gf.Vec3d(*center))
     return mesh
@@ -260,3 +260,56 @@ def test_lights_added_hidden_and_removed_match_a_fresh_render(tmp_path):
     assert not np.array_equal(images[0], images[1]) and not np.array_equal(images[1], images[2])
     # The dome's texture was loaded once, whatever came and went around it.
     assert renderer.delegate.sync_statistics()["lightTextureLoads"] == stats["lightTextureLoads"]
+
+
+def grid_stage(count: int):
+    """``count`` distinct small cubes in a grid on z = 0, in the view of lit_quad_stage's camera."""
+    stage = lit_quad_stage()
+    stage.RemovePrim("/World/quad")
+    UsdGeom.Xform.Define(stage, "/World/Grid")
+    layer = stage.GetRootLayer()
+    side = int(count**0.5) + 1
+    points = [Gf.Vec3f(x, y, z) for x in (0, 0.06) for y in (0, 0.06) for z in (0, 0.06)]
+    with Sdf.ChangeBlock():
+        for i in range(count):
+            spec = Sdf.CreatePrimInLayer(layer, f"/World/Grid/c{i}")
+            spec.specifier, spec.typeName = Sdf.SpecifierDef, "Mesh"
+            values = {
+                "points": (Sdf.ValueTypeNames.Point3fArray, points),
+                "faceVertexCounts": (Sdf.ValueTypeNames.IntArray, [4] * 6),
+                "faceVertexIndices": (Sdf.ValueTypeNames.IntArray, CUBE_FACE_INDICES),
+                "subdivisionScheme": (Sdf.ValueTypeNames.Token, "none"),
+                "xformOp:translate": (
+                    Sdf.ValueTypeNames.Double3,
+                    Gf.Vec3d(0.1 * (i % side) - 1.8, 0.1 * (i // side) - 1.8, 0),
+                ),
+                "xformOpOrder": (Sdf.ValueTypeNames.TokenArray, ["xformOp:translate"]),
+            }
+            for name, (type_name, value) in values.items():
+                Sdf.AttributeSpec(spec, name, type_name).default = value
+    return stage
+
+
+def test_moving_a_mesh_among_thousands_rebuilds_no_top_level_bvh():
+    """Moving meshes of a large stage between small renders builds a BVH of the moved meshes
+    alone (the scene's overlay; docs/architecture.md); a render of many samples folds them into
+    the top level. Every image equals a fresh render of the edited stage."""
+    stage = grid_stage(1200)
+    renderer = penumbra.Renderer(stage)
+    small = dict(camera="/cam", width=24, samples=2)  # 1,152 samples: the overlay stays
+    before_image = renderer.render(**small)
+    built = renderer.delegate.sync_statistics()["topLevelBvhPrimitives"]
+    for path, offset in (("/World/Grid/c40", (0.03, 0.02, 0.1)), ("/World/Grid/c700", (0, 0, 0.3))):
+        translate = stage.GetPrimAtPath(path).GetAttribute("xformOp:translate")
+        translate.Set(translate.Get() + Gf.Vec3d(*offset))
+    edited = renderer.render(**small)
+    assert renderer.delegate.sync_statistics()["topLevelBvhPrimitives"] - built == 2
+    assert not np.array_equal(edited["color"], before_image["color"])  # the edit shows
+    fresh = penumbra.Renderer(stage).render(**small)
+    np.testing.assert_array_equal(edited["color"], fresh["color"])
+
+    large = dict(camera="/cam", width=96, samples=4)  # 36,864 samples: folded
+    folded = renderer.render(**large)
+    assert renderer.delegate.sync_statistics()["topLevelBvhPrimitives"] - built > 1200
+    fresh = penumbra.Renderer(stage).render(**large)
+    np.testing.assert_array_equal(folded["color"], fresh["color"])

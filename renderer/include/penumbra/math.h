@@ -82,6 +82,13 @@ inline float maxComponent(const Vec3f& a) {
 inline float maxAbsComponent(const Vec3f& a) {
   return std::max(std::fabs(a.x), std::max(std::fabs(a.y), std::fabs(a.z)));
 }
+/// Per-component minimum and maximum (as std::min and std::max order their arguments).
+inline Vec3f componentMin(const Vec3f& a, const Vec3f& b) {
+  return {std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)};
+}
+inline Vec3f componentMax(const Vec3f& a, const Vec3f& b) {
+  return {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)};
+}
 inline bool isBlack(const Vec3f& a) {
   return a.x == 0 && a.y == 0 && a.z == 0;
 }

@@ -95,6 +95,11 @@ class Scene {
   /// Seconds spent building acceleration structures so far: meshes' BVHs, the top-level BVH,
   /// the light tree and the lights' BVH.
   double bvhBuildSeconds() const { return bvhBuildSeconds_; }
+  /// Instances in the top-level BVHs (the scene's and its overlay's) that commit() has built so
+  /// far: what edits that place, show or hide meshes have cost to build.
+  uint64_t topLevelBvhPrimitives() const { return topLevelBvhPrimitives_; }
+  /// How many meshes are placed by the overlay (see commit()).
+  size_t overlaidPlacements() const { return overlaid_; }
   /// Drops the mesh's geometry (it stays registered but renders nothing).
   void clearMeshGeometry(MeshId id);
   /// Places the mesh; an animated transform gives Embree multi-segment instance motion.
@@ -174,7 +179,26 @@ class Scene {
 
   /// Rebuilds the top-level BVH, and the light sampler and the lights' BVH if lights changed;
   /// call after edits and before tracing.
+  ///
+  /// Moving, showing or hiding one mesh would rebuild a top-level BVH over every placement.
+  /// Once the scene has been built with kOverlayThreshold placements or more, such an edit of
+  /// a mesh's own placement (its BVH unchanged) goes to an overlay instead: a second, small
+  /// top-level BVH of the meshes edited since, which rays trace after the scene's, whose stale
+  /// instances of them they skip (an intersect-context filter). Up to kMaxOverlaid meshes wait
+  /// there; the overlay is folded into the scene's BVH when that is rebuilt anyway, or when a
+  /// render takes enough samples to pay for the rebuild (prepareForSamples). Hits are those of
+  /// a scene built afresh, but for surfaces at exactly the same distance.
   void commit();
+  /// Tells the scene how many camera samples (pixels × samples per pixel) the next render
+  /// takes: enough of them fold the overlay into the scene's BVH, which rays trace faster than
+  /// the two. Returns whether it did (commit() is then due).
+  bool prepareForSamples(uint64_t cameraSamples);
+  /// Instances in the top-level BVH from which an edit goes to the overlay (a rebuild of about
+  /// 0.4 ms), and how many meshes the overlay holds at most.
+  static constexpr size_t kOverlayThreshold = 1024;
+  static constexpr size_t kMaxOverlaid = 64;
+  /// Camera samples per instance of the top-level BVH from which prepareForSamples folds.
+  static constexpr uint64_t kFoldingSamplesPerInstance = 16;
   /// True when a material disperses light (abbeNumber > 0 on a translucent material): paths
   /// are then traced spectrally (set by commit()).
   bool spectral() const { return spectral_; }
@@ -192,14 +216,24 @@ class Scene {
 
  private:
   struct InstancerRecord;
-  /// One Embree instance geometry: a placement of a mesh's BVH.
+  /// One Embree instance geometry in top_: a placement of a mesh's BVH.
   struct Placement {
     RTCGeometry geometry = nullptr;
     unsigned geomId = 0;
+    RTCScene placed = nullptr;      // the mesh BVH `geometry` places, as committed
+    RTCGeometry overlay = nullptr;  // set: rays see this instance in overlay_, not `geometry`
+    unsigned overlayGeomId = 0;
+    bool enabled = false;
     MeshId mesh = 0;
     MotionTransform objectToWorld;
     const InstancerRecord* instancer = nullptr;  // for copies: whose, and which copy
     uint32_t copy = 0;
+  };
+  /// An axis-aligned box; empty (lower > upper) by default.
+  struct Box {
+    Vec3f lower{kInfinity, kInfinity, kInfinity};
+    Vec3f upper{-kInfinity, -kInfinity, -kInfinity};
+    void extend(const Box& other);
   };
   struct MeshRecord {
     RTCScene bvh = nullptr;
@@ -212,6 +246,8 @@ class Scene {
     PassVisibility pass;
     std::unique_ptr<Placement> own;
     std::vector<InstancerId> instancers;  // those placing copies of this mesh
+    Box objectBounds;                     // of its BVH
+    Box ownBounds;                        // in the world, where its own placement shows it
   };
   struct InstancerRecord {
     MeshId prototype = 0;
@@ -219,6 +255,7 @@ class Scene {
     PassVisibility pass;
     std::vector<std::unique_ptr<Placement>> copies;
     std::vector<Primvar> primvars;  // one value per copy
+    Box bounds;                     // in the world, of the copies shown
   };
 
   /// rtcIntersect1 through the top-level BVH, with the hit filters' context.
@@ -227,8 +264,32 @@ class Scene {
   InstancerRecord& instancer(InstancerId id);
   std::unique_ptr<Placement> newPlacement(MeshId mesh);
   void releasePlacement(std::unique_ptr<Placement>& placement);
-  /// Pushes a placement's BVH, transform, enabled state and ray mask to Embree.
+  /// Pushes a placement's BVH, transform, enabled state and ray mask to Embree: to its
+  /// instance in the overlay when it may go there (see commit()), else to top_.
   void updatePlacement(Placement& placement, bool enabled);
+  /// Sets `geometry` to place `placement` as it is now.
+  void placeInstance(RTCGeometry geometry, const Placement& placement) const;
+  /// Whether an update of `placement` may go to the overlay rather than rebuild top_.
+  bool mayOverlay(const Placement& placement) const;
+  /// Moves every overlaid placement back into top_ (rebuilt at the next commit()).
+  void foldOverlay();
+  /// Drops `placement`'s instance from the overlay (its instance in top_ is then stale until
+  /// updated).
+  void removeFromOverlay(Placement& placement);
+  /// Where `placement` shows its mesh (empty when disabled).
+  Box worldBounds(const Placement& placement) const;
+  /// Re-commits a mesh's BVH after its hit filters changed; Embree then wants the instances
+  /// placing it committed again (updateAllPlacements), and the top-level BVH rebuilt.
+  void recommitMeshBvh(MeshRecord& mesh);
+  /// What the hit filters learn of a ray (scene.cpp).
+  struct TraceContext;
+  /// The overlay's pass of trace(), after top_'s; `context` as top_'s.
+  void traceOverlay(TraceContext& context, RTCRayHit& rayHit) const;
+  /// Whether the ray's segment may meet an instance in the overlay (its bounds).
+  bool mayHitOverlay(const RTCRay& ray) const;
+  /// Intersect-context filter of top_ while the overlay holds placements: skips their stale
+  /// instances there.
+  static void skipOverlaid(const RTCFilterFunctionNArguments* args);
   /// The pass visibility of a placement's owner: its instancer's, or its mesh's.
   const PassVisibility& passOf(const Placement& placement) const;
   /// Whether copies of a mesh render: it has geometry and its material does not cut it out.
@@ -236,13 +297,16 @@ class Scene {
   /// The mesh's material, or null.
   const Material* materialOf(const MeshRecord& mesh) const;
   /// Sets the triangles' hit filters: back-face culling for single-sided meshes, cut-outs where
-  /// opacity is textured and thresholded.
-  void updateHitFilters(MeshRecord& mesh);
+  /// opacity is textured and thresholded. Returns whether they changed (the mesh's placements
+  /// are then to be updated).
+  bool updateHitFilters(MeshRecord& mesh);
   /// Points `point` at the per-copy primvars of the placement `geomId`, if it is such a copy.
   void attachInstancePrimvars(unsigned geomId, SurfacePoint* point) const;
   /// Embree hit filter (any hit, intersection and occlusion rays).
   static void filterHits(const RTCFilterFunctionNArguments* args);
   void updateAllPlacements(MeshId id);
+  /// Updates an instancer's copies (and their bounds).
+  void updateCopies(InstancerRecord& copies, bool shown);
   void visitLightHits(const Ray& ray, float tMax, LightHitCallback callback,
                       const void* visitor) const;
   /// Rebuilds the BVH of the area lights (lightScene_) from lights_.
@@ -260,7 +324,16 @@ class Scene {
   RTCScene top_;
   std::vector<std::unique_ptr<MeshRecord>> meshes_;           // by MeshId
   std::vector<std::unique_ptr<InstancerRecord>> instancers_;  // by InstancerId
-  std::vector<const Placement*> placements_;                  // by Embree geomID
+  std::vector<const Placement*> placements_;                  // by Embree geomID in top_
+  RTCScene overlay_ = nullptr;        // instances of the overlaid placements
+  std::vector<uint32_t> overlayIds_;  // top_ geomID of each overlay_ geomID's placement
+  size_t overlaid_ = 0;
+  Box overlayBounds_;
+  bool overlayChanged_ = false;  // since the last commit()
+  bool topChanged_ = true;       // top_ changed since the last commit()
+  bool built_ = false;           // commit() has run
+  size_t topGeometries_ = 0;     // attached to top_
+  uint64_t topLevelBvhPrimitives_ = 0;
   std::vector<Material> materials_;
   std::unordered_map<uint64_t, std::string> primvarNames_;  // by key, every name registered
   std::shared_ptr<TextureSystem> textures_;

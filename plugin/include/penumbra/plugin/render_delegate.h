@@ -93,8 +93,10 @@ class RenderDelegate {
   /// dirty prim syncs itself from its dirty bits, given a SyncContext). `view`: the camera and
   /// width of the pass asking, which become the dicing context of the first sync when no dicing
   /// camera is set. Returns true if anything a render depends on changed (scene contents or any
-  /// camera), so that passes restart accumulation.
-  bool sync(const DicingContext& view);
+  /// camera), so that passes restart accumulation. `cameraSamples`: how many the pass is about
+  /// to take (pixels × samples per pixel), which decides whether placements edited since the
+  /// last full build stay in the scene's overlay (Scene::prepareForSamples).
+  bool sync(const DicingContext& view, uint64_t cameraSamples = UINT64_MAX);
   /// Bytes the next sync will allocate to build the dirty meshes and instancers (an estimate
   /// from their counts, penumbra::estimatedBuildBytes), to be checked against a memory budget
   /// before it runs.
@@ -104,11 +106,13 @@ class RenderDelegate {
   /// What syncs have cost so far: meshes triangulated or diced, of which subdivision
   /// surfaces diced, and mesh BVHs built (a mesh whose triangles did not change keeps its BVH);
   /// renderer materials built and the textures they opened; renderer lights built (mesh lights
-  /// too) and light textures loaded.
+  /// too) and light textures loaded; instances in the top-level BVHs built
+  /// (Scene::topLevelBvhPrimitives).
   struct SyncStatistics {
     uint64_t meshGeometrySyncs = 0;
     uint64_t subdivisionDicings = 0;
     uint64_t meshBvhBuilds = 0;
+    uint64_t topLevelBvhPrimitives = 0;
     double tessellationSeconds = 0;  // triangulating and dicing meshes
     double bvhBuildSeconds = 0;      // meshes' BVHs, the top-level BVH and the lights'
     uint64_t materialBuilds = 0;

@@ -1,0 +1,232 @@
+// The scene's overlay (Scene::commit): meshes moved, shown or hidden after the scene was built
+// wait in a small BVH of their own instead of rebuilding the top level, and rays meet exactly
+// what they meet in a scene built afresh in the edited state.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "penumbra/mesh.h"
+#include "penumbra/scene.h"
+#include "transforms.h"
+
+using namespace penumbra;
+using penumbra::test::translation;
+
+namespace {
+
+constexpr size_t kMeshes = Scene::kOverlayThreshold + 76;
+constexpr int kColumns = 34;
+
+/// A box of side `size` with its lower corner at the origin; single-sided or not.
+TriangleMesh box(float size, bool doubleSided) {
+  MeshData data;
+  for (int corner = 0; corner < 8; ++corner)
+    data.points.push_back({corner & 4 ? size : 0, corner & 2 ? size : 0, corner & 1 ? size : 0});
+  data.faceVertexCounts.assign(6, 4);
+  data.faceVertexIndices = {0, 1, 3, 2, 2, 3, 7, 6, 6, 7, 5, 4, 4, 5, 1, 0, 1, 5, 7, 3, 4, 0, 2, 6};
+  data.doubleSided = doubleSided;
+  return triangulate(data);
+}
+
+/// What the test scenes hold: where each mesh is and whether it shows, and an instancer's copies
+/// of mesh 3 in a row in front of the grid.
+struct Layout {
+  std::vector<Transform> placements;
+  std::vector<bool> visible;
+
+  Layout() {
+    for (size_t i = 0; i < kMeshes; ++i) {
+      placements.push_back(translation(double(i % kColumns), 0, double(i / kColumns)));
+      visible.push_back(true);
+    }
+    placements.back() = translation(60, 0, 5);  // far out: it decides the scene's extent
+  }
+};
+
+std::vector<MotionTransform> copiesOfMesh3() {
+  std::vector<MotionTransform> copies;
+  for (int k = 0; k < 5; ++k) copies.emplace_back(translation(3.0 * k, 0, -3));
+  return copies;
+}
+
+/// Builds `layout` into `scene` and commits it.
+void build(Scene& scene, const Layout& layout) {
+  for (size_t i = 0; i < kMeshes; ++i) {
+    const Scene::MeshId id = scene.addMesh();
+    scene.setMeshGeometry(id, box(0.5f + 0.04f * float(i % 7), i % 3 == 0));
+    scene.setMeshInstance(id, layout.placements[i], Scene::kNoMaterial, layout.visible[i]);
+  }
+  scene.setInstances(scene.addInstancer(), 3, copiesOfMesh3(), true);
+  scene.commit();
+}
+
+/// Rays straight down and slanted over the whole grid, the copies and the far mesh.
+std::vector<Ray> probes() {
+  std::vector<Ray> rays;
+  for (float x = -1.5f; x < 62; x += 0.37f)
+    for (float z = -4.5f; z < 36; z += 0.41f)
+      for (const Vec3f& direction : {Vec3f{0, -1, 0}, normalize(Vec3f{0.4f, -1, 0.25f})}) {
+        Ray ray;
+        ray.origin = {x, 4, z};
+        ray.direction = direction;
+        rays.push_back(ray);
+      }
+  return rays;
+}
+
+/// Counts the rays whose hits (camera and secondary), hit distances or occlusion differ.
+int differences(const Scene& a, const Scene& b) {
+  int different = 0;
+  for (const Ray& ray : probes()) {
+    for (const RayKind kind : {RayKind::Camera, RayKind::Secondary}) {
+      const auto hitA = a.intersect(ray, kind), hitB = b.intersect(ray, kind);
+      if (bool(hitA) != bool(hitB) ||
+          (hitA && (hitA->distance != hitB->distance || hitA->meshId != hitB->meshId ||
+                    hitA->instance != hitB->instance || hitA->triangle != hitB->triangle ||
+                    hitA->u != hitB->u || hitA->v != hitB->v)) ||
+          a.hitDistance(ray, kind) != b.hitDistance(ray, kind))
+        ++different;
+    }
+    if (a.occluded(ray) != b.occluded(ray)) ++different;
+  }
+  return different;
+}
+
+/// Hits that would differ if an edit had not reached the rays at all.
+int hitsOnMesh(const Scene& scene, Scene::MeshId mesh) {
+  int hits = 0;
+  for (const Ray& ray : probes())
+    if (const auto hit = scene.intersect(ray, RayKind::Camera); hit && hit->meshId == mesh) ++hits;
+  return hits;
+}
+
+}  // namespace
+
+TEST(Overlay, EditedMeshesAreMetAsInASceneBuiltAfresh) {
+  Device device;
+  Layout layout;
+  Scene edited(device);
+  build(edited, layout);
+  const uint64_t builtBefore = edited.topLevelBvhPrimitives();
+  const int farHits = hitsOnMesh(edited, kMeshes - 1);
+  ASSERT_GT(farHits, 0);
+
+  // Moved up, moved sideways onto another mesh's row, hidden, the far one moved in (the
+  // scene's extent shrinks), and mesh 3, which an instancer copies, moved.
+  layout.placements[5] = translation(5, 1.5, 0);
+  layout.placements[40] = translation(6.3, 0.2, 1.1);
+  layout.visible[77] = false;
+  layout.placements[kMeshes - 1] = translation(10, 2, 10);
+  layout.placements[3] = translation(3, 0.7, 0.2);
+  for (const size_t i : {size_t(5), size_t(40), size_t(77), kMeshes - 1, size_t(3)})
+    edited.setMeshInstance(Scene::MeshId(i), layout.placements[i], Scene::kNoMaterial,
+                           layout.visible[i]);
+  edited.commit();
+  EXPECT_EQ(edited.overlaidPlacements(), 5u);
+  // Only the overlay's five instances were built, not a top level over every mesh.
+  EXPECT_EQ(edited.topLevelBvhPrimitives() - builtBefore, 5u);
+
+  Scene fresh(device);
+  build(fresh, layout);
+  EXPECT_EQ(differences(edited, fresh), 0);
+  EXPECT_EQ(edited.rayEpsilon({0.01f, 0, 0.01f}), fresh.rayEpsilon({0.01f, 0, 0.01f}));
+  EXPECT_EQ(hitsOnMesh(edited, 77), 0);
+  EXPECT_GT(hitsOnMesh(edited, 5), 0);
+
+  // Moved again: still the overlay alone.
+  layout.placements[5] = translation(5, 2.5, 0.3);
+  edited.setMeshInstance(5, layout.placements[5], Scene::kNoMaterial, true);
+  edited.commit();
+  EXPECT_EQ(edited.overlaidPlacements(), 5u);
+  Scene freshAgain(device);
+  build(freshAgain, layout);
+  EXPECT_EQ(differences(edited, freshAgain), 0);
+}
+
+TEST(Overlay, FoldsIntoTheTopLevelWhenThatIsRebuiltOrRaysAreMany) {
+  Device device;
+  Layout layout;
+  Scene scene(device);
+  build(scene, layout);
+  layout.placements[12] = translation(12, 1, 0);
+  scene.setMeshInstance(12, layout.placements[12], Scene::kNoMaterial, true);
+  scene.commit();
+  ASSERT_EQ(scene.overlaidPlacements(), 1u);
+
+  // A few samples keep the overlay; many fold it (one rebuild of the top level).
+  EXPECT_FALSE(scene.prepareForSamples(100));
+  EXPECT_TRUE(scene.prepareForSamples(100'000'000));
+  scene.commit();
+  EXPECT_EQ(scene.overlaidPlacements(), 0u);
+  Scene fresh(device);
+  build(fresh, layout);
+  EXPECT_EQ(differences(scene, fresh), 0);
+
+  // An overlaid mesh whose sidedness changes has its BVH committed again, which Embree wants its
+  // instances and the top level to follow: the overlay is folded into that rebuild.
+  layout.placements[20] = translation(20, 1, 0);
+  scene.setMeshInstance(20, layout.placements[20], Scene::kNoMaterial, true);
+  scene.commit();
+  ASSERT_EQ(scene.overlaidPlacements(), 1u);
+  scene.setMeshGeometry(22, box(0.5f + 0.04f * float(22 % 7), true));  // was single-sided
+  scene.commit();
+  EXPECT_EQ(scene.overlaidPlacements(), 0u);
+  Scene sided(device);
+  build(sided, layout);
+  sided.setMeshGeometry(22, box(0.5f + 0.04f * float(22 % 7), true));
+  sided.commit();
+  EXPECT_EQ(differences(scene, sided), 0);
+}
+
+TEST(Overlay, HoldsABoundedNumberOfMeshesAndForgetsRemovedOnes) {
+  Device device;
+  Layout layout;
+  Scene scene(device);
+  build(scene, layout);
+  for (size_t i = 100; i < 100 + Scene::kMaxOverlaid; ++i) {
+    layout.placements[i] = translation(double(i % kColumns), 0.3, double(i / kColumns));
+    scene.setMeshInstance(Scene::MeshId(i), layout.placements[i], Scene::kNoMaterial, true);
+  }
+  scene.commit();
+  EXPECT_EQ(scene.overlaidPlacements(), Scene::kMaxOverlaid);
+  // One more moves top_'s own instance, and the rebuild takes the others back.
+  const size_t last = 100 + Scene::kMaxOverlaid;
+  layout.placements[last] = translation(double(last % kColumns), 0.3, double(last / kColumns));
+  scene.setMeshInstance(Scene::MeshId(last), layout.placements[last], Scene::kNoMaterial, true);
+  scene.commit();
+  EXPECT_EQ(scene.overlaidPlacements(), 0u);
+  Scene fresh(device);
+  build(fresh, layout);
+  EXPECT_EQ(differences(scene, fresh), 0);
+
+  // A mesh removed while overlaid leaves nothing behind.
+  layout.placements[7] = translation(7, 1, 0);
+  scene.setMeshInstance(7, layout.placements[7], Scene::kNoMaterial, true);
+  scene.commit();
+  ASSERT_EQ(scene.overlaidPlacements(), 1u);
+  scene.removeMesh(7);
+  scene.commit();
+  EXPECT_EQ(scene.overlaidPlacements(), 0u);
+  EXPECT_EQ(hitsOnMesh(scene, 7), 0);
+  layout.visible[7] = false;  // the fresh scene keeps ids aligned with a hidden mesh 7
+  Scene withoutSeven(device);
+  build(withoutSeven, layout);
+  EXPECT_EQ(differences(scene, withoutSeven), 0);
+}
+
+TEST(Overlay, SmallScenesRebuildTheirTopLevel) {
+  Device device;
+  Scene scene(device);
+  for (int i = 0; i < 10; ++i) {
+    const Scene::MeshId id = scene.addMesh();
+    scene.setMeshGeometry(id, box(0.5f, false));
+    scene.setMeshInstance(id, translation(i, 0, 0), Scene::kNoMaterial, true);
+  }
+  scene.commit();
+  const uint64_t before = scene.topLevelBvhPrimitives();
+  scene.setMeshInstance(4, translation(4, 1, 0), Scene::kNoMaterial, true);
+  scene.commit();
+  EXPECT_EQ(scene.overlaidPlacements(), 0u);
+  EXPECT_EQ(scene.topLevelBvhPrimitives() - before, 10u);
+}
