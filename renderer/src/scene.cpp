@@ -133,7 +133,10 @@ std::unique_ptr<Scene::Placement> Scene::newPlacement(MeshId mesh) {
   placement->geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
   placement->geomId = rtcAttachGeometry(top_, placement->geometry);
   throwOnEmbreeError(device_, "add an instance");
-  if (placement->geomId >= placements_.size()) placements_.resize(placement->geomId + 1, nullptr);
+  if (placement->geomId >= placements_.size()) {
+    placements_.resize(placement->geomId + 1, nullptr);
+    staleInTop_.resize(placement->geomId + 1, 0);
+  }
   placements_[placement->geomId] = placement.get();
   ++topGeometries_;
   topChanged_ = true;
@@ -142,7 +145,8 @@ std::unique_ptr<Scene::Placement> Scene::newPlacement(MeshId mesh) {
 
 void Scene::releasePlacement(std::unique_ptr<Placement>& placement) {
   if (!placement) return;
-  if (placement->overlay) removeFromOverlay(*placement);
+  if (MeshRecord& mesh = *meshes_[placement->mesh]; !placement->instancer && mesh.overlay)
+    removeFromOverlay(mesh);
   rtcDetachGeometry(top_, placement->geomId);
   --topGeometries_;
   topChanged_ = true;
@@ -151,52 +155,57 @@ void Scene::releasePlacement(std::unique_ptr<Placement>& placement) {
   placement.reset();
 }
 
-bool Scene::mayOverlay(const Placement& placement) const {
-  const RTCScene bvh = meshes_[placement.mesh]->bvh;
-  return built_ && !placement.instancer && topGeometries_ >= kOverlayThreshold && bvh &&
-         bvh == placement.placed && (placement.overlay || overlaid_ < kMaxOverlaid);
+bool Scene::mayOverlay(const MeshRecord& mesh) const {
+  return built_ && topGeometries_ >= kOverlayThreshold && mesh.bvh && mesh.bvh == mesh.placedBvh &&
+         (mesh.overlay || overlaid_ < kMaxOverlaid);
 }
 
 void Scene::updatePlacement(Placement& placement, bool enabled) {
   MeshRecord& mesh = *meshes_[placement.mesh];
-  placement.enabled = enabled && mesh.bvh;
-  if (!placement.instancer) mesh.ownBounds = worldBounds(placement);
-  if (mayOverlay(placement)) {
-    if (!placement.overlay) {
+  enabled = enabled && mesh.bvh;
+  if (placement.instancer) {
+    placeInstance(placement.geometry, placement, enabled);
+    topChanged_ = true;
+    return;
+  }
+  mesh.ownEnabled = enabled;
+  mesh.ownBounds = worldBounds(placement, enabled);
+  if (mayOverlay(mesh)) {
+    if (!mesh.overlay) {
       if (!overlay_) overlay_ = rtcNewScene(device_);
-      placement.overlay = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
-      placement.overlayGeomId = rtcAttachGeometry(overlay_, placement.overlay);
+      mesh.overlay = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
+      mesh.overlayGeomId = rtcAttachGeometry(overlay_, mesh.overlay);
       throwOnEmbreeError(device_, "add an instance to the overlay");
-      if (placement.overlayGeomId >= overlayIds_.size())
-        overlayIds_.resize(placement.overlayGeomId + 1);
-      overlayIds_[placement.overlayGeomId] = placement.geomId;
+      if (mesh.overlayGeomId >= overlayIds_.size()) overlayIds_.resize(mesh.overlayGeomId + 1);
+      overlayIds_[mesh.overlayGeomId] = placement.geomId;
+      staleInTop_[placement.geomId] = 1;
       ++overlaid_;
     }
-    placeInstance(placement.overlay, placement);
+    placeInstance(mesh.overlay, placement, enabled);
     overlayChanged_ = true;
     return;
   }
-  if (placement.overlay) removeFromOverlay(placement);
-  placeInstance(placement.geometry, placement);
-  placement.placed = mesh.bvh;
+  if (mesh.overlay) removeFromOverlay(mesh);
+  placeInstance(placement.geometry, placement, enabled);
+  mesh.placedBvh = mesh.bvh;
   topChanged_ = true;
 }
 
-void Scene::removeFromOverlay(Placement& placement) {
-  rtcDetachGeometry(overlay_, placement.overlayGeomId);
-  rtcReleaseGeometry(placement.overlay);
-  placement.overlay = nullptr;
+void Scene::removeFromOverlay(MeshRecord& mesh) {
+  rtcDetachGeometry(overlay_, mesh.overlayGeomId);
+  rtcReleaseGeometry(mesh.overlay);
+  mesh.overlay = nullptr;
+  staleInTop_[mesh.own->geomId] = 0;
   --overlaid_;
   overlayChanged_ = true;
 }
 
 void Scene::foldOverlay() {
   for (auto& mesh : meshes_) {
-    if (!mesh || !mesh->own || !mesh->own->overlay) continue;
-    Placement& placement = *mesh->own;
-    removeFromOverlay(placement);
-    placeInstance(placement.geometry, placement);
-    placement.placed = mesh->bvh;
+    if (!mesh || !mesh->overlay) continue;
+    removeFromOverlay(*mesh);
+    placeInstance(mesh->own->geometry, *mesh->own, mesh->ownEnabled);
+    mesh->placedBvh = mesh->bvh;
     topChanged_ = true;
   }
 }
@@ -210,9 +219,9 @@ bool Scene::prepareForSamples(uint64_t cameraSamples) {
   return true;
 }
 
-Scene::Box Scene::worldBounds(const Placement& placement) const {
+Scene::Box Scene::worldBounds(const Placement& placement, bool enabled) const {
   Box box;
-  if (!placement.enabled) return box;
+  if (!enabled) return box;
   const Box& object = meshes_[placement.mesh]->objectBounds;
   for (const Transform& step : placement.objectToWorld.steps())
     for (int corner = 0; corner < 8; ++corner) {
@@ -224,7 +233,7 @@ Scene::Box Scene::worldBounds(const Placement& placement) const {
   return box;
 }
 
-void Scene::placeInstance(RTCGeometry geometry, const Placement& placement) const {
+void Scene::placeInstance(RTCGeometry geometry, const Placement& placement, bool enabled) const {
   const MeshRecord& mesh = *meshes_[placement.mesh];
   if (mesh.bvh) rtcSetGeometryInstancedScene(geometry, mesh.bvh);
   const std::vector<Transform>& steps = placement.objectToWorld.steps();
@@ -260,7 +269,7 @@ void Scene::placeInstance(RTCGeometry geometry, const Placement& placement) cons
     }
   }
   rtcSetGeometryMask(geometry, passOf(placement).camera ? kCameraRays | kOtherRays : kOtherRays);
-  if (placement.enabled)
+  if (enabled)
     rtcEnableGeometry(geometry);
   else
     rtcDisableGeometry(geometry);
@@ -315,7 +324,7 @@ void Scene::recommitMeshBvh(MeshRecord& mesh) {
   throwOnEmbreeError(device_, "update a mesh's hit filters");
   // Its instances, then top_, are to be committed again (Embree's instancing rules), so its own
   // placement may not go to the overlay until it is.
-  if (mesh.own) mesh.own->placed = nullptr;
+  mesh.placedBvh = nullptr;
 }
 
 void Scene::filterHits(const RTCFilterFunctionNArguments* args) {
@@ -375,9 +384,10 @@ void Scene::updateAllPlacements(MeshId id) {
 
 void Scene::updateCopies(InstancerRecord& copies, bool shown) {
   copies.bounds = Box{};
+  const bool enabled = shown && meshes_[copies.prototype]->bvh;
   for (auto& copy : copies.copies) {
-    updatePlacement(*copy, shown);
-    copies.bounds.extend(worldBounds(*copy));
+    updatePlacement(*copy, enabled);
+    copies.bounds.extend(worldBounds(*copy, enabled));
   }
 }
 
@@ -737,7 +747,7 @@ void Scene::skipOverlaid(const RTCFilterFunctionNArguments* args) {
   const auto* context = reinterpret_cast<const TraceContext*>(args->context);
   for (unsigned i = 0; i < args->N; ++i)
     if (args->valid[i] == -1 &&
-        context->scene->placements_[RTCHitN_instID(args->hit, args->N, i, 0)]->overlay)
+        context->scene->staleInTop_[RTCHitN_instID(args->hit, args->N, i, 0)])
       args->valid[i] = 0;
 }
 

@@ -220,10 +220,6 @@ class Scene {
   struct Placement {
     RTCGeometry geometry = nullptr;
     unsigned geomId = 0;
-    RTCScene placed = nullptr;      // the mesh BVH `geometry` places, as committed
-    RTCGeometry overlay = nullptr;  // set: rays see this instance in overlay_, not `geometry`
-    unsigned overlayGeomId = 0;
-    bool enabled = false;
     MeshId mesh = 0;
     MotionTransform objectToWorld;
     const InstancerRecord* instancer = nullptr;  // for copies: whose, and which copy
@@ -247,7 +243,13 @@ class Scene {
     std::unique_ptr<Placement> own;
     std::vector<InstancerId> instancers;  // those placing copies of this mesh
     Box objectBounds;                     // of its BVH
-    Box ownBounds;                        // in the world, where its own placement shows it
+    // Its own placement: whether it shows, where (in the world), the BVH its instance in top_
+    // places as committed, and its instance in the overlay, if any (rays then see that one).
+    bool ownEnabled = false;
+    Box ownBounds;
+    RTCScene placedBvh = nullptr;
+    RTCGeometry overlay = nullptr;
+    unsigned overlayGeomId = 0;
   };
   struct InstancerRecord {
     MeshId prototype = 0;
@@ -264,20 +266,22 @@ class Scene {
   InstancerRecord& instancer(InstancerId id);
   std::unique_ptr<Placement> newPlacement(MeshId mesh);
   void releasePlacement(std::unique_ptr<Placement>& placement);
-  /// Pushes a placement's BVH, transform, enabled state and ray mask to Embree: to its
-  /// instance in the overlay when it may go there (see commit()), else to top_.
+  /// Pushes a placement's BVH, transform, enabled state and ray mask to Embree: for a mesh's
+  /// own placement, to its instance in the overlay when it may go there (see commit()), else
+  /// to top_.
   void updatePlacement(Placement& placement, bool enabled);
   /// Sets `geometry` to place `placement` as it is now.
-  void placeInstance(RTCGeometry geometry, const Placement& placement) const;
-  /// Whether an update of `placement` may go to the overlay rather than rebuild top_.
-  bool mayOverlay(const Placement& placement) const;
+  void placeInstance(RTCGeometry geometry, const Placement& placement, bool enabled) const;
+  /// Whether an update of the mesh's own placement may go to the overlay rather than rebuild
+  /// top_.
+  bool mayOverlay(const MeshRecord& mesh) const;
   /// Moves every overlaid placement back into top_ (rebuilt at the next commit()).
   void foldOverlay();
-  /// Drops `placement`'s instance from the overlay (its instance in top_ is then stale until
+  /// Drops the mesh's instance from the overlay (its instance in top_ is then stale until
   /// updated).
-  void removeFromOverlay(Placement& placement);
-  /// Where `placement` shows its mesh (empty when disabled).
-  Box worldBounds(const Placement& placement) const;
+  void removeFromOverlay(MeshRecord& mesh);
+  /// Where `placement` shows its mesh (empty when not enabled).
+  Box worldBounds(const Placement& placement, bool enabled) const;
   /// Re-commits a mesh's BVH after its hit filters changed; Embree then wants the instances
   /// placing it committed again (updateAllPlacements), and the top-level BVH rebuilt.
   void recommitMeshBvh(MeshRecord& mesh);
@@ -325,6 +329,7 @@ class Scene {
   std::vector<std::unique_ptr<MeshRecord>> meshes_;           // by MeshId
   std::vector<std::unique_ptr<InstancerRecord>> instancers_;  // by InstancerId
   std::vector<const Placement*> placements_;                  // by Embree geomID in top_
+  std::vector<uint8_t> staleInTop_;   // by Embree geomID in top_: overlaid (1) or not (0)
   RTCScene overlay_ = nullptr;        // instances of the overlaid placements
   std::vector<uint32_t> overlayIds_;  // top_ geomID of each overlay_ geomID's placement
   size_t overlaid_ = 0;
