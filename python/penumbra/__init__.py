@@ -10,10 +10,13 @@ image.write("out.exr")
 ```
 """
 
-from . import _core
-from .errors import PenumbraWarning, SceneError
-from .image import Image
-from .renderer import Renderer, render
+from . import _interrupts
+
+with _interrupts.deferred():  # USD's module loader would swallow a Ctrl-C (_interrupts.py)
+    from . import _core
+    from .errors import PenumbraWarning, SceneError
+    from .image import Image
+    from .renderer import Renderer, render
 
 __version__: str = _core.version()
 
