@@ -78,9 +78,25 @@ struct Scene::TraceContext {
   }
 };
 
-void Scene::Box::extend(const Box& other) {
-  lower = componentMin(lower, other.lower);
-  upper = componentMax(upper, other.upper);
+void Scene::BoxUnion::set(size_t index, const Box& box) {
+  if (index >= leaves_) {
+    size_t leaves = std::max<size_t>(leaves_, 1);
+    while (leaves <= index) leaves *= 2;
+    std::vector<Box> nodes(2 * leaves);
+    for (size_t i = 0; i < leaves_; ++i) nodes[leaves + i] = nodes_[leaves_ + i];
+    for (size_t k = leaves - 1; k >= 1; --k) {
+      nodes[k] = nodes[2 * k];
+      nodes[k].extend(nodes[2 * k + 1]);
+    }
+    leaves_ = leaves;
+    nodes_ = std::move(nodes);
+  }
+  size_t k = leaves_ + index;
+  nodes_[k] = box;
+  for (k /= 2; k >= 1; k /= 2) {
+    nodes_[k] = nodes_[2 * k];
+    nodes_[k].extend(nodes_[2 * k + 1]);
+  }
 }
 
 Device::Device() : device_(rtcNewDevice(nullptr)) {
@@ -169,7 +185,7 @@ void Scene::updatePlacement(Placement& placement, bool enabled) {
     return;
   }
   mesh.ownEnabled = enabled;
-  mesh.ownBounds = worldBounds(placement, enabled);
+  ownBounds_.set(placement.mesh, worldBounds(placement, enabled));
   if (mayOverlay(mesh)) {
     if (!mesh.overlay) {
       if (!overlay_) overlay_ = rtcNewScene(device_);
@@ -406,6 +422,7 @@ void Scene::removeMesh(MeshId id) {
   releasePlacement(mesh.own);
   if (mesh.bvh) rtcReleaseScene(mesh.bvh);
   meshes_[id].reset();
+  ownBounds_.set(id, Box{});
 }
 
 namespace {
@@ -656,9 +673,7 @@ void Scene::commit() {
   if (topChanged_ || overlayChanged_) {
     // From the placements' own boxes rather than from Embree's BVH, whose top_ still holds the
     // overlaid placements where they were: an edited scene and one built afresh agree.
-    Box world;
-    for (const auto& mesh : meshes_)
-      if (mesh) world.extend(mesh->ownBounds);
+    Box world = ownBounds_.all();
     for (const auto& copies : instancers_)
       if (copies) world.extend(copies->bounds);
     const Vec3f size = world.upper - world.lower;

@@ -229,7 +229,21 @@ class Scene {
   struct Box {
     Vec3f lower{kInfinity, kInfinity, kInfinity};
     Vec3f upper{-kInfinity, -kInfinity, -kInfinity};
-    void extend(const Box& other);
+    void extend(const Box& other) {
+      lower = componentMin(lower, other.lower);
+      upper = componentMax(upper, other.upper);
+    }
+  };
+  /// Boxes by index and their union, which a change of one box updates in O(log n): a tree of
+  /// unions over the boxes (a binary heap in one array).
+  class BoxUnion {
+   public:
+    void set(size_t index, const Box& box);
+    Box all() const { return nodes_.empty() ? Box{} : nodes_[1]; }
+
+   private:
+    size_t leaves_ = 0;       // a power of two: box i is node leaves_ + i
+    std::vector<Box> nodes_;  // node k unites nodes 2k and 2k + 1
   };
   struct MeshRecord {
     RTCScene bvh = nullptr;
@@ -243,10 +257,9 @@ class Scene {
     std::unique_ptr<Placement> own;
     std::vector<InstancerId> instancers;  // those placing copies of this mesh
     Box objectBounds;                     // of its BVH
-    // Its own placement: whether it shows, where (in the world), the BVH its instance in top_
+    // Its own placement: whether it shows, the BVH its instance in top_
     // places as committed, and its instance in the overlay, if any (rays then see that one).
     bool ownEnabled = false;
-    Box ownBounds;
     RTCScene placedBvh = nullptr;
     RTCGeometry overlay = nullptr;
     unsigned overlayGeomId = 0;
@@ -328,10 +341,11 @@ class Scene {
   RTCScene top_;
   std::vector<std::unique_ptr<MeshRecord>> meshes_;           // by MeshId
   std::vector<std::unique_ptr<InstancerRecord>> instancers_;  // by InstancerId
-  std::vector<const Placement*> placements_;                  // by Embree geomID in top_
-  std::vector<uint8_t> staleInTop_;   // by Embree geomID in top_: overlaid (1) or not (0)
-  RTCScene overlay_ = nullptr;        // instances of the overlaid placements
-  std::vector<uint32_t> overlayIds_;  // top_ geomID of each overlay_ geomID's placement
+  BoxUnion ownBounds_;  // by MeshId: where its own placement shows the mesh in the world
+  std::vector<const Placement*> placements_;  // by Embree geomID in top_
+  std::vector<uint8_t> staleInTop_;           // by Embree geomID in top_: overlaid (1) or not (0)
+  RTCScene overlay_ = nullptr;                // instances of the overlaid placements
+  std::vector<uint32_t> overlayIds_;          // top_ geomID of each overlay_ geomID's placement
   size_t overlaid_ = 0;
   Box overlayBounds_;
   bool overlayChanged_ = false;  // since the last commit()
