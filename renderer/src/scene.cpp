@@ -83,20 +83,33 @@ void Scene::BoxUnion::set(size_t index, const Box& box) {
     size_t leaves = std::max<size_t>(leaves_, 1);
     while (leaves <= index) leaves *= 2;
     std::vector<Box> nodes(2 * leaves);
-    for (size_t i = 0; i < leaves_; ++i) nodes[leaves + i] = nodes_[leaves_ + i];
-    for (size_t k = leaves - 1; k >= 1; --k) {
-      nodes[k] = nodes[2 * k];
-      nodes[k].extend(nodes[2 * k + 1]);
-    }
+    std::copy(nodes_.begin() + std::ptrdiff_t(leaves_), nodes_.end(),
+              nodes.begin() + std::ptrdiff_t(leaves));
     leaves_ = leaves;
     nodes_ = std::move(nodes);
+    uniteAll_ = true;
   }
-  size_t k = leaves_ + index;
-  nodes_[k] = box;
-  for (k /= 2; k >= 1; k /= 2) {
+  nodes_[leaves_ + index] = box;
+  if (uniteAll_) return;
+  changed_.push_back(leaves_ + index);
+  if (changed_.size() >= leaves_ / 8) uniteAll_ = true;  // as cheap to unite everything again
+}
+
+Scene::Box Scene::BoxUnion::all() {
+  if (nodes_.empty()) return Box{};
+  auto unite = [this](size_t k) {
     nodes_[k] = nodes_[2 * k];
     nodes_[k].extend(nodes_[2 * k + 1]);
+  };
+  if (uniteAll_) {
+    for (size_t k = leaves_ - 1; k >= 1; --k) unite(k);
+  } else {
+    for (size_t k : changed_)
+      for (k /= 2; k >= 1; k /= 2) unite(k);
   }
+  changed_.clear();
+  uniteAll_ = false;
+  return nodes_[1];
 }
 
 Device::Device() : device_(rtcNewDevice(nullptr)) {

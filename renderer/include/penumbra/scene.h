@@ -234,16 +234,18 @@ class Scene {
       upper = componentMax(upper, other.upper);
     }
   };
-  /// Boxes by index and their union, which a change of one box updates in O(log n): a tree of
-  /// unions over the boxes (a binary heap in one array).
+  /// Boxes by index and their union: a tree of unions over the boxes (a binary heap in one
+  /// array), brought up to date when the union is asked for, O(log n) a box changed since.
   class BoxUnion {
    public:
     void set(size_t index, const Box& box);
-    Box all() const { return nodes_.empty() ? Box{} : nodes_[1]; }
+    Box all();
 
    private:
-    size_t leaves_ = 0;       // a power of two: box i is node leaves_ + i
-    std::vector<Box> nodes_;  // node k unites nodes 2k and 2k + 1
+    size_t leaves_ = 0;            // a power of two: box i is node leaves_ + i
+    std::vector<Box> nodes_;       // node k unites nodes 2k and 2k + 1
+    std::vector<size_t> changed_;  // nodes of the boxes set since all()
+    bool uniteAll_ = false;        // instead: so many changed, or the tree grew
   };
   struct MeshRecord {
     RTCScene bvh = nullptr;
