@@ -28,6 +28,7 @@ import penumbra
 from penumbra import _core
 from penumbra.cli import main
 from penumbra.farm import Tile, band_rows, merge_tiles, tiles_per_frame
+from processes import default_sigint
 from stages import CORNELL
 
 ANIMATED = CORNELL.parent / "cornell_animated.usda"
@@ -196,6 +197,7 @@ def test_resume_after_an_interrupted_run_renders_only_what_is_missing(
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,
+        preexec_fn=default_sigint,
     )
     writes = (line for line in run.stdout if line.startswith("Wrote "))
     next(writes), next(writes)

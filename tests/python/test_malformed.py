@@ -14,6 +14,7 @@ import pytest
 
 from malformed_corpus import CASES, Case, write_case
 from penumbra import _interrupts
+from processes import default_sigint
 from penumbra.cli import main
 
 SMALL = ("-w", "64", "-spp", "4", "-q")
@@ -85,6 +86,7 @@ def test_signal_stops_a_billion_sample_render_within_a_second(
         [sys.executable, "-m", "penumbra.cli", str(stage), str(out), "-w", "64", "-spp", "1000000000"],
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=default_sigint,
     )
     try:
         time.sleep(3)  # the stage is open and the render pass running
@@ -105,15 +107,19 @@ def test_a_ctrl_c_while_usd_loads_is_raised_once_it_has_loaded() -> None:
     (penumbra/_interrupts.py): a Ctrl-C then was lost and the render ran on. Held, it is raised
     as the imports end, and Python's own handler is back."""
     swallowed = []
-    with pytest.raises(KeyboardInterrupt):
-        with _interrupts.deferred():
-            try:
-                os.kill(os.getpid(), signal.SIGINT)
-                time.sleep(0.05)  # the handler runs by now
-            except KeyboardInterrupt:  # as USD's loader does
-                swallowed.append(True)
-    assert not swallowed
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # as in the foreground
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with _interrupts.deferred():
+                try:
+                    os.kill(os.getpid(), signal.SIGINT)
+                    time.sleep(0.05)  # the handler runs by now
+                except KeyboardInterrupt:  # as USD's loader does
+                    swallowed.append(True)
+        assert not swallowed
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def test_a_programs_own_ctrl_c_handler_is_left_alone() -> None:
