@@ -34,11 +34,13 @@ TriangleMesh box(float size, bool doubleSided) {
 struct Layout {
   std::vector<Transform> placements;
   std::vector<bool> visible;
+  std::vector<bool> doubleSided;
 
   Layout() {
     for (size_t i = 0; i < kMeshes; ++i) {
       placements.push_back(translation(double(i % kColumns), 0, double(i / kColumns)));
       visible.push_back(true);
+      doubleSided.push_back(i % 3 == 0);
     }
     placements.back() = translation(60, 0, 5);  // far out: it decides the scene's extent
   }
@@ -54,7 +56,7 @@ std::vector<MotionTransform> copiesOfMesh3() {
 void build(Scene& scene, const Layout& layout) {
   for (size_t i = 0; i < kMeshes; ++i) {
     const Scene::MeshId id = scene.addMesh();
-    scene.setMeshGeometry(id, box(0.5f + 0.04f * float(i % 7), i % 3 == 0));
+    scene.setMeshGeometry(id, box(0.5f + 0.04f * float(i % 7), layout.doubleSided[i]));
     scene.setMeshInstance(id, layout.placements[i], Scene::kNoMaterial, layout.visible[i]);
   }
   scene.setInstances(scene.addInstancer(), 3, copiesOfMesh3(), true);
@@ -93,6 +95,19 @@ int differences(const Scene& a, const Scene& b) {
   return different;
 }
 
+/// differences() from a scene built afresh from `layout`.
+int differencesFromFresh(const Device& device, const Scene& scene, const Layout& layout) {
+  Scene fresh(device);
+  build(fresh, layout);
+  return differences(scene, fresh);
+}
+
+/// Moves mesh `i` to `placement`, in the scene and in the layout it is to match.
+void move(Scene& scene, Layout& layout, size_t i, const Transform& placement) {
+  layout.placements[i] = placement;
+  scene.setMeshInstance(Scene::MeshId(i), placement, Scene::kNoMaterial, layout.visible[i]);
+}
+
 /// Hits that would differ if an edit had not reached the rays at all.
 int hitsOnMesh(const Scene& scene, Scene::MeshId mesh) {
   int hits = 0;
@@ -101,16 +116,29 @@ int hitsOnMesh(const Scene& scene, Scene::MeshId mesh) {
   return hits;
 }
 
-}  // namespace
+/// A scene built from the default layout.
+class Overlay : public ::testing::Test {
+ protected:
+  void SetUp() override { build(scene, layout); }
+  /// Commits, and expects the overlay folded and the rays to meet what they meet in the layout
+  /// built afresh.
+  void expectFoldedAsFresh() {
+    scene.commit();
+    EXPECT_EQ(scene.overlaidPlacements(), 0u);
+    EXPECT_EQ(differencesFromFresh(device, scene, layout), 0);
+  }
 
-TEST(Overlay, EditedMeshesAreMetAsInASceneBuiltAfresh) {
   Device device;
   Layout layout;
-  Scene edited(device);
-  build(edited, layout);
+  Scene scene{device};
+};
+
+}  // namespace
+
+TEST_F(Overlay, EditedMeshesAreMetAsInASceneBuiltAfresh) {
+  Scene& edited = scene;
   const uint64_t builtBefore = edited.topLevelBvhPrimitives();
-  const int farHits = hitsOnMesh(edited, kMeshes - 1);
-  ASSERT_GT(farHits, 0);
+  ASSERT_GT(hitsOnMesh(edited, kMeshes - 1), 0);  // the probes reach the far mesh
 
   // Moved up, moved sideways onto another mesh's row, hidden, the far one moved in (the
   // scene's extent shrinks), and mesh 3, which an instancer copies, moved.
@@ -135,74 +163,45 @@ TEST(Overlay, EditedMeshesAreMetAsInASceneBuiltAfresh) {
   EXPECT_GT(hitsOnMesh(edited, 5), 0);
 
   // Moved again: still the overlay alone.
-  layout.placements[5] = translation(5, 2.5, 0.3);
-  edited.setMeshInstance(5, layout.placements[5], Scene::kNoMaterial, true);
+  move(edited, layout, 5, translation(5, 2.5, 0.3));
   edited.commit();
   EXPECT_EQ(edited.overlaidPlacements(), 5u);
-  Scene freshAgain(device);
-  build(freshAgain, layout);
-  EXPECT_EQ(differences(edited, freshAgain), 0);
+  EXPECT_EQ(differencesFromFresh(device, edited, layout), 0);
 }
 
-TEST(Overlay, FoldsIntoTheTopLevelWhenThatIsRebuiltOrRaysAreMany) {
-  Device device;
-  Layout layout;
-  Scene scene(device);
-  build(scene, layout);
-  layout.placements[12] = translation(12, 1, 0);
-  scene.setMeshInstance(12, layout.placements[12], Scene::kNoMaterial, true);
+TEST_F(Overlay, FoldsIntoTheTopLevelWhenThatIsRebuiltOrRaysAreMany) {
+  move(scene, layout, 12, translation(12, 1, 0));
   scene.commit();
   ASSERT_EQ(scene.overlaidPlacements(), 1u);
 
   // A few samples keep the overlay; many fold it (one rebuild of the top level).
   EXPECT_FALSE(scene.prepareForSamples(100));
   EXPECT_TRUE(scene.prepareForSamples(100'000'000));
-  scene.commit();
-  EXPECT_EQ(scene.overlaidPlacements(), 0u);
-  Scene fresh(device);
-  build(fresh, layout);
-  EXPECT_EQ(differences(scene, fresh), 0);
+  expectFoldedAsFresh();
 
   // An overlaid mesh whose sidedness changes has its BVH committed again, which Embree wants its
   // instances and the top level to follow: the overlay is folded into that rebuild.
-  layout.placements[20] = translation(20, 1, 0);
-  scene.setMeshInstance(20, layout.placements[20], Scene::kNoMaterial, true);
+  move(scene, layout, 20, translation(20, 1, 0));
   scene.commit();
   ASSERT_EQ(scene.overlaidPlacements(), 1u);
-  scene.setMeshGeometry(22, box(0.5f + 0.04f * float(22 % 7), true));  // was single-sided
-  scene.commit();
-  EXPECT_EQ(scene.overlaidPlacements(), 0u);
-  Scene sided(device);
-  build(sided, layout);
-  sided.setMeshGeometry(22, box(0.5f + 0.04f * float(22 % 7), true));
-  sided.commit();
-  EXPECT_EQ(differences(scene, sided), 0);
+  ASSERT_FALSE(layout.doubleSided[22]);
+  layout.doubleSided[22] = true;
+  scene.setMeshGeometry(22, box(0.5f + 0.04f * float(22 % 7), true));
+  expectFoldedAsFresh();
 }
 
-TEST(Overlay, HoldsABoundedNumberOfMeshesAndForgetsRemovedOnes) {
-  Device device;
-  Layout layout;
-  Scene scene(device);
-  build(scene, layout);
-  for (size_t i = 100; i < 100 + Scene::kMaxOverlaid; ++i) {
-    layout.placements[i] = translation(double(i % kColumns), 0.3, double(i / kColumns));
-    scene.setMeshInstance(Scene::MeshId(i), layout.placements[i], Scene::kNoMaterial, true);
-  }
+TEST_F(Overlay, HoldsABoundedNumberOfMeshesAndForgetsRemovedOnes) {
+  for (size_t i = 100; i < 100 + Scene::kMaxOverlaid; ++i)
+    move(scene, layout, i, translation(double(i % kColumns), 0.3, double(i / kColumns)));
   scene.commit();
   EXPECT_EQ(scene.overlaidPlacements(), Scene::kMaxOverlaid);
   // One more moves top_'s own instance, and the rebuild takes the others back.
   const size_t last = 100 + Scene::kMaxOverlaid;
-  layout.placements[last] = translation(double(last % kColumns), 0.3, double(last / kColumns));
-  scene.setMeshInstance(Scene::MeshId(last), layout.placements[last], Scene::kNoMaterial, true);
-  scene.commit();
-  EXPECT_EQ(scene.overlaidPlacements(), 0u);
-  Scene fresh(device);
-  build(fresh, layout);
-  EXPECT_EQ(differences(scene, fresh), 0);
+  move(scene, layout, last, translation(double(last % kColumns), 0.3, double(last / kColumns)));
+  expectFoldedAsFresh();
 
   // A mesh removed while overlaid leaves nothing behind.
-  layout.placements[7] = translation(7, 1, 0);
-  scene.setMeshInstance(7, layout.placements[7], Scene::kNoMaterial, true);
+  move(scene, layout, 7, translation(7, 1, 0));
   scene.commit();
   ASSERT_EQ(scene.overlaidPlacements(), 1u);
   scene.removeMesh(7);
@@ -210,12 +209,10 @@ TEST(Overlay, HoldsABoundedNumberOfMeshesAndForgetsRemovedOnes) {
   EXPECT_EQ(scene.overlaidPlacements(), 0u);
   EXPECT_EQ(hitsOnMesh(scene, 7), 0);
   layout.visible[7] = false;  // the fresh scene keeps ids aligned with a hidden mesh 7
-  Scene withoutSeven(device);
-  build(withoutSeven, layout);
-  EXPECT_EQ(differences(scene, withoutSeven), 0);
+  EXPECT_EQ(differencesFromFresh(device, scene, layout), 0);
 }
 
-TEST(Overlay, SmallScenesRebuildTheirTopLevel) {
+TEST(OverlayThreshold, SmallScenesRebuildTheirTopLevel) {
   Device device;
   Scene scene(device);
   for (int i = 0; i < 10; ++i) {
