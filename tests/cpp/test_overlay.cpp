@@ -32,7 +32,7 @@ TriangleMesh box(float size, bool doubleSided) {
 /// What the test scenes hold: where each mesh is and whether it shows, and an instancer's copies
 /// of mesh 3 in a row in front of the grid.
 struct Layout {
-  std::vector<Transform> placements;
+  std::vector<MotionTransform> placements;
   std::vector<bool> visible;
   std::vector<bool> doubleSided;
 
@@ -63,7 +63,8 @@ void build(Scene& scene, const Layout& layout) {
   scene.commit();
 }
 
-/// Rays straight down and slanted over the whole grid, the copies and the far mesh.
+/// Rays straight down and slanted over the whole grid, the copies and the far mesh, at the
+/// shutter's start, middle and end.
 std::vector<Ray> probes() {
   std::vector<Ray> rays;
   for (float x = -1.5f; x < 62; x += 0.37f)
@@ -72,7 +73,10 @@ std::vector<Ray> probes() {
         Ray ray;
         ray.origin = {x, 4, z};
         ray.direction = direction;
-        rays.push_back(ray);
+        for (const float time : {0.0f, 0.5f, 1.0f}) {
+          ray.time = time;
+          rays.push_back(ray);
+        }
       }
   return rays;
 }
@@ -103,7 +107,7 @@ int differencesFromFresh(const Device& device, const Scene& scene, const Layout&
 }
 
 /// Moves mesh `i` to `placement`, in the scene and in the layout it is to match.
-void move(Scene& scene, Layout& layout, size_t i, const Transform& placement) {
+void move(Scene& scene, Layout& layout, size_t i, const MotionTransform& placement) {
   layout.placements[i] = placement;
   scene.setMeshInstance(Scene::MeshId(i), placement, Scene::kNoMaterial, layout.visible[i]);
 }
@@ -162,8 +166,9 @@ TEST_F(Overlay, EditedMeshesAreMetAsInASceneBuiltAfresh) {
   EXPECT_EQ(hitsOnMesh(edited, 77), 0);
   EXPECT_GT(hitsOnMesh(edited, 5), 0);
 
-  // Moved again: still the overlay alone.
+  // Moved again, and set moving across the shutter: still the overlay alone.
   move(edited, layout, 5, translation(5, 2.5, 0.3));
+  move(edited, layout, 40, MotionTransform({translation(8, 1, 2), translation(8, 1, 9)}));
   edited.commit();
   EXPECT_EQ(edited.overlaidPlacements(), 5u);
   EXPECT_EQ(differencesFromFresh(device, edited, layout), 0);
