@@ -68,9 +68,16 @@ RTCRay toEmbreeRay(const Ray& ray) {
 /// the materials are, and, in the overlay, whose placements its instances are.
 struct Scene::TraceContext {
   RTCIntersectContext embree;  // first member: Embree passes a pointer to it to the filters
-  bool cameraRay = false;
-  const Scene* scene = nullptr;
+  bool cameraRay;
+  const Scene* scene;
   const std::vector<uint32_t>* overlayIds = nullptr;  // while tracing the overlay
+
+  /// For a trace of `scene`'s top_ (skipping overlaid placements' stale instances there).
+  TraceContext(const Scene& traced, RayKind kind)
+      : cameraRay(kind == RayKind::Camera), scene(&traced) {
+    rtcInitIntersectContext(&embree);
+    if (traced.overlaid_) embree.filter = skipOverlaid;
+  }
 
   /// The top_ geomID of the placement of an instance met in the BVH being traced.
   uint32_t placementId(uint32_t instanceGeomId) const {
@@ -248,6 +255,12 @@ bool Scene::prepareForSamples(uint64_t cameraSamples) {
   return true;
 }
 
+Scene::Box Scene::boundsOf(RTCScene committed) {
+  RTCBounds b;
+  rtcGetSceneBounds(committed, &b);
+  return {{b.lower_x, b.lower_y, b.lower_z}, {b.upper_x, b.upper_y, b.upper_z}};
+}
+
 Scene::Box Scene::worldBounds(const Placement& placement, bool enabled) const {
   Box box;
   if (!enabled) return box;
@@ -340,15 +353,15 @@ bool Scene::updateHitFilters(MeshRecord& mesh) {
   const bool cutouts = material && cutsOutPerHit(*material);
   if (cutouts == mesh.cutoutFilter) return false;
   mesh.cutoutFilter = cutouts;
-  rtcSetGeometryIntersectFilterFunction(mesh.triangles,
-                                        cutouts || !mesh.data->doubleSided ? filterHits : nullptr);
-  rtcSetGeometryOccludedFilterFunction(mesh.triangles, cutouts ? filterHits : nullptr);
-  rtcCommitGeometry(mesh.triangles);
-  recommitMeshBvh(mesh);
+  applyHitFilters(mesh);
   return true;
 }
 
-void Scene::recommitMeshBvh(MeshRecord& mesh) {
+void Scene::applyHitFilters(MeshRecord& mesh) {
+  rtcSetGeometryIntersectFilterFunction(
+      mesh.triangles, mesh.cutoutFilter || !mesh.data->doubleSided ? filterHits : nullptr);
+  rtcSetGeometryOccludedFilterFunction(mesh.triangles, mesh.cutoutFilter ? filterHits : nullptr);
+  rtcCommitGeometry(mesh.triangles);
   rtcCommitScene(mesh.bvh);
   throwOnEmbreeError(device_, "update a mesh's hit filters");
   // Its instances, then top_, are to be committed again (Embree's instancing rules), so its own
@@ -479,10 +492,7 @@ void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
     const bool sidednessChanged = data.doubleSided != mesh.data->doubleSided;
     mesh.data = std::make_shared<const TriangleMesh>(std::move(data));
     if (sidednessChanged) {
-      rtcSetGeometryIntersectFilterFunction(
-          mesh.triangles, mesh.cutoutFilter || !mesh.data->doubleSided ? filterHits : nullptr);
-      rtcCommitGeometry(mesh.triangles);
-      recommitMeshBvh(mesh);
+      applyHitFilters(mesh);
       updateAllPlacements(id);
     }
     return;
@@ -527,9 +537,7 @@ void Scene::setMeshGeometry(MeshId id, TriangleMesh data) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     throwOnEmbreeError(device_, "build a mesh BVH");
     ++meshBvhBuilds_;
-    RTCBounds b;
-    rtcGetSceneBounds(bvh, &b);
-    objectBounds = {{b.lower_x, b.lower_y, b.lower_z}, {b.upper_x, b.upper_y, b.upper_z}};
+    objectBounds = boundsOf(bvh);
     mesh.triangles = triangles;
   } else {
     mesh.triangles = nullptr;
@@ -678,9 +686,7 @@ void Scene::commit() {
   if (overlayChanged_ && overlaid_) {
     rtcCommitScene(overlay_);
     throwOnEmbreeError(device_, "build the overlay BVH");
-    RTCBounds b;
-    rtcGetSceneBounds(overlay_, &b);
-    overlayBounds_ = {{b.lower_x, b.lower_y, b.lower_z}, {b.upper_x, b.upper_y, b.upper_z}};
+    overlayBounds_ = boundsOf(overlay_);
     topLevelBvhPrimitives_ += overlaid_;
   }
   if (topChanged_ || overlayChanged_) {
@@ -738,11 +744,7 @@ int Scene::primvarWidth(const PrimvarName& name) const {
 }
 
 RTCRayHit Scene::trace(const Ray& ray, RayKind kind) const {
-  TraceContext context;
-  rtcInitIntersectContext(&context.embree);
-  if (overlaid_) context.embree.filter = skipOverlaid;
-  context.cameraRay = kind == RayKind::Camera;
-  context.scene = this;
+  TraceContext context(*this, kind);
   RTCRayHit rayHit;
   rayHit.ray = toEmbreeRay(ray);
   if (context.cameraRay) rayHit.ray.mask = kCameraRays;
@@ -945,11 +947,7 @@ void Scene::visitLightHits(const Ray& ray, float tMax, LightHitCallback callback
 }
 
 bool Scene::occluded(const Ray& ray) const {
-  TraceContext context;
-  rtcInitIntersectContext(&context.embree);
-  if (overlaid_) context.embree.filter = skipOverlaid;
-  context.cameraRay = false;
-  context.scene = this;
+  TraceContext context(*this, RayKind::Secondary);
   RTCRay r = toEmbreeRay(ray);
   rtcOccluded1(top_, &context.embree, &r);
   if (r.tfar >= 0 && overlaid_ && mayHitOverlay(r)) {

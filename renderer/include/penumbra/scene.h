@@ -297,9 +297,12 @@ class Scene {
   void removeFromOverlay(MeshRecord& mesh);
   /// Where `placement` shows its mesh (empty when not enabled).
   Box worldBounds(const Placement& placement, bool enabled) const;
-  /// Re-commits a mesh's BVH after its hit filters changed; Embree then wants the instances
-  /// placing it committed again (updateAllPlacements), and the top-level BVH rebuilt.
-  void recommitMeshBvh(MeshRecord& mesh);
+  /// Installs the hit filters the mesh's sidedness and cut-outs call for and commits its BVH
+  /// again; Embree then wants the instances placing it committed again (updateAllPlacements),
+  /// and the top-level BVH rebuilt.
+  void applyHitFilters(MeshRecord& mesh);
+  /// The box of a committed Embree scene.
+  static Box boundsOf(RTCScene committed);
   /// What the hit filters learn of a ray (scene.cpp).
   struct TraceContext;
   /// The overlay's pass of trace(), after top_'s; `context` as top_'s.
