@@ -95,11 +95,8 @@ SANITIZERS := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-f
 ## byte for a 184-byte object); ASan has no per-library suppression for this check.
 ASAN_COMMON := new_delete_type_mismatch=0
 SANITIZER_OPTIONS := UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-## Timing assertions are meaningless in an instrumented build (several times slower).
-SANITIZE_SKIP_CPP := SpectrumUpsampling.TableBuildsQuickly
 ## Open Image Denoise loads TBB's libtbbbind with RTLD_DEEPBIND, which ASan cannot run.
-SANITIZE_PYTEST_FILTER := not test_signal_stops_a_billion_sample_render_within_a_second \
-	and not denoise
+SANITIZE_PYTEST_FILTER := not denoise
 
 sanitize: venv
 	cmake -S . -B $(SANITIZE_DIR) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
@@ -108,7 +105,7 @@ sanitize: venv
 		-DPython_EXECUTABLE=$(CURDIR)/$(VPY) -Dpybind11_DIR=$$($(VPY) -m pybind11 --cmakedir)
 	cmake --build $(SANITIZE_DIR)
 	$(SANITIZER_OPTIONS) ASAN_OPTIONS=$(ASAN_COMMON):detect_leaks=1 \
-		ctest --test-dir $(SANITIZE_DIR) --output-on-failure -E '$(SANITIZE_SKIP_CPP)'
+		ctest --test-dir $(SANITIZE_DIR) --output-on-failure
 	$(VPY) tests/sanitize/python_env.py $(SANITIZE_DIR)
 	$(SANITIZER_OPTIONS) ASAN_OPTIONS=$(ASAN_COMMON):detect_leaks=0 \
 		LD_PRELOAD="$$(gcc -print-file-name=libasan.so) $$(gcc -print-file-name=libstdc++.so)" \
@@ -118,12 +115,14 @@ sanitize: venv
 bench: build
 	$(VPY) bench/run.py cornell.usda dof.usda motion.usda glass.usda instances.usda
 	$(VPY) bench/quality.py
+	$(VPY) bench/fingerprint.py
 	$(VPY) bench/denoise.py
 	$(VPY) bench/instances.py --instances 100000
 	$(VPY) bench/instances.py --instances 1000000
 	$(VPY) bench/sync.py
 	$(VPY) bench/sprim_sync.py
 	$(VPY) bench/texture_memory.py --size 16384
+	$(VPY) bench/latency.py
 
 clean:
 	rm -rf build $(VENV)
