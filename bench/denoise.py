@@ -18,6 +18,7 @@ from pxr import Usd
 
 import penumbra
 from quality import CYCLES, SCENES, SHARED_SCENES, TIME_CODE, read_rgb, relative_rmse
+from provenance import print_provenance
 
 
 def scene_row(name: str, samples: int, width: int, seed: int) -> str:
@@ -53,6 +54,7 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=640)
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args()
+    print_provenance()
     if not SCENES.is_dir():
         print(f"denoise.py: skipped, the shared scenes are needed and {SCENES} is missing.")
         return

@@ -19,6 +19,7 @@ from pxr import Gf, Usd, UsdGeom, UsdLux, Vt
 
 import penumbra
 from penumbra.usd import implicit
+from provenance import print_provenance
 
 
 def prototype_sphere(stage: Usd.Stage, path: str) -> int:
@@ -66,6 +67,7 @@ def main() -> None:
     parser.add_argument("--instances", type=int, default=1_000_000)
     parser.add_argument("--width", type=int, default=320)
     args = parser.parse_args()
+    print_provenance()
     stage, triangles = build_stage(args.instances)
     before = peak_memory_mb()
     started = time.perf_counter()

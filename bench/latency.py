@@ -29,6 +29,7 @@ DISPERSIVE = REPO / "examples" / "showcase.usda"
 SPECTRAL_PROBE = """
 import sys, time
 import penumbra
+from provenance import print_provenance
 with penumbra.Renderer(sys.argv[1]) as renderer:
     seconds = []
     for _ in range(2):
@@ -74,6 +75,7 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--settle", type=float, default=3.0, help="seconds before the signal")
     args = parser.parse_args()
+    print_provenance()
     print("| what | median (s) | min (s) | max (s) |")
     print("|---|---|---|---|")
     rows = {

@@ -36,6 +36,7 @@ import penumbra
 from penumbra import _core
 
 from many_lights import write_stage
+from provenance import print_provenance
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 SCENES = SHARED / "scenes"
@@ -383,6 +384,7 @@ def parse_args() -> argparse.Namespace:
 
 def main() -> None:
     args = parse_args()
+    print_provenance()
     if not SCENES.is_dir():
         print(f"quality.py: skipped, the shared scenes are needed and {SCENES} is missing.")
         return

@@ -17,6 +17,7 @@ from pathlib import Path
 from pxr import Usd
 
 import penumbra
+from provenance import print_provenance
 
 SCENES = Path(__file__).resolve().parents[2] / "shared" / "scenes"
 
@@ -43,6 +44,7 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=64)
     parser.add_argument("--width", type=int, default=640)
     args = parser.parse_args()
+    print_provenance()
     if not SCENES.is_dir():
         sys.exit(
             f"bench/run.py: the benchmark scenes are not here: {SCENES} does not exist "

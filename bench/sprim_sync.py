@@ -19,6 +19,7 @@ import time
 import numpy as np
 
 from penumbra import _core
+from provenance import print_provenance
 
 
 def grid(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -63,6 +64,7 @@ def main() -> None:
     parser.add_argument("--mesh-lights", type=int, default=40)
     parser.add_argument("--grid", type=int, default=100)
     args = parser.parse_args()
+    print_provenance()
     delegate = build(args.materials, args.mesh_lights, args.grid)
     render_pass = _core.RenderPass(delegate, "/cam", 4, 4)
 

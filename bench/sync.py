@@ -32,6 +32,7 @@ from pathlib import Path
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 import penumbra
+from provenance import print_provenance
 
 MATERIALS = 8
 WIDTH = 64
@@ -169,6 +170,7 @@ def main() -> None:
     parser.add_argument("--edit-widths", type=int, nargs="+", default=list(EDIT_WIDTHS))
     parser.add_argument("--subdivided", type=int, default=200)
     args = parser.parse_args()
+    print_provenance()
     with tempfile.TemporaryDirectory() as directory:
         print(
             "| distinct meshes | Stage.Open to first sample (s) | CPU (s, all threads) "

@@ -21,6 +21,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "python"))
 from pattern_png import write_pattern_png  # noqa: E402  (the tests' writer, shared)
+from provenance import print_provenance  # noqa: E402
 
 CAMERA = """
 def Camera "cam"
@@ -114,6 +115,7 @@ def main() -> int:
         "--textureCacheSize", metavar="SIZE", help="passed on to penumbra-record (default: its own)"
     )
     args = parser.parse_args()
+    print_provenance()
     extra = ["--textureCacheSize", args.textureCacheSize] if args.textureCacheSize else []
     with tempfile.TemporaryDirectory(prefix="penumbra-texture-bench-") as directory:
         root = Path(directory)
