@@ -2,7 +2,7 @@
 
 #include <array>
 
-#include "penumbra/light.h"
+#include "penumbra/warp.h"
 
 namespace penumbra {
 namespace {
@@ -123,10 +123,9 @@ Vec3f sampleGgxVisibleNormal(const Vec3f& wo, GgxAlpha alpha, Vec2f u) {
   const Vec3f tangent =
       lengthXY2 > 0 ? Vec3f(-view.y, view.x, 0) / std::sqrt(lengthXY2) : Vec3f(1, 0, 0);
   const Vec3f bitangent = cross(view, tangent);
-  const float radius = std::sqrt(u.x);
-  const float phi = 2 * kPi * u.y;
-  const float p1 = radius * std::cos(phi);
-  const float diskY = radius * std::sin(phi);
+  const Vec2f disk = polarSampleDisk(u);
+  const float p1 = disk.x;
+  const float diskY = disk.y;
   // Seen from `view`, the visible hemisphere projects to a disk whose lower half is foreshortened
   // by cos θ_view: blend the lower half towards the silhouette's half-ellipse.
   const float visibleFraction = 0.5f * (1 + view.z);
@@ -500,16 +499,6 @@ float charlieDensity(float cosThetaH, float alpha) {
   const float sin2ThetaH = std::max(0.0f, 1 - cosThetaH * cosThetaH);
   return (2 + 1 / alpha) * std::pow(sin2ThetaH, 0.5f / alpha) / (2 * kPi);
 }
-
-/// Uniform over the hemisphere z > 0 (density 1/(2π)): the sheen scatters most towards grazing
-/// directions, which cosine-weighted sampling would starve.
-Vec3f sampleUniformHemisphere(Vec2f u) {
-  const float z = u.x;
-  const float radius = std::sqrt(std::max(0.0f, 1 - z * z));
-  const float phi = 2 * kPi * u.y;
-  return {radius * std::cos(phi), radius * std::sin(phi), z};
-}
-constexpr float kUniformHemispherePdf = 1 / (2 * kPi);
 
 /// The sheen as a microfacet lobe without Fresnel: f cos θi = D(h) G2(wo, wi) / (4 cos θo), with
 /// Smith's height-correlated G2 = 1 / (1 + Λ(wo) + Λ(wi)). Smith's Λ of the Charlie distribution
