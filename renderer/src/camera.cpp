@@ -3,21 +3,9 @@
 #include <stdexcept>
 #include <string>
 
-namespace penumbra {
+#include "penumbra/warp.h"
 
-Vec2f concentricSampleDisk(Vec2f u) {
-  const float x = 2 * u.x - 1, y = 2 * u.y - 1;
-  if (x == 0 && y == 0) return {0, 0};
-  float radius, angle;
-  if (std::fabs(x) > std::fabs(y)) {
-    radius = x;
-    angle = (kPi / 4) * (y / x);
-  } else {
-    radius = y;
-    angle = kPi / 2 - (kPi / 4) * (x / y);
-  }
-  return {radius * std::cos(angle), radius * std::sin(angle)};
-}
+namespace penumbra {
 
 Camera::Camera(const CameraParams& params, int imageWidth, int imageHeight)
     : params_(params), width_(imageWidth), height_(imageHeight) {

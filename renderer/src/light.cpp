@@ -2,33 +2,10 @@
 
 #include <stdexcept>
 
-#include "penumbra/camera.h"
 #include "penumbra/color.h"
+#include "penumbra/warp.h"
 
 namespace penumbra {
-
-Vec3f sampleUniformCone(Vec2f u, float oneMinusCosMax) {
-  const float cosTheta = 1 - u.x * oneMinusCosMax;
-  const float sinTheta = std::sqrt(std::max(0.0f, 1 - cosTheta * cosTheta));
-  const float phi = 2 * kPi * u.y;
-  return {sinTheta * std::cos(phi), sinTheta * std::sin(phi), cosTheta};
-}
-
-float uniformConePdf(float oneMinusCosMax) {
-  return 1 / (2 * kPi * oneMinusCosMax);
-}
-
-Vec3f sampleCosineHemisphere(Vec2f u) {
-  const Vec2f d = concentricSampleDisk(u);
-  return {d.x, d.y, std::sqrt(std::max(0.0f, 1 - d.x * d.x - d.y * d.y))};
-}
-
-Vec3f sampleUniformSphere(Vec2f u) {
-  const float z = 1 - 2 * u.x;
-  const float r = std::sqrt(std::max(0.0f, 1 - z * z));
-  const float phi = 2 * kPi * u.y;
-  return {r * std::cos(phi), r * std::sin(phi), z};
-}
 
 namespace {
 
@@ -81,73 +58,6 @@ Vec3f weightedMean(const std::vector<Vec3f>& texels, int width, int height, bool
 }
 
 }  // namespace
-
-/// The rectangle seen from a point, for sampling directions uniformly within the solid angle it
-/// subtends (Ureña, Fajardo & King 2013, "An Area-Preserving Parametrization for Spherical
-/// Rectangles"). Computed in double: the angles cancel badly for small rectangles.
-class SphericalRectangle {
- public:
-  /// `corner` and the two orthogonal edges from it, seen from `point`.
-  SphericalRectangle(const Vec3f& point, const Vec3f& corner, const Vec3f& edgeX,
-                     const Vec3f& edgeY)
-      : origin_(point) {
-    const double lengthX = length(edgeX), lengthY = length(edgeY);
-    x_ = edgeX / float(lengthX);
-    y_ = edgeY / float(lengthY);
-    z_ = cross(x_, y_);
-    const Vec3f toCorner = corner - point;
-    x0_ = dot(toCorner, x_);
-    y0_ = dot(toCorner, y_);
-    z0_ = dot(toCorner, z_);
-    if (z0_ > 0) {  // work on the side of the plane facing the point
-      z0_ = -z0_;
-      z_ = -z_;
-    }
-    x1_ = x0_ + lengthX;
-    y1_ = y0_ + lengthY;
-    // Normals of the planes through the point and each edge, then the interior angles.
-    const auto planeNormal = [](double ax, double ay, double bx, double by, double z) {
-      // cross((ax, ay, z), (bx, by, z)), normalised
-      const double nx = ay * z - z * by, ny = z * bx - ax * z, nz = ax * by - ay * bx;
-      const double norm = std::sqrt(nx * nx + ny * ny + nz * nz);
-      return std::array<double, 3>{nx / norm, ny / norm, nz / norm};
-    };
-    const auto n0 = planeNormal(x0_, y0_, x1_, y0_, z0_);
-    const auto n1 = planeNormal(x1_, y0_, x1_, y1_, z0_);
-    const auto n2 = planeNormal(x1_, y1_, x0_, y1_, z0_);
-    const auto n3 = planeNormal(x0_, y1_, x0_, y0_, z0_);
-    const auto angle = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
-      return std::acos(std::clamp(-(a[0] * b[0] + a[1] * b[1] + a[2] * b[2]), -1.0, 1.0));
-    };
-    const double g0 = angle(n0, n1), g1 = angle(n1, n2), g2 = angle(n2, n3), g3 = angle(n3, n0);
-    b0_ = n0[2];
-    b1_ = n2[2];
-    k_ = 2 * M_PI - g2 - g3;
-    solidAngle_ = g0 + g1 - k_;
-  }
-
-  /// Steradians; not finite or tiny when the point is (nearly) in the rectangle's plane.
-  double solidAngle() const { return solidAngle_; }
-
-  /// The point of the rectangle in direction u ∈ [0, 1)² of the parametrisation.
-  Vec3f sample(Vec2f u) const {
-    const double au = u.x * solidAngle_ + k_;
-    const double fu = (std::cos(au) * b0_ - b1_) / std::sin(au);
-    double cu = std::copysign(1.0, fu) / std::sqrt(fu * fu + b0_ * b0_);
-    cu = std::clamp(cu, -1.0, 1.0);
-    const double xu = std::clamp(-(cu * z0_) / std::sqrt(std::max(1e-30, 1 - cu * cu)), x0_, x1_);
-    const double d = std::sqrt(xu * xu + z0_ * z0_);
-    const double h0 = y0_ / std::sqrt(d * d + y0_ * y0_), h1 = y1_ / std::sqrt(d * d + y1_ * y1_);
-    const double hv = h0 + u.y * (h1 - h0), hv2 = hv * hv;
-    const double yv = hv2 < 1 - 1e-12 ? std::clamp(hv * d / std::sqrt(1 - hv2), y0_, y1_) : y1_;
-    return origin_ + x_ * float(xu) + y_ * float(yv) + z_ * float(z0_);
-  }
-
- private:
-  Vec3f origin_, x_, y_, z_;
-  double x0_, y0_, z0_, x1_, y1_;
-  double b0_, b1_, k_, solidAngle_;
-};
 
 LightTexture::LightTexture(int width, int height, std::vector<Vec3f> texels, bool latLong)
     : width_(width),
@@ -376,10 +286,8 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
       float within = 0;
       const size_t triangle = triangleChoice_->sampleIndex(u.x, &within);
       const Vec3f* corner = &(*params_.meshTriangles)[3 * triangle];
-      // Uniform on the triangle: barycentrics from the square root map.
-      const float root = std::sqrt(within);
-      lightPoint =
-          corner[0] * (1 - root) + corner[1] * (root * (1 - u.y)) + corner[2] * (root * u.y);
+      const Vec3f weights = sampleUniformTriangle({within, u.y});
+      lightPoint = corner[0] * weights.x + corner[1] * weights.y + corner[2] * weights.z;
       lightNormal = normalize(cross(corner[1] - corner[0], corner[2] - corner[0]));
       break;
     }
@@ -434,7 +342,7 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
       } else if (isBlack(normal)) {
         result.direction = sampleUniformSphere(u);
         result.radiance = radiance_;
-        result.pdf = 1 / (4 * kPi);
+        result.pdf = kUniformSpherePdf;
       } else {
         // A constant sky seen from a surface: cosine-weighted directions make the estimate of
         // its (unoccluded) irradiance exact.
@@ -442,7 +350,7 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
         if (!(local.z > 0)) return std::nullopt;
         result.direction = normalize(Frame(normal).toWorld(local));
         result.radiance = radiance_;
-        result.pdf = local.z * kInvPi;
+        result.pdf = cosineHemispherePdf(local.z);
       }
       return result;
   }
@@ -558,7 +466,8 @@ std::optional<LightHit> Light::escaped(const Vec3f& direction, const Vec3f& norm
   hit.distance = kInfinity;
   hit.radiance = radiance_;
   if (params_.type == LightType::Dome) {
-    hit.pdf = isBlack(normal) ? 1 / (4 * kPi) : std::max(0.0f, dot(direction, normal)) * kInvPi;
+    hit.pdf = isBlack(normal) ? kUniformSpherePdf
+                              : cosineHemispherePdf(std::max(0.0f, dot(direction, normal)));
     if (params_.texture) {
       float sinPolar = 0;
       const Vec2f uv = domeUV(direction, &sinPolar);

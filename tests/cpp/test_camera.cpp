@@ -98,20 +98,6 @@ TEST(Camera, RejectsBadParameters) {
   EXPECT_THROW(Camera(params, 10, 10), std::invalid_argument);
 }
 
-TEST(Camera, ConcentricDiskMappingStaysInTheDiskAndCoversIt) {
-  double meanRadius2 = 0;
-  const int n = 64;
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const Vec2f d = concentricSampleDisk({(i + 0.5f) / n, (j + 0.5f) / n});
-      const float r2 = d.x * d.x + d.y * d.y;
-      EXPECT_LE(r2, 1.0f + 1e-6f);
-      meanRadius2 += r2;
-    }
-  // Uniform over the unit disk: E[r²] = 1/2.
-  EXPECT_NEAR(meanRadius2 / (n * n), 0.5, 2e-3);
-}
-
 TEST(Camera, PixelAspectRatioStretchesPixelsOnTheFilm) {
   // 100 x 100 pixels twice as wide as high cover a 2:1 aperture without expanding it.
   CameraParams params = cornellCamera();

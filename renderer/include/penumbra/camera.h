@@ -86,7 +86,4 @@ class Camera {
   bool thinLens_;
 };
 
-/// Shirley–Chiu concentric mapping of the unit square to the unit disk (no clumping).
-Vec2f concentricSampleDisk(Vec2f u);
-
 }  // namespace penumbra

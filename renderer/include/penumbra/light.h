@@ -17,6 +17,7 @@
 #include "penumbra/distribution.h"
 #include "penumbra/math.h"
 #include "penumbra/texture.h"
+#include "penumbra/warp.h"
 
 namespace penumbra {
 
@@ -123,8 +124,6 @@ struct LightHit {
   float pdf = 0;  // the solid-angle density sample() would have had for this direction
 };
 
-class SphericalRectangle;
-
 class Light {
  public:
   /// Throws std::invalid_argument for degenerate shapes (zero area, non-finite values).
@@ -210,13 +209,5 @@ class Light {
   // any light changes).
   Vec3f meshLower_{kInfinity}, meshUpper_{-kInfinity};
 };
-
-/// Directions uniformly distributed in a cone around +Z whose half angle h has
-/// 1 - cos h = oneMinusCosMax (passed that way to keep precision for tiny cones).
-Vec3f sampleUniformCone(Vec2f u, float oneMinusCosMax);
-float uniformConePdf(float oneMinusCosMax);
-/// Cosine-weighted hemisphere around +Z.
-Vec3f sampleCosineHemisphere(Vec2f u);
-Vec3f sampleUniformSphere(Vec2f u);
 
 }  // namespace penumbra
