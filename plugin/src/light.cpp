@@ -82,7 +82,7 @@ void Light::loadTexture(SyncContext& context) {
   params_.texture.reset();
   if (textureFile_.empty()) return;
   ++context.counters.lightTextureLoads;
-  params_.texture = LightTexture::load(context.scene.sharedTextures(), textureFile_,
+  params_.texture = LightTexture::load(context.scene.materials().sharedTextures(), textureFile_,
                                        params_.type == LightType::Dome);
 }
 

@@ -26,7 +26,7 @@ int openTexture(const Material& material, const TextureNode& node, SyncContext& 
                 penumbra::Material* result) {
   TextureReader reader = node.reader;
   std::string error;
-  reader.texture = context.scene.textures().open(node.file, node.colorSpace, &error);
+  reader.texture = context.scene.materials().textures().open(node.file, node.colorSpace, &error);
   ++context.counters.materialTextureOpens;
   if (reader.texture == TextureSystem::kInvalid)
     context.warn(material.id() + ": " + error + "; its fallback value is used");

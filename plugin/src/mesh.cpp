@@ -125,10 +125,10 @@ void Mesh::sync(SyncContext& context) {
       TriangleMesh surface = triangles(context);
       context.counters.tessellationSeconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-      scene.setMeshGeometry(handle_, std::move(surface));
+      scene.geometry().setMeshGeometry(handle_, std::move(surface));
     } catch (const std::invalid_argument& error) {
       context.warn(id() + ": " + error.what() + "; the mesh is skipped");
-      scene.clearMeshGeometry(handle_);
+      scene.geometry().clearMeshGeometry(handle_);
     }
   }
   if (bits & kPlacementDirtyBits) {
@@ -136,7 +136,7 @@ void Mesh::sync(SyncContext& context) {
         (bits & DirtyMaterialId))
       context.warn(id() + ": bound material " + materialId_ +
                    " is not in the render index; displayColor is used");
-    if (bits & DirtyVisibility) scene.setMeshPassVisibility(handle_, pass_);
+    if (bits & DirtyVisibility) scene.geometry().setMeshPassVisibility(handle_, pass_);
     place(context);
   }
   if (light_ && (bits & kLightDirtyBits)) syncLight(context);
@@ -163,12 +163,12 @@ void Mesh::syncLight(SyncContext& context) {
 }
 
 void Mesh::place(SyncContext& context) const {
-  int materialIndex = Scene::kNoMaterial;
+  int materialIndex = MaterialTable::kNoMaterial;
   if (!materialId_.empty()) {
     const auto found = context.materialIndex.find(materialId_);
     if (found != context.materialIndex.end()) materialIndex = found->second;
   }
-  context.scene.setMeshInstance(handle_, objectToWorld_, materialIndex, visible_);
+  context.scene.geometry().setMeshInstance(handle_, objectToWorld_, materialIndex, visible_);
 }
 
 TriangleMesh Mesh::triangles(SyncContext& context) {

@@ -101,9 +101,9 @@ void RenderDelegate::insertRprim(const std::string& type, const PrimId& id) {
   if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
   std::unique_ptr<Prim> inserted;
   if (type == "mesh")
-    inserted = std::make_unique<Mesh>(id, scene_->addMesh());
+    inserted = std::make_unique<Mesh>(id, scene_->geometry().addMesh());
   else if (type == "instancer")
-    inserted = std::make_unique<Instancer>(id, scene_->addInstancer());
+    inserted = std::make_unique<Instancer>(id, scene_->geometry().addInstancer());
   else
     throw std::invalid_argument(id + ": unsupported rprim type '" + type + "'");
   inserted->track(&changeTracker_);
@@ -128,7 +128,7 @@ void RenderDelegate::insertSprim(const std::string& type, const PrimId& id) {
     inserted = std::make_unique<Material>(id);
     int index;
     if (freeMaterialIndices_.empty()) {
-      index = int(scene_->materialCount());
+      index = int(scene_->materials().materialCount());
       scene_->setMaterial(size_t(index), {});  // its own is built at its sync
     } else {
       index = *freeMaterialIndices_.begin();
@@ -155,16 +155,16 @@ void RenderDelegate::removePrim(const PrimId& id) {
       if (const auto found = rprims_.find(instancerId); found != rprims_.end())
         if (auto* copies = dynamic_cast<Instancer*>(found->second.get());
             copies && copies->prototype() == id) {
-          scene_->removeInstancer(copies->handle());
-          copies->setHandle(scene_->addInstancer());
+          scene_->geometry().removeInstancer(copies->handle());
+          copies->setHandle(scene_->geometry().addInstancer());
           copies->markDirty(DirtyTransform);
         }
     if (lightIndex_.erase(id)) lightsStructureChanged_ = true;
-    scene_->removeMesh(mesh->handle());
+    scene_->geometry().removeMesh(mesh->handle());
     meshesStructureChanged_ = true;
   }
   if (auto* copies = dynamic_cast<Instancer*>(&removed)) {
-    scene_->removeInstancer(copies->handle());
+    scene_->geometry().removeInstancer(copies->handle());
     if (const auto found = rprims_.find(copies->prototype()); found != rprims_.end())
       if (auto* prototype = dynamic_cast<Mesh*>(found->second.get()))
         prototype->removeInstancer(id);
@@ -245,8 +245,8 @@ RenderDelegate::SyncStatistics RenderDelegate::syncStatistics() const {
   SyncStatistics statistics;
   statistics.meshGeometrySyncs = counters_.meshGeometrySyncs;
   statistics.subdivisionDicings = counters_.subdivisionDicings;
-  statistics.meshBvhBuilds = scene_->meshBvhBuilds();
-  statistics.topLevelBvhPrimitives = scene_->topLevelBvhPrimitives();
+  statistics.meshBvhBuilds = scene_->geometry().meshBvhBuilds();
+  statistics.topLevelBvhPrimitives = scene_->geometry().topLevelBvhPrimitives();
   statistics.tessellationSeconds = counters_.tessellationSeconds;
   statistics.bvhBuildSeconds = scene_->bvhBuildSeconds();
   statistics.materialBuilds = counters_.materialBuilds;
@@ -281,7 +281,7 @@ void RenderDelegate::lightSynced(const PrimId& id, std::optional<penumbra::Light
     lightIndex_.emplace(id, -1);              // it joins: updateLightList gives it its index
   } else if (listed != lightIndex_.end()) {
     lightIndex_.erase(listed);  // it leaves
-    if (mesh) scene_->setMeshLight(mesh->handle(), -1);
+    if (mesh) scene_->lights().setMeshLight(mesh->handle(), -1);
   } else {
     return;  // it neither renders nor did
   }
@@ -290,7 +290,7 @@ void RenderDelegate::lightSynced(const PrimId& id, std::optional<penumbra::Light
 
 void RenderDelegate::updateLightList() {
   if (lightsStructureChanged_) {
-    std::vector<penumbra::Light> previous = scene_->releaseLights(), lights;
+    std::vector<penumbra::Light> previous = scene_->lights().releaseLights(), lights;
     lights.reserve(lightIndex_.size());
     for (auto& [id, index] : lightIndex_) {
       const auto synced = lightsSynced_.find(id);
@@ -299,12 +299,12 @@ void RenderDelegate::updateLightList() {
       index = int(lights.size()) - 1;
       if (const auto rprim = rprims_.find(id); rprim != rprims_.end())
         if (const auto* mesh = dynamic_cast<const Mesh*>(rprim->second.get()))
-          scene_->setMeshLight(mesh->handle(), index);
+          scene_->lights().setMeshLight(mesh->handle(), index);
     }
-    scene_->setLights(std::move(lights));
+    scene_->lights().setLights(std::move(lights));
   } else {
     for (auto& [id, light] : lightsSynced_)
-      scene_->setLight(size_t(lightIndex_.at(id)), std::move(light));
+      scene_->lights().setLight(size_t(lightIndex_.at(id)), std::move(light));
   }
   lightsSynced_.clear();
 }
@@ -349,7 +349,7 @@ size_t RenderDelegate::estimatedSyncBytes() const {
 }
 
 bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
-  scene_->textures().setCacheSize(size_t(settings_.textureCacheMB) << 20);
+  scene_->materials().textures().setCacheSize(size_t(settings_.textureCacheMB) << 20);
   // A new dicing context or complexity re-dices every subdivision surface.
   const DicingContext dicing = dicingContext(view);
   if (dicedFor_ != dicing || dicedComplexity_ != settings_.complexity) {
@@ -413,7 +413,7 @@ bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
   materialsStructureChanged_ = lightsStructureChanged_ = meshesStructureChanged_ = false;
   const bool sceneChanged = materialsDirty || lightsDirty || meshesDirty;
   // Folding the overlay changes how rays find hits, not which: no new scene version.
-  if (scene_->prepareForSamples(cameraSamples) || sceneChanged) scene_->commit();
+  if (scene_->geometry().prepareForSamples(cameraSamples) || sceneChanged) scene_->commit();
   if (sceneChanged) ++sceneVersion_;
   return sceneChanged || camerasDirty;
 }

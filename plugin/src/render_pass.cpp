@@ -58,7 +58,7 @@ void RenderPass::setAovs(const std::vector<std::string>& names) {
 int RenderPass::aovChannels(const std::string& name) const {
   const AovRequest request = parseAov(name);
   if (request.kind == AovKind::Primvar)
-    return std::max(1, delegate_.scene().primvarWidth(request.primvar));
+    return std::max(1, delegate_.scene().geometry().primvarWidth(request.primvar));
   return Film::channels(request.kind);
 }
 

@@ -3,6 +3,7 @@
 #include "penumbra/bsdf.h"
 #include "penumbra/sampler.h"
 #include "penumbra/spectrum.h"
+#include "penumbra/surface_hit.h"
 
 namespace penumbra {
 namespace {
@@ -36,10 +37,12 @@ float bsdfStrategyWeight(const Scene& scene, const ScatteringRecord& origin, siz
   if (origin.pdf <= 0) return 1;  // camera rays and delta lobes: light sampling cannot find these
   switch (mode) {
     case DirectLighting::MultipleImportance:
-      return powerHeuristic(origin.pdf,
-                            scene.lightSampler().probability(origin.receiver, index) * lightPdf);
+      return powerHeuristic(
+          origin.pdf, scene.lights().lightSampler().probability(origin.receiver, index) * lightPdf);
     case DirectLighting::LightSamplingOnly:
-      return scene.lightSampler().probability(origin.receiver, index) * lightPdf > 0 ? 0.0f : 1.0f;
+      return scene.lights().lightSampler().probability(origin.receiver, index) * lightPdf > 0
+                 ? 0.0f
+                 : 1.0f;
     case DirectLighting::BsdfSamplingOnly:
       return 1;
   }
@@ -51,7 +54,7 @@ float bsdfStrategyWeight(const Scene& scene, const ScatteringRecord& origin, siz
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
                       const ScatteringRecord& origin, DirectLighting mode,
                       const PathSpectrum& spectrum, float* nearestLight, bool* sawLight) {
-  const std::vector<Light>& lights = scene.lights();
+  const std::vector<Light>& lights = scene.lights().all();
   Vec3f total{0.0f};
   float nearest = kInfinity;
   const auto add = [&](uint32_t index, const LightHit& hit) {
@@ -68,9 +71,9 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
                                                  : light.specularMultiplier();
     total += spectrum.emission(hit.radiance) * (weight * multiplier);
   };
-  scene.forEachLightHit(ray, tMax, add);
+  scene.lights().forEachLightHit(ray, tMax, add);
   if (escaped)
-    for (const uint32_t index : scene.infiniteLights())
+    for (const uint32_t index : scene.lights().infiniteLights())
       if (const std::optional<LightHit> hit =
               lights[index].escaped(ray.direction, origin.receiver.normal))
         add(index, *hit);
@@ -175,7 +178,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   const Vec2f timeAndWavelength = sampler.next2D();
   const float shutterTime = timeAndWavelength.x;
   PathSpectrum spectrum;
-  if (scene.spectral()) {
+  if (scene.materials().spectral()) {
     spectrum.spectral = true;
     spectrum.wavelengths = sampleWavelengths(timeAndWavelength.y);
   }
@@ -189,11 +192,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   int diffuseBounces = 0, glossyBounces = 0, transmissionBounces = 0;
   bool lastVertex = false;      // a lobe's depth is exhausted: only collect what the ray reaches
   float minRayPdf = kInfinity;  // the smallest density of a scattered direction so far
-  const std::vector<Light>& lights = scene.lights();
+  const std::vector<Light>& lights = scene.lights().all();
 
   for (int bounce = 0;; ++bounce) {
     const std::optional<SurfaceHit> hit =
-        scene.intersect(ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary, cone);
+        intersectSurface(scene, ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary, cone);
     ++result.rays;
     float nearestLight = kInfinity;
     bool sawLight = false;
@@ -268,7 +271,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
       result.rays += light.castsShadows();
       if (light.castsShadows() &&
-          scene.occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time)))
+          scene.geometry().occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time)))
         return;
       const float lightPdf = choice.probability * sample->pdf;
       const float weight =
@@ -282,7 +285,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           bounce + 1, settings.indirectClamp);
     };
     if (!bsdf.isPurelySpecular() && settings.directLighting != DirectLighting::BsdfSamplingOnly)
-      scene.lightSampler().forEachChoice(receiver, infiniteChoice, localChoice, sampleLight);
+      scene.lights().lightSampler().forEachChoice(receiver, infiniteChoice, localChoice,
+                                                  sampleLight);
 
     // BSDF sampling continues the path; the lobe and the direction in it are stratified jointly.
     const Sample4D scatteringSample = sampler.next4D();

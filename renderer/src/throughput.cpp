@@ -43,12 +43,12 @@ RawRayThroughput measureRawThroughput(const Scene& scene, const Camera& camera, 
           camera.generateRay(float(x) + 0.5f, float(y) + 0.5f, Vec2f{0.5f, 0.5f}, 0.5f));
   RawRayThroughput result;
   result.primary = raysPerSecond(primary, threads, repeats, [&](const Ray& ray) {
-    return scene.hitDistance(ray, RayKind::Camera);
+    return scene.geometry().hitDistance(ray, RayKind::Camera);
   });
   // Bounce rays leave each hit towards the side the camera ray came from, cosine-distributed.
   std::vector<Ray> bounces;
   for (size_t i = 0; i < primary.size(); ++i) {
-    const float distance = scene.hitDistance(primary[i], RayKind::Camera);
+    const float distance = scene.geometry().hitDistance(primary[i], RayKind::Camera);
     if (!std::isfinite(distance)) continue;
     Ray bounce;
     const Vec3f back = -primary[i].direction;
@@ -64,10 +64,10 @@ RawRayThroughput measureRawThroughput(const Scene& scene, const Camera& camera, 
   result.bounceRays = bounces.size();
   if (bounces.empty()) return result;
   result.bounceIntersect = raysPerSecond(bounces, threads, repeats, [&](const Ray& ray) {
-    return scene.hitDistance(ray, RayKind::Secondary);
+    return scene.geometry().hitDistance(ray, RayKind::Secondary);
   });
-  result.bounceOccluded =
-      raysPerSecond(bounces, threads, repeats, [&](const Ray& ray) { return scene.occluded(ray); });
+  result.bounceOccluded = raysPerSecond(
+      bounces, threads, repeats, [&](const Ray& ray) { return scene.geometry().occluded(ray); });
   return result;
 }
 

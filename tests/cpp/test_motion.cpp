@@ -3,6 +3,7 @@
 #include "penumbra/camera.h"
 #include "penumbra/motion.h"
 #include "penumbra/scene.h"
+#include "penumbra/surface_hit.h"
 
 using namespace penumbra;
 
@@ -69,19 +70,19 @@ TEST(Motion, StepsAreUniformlySpaced) {
 TEST(Motion, EmbreeInstanceMotionFollowsTheArc) {
   Device device;
   Scene scene(device);
-  const Scene::MeshId id = scene.addMesh();
-  scene.setMeshGeometry(id, square({2, 0, 0}, 0.05f));
-  scene.setMeshInstance(id, MotionTransform({rotationY(0), rotationY(90)}), Scene::kNoMaterial,
-                        true);
+  const Geometry::MeshId id = scene.geometry().addMesh();
+  scene.geometry().setMeshGeometry(id, square({2, 0, 0}, 0.05f));
+  scene.geometry().setMeshInstance(id, MotionTransform({rotationY(0), rotationY(90)}),
+                                   MaterialTable::kNoMaterial, true);
   scene.commit();
   // rotationY maps +X towards -Z: at t = 0.5 the square sits at 45° on the circle of radius 2.
   const float r = 2 / std::sqrt(2.0f);
-  EXPECT_TRUE(scene.intersect(downAt(2, 0, 0), RayKind::Camera));
-  EXPECT_FALSE(scene.intersect(downAt(2, 0, 0.5f), RayKind::Camera));
-  EXPECT_TRUE(scene.intersect(downAt(r, -r, 0.5f), RayKind::Camera));
+  EXPECT_TRUE(intersectSurface(scene, downAt(2, 0, 0), RayKind::Camera));
+  EXPECT_FALSE(intersectSurface(scene, downAt(2, 0, 0.5f), RayKind::Camera));
+  EXPECT_TRUE(intersectSurface(scene, downAt(r, -r, 0.5f), RayKind::Camera));
   // The chord's midpoint (radius 1.41) is not on the path.
-  EXPECT_FALSE(scene.intersect(downAt(1, -1, 0.5f), RayKind::Camera));
-  const auto end = scene.intersect(downAt(0, -2, 1), RayKind::Camera);
+  EXPECT_FALSE(intersectSurface(scene, downAt(1, -1, 0.5f), RayKind::Camera));
+  const auto end = intersectSurface(scene, downAt(0, -2, 1), RayKind::Camera);
   ASSERT_TRUE(end);
   EXPECT_NEAR(end->normal.y, 1, 1e-5f);
 }
@@ -89,19 +90,19 @@ TEST(Motion, EmbreeInstanceMotionFollowsTheArc) {
 TEST(Motion, DeformationMotionInterpolatesPoints) {
   Device device;
   Scene scene(device);
-  const Scene::MeshId id = scene.addMesh();
+  const Geometry::MeshId id = scene.geometry().addMesh();
   TriangleMesh mesh = square({0, 0, 0}, 0.05f);
   std::vector<Vec3f> moved = mesh.points, further = mesh.points;
   for (Vec3f& p : moved) p.x += 1;
   for (Vec3f& p : further) p.x += 3;
   mesh.pointMotion = {moved, further};
-  scene.setMeshGeometry(id, std::move(mesh));
-  scene.setMeshInstance(id, Transform(), Scene::kNoMaterial, true);
+  scene.geometry().setMeshGeometry(id, std::move(mesh));
+  scene.geometry().setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
   scene.commit();
-  EXPECT_TRUE(scene.intersect(downAt(0, 0, 0), RayKind::Camera));
-  EXPECT_TRUE(scene.intersect(downAt(0.5f, 0, 0.25f), RayKind::Camera));
-  EXPECT_TRUE(scene.intersect(downAt(2, 0, 0.75f), RayKind::Camera));
-  EXPECT_FALSE(scene.intersect(downAt(1.5f, 0, 0.25f), RayKind::Camera));
+  EXPECT_TRUE(intersectSurface(scene, downAt(0, 0, 0), RayKind::Camera));
+  EXPECT_TRUE(intersectSurface(scene, downAt(0.5f, 0, 0.25f), RayKind::Camera));
+  EXPECT_TRUE(intersectSurface(scene, downAt(2, 0, 0.75f), RayKind::Camera));
+  EXPECT_FALSE(intersectSurface(scene, downAt(1.5f, 0, 0.25f), RayKind::Camera));
 }
 
 TEST(Motion, MismatchedPointSamplesAreRejected) {

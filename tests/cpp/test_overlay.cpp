@@ -1,4 +1,4 @@
-// The scene's overlay (Scene::commit): meshes moved, shown or hidden after the scene was built
+// The scene's overlay (Geometry::commit): meshes moved, shown or hidden after the scene was built
 // wait in a small BVH of their own instead of rebuilding the top level, and rays meet exactly
 // what they meet in a scene built afresh in the edited state.
 #include <gtest/gtest.h>
@@ -15,7 +15,7 @@ using penumbra::test::translation;
 
 namespace {
 
-constexpr size_t kMeshes = Scene::kOverlayThreshold + 76;
+constexpr size_t kMeshes = Geometry::kOverlayThreshold + 76;
 constexpr int kColumns = 34;
 
 /// A box of side `size` with its lower corner at the origin; single-sided or not.
@@ -55,11 +55,12 @@ std::vector<MotionTransform> copiesOfMesh3() {
 /// Builds `layout` into `scene` and commits it.
 void build(Scene& scene, const Layout& layout) {
   for (size_t i = 0; i < kMeshes; ++i) {
-    const Scene::MeshId id = scene.addMesh();
-    scene.setMeshGeometry(id, box(0.5f + 0.04f * float(i % 7), layout.doubleSided[i]));
-    scene.setMeshInstance(id, layout.placements[i], Scene::kNoMaterial, layout.visible[i]);
+    const Geometry::MeshId id = scene.geometry().addMesh();
+    scene.geometry().setMeshGeometry(id, box(0.5f + 0.04f * float(i % 7), layout.doubleSided[i]));
+    scene.geometry().setMeshInstance(id, layout.placements[i], MaterialTable::kNoMaterial,
+                                     layout.visible[i]);
   }
-  scene.setInstances(scene.addInstancer(), 3, copiesOfMesh3(), true);
+  scene.geometry().setInstances(scene.geometry().addInstancer(), 3, copiesOfMesh3(), true);
   scene.commit();
 }
 
@@ -86,15 +87,15 @@ int differences(const Scene& a, const Scene& b) {
   int different = 0;
   for (const Ray& ray : probes()) {
     for (const RayKind kind : {RayKind::Camera, RayKind::Secondary}) {
-      const auto hitA = a.intersect(ray, kind), hitB = b.intersect(ray, kind);
+      const auto hitA = a.geometry().intersect(ray, kind), hitB = b.geometry().intersect(ray, kind);
       if (bool(hitA) != bool(hitB) ||
           (hitA && (hitA->distance != hitB->distance || hitA->meshId != hitB->meshId ||
-                    hitA->instance != hitB->instance || hitA->triangle != hitB->triangle ||
+                    hitA->instance != hitB->instance || hitA->primitive != hitB->primitive ||
                     hitA->u != hitB->u || hitA->v != hitB->v)) ||
-          a.hitDistance(ray, kind) != b.hitDistance(ray, kind))
+          a.geometry().hitDistance(ray, kind) != b.geometry().hitDistance(ray, kind))
         ++different;
     }
-    if (a.occluded(ray) != b.occluded(ray)) ++different;
+    if (a.geometry().occluded(ray) != b.geometry().occluded(ray)) ++different;
   }
   return different;
 }
@@ -109,14 +110,17 @@ int differencesFromFresh(const Device& device, const Scene& scene, const Layout&
 /// Moves mesh `i` to `placement`, in the scene and in the layout it is to match.
 void move(Scene& scene, Layout& layout, size_t i, const MotionTransform& placement) {
   layout.placements[i] = placement;
-  scene.setMeshInstance(Scene::MeshId(i), placement, Scene::kNoMaterial, layout.visible[i]);
+  scene.geometry().setMeshInstance(Geometry::MeshId(i), placement, MaterialTable::kNoMaterial,
+                                   layout.visible[i]);
 }
 
 /// Hits that would differ if an edit had not reached the rays at all.
-int hitsOnMesh(const Scene& scene, Scene::MeshId mesh) {
+int hitsOnMesh(const Scene& scene, Geometry::MeshId mesh) {
   int hits = 0;
   for (const Ray& ray : probes())
-    if (const auto hit = scene.intersect(ray, RayKind::Camera); hit && hit->meshId == mesh) ++hits;
+    if (const auto hit = scene.geometry().intersect(ray, RayKind::Camera);
+        hit && hit->meshId == mesh)
+      ++hits;
   return hits;
 }
 
@@ -128,7 +132,7 @@ class Overlay : public ::testing::Test {
   /// built afresh.
   void expectFoldedAsFresh() {
     scene.commit();
-    EXPECT_EQ(scene.overlaidPlacements(), 0u);
+    EXPECT_EQ(scene.geometry().overlaidPlacements(), 0u);
     EXPECT_EQ(differencesFromFresh(device, scene, layout), 0);
   }
 
@@ -141,7 +145,7 @@ class Overlay : public ::testing::Test {
 
 TEST_F(Overlay, EditedMeshesAreMetAsInASceneBuiltAfresh) {
   Scene& edited = scene;
-  const uint64_t builtBefore = edited.topLevelBvhPrimitives();
+  const uint64_t builtBefore = edited.geometry().topLevelBvhPrimitives();
   ASSERT_GT(hitsOnMesh(edited, kMeshes - 1), 0);  // the probes reach the far mesh
 
   // Moved up, moved sideways onto another mesh's row, hidden, the far one moved in (the
@@ -152,12 +156,12 @@ TEST_F(Overlay, EditedMeshesAreMetAsInASceneBuiltAfresh) {
   layout.placements[kMeshes - 1] = translation(10, 2, 10);
   layout.placements[3] = translation(3, 0.7, 0.2);
   for (const size_t i : {size_t(5), size_t(40), size_t(77), kMeshes - 1, size_t(3)})
-    edited.setMeshInstance(Scene::MeshId(i), layout.placements[i], Scene::kNoMaterial,
-                           layout.visible[i]);
+    edited.geometry().setMeshInstance(Geometry::MeshId(i), layout.placements[i],
+                                      MaterialTable::kNoMaterial, layout.visible[i]);
   edited.commit();
-  EXPECT_EQ(edited.overlaidPlacements(), 5u);
+  EXPECT_EQ(edited.geometry().overlaidPlacements(), 5u);
   // Only the overlay's five instances were built, not a top level over every mesh.
-  EXPECT_EQ(edited.topLevelBvhPrimitives() - builtBefore, 5u);
+  EXPECT_EQ(edited.geometry().topLevelBvhPrimitives() - builtBefore, 5u);
 
   Scene fresh(device);
   build(fresh, layout);
@@ -170,48 +174,48 @@ TEST_F(Overlay, EditedMeshesAreMetAsInASceneBuiltAfresh) {
   move(edited, layout, 5, translation(5, 2.5, 0.3));
   move(edited, layout, 40, MotionTransform({translation(8, 1, 2), translation(8, 1, 9)}));
   edited.commit();
-  EXPECT_EQ(edited.overlaidPlacements(), 5u);
+  EXPECT_EQ(edited.geometry().overlaidPlacements(), 5u);
   EXPECT_EQ(differencesFromFresh(device, edited, layout), 0);
 }
 
 TEST_F(Overlay, FoldsIntoTheTopLevelWhenThatIsRebuiltOrRaysAreMany) {
   move(scene, layout, 12, translation(12, 1, 0));
   scene.commit();
-  ASSERT_EQ(scene.overlaidPlacements(), 1u);
+  ASSERT_EQ(scene.geometry().overlaidPlacements(), 1u);
 
   // A few samples keep the overlay; many fold it (one rebuild of the top level).
-  EXPECT_FALSE(scene.prepareForSamples(100));
-  EXPECT_TRUE(scene.prepareForSamples(100'000'000));
+  EXPECT_FALSE(scene.geometry().prepareForSamples(100));
+  EXPECT_TRUE(scene.geometry().prepareForSamples(100'000'000));
   expectFoldedAsFresh();
 
   // An overlaid mesh whose sidedness changes has its BVH committed again, which Embree wants its
   // instances and the top level to follow: the overlay is folded into that rebuild.
   move(scene, layout, 20, translation(20, 1, 0));
   scene.commit();
-  ASSERT_EQ(scene.overlaidPlacements(), 1u);
+  ASSERT_EQ(scene.geometry().overlaidPlacements(), 1u);
   ASSERT_FALSE(layout.doubleSided[22]);
   layout.doubleSided[22] = true;
-  scene.setMeshGeometry(22, box(0.5f + 0.04f * float(22 % 7), true));
+  scene.geometry().setMeshGeometry(22, box(0.5f + 0.04f * float(22 % 7), true));
   expectFoldedAsFresh();
 }
 
 TEST_F(Overlay, HoldsABoundedNumberOfMeshesAndForgetsRemovedOnes) {
-  for (size_t i = 100; i < 100 + Scene::kMaxOverlaid; ++i)
+  for (size_t i = 100; i < 100 + Geometry::kMaxOverlaid; ++i)
     move(scene, layout, i, translation(double(i % kColumns), 0.3, double(i / kColumns)));
   scene.commit();
-  EXPECT_EQ(scene.overlaidPlacements(), Scene::kMaxOverlaid);
+  EXPECT_EQ(scene.geometry().overlaidPlacements(), Geometry::kMaxOverlaid);
   // One more moves top_'s own instance, and the rebuild takes the others back.
-  const size_t last = 100 + Scene::kMaxOverlaid;
+  const size_t last = 100 + Geometry::kMaxOverlaid;
   move(scene, layout, last, translation(double(last % kColumns), 0.3, double(last / kColumns)));
   expectFoldedAsFresh();
 
   // A mesh removed while overlaid leaves nothing behind.
   move(scene, layout, 7, translation(7, 1, 0));
   scene.commit();
-  ASSERT_EQ(scene.overlaidPlacements(), 1u);
-  scene.removeMesh(7);
+  ASSERT_EQ(scene.geometry().overlaidPlacements(), 1u);
+  scene.geometry().removeMesh(7);
   scene.commit();
-  EXPECT_EQ(scene.overlaidPlacements(), 0u);
+  EXPECT_EQ(scene.geometry().overlaidPlacements(), 0u);
   EXPECT_EQ(hitsOnMesh(scene, 7), 0);
   layout.visible[7] = false;  // the fresh scene keeps ids aligned with a hidden mesh 7
   EXPECT_EQ(differencesFromFresh(device, scene, layout), 0);
@@ -221,14 +225,14 @@ TEST(OverlayThreshold, SmallScenesRebuildTheirTopLevel) {
   Device device;
   Scene scene(device);
   for (int i = 0; i < 10; ++i) {
-    const Scene::MeshId id = scene.addMesh();
-    scene.setMeshGeometry(id, box(0.5f, false));
-    scene.setMeshInstance(id, translation(i, 0, 0), Scene::kNoMaterial, true);
+    const Geometry::MeshId id = scene.geometry().addMesh();
+    scene.geometry().setMeshGeometry(id, box(0.5f, false));
+    scene.geometry().setMeshInstance(id, translation(i, 0, 0), MaterialTable::kNoMaterial, true);
   }
   scene.commit();
-  const uint64_t before = scene.topLevelBvhPrimitives();
-  scene.setMeshInstance(4, translation(4, 1, 0), Scene::kNoMaterial, true);
+  const uint64_t before = scene.geometry().topLevelBvhPrimitives();
+  scene.geometry().setMeshInstance(4, translation(4, 1, 0), MaterialTable::kNoMaterial, true);
   scene.commit();
-  EXPECT_EQ(scene.overlaidPlacements(), 0u);
-  EXPECT_EQ(scene.topLevelBvhPrimitives() - before, 10u);
+  EXPECT_EQ(scene.geometry().overlaidPlacements(), 0u);
+  EXPECT_EQ(scene.geometry().topLevelBvhPrimitives() - before, 10u);
 }

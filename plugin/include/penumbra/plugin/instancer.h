@@ -15,7 +15,7 @@ class Mesh;
 
 class Instancer : public Prim {
  public:
-  Instancer(PrimId id, Scene::InstancerId handle) : Prim(std::move(id)), handle_(handle) {}
+  Instancer(PrimId id, Geometry::InstancerId handle) : Prim(std::move(id)), handle_(handle) {}
 
   /// `transforms`: one (possibly animated) prototype-to-world transform per copy.
   void setInstances(PrimId prototype, std::vector<MotionTransform> transforms) {
@@ -44,8 +44,8 @@ class Instancer : public Prim {
   /// after meshes: the copies follow their prototype's geometry.
   void sync(SyncContext& context, Mesh* prototype);
 
-  Scene::InstancerId handle() const { return handle_; }
-  void setHandle(Scene::InstancerId handle) { handle_ = handle; }
+  Geometry::InstancerId handle() const { return handle_; }
+  void setHandle(Geometry::InstancerId handle) { handle_ = handle; }
   const PrimId& prototype() const { return prototype_; }
   const std::vector<MotionTransform>& transforms() const { return transforms_; }
   bool visible() const { return visible_; }
@@ -53,7 +53,7 @@ class Instancer : public Prim {
   const std::vector<Primvar>& primvars() const { return primvars_; }
 
  private:
-  Scene::InstancerId handle_;
+  Geometry::InstancerId handle_;
   PrimId prototype_;
   std::vector<MotionTransform> transforms_;
   bool visible_ = true;

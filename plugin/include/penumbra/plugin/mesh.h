@@ -17,7 +17,7 @@ namespace penumbra::plugin {
 
 class Mesh : public Prim {
  public:
-  Mesh(PrimId id, Scene::MeshId handle) : Prim(std::move(id)), handle_(handle) {}
+  Mesh(PrimId id, Geometry::MeshId handle) : Prim(std::move(id)), handle_(handle) {}
 
   void setTopology(std::vector<int> counts, std::vector<int> indices, bool leftHanded,
                    std::string subdivisionScheme);
@@ -66,7 +66,7 @@ class Mesh : public Prim {
   /// changed or moved in the scene's list).
   void place(SyncContext& context) const;
 
-  Scene::MeshId handle() const { return handle_; }
+  Geometry::MeshId handle() const { return handle_; }
   const MeshData& data() const { return data_; }
   const PrimId& materialId() const { return materialId_; }
   const MotionTransform& transform() const { return objectToWorld_; }
@@ -85,7 +85,7 @@ class Mesh : public Prim {
   /// space at shutter open, or hides it (the mesh is hidden or invalid), and syncs it.
   void syncLight(SyncContext& context);
 
-  Scene::MeshId handle_;
+  Geometry::MeshId handle_;
   MeshData data_;
   std::string subdivisionScheme_ = "none";
   SubdivisionTags tags_;

@@ -95,7 +95,7 @@ class RenderDelegate {
   /// camera is set. Returns true if anything a render depends on changed (scene contents or any
   /// camera), so that passes restart accumulation. `cameraSamples`: how many the pass is about
   /// to take (pixels × samples per pixel), which decides whether placements edited since the
-  /// last full build stay in the scene's overlay (Scene::prepareForSamples).
+  /// last full build stay in the scene's overlay (Geometry::prepareForSamples).
   bool sync(const DicingContext& view, uint64_t cameraSamples = UINT64_MAX);
   /// Bytes the next sync will allocate to build the dirty meshes and instancers (an estimate
   /// from their counts, penumbra::estimatedBuildBytes), to be checked against a memory budget
@@ -107,7 +107,7 @@ class RenderDelegate {
   /// surfaces diced, and mesh BVHs built (a mesh whose triangles did not change keeps its BVH);
   /// renderer materials built and the textures they opened; renderer lights built (mesh lights
   /// too) and light textures loaded; instances in the top-level BVHs built
-  /// (Scene::topLevelBvhPrimitives).
+  /// (Geometry::topLevelBvhPrimitives).
   struct SyncStatistics {
     uint64_t meshGeometrySyncs = 0;
     uint64_t subdivisionDicings = 0;

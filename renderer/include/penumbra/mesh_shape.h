@@ -1,0 +1,27 @@
+// Triangle meshes (polygon meshes triangulated, and subdivision surfaces diced to triangles) as
+// a kind of geometry.
+#pragma once
+
+#include "penumbra/mesh.h"
+#include "penumbra/shape.h"
+
+namespace penumbra {
+
+class MeshShape final : public Shape {
+ public:
+  explicit MeshShape(TriangleMesh mesh) : mesh_(std::move(mesh)) {}
+  const TriangleMesh& mesh() const { return mesh_; }
+
+  RTCGeometry newEmbreeGeometry(RTCDevice device) const override;
+  bool tracesAs(const Shape& other) const override;
+  bool doubleSided() const override { return mesh_.doubleSided; }
+  SurfacePoint pointAt(uint32_t triangle, float u, float v, float time) const override;
+  SurfaceGeometry surfaceAt(uint32_t triangle, float u, float v, float time,
+                            const Transform& objectToWorld) const override;
+  int primvarWidth(const PrimvarName& name) const override;
+
+ private:
+  TriangleMesh mesh_;
+};
+
+}  // namespace penumbra

@@ -1,0 +1,54 @@
+// One kind of geometry (triangle meshes; later curves, points, volume bounds) behind the small
+// interface that the geometry aggregate (geometry.h) and shading need of it: its Embree geometry,
+// and the surface at a hit on it. Everything else (BVHs, placements, instancer copies, the
+// overlay, hit filters) is the aggregate's and the same for every kind, so that a new kind is a
+// new implementation of Shape rather than edits across the aggregate.
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <cstdint>
+
+#include "penumbra/math.h"
+#include "penumbra/mesh.h"
+#include "penumbra/shading.h"
+
+namespace penumbra {
+
+/// What a kind of geometry says of a point of its surface.
+struct SurfaceGeometry {
+  Vec3f normal;         // unit geometric normal on the authored front side, in world space
+  Vec3f shadingNormal;  // unit, interpolated where the kind has normals, on the same side
+  /// Primvar access at the point (shading.h), its corners in object space.
+  SurfacePoint point;
+  bool closed = false;  // the geometry bounds a solid
+};
+
+/// The geometry of one object, in object space, immutable once built.
+class Shape {
+ public:
+  virtual ~Shape() = default;
+
+  /// A new Embree geometry of it (every motion step), not yet committed, for a BVH of its own;
+  /// null when it has nothing to trace. Throws std::runtime_error when Embree cannot allocate it.
+  virtual RTCGeometry newEmbreeGeometry(RTCDevice device) const = 0;
+  /// Whether `other` is traced exactly as this one is (same kind, same primitives at the same
+  /// points, bit for bit), so that the BVH built from this one serves it: an edit of shading
+  /// data alone.
+  virtual bool tracesAs(const Shape& other) const = 0;
+  /// Whether camera rays see its back faces (Embree's geometric normal facing away from them);
+  /// the aggregate's hit filter culls them otherwise.
+  virtual bool doubleSided() const = 0;
+
+  /// Primvar access at the hit Embree reports on `primitive` at (u, v), at normalised shutter
+  /// time `time`; corners in object space. Cheap enough for hit filters.
+  virtual SurfacePoint pointAt(uint32_t primitive, float u, float v, float time) const = 0;
+  /// The surface there, its normals placed in the world by `objectToWorld` (the placement's
+  /// transform at `time`).
+  virtual SurfaceGeometry surfaceAt(uint32_t primitive, float u, float v, float time,
+                                    const Transform& objectToWorld) const = 0;
+  /// The widest value of primvar `name` it has (0: none).
+  virtual int primvarWidth(const PrimvarName& name) const = 0;
+};
+
+}  // namespace penumbra

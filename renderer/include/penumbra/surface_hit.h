@@ -1,0 +1,45 @@
+// Shading a hit: the geometry's raw first hit (geometry.h) made a surface the integrator can
+// scatter from, with the bound material evaluated there (textures, primvar readers, normal
+// map), or displayColor and displayOpacity where none is bound, and a mesh light's emission.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include "penumbra/camera.h"
+#include "penumbra/material.h"
+#include "penumbra/mesh.h"
+#include "penumbra/scene.h"
+
+namespace penumbra {
+
+/// A ray's first intersection with a surface, shaded.
+struct SurfaceHit {
+  float distance = 0;
+  Vec3f position;
+  Vec3f normal;         // unit geometric normal on the authored front side
+  Vec3f shadingNormal;  // unit, interpolated where the mesh has normals, on the same side
+  Vec3f emission;       // emitted radiance
+  /// Where the material may be anisotropic: the surface's tangent (surfaceTangent); else zero.
+  Vec3f tangent{0.0f};
+  /// The bound material's parameters evaluated here (textures, primvar readers, normal map), or
+  /// fallbackSurface() with displayColor and displayOpacity for meshes without one.
+  MaterialParams material;
+  int lightIndex = -1;  // the mesh light this surface is (UsdLuxMeshLightAPI)
+  bool closed = false;  // a solid: the mesh bounds one, or its material is not thin-walled
+  bool matte = false;   // a holdout (PassVisibility::matte): only distance and position are set
+  // Which surface this is, for AOVs and primvar lookups (as in SurfacePoint).
+  uint32_t meshId = 0;
+  int instance = -1;  // the instancer copy hit, -1: the mesh's own placement
+  const TriangleMesh* mesh = nullptr;
+  uint32_t triangle = 0;
+  float u = 0, v = 0;
+  const std::vector<Primvar>* instancePrimvars = nullptr;
+};
+
+/// The first hit of the ray in `scene`, shaded: textures are filtered over `cone`'s
+/// cross-section there.
+std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, RayKind kind,
+                                           const RayCone& cone = {});
+
+}  // namespace penumbra

@@ -1,0 +1,100 @@
+#include "penumbra/mesh_shape.h"
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+#include <type_traits>
+
+#include "penumbra/embree.h"
+
+namespace penumbra {
+namespace {
+
+template <typename T>
+bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+/// Whether two meshes have the same triangles at the same points (bit for bit) at every step.
+bool sameSurface(const TriangleMesh& a, const TriangleMesh& b) {
+  if (!sameBits(a.triangles, b.triangles) || !sameBits(a.points, b.points) ||
+      a.pointMotion.size() != b.pointMotion.size())
+    return false;
+  for (size_t step = 0; step < a.pointMotion.size(); ++step)
+    if (!sameBits(a.pointMotion[step], b.pointMotion[step])) return false;
+  return true;
+}
+
+}  // namespace
+
+RTCGeometry MeshShape::newEmbreeGeometry(RTCDevice device) const {
+  if (mesh_.triangles.empty()) return nullptr;
+  RTCGeometry triangles = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  const unsigned stepCount = unsigned(mesh_.pointMotion.size() + 1);
+  rtcSetGeometryTimeStepCount(triangles, stepCount);
+  bool allocated = true;
+  for (unsigned step = 0; step < stepCount; ++step) {
+    const std::vector<Vec3f>& points = step == 0 ? mesh_.points : mesh_.pointMotion[step - 1];
+    auto* vertices = static_cast<Vec3f*>(rtcSetNewGeometryBuffer(
+        triangles, RTC_BUFFER_TYPE_VERTEX, step, RTC_FORMAT_FLOAT3, sizeof(Vec3f), points.size()));
+    if (vertices)
+      std::copy(points.begin(), points.end(), vertices);
+    else
+      allocated = false;
+  }
+  auto* indices = static_cast<uint32_t*>(
+      rtcSetNewGeometryBuffer(triangles, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                              3 * sizeof(uint32_t), mesh_.triangles.size() / 3));
+  if (!allocated || !indices) {
+    rtcReleaseGeometry(triangles);
+    throwOnEmbreeError(device, "allocate mesh buffers");
+    throw std::runtime_error("Embree could not allocate mesh buffers");
+  }
+  std::copy(mesh_.triangles.begin(), mesh_.triangles.end(), indices);
+  return triangles;
+}
+
+bool MeshShape::tracesAs(const Shape& other) const {
+  const auto* mesh = dynamic_cast<const MeshShape*>(&other);
+  return mesh && sameSurface(mesh_, mesh->mesh_);
+}
+
+SurfacePoint MeshShape::pointAt(uint32_t triangle, float u, float v, float time) const {
+  SurfacePoint point;
+  point.mesh = &mesh_;
+  point.triangle = triangle;
+  point.u = u;
+  point.v = v;
+  for (int corner = 0; corner < 3; ++corner)
+    point.corners[corner] = mesh_.cornerAt(triangle, corner, time);
+  return point;
+}
+
+SurfaceGeometry MeshShape::surfaceAt(uint32_t triangle, float u, float v, float time,
+                                     const Transform& objectToWorld) const {
+  SurfaceGeometry surface;
+  surface.point = pointAt(triangle, u, v, time);
+  const Vec3f* corners = surface.point.corners;
+  surface.normal = normalize(
+      objectToWorld.applyToNormal(cross(corners[1] - corners[0], corners[2] - corners[0])));
+  surface.shadingNormal = surface.normal;
+  if (!mesh_.normals.empty()) {
+    const Vec3f interpolated = objectToWorld.applyToNormal(
+        mesh_.interpolate(mesh_.normals, mesh_.normalsInterpolation, triangle, u, v));
+    // A shading normal on the other side than the surface would turn shading inside out.
+    if (length(interpolated) > 0 && dot(interpolated, surface.normal) > 0)
+      surface.shadingNormal = normalize(interpolated);
+  }
+  surface.closed = mesh_.closed;
+  return surface;
+}
+
+int MeshShape::primvarWidth(const PrimvarName& name) const {
+  if (const Primvar* primvar = mesh_.findPrimvar(name)) return primvar->width;
+  if (name == displayColorName() && !mesh_.displayColor.empty()) return 3;
+  return 0;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,78 @@
+#include "penumbra/surface_hit.h"
+
+#include "penumbra/shading.h"
+
+namespace penumbra {
+
+std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, RayKind kind,
+                                           const RayCone& cone) {
+  const std::optional<GeometryHit> found = scene.geometry().intersect(ray, kind);
+  if (!found) return std::nullopt;
+
+  SurfaceHit hit;
+  hit.distance = found->distance;
+  hit.position = ray.origin + ray.direction * hit.distance;
+  if (kind == RayKind::Camera && found->pass.matte) {
+    hit.matte = true;
+    return hit;
+  }
+  const Transform objectToWorld = found->objectToWorld->at(ray.time);
+  SurfaceGeometry surface =
+      found->shape->surfaceAt(found->primitive, found->u, found->v, ray.time, objectToWorld);
+  SurfacePoint& point = surface.point;
+  hit.normal = surface.normal;
+  hit.shadingNormal = surface.shadingNormal;
+  hit.closed = surface.closed;
+  if (found->instancePrimvars) {
+    point.instancePrimvars = found->instancePrimvars;
+    point.instance = uint32_t(found->instance);
+  }
+  hit.meshId = found->meshId;
+  hit.instance = found->instance;
+  hit.mesh = point.mesh;
+  hit.triangle = point.triangle;
+  hit.u = point.u;
+  hit.v = point.v;
+  hit.instancePrimvars = point.instancePrimvars;
+  const MaterialTable& materials = scene.materials();
+  if (const Material* material = materials.find(found->materialIndex)) {
+    const bool anisotropic = material->mayBeAnisotropic();
+    if (material->varies() || anisotropic) {
+      // Texture footprints and tangent frames need the triangle in world space.
+      for (Vec3f& corner : point.corners) corner = objectToWorld.applyToPoint(corner);
+    }
+    if (material->varies()) {
+      point.normal = hit.normal;
+      point.shadingNormal = hit.shadingNormal;
+      footprintOnSurface(ray.direction, hit.normal, cone.radiusAt(hit.distance), &point.dpdx,
+                         &point.dpdy);
+      hit.material = evaluateMaterial(*material, materials.textures(), point, &hit.shadingNormal);
+    } else {
+      hit.material = material->constants;
+    }
+    if (anisotropic) hit.tangent = surfaceTangent(point, objectToWorld);
+    // With a threshold, opacity decides presence (the filter cut out what is below it); what
+    // remains is opaque, not translucent (UsdPreviewSurface spec).
+    if (hit.material.opacityThreshold > 0) hit.material.opacity = 1;
+    if (hit.material.thinWalled) hit.closed = !*hit.material.thinWalled;
+  } else {
+    hit.material = fallbackSurface();
+    float value[4];
+    int width = 0;
+    // Built once: looked up on every hit of a mesh without a material.
+    static const PrimvarName displayOpacity("displayOpacity");
+    if (primvarAt(point, displayColorName(), value, &width) && width >= 3)
+      hit.material.diffuseColor = {value[0], value[1], value[2]};
+    if (primvarAt(point, displayOpacity, value, &width)) hit.material.opacity = value[0];
+  }
+  hit.emission = hit.material.emissiveColor;
+  const LightSet& lights = scene.lights();
+  if (const int lightIndex = lights.meshLight(found->meshId); lightIndex >= 0) {
+    hit.lightIndex = lightIndex;
+    if (dot(ray.direction, hit.normal) < 0)
+      hit.emission = lights.all()[size_t(lightIndex)].radiance();
+  }
+  return hit;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,85 @@
+// The geometry aggregate's raw hits (which mesh, placement and triangle, where on it), and
+// shading them (intersectSurface): the surface a kind of geometry reports, displayColor on
+// meshes without a material.
+#include <gtest/gtest.h>
+
+#include "penumbra/mesh_shape.h"
+#include "penumbra/scene.h"
+#include "penumbra/surface_hit.h"
+#include "transforms.h"
+
+using namespace penumbra;
+using penumbra::test::translation;
+
+namespace {
+
+/// A square of side 2 in the XZ plane around the origin, facing +Y, red where nothing is bound.
+TriangleMesh redSquare() {
+  MeshData data;
+  data.points = {{-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}};
+  data.faceVertexCounts = {4};
+  data.faceVertexIndices = {0, 1, 2, 3};
+  data.displayColor = {{1, 0, 0}};
+  return triangulate(data);
+}
+
+Ray downAt(float x, float z) {
+  Ray ray;
+  ray.origin = {x, 5, z};
+  ray.direction = {0, -1, 0};
+  return ray;
+}
+
+}  // namespace
+
+TEST(Geometry, RawHitsSayWhichPlacementAndTriangle) {
+  const Device device;
+  Scene scene(device);
+  Geometry& geometry = scene.geometry();
+  const Geometry::MeshId id = geometry.addMesh();
+  geometry.setMeshGeometry(id, redSquare());
+  geometry.setMeshInstance(id, translation(0, 1, 0), MaterialTable::kNoMaterial, true);
+  geometry.setInstances(geometry.addInstancer(), id, {translation(10, 0, 0), translation(20, 0, 0)},
+                        true);
+  scene.commit();
+
+  const std::optional<GeometryHit> own = geometry.intersect(downAt(0.5f, 0.5f), RayKind::Camera);
+  ASSERT_TRUE(own);
+  EXPECT_EQ(own->meshId, id);
+  EXPECT_EQ(own->instance, -1);
+  EXPECT_FLOAT_EQ(own->distance, 4);
+  EXPECT_EQ(own->materialIndex, MaterialTable::kNoMaterial);
+  ASSERT_NE(dynamic_cast<const MeshShape*>(own->shape), nullptr);
+  EXPECT_LT(own->primitive, 2u);
+  const SurfaceGeometry surface =
+      own->shape->surfaceAt(own->primitive, own->u, own->v, 0, own->objectToWorld->at(0));
+  EXPECT_NEAR(surface.normal.y, 1, 1e-6f);
+
+  const std::optional<GeometryHit> copy = geometry.intersect(downAt(20, 0.5f), RayKind::Camera);
+  ASSERT_TRUE(copy);
+  EXPECT_EQ(copy->meshId, id);
+  EXPECT_EQ(copy->instance, 1);
+  EXPECT_FLOAT_EQ(copy->distance, 5);
+  EXPECT_FALSE(geometry.intersect(downAt(5, 0), RayKind::Camera));
+}
+
+TEST(Geometry, ShadingAHitWithoutAMaterialUsesDisplayColor) {
+  const Device device;
+  Scene scene(device);
+  const Geometry::MeshId id = scene.geometry().addMesh();
+  scene.geometry().setMeshGeometry(id, redSquare());
+  scene.geometry().setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
+  scene.commit();
+
+  const std::optional<SurfaceHit> hit =
+      intersectSurface(scene, downAt(0.5f, 0.5f), RayKind::Camera);
+  ASSERT_TRUE(hit);
+  EXPECT_EQ(hit->meshId, id);
+  EXPECT_FLOAT_EQ(hit->position.y, 0);
+  EXPECT_EQ(hit->material.diffuseColor.x, 1);
+  EXPECT_EQ(hit->material.diffuseColor.y, 0);
+  EXPECT_EQ(hit->lightIndex, -1);
+  // A mesh light of an index past the lights emits nothing.
+  scene.lights().setMeshLight(id, 3);
+  EXPECT_EQ(intersectSurface(scene, downAt(0.5f, 0.5f), RayKind::Camera)->lightIndex, -1);
+}
