@@ -225,7 +225,7 @@ def test_native_instances_render_copies_of_one_prototype_mesh():
     renderer = penumbra.Renderer(stage)
     image = renderer.render(**FAST)
     ids = set(renderer.delegate.prim_ids())
-    assert "/prototypes/__Prototype_1/quad" in ids
+    assert "/prototypes/World/left/quad" in ids
     assert not {"/World/left/quad", "/World/right/quad"} & ids
     assert pixel(image, 0.25, 0.5).mean() > 0.05 and pixel(image, 0.75, 0.5).mean() > 0.05
     assert pixel(image, 0.5, 0.5).mean() == 0.0

@@ -361,7 +361,7 @@ def test_purpose_instance_proxies_and_point_instancer_prototypes():
     with penumbra.Renderer(stage) as renderer:
         image = renderer.render(**RENDER)
         ids = set(renderer.delegate.prim_ids())
-        assert "/prototypes/__Prototype_1/ball" in ids  # one mesh for both instances
+        assert "/prototypes/World/left/ball" in ids  # one mesh for both instances
         assert "/World/guide" not in ids
     for u, v in ((0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)):  # ±1 at z = 0
         assert image["color"][int(v * WIDTH), int(u * WIDTH), 3] == 1.0, (u, v)

@@ -5,7 +5,9 @@ The camera of :func:`stages.add_camera` sees the square [-2, 2]² of the z = 0 p
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -54,7 +56,7 @@ def test_instances_render_as_the_flat_stage_with_one_hidden_mesh():
     flat = penumbra.Renderer(ball_grid_stage(instanceable=False))
     instanced = penumbra.Renderer(ball_grid_stage(instanceable=True))
     assert hidden_meshes(flat) == []
-    assert hidden_meshes(instanced) == ["/prototypes/__Prototype_1/ball"]
+    assert hidden_meshes(instanced) == ["/prototypes/World/ball_0/ball"]
     assert not any(p.startswith("/World/ball_") for p in instanced.delegate.prim_ids())
     options = dict(camera="/cam", width=64, samples=4)
     expected = flat.render(**options)["color"]
@@ -82,8 +84,8 @@ def test_bindings_on_instance_roots_give_each_instance_its_material():
     left, right, middle = at(image, -1, 1), at(image, 1, 1), at(image, 0, 1)
     assert left[0] > 5 * left[2] and middle[0] > 5 * middle[2] and right[2] > 5 * right[0]
     assert hidden_meshes(renderer) == [  # one mesh per (prototype mesh, material)
-        "/prototypes/__Prototype_1/tile/materials/Looks/blue",
-        "/prototypes/__Prototype_1/tile/materials/Looks/red",
+        "/prototypes/World/a/tile/materials/Looks/blue",
+        "/prototypes/World/a/tile/materials/Looks/red",
     ]
 
 
@@ -392,3 +394,18 @@ def test_per_instance_primvars_follow_usd_inheritance_and_time():
     UsdGeom.Mesh(stage.GetPrimAtPath("/World/scatter/protos/tile")).GetDisplayColorAttr().Clear()
     assert red_or_blue(at(renderer.render(time=1.0, **SMALL), 1, -1)[:3]) == "red"
     assert red_or_blue(at(renderer.render(time=2.0, **SMALL), 1, -1)[:3]) == "blue"
+
+
+def test_prim_ids_do_not_depend_on_how_usd_numbered_its_prototypes():
+    # USD names prototypes (/__Prototype_N) in an order that varies from one opening of a stage
+    # to the next: hidden meshes are named and inserted by their instances' paths instead.
+    path = Path(__file__).parents[1] / "assets" / "usd-wg" / "full_assets" / "SubdivisionSurfaces"
+    stage = path / "Creases_SpinningPyramids.usda"
+    renders = [
+        penumbra.render(str(stage), width=48, samples=1, aovs=("primId",)) for _ in range(4)
+    ]
+    manifest = json.loads(renders[0].metadata["primIds"])
+    assert len(manifest) == 3 and not any("__Prototype" in name for name in manifest.values())
+    for image in renders[1:]:
+        np.testing.assert_array_equal(image["primId"], renders[0]["primId"])
+        assert json.loads(image.metadata["primIds"]) == manifest

@@ -13,7 +13,7 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
 import penumbra
-from penumbra.usd import scene as scene_module
+from penumbra.usd import mesh_sync, tracking
 from penumbra.usd.inherited import InheritedState
 from stages import (
     add_camera,
@@ -174,7 +174,7 @@ _FAST_PATH_MESHES = {
 
 def test_fast_path_meshes_render_as_the_general_path_reads_them(monkeypatch):
     stage = _mixed_mesh_stage()
-    fast_path = scene_module.push_plain_meshes
+    fast_path = mesh_sync.push_plain_meshes
     taken: list[str] = []
 
     def recording(core, prims, *args):
@@ -182,10 +182,10 @@ def test_fast_path_meshes_render_as_the_general_path_reads_them(monkeypatch):
         taken.extend(prim.GetName() for prim, usable in zip(prims, pushed) if usable)
         return pushed
 
-    monkeypatch.setattr(scene_module, "push_plain_meshes", recording)
+    monkeypatch.setattr(mesh_sync, "push_plain_meshes", recording)
     fast = penumbra.Renderer(stage).render(**FAST)
     assert set(taken) == _FAST_PATH_MESHES
-    monkeypatch.setattr(scene_module, "is_plain", lambda names: False)
+    monkeypatch.setattr(mesh_sync, "is_plain", lambda names: False)
     taken.clear()
     general = penumbra.Renderer(stage).render(**FAST)
     assert not taken
@@ -248,7 +248,7 @@ def test_path_order_key_sorts_prim_paths_as_sdf_does():
         for _ in range(2000)
     }
     expected = [str(p) for p in sorted(Sdf.Path(p) for p in paths)]
-    assert sorted(paths, key=scene_module.path_order_key) == expected
+    assert sorted(paths, key=tracking.path_order_key) == expected
 
 
 def test_mesh_light_api_applied_then_removed_renders_as_a_fresh_delegate():

@@ -459,7 +459,8 @@ def spin_matrices(angular_velocities: np.ndarray, seconds: np.ndarray) -> np.nda
 
 def user_facing_path(prim: Usd.Prim) -> Sdf.Path:
     """The path of ``prim``, or for a prim inside a USD prototype, of its instance proxy in the
-    first instance (prototype paths mean nothing to users)."""
+    first instance in path order (prototype paths mean nothing to users, and USD names and
+    lists prototypes and their instances in no fixed order)."""
     path = prim.GetPath()
     if not prim.IsInPrototype():
         return path
@@ -467,7 +468,8 @@ def user_facing_path(prim: Usd.Prim) -> Sdf.Path:
     instances = root.GetInstances() if root else []
     if not instances:
         return path
-    return user_facing_path(instances[0]).AppendPath(path.MakeRelativePath(root.GetPath()))
+    first = min(instances, key=lambda instance: instance.GetPath())
+    return user_facing_path(first).AppendPath(path.MakeRelativePath(root.GetPath()))
 
 
 def prototype_roots(prim: Usd.Prim) -> Iterator[Usd.Prim]:

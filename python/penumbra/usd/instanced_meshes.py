@@ -88,6 +88,7 @@ def group_leaves(
 
 @dataclass
 class _Pushed:
+    name: str  # what its ids end with (see _id_tail)
     mesh_id: str
     instancer_id: str
     material_id: str | None = None  # None: not sent yet
@@ -127,13 +128,16 @@ class InstancedMeshes:
         """Make the delegate hold exactly ``groups``; meshes below any ``stale`` path (and
         time-varying ones when ``time_changed``) are read again."""
         stale = list(stale)
-        for key in [k for k in self._pushed if k not in groups]:
-            self._remove(key)
-        for key in sorted(groups, key=str):
+        # Named and ordered by user-facing paths: USD numbers its prototypes in no fixed order.
+        names = {key: (user_facing_path(group.mesh), *key[1:]) for key, group in groups.items()}
+        ids = {key: _id_tail(*name) for key, name in names.items()}
+        for key in [k for k, p in self._pushed.items() if ids.get(k) != p.name]:
+            self._remove(key)  # gone, or renamed (another instance became the first)
+        for key in sorted(groups, key=lambda k: str(names[k])):
             group = groups[key]
             pushed = self._pushed.get(key)
             if pushed is None:
-                pushed = self._pushed[key] = self._insert(key, group, shutter)
+                pushed = self._pushed[key] = self._insert(key, ids[key], group, shutter)
             elif (time_changed and pushed.varying) or any(key[0].HasPrefix(p) for p in stale):
                 self._read_mesh(pushed, group, shutter)
             if not pushed.usable:
@@ -154,14 +158,12 @@ class InstancedMeshes:
         for key in list(self._pushed):
             self._remove(key)
 
-    def _insert(self, key: GroupKey, group: Group, shutter: Shutter) -> _Pushed:
-        mesh_path, material, shown = key
-        suffix = f"/materials{material}" if material else ""
-        if shown != SHOWN:  # copies the render pass shows otherwise are an instancer of their own
-            suffix += f"/pass{'' if shown.camera else '/cameraHidden'}{'/matte' if shown.matte else ''}"
+    def _insert(self, key: GroupKey, name: str, group: Group, shutter: Shutter) -> _Pushed:
+        _, material, shown = key
         pushed = _Pushed(
-            mesh_id=f"{self.prefix}/prototypes{mesh_path}{suffix}",
-            instancer_id=f"{self.prefix}/instances{mesh_path}{suffix}",
+            name=name,
+            mesh_id=f"{self.prefix}/prototypes{name}",
+            instancer_id=f"{self.prefix}/instances{name}",
         )
         if material:
             self.materials.acquire(material, pushed.mesh_id)
@@ -194,6 +196,15 @@ class InstancedMeshes:
         self.core.remove_prim(pushed.mesh_id)
         if key[1]:
             self.materials.release(key[1], pushed.mesh_id)
+
+
+def _id_tail(mesh: Sdf.Path, material: Sdf.Path | None, shown: PassVisibility) -> str:
+    """What names a group's hidden mesh and instancer: the path of the ``mesh`` users know, and
+    what sets the group apart."""
+    suffix = f"/materials{material}" if material else ""
+    if shown != SHOWN:  # copies the render pass shows otherwise are an instancer of their own
+        suffix += f"/pass{'' if shown.camera else '/cameraHidden'}{'/matte' if shown.matte else ''}"
+    return f"{mesh}{suffix}"
 
 
 def _digest(*arrays: np.ndarray) -> bytes:

@@ -3,42 +3,17 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from functools import cache
 from typing import Any
 
 from pxr import Gf, Sdf, Sdr, Usd, UsdShade
 
 from .color_spaces import texture_color_space
+from .material_data import CONNECTABLE, INPUTS, MaterialData, texture_file
+from .materialx import read_materialx_material, surface_shader
 from .sampling import SampleReader
 
 PREVIEW_SURFACE = "UsdPreviewSurface"
-
-# The UsdPreviewSurface inputs the render delegate understands (docs/core-api.md, set_material).
-INPUTS = (
-    "diffuseColor",
-    "emissiveColor",
-    "specularColor",
-    "metallic",
-    "roughness",
-    "opacity",
-    "opacityThreshold",
-    "ior",
-    "clearcoat",
-    "clearcoatRoughness",
-    "useSpecularWorkflow",
-    "penumbra:transmissionRoughness",
-    "penumbra:abbeNumber",
-    "penumbra:thinWalled",
-)
-
-
-@dataclass
-class MaterialData:
-    """What a material sends to the delegate, and the prims its values were read from."""
-
-    params: dict[str, Any] = field(default_factory=dict)
-    sources: set[Sdf.Path] = field(default_factory=set)
 
 
 def bound_material(prim: Usd.Prim) -> Usd.Prim | None:
@@ -88,22 +63,6 @@ def _to_python(value: Any) -> Any:
     return float(value)
 
 
-# Inputs a shader network may drive, as the delegate takes them (docs/core-api.md,
-# set_material); others take their constant value.
-CONNECTABLE = frozenset(
-    {
-        "diffuseColor",
-        "emissiveColor",
-        "specularColor",
-        "metallic",
-        "roughness",
-        "clearcoat",
-        "clearcoatRoughness",
-        "opacity",
-        "ior",
-        "normal",
-    }
-)
 _VECTOR_INPUTS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "normal"})
 # UsdUVTexture inputs passed on as they are, when authored (the delegate has the spec's
 # defaults for the others).
@@ -198,7 +157,7 @@ class _Network:
 
     def texture(self, shader: UsdShade.Shader) -> dict[str, Any] | None:
         """A UsdUVTexture's description, or ``None`` (after a warning) when it names no file."""
-        file = _texture_file(shader.GetInput("file"), self.reader)
+        file = texture_file(shader.GetInput("file"), self.reader)
         if not file:
             self.warn(f"{shader.GetPath()}: UsdUVTexture has no file; its fallback is used")
             return None
@@ -255,26 +214,6 @@ class _Network:
         return result
 
 
-def _texture_file(file_input: UsdShade.Input | None, reader: SampleReader) -> str:
-    """The texture's path, resolved (``<UDIM>`` patterns anchored to the layer that authored
-    them, as USD's resolver leaves them alone); "" when no file is given."""
-    if not file_input:
-        return ""
-    producers = file_input.GetValueProducingAttributes()
-    attr = producers[0] if producers else file_input.GetAttr()
-    asset = reader.get(attr)
-    if isinstance(asset, str):  # authored as a string rather than an asset path
-        asset = Sdf.AssetPath(asset)
-    if not asset or not asset.path:
-        return ""
-    if asset.resolvedPath:
-        return asset.resolvedPath
-    for spec in attr.GetPropertyStack(reader.time):
-        if spec.HasDefaultValue() or spec.layer.ListTimeSamplesForPath(spec.path):
-            return spec.layer.ComputeAbsolutePath(asset.path)
-    return asset.path  # unresolvable: the delegate reports it missing
-
-
 def _channels(values: Any, output: str, vector: bool) -> Any:
     """The channels ``output`` names of a 4-value ``values``, as a constant input value."""
     channels = [float(c) for c in values]
@@ -310,7 +249,6 @@ def read_material(
     has no UsdPreviewSurface surface.
     """
     path = prim.GetPath()
-    from .materialx import read_materialx_material, surface_shader  # it imports this module
 
     mtlx_shader = surface_shader(prim)
     if mtlx_shader:

@@ -20,7 +20,7 @@ from pxr import Sdf, Usd, UsdShade
 
 from . import materialx_values as mv
 from .color_spaces import authored_color_space, constant_to_scene_linear, texture_color_space
-from .material import CONNECTABLE, INPUTS, MaterialData, _texture_file
+from .material_data import CONNECTABLE, INPUTS, MaterialData, texture_file
 from .sampling import SampleReader
 
 RENDER_CONTEXT = "mtlx"
@@ -226,7 +226,7 @@ class _Network:
         raise mv.Untranslatable(f"{category} nodes ({shader_id}) are not supported")
 
     def _image(self, shader: UsdShade.Shader, category: str, size: int) -> mv.Value:
-        file = _texture_file(shader.GetInput("file"), self.reader)
+        file = texture_file(shader.GetInput("file"), self.reader)
         default = self.input(shader, "default")
         fallback = list(default.values) if isinstance(default, mv.Constant) else [0.0] * size
         if not file:
