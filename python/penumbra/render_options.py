@@ -104,9 +104,10 @@ def check(given: Mapping[str, object], function: str) -> None:
     for name, value in given.items():
         if name not in BY_KEYWORD:
             raise TypeError(f"{function}() got an unexpected keyword argument {name!r}")
-        problem = BY_KEYWORD[name].problem(value)
+        option = BY_KEYWORD[name]
+        problem = option.problem(value)
         if problem is not None:
-            raise ValueError(f"{name} {problem}, not {value!r}")
+            raise ValueError(f"{name} {problem}, not {value!r} (render setting {option.key})")
 
 
 def resolve(
