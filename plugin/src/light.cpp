@@ -6,28 +6,6 @@
 #include "penumbra/plugin/param_value.h"
 
 namespace penumbra::plugin {
-namespace {
-
-const std::map<std::string, LightType>& lightTypes() {
-  static const std::map<std::string, LightType> types = {
-      {"rectLight", LightType::Rect},       {"diskLight", LightType::Disk},
-      {"sphereLight", LightType::Sphere},   {"cylinderLight", LightType::Cylinder},
-      {"distantLight", LightType::Distant}, {"domeLight", LightType::Dome}};
-  return types;
-}
-
-}  // namespace
-
-bool isLightTypeName(const std::string& typeName) {
-  return lightTypes().count(typeName) != 0;
-}
-
-LightType lightTypeFromName(const std::string& typeName) {
-  const auto found = lightTypes().find(typeName);
-  if (found == lightTypes().end()) throw std::invalid_argument("unknown light type " + typeName);
-  return found->second;
-}
-
 Light::Light(PrimId id, LightType type) : Prim(std::move(id)) {
   params_.type = type;
   // UsdLux's fallback intensity differs for DistantLight (sunlight).

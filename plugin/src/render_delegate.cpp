@@ -2,85 +2,11 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
-#include <limits>
 #include <stdexcept>
 
+#include "penumbra/plugin/light_types.h"
+
 namespace penumbra::plugin {
-
-namespace {
-
-/// A setting: an int or a float field, and its range.
-struct SettingField {
-  int RenderSettingsMap::*intField = nullptr;
-  float RenderSettingsMap::*floatField = nullptr;
-  double minimum = 0;
-  double maximum = std::numeric_limits<int>::max();
-};
-
-SettingField intSetting(int RenderSettingsMap::*field, int minimum,
-                        int maximum = std::numeric_limits<int>::max()) {
-  return {field, nullptr, double(minimum), double(maximum)};
-}
-
-const std::map<std::string, SettingField>& settingFields() {
-  static const std::map<std::string, SettingField> fields = {
-      {"samples", intSetting(&RenderSettingsMap::samples, 1)},
-      {"seed", intSetting(&RenderSettingsMap::seed, 0)},
-      {"threads", intSetting(&RenderSettingsMap::threads, 0)},
-      {"maxPathDepth", intSetting(&RenderSettingsMap::maxPathDepth, 0)},
-      {"maxDiffuseDepth", intSetting(&RenderSettingsMap::maxDiffuseDepth, 0)},
-      {"maxGlossyDepth", intSetting(&RenderSettingsMap::maxGlossyDepth, 0)},
-      {"maxTransmissionDepth", intSetting(&RenderSettingsMap::maxTransmissionDepth, 0)},
-      {"complexity", intSetting(&RenderSettingsMap::complexity, 0, 3)},
-      {"directLighting", intSetting(&RenderSettingsMap::directLighting, 0, 2)},
-      {"adaptiveThreshold", {nullptr, &RenderSettingsMap::adaptiveThreshold, 0, 1}},
-      {"adaptiveMinSamples", intSetting(&RenderSettingsMap::adaptiveMinSamples, 2)},
-      {"indirectClamp",
-       {nullptr, &RenderSettingsMap::indirectClamp, 0, std::numeric_limits<float>::max()}},
-      {"glossyFilter",
-       {nullptr, &RenderSettingsMap::glossyFilter, 0, std::numeric_limits<float>::max()}},
-      {"textureCacheMB", intSetting(&RenderSettingsMap::textureCacheMB, 16)}};
-  return fields;
-}
-
-std::string formatValue(double value) {
-  std::string text = std::to_string(value);
-  text.erase(text.find_last_not_of('0') + 1);
-  if (text.back() == '.') text.pop_back();
-  return text;
-}
-
-}  // namespace
-
-void RenderSettingsMap::set(const std::string& key, double value) {
-  const auto found = settingFields().find(key);
-  if (found == settingFields().end()) {
-    std::string known;
-    for (const auto& entry : settingFields()) known += (known.empty() ? "" : ", ") + entry.first;
-    throw std::invalid_argument("unknown render setting '" + key + "' (known: " + known + ")");
-  }
-  const SettingField& setting = found->second;
-  if (!(value >= setting.minimum && value <= setting.maximum))
-    throw std::invalid_argument("render setting " + key + " must be in [" +
-                                formatValue(setting.minimum) + ", " + formatValue(setting.maximum) +
-                                "], got " + formatValue(value));
-  if (setting.intField) {
-    if (value != std::floor(value))
-      throw std::invalid_argument("render setting " + key + " must be an integer, got " +
-                                  formatValue(value));
-    this->*(setting.intField) = int(value);
-  } else {
-    this->*(setting.floatField) = float(value);
-  }
-}
-
-std::map<std::string, double> RenderSettingsMap::asMap() const {
-  std::map<std::string, double> values;
-  for (const auto& [key, entry] : settingFields())
-    values[key] = entry.intField ? double(this->*(entry.intField)) : this->*(entry.floatField);
-  return values;
-}
 
 RenderDelegate::RenderDelegate(const std::string& colorConfig)
     : scene_(std::make_unique<Scene>(device_, colorConfig)) {}

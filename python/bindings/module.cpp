@@ -450,8 +450,11 @@ void forEachPrim(const std::vector<std::string>& ids, const std::vector<Value>& 
   for (size_t i = 0; i < ids.size(); ++i) set(ids[i], values[i]);
 }
 
+void bindRenderSettings(py::module_& m);  // render_settings.cpp
+
 PYBIND11_MODULE(_core, m) {
   m.doc() = "Penumbra's render delegate and image I/O (see docs/core-api.md)";
+  bindRenderSettings(m);
   py::register_exception_translator([](std::exception_ptr pointer) {
     try {
       if (pointer) std::rethrow_exception(pointer);

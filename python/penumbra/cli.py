@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import itertools
 import logging
-import math
 import os
 import resource
 import signal
@@ -22,7 +21,7 @@ from collections.abc import Iterator, Sequence
 
 from pxr import Usd
 
-from . import _core
+from . import _core, render_options
 from .denoise import NOISY_COLOR
 from .errors import PenumbraWarning, SceneError
 from .frames import (
@@ -46,7 +45,7 @@ from .jobs import (
     output_is_complete,
     time_code,
 )
-from .renderer import COMPLEXITIES, DEFAULT_MAX_PATH_DEPTH, DEFAULT_SAMPLES, DEFAULT_WIDTH
+from .renderer import DEFAULT_WIDTH
 from .trace import TRACE_FORMATS, Tracer
 from .usd.stage import RESOLVERS
 
@@ -72,6 +71,26 @@ def _texture_cache_size(text: str) -> int:
     if size < MIN_TEXTURE_CACHE:
         raise argparse.ArgumentTypeError(f"texture cache size {text!r} is below 16M")
     return size
+
+
+def _add_render_options(group: argparse._ArgumentGroup, usdrecord: bool) -> None:
+    """A flag per render option that usdrecord has too (``usdrecord``) or not. Its default is
+    None, so that a flag not given leaves the option to the render settings prim."""
+    for option in render_options.OPTIONS:
+        if option.usdrecord_flag != usdrecord:
+            continue
+        default = f"{option.default:g}" if option.type == "float" else str(option.default)
+        if option.default_meaning:
+            default += f", {option.default_meaning}"
+        flags = (option.flag, option.short_flag) if option.short_flag else (option.flag,)
+        group.add_argument(
+            *flags,
+            dest=option.key,
+            type=None if option.type == "level" else option.value_type,
+            choices=option.levels or None,
+            metavar=option.metavar,
+            help=f"{option.help} (default: {default})".replace("%", "%%"),
+        )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -129,16 +148,7 @@ def build_parser() -> argparse.ArgumentParser:
             "settings' resolution"
         ),
     )
-    usd.add_argument(
-        "--complexity",
-        "-c",
-        choices=COMPLEXITIES,
-        default="low",
-        help=(
-            "how finely subdivision surfaces are diced: Penumbra renders their limit surface, "
-            "within about a pixel at low, each level halving that (default: %(default)s)"
-        ),
-    )
+    _add_render_options(usd, usdrecord=True)
     usd.add_argument(
         "--purposes",
         default="proxy",
@@ -252,66 +262,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     own = parser.add_argument_group("Penumbra options")
-    own.add_argument(
-        "--samples",
-        "-spp",
-        type=int,
-        default=DEFAULT_SAMPLES,
-        metavar="N",
-        help="samples per pixel (default: %(default)s)",
-    )
-    own.add_argument("--seed", type=int, default=0, help="random seed (default: %(default)s)")
-    own.add_argument(
-        "--threads",
-        type=int,
-        default=0,
-        metavar="N",
-        help="render threads (default: 0, every core)",
-    )
-    own.add_argument(
-        "--maxPathDepth",
-        type=int,
-        default=DEFAULT_MAX_PATH_DEPTH,
-        metavar="N",
-        help="maximum number of bounces of a path (default: %(default)s)",
-    )
-    own.add_argument(
-        "--adaptiveThreshold",
-        type=float,
-        default=0.0,
-        metavar="T",
-        help=(
-            "adaptive sampling: a pixel stops taking samples once its estimated relative error "
-            "is below T (e.g. 0.02); --samples is then a cap (default: 0, off)"
-        ),
-    )
-    own.add_argument(
-        "--adaptiveMinSamples",
-        type=int,
-        default=16,
-        metavar="N",
-        help="samples every pixel takes before adaptive sampling may stop it (default: %(default)s)",
-    )
-    own.add_argument(
-        "--indirectClamp",
-        type=float,
-        default=0.0,
-        metavar="L",
-        help=(
-            "limit each sample of indirect light to L (largest RGB component), as Cycles' clamp: "
-            "fewer fireflies, a biased, darker image (default: 0, off)"
-        ),
-    )
-    own.add_argument(
-        "--glossyFilter",
-        type=float,
-        default=0.0,
-        metavar="F",
-        help=(
-            "blur sharp reflection and refraction lobes met after rougher bounces, as Cycles' "
-            "filter glossy (Cycles' default: 1): caustics converge sooner, biased (default: 0, off)"
-        ),
-    )
+    _add_render_options(own, usdrecord=False)
     own.add_argument(
         "--maxMemory",
         type=_memory_size,
@@ -451,16 +402,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
         sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
-# The largest value of each integer flag the render delegate takes (its settings are int32,
-# the seed uint32).
-_LARGEST_VALUES = {
-    "imageWidth": 2**31 - 1,
-    "samples": 2**31 - 1,
-    "seed": 2**32 - 1,
-    "threads": 2**31 - 1,
-    "maxPathDepth": 2**31 - 1,
-    "adaptiveMinSamples": 2**31 - 1,
-}
+_LARGEST_WIDTH = 2**31 - 1  # the render delegate's image sizes are int32
 
 
 class _UsageError(Exception):
@@ -477,24 +419,17 @@ def _check_usage(args: argparse.Namespace) -> list[FrameRange]:
         raise _UsageError("give --renderSettingsPrimPath or --renderPassPrimPath, not both")
     if args.traceFormat != "chrome" and not args.traceToFile:
         raise _UsageError("--traceFormat needs --traceToFile")
-    for name in ("imageWidth", "samples"):
-        if getattr(args, name) is not None and getattr(args, name) < 1:
-            raise _UsageError(f"--{name} must be at least 1")
-    for name in ("threads", "maxPathDepth", "seed"):
-        if getattr(args, name) < 0:
-            raise _UsageError(f"--{name} cannot be negative")
+    if args.imageWidth is not None and args.imageWidth < 1:
+        raise _UsageError("--imageWidth must be at least 1")
+    if args.imageWidth is not None and args.imageWidth > _LARGEST_WIDTH:
+        raise _UsageError(f"--imageWidth must be at most {_LARGEST_WIDTH}")
+    for option in render_options.OPTIONS:
+        value = getattr(args, option.key)
+        problem = option.problem(value) if value is not None else None
+        if problem is not None:
+            raise _UsageError(f"{option.flag} {problem}")
     if args.workers is not None and args.workers < 1:
         raise _UsageError("--workers must be at least 1")
-    if not 0 <= args.adaptiveThreshold <= 1:
-        raise _UsageError("--adaptiveThreshold must be in [0, 1]")
-    if args.adaptiveMinSamples < 2:
-        raise _UsageError("--adaptiveMinSamples must be at least 2")
-    for flag in ("indirectClamp", "glossyFilter"):
-        if not (getattr(args, flag) >= 0 and math.isfinite(getattr(args, flag))):
-            raise _UsageError(f"--{flag} must be a finite number >= 0")
-    for name, largest in _LARGEST_VALUES.items():
-        if getattr(args, name) is not None and getattr(args, name) > largest:
-            raise _UsageError(f"--{name} must be at most {largest}")
     args.aovs = _aov_list(args.aov or "", args.denoise)
     if len(args.aovs) > 1 and not args.outputImagePath.lower().endswith(".exr"):
         raise _UsageError(f"--aov needs an .exr output; {args.outputImagePath} holds colour only")
@@ -646,15 +581,11 @@ def _render_job(args: argparse.Namespace, first_frame: FrameTime) -> RenderJob:
         aovs=tuple(args.aovs),
         denoise=args.denoise,
         width=args.imageWidth,
-        samples=args.samples,
-        seed=args.seed,
-        threads=args.threads,
-        max_path_depth=args.maxPathDepth,
-        adaptive_threshold=args.adaptiveThreshold,
-        adaptive_min_samples=args.adaptiveMinSamples,
-        indirect_clamp=args.indirectClamp,
-        glossy_filter=args.glossyFilter,
-        complexity=args.complexity,
+        options={
+            option.keyword: getattr(args, option.key)
+            for option in render_options.OPTIONS
+            if getattr(args, option.key) is not None
+        },
         disable_motion_blur=args.disable_motion_blur,
         disable_depth_of_field=args.disable_depth_of_field,
         dome_light_visibility=args.enableDomeLightVisibility,

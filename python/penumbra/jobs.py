@@ -12,16 +12,16 @@ import hashlib
 import json
 import os
 import re
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 
 from pxr import Usd
 
-from . import _core
+from . import _core, render_options
 from .errors import SceneError, warn
 from .image import Image
 from .products import render_products
-from .renderer import DEFAULT_MAX_PATH_DEPTH, DEFAULT_SAMPLES, DEFAULT_WIDTH, Renderer
+from .renderer import DEFAULT_WIDTH, Renderer
 from .trace import Tracer
 from .usd import DEFAULT_PURPOSES, open_stage, read_render_settings, render_pass_settings
 from .usd import resolve_camera
@@ -37,8 +37,9 @@ RENDER_KEY = "Exif:ImageUniqueID"
 """The metadata attribute holding :meth:`RenderJob.frame_key`: Exif's unique image id (128 bits
 as 32 hexadecimal digits), which every output format keeps (EXR, PNG, JPEG and TIFF)."""
 
-# Settings that change how a frame is computed but not a bit of its pixels.
-_NOT_IN_KEY = ("threads", "max_memory", "texture_cache")
+# Settings that change how a frame is computed but not a bit of its pixels (besides the render
+# options that say so).
+_NOT_IN_KEY = ("max_memory", "texture_cache")
 _URI_SCHEME = re.compile(r"[A-Za-z][A-Za-z0-9+.-]+:")
 
 
@@ -69,15 +70,9 @@ class RenderJob:
     denoise: bool = False
     width: int | None = None
     """``--imageWidth``; None: a render product's resolution, else :data:`DEFAULT_WIDTH`."""
-    samples: int = DEFAULT_SAMPLES
-    seed: int = 0
-    threads: int = 0
-    max_path_depth: int = DEFAULT_MAX_PATH_DEPTH
-    adaptive_threshold: float = 0.0
-    adaptive_min_samples: int = 16
-    indirect_clamp: float = 0.0
-    glossy_filter: float = 0.0
-    complexity: str = "low"
+    options: Mapping[str, render_options.OptionValue] = field(default_factory=dict, hash=False)
+    """The render options given, by Python keyword (``{"samples": 16}``); the others are the
+    render settings prim's or their defaults (:meth:`penumbra.Renderer.render`)."""
     disable_motion_blur: bool = False
     disable_depth_of_field: bool = False
     dome_light_visibility: bool = False
@@ -94,6 +89,11 @@ class RenderJob:
             name: value
             for name, value in dataclasses.asdict(self).items()
             if name not in _NOT_IN_KEY
+        }
+        fields["options"] = {
+            name: value
+            for name, value in self.options.items()
+            if render_options.BY_KEYWORD[name].changes_pixels
         }
         text = json.dumps(
             {"job": fields, "frame": frame, "version": _core.version()}, sort_keys=True
@@ -184,15 +184,7 @@ class JobRenderer:
         """The render() arguments every frame shares."""
         job = self.job
         return dict(
-            samples=job.samples,
-            seed=job.seed,
-            threads=job.threads,
-            max_path_depth=job.max_path_depth,
-            adaptive_threshold=job.adaptive_threshold,
-            adaptive_min_samples=job.adaptive_min_samples,
-            indirect_clamp=job.indirect_clamp,
-            glossy_filter=job.glossy_filter,
-            complexity=job.complexity,
+            **job.options,
             disable_motion_blur=job.disable_motion_blur,
             disable_depth_of_field=job.disable_depth_of_field,
             dome_light_visibility=job.dome_light_visibility,

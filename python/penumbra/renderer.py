@@ -15,6 +15,7 @@ from . import _core
 from .errors import SceneError, warn
 from .denoise import GUIDE_AOVS, NOISY_COLOR, denoise_color
 from .image import Image, ocio_config_path
+from . import render_options
 from .memory import (
     MIN_TEXTURE_CACHE,
     check_film,
@@ -44,11 +45,6 @@ from .usd import (
 DEFAULT_WIDTH = 960  # usdrecord's default image width
 PassKey = tuple[str, int, int, tuple[int, int, int, int] | None, int]
 """What identifies a render pass: camera, image width and height, crop (or None) and margin."""
-DEFAULT_SAMPLES = 64
-DEFAULT_MAX_PATH_DEPTH = 8
-COMPLEXITIES = ("low", "medium", "high", "veryhigh")
-"""usdrecord's complexity levels: how finely subdivision surfaces are diced (each level halves
-the distance allowed between the diced surface and the limit surface, about a pixel at "low")."""
 PROGRESS_STEPS = 16  # progress is reported about this many times per render
 
 ProgressCallback = Callable[[int, int], None]
@@ -77,13 +73,6 @@ def as_stage(stage_or_path: Usd.Stage | str | os.PathLike) -> Usd.Stage:
         "expected a pxr.Usd.Stage or the path of a USD file (str or os.PathLike), not "
         f"{type(stage_or_path).__module__}.{type(stage_or_path).__qualname__}"
     )
-
-
-def complexity_level(complexity: str) -> int:
-    """The render delegate's ``complexity`` setting for a usdrecord complexity name."""
-    if complexity not in COMPLEXITIES:
-        raise ValueError(f"complexity must be one of {', '.join(COMPLEXITIES)}, not {complexity!r}")
-    return COMPLEXITIES.index(complexity)
 
 
 class Renderer:
@@ -165,27 +154,19 @@ class Renderer:
         width: int | None = None,
         height: int | None = None,
         *,
-        samples: int = DEFAULT_SAMPLES,
-        seed: int = 0,
         aovs: str | Iterable[str] = ("color",),
-        threads: int = 0,
-        max_path_depth: int = DEFAULT_MAX_PATH_DEPTH,
-        complexity: str = "low",
         render_settings: str | RenderSettings | None = None,
         disable_motion_blur: bool = False,
         disable_depth_of_field: bool = False,
         dome_light_visibility: bool = True,
         default_light: DefaultLight = "dome",
         progress: ProgressCallback | None = None,
-        adaptive_threshold: float = 0.0,
-        adaptive_min_samples: int = 16,
-        indirect_clamp: float = 0.0,
-        glossy_filter: float = 0.0,
         max_memory: int | None = None,
         denoise: bool = False,
         region: tuple[int, int, int, int] | None = None,
         dicing_camera: str | Sdf.Path | None = None,
         texture_cache: int | None = None,
+        **options: render_options.OptionValue,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
 
@@ -207,15 +188,14 @@ class Renderer:
         ``default_light`` lights a stage that has no lights (UsdLux lights or
         UsdLuxMeshLightAPI meshes): ``"dome"`` a uniform white dome of radiance 1,
         ``"camera"`` a light from the camera that is never seen (usdrecord's default), or
-        ``"none"`` (only emissive surfaces light the stage). ``threads`` 0 uses every core.
-        ``adaptive_threshold`` > 0 turns on adaptive sampling: from ``adaptive_min_samples``
-        on, a pixel stops once its estimated relative error (as rRMSE measures it) is below
-        the threshold, so ``samples`` becomes a cap; the image stays a pure function of (scene,
-        seed, samples, threshold). ``indirect_clamp`` > 0 limits each sample of indirect light
-        (two or more surface interactions) to that largest component, as Cycles' "clamp
-        indirect": fewer fireflies, a darker (biased) image; off by default. ``glossy_filter`` > 0
-        blurs sharp lobes met after rougher bounces, as Cycles' "filter glossy" (1 is
-        Cycles' default): caustics converge much sooner, biased; off by default. ``max_memory``: bytes the process may hold (default: 80% of
+        ``"none"`` (only emissive surfaces light the stage).
+        ``options``: the render options by keyword (:data:`penumbra.render_options.OPTIONS`
+        lists them with their help, range and default: ``samples``, ``seed``, ``threads``,
+        ``max_path_depth``, ``complexity``, ``adaptive_threshold``, ...); an option not given
+        is the render settings' ``penumbra:KEY`` attribute (``penumbra:maxPathDepth``) when
+        authored, else its default. With ``adaptive_threshold`` > 0, ``samples`` is a cap; the
+        image stays a pure function of (scene, seed, samples, threshold).
+        ``max_memory``: bytes the process may hold (default: 80% of
         physical memory), checked before the scene is synced, before a new size's film is
         allocated and before the scene's geometry and acceleration structures are built.
         ``texture_cache``: bytes of texture tiles kept in memory, whatever the textures'
@@ -232,8 +212,7 @@ class Renderer:
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
         skipped prims are :class:`penumbra.PenumbraWarning`.
         """
-        if samples < 1:
-            raise ValueError(f"samples must be at least 1, not {samples}")
+        render_options.check(options, "render")
         if texture_cache is not None and texture_cache < MIN_TEXTURE_CACHE:
             raise ValueError(f"texture_cache must be at least 16 MiB, not {texture_cache} bytes")
         check_default_light(default_light)
@@ -243,13 +222,17 @@ class Renderer:
         time_code, settings, camera_prim, (width, height), window = self._framing(
             camera, time, width, height, render_settings
         )
+        values = render_options.resolve(options, settings.options if settings else None)
+        samples = int(values["samples"])
         camera_id = str(camera_prim.GetPath())
         crop, margin = None, 0
         film_width, film_height = window.width, window.height
         if region is not None:
             crop = _check_region(region, window.width, window.height)
-            if adaptive_threshold > 0:
-                margin = _core.RenderPass.adaptive_sampling_reach(samples, adaptive_min_samples)
+            if values["adaptive_threshold"] > 0:
+                margin = _core.RenderPass.adaptive_sampling_reach(
+                    samples, values["adaptive_min_samples"]
+                )
             film_width = min(film_width, crop[2] + 2 * margin)  # at most: margins stop at edges
             film_height = min(film_height, crop[3] + 2 * margin)
 
@@ -291,19 +274,10 @@ class Renderer:
         accumulated = {aov for aov in aovs if aov != NOISY_COLOR}
         render_pass.set_aovs(sorted(accumulated | set(GUIDE_AOVS if denoise else ())))
 
-        for key, value in (
-            ("samples", samples),
-            ("seed", seed),
-            ("threads", threads),
-            ("maxPathDepth", max_path_depth),
-            ("complexity", complexity_level(complexity)),
-            ("adaptiveThreshold", adaptive_threshold),
-            ("adaptiveMinSamples", adaptive_min_samples),
-            ("indirectClamp", indirect_clamp),
-            ("glossyFilter", glossy_filter),
-            ("textureCacheMB", cache >> 20),
-        ):
-            self.delegate.set_render_setting(key, value)
+        for option in render_options.OPTIONS:
+            value = option.delegate_value(values[option.keyword])
+            self.delegate.set_render_setting(option.key, value)
+        self.delegate.set_render_setting("textureCacheMB", cache >> 20)
         started = clock.perf_counter()
         render_pass.reset()
         check_scene_build(
@@ -332,14 +306,14 @@ class Renderer:
 
         metadata = {
             "camera": camera_id,
-            "samples": samples,
+            **{
+                option.key: values[option.keyword]
+                for option in render_options.OPTIONS
+                if option.changes_pixels
+            },
             "meanSamples": round(render_pass.mean_samples, 3),
             "samplesTaken": render_pass.samples_taken,
             "rays": render_pass.rays_traced,
-            "adaptiveThreshold": adaptive_threshold,
-            "indirectClamp": indirect_clamp,
-            "glossyFilter": glossy_filter,
-            "seed": seed,
             "renderTimeSeconds": round(elapsed, 3),
             "version": _core.version(),
             "timeCode": "default" if time_code.IsDefault() else time_code.GetValue(),

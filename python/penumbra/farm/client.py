@@ -115,10 +115,11 @@ def record_on_farm(
     for the first frame that fails, after cancelling the others; frames written by then stay
     (complete), so ``resume`` continues from them.
     """
-    if workers and job.threads == 0:
+    if workers and job.options.get("threads", 0) == 0:
         # "Every core" of a machine that a local cluster's workers share: each gets its part
         # rather than N threads per core. Threads change no pixel (nor the resume key).
-        job = dataclasses.replace(job, threads=max(1, len(os.sched_getaffinity(0)) // workers))
+        threads = max(1, len(os.sched_getaffinity(0)) // workers)
+        job = dataclasses.replace(job, options={**job.options, "threads": threads})
     with connect(scheduler, workers) as client:
         client.register_plugin(JobRenderers(), name=PLUGIN_NAME)
         worker_count = _wait_for_workers(

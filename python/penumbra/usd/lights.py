@@ -12,16 +12,14 @@ from collections.abc import Callable
 
 from pxr import Usd, UsdLux
 
+from .. import _core
 from .sampling import SampleReader
 
-# Sprim type, schema class and the shape inputs of each supported light.
-_LIGHTS: tuple[tuple[str, type, tuple[str, ...]], ...] = (
-    ("rectLight", UsdLux.RectLight, ("width", "height")),
-    ("diskLight", UsdLux.DiskLight, ("radius",)),
-    ("sphereLight", UsdLux.SphereLight, ("radius", "treatAsPoint")),
-    ("cylinderLight", UsdLux.CylinderLight, ("radius", "length", "treatAsLine")),
-    ("distantLight", UsdLux.DistantLight, ("angle",)),
-    ("domeLight", UsdLux.DomeLight, ()),
+# Sprim type, schema class and the shape inputs of each supported light, as the render
+# delegate's table of light types gives them.
+_LIGHTS: tuple[tuple[str, type, tuple[str, ...]], ...] = tuple(
+    (light.sprim_type, getattr(UsdLux, light.schema), tuple(light.shape_inputs))
+    for light in _core.light_types()
 )
 LIGHT_SPRIM_TYPES = frozenset(entry[0] for entry in _LIGHTS)
 """The delegate's sprim types for lights."""

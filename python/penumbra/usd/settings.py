@@ -5,19 +5,21 @@ the stage's ``main_cam``, else the render settings' camera. The image height fol
 width and the aspect ratio of the render settings' ``resolution`` when one is authored, else of
 the camera's apertures. With render settings, the part of the film the image covers follows
 UsdRender's rules (:func:`film_window`): ``aspectRatioConformPolicy``, ``pixelAspectRatio`` and
-``dataWindowNDC``.
+``dataWindowNDC``. Its ``penumbra:KEY`` attributes set render options
+(:mod:`penumbra.render_options`).
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterable
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdRender, UsdUtils
 
+from .. import render_options
 from ..errors import SceneError, warn
 from .framing import FRAMING_CAMERA_PATH, framing_camera
 from .render_pass import find_render_pass
@@ -42,6 +44,8 @@ class RenderSettings:
     aspect_ratio_conform_policy: str = "expandAperture"
     data_window_ndc: tuple[float, float, float, float] = (0.0, 0.0, 1.0, 1.0)
     """(xmin, ymin, xmax, ymax) of the conformed aperture, (0, 0) bottom left."""
+    options: Mapping[str, render_options.OptionValue] = field(default_factory=dict, hash=False)
+    """The render options its ``penumbra:KEY`` attributes author, by Python keyword."""
 
 
 CONFORM_POLICIES = (
@@ -98,7 +102,32 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
         pixel_aspect_ratio=pixel_aspect_ratio,
         aspect_ratio_conform_policy=policy,
         data_window_ndc=(x_min, y_min, x_max, y_max),
+        options=_authored_options(settings.GetPrim()),
     )
+
+
+def _authored_options(prim: Usd.Prim) -> dict[str, render_options.OptionValue]:
+    """The render options authored on ``prim`` as ``penumbra:KEY`` attributes, by Python
+    keyword; :class:`SceneError` names an attribute whose value no option takes, and a
+    ``penumbra:`` attribute that names no option is warned about and ignored."""
+    known = {option.usd_attribute for option in render_options.OPTIONS}
+    for attribute in prim.GetAuthoredAttributes():
+        name = attribute.GetName()
+        if name.startswith(render_options.USD_ATTRIBUTE_PREFIX) and name not in known:
+            warn(f"{attribute.GetPath()}: no render option is named {name!r}; ignored")
+    options: dict[str, render_options.OptionValue] = {}
+    for option in render_options.OPTIONS:
+        attribute = prim.GetAttribute(option.usd_attribute)
+        if not attribute or not attribute.HasAuthoredValue():
+            continue
+        value = attribute.Get()
+        if option.type == "level" or isinstance(value, str):
+            value = str(value)  # a token
+        problem = option.problem(value)
+        if problem is not None:
+            raise SceneError(f"{attribute.GetPath()}: {problem}, not {value!r}")
+        options[option.keyword] = option.value_type(value)
+    return options
 
 
 CameraPath = str | Sdf.Path

@@ -55,8 +55,4 @@ class Light : public Prim {
   std::optional<penumbra::Light> rendered_;
 };
 
-/// The light type for a sprim type name ("rectLight", ...); throws std::invalid_argument.
-LightType lightTypeFromName(const std::string& typeName);
-bool isLightTypeName(const std::string& typeName);
-
 }  // namespace penumbra::plugin

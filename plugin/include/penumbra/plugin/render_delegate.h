@@ -16,42 +16,11 @@
 #include "penumbra/plugin/material.h"
 #include "penumbra/plugin/mesh.h"
 #include "penumbra/plugin/render_buffer.h"
+#include "penumbra/plugin/render_settings.h"
 #include "penumbra/plugin/sync_context.h"
 #include "penumbra/scene.h"
 
 namespace penumbra::plugin {
-
-/// Render settings; unknown keys are rejected.
-struct RenderSettingsMap {
-  int samples = 16;  // target samples per pixel: a render pass converges there
-  int seed = 0;
-  int threads = 0;       // 0: all cores
-  int maxPathDepth = 8;  // surface interactions in all
-  int maxDiffuseDepth = 4;
-  int maxGlossyDepth = 4;
-  int maxTransmissionDepth = 8;
-  /// How finely subdivision surfaces are diced (usdrecord's --complexity): 0 low (within about
-  /// a pixel of the limit surface), 1 medium, 2 high, 3 veryhigh (each halves the tolerance).
-  int complexity = 0;
-  /// Direct lighting estimator (a diagnostic): 0 MIS, 1 light sampling only, 2 BSDF sampling only.
-  int directLighting = 0;
-  /// Adaptive sampling (0: off): a pixel stops taking samples once the estimated relative error
-  /// of its value falls below this (e.g. 0.02), checked from adaptiveMinSamples on.
-  float adaptiveThreshold = 0;
-  int adaptiveMinSamples = 16;
-  /// Largest component of a sample of indirect light (0: no limit; biased, as Cycles' clamp).
-  float indirectClamp = 0;
-  /// Cycles' "filter glossy" (0: off; biased): see IntegratorSettings::glossyFilter.
-  float glossyFilter = 0;
-  /// Memory of the texture tile cache in MiB: texture lookups hold about this much texture data
-  /// whatever the textures' resolution.
-  int textureCacheMB = int(TextureSystem::kDefaultCacheBytes >> 20);
-
-  /// Throws std::invalid_argument for an unknown key, an out-of-range value or a fraction for an
-  /// integer setting.
-  void set(const std::string& key, double value);
-  std::map<std::string, double> asMap() const;
-};
 
 class RenderDelegate {
  public:
@@ -60,7 +29,7 @@ class RenderDelegate {
   ~RenderDelegate();
 
   /// Rprim types: "mesh", "instancer". Sprim types: "camera", "material", and the light types
-  /// ("rectLight", "diskLight", "sphereLight", "distantLight", "domeLight").
+  /// (lightTypes()).
   /// Throws std::invalid_argument for an unknown type or an id already in use.
   void insertRprim(const std::string& type, const PrimId& id);
   void insertSprim(const std::string& type, const PrimId& id);
