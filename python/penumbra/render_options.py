@@ -7,9 +7,10 @@ after its key: ``maxPathDepth`` is penumbra-record's ``--maxPathDepth``,
 
 from __future__ import annotations
 
+import inspect
 import numbers
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 from . import _core
@@ -120,3 +121,20 @@ def resolve(
         option.keyword: given.get(option.keyword, authored.get(option.keyword, option.default))
         for option in OPTIONS
     }
+
+
+def with_option_keywords(function: Callable) -> Callable:
+    """``function``, whose ``**options`` take the render options, with a signature that lists
+    them as keyword-only parameters with their defaults, so that ``help()``, ``inspect`` and
+    editors show every option by name."""
+    signature = inspect.signature(function)
+    parameters = [p for p in signature.parameters.values() if p.kind is not p.VAR_KEYWORD]
+    parameters += [
+        inspect.Parameter(
+            option.keyword, inspect.Parameter.KEYWORD_ONLY, default=option.default,
+            annotation=option.value_type.__name__,
+        )
+        for option in OPTIONS
+    ]
+    function.__signature__ = signature.replace(parameters=parameters)
+    return function

@@ -147,6 +147,7 @@ class Renderer:
     def __exit__(self, *_exc) -> None:
         self.close()
 
+    @render_options.with_option_keywords
     def render(
         self,
         camera: str | Sdf.Path | None = None,

@@ -4,6 +4,8 @@ attributes all come from ``_core.render_options()``, so they cannot drift apart.
 
 from __future__ import annotations
 
+import inspect
+
 import pytest
 from pxr import Sdf, UsdLux, UsdRender
 
@@ -102,6 +104,15 @@ def test_help_lists_every_option_with_its_help(capsys):
     assert "render threads (default: 0, every core)" in text
     assert "is then a cap (default: 0, off)" in text
     assert "each level halving that (default: low)" in text
+
+
+def test_the_api_signature_lists_every_option_with_its_default():
+    parameters = inspect.signature(penumbra.Renderer.render).parameters
+    for option in OPTIONS:
+        parameter = parameters[option.keyword]
+        assert parameter.kind is inspect.Parameter.KEYWORD_ONLY
+        assert parameter.default == option.default
+    assert "options" not in parameters
 
 
 @pytest.mark.parametrize("option", OPTIONS, ids=lambda option: option.key)
