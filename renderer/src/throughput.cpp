@@ -8,6 +8,7 @@
 
 #include "penumbra/light.h"
 #include "penumbra/sampler.h"
+#include "penumbra/warp.h"
 
 namespace penumbra {
 namespace {

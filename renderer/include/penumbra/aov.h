@@ -20,7 +20,7 @@ enum class AovKind {
   CameraNormal,  // camera-space shading normal (+Y up, looking down -Z), filtered
   Position,      // world-space position, filtered
   Albedo,        // the surface's reflectance colour (what a denoiser is guided by), filtered
-  PrimId,        // which mesh (Scene::MeshId) the sample nearest the pixel centre hit, -1: none
+  PrimId,        // which mesh (Geometry::MeshId) the sample nearest the pixel centre hit, -1: none
   InstanceId,    // which copy of an instancer, -1: not a copy or nothing hit
   ElementId,     // which authored face, -1: nothing hit
   Primvar,       // a primvar's value, filtered; `primvar` names it

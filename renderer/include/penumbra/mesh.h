@@ -16,8 +16,8 @@ enum class Interpolation { Constant, Uniform, Varying, Vertex, FaceVarying };
 
 /// A primvar's name and a 64-bit key (FNV-1a) computed once, where the name is set at sync, so
 /// that the lookups made at every hit compare integers instead of strings. Equal keys are taken
-/// as equal names: Scene rejects two names of one key wherever names enter it (a chance of about
-/// n²/2⁶⁵ for n distinct names).
+/// as equal names: MaterialTable rejects two names of one key wherever names enter it (a chance of
+/// about n²/2⁶⁵ for n distinct names).
 class PrimvarName {
  public:
   PrimvarName() = default;
