@@ -416,29 +416,12 @@ void setMesh(RenderDelegate& delegate, const std::string& id, const IntArray& co
 
 /// `set_transform` of one prim: a mesh, a camera or a light.
 void setTransform(RenderDelegate& delegate, const std::string& id, const DoubleArray& matrix) {
-  const MotionTransform transform = toMotionTransform(matrix);
-  Prim& prim = delegate.prim(id);
-  if (auto* mesh = dynamic_cast<Mesh*>(&prim))
-    mesh->setTransform(transform);
-  else if (auto* camera = dynamic_cast<Camera*>(&prim))
-    camera->setTransform(transform);
-  else if (auto* light = dynamic_cast<Light*>(&prim))
-    light->setTransform(transform);
-  else
-    throw std::invalid_argument(id + ": this prim has no transform");
+  delegate.prim(id).setTransform(toMotionTransform(matrix));
 }
 
 /// `set_visible` of one prim: a mesh, a light or an instancer.
 void setVisible(RenderDelegate& delegate, const std::string& id, bool visible) {
-  Prim& prim = delegate.prim(id);
-  if (auto* mesh = dynamic_cast<Mesh*>(&prim))
-    mesh->setVisible(visible);
-  else if (auto* light = dynamic_cast<Light*>(&prim))
-    light->setVisible(visible);
-  else if (auto* copies = dynamic_cast<Instancer*>(&prim))
-    copies->setVisible(visible);
-  else
-    throw std::invalid_argument(id + ": this prim has no visibility");
+  delegate.prim(id).setVisible(visible);
 }
 
 /// Calls `set(ids[i], values[i])` for each i: the batched setters, one call for many prims.
@@ -671,14 +654,7 @@ PYBIND11_MODULE(_core, m) {
       .def(
           "set_pass_visibility",
           [](RenderDelegate& self, const std::string& id, bool cameraVisible, bool matte) {
-            const penumbra::PassVisibility pass{cameraVisible, matte};
-            Prim& prim = self.prim(id);
-            if (auto* mesh = dynamic_cast<Mesh*>(&prim))
-              mesh->setPassVisibility(pass);
-            else if (auto* copies = dynamic_cast<Instancer*>(&prim))
-              copies->setPassVisibility(pass);
-            else
-              throw std::invalid_argument(id + ": only meshes and instancers take pass visibility");
+            self.prim(id).setPassVisibility({cameraVisible, matte});
           },
           py::arg("id"), py::arg("camera_visible") = true, py::arg("matte") = false,
           "How camera rays treat a mesh or an instancer's copies (UsdRenderPass "
