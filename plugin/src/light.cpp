@@ -1,12 +1,13 @@
 #include "penumbra/plugin/light.h"
 
-#include <map>
 #include <stdexcept>
 
 #include "penumbra/plugin/param_value.h"
 
 namespace penumbra::plugin {
-Light::Light(PrimId id, LightType type) : Prim(std::move(id)) {
+
+Light::Light(PrimId id, LightType type, std::optional<Geometry::MeshId> emittingMesh)
+    : Prim(std::move(id)), emittingMesh_(emittingMesh) {
   params_.type = type;
   // UsdLux's fallback intensity differs for DistantLight (sunlight).
   if (type == LightType::Distant) params_.intensity = 50000;
@@ -69,24 +70,28 @@ void Light::setMeshTriangles(std::shared_ptr<const std::vector<Vec3f>> triangles
   markDirty(DirtyParams);
 }
 
-void Light::sync(SyncContext& context) {
-  if (dirtyBits() & DirtyParams) {
+void Light::sync(SyncContext& context, uint32_t dirtyBits) {
+  if (dirtyBits & DirtyParams) {
     try {
       loadTexture(context);
     } catch (const std::runtime_error& error) {
       context.warn(id() + ": " + error.what() + "; the light renders without its texture");
     }
   }
-  rendered_.reset();
+  std::optional<penumbra::Light> rendered;
   if (visible_) {
     ++context.counters.lightBuilds;
     try {
-      rendered_.emplace(params_);
+      rendered.emplace(params_);
     } catch (const std::invalid_argument& error) {
       context.warn(id() + ": " + error.what() + "; the light is skipped");
     }
   }
-  markClean();
+  context.lights.synced(id(), std::move(rendered), context.scene, emittingMesh_);
+}
+
+void Light::finalize(SyncContext& context) {
+  context.lights.remove(id());
 }
 
 void Light::setTransform(const MotionTransform& lightToWorld) {

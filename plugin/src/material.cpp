@@ -165,7 +165,7 @@ void Material::resetParams() {
   markDirty(DirtyParams);
 }
 
-void Material::sync(SyncContext& context) {
+void Material::sync(SyncContext& context, uint32_t) {
   penumbra::Material result;
   result.constants = params_;
   for (const auto& [input, source] : connections_) {
@@ -192,8 +192,13 @@ void Material::sync(SyncContext& context) {
     result.connections.push_back(std::move(connection));
   }
   ++context.counters.materialBuilds;
-  context.scene.setMaterial(size_t(context.materialIndex.at(id())), std::move(result));
-  markClean();
+  context.sceneChanged = true;
+  context.scene.setMaterial(size_t(context.materials.at(id())), std::move(result));
+}
+
+void Material::finalize(SyncContext& context) {
+  context.sceneChanged = true;
+  context.materials.remove(id(), context.scene);
 }
 
 }  // namespace penumbra::plugin

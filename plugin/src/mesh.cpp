@@ -5,6 +5,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "penumbra/plugin/instancer.h"
+
 namespace penumbra::plugin {
 
 bool DicingContext::operator==(const DicingContext& other) const {
@@ -29,7 +31,7 @@ void Mesh::setLight(bool enabled, const std::vector<std::pair<std::string, Param
     if (!light_) return;  // nothing changes: no sync needed
     light_.reset();
   } else {
-    auto light = std::make_unique<Light>(id(), LightType::Mesh);
+    auto light = std::make_unique<Light>(id(), LightType::Mesh, handle_);
     for (const auto& [name, value] : params) light->setParam(name, value);
     light_ = std::move(light);
   }
@@ -113,8 +115,8 @@ void Mesh::setPassVisibility(PassVisibility pass) {
   markDirty(DirtyVisibility);
 }
 
-void Mesh::sync(SyncContext& context) {
-  const uint32_t bits = dirtyBits();
+void Mesh::sync(SyncContext& context, uint32_t bits) {
+  context.sceneChanged = true;
   Scene& scene = context.scene;
   if (bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided)) {
     for (const std::string& problem : dropInvalidPrimvars())
@@ -132,18 +134,35 @@ void Mesh::sync(SyncContext& context) {
     }
   }
   if (bits & kPlacementDirtyBits) {
-    if (!materialId_.empty() && !context.materialIndex.count(materialId_) &&
-        (bits & DirtyMaterialId))
+    if (!materialId_.empty() && !context.materials.find(materialId_) && (bits & DirtyMaterialId))
       context.warn(id() + ": bound material " + materialId_ +
                    " is not in the render index; displayColor is used");
     if (bits & DirtyVisibility) scene.geometry().setMeshPassVisibility(handle_, pass_);
     place(context);
   }
-  if (light_ && (bits & kLightDirtyBits)) syncLight(context);
-  if (bits != Clean) markClean();
+  if (bits & kLightDirtyBits) syncLight(context);
+}
+
+void Mesh::finalize(SyncContext& context) {
+  context.sceneChanged = true;
+  // An entry may be stale: an instancer removed, or now copying another mesh.
+  for (const PrimId& instancerId : instancers_)
+    if (Instancer* copies = context.instancers.find(instancerId);
+        copies && copies->prototype() == id())
+      copies->dropCopies(context);
+  context.lights.remove(id());
+  context.scene.geometry().removeMesh(handle_);
+}
+
+size_t Mesh::estimatedSyncBytes() const {
+  return visible_ ? estimatedBuildBytes(data_, subdivisionScheme_ != "none") : 0;
 }
 
 void Mesh::syncLight(SyncContext& context) {
+  if (!light_) {
+    context.lights.synced(id(), std::nullopt, context.scene, handle_);
+    return;
+  }
   std::shared_ptr<std::vector<Vec3f>> corners;
   if (visible_) {
     try {
@@ -159,15 +178,13 @@ void Mesh::syncLight(SyncContext& context) {
   }
   light_->setVisible(corners != nullptr);
   light_->setMeshTriangles(std::move(corners));
-  light_->sync(context);
+  light_->syncDirty(context);
 }
 
 void Mesh::place(SyncContext& context) const {
   int materialIndex = MaterialTable::kNoMaterial;
-  if (!materialId_.empty()) {
-    const auto found = context.materialIndex.find(materialId_);
-    if (found != context.materialIndex.end()) materialIndex = found->second;
-  }
+  if (!materialId_.empty())
+    materialIndex = context.materials.find(materialId_).value_or(materialIndex);
   context.scene.geometry().setMeshInstance(handle_, objectToWorld_, materialIndex, visible_);
 }
 

@@ -8,6 +8,7 @@
 
 #include <stdexcept>
 
+#include "bindings.h"
 #include "penumbra/plugin/light_types.h"
 
 namespace py = pybind11;
@@ -43,6 +44,8 @@ py::object pythonValue(const RenderOption& option, double value) {
 }
 
 }  // namespace
+
+namespace penumbra::bindings {
 
 void bindRenderSettings(py::module_& m) {
   py::class_<RenderOption>(m, "RenderOption",
@@ -84,3 +87,5 @@ void bindRenderSettings(py::module_& m) {
   m.def("light_types", &penumbra::plugin::lightTypes, py::return_value_policy::reference,
         "Every light type the render delegate renders.");
 }
+
+}  // namespace penumbra::bindings

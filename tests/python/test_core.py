@@ -45,16 +45,17 @@ def _quad_scene(delegate, batched: bool):
     no_normals = np.empty((0, 3), np.float32)
     mesh = (counts, indices, False, "none", corners, True, color, "constant")
     mesh += (no_normals, "vertex", {})
+    names = ("face_vertex_counts", "face_vertex_indices", "left_handed", "subdivision_scheme",
+             "points", "double_sided", "display_color", "display_color_interpolation",
+             "normals", "normals_interpolation", "primvars")
     if batched:
         delegate.insert_rprims("mesh", ids)
-        delegate.set_meshes([(prim_id, *mesh) for prim_id in ids])
+        records = [_core.MeshRecord(prim_id, **dict(zip(names, mesh))) for prim_id in ids]
+        delegate.set_meshes(records)
         delegate.set_transforms(ids, matrices)
         delegate.set_visibilities(ids, [False, True])
         delegate.set_mesh_materials(ids, ["", ""])
     else:
-        names = ("face_vertex_counts", "face_vertex_indices", "left_handed", "subdivision_scheme",
-                 "points", "double_sided", "display_color", "display_color_interpolation",
-                 "normals", "normals_interpolation", "primvars")
         for prim_id, matrix, visible in zip(ids, matrices, (False, True)):
             delegate.insert_rprim("mesh", prim_id)
             delegate.set_mesh(prim_id, **dict(zip(names, mesh)))
@@ -86,5 +87,5 @@ def test_batched_setters_reject_lists_of_different_lengths():
         delegate.set_visibilities(["/a", "/b"], [True])
     with pytest.raises(KeyError, match="/missing"):
         delegate.set_transforms(["/missing"], [np.eye(4)])
-    with pytest.raises(ValueError, match="12 arguments"):
+    with pytest.raises(TypeError, match="MeshRecord"):
         delegate.set_meshes([("/a", np.array([3], np.int32))])

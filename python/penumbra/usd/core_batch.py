@@ -10,6 +10,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .._core import MeshRecord
+
 CHUNK = 1024
 """Meshes (and transforms) queued at most before they are sent: the queued arrays (and the USD
 values they view) stay bounded however many meshes a sync pushes, for one call per thousand
@@ -28,7 +30,7 @@ class CoreBatch:
     def __init__(self, core, warn: Callable[[str], None]) -> None:
         self.core = core
         self._warn = warn
-        self._meshes: list[tuple] = []
+        self._meshes: list[MeshRecord] = []
         self._transforms: tuple[list[str], list[np.ndarray]] = ([], [])
         self._visible: tuple[list[str], list[bool]] = ([], [])
         self._materials: tuple[list[str], list[str]] = ([], [])
@@ -55,25 +57,24 @@ class CoreBatch:
         primvars: dict,
     ) -> None:
         self.add_mesh(
-            (
+            MeshRecord(
                 path,
-                face_vertex_counts,
-                face_vertex_indices,
-                left_handed,
-                subdivision_scheme,
-                points,
-                double_sided,
-                display_color,
-                display_color_interpolation,
-                normals,
-                normals_interpolation,
-                primvars,
+                face_vertex_counts=face_vertex_counts,
+                face_vertex_indices=face_vertex_indices,
+                left_handed=left_handed,
+                subdivision_scheme=subdivision_scheme,
+                points=points,
+                double_sided=double_sided,
+                display_color=display_color,
+                display_color_interpolation=display_color_interpolation,
+                normals=normals,
+                normals_interpolation=normals_interpolation,
+                primvars=primvars,
             )
         )
 
-    def add_mesh(self, mesh: tuple) -> None:
-        """Queue ``set_mesh``'s arguments as one ``set_meshes`` tuple (id first, then the
-        others in ``set_mesh``'s order)."""
+    def add_mesh(self, mesh: MeshRecord) -> None:
+        """Queue ``set_mesh``'s arguments as one ``set_meshes`` record."""
         self._meshes.append(mesh)
         if len(self._meshes) >= CHUNK:
             self.core.set_meshes(self._meshes)

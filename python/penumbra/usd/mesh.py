@@ -16,6 +16,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from pxr import Usd, UsdGeom, UsdLux
 
+from .._core import MeshRecord
 from . import implicit
 from .core_batch import CoreBatch
 from .lights import sync_mesh_light
@@ -174,19 +175,19 @@ def push_plain_meshes(
             interpolation = str(color_attributes[n].GetMetadata(_INTERPOLATION) or interpolation)
         scheme = str(schemes[n] or tokens.catmullClark)
         batch.add_mesh(
-            (
+            MeshRecord(
                 path,
-                mesh_counts,
-                mesh_indices,
-                orientations[n] == tokens.leftHanded,
-                scheme,
-                mesh_points,
-                bool(double_sided[n]),
-                mesh_colors,
-                interpolation,
-                _NO_VECTORS,  # normals
-                tokens.vertex,
-                {},  # primvars
+                face_vertex_counts=mesh_counts,
+                face_vertex_indices=mesh_indices,
+                left_handed=orientations[n] == tokens.leftHanded,
+                subdivision_scheme=scheme,
+                points=mesh_points,
+                double_sided=bool(double_sided[n]),
+                display_color=mesh_colors,
+                display_color_interpolation=interpolation,
+                normals=_NO_VECTORS,
+                normals_interpolation=tokens.vertex,
+                primvars={},
             )
         )
         batch.set_mesh_light(path, False)

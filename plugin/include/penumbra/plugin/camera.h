@@ -1,4 +1,5 @@
-// Camera sprim: UsdGeomCamera's parameters and transform.
+// Camera sprim: UsdGeomCamera's parameters and transform. It puts nothing in the scene: render
+// passes read its parameters, and its sync tells them that it changed.
 #pragma once
 
 #include <stdexcept>
@@ -6,6 +7,7 @@
 
 #include "penumbra/camera.h"
 #include "penumbra/plugin/prim.h"
+#include "penumbra/plugin/sync_context.h"
 
 namespace penumbra::plugin {
 
@@ -29,11 +31,13 @@ class Camera : public Prim {
     params_.focusDistanceSteps = std::move(focusDistances);
     markDirty(DirtyParams);
   }
-  void setTransform(const MotionTransform& cameraToWorld) {
+  void setTransform(const MotionTransform& cameraToWorld) override {
     params_.cameraToWorld = cameraToWorld;
     markDirty(DirtyTransform);
   }
   const CameraParams& params() const { return params_; }
+
+  void sync(SyncContext& context, uint32_t) override { context.camerasChanged = true; }
 
  private:
   CameraParams params_;

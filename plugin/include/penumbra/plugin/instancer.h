@@ -1,8 +1,11 @@
 // Instancer rprim (cf. HdInstancer): copies of one prototype mesh, each with its own transform,
 // sharing the prototype's geometry. USD's point instancers and native instancing flatten to one
-// of these per prototype mesh (Embree instances one level deep).
+// of these per prototype mesh (Embree instances one level deep). Its sync places the copies;
+// its finalize removes them; the prototype knows its instancers, so that its own removal drops
+// their copies.
 #pragma once
 
+#include <cstddef>
 #include <vector>
 
 #include "penumbra/plugin/prim.h"
@@ -10,8 +13,6 @@
 #include "penumbra/scene.h"
 
 namespace penumbra::plugin {
-
-class Mesh;
 
 class Instancer : public Prim {
  public:
@@ -23,12 +24,12 @@ class Instancer : public Prim {
     transforms_ = std::move(transforms);
     markDirty(DirtyTransform);
   }
-  void setVisible(bool visible) {
+  void setVisible(bool visible) override {
     visible_ = visible;
     markDirty(DirtyVisibility);
   }
   /// How camera rays treat the copies (a render pass's cameraVisibility and matte collections).
-  void setPassVisibility(PassVisibility pass) {
+  void setPassVisibility(PassVisibility pass) override {
     pass_ = pass;
     markDirty(DirtyVisibility);
   }
@@ -39,13 +40,19 @@ class Instancer : public Prim {
     markDirty(DirtyPrimvar);
   }
 
-  /// Places its copies of `prototype` (null: the prototype is not a mesh in the render index,
-  /// so there are none) in the scene; then it is clean. The render delegate syncs instancers
-  /// after meshes: the copies follow their prototype's geometry.
-  void sync(SyncContext& context, Mesh* prototype);
+  /// Places its copies of its prototype in the scene, and registers with the prototype; when
+  /// the prototype is not a mesh in the render index there are none (with a warning). The
+  /// render delegate syncs instancers after meshes: the copies follow their prototype's
+  /// geometry.
+  void sync(SyncContext& context, uint32_t dirtyBits) override;
+  /// Removes its copies from the scene, and itself from its prototype's instancers.
+  void finalize(SyncContext& context) override;
+  /// Its prototype left the render index: the copies go, and are placed again at the next sync
+  /// (when a mesh with the prototype's id is back).
+  void dropCopies(SyncContext& context);
+  /// Bytes its next sync will allocate (penumbra::estimatedInstanceBytes).
+  size_t estimatedSyncBytes() const;
 
-  Geometry::InstancerId handle() const { return handle_; }
-  void setHandle(Geometry::InstancerId handle) { handle_ = handle; }
   const PrimId& prototype() const { return prototype_; }
   const std::vector<MotionTransform>& transforms() const { return transforms_; }
   bool visible() const { return visible_; }

@@ -1,4 +1,5 @@
-// Light sprims: one class for the UsdLux intrinsic lights, the type fixed at insertion.
+// Light sprims: one class for the UsdLux intrinsic lights, the type fixed at insertion, and for
+// the light of a mesh with UsdLuxMeshLightAPI (which its mesh owns and syncs).
 #pragma once
 
 #include <memory>
@@ -11,12 +12,14 @@
 #include "penumbra/motion.h"
 #include "penumbra/plugin/prim.h"
 #include "penumbra/plugin/sync_context.h"
+#include "penumbra/scene.h"
 
 namespace penumbra::plugin {
 
 class Light : public Prim {
  public:
-  Light(PrimId id, LightType type);
+  /// `emittingMesh`: for a mesh light (LightType::Mesh), the mesh whose surface emits.
+  Light(PrimId id, LightType type, std::optional<Geometry::MeshId> emittingMesh = std::nullopt);
 
   /// Sets a UsdLux input by its name without "inputs:" (color, intensity, exposure, normalize,
   /// enableColorTemperature, colorTemperature, diffuse, specular, width, height, radius, length,
@@ -26,20 +29,20 @@ class Light : public Prim {
   void setParam(const std::string& name, const ParamValue& value);
   /// Lights keep their transform at the start of the shutter (motion blur of lights is not
   /// supported yet): only the first sample is used.
-  void setTransform(const MotionTransform& lightToWorld);
-  void setVisible(bool visible);
+  void setTransform(const MotionTransform& lightToWorld) override;
+  void setVisible(bool visible) override;
   /// A mesh light's emitting triangles in world space (3 points each), set by its mesh's sync.
   void setMeshTriangles(std::shared_ptr<const std::vector<Vec3f>> triangles);
 
   /// Builds its renderer light from what its dirty bits say changed (cf. HdLight::Sync):
   /// texture:file is loaded only when the file changed (a warning names a file that cannot be
   /// read: the light then renders untextured), and a light whose inputs are invalid is skipped
-  /// with a warning, once per change. Then it is clean; the render delegate moves the light
-  /// into the scene's light list (takeRendered).
-  void sync(SyncContext& context);
-  /// The renderer light built by the last sync, handed over once; none if the light is hidden
-  /// or was skipped.
-  std::optional<penumbra::Light> takeRendered() { return std::exchange(rendered_, std::nullopt); }
+  /// with a warning, once per change. The renderer light goes to the scene's light list
+  /// (SyncContext::lights), which the light joins or where it replaces its entry; a hidden or
+  /// skipped light leaves the list.
+  void sync(SyncContext& context, uint32_t dirtyBits) override;
+  /// Leaves the scene's light list.
+  void finalize(SyncContext& context) override;
 
   const LightParams& params() const { return params_; }
   bool visible() const { return visible_; }
@@ -52,7 +55,7 @@ class Light : public Prim {
   LightParams params_;
   bool visible_ = true;
   std::string textureFile_, loadedTextureFile_;
-  std::optional<penumbra::Light> rendered_;
+  std::optional<Geometry::MeshId> emittingMesh_;
 };
 
 }  // namespace penumbra::plugin

@@ -68,9 +68,13 @@ class Material : public Prim {
 
   /// Builds its renderer material, opening its textures (a warning names each that cannot be
   /// read: once per change, since only a dirty material syncs), into its own index of the
-  /// scene's material list (cf. HdMaterial::Sync). The other materials stay as they are; the
-  /// meshes bound to it follow its cut-outs (Scene::setMaterial). Then it is clean.
-  void sync(SyncContext& context);
+  /// scene's material list (SyncContext::materials, given at its insertion; cf.
+  /// HdMaterial::Sync). The other materials stay as they are; the meshes bound to it follow its
+  /// cut-outs (Scene::setMaterial).
+  void sync(SyncContext& context, uint32_t dirtyBits) override;
+  /// Frees its index: its entry is emptied, and the meshes bound to it are placed again with
+  /// their displayColor at the next sync.
+  void finalize(SyncContext& context) override;
 
   const MaterialParams& params() const { return params_; }
   /// The connected inputs, in the order they were connected.

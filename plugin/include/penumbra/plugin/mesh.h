@@ -1,4 +1,7 @@
-// Mesh rprim: topology, points, display colour, material binding, transform, visibility.
+// Mesh rprim: topology, points, display colour, material binding, transform, visibility, and
+// the light of UsdLuxMeshLightAPI (the mesh's surface emits): the mesh owns that light and
+// syncs it with itself, so that it joins, follows and leaves the scene's light list as the mesh
+// changes.
 #pragma once
 
 #include <memory>
@@ -37,31 +40,27 @@ class Mesh : public Prim {
   /// UsdLuxMeshLightAPI: the mesh also emits, and is sampled as a light, with these inputs
   /// (names as Light::setParam). `enabled` false removes the light.
   void setLight(bool enabled, const std::vector<std::pair<std::string, ParamValue>>& params);
-  /// The mesh's light, if it is a mesh light.
-  const Light* light() const { return light_.get(); }
-  Light* light() { return light_.get(); }
   /// The dirty bits on which its sync places its instance again.
   static constexpr uint32_t kPlacementDirtyBits =
       DirtyMaterialId | DirtyTransform | DirtyVisibility;
-  /// The dirty bits on which a mesh light's sync builds its light again.
-  static constexpr uint32_t kLightDirtyBits =
-      DirtyTopology | DirtyPoints | DirtyTransform | DirtyVisibility | DirtyParams;
-  void setTransform(const MotionTransform& objectToWorld);
-  void setVisible(bool visible);
-  /// How camera rays treat the mesh (a render pass's cameraVisibility and matte collections).
-  void setPassVisibility(PassVisibility pass);
+  void setTransform(const MotionTransform& objectToWorld) override;
+  void setVisible(bool visible) override;
+  void setPassVisibility(PassVisibility pass) override;
 
   /// The instancers placing copies of this mesh (cf. HdRprim::GetInstancerId, from the
-  /// prototype's side): kept by the render delegate as instancers sync.
+  /// prototype's side): each registers as it syncs, and leaves as it is removed.
   const std::set<PrimId>& instancers() const { return instancers_; }
   void addInstancer(const PrimId& instancer) { instancers_.insert(instancer); }
   void removeInstancer(const PrimId& instancer) { instancers_.erase(instancer); }
 
   /// Syncs what its dirty bits say changed into the scene (cf. HdMesh::Sync): triangulates or
   /// dices its geometry (the scene keeps the BVH when the triangles are the same), places its
-  /// instance, syncs its light (on kLightDirtyBits; the render delegate puts it in the scene's
-  /// light list); then it is clean.
-  void sync(SyncContext& context);
+  /// instance, and syncs its light (on kLightDirtyBits), which joins, replaces or leaves its
+  /// entry of the scene's light list (a mesh that is no longer a light leaves it).
+  void sync(SyncContext& context, uint32_t dirtyBits) override;
+  /// Removes it from the scene and its light from the light list; its instancers drop their
+  /// copies (Instancer::dropCopies), which come back if a mesh with its id is inserted again.
+  void finalize(SyncContext& context) override;
   /// Places its instance with its transform, material and visibility (a material it is bound to
   /// changed or moved in the scene's list).
   void place(SyncContext& context) const;
@@ -77,12 +76,19 @@ class Mesh : public Prim {
   /// The tessellator of the current topology (built on first use, dropped when topology or tags
   /// change); null for meshes that are not subdivided.
   const LimitSurfaceTessellator* tessellator(SubdivisionScheme scheme);
+  /// Bytes its next sync will allocate (penumbra::estimatedBuildBytes).
+  size_t estimatedSyncBytes() const;
 
  private:
+  /// The dirty bits on which a mesh light's sync builds its light again.
+  static constexpr uint32_t kLightDirtyBits =
+      DirtyTopology | DirtyPoints | DirtyTransform | DirtyVisibility | DirtyParams;
+
   /// The triangles to render: its polygons, or its diced limit surface.
   TriangleMesh triangles(SyncContext& context);
   /// Gives its light the polygons it emits from (the cage of a subdivision surface) in world
-  /// space at shutter open, or hides it (the mesh is hidden or invalid), and syncs it.
+  /// space at shutter open, or hides it (the mesh is hidden or invalid), and syncs it; without
+  /// a light, the mesh leaves the light list if it was there.
   void syncLight(SyncContext& context);
 
   Geometry::MeshId handle_;

@@ -1,7 +1,9 @@
-// Base of every prim in the render index, with Hydra's change tracking: the scene delegate's
-// setters store data and raise dirty bits; the first bit raised puts the prim on its change
-// tracker's dirty list, so that the render delegate's sync visits only dirty prims (see
-// docs/architecture.md).
+// Base of every prim in the render index, with Hydra's change tracking and lifecycle: the scene
+// delegate's setters store data and raise dirty bits; the first bit raised puts the prim on its
+// change tracker's dirty list, so that the render delegate's sync visits only dirty prims. Each
+// visited prim syncs itself into its part of the renderer (sync, as HdRprim::Sync and
+// HdSprim::Sync) and is marked clean; a prim removed from the render index takes its part out
+// (finalize, as HdRprim::Finalize) before it is dropped (see docs/architecture.md).
 #pragma once
 
 #include <cstdint>
@@ -11,6 +13,8 @@
 #include <variant>
 
 #include "penumbra/math.h"
+#include "penumbra/motion.h"
+#include "penumbra/scene.h"
 
 namespace penumbra::plugin {
 
@@ -34,6 +38,8 @@ enum DirtyBits : uint32_t {
 /// A parameter value as schemas author them (cf. VtValue, restricted to what lights and
 /// materials use; asset paths arrive resolved, as strings).
 using ParamValue = std::variant<bool, int, float, Vec3f, std::string>;
+
+struct SyncContext;
 
 /// The ids of the prims with dirty bits raised since the last sync (cf. HdChangeTracker's
 /// dirty list), in id order so that sync is deterministic.
@@ -69,14 +75,38 @@ class Prim {
     tracker_ = tracker;
     if (tracker_ && dirtyBits_ != Clean) tracker_->markDirty(id_);
   }
+  /// How many times the prim has been synced (lets tests check incremental sync).
+  int syncCount() const { return syncCount_; }
+
+  /// Syncs what `dirtyBits` (the prim's own) say changed into its part of the renderer, through
+  /// `context` (cf. HdRprim::Sync, HdSprim::Sync). Called by syncDirty only.
+  virtual void sync(SyncContext& context, uint32_t dirtyBits) = 0;
+  /// Takes the prim's part out of the renderer (cf. HdRprim::Finalize): the render delegate
+  /// calls it when it removes the prim, which it then drops. Kinds that put nothing in the
+  /// renderer (cameras, render buffers) have nothing to take out.
+  virtual void finalize(SyncContext& context) { (void)context; }
+  /// Syncs the prim from its dirty bits, then marks it clean: what the render delegate's sync
+  /// does for each prim on its dirty list.
+  void syncDirty(SyncContext& context) {
+    sync(context, dirtyBits_);
+    markClean();
+  }
+
+  /// Setters the scene delegate calls on a prim whatever its kind: the kinds that have a
+  /// transform (meshes, cameras, lights), a visibility (meshes, instancers, lights) or a render
+  /// pass visibility (meshes, instancers) override them; on the others they throw
+  /// std::invalid_argument naming the prim.
+  virtual void setTransform(const MotionTransform& toWorld);
+  virtual void setVisible(bool visible);
+  /// How camera rays treat the prim (a render pass's cameraVisibility and matte collections).
+  virtual void setPassVisibility(PassVisibility pass);
+
+ private:
   void markClean() {
     dirtyBits_ = Clean;
     ++syncCount_;
   }
-  /// How many times the prim has been synced (lets tests check incremental sync).
-  int syncCount() const { return syncCount_; }
 
- private:
   PrimId id_;
   uint32_t dirtyBits_ = AllDirty;
   int syncCount_ = 0;

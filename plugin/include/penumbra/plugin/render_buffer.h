@@ -39,6 +39,9 @@ class RenderBuffer : public Prim {
   const std::vector<float>& data() const { return data_; }
   bool converged() const { return converged_; }
 
+  /// Render passes write its contents (resolve): a sync has nothing to do.
+  void sync(SyncContext&, uint32_t) override {}
+
  private:
   int width_ = 0, height_ = 0, channels_ = 0;
   std::vector<float> data_;

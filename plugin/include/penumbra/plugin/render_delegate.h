@@ -1,6 +1,8 @@
-// The render delegate (cf. HdRenderDelegate + HdRenderIndex): creates and owns prims by id in
-// separate rprim, sprim and bprim collections, holds the render settings, and syncs the prims
-// on its change tracker's dirty list into the renderer's Scene (docs/architecture.md).
+// The render delegate (cf. HdRenderDelegate + HdRenderIndex): creates and owns prims by id, one
+// collection per kind, holds the render settings and the SyncContext (cf. HdRenderParam), and
+// syncs the dirty prims into the renderer's Scene, kind by kind in a fixed order; each prim
+// syncs itself (Prim::sync) and takes itself out when removed (Prim::finalize)
+// (docs/architecture.md).
 #pragma once
 
 #include <map>
@@ -15,6 +17,7 @@
 #include "penumbra/plugin/light.h"
 #include "penumbra/plugin/material.h"
 #include "penumbra/plugin/mesh.h"
+#include "penumbra/plugin/prim_collection.h"
 #include "penumbra/plugin/render_buffer.h"
 #include "penumbra/plugin/render_settings.h"
 #include "penumbra/plugin/sync_context.h"
@@ -35,7 +38,8 @@ class RenderDelegate {
   void insertSprim(const std::string& type, const PrimId& id);
   /// Bprim types: "renderBuffer".
   void insertBprim(const std::string& type, const PrimId& id);
-  /// Throws std::out_of_range for an unknown id.
+  /// Takes the prim out of the renderer (Prim::finalize) and drops it. Throws std::out_of_range
+  /// for an unknown id.
   void removePrim(const PrimId& id);
   bool hasPrim(const PrimId& id) const;
   std::vector<PrimId> primIds() const;
@@ -58,13 +62,19 @@ class RenderDelegate {
   void setDicingCamera(PrimId cameraId);
   const PrimId& dicingCamera() const { return dicingCamera_; }
 
-  /// Syncs the dirty prims into the scene and commits it (cf. HdRenderIndex::SyncAll: each
-  /// dirty prim syncs itself from its dirty bits, given a SyncContext). `view`: the camera and
-  /// width of the pass asking, which become the dicing context of the first sync when no dicing
-  /// camera is set. Returns true if anything a render depends on changed (scene contents or any
-  /// camera), so that passes restart accumulation. `cameraSamples`: how many the pass is about
-  /// to take (pixels × samples per pixel), which decides whether placements edited since the
-  /// last full build stay in the scene's overlay (Geometry::prepareForSamples).
+  /// Syncs the dirty prims into the scene and commits it (cf. HdRenderIndex::SyncAll): each
+  /// prim on a dirty list syncs itself from its dirty bits, given the SyncContext, and is
+  /// marked clean. The order is fixed, each kind in id order: materials; the meshes bound to a
+  /// material inserted or removed since the last sync are placed again (they need not be
+  /// dirty); lights; cameras; meshes (placed with their material's index; a mesh light syncs
+  /// its light); instancers (their copies follow their prototype's geometry); render buffers.
+  /// Then the lights that synced go into the scene's light list (LightList::update).
+  /// `view`: the camera and width of the pass asking, which become the dicing context of the
+  /// first sync when no dicing camera is set. Returns true if anything a render depends on
+  /// changed (scene contents or any camera), so that passes restart accumulation.
+  /// `cameraSamples`: how many the pass is about to take (pixels × samples per pixel), which
+  /// decides whether placements edited since the last full build stay in the scene's overlay
+  /// (Geometry::prepareForSamples).
   bool sync(const DicingContext& view, uint64_t cameraSamples = UINT64_MAX);
   /// Bytes the next sync will allocate to build the dirty meshes and instancers (an estimate
   /// from their counts, penumbra::estimatedBuildBytes), to be checked against a memory budget
@@ -99,49 +109,31 @@ class RenderDelegate {
   std::vector<std::string> takeWarnings();
 
  private:
-  void warn(std::string message) { warnings_.push_back(std::move(message)); }
   /// The dicing context for this sync, given the pass's view.
   DicingContext dicingContext(const DicingContext& view);
   /// Places again the meshes bound to a material inserted or removed since the last sync (they
-  /// render with it now, or with their displayColor).
-  void placeUsersOfNewAndRemovedMaterials(SyncContext& context);
-  /// After `id` (a light sprim, or `mesh`) synced its light into `rendered` (none: it does not
-  /// render now): the light joins the scene's list, replaces its entry there, or leaves it.
-  void lightSynced(const PrimId& id, std::optional<penumbra::Light> rendered, const Mesh* mesh);
-  /// Puts the synced lights in the scene's list: the whole list again when lights joined or
-  /// left it (the others' renderer lights moved along as they are, not built again), else each
-  /// synced light in its own entry.
-  void updateLightList();
-  /// The mesh an instancer copies, or null (with a warning) if there is none.
-  Mesh* prototypeOf(const Instancer& instancer);
+  /// render with it now, or with their displayColor); the dirty ones place themselves.
+  void placeUsersOfNewAndRemovedMaterials();
+  /// Calls `visit(collection)` for each kind's collection of `self` (const or not).
+  template <typename Self, typename Visit>
+  static void forEachKind(Self& self, Visit visit);
 
   Device device_;
   std::unique_ptr<Scene> scene_;
-  // The render index (cf. HdRenderIndex): rprims (meshes, instancers), sprims (cameras,
-  // materials, lights), bprims (render buffers), and the change tracker their setters report to.
-  std::map<PrimId, std::unique_ptr<Prim>> rprims_;
-  std::map<PrimId, std::unique_ptr<Prim>> sprims_;
-  std::map<PrimId, std::unique_ptr<Prim>> bprims_;
-  ChangeTracker changeTracker_;
-  // Each material sprim's index in the scene's material list, from its insertion to its
-  // removal; indices freed by removals are used again, lowest first.
-  std::map<PrimId, int> materialIndex_;
-  std::set<int> freeMaterialIndices_;
-  std::set<PrimId> materialsInsertedOrRemoved_;  // since the last sync
-  // The lights in the scene's list (light sprims and mesh lights), by id: the order they are
-  // sampled in, so that images do not depend on the order of edits. Each holds its index there.
-  std::map<PrimId, int> lightIndex_;
-  std::map<PrimId, penumbra::Light> lightsSynced_;  // built in this sync, for the list
+  // The render index (cf. HdRenderIndex), one collection per kind: rprims (meshes,
+  // instancers), sprims (cameras, materials, lights), bprims (render buffers).
+  PrimCollection<Mesh> meshes_;
+  PrimCollection<Instancer> instancers_;
+  PrimCollection<Camera> cameras_;
+  PrimCollection<Material> materials_;
+  PrimCollection<Light> lights_;
+  PrimCollection<RenderBuffer> renderBuffers_;
+  SyncContext context_;
   RenderSettingsMap settings_;
-  std::vector<std::string> warnings_;
-  bool materialsStructureChanged_ = false;
-  bool lightsStructureChanged_ = false;  // lights joined or left the list
-  bool meshesStructureChanged_ = false;
   PrimId dicingCamera_;
   std::optional<DicingContext> firstView_;  // the default dicing context
   std::optional<DicingContext> dicedFor_;
   int dicedComplexity_ = 0;
-  SyncCounters counters_;
   uint64_t sceneVersion_ = 0;
 };
 

@@ -1,0 +1,26 @@
+// The areas of penumbra._core, each bound by its own file; module.cpp calls them in order.
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+#include "penumbra/plugin/render_delegate.h"
+
+namespace penumbra::bindings {
+
+using DelegateClass = pybind11::class_<plugin::RenderDelegate>;
+
+/// Prims: insertion and removal, meshes (MeshRecord, set_mesh, set_meshes and the per-aspect
+/// setters), instancers, transforms, visibility, cameras and lights (scene_bindings.cpp).
+void bindScene(pybind11::module_& m, DelegateClass& delegate);
+/// Materials: set_material and the dict schemas of its networks (materials.cpp).
+void bindMaterials(DelegateClass& delegate);
+/// The delegate's sync state (render settings, dicing camera, statistics, warnings), render
+/// buffers and RenderPass (render.cpp).
+void bindRender(pybind11::module_& m, DelegateClass& delegate);
+/// Image files and colour management (images.cpp).
+void bindImages(pybind11::module_& m);
+/// The render options' and light types' tables, from which the front ends derive their
+/// spellings (render_settings.cpp).
+void bindRenderSettings(pybind11::module_& m);
+
+}  // namespace penumbra::bindings

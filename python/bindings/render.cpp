@@ -1,0 +1,182 @@
+// Rendering: the delegate's sync state (render settings, dicing camera, statistics, warnings),
+// render buffers and RenderPass, whose execute() a Ctrl-C stops.
+#include <pybind11/stl.h>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <exception>
+#include <future>
+#include <memory>
+#include <optional>
+#include <thread>
+
+#include "bindings.h"
+#include "conversions.h"
+#include "penumbra/plugin/render_pass.h"
+
+namespace penumbra::bindings {
+namespace {
+
+using plugin::RenderBuffer;
+using plugin::RenderDelegate;
+using plugin::RenderPass;
+
+// How often a render looks for Python signals (Ctrl-C) while it runs.
+constexpr std::chrono::milliseconds kSignalPollInterval{50};
+
+// Runs `pass.execute(samples)` on a worker thread while the calling thread, without the GIL,
+// runs Python's signal handlers every kSignalPollInterval (they run only in the main thread,
+// between bytecodes, so a render holding that thread would never see Ctrl-C). A handler that
+// raises (SIGINT: KeyboardInterrupt) cancels the render, which drops its samples, and the
+// exception propagates.
+void executeInterruptibly(RenderPass& pass, int samples) {
+  std::atomic<bool> cancel{false};
+  std::exception_ptr failure;
+  std::promise<void> finished;
+  std::future<void> done = finished.get_future();
+  bool interrupted = false;
+  {
+    py::gil_scoped_release release;
+    std::thread worker([&] {
+      try {
+        pass.execute(samples, &cancel);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      finished.set_value();
+    });
+    while (done.wait_for(kSignalPollInterval) != std::future_status::ready) {
+      py::gil_scoped_acquire acquire;
+      if (PyErr_CheckSignals() != 0) {
+        interrupted = true;
+        cancel = true;
+        break;
+      }
+    }
+    worker.join();
+  }
+  if (interrupted) throw py::error_already_set();
+  if (failure) std::rethrow_exception(failure);
+}
+
+}  // namespace
+
+void bindRender(py::module_& m, DelegateClass& delegate) {
+  delegate
+      .def(
+          "allocate_render_buffer",
+          [](RenderDelegate& self, const std::string& id, int width, int height) {
+            self.renderBuffer(id).allocate(width, height);
+          },
+          py::arg("id"), py::arg("width"), py::arg("height"))
+      .def(
+          "render_buffer",
+          [](RenderDelegate& self, const std::string& id) {
+            const RenderBuffer& buffer = self.renderBuffer(id);
+            py::array_t<float> result({buffer.height(), buffer.width(), buffer.channels()});
+            if (!buffer.data().empty())
+              std::memcpy(result.mutable_data(), buffer.data().data(),
+                          buffer.data().size() * sizeof(float));
+            return py::make_tuple(result, buffer.converged());
+          },
+          py::arg("id"));
+  delegate
+      .def(
+          "set_render_setting",
+          [](RenderDelegate& self, const std::string& key, double value) {
+            self.settings().set(key, value);
+          },
+          py::arg("key"), py::arg("value"))
+      .def("render_settings", [](const RenderDelegate& self) { return self.settings().asMap(); })
+      .def(
+          "dirty_bits",
+          [](RenderDelegate& self, const std::string& id) { return self.prim(id).dirtyBits(); },
+          py::arg("id"))
+      .def(
+          "set_dicing_camera",
+          [](RenderDelegate& self, const std::string& cameraId) { self.setDicingCamera(cameraId); },
+          py::arg("camera_id"))
+      .def("dicing_camera", &RenderDelegate::dicingCamera)
+      .def("sync_statistics",
+           [](const RenderDelegate& self) {
+             const RenderDelegate::SyncStatistics stats = self.syncStatistics();
+             py::dict result;
+             result["meshGeometrySyncs"] = stats.meshGeometrySyncs;
+             result["subdivisionDicings"] = stats.subdivisionDicings;
+             result["meshBvhBuilds"] = stats.meshBvhBuilds;
+             result["topLevelBvhPrimitives"] = stats.topLevelBvhPrimitives;
+             result["tessellationSeconds"] = stats.tessellationSeconds;
+             result["bvhBuildSeconds"] = stats.bvhBuildSeconds;
+             result["materialBuilds"] = stats.materialBuilds;
+             result["materialTextureOpens"] = stats.materialTextureOpens;
+             result["lightBuilds"] = stats.lightBuilds;
+             result["lightTextureLoads"] = stats.lightTextureLoads;
+             return result;
+           })
+      .def(
+          "sync_count",
+          [](RenderDelegate& self, const std::string& id) { return self.prim(id).syncCount(); },
+          py::arg("id"))
+      .def("estimated_sync_bytes", &RenderDelegate::estimatedSyncBytes)
+      .def("take_warnings", &RenderDelegate::takeWarnings)
+      .def("prim_id_manifest", &RenderDelegate::primIdManifest,
+           "The mesh prims by the value the primId AOV gives them.");
+
+  py::class_<RenderPass>(m, "RenderPass")
+      .def(py::init([](RenderDelegate& renderDelegate, std::string cameraId, int width, int height,
+                       std::optional<std::array<int, 4>> crop, int margin) {
+             if (!crop)
+               return std::make_unique<RenderPass>(renderDelegate, cameraId, width, height);
+             const auto [x, y, cropWidth, cropHeight] = *crop;
+             return std::make_unique<RenderPass>(renderDelegate, cameraId, width, height,
+                                                 PixelRect{x, y, cropWidth, cropHeight}, margin);
+           }),
+           py::arg("delegate"), py::arg("camera_id"), py::arg("width"), py::arg("height"),
+           py::arg("crop") = py::none(), py::arg("margin") = 0, py::keep_alive<1, 2>())
+      .def_static("adaptive_sampling_reach", &RenderPass::adaptiveSamplingReach, py::arg("samples"),
+                  py::arg("min_samples"))
+      .def("execute", &executeInterruptibly, py::arg("samples"))
+      .def("reset", &RenderPass::reset)
+      .def("set_aov_bindings", &RenderPass::setAovBindings, py::arg("bindings"))
+      .def("set_aovs", &RenderPass::setAovs, py::arg("names"),
+           "Accumulate these AOVs besides color, alpha, Z and sampleCount (a change restarts).")
+      .def_property_readonly("samples_done", &RenderPass::samplesDone)
+      .def_property_readonly("mean_samples", &RenderPass::meanSamples)
+      .def_property_readonly("samples_taken", &RenderPass::samplesTaken)
+      .def_property_readonly("rays_traced", &RenderPass::raysTraced)
+      .def(
+          "measure_raw_throughput",
+          [](RenderPass& self) {
+            penumbra::RawRayThroughput result;
+            {
+              py::gil_scoped_release release;
+              result = self.measureRawThroughput();
+            }
+            py::dict out;
+            out["primary"] = result.primary;
+            out["bounce_intersect"] = result.bounceIntersect;
+            out["bounce_occluded"] = result.bounceOccluded;
+            out["bounce_rays"] = result.bounceRays;
+            return out;
+          },
+          "Embree alone on this pass's scene and camera: rays per second of camera rays, "
+          "cosine bounce rays (intersect) and the same rays as shadow rays (occluded).")
+      .def_property_readonly("converged", &RenderPass::converged)
+      .def_property_readonly("width", &RenderPass::width)
+      .def_property_readonly("height", &RenderPass::height)
+      .def_static("aov_names", &RenderPass::aovNames)
+      .def(
+          "aov",
+          [](const RenderPass& self, const std::string& name) {
+            const int channels = self.aovChannels(name);
+            const std::vector<float> values = self.aov(name);
+            py::array_t<float> result({self.height(), self.width(), channels});
+            std::memcpy(result.mutable_data(), values.data(), values.size() * sizeof(float));
+            return result;
+          },
+          py::arg("name"));
+}
+
+}  // namespace penumbra::bindings
