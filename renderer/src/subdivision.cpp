@@ -1,10 +1,12 @@
+// The limit-surface tessellator: OpenSubdiv feature-adaptive patches over a validated cage
+// (subdivision_cage.h) with refined primvars (subdivision_primvars.h), diced face by face with
+// Bfr tessellation patterns and stitched into one watertight triangle mesh.
 #include "penumbra/subdivision.h"
 
 #include <opensubdiv/bfr/tessellation.h>
 #include <opensubdiv/far/patchMap.h>
 #include <opensubdiv/far/patchTable.h>
 #include <opensubdiv/far/patchTableFactory.h>
-#include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/ptexIndices.h>
 #include <opensubdiv/far/topologyDescriptor.h>
 #include <tbb/parallel_for.h>
@@ -12,7 +14,9 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
-#include <unordered_set>
+
+#include "subdivision_cage.h"
+#include "subdivision_primvars.h"
 
 namespace penumbra {
 
@@ -36,302 +40,10 @@ constexpr int kMaxPatchPoints = 20;
 // quadratic (in the other parameter) second derivative; this margin covers them.
 constexpr float kCurvatureSamplingMargin = 1.25f;
 
-std::string elementName(const char* array, size_t index) {
-  return std::string(array) + "[" + std::to_string(index) + "]";
-}
-
-Sdc::Options::VtxBoundaryInterpolation parseInterpolateBoundary(const std::string& token) {
-  if (token == "none") return Sdc::Options::VTX_BOUNDARY_NONE;
-  if (token == "edgeOnly") return Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
-  if (token == "edgeAndCorner") return Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER;
-  throw std::invalid_argument("interpolateBoundary \"" + token +
-                              "\" is not one of none, edgeOnly, edgeAndCorner");
-}
-
-Sdc::Options::FVarLinearInterpolation parseFaceVaryingLinearInterpolation(
-    const std::string& token) {
-  if (token == "none") return Sdc::Options::FVAR_LINEAR_NONE;
-  if (token == "cornersOnly") return Sdc::Options::FVAR_LINEAR_CORNERS_ONLY;
-  if (token == "cornersPlus1") return Sdc::Options::FVAR_LINEAR_CORNERS_PLUS1;
-  if (token == "cornersPlus2") return Sdc::Options::FVAR_LINEAR_CORNERS_PLUS2;
-  if (token == "boundaries") return Sdc::Options::FVAR_LINEAR_BOUNDARIES;
-  if (token == "all") return Sdc::Options::FVAR_LINEAR_ALL;
-  throw std::invalid_argument(
-      "faceVaryingLinearInterpolation \"" + token +
-      "\" is not one of none, cornersOnly, cornersPlus1, cornersPlus2, boundaries, all");
-}
-
-Sdc::Options::TriangleSubdivision parseTriangleSubdivisionRule(const std::string& token) {
-  if (token == "catmullClark") return Sdc::Options::TRI_SUB_CATMARK;
-  if (token == "smooth") return Sdc::Options::TRI_SUB_SMOOTH;
-  throw std::invalid_argument("triangleSubdivisionRule \"" + token +
-                              "\" is not one of catmullClark, smooth");
-}
-
-Sdc::SchemeType toOsdScheme(SubdivisionScheme scheme) {
-  switch (scheme) {
-    case SubdivisionScheme::CatmullClark:
-      return Sdc::SCHEME_CATMARK;
-    case SubdivisionScheme::Loop:
-      return Sdc::SCHEME_LOOP;
-    case SubdivisionScheme::Bilinear:
-      return Sdc::SCHEME_BILINEAR;
-  }
-  return Sdc::SCHEME_CATMARK;
-}
-
 /// Whether a primvar is evaluated at every tessellation vertex (rather than passed through).
 bool isEvaluated(Interpolation interpolation) {
   return interpolation == Interpolation::Varying || interpolation == Interpolation::Vertex ||
          interpolation == Interpolation::FaceVarying;
-}
-
-void checkFinitePoints(const std::vector<Vec3f>& points) {
-  for (size_t i = 0; i < points.size(); ++i) {
-    const Vec3f& p = points[i];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      throw std::invalid_argument(elementName("points", i) + " is not finite");
-  }
-}
-
-void checkVertexIndex(const char* array, size_t position, int index, size_t pointCount) {
-  if (index < 0 || size_t(index) >= pointCount)
-    throw std::invalid_argument(elementName(array, position) + " = " + std::to_string(index) +
-                                " is out of range for " + std::to_string(pointCount) + " points");
-}
-
-void checkSharpness(const char* array, size_t position, float sharpness) {
-  if (!std::isfinite(sharpness))
-    throw std::invalid_argument(elementName(array, position) + " is not finite");
-}
-
-uint64_t edgeKey(int a, int b) {
-  return (uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b));
-}
-
-void validateCage(const MeshData& cage, SubdivisionScheme scheme, const SubdivisionTags& tags) {
-  const size_t pointCount = cage.points.size();
-  checkFinitePoints(cage.points);
-  size_t indexTotal = 0;
-  for (size_t face = 0; face < cage.faceVertexCounts.size(); ++face) {
-    const int count = cage.faceVertexCounts[face];
-    if (count < 3)
-      throw std::invalid_argument(elementName("faceVertexCounts", face) + " = " +
-                                  std::to_string(count) +
-                                  ": a subdivision surface needs at least 3 vertices per face");
-    if (scheme == SubdivisionScheme::Loop && count != 3)
-      throw std::invalid_argument(elementName("faceVertexCounts", face) + " = " +
-                                  std::to_string(count) + ": the loop scheme needs triangles only");
-    indexTotal += size_t(count);
-  }
-  if (indexTotal != cage.faceVertexIndices.size())
-    throw std::invalid_argument("faceVertexCounts add up to " + std::to_string(indexTotal) +
-                                " but faceVertexIndices has " +
-                                std::to_string(cage.faceVertexIndices.size()) + " entries");
-  for (size_t i = 0; i < cage.faceVertexIndices.size(); ++i)
-    checkVertexIndex("faceVertexIndices", i, cage.faceVertexIndices[i], pointCount);
-
-  for (size_t i = 0; i < tags.holeIndices.size(); ++i) {
-    const int face = tags.holeIndices[i];
-    if (face < 0 || size_t(face) >= cage.faceVertexCounts.size())
-      throw std::invalid_argument(elementName("holeIndices", i) + " = " + std::to_string(face) +
-                                  " is out of range for " +
-                                  std::to_string(cage.faceVertexCounts.size()) + " faces");
-  }
-  if (tags.cornerSharpnesses.size() != tags.cornerIndices.size())
-    throw std::invalid_argument(
-        "cornerSharpnesses has " + std::to_string(tags.cornerSharpnesses.size()) +
-        " values but cornerIndices has " + std::to_string(tags.cornerIndices.size()));
-  for (size_t i = 0; i < tags.cornerIndices.size(); ++i) {
-    checkVertexIndex("cornerIndices", i, tags.cornerIndices[i], pointCount);
-    checkSharpness("cornerSharpnesses", i, tags.cornerSharpnesses[i]);
-  }
-
-  size_t creaseVertexTotal = 0, creaseEdgeTotal = 0;
-  for (size_t i = 0; i < tags.creaseLengths.size(); ++i) {
-    const int length = tags.creaseLengths[i];
-    if (length < 2)
-      throw std::invalid_argument(elementName("creaseLengths", i) + " = " + std::to_string(length) +
-                                  ": a crease needs at least 2 vertices");
-    creaseVertexTotal += size_t(length);
-    creaseEdgeTotal += size_t(length - 1);
-  }
-  if (creaseVertexTotal != tags.creaseIndices.size())
-    throw std::invalid_argument("creaseLengths add up to " + std::to_string(creaseVertexTotal) +
-                                " but creaseIndices has " +
-                                std::to_string(tags.creaseIndices.size()) + " entries");
-  if (tags.creaseSharpnesses.size() != tags.creaseLengths.size() &&
-      tags.creaseSharpnesses.size() != creaseEdgeTotal)
-    throw std::invalid_argument(
-        "creaseSharpnesses has " + std::to_string(tags.creaseSharpnesses.size()) +
-        " values, expected one per crease (" + std::to_string(tags.creaseLengths.size()) +
-        ") or one per crease edge (" + std::to_string(creaseEdgeTotal) + ")");
-  for (size_t i = 0; i < tags.creaseSharpnesses.size(); ++i)
-    checkSharpness("creaseSharpnesses", i, tags.creaseSharpnesses[i]);
-  if (!tags.creaseIndices.empty()) {
-    std::unordered_set<uint64_t> edges;
-    size_t faceStart = 0;
-    for (int count : cage.faceVertexCounts) {
-      for (int k = 0; k < count; ++k)
-        edges.insert(edgeKey(cage.faceVertexIndices[faceStart + size_t(k)],
-                             cage.faceVertexIndices[faceStart + size_t((k + 1) % count)]));
-      faceStart += size_t(count);
-    }
-    size_t chainStart = 0;
-    for (int length : tags.creaseLengths) {
-      for (size_t i = chainStart; i < chainStart + size_t(length); ++i)
-        checkVertexIndex("creaseIndices", i, tags.creaseIndices[i], pointCount);
-      for (size_t i = chainStart; i + 1 < chainStart + size_t(length); ++i) {
-        const int a = tags.creaseIndices[i], b = tags.creaseIndices[i + 1];
-        if (!edges.count(edgeKey(a, b)))
-          throw std::invalid_argument("creaseIndices[" + std::to_string(i) + ".." +
-                                      std::to_string(i + 1) + "] = (" + std::to_string(a) + ", " +
-                                      std::to_string(b) + ") is not an edge of the mesh");
-      }
-      chainStart += size_t(length);
-    }
-  }
-}
-
-/// A face-varying channel's topology: face-vertex values that are equal at the same vertex are
-/// welded into one value (smooth across the faces that share it); differing ones form a seam.
-struct WeldedFaceVarying {
-  std::vector<int> valueIndices;  // per face-vertex
-  std::vector<float> values;      // width floats per welded value
-  int valueCount = 0;
-};
-
-WeldedFaceVarying weldFaceVarying(const Primvar& primvar, const MeshData& cage) {
-  const size_t width = size_t(primvar.width);
-  WeldedFaceVarying welded;
-  welded.valueIndices.resize(cage.faceVertexIndices.size());
-  std::vector<std::vector<int>> valuesAtVertex(cage.points.size());
-  for (size_t faceVertex = 0; faceVertex < cage.faceVertexIndices.size(); ++faceVertex) {
-    const float* value = &primvar.values[faceVertex * width];
-    std::vector<int>& candidates = valuesAtVertex[size_t(cage.faceVertexIndices[faceVertex])];
-    int match = -1;
-    for (int candidate : candidates)
-      if (std::equal(value, value + width, &welded.values[size_t(candidate) * width])) {
-        match = candidate;
-        break;
-      }
-    if (match < 0) {
-      match = welded.valueCount++;
-      welded.values.insert(welded.values.end(), value, value + width);
-      candidates.push_back(match);
-    }
-    welded.valueIndices[faceVertex] = match;
-  }
-  return welded;
-}
-
-/// A primvar value OpenSubdiv's PrimvarRefiner and stencil tables can accumulate.
-template <int Width>
-struct Tuple {
-  float value[Width];
-
-  void Clear() { std::fill(value, value + Width, 0.0f); }
-  void AddWithWeight(const Tuple& source, float weight) {
-    for (int i = 0; i < Width; ++i) value[i] += weight * source.value[i];
-  }
-};
-
-enum class RefinedKind { Vertex, Varying, FaceVarying };
-
-/// Interpolates `base` (the cage's values) through every refinement level and onto the patch
-/// table's local points, giving the array that patch control indices address.
-template <int Width>
-std::vector<float> refineTuples(const Far::TopologyRefiner& refiner, const Far::PatchTable& patches,
-                                const std::vector<float>& base, RefinedKind kind, int channel) {
-  using Value = Tuple<Width>;
-  const bool faceVarying = kind == RefinedKind::FaceVarying;
-  const int levelTotal =
-      faceVarying ? refiner.GetNumFVarValuesTotal(channel) : refiner.GetNumVerticesTotal();
-  int localPoints = patches.GetNumLocalPoints();
-  if (kind == RefinedKind::Varying) localPoints = patches.GetNumLocalPointsVarying();
-  if (faceVarying) localPoints = patches.GetNumLocalPointsFaceVarying(channel);
-  std::vector<Value> refined(size_t(levelTotal + localPoints));
-  const size_t baseCount = base.size() / Width;
-  for (size_t i = 0; i < baseCount; ++i)
-    std::copy(&base[i * Width], &base[i * Width] + Width, refined[i].value);
-
-  Far::PrimvarRefiner primvarRefiner(refiner);
-  Value* source = refined.data();
-  for (int level = 1; level <= refiner.GetMaxLevel(); ++level) {
-    const Far::TopologyLevel& parent = refiner.GetLevel(level - 1);
-    Value* destination =
-        source + (faceVarying ? parent.GetNumFVarValues(channel) : parent.GetNumVertices());
-    switch (kind) {
-      case RefinedKind::Vertex:
-        primvarRefiner.Interpolate(level, source, destination);
-        break;
-      case RefinedKind::Varying:
-        primvarRefiner.InterpolateVarying(level, source, destination);
-        break;
-      case RefinedKind::FaceVarying:
-        primvarRefiner.InterpolateFaceVarying(level, source, destination, channel);
-        break;
-    }
-    source = destination;
-  }
-  Value* local = refined.data() + levelTotal;
-  switch (kind) {
-    case RefinedKind::Vertex:
-      patches.ComputeLocalPointValues(refined.data(), local);
-      break;
-    case RefinedKind::Varying:
-      patches.ComputeLocalPointValuesVarying(refined.data(), local);
-      break;
-    case RefinedKind::FaceVarying:
-      patches.ComputeLocalPointValuesFaceVarying(refined.data(), local, channel);
-      break;
-  }
-  std::vector<float> flat(refined.size() * Width);
-  for (size_t i = 0; i < refined.size(); ++i)
-    std::copy(refined[i].value, refined[i].value + Width, &flat[i * Width]);
-  return flat;
-}
-
-std::vector<float> refine(const Far::TopologyRefiner& refiner, const Far::PatchTable& patches,
-                          const std::vector<float>& base, int width, RefinedKind kind,
-                          int channel) {
-  switch (width) {
-    case 1:
-      return refineTuples<1>(refiner, patches, base, kind, channel);
-    case 2:
-      return refineTuples<2>(refiner, patches, base, kind, channel);
-    case 3:
-      return refineTuples<3>(refiner, patches, base, kind, channel);
-    default:
-      return refineTuples<4>(refiner, patches, base, kind, channel);
-  }
-}
-
-std::vector<float> flatten(const std::vector<Vec3f>& points) {
-  std::vector<float> flat(points.size() * 3);
-  for (size_t i = 0; i < points.size(); ++i) {
-    flat[3 * i] = points[i].x;
-    flat[3 * i + 1] = points[i].y;
-    flat[3 * i + 2] = points[i].z;
-  }
-  return flat;
-}
-
-/// Sum of weights[i] * values[indices[i]] for `width`-float values.
-void combine(const std::vector<float>& values, int width, Far::ConstIndexArray indices,
-             const float* weights, float* result) {
-  std::fill(result, result + width, 0.0f);
-  for (int i = 0; i < indices.size(); ++i) {
-    const float* value = &values[size_t(indices[i]) * size_t(width)];
-    for (int c = 0; c < width; ++c) result[c] += weights[i] * value[c];
-  }
-}
-
-Vec3f combinePoints(const std::vector<float>& points, Far::ConstIndexArray indices,
-                    const float* weights) {
-  float sum[3];
-  combine(points, 3, indices, weights, sum);
-  return {sum[0], sum[1], sum[2]};
 }
 
 /// A cage primvar prepared for evaluation on the patches.
@@ -354,15 +66,6 @@ struct FaceDicing {
 };
 
 }  // namespace
-
-std::optional<SubdivisionScheme> parseSubdivisionScheme(const std::string& token) {
-  if (token == "catmullClark") return SubdivisionScheme::CatmullClark;
-  if (token == "loop") return SubdivisionScheme::Loop;
-  if (token == "bilinear") return SubdivisionScheme::Bilinear;
-  if (token == "none") return std::nullopt;
-  throw std::invalid_argument("subdivisionScheme \"" + token +
-                              "\" is not one of catmullClark, loop, bilinear, none");
-}
 
 struct LimitSurfaceTessellator::Impl {
   Sdc::SchemeType scheme = Sdc::SCHEME_CATMARK;
@@ -408,9 +111,9 @@ struct LimitSurfaceTessellator::Impl {
     patches->EvaluateBasis(*at.handle, at.s, at.t, wP, wDu, wDv);
     const Far::ConstIndexArray controls = patches->GetPatchVertices(*at.handle);
     LimitSample sample;
-    sample.position = combinePoints(refinedPoints, controls, wP);
-    sample.dPdu = combinePoints(refinedPoints, controls, wDu);
-    sample.dPdv = combinePoints(refinedPoints, controls, wDv);
+    sample.position = detail::combinePoints(refinedPoints, controls, wP);
+    sample.dPdu = detail::combinePoints(refinedPoints, controls, wDu);
+    sample.dPdv = detail::combinePoints(refinedPoints, controls, wDv);
     Vec3f normal = cross(sample.dPdu, sample.dPdv);
     if (!(length(normal) > 0.0f)) {
       // A degenerate tangent plane (collapsed cage, cone tip): take the normal a hair towards
@@ -421,8 +124,8 @@ struct LimitSurfaceTessellator::Impl {
       if (handle) {
         patches->EvaluateBasis(*handle, s, t, wP, wDu, wDv);
         const Far::ConstIndexArray nearby = patches->GetPatchVertices(*handle);
-        normal = cross(combinePoints(refinedPoints, nearby, wDu),
-                       combinePoints(refinedPoints, nearby, wDv));
+        normal = cross(detail::combinePoints(refinedPoints, nearby, wDu),
+                       detail::combinePoints(refinedPoints, nearby, wDv));
       }
     }
     sample.normal = length(normal) > 0.0f ? normalize(normal) : Vec3f(0, 0, 1);
@@ -436,20 +139,20 @@ struct LimitSurfaceTessellator::Impl {
     switch (primvar.interpolation) {
       case Interpolation::Vertex:
         patches->EvaluateBasis(*at.handle, at.s, at.t, weights);
-        combine(primvar.values, primvar.width, patches->GetPatchVertices(*at.handle), weights,
-                result);
+        detail::combine(primvar.values, primvar.width, patches->GetPatchVertices(*at.handle),
+                        weights, result);
         break;
       case Interpolation::Varying:
         patches->EvaluateBasisVarying(*at.handle, at.s, at.t, weights);
-        combine(primvar.values, primvar.width, patches->GetPatchVaryingVertices(*at.handle),
-                weights, result);
+        detail::combine(primvar.values, primvar.width, patches->GetPatchVaryingVertices(*at.handle),
+                        weights, result);
         break;
       case Interpolation::FaceVarying:
         patches->EvaluateBasisFaceVarying(*at.handle, at.s, at.t, weights, nullptr, nullptr,
                                           nullptr, nullptr, nullptr, primvar.faceVaryingChannel);
-        combine(primvar.values, primvar.width,
-                patches->GetPatchFVarValues(*at.handle, primvar.faceVaryingChannel), weights,
-                result);
+        detail::combine(primvar.values, primvar.width,
+                        patches->GetPatchFVarValues(*at.handle, primvar.faceVaryingChannel),
+                        weights, result);
         break;
       case Interpolation::Constant:
       case Interpolation::Uniform:
@@ -461,8 +164,9 @@ struct LimitSurfaceTessellator::Impl {
     if (points.size() != pointCount)
       throw std::invalid_argument("points has " + std::to_string(points.size()) +
                                   " entries but the cage has " + std::to_string(pointCount));
-    checkFinitePoints(points);
-    return refine(*refiner, *patches, flatten(points), 3, RefinedKind::Vertex, 0);
+    detail::checkFinitePoints(points);
+    return detail::refine(*refiner, *patches, detail::flatten(points), 3,
+                          detail::RefinedKind::Vertex, 0);
   }
 
   FaceDicing dice(int face, const std::vector<int>& edgeRates, int innerRate,
@@ -505,17 +209,12 @@ struct LimitSurfaceTessellator::Impl {
 LimitSurfaceTessellator::LimitSurfaceTessellator(const MeshData& cage, SubdivisionScheme scheme,
                                                  const SubdivisionTags& tags)
     : impl_(std::make_unique<Impl>()) {
-  validateCage(cage, scheme, tags);
-  Sdc::Options options;
-  options.SetVtxBoundaryInterpolation(parseInterpolateBoundary(tags.interpolateBoundary));
-  options.SetFVarLinearInterpolation(
-      parseFaceVaryingLinearInterpolation(tags.faceVaryingLinearInterpolation));
-  options.SetTriangleSubdivision(parseTriangleSubdivisionRule(tags.triangleSubdivisionRule));
-  options.SetCreasingMethod(Sdc::Options::CREASE_UNIFORM);
+  detail::validateCage(cage, scheme, tags);
+  const Sdc::Options options = detail::subdivisionOptions(tags);
 
   std::vector<Primvar> allPrimvars = cage.primvars;
   if (!cage.displayColor.empty()) {
-    Primvar displayColor{"displayColor", flatten(cage.displayColor), 3,
+    Primvar displayColor{"displayColor", detail::flatten(cage.displayColor), 3,
                          cage.displayColorInterpolation};
     impl_->displayColorPrimvar = int(allPrimvars.size());
     impl_->displayColorInterpolation = cage.displayColorInterpolation;
@@ -524,7 +223,7 @@ LimitSurfaceTessellator::LimitSurfaceTessellator(const MeshData& cage, Subdivisi
   for (const Primvar& primvar : allPrimvars) validatePrimvar(primvar, cage);
 
   Impl& impl = *impl_;
-  impl.scheme = toOsdScheme(scheme);
+  impl.scheme = detail::toOsdScheme(scheme);
   impl.leftHanded = cage.leftHanded;
   impl.doubleSided = cage.doubleSided;
   impl.pointCount = cage.points.size();
@@ -534,11 +233,11 @@ LimitSurfaceTessellator::LimitSurfaceTessellator(const MeshData& cage, Subdivisi
         {primvar.name, primvar.interpolation, primvar.width, primvar.values, -1});
   if (impl.faceCount == 0) return;
 
-  std::vector<WeldedFaceVarying> welded;
+  std::vector<detail::WeldedFaceVarying> welded;
   for (size_t p = 0; p < allPrimvars.size(); ++p)
     if (allPrimvars[p].interpolation == Interpolation::FaceVarying) {
       impl.primvars[p].faceVaryingChannel = int(welded.size());
-      welded.push_back(weldFaceVarying(allPrimvars[p], cage));
+      welded.push_back(detail::weldFaceVarying(allPrimvars[p], cage));
     }
   std::vector<Far::TopologyDescriptor::FVarChannel> channels(welded.size());
   for (size_t c = 0; c < welded.size(); ++c) {
@@ -626,17 +325,17 @@ LimitSurfaceTessellator::LimitSurfaceTessellator(const MeshData& cage, Subdivisi
   for (RefinedPrimvar& primvar : impl.primvars) {
     switch (primvar.interpolation) {
       case Interpolation::Vertex:
-        primvar.values = refine(*impl.refiner, *impl.patches, primvar.values, primvar.width,
-                                RefinedKind::Vertex, 0);
+        primvar.values = detail::refine(*impl.refiner, *impl.patches, primvar.values, primvar.width,
+                                        detail::RefinedKind::Vertex, 0);
         break;
       case Interpolation::Varying:
-        primvar.values = refine(*impl.refiner, *impl.patches, primvar.values, primvar.width,
-                                RefinedKind::Varying, 0);
+        primvar.values = detail::refine(*impl.refiner, *impl.patches, primvar.values, primvar.width,
+                                        detail::RefinedKind::Varying, 0);
         break;
       case Interpolation::FaceVarying:
-        primvar.values =
-            refine(*impl.refiner, *impl.patches, welded[size_t(primvar.faceVaryingChannel)].values,
-                   primvar.width, RefinedKind::FaceVarying, primvar.faceVaryingChannel);
+        primvar.values = detail::refine(
+            *impl.refiner, *impl.patches, welded[size_t(primvar.faceVaryingChannel)].values,
+            primvar.width, detail::RefinedKind::FaceVarying, primvar.faceVaryingChannel);
         break;
       case Interpolation::Constant:
       case Interpolation::Uniform:
@@ -690,9 +389,9 @@ std::vector<float> LimitSurfaceTessellator::curvatureBounds(
           if (!handle) continue;
           impl.patches->EvaluateBasis(*handle, s, t, wP, wDu, wDv, wDuu, wDuv, wDvv);
           const Far::ConstIndexArray controls = impl.patches->GetPatchVertices(*handle);
-          const float uu = length(combinePoints(refinedPoints, controls, wDuu));
-          const float uv = length(combinePoints(refinedPoints, controls, wDuv));
-          const float vv = length(combinePoints(refinedPoints, controls, wDvv));
+          const float uu = length(detail::combinePoints(refinedPoints, controls, wDuu));
+          const float uv = length(detail::combinePoints(refinedPoints, controls, wDuv));
+          const float vv = length(detail::combinePoints(refinedPoints, controls, wDvv));
           // Any unit direction d: |d_u^2 Puu + 2 d_u d_v Puv + d_v^2 Pvv| <= max(|Puu|,|Pvv|)
           // + |Puv|.
           bound = std::max(bound, std::max(uu, vv) + uv);
