@@ -104,7 +104,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             tracer.write(args.traceToFile, args.traceFormat)
         except OSError as error:
-            sys.stderr.write(f"{PROG}: error: {args.traceToFile}: cannot write the trace: {error.strerror}\n")
+            sys.stderr.write(
+                f"{PROG}: error: {args.traceToFile}: cannot write the trace: {error.strerror}\n"
+            )
             return EXIT_SCENE
     return status
 
