@@ -11,7 +11,8 @@ from pxr import Sdf, UsdLux, UsdRender
 
 import penumbra
 from penumbra import _core, render_options
-from penumbra.cli import _render_job, build_parser, main
+from penumbra.cli import build_parser, main
+from penumbra.cli_record import render_job
 from penumbra.errors import PenumbraWarning, SceneError
 from penumbra.jobs import START_TIME
 from penumbra.usd import read_render_settings
@@ -89,7 +90,7 @@ def test_the_cli_accepts_every_option(tmp_path):
         expected[option.keyword] = value
     args = build_parser().parse_args(argv)
     args.aovs = ["color"]
-    job = _render_job(args, START_TIME)
+    job = render_job(args, START_TIME)
     assert job.options == expected
     assert sorted(job.options) == sorted(render_options.BY_KEYWORD)
 

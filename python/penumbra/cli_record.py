@@ -1,0 +1,135 @@
+"""``penumbra-record``'s renders: the job its flags describe, and the frame loop (here or on a
+Dask cluster) writing each frame's images."""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import logging
+import os
+from collections.abc import Iterator
+
+from pxr import Usd
+
+from . import render_options
+from .cli_arguments import EXIT_OK, RENDERER_NAME
+from .cli_output import Progress, frame_summary
+from .frames import FrameRange, frame_path, iter_frames
+from .image import Image, check_output_directory
+from .jobs import (
+    DEFAULT_TIME,
+    START_TIME,
+    FrameTime,
+    JobRenderer,
+    RenderJob,
+    absolute_path,
+    RENDER_KEY,
+    output_is_complete,
+    time_code,
+)
+from .trace import Tracer
+
+
+def render_job(args: argparse.Namespace, first_frame: FrameTime) -> RenderJob:
+    """Everything the flags say about the pixels, with file paths made absolute (farm workers
+    do not share this working directory)."""
+    return RenderJob(
+        usd_file=absolute_path(args.usdFilePath),
+        session_layer=absolute_path(args.session_layer) if args.session_layer else None,
+        mask=tuple((args.mask or "").replace(",", " ").split()),
+        resolver=args.resolver,
+        purposes=tuple(args.purposes.replace(",", " ").split()),
+        camera=args.camera,
+        camera_time=first_frame,
+        render_settings_path=args.renderSettingsPrimPath,
+        render_pass_path=args.renderPassPrimPath,
+        color_mode=args.colorCorrectionMode,
+        aovs=tuple(args.aovs),
+        denoise=args.denoise,
+        width=args.imageWidth,
+        options={
+            option.keyword: getattr(args, option.key)
+            for option in render_options.OPTIONS
+            if getattr(args, option.key) is not None
+        },
+        disable_motion_blur=args.disable_motion_blur,
+        disable_depth_of_field=args.disable_depth_of_field,
+        dome_light_visibility=args.enableDomeLightVisibility,
+        disable_camera_light=args.disableCameraLight,
+        max_memory=args.maxMemory,
+        texture_cache=args.textureCacheSize,
+    )
+
+
+def _frames(args: argparse.Namespace, frames: list[FrameRange]) -> tuple[Iterator[FrameTime], int]:
+    """The frames to render, generated lazily, and how many there are."""
+    if args.defaultTime:
+        return iter([DEFAULT_TIME]), 1
+    if frames:
+        return iter_frames(frames), sum(frame_range.count for frame_range in frames)
+    return iter([START_TIME]), 1
+
+
+def record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) -> int:
+    say = (lambda _text: None) if args.quiet else print
+    check_output_directory(args.outputImagePath)
+    times, count = _frames(args, frames)
+    first_frame = next(times)
+    job = render_job(args, first_frame)
+
+    def output_path(frame: FrameTime) -> str:
+        return frame_path(args.outputImagePath, frame) if frames else args.outputImagePath
+
+    if args.scheduler or args.workers:
+        from .farm import record_on_farm  # Dask takes a second to import: farm renders only
+
+        if not args.verbose:  # the farm client reports failures itself, without Dask's logs
+            for name in ("distributed", "distributed.client"):  # both have their own level
+                logging.getLogger(name).setLevel(logging.CRITICAL)
+        say(f"Renderer plugin: {RENDERER_NAME}, on a Dask cluster")
+        with tracer.span("render on the farm"):
+            record_on_farm(
+                job,
+                itertools.chain([first_frame], times),
+                count,
+                output_path,
+                scheduler=args.scheduler,
+                workers=args.workers,
+                resume=args.resume,
+                say=say,
+                progress=not args.quiet,
+            )
+        return EXIT_OK
+    with JobRenderer(job, tracer) as session:
+        say(f"Camera: {session.camera}")
+        say(f"Renderer plugin: {RENDERER_NAME}")
+        for frame in itertools.chain([first_frame], times):
+            label = _time_code_label(time_code(session.renderer.stage, frame))
+            output = output_path(frame)
+            if args.resume and output_is_complete(output, job.frame_key(frame)):
+                say(f"Skipped time code {label}: {output} is complete")
+                continue
+            say(f"Recording time code: {label}")
+            progress = None if args.quiet else Progress(f"time code {label}")
+            products: list[tuple[str, Image]] = []
+            with tracer.span(f"time code {label}"):
+                if session.products is not None:
+                    # The output image holds the first product's render (all its AOVs in EXR).
+                    products = session.render_products(
+                        frame, os.path.dirname(os.path.abspath(output)), progress
+                    )
+                    image = products[0][1]
+                    image.metadata[RENDER_KEY] = job.frame_key(frame)
+                else:
+                    image = session.render(frame, progress=progress)
+                with tracer.span("write image", file=output):
+                    image.write(output, color_mode=job.color_mode)
+            say(frame_summary(f"time code {label}", image))
+            for path, _ in products:
+                say(f"Wrote {os.path.abspath(path)}")
+            say(f"Wrote {os.path.abspath(output)}")
+    return EXIT_OK
+
+
+def _time_code_label(code: Usd.TimeCode) -> str:
+    return "default" if code.IsDefault() else f"{code.GetValue():g}"

@@ -1,0 +1,302 @@
+"""MaterialX surface models → UsdPreviewSurface parameters: standard_surface, open_pbr_surface
+and UsdPreviewSurface as MaterialX node definitions, each mapped onto the lobes of the
+renderer's BSDF; what a model sets that the BSDF lacks is collected for one warning.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from pxr import UsdShade
+
+from . import materialx_values as mv
+from .material_data import INPUTS
+from .materialx_library import definition_default
+from .materialx_patterns import Network
+
+STANDARD_SURFACE = "ND_standard_surface_surfaceshader"
+OPEN_PBR_SURFACE = "ND_open_pbr_surface_surfaceshader"
+PREVIEW_SURFACE = "ND_UsdPreviewSurface_surfaceshader"
+SHEEN_PARAMS = ("penumbra:sheen", "penumbra:sheenColor", "penumbra:sheenRoughness")
+ANISOTROPY_PARAMS = ("penumbra:anisotropy", "penumbra:clearcoatAnisotropy",
+                     "penumbra:anisotropyRotation")
+
+
+class Surface:
+    """The surface shader's inputs, each falling back to its default when its network cannot be
+    translated."""
+
+    def __init__(self, network: Network, shader: UsdShade.Shader, defaults_of: str = ""):
+        self.network = network
+        self.shader = shader
+        self.defaults_of = defaults_of  # non-empty: every input is this definition's default
+        self.unsupported: list[str] = []
+
+    def __call__(self, name: str) -> mv.Value | None:
+        if self.defaults_of:
+            return definition_default(self.defaults_of, name)
+        try:
+            return self.network.input(self.shader, name)
+        except mv.Untranslatable as error:
+            node = error.node or self.shader.GetPath()
+            self.network.report(node, f"{error}; {self.shader.GetPath().name}.{name} uses its "
+                                "default value")
+            return self.network.default(self.shader, name)
+
+    def constant(self, name: str) -> tuple[float, ...] | None:
+        value = self(name)
+        return value.values if isinstance(value, mv.Constant) else None
+
+    def connected(self, name: str) -> bool:
+        if self.defaults_of:
+            return False
+        shader_input = self.shader.GetInput(name)
+        return bool(shader_input) and shader_input.HasConnectedSource()
+
+    def combine(self, how: Callable[..., mv.Value], *operands: tuple[str, mv.Value | None],
+                keep: int) -> mv.Value | None:
+        """``how`` applied to the named operands' values, else (after a warning naming them)
+        the value of ``operands[keep]``."""
+        values = [value for _, value in operands]
+        if any(v is None for v in values):
+            return values[keep]
+        try:
+            return how(*values)
+        except mv.Untranslatable as error:
+            names = ", ".join(name for name, _ in operands)
+            self.network.report(self.shader.GetPath(), f"combining {names}: {error}; "
+                                f"{operands[keep][0]} alone is used")
+            return values[keep]
+
+    def ignore(self, name: str, neutral: tuple[float, ...], weight: str | None = None,
+               tolerance: float = 1e-6) -> None:
+        """Note ``name`` as unsupported when it is set away from ``neutral`` (and its lobe's
+        ``weight`` is not zero)."""
+        if weight is not None and self.constant(weight) == (0.0,):
+            return
+        if not self.connected(name):
+            value = self.constant(name)
+            if value is None or all(abs(v - n) <= tolerance
+                                    for v, n in zip(value, neutral * len(value))):
+                return
+        self.unsupported.append(name)
+
+
+def _dielectric_f0(ior: float) -> float:
+    return ((ior - 1) / (ior + 1)) ** 2
+
+
+class Mapping:
+    """The model-independent part: the MaterialX lobes onto UsdPreviewSurface parameters."""
+
+    def __init__(self, surface: Surface):
+        self.surface = surface
+        self.values: dict[str, mv.Value | None] = {}
+        self.params: dict[str, Any] = {}
+
+    def map(self, *, base: mv.Value | None, metalness: mv.Value | None,
+            roughness: mv.Value | None, ior: mv.Value | None, specular_tint: mv.Value | None,
+            coat: mv.Value | None, coat_roughness: mv.Value | None,
+            coat_color: mv.Value | None, transmission: mv.Value | None,
+            transmission_roughness: float | None,
+            abbe_number: float, thin_walled: mv.Value | None, emission: mv.Value | None,
+            opacity: mv.Value | None, normal: mv.Value | None,
+            sheen: tuple[mv.Value | None, mv.Value | None, mv.Value | None]) -> None:
+        values = self.values
+        values.update(diffuseColor=base, metallic=metalness, roughness=roughness, ior=ior,
+                      clearcoat=coat, clearcoatRoughness=coat_roughness, emissiveColor=emission,
+                      normal=normal)
+        # Nothing is sent for a coat or sheen weight of 0, or a white coat.
+        if coat != mv.Constant((0.0,)) and coat_color is not None and \
+                coat_color != mv.Constant((1.0, 1.0, 1.0)):
+            values["penumbra:clearcoatColor"] = coat_color
+        if sheen[0] is not None and sheen[0] != mv.Constant((0.0,)):
+            values.update(zip(SHEEN_PARAMS, sheen))
+        tint = specular_tint.values if isinstance(specular_tint, mv.Constant) else None
+        if tint is not None and any(abs(t - 1.0) > 1e-6 for t in tint):
+            if (
+                isinstance(metalness, mv.Constant) and metalness.values[0] == 0.0
+                and isinstance(ior, mv.Constant)
+            ):
+                # A tinted dielectric specular: the specular workflow carries F0 directly.
+                f0 = _dielectric_f0(ior.values[0])
+                self.params["useSpecularWorkflow"] = 1
+                values["specularColor"] = mv.Constant(tuple(f0 * t for t in mv.resize(
+                    specular_tint, 3).values))  # type: ignore[union-attr]
+            else:
+                self.surface.unsupported.append("specular tint on metals")
+        elif specular_tint is not None and tint is None:
+            self.surface.unsupported.append("varying specular weight or colour")
+        transmits = not (isinstance(transmission, mv.Constant) and transmission.values[0] == 0)
+        cut_out = opacity is not None and not (
+            isinstance(opacity, mv.Constant) and all(v == 1.0 for v in opacity.values)
+        )
+        if transmits and transmission is not None:
+            values["opacity"] = mv.affine(transmission, mv.Constant((-1.0,)),
+                                          mv.Constant((1.0,)))
+            self.params["opacityThreshold"] = 0.0
+            if cut_out:
+                self.surface.unsupported.append("geometric opacity with transmission")
+            if transmission_roughness is not None:
+                self.params["penumbra:transmissionRoughness"] = min(
+                    max(transmission_roughness, 0.0), 1.0)
+            if abbe_number > 0:
+                self.params["penumbra:abbeNumber"] = abbe_number
+        elif cut_out and opacity is not None:
+            # Geometric opacity is a cut-out at 0.5: Penumbra has no stochastic transparency.
+            values["opacity"] = mv.extract(opacity, 0) if opacity.size > 1 and isinstance(
+                opacity, mv.Affine) else _mean(opacity)
+            self.params["opacityThreshold"] = 0.5
+        # thin_walled false leaves the choice to the mesh (closed meshes are solids), as
+        # UsdPreviewSurface does: an open mesh cannot be a solid's boundary.
+        if isinstance(thin_walled, mv.Constant) and thin_walled.values[0]:
+            self.params["penumbra:thinWalled"] = 1
+
+    def anisotropy(self, model: str, specular: mv.Value | None, coat: mv.Value | None,
+                   rotation: mv.Value | None) -> None:
+        """Anisotropic specular and coat lobes (``model``: the renderer's name of the surface's
+        roughness mapping), stretched along the mesh's tangent turned by ``rotation`` (turns).
+        Nothing is sent for isotropic lobes."""
+        zero = mv.Constant((0.0,))
+        sent = {name: value for name, value in zip(ANISOTROPY_PARAMS[:2], (specular, coat))
+                if value is not None and value != zero}
+        if not sent:
+            return
+        self.values.update(sent)
+        if rotation is not None and rotation != zero:
+            self.values["penumbra:anisotropyRotation"] = rotation
+        self.params["penumbra:anisotropyModel"] = model
+
+
+def _mean(value: mv.Value) -> mv.Value:
+    if isinstance(value, mv.Constant):
+        return mv.Constant((sum(value.values) / value.size,))
+    return mv.extract(value, 0)
+
+
+def _map_standard_surface(s: Surface, mapping: Mapping) -> None:
+    base = s.combine(mv.multiply, ("base", s("base")), ("base_color", s("base_color")),
+                     keep=1)
+    if s.connected("subsurface") or (s.constant("subsurface") or (0.0,))[0] > 0:
+        base = s.combine(mv.mix, ("subsurface_color", s("subsurface_color")),
+                         ("base_color", base), ("subsurface", s("subsurface")), keep=1)
+    roughness = s.constant("specular_roughness")
+    extra = s.constant("transmission_extra_roughness")
+    # standard_surface's sheen lies on the diffuse base only, not on the metal mixed beside it:
+    # its weight is the dielectric fraction's.
+    sheen = s("sheen")
+    metalness = s.constant("metalness")
+    if metalness is not None:
+        sheen = s.combine(mv.multiply, ("sheen", sheen),
+                          ("1 - metalness", mv.Constant((1.0 - metalness[0],))), keep=0)
+    elif sheen != mv.Constant((0.0,)):
+        s.unsupported.append("sheen over a varying metalness (the sheen covers the metal too)")
+    mapping.map(
+        base=base, metalness=s("metalness"), roughness=s("specular_roughness"),
+        ior=s("specular_IOR"),
+        specular_tint=s.combine(mv.multiply, ("specular", s("specular")),
+                                ("specular_color", s("specular_color")), keep=1),
+        coat=s("coat"), coat_roughness=s("coat_roughness"), coat_color=s("coat_color"),
+        transmission=s("transmission"),
+        transmission_roughness=roughness[0] + extra[0] if roughness and extra else None,
+        abbe_number=(s.constant("transmission_dispersion") or (0.0,))[0],
+        thin_walled=s("thin_walled"),
+        emission=s.combine(mv.multiply, ("emission", s("emission")),
+                           ("emission_color", s("emission_color")), keep=1),
+        opacity=s("opacity"), normal=s("normal") if s.connected("normal") else None,
+        sheen=(sheen, s("sheen_color"), s("sheen_roughness")),
+    )
+    _standard_surface_anisotropy(s, mapping)
+    for name, neutral, weight in (
+        ("diffuse_roughness", (0.0,), None),
+        ("coat_IOR", (1.5,), "coat"),
+        ("transmission_color", (1.0,), "transmission"),
+        ("transmission_depth", (0.0,), "transmission"),
+        ("transmission_scatter", (0.0,), "transmission"),
+        ("thin_film_thickness", (0.0,), None),
+    ):
+        s.ignore(name, neutral, weight)
+
+
+def _standard_surface_anisotropy(s: Surface, mapping: Mapping) -> None:
+    """One tangent serves both lobes: the specular rotation where the specular lobe is
+    anisotropic, else the coat's."""
+    coat = None if s.constant("coat") == (0.0,) else s("coat_anisotropy")
+    specular = s("specular_anisotropy")
+    isotropic = mv.Constant((0.0,))
+    rotation = s("specular_rotation")
+    if specular in (None, isotropic):
+        rotation = s("coat_rotation")
+    elif coat not in (None, isotropic) and s("coat_rotation") != rotation:
+        s.unsupported.append("coat_rotation other than specular_rotation")
+    if s.connected("tangent") and _anisotropic(specular, coat):
+        s.unsupported.append("tangent")
+    mapping.anisotropy("standardSurface", specular, coat, rotation)
+
+
+def _anisotropic(*anisotropies: mv.Value | None) -> bool:
+    return any(a not in (None, mv.Constant((0.0,))) for a in anisotropies)
+
+
+def _map_open_pbr(s: Surface, mapping: Mapping) -> None:
+    base = s.combine(mv.multiply, ("base_weight", s("base_weight")),
+                     ("base_color", s("base_color")), keep=1)
+    if s.connected("subsurface_weight") or (s.constant("subsurface_weight") or (0.0,))[0] > 0:
+        base = s.combine(mv.mix, ("subsurface_color", s("subsurface_color")),
+                         ("base_color", base), ("subsurface_weight", s("subsurface_weight")),
+                         keep=1)
+    dispersion = (s.constant("transmission_dispersion_scale") or (0.0,))[0]
+    abbe = (s.constant("transmission_dispersion_abbe_number") or (0.0,))[0]
+    roughness = s.constant("specular_roughness")
+    mapping.map(
+        base=base, metalness=s("base_metalness"), roughness=s("specular_roughness"),
+        ior=s("specular_ior"),
+        specular_tint=s.combine(mv.multiply, ("specular_weight", s("specular_weight")),
+                                ("specular_color", s("specular_color")), keep=1),
+        coat=s("coat_weight"), coat_roughness=s("coat_roughness"),
+        coat_color=s("coat_color"), transmission=s("transmission_weight"),
+        transmission_roughness=roughness[0] if roughness else None,
+        # OpenPBR: the effective Abbe number is the authored one divided by the scale.
+        abbe_number=abbe / dispersion if dispersion > 0 and abbe > 0 else 0.0,
+        thin_walled=s("geometry_thin_walled"),
+        emission=s.combine(mv.multiply, ("emission_luminance", s("emission_luminance")),
+                           ("emission_color", s("emission_color")), keep=1),
+        opacity=s("geometry_opacity"),
+        normal=s("geometry_normal") if s.connected("geometry_normal") else None,
+        sheen=(s("fuzz_weight"), s("fuzz_color"), s("fuzz_roughness")),
+    )
+    specular_anisotropy = s("specular_roughness_anisotropy")
+    coat_anisotropy = None if s.constant("coat_weight") == (0.0,) else s(
+        "coat_roughness_anisotropy")
+    mapping.anisotropy("openPBR", specular_anisotropy, coat_anisotropy, None)
+    for tangent, anisotropy in (("geometry_tangent", specular_anisotropy),
+                                ("geometry_coat_tangent", coat_anisotropy)):
+        if s.connected(tangent) and _anisotropic(anisotropy):
+            s.unsupported.append(tangent)
+    for name, neutral, weight, tolerance in (
+        ("base_diffuse_roughness", (0.0,), None, 1e-6),
+        ("coat_ior", (1.5,), "coat_weight", 0.15),  # the BSDF's coat has ior 1.5
+        ("transmission_color", (1.0,), "transmission_weight", 1e-6),
+        ("transmission_depth", (0.0,), "transmission_weight", 1e-6),
+        ("thin_film_weight", (0.0,), None, 1e-6),
+    ):
+        s.ignore(name, neutral, weight, tolerance)
+
+
+def _map_preview_surface(s: Surface, mapping: Mapping) -> None:
+    for name in INPUTS:
+        if not name.startswith("penumbra:") and name != "useSpecularWorkflow":
+            mapping.values[name] = s(name)
+    workflow = s.constant("useSpecularWorkflow")
+    if workflow is not None:
+        mapping.params["useSpecularWorkflow"] = int(workflow[0] != 0)
+    if s.connected("normal"):
+        mapping.values["normal"] = s("normal")
+
+
+MODELS = {
+    STANDARD_SURFACE: _map_standard_surface,
+    OPEN_PBR_SURFACE: _map_open_pbr,
+    PREVIEW_SURFACE: _map_preview_surface,
+}
