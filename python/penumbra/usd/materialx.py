@@ -22,7 +22,6 @@ from pxr import Usd, UsdShade
 
 from . import materialx_values as mv
 from .material_data import CONNECTABLE, MaterialData
-from .materialx_library import library as library, mx_value as mx_value  # for mtlx_documents
 from .materialx_patterns import Network
 from .materialx_surfaces import (
     ANISOTROPY_PARAMS,

@@ -165,7 +165,7 @@ def _translate(file: str, stage: Usd.Stage, root: Sdf.Path, warn: Callable[[str]
     except Exception as error:  # MaterialX's parse and file errors share no narrower base
         warn(f"{file}: cannot read the MaterialX document ({error}); its materials are missing")
         return False
-    from .materialx import library
+    from .materialx_library import library
 
     document.setDataLibrary(library())  # node definitions, without copying them
     _Translator(document, stage, root, os.path.dirname(file)).run()
@@ -282,7 +282,7 @@ class _Translator:
         return graph
 
     def _set_value(self, mx_input: Any, usd_input: UsdShade.Input) -> None:
-        from .materialx import mx_value
+        from .materialx_library import mx_value
 
         if not mx_input.getValueString():
             return
