@@ -3,7 +3,10 @@
 #include <cmath>
 #include <map>
 #include <tuple>
+#include <type_traits>
+#include <variant>
 
+#include "penumbra/material_inputs.h"
 #include "penumbra/plugin/param_value.h"
 
 namespace penumbra::plugin {
@@ -60,55 +63,35 @@ std::pair<int, int> parseTextureOutput(const std::string& token) {
 }
 
 void Material::setParam(const std::string& name, const ParamValue& value) {
-  static const std::map<std::string, float MaterialParams::*> numbers = {
-      {"metallic", &MaterialParams::metallic},
-      {"roughness", &MaterialParams::roughness},
-      {"clearcoat", &MaterialParams::clearcoat},
-      {"clearcoatRoughness", &MaterialParams::clearcoatRoughness},
-      {"opacity", &MaterialParams::opacity},
-      {"opacityThreshold", &MaterialParams::opacityThreshold},
-      {"ior", &MaterialParams::ior},
-      {"penumbra:transmissionRoughness", &MaterialParams::transmissionRoughness},
-      {"penumbra:abbeNumber", &MaterialParams::abbeNumber},
-      {"penumbra:sheen", &MaterialParams::sheen},
-      {"penumbra:sheenRoughness", &MaterialParams::sheenRoughness},
-      {"penumbra:anisotropy", &MaterialParams::anisotropy},
-      {"penumbra:clearcoatAnisotropy", &MaterialParams::clearcoatAnisotropy},
-      {"penumbra:anisotropyRotation", &MaterialParams::anisotropyRotation}};
-  static const std::map<std::string, Vec3f MaterialParams::*> colors = {
-      {"diffuseColor", &MaterialParams::diffuseColor},
-      {"emissiveColor", &MaterialParams::emissiveColor},
-      {"specularColor", &MaterialParams::specularColor},
-      {"penumbra:clearcoatColor", &MaterialParams::clearcoatColor},
-      {"penumbra:sheenColor", &MaterialParams::sheenColor}};
   static const std::map<std::string, AnisotropyModel> anisotropyModels = {
       {"openPBR", AnisotropyModel::OpenPbr}, {"standardSurface", AnisotropyModel::StandardSurface}};
-  // The sheen, coat colour and anisotropy inputs must be finite (the BSDF clamps them to their
-  // ranges); the older inputs keep their lenient handling (the BSDF reads NaN as 0).
-  const bool checkedInput =
-      name.rfind("penumbra:sheen", 0) == 0 || name == "penumbra:clearcoatColor" ||
-      name.rfind("penumbra:anisotropy", 0) == 0 || name == "penumbra:clearcoatAnisotropy";
   try {
-    if (const auto number = numbers.find(name); number != numbers.end()) {
-      const float parsed = paramAsFloat(name, value);
-      if (checkedInput && !std::isfinite(parsed))
-        throw std::invalid_argument(name + " must be finite");
-      params_.*(number->second) = parsed;
-    } else if (const auto color = colors.find(name); color != colors.end()) {
-      const Vec3f parsed = paramAsColor(name, value);
-      if (checkedInput &&
-          !(std::isfinite(parsed.x) && std::isfinite(parsed.y) && std::isfinite(parsed.z)))
-        throw std::invalid_argument(name + " must be finite");
-      params_.*(color->second) = parsed;
-    } else if (name == "useSpecularWorkflow")
-      params_.useSpecularWorkflow = paramAsBool(name, value);
-    else if (name == "penumbra:thinWalled")
-      params_.thinWalled = paramAsBool(name, value);
-    else if (name == "penumbra:anisotropyModel")
-      params_.anisotropyModel =
-          parseToken(anisotropyModels, paramAsString(name, value), "anisotropy model");
-    else
+    const MaterialInputInfo* input = findMaterialInput(name);
+    if (!input || std::holds_alternative<std::monostate>(input->member))
       throw std::invalid_argument("unknown UsdPreviewSurface input '" + name + "'");
+    std::visit(
+        [&](auto member) {
+          using Member = decltype(member);
+          if constexpr (std::is_same_v<Member, float MaterialParams::*>) {
+            const float parsed = paramAsFloat(name, value);
+            if (input->mustBeFinite && !std::isfinite(parsed))
+              throw std::invalid_argument(name + " must be finite");
+            params_.*member = parsed;
+          } else if constexpr (std::is_same_v<Member, Vec3f MaterialParams::*>) {
+            const Vec3f parsed = paramAsColor(name, value);
+            if (input->mustBeFinite &&
+                !(std::isfinite(parsed.x) && std::isfinite(parsed.y) && std::isfinite(parsed.z)))
+              throw std::invalid_argument(name + " must be finite");
+            params_.*member = parsed;
+          } else if constexpr (std::is_same_v<Member, bool MaterialParams::*> ||
+                               std::is_same_v<Member, std::optional<bool> MaterialParams::*>) {
+            params_.*member = paramAsBool(name, value);
+          } else if constexpr (std::is_same_v<Member, AnisotropyModel MaterialParams::*>) {
+            params_.*member =
+                parseToken(anisotropyModels, paramAsString(name, value), "anisotropy model");
+          }
+        },
+        input->member);
   } catch (const std::invalid_argument& error) {
     throw std::invalid_argument(id() + ": " + error.what());
   }
@@ -116,24 +99,12 @@ void Material::setParam(const std::string& name, const ParamValue& value) {
 }
 
 void Material::connect(const std::string& input, InputSource source) {
-  static const std::map<std::string, MaterialInput> inputs = {
-      {"diffuseColor", MaterialInput::DiffuseColor},
-      {"emissiveColor", MaterialInput::EmissiveColor},
-      {"specularColor", MaterialInput::SpecularColor},
-      {"metallic", MaterialInput::Metallic},
-      {"roughness", MaterialInput::Roughness},
-      {"clearcoat", MaterialInput::Clearcoat},
-      {"clearcoatRoughness", MaterialInput::ClearcoatRoughness},
-      {"penumbra:clearcoatColor", MaterialInput::ClearcoatColor},
-      {"penumbra:sheen", MaterialInput::Sheen},
-      {"penumbra:sheenColor", MaterialInput::SheenColor},
-      {"penumbra:sheenRoughness", MaterialInput::SheenRoughness},
-      {"penumbra:anisotropy", MaterialInput::Anisotropy},
-      {"penumbra:clearcoatAnisotropy", MaterialInput::ClearcoatAnisotropy},
-      {"penumbra:anisotropyRotation", MaterialInput::AnisotropyRotation},
-      {"opacity", MaterialInput::Opacity},
-      {"ior", MaterialInput::Ior},
-      {"normal", MaterialInput::Normal}};
+  static const std::map<std::string, MaterialInput> inputs = [] {
+    std::map<std::string, MaterialInput> result;
+    for (const MaterialInputInfo& info : materialInputs())
+      if (info.connectable) result.emplace(info.name, *info.connectable);
+    return result;
+  }();
   try {
     const MaterialInput connected = parseToken(inputs, input, "connectable input");
     if (source.texture) parseTextureOutput(source.output);

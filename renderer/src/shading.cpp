@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "penumbra/material_inputs.h"
+
 namespace penumbra {
 namespace {
 
@@ -105,61 +107,15 @@ void readPrimvar(const InputConnection& connection, const SurfacePoint& point, f
   *width = 3;
 }
 
-/// Writes an input's value (three floats for vector inputs, one for the others).
+/// Writes an input's value (three floats for vector inputs, one for the others) into the
+/// member the material input table names.
 void assign(MaterialParams& params, MaterialInput input, const float* value) {
-  const Vec3f color{value[0], value[1], value[2]};
-  switch (input) {
-    case MaterialInput::DiffuseColor:
-      params.diffuseColor = color;
-      break;
-    case MaterialInput::EmissiveColor:
-      params.emissiveColor = color;
-      break;
-    case MaterialInput::SpecularColor:
-      params.specularColor = color;
-      break;
-    case MaterialInput::Metallic:
-      params.metallic = value[0];
-      break;
-    case MaterialInput::Roughness:
-      params.roughness = value[0];
-      break;
-    case MaterialInput::Clearcoat:
-      params.clearcoat = value[0];
-      break;
-    case MaterialInput::ClearcoatRoughness:
-      params.clearcoatRoughness = value[0];
-      break;
-    case MaterialInput::ClearcoatColor:
-      params.clearcoatColor = color;
-      break;
-    case MaterialInput::Sheen:
-      params.sheen = value[0];
-      break;
-    case MaterialInput::SheenColor:
-      params.sheenColor = color;
-      break;
-    case MaterialInput::SheenRoughness:
-      params.sheenRoughness = value[0];
-      break;
-    case MaterialInput::Anisotropy:
-      params.anisotropy = value[0];
-      break;
-    case MaterialInput::ClearcoatAnisotropy:
-      params.clearcoatAnisotropy = value[0];
-      break;
-    case MaterialInput::AnisotropyRotation:
-      params.anisotropyRotation = value[0];
-      break;
-    case MaterialInput::Opacity:
-      params.opacity = value[0];
-      break;
-    case MaterialInput::Ior:
-      params.ior = value[0];
-      break;
-    case MaterialInput::Normal:
-      break;  // bends the shading normal instead
-  }
+  const MaterialParamMember& member = materialInputInfo(input).member;
+  if (const auto color = std::get_if<Vec3f MaterialParams::*>(&member))
+    params.*(*color) = Vec3f{value[0], value[1], value[2]};
+  else if (const auto number = std::get_if<float MaterialParams::*>(&member))
+    params.*(*number) = value[0];
+  // Normal has no member: it bends the shading normal instead.
 }
 
 /// The value of `program` (ExpressionProgram::problem() empty) at `point`, and, in `*coordinates`
@@ -332,12 +288,6 @@ MaterialParams fallbackSurface() {
   params.specularColor = Vec3f(0.0f);
   params.transmissionRoughness = 0;  // displayOpacity sees clearly through, as blending does
   return params;
-}
-
-bool isVectorInput(MaterialInput input) {
-  return input == MaterialInput::DiffuseColor || input == MaterialInput::EmissiveColor ||
-         input == MaterialInput::SpecularColor || input == MaterialInput::ClearcoatColor ||
-         input == MaterialInput::SheenColor || input == MaterialInput::Normal;
 }
 
 Vec2f TextureCoordinates::applyLinear(Vec2f dst) const {

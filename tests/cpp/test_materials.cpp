@@ -1,6 +1,10 @@
 // UsdPreviewSurface through the whole renderer: white furnaces and glossy blur.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <type_traits>
+
+#include "penumbra/material_inputs.h"
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
 
@@ -278,4 +282,70 @@ TEST(Materials, DispersionSplitsAWhiteSlitIntoColours) {
   const auto [redPlain, bluePlain] = slitCentroids(0);
   RecordProperty("separationPixelsAbbe0", std::to_string(std::fabs(redPlain - bluePlain)));
   EXPECT_LT(std::fabs(redPlain - bluePlain), 0.3) << "red " << redPlain << " blue " << bluePlain;
+}
+
+TEST(Materials, EveryTableInputRoundTripsThroughSetParamAndConnect) {
+  RenderDelegate delegate;
+  delegate.insertSprim("material", "/m");
+  plugin::Material& material = delegate.material("/m");
+  for (const MaterialInputInfo& info : materialInputs()) {
+    const std::string name(info.name);
+    SCOPED_TRACE(name);
+    EXPECT_EQ(findMaterialInput(name), &info);
+    std::visit(
+        [&](auto member) {
+          using Member = decltype(member);
+          if constexpr (std::is_same_v<Member, std::monostate>) {
+            EXPECT_EQ(info.kind, MaterialInputKind::Vector);  // the normal: connections only
+            EXPECT_THROW(material.setParam(name, Vec3f(0, 0, 1)), std::invalid_argument);
+          } else if constexpr (std::is_same_v<Member, float MaterialParams::*>) {
+            EXPECT_EQ(info.kind, MaterialInputKind::Float);
+            material.setParam(name, 0.375f);
+            EXPECT_EQ(material.params().*member, 0.375f);
+            if (info.mustBeFinite) {
+              EXPECT_THROW(material.setParam(name, NAN), std::invalid_argument);
+            }
+          } else if constexpr (std::is_same_v<Member, Vec3f MaterialParams::*>) {
+            EXPECT_EQ(info.kind, MaterialInputKind::Vector);
+            material.setParam(name, Vec3f(0.25f, 0.5f, 0.75f));
+            const Vec3f value = material.params().*member;
+            EXPECT_EQ(value.x, 0.25f);
+            EXPECT_EQ(value.y, 0.5f);
+            EXPECT_EQ(value.z, 0.75f);
+            if (info.mustBeFinite) {
+              EXPECT_THROW(material.setParam(name, Vec3f(0, INFINITY, 0)), std::invalid_argument);
+            }
+          } else if constexpr (std::is_same_v<Member, bool MaterialParams::*> ||
+                               std::is_same_v<Member, std::optional<bool> MaterialParams::*>) {
+            EXPECT_EQ(info.kind, MaterialInputKind::Bool);
+            material.setParam(name, true);
+            EXPECT_TRUE(bool(material.params().*member));
+          } else {
+            static_assert(std::is_same_v<Member, AnisotropyModel MaterialParams::*>);
+            EXPECT_EQ(info.kind, MaterialInputKind::Token);
+            material.setParam(name, std::string("standardSurface"));
+            EXPECT_EQ(material.params().*member, AnisotropyModel::StandardSurface);
+          }
+        },
+        info.member);
+    InputSource source;
+    source.primvar = "st";
+    if (info.connectable) {
+      material.connect(name, source);
+      EXPECT_EQ(material.connections().back().first, *info.connectable);
+      EXPECT_EQ(&materialInputInfo(*info.connectable), &info);
+    } else {
+      EXPECT_THROW(material.connect(name, source), std::invalid_argument);
+    }
+  }
+  EXPECT_EQ(findMaterialInput("displacement"), nullptr);
+}
+
+TEST(Materials, EveryConnectableInputIsInTheTableOnce) {
+  for (size_t i = 0; i <= size_t(MaterialInput::Normal); ++i) {
+    const auto input = MaterialInput(i);
+    const MaterialInputInfo& info = materialInputInfo(input);
+    EXPECT_EQ(info.connectable, input) << info.name;
+    EXPECT_EQ(isVectorInput(input), info.kind == MaterialInputKind::Vector) << info.name;
+  }
 }

@@ -9,7 +9,7 @@ from typing import Any
 from pxr import Gf, Sdf, Sdr, Usd, UsdShade
 
 from .color_spaces import texture_color_space
-from .material_data import CONNECTABLE, INPUTS, MaterialData, texture_file
+from .material_data import CONNECTABLE, INPUTS, PREVIEW_SURFACE_INPUTS, MaterialData, texture_file
 from .materialx import read_materialx_material, surface_shader
 from .sampling import SampleReader
 
@@ -63,7 +63,7 @@ def _to_python(value: Any) -> Any:
     return float(value)
 
 
-_VECTOR_INPUTS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "normal"})
+_VECTOR_INPUTS = frozenset(i.name for i in PREVIEW_SURFACE_INPUTS if i.kind == "vector")
 # UsdUVTexture inputs passed on as they are, when authored (the delegate has the spec's
 # defaults for the others).
 _TEXTURE_TOKENS = ("wrapS", "wrapT", "sourceColorSpace")

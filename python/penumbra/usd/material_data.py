@@ -8,25 +8,20 @@ from typing import Any
 
 from pxr import Sdf, UsdShade
 
+from .. import _core
 from .sampling import SampleReader
 
-# The UsdPreviewSurface inputs the render delegate understands (docs/core-api.md, set_material).
-INPUTS = (
-    "diffuseColor",
-    "emissiveColor",
-    "specularColor",
-    "metallic",
-    "roughness",
-    "opacity",
-    "opacityThreshold",
-    "ior",
-    "clearcoat",
-    "clearcoatRoughness",
-    "useSpecularWorkflow",
-    "penumbra:transmissionRoughness",
-    "penumbra:abbeNumber",
-    "penumbra:thinWalled",
+MATERIAL_INPUTS: tuple[_core.RenderDelegate.MaterialInput, ...] = tuple(
+    _core.RenderDelegate.material_inputs()
 )
+"""Every input the render delegate's ``set_material`` takes (renderer/material_inputs.h)."""
+
+PREVIEW_SURFACE_INPUTS = tuple(i for i in MATERIAL_INPUTS if i.origin != "extension")
+"""The inputs read from a UsdPreviewSurface shader: the schema's own and Penumbra's extensions
+authored on it (``inputs:penumbra:abbeNumber``)."""
+
+# The inputs with a constant value, in the table's order (docs/core-api.md, set_material).
+INPUTS = tuple(i.name for i in PREVIEW_SURFACE_INPUTS if i.constant)
 
 
 @dataclass
@@ -39,20 +34,7 @@ class MaterialData:
 
 # Inputs a shader network may drive, as the delegate takes them (docs/core-api.md,
 # set_material); others take their constant value.
-CONNECTABLE = frozenset(
-    {
-        "diffuseColor",
-        "emissiveColor",
-        "specularColor",
-        "metallic",
-        "roughness",
-        "clearcoat",
-        "clearcoatRoughness",
-        "opacity",
-        "ior",
-        "normal",
-    }
-)
+CONNECTABLE = frozenset(i.name for i in PREVIEW_SURFACE_INPUTS if i.connectable)
 
 
 def texture_file(file_input: UsdShade.Input | None, reader: SampleReader) -> str:

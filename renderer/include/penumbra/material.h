@@ -68,8 +68,8 @@ struct MaterialParams {
 /// displayColor and displayOpacity where they are authored.
 MaterialParams fallbackSurface();
 
-/// The UsdPreviewSurface inputs a shader network can drive. `Normal` is the tangent-space normal
-/// (a normal map); the others are the MaterialParams of the same name.
+/// The inputs a shader network can drive (material_inputs.h names them). `Normal` is the
+/// tangent-space normal (a normal map); the others are the MaterialParams of the same name.
 enum class MaterialInput : uint8_t {
   DiffuseColor,
   EmissiveColor,
@@ -89,9 +89,6 @@ enum class MaterialInput : uint8_t {
   Ior,
   Normal,
 };
-
-/// Whether the input takes a colour/vector (3 values) rather than one float.
-bool isVectorInput(MaterialInput input);
 
 /// The texture coordinates a UsdUVTexture reads: a UsdPrimvarReader_float2 (its primvar where the
 /// mesh has it, else its fallback), through a UsdTransform2d when one is connected.

@@ -50,16 +50,12 @@ class Material : public Prim {
  public:
   using Prim::Prim;
 
-  /// Sets a constant UsdPreviewSurface input by name (diffuseColor, emissiveColor,
-  /// specularColor, metallic, roughness, opacity, opacityThreshold, ior, clearcoat,
-  /// clearcoatRoughness, useSpecularWorkflow, penumbra:transmissionRoughness,
-  /// penumbra:abbeNumber, penumbra:thinWalled, penumbra:clearcoatColor, penumbra:sheen,
-  /// penumbra:sheenColor, penumbra:sheenRoughness, penumbra:anisotropy,
-  /// penumbra:clearcoatAnisotropy, penumbra:anisotropyRotation, penumbra:anisotropyModel
-  /// ("openPBR" or "standardSurface")). Throws std::invalid_argument for an unknown name, a value
-  /// of the wrong type, a non-finite sheen, coat colour or anisotropy value or an unknown model.
+  /// Sets a constant input by name (materialInputs(), material_inputs.h, except `normal`; a
+  /// token input takes one of its names: penumbra:anisotropyModel "openPBR" or
+  /// "standardSurface"). Throws std::invalid_argument for an unknown name, a value of the wrong
+  /// type, a non-finite value where the input must be finite or an unknown token.
   void setParam(const std::string& name, const ParamValue& value);
-  /// Connects an input (the names above that can vary, or `normal`) to a source; throws
+  /// Connects an input (those of materialInputs() that are connectable) to a source; throws
   /// std::invalid_argument for an input that cannot be connected, an unknown output or a
   /// program with a problem (ExpressionProgram::problem).
   void connect(const std::string& input, InputSource source);
