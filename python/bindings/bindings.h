@@ -13,7 +13,7 @@ using DelegateClass = pybind11::class_<plugin::RenderDelegate>;
 /// setters), instancers, transforms, visibility, cameras and lights (scene_bindings.cpp).
 void bindScene(pybind11::module_& m, DelegateClass& delegate);
 /// Materials: set_material and the dict schemas of its networks (materials.cpp).
-void bindMaterials(DelegateClass& delegate);
+void bindMaterials(pybind11::module_& m, DelegateClass& delegate);
 /// The delegate's sync state (render settings, dicing camera, statistics, warnings), render
 /// buffers and RenderPass (render.cpp).
 void bindRender(pybind11::module_& m, DelegateClass& delegate);

@@ -179,7 +179,7 @@ InputSource toInputSource(const std::string& where, const py::dict& dict) {
 
 }  // namespace
 
-void bindMaterials(DelegateClass& delegate) {
+void bindMaterials(pybind11::module_& m, DelegateClass& delegate) {
   delegate.def(
       "set_material",
       [](RenderDelegate& self, const std::string& id, const py::dict& params) {
@@ -195,7 +195,7 @@ void bindMaterials(DelegateClass& delegate) {
       },
       py::arg("id"), py::arg("params"));
 
-  py::class_<MaterialInputInfo>(delegate, "MaterialInput",
+  py::class_<MaterialInputInfo>(m, "MaterialInput",
                                 "An input set_material takes (renderer/material_inputs.h).")
       .def_property_readonly("name",
                              [](const MaterialInputInfo& info) { return std::string(info.name); })
@@ -220,9 +220,9 @@ void bindMaterials(DelegateClass& delegate) {
       .def("__repr__", [](const MaterialInputInfo& info) {
         return "<MaterialInput " + std::string(info.name) + ">";
       });
-  delegate.def_static("material_inputs", &materialInputs, py::return_value_policy::reference,
-                      "Every input set_material takes: UsdPreviewSurface's, then the extensions "
-                      "read from it, then the other extensions.");
+  m.def("material_inputs", &materialInputs, py::return_value_policy::reference,
+        "Every input set_material takes: UsdPreviewSurface's, then the extensions "
+        "read from it, then the other extensions.");
 }
 
 }  // namespace penumbra::bindings

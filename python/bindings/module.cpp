@@ -28,7 +28,7 @@ PYBIND11_MODULE(_core, m) {
   DelegateClass delegate(m, "RenderDelegate");
   delegate.def(py::init<const std::string&>(), py::arg("ocio_config") = "");
   bindScene(m, delegate);
-  bindMaterials(delegate);
+  bindMaterials(m, delegate);
   bindRender(m, delegate);
   bindImages(m);
   bindRenderSettings(m);

@@ -1,5 +1,5 @@
 """The material inputs are defined once, by the renderer's table (renderer/material_inputs.h,
-``_core.RenderDelegate.material_inputs()``): the scene delegate's sets of inputs must be that
+``_core.material_inputs()``): the scene delegate's sets of inputs must be that
 table's, and the table's UsdPreviewSurface inputs must be the schema's."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pxr import Sdr
 from penumbra import _core
 from penumbra.usd import material, material_data, materialx
 
-TABLE = _core.RenderDelegate.material_inputs()
+TABLE = _core.material_inputs()
 READ_FROM_PREVIEW_SURFACE = {"UsdPreviewSurface", "UsdPreviewSurface extension"}
 
 

@@ -11,8 +11,8 @@ from pxr import Sdf, UsdShade
 from .. import _core
 from .sampling import SampleReader
 
-MATERIAL_INPUTS: tuple[_core.RenderDelegate.MaterialInput, ...] = tuple(
-    _core.RenderDelegate.material_inputs()
+MATERIAL_INPUTS: tuple[_core.MaterialInput, ...] = tuple(
+    _core.material_inputs()
 )
 """Every input the render delegate's ``set_material`` takes (renderer/material_inputs.h)."""
 

@@ -21,14 +21,12 @@ from typing import Any
 from pxr import Usd, UsdShade
 
 from . import materialx_values as mv
-from .material_data import CONNECTABLE, MaterialData
+from .material_data import MATERIAL_INPUTS, MaterialData
 from .materialx_patterns import Network
 from .materialx_surfaces import (
-    ANISOTROPY_PARAMS,
     MODELS,
     OPEN_PBR_SURFACE,
     PREVIEW_SURFACE,
-    SHEEN_PARAMS,
     STANDARD_SURFACE,
     Mapping,
     Surface,
@@ -38,12 +36,10 @@ from .sampling import SampleReader
 RENDER_CONTEXT = "mtlx"
 SURFACES = (STANDARD_SURFACE, OPEN_PBR_SURFACE, PREVIEW_SURFACE)
 
-_VECTOR_PARAMS = frozenset({"diffuseColor", "emissiveColor", "specularColor", "normal",
-                            "penumbra:clearcoatColor", "penumbra:sheenColor"})
-# The sheen and coat colour are Penumbra's extensions of the delegate's inputs; they may vary
-# like the others.
-_CONNECTABLE = CONNECTABLE | frozenset(SHEEN_PARAMS) | frozenset(ANISOTROPY_PARAMS) | {
-    "penumbra:clearcoatColor"}
+# What a MaterialX surface may send, by the delegate's table of material inputs (its
+# extensions included: sheen, coat colour and anisotropy vary like the others).
+_VECTOR_PARAMS = frozenset(i.name for i in MATERIAL_INPUTS if i.kind == "vector")
+_CONNECTABLE = frozenset(i.name for i in MATERIAL_INPUTS if i.connectable)
 
 
 def surface_shader(material: Usd.Prim) -> UsdShade.Shader | None:
