@@ -22,6 +22,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from provenance import print_provenance
+
 REPO = Path(__file__).resolve().parents[1]
 STAGE = REPO / "examples" / "cornell.usda"
 DISPERSIVE = REPO / "examples" / "showcase.usda"
@@ -29,7 +31,6 @@ DISPERSIVE = REPO / "examples" / "showcase.usda"
 SPECTRAL_PROBE = """
 import sys, time
 import penumbra
-from provenance import print_provenance
 with penumbra.Renderer(sys.argv[1]) as renderer:
     seconds = []
     for _ in range(2):
