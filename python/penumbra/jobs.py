@@ -84,15 +84,17 @@ class RenderJob:
         """A hash of everything that decides the pixels of ``frame`` (stage, population,
         camera, render settings, colour mode, Penumbra's version): an output whose metadata
         holds it is that frame, complete (images are written atomically). Not the stage's
-        contents: edit the stage and render without ``--resume``."""
+        contents, a render settings prim's ``penumbra:KEY`` options among them: edit the stage
+        and render without ``--resume``."""
         fields = {
             name: value
             for name, value in dataclasses.asdict(self).items()
             if name not in _NOT_IN_KEY
         }
+        # Every option that changes pixels, given or not: `--samples 64` is the default's key.
         fields["options"] = {
             name: value
-            for name, value in self.options.items()
+            for name, value in render_options.resolve(self.options).items()
             if render_options.BY_KEYWORD[name].changes_pixels
         }
         text = json.dumps(

@@ -95,6 +95,19 @@ def test_the_cli_accepts_every_option(tmp_path):
     assert sorted(job.options) == sorted(render_options.BY_KEYWORD)
 
 
+def test_the_resume_key_holds_every_option_that_changes_pixels(tmp_path):
+    def key(*flags: str) -> str:
+        args = build_parser().parse_args([str(tmp_path / "in.usda"), "out.exr", *flags])
+        args.aovs = ["color"]
+        return render_job(args, START_TIME).frame_key(START_TIME)
+
+    default = key()
+    assert key("--samples", "64") == default  # the default, given or not
+    assert key("--threads", "1") == default  # changes speed, not pixels
+    assert key("--samples", "32") != default
+    assert key("--maxGlossyDepth", "2") != default
+
+
 def test_help_lists_every_option_with_its_help(capsys):
     assert main(["--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())

@@ -21,7 +21,6 @@ _LIGHTS: tuple[tuple[str, type, tuple[str, ...]], ...] = tuple(
     (light.sprim_type, getattr(UsdLux, light.schema), tuple(light.shape_inputs))
     for light in _core.light_types()
 )
-LIGHT_SPRIM_TYPES = frozenset(entry[0] for entry in _LIGHTS)
 """The delegate's sprim types for lights."""
 
 _COMMON_INPUTS = (
