@@ -47,6 +47,15 @@ struct GeometryHit {
   const std::vector<Primvar>* instancePrimvars = nullptr;
 };
 
+/// Gives `point`, on instancer copy `copy`, that copy's per-copy primvars `primvars` (null: the
+/// point has only its mesh's).
+inline void attachCopyPrimvars(SurfacePoint& point, const std::vector<Primvar>* primvars,
+                               uint32_t copy) {
+  if (!primvars) return;
+  point.instancePrimvars = primvars;
+  point.instance = copy;
+}
+
 class Geometry {
  public:
   using MeshId = uint32_t;
