@@ -27,7 +27,6 @@
 #include <filesystem>
 #include <map>
 #include <tuple>
-#include <utility>
 #include <vector>
 
 #include "texture_files.h"
