@@ -9,13 +9,6 @@
 
 namespace penumbra::plugin {
 
-bool DicingContext::operator==(const DicingContext& other) const {
-  const CameraParams &a = camera, &b = other.camera;
-  return imageWidth == other.imageWidth && a.cameraToWorld.first().m == b.cameraToWorld.first().m &&
-         a.focalLength == b.focalLength && a.horizontalAperture == b.horizontalAperture &&
-         a.projection == b.projection && a.nearClip == b.nearClip;
-}
-
 void Mesh::setTopology(std::vector<int> counts, std::vector<int> indices, bool leftHanded,
                        std::string subdivisionScheme) {
   data_.faceVertexCounts = std::move(counts);

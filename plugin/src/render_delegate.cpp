@@ -79,7 +79,7 @@ std::vector<PrimId> RenderDelegate::primIds() const {
 
 Prim& RenderDelegate::prim(const PrimId& id) {
   Prim* found = nullptr;
-  forEachKind(*this, [&](const auto& kind) {
+  forEachKind(*this, [&](auto& kind) {
     if (!found) found = kind.find(id);
   });
   if (!found) throw std::out_of_range(id + ": no such prim in the render index");

@@ -2,6 +2,13 @@
 
 namespace penumbra::plugin {
 
+bool DicingContext::operator==(const DicingContext& other) const {
+  const CameraParams &a = camera, &b = other.camera;
+  return imageWidth == other.imageWidth && a.cameraToWorld.first().m == b.cameraToWorld.first().m &&
+         a.focalLength == b.focalLength && a.horizontalAperture == b.horizontalAperture &&
+         a.projection == b.projection && a.nearClip == b.nearClip;
+}
+
 int MaterialIndices::insert(const PrimId& id, Scene& scene) {
   int index;
   if (free_.empty()) {

@@ -19,8 +19,8 @@ void bindMaterials(pybind11::module_& m, DelegateClass& delegate);
 void bindRender(pybind11::module_& m, DelegateClass& delegate);
 /// Image files and colour management (images.cpp).
 void bindImages(pybind11::module_& m);
-/// The render options' and light types' tables, from which the front ends derive their
-/// spellings (render_settings.cpp).
-void bindRenderSettings(pybind11::module_& m);
+/// The vocabulary tables (render options, light types, material inputs), from which the front
+/// ends derive their spellings (vocabularies.cpp).
+void bindVocabularies(pybind11::module_& m);
 
 }  // namespace penumbra::bindings

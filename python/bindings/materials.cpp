@@ -1,14 +1,11 @@
 // Material sprims: set_material's dict schemas (docs/core-api.md) — UsdPreviewSurface inputs,
-// constant or connected to a UsdUVTexture, a primvar reader or a pattern program — and the table
-// of those inputs (material_inputs.h), from which the scene delegate derives what it reads.
+// constant or connected to a UsdUVTexture, a primvar reader or a pattern program.
 #include <map>
 #include <stdexcept>
 #include <string>
-#include <variant>
 
 #include "bindings.h"
 #include "conversions.h"
-#include "penumbra/material_inputs.h"
 
 namespace penumbra::bindings {
 namespace {
@@ -18,32 +15,6 @@ using plugin::Material;
 using plugin::ProgramNode;
 using plugin::RenderDelegate;
 using plugin::TextureNode;
-
-const char* kindName(MaterialInputKind kind) {
-  switch (kind) {
-    case MaterialInputKind::Float:
-      return "float";
-    case MaterialInputKind::Vector:
-      return "vector";
-    case MaterialInputKind::Bool:
-      return "bool";
-    case MaterialInputKind::Token:
-      return "token";
-  }
-  throw std::logic_error("unknown material input kind");
-}
-
-const char* originName(MaterialInputOrigin origin) {
-  switch (origin) {
-    case MaterialInputOrigin::PreviewSurface:
-      return "UsdPreviewSurface";
-    case MaterialInputOrigin::PreviewSurfaceExtension:
-      return "UsdPreviewSurface extension";
-    case MaterialInputOrigin::Extension:
-      return "extension";
-  }
-  throw std::logic_error("unknown material input origin");
-}
 
 /// A UsdUVTexture's description (docs/core-api.md, set_material).
 TextureNode toTextureNode(const std::string& where, const py::dict& dict) {
@@ -194,35 +165,6 @@ void bindMaterials(pybind11::module_& m, DelegateClass& delegate) {
         }
       },
       py::arg("id"), py::arg("params"));
-
-  py::class_<MaterialInputInfo>(m, "MaterialInput",
-                                "An input set_material takes (renderer/material_inputs.h).")
-      .def_property_readonly("name",
-                             [](const MaterialInputInfo& info) { return std::string(info.name); })
-      .def_property_readonly(
-          "kind", [](const MaterialInputInfo& info) { return kindName(info.kind); },
-          "\"float\", \"vector\" (a 3-tuple: a colour, or the normal), \"bool\" or \"token\".")
-      .def_property_readonly(
-          "origin", [](const MaterialInputInfo& info) { return originName(info.origin); },
-          "\"UsdPreviewSurface\" (the schema's own input), \"UsdPreviewSurface extension\" "
-          "(Penumbra's, read from a UsdPreviewSurface shader) or \"extension\" (Penumbra's, "
-          "set from MaterialX surfaces).")
-      .def_property_readonly(
-          "constant",
-          [](const MaterialInputInfo& info) {
-            return !std::holds_alternative<std::monostate>(info.member);
-          },
-          "Whether it takes a constant value (all but normal).")
-      .def_property_readonly(
-          "connectable", [](const MaterialInputInfo& info) { return info.connectable.has_value(); },
-          "Whether a shader network may drive it.")
-      .def_readonly("must_be_finite", &MaterialInputInfo::mustBeFinite)
-      .def("__repr__", [](const MaterialInputInfo& info) {
-        return "<MaterialInput " + std::string(info.name) + ">";
-      });
-  m.def("material_inputs", &materialInputs, py::return_value_policy::reference,
-        "Every input set_material takes: UsdPreviewSurface's, then the extensions "
-        "read from it, then the other extensions.");
 }
 
 }  // namespace penumbra::bindings

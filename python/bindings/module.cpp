@@ -31,5 +31,5 @@ PYBIND11_MODULE(_core, m) {
   bindMaterials(m, delegate);
   bindRender(m, delegate);
   bindImages(m);
-  bindRenderSettings(m);
+  bindVocabularies(m);
 }

@@ -159,7 +159,9 @@ void bindMeshRecord(py::module_& m) {
 
 /// `set_transform` of one prim: a mesh, a camera or a light.
 void setTransform(RenderDelegate& delegate, const std::string& id, const DoubleArray& matrix) {
-  delegate.prim(id).setTransform(toMotionTransform(matrix));
+  // The matrix first: a bad one is a ValueError even for an unknown id.
+  const MotionTransform transform = toMotionTransform(matrix);
+  delegate.prim(id).setTransform(transform);
 }
 
 /// `set_visible` of one prim: a mesh, a light or an instancer.

@@ -77,7 +77,7 @@ GgxAlbedoTable::Albedo anisotropicGgxAverageAlbedo(GgxAlpha alpha);
 
 /// A GGX lobe's albedo terms for light from local direction w (w.z > 0; isotropic lobes read
 /// only w.z), and their hemispherical averages. Always inlined: the isotropic lookup is on every
-/// evaluation's path, and was inlined before anisotropy existed.
+/// evaluation's path.
 [[gnu::always_inline]] inline GgxAlbedoTable::Albedo ggxDirectionalAlbedo(const Vec3f& w,
                                                                           GgxAlpha alpha) {
   if (alpha.isotropic()) return ggxAlbedoTable().directional(w.z, alpha.x);

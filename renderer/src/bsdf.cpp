@@ -111,8 +111,8 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     frame_.t = frame_.t * c - frame_.s * s;
     frame_.s = turned;
   }
-  // The coat tint and the sheen are set up only where they act: materials without them cost
-  // what they did before.
+  // The coat tint and the sheen are set up only where they act: materials without them pay
+  // nothing for them.
   if (clearcoat_ > 0) coatTint_ = lerp(Vec3f(1.0f), clamp01(material.clearcoatColor), clearcoat_);
   if (sheen_ > 0) {
     sheenColor_ = clamp01(material.sheenColor);

@@ -77,10 +77,7 @@ void Geometry::filterHits(const RTCFilterFunctionNArguments* args) {
     const Placement& placement =
         *context->geometry
              ->placements_[context->placementId(RTCHitN_instID(args->hit, args->N, i, 0))];
-    if (const std::vector<Primvar>* primvars = copyPrimvars(placement)) {
-      point.instancePrimvars = primvars;
-      point.instance = placement.copy;
-    }
+    attachCopyPrimvars(point, copyPrimvars(placement), placement.copy);
     if (evaluateOpacity(*material, materials.textures(), point) <
         material->constants.opacityThreshold)
       args->valid[i] = 0;

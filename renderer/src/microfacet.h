@@ -77,8 +77,8 @@ inline Vec3f mirrorThroughSurface(const Vec3f& w) {
 
 // --- GGX (Trowbridge–Reitz) microfacets ---
 // GgxAlpha (bsdf.h) holds α along x and y. The isotropic formulas (kAnisotropic false) are kept
-// apart from the anisotropic ones: they are what every isotropic material computed before
-// anisotropy existed, bit for bit, and cheaper. Each public function decides once which to use.
+// apart from the anisotropic ones: isotropic lobes take the cheaper exact formulas. Each public
+// function decides once which to use.
 
 /// Distribution of microfacet normals D(h), per unit solid angle of h:
 /// 1 / (π αx αy (hx²/αx² + hy²/αy² + hz²)²).

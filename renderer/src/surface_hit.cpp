@@ -23,10 +23,7 @@ std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, R
   hit.normal = surface.normal;
   hit.shadingNormal = surface.shadingNormal;
   hit.closed = surface.closed;
-  if (found->instancePrimvars) {
-    point.instancePrimvars = found->instancePrimvars;
-    point.instance = uint32_t(found->instance);
-  }
+  attachCopyPrimvars(point, found->instancePrimvars, uint32_t(found->instance));
   hit.meshId = found->meshId;
   hit.instance = found->instance;
   hit.mesh = point.mesh;

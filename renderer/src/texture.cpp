@@ -27,7 +27,6 @@
 #include <filesystem>
 #include <map>
 #include <tuple>
-#include <utility>
 #include <vector>
 
 #include "texture_files.h"
@@ -97,9 +96,8 @@ struct TextureSystem::Impl {
   }
 
   ~Impl() {
-    // Tearing the private ImageCache down too: without it, each scene's cache (and its tiles)
-    // outlived the scene (found by LeakSanitizer, make sanitize). Closes the files before
-    // `files` removes them.
+    // Tears the private ImageCache down too, so each scene's cache and its tiles end with the
+    // scene. Closes the files before `files` removes them.
     if (oiio) OIIO::TextureSystem::destroy(oiio, /*teardown_imagecache=*/true);
   }
 };

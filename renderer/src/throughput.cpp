@@ -6,7 +6,6 @@
 #include <chrono>
 #include <vector>
 
-#include "penumbra/light.h"
 #include "penumbra/sampler.h"
 #include "penumbra/warp.h"
 

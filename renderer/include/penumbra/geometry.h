@@ -47,6 +47,15 @@ struct GeometryHit {
   const std::vector<Primvar>* instancePrimvars = nullptr;
 };
 
+/// Gives `point`, on instancer copy `copy`, that copy's per-copy primvars `primvars` (null: the
+/// point has only its mesh's).
+inline void attachCopyPrimvars(SurfacePoint& point, const std::vector<Primvar>* primvars,
+                               uint32_t copy) {
+  if (!primvars) return;
+  point.instancePrimvars = primvars;
+  point.instance = copy;
+}
+
 class Geometry {
  public:
   using MeshId = uint32_t;
@@ -96,7 +105,7 @@ class Geometry {
   uint64_t meshBvhBuilds() const { return meshBvhBuilds_; }
   /// Seconds spent building the meshes' BVHs so far.
   double meshBvhBuildSeconds() const { return meshBvhBuildSeconds_; }
-  /// Instances in the top-level BVHs (the scene's and its overlay's) that commit() has built so
+  /// Instances in the top-level BVHs (the main one and the overlay) that commit() has built so
   /// far: what edits that place, show or hide meshes have cost to build.
   uint64_t topLevelBvhPrimitives() const { return topLevelBvhPrimitives_; }
   /// How many meshes are placed by the overlay (see commit()).
@@ -105,17 +114,17 @@ class Geometry {
   /// Rebuilds the top-level BVH; call after edits and before tracing.
   ///
   /// Moving, showing or hiding one mesh would rebuild a top-level BVH over every placement.
-  /// Once the scene has been built with kOverlayThreshold placements or more, such an edit of
-  /// a mesh's own placement (its BVH unchanged) goes to an overlay instead: a second, small
-  /// top-level BVH of the meshes edited since, which rays trace after the scene's, whose stale
-  /// instances of them they skip (an intersect-context filter). Up to kMaxOverlaid meshes wait
-  /// there; the overlay is folded into the scene's BVH when that is rebuilt anyway, or when a
-  /// render takes enough samples to pay for the rebuild (prepareForSamples). Hits are those of
-  /// a scene built afresh, but for surfaces at exactly the same distance.
+  /// Once the geometry has been built with kOverlayThreshold placements or more, such an edit
+  /// of a mesh's own placement (its BVH unchanged) goes to an overlay instead: a second, small
+  /// top-level BVH of the meshes edited since, which rays trace after the main top-level BVH,
+  /// whose stale instances of them they skip (an intersect-context filter). Up to kMaxOverlaid
+  /// meshes wait there; the overlay is folded into the main top-level BVH when that is rebuilt
+  /// anyway, or when a render takes enough samples to pay for the rebuild (prepareForSamples).
+  /// Hits are those of geometry built afresh, but for surfaces at exactly the same distance.
   void commit();
   /// Tells the geometry how many camera samples (pixels × samples per pixel) the next render
-  /// takes: enough of them fold the overlay into the scene's BVH, which rays trace faster than
-  /// the two. Returns whether it did (commit() is then due).
+  /// takes: enough of them fold the overlay into the main top-level BVH, which rays trace
+  /// faster than the two. Returns whether it did (commit() is then due).
   bool prepareForSamples(uint64_t cameraSamples);
   /// Instances in the top-level BVH from which an edit goes to the overlay (a rebuild of about
   /// 0.4 ms), and how many meshes the overlay holds at most.

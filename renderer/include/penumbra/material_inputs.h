@@ -49,8 +49,8 @@ struct MaterialInputInfo {
   /// The input a shader network drives; empty: the input takes constants only.
   std::optional<MaterialInput> connectable;
   /// Whether a non-finite value is refused. The sheen, coat colour and anisotropy inputs must be
-  /// finite (the BSDF clamps them to their ranges); the others keep their lenient handling (the
-  /// BSDF reads NaN as 0).
+  /// finite (the BSDF clamps them to their ranges); the others are taken as given (the BSDF reads
+  /// NaN as 0).
   bool mustBeFinite;
 };
 

@@ -10,7 +10,6 @@ namespace penumbra {
 class MeshShape final : public Shape {
  public:
   explicit MeshShape(TriangleMesh mesh) : mesh_(std::move(mesh)) {}
-  const TriangleMesh& mesh() const { return mesh_; }
 
   RTCGeometry newEmbreeGeometry(RTCDevice device) const override;
   bool tracesAs(const Shape& other) const override;

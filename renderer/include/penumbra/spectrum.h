@@ -1,4 +1,4 @@
-// Spectral rendering support (issue 4, dispersion): hero-wavelength sampling, the conversion of
+// Spectral rendering support (for dispersion): hero-wavelength sampling, the conversion of
 // wavelength samples back to the rendering space, and RGB → smooth spectrum upsampling.
 //
 // Rendering space and white. A spectrum that is constant 1 over [kLambdaMin, kLambdaMax] (CIE

@@ -47,7 +47,6 @@ class ChangeTracker {
  public:
   void markDirty(const PrimId& id) { dirty_.insert(id); }
   void forget(const PrimId& id) { dirty_.erase(id); }
-  bool empty() const { return dirty_.empty(); }
   /// The dirty list, kept.
   const std::set<PrimId>& dirty() const { return dirty_; }
   /// The dirty list, emptied.

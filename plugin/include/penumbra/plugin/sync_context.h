@@ -100,8 +100,8 @@ struct SyncContext {
       : scene(renderScene), meshes(meshPrims), instancers(instancerPrims) {}
 
   Scene& scene;
-  const PrimCollection<Mesh>& meshes;
-  const PrimCollection<Instancer>& instancers;
+  PrimCollection<Mesh>& meshes;
+  PrimCollection<Instancer>& instancers;
   MaterialIndices materials;
   LightList lights;
   /// The context of this sync (set by the render delegate before the prims sync).

@@ -1,17 +1,23 @@
-// The render options table (plugin/render_settings.h) and the light types table
-// (plugin/light_types.h), from which the Python front ends derive their flags, keywords,
-// USD attributes and light schemas.
-#include "penumbra/plugin/render_settings.h"
-
+// The vocabulary tables: the render options (plugin/render_settings.h), the light types
+// (plugin/light_types.h) and the material inputs (renderer/material_inputs.h), from which the
+// Python front ends derive their flags, keywords, USD attributes, light schemas and the
+// material inputs they read.
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
 #include <stdexcept>
+#include <string>
+#include <variant>
 
 #include "bindings.h"
+#include "penumbra/material_inputs.h"
 #include "penumbra/plugin/light_types.h"
+#include "penumbra/plugin/render_settings.h"
 
 namespace py = pybind11;
+using penumbra::MaterialInputInfo;
+using penumbra::MaterialInputKind;
+using penumbra::MaterialInputOrigin;
 using penumbra::plugin::LightTypeInfo;
 using penumbra::plugin::RenderOption;
 using penumbra::plugin::RenderOptionType;
@@ -43,11 +49,37 @@ py::object pythonValue(const RenderOption& option, double value) {
   throw std::logic_error("unknown render option type");
 }
 
+const char* kindName(MaterialInputKind kind) {
+  switch (kind) {
+    case MaterialInputKind::Float:
+      return "float";
+    case MaterialInputKind::Vector:
+      return "vector";
+    case MaterialInputKind::Bool:
+      return "bool";
+    case MaterialInputKind::Token:
+      return "token";
+  }
+  throw std::logic_error("unknown material input kind");
+}
+
+const char* originName(MaterialInputOrigin origin) {
+  switch (origin) {
+    case MaterialInputOrigin::PreviewSurface:
+      return "UsdPreviewSurface";
+    case MaterialInputOrigin::PreviewSurfaceExtension:
+      return "UsdPreviewSurface extension";
+    case MaterialInputOrigin::Extension:
+      return "extension";
+  }
+  throw std::logic_error("unknown material input origin");
+}
+
 }  // namespace
 
 namespace penumbra::bindings {
 
-void bindRenderSettings(py::module_& m) {
+void bindVocabularies(py::module_& m) {
   py::class_<RenderOption>(m, "RenderOption",
                            "A render option of the render delegate (set_render_setting's key).")
       .def_readonly("key", &RenderOption::key)
@@ -86,6 +118,35 @@ void bindRenderSettings(py::module_& m) {
            [](const LightTypeInfo& info) { return "<LightType " + info.sprimType + ">"; });
   m.def("light_types", &penumbra::plugin::lightTypes, py::return_value_policy::reference,
         "Every light type the render delegate renders.");
+
+  py::class_<MaterialInputInfo>(m, "MaterialInput",
+                                "An input set_material takes (renderer/material_inputs.h).")
+      .def_property_readonly("name",
+                             [](const MaterialInputInfo& info) { return std::string(info.name); })
+      .def_property_readonly(
+          "kind", [](const MaterialInputInfo& info) { return kindName(info.kind); },
+          "\"float\", \"vector\" (a 3-tuple: a colour, or the normal), \"bool\" or \"token\".")
+      .def_property_readonly(
+          "origin", [](const MaterialInputInfo& info) { return originName(info.origin); },
+          "\"UsdPreviewSurface\" (the schema's own input), \"UsdPreviewSurface extension\" "
+          "(Penumbra's, read from a UsdPreviewSurface shader) or \"extension\" (Penumbra's, "
+          "set from MaterialX surfaces).")
+      .def_property_readonly(
+          "constant",
+          [](const MaterialInputInfo& info) {
+            return !std::holds_alternative<std::monostate>(info.member);
+          },
+          "Whether it takes a constant value (all but normal).")
+      .def_property_readonly(
+          "connectable", [](const MaterialInputInfo& info) { return info.connectable.has_value(); },
+          "Whether a shader network may drive it.")
+      .def_readonly("must_be_finite", &MaterialInputInfo::mustBeFinite)
+      .def("__repr__", [](const MaterialInputInfo& info) {
+        return "<MaterialInput " + std::string(info.name) + ">";
+      });
+  m.def("material_inputs", &materialInputs, py::return_value_policy::reference,
+        "Every input set_material takes: UsdPreviewSurface's, then the extensions "
+        "read from it, then the other extensions.");
 }
 
 }  // namespace penumbra::bindings
