@@ -1,7 +1,9 @@
 #include "penumbra/plugin/light.h"
 
 #include <stdexcept>
+#include <variant>
 
+#include "penumbra/plugin/light_types.h"
 #include "penumbra/plugin/param_value.h"
 
 namespace penumbra::plugin {
@@ -14,41 +16,27 @@ Light::Light(PrimId id, LightType type, std::optional<Geometry::MeshId> emitting
 }
 
 void Light::setParam(const std::string& name, const ParamValue& value) {
-  static const std::map<std::string, float LightParams::*> numbers = {
-      {"intensity", &LightParams::intensity},
-      {"exposure", &LightParams::exposure},
-      {"colorTemperature", &LightParams::colorTemperature},
-      {"diffuse", &LightParams::diffuse},
-      {"specular", &LightParams::specular},
-      {"width", &LightParams::width},
-      {"height", &LightParams::height},
-      {"radius", &LightParams::radius},
-      {"length", &LightParams::length},
-      {"angle", &LightParams::angle},
-      {"shaping:cone:angle", &LightParams::coneAngle},
-      {"shaping:cone:softness", &LightParams::coneSoftness},
-      {"shaping:focus", &LightParams::focus}};
-  static const std::map<std::string, bool LightParams::*> flags = {
-      {"normalize", &LightParams::normalize},
-      {"enableColorTemperature", &LightParams::enableColorTemperature},
-      {"treatAsPoint", &LightParams::treatAsPoint},
-      {"shadow:enable", &LightParams::shadowEnable},
-      {"cameraVisible", &LightParams::cameraVisible}};
-  static const std::map<std::string, Vec3f LightParams::*> colors = {
-      {"color", &LightParams::color}, {"shaping:focusTint", &LightParams::focusTint}};
   try {
-    if (const auto number = numbers.find(name); number != numbers.end())
-      params_.*(number->second) = paramAsFloat(name, value);
-    else if (const auto flag = flags.find(name); flag != flags.end())
-      params_.*(flag->second) = paramAsBool(name, value);
-    else if (const auto color = colors.find(name); color != colors.end())
-      params_.*(color->second) = paramAsColor(name, value);
-    else if (name == "texture:file")
-      textureFile_ = paramAsString(name, value);
-    else if (name == "treatAsLine")
-      paramAsBool(name, value);  // a hint only: the cylinder itself is always rendered
-    else
-      throw std::invalid_argument("unknown light parameter '" + name + "'");
+    const LightInputInfo* input = findLightInput(name);
+    if (!input) throw std::invalid_argument("unknown light parameter '" + name + "'");
+    switch (input->kind) {
+      case LightInputKind::Float:
+        params_.*std::get<float LightParams::*>(input->member) = paramAsFloat(name, value);
+        break;
+      case LightInputKind::Color:
+        params_.*std::get<Vec3f LightParams::*>(input->member) = paramAsColor(name, value);
+        break;
+      case LightInputKind::Bool: {
+        const bool flag = paramAsBool(name, value);
+        // Checked even where it sets nothing (treatAsLine, a hint only).
+        if (const auto* member = std::get_if<bool LightParams::*>(&input->member))
+          params_.*(*member) = flag;
+        break;
+      }
+      case LightInputKind::Asset:
+        textureFile_ = paramAsString(name, value);  // texture:file, the one asset input
+        break;
+    }
   } catch (const std::invalid_argument& error) {
     throw std::invalid_argument(id() + ": " + error.what());
   }

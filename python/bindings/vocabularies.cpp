@@ -1,13 +1,14 @@
-// The vocabulary tables: the render options (plugin/render_settings.h), the light types
-// (plugin/light_types.h) and the material inputs (renderer/material_inputs.h), from which the
-// Python front ends derive their flags, keywords, USD attributes, light schemas and the
-// material inputs they read.
+// The vocabulary tables: the render options (plugin/render_settings.h), the light types and
+// light inputs (plugin/light_types.h) and the material inputs (renderer/material_inputs.h), from
+// which the Python front ends derive their flags, keywords, USD attributes, light schemas and the
+// light and material inputs they read.
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
 #include <stdexcept>
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "bindings.h"
 #include "penumbra/material_inputs.h"
@@ -18,6 +19,9 @@ namespace py = pybind11;
 using penumbra::MaterialInputInfo;
 using penumbra::MaterialInputKind;
 using penumbra::MaterialInputOrigin;
+using penumbra::plugin::LightInputInfo;
+using penumbra::plugin::LightInputKind;
+using penumbra::plugin::LightInputOrigin;
 using penumbra::plugin::LightTypeInfo;
 using penumbra::plugin::RenderOption;
 using penumbra::plugin::RenderOptionType;
@@ -47,6 +51,45 @@ py::object pythonValue(const RenderOption& option, double value) {
       return py::str(option.levels.at(size_t(value)));
   }
   throw std::logic_error("unknown render option type");
+}
+
+const char* lightKindName(LightInputKind kind) {
+  switch (kind) {
+    case LightInputKind::Float:
+      return "float";
+    case LightInputKind::Color:
+      return "color";
+    case LightInputKind::Bool:
+      return "bool";
+    case LightInputKind::Asset:
+      return "asset";
+  }
+  throw std::logic_error("unknown light input kind");
+}
+
+const char* lightOriginName(LightInputOrigin origin) {
+  switch (origin) {
+    case LightInputOrigin::LightAPI:
+      return "LightAPI";
+    case LightInputOrigin::LightSchema:
+      return "light schema";
+    case LightInputOrigin::ShapingAPI:
+      return "ShapingAPI";
+    case LightInputOrigin::ShadowAPI:
+      return "ShadowAPI";
+    case LightInputOrigin::FrontEnd:
+      return "front end";
+  }
+  throw std::logic_error("unknown light input origin");
+}
+
+/// The sprim types of `input`'s light types.
+std::vector<std::string> sprimTypes(const LightInputInfo& input) {
+  std::vector<std::string> names;
+  for (const LightTypeInfo& info : penumbra::plugin::lightTypes())
+    for (const penumbra::LightType type : input.lightTypes)
+      if (info.type == type) names.push_back(info.sprimType);
+  return names;
 }
 
 const char* kindName(MaterialInputKind kind) {
@@ -113,11 +156,29 @@ void bindVocabularies(py::module_& m) {
   py::class_<LightTypeInfo>(m, "LightType", "A supported UsdLux light type.")
       .def_readonly("schema", &LightTypeInfo::schema)
       .def_readonly("sprim_type", &LightTypeInfo::sprimType)
-      .def_readonly("shape_inputs", &LightTypeInfo::shapeInputs)
       .def("__repr__",
            [](const LightTypeInfo& info) { return "<LightType " + info.sprimType + ">"; });
   m.def("light_types", &penumbra::plugin::lightTypes, py::return_value_policy::reference,
         "Every light type the render delegate renders.");
+
+  py::class_<LightInputInfo>(m, "LightInput", "An input set_light takes (plugin/light_types.h).")
+      .def_readonly("name", &LightInputInfo::name,
+                    "As UsdLux spells it without \"inputs:\" (\"shaping:cone:angle\").")
+      .def_property_readonly(
+          "kind", [](const LightInputInfo& input) { return lightKindName(input.kind); },
+          "\"float\", \"color\" (a 3-tuple), \"bool\" or \"asset\" (a file's path).")
+      .def_property_readonly(
+          "origin", [](const LightInputInfo& input) { return lightOriginName(input.origin); },
+          "Where a light has it: \"LightAPI\" (every light, mesh lights too), \"light schema\" "
+          "(the schema of the light types light_types lists), \"ShapingAPI\" or \"ShadowAPI\" "
+          "(where applied), or \"front end\" (no UsdLux input: the front end's choice).")
+      .def_property_readonly("light_types", &sprimTypes,
+                             "The sprim types of a \"light schema\" input's light types.")
+      .def("__repr__",
+           [](const LightInputInfo& input) { return "<LightInput " + input.name + ">"; });
+  m.def("light_inputs", &penumbra::plugin::lightInputs, py::return_value_policy::reference,
+        "Every input set_light takes: UsdLuxLightAPI's, the light schemas', ShapingAPI's, "
+        "ShadowAPI's, then the front end's.");
 
   py::class_<MaterialInputInfo>(m, "MaterialInput",
                                 "An input set_material takes (renderer/material_inputs.h).")

@@ -6,10 +6,14 @@
 #include <gtest/gtest.h>
 
 #include <map>
+#include <stdexcept>
 #include <string>
+#include <tuple>
+#include <variant>
 #include <vector>
 
 #include "penumbra/image_io.h"
+#include "penumbra/plugin/light_types.h"
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
 #include "scene_builders.h"
@@ -275,4 +279,66 @@ TEST_F(SprimSync, AMaterialEditCutsItsMeshOutAndBackIn) {
   EXPECT_EQ(render(delegate), whole);
   // The mesh followed its material without being synced.
   EXPECT_EQ(synced(counts, syncCounts(delegate)), std::vector<PrimId>{"/looks/a"});
+}
+
+TEST_F(SprimSync, EveryLightInputOfTheTableSetsItsParameter) {
+  RenderDelegate delegate;
+  addCamera(delegate, facingDown(0, 5, 0));
+  delegate.insertSprim("domeLight", "/light");
+  plugin::Light& light = delegate.light("/light");
+  // The message setParam throws, or "" when it takes the value.
+  const auto problem = [&](const std::string& name, const ParamValue& value) -> std::string {
+    try {
+      light.setParam(name, value);
+      return "";
+    } catch (const std::invalid_argument& error) {
+      return error.what();
+    }
+  };
+  for (const LightInputInfo& input : lightInputs()) {
+    SCOPED_TRACE(input.name);
+    EXPECT_EQ(findLightInput(input.name), &input);
+    EXPECT_EQ(input.lightTypes.empty(), input.origin != LightInputOrigin::LightSchema);
+    ParamValue value, wrong = 1.0f;
+    std::string expects;
+    switch (input.kind) {
+      case LightInputKind::Float:
+        value = 0.25f;  // no input's default
+        wrong = std::string("0.25");
+        expects = "expects a number";
+        break;
+      case LightInputKind::Color:
+        value = Vec3f(0.25f, 0.5f, 0.75f);
+        expects = "expects a 3-component colour";
+        break;
+      case LightInputKind::Bool:
+        if (const auto* member = std::get_if<bool LightParams::*>(&input.member))
+          value = !(light.params().*(*member));
+        else
+          value = true;
+        expects = "expects a bool or an int";
+        break;
+      case LightInputKind::Asset:
+        value = path("sky.exr");
+        expects = "expects a string";
+        break;
+    }
+    light.setParam(input.name, value);
+    const LightParams& params = light.params();
+    if (const auto* member = std::get_if<float LightParams::*>(&input.member)) {
+      EXPECT_EQ(params.*(*member), std::get<float>(value));
+    }
+    if (const auto* member = std::get_if<bool LightParams::*>(&input.member)) {
+      EXPECT_EQ(params.*(*member), std::get<bool>(value));
+    }
+    if (const auto* member = std::get_if<Vec3f LightParams::*>(&input.member)) {
+      const Vec3f set = params.*(*member), given = std::get<Vec3f>(value);
+      EXPECT_EQ(std::tie(set.x, set.y, set.z), std::tie(given.x, given.y, given.z));
+    }
+    EXPECT_EQ(problem(input.name, wrong), "/light: " + input.name + " " + expects);
+  }
+  render(delegate);
+  EXPECT_NE(light.params().texture, nullptr);  // texture:file was loaded
+  EXPECT_EQ(problem("inputs:intensity", 1.0f),
+            "/light: unknown light parameter 'inputs:intensity'");
 }

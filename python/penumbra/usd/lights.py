@@ -15,32 +15,35 @@ from pxr import Usd, UsdLux
 from .. import _core
 from .sampling import SampleReader
 
+
+def _inputs(origin: str, sprim_type: str | None = None) -> tuple[str, ...]:
+    """The names of the delegate's light inputs from ``origin`` (``"LightAPI"``, ...) in the
+    table's order, those of ``sprim_type``'s schema for ``"light schema"``; asset inputs
+    (texture:file) apart, as :func:`_texture_path` resolves them."""
+    return tuple(
+        light_input.name
+        for light_input in _core.light_inputs()
+        if light_input.origin == origin
+        and (sprim_type is None or sprim_type in light_input.light_types)
+        and light_input.kind != "asset"
+    )
+
+
 # Sprim type, schema class and the shape inputs of each supported light, as the render
-# delegate's table of light types gives them.
+# delegate's tables give them.
 _LIGHTS: tuple[tuple[str, type, tuple[str, ...]], ...] = tuple(
-    (light.sprim_type, getattr(UsdLux, light.schema), tuple(light.shape_inputs))
+    (light.sprim_type, getattr(UsdLux, light.schema), _inputs("light schema", light.sprim_type))
     for light in _core.light_types()
 )
 """The delegate's sprim types for lights."""
 
-_COMMON_INPUTS = (
-    "color",
-    "intensity",
-    "exposure",
-    "normalize",
-    "enableColorTemperature",
-    "colorTemperature",
-    "diffuse",
-    "specular",
+_COMMON_INPUTS = _inputs("LightAPI")
+# Inputs of the applied schemas that shape the emission or cast shadows.
+_SHAPING_INPUTS = _inputs("ShapingAPI")
+_SHADOW_INPUTS = _inputs("ShadowAPI")
+_COLOR_INPUTS = tuple(
+    light_input.name for light_input in _core.light_inputs() if light_input.kind == "color"
 )
-# Inputs of the applied schemas that shape the emission, by the delegate's parameter name.
-_SHAPING_INPUTS = (
-    ("shaping:cone:angle", "GetShapingConeAngleAttr"),
-    ("shaping:cone:softness", "GetShapingConeSoftnessAttr"),
-    ("shaping:focus", "GetShapingFocusAttr"),
-    ("shaping:focusTint", "GetShapingFocusTintAttr"),
-)
-_COLOR_INPUTS = ("color", "shaping:focusTint")
 
 
 def sync_mesh_light(core, prim: Usd.Prim, prim_id: str, reader: SampleReader) -> None:
@@ -69,8 +72,10 @@ def is_light(prim: Usd.Prim) -> bool:
 
 
 def _getter(schema, name: str) -> Usd.Attribute:
-    """The attribute of input ``name`` through the schema's ``Get<Name>Attr`` accessor."""
-    return getattr(schema, f"Get{name[0].upper()}{name[1:]}Attr")()
+    """The attribute of input ``name`` through the schema's ``Get<Name>Attr`` accessor
+    (``shaping:cone:angle`` → ``GetShapingConeAngleAttr``)."""
+    accessor = "".join(part[0].upper() + part[1:] for part in name.split(":"))
+    return getattr(schema, f"Get{accessor}Attr")()
 
 
 def sync_light(
@@ -92,9 +97,10 @@ def sync_light(
     params.update({name: reader.get(_getter(schema, name)) for name in shape_inputs})
     if prim.HasAPI(UsdLux.ShapingAPI):
         shaping = UsdLux.ShapingAPI(prim)
-        params.update({name: reader.get(getattr(shaping, getter)()) for name, getter in _SHAPING_INPUTS})
+        params.update({name: reader.get(_getter(shaping, name)) for name in _SHAPING_INPUTS})
     if prim.HasAPI(UsdLux.ShadowAPI):
-        params["shadow:enable"] = reader.get(UsdLux.ShadowAPI(prim).GetShadowEnableAttr())
+        shadow = UsdLux.ShadowAPI(prim)
+        params.update({name: reader.get(_getter(shadow, name)) for name in _SHADOW_INPUTS})
     for name in _COLOR_INPUTS:
         if name in params:
             params[name] = tuple(float(c) for c in params[name])

@@ -20,10 +20,8 @@ class Light : public Prim {
   /// `emittingMesh`: for a mesh light (LightType::Mesh), the mesh whose surface emits.
   Light(PrimId id, LightType type, std::optional<Geometry::MeshId> emittingMesh = std::nullopt);
 
-  /// Sets a UsdLux input by its name without "inputs:" (color, intensity, exposure, normalize,
-  /// enableColorTemperature, colorTemperature, diffuse, specular, width, height, radius, length,
-  /// angle, treatAsPoint, treatAsLine, texture:file, shaping:cone:angle, shaping:cone:softness,
-  /// shaping:focus, shaping:focusTint, shadow:enable).
+  /// Sets an input of lightInputs() (plugin/light_types.h) by its name: a UsdLux input without
+  /// "inputs:" ("shaping:cone:angle"), or cameraVisible.
   /// Throws std::invalid_argument for an unknown name or a value of the wrong type.
   void setParam(const std::string& name, const ParamValue& value);
   /// Lights keep their transform at the start of the shutter (motion blur of lights is not
