@@ -28,23 +28,54 @@ def keyword_of(key: str) -> str:
 
 @dataclass(frozen=True)
 class RenderOption:
-    """One row of the render delegate's option table."""
+    """One row of the render delegate's option table: the core record's fields, read from it,
+    and what Python derives from them."""
 
-    key: str
-    """The render delegate's key (``RenderDelegate.set_render_setting``), camelCase."""
-    type: str
-    """``"int"``, ``"float"`` or ``"level"`` (one of :attr:`levels`, by name)."""
-    default: OptionValue
-    levels: tuple[str, ...]
-    help: str
-    default_meaning: str
-    """What the default does when its number does not say (``"off"``), or ``""``."""
-    metavar: str | None
-    short_flag: str | None
-    usdrecord_flag: bool
-    changes_pixels: bool
-    """False for options that change only speed or memory (``threads``)."""
     core: _core.RenderOption
+
+    @property
+    def key(self) -> str:
+        """The render delegate's key (``RenderDelegate.set_render_setting``), camelCase."""
+        return self.core.key
+
+    @property
+    def type(self) -> str:
+        """``"int"``, ``"float"`` or ``"level"`` (one of :attr:`levels`, by name)."""
+        return self.core.type
+
+    @property
+    def default(self) -> OptionValue:
+        return self.core.default
+
+    @property
+    def levels(self) -> tuple[str, ...]:
+        return tuple(self.core.levels)
+
+    @property
+    def help(self) -> str:
+        return self.core.help
+
+    @property
+    def default_meaning(self) -> str:
+        """What the default does when its number does not say (``"off"``), or ``""``."""
+        return self.core.default_meaning
+
+    @property
+    def metavar(self) -> str | None:
+        return self.core.metavar or None
+
+    @property
+    def short_flag(self) -> str | None:
+        return self.core.short_flag or None
+
+    @property
+    def usdrecord_flag(self) -> bool:
+        return self.core.usdrecord_flag
+
+    @property
+    def changes_pixels(self) -> bool:
+        """False for options that change only speed or memory (``threads``)."""
+        return self.core.changes_pixels
 
     @property
     def keyword(self) -> str:
@@ -75,24 +106,8 @@ class RenderOption:
         return float(self.levels.index(value) if self.type == "level" else value)
 
 
-def _from_core(option: _core.RenderOption) -> RenderOption:
-    return RenderOption(
-        key=option.key,
-        type=option.type,
-        default=option.default,
-        levels=tuple(option.levels),
-        help=option.help,
-        default_meaning=option.default_meaning,
-        metavar=option.metavar or None,
-        short_flag=option.short_flag or None,
-        usdrecord_flag=option.usdrecord_flag,
-        changes_pixels=option.changes_pixels,
-        core=option,
-    )
-
-
 OPTIONS: tuple[RenderOption, ...] = tuple(
-    _from_core(option) for option in _core.render_options() if option.user_set
+    RenderOption(option) for option in _core.render_options() if option.user_set
 )
 """The options users set (the others the front ends derive from their own settings, as the
 texture cache's size from the memory budget), in the order front ends list them."""
