@@ -308,6 +308,12 @@ void Geometry::setMeshGeometry(MeshId id, TriangleMesh data) {
   setShape(id, std::make_shared<const MeshShape>(std::move(data)));
 }
 
+void Geometry::setPointsGeometry(MeshId id, PointsData points) {
+  record(id);
+  validatePoints(points);
+  throw std::logic_error("points are not yet rendered");
+}
+
 void Geometry::setShape(MeshId id, std::shared_ptr<const Shape> shape) {
   MeshRecord& mesh = record(id);
   if (mesh.shape && mesh.geometry && shape->tracesAs(*mesh.shape)) {
