@@ -40,6 +40,7 @@ struct GeometryHit {
   int instance = -1;       // the instancer copy hit, -1: the object's own placement
   uint32_t primitive = 0;  // Embree's primID in the object's geometry
   float u = 0, v = 0;      // Embree's barycentrics on it
+  Vec3f geometricNormal;   // Embree's Ng there: object space, unnormalised
   const Shape* shape = nullptr;
   const MotionTransform* objectToWorld = nullptr;  // the placement's
   int materialIndex = MaterialTable::kNoMaterial;  // the object's
