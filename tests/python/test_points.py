@@ -129,20 +129,67 @@ def test_nan_width_warns_and_skips():
     assert not coverage(image).any()
 
 
-def test_moving_one_point_renders_as_a_fresh_render():
+def _move_one_point(dots: UsdGeom.Points) -> None:
+    moved = list(dots.GetPointsAttr().Get())
+    moved[1] = Gf.Vec3f(0.5, 1.5, 0.2)
+    dots.GetPointsAttr().Set(moved)
+
+
+def _widen(dots: UsdGeom.Points) -> None:
+    dots.GetWidthsAttr().Set([0.6, 1.2, 0.6])
+
+
+def _recolor(dots: UsdGeom.Points) -> None:
+    dots.GetDisplayColorPrimvar().Set([Gf.Vec3f(0.1, 0.2, 0.9)] * 3)
+
+
+def _translate(dots: UsdGeom.Points) -> None:
+    dots.AddTranslateOp().Set(Gf.Vec3d(0.3, -0.2, 0.0))
+
+
+def _bind(dots: UsdGeom.Points) -> None:
+    stage = dots.GetPrim().GetStage()
+    bind(dots, add_preview_material(stage, "/World/Looks/red", diffuseColor=(0.8, 0.0, 0.0)))
+
+
+def _hide(dots: UsdGeom.Points) -> None:
+    dots.MakeInvisible()
+
+
+@pytest.mark.parametrize(
+    "edit", [_move_one_point, _widen, _recolor, _translate, _bind, _hide], ids=lambda e: e.__name__
+)
+def test_an_edit_renders_as_a_fresh_render(edit):
     positions = [(-1.0, 0, 0), (0.0, 1.0, 0), (1.0, -0.5, 0)]
     stage = points_stage(positions, widths=[0.6, 0.6, 0.6], colors=[(1, 0.5, 0.2)] * 3)
     renderer = penumbra.Renderer(stage)
     before = renderer.render(**FAST)
-    moved = [Gf.Vec3f(*p) for p in positions]
-    moved[1] = Gf.Vec3f(0.5, 1.5, 0.2)
-    UsdGeom.Points(stage.GetPrimAtPath("/World/dots")).GetPointsAttr().Set(moved)
+    edit(UsdGeom.Points(stage.GetPrimAtPath("/World/dots")))
     edited = renderer.render(**FAST)
     assert not np.array_equal(edited["color"], before["color"])
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         fresh = penumbra.render(stage, **FAST)
     np.testing.assert_array_equal(edited["color"], fresh["color"])
+
+
+def test_moving_points_blur_over_the_shutter():
+    stage = points_stage([(0, 0, 0)], widths=[1.0])
+    camera = UsdGeom.Camera(stage.GetPrimAtPath("/cam"))
+    camera.CreateShutterOpenAttr(0.0)
+    camera.CreateShutterCloseAttr(1.0)
+    dots = UsdGeom.Points(stage.GetPrimAtPath("/World/dots"))
+    dots.GetPointsAttr().Set([Gf.Vec3f(-1, 0, 0)], 1.0)
+    dots.GetPointsAttr().Set([Gf.Vec3f(1, 0, 0)], 2.0)
+    options = {**FAST, "samples": 64}
+    still = coverage(penumbra.render(stage, **options, disable_motion_blur=True))
+    assert abs(still.any(axis=0).sum() - predicted_diameter(1.0)) <= 1
+    alpha = penumbra.render(stage, **options)["color"][WIDTH // 2, :, 3]
+    # The point's centre travels 2 units over the shutter: no pixel is covered all the time,
+    # and what it touches at all spans the travel plus its diameter.
+    travel, diameter = to_pixels(2.0), predicted_diameter(1.0)
+    assert alpha.max() < 0.75
+    assert abs((alpha > 0).sum() - (travel + diameter)) <= 2
 
 
 def test_points_take_transform_visibility_and_material():
