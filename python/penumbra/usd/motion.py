@@ -127,9 +127,10 @@ def point_samples(
     path: str,
     velocities_might_be_authored: bool = True,
 ) -> np.ndarray:
-    """The object-space points of ``mesh`` (or any point-based gprim) over the reader's shutter: float32 (N, 3), or
-    (K, N, 3) when they deform or move with velocities. ``points``: float32 (N, 3) at the
-    reader's time (also the fallback when the topology changes within the shutter).
+    """The object-space points of ``mesh`` (or any point-based gprim, as UsdGeomPoints) over
+    the reader's shutter: float32 (N, 3), or (K, N, 3) when they deform or move with
+    velocities. ``points``: float32 (N, 3) at the reader's time (also the fallback when the
+    topology changes within the shutter).
     ``velocities_might_be_authored`` False: the caller knows the mesh has no velocities."""
     shutter = reader.shutter
     if shutter.blurred and changes_within(mesh.GetPointsAttr(), shutter.interval):

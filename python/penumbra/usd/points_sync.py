@@ -44,7 +44,9 @@ class PointsSync(OneByOneSync):
         super().sync(prims, settings, xform_caches, batch)
         passes = self.render_pass
         binding = [
-            n for n, bits in enumerate(prims.bits) if bits & Dirty.BINDING and prims.records[n].in_core
+            n
+            for n, bits in enumerate(prims.bits)
+            if bits & Dirty.BINDING and prims.records[n].in_core
         ]
         for n, material in zip(binding, bound_materials([prims.prims[n] for n in binding])):
             record = prims.records[n]
