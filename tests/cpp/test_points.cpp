@@ -292,3 +292,31 @@ TEST(Points, WhiteSpheresUnderAWhiteDomeAreWhite) {
   EXPECT_GT(spheresSeen, total / 5);  // the spheres fill much of the image
   EXPECT_NEAR(sum / total, 1.0, 0.01);
 }
+
+TEST(Points, MaterialsReadPerPointPrimvarsAndCutPointsOut) {
+  PointsData points;
+  points.positions = {{-3, 0, 0}, {3, 0, 0}};
+  points.widths = {2, 2};
+  points.primvars = {{"rough", {0.25f, 0.75f}, 1, Interpolation::Vertex},
+                     {"keep", {0, 1}, 1, Interpolation::Vertex}};
+  PointsScene s(points);
+  Material material;
+  InputConnection roughness;
+  roughness.input = MaterialInput::Roughness;
+  roughness.primvar = PrimvarName("rough");
+  InputConnection opacity;
+  opacity.input = MaterialInput::Opacity;
+  opacity.primvar = PrimvarName("keep");
+  material.connections = {roughness, opacity};
+  material.constants.opacityThreshold = 0.5f;
+  s.scene.setMaterial(0, material);
+  s.scene.geometry().setMeshInstance(s.id, Transform(), 0, true);
+  s.scene.commit();
+  // Point 0's opacity is below the threshold: rays pass through it, for shadows too.
+  EXPECT_FALSE(s.scene.geometry().intersect(downAt(-3, 0), RayKind::Camera));
+  EXPECT_FALSE(s.scene.geometry().occluded(downAt(-3, 0)));
+  const std::optional<SurfaceHit> kept = intersectSurface(s.scene, downAt(3, 0), RayKind::Camera);
+  ASSERT_TRUE(kept);
+  EXPECT_EQ(kept->material.roughness, 0.75f);
+  EXPECT_EQ(kept->material.opacity, 1);
+}
