@@ -89,22 +89,22 @@ void Mesh::setNormals(std::vector<Vec3f> normals, Interpolation interpolation) {
 }
 
 void Mesh::setMaterialId(PrimId materialId) {
-  materialId_ = std::move(materialId);
+  placement_.materialId = std::move(materialId);
   markDirty(DirtyMaterialId);
 }
 
 void Mesh::setTransform(const MotionTransform& objectToWorld) {
-  objectToWorld_ = objectToWorld;
+  placement_.objectToWorld = objectToWorld;
   markDirty(DirtyTransform);
 }
 
 void Mesh::setVisible(bool visible) {
-  visible_ = visible;
+  placement_.visible = visible;
   markDirty(DirtyVisibility);
 }
 
 void Mesh::setPassVisibility(PassVisibility pass) {
-  pass_ = pass;
+  placement_.pass = pass;
   markDirty(DirtyVisibility);
 }
 
@@ -126,13 +126,7 @@ void Mesh::sync(SyncContext& context, uint32_t bits) {
       scene.geometry().clearMeshGeometry(handle_);
     }
   }
-  if (bits & kPlacementDirtyBits) {
-    if (!materialId_.empty() && !context.materials.find(materialId_) && (bits & DirtyMaterialId))
-      context.warn(id() + ": bound material " + materialId_ +
-                   " is not in the render index; displayColor is used");
-    if (bits & DirtyVisibility) scene.geometry().setMeshPassVisibility(handle_, pass_);
-    place(context);
-  }
+  placement_.sync(context, id(), handle_, bits);
   if (bits & kLightDirtyBits) syncLight(context);
 }
 
@@ -148,7 +142,7 @@ void Mesh::finalize(SyncContext& context) {
 }
 
 size_t Mesh::estimatedSyncBytes() const {
-  return visible_ ? estimatedBuildBytes(data_, subdivisionScheme_ != "none") : 0;
+  return placement_.visible ? estimatedBuildBytes(data_, subdivisionScheme_ != "none") : 0;
 }
 
 void Mesh::syncLight(SyncContext& context) {
@@ -157,10 +151,10 @@ void Mesh::syncLight(SyncContext& context) {
     return;
   }
   std::shared_ptr<std::vector<Vec3f>> corners;
-  if (visible_) {
+  if (placement_.visible) {
     try {
       const TriangleMesh polygons = triangulate(data_);
-      const Transform& toWorld = objectToWorld_.first();
+      const Transform& toWorld = placement_.objectToWorld.first();
       corners = std::make_shared<std::vector<Vec3f>>();
       corners->reserve(polygons.triangles.size());
       for (const uint32_t point : polygons.triangles)
@@ -174,13 +168,6 @@ void Mesh::syncLight(SyncContext& context) {
   light_->syncDirty(context);
 }
 
-void Mesh::place(SyncContext& context) const {
-  int materialIndex = MaterialTable::kNoMaterial;
-  if (!materialId_.empty())
-    materialIndex = context.materials.find(materialId_).value_or(materialIndex);
-  context.scene.geometry().setMeshInstance(handle_, objectToWorld_, materialIndex, visible_);
-}
-
 TriangleMesh Mesh::triangles(SyncContext& context) {
   const std::optional<SubdivisionScheme> scheme = parseSubdivisionScheme(subdivisionScheme_);
   if (!scheme) return triangulate(data_);
@@ -191,7 +178,7 @@ TriangleMesh Mesh::triangles(SyncContext& context) {
     // Dice each base face finely enough that its facets stay within a fraction of a pixel of
     // the limit surface at its distance from the camera (halved per complexity level).
     const CameraParams& camera = context.dicing.camera;
-    const Transform& objectToWorld = objectToWorld_.first();
+    const Transform& objectToWorld = placement_.objectToWorld.first();
     const Vec3f eye = camera.cameraToWorld.first().applyToPoint({0, 0, 0});
     const float pixelAngle =
         camera.projection == Projection::Perspective

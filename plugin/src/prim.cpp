@@ -13,7 +13,11 @@ void Prim::setVisible(bool) {
 }
 
 void Prim::setPassVisibility(PassVisibility) {
-  throw std::invalid_argument(id_ + ": only meshes and instancers take pass visibility");
+  throw std::invalid_argument(id_ + ": only meshes, points and instancers take pass visibility");
+}
+
+void Prim::setMaterialId(PrimId) {
+  throw std::invalid_argument(id_ + ": only meshes and points are bound to materials");
 }
 
 }  // namespace penumbra::plugin

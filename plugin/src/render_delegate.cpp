@@ -21,6 +21,7 @@ RenderDelegate::~RenderDelegate() {
 template <typename Self, typename Visit>
 void RenderDelegate::forEachKind(Self& self, Visit visit) {
   visit(self.meshes_);
+  visit(self.points_);
   visit(self.instancers_);
   visit(self.cameras_);
   visit(self.materials_);
@@ -32,6 +33,8 @@ void RenderDelegate::insertRprim(const std::string& type, const PrimId& id) {
   if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
   if (type == "mesh")
     meshes_.insert(std::make_unique<Mesh>(id, scene_->geometry().addMesh()));
+  else if (type == "points")
+    points_.insert(std::make_unique<Points>(id, scene_->geometry().addMesh()));
   else if (type == "instancer")
     instancers_.insert(std::make_unique<Instancer>(id, scene_->geometry().addInstancer()));
   else
@@ -89,11 +92,15 @@ Prim& RenderDelegate::prim(const PrimId& id) {
 std::map<uint32_t, PrimId> RenderDelegate::primIdManifest() const {
   std::map<uint32_t, PrimId> manifest;
   meshes_.forEach([&](const Mesh& mesh) { manifest[mesh.handle()] = mesh.id(); });
+  points_.forEach([&](const Points& points) { manifest[points.handle()] = points.id(); });
   return manifest;
 }
 
 Mesh& RenderDelegate::mesh(const PrimId& id) {
   return meshes_.at(id, "mesh");
+}
+Points& RenderDelegate::points(const PrimId& id) {
+  return points_.at(id, "points");
 }
 RenderBuffer& RenderDelegate::renderBuffer(const PrimId& id) {
   return renderBuffers_.at(id, "render buffer");
@@ -138,11 +145,12 @@ std::vector<std::string> RenderDelegate::takeWarnings() {
 void RenderDelegate::placeUsersOfNewAndRemovedMaterials() {
   const std::set<PrimId> insertedOrRemoved = context_.materials.takeInsertedOrRemoved();
   if (insertedOrRemoved.empty()) return;
-  meshes_.forEach([&](const Mesh& user) {
-    if (!(user.dirtyBits() & Mesh::kPlacementDirtyBits) &&
-        insertedOrRemoved.count(user.materialId()))
+  const auto placeAgain = [&](const auto& user) {
+    if (!(user.dirtyBits() & Placement::kDirtyBits) && insertedOrRemoved.count(user.materialId()))
       user.place(context_);
-  });
+  };
+  meshes_.forEach(placeAgain);
+  points_.forEach(placeAgain);
 }
 
 DicingContext RenderDelegate::dicingContext(const DicingContext& view) {
@@ -186,7 +194,8 @@ bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
   lights_.syncDirty(context_);
   cameras_.syncDirty(context_);
   meshes_.syncDirty(context_);
-  // After the meshes: copies follow their prototype's geometry, placed by the scene.
+  points_.syncDirty(context_);
+  // After the geometry: copies follow their prototype's geometry, placed by the scene.
   instancers_.syncDirty(context_);
   renderBuffers_.syncDirty(context_);
   const bool lightsChanged = context_.lights.update(*scene_);

@@ -12,6 +12,8 @@ using DelegateClass = pybind11::class_<plugin::RenderDelegate>;
 /// Prims: insertion and removal, meshes (MeshRecord, set_mesh, set_meshes and the per-aspect
 /// setters), instancers, transforms, visibility, cameras and lights (scene_bindings.cpp).
 void bindScene(pybind11::module_& m, DelegateClass& delegate);
+/// Points rprims: set_points (points.cpp).
+void bindPoints(pybind11::module_& m, DelegateClass& delegate);
 /// Materials: set_material and the dict schemas of its networks (materials.cpp).
 void bindMaterials(pybind11::module_& m, DelegateClass& delegate);
 /// The delegate's sync state (render settings, dicing camera, statistics, warnings), render

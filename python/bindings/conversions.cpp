@@ -66,6 +66,27 @@ plugin::ParamValue toParamValue(const std::string& name, const py::handle& value
   }
 }
 
+std::vector<Primvar> toPrimvars(const std::string& id, const py::dict& primvars) {
+  std::vector<Primvar> values;
+  for (const auto& [key, value] : primvars) {
+    const auto [array, interpolation] = value.cast<std::pair<FloatArray, std::string>>();
+    values.push_back(toPrimvar(id, py::str(key), array, toInterpolation(interpolation)));
+  }
+  return values;
+}
+
+std::pair<std::vector<Vec3f>, std::vector<std::vector<Vec3f>>> toPointSamples(
+    const std::string& id, const FloatArray& points) {
+  if (points.ndim() == 2) return {toVec3Array(points, "points"), {}};
+  if (points.ndim() != 3 || points.shape(2) != 3 || points.shape(0) < 1)
+    throw std::invalid_argument(id + ": points must have shape (N, 3) or (K, N, 3)");
+  const size_t count = size_t(points.shape(1));
+  std::vector<std::vector<Vec3f>> motion;
+  for (py::ssize_t k = 1; k < points.shape(0); ++k)
+    motion.push_back(toVec3Vector(points.data() + 3 * count * size_t(k), count));
+  return {toVec3Vector(points.data(), count), std::move(motion)};
+}
+
 Primvar toPrimvar(const std::string& id, const std::string& name, const FloatArray& array,
                   Interpolation interpolation) {
   if (array.ndim() != 1 && array.ndim() != 2)

@@ -13,6 +13,7 @@
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "penumbra/image_io.h"
@@ -42,6 +43,12 @@ plugin::ParamValue toParamValue(const std::string& name, const py::handle& value
 /// A primvar from a (K,) or (K, width) array.
 Primvar toPrimvar(const std::string& id, const std::string& name, const FloatArray& array,
                   Interpolation interpolation);
+/// Primvars as {name: (values, interpolation token)}.
+std::vector<Primvar> toPrimvars(const std::string& id, const py::dict& primvars);
+/// Points of shape (N, 3), or (K, N, 3) for K samples over the shutter: the first sample and
+/// the later ones. Throws naming prim `id` for another shape.
+std::pair<std::vector<Vec3f>, std::vector<std::vector<Vec3f>>> toPointSamples(
+    const std::string& id, const FloatArray& points);
 /// Image metadata from a dict: ints (past int32 as text), floats, 4x4 matrices, strings.
 Metadata toMetadata(const py::dict& metadata);
 py::dict toDict(const Metadata& metadata);

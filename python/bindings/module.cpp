@@ -28,6 +28,7 @@ PYBIND11_MODULE(_core, m) {
   DelegateClass delegate(m, "RenderDelegate");
   delegate.def(py::init<const std::string&>(), py::arg("ocio_config") = "");
   bindScene(m, delegate);
+  bindPoints(m, delegate);
   bindMaterials(m, delegate);
   bindRender(m, delegate);
   bindImages(m);

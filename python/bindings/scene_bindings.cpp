@@ -19,26 +19,9 @@ using plugin::Mesh;
 using plugin::ParamValue;
 using plugin::RenderDelegate;
 
-/// Points of shape (N, 3), or (K, N, 3) for K samples over the shutter.
 void setMeshPoints(Mesh& mesh, const FloatArray& points) {
-  if (points.ndim() == 2) return mesh.setPoints(toVec3Array(points, "points"));
-  if (points.ndim() != 3 || points.shape(2) != 3 || points.shape(0) < 1)
-    throw std::invalid_argument(mesh.id() + ": points must have shape (N, 3) or (K, N, 3)");
-  const size_t count = size_t(points.shape(1));
-  std::vector<std::vector<Vec3f>> motion;
-  for (py::ssize_t k = 1; k < points.shape(0); ++k)
-    motion.push_back(toVec3Vector(points.data() + 3 * count * size_t(k), count));
-  mesh.setPoints(toVec3Vector(points.data(), count), std::move(motion));
-}
-
-/// Primvars as {name: (values, interpolation)}.
-std::vector<Primvar> toMeshPrimvars(const std::string& id, const py::dict& primvars) {
-  std::vector<Primvar> values;
-  for (const auto& [key, value] : primvars) {
-    const auto [array, interpolation] = value.cast<std::pair<FloatArray, std::string>>();
-    values.push_back(toPrimvar(id, py::str(key), array, toInterpolation(interpolation)));
-  }
-  return values;
+  auto [first, motion] = toPointSamples(mesh.id(), points);
+  mesh.setPoints(std::move(first), std::move(motion));
 }
 
 /// What `set_mesh` sends for one mesh, by field name (docs/core-api.md): the scene delegate
@@ -70,7 +53,7 @@ void setMesh(RenderDelegate& delegate, const MeshRecord& record) {
                        toInterpolation(record.displayColorInterpolation));
   mesh.setNormals(toVec3Array(record.normals, "normals"),
                   toInterpolation(record.normalsInterpolation));
-  mesh.setPrimvars(toMeshPrimvars(record.id, record.primvars));
+  mesh.setPrimvars(toPrimvars(record.id, record.primvars));
 }
 
 /// MeshRecord's fields after its id, by keyword (set_mesh's arguments), in kMeshFields' order.
@@ -157,14 +140,14 @@ void bindMeshRecord(py::module_& m) {
       .def_readwrite("primvars", &MeshRecord::primvars);
 }
 
-/// `set_transform` of one prim: a mesh, a camera or a light.
+/// `set_transform` of one prim: a mesh, points, a camera or a light.
 void setTransform(RenderDelegate& delegate, const std::string& id, const DoubleArray& matrix) {
   // The matrix first: a bad one is a ValueError even for an unknown id.
   const MotionTransform transform = toMotionTransform(matrix);
   delegate.prim(id).setTransform(transform);
 }
 
-/// `set_visible` of one prim: a mesh, a light or an instancer.
+/// `set_visible` of one prim: a mesh, points, a light or an instancer.
 void setVisible(RenderDelegate& delegate, const std::string& id, bool visible) {
   delegate.prim(id).setVisible(visible);
 }
@@ -300,7 +283,7 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
       .def(
           "set_mesh_primvars",
           [](RenderDelegate& self, const std::string& id, const py::dict& primvars) {
-            self.mesh(id).setPrimvars(toMeshPrimvars(id, primvars));
+            self.mesh(id).setPrimvars(toPrimvars(id, primvars));
           },
           py::arg("id"), py::arg("primvars"))
       .def(
@@ -316,7 +299,7 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
       .def(
           "set_mesh_material",
           [](RenderDelegate& self, const std::string& id, const std::string& materialId) {
-            self.mesh(id).setMaterialId(materialId);
+            self.prim(id).setMaterialId(materialId);
           },
           py::arg("id"), py::arg("material_id"))
       .def(
@@ -324,10 +307,10 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
           [](RenderDelegate& self, const std::vector<std::string>& ids,
              const std::vector<std::string>& materialIds) {
             forEachPrim(ids, materialIds, [&](const std::string& id, const std::string& material) {
-              self.mesh(id).setMaterialId(material);
+              self.prim(id).setMaterialId(material);
             });
           },
-          py::arg("ids"), py::arg("material_ids"), "set_mesh_material for many meshes.")
+          py::arg("ids"), py::arg("material_ids"), "set_mesh_material for many meshes or points.")
       .def(
           "set_transform",
           [](RenderDelegate& self, const std::string& id, const DoubleArray& matrix) {
@@ -363,7 +346,7 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
             self.prim(id).setPassVisibility({cameraVisible, matte});
           },
           py::arg("id"), py::arg("camera_visible") = true, py::arg("matte") = false,
-          "How camera rays treat a mesh or an instancer's copies (UsdRenderPass "
+          "How camera rays treat a mesh, points or an instancer's copies (UsdRenderPass "
           "cameraVisibility and matte collections): hidden from them, or a holdout.")
       .def(
           "set_instances",

@@ -139,8 +139,8 @@ void Film::addFirstHit(size_t index, const CameraSample& sample, const FirstHitS
         if (s.aov.kind == AovKind::Albedo) add3(sums + s.offset, firstHit.albedo);
         if (s.aov.kind == AovKind::Primvar) {
           SurfacePoint point;
-          point.mesh = firstHit.mesh;
-          point.triangle = firstHit.triangle;
+          point.shape = firstHit.shape;
+          point.primitive = firstHit.primitive;
           point.u = firstHit.u;
           point.v = firstHit.v;
           point.instancePrimvars = firstHit.instancePrimvars;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "penumbra/mesh_shape.h"
+#include "penumbra/points_shape.h"
 
 namespace penumbra {
 
@@ -306,6 +307,13 @@ void Geometry::setMeshGeometry(MeshId id, TriangleMesh data) {
   record(id);  // throws for an unknown id before any name is registered
   for (const Primvar& primvar : data.primvars) materials_.registerPrimvarName(primvar.name);
   setShape(id, std::make_shared<const MeshShape>(std::move(data)));
+}
+
+void Geometry::setPointsGeometry(MeshId id, PointsData points) {
+  record(id);  // throws for an unknown id before any name is registered
+  validatePoints(points);
+  for (const Primvar& primvar : points.primvars) materials_.registerPrimvarName(primvar.name);
+  setShape(id, std::make_shared<const PointsShape>(std::move(points)));
 }
 
 void Geometry::setShape(MeshId id, std::shared_ptr<const Shape> shape) {

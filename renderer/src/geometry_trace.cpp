@@ -145,6 +145,7 @@ std::optional<GeometryHit> Geometry::intersect(const Ray& ray, RayKind kind) con
   hit.primitive = rayHit.hit.primID;
   hit.u = rayHit.hit.u;
   hit.v = rayHit.hit.v;
+  hit.geometricNormal = {rayHit.hit.Ng_x, rayHit.hit.Ng_y, rayHit.hit.Ng_z};
   hit.shape = mesh.shape.get();
   hit.objectToWorld = &placement.objectToWorld;
   hit.materialIndex = mesh.materialIndex;

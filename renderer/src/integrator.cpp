@@ -154,10 +154,9 @@ void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
   record->albedo = surfaceAlbedo(hit->material);
   record->primId = int(hit->meshId);
   record->instanceId = hit->instance;
-  const std::vector<uint32_t>& faces = hit->mesh->sourceFace;
-  record->elementId = hit->triangle < faces.size() ? int(faces[hit->triangle]) : -1;
-  record->mesh = hit->mesh;
-  record->triangle = hit->triangle;
+  record->elementId = hit->shape->elementOf(hit->primitive);
+  record->shape = hit->shape;
+  record->primitive = hit->primitive;
   record->u = hit->u;
   record->v = hit->v;
   record->instancePrimvars = hit->instancePrimvars;

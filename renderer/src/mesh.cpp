@@ -9,7 +9,6 @@
 #include "penumbra/motion.h"
 
 namespace penumbra {
-namespace {
 
 void requireFinite(const std::vector<Vec3f>& points, const std::string& name) {
   for (size_t i = 0; i < points.size(); ++i) {
@@ -18,8 +17,6 @@ void requireFinite(const std::vector<Vec3f>& points, const std::string& name) {
       throw std::invalid_argument(name + "[" + std::to_string(i) + "] is not finite");
   }
 }
-
-}  // namespace
 
 size_t primvarElementCount(Interpolation interpolation, const MeshData& mesh) {
   switch (interpolation) {

@@ -63,8 +63,8 @@ bool MeshShape::tracesAs(const Shape& other) const {
 
 SurfacePoint MeshShape::pointAt(uint32_t triangle, float u, float v, float time) const {
   SurfacePoint point;
-  point.mesh = &mesh_;
-  point.triangle = triangle;
+  point.shape = this;
+  point.primitive = triangle;
   point.u = u;
   point.v = v;
   for (int corner = 0; corner < 3; ++corner)
@@ -73,6 +73,7 @@ SurfacePoint MeshShape::pointAt(uint32_t triangle, float u, float v, float time)
 }
 
 SurfaceGeometry MeshShape::surfaceAt(uint32_t triangle, float u, float v, float time,
+                                     const Vec3f& /*geometricNormal: from the corners, exactly*/,
                                      const Transform& objectToWorld) const {
   SurfaceGeometry surface;
   surface.point = pointAt(triangle, u, v, time);
@@ -95,6 +96,39 @@ int MeshShape::primvarWidth(const PrimvarName& name) const {
   if (const Primvar* primvar = mesh_.findPrimvar(name)) return primvar->width;
   if (name == displayColorName() && !mesh_.displayColor.empty()) return 3;
   return 0;
+}
+
+bool MeshShape::primvarAt(const SurfacePoint& point, const PrimvarName& name, float value[4],
+                          int* width) const {
+  if (const Primvar* primvar = mesh_.findPrimvar(name)) {
+    mesh_.interpolate(*primvar, point.primitive, point.u, point.v, value);
+    *width = primvar->width;
+    return true;
+  }
+  if (name == displayColorName() && !mesh_.displayColor.empty()) {
+    const Vec3f color = mesh_.interpolate(mesh_.displayColor, mesh_.displayColorInterpolation,
+                                          point.primitive, point.u, point.v);
+    value[0] = color.x, value[1] = color.y, value[2] = color.z;
+    *width = 3;
+    return true;
+  }
+  return false;
+}
+
+bool MeshShape::cornerCoordinates(const SurfacePoint& point, const PrimvarName& name,
+                                  Vec2f st[3]) const {
+  const Primvar* primvar = mesh_.findPrimvar(name);
+  if (!primvar || primvar->width < 2) return false;
+  for (int corner = 0; corner < 3; ++corner) {
+    const size_t element = mesh_.cornerElement(primvar->interpolation, point.primitive, corner);
+    const float* value = &primvar->values[element * size_t(primvar->width)];
+    st[corner] = {value[0], value[1]};
+  }
+  return true;
+}
+
+int MeshShape::elementOf(uint32_t triangle) const {
+  return triangle < mesh_.sourceFace.size() ? int(mesh_.sourceFace[triangle]) : -1;
 }
 
 }  // namespace penumbra

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "penumbra/material_inputs.h"
+#include "penumbra/shape.h"
 
 namespace penumbra {
 namespace {
@@ -20,7 +21,7 @@ Vec2f operator*(Vec2f a, float s) {
   return {a.x * s, a.y * s};
 }
 
-/// A texture reader's coordinates at a point: st, and how st changes across the triangle.
+/// A texture reader's coordinates at a point: st, and how st changes across the primitive.
 struct CoordinatesAt {
   TextureFootprint footprint;
   Vec2f edge1{0, 0}, edge2{0, 0};  // st(corner 1) - st(corner 0), st(corner 2) - st(corner 0)
@@ -60,17 +61,10 @@ CoordinatesAt coordinatesAt(const TextureCoordinates& coordinates, const Surface
         coordinates.apply(width >= 2 ? Vec2f{value[0], value[1]} : coordinates.fallback);
     return result;
   }
-  const Primvar* primvar = point.mesh->findPrimvar(coordinates.primvar);
-  if (!primvar || primvar->width < 2) {
+  Vec2f st[3];
+  if (!point.shape->cornerCoordinates(point, coordinates.primvar, st)) {
     result.footprint.st = coordinates.apply(coordinates.fallback);
     return result;
-  }
-  Vec2f st[3];
-  for (int corner = 0; corner < 3; ++corner) {
-    const size_t element =
-        point.mesh->cornerElement(primvar->interpolation, point.triangle, corner);
-    const float* value = &primvar->values[element * size_t(primvar->width)];
-    st[corner] = {value[0], value[1]};
   }
   const Vec2f at = st[0] * (1 - point.u - point.v) + st[1] * point.u + st[2] * point.v;
   const Vec3f e1 = point.corners[1] - point.corners[0];
@@ -264,20 +258,7 @@ bool primvarAt(const SurfacePoint& point, const PrimvarName& name, float value[4
     std::copy(own, own + *width, value);
     return true;
   }
-  const TriangleMesh& mesh = *point.mesh;
-  if (const Primvar* primvar = mesh.findPrimvar(name)) {
-    mesh.interpolate(*primvar, point.triangle, point.u, point.v, value);
-    *width = primvar->width;
-    return true;
-  }
-  if (name == displayColorName() && !mesh.displayColor.empty()) {
-    const Vec3f color = mesh.interpolate(mesh.displayColor, mesh.displayColorInterpolation,
-                                         point.triangle, point.u, point.v);
-    value[0] = color.x, value[1] = color.y, value[2] = color.z;
-    *width = 3;
-    return true;
-  }
-  return false;
+  return point.shape->primvarAt(point, name, value, width);
 }
 
 MaterialParams fallbackSurface() {

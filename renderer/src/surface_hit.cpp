@@ -17,8 +17,8 @@ std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, R
     return hit;
   }
   const Transform objectToWorld = found->objectToWorld->at(ray.time);
-  SurfaceGeometry surface =
-      found->shape->surfaceAt(found->primitive, found->u, found->v, ray.time, objectToWorld);
+  SurfaceGeometry surface = found->shape->surfaceAt(found->primitive, found->u, found->v, ray.time,
+                                                    found->geometricNormal, objectToWorld);
   SurfacePoint& point = surface.point;
   hit.normal = surface.normal;
   hit.shadingNormal = surface.shadingNormal;
@@ -26,8 +26,8 @@ std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, R
   attachCopyPrimvars(point, found->instancePrimvars, uint32_t(found->instance));
   hit.meshId = found->meshId;
   hit.instance = found->instance;
-  hit.mesh = point.mesh;
-  hit.triangle = point.triangle;
+  hit.shape = point.shape;
+  hit.primitive = point.primitive;
   hit.u = point.u;
   hit.v = point.v;
   hit.instancePrimvars = point.instancePrimvars;
@@ -35,7 +35,7 @@ std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, R
   if (const Material* material = materials.find(found->materialIndex)) {
     const bool anisotropic = material->mayBeAnisotropic();
     if (material->varies() || anisotropic) {
-      // Texture footprints and tangent frames need the triangle in world space.
+      // Texture footprints and tangent frames need the primitive in world space.
       for (Vec3f& corner : point.corners) corner = objectToWorld.applyToPoint(corner);
     }
     if (material->varies()) {

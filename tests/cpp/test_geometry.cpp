@@ -51,8 +51,8 @@ TEST(Geometry, RawHitsSayWhichPlacementAndTriangle) {
   EXPECT_EQ(own->materialIndex, MaterialTable::kNoMaterial);
   ASSERT_NE(dynamic_cast<const MeshShape*>(own->shape), nullptr);
   EXPECT_LT(own->primitive, 2u);
-  const SurfaceGeometry surface =
-      own->shape->surfaceAt(own->primitive, own->u, own->v, 0, own->objectToWorld->at(0));
+  const SurfaceGeometry surface = own->shape->surfaceAt(
+      own->primitive, own->u, own->v, 0, own->geometricNormal, own->objectToWorld->at(0));
   EXPECT_NEAR(surface.normal.y, 1, 1e-6f);
 
   const std::optional<GeometryHit> copy = geometry.intersect(downAt(20, 0.5f), RayKind::Camera);

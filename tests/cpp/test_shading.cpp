@@ -4,6 +4,7 @@
 
 #include <limits>
 
+#include "penumbra/mesh_shape.h"
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
 #include "penumbra/shading.h"
@@ -22,14 +23,8 @@ TriangleMesh unitSquare() {
   return triangulate(data);
 }
 
-SurfacePoint pointOn(const TriangleMesh& mesh, uint32_t triangle, float u, float v) {
-  SurfacePoint point;
-  point.mesh = &mesh;
-  point.triangle = triangle;
-  point.u = u;
-  point.v = v;
-  for (int corner = 0; corner < 3; ++corner)
-    point.corners[corner] = mesh.cornerAt(triangle, corner, 0);
+SurfacePoint pointOn(const MeshShape& mesh, uint32_t triangle, float u, float v) {
+  SurfacePoint point = mesh.pointAt(triangle, u, v, 0);
   point.normal = point.shadingNormal = {0, 0, 1};
   return point;
 }
@@ -70,8 +65,9 @@ TEST(Shading, PrimvarReadersInterpolateEveryInterpolation) {
                    {"face", {10, 20}, 1, Interpolation::Uniform},
                    {"tint", {0.1f, 0.2f, 0.3f}, 3, Interpolation::Constant}};
   TextureSystem textures;
+  const MeshShape shape(mesh);
   // Triangle 0 has corners (0,0), (1,0), (1,1); u = 0.5, v = 0.25 lies at (0.75, 0.25).
-  const SurfacePoint point = pointOn(mesh, 0, 0.5f, 0.25f);
+  const SurfacePoint point = pointOn(shape, 0, 0.5f, 0.25f);
   Vec3f normal = point.shadingNormal;
   EXPECT_NEAR(
       evaluateMaterial(readsPrimvar(MaterialInput::Roughness, "x"), textures, point, &normal)
@@ -81,7 +77,7 @@ TEST(Shading, PrimvarReadersInterpolateEveryInterpolation) {
                   .metallic,
               0.25f, 1e-6f);
   EXPECT_EQ(evaluateMaterial(readsPrimvar(MaterialInput::Ior, "face"), textures,
-                             pointOn(mesh, 1, 0.3f, 0.3f), &normal)
+                             pointOn(shape, 1, 0.3f, 0.3f), &normal)
                 .ior,
             20.0f);
   const Vec3f tint =
@@ -106,8 +102,9 @@ TEST(Shading, PrimvarReadersInterpolateEveryInterpolation) {
           .emissiveColor;
   EXPECT_EQ(fallback.y, 2.0f);
   mesh.displayColor = {{0.9f, 0.5f, 0.1f}};
+  const MeshShape coloured(mesh);
   EXPECT_EQ(evaluateMaterial(readsPrimvar(MaterialInput::DiffuseColor, "displayColor"), textures,
-                             point, &normal)
+                             pointOn(coloured, 0, 0.5f, 0.25f), &normal)
                 .diffuseColor.y,
             0.5f);
   // Unconnected inputs keep their constants.
@@ -155,7 +152,8 @@ Vec3f programValue(std::vector<ExpressionNode> nodes, const SurfacePoint& point)
 TEST(Shading, ProgramsEvaluateEveryOperationExactly) {
   TriangleMesh mesh = unitSquare();
   mesh.primvars = {{"x", {0, 1, 1, 0}, 1, Interpolation::Vertex}};
-  const SurfacePoint point = pointOn(mesh, 0, 0.5f, 0.25f);  // x = 0.75
+  const MeshShape shape(mesh);
+  const SurfacePoint point = pointOn(shape, 0, 0.5f, 0.25f);  // x = 0.75
   const auto value = [&](ExpressionNode last) {
     return programValue({leaf(ExpressionOp::Constant, {0.5f, 2, 4, 8}),
                          leaf(ExpressionOp::Primvar, {9, 9, 9, 9}, "x"),
@@ -198,13 +196,13 @@ TEST(Shading, SurfaceTangentFollowsTheTangentPrimvarElseSt) {
   TriangleMesh mesh = unitSquare();
   const Transform identity;
   // No st: no tangent (the BSDF picks one).
-  EXPECT_EQ(length(surfaceTangent(pointOn(mesh, 0, 0.3f, 0.3f), identity)), 0.0f);
+  EXPECT_EQ(length(surfaceTangent(pointOn(MeshShape(mesh), 0, 0.3f, 0.3f), identity)), 0.0f);
   // st turned by 90°: s grows along +y.
   mesh.primvars = {{"st", {0, 0, 0, -1, 1, -1, 1, 0}, 2, Interpolation::Vertex}};
-  const Vec3f fromSt = normalize(surfaceTangent(pointOn(mesh, 1, 0.3f, 0.3f), identity));
+  const Vec3f fromSt = normalize(surfaceTangent(pointOn(MeshShape(mesh), 1, 0.3f, 0.3f), identity));
   EXPECT_NEAR(fromSt.y, 1.0f, 1e-6f);
   mesh.primvars.push_back({"tangent", {1, 1, 0}, 3, Interpolation::Constant});
-  const Vec3f fromPrimvar = surfaceTangent(pointOn(mesh, 1, 0.3f, 0.3f), identity);
+  const Vec3f fromPrimvar = surfaceTangent(pointOn(MeshShape(mesh), 1, 0.3f, 0.3f), identity);
   EXPECT_EQ(fromPrimvar.x, 1.0f);
   EXPECT_EQ(fromPrimvar.y, 1.0f);
 }

@@ -246,14 +246,14 @@ def test_added_and_removed_prims():
 
 def test_unsupported_prims_warn_once_per_type():
     stage = lit_quad_stage()
-    UsdGeom.Points.Define(stage, "/World/dots")
+    UsdGeom.NurbsPatch.Define(stage, "/World/patch")
     UsdGeom.BasisCurves.Define(stage, "/World/hair1")
     UsdGeom.BasisCurves.Define(stage, "/World/hair2")
     UsdGeom.Sphere.Define(stage, "/World/ball")  # implicit surfaces are supported (tessellated)
     with pytest.warns(penumbra.PenumbraWarning) as record:
         penumbra.Renderer(stage)
     messages = [str(w.message) for w in record]
-    assert "1 Points prim not supported yet, skipped (first: /World/dots)" in messages
+    assert "1 NurbsPatch prim not supported yet, skipped (first: /World/patch)" in messages
     assert "2 BasisCurves prims not supported yet, skipped (first: /World/hair1)" in messages
     assert not any("Sphere" in message for message in messages)
 

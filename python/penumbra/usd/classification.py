@@ -1,7 +1,8 @@
 """Which prims the scene delegate renders, and as what kind of delegate prim.
 
 Like UsdImaging's prim adapters, found by type name: cameras, lights (their sprim type), meshes
-(meshes and implicit surfaces), and gprims that are not supported yet, reported once per update.
+(meshes and implicit surfaces), points, and gprims that are not supported yet, reported once per
+update.
 """
 
 from __future__ import annotations
@@ -28,16 +29,16 @@ class Classifier:
 
     def classify(self, prim: Usd.Prim, path: Sdf.Path) -> tuple[str | None, Inherited | None]:
         """The delegate prim type for ``prim`` (at ``path``), or ``None`` when it is not
-        rendered; with its inherited state when it is a mesh."""
+        rendered; with its inherited state when it is a mesh or points."""
         role = self._role_of_type(prim)
-        if role in ("mesh", "unsupported"):
+        if role in ("mesh", "points", "unsupported"):
             if role == "mesh" and prim.IsInstanceProxy():
                 return None, None  # natively instanced: NativeInstancing
             state = self._inherited.state(prim, path)
             if state.purpose not in self.purposes:
                 return None, None
-            if role == "mesh":
-                return "mesh", state
+            if role != "unsupported":  # points in native instances: one rprim per instance
+                return role, state
         elif role is not None:
             return role, None  # a camera or a light
         if role == "unsupported" or is_light(prim):
@@ -49,7 +50,7 @@ class Classifier:
     def traverse(
         self, root: Usd.Prim
     ) -> Iterator[tuple[Sdf.Path, str, Usd.Prim, Inherited | None]]:
-        """``(path, kind, prim, inherited state of a mesh)`` of the prims to render under
+        """``(path, kind, prim, inherited state of a mesh or points)`` of the prims to render under
         ``root`` (instance proxies included; prototypes below a PointInstancer are not rendered
         on their own)."""
         if not root or any(p.IsA(UsdGeom.PointInstancer) for p in _ancestors(root)):
@@ -73,8 +74,9 @@ class Classifier:
 
     def _role_of_type(self, prim: Usd.Prim) -> str | None:
         """What prims of ``prim``'s type are (as UsdImaging finds its prim adapters by type
-        name): "camera", a light type, "mesh" (meshes and implicit surfaces), "unsupported"
-        (other gprims and volumes) or ``None``; decided once per type name by its schema."""
+        name): "camera", a light type, "mesh" (meshes and implicit surfaces), "points",
+        "unsupported" (other gprims and volumes) or ``None``; decided once per type name by its
+        schema."""
         type_name = prim.GetTypeName()
         if type_name in self._roles:
             return self._roles[type_name]
@@ -85,6 +87,8 @@ class Classifier:
             role = sprim_type
         elif prim.IsA(UsdGeom.Mesh) or is_implicit(prim):
             role = "mesh"
+        elif prim.IsA(UsdGeom.Points):
+            role = "points"
         elif prim.IsA(UsdGeom.Gprim) or prim.IsA(UsdVol.Volume):
             role = "unsupported"  # point instancers: PointInstancerDelegate
         self._roles[type_name] = role

@@ -64,6 +64,18 @@ class MaterialRegistry:
             if material.in_core:
                 self.core.remove_prim(str(material_path))
 
+    def bind(self, user: Sdf.Path, old: str, new: Sdf.Path | None) -> str:
+        """Move ``user`` from material ``old`` (its id, "" for none) to ``new`` (``None``:
+        unbound), acquiring and releasing as needed; returns the delegate id of ``new`` ("" when
+        there is none or it cannot be used)."""
+        previous = Sdf.Path(old) if old else None
+        if new != previous:
+            if previous is not None:
+                self.release(previous, user)
+            if new is not None:
+                self.acquire(new, user)
+        return "" if new is None else self.material_id(new)
+
     def material_id(self, material_path: Sdf.Path) -> str:
         """The delegate id of the material, "" when it cannot be used."""
         material = self._materials.get(material_path)

@@ -88,7 +88,7 @@ def sync_mesh_data(
         normals=_normals(prim, scheme, attributes, warn, path),
         left_handed=left_handed,
         scheme=scheme,
-        primvars=_primvars(prim, reader, warn, path, authored=authored),
+        primvars=gprim_primvars(prim, reader, warn, path, authored=authored),
         authored=authored,
         attributes=attributes,
     )
@@ -141,7 +141,7 @@ def push_plain_meshes(
             for prim, authored in zip(prims, names)
         ]
 
-    points = [_as_vec3_array(prim.GetAttribute("points").Get(time)) for prim in prims]
+    points = [as_vec3_array(prim.GetAttribute("points").Get(time)) for prim in prims]
     counts = [_as_int_array(prim.GetAttribute("faceVertexCounts").Get(time)) for prim in prims]
     indices = [_as_int_array(prim.GetAttribute("faceVertexIndices").Get(time)) for prim in prims]
     lights = [prim.HasAPI(UsdLux.MeshLightAPI) for prim in prims]
@@ -266,8 +266,8 @@ def push_mesh(
     then its UsdLuxMeshLightAPI. ``authored``: as for :func:`sync_mesh_data`; ``attributes``:
     the reader of the prim's attributes the caller already made from them."""
     if primvars is None:
-        primvars = _primvars(prim, reader, None, path, constant_only=True, authored=authored)
-    colors, interpolation = _display_color(prim, reader, authored)
+        primvars = gprim_primvars(prim, reader, None, path, constant_only=True, authored=authored)
+    colors, interpolation = display_color(prim, reader, authored)
     if attributes is None:
         attributes = _Attributes(prim, reader, authored)
     core.set_mesh(
@@ -329,7 +329,7 @@ _FLOAT32 = np.dtype(np.float32)
 _INT32 = np.dtype(np.int32)
 
 
-def _as_vec3_array(value) -> np.ndarray | None:
+def as_vec3_array(value) -> np.ndarray | None:
     """``value`` as float32 (N, 3) if it is an array of 3-vectors (float or double), else
     ``None``."""
     array = np.asarray(value)
@@ -358,7 +358,7 @@ def _int32(values) -> np.ndarray:
 
 
 _TOPOLOGY = (
-    ("points", _as_vec3_array),
+    ("points", as_vec3_array),
     ("faceVertexCounts", _as_int_array),
     ("faceVertexIndices", _as_int_array),
 )
@@ -395,7 +395,7 @@ def _normals(
         values = reader.get(mesh.GetNormalsAttr())
     if values is None or len(np.asarray(values).reshape(-1)) == 0:
         return none
-    array = _as_vec3_array(values)
+    array = as_vec3_array(values)
     if array is None:
         warn(f"{path}: normals have type {_value_type(values)}, not 3-vectors; the mesh is shaded flat")
         return none
@@ -409,7 +409,7 @@ _NO_VECTORS.flags.writeable = False  # shared by every mesh without normals or d
 _DEDICATED_PRIMVARS = frozenset({"displayColor", "normals"})
 
 
-def _primvars(
+def gprim_primvars(
     prim: Usd.Prim,
     reader: SampleReader,
     warn: Callable[[str], None] | None,
@@ -506,7 +506,7 @@ _DISPLAY_COLOR_INDICES = f"{_DISPLAY_COLOR}:indices"
 _INTERPOLATION = UsdGeom.Tokens.interpolation
 
 
-def _display_color(
+def display_color(
     prim: Usd.Prim, reader: SampleReader, authored: Authored | None = None
 ) -> tuple[np.ndarray, str]:
     """The flattened displayColor of ``prim`` (own or inherited constant primvar) and its

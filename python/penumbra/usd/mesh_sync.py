@@ -233,13 +233,7 @@ class MeshSync:
                 f"{path}: per-face material bindings (GeomSubsets) are not supported yet; "
                 "the mesh's own binding is used"
             )
-        old = Sdf.Path(record.material) if record.material else None
-        if material_path != old:
-            if old is not None:
-                self._materials.release(old, path)
-            if material_path is not None:
-                self._materials.acquire(material_path, path)
-        material_id = "" if material_path is None else self._materials.material_id(material_path)
+        material_id = self._materials.bind(path, record.material, material_path)
         record.material = str(material_path) if material_path is not None else ""
         if material_id or not new:
             batch.set_mesh_material(path_str, material_id)

@@ -120,16 +120,17 @@ def _angle(p: Gf.Quatd, q: Gf.Quatd) -> float:
 
 
 def point_samples(
-    mesh: UsdGeom.Mesh,
+    mesh: UsdGeom.PointBased,
     points: np.ndarray,
     reader: SampleReader,
     warn: Callable[[str], None],
     path: str,
     velocities_might_be_authored: bool = True,
 ) -> np.ndarray:
-    """The object-space points of ``mesh`` over the reader's shutter: float32 (N, 3), or
-    (K, N, 3) when they deform or move with velocities. ``points``: float32 (N, 3) at the
-    reader's time (also the fallback when the topology changes within the shutter).
+    """The object-space points of ``mesh`` (or any point-based gprim, as UsdGeomPoints) over
+    the reader's shutter: float32 (N, 3), or (K, N, 3) when they deform or move with
+    velocities. ``points``: float32 (N, 3) at the reader's time (also the fallback when the
+    topology changes within the shutter).
     ``velocities_might_be_authored`` False: the caller knows the mesh has no velocities."""
     shutter = reader.shutter
     if shutter.blurred and changes_within(mesh.GetPointsAttr(), shutter.interval):
@@ -145,7 +146,7 @@ def point_samples(
 
 
 def _deformation(
-    mesh: UsdGeom.Mesh, shutter: Shutter, count: int, warn: Callable[[str], None], path: str
+    mesh: UsdGeom.PointBased, shutter: Shutter, count: int, warn: Callable[[str], None], path: str
 ) -> np.ndarray | None:
     """Time-sampled points at the shutter's times; ``None`` (after a warning) when the point
     count or the topology changes within the shutter."""
@@ -154,7 +155,7 @@ def _deformation(
     samples = [np.asarray(attr.Get(time), dtype=np.float32).reshape(-1, 3) for time in times]
     topology = [
         attr
-        for attr in (mesh.GetFaceVertexCountsAttr(), mesh.GetFaceVertexIndicesAttr())
+        for attr in _topology(mesh)
         if attr.ValueMightBeTimeVarying()
     ]
     if any(len(s) != count for s in samples) or any(
@@ -168,8 +169,15 @@ def _deformation(
     return np.stack(samples)
 
 
+def _topology(gprim: UsdGeom.PointBased) -> tuple[Usd.Attribute, ...]:
+    """The attributes of a mesh's topology (other point-based gprims have none)."""
+    if not isinstance(gprim, UsdGeom.Mesh):
+        return ()
+    return (gprim.GetFaceVertexCountsAttr(), gprim.GetFaceVertexIndicesAttr())
+
+
 def _velocity_motion(
-    mesh: UsdGeom.Mesh, shutter: Shutter, warn: Callable[[str], None], path: str
+    mesh: UsdGeom.PointBased, shutter: Shutter, warn: Callable[[str], None], path: str
 ) -> np.ndarray | None:
     """p(t) = p0 + v·Δ + ½·a·Δ² at the shutter's times, p0, v and a at the points' sample at
     or before the frame; ``None`` when the velocities do not match the points."""

@@ -45,8 +45,9 @@ class PrimSync(Protocol):
     ) -> None: ...
 
 
-class _SprimSync:
-    """Cameras and lights: their data read prim by prim, transforms and visibility queued."""
+class OneByOneSync:
+    """Prims read one by one (cameras, lights, points): their data, transforms and visibility
+    queued."""
 
     moving = False  # sampled over the shutter (else at the frame)
 
@@ -103,7 +104,7 @@ class _SprimSync:
             record.varying = set_flag(record.varying, Dirty.VISIBILITY, might_vary)
 
 
-class CameraSync(_SprimSync):
+class CameraSync(OneByOneSync):
     """UsdGeomCameras, sampled over the shutter."""
 
     moving = True
@@ -117,7 +118,7 @@ class CameraSync(_SprimSync):
         )
 
 
-class LightSync(_SprimSync):
+class LightSync(OneByOneSync):
     """UsdLux lights, read at the frame; noted in ``emitters``."""
 
     def __init__(

@@ -14,10 +14,11 @@ data at a time code, and afterwards pushes only what changed:
   offsets or the depth-of-field switch change.
 
 Which prims are rendered, as what, is :mod:`.classification`'s; each kind is read by its syncer
-(:mod:`.prim_sync` for cameras and lights, :mod:`.mesh_sync` for meshes), materials by the
-:class:`~.material_registry.MaterialRegistry`. Implicit surfaces (Sphere, Cube, Cylinder, Cone,
-Capsule, Plane) are tessellated and tracked as meshes (see :mod:`.implicit`). Meshes and cameras
-move over the shutter (transform, points, lens); lights keep their transform at the frame.
+(:mod:`.prim_sync` for cameras and lights, :mod:`.mesh_sync` for meshes, :mod:`.points_sync`
+for points), materials by the :class:`~.material_registry.MaterialRegistry`. Implicit surfaces
+(Sphere, Cube, Cylinder, Cone, Capsule, Plane) are tessellated and tracked as meshes (see
+:mod:`.implicit`). Meshes, points and cameras move over the shutter (transform, points, lens);
+lights keep their transform at the frame.
 
 Meshes inside native prototypes are not instance proxies here: :mod:`.native_instancing` syncs
 each once and places its copies with an instancer rprim (sharing its BVH); point instancers are
@@ -42,6 +43,7 @@ from .mesh_sync import MeshSync, authored
 from .motion import XformCaches
 from .native_instancing import NativeInstancing
 from .point_instancers import PointInstancerDelegate
+from .points_sync import PointsSync
 from .prim_sync import CameraSync, LightSync, PrimSync, SyncSettings
 from .render_pass import RenderPassCollections
 from .sampling import Shutter
@@ -52,6 +54,7 @@ DEFAULT_PURPOSES = ("default", "proxy")
 """usdrecord's default: the "default" purpose plus "proxy"."""
 
 _LIGHT = "light"  # the syncer of every kind not in the table: the light types
+_RPRIMS = ("mesh", "points")  # the kinds inserted as rprims, the others as sprims
 
 
 class SceneDelegate:
@@ -100,6 +103,7 @@ class SceneDelegate:
             "mesh": MeshSync(
                 core, self._warn, render_pass, self._inherited, self.materials, self._emitters
             ),
+            "points": PointsSync(core, self._warn, render_pass, self._inherited, self.materials),
         }
 
     # ----------------------------------------------------------------------------------------
@@ -237,16 +241,18 @@ class SceneDelegate:
         while self._tracker.dirty or self.materials.dirty:
             xform_caches = XformCaches()
             todo = self._tracker.take_flush()
-            entering_meshes = [
-                todo.ids[n]
-                for n, record in enumerate(todo.records)
-                if todo.new[n] and record.kind == "mesh"
-            ]
-            self.core.insert_rprims("mesh", entering_meshes)
+            for kind in _RPRIMS:
+                entering = [
+                    todo.ids[n]
+                    for n, record in enumerate(todo.records)
+                    if todo.new[n] and record.kind == kind
+                ]
+                if entering:
+                    self.core.insert_rprims(kind, entering)
             by_syncer: dict[str, list[int]] = {name: [] for name in self._syncers}
             for n, record in enumerate(todo.records):
                 if todo.new[n]:
-                    if record.kind != "mesh":
+                    if record.kind not in _RPRIMS:
                         self.core.insert_sprim(record.kind, todo.ids[n])
                     record.in_core = True
                     todo.bits[n] = aspects(record.kind)  # entering the delegate: everything

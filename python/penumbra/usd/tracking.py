@@ -26,13 +26,14 @@ class Dirty:
     DATA = 1  # the prim's own attributes (geometry, camera, light inputs)
     TRANSFORM = 2
     VISIBILITY = 4
-    BINDING = 8  # meshes: which material is bound
+    BINDING = 8  # meshes and points: which material is bound
     ALL = DATA | TRANSFORM | VISIBILITY | BINDING
 
 
 # Which aspects each kind of prim has.
 _ASPECTS = {
     "mesh": Dirty.ALL,
+    "points": Dirty.ALL,
     "camera": Dirty.DATA | Dirty.TRANSFORM,
 }
 _LIGHT_ASPECTS = Dirty.DATA | Dirty.TRANSFORM | Dirty.VISIBILITY
@@ -57,7 +58,7 @@ class TrackedPrim:
     unknown: int = 0  # aspects whose variability is found out at the first new time
     # Meshes whose data varies: attribute queries reused at each new time (dropped on edits).
     queries: dict[str, Usd.AttributeQuery] | None = None
-    material: str = ""  # meshes: id of the bound material ("" = none)
+    material: str = ""  # meshes and points: id of the bound material ("" = none)
 
 
 @dataclass

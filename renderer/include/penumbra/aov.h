@@ -11,6 +11,8 @@
 
 namespace penumbra {
 
+class Shape;
+
 enum class AovKind {
   Color,         // RGBA, filtered
   Alpha,         // coverage, filtered
@@ -61,8 +63,8 @@ struct FirstHitSample {
   Vec3f position, normal, cameraNormal, albedo;
   int primId = -1, instanceId = -1, elementId = -1;
   /// Where primvars are looked up (valid while the scene is alive and unchanged).
-  const TriangleMesh* mesh = nullptr;
-  uint32_t triangle = 0;
+  const Shape* shape = nullptr;
+  uint32_t primitive = 0;
   float u = 0, v = 0;
   const std::vector<Primvar>* instancePrimvars = nullptr;
 };

@@ -17,6 +17,7 @@
 #include "penumbra/material_table.h"
 #include "penumbra/mesh.h"
 #include "penumbra/motion.h"
+#include "penumbra/points.h"
 #include "penumbra/shape.h"
 
 namespace penumbra {
@@ -39,6 +40,7 @@ struct GeometryHit {
   int instance = -1;       // the instancer copy hit, -1: the object's own placement
   uint32_t primitive = 0;  // Embree's primID in the object's geometry
   float u = 0, v = 0;      // Embree's barycentrics on it
+  Vec3f geometricNormal;   // Embree's Ng there: object space, unnormalised
   const Shape* shape = nullptr;
   const MotionTransform* objectToWorld = nullptr;  // the placement's
   int materialIndex = MaterialTable::kNoMaterial;  // the object's
@@ -72,6 +74,9 @@ class Geometry {
   /// Replaces the mesh's geometry and rebuilds its BVH, unless its points and triangles are
   /// those it has already (a primvar or sidedness edit): then only the shading data changes.
   void setMeshGeometry(MeshId id, TriangleMesh mesh);
+  /// Makes object `id` (from addMesh(); ids name any kind of object) the points `points`
+  /// (validated: std::invalid_argument as validatePoints) and builds its BVH.
+  void setPointsGeometry(MeshId id, PointsData points);
   /// Drops the mesh's geometry (it stays registered but renders nothing).
   void clearMeshGeometry(MeshId id);
   /// Places the mesh; an animated transform gives Embree multi-segment instance motion.

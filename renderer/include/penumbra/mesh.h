@@ -119,6 +119,10 @@ const Primvar* findPrimvar(const std::vector<Primvar>& primvars, const PrimvarNa
 /// `mesh`.
 void validatePrimvar(const Primvar& primvar, const MeshData& mesh);
 
+/// Throws std::invalid_argument naming `name` and the index of the first point that is not
+/// finite.
+void requireFinite(const std::vector<Vec3f>& points, const std::string& name);
+
 /// Points closer than this fraction of a mesh's largest extent are one point when deciding
 /// whether the mesh is closed.
 constexpr float kWeldTolerance = 1e-5f;

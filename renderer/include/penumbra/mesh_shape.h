@@ -16,8 +16,14 @@ class MeshShape final : public Shape {
   bool doubleSided() const override { return mesh_.doubleSided; }
   SurfacePoint pointAt(uint32_t triangle, float u, float v, float time) const override;
   SurfaceGeometry surfaceAt(uint32_t triangle, float u, float v, float time,
+                            const Vec3f& geometricNormal,
                             const Transform& objectToWorld) const override;
   int primvarWidth(const PrimvarName& name) const override;
+  bool primvarAt(const SurfacePoint& point, const PrimvarName& name, float value[4],
+                 int* width) const override;
+  bool cornerCoordinates(const SurfacePoint& point, const PrimvarName& name,
+                         Vec2f st[3]) const override;
+  int elementOf(uint32_t triangle) const override;
 
  private:
   TriangleMesh mesh_;

@@ -1,4 +1,4 @@
-// Evaluating a material's shader network at a point of a mesh: primvar readers, UsdUVTexture
+// Evaluating a material's shader network at a point of a surface: primvar readers, UsdUVTexture
 // lookups filtered over the ray's footprint (through UsdTransform2d), normal maps.
 #pragma once
 
@@ -8,25 +8,32 @@
 
 namespace penumbra {
 
-/// A point of a triangle as shading needs it. Positions and normals in world space.
+class Shape;
+
+/// A point of a surface as shading needs it. Positions and normals in world space.
 struct SurfacePoint {
-  const TriangleMesh* mesh = nullptr;
-  uint32_t triangle = 0;
-  float u = 0, v = 0;   // Embree's barycentrics: weights 1-u-v, u, v for corners 0, 1, 2
-  Vec3f corners[3];     // the triangle's corners at the ray's time
+  const Shape* shape = nullptr;  // the kind of geometry that knows its primvars (shape.h)
+  uint32_t primitive = 0;        // Embree's primID in the shape's geometry
+  /// Where on the primitive: weights 1-u-v, u, v of corners 0, 1, 2 (Embree's barycentrics on
+  /// a triangle).
+  float u = 0, v = 0;
+  /// The primitive's parametrisation at the ray's time, for texture-coordinate differentials
+  /// and tangents: a triangle's corners; three times the same point where a kind has none
+  /// (textures are then point-sampled).
+  Vec3f corners[3];
   Vec3f normal;         // unit geometric normal
   Vec3f shadingNormal;  // unit interpolated normal, on the same side as `normal`
   /// The ray footprint: how the point moves on the surface for one pixel of image x and y
   /// (zero: point-sampled lookups).
   Vec3f dpdx{0.0f}, dpdy{0.0f};
   /// For instancer copies: the instancer's per-copy primvars (one value per copy, overriding the
-  /// mesh's primvars of the same name; NaN as a copy's first value: it has none, the mesh's
+  /// shape's primvars of the same name; NaN as a copy's first value: it has none, the shape's
   /// applies) and this copy's index.
   const std::vector<Primvar>* instancePrimvars = nullptr;
   uint32_t instance = 0;
 };
 
-/// Primvar `name` at `point`: the copy's own value, else the mesh's (displayColor included).
+/// Primvar `name` at `point`: the copy's own value, else the shape's (displayColor included).
 /// Writes up to 4 floats and their count; false when neither has it.
 bool primvarAt(const SurfacePoint& point, const PrimvarName& name, float value[4], int* width);
 

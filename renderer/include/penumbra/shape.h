@@ -1,4 +1,4 @@
-// One kind of geometry (triangle meshes; later curves, points, volume bounds) behind the small
+// One kind of geometry (triangle meshes, points; later curves, volume bounds) behind the small
 // interface that the geometry aggregate (geometry.h) and shading need of it: its Embree geometry,
 // and the surface at a hit on it. Everything else (BVHs, placements, instancer copies, the
 // overlay, hit filters) is the aggregate's and the same for every kind, so that a new kind is a
@@ -44,11 +44,23 @@ class Shape {
   /// time `time`; corners in object space. Cheap enough for hit filters.
   virtual SurfacePoint pointAt(uint32_t primitive, float u, float v, float time) const = 0;
   /// The surface there, its normals placed in the world by `objectToWorld` (the placement's
-  /// transform at `time`).
+  /// transform at `time`); `geometricNormal` is Embree's Ng there (object space, unnormalised).
   virtual SurfaceGeometry surfaceAt(uint32_t primitive, float u, float v, float time,
+                                    const Vec3f& geometricNormal,
                                     const Transform& objectToWorld) const = 0;
   /// The widest value of primvar `name` it has (0: none).
   virtual int primvarWidth(const PrimvarName& name) const = 0;
+  /// Its own primvar `name` (displayColor included) at `point` (one of its points): writes up
+  /// to 4 floats and their count; false when it has none.
+  virtual bool primvarAt(const SurfacePoint& point, const PrimvarName& name, float value[4],
+                         int* width) const = 0;
+  /// The first two components of its primvar `name` (of width 2 or more: texture coordinates)
+  /// at the corners of `point`'s primitive, which `point`'s weights interpolate; false when it
+  /// has no such primvar.
+  virtual bool cornerCoordinates(const SurfacePoint& point, const PrimvarName& name,
+                                 Vec2f st[3]) const = 0;
+  /// The authored element (a mesh's face, a point) that `primitive` is part of; -1: none.
+  virtual int elementOf(uint32_t primitive) const = 0;
 };
 
 }  // namespace penumbra

@@ -18,7 +18,7 @@ struct SurfaceHit {
   float distance = 0;
   Vec3f position;
   Vec3f normal;         // unit geometric normal on the authored front side
-  Vec3f shadingNormal;  // unit, interpolated where the mesh has normals, on the same side
+  Vec3f shadingNormal;  // unit, interpolated where the shape has normals, on the same side
   Vec3f emission;       // emitted radiance
   /// Where the material may be anisotropic: the surface's tangent (surfaceTangent); else zero.
   Vec3f tangent{0.0f};
@@ -30,9 +30,9 @@ struct SurfaceHit {
   bool matte = false;   // a holdout (PassVisibility::matte): only distance and position are set
   // Which surface this is, for AOVs and primvar lookups (as in SurfacePoint).
   uint32_t meshId = 0;
-  int instance = -1;  // the instancer copy hit, -1: the mesh's own placement
-  const TriangleMesh* mesh = nullptr;
-  uint32_t triangle = 0;
+  int instance = -1;  // the instancer copy hit, -1: the object's own placement
+  const Shape* shape = nullptr;
+  uint32_t primitive = 0;
   float u = 0, v = 0;
   const std::vector<Primvar>* instancePrimvars = nullptr;
 };

@@ -11,6 +11,7 @@
 
 #include "penumbra/mesh.h"
 #include "penumbra/plugin/light.h"
+#include "penumbra/plugin/placement.h"
 #include "penumbra/plugin/prim.h"
 #include "penumbra/plugin/sync_context.h"
 #include "penumbra/scene.h"
@@ -36,13 +37,10 @@ class Mesh : public Prim {
   void setPrimvars(std::vector<Primvar> primvars);
   /// Removes primvars whose size does not fit the topology; returns what was wrong with each.
   std::vector<std::string> dropInvalidPrimvars();
-  void setMaterialId(PrimId materialId);
+  void setMaterialId(PrimId materialId) override;
   /// UsdLuxMeshLightAPI: the mesh also emits, and is sampled as a light, with these inputs
   /// (names as Light::setParam). `enabled` false removes the light.
   void setLight(bool enabled, const std::vector<std::pair<std::string, ParamValue>>& params);
-  /// The dirty bits on which its sync places its instance again.
-  static constexpr uint32_t kPlacementDirtyBits =
-      DirtyMaterialId | DirtyTransform | DirtyVisibility;
   void setTransform(const MotionTransform& objectToWorld) override;
   void setVisible(bool visible) override;
   void setPassVisibility(PassVisibility pass) override;
@@ -63,14 +61,14 @@ class Mesh : public Prim {
   void finalize(SyncContext& context) override;
   /// Places its instance with its transform, material and visibility (a material it is bound to
   /// changed or moved in the scene's list).
-  void place(SyncContext& context) const;
+  void place(SyncContext& context) const { placement_.place(context, handle_); }
 
   Geometry::MeshId handle() const { return handle_; }
   const MeshData& data() const { return data_; }
-  const PrimId& materialId() const { return materialId_; }
-  const MotionTransform& transform() const { return objectToWorld_; }
-  bool visible() const { return visible_; }
-  PassVisibility passVisibility() const { return pass_; }
+  const PrimId& materialId() const { return placement_.materialId; }
+  const MotionTransform& transform() const { return placement_.objectToWorld; }
+  bool visible() const { return placement_.visible; }
+  PassVisibility passVisibility() const { return placement_.pass; }
   const std::string& subdivisionScheme() const { return subdivisionScheme_; }
   const SubdivisionTags& subdivisionTags() const { return tags_; }
   /// The tessellator of the current topology (built on first use, dropped when topology or tags
@@ -97,10 +95,7 @@ class Mesh : public Prim {
   SubdivisionTags tags_;
   std::unique_ptr<LimitSurfaceTessellator> tessellator_;
   std::unique_ptr<Light> light_;
-  PrimId materialId_;
-  MotionTransform objectToWorld_;
-  bool visible_ = true;
-  PassVisibility pass_;
+  Placement placement_;
   std::set<PrimId> instancers_;
 };
 

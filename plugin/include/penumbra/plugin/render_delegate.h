@@ -16,6 +16,7 @@
 #include "penumbra/plugin/light.h"
 #include "penumbra/plugin/material.h"
 #include "penumbra/plugin/mesh.h"
+#include "penumbra/plugin/points.h"
 #include "penumbra/plugin/prim_collection.h"
 #include "penumbra/plugin/render_buffer.h"
 #include "penumbra/plugin/render_settings.h"
@@ -30,9 +31,9 @@ class RenderDelegate {
   explicit RenderDelegate(const std::string& colorConfig = {});
   ~RenderDelegate();
 
-  /// Rprim types: "mesh", "instancer". Sprim types: "camera", "material", and the light types
-  /// (lightTypes()).
-  /// Throws std::invalid_argument for an unknown type or an id already in use.
+  /// Rprim types: "mesh", "points", "instancer". Sprim types: "camera", "material", and the light
+  /// types (lightTypes()). Throws std::invalid_argument for an unknown type or an id already in
+  /// use.
   void insertRprim(const std::string& type, const PrimId& id);
   void insertSprim(const std::string& type, const PrimId& id);
   /// Bprim types: "renderBuffer".
@@ -45,6 +46,7 @@ class RenderDelegate {
 
   /// Typed access; throws std::out_of_range naming the id when it is missing or of another type.
   Mesh& mesh(const PrimId& id);
+  Points& points(const PrimId& id);
   RenderBuffer& renderBuffer(const PrimId& id);
   Instancer& instancer(const PrimId& id);
   Camera& camera(const PrimId& id);
@@ -66,7 +68,8 @@ class RenderDelegate {
   /// marked clean. The order is fixed, each kind in id order: materials; the meshes bound to a
   /// material inserted or removed since the last sync are placed again (they need not be
   /// dirty); lights; cameras; meshes (placed with their material's index; a mesh light syncs
-  /// its light); instancers (their copies follow their prototype's geometry); render buffers.
+  /// its light); points (placed as meshes are); instancers (their copies follow their
+  /// prototype's geometry, so after every kind of geometry); render buffers.
   /// Then the lights that synced go into the scene's light list (LightList::update).
   /// `view`: the camera and width of the pass asking, which become the dicing context of the
   /// first sync when no dicing camera is set. Returns true if anything a render depends on
@@ -101,7 +104,7 @@ class RenderDelegate {
   SyncStatistics syncStatistics() const;
   const Scene& scene() const { return *scene_; }
 
-  /// The mesh rprims by the id the primId AOV gives them.
+  /// The mesh and points rprims by the id the primId AOV gives them.
   std::map<uint32_t, PrimId> primIdManifest() const;
 
   /// Warnings raised since the last call, each naming its prim.
@@ -110,8 +113,9 @@ class RenderDelegate {
  private:
   /// The dicing context for this sync, given the pass's view.
   DicingContext dicingContext(const DicingContext& view);
-  /// Places again the meshes bound to a material inserted or removed since the last sync (they
-  /// render with it now, or with their displayColor); the dirty ones place themselves.
+  /// Places again the meshes and points bound to a material inserted or removed since the last
+  /// sync (they render with it now, or with their displayColor); the dirty ones place
+  /// themselves.
   void placeUsersOfNewAndRemovedMaterials();
   /// Calls `visit(collection)` for each kind's collection of `self` (const or not).
   template <typename Self, typename Visit>
@@ -119,9 +123,10 @@ class RenderDelegate {
 
   Device device_;
   std::unique_ptr<Scene> scene_;
-  // The render index (cf. HdRenderIndex), one collection per kind: rprims (meshes,
+  // The render index (cf. HdRenderIndex), one collection per kind: rprims (meshes, points,
   // instancers), sprims (cameras, materials, lights), bprims (render buffers).
   PrimCollection<Mesh> meshes_;
+  PrimCollection<Points> points_;
   PrimCollection<Instancer> instancers_;
   PrimCollection<Camera> cameras_;
   PrimCollection<Material> materials_;
