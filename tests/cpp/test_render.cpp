@@ -304,7 +304,7 @@ TEST(RenderDelegate, OnlyDirtyPrimsAreSynced) {
 
 TEST(RenderDelegate, RejectsUnknownTypesIdsAndSettings) {
   RenderDelegate delegate;
-  EXPECT_THROW(delegate.insertRprim("points", "/p"), std::invalid_argument);
+  EXPECT_THROW(delegate.insertRprim("basisCurves", "/c"), std::invalid_argument);
   EXPECT_THROW(delegate.insertSprim("cylinderLightX", "/l"), std::invalid_argument);
   delegate.insertSprim("camera", "/cam");
   EXPECT_THROW(delegate.insertSprim("camera", "/cam"), std::invalid_argument);
