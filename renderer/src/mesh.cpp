@@ -243,12 +243,7 @@ TriangleMesh triangulate(const MeshData& mesh) {
 }
 
 Vec3f TriangleMesh::cornerAt(uint32_t triangle, int corner, float time) const {
-  const uint32_t index = triangles[3 * size_t(triangle) + size_t(corner)];
-  if (pointMotion.empty()) return points[index];
-  const StepPosition where = locateStep(pointMotion.size() + 1, time);
-  const Vec3f& from = where.step == 0 ? points[index] : pointMotion[where.step - 1][index];
-  const Vec3f& to = pointMotion[where.step][index];
-  return from * (1 - where.fraction) + to * where.fraction;
+  return pointAtTime(points, pointMotion, triangles[3 * size_t(triangle) + size_t(corner)], time);
 }
 
 size_t TriangleMesh::cornerElement(Interpolation interpolation, uint32_t triangle,

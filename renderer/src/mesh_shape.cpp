@@ -1,30 +1,18 @@
 #include "penumbra/mesh_shape.h"
 
 #include <algorithm>
-#include <cstring>
 #include <stdexcept>
-#include <type_traits>
 
 #include "penumbra/embree.h"
+#include "same_bits.h"
 
 namespace penumbra {
 namespace {
 
-template <typename T>
-bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
-  static_assert(std::is_trivially_copyable_v<T>);
-  return a.size() == b.size() &&
-         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
-}
-
 /// Whether two meshes have the same triangles at the same points (bit for bit) at every step.
 bool sameSurface(const TriangleMesh& a, const TriangleMesh& b) {
-  if (!sameBits(a.triangles, b.triangles) || !sameBits(a.points, b.points) ||
-      a.pointMotion.size() != b.pointMotion.size())
-    return false;
-  for (size_t step = 0; step < a.pointMotion.size(); ++step)
-    if (!sameBits(a.pointMotion[step], b.pointMotion[step])) return false;
-  return true;
+  return sameBits(a.triangles, b.triangles) && sameBits(a.points, b.points) &&
+         sameBits(a.pointMotion, b.pointMotion);
 }
 
 }  // namespace

@@ -7,10 +7,6 @@
 namespace penumbra {
 namespace {
 
-bool finite(const Vec3f& p) {
-  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
-}
-
 /// How many values data of this interpolation has on `count` points, or throws for one points
 /// cannot have.
 size_t elementCount(const std::string& name, Interpolation interpolation, size_t count) {
@@ -51,10 +47,10 @@ void validatePoints(const PointsData& points) {
       throw std::invalid_argument("normals has " + std::to_string(points.normals.size()) +
                                   " values, expected " + std::to_string(count) +
                                   " (one per point)");
+    requireFinite(points.normals, "normals");
     for (size_t i = 0; i < count; ++i)
-      if (!finite(points.normals[i]) || !(length(points.normals[i]) > 0))
-        throw std::invalid_argument("normals[" + std::to_string(i) +
-                                    "] is not a finite direction of non-zero length");
+      if (!(length(points.normals[i]) > 0))
+        throw std::invalid_argument("normals[" + std::to_string(i) + "] has zero length");
   }
   if (!points.displayColor.empty()) {
     const size_t expected = elementCount("displayColor", points.displayColorInterpolation, count);

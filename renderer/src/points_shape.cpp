@@ -1,30 +1,18 @@
 #include "penumbra/points_shape.h"
 
-#include <cstring>
 #include <stdexcept>
-#include <type_traits>
 
 #include "penumbra/embree.h"
 #include "penumbra/motion.h"
+#include "same_bits.h"
 
 namespace penumbra {
 namespace {
 
-template <typename T>
-bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
-  static_assert(std::is_trivially_copyable_v<T>);
-  return a.size() == b.size() &&
-         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
-}
-
 /// Whether two sets of points are the same spheres or discs (bit for bit) at every step.
 bool sameSurface(const PointsData& a, const PointsData& b) {
-  if (!sameBits(a.positions, b.positions) || !sameBits(a.widths, b.widths) ||
-      !sameBits(a.normals, b.normals) || a.positionMotion.size() != b.positionMotion.size())
-    return false;
-  for (size_t step = 0; step < a.positionMotion.size(); ++step)
-    if (!sameBits(a.positionMotion[step], b.positionMotion[step])) return false;
-  return true;
+  return sameBits(a.positions, b.positions) && sameBits(a.widths, b.widths) &&
+         sameBits(a.normals, b.normals) && sameBits(a.positionMotion, b.positionMotion);
 }
 
 }  // namespace
@@ -75,21 +63,12 @@ bool PointsShape::tracesAs(const Shape& other) const {
   return points && sameSurface(points_, points->points_);
 }
 
-Vec3f PointsShape::centreAt(uint32_t index, float time) const {
-  if (points_.positionMotion.empty()) return points_.positions[index];
-  const StepPosition where = locateStep(points_.positionMotion.size() + 1, time);
-  const Vec3f& from =
-      where.step == 0 ? points_.positions[index] : points_.positionMotion[where.step - 1][index];
-  const Vec3f& to = points_.positionMotion[where.step][index];
-  return from * (1 - where.fraction) + to * where.fraction;
-}
-
 SurfacePoint PointsShape::pointAt(uint32_t point, float, float, float time) const {
   // Weights (1, 0, 0) on three equal corners: values constant over the point, no differentials.
   SurfacePoint result;
   result.shape = this;
   result.primitive = point;
-  const Vec3f centre = centreAt(point, time);
+  const Vec3f centre = pointAtTime(points_.positions, points_.positionMotion, point, time);
   for (Vec3f& corner : result.corners) corner = centre;
   return result;
 }

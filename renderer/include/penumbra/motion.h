@@ -38,6 +38,18 @@ struct StepPosition {
 };
 StepPosition locateStep(size_t stepCount, float time);
 
+/// Point `index` of points sampled at uniformly spaced steps (`first` at step 0, `later` at
+/// steps 1..K-1; empty: static) at normalised shutter time `time`, linearly between the steps
+/// around it as Embree interpolates them.
+inline Vec3f pointAtTime(const std::vector<Vec3f>& first,
+                         const std::vector<std::vector<Vec3f>>& later, size_t index, float time) {
+  if (later.empty()) return first[index];
+  const StepPosition where = locateStep(later.size() + 1, time);
+  const Vec3f& from = where.step == 0 ? first[index] : later[where.step - 1][index];
+  const Vec3f& to = later[where.step][index];
+  return from * (1 - where.fraction) + to * where.fraction;
+}
+
 /// A transform sampled at uniformly spaced times over the shutter (one step: static).
 class MotionTransform {
  public:

@@ -30,8 +30,6 @@ class PointsShape final : public Shape {
   int elementOf(uint32_t point) const override { return int(point); }
 
  private:
-  /// The centre of point `index` at normalised shutter time `time`.
-  Vec3f centreAt(uint32_t index, float time) const;
   /// The value of `primvar` (constant, or one per point) at point `index`.
   const float* valueAt(const Primvar& primvar, uint32_t index) const;
 
