@@ -24,7 +24,7 @@ void Mesh::setLight(bool enabled, const std::vector<std::pair<std::string, Param
     if (!light_) return;  // nothing changes: no sync needed
     light_.reset();
   } else {
-    auto light = std::make_unique<Light>(id(), LightType::Mesh, handle_);
+    auto light = std::make_unique<Light>(id(), LightType::Mesh, handle());
     for (const auto& [name, value] : params) light->setParam(name, value);
     light_ = std::move(light);
   }
@@ -88,26 +88,6 @@ void Mesh::setNormals(std::vector<Vec3f> normals, Interpolation interpolation) {
   markDirty(DirtyPrimvar);
 }
 
-void Mesh::setMaterialId(PrimId materialId) {
-  placement_.materialId = std::move(materialId);
-  markDirty(DirtyMaterialId);
-}
-
-void Mesh::setTransform(const MotionTransform& objectToWorld) {
-  placement_.objectToWorld = objectToWorld;
-  markDirty(DirtyTransform);
-}
-
-void Mesh::setVisible(bool visible) {
-  placement_.visible = visible;
-  markDirty(DirtyVisibility);
-}
-
-void Mesh::setPassVisibility(PassVisibility pass) {
-  placement_.pass = pass;
-  markDirty(DirtyVisibility);
-}
-
 void Mesh::sync(SyncContext& context, uint32_t bits) {
   context.sceneChanged = true;
   Scene& scene = context.scene;
@@ -120,13 +100,13 @@ void Mesh::sync(SyncContext& context, uint32_t bits) {
       TriangleMesh surface = triangles(context);
       context.counters.tessellationSeconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-      scene.geometry().setMeshGeometry(handle_, std::move(surface));
+      scene.geometry().setMeshGeometry(handle(), std::move(surface));
     } catch (const std::invalid_argument& error) {
       context.warn(id() + ": " + error.what() + "; the mesh is skipped");
-      scene.geometry().clearMeshGeometry(handle_);
+      scene.geometry().clearMeshGeometry(handle());
     }
   }
-  placement_.sync(context, id(), handle_, bits);
+  syncPlacement(context, bits);
   if (bits & kLightDirtyBits) syncLight(context);
 }
 
@@ -138,23 +118,23 @@ void Mesh::finalize(SyncContext& context) {
         copies && copies->prototype() == id())
       copies->dropCopies(context);
   context.lights.remove(id());
-  context.scene.geometry().removeMesh(handle_);
+  context.scene.geometry().removeMesh(handle());
 }
 
 size_t Mesh::estimatedSyncBytes() const {
-  return placement_.visible ? estimatedBuildBytes(data_, subdivisionScheme_ != "none") : 0;
+  return visible() ? estimatedBuildBytes(data_, subdivisionScheme_ != "none") : 0;
 }
 
 void Mesh::syncLight(SyncContext& context) {
   if (!light_) {
-    context.lights.synced(id(), std::nullopt, context.scene, handle_);
+    context.lights.synced(id(), std::nullopt, context.scene, handle());
     return;
   }
   std::shared_ptr<std::vector<Vec3f>> corners;
-  if (placement_.visible) {
+  if (visible()) {
     try {
       const TriangleMesh polygons = triangulate(data_);
-      const Transform& toWorld = placement_.objectToWorld.first();
+      const Transform& toWorld = transform().first();
       corners = std::make_shared<std::vector<Vec3f>>();
       corners->reserve(polygons.triangles.size());
       for (const uint32_t point : polygons.triangles)
@@ -178,7 +158,7 @@ TriangleMesh Mesh::triangles(SyncContext& context) {
     // Dice each base face finely enough that its facets stay within a fraction of a pixel of
     // the limit surface at its distance from the camera (halved per complexity level).
     const CameraParams& camera = context.dicing.camera;
-    const Transform& objectToWorld = placement_.objectToWorld.first();
+    const Transform& objectToWorld = transform().first();
     const Vec3f eye = camera.cameraToWorld.first().applyToPoint({0, 0, 0});
     const float pixelAngle =
         camera.projection == Projection::Perspective

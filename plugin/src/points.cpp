@@ -32,42 +32,22 @@ void Points::setPrimvars(std::vector<Primvar> primvars) {
   markDirty(DirtyPrimvar);
 }
 
-void Points::setMaterialId(PrimId materialId) {
-  placement_.materialId = std::move(materialId);
-  markDirty(DirtyMaterialId);
-}
-
-void Points::setTransform(const MotionTransform& objectToWorld) {
-  placement_.objectToWorld = objectToWorld;
-  markDirty(DirtyTransform);
-}
-
-void Points::setVisible(bool visible) {
-  placement_.visible = visible;
-  markDirty(DirtyVisibility);
-}
-
-void Points::setPassVisibility(PassVisibility pass) {
-  placement_.pass = pass;
-  markDirty(DirtyVisibility);
-}
-
 void Points::sync(SyncContext& context, uint32_t bits) {
   context.sceneChanged = true;
   if (bits & (DirtyPoints | DirtyPrimvar)) {
     try {
-      context.scene.geometry().setPointsGeometry(handle_, data_);
+      context.scene.geometry().setPointsGeometry(handle(), data_);
     } catch (const std::invalid_argument& error) {
       context.warn(id() + ": " + error.what() + "; skipped");
-      context.scene.geometry().clearMeshGeometry(handle_);
+      context.scene.geometry().clearMeshGeometry(handle());
     }
   }
-  placement_.sync(context, id(), handle_, bits);
+  syncPlacement(context, bits);
 }
 
 void Points::finalize(SyncContext& context) {
   context.sceneChanged = true;
-  context.scene.geometry().removeMesh(handle_);
+  context.scene.geometry().removeMesh(handle());
 }
 
 }  // namespace penumbra::plugin

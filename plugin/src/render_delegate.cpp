@@ -146,7 +146,8 @@ void RenderDelegate::placeUsersOfNewAndRemovedMaterials() {
   const std::set<PrimId> insertedOrRemoved = context_.materials.takeInsertedOrRemoved();
   if (insertedOrRemoved.empty()) return;
   const auto placeAgain = [&](const auto& user) {
-    if (!(user.dirtyBits() & Placement::kDirtyBits) && insertedOrRemoved.count(user.materialId()))
+    if (!(user.dirtyBits() & PlacedRprim::kPlacementDirtyBits) &&
+        insertedOrRemoved.count(user.materialId()))
       user.place(context_);
   };
   meshes_.forEach(placeAgain);

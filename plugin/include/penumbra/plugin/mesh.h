@@ -19,9 +19,9 @@
 
 namespace penumbra::plugin {
 
-class Mesh : public Prim {
+class Mesh : public PlacedRprim {
  public:
-  Mesh(PrimId id, Geometry::MeshId handle) : Prim(std::move(id)), handle_(handle) {}
+  using PlacedRprim::PlacedRprim;
 
   void setTopology(std::vector<int> counts, std::vector<int> indices, bool leftHanded,
                    std::string subdivisionScheme);
@@ -37,13 +37,9 @@ class Mesh : public Prim {
   void setPrimvars(std::vector<Primvar> primvars);
   /// Removes primvars whose size does not fit the topology; returns what was wrong with each.
   std::vector<std::string> dropInvalidPrimvars();
-  void setMaterialId(PrimId materialId) override;
   /// UsdLuxMeshLightAPI: the mesh also emits, and is sampled as a light, with these inputs
   /// (names as Light::setParam). `enabled` false removes the light.
   void setLight(bool enabled, const std::vector<std::pair<std::string, ParamValue>>& params);
-  void setTransform(const MotionTransform& objectToWorld) override;
-  void setVisible(bool visible) override;
-  void setPassVisibility(PassVisibility pass) override;
 
   /// The instancers placing copies of this mesh (cf. HdRprim::GetInstancerId, from the
   /// prototype's side): each registers as it syncs, and leaves as it is removed.
@@ -59,16 +55,7 @@ class Mesh : public Prim {
   /// Removes it from the scene and its light from the light list; its instancers drop their
   /// copies (Instancer::dropCopies), which come back if a mesh with its id is inserted again.
   void finalize(SyncContext& context) override;
-  /// Places its instance with its transform, material and visibility (a material it is bound to
-  /// changed or moved in the scene's list).
-  void place(SyncContext& context) const { placement_.place(context, handle_); }
-
-  Geometry::MeshId handle() const { return handle_; }
   const MeshData& data() const { return data_; }
-  const PrimId& materialId() const { return placement_.materialId; }
-  const MotionTransform& transform() const { return placement_.objectToWorld; }
-  bool visible() const { return placement_.visible; }
-  PassVisibility passVisibility() const { return placement_.pass; }
   const std::string& subdivisionScheme() const { return subdivisionScheme_; }
   const SubdivisionTags& subdivisionTags() const { return tags_; }
   /// The tessellator of the current topology (built on first use, dropped when topology or tags
@@ -89,13 +76,11 @@ class Mesh : public Prim {
   /// a light, the mesh leaves the light list if it was there.
   void syncLight(SyncContext& context);
 
-  Geometry::MeshId handle_;
   MeshData data_;
   std::string subdivisionScheme_ = "none";
   SubdivisionTags tags_;
   std::unique_ptr<LimitSurfaceTessellator> tessellator_;
   std::unique_ptr<Light> light_;
-  Placement placement_;
   std::set<PrimId> instancers_;
 };
 

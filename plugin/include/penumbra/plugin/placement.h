@@ -1,6 +1,6 @@
-// Where an rprim's object stands in the scene (cf. what HdRprim keeps besides its geometry):
-// its material id, transform, visibility and pass visibility, and how its sync places the
-// object with them. Meshes and points hold one each.
+// An rprim whose object stands in the scene (cf. what HdRprim keeps besides its geometry): the
+// object's handle, its material id, transform, visibility and pass visibility, and how a sync
+// places the object with them. Meshes and points are placed rprims; each kind adds its geometry.
 #pragma once
 
 #include <cstdint>
@@ -12,21 +12,41 @@
 
 namespace penumbra::plugin {
 
-struct Placement {
+class PlacedRprim : public Prim {
+ public:
   /// The dirty bits on which a sync places the object again.
-  static constexpr uint32_t kDirtyBits = DirtyMaterialId | DirtyTransform | DirtyVisibility;
+  static constexpr uint32_t kPlacementDirtyBits =
+      DirtyMaterialId | DirtyTransform | DirtyVisibility;
 
-  PrimId materialId;
-  MotionTransform objectToWorld;
-  bool visible = true;
-  PassVisibility pass;
+  PlacedRprim(PrimId id, Geometry::MeshId handle) : Prim(std::move(id)), handle_(handle) {}
 
-  /// What a sync of prim `id` does on `bits`: warns of a newly bound material missing from the
-  /// render index, applies the pass visibility, and places object `handle` (on kDirtyBits).
-  void sync(SyncContext& context, const PrimId& id, Geometry::MeshId handle, uint32_t bits) const;
-  /// Places object `handle` with its transform, material and visibility (a material it is
-  /// bound to changed or moved in the scene's list).
-  void place(SyncContext& context, Geometry::MeshId handle) const;
+  void setMaterialId(PrimId materialId) override;
+  void setTransform(const MotionTransform& objectToWorld) override;
+  void setVisible(bool visible) override;
+  void setPassVisibility(PassVisibility pass) override;
+
+  /// Places its object with its transform, material and visibility (a material it is bound to
+  /// changed or moved in the scene's list).
+  void place(SyncContext& context) const;
+
+  Geometry::MeshId handle() const { return handle_; }
+  const PrimId& materialId() const { return materialId_; }
+  const MotionTransform& transform() const { return objectToWorld_; }
+  bool visible() const { return visible_; }
+  PassVisibility passVisibility() const { return pass_; }
+
+ protected:
+  /// What a sync does for the placement on `bits`: warns of a newly bound material missing from
+  /// the render index, applies the pass visibility, and places the object (on
+  /// kPlacementDirtyBits).
+  void syncPlacement(SyncContext& context, uint32_t bits) const;
+
+ private:
+  Geometry::MeshId handle_;
+  PrimId materialId_;
+  MotionTransform objectToWorld_;
+  bool visible_ = true;
+  PassVisibility pass_;
 };
 
 }  // namespace penumbra::plugin

@@ -12,9 +12,9 @@
 
 namespace penumbra::plugin {
 
-class Points : public Prim {
+class Points : public PlacedRprim {
  public:
-  Points(PrimId id, Geometry::MeshId handle) : Prim(std::move(id)), handle_(handle) {}
+  using PlacedRprim::PlacedRprim;
 
   /// `positionMotion`: the positions at later, uniformly spaced shutter times (see PointsData).
   void setPositions(std::vector<Vec3f> positions,
@@ -26,10 +26,6 @@ class Points : public Prim {
   void setDisplayColor(std::vector<Vec3f> colors, Interpolation interpolation);
   /// The primvars materials may read, replacing those set before.
   void setPrimvars(std::vector<Primvar> primvars);
-  void setMaterialId(PrimId materialId) override;
-  void setTransform(const MotionTransform& objectToWorld) override;
-  void setVisible(bool visible) override;
-  void setPassVisibility(PassVisibility pass) override;
 
   /// Syncs what its dirty bits say changed into the scene (cf. HdPoints::Sync): its geometry
   /// (invalid data: one warning naming the prim, and it renders nothing until it changes), then
@@ -37,17 +33,10 @@ class Points : public Prim {
   void sync(SyncContext& context, uint32_t dirtyBits) override;
   /// Removes it from the scene.
   void finalize(SyncContext& context) override;
-  /// Places its object with its transform, material and visibility.
-  void place(SyncContext& context) const { placement_.place(context, handle_); }
-
-  Geometry::MeshId handle() const { return handle_; }
   const PointsData& data() const { return data_; }
-  const PrimId& materialId() const { return placement_.materialId; }
 
  private:
-  Geometry::MeshId handle_;
   PointsData data_;
-  Placement placement_;
 };
 
 }  // namespace penumbra::plugin
