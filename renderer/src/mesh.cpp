@@ -18,6 +18,17 @@ void requireFinite(const std::vector<Vec3f>& points, const std::string& name) {
   }
 }
 
+void requireMotionSteps(const std::vector<std::vector<Vec3f>>& steps, size_t count,
+                        const std::string& stepName) {
+  for (size_t step = 0; step < steps.size(); ++step) {
+    const std::string name = stepName + " " + std::to_string(step + 1);
+    if (steps[step].size() != count)
+      throw std::invalid_argument(name + " has " + std::to_string(steps[step].size()) +
+                                  " points, expected " + std::to_string(count));
+    requireFinite(steps[step], name);
+  }
+}
+
 size_t primvarElementCount(Interpolation interpolation, const MeshData& mesh) {
   switch (interpolation) {
     case Interpolation::Constant:
@@ -175,13 +186,7 @@ bool isClosedSurface(const std::vector<Vec3f>& points, const std::vector<int>& f
 TriangleMesh triangulate(const MeshData& mesh) {
   const size_t pointCount = mesh.points.size();
   requireFinite(mesh.points, "points");
-  for (size_t step = 0; step < mesh.pointMotion.size(); ++step) {
-    const std::string name = "points at motion sample " + std::to_string(step + 1);
-    if (mesh.pointMotion[step].size() != pointCount)
-      throw std::invalid_argument(name + " has " + std::to_string(mesh.pointMotion[step].size()) +
-                                  " points, expected " + std::to_string(pointCount));
-    requireFinite(mesh.pointMotion[step], name);
-  }
+  requireMotionSteps(mesh.pointMotion, pointCount, "points at motion sample");
   size_t indexTotal = 0;
   for (size_t face = 0; face < mesh.faceVertexCounts.size(); ++face) {
     const int count = mesh.faceVertexCounts[face];

@@ -27,14 +27,7 @@ size_t elementCount(const std::string& name, Interpolation interpolation, size_t
 void validatePoints(const PointsData& points) {
   const size_t count = points.positions.size();
   requireFinite(points.positions, "positions");
-  for (size_t step = 0; step < points.positionMotion.size(); ++step) {
-    const std::string name = "positions at motion step " + std::to_string(step + 1);
-    if (points.positionMotion[step].size() != count)
-      throw std::invalid_argument(name + " has " +
-                                  std::to_string(points.positionMotion[step].size()) +
-                                  " points, expected " + std::to_string(count));
-    requireFinite(points.positionMotion[step], name);
-  }
+  requireMotionSteps(points.positionMotion, count, "positions at motion step");
   if (points.widths.size() != count)
     throw std::invalid_argument("widths has " + std::to_string(points.widths.size()) +
                                 " values, expected " + std::to_string(count) + " (one per point)");

@@ -123,6 +123,11 @@ void validatePrimvar(const Primvar& primvar, const MeshData& mesh);
 /// finite.
 void requireFinite(const std::vector<Vec3f>& points, const std::string& name);
 
+/// Throws std::invalid_argument unless every later motion step in `steps` has `count` finite
+/// points; a step is named `stepName` and its number ("points at motion sample 1").
+void requireMotionSteps(const std::vector<std::vector<Vec3f>>& steps, size_t count,
+                        const std::string& stepName);
+
 /// Points closer than this fraction of a mesh's largest extent are one point when deciding
 /// whether the mesh is closed.
 constexpr float kWeldTolerance = 1e-5f;
