@@ -316,6 +316,13 @@ void Geometry::setPointsGeometry(MeshId id, PointsData points) {
   setShape(id, std::make_shared<const PointsShape>(std::move(points)));
 }
 
+void Geometry::setCurvesGeometry(MeshId id, CurvesData curves) {
+  // Interface stub of the curves work: validated, not yet traced.
+  record(id);
+  validateCurves(curves);
+  clearMeshGeometry(id);
+}
+
 void Geometry::setShape(MeshId id, std::shared_ptr<const Shape> shape) {
   MeshRecord& mesh = record(id);
   if (mesh.shape && mesh.geometry && shape->tracesAs(*mesh.shape)) {

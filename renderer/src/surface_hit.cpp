@@ -23,6 +23,7 @@ std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, R
   hit.normal = surface.normal;
   hit.shadingNormal = surface.shadingNormal;
   hit.closed = surface.closed;
+  hit.fibreDirection = surface.fibreDirection;
   attachCopyPrimvars(point, found->instancePrimvars, uint32_t(found->instance));
   hit.meshId = found->meshId;
   hit.instance = found->instance;

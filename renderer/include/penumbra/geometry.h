@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "penumbra/camera.h"
+#include "penumbra/curves.h"
 #include "penumbra/embree.h"
 #include "penumbra/material_table.h"
 #include "penumbra/mesh.h"
@@ -77,6 +78,9 @@ class Geometry {
   /// Makes object `id` (from addMesh(); ids name any kind of object) the points `points`
   /// (validated: std::invalid_argument as validatePoints) and builds its BVH.
   void setPointsGeometry(MeshId id, PointsData points);
+  /// Makes object `id` the curves `curves` (validated: std::invalid_argument as validateCurves)
+  /// and builds their BVH.
+  void setCurvesGeometry(MeshId id, CurvesData curves);
   /// Drops the mesh's geometry (it stays registered but renders nothing).
   void clearMeshGeometry(MeshId id);
   /// Places the mesh; an animated transform gives Embree multi-segment instance motion.

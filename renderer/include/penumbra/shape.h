@@ -1,4 +1,4 @@
-// One kind of geometry (triangle meshes, points; later curves, volume bounds) behind the small
+// One kind of geometry (triangle meshes, points, curves; later volume bounds) behind the small
 // interface that the geometry aggregate (geometry.h) and shading need of it: its Embree geometry,
 // and the surface at a hit on it. Everything else (BVHs, placements, instancer copies, the
 // overlay, hit filters) is the aggregate's and the same for every kind, so that a new kind is a
@@ -22,6 +22,9 @@ struct SurfaceGeometry {
   /// Primvar access at the point (shading.h), its corners in object space.
   SurfacePoint point;
   bool closed = false;  // the geometry bounds a solid
+  /// For fibres (curves): the unit direction of the curve there, in world space, which fibre
+  /// BSDFs need; zero for surfaces.
+  Vec3f fibreDirection{0.0f};
 };
 
 /// The geometry of one object, in object space, immutable once built.

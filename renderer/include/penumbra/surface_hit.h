@@ -22,6 +22,8 @@ struct SurfaceHit {
   Vec3f emission;       // emitted radiance
   /// Where the material may be anisotropic: the surface's tangent (surfaceTangent); else zero.
   Vec3f tangent{0.0f};
+  /// On a fibre (a curve): its unit direction (SurfaceGeometry::fibreDirection); else zero.
+  Vec3f fibreDirection{0.0f};
   /// The bound material's parameters evaluated here (textures, primvar readers, normal map), or
   /// fallbackSurface() with displayColor and displayOpacity for meshes without one.
   MaterialParams material;

@@ -1,0 +1,54 @@
+// UsdGeomBasisCurves as the renderer receives them (plain arrays, USD conventions), and their
+// validation.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "penumbra/math.h"
+#include "penumbra/mesh.h"
+
+namespace penumbra {
+
+enum class CurveType : uint8_t { Linear, Cubic };
+/// The cubic bases UsdGeomBasisCurves defines (HermiteCurves and NURBS reach the renderer
+/// converted to one of these).
+enum class CurveBasis : uint8_t { Bezier, BSpline, CatmullRom };
+enum class CurveWrap : uint8_t { Nonperiodic, Periodic, Pinned };
+
+/// UsdGeomBasisCurves as the renderer takes them (object space): round tubes of diameter
+/// `widths`, or, with `normals`, ribbons of that width facing them.
+///
+/// Element counts follow the schema: per curve of n vertices, `vertex` data has n values,
+/// `uniform` one, `constant` one for the whole prim, and `varying` one per segment end
+/// (segments + 1 for nonperiodic and pinned curves, segments for periodic ones), where a linear
+/// curve has n − 1 segments (n periodic), a cubic Bézier (n − 4)/3 + 1 (n/3 periodic) and a
+/// B-spline or Catmull-Rom n − 3 (n periodic; pinned ones n − 1). `faceVarying` means `varying`
+/// on curves, as the schema says. Vertex data is interpolated by the curve's basis, varying
+/// data linearly along each segment.
+struct CurvesData {
+  CurveType type = CurveType::Cubic;
+  CurveBasis basis = CurveBasis::Bezier;  // cubic curves only
+  CurveWrap wrap = CurveWrap::Nonperiodic;
+  std::vector<int> curveVertexCounts;
+  std::vector<Vec3f> positions;  // motion step 0
+  /// Later uniformly spaced steps, as MeshData::pointMotion (empty: static).
+  std::vector<std::vector<Vec3f>> positionMotion;
+  std::vector<float> widths;  // finite and > 0
+  Interpolation widthsInterpolation = Interpolation::Vertex;
+  std::vector<Vec3f> normals;  // empty: round tubes; else ribbons facing them
+  Interpolation normalsInterpolation = Interpolation::Vertex;
+  std::vector<Vec3f> displayColor;  // empty: none authored
+  Interpolation displayColorInterpolation = Interpolation::Constant;
+  std::vector<Primvar> primvars;
+};
+
+/// Throws std::invalid_argument whose message names the array and what is wrong (counts that
+/// do not match the vertices or the schema's rule for their interpolation, a cubic curve with
+/// too few vertices for its basis and wrap, a width <= 0 or not finite, non-finite positions or
+/// normals, normals of zero length), so that the plugin can warn "<prim id>: <message>;
+/// skipped".
+void validateCurves(const CurvesData& curves);
+
+}  // namespace penumbra
