@@ -61,6 +61,34 @@ struct MaterialParams {
   /// inputs:penumbra:thinWalled: whether translucency is a thin sheet (true) or the boundary of
   /// a solid (false); unset: as the mesh's geometry says (TriangleMesh::closed).
   std::optional<bool> thinWalled;
+
+  /// inputs:penumbra:hair: the surface scatters as a hair fibre (Chiang et al. 2016's model,
+  /// HairBsdf in hair_bsdf.h) instead of as a UsdPreviewSurface; the hair* parameters below are
+  /// read only then, and the ones above only for what is not scattering (emission, opacity).
+  bool hair = false;
+  /// penumbra:hairAbsorption: σa of the fibre's interior per unit fibre radius (0: clear;
+  /// hairAbsorptionFromColor and hairAbsorptionFromMelanin derive it).
+  Vec3f hairAbsorption{0.0f};
+  /// penumbra:hairLongitudinalRoughness and penumbra:hairAzimuthalRoughness: β_m and β_n in
+  /// [0.01, 1] (pbrt-v4's parameters), the R lobe's. The TT and TRT lobes' longitudinal width
+  /// (the square root of M_p's variance) is R's times penumbra:hairLongitudinalScaleTT and
+  /// penumbra:hairLongitudinalScaleTRT (Marschner's 1/2 and 2 by default), their azimuthal
+  /// logistic's scale R's times penumbra:hairAzimuthalScaleTT and penumbra:hairAzimuthalScaleTRT.
+  float hairLongitudinalRoughness = 0.3f;
+  float hairAzimuthalRoughness = 0.3f;
+  float hairLongitudinalScaleTT = 0.5f;
+  float hairLongitudinalScaleTRT = 2.0f;
+  float hairAzimuthalScaleTT = 1.0f;
+  float hairAzimuthalScaleTRT = 1.0f;
+  /// penumbra:hairCuticleAngle: α, the tilt of the cuticle's scales, in degrees.
+  float hairCuticleAngle = 2.0f;
+  /// penumbra:hairIor: the fibre's index of refraction (keratin's by default).
+  float hairIor = 1.55f;
+  /// penumbra:hairTintR, hairTintTT, hairTintTRT: factors of the R, TT and TRT lobes (TRT's
+  /// also of the residual lobe), as MaterialX's chiang_hair_bsdf has them.
+  Vec3f hairTintR{1.0f};
+  Vec3f hairTintTT{1.0f};
+  Vec3f hairTintTRT{1.0f};
 };
 
 /// The surface of meshes without a material: roughness 1 and no specular colour (within 1 % of
@@ -87,6 +115,13 @@ enum class MaterialInput : uint8_t {
   AnisotropyRotation,
   Opacity,
   Ior,
+  HairAbsorption,
+  HairLongitudinalRoughness,
+  HairAzimuthalRoughness,
+  HairCuticleAngle,
+  HairTintR,
+  HairTintTT,
+  HairTintTRT,
   Normal,
 };
 

@@ -48,9 +48,9 @@ struct MaterialInputInfo {
   MaterialParamMember member;
   /// The input a shader network drives; empty: the input takes constants only.
   std::optional<MaterialInput> connectable;
-  /// Whether a non-finite value is refused. The sheen, coat colour and anisotropy inputs must be
-  /// finite (the BSDF clamps them to their ranges); the others are taken as given (the BSDF reads
-  /// NaN as 0).
+  /// Whether a non-finite value is refused. The sheen, coat colour, anisotropy and hair inputs
+  /// must be finite (the BSDFs clamp them to their ranges); the others are taken as given (the
+  /// BSDF reads NaN as 0).
   bool mustBeFinite;
 };
 
