@@ -1,6 +1,10 @@
 #include "penumbra/integrator.h"
 
+#include <utility>
+#include <variant>
+
 #include "penumbra/bsdf.h"
+#include "penumbra/hair_bsdf.h"
 #include "penumbra/sampler.h"
 #include "penumbra/spectrum.h"
 #include "penumbra/surface_hit.h"
@@ -103,8 +107,6 @@ Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, 
   return ray;
 }
 
-/// The scattering function at a hit. `ior`: the material's, or its value at the hero
-/// wavelength under dispersion.
 /// The GGX α below which the glossy filter (IntegratorSettings::glossyFilter) does not let lobes
 /// go, after bounces whose smallest direction density was `minRayPdf`; 0 where it does not act.
 float filteredAlpha(float glossyFilter, float minRayPdf) {
@@ -121,8 +123,9 @@ void raiseRoughness(MaterialParams& material, float minAlpha) {
     material.transmissionRoughness = std::max(material.transmissionRoughness, minRoughness);
 }
 
-PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior,
-                            float minAlpha) {
+/// The UsdPreviewSurface BSDF of a hit's material.
+PreviewSurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
+                                          float ior, float minAlpha) {
   MaterialParams material = hit.material;
   if (minAlpha > 0) raiseRoughness(material, minAlpha);
   if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
@@ -135,6 +138,63 @@ PreviewSurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
   return PreviewSurfaceBsdf(material, hit.shadingNormal, ior,
                             hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet,
                             hit.tangent);
+}
+
+/// A hair material's fibre BSDF: the glossy filter raises β_m and β_n as it raises roughness;
+/// in spectral scenes the tints are upsampled as reflectances and σa through the transmittance
+/// e^(−σa) of one unit of length, which lies in [0, 1] like a reflectance.
+HairBsdf makeHairBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float minAlpha) {
+  MaterialParams material = hit.material;
+  if (minAlpha > 0) {
+    const float minRoughness = std::sqrt(minAlpha);
+    material.hairLongitudinalRoughness = std::max(material.hairLongitudinalRoughness, minRoughness);
+    material.hairAzimuthalRoughness = std::max(material.hairAzimuthalRoughness, minRoughness);
+  }
+  if (spectrum.spectral) {
+    for (Vec3f* tint : {&material.hairTintR, &material.hairTintTT, &material.hairTintTRT})
+      *tint = spectrum.reflectance(*tint);
+    const Vec3f& a = material.hairAbsorption;
+    const Vec3f transmittance =
+        spectrum.reflectance({std::exp(-a.x), std::exp(-a.y), std::exp(-a.z)});
+    const auto absorption = [](float t) { return -std::log(std::max(t, 1e-30f)); };
+    material.hairAbsorption = {absorption(transmittance.x), absorption(transmittance.y),
+                               absorption(transmittance.z)};
+  }
+  return HairBsdf(material, hit.fibreDirection, hit.normal, hit.shadingNormal);
+}
+
+/// The scattering function at a hit: the UsdPreviewSurface BSDF, or a hair material's fibre BSDF.
+class SurfaceBsdf {
+ public:
+  explicit SurfaceBsdf(PreviewSurfaceBsdf bsdf) : bsdf_(std::move(bsdf)) {}
+  explicit SurfaceBsdf(HairBsdf bsdf) : bsdf_(std::move(bsdf)) {}
+
+  Vec3f evaluate(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart) const {
+    return std::visit([&](const auto& b) { return b.evaluate(wo, wi, diffusePart); }, bsdf_);
+  }
+  float pdf(const Vec3f& wo, const Vec3f& wi) const {
+    return std::visit([&](const auto& b) { return b.pdf(wo, wi); }, bsdf_);
+  }
+  std::optional<BsdfSample> sample(const Vec3f& wo, float uLobe, Vec2f u) const {
+    return std::visit([&](const auto& b) { return b.sample(wo, uLobe, u); }, bsdf_);
+  }
+  bool isPurelySpecular() const {
+    return std::visit([](const auto& b) { return b.isPurelySpecular(); }, bsdf_);
+  }
+  bool hasTransmission() const {
+    return std::visit([](const auto& b) { return b.hasTransmission(); }, bsdf_);
+  }
+
+ private:
+  std::variant<PreviewSurfaceBsdf, HairBsdf> bsdf_;
+};
+
+/// `ior`: the material's, or its value at the hero wavelength under dispersion; `minAlpha`: the
+/// glossy filter's (filteredAlpha).
+SurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior,
+                     float minAlpha) {
+  if (hit.material.hair) return SurfaceBsdf(makeHairBsdf(hit, spectrum, minAlpha));
+  return SurfaceBsdf(makePreviewSurfaceBsdf(hit, spectrum, ior, minAlpha));
 }
 
 /// Records what the camera ray `ray` met first: a surface (`hit`), or only a light at
@@ -238,13 +298,14 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     if (bounce >= settings.maxPathDepth || lastVertex) break;
     const Vec3f wo = -ray.direction;
     float ior = hit->material.ior;
-    if (spectrum.spectral && hit->material.abbeNumber > 0 && hit->material.opacity < 1) {
+    if (spectrum.spectral && !hit->material.hair && hit->material.abbeNumber > 0 &&
+        hit->material.opacity < 1) {
       // A dispersive interface sends each wavelength its own way: only the hero's path goes on.
       spectrum.wavelengths.keepHeroOnly();
       throughput = {throughput.x, 0, 0};
       ior = dispersiveIor(ior, hit->material.abbeNumber, spectrum.wavelengths.hero());
     }
-    const PreviewSurfaceBsdf bsdf =
+    const SurfaceBsdf bsdf =
         makeBsdf(*hit, spectrum, ior, filteredAlpha(settings.glossyFilter, minRayPdf));
 
     // Next-event estimation: every infinite light (or one, when there are many) and one local
