@@ -12,6 +12,7 @@ from typing import Any
 
 from pxr import Sdf, Usd, UsdShade
 
+from . import materialx_hair as hair
 from . import materialx_values as mv
 from .color_spaces import authored_color_space, constant_to_scene_linear, texture_color_space
 from .material_data import MaterialData, texture_file
@@ -148,6 +149,21 @@ class Network:
             return mv.clamp(value("in"), value("low"), value("high"))
         if category == "normalmap":
             return self._normal_map(value("in"), value("scale"))
+        if category == "chiang_hair_absorption_from_color":
+            color = _constant(value("color"), "color")
+            return mv.Constant(hair.absorption_from_color(
+                color, _constant(value("azimuthal_roughness"), "azimuthal_roughness")[0]))
+        if category == "deon_hair_absorption_from_melanin":
+            concentration, redness, eumelanin, pheomelanin = (
+                _constant(value(name), name) for name in (
+                    "melanin_concentration", "melanin_redness", "eumelanin_color",
+                    "pheomelanin_color"))
+            return mv.Constant(hair.absorption_from_melanin(concentration[0], redness[0],
+                                                            eumelanin, pheomelanin))
+        if category == "chiang_hair_roughness":
+            inputs = (_constant(value(name), name)[0]
+                      for name in ("longitudinal", "azimuthal", "scale_TT", "scale_TRT"))
+            return mv.Constant(hair.roughness(*inputs)[out_def.getName()])
         if category.endswith(_TO_WORKING_SPACE):
             return self._to_working_space(shader, value("in"),
                                           category[:-len(_TO_WORKING_SPACE)])
@@ -237,3 +253,11 @@ def _constant_or(value: mv.Value | None, default: tuple[float, ...]) -> tuple[fl
     if not isinstance(value, mv.Constant):
         raise mv.Untranslatable("a varying tiling parameter")
     return tuple(mv.resize(value, len(default)).values)  # type: ignore[union-attr]
+
+
+def _constant(value: mv.Value, name: str) -> tuple[float, ...]:
+    """The values of a hair node's input, which must not vary: the nodes are not affine in
+    them."""
+    if not isinstance(value, mv.Constant):
+        raise mv.Untranslatable(f"a varying {name} (hair nodes are evaluated on constants)")
+    return value.values

@@ -1,6 +1,7 @@
 """MaterialX surface models → UsdPreviewSurface parameters: standard_surface, open_pbr_surface
 and UsdPreviewSurface as MaterialX node definitions, each mapped onto the lobes of the
-renderer's BSDF; what a model sets that the BSDF lacks is collected for one warning.
+renderer's BSDF, and a surface node over a chiang_hair_bsdf onto its hair BSDF; what a model
+sets that the BSDF lacks is collected for one warning.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from typing import Any
 
 from pxr import UsdShade
 
+from . import materialx_hair as hair
 from . import materialx_values as mv
 from .material_data import INPUTS
 from .materialx_library import definition_default
@@ -18,6 +20,9 @@ from .materialx_patterns import Network
 STANDARD_SURFACE = "ND_standard_surface_surfaceshader"
 OPEN_PBR_SURFACE = "ND_open_pbr_surface_surfaceshader"
 PREVIEW_SURFACE = "ND_UsdPreviewSurface_surfaceshader"
+SURFACE = "ND_surface"  # the surfaceshader constructor over a BSDF
+CHIANG_HAIR = "ND_chiang_hair_bsdf"
+CHIANG_HAIR_ROUGHNESS = "ND_chiang_hair_roughness"
 SHEEN_PARAMS = ("penumbra:sheen", "penumbra:sheenColor", "penumbra:sheenRoughness")
 ANISOTROPY_PARAMS = ("penumbra:anisotropy", "penumbra:clearcoatAnisotropy",
                      "penumbra:anisotropyRotation")
@@ -295,8 +300,92 @@ def _map_preview_surface(s: Surface, mapping: Mapping) -> None:
         mapping.values["normal"] = s("normal")
 
 
+def _source(shader: UsdShade.Shader, name: str) -> tuple[UsdShade.Shader, str] | None:
+    """The node and output name that input ``name`` of ``shader`` is connected to (through
+    node graph interfaces); ``None`` when it takes a value."""
+    shader_input = shader.GetInput(name)
+    if not shader_input:
+        return None
+    producers = shader_input.GetValueProducingAttributes()
+    if not producers or UsdShade.Input.IsInput(producers[0]):
+        return None
+    return UsdShade.Shader(producers[0].GetPrim()), UsdShade.Output(producers[0]).GetBaseName()
+
+
+def _map_surface(s: Surface, mapping: Mapping) -> None:
+    """MaterialX's ``surface`` constructor: over a ``chiang_hair_bsdf``, the renderer's hair
+    BSDF; over any other BSDF, a default standard_surface after a warning."""
+    source = _source(s.shader, "bsdf")
+    bsdf_id = (source[0].GetShaderId() or "") if source else ""
+    if source is None or bsdf_id != CHIANG_HAIR:
+        s.network.report(s.shader.GetPath(), f"surface over {bsdf_id or 'no BSDF'} is not "
+                         f"supported (Penumbra maps a surface over {CHIANG_HAIR}); a default "
+                         "standard_surface is used")
+        _map_standard_surface(Surface(s.network, s.shader, defaults_of=STANDARD_SURFACE),
+                              mapping)
+        return
+    s.network.data.sources.add(source[0].GetPath())
+    fibre = Surface(s.network, source[0])
+    _map_chiang_hair(fibre, mapping)
+    s.unsupported.extend(fibre.unsupported)
+    if s.connected("edf"):
+        s.unsupported.append("edf")
+    s.ignore("opacity", (1.0,))
+
+
+def _map_chiang_hair(h: Surface, mapping: Mapping) -> None:
+    """chiang_hair_bsdf onto the renderer's hair parameters (material.h, MaterialParams::hair):
+    tints and absorption as they are, the cuticle angle from MaterialX's [0, 1] (α = (c − 0.5)
+    π) to degrees, the per-lobe roughness to β_m, β_n and scales."""
+    mapping.params["penumbra:hair"] = 1
+    values = mapping.values
+    for lobe in hair.LOBES:
+        values[f"penumbra:hairTint{lobe}"] = h(f"tint_{lobe}")
+    values["penumbra:hairIor"] = h("ior")
+    cuticle = h("cuticle_angle")
+    if cuticle is not None:
+        values["penumbra:hairCuticleAngle"] = mv.affine(cuticle, mv.Constant((180.0,)),
+                                                        mv.Constant((-90.0,)))
+    values["penumbra:hairAbsorption"] = h("absorption_coefficient")
+    _map_hair_roughness(h, mapping)
+    # The fibre's own direction and normal serve (hair_bsdf.h).
+    for name in ("normal", "curve_direction"):
+        if h.connected(name):
+            h.unsupported.append(name)
+
+
+def _map_hair_roughness(h: Surface, mapping: Mapping) -> None:
+    """roughness_R, _TT and _TRT: from one chiang_hair_roughness node's inputs (which may vary
+    over the surface), else from their constant (v, s) pairs."""
+    names = [f"roughness_{lobe}" for lobe in hair.LOBES]
+    sources = [_source(h.shader, name) for name in names]
+    node = sources[0][0] if sources[0] else None
+    if node is not None and node.GetShaderId() == CHIANG_HAIR_ROUGHNESS and all(
+            source is not None and source[0].GetPath() == node.GetPath() and source[1] == name
+            for source, name in zip(sources, names)):
+        h.network.data.sources.add(node.GetPath())
+        roughness = Surface(h.network, node)
+        mapping.values.update({
+            "penumbra:hairLongitudinalRoughness": roughness("longitudinal"),
+            "penumbra:hairAzimuthalRoughness": roughness("azimuthal"),
+            "penumbra:hairLongitudinalScaleTT": roughness("scale_TT"),
+            "penumbra:hairLongitudinalScaleTRT": roughness("scale_TRT"),
+        })
+        return
+    lobes = {}
+    for name in names:
+        value = h.constant(name)
+        if value is None:
+            h.unsupported.append(f"{name} varying other than through a chiang_hair_roughness "
+                                 "node (its default is used)")
+            value = definition_default(CHIANG_HAIR, name).values  # type: ignore[union-attr]
+        lobes[name] = tuple(value)
+    mapping.params.update(hair.parameters_from_lobes(lobes))
+
+
 MODELS = {
     STANDARD_SURFACE: _map_standard_surface,
     OPEN_PBR_SURFACE: _map_open_pbr,
     PREVIEW_SURFACE: _map_preview_surface,
+    SURFACE: _map_surface,
 }

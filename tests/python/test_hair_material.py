@@ -1,0 +1,191 @@
+"""MaterialX hair (docs/materialx.md, "Hair"): a surface node over a chiang_hair_bsdf, fed by
+chiang_hair_absorption_from_color, deon_hair_absorption_from_melanin and chiang_hair_roughness,
+becomes the renderer's hair BSDF (renderer/include/penumbra/hair_bsdf.h), checked against the
+formulas' values at analytic points and by rendering."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pxr import Sdf, Usd, UsdGeom, UsdShade
+
+from penumbra.usd.material import read_material
+from penumbra.usd.sampling import SampleReader
+from stages import add_preview_material, bind
+from test_materialx import diffuse_quad_stage, quad_radiance
+
+LOOK = "/World/Looks/hair"
+
+
+def _value_type(value) -> Sdf.ValueTypeName:
+    if isinstance(value, tuple):
+        return {2: Sdf.ValueTypeNames.Float2, 3: Sdf.ValueTypeNames.Color3f}[len(value)]
+    return Sdf.ValueTypeNames.Float
+
+
+def node(stage: Usd.Stage, name: str, node_def: str, **inputs) -> UsdShade.Shader:
+    shader = UsdShade.Shader.Define(stage, f"{LOOK}/{name}")
+    shader.CreateIdAttr(node_def)
+    for input_name, value in inputs.items():
+        shader.CreateInput(input_name, _value_type(value)).Set(value)
+    return shader
+
+
+def connect(shader: UsdShade.Shader, name: str, source: UsdShade.Shader, output: str,
+            value_type: Sdf.ValueTypeName) -> None:
+    shader.CreateInput(name, value_type).ConnectToSource(source.CreateOutput(output, value_type))
+
+
+def hair_material(stage: Usd.Stage, bsdf_def: str = "ND_chiang_hair_bsdf",
+                  **inputs) -> UsdShade.Shader:
+    """A material whose mtlx surface is a surface node over a ``bsdf_def`` node (returned)."""
+    material = UsdShade.Material.Define(stage, LOOK)
+    surface = node(stage, "surface", "ND_surface")
+    bsdf = node(stage, "bsdf", bsdf_def, **inputs)
+    connect(surface, "bsdf", bsdf, "out", Sdf.ValueTypeNames.Token)
+    material.CreateSurfaceOutput("mtlx").ConnectToSource(
+        surface.CreateOutput("out", Sdf.ValueTypeNames.Token))
+    return bsdf
+
+
+def params_of(stage: Usd.Stage, warn=pytest.fail) -> dict:
+    return read_material(stage.GetPrimAtPath(LOOK), SampleReader(Usd.TimeCode(1)), warn).params
+
+
+def chiang_denominator(beta_n: float) -> float:
+    return (5.969 - 0.215 * beta_n + 2.532 * beta_n**2 - 10.73 * beta_n**3
+            + 5.574 * beta_n**4 + 0.245 * beta_n**5)
+
+
+def test_chiang_hair_bsdf_maps_onto_the_hair_parameters():
+    stage = Usd.Stage.CreateInMemory()
+    bsdf = hair_material(stage, tint_R=(0.9, 0.8, 0.7), tint_TT=(0.5, 0.5, 0.5),
+                         tint_TRT=(0.2, 0.3, 0.4), ior=1.6, cuticle_angle=0.6)
+    # Colour e^−1 and e^−2 at β_n = 0 give (1/5.969)² and (2/5.969)².
+    absorption = node(stage, "absorption", "ND_chiang_hair_absorption_from_color",
+                      color=(math.exp(-1), math.exp(-2), 1.0), azimuthal_roughness=0.0)
+    connect(bsdf, "absorption_coefficient", absorption, "absorption",
+            Sdf.ValueTypeNames.Vector3f)
+    roughness = node(stage, "roughness", "ND_chiang_hair_roughness", longitudinal=0.25,
+                     azimuthal=0.4, scale_TT=0.7, scale_TRT=1.5)
+    for lobe in ("R", "TT", "TRT"):
+        connect(bsdf, f"roughness_{lobe}", roughness, f"roughness_{lobe}",
+                Sdf.ValueTypeNames.Float2)
+    params = params_of(stage)
+    assert params["penumbra:hair"] == 1
+    assert params["penumbra:hairTintR"] == pytest.approx((0.9, 0.8, 0.7))
+    assert params["penumbra:hairTintTT"] == pytest.approx((0.5, 0.5, 0.5))
+    assert params["penumbra:hairTintTRT"] == pytest.approx((0.2, 0.3, 0.4))
+    assert params["penumbra:hairIor"] == pytest.approx(1.6)
+    # MaterialX: α = cuticle_angle·π − π/2, here 0.1π = 18°.
+    assert params["penumbra:hairCuticleAngle"] == pytest.approx(18.0)
+    assert params["penumbra:hairAbsorption"] == pytest.approx(
+        (1 / 5.969**2, 4 / 5.969**2, 0.0), rel=1e-6, abs=1e-12)
+    assert params["penumbra:hairLongitudinalRoughness"] == pytest.approx(0.25)
+    assert params["penumbra:hairAzimuthalRoughness"] == pytest.approx(0.4)
+    assert params["penumbra:hairLongitudinalScaleTT"] == pytest.approx(0.7)
+    assert params["penumbra:hairLongitudinalScaleTRT"] == pytest.approx(1.5)
+    assert "diffuseColor" not in params
+
+
+def test_melanin_gives_the_pigments_absorption():
+    stage = Usd.Stage.CreateInMemory()
+    bsdf = hair_material(stage)
+    # One unit of melanin (concentration 1 − 1/e), a quarter of it pheomelanin.
+    melanin = node(stage, "melanin", "ND_deon_hair_absorption_from_melanin",
+                   melanin_concentration=1 - math.exp(-1), melanin_redness=0.25)
+    connect(bsdf, "absorption_coefficient", melanin, "absorption", Sdf.ValueTypeNames.Vector3f)
+    expected = tuple(0.75 * e + 0.25 * p for e, p in zip((0.419, 0.697, 1.37), (0.187, 0.4, 1.05)))
+    assert params_of(stage)["penumbra:hairAbsorption"] == pytest.approx(expected, abs=2e-5)
+
+
+def test_constant_lobe_roughness_becomes_betas_and_scales():
+    """chiang_hair_bsdf's defaults: (v, s) = (0.1, 0.1), (0.05, 0.05), (0.2, 0.2) for R, TT and
+    TRT — β_m with v(β_m) = 0.1, β_n with s(β_n) = 0.1, the others' scales √(v ratio) and the s
+    ratio."""
+    stage = Usd.Stage.CreateInMemory()
+    hair_material(stage)
+    params = params_of(stage)
+    beta_m = params["penumbra:hairLongitudinalRoughness"]
+    beta_n = params["penumbra:hairAzimuthalRoughness"]
+    assert (0.726 * beta_m + 0.812 * beta_m**2 + 3.7 * beta_m**20) ** 2 == pytest.approx(0.1)
+    assert 0.265 * beta_n + 1.194 * beta_n**2 + 5.372 * beta_n**22 == pytest.approx(0.1)
+    assert params["penumbra:hairLongitudinalScaleTT"] == pytest.approx(math.sqrt(0.5))
+    assert params["penumbra:hairLongitudinalScaleTRT"] == pytest.approx(math.sqrt(2.0))
+    assert params["penumbra:hairAzimuthalScaleTT"] == pytest.approx(0.5)
+    assert params["penumbra:hairAzimuthalScaleTRT"] == pytest.approx(2.0)
+    assert params["penumbra:hairCuticleAngle"] == pytest.approx(0.0)  # 0.5: no tilt
+    assert params["penumbra:hairAbsorption"] == pytest.approx((0.0, 0.0, 0.0))
+
+
+def test_what_the_hair_bsdf_ignores_warns_once_naming_it():
+    stage = Usd.Stage.CreateInMemory()
+    bsdf = hair_material(stage)
+    tangent = node(stage, "tangent", "ND_constant_vector3")
+    connect(bsdf, "curve_direction", tangent, "out", Sdf.ValueTypeNames.Vector3f)
+    messages: list[str] = []
+    params = params_of(stage, messages.append)
+    assert params["penumbra:hair"] == 1
+    assert len(messages) == 1
+    assert "curve_direction is not supported" in messages[0] and LOOK in messages[0]
+
+
+def test_a_varying_hair_colour_warns_and_keeps_the_default_absorption():
+    stage = Usd.Stage.CreateInMemory()
+    bsdf = hair_material(stage)
+    absorption = node(stage, "absorption", "ND_chiang_hair_absorption_from_color")
+    reader = node(stage, "tint", "ND_geompropvalue_color3")
+    reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("hairColor")
+    connect(absorption, "color", reader, "out", Sdf.ValueTypeNames.Color3f)
+    connect(bsdf, "absorption_coefficient", absorption, "absorption",
+            Sdf.ValueTypeNames.Vector3f)
+    messages: list[str] = []
+    params = params_of(stage, messages.append)
+    assert params["penumbra:hairAbsorption"] == pytest.approx((0.0, 0.0, 0.0))
+    assert len(messages) == 1 and "a varying color" in messages[0]
+    assert f"{LOOK}/absorption" in messages[0]
+
+
+def test_a_surface_over_another_bsdf_warns_and_renders_a_default_standard_surface():
+    stage = Usd.Stage.CreateInMemory()
+    hair_material(stage, "ND_oren_nayar_diffuse_bsdf")
+    messages: list[str] = []
+    params = params_of(stage, messages.append)
+    assert "penumbra:hair" not in params
+    assert len(messages) == 1 and "ND_oren_nayar_diffuse_bsdf" in messages[0]
+
+
+def hair_quad_radiance(**inputs) -> np.ndarray:
+    """Mean radiance of a quad filling the view under a white dome (one scattering event sees
+    the dome on both sides: the radiance is the BSDF's albedo)."""
+    stage = diffuse_quad_stage()
+    hair_material(stage, **inputs)
+    bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")),
+         UsdShade.Material(stage.GetPrimAtPath(LOOK)))
+    return quad_radiance(stage)
+
+
+def test_a_clear_hair_material_passes_the_white_furnace():
+    radiance = hair_quad_radiance()
+    assert radiance == pytest.approx((1.0, 1.0, 1.0), abs=0.01)
+
+
+def test_an_opaque_fibre_reflects_only_fresnels_share():
+    """Under strong absorption only R is left. On a surface that is not a fibre the shading
+    normal is the fibre's normal: seen head-on, every point is met at θo ≈ 0 and h ≈ 0, where R
+    reflects Fresnel's normal-incidence share ((η − 1)/(η + 1))² of the dome."""
+    radiance = hair_quad_radiance(absorption_coefficient=(200.0, 200.0, 200.0))
+    assert radiance == pytest.approx((((1.55 - 1) / (1.55 + 1)) ** 2,) * 3, rel=0.03)
+
+
+def test_a_usd_preview_surface_becomes_hair_by_its_penumbra_inputs():
+    """inputs:penumbra:hair on a UsdPreviewSurface: its diffuse colour no longer matters."""
+    stage = diffuse_quad_stage()
+    material = add_preview_material(stage, "/World/Looks/preview", diffuseColor=(0.0, 1.0, 0.0),
+                                    **{"penumbra:hair": 1,
+                                       "penumbra:hairAbsorption": (200.0, 200.0, 200.0)})
+    bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")), material)
+    radiance = quad_radiance(stage)
+    assert radiance == pytest.approx((((1.55 - 1) / (1.55 + 1)) ** 2,) * 3, rel=0.03)
