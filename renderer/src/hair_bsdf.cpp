@@ -85,17 +85,29 @@ Frame fibreFrame(const Vec3f& fibreDirection, const Vec3f& normal, const Vec3f& 
   return frame;
 }
 
+/// Chiang et al.'s fit of √σa·(this) = −ln c against β_n (eq. 9).
+float colorFitDenominator(float azimuthalRoughness) {
+  const float b = azimuthalRoughness;
+  const float b2 = b * b, b4 = b2 * b2;
+  return 5.969f - 0.215f * b + 2.532f * b2 - 10.73f * b2 * b + 5.574f * b4 + 0.245f * b4 * b;
+}
+
 }  // namespace
 
 Vec3f hairAbsorptionFromColor(const Vec3f& color, float azimuthalRoughness) {
-  const float b = azimuthalRoughness;
-  const float b2 = b * b, b4 = b2 * b2;
-  const float denominator =
-      5.969f - 0.215f * b + 2.532f * b2 - 10.73f * b2 * b + 5.574f * b4 + 0.245f * b4 * b;
+  const float denominator = colorFitDenominator(azimuthalRoughness);
   const auto channel = [&](float c) {
     return square(std::log(clampOrLow(c, 0.001f, 1)) / denominator);
   };
   return {channel(color.x), channel(color.y), channel(color.z)};
+}
+
+Vec3f hairColorFromAbsorption(const Vec3f& absorption, float azimuthalRoughness) {
+  const float denominator = colorFitDenominator(azimuthalRoughness);
+  const auto channel = [&](float a) {
+    return std::exp(-std::sqrt(clampOrLow(a, 0, kInfinity)) * denominator);
+  };
+  return {channel(absorption.x), channel(absorption.y), channel(absorption.z)};
 }
 
 Vec3f hairAbsorptionFromMelanin(float concentration, float redness, const Vec3f& eumelaninColor,

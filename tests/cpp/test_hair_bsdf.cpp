@@ -290,6 +290,9 @@ TEST(HairAbsorption, AbsorptionFromColourFollowsChiangsFormula) {
   EXPECT_EQ(fromColour.z, 0.0f);
   const Vec3f rough = hairAbsorptionFromColor(Vec3f(std::exp(-2.0f)), 1.0f);
   EXPECT_NEAR(rough.x, std::pow(2 / 3.375, 2), 1e-5);
+  const Vec3f colour(0.6f, 0.3f, 0.05f);
+  const Vec3f back = hairColorFromAbsorption(hairAbsorptionFromColor(colour, 0.4f), 0.4f);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(back[k], colour[k], 1e-5f);
   // Black is clamped to 0.001 (MaterialX).
   EXPECT_NEAR(hairAbsorptionFromColor(Vec3f(0.0f), 0.0f).x, std::pow(std::log(0.001) / 5.969, 2),
               1e-4);

@@ -57,6 +57,10 @@ constexpr Vec3f kPheomelaninColor{0.829444f, 0.670320f, 0.349938f};
 /// chiang_hair_absorption_from_color does.
 Vec3f hairAbsorptionFromColor(const Vec3f& color, float azimuthalRoughness);
 
+/// The inverse of hairAbsorptionFromColor: the colour c = exp(−√σa · denominator(β_n)) a fibre
+/// of absorption σa shows under multiple scattering (for an albedo AOV).
+Vec3f hairColorFromAbsorption(const Vec3f& absorption, float azimuthalRoughness);
+
 /// σa from melanin (d'Eon et al. 2011, as MaterialX's deon_hair_absorption_from_melanin): the
 /// melanin amount m = −ln(1 − concentration), split by `redness` into eumelanin m(1 − redness)
 /// and pheomelanin m·redness, each absorbing −ln of its colour.
