@@ -28,8 +28,10 @@ from .materialx_surfaces import (
     OPEN_PBR_SURFACE,
     PREVIEW_SURFACE,
     STANDARD_SURFACE,
+    SURFACE,
     Mapping,
     Surface,
+    is_hair_surface,
 )
 from .sampling import SampleReader
 
@@ -50,7 +52,7 @@ def surface_shader(material: Usd.Prim) -> UsdShade.Shader | None:
                for context in (RENDER_CONTEXT, UsdShade.Tokens.universalRenderContext)]
     ids = [(shader.GetShaderId() or "") if shader else "" for shader in shaders]
     for shader, shader_id in zip(shaders, ids):
-        if shader_id in SURFACES:
+        if shader_id in SURFACES or (shader_id == SURFACE and is_hair_surface(shader)):
             return shader
     if ids[1] == "UsdPreviewSurface":
         return None  # an unsupported MaterialX surface beside a UsdPreviewSurface: use that

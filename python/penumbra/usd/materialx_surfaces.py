@@ -312,6 +312,13 @@ def _source(shader: UsdShade.Shader, name: str) -> tuple[UsdShade.Shader, str] |
     return UsdShade.Shader(producers[0].GetPrim()), UsdShade.Output(producers[0]).GetBaseName()
 
 
+def is_hair_surface(shader: UsdShade.Shader) -> bool:
+    """Whether ``shader``, a ``surface`` node, is built over a ``chiang_hair_bsdf`` (so that it
+    wins over a UsdPreviewSurface beside it, as the supported surfaces do)."""
+    source = _source(shader, "bsdf")
+    return source is not None and source[0].GetShaderId() == CHIANG_HAIR
+
+
 def _map_surface(s: Surface, mapping: Mapping) -> None:
     """MaterialX's ``surface`` constructor: over a ``chiang_hair_bsdf``, the renderer's hair
     BSDF; over any other BSDF, a default standard_surface after a warning."""
