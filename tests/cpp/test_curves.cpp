@@ -176,6 +176,29 @@ TEST(Curves, RoundLinearTubeIsHitAtItsRadiusAndSeamlessAtJoints) {
               -b - std::sqrt(b * b - dot(fromCentre, fromCentre) + 0.25f), 1e-4f);
 }
 
+TEST(Curves, RayFromInsideATubeMeetsItsWallFacingOut) {
+  for (const CurveType type : {CurveType::Linear, CurveType::Cubic}) {
+    SCOPED_TRACE(type == CurveType::Linear ? "linear" : "cubic");
+    CurvesScene s(
+        type == CurveType::Linear
+            ? oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, {{-2, 0, 0}, {2, 0, 0}}, 1)
+            : oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 1));
+    for (const Vec3f& direction : {Vec3f(0, 1, 0), Vec3f(0, -0.6f, 0.8f)}) {
+      const std::optional<SurfaceHit> hit =
+          intersectSurface(s.scene, rayFrom({0.5f, 0, 0}, direction), RayKind::Secondary);
+      ASSERT_TRUE(hit);
+      EXPECT_NEAR(hit->distance, 0.5f, 1e-4f);
+      EXPECT_NEAR(dot(hit->normal, direction), 1, 1e-4f);  // outwards, as the ray goes
+      EXPECT_TRUE(hit->closed);
+    }
+  }
+}
+
+TEST(Curves, NoCurvesRenderNothing) {
+  CurvesScene s{CurvesData{}};
+  EXPECT_FALSE(s.hits(downAt(0, 0)));
+}
+
 TEST(Curves, CubicBezierPassesThroughItsEndsAndItsMidpoint) {
   const Vec3f p[4] = {{-1, 0, 0}, {-0.5f, 1, 0}, {0.5f, 1.5f, 0}, {1, 0.5f, 0}};
   const float radius = 0.05f;
