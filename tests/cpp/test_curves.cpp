@@ -386,6 +386,38 @@ TEST(Curves, RibbonsFaceTheirNormalsWithTheirFullWidth) {
   EXPECT_FALSE(t.hits(rayFrom({1.9f, 0.55f, 5}, {0, 0, -1})));
 }
 
+TEST(Curves, RibbonWidthsAndNormalsFollowTheirInterpolation) {
+  // Two straight cubic ribbons (z = 0 and z = 3), widths varying from 1 to 2 along each, the
+  // first facing +y, the second +z (uniform normals).
+  CurvesData curves =
+      oneCurve(CurveType::Cubic, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 1);
+  const std::vector<Vec3f> second = straightBezier(3);
+  curves.positions.insert(curves.positions.end(), second.begin(), second.end());
+  curves.curveVertexCounts = {4, 4};
+  curves.widths = {1, 2, 1, 2};
+  curves.widthsInterpolation = Interpolation::Varying;
+  curves.normals = {{0, 1, 0}, {0, 0, 1}};
+  curves.normalsInterpolation = Interpolation::Uniform;
+  CurvesScene s(curves);
+  // Half-width 0.5 + 0.5 u with u = (x + 2)/4: 0.625 at x = -1, 0.875 at x = 1.
+  for (const float x : {-1.0f, 1.0f}) {
+    const float halfWidth = 0.5f + 0.5f * (x + 2) / 4;
+    EXPECT_TRUE(s.hits(downAt(x, 0.99f * halfWidth))) << x;
+    EXPECT_FALSE(s.hits(downAt(x, 1.01f * halfWidth))) << x;
+    EXPECT_TRUE(s.hits(rayFrom({x, -0.99f * halfWidth, 10}, {0, 0, -1}))) << x;
+    EXPECT_FALSE(s.hits(rayFrom({x, -1.01f * halfWidth, 10}, {0, 0, -1}))) << x;
+  }
+  const std::optional<SurfaceHit> flat = s.surface(downAt(0, 0.2f));
+  ASSERT_TRUE(flat);
+  EXPECT_NEAR(flat->distance, 5, 1e-4f);
+  EXPECT_NEAR(flat->normal.y, 1, 1e-4f);
+  const std::optional<SurfaceHit> upright = s.surface(rayFrom({0, 0.2f, 10}, {0, 0, -1}));
+  ASSERT_TRUE(upright);
+  EXPECT_NEAR(upright->distance, 7, 1e-4f);
+  EXPECT_NEAR(upright->normal.z, 1, 1e-4f);
+  EXPECT_EQ(upright->shape->elementOf(upright->primitive), 1);
+}
+
 TEST(Curves, VaryingAndVertexWidthsGiveTheirRadius) {
   // Height of the surface above the centre line seen straight down at x (u = (x + 2)/4).
   auto heightAt = [](const CurvesScene& s, float x) {
