@@ -66,6 +66,20 @@ T bezierDerivative(const T controls[4], float u) {
          (controls[3] - controls[2]) * (3 * u * u);
 }
 
+/// The point of `shape` at Embree's (segment, u, v), on the centre line at `centre`: three equal
+/// corners (no differentials across the fibre, whatever weights u and v make); primvars are read
+/// at (segment, u).
+SurfacePoint centreLinePoint(const Shape& shape, uint32_t segment, float u, float v,
+                             const Vec3f& centre) {
+  SurfacePoint point;
+  point.shape = &shape;
+  point.primitive = segment;
+  point.u = u;
+  point.v = v;
+  for (Vec3f& corner : point.corners) corner = centre;
+  return point;
+}
+
 }  // namespace
 
 CurveSegmentRules::CurveSegmentRules(const CurvesData& curves)
@@ -337,43 +351,24 @@ bool CurvesShape::tracesAs(const Shape& other) const {
 }
 
 SurfacePoint CurvesShape::pointAt(uint32_t segment, float u, float v, float time) const {
-  // Weights (1, 0, 0) on three equal corners: no differentials across the fibre; the primvars
-  // are read at (segment, u) itself.
-  SurfacePoint result;
-  result.shape = this;
-  result.primitive = segment;
-  result.u = u;
-  result.v = v;
   Vec3f controls[4];
   positionControls(segmentAt(segment), time, controls);
-  const Vec3f centre = evaluateBezier(controls, u);
-  for (Vec3f& corner : result.corners) corner = centre;
-  return result;
+  return centreLinePoint(*this, segment, u, v, evaluateBezier(controls, u));
 }
 
 SurfaceGeometry CurvesShape::surfaceAt(uint32_t segment, float u, float v, float time,
                                        const Vec3f& geometricNormal,
                                        const Transform& objectToWorld) const {
-  SurfaceGeometry surface;
-  surface.point = pointAt(segment, u, v, time);
-  const Segment place = segmentAt(segment);
-  Vec3f normal = geometricNormal;
-  const bool ribbons = !curves_.normals.empty();
-  if (ribbons) {
-    // A ribbon's front is the side its authored normals face.
-    Vec3f normals[4];
-    bezierControls(
-        place, curves_.normalsInterpolation, [&](uint32_t i) { return curves_.normals[i]; },
-        normals);
-    if (dot(normal, evaluateBezier(normals, u)) < 0) normal = -normal;
-  }
-  surface.normal = normalize(objectToWorld.applyToNormal(normal));
-  surface.shadingNormal = surface.normal;
-  surface.closed = !ribbons;
   Vec3f controls[4];
-  positionControls(place, time, controls);
-  surface.fibreDirection =
-      normalize(objectToWorld.applyToVector(bezierDerivative(controls, surface.point.u)));
+  positionControls(segmentAt(segment), time, controls);
+  SurfaceGeometry surface;
+  surface.point = centreLinePoint(*this, segment, u, v, evaluateBezier(controls, u));
+  // Embree's Ng: outwards on a tube (from inside it too), and on a ribbon to the side its
+  // interpolated normal faces (its front, whichever way the curve runs).
+  surface.normal = normalize(objectToWorld.applyToNormal(geometricNormal));
+  surface.shadingNormal = surface.normal;
+  surface.closed = curves_.normals.empty();
+  surface.fibreDirection = normalize(objectToWorld.applyToVector(bezierDerivative(controls, u)));
   return surface;
 }
 

@@ -363,6 +363,13 @@ TEST(Curves, RibbonsFaceTheirNormalsWithTheirFullWidth) {
   ASSERT_TRUE(below);
   EXPECT_NEAR(below->distance, 3, 1e-4f);
   EXPECT_NEAR(below->normal.y, 1, 1e-4f);
+  // Running the other way, it still faces its normal.
+  std::swap(curves.positions[0], curves.positions[1]);
+  CurvesScene reversed(curves);
+  const std::optional<SurfaceHit> back = reversed.surface(rayFrom({0.5f, -3, 0.2f}, {0, 1, 0}));
+  ASSERT_TRUE(back);
+  EXPECT_NEAR(back->normal.y, 1, 1e-4f);
+  EXPECT_NEAR(back->fibreDirection.x, -1, 1e-5f);
   // Edge on, a ribbon is not there.
   EXPECT_FALSE(s.hits(rayFrom({0, 0.01f, 5}, {0, 0, -1})));
   EXPECT_FALSE(s.hits(rayFrom({0, -0.01f, 5}, {0, 0, -1})));
