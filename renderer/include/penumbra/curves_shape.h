@@ -39,7 +39,8 @@ struct CurveSegmentRules {
 /// other segment, cubic of any basis or a linear ribbon, becomes one cubic Bézier of four
 /// vertices of its own. The change of basis is exact, and so varying (linear) widths and normals
 /// are exact too, which shared native-basis vertices could not carry. Embree's u is the
-/// segment's own parameter in every case.
+/// segment's own parameter in every case. Embree's cubic sweeps are open at their ends (linear
+/// tubes end in spheres) and assume a radius below the curve's radius of curvature.
 ///
 /// Its own memory is 4 bytes a segment (the curve it belongs to) and 12 a curve besides the
 /// authored arrays; Embree's buffers add 64 bytes a cubic or ribbon segment per motion step
