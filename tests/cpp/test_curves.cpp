@@ -270,7 +270,13 @@ TEST(Curves, PinnedCurvesReachTheirEndVertices) {
     // a hundredth of the way in, the curve is there (B-spline: no curvature at its ends).
     expectTubeThrough(s, p[0] + (p[1] - p[0]) * 0.01f, p[1] - p[0], radius);
     expectTubeThrough(s, p[2] - (p[2] - p[1]) * 0.01f, p[2] - p[1], radius);
-    if (basis == CurveBasis::CatmullRom) expectTubeThrough(s, p[1], p[2] - p[0], radius);
+    // The first segment's middle, P[-1] = 2 P0 - P1 substituted in the basis at t = ½.
+    if (basis == CurveBasis::BSpline) {
+      expectTubeThrough(s, (p[0] * 25 + p[1] * 22 + p[2]) / 48, p[1] * 6 + p[2] - p[0] * 7, radius);
+    } else {
+      expectTubeThrough(s, (p[0] * 7 + p[1] * 10 - p[2]) / 16, p[1] * 10 - p[2] - p[0] * 9, radius);
+      expectTubeThrough(s, p[1], p[2] - p[0], radius);
+    }
   }
   // Two vertices suffice: a pinned B-spline through collinear vertices is their straight line.
   CurvesScene line(oneCurve(CurveType::Cubic, CurveBasis::BSpline, CurveWrap::Pinned,
