@@ -48,7 +48,10 @@ std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, R
     } else {
       hit.material = material->constants;
     }
-    if (anisotropic) hit.tangent = surfaceTangent(point, objectToWorld);
+    // A fibre's tangent is its direction (its corners, all one point, span no surface).
+    if (anisotropic)
+      hit.tangent = length(surface.fibreDirection) > 0 ? surface.fibreDirection
+                                                       : surfaceTangent(point, objectToWorld);
     // With a threshold, opacity decides presence (the filter cut out what is below it); what
     // remains is opaque, not translucent (UsdPreviewSurface spec).
     if (hit.material.opacityThreshold > 0) hit.material.opacity = 1;

@@ -583,6 +583,24 @@ TEST(Curves, NormalsAndFibreDirectionFollowThePlacement) {
   EXPECT_NEAR(hit->fibreDirection.y, 1, 1e-5f);
 }
 
+TEST(Curves, AnisotropicLobesStretchAlongTheFibre) {
+  // A tube along x, rotated onto y: an anisotropic material's tangent is the fibre direction
+  // (a fibre's primitive spans no surface to take a tangent from).
+  const double rotateXToY[16] = {0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  CurvesScene s(
+      oneCurve(CurveType::Cubic, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 1),
+      Transform::fromRowMajor(rotateXToY));
+  Material brushed;
+  brushed.constants.anisotropy = 0.8f;
+  s.scene.setMaterial(0, brushed);
+  s.scene.geometry().setMeshInstance(s.id, Transform::fromRowMajor(rotateXToY), 0, true);
+  s.scene.commit();
+  const std::optional<SurfaceHit> hit = s.surface(rayFrom({5, 1, 0}, {-1, 0, 0}));
+  ASSERT_TRUE(hit);
+  EXPECT_NEAR(hit->tangent.y, 1, 1e-5f);
+  EXPECT_NEAR(length(hit->tangent), 1, 1e-5f);
+}
+
 TEST(Curves, WhiteTubesUnderAWhiteDomeAreWhite) {
   // White furnace: white Lambertian tubes under a uniform dome of radiance 1 look like it.
   CurvesData curves;
