@@ -32,16 +32,22 @@ void RenderDelegate::forEachKind(Self& self, Visit visit) {
 
 void RenderDelegate::insertRprim(const std::string& type, const PrimId& id) {
   if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
+  if (type == "instancer") {
+    instancers_.insert(std::make_unique<Instancer>(id, scene_->geometry().addInstancer()));
+    return;
+  }
   if (type == "mesh")
     meshes_.insert(std::make_unique<Mesh>(id, scene_->geometry().addMesh()));
   else if (type == "points")
     points_.insert(std::make_unique<Points>(id, scene_->geometry().addMesh()));
   else if (type == "basisCurves")
     curves_.insert(std::make_unique<Curves>(id, scene_->geometry().addMesh()));
-  else if (type == "instancer")
-    instancers_.insert(std::make_unique<Instancer>(id, scene_->geometry().addInstancer()));
   else
     throw std::invalid_argument(id + ": unsupported rprim type '" + type + "'");
+  // Instancers that found no prototype of this id place their copies of it at the next sync.
+  instancers_.forEach([&](Instancer& copies) {
+    if (copies.prototype() == id) copies.markDirty(DirtyTransform);
+  });
 }
 
 void RenderDelegate::insertBprim(const std::string& type, const PrimId& id) {
@@ -66,13 +72,14 @@ void RenderDelegate::insertSprim(const std::string& type, const PrimId& id) {
 }
 
 void RenderDelegate::removePrim(const PrimId& id) {
-  prim(id).finalize(context_);
-  // A mesh drops its instancers' copies as it finalizes; points and curves are copied by few
-  // instancers, found here.
+  Prim& removed = prim(id);
+  // A mesh drops its instancers' copies as it finalizes; those of points and curves (copied by
+  // few instancers) are found here, and go before their prototype.
   if (points_.find(id) || curves_.find(id))
     instancers_.forEach([&](Instancer& copies) {
       if (copies.prototype() == id) copies.dropCopies(context_);
     });
+  removed.finalize(context_);
   forEachKind(*this, [&](auto& kind) { kind.erase(id); });
 }
 

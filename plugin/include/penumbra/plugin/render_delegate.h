@@ -34,7 +34,8 @@ class RenderDelegate {
 
   /// Rprim types: "mesh", "points", "basisCurves", "instancer". Sprim types: "camera",
   /// "material", and the light types (lightTypes()). Throws std::invalid_argument for an unknown
-  /// type or an id already in use.
+  /// type or an id already in use. Instancers copying a prototype of a new mesh's, points' or
+  /// curves' id place their copies of it at the next sync.
   void insertRprim(const std::string& type, const PrimId& id);
   void insertSprim(const std::string& type, const PrimId& id);
   /// Bprim types: "renderBuffer".
