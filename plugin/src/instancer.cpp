@@ -17,11 +17,24 @@ const PlacedRprim* findPrototype(const SyncContext& context, const PrimId& id) {
   return context.curves.find(id);
 }
 
+/// Takes `instancer` out of the instancers of `prototype` in the context's list.
+void unlist(SyncContext& context, const PrimId& prototype, const PrimId& instancer) {
+  const auto listed = context.instancersByPrototype.find(prototype);
+  if (listed == context.instancersByPrototype.end()) return;
+  listed->second.erase(instancer);
+  if (listed->second.empty()) context.instancersByPrototype.erase(listed);
+}
+
 }  // namespace
 
 void Instancer::sync(SyncContext& context, uint32_t) {
   context.sceneChanged = true;
   Scene& scene = context.scene;
+  if (listedUnder_ != prototype_) {
+    unlist(context, listedUnder_, id());
+    context.instancersByPrototype[prototype_].insert(id());
+    listedUnder_ = prototype_;
+  }
   const PlacedRprim* prototype = findPrototype(context, prototype_);
   if (!prototype) {
     context.warn(id() + ": prototype " + prototype_ +
@@ -31,7 +44,7 @@ void Instancer::sync(SyncContext& context, uint32_t) {
     return;
   }
   // As in Hydra, a prototype mesh knows its instancer (its removal drops the copies); the
-  // render delegate drops the copies of removed points and curves itself.
+  // render delegate drops those of points and curves (SyncContext::instancersByPrototype).
   if (Mesh* mesh = context.meshes.find(prototype_)) mesh->addInstancer(id());
   scene.geometry().setInstancerPassVisibility(handle_, pass_);
   scene.geometry().setInstances(handle_, prototype->handle(), transforms_, visible_);
@@ -45,6 +58,7 @@ void Instancer::sync(SyncContext& context, uint32_t) {
 
 void Instancer::finalize(SyncContext& context) {
   context.sceneChanged = true;
+  unlist(context, listedUnder_, id());
   context.scene.geometry().removeInstancer(handle_);
   if (Mesh* prototype = context.meshes.find(prototype_)) prototype->removeInstancer(id());
 }

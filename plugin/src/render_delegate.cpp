@@ -45,9 +45,16 @@ void RenderDelegate::insertRprim(const std::string& type, const PrimId& id) {
   else
     throw std::invalid_argument(id + ": unsupported rprim type '" + type + "'");
   // Instancers that found no prototype of this id place their copies of it at the next sync.
-  instancers_.forEach([&](Instancer& copies) {
-    if (copies.prototype() == id) copies.markDirty(DirtyTransform);
-  });
+  forEachInstancerOf(id, [](Instancer& copies) { copies.markDirty(DirtyTransform); });
+}
+
+template <typename Visit>
+void RenderDelegate::forEachInstancerOf(const PrimId& prototype, Visit visit) {
+  const auto listed = context_.instancersByPrototype.find(prototype);
+  if (listed == context_.instancersByPrototype.end()) return;
+  for (const PrimId& id : listed->second)
+    if (Instancer* copies = instancers_.find(id); copies && copies->prototype() == prototype)
+      visit(*copies);
 }
 
 void RenderDelegate::insertBprim(const std::string& type, const PrimId& id) {
@@ -73,12 +80,10 @@ void RenderDelegate::insertSprim(const std::string& type, const PrimId& id) {
 
 void RenderDelegate::removePrim(const PrimId& id) {
   Prim& removed = prim(id);
-  // A mesh drops its instancers' copies as it finalizes; those of points and curves (copied by
-  // few instancers) are found here, and go before their prototype.
+  // A mesh drops its instancers' copies as it finalizes; the copies of points and curves go
+  // here, before their prototype.
   if (points_.find(id) || curves_.find(id))
-    instancers_.forEach([&](Instancer& copies) {
-      if (copies.prototype() == id) copies.dropCopies(context_);
-    });
+    forEachInstancerOf(id, [&](Instancer& copies) { copies.dropCopies(context_); });
   removed.finalize(context_);
   forEachKind(*this, [&](auto& kind) { kind.erase(id); });
 }

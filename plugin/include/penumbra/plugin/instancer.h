@@ -45,7 +45,8 @@ class Instancer : public Prim {
   /// warning). The render delegate syncs instancers after every kind of geometry: the copies
   /// follow their prototype's geometry.
   void sync(SyncContext& context, uint32_t dirtyBits) override;
-  /// Removes its copies from the scene, and itself from its prototype's instancers.
+  /// Removes its copies from the scene, and itself from its prototype's instancers (and from
+  /// SyncContext::instancersByPrototype).
   void finalize(SyncContext& context) override;
   /// Its prototype left the render index: the copies go, and are placed again at the next sync
   /// (when a prototype with its id is back).
@@ -62,6 +63,7 @@ class Instancer : public Prim {
  private:
   Geometry::InstancerId handle_;
   PrimId prototype_;
+  PrimId listedUnder_;  // its entry of SyncContext::instancersByPrototype (empty: none)
   std::vector<MotionTransform> transforms_;
   bool visible_ = true;
   PassVisibility pass_;

@@ -121,6 +121,9 @@ class RenderDelegate {
   /// the last sync (they render with it now, or with their displayColor); the dirty ones place
   /// themselves.
   void placeUsersOfNewAndRemovedMaterials();
+  /// Calls `visit(instancer)` for each instancer copying `prototype`.
+  template <typename Visit>
+  void forEachInstancerOf(const PrimId& prototype, Visit visit);
   /// Calls `visit(collection)` for each kind's collection of `self` (const or not).
   template <typename Self, typename Visit>
   static void forEachKind(Self& self, Visit visit);

@@ -113,6 +113,10 @@ struct SyncContext {
   PrimCollection<Instancer>& instancers;
   MaterialIndices materials;
   LightList lights;
+  /// The instancers naming each prototype id, as they last synced (Instancer::sync), whether
+  /// or not a prototype of that id is in the render index: its removal drops their copies, its
+  /// insertion has them placed again.
+  std::map<PrimId, std::set<PrimId>> instancersByPrototype;
   /// The context of this sync (set by the render delegate before the prims sync).
   DicingContext dicing;
   /// RenderSettingsMap::complexity: how finely subdivision surfaces are diced.
