@@ -476,3 +476,36 @@ def test_a_groom_is_checked_against_the_memory_budget_before_it_is_built():
     with pytest.raises(penumbra.SceneError, match="acceleration structures"):
         renderer.render("/cam", width=16, samples=1, max_memory=budget, texture_cache=CACHE)
     assert renderer.delegate.estimated_sync_bytes() == estimate  # nothing was built
+
+
+@pytest.mark.parametrize(
+    "attribute, value, problem",
+    [
+        ("order", [5], "order must give"),
+        ("knots", [0, 1, 2, 3, 4, 5, 6], "knots has 7 values"),
+        ("knots", [0, 1, 2, 3, 2, 5, 6, 7], "knots must not decrease"),
+        ("knots", [0, 1, 2, 3, 4, 5, 6, float("nan")], "knots must be finite"),
+        ("pointWeights", [1.0, 0.0, 1.0, 1.0], "pointWeights must be positive"),
+    ],
+)
+def test_bad_nurbs_are_warned_of_naming_the_attribute_and_skipped(attribute, value, problem):
+    stage = _camera_only_stage()
+    nurbs = _nurbs(stage, [(-1.5, 0, 0), (-0.5, 1, 0), (0.5, 1, 0), (1.5, 0, 0)], 4,
+                   list(range(8)), widths=(0.5,))
+    nurbs.GetPrim().GetAttribute(attribute).Set(value)
+    with pytest.warns(penumbra.PenumbraWarning) as record:
+        renderer = penumbra.Renderer(stage)
+    messages = [str(w.message) for w in record if str(w.message).startswith("/World/nurbs: ")]
+    assert len(messages) == 1 and problem in messages[0] and messages[0].endswith("skipped")
+    assert not renderer.delegate.has_prim("/World/nurbs")
+
+
+def test_hermite_curves_without_a_tangent_per_point_are_skipped():
+    stage = _camera_only_stage()
+    hermite = UsdGeom.HermiteCurves.Define(stage, "/World/hermite")
+    hermite.CreatePointsAttr([Gf.Vec3f(-1, 0, 0), Gf.Vec3f(1, 0, 0)])
+    hermite.CreateTangentsAttr([Gf.Vec3f(1, 0, 0)])
+    hermite.CreateCurveVertexCountsAttr([2])
+    with pytest.warns(penumbra.PenumbraWarning, match="/World/hermite: tangents has 1 values"):
+        renderer = penumbra.Renderer(stage)
+    assert not renderer.delegate.has_prim("/World/hermite")

@@ -130,7 +130,10 @@ def nurbs_to_basis(
             "at most its vertex count; skipped"
         )
         return None
-    if len(knots) != int((counts + orders).sum()) or not np.isfinite(knots).all():
+    if not np.isfinite(knots).all():
+        warn(f"{path}: knots must be finite; skipped")
+        return None
+    if len(knots) != int((counts + orders).sum()):
         warn(
             f"{path}: knots has {len(knots)} values, not one per vertex plus the order per "
             "curve; skipped"

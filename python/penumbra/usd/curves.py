@@ -47,7 +47,10 @@ def sync_curves_data(
     if positions is None or len(positions) == 0:
         return False
     counts = np.asarray(reader.get(gprim.GetCurveVertexCountsAttr()) or [], dtype=np.int32)
-    if counts.sum() != len(positions) or (counts < 0).any():
+    if (counts < 0).any():
+        warn(f"{path}: curveVertexCounts has negative counts; skipped")
+        return False
+    if counts.sum() != len(positions):
         warn(
             f"{path}: curveVertexCounts add up to {int(counts.sum())} for {len(positions)} "
             "points; skipped"
