@@ -1,8 +1,98 @@
 #include "penumbra/curves.h"
 
-namespace penumbra {
+#include <cmath>
+#include <stdexcept>
+#include <string>
 
-// Interface stub of the curves work: the renderer helper replaces it.
-void validateCurves(const CurvesData&) {}
+#include "penumbra/curves_shape.h"
+
+namespace penumbra {
+namespace {
+
+/// How many values data of each interpolation has on a prim's curves.
+struct ElementCounts {
+  size_t curves = 0, vertices = 0, varying = 0;
+
+  size_t of(Interpolation interpolation) const {
+    switch (interpolation) {
+      case Interpolation::Constant:
+        return 1;
+      case Interpolation::Uniform:
+        return curves;
+      case Interpolation::Vertex:
+        return vertices;
+      case Interpolation::Varying:
+      case Interpolation::FaceVarying:  // the schema's varying, on curves
+        break;
+    }
+    return varying;
+  }
+};
+
+/// Throws unless `count` values of `name` fit its interpolation.
+void requireCount(const std::string& name, Interpolation interpolation, size_t count,
+                  const ElementCounts& counts) {
+  const size_t expected = counts.of(interpolation);
+  if (count != expected)
+    throw std::invalid_argument(name + " (" + interpolationName(interpolation) + ") has " +
+                                std::to_string(count) + " values, expected " +
+                                std::to_string(expected));
+}
+
+}  // namespace
+
+void validateCurves(const CurvesData& curves) {
+  const CurveSegmentRules rules(curves);
+  ElementCounts counts;
+  counts.curves = curves.curveVertexCounts.size();
+  size_t vertices = 0;
+  for (size_t curve = 0; curve < counts.curves; ++curve) {
+    const int count = curves.curveVertexCounts[curve];
+    std::string expected;
+    if (count < 0 || !rules.fits(uint32_t(count), &expected))
+      throw std::invalid_argument("curveVertexCounts[" + std::to_string(curve) +
+                                  "] = " + std::to_string(count) + "; expected " + expected);
+    vertices += size_t(count);
+    counts.varying += rules.varyingValues(uint32_t(count));
+  }
+  counts.vertices = vertices;
+  if (curves.positions.size() != vertices)
+    throw std::invalid_argument("curveVertexCounts sum to " + std::to_string(vertices) +
+                                " vertices, but positions has " +
+                                std::to_string(curves.positions.size()));
+  if (vertices > UINT32_MAX / 4)
+    throw std::invalid_argument("positions has " + std::to_string(vertices) +
+                                " vertices; at most " + std::to_string(UINT32_MAX / 4) +
+                                " are supported");
+  requireFinite(curves.positions, "positions");
+  requireMotionSteps(curves.positionMotion, vertices, "positions at motion step");
+  requireCount("widths", curves.widthsInterpolation, curves.widths.size(), counts);
+  for (size_t i = 0; i < curves.widths.size(); ++i)
+    if (!std::isfinite(curves.widths[i]) || curves.widths[i] <= 0)
+      throw std::invalid_argument("widths[" + std::to_string(i) + "] = " +
+                                  std::to_string(curves.widths[i]) + " is not a finite width > 0");
+  if (!curves.normals.empty()) {
+    requireCount("normals", curves.normalsInterpolation, curves.normals.size(), counts);
+    requireFinite(curves.normals, "normals");
+    for (size_t i = 0; i < curves.normals.size(); ++i)
+      if (!(length(curves.normals[i]) > 0))
+        throw std::invalid_argument("normals[" + std::to_string(i) + "] has zero length");
+  }
+  if (!curves.displayColor.empty())
+    requireCount("displayColor", curves.displayColorInterpolation, curves.displayColor.size(),
+                 counts);
+  for (const Primvar& primvar : curves.primvars) {
+    const std::string name = "primvar " + primvar.name.str();
+    if (primvar.width < 1 || primvar.width > 4)
+      throw std::invalid_argument(name + " has width " + std::to_string(primvar.width) +
+                                  "; 1 to 4 are supported");
+    if (primvar.values.size() % size_t(primvar.width) != 0)
+      throw std::invalid_argument(name + " has " + std::to_string(primvar.values.size()) +
+                                  " floats, not a multiple of its width " +
+                                  std::to_string(primvar.width));
+    requireCount(name + " of width " + std::to_string(primvar.width), primvar.interpolation,
+                 primvar.values.size() / size_t(primvar.width), counts);
+  }
+}
 
 }  // namespace penumbra

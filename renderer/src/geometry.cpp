@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "penumbra/curves_shape.h"
 #include "penumbra/mesh_shape.h"
 #include "penumbra/points_shape.h"
 
@@ -317,10 +318,10 @@ void Geometry::setPointsGeometry(MeshId id, PointsData points) {
 }
 
 void Geometry::setCurvesGeometry(MeshId id, CurvesData curves) {
-  // Interface stub of the curves work: validated, not yet traced.
-  record(id);
+  record(id);  // throws for an unknown id before any name is registered
   validateCurves(curves);
-  clearMeshGeometry(id);
+  for (const Primvar& primvar : curves.primvars) materials_.registerPrimvarName(primvar.name);
+  setShape(id, std::make_shared<const CurvesShape>(std::move(curves)));
 }
 
 void Geometry::setShape(MeshId id, std::shared_ptr<const Shape> shape) {
