@@ -9,7 +9,8 @@ namespace {
 
 // Per vertex and motion step: Embree's (x, y, z, radius) buffer and the renderer's copy of the
 // positions and widths. Per segment: its index, Embree's primitive reference during the build
-// and its share of the BVH's nodes and oriented-bounds leaves.
+// and its share of the BVH's nodes and oriented-bounds leaves. 309 MiB were measured for a
+// million static cubic strands of 4 vertices (336 MiB estimated).
 constexpr size_t kBytesPerCurveVertexStep = 48;
 constexpr size_t kBytesPerCurveSegment = 160;
 
