@@ -137,9 +137,15 @@ def test_a_cubic_curve_centre_line_is_where_its_basis_puts_it(basis, vertices):
     image = penumbra.render(stage, **{**FAST, "samples": 16})
     curve = cubic_curve(vertices, basis)
     low, high = curve[:, 0].min() + 0.1, curve[:, 0].max() - 0.1
-    inside = [c for c in range(WIDTH) if low < column_x(c) < high]
+    # Where Bézier segments meet, the centre line has a corner: a column's coverage there is not
+    # centred on it.
+    corners = [x for x, _, _ in vertices[3:-1:3]] if basis == "bezier" else []
+    inside = [
+        c for c in range(WIDTH)
+        if low < column_x(c) < high and all(abs(column_x(c) - x) > 0.1 for x in corners)
+    ]
     errors = [abs(centre_y(image, c) - predicted_y(curve, column_x(c))) for c in inside]
-    assert len(inside) > 20 and max(errors) < 0.05, max(errors)  # under a pixel
+    assert len(inside) > 40 and max(errors) < 0.04, max(errors)  # under 2/3 of a pixel
 
 
 def test_bezier_ends_and_midpoint_catmull_rom_interpolates_and_b_spline_does_not():
