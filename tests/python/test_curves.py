@@ -10,7 +10,7 @@ import warnings
 
 import numpy as np
 import pytest
-from pxr import Gf, UsdGeom, UsdLux
+from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
 
 import penumbra
 from penumbra import _core
@@ -515,3 +515,54 @@ def test_hermite_curves_without_a_tangent_per_point_are_skipped():
     with pytest.warns(penumbra.PenumbraWarning, match="/World/hermite: tangents has 1 values"):
         renderer = penumbra.Renderer(stage)
     assert not renderer.delegate.has_prim("/World/hermite")
+
+
+def _moving_stage():
+    stage = curves_stage([(-1, -3, 0), (-1, 3, 0)], widths=[0.5])
+    camera = UsdGeom.Camera(stage.GetPrimAtPath("/cam"))
+    camera.CreateShutterOpenAttr(0.0)
+    camera.CreateShutterCloseAttr(1.0)
+    return stage, UsdGeom.BasisCurves(stage.GetPrimAtPath(PATH))
+
+
+def test_velocities_blur_curves_as_the_same_motion_time_sampled_does():
+    stage, hair = _moving_stage()
+    hair.GetPointsAttr().Set([Gf.Vec3f(-1, -3, 0), Gf.Vec3f(-1, 3, 0)], 1.0)
+    hair.GetPointsAttr().Set([Gf.Vec3f(1, -3, 0), Gf.Vec3f(1, 3, 0)], 2.0)
+    options = {**FAST, "samples": 32}
+    sampled = penumbra.render(stage, **options)
+    stage, hair = _moving_stage()
+    per_second = 2.0 * stage.GetTimeCodesPerSecond()  # 2 units a frame
+    hair.CreateVelocitiesAttr([Gf.Vec3f(per_second, 0, 0)] * 2)
+    by_velocity = penumbra.render(stage, **options)
+    assert alpha(sampled)[32].max() < 0.75  # blurred
+    np.testing.assert_allclose(alpha(by_velocity), alpha(sampled), atol=1e-6)
+
+
+def test_a_material_reads_per_curve_primvars():
+    stage = curves_stage(
+        [(-3, -1, 0), (3, -1, 0), (-3, 1, 0), (3, 1, 0)], counts=[2, 2], widths=[0.5]
+    )
+    hair = UsdGeom.BasisCurves(stage.GetPrimAtPath(PATH))
+    tint = UsdGeom.PrimvarsAPI(hair).CreatePrimvar(
+        "tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.uniform
+    )
+    tint.Set([Gf.Vec3f(1, 0.5, 0), Gf.Vec3f(0, 0.5, 1)])
+    material = UsdShade.Material.Define(stage, "/World/Looks/tinted")
+    surface = UsdShade.Shader.Define(stage, "/World/Looks/tinted/Surface")
+    surface.CreateIdAttr("UsdPreviewSurface")
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0))
+    surface.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0))
+    surface.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
+    reader = UsdShade.Shader.Define(stage, "/World/Looks/tinted/Tint")
+    reader.CreateIdAttr("UsdPrimvarReader_float3")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("tint")
+    surface.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        reader.CreateOutput("result", Sdf.ValueTypeNames.Float3)
+    )
+    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    bind(hair, material)
+    color = penumbra.render(stage, **{**FAST, "samples": 16})["color"]
+    # Emission alone: each tube shows its curve's tint where it covers a pixel whole.
+    np.testing.assert_allclose(color[32 + 16, 32, :3], (1, 0.5, 0), atol=0.01)
+    np.testing.assert_allclose(color[32 - 16, 32, :3], (0, 0.5, 1), atol=0.01)
