@@ -349,6 +349,7 @@ def _short_normals(hair):
 
 
 def _unknown_basis(hair):
+    hair.GetTypeAttr().Set(UsdGeom.Tokens.cubic)  # linear curves have no basis
     hair.GetBasisAttr().Set("hermite")
 
 

@@ -108,18 +108,30 @@ def _basis_curves(
     if prim.IsA(UsdGeom.HermiteCurves):
         return hermite_to_bezier(UsdGeom.HermiteCurves(prim), counts, positions, reader, warn, path)
     curves = UsdGeom.BasisCurves(prim)
-    tokens = {}
-    for attr, known in (
-        (curves.GetTypeAttr(), CURVE_TYPES),
-        (curves.GetBasisAttr(), CURVE_BASES),
-        (curves.GetWrapAttr(), CURVE_WRAPS),
-    ):
-        value = str(reader.get(attr))
-        if value not in known:
-            warn(f"{path}: {attr.GetName()} {value!r} is not one of {', '.join(known)}; skipped")
-            return None
-        tokens[attr.GetName()] = value
-    return BasisCurves(tokens["type"], tokens["basis"], tokens["wrap"], counts, positions)
+    curve_type = _token(curves.GetTypeAttr(), CURVE_TYPES, reader, warn, path)
+    wrap = curve_type and _token(curves.GetWrapAttr(), CURVE_WRAPS, reader, warn, path)
+    if not wrap:
+        return None
+    if curve_type == "linear":
+        return BasisCurves(curve_type, "bezier", wrap, counts, positions)  # no basis
+    basis = _token(curves.GetBasisAttr(), CURVE_BASES, reader, warn, path)
+    return BasisCurves(curve_type, basis, wrap, counts, positions) if basis else None
+
+
+def _token(
+    attr: Usd.Attribute,
+    known: tuple[str, ...],
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    path: str,
+) -> str | None:
+    """The value of token attribute ``attr``; ``None`` (after a warning naming the prim and the
+    attribute) when it is not one of ``known``."""
+    value = str(reader.get(attr))
+    if value in known:
+        return value
+    warn(f"{path}: {attr.GetName()} {value!r} is not one of {', '.join(known)}; skipped")
+    return None
 
 
 def _widths(
