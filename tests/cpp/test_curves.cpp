@@ -176,6 +176,29 @@ TEST(Curves, RoundLinearTubeIsHitAtItsRadiusAndSeamlessAtJoints) {
               -b - std::sqrt(b * b - dot(fromCentre, fromCentre) + 0.25f), 1e-4f);
 }
 
+TEST(Curves, RayFromInsideATubeMeetsItsWallFacingOut) {
+  for (const CurveType type : {CurveType::Linear, CurveType::Cubic}) {
+    SCOPED_TRACE(type == CurveType::Linear ? "linear" : "cubic");
+    CurvesScene s(
+        type == CurveType::Linear
+            ? oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, {{-2, 0, 0}, {2, 0, 0}}, 1)
+            : oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 1));
+    for (const Vec3f& direction : {Vec3f(0, 1, 0), Vec3f(0, -0.6f, 0.8f)}) {
+      const std::optional<SurfaceHit> hit =
+          intersectSurface(s.scene, rayFrom({0.5f, 0, 0}, direction), RayKind::Secondary);
+      ASSERT_TRUE(hit);
+      EXPECT_NEAR(hit->distance, 0.5f, 1e-4f);
+      EXPECT_NEAR(dot(hit->normal, direction), 1, 1e-4f);  // outwards, as the ray goes
+      EXPECT_TRUE(hit->closed);
+    }
+  }
+}
+
+TEST(Curves, NoCurvesRenderNothing) {
+  CurvesScene s{CurvesData{}};
+  EXPECT_FALSE(s.hits(downAt(0, 0)));
+}
+
 TEST(Curves, CubicBezierPassesThroughItsEndsAndItsMidpoint) {
   const Vec3f p[4] = {{-1, 0, 0}, {-0.5f, 1, 0}, {0.5f, 1.5f, 0}, {1, 0.5f, 0}};
   const float radius = 0.05f;
@@ -212,6 +235,9 @@ TEST(Curves, CatmullRomPassesThroughItsInteriorVertices) {
       oneCurve(CurveType::Cubic, CurveBasis::CatmullRom, CurveWrap::Nonperiodic, p, 2 * radius));
   // Three segments from P1 to P4, through P2 and P3, with tangents (P[i+1] - P[i-1])/2.
   for (int i = 2; i <= 3; ++i) expectTubeThrough(s, p[i], p[i + 1] - p[i - 1], radius);
+  // The middle segment at t = ½: (-P1 + 9 P2 + 9 P3 - P4)/16, along P1 - 11 P2 + 11 P3 - P4.
+  expectTubeThrough(s, (p[2] * 9 + p[3] * 9 - p[1] - p[4]) / 16,
+                    p[1] - p[2] * 11 + p[3] * 11 - p[4], radius);
   // A hundredth of a segment from its ends, it is within 1e-4 of P1 + (P2 - P0)/200 (and the
   // same at P4).
   expectTubeThrough(s, p[1] + (p[2] - p[0]) * 0.005f, p[2] - p[0], radius);
@@ -280,6 +306,38 @@ TEST(Curves, PeriodicCurvesClose) {
   expectTubeThrough(bezier, {0, 0.75f, 0}, {1, 0, 0}, radius);
   expectTubeThrough(bezier, {0, -0.75f, 0}, {-1, 0, 0}, radius);
   expectTubeThrough(bezier, {-1, 0.01f, 0}, {0, 1, 0}, radius);
+}
+
+TEST(Curves, PeriodicCurvesWrapTheirVaryingData) {
+  const std::vector<Vec3f> square = {{0, 0, 0}, {2, 0, 0}, {2, 2, 0}, {0, 2, 0}};
+  // Linear: the closing segment's width goes from the last varying value to the first.
+  CurvesData linear =
+      oneCurve(CurveType::Linear, CurveBasis::Bezier, CurveWrap::Periodic, square, 1);
+  linear.widths = {0.1f, 0.2f, 0.2f, 0.3f};
+  linear.widthsInterpolation = Interpolation::Varying;
+  CurvesScene l(linear);
+  expectTubeThrough(l, {0, 1, 0}, {0, 1, 0}, 0.1f);  // radius (0.15 + 0.05)/2
+  // Vertex data likewise. (Of constant width: on a cone, Embree's u is where the surface normal
+  // meets the axis, not level with the hit.)
+  linear.widths = {0.2f};
+  linear.widthsInterpolation = Interpolation::Constant;
+  linear.primvars = {{"vertex", {1, 2, 3, 5}, 1, Interpolation::Vertex}};
+  CurvesScene constant(linear);
+  EXPECT_NEAR(primvarThere(constant, intoScreenAt(0, 1), "vertex", 1).at(0), 3, 1e-4f);
+  // B-spline: four segments, four varying values; the last segment, from P3 + 4 P0 + P1 over
+  // 6 to P0 + 4 P1 + P2 over 6, has them from the fourth to the first: 2.5 at its middle,
+  // (1, 1/12) where it is symmetric.
+  CurvesData spline =
+      oneCurve(CurveType::Cubic, CurveBasis::BSpline, CurveWrap::Periodic, square, 0.1f);
+  spline.primvars = {{"varying", {1, 2, 3, 4}, 1, Interpolation::Varying},
+                     {"vertex", {0, 6, 12, 6}, 1, Interpolation::Vertex}};
+  CurvesScene s(spline);
+  const std::optional<SurfaceHit> hit = s.surface(intoScreenAt(1, 1.0f / 12));
+  ASSERT_TRUE(hit);
+  EXPECT_NEAR(hit->u, 0.5f, 1e-3f);
+  EXPECT_NEAR(primvarThere(s, intoScreenAt(1, 1.0f / 12), "varying", 1).at(0), 2.5f, 1e-3f);
+  // Vertex data by the basis, wrapped likewise: (6 + 23·0 + 23·6 + 12)/48 = 3.25.
+  EXPECT_NEAR(primvarThere(s, intoScreenAt(1, 1.0f / 12), "vertex", 1).at(0), 3.25f, 1e-3f);
 }
 
 TEST(Curves, RibbonsFaceTheirNormalsWithTheirFullWidth) {
