@@ -27,6 +27,12 @@ enum class CurveWrap : uint8_t { Nonperiodic, Periodic, Pinned };
 /// B-spline or Catmull-Rom n − 3 (n periodic; pinned ones n − 1). `faceVarying` means `varying`
 /// on curves, as the schema says. Vertex data is interpolated by the curve's basis, varying
 /// data linearly along each segment.
+///
+/// A curve has at least 2 vertices (linear), 3 (linear periodic), 4 (cubic nonperiodic: 4, 7,
+/// 10, ... for Bézier), 3 (cubic periodic: a multiple of 3 for Bézier) or 2 (pinned B-spline and
+/// Catmull-Rom, whose phantom end vertices are the schema's 2 P[0] - P[1] and
+/// 2 P[n-1] - P[n-2], applied to their vertex data alike). Pinned linear and Bézier curves are
+/// nonperiodic ones.
 struct CurvesData {
   CurveType type = CurveType::Cubic;
   CurveBasis basis = CurveBasis::Bezier;  // cubic curves only
@@ -35,9 +41,9 @@ struct CurvesData {
   std::vector<Vec3f> positions;  // motion step 0
   /// Later uniformly spaced steps, as MeshData::pointMotion (empty: static).
   std::vector<std::vector<Vec3f>> positionMotion;
-  std::vector<float> widths;  // finite and > 0
+  std::vector<float> widths;  // diameters, finite and > 0; required (at least one, constant)
   Interpolation widthsInterpolation = Interpolation::Vertex;
-  std::vector<Vec3f> normals;  // empty: round tubes; else ribbons facing them
+  std::vector<Vec3f> normals;  // empty: round tubes; else ribbons facing them (any length > 0)
   Interpolation normalsInterpolation = Interpolation::Vertex;
   std::vector<Vec3f> displayColor;  // empty: none authored
   Interpolation displayColorInterpolation = Interpolation::Constant;

@@ -44,7 +44,8 @@ struct CurveSegmentRules {
 /// Its own memory is 4 bytes a segment (the curve it belongs to) and 12 a curve besides the
 /// authored arrays; Embree's buffers add 64 bytes a cubic or ribbon segment per motion step
 /// (48 more for ribbons' normals) and 4 for its index, or 16 a vertex and 5 a segment for round
-/// linear curves.
+/// linear curves. A million 4-vertex strands of vertex widths took 265 MB with the shape's copy
+/// of their arrays and Embree's BVH (measured).
 class CurvesShape final : public Shape {
  public:
   /// `curves` must be valid (validateCurves).
