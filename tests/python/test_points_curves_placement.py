@@ -4,6 +4,8 @@ pass's cameraVisibility and matte collections, and framed by default with unauth
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from pxr import Gf, Usd, UsdGeom, UsdRender
@@ -140,3 +142,32 @@ def test_unauthored_widths_are_framed(kind):
     border = np.concatenate([covered[0], covered[-1], covered[:, 0], covered[:, -1]])
     assert not border.any()
 
+
+
+@pytest.mark.parametrize("kind", ["points", "curves"])
+def test_points_and_curves_in_point_instancer_prototypes_are_warned_of_once(kind):
+    stage = new_stage()
+    add_camera(stage)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/World/scatter")
+    prototype = "/World/scatter/prototypes/one"
+    if kind == "points":
+        UsdGeom.Points.Define(stage, prototype).CreatePointsAttr([Gf.Vec3f(0, 0, 0)])
+    else:
+        hair = UsdGeom.BasisCurves.Define(stage, prototype)
+        hair.CreatePointsAttr([Gf.Vec3f(0, -0.3, 0), Gf.Vec3f(0, 0.3, 0)])
+        hair.CreateCurveVertexCountsAttr([2])
+    instancer.CreatePrototypesRel().SetTargets([prototype])
+    instancer.CreateProtoIndicesAttr([0, 0])
+    instancer.CreatePositionsAttr([Gf.Vec3f(-1, 0, 0), Gf.Vec3f(1, 0, 0)])
+    with pytest.warns(penumbra.PenumbraWarning) as record:
+        renderer = penumbra.Renderer(stage)
+        renderer.render(camera="/cam", width=16, samples=1)
+    messages = [str(w.message) for w in record if str(w.message).startswith("/World/scatter: ")]
+    assert messages == [
+        "/World/scatter: 1 points or curves prims in its prototypes are not rendered as copies "
+        f"yet, skipped (first: {prototype})"
+    ]
+    instancer.CreatePositionsAttr([Gf.Vec3f(-1, 0, 0), Gf.Vec3f(0, 1, 0)])  # an edit: no repeat
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        renderer.render(camera="/cam", width=16, samples=1)
