@@ -2,14 +2,40 @@
 
 #include <stdexcept>
 
+#include "penumbra/plugin/curves.h"
 #include "penumbra/plugin/mesh.h"
+#include "penumbra/plugin/points.h"
 
 namespace penumbra::plugin {
+
+namespace {
+
+/// The rprim named `id` that copies can share: a mesh, points or curves (null: none).
+const PlacedRprim* findPrototype(const SyncContext& context, const PrimId& id) {
+  if (const Mesh* mesh = context.meshes.find(id)) return mesh;
+  if (const Points* points = context.points.find(id)) return points;
+  return context.curves.find(id);
+}
+
+/// Takes `instancer` out of the instancers of `prototype` in the context's list.
+void unlist(SyncContext& context, const PrimId& prototype, const PrimId& instancer) {
+  const auto listed = context.instancersByPrototype.find(prototype);
+  if (listed == context.instancersByPrototype.end()) return;
+  listed->second.erase(instancer);
+  if (listed->second.empty()) context.instancersByPrototype.erase(listed);
+}
+
+}  // namespace
 
 void Instancer::sync(SyncContext& context, uint32_t) {
   context.sceneChanged = true;
   Scene& scene = context.scene;
-  Mesh* prototype = context.meshes.find(prototype_);
+  if (listedUnder_ != prototype_) {
+    unlist(context, listedUnder_, id());
+    context.instancersByPrototype[prototype_].insert(id());
+    listedUnder_ = prototype_;
+  }
+  const PlacedRprim* prototype = findPrototype(context, prototype_);
   if (!prototype) {
     context.warn(id() + ": prototype " + prototype_ +
                  " is not a mesh in the render index; the instances are skipped");
@@ -17,8 +43,9 @@ void Instancer::sync(SyncContext& context, uint32_t) {
     handle_ = scene.geometry().addInstancer();
     return;
   }
-  // As in Hydra, the prototype knows its instancer (its removal drops the copies).
-  prototype->addInstancer(id());
+  // As in Hydra, a prototype mesh knows its instancer (its removal drops the copies); the
+  // render delegate drops those of points and curves (SyncContext::instancersByPrototype).
+  if (Mesh* mesh = context.meshes.find(prototype_)) mesh->addInstancer(id());
   scene.geometry().setInstancerPassVisibility(handle_, pass_);
   scene.geometry().setInstances(handle_, prototype->handle(), transforms_, visible_);
   try {
@@ -31,6 +58,7 @@ void Instancer::sync(SyncContext& context, uint32_t) {
 
 void Instancer::finalize(SyncContext& context) {
   context.sceneChanged = true;
+  unlist(context, listedUnder_, id());
   context.scene.geometry().removeInstancer(handle_);
   if (Mesh* prototype = context.meshes.find(prototype_)) prototype->removeInstancer(id());
 }

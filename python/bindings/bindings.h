@@ -14,6 +14,8 @@ using DelegateClass = pybind11::class_<plugin::RenderDelegate>;
 void bindScene(pybind11::module_& m, DelegateClass& delegate);
 /// Points rprims: set_points (points.cpp).
 void bindPoints(pybind11::module_& m, DelegateClass& delegate);
+/// Curves rprims: set_curves (curves.cpp).
+void bindCurves(pybind11::module_& m, DelegateClass& delegate);
 /// Materials: set_material and the dict schemas of its networks (materials.cpp).
 void bindMaterials(pybind11::module_& m, DelegateClass& delegate);
 /// The delegate's sync state (render settings, dicing camera, statistics, warnings), render

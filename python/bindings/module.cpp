@@ -29,6 +29,7 @@ PYBIND11_MODULE(_core, m) {
   delegate.def(py::init<const std::string&>(), py::arg("ocio_config") = "");
   bindScene(m, delegate);
   bindPoints(m, delegate);
+  bindCurves(m, delegate);
   bindMaterials(m, delegate);
   bindRender(m, delegate);
   bindImages(m);

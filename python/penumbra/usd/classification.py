@@ -1,8 +1,9 @@
 """Which prims the scene delegate renders, and as what kind of delegate prim.
 
 Like UsdImaging's prim adapters, found by type name: cameras, lights (their sprim type), meshes
-(meshes and implicit surfaces), points, and gprims that are not supported yet, reported once per
-update.
+(meshes and implicit surfaces), points, curves (BasisCurves, NurbsCurves and HermiteCurves, the
+delegate's "basisCurves"), and gprims that are not supported yet (NurbsPatch, TetMesh, volumes),
+reported once per update naming a prim.
 """
 
 from __future__ import annotations
@@ -15,6 +16,9 @@ from ..errors import warn
 from .implicit import is_implicit
 from .inherited import Inherited, InheritedState
 from .lights import is_light, light_type
+
+CURVES = "basisCurves"
+"""The delegate's rprim type of every UsdGeomCurves (NURBS and Hermite curves converted)."""
 
 
 class Classifier:
@@ -29,15 +33,15 @@ class Classifier:
 
     def classify(self, prim: Usd.Prim, path: Sdf.Path) -> tuple[str | None, Inherited | None]:
         """The delegate prim type for ``prim`` (at ``path``), or ``None`` when it is not
-        rendered; with its inherited state when it is a mesh or points."""
+        rendered; with its inherited state when it is a mesh, points or curves."""
         role = self._role_of_type(prim)
-        if role in ("mesh", "points", "unsupported"):
+        if role in ("mesh", "points", CURVES, "unsupported"):
             if role == "mesh" and prim.IsInstanceProxy():
                 return None, None  # natively instanced: NativeInstancing
             state = self._inherited.state(prim, path)
             if state.purpose not in self.purposes:
                 return None, None
-            if role != "unsupported":  # points in native instances: one rprim per instance
+            if role != "unsupported":  # points, curves in native instances: one rprim each
                 return role, state
         elif role is not None:
             return role, None  # a camera or a light
@@ -50,7 +54,7 @@ class Classifier:
     def traverse(
         self, root: Usd.Prim
     ) -> Iterator[tuple[Sdf.Path, str, Usd.Prim, Inherited | None]]:
-        """``(path, kind, prim, inherited state of a mesh or points)`` of the prims to render under
+        """``(path, kind, prim, inherited state of a gprim)`` of the prims to render under
         ``root`` (instance proxies included; prototypes below a PointInstancer are not rendered
         on their own)."""
         if not root or any(p.IsA(UsdGeom.PointInstancer) for p in _ancestors(root)):
@@ -75,8 +79,8 @@ class Classifier:
     def _role_of_type(self, prim: Usd.Prim) -> str | None:
         """What prims of ``prim``'s type are (as UsdImaging finds its prim adapters by type
         name): "camera", a light type, "mesh" (meshes and implicit surfaces), "points",
-        "unsupported" (other gprims and volumes) or ``None``; decided once per type name by its
-        schema."""
+        "basisCurves" (every UsdGeomCurves), "unsupported" (other gprims and volumes) or
+        ``None``; decided once per type name by its schema."""
         type_name = prim.GetTypeName()
         if type_name in self._roles:
             return self._roles[type_name]
@@ -89,6 +93,8 @@ class Classifier:
             role = "mesh"
         elif prim.IsA(UsdGeom.Points):
             role = "points"
+        elif prim.IsA(UsdGeom.Curves):
+            role = CURVES
         elif prim.IsA(UsdGeom.Gprim) or prim.IsA(UsdVol.Volume):
             role = "unsupported"  # point instancers: PointInstancerDelegate
         self._roles[type_name] = role

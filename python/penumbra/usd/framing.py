@@ -1,8 +1,10 @@
 """A camera framing the stage, for stages without one (as usdrecord frames them).
 
 The framing camera is authored in the stage's session layer, so the user's layers are never
-touched and the scene delegate picks it up like any other camera. (The default light of a stage
-without lights is in :mod:`.default_light`.)
+touched and the scene delegate picks it up like any other camera. The bounds are UsdGeom's,
+which include points' and curves' widths where they are authored; where they are not, the
+width they render with (:data:`~.points.DEFAULT_WIDTH`, :data:`~.curves.DEFAULT_WIDTH`) is
+added. (The default light of a stage without lights is in :mod:`.default_light`.)
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ from collections.abc import Iterable
 
 from pxr import Gf, Sdf, Usd, UsdGeom
 
+from . import curves, points
+
 FRAMING_CAMERA_PATH = Sdf.Path("/PenumbraFramingCamera")
 
 
@@ -20,6 +24,8 @@ def framing_camera(stage: Usd.Stage, time: Usd.TimeCode, purposes: Iterable[str]
     stage's horizontal axis with its up axis up; ``None`` when there is nothing to frame."""
     cache = UsdGeom.BBoxCache(time, [UsdGeom.Tokens.default_, *purposes], useExtentsHint=True)
     bounds = cache.ComputeWorldBound(stage.GetPseudoRoot()).ComputeAlignedRange()
+    for grown in _default_width_bounds(stage, cache, time):
+        bounds.UnionWith(grown)
     if bounds.IsEmpty():
         return None
     centre = bounds.GetMidpoint()
@@ -41,3 +47,29 @@ def framing_camera(stage: Usd.Stage, time: Usd.TimeCode, purposes: Iterable[str]
             eye = centre + Gf.Vec3d(0, 0, distance)
         camera.MakeMatrixXform().Set(rotation * Gf.Matrix4d().SetTranslate(eye))
     return camera.GetPrim()
+
+
+def _default_width_bounds(
+    stage: Usd.Stage, cache: UsdGeom.BBoxCache, time: Usd.TimeCode
+) -> Iterable[Gf.Range3d]:
+    """World bounds of the points and curves without authored widths, grown by half the width
+    they render with (their extent, from their positions alone, leaves it out)."""
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        if prim.IsA(UsdGeom.Points):
+            width = points.DEFAULT_WIDTH
+        elif prim.IsA(UsdGeom.Curves):
+            width = curves.DEFAULT_WIDTH
+        else:
+            continue
+        widths = UsdGeom.PrimvarsAPI(prim).GetPrimvar(UsdGeom.Tokens.widths)
+        if prim.GetAttribute(UsdGeom.Tokens.widths).HasAuthoredValue() or (
+            widths and widths.HasAuthoredValue()
+        ):
+            continue
+        local = cache.ComputeUntransformedBound(prim).ComputeAlignedRange()
+        if local.IsEmpty():
+            continue
+        half = Gf.Vec3d(width / 2)
+        local = Gf.Range3d(local.GetMin() - half, local.GetMax() + half)
+        world = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time)
+        yield Gf.BBox3d(local, world).ComputeAlignedRange()

@@ -15,10 +15,11 @@ data at a time code, and afterwards pushes only what changed:
 
 Which prims are rendered, as what, is :mod:`.classification`'s; each kind is read by its syncer
 (:mod:`.prim_sync` for cameras and lights, :mod:`.mesh_sync` for meshes, :mod:`.points_sync`
-for points), materials by the :class:`~.material_registry.MaterialRegistry`. Implicit surfaces
-(Sphere, Cube, Cylinder, Cone, Capsule, Plane) are tessellated and tracked as meshes (see
-:mod:`.implicit`). Meshes, points and cameras move over the shutter (transform, points, lens);
-lights keep their transform at the frame.
+for points, :mod:`.curves_sync` for curves), materials by the
+:class:`~.material_registry.MaterialRegistry`. Implicit surfaces (Sphere, Cube, Cylinder, Cone,
+Capsule, Plane) are tessellated and tracked as meshes (see :mod:`.implicit`). Meshes, points,
+curves and cameras move over the shutter (transform, points, lens); lights keep their
+transform at the frame.
 
 Meshes inside native prototypes are not instance proxies here: :mod:`.native_instancing` syncs
 each once and places its copies with an instancer rprim (sharing its BVH); point instancers are
@@ -34,8 +35,9 @@ from contextlib import contextmanager
 from pxr import Sdf, Usd, UsdGeom
 
 from ..errors import warn
-from .classification import Classifier
+from .classification import CURVES, Classifier
 from .core_batch import CoreBatch
+from .curves_sync import CurvesSync
 from .inherited import InheritedState
 from .material_registry import MaterialRegistry
 from .mesh import data_might_vary
@@ -54,7 +56,7 @@ DEFAULT_PURPOSES = ("default", "proxy")
 """usdrecord's default: the "default" purpose plus "proxy"."""
 
 _LIGHT = "light"  # the syncer of every kind not in the table: the light types
-_RPRIMS = ("mesh", "points")  # the kinds inserted as rprims, the others as sprims
+_RPRIMS = ("mesh", "points", CURVES)  # the kinds inserted as rprims, the others as sprims
 
 
 class SceneDelegate:
@@ -104,6 +106,7 @@ class SceneDelegate:
                 core, self._warn, render_pass, self._inherited, self.materials, self._emitters
             ),
             "points": PointsSync(core, self._warn, render_pass, self._inherited, self.materials),
+            CURVES: CurvesSync(core, self._warn, render_pass, self._inherited, self.materials),
         }
 
     # ----------------------------------------------------------------------------------------

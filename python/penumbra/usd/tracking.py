@@ -26,7 +26,7 @@ class Dirty:
     DATA = 1  # the prim's own attributes (geometry, camera, light inputs)
     TRANSFORM = 2
     VISIBILITY = 4
-    BINDING = 8  # meshes and points: which material is bound
+    BINDING = 8  # meshes, points and curves: which material is bound
     ALL = DATA | TRANSFORM | VISIBILITY | BINDING
 
 
@@ -34,6 +34,7 @@ class Dirty:
 _ASPECTS = {
     "mesh": Dirty.ALL,
     "points": Dirty.ALL,
+    "basisCurves": Dirty.ALL,
     "camera": Dirty.DATA | Dirty.TRANSFORM,
 }
 _LIGHT_ASPECTS = Dirty.DATA | Dirty.TRANSFORM | Dirty.VISIBILITY

@@ -1,8 +1,8 @@
-// Instancer rprim (cf. HdInstancer): copies of one prototype mesh, each with its own transform,
-// sharing the prototype's geometry. USD's point instancers and native instancing flatten to one
-// of these per prototype mesh (Embree instances one level deep). Its sync places the copies;
-// its finalize removes them; the prototype knows its instancers, so that its own removal drops
-// their copies.
+// Instancer rprim (cf. HdInstancer): copies of one prototype (a mesh, points or curves), each
+// with its own transform, sharing the prototype's geometry. USD's point instancers and native
+// instancing flatten to one of these per prototype (Embree instances one level deep). Its sync
+// places the copies; its finalize removes them; a prototype mesh knows its instancers, so that
+// its own removal drops their copies (the render delegate finds those of points and curves).
 #pragma once
 
 #include <cstddef>
@@ -40,15 +40,16 @@ class Instancer : public Prim {
     markDirty(DirtyPrimvar);
   }
 
-  /// Places its copies of its prototype in the scene, and registers with the prototype; when
-  /// the prototype is not a mesh in the render index there are none (with a warning). The
-  /// render delegate syncs instancers after meshes: the copies follow their prototype's
-  /// geometry.
+  /// Places its copies of its prototype in the scene, and registers with a prototype mesh; when
+  /// the prototype is not a mesh, points or curves in the render index there are none (with a
+  /// warning). The render delegate syncs instancers after every kind of geometry: the copies
+  /// follow their prototype's geometry.
   void sync(SyncContext& context, uint32_t dirtyBits) override;
-  /// Removes its copies from the scene, and itself from its prototype's instancers.
+  /// Removes its copies from the scene, and itself from its prototype's instancers (and from
+  /// SyncContext::instancersByPrototype).
   void finalize(SyncContext& context) override;
   /// Its prototype left the render index: the copies go, and are placed again at the next sync
-  /// (when a mesh with the prototype's id is back).
+  /// (when a prototype with its id is back).
   void dropCopies(SyncContext& context);
   /// Bytes its next sync will allocate (penumbra::estimatedInstanceBytes).
   size_t estimatedSyncBytes() const;
@@ -62,6 +63,7 @@ class Instancer : public Prim {
  private:
   Geometry::InstancerId handle_;
   PrimId prototype_;
+  PrimId listedUnder_;  // its entry of SyncContext::instancersByPrototype (empty: none)
   std::vector<MotionTransform> transforms_;
   bool visible_ = true;
   PassVisibility pass_;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "penumbra/plugin/camera.h"
+#include "penumbra/plugin/curves.h"
 #include "penumbra/plugin/instancer.h"
 #include "penumbra/plugin/light.h"
 #include "penumbra/plugin/material.h"
@@ -31,15 +32,17 @@ class RenderDelegate {
   explicit RenderDelegate(const std::string& colorConfig = {});
   ~RenderDelegate();
 
-  /// Rprim types: "mesh", "points", "instancer". Sprim types: "camera", "material", and the light
-  /// types (lightTypes()). Throws std::invalid_argument for an unknown type or an id already in
-  /// use.
+  /// Rprim types: "mesh", "points", "basisCurves", "instancer". Sprim types: "camera",
+  /// "material", and the light types (lightTypes()). Throws std::invalid_argument for an unknown
+  /// type or an id already in use. Instancers copying a prototype of a new mesh's, points' or
+  /// curves' id place their copies of it at the next sync.
   void insertRprim(const std::string& type, const PrimId& id);
   void insertSprim(const std::string& type, const PrimId& id);
   /// Bprim types: "renderBuffer".
   void insertBprim(const std::string& type, const PrimId& id);
-  /// Takes the prim out of the renderer (Prim::finalize) and drops it. Throws std::out_of_range
-  /// for an unknown id.
+  /// Takes the prim out of the renderer (Prim::finalize) and drops it; the instancers copying
+  /// it drop their copies until a prototype with its id is back. Throws std::out_of_range for an
+  /// unknown id.
   void removePrim(const PrimId& id);
   bool hasPrim(const PrimId& id) const;
   std::vector<PrimId> primIds() const;
@@ -47,6 +50,7 @@ class RenderDelegate {
   /// Typed access; throws std::out_of_range naming the id when it is missing or of another type.
   Mesh& mesh(const PrimId& id);
   Points& points(const PrimId& id);
+  Curves& curves(const PrimId& id);
   RenderBuffer& renderBuffer(const PrimId& id);
   Instancer& instancer(const PrimId& id);
   Camera& camera(const PrimId& id);
@@ -68,8 +72,8 @@ class RenderDelegate {
   /// marked clean. The order is fixed, each kind in id order: materials; the meshes bound to a
   /// material inserted or removed since the last sync are placed again (they need not be
   /// dirty); lights; cameras; meshes (placed with their material's index; a mesh light syncs
-  /// its light); points (placed as meshes are); instancers (their copies follow their
-  /// prototype's geometry, so after every kind of geometry); render buffers.
+  /// its light); points and curves (placed as meshes are); instancers (their copies follow
+  /// their prototype's geometry, so after every kind of geometry); render buffers.
   /// Then the lights that synced go into the scene's light list (LightList::update).
   /// `view`: the camera and width of the pass asking, which become the dicing context of the
   /// first sync when no dicing camera is set. Returns true if anything a render depends on
@@ -78,9 +82,9 @@ class RenderDelegate {
   /// decides whether placements edited since the last full build stay in the scene's overlay
   /// (Geometry::prepareForSamples).
   bool sync(const DicingContext& view, uint64_t cameraSamples = UINT64_MAX);
-  /// Bytes the next sync will allocate to build the dirty meshes and instancers (an estimate
-  /// from their counts, penumbra::estimatedBuildBytes), to be checked against a memory budget
-  /// before it runs.
+  /// Bytes the next sync will allocate to build the dirty meshes, points, curves and instancers
+  /// (an estimate from their counts: penumbra::estimatedBuildBytes, estimatedPointsBytes,
+  /// estimatedCurvesBytes), to be checked against a memory budget before it runs.
   size_t estimatedSyncBytes() const;
   /// Incremented by every sync that changed the scene's contents.
   uint64_t sceneVersion() const { return sceneVersion_; }
@@ -104,7 +108,7 @@ class RenderDelegate {
   SyncStatistics syncStatistics() const;
   const Scene& scene() const { return *scene_; }
 
-  /// The mesh and points rprims by the id the primId AOV gives them.
+  /// The mesh, points and curves rprims by the id the primId AOV gives them.
   std::map<uint32_t, PrimId> primIdManifest() const;
 
   /// Warnings raised since the last call, each naming its prim.
@@ -113,10 +117,13 @@ class RenderDelegate {
  private:
   /// The dicing context for this sync, given the pass's view.
   DicingContext dicingContext(const DicingContext& view);
-  /// Places again the meshes and points bound to a material inserted or removed since the last
-  /// sync (they render with it now, or with their displayColor); the dirty ones place
+  /// Places again the meshes, points and curves bound to a material inserted or removed since
+  /// the last sync (they render with it now, or with their displayColor); the dirty ones place
   /// themselves.
   void placeUsersOfNewAndRemovedMaterials();
+  /// Calls `visit(instancer)` for each instancer copying `prototype`.
+  template <typename Visit>
+  void forEachInstancerOf(const PrimId& prototype, Visit visit);
   /// Calls `visit(collection)` for each kind's collection of `self` (const or not).
   template <typename Self, typename Visit>
   static void forEachKind(Self& self, Visit visit);
@@ -124,9 +131,10 @@ class RenderDelegate {
   Device device_;
   std::unique_ptr<Scene> scene_;
   // The render index (cf. HdRenderIndex), one collection per kind: rprims (meshes, points,
-  // instancers), sprims (cameras, materials, lights), bprims (render buffers).
+  // curves, instancers), sprims (cameras, materials, lights), bprims (render buffers).
   PrimCollection<Mesh> meshes_;
   PrimCollection<Points> points_;
+  PrimCollection<Curves> curves_;
   PrimCollection<Instancer> instancers_;
   PrimCollection<Camera> cameras_;
   PrimCollection<Material> materials_;
@@ -140,5 +148,9 @@ class RenderDelegate {
   int dicedComplexity_ = 0;
   uint64_t sceneVersion_ = 0;
 };
+
+/// Bytes that building `points` for rendering allocates at its peak (Embree's buffers per
+/// motion step, the renderer's copy and the BVH over the points), estimated from their counts.
+size_t estimatedPointsBytes(const PointsData& points);
 
 }  // namespace penumbra::plugin

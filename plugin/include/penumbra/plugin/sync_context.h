@@ -1,8 +1,8 @@
 // What a prim's sync and finalize read and change besides the prim itself (cf. Hydra's
 // HdRenderParam, which HdRprim::Sync, HdSprim::Sync and their Finalize receive): the renderer's
-// scene, the material indices, the light list, the meshes and instancers (which instancers and
-// meshes reach each other through), the dicing context, the warnings and the sync counters.
-// The render delegate owns one for its lifetime (docs/architecture.md).
+// scene, the material indices, the light list, the meshes, points, curves and instancers (which
+// instancers and their prototypes reach each other through), the dicing context, the warnings
+// and the sync counters. The render delegate owns one for its lifetime (docs/architecture.md).
 #pragma once
 
 #include <cstdint>
@@ -22,6 +22,8 @@
 namespace penumbra::plugin {
 
 class Mesh;
+class Points;
+class Curves;
 class Instancer;
 
 /// What subdivision surfaces are diced for: a camera and an image width.
@@ -96,14 +98,25 @@ class LightList {
 
 struct SyncContext {
   SyncContext(Scene& renderScene, PrimCollection<Mesh>& meshPrims,
+              PrimCollection<Points>& pointsPrims, PrimCollection<Curves>& curvesPrims,
               PrimCollection<Instancer>& instancerPrims)
-      : scene(renderScene), meshes(meshPrims), instancers(instancerPrims) {}
+      : scene(renderScene),
+        meshes(meshPrims),
+        points(pointsPrims),
+        curves(curvesPrims),
+        instancers(instancerPrims) {}
 
   Scene& scene;
   PrimCollection<Mesh>& meshes;
+  PrimCollection<Points>& points;
+  PrimCollection<Curves>& curves;
   PrimCollection<Instancer>& instancers;
   MaterialIndices materials;
   LightList lights;
+  /// The instancers naming each prototype id, as they last synced (Instancer::sync), whether
+  /// or not a prototype of that id is in the render index: its removal drops their copies, its
+  /// insertion has them placed again.
+  std::map<PrimId, std::set<PrimId>> instancersByPrototype;
   /// The context of this sync (set by the render delegate before the prims sync).
   DicingContext dicing;
   /// RenderSettingsMap::complexity: how finely subdivision surfaces are diced.
