@@ -12,7 +12,7 @@ from pxr import Gf, Usd, UsdGeom, UsdRender
 
 import penumbra
 from penumbra import _core
-from stages import add_camera, add_distant_light, add_quad, new_stage
+from stages import add_camera, add_distant_light, add_instance, add_quad, new_stage
 
 CAMERA = np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 5, 1]], float)
 SIZE = 16  # pixels across the camera's [-2, 2]² at z = 0
@@ -144,30 +144,58 @@ def test_unauthored_widths_are_framed(kind):
 
 
 
+
+def _add_gprim(stage: Usd.Stage, path: str, kind: str) -> None:
+    """A sphere point, or a vertical curve, of width 0.5 at the origin of ``path``."""
+    if kind == "points":
+        gprim = UsdGeom.Points.Define(stage, path)
+        gprim.CreatePointsAttr([Gf.Vec3f(0, 0, 0)])
+    else:
+        gprim = UsdGeom.BasisCurves.Define(stage, path)
+        gprim.CreatePointsAttr([Gf.Vec3f(0, -0.3, 0), Gf.Vec3f(0, 0.3, 0)])
+        gprim.CreateCurveVertexCountsAttr([2])
+        gprim.CreateTypeAttr(UsdGeom.Tokens.linear)
+    gprim.CreateWidthsAttr([0.5])
+    gprim.SetWidthsInterpolation(UsdGeom.Tokens.constant)
+
+
+COPIES = [(-1.0, 1.0), (1.0, 1.0), (0.0, -1.0)]
+
+
+def _covered_at(image, centres) -> list[bool]:
+    alpha = image["color"][:, :, 3]
+    size = alpha.shape[0]
+    return [bool(alpha[int((2 - y) / 4 * size), int((x + 2) / 4 * size)] > 0.5) for x, y in centres]
+
+
 @pytest.mark.parametrize("kind", ["points", "curves"])
-def test_points_and_curves_in_point_instancer_prototypes_are_warned_of_once(kind):
+def test_points_and_curves_are_point_instancer_prototypes(kind):
     stage = new_stage()
     add_camera(stage)
     instancer = UsdGeom.PointInstancer.Define(stage, "/World/scatter")
-    prototype = "/World/scatter/prototypes/one"
-    if kind == "points":
-        UsdGeom.Points.Define(stage, prototype).CreatePointsAttr([Gf.Vec3f(0, 0, 0)])
-    else:
-        hair = UsdGeom.BasisCurves.Define(stage, prototype)
-        hair.CreatePointsAttr([Gf.Vec3f(0, -0.3, 0), Gf.Vec3f(0, 0.3, 0)])
-        hair.CreateCurveVertexCountsAttr([2])
-    instancer.CreatePrototypesRel().SetTargets([prototype])
-    instancer.CreateProtoIndicesAttr([0, 0])
-    instancer.CreatePositionsAttr([Gf.Vec3f(-1, 0, 0), Gf.Vec3f(1, 0, 0)])
-    with pytest.warns(penumbra.PenumbraWarning) as record:
-        renderer = penumbra.Renderer(stage)
-        renderer.render(camera="/cam", width=16, samples=1)
-    messages = [str(w.message) for w in record if str(w.message).startswith("/World/scatter: ")]
-    assert messages == [
-        "/World/scatter: 1 points or curves prims in its prototypes are not rendered as copies "
-        f"yet, skipped (first: {prototype})"
-    ]
-    instancer.CreatePositionsAttr([Gf.Vec3f(-1, 0, 0), Gf.Vec3f(0, 1, 0)])  # an edit: no repeat
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        renderer.render(camera="/cam", width=16, samples=1)
+    _add_gprim(stage, "/World/scatter/prototypes/one", kind)
+    instancer.CreatePrototypesRel().SetTargets(["/World/scatter/prototypes/one"])
+    instancer.CreateProtoIndicesAttr([0] * len(COPIES))
+    instancer.CreatePositionsAttr([Gf.Vec3f(x, y, 0) for x, y in COPIES])
+    renderer = penumbra.Renderer(stage)
+    image = renderer.render(camera="/cam", width=32, samples=4, dome_light_visibility=False)
+    assert all(_covered_at(image, COPIES))
+    assert not _covered_at(image, [(0, 0)])[0]  # the prototype itself is not rendered
+
+
+@pytest.mark.parametrize("kind", ["points", "curves"])
+def test_native_instances_of_points_and_curves_share_one_prototype(kind):
+    stage = new_stage()
+    add_camera(stage)
+    stage.CreateClassPrim("/Prototypes")
+    UsdGeom.Xform.Define(stage, "/Prototypes/tuft")
+    _add_gprim(stage, "/Prototypes/tuft/gprim", kind)
+    for n, (x, y) in enumerate(COPIES):
+        add_instance(stage, f"/World/tuft{n}", "/Prototypes/tuft", translate=(x, y, 0))
+    renderer = penumbra.Renderer(stage)
+    image = renderer.render(camera="/cam", width=32, samples=4, dome_light_visibility=False)
+    assert all(_covered_at(image, COPIES))
+    # One hidden prototype rprim and one instancer, not one rprim per instance.
+    ids = renderer.delegate.prim_ids()
+    assert not any(i.startswith("/World/tuft") for i in ids), ids
+    assert sum("/prototypes" in i for i in ids) == 1, ids

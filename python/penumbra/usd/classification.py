@@ -36,12 +36,12 @@ class Classifier:
         rendered; with its inherited state when it is a mesh, points or curves."""
         role = self._role_of_type(prim)
         if role in ("mesh", "points", CURVES, "unsupported"):
-            if role == "mesh" and prim.IsInstanceProxy():
+            if role != "unsupported" and prim.IsInstanceProxy():
                 return None, None  # natively instanced: NativeInstancing
             state = self._inherited.state(prim, path)
             if state.purpose not in self.purposes:
                 return None, None
-            if role != "unsupported":  # points, curves in native instances: one rprim each
+            if role != "unsupported":
                 return role, state
         elif role is not None:
             return role, None  # a camera or a light

@@ -433,8 +433,13 @@ class Flattener:
                 walk.PruneChildren()
                 yield prim, "point instancer"
                 continue
-            if prim.IsA(UsdGeom.Mesh) or is_implicit(prim):
-                yield prim, "mesh"
+            if (
+                prim.IsA(UsdGeom.Mesh)
+                or is_implicit(prim)
+                or prim.IsA(UsdGeom.Points)
+                or prim.IsA(UsdGeom.Curves)
+            ):
+                yield prim, "mesh"  # a leaf: meshes, points and curves are copied alike
             if prim.IsInstance():
                 yield prim, "instance"
 

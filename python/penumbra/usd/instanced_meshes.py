@@ -15,10 +15,12 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
-from pxr import Sdf, Usd
+from pxr import Sdf, Usd, UsdGeom
 
 from .flattening import Leaf, user_facing_path
+from .curves import sync_curves_data
 from .mesh import sync_mesh_data
+from .points import sync_points_data
 from .render_pass import SHOWN, PassVisibility
 from .sampling import SampleReader, Shutter
 
@@ -167,7 +169,7 @@ class InstancedMeshes:
         )
         if material:
             self.materials.acquire(material, pushed.mesh_id)
-        self.core.insert_rprim("mesh", pushed.mesh_id)
+        self.core.insert_rprim(_rprim_type(group.mesh), pushed.mesh_id)
         self.core.insert_rprim("instancer", pushed.instancer_id)
         if shown != SHOWN:
             self.core.set_pass_visibility(pushed.instancer_id, shown.camera, shown.matte)
@@ -181,7 +183,8 @@ class InstancedMeshes:
         def warn(message: str) -> None:  # name the prim the user knows, not the hidden id
             self.warn(message.replace(pushed.mesh_id, name))
 
-        pushed.usable = sync_mesh_data(self.core, group.mesh, reader, warn, pushed.mesh_id)
+        read = _READERS[_rprim_type(group.mesh)]
+        pushed.usable = read(self.core, group.mesh, reader, warn, pushed.mesh_id)
         pushed.varying = reader.varying
         self.core.set_visible(pushed.mesh_id, False)  # only its copies render
         if not pushed.usable:  # no copies of an unreadable mesh
@@ -196,6 +199,17 @@ class InstancedMeshes:
         self.core.remove_prim(pushed.mesh_id)
         if key[1]:
             self.materials.release(key[1], pushed.mesh_id)
+
+
+_READERS = {"mesh": sync_mesh_data, "points": sync_points_data, "basisCurves": sync_curves_data}
+
+
+def _rprim_type(prim: Usd.Prim) -> str:
+    """The rprim type copies of ``prim`` share: points, curves, or a mesh (meshes and implicit
+    surfaces)."""
+    if prim.IsA(UsdGeom.Points):
+        return "points"
+    return "basisCurves" if prim.IsA(UsdGeom.Curves) else "mesh"
 
 
 def _id_tail(mesh: Sdf.Path, material: Sdf.Path | None, shown: PassVisibility) -> str:

@@ -3,8 +3,8 @@
 :class:`PointInstancerDelegate` mirrors the point instancers that are not inside native
 prototypes (those are flattened with their prototype, see :mod:`.native_instancing`); an edit
 under an instancer, its prototypes or the materials they use re-flattens that instancer
-(:mod:`.flattening`), and :mod:`.instanced_meshes` pushes what differs. Points and curves in
-prototypes are not copied yet: each instancer holding some is warned of once, naming the first.
+(:mod:`.flattening`), and :mod:`.instanced_meshes` pushes what differs (meshes, points and
+curves alike).
 """
 
 from __future__ import annotations
@@ -53,7 +53,6 @@ class PointInstancerDelegate:
         self._instancers: dict[Sdf.Path, _Instancer] = {}
         self._structure_changed = True  # prims were added or removed: look for instancers
         self._stale: set[Sdf.Path] = set()  # edited prims (their meshes are read again)
-        self._reported: set[Sdf.Path] = set()  # instancers warned of for points or curves
 
     def note_changes(self, resynced: Iterable[Sdf.Path], changed: Iterable[Sdf.Path]) -> None:
         """Note stage edits (paths of ``Usd.Notice.ObjectsChanged``) for the next update."""
@@ -102,7 +101,6 @@ class PointInstancerDelegate:
         return _Instancer(InstancedMeshes(self.core, self.warn, self.materials, str(path)))
 
     def _sync(self, prim: Usd.Prim, record: _Instancer, stale: set[Sdf.Path], time_changed: bool) -> None:
-        self._report_points_and_curves(prim)
         flattener = Flattener(self.stage, self.shutter, self.warn)
         groups = self._groups(prim, flattener)
         record.meshes.update(groups, self.shutter, stale, time_changed)
@@ -111,24 +109,6 @@ class PointInstancerDelegate:
         record.roots = {prim.GetPath(), *flattener.roots, *materials}
         record.varying = flattener.varying or record.meshes.varying
         record.dirty = False
-
-    def _report_points_and_curves(self, prim: Usd.Prim) -> None:
-        """Warn (once per instancer) of the points and curves in its prototypes, which its
-        copies leave out."""
-        if prim.GetPath() in self._reported:
-            return
-        skipped = [
-            p.GetPath()
-            for root in prototype_roots(prim)
-            for p in Usd.PrimRange(root)
-            if p.IsA(UsdGeom.Points) or p.IsA(UsdGeom.Curves)
-        ]
-        if skipped:
-            self._reported.add(prim.GetPath())
-            self.warn(
-                f"{prim.GetPath()}: {len(skipped)} points or curves prims in its prototypes are "
-                f"not rendered as copies yet, skipped (first: {min(skipped)})"
-            )
 
     def _groups(self, prim: Usd.Prim, flattener: Flattener) -> dict[GroupKey, Group]:
         imageable = UsdGeom.Imageable(prim)
