@@ -38,7 +38,8 @@ void Instancer::sync(SyncContext& context, uint32_t) {
   const PlacedRprim* prototype = findPrototype(context, prototype_);
   if (!prototype) {
     context.warn(id() + ": prototype " + prototype_ +
-                 " is not a mesh in the render index; the instances are skipped");
+                 " is not a mesh, points or curves in the render index; the instances are "
+                 "skipped");
     scene.geometry().removeInstancer(handle_);
     handle_ = scene.geometry().addInstancer();
     return;

@@ -304,7 +304,7 @@ TEST(RenderDelegate, OnlyDirtyPrimsAreSynced) {
 
 TEST(RenderDelegate, RejectsUnknownTypesIdsAndSettings) {
   RenderDelegate delegate;
-  EXPECT_THROW(delegate.insertRprim("basisCurves", "/c"), std::invalid_argument);
+  EXPECT_THROW(delegate.insertRprim("volume", "/c"), std::invalid_argument);
   EXPECT_THROW(delegate.insertSprim("cylinderLightX", "/l"), std::invalid_argument);
   delegate.insertSprim("camera", "/cam");
   EXPECT_THROW(delegate.insertSprim("camera", "/cam"), std::invalid_argument);
@@ -408,7 +408,8 @@ TEST(RenderDelegate, InstancersPlaceCopiesOfAPrototype) {
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_EQ(
       warnings[0],
-      "/copies: prototype /proto is not a mesh in the render index; the instances are skipped");
+      "/copies: prototype /proto is not a mesh, points or curves in the render index; the "
+      "instances are skipped");
 }
 
 TEST(RenderDelegate, PrototypesKnowTheirInstancers) {
