@@ -160,11 +160,11 @@ def write_stage(path: Path, strands: int) -> None:
     bind(floor.GetPrim(), preview_material(stage, "/World/Looks/floor", diffuseColor=(0.42, 0.44, 0.47), roughness=0.6))
 
     camera = UsdGeom.Camera.Define(stage, "/World/main_cam")
-    camera.CreateFocalLengthAttr(50)
+    camera.CreateFocalLengthAttr(40)
     camera.CreateHorizontalApertureAttr(36)
     camera.CreateVerticalApertureAttr(24)
     camera.CreateClippingRangeAttr(Gf.Vec2f(0.1, 200))
-    eye, centre = Gf.Vec3d(0.6, 2.3, 5.6), Gf.Vec3d(0, 1.05, 0)
+    eye, centre = Gf.Vec3d(0.6, 3.6, 5.2), Gf.Vec3d(0, 0.95, 0)
     view = Gf.Matrix4d().SetLookAt(eye, centre, Gf.Vec3d(0, 1, 0)).GetInverse()
     camera.AddTransformOp().Set(view)
 
