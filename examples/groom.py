@@ -1,7 +1,7 @@
-"""Writes a furry ball: 120,000 clumped, drooping, curling BasisCurves strands on a sphere, on a
+"""Writes a furry ball: 120,000 combed, clumped, curling BasisCurves strands on a sphere, on a
 floor, under a sky dome, a key and a rim light — and renders it with penumbra-record.
 
-Run with the project's Python; the stage (about 20 MB as .usdc) is written to
+Run with the project's Python; the stage (13 MB as .usdc) is written to
 build/examples/groom.usdc, not committed:
 
     .venv/bin/python examples/groom.py            # writes the stage, prints the render command
@@ -30,7 +30,7 @@ STAGE = HERE.parent / "build" / "examples" / "groom.usdc"
 IMAGE = HERE / "images" / "groom.png"
 
 RADIUS = 1.0  # of the ball
-LENGTH = 0.32  # of a strand, on average
+LENGTH = 0.45  # of a strand, on average
 CONTROL_POINTS = 6
 CLUMPS = 2500
 ROOT_WIDTH, TIP_WIDTH = 0.0055, 0.0006
@@ -48,36 +48,41 @@ def fibonacci_sphere(count: int) -> np.ndarray:
 def fur(count: int, seed: int = 7) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Control points (float32 [count·6, 3]), widths per vertex and one colour per strand.
 
-    Each strand grows along its root's normal, bends down under gravity more towards its tip,
-    is drawn towards its clump's centre line (clumps of about count/CLUMPS strands) and curls
-    about it by a few degrees."""
+    Each strand leaves its root along the normal and lies down along a combed flow (a downward
+    direction projected onto the skin) and under gravity, more towards its tip; it is drawn
+    towards its clump's strand (CLUMPS clumps at random over the ball) and curls a little."""
     rng = np.random.default_rng(seed)
-    roots = fibonacci_sphere(count) + rng.normal(scale=0.004, size=(count, 3))
-    roots /= np.linalg.norm(roots, axis=1, keepdims=True)
-    centres = fibonacci_sphere(CLUMPS)
-    clump = np.argmax(roots @ centres.T, axis=1) if count <= 200_000 else _nearest(roots, centres)
+    roots = _unit(fibonacci_sphere(count) + rng.normal(scale=0.004, size=(count, 3)))
+    centres = _unit(rng.normal(size=(CLUMPS, 3)))
+    clump = _nearest(roots, centres)
     length = LENGTH * rng.uniform(0.75, 1.25, size=(count, 1))
     s = np.linspace(-0.05, 1.0, CONTROL_POINTS)  # the first point lies under the skin
-    gravity = np.array([0.0, -1.0, 0.0])
+
+    def combed(normals: np.ndarray) -> np.ndarray:
+        flow = np.array([0.35, -1.0, 0.25]) + rng.normal(scale=0.25, size=normals.shape)
+        flow -= normals * (flow * normals).sum(axis=1, keepdims=True)
+        return flow / np.maximum(np.linalg.norm(flow, axis=1, keepdims=True), 1e-6)
+
+    def offset(normals: np.ndarray, flow: np.ndarray, t: float) -> np.ndarray:
+        """Where a strand of unit length rooted at ``normals`` is at ``t`` (0 root, 1 tip),
+        from its root."""
+        rise, lie = t * (1 - 0.3 * t), 0.45 * t * t
+        return normals * rise + flow * lie + np.array([0.0, -0.25, 0.0]) * t**3
+
+    flows, clump_flows = combed(roots), combed(centres)[clump]
     phase = rng.uniform(0, 2 * math.pi, size=(count, 1))
-    aside = np.cross(roots, rng.normal(size=(count, 3)))
-    aside /= np.linalg.norm(aside, axis=1, keepdims=True)
-    across = np.cross(roots, aside)
+    aside = _unit(np.cross(roots, flows))
     points = np.empty((count, CONTROL_POINTS, 3))
     for k, t in enumerate(s):
-        along = roots * (RADIUS + t * length)
-        droop = gravity * (0.45 * max(t, 0.0) ** 2) * length
-        # Towards the clump's own strand (its centre's normal at this height), tips most.
-        pull = 0.55 * max(t, 0.0) ** 1.5
-        target = centres[clump] * (RADIUS + t * length)
-        curl = 0.05 * length * max(t, 0.0) * (
-            np.cos(phase + 5 * t) * aside + np.sin(phase + 5 * t) * across
-        )
-        points[:, k] = (1 - pull) * along + pull * target + droop + curl
+        own = roots * RADIUS + offset(roots, flows, t) * length
+        guide = centres[clump] * RADIUS + offset(centres[clump], clump_flows, t) * length
+        pull = 0.4 * max(t, 0.0) ** 1.5  # tips gather most
+        curl = 0.06 * length * max(t, 0.0) * np.sin(phase + 6 * t) * aside
+        points[:, k] = (1 - pull) * own + pull * guide + curl
     taper = np.interp(s, [-0.05, 0.0, 1.0], [ROOT_WIDTH, ROOT_WIDTH, TIP_WIDTH])
     widths = taper[None, :] * rng.uniform(0.8, 1.2, size=(count, 1))
     # Warm brown with lighter and darker strands, clumps tinted alike.
-    base = np.array([0.50, 0.33, 0.19])
+    base = np.array([0.46, 0.29, 0.16])
     tint = rng.uniform(0.85, 1.15, size=(CLUMPS, 1))[clump] * rng.uniform(0.8, 1.2, size=(count, 1))
     colors = np.clip(base * tint, 0, 1)
     return (
@@ -87,8 +92,14 @@ def fur(count: int, seed: int = 7) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     )
 
 
-def _nearest(points: np.ndarray, centres: np.ndarray, chunk: int = 100_000) -> np.ndarray:
-    """The index of the nearest of ``centres`` (unit vectors) to each of ``points``, in chunks."""
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    return vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+
+
+def _nearest(points: np.ndarray, centres: np.ndarray, chunk: int = 4096) -> np.ndarray:
+    """The index of the nearest of ``centres`` (unit vectors) to each of ``points``, in chunks
+    that keep the products small (penumbra-record, started from this process, would count its
+    peak memory as its own)."""
     return np.concatenate(
         [np.argmax(points[n : n + chunk] @ centres.T, axis=1) for n in range(0, len(points), chunk)]
     )
@@ -99,7 +110,8 @@ def preview_material(stage: Usd.Stage, path: str, **inputs) -> UsdShade.Material
     shader = UsdShade.Shader.Define(stage, f"{path}/PreviewSurface")
     shader.CreateIdAttr("UsdPreviewSurface")
     for name, value in inputs.items():
-        value_type = Sdf.ValueTypeNames.Color3f if isinstance(value, tuple) else Sdf.ValueTypeNames.Float
+        names = Sdf.ValueTypeNames
+        value_type = names.Color3f if isinstance(value, tuple) else names.Float
         shader.CreateInput(name, value_type).Set(value)
     material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
     return material
@@ -136,7 +148,10 @@ def write_stage(path: Path, strands: int) -> None:
 
     skin = UsdGeom.Sphere.Define(stage, "/World/ball/skin")
     skin.CreateRadiusAttr(RADIUS)
-    bind(skin.GetPrim(), preview_material(stage, "/World/Looks/skin", diffuseColor=(0.12, 0.07, 0.04), roughness=0.8))
+    skin_look = preview_material(
+        stage, "/World/Looks/skin", diffuseColor=(0.12, 0.07, 0.04), roughness=0.8
+    )
+    bind(skin.GetPrim(), skin_look)
 
     points, widths, colors = fur(strands)
     curves = UsdGeom.BasisCurves.Define(stage, "/World/ball/fur")
@@ -157,7 +172,10 @@ def write_stage(path: Path, strands: int) -> None:
     floor.CreateAxisAttr(UsdGeom.Tokens.y)
     floor.CreateWidthAttr(40)
     floor.CreateLengthAttr(40)
-    bind(floor.GetPrim(), preview_material(stage, "/World/Looks/floor", diffuseColor=(0.42, 0.44, 0.47), roughness=0.6))
+    floor_look = preview_material(
+        stage, "/World/Looks/floor", diffuseColor=(0.42, 0.44, 0.47), roughness=0.6
+    )
+    bind(floor.GetPrim(), floor_look)
 
     camera = UsdGeom.Camera.Define(stage, "/World/main_cam")
     camera.CreateFocalLengthAttr(40)
@@ -189,18 +207,21 @@ def write_stage(path: Path, strands: int) -> None:
 def _aim(light: UsdGeom.Xformable, position: Gf.Vec3d, target: Gf.Vec3d) -> None:
     """Place ``light`` at ``position`` with its −Z axis (the direction a RectLight emits along)
     towards ``target``."""
-    light.AddTransformOp().Set(Gf.Matrix4d().SetLookAt(position, target, Gf.Vec3d(0, 1, 0)).GetInverse())
+    view = Gf.Matrix4d().SetLookAt(position, target, Gf.Vec3d(0, 1, 0))
+    light.AddTransformOp().Set(view.GetInverse())
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--strands", type=int, default=120_000)
-    parser.add_argument("--render", action="store_true", help=f"render {IMAGE.relative_to(HERE.parent)}")
-    parser.add_argument("--width", type=int, default=960)
+    parser.add_argument("--render", action="store_true", help="render examples/images/groom.png")
+    parser.add_argument("--width", type=int, default=640)
     parser.add_argument("--samples", type=int, default=64)
     args = parser.parse_args()
     write_stage(STAGE, args.strands)
-    record = shutil.which("penumbra-record", path=str(Path(sys.executable).parent)) or "penumbra-record"
+    # The penumbra-record beside this Python (.venv/bin), else the one on PATH.
+    beside = shutil.which("penumbra-record", path=str(Path(sys.executable).parent))
+    record = beside or "penumbra-record"
     command = [record, str(STAGE), str(IMAGE), "-w", str(args.width), "-spp", str(args.samples)]
     print(f"wrote {STAGE} ({args.strands:,} strands); render with:\n  {' '.join(command)}")
     if args.render:
