@@ -13,7 +13,7 @@ from collections.abc import Iterator
 from pxr import Sdf, Usd, UsdGeom, UsdVol
 
 from ..errors import warn
-from .implicit import is_implicit
+from .mesh import reads_as_mesh
 from .inherited import Inherited, InheritedState
 from .lights import is_light, light_type
 
@@ -89,7 +89,7 @@ class Classifier:
             role = "camera"
         elif (sprim_type := light_type(prim)) is not None:
             role = sprim_type
-        elif prim.IsA(UsdGeom.Mesh) or is_implicit(prim):
+        elif reads_as_mesh(prim):  # meshes, implicit surfaces, NURBS patches, tet meshes
             role = "mesh"
         elif prim.IsA(UsdGeom.Points):
             role = "points"

@@ -2,10 +2,11 @@
 their motion over the shutter), sidedness, displayColor, normals, and the other numeric primvars
 (``st``, displayOpacity, ...) for materials to read.
 
-Implicit surfaces (Sphere, Cube, Cylinder, Cone, Capsule, Plane; see :mod:`.implicit`) are
-tessellated and then pushed exactly as meshes are (:func:`push_mesh`): the scene delegate
-tracks them as ``mesh`` prims, so transforms, visibility, purpose, material bindings,
-instancing and incremental edits are the meshes' own."""
+Implicit surfaces (Sphere, Cube, Cylinder, Cone, Capsule, Plane; see :mod:`.implicit`) and
+NURBS patches (:mod:`.nurbs_patch`) are tessellated, tetrahedral meshes reduced to their boundary
+(:mod:`.tet_mesh`), and then pushed exactly as meshes are (:func:`push_mesh`): the scene
+delegate tracks them as ``mesh`` prims (:func:`reads_as_mesh`), so transforms, visibility,
+purpose, material bindings, instancing and incremental edits are the meshes' own."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdLux
 
 from .._core import MeshRecord
-from . import implicit
+from . import implicit, nurbs_patch, tet_mesh
 from .core_batch import CoreBatch
 from .lights import sync_mesh_light
 from .motion import point_samples
@@ -33,6 +34,17 @@ class Authored(NamedTuple):  # a tuple: built per mesh, faster than a dataclass
     inherited_primvars: tuple[UsdGeom.Primvar, ...]
 
 
+def reads_as_mesh(prim: Usd.Prim) -> bool:
+    """Whether :func:`sync_mesh_data` reads ``prim``: a UsdGeomMesh, an implicit surface, a
+    NurbsPatch or a TetMesh."""
+    return (
+        prim.IsA(UsdGeom.Mesh)
+        or implicit.is_implicit(prim)
+        or prim.IsA(UsdGeom.NurbsPatch)
+        or prim.IsA(UsdGeom.TetMesh)
+    )
+
+
 def sync_mesh_data(
     core,
     prim: Usd.Prim,
@@ -41,8 +53,9 @@ def sync_mesh_data(
     prim_id: str | None = None,
     authored: Authored | None = None,
 ) -> bool:
-    """Push the topology, points, sidedness and displayColor of ``prim`` (a UsdGeomMesh or an
-    implicit surface) to ``core`` (as the delegate prim ``prim_id``, by default the prim's path).
+    """Push the topology, points, sidedness and displayColor of ``prim`` (a prim that
+    :func:`reads_as_mesh`) to ``core`` (as the delegate prim ``prim_id``, by default the prim's
+    path).
     ``authored``: what is known of the prim's opinions (without it every attribute is read).
 
     Returns ``False`` (after a warning naming the prim) when the mesh has no points or no
@@ -51,6 +64,10 @@ def sync_mesh_data(
     path = prim_id or str(prim.GetPath())
     # A prim typed "Mesh" needs no schema lookup; types derived from it still do.
     if prim.GetTypeName() != "Mesh" and not prim.IsA(UsdGeom.Mesh):
+        if prim.IsA(UsdGeom.NurbsPatch):
+            return _sync_nurbs_patch(core, prim, path, reader, warn, authored)
+        if prim.IsA(UsdGeom.TetMesh):
+            return _sync_tet_mesh(core, prim, path, reader, warn, authored)
         return _sync_implicit(core, prim, path, reader, authored)
     attributes = _Attributes(prim, reader, authored)
     get = attributes.get
@@ -258,16 +275,18 @@ def push_mesh(
     primvars: dict[str, tuple[np.ndarray, str]] | None = None,
     authored: Authored | None = None,
     attributes: _Attributes | None = None,
+    colors: tuple[np.ndarray, str] | None = None,
 ) -> None:
     """Push a polygon mesh (or subdivision cage) of gprim ``prim`` as delegate prim ``path``
     in one call: the given topology, points (float32 (N, 3) or (K, N, 3) motion samples),
     normals (values, interpolation) and primvars (name → (values, interpolation); by default
     the gprim's constant ones), with what the gprim itself says — sidedness and displayColor;
     then its UsdLuxMeshLightAPI. ``authored``: as for :func:`sync_mesh_data`; ``attributes``:
-    the reader of the prim's attributes the caller already made from them."""
+    the reader of the prim's attributes the caller already made from them; ``colors``: the
+    displayColor (values, interpolation) when the caller mapped it to generated topology."""
     if primvars is None:
         primvars = gprim_primvars(prim, reader, None, path, constant_only=True, authored=authored)
-    colors, interpolation = display_color(prim, reader, authored)
+    colors, interpolation = colors or display_color(prim, reader, authored)
     if attributes is None:
         attributes = _Attributes(prim, reader, authored)
     core.set_mesh(
@@ -316,6 +335,110 @@ def _sync_implicit(
         authored=authored,
     )
     return True
+
+
+def _sync_nurbs_patch(
+    core,
+    prim: Usd.Prim,
+    path: str,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    authored: Authored | None,
+) -> bool:
+    """Tessellate NurbsPatch ``prim`` (:mod:`.nurbs_patch`; its control points sampled over the
+    shutter as a mesh's points are) and push it as a polygon mesh with the surface's normals.
+    Only constant primvars apply to the generated vertices; displayColor of another
+    interpolation is left out with a warning."""
+    generated = nurbs_patch.mesh(prim, reader, warn, path)
+    if generated is None:
+        return False
+    patch, tessellation = generated.patch, generated.tessellation
+    points = tessellation.points
+    samples = point_samples(UsdGeom.NurbsPatch(prim), generated.control, reader, warn, path)
+    if samples.ndim == 3:
+        points = np.stack([generated.points_for(sample) for sample in samples])
+    colors = display_color(prim, reader, authored)
+    if colors[1] != UsdGeom.Tokens.constant and len(colors[0]):
+        warn(f"{path}: primvars:displayColor is {colors[1]}; a NurbsPatch takes only constant")
+        colors = _NO_VECTORS, UsdGeom.Tokens.constant
+    push_mesh(
+        core,
+        prim,
+        path,
+        reader,
+        counts=tessellation.counts,
+        indices=tessellation.indices,
+        points=points,
+        normals=(tessellation.normals, UsdGeom.Tokens.vertex),
+        left_handed=patch.left_handed,
+        authored=authored,
+        colors=colors,
+    )
+    return True
+
+
+def _sync_tet_mesh(
+    core,
+    prim: Usd.Prim,
+    path: str,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    authored: Authored | None,
+) -> bool:
+    """Push the boundary triangles of TetMesh ``prim`` (:mod:`.tet_mesh`) over its own points
+    (sampled over the shutter as a mesh's), shaded flat; uniform primvars (per tetrahedron)
+    pass to the faces, face-varying ones are left out with a warning."""
+    surface = tet_mesh.read_surface(prim, reader, warn, path)
+    if surface is None:
+        return False
+    points = point_samples(UsdGeom.TetMesh(prim), surface.points, reader, warn, path)
+    primvars = {}
+    for name, (values, interpolation) in gprim_primvars(
+        prim, reader, warn, path, authored=authored
+    ).items():
+        per_face = _per_boundary_face(values, interpolation, surface, warn, path, name)
+        if per_face is not None:
+            primvars[name] = per_face
+    colors = _per_boundary_face(
+        *display_color(prim, reader, authored), surface, warn, path, "displayColor"
+    )
+    push_mesh(
+        core,
+        prim,
+        path,
+        reader,
+        counts=np.full(len(surface.face_tets), 3, dtype=np.int32),
+        indices=surface.indices,
+        points=points,
+        normals=(_NO_VECTORS, UsdGeom.Tokens.vertex),
+        left_handed=surface.left_handed,
+        primvars=primvars,
+        authored=authored,
+        colors=colors or (_NO_VECTORS, UsdGeom.Tokens.constant),
+    )
+    return True
+
+
+def _per_boundary_face(
+    values: np.ndarray,
+    interpolation: str,
+    surface: tet_mesh.Surface,
+    warn: Callable[[str], None],
+    path: str,
+    name: str,
+) -> tuple[np.ndarray, str] | None:
+    """A TetMesh primvar's ``values`` as the boundary mesh takes them: per point and constant
+    ones as they are, uniform ones (one per tetrahedron) picked per face; ``None`` (with a
+    warning) for face-varying ones or a uniform count that is not the tetrahedra's."""
+    if interpolation == UsdGeom.Tokens.uniform and len(values) == surface.tet_count:
+        return np.ascontiguousarray(values[surface.face_tets]), interpolation
+    if interpolation not in (UsdGeom.Tokens.uniform, UsdGeom.Tokens.faceVarying):
+        return values, interpolation
+    warn(
+        f"{path}: primvars:{name} ({interpolation}, {len(values)} values) does not map to the "
+        "faces of a TetMesh's surface; left out"
+    )
+    return None
 
 
 # Attributes authored with another type than the schema's keep their authored type: check it.

@@ -30,8 +30,9 @@ def authored(inherited: InheritedState, prim: Usd.Prim, path: Sdf.Path) -> Autho
 
 
 class MeshSync:
-    """Meshes (and implicit surfaces, tessellated): their data, transforms over the shutter,
-    visibility and material binding; those with UsdLuxMeshLightAPI are noted in ``emitters``."""
+    """Meshes (and what is read as one, :func:`~penumbra.usd.mesh.reads_as_mesh`): their data,
+    transforms over the shutter, visibility and material binding; those with UsdLuxMeshLightAPI
+    are noted in ``emitters``."""
 
     def __init__(
         self,
