@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdVol
 
 import penumbra
 from penumbra import _core
@@ -246,15 +246,13 @@ def test_added_and_removed_prims():
 
 def test_unsupported_prims_warn_once_per_type():
     stage = lit_quad_stage()
-    UsdGeom.NurbsPatch.Define(stage, "/World/patch")
-    UsdGeom.BasisCurves.Define(stage, "/World/hair1")
-    UsdGeom.BasisCurves.Define(stage, "/World/hair2")
+    UsdVol.Volume.Define(stage, "/World/smoke1")
+    UsdVol.Volume.Define(stage, "/World/smoke2")
     UsdGeom.Sphere.Define(stage, "/World/ball")  # implicit surfaces are supported (tessellated)
     with pytest.warns(penumbra.PenumbraWarning) as record:
         penumbra.Renderer(stage)
     messages = [str(w.message) for w in record]
-    assert "1 NurbsPatch prim not supported yet, skipped (first: /World/patch)" in messages
-    assert "2 BasisCurves prims not supported yet, skipped (first: /World/hair1)" in messages
+    assert "2 Volume prims not supported yet, skipped (first: /World/smoke1)" in messages
     assert not any("Sphere" in message for message in messages)
 
 

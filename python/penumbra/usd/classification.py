@@ -78,9 +78,9 @@ class Classifier:
 
     def _role_of_type(self, prim: Usd.Prim) -> str | None:
         """What prims of ``prim``'s type are (as UsdImaging finds its prim adapters by type
-        name): "camera", a light type, "mesh" (meshes and implicit surfaces), "points",
-        "basisCurves" (every UsdGeomCurves), "unsupported" (other gprims and volumes) or
-        ``None``; decided once per type name by its schema."""
+        name): "camera", a light type, "mesh" (meshes, implicit surfaces, NURBS patches and tet
+        meshes), "points", "basisCurves" (every UsdGeomCurves), "unsupported" (other gprims and
+        volumes) or ``None``; decided once per type name by its schema."""
         type_name = prim.GetTypeName()
         if type_name in self._roles:
             return self._roles[type_name]

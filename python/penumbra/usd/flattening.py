@@ -38,8 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
-from .implicit import is_implicit
-from .mesh import numeric_primvar
+from .mesh import numeric_primvar, reads_as_mesh
 from .motion import ACCELERATION_SEGMENTS, XformCaches, transform_samples
 from .sampling import SampleReader, Shutter, changes_within, transform_might_vary
 
@@ -433,12 +432,7 @@ class Flattener:
                 walk.PruneChildren()
                 yield prim, "point instancer"
                 continue
-            if (
-                prim.IsA(UsdGeom.Mesh)
-                or is_implicit(prim)
-                or prim.IsA(UsdGeom.Points)
-                or prim.IsA(UsdGeom.Curves)
-            ):
+            if reads_as_mesh(prim) or prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.Curves):
                 yield prim, "mesh"  # a leaf: meshes, points and curves are copied alike
             if prim.IsInstance():
                 yield prim, "instance"
