@@ -9,8 +9,9 @@ import math
 
 import numpy as np
 import pytest
-from pxr import Sdf, Usd, UsdGeom, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
+import penumbra
 from penumbra.usd.material import read_material
 from penumbra.usd.sampling import SampleReader
 from stages import add_preview_material, bind
@@ -189,3 +190,45 @@ def test_a_usd_preview_surface_becomes_hair_by_its_penumbra_inputs():
     bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")), material)
     radiance = quad_radiance(stage)
     assert radiance == pytest.approx((((1.55 - 1) / (1.55 + 1)) ** 2,) * 3, rel=0.03)
+
+
+def fibre_radiance(**inputs) -> np.ndarray:
+    """The radiance of the pixels a round cubic fibre covers (hair material with ``inputs``)
+    under a white dome hidden from the camera, and how many pixels it covers."""
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    camera = UsdGeom.Camera.Define(stage, "/cam")
+    camera.AddTranslateOp().Set(Gf.Vec3d(0, 0, 10))
+    camera.CreateFocalLengthAttr(50.0)
+    camera.CreateHorizontalApertureAttr(20.0)
+    camera.CreateVerticalApertureAttr(20.0)
+    fibre = UsdGeom.BasisCurves.Define(stage, "/World/fibre")
+    fibre.CreatePointsAttr([Gf.Vec3f(-3, -0.5, 0), Gf.Vec3f(-1, 0.5, 0), Gf.Vec3f(1, -0.5, 0),
+                            Gf.Vec3f(3, 0.5, 0)])
+    fibre.CreateCurveVertexCountsAttr([4])
+    fibre.CreateWidthsAttr([0.8])
+    fibre.SetWidthsInterpolation(UsdGeom.Tokens.constant)
+    hair_material(stage, **inputs)
+    bind(fibre, UsdShade.Material(stage.GetPrimAtPath(LOOK)))
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateIntensityAttr(1.0)
+    image = penumbra.render(stage, camera="/cam", width=64, samples=64, seed=3,
+                            dome_light_visibility=False)["color"]
+    covered = image[..., 3] > 0.99
+    return image[covered][:, :3].mean(axis=0), int(covered.sum())
+
+
+def test_a_clear_fibre_under_a_white_dome_stays_white():
+    """A curve seen by a camera ray scatters once and leaves for the dome (a round fibre is
+    convex): a lossless fibre (no absorption, white tints) returns all of the dome's light."""
+    radiance, covered = fibre_radiance()
+    assert covered > 200
+    np.testing.assert_allclose(radiance, 1.0, rtol=0.02)
+
+
+def test_an_absorbing_fibre_keeps_its_colour_and_loses_light():
+    """Absorption that is strongest in blue leaves a fibre darker than the dome and redder than
+    it is blue; the R lobe (white) bounds it from below."""
+    radiance, _ = fibre_radiance(absorption_coefficient=(0.3, 1.0, 3.0))
+    assert radiance[0] > radiance[1] > radiance[2]
+    assert radiance.max() < 0.9
+    assert radiance.min() > 0.02
