@@ -21,9 +21,10 @@ Density follows the control net, per knot span and direction:
   0.92 to 1.05 times π/32, and the arc is within 1.4e-3 of its radius from its chords).
 
 Vertices lie on the surface (evaluated in double precision from the non-zero basis functions
-at each parameter, by de Boor's triangular scheme over all parameters at once); their normals are ∂S/∂u × ∂S/∂v (negated for ``leftHanded``), taken
-from the neighbouring vertices where the derivatives degenerate (a pole). Bilinear patches
-(degree 1 both ways) are shaded flat, as polygons are.
+at each parameter, by de Boor's triangular scheme over all parameters at once); their normals
+are ∂S/∂u × ∂S/∂v (negated for ``leftHanded``), taken from the neighbouring vertices where the
+derivatives degenerate (a pole). Bilinear patches (degree 1 both ways) are shaded flat, as
+polygons are.
 """
 
 from __future__ import annotations
