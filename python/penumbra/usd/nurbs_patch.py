@@ -20,10 +20,11 @@ Density follows the control net, per knot span and direction:
   faster than its mean over the span: a rational quadratic quarter circle's 16 segments turn
   0.92 to 1.05 times π/32, and the arc is within 1.4e-3 of its radius from its chords).
 
-Vertices lie on the surface (evaluated in double precision by the Cox–de Boor recursion over
-all parameters at once); their normals are ∂S/∂u × ∂S/∂v (negated for ``leftHanded``), taken
-from the neighbouring vertices where the derivatives degenerate (a pole). Bilinear patches
-(degree 1 both ways) are shaded flat, as polygons are.
+Vertices lie on the surface (evaluated in double precision from the non-zero basis functions
+at each parameter, by de Boor's triangular scheme over all parameters at once); their normals
+are ∂S/∂u × ∂S/∂v (negated for ``leftHanded``), taken from the neighbouring vertices where the
+derivatives degenerate (a pole). Bilinear patches (degree 1 both ways) are shaded flat, as
+polygons are.
 """
 
 from __future__ import annotations
@@ -230,44 +231,60 @@ def _span_turns(net: np.ndarray, degree: int) -> np.ndarray:
     return turns
 
 
-def basis(direction: Direction, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The B-spline basis functions of ``direction`` and their first derivatives at ``params``:
-    two float64 [len(params), count] matrices (Cox–de Boor, with 0/0 taken as 0)."""
+class Basis(NamedTuple):
+    """The B-spline basis functions of one direction that are non-zero at each parameter: those
+    of control points ``first`` … ``first + degree``."""
+
+    first: np.ndarray  # int [m]
+    values: np.ndarray  # float64 [m, degree + 1]
+    derivatives: np.ndarray  # float64 [m, degree + 1]: their first derivatives
+
+
+def basis(direction: Direction, params: np.ndarray) -> Basis:
+    """The basis functions of ``direction`` at ``params`` (de Boor's triangular scheme over all
+    parameters at once: memory in proportion to the parameters, not to the control points)."""
     knots, degree, count = direction.knots, direction.degree, direction.count
     # The span of each parameter: the last non-empty one starting at or before it, except that
     # the end of the range belongs to the span it closes.
     span = np.searchsorted(knots, params, side="right") - 1
     closing = np.searchsorted(knots, params, side="left") - 1
     span = np.where(params >= knots[count], closing, span).clip(degree, count - 1)
-    values = np.zeros((len(params), len(knots) - 1))
-    values[np.arange(len(params)), span] = 1.0
+    # left[j] = t − t_{span+1−j}, right[j] = t_{span+j} − t (j = 1 … degree)
+    steps = np.arange(1, degree + 1)
+    left = params[:, None] - knots[span[:, None] + 1 - steps]
+    right = knots[span[:, None] + steps] - params[:, None]
+    values = np.ones((len(params), 1))
     lower = values
-    t = params[:, None]
-    for k in range(1, degree + 1):
-        # N_{i,k} = (t − t_i) / (t_{i+k} − t_i) · N_{i,k−1}
-        #         + (t_{i+k+1} − t) / (t_{i+k+1} − t_{i+1}) · N_{i+1,k−1}
+    for j in range(1, degree + 1):  # values[:, r]: N_{span−j+r, j}
         lower = values
-        size = len(knots) - 1 - k
-        starts, next_starts = knots[:size], knots[1 : 1 + size]
-        ends, next_ends = knots[k : k + size], knots[k + 1 : k + 1 + size]
-        values = (
-            _ratio(t - starts, ends - starts) * lower[:, :size]
-            + _ratio(next_ends - t, next_ends - next_starts) * lower[:, 1 : size + 1]
-        )
-    # N'_{i,p} = p · (N_{i,p−1} / (t_{i+p} − t_i) − N_{i+1,p−1} / (t_{i+p+1} − t_{i+1}))
-    starts, next_starts = knots[:count], knots[1 : 1 + count]
-    ends, next_ends = knots[degree : degree + count], knots[degree + 1 : degree + 1 + count]
-    derivatives = degree * (
-        _ratio(lower[:, :count], ends - starts)
-        - _ratio(lower[:, 1 : count + 1], next_ends - next_starts)
-    )
-    return values, derivatives
+        values = np.zeros((len(params), j + 1))
+        for r in range(j):
+            # t_{span+r+1} − t_{span+r+1−j}: positive, as the span is not empty
+            share = lower[:, r] / (right[:, r] + left[:, j - r - 1])
+            values[:, r] += right[:, r] * share
+            values[:, r + 1] = left[:, j - r - 1] * share
+    # N'_{i,p} = p · (N_{i,p−1} / (t_{i+p} − t_i) − N_{i+1,p−1} / (t_{i+p+1} − t_{i+1})),
+    # i = span − p + r; lower[:, r] is N_{span−p+1+r, p−1}.
+    first = span - degree
+    derivatives = np.zeros_like(values)
+    for r in range(degree):
+        i = first + r + 1
+        term = degree * lower[:, r] / (knots[i + degree] - knots[i])
+        derivatives[:, r + 1] += term
+        derivatives[:, r] -= term
+    return Basis(first, values, derivatives)
 
 
-def _ratio(numerator: np.ndarray, denominator: np.ndarray) -> np.ndarray:
-    """numerator / denominator, 0 where the denominator is 0 (an empty knot interval)."""
-    safe = np.where(denominator != 0, denominator, 1.0)
-    return np.where(denominator != 0, numerator / safe, 0.0)
+def _combine(weights: np.ndarray, first: np.ndarray, grid: np.ndarray, axis: int) -> np.ndarray:
+    """Σ_k weights[:, k] · grid[first + k] along ``axis`` (0 or 1) of ``grid`` [a, b, 4]: the
+    grid with that axis replaced by one entry per row of ``weights``."""
+    total = 0.0
+    for k in range(weights.shape[1]):
+        if axis == 0:
+            total = total + weights[:, k, None, None] * grid[first + k]
+        else:
+            total = total + weights[None, :, k, None] * grid[:, first + k]
+    return total
 
 
 def tessellate(
@@ -283,18 +300,17 @@ def tessellate(
     weights = patch.weights if patch.weights is not None else np.ones(len(points))
     homogeneous = np.concatenate([points * weights[:, None], weights[:, None]], axis=1)
     net = homogeneous.reshape(v.count, u.count, 4)
-    bu, dbu = basis(u, u_params)
-    bv, dbv = basis(v, v_params)
-    rows = np.einsum("jb,bac->jac", bv, net)  # [mv, u.count, 4]
-    surface = np.einsum("ia,jac->jic", bu, rows)  # [mv, mu, 4]
+    bu, bv = basis(u, u_params), basis(v, v_params)
+    rows = _combine(bv.values, bv.first, net, 0)  # [mv, u.count, 4]
+    surface = _combine(bu.values, bu.first, rows, 1)  # [mv, mu, 4]
     positions = surface[..., :3] / surface[..., 3:]
     mu, mv = len(u_params), len(v_params)
     grid = np.arange(mu * mv, dtype=np.int32).reshape(mv, mu)
     quads = np.stack([grid[:-1, :-1], grid[:-1, 1:], grid[1:, 1:], grid[1:, :-1]], axis=-1)
     normals = np.empty((0, 3), dtype=np.float32)
     if with_normals:
-        along_u = np.einsum("ia,jac->jic", dbu, rows)
-        along_v = np.einsum("ia,jac->jic", bu, np.einsum("jb,bac->jac", dbv, net))
+        along_u = _combine(bu.derivatives, bu.first, rows, 1)
+        along_v = _combine(bu.values, bu.first, _combine(bv.derivatives, bv.first, net, 0), 1)
         # The quotient rule: ∂(A/w) = (∂A − ∂w · S) / w.
         du = (along_u[..., :3] - along_u[..., 3:] * positions) / surface[..., 3:]
         dv = (along_v[..., :3] - along_v[..., 3:] * positions) / surface[..., 3:]
