@@ -1,9 +1,9 @@
 """Which prims the scene delegate renders, and as what kind of delegate prim.
 
 Like UsdImaging's prim adapters, found by type name: cameras, lights (their sprim type), meshes
-(meshes and implicit surfaces), points, curves (BasisCurves, NurbsCurves and HermiteCurves, the
-delegate's "basisCurves"), and gprims that are not supported yet (NurbsPatch, TetMesh, volumes),
-reported once per update naming a prim.
+(meshes, implicit surfaces, NURBS patches and tet meshes), points, curves (BasisCurves,
+NurbsCurves and HermiteCurves, the delegate's "basisCurves"), and what is not supported yet
+(volumes), reported once per update naming a prim.
 """
 
 from __future__ import annotations
