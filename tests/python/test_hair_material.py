@@ -232,3 +232,19 @@ def test_an_absorbing_fibre_keeps_its_colour_and_loses_light():
     assert radiance[0] > radiance[1] > radiance[2]
     assert radiance.max() < 0.9
     assert radiance.min() > 0.02
+
+
+def test_a_wrongly_typed_constant_input_takes_its_default_and_the_rest_renders():
+    """inputs:penumbra:hair authored as a float (the switch is a bool): one warning naming the
+    material and the input, the input takes its default (not hair), and the material's other
+    inputs and its primvar reader still apply, instead of the render failing."""
+    stage = diffuse_quad_stage()
+    material = add_preview_material(stage, "/World/Looks/preview", diffuseColor=(1.0, 0.0, 0.0),
+                                    roughness=1.0, **{"penumbra:hair": 1.0})
+    bind(UsdGeom.Mesh(stage.GetPrimAtPath("/World/quad")), material)
+    with pytest.warns(penumbra.PenumbraWarning) as record:
+        radiance = quad_radiance(stage)
+    messages = [str(w.message) for w in record if "penumbra:hair" in str(w.message)]
+    assert messages == ["/World/Looks/preview: penumbra:hair expects a bool or an int; its "
+                        "default is used"]
+    assert radiance[0] > 0.9 and radiance[1] < 0.05  # the red diffuse quad

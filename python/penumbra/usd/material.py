@@ -225,14 +225,29 @@ def _channels(values: Any, output: str, vector: bool) -> Any:
 
 
 def push_material(core, material_id: str, data: MaterialData, warn: Callable[[str], None]) -> None:
-    """Send ``data`` to the delegate's material ``material_id``. A network the delegate rejects
-    (a token or value it cannot use) is reported, and the material keeps its constant inputs."""
+    """Send ``data`` to the delegate's material ``material_id``. A constant the delegate rejects
+    (a value of the wrong type or out of range) is reported and takes its default; a network it
+    rejects (a token or value it cannot use) is reported, and the material keeps its constant
+    inputs."""
+    params = dict(data.params)
     try:
-        core.set_material(material_id, data.params)
+        core.set_material(material_id, params)
+        return
+    except (TypeError, ValueError):
+        pass
+    for name, value in data.params.items():  # the error path only: find the rejected constants
+        if isinstance(value, dict):
+            continue
+        try:
+            core.set_material(material_id, {name: value})
+        except (TypeError, ValueError) as error:
+            warn(f"{error}; its default is used")
+            del params[name]
+    try:
+        core.set_material(material_id, params)
     except (TypeError, ValueError) as error:
         warn(f"{error}; the material renders without its shader network")
-        constants = {k: v for k, v in data.params.items() if not isinstance(v, dict)}
-        core.set_material(material_id, constants)
+        core.set_material(material_id, {k: v for k, v in params.items() if not isinstance(v, dict)})
 
 
 def read_material(
