@@ -25,7 +25,10 @@
 // cylinder's and h exact; on a flat ribbon facing the ray the normal faces wo and h ≈ 0 (every hit
 // is treated as meeting the fibre's centre, which narrows the azimuthal spread of the image of a
 // fibre). On a surface that is not a fibre (no fibre direction) the fibre is the fixed tangent
-// Frame(shadingNormal).s of the shading normal, and the normal the shading normal.
+// Frame(shadingNormal).s of the shading normal, and the normal the shading normal. The BSDF
+// accounts for the whole passage through the fibre, so the integrator starts the rays it sends
+// into a round tube at the tube's far wall (spawnRay in integrator.cpp): they must not scatter
+// there a second time.
 //
 // Energy and reciprocity. With no absorption and white tints, ∫ evaluate dωi = Σ A_p = 1 for every
 // wo (M_p and N_p are normalised). The model is not reciprocal in general: A_p and the cuticle
