@@ -518,6 +518,36 @@ def test_hermite_curves_without_a_tangent_per_point_are_skipped():
     assert not renderer.delegate.has_prim("/World/hermite")
 
 
+@pytest.mark.parametrize("counts", [[0, 0, 0, 0, 0, 2], [2, 0], [1, 1]])
+def test_hermite_curves_with_a_curve_of_fewer_than_two_points_are_skipped(counts):
+    stage = _camera_only_stage()
+    hermite = UsdGeom.HermiteCurves.Define(stage, "/World/hermite")
+    hermite.CreatePointsAttr([Gf.Vec3f(-1, 0, 0), Gf.Vec3f(1, 0, 0)])
+    hermite.CreateTangentsAttr([Gf.Vec3f(1, 0, 0), Gf.Vec3f(1, 0, 0)])
+    hermite.CreateCurveVertexCountsAttr(counts)
+    first = next(i for i, count in enumerate(counts) if count < 2)
+    with pytest.warns(penumbra.PenumbraWarning) as record:
+        renderer = penumbra.Renderer(stage)
+    messages = [str(w.message) for w in record if str(w.message).startswith("/World/hermite: ")]
+    assert messages == [f"/World/hermite: curveVertexCounts[{first}] = {counts[first]}; a Hermite "
+                        "curve needs at least 2 points; skipped"]
+    assert not renderer.delegate.has_prim("/World/hermite")
+
+
+def test_widths_primvar_whose_indices_do_not_fit_is_warned_of_and_skipped():
+    stage = curves_stage([(-1, 0, 0), (1, 0, 0)])
+    widths = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(PATH)).CreatePrimvar(
+        "widths", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex
+    )
+    widths.Set([0.1, 0.1])
+    widths.SetIndices([0, 5])  # index 5 names no value
+    with pytest.warns(penumbra.PenumbraWarning) as record:
+        renderer = penumbra.Renderer(stage)
+    messages = [str(w.message) for w in record if str(w.message).startswith(f"{PATH}: ")]
+    assert messages == [f"{PATH}: primvars:widths is authored but has no usable values; skipped"]
+    assert not renderer.delegate.has_prim(PATH)
+
+
 def _moving_stage():
     stage = curves_stage([(-1, -3, 0), (-1, 3, 0)], widths=[0.5])
     camera = UsdGeom.Camera(stage.GetPrimAtPath("/cam"))

@@ -87,7 +87,13 @@ def hermite_to_bezier(
     path: str,
 ) -> BasisCurves | None:
     """HermiteCurves as cubic Bézier curves (tangents at the frame, over every position
-    sample); ``None`` after a warning when there is not one tangent per point."""
+    sample); ``None`` after a warning when a curve has fewer than 2 points or there is not one
+    tangent per point."""
+    if (counts < 2).any():
+        first = int(np.flatnonzero(counts < 2)[0])
+        warn(f"{path}: curveVertexCounts[{first}] = {int(counts[first])}; a Hermite curve needs "
+             "at least 2 points; skipped")
+        return None
     tangents = np.asarray(reader.get(curves.GetTangentsAttr()) or [], np.float32).reshape(-1, 3)
     count = positions.shape[-2]
     if len(tangents) != count:
@@ -97,13 +103,13 @@ def hermite_to_bezier(
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
     first_out = 3 * np.arange(count) - 2 * curve  # where each point lands
     inner = np.ones(count, dtype=bool)
-    inner[(starts + counts - 1)[counts > 0]] = False  # points that start a segment
+    inner[starts + counts - 1] = False  # the others start a segment
     out = np.empty(positions.shape[:-2] + (3 * count - 2 * len(counts), 3), dtype=np.float32)
     out[..., first_out, :] = positions
     j = np.flatnonzero(inner)
     out[..., first_out[j] + 1, :] = positions[..., j, :] + tangents[j] / 3
     out[..., first_out[j] + 2, :] = positions[..., j + 1, :] - tangents[j + 1] / 3
-    bezier_counts = np.where(counts > 0, 3 * counts - 2, 0).astype(np.int32)
+    bezier_counts = (3 * counts - 2).astype(np.int32)
     return BasisCurves(
         "cubic", "bezier", "nonperiodic", bezier_counts, out, vertex_as_varying=True,
         source="HermiteCurves",

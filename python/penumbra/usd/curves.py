@@ -28,6 +28,7 @@ from .sampling import SampleReader
 
 DEFAULT_WIDTH = 1.0
 """The width of curves whose widths are not authored (Hydra's Storm uses it too)."""
+WIDTHS = frozenset({"widths"})  # read by _widths, not a primvar for materials
 
 CURVE_TYPES = ("linear", "cubic")
 CURVE_BASES = ("bezier", "bspline", "catmullRom")
@@ -71,7 +72,9 @@ def sync_curves_data(
         *display_color(prim, reader), "primvars:displayColor", warn, path
     )
     primvars = {}
-    for name, (values, interpolation) in gprim_primvars(prim, reader, warn, path).items():
+    for name, (values, interpolation) in gprim_primvars(
+        prim, reader, warn, path, dedicated=WIDTHS
+    ).items():
         mapped = curves.remap(values, interpolation, f"primvars:{name}", warn, path)
         if mapped[0] is not None:
             primvars[name] = mapped
@@ -147,6 +150,9 @@ def _widths(
     primvar = UsdGeom.PrimvarsAPI(gprim).GetPrimvar(UsdGeom.Tokens.widths)
     if primvar and primvar.HasAuthoredValue():
         values, interpolation = reader.flattened_primvar(primvar), str(primvar.GetInterpolation())
+        if values is None or len(values) == 0:  # e.g. indices that do not fit its values
+            warn(f"{path}: primvars:widths is authored but has no usable values; skipped")
+            return None
     else:
         values = reader.get(gprim.GetWidthsAttr())
         interpolation = str(gprim.GetWidthsInterpolation())

@@ -539,12 +539,14 @@ def gprim_primvars(
     path: str,
     constant_only: bool = False,
     authored: Authored | None = None,
+    dedicated: frozenset[str] = frozenset(),
 ) -> dict[str, tuple[np.ndarray, str]]:
     """The numeric primvars of ``prim`` (own, and constant ones inherited from ancestors) that
     materials may read, flattened, as float32 (N,) or (N, width) arrays with their interpolation.
     Non-numeric primvars and widths above 4 are left out (with a warning when ``warn`` is given);
     ``constant_only`` keeps just constant ones (for generated topology, which authored
-    per-element data cannot match). ``authored``: as for :func:`sync_mesh_data`."""
+    per-element data cannot match). ``authored``: as for :func:`sync_mesh_data`. ``dedicated``:
+    more primvars that the caller reads itself (as displayColor and normals always are)."""
     result: dict[str, tuple[np.ndarray, str]] = {}
     if authored is None:
         primvars = UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance()
@@ -556,7 +558,7 @@ def gprim_primvars(
     for primvar in primvars:
         name = primvar.GetPrimvarName()
         interpolation = str(primvar.GetInterpolation())
-        if name in _DEDICATED_PRIMVARS:
+        if name in _DEDICATED_PRIMVARS or name in dedicated:
             continue
         if constant_only and interpolation != UsdGeom.Tokens.constant:
             continue
