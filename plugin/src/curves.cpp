@@ -1,7 +1,7 @@
 #include "penumbra/plugin/curves.h"
 
-#include <algorithm>
 #include <stdexcept>
+#include <string>
 
 namespace penumbra::plugin {
 
@@ -14,22 +14,15 @@ namespace {
 constexpr size_t kBytesPerCurveVertexStep = 48;
 constexpr size_t kBytesPerCurveSegment = 160;
 
-/// Segments of a curve of `vertices` vertices (0 when too few: validation rejects it).
-size_t segmentCount(const CurvesData& curves, int vertices) {
-  const bool periodic = curves.wrap == CurveWrap::Periodic;
-  if (curves.type == CurveType::Linear)
-    return size_t(std::max(periodic ? vertices : vertices - 1, 0));
-  if (curves.basis == CurveBasis::Bezier)
-    return size_t(std::max(periodic ? vertices / 3 : (vertices - 4) / 3 + 1, 0));
-  if (periodic) return size_t(std::max(vertices, 0));
-  return size_t(std::max(curves.wrap == CurveWrap::Pinned ? vertices - 1 : vertices - 3, 0));
-}
-
 }  // namespace
 
 size_t estimatedCurvesBytes(const CurvesData& curves) {
+  const CurveSegmentRules rules(curves);
+  std::string expected;
   size_t segments = 0;
-  for (const int vertices : curves.curveVertexCounts) segments += segmentCount(curves, vertices);
+  for (const int vertices : curves.curveVertexCounts)  // malformed curves: validation rejects
+    if (vertices > 0 && rules.fits(uint32_t(vertices), &expected))
+      segments += rules.segments(uint32_t(vertices));
   const size_t steps = 1 + curves.positionMotion.size();
   return curves.positions.size() * steps * kBytesPerCurveVertexStep +
          segments * kBytesPerCurveSegment;

@@ -4,8 +4,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "penumbra/curves_shape.h"
-
 namespace penumbra {
 namespace {
 
@@ -40,6 +38,57 @@ void requireCount(const std::string& name, Interpolation interpolation, size_t c
 }
 
 }  // namespace
+
+CurveSegmentRules::CurveSegmentRules(const CurvesData& curves)
+    : cubic(curves.type == CurveType::Cubic),
+      basis(curves.basis),
+      wrap(curves.wrap),
+      vstep(cubic && curves.basis == CurveBasis::Bezier ? 3 : 1) {
+  if (wrap == CurveWrap::Pinned && (!cubic || basis == CurveBasis::Bezier))
+    wrap = CurveWrap::Nonperiodic;
+}
+
+bool CurveSegmentRules::fits(uint32_t vertices, std::string* expected) const {
+  if (!cubic) {
+    if (wrap == CurveWrap::Periodic) {
+      *expected = "3 or more vertices for a periodic linear curve";
+      return vertices >= 3;
+    }
+    *expected = "2 or more vertices for a linear curve";
+    return vertices >= 2;
+  }
+  switch (wrap) {
+    case CurveWrap::Pinned:
+      *expected = "2 or more vertices for a pinned curve";
+      return vertices >= 2;
+    case CurveWrap::Periodic:
+      *expected = vstep == 3 ? "a multiple of 3 vertices (3 or more) for a periodic Bezier curve"
+                             : "3 or more vertices for a periodic curve";
+      return vertices >= 3 && vertices % vstep == 0;
+    case CurveWrap::Nonperiodic:
+      break;
+  }
+  *expected = vstep == 3 ? "4, 7, 10, ... vertices for a nonperiodic Bezier curve"
+                         : "4 or more vertices for a nonperiodic cubic curve";
+  return vertices >= 4 && (vertices - 4) % vstep == 0;
+}
+
+uint32_t CurveSegmentRules::segments(uint32_t vertices) const {
+  if (!cubic) return wrap == CurveWrap::Periodic ? vertices : vertices - 1;
+  switch (wrap) {
+    case CurveWrap::Periodic:
+      return vertices / vstep;
+    case CurveWrap::Pinned:  // a phantom vertex before the first and after the last
+      return vertices - 1;
+    case CurveWrap::Nonperiodic:
+      break;
+  }
+  return (vertices - 4) / vstep + 1;
+}
+
+uint32_t CurveSegmentRules::varyingValues(uint32_t vertices) const {
+  return segments(vertices) + (wrap == CurveWrap::Periodic ? 0 : 1);
+}
 
 void validateCurves(const CurvesData& curves) {
   const CurveSegmentRules rules(curves);

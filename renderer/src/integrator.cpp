@@ -108,8 +108,8 @@ Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, 
   ray.tNear = 0;
   ray.tFar = tFar;
   ray.time = time;
-  const bool intoFibre = side < 0 && hit.material.hair && hit.closed &&
-                         length(hit.fibreDirection) > 0;
+  const bool intoFibre =
+      side < 0 && hit.material.hair && hit.closed && length(hit.fibreDirection) > 0;
   if (!intoFibre) return ray;
   const std::optional<GeometryHit> wall = scene.geometry().intersect(ray, RayKind::Secondary);
   if (!wall || wall->meshId != hit.meshId || wall->instance != hit.instance) return ray;

@@ -406,10 +406,9 @@ TEST(RenderDelegate, InstancersPlaceCopiesOfAPrototype) {
   EXPECT_EQ(alphaAt(pass, 0.75f), 0.0f);
   const std::vector<std::string> warnings = delegate.takeWarnings();
   ASSERT_EQ(warnings.size(), 1u);
-  EXPECT_EQ(
-      warnings[0],
-      "/copies: prototype /proto is not a mesh, points or curves in the render index; the "
-      "instances are skipped");
+  EXPECT_EQ(warnings[0],
+            "/copies: prototype /proto is not a mesh, points or curves in the render index; the "
+            "instances are skipped");
 }
 
 TEST(RenderDelegate, PrototypesKnowTheirInstancers) {

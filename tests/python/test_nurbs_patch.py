@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from pxr import Gf, Usd, UsdGeom, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 import penumbra
 from penumbra.usd import nurbs_patch
@@ -205,6 +205,43 @@ def test_density_follows_the_control_net():
     )
     assert params[0] == 0.25 and params[-1] == 1.0  # uRange honoured
     assert len(params) == 16 + 1  # the span's 90° turn in 16 segments of π/32, both ends
+
+
+def test_a_noisy_net_is_thinned_to_the_vertex_budget_with_a_warning(monkeypatch):
+    """Each span of a noisy cubic net turns far: unbounded, a 30 × 30 net alone asks for
+    hundreds of thousands of vertices (a 100 × 100 one for 33 million)."""
+    monkeypatch.setattr(nurbs_patch, "MAX_VERTICES", 2000)
+    rng = np.random.default_rng(4)
+    count = 30
+    net = [(x + rng.normal(0, 0.4), y + rng.normal(0, 0.4), rng.normal(0, 1.0))
+           for y in range(count) for x in range(count)]
+    knots = [0.0] * 4 + list(range(1, count - 3)) + [float(count - 3)] * 4
+    stage = new_stage()
+    patch = define_patch(stage, "/noisy", net, (count, 4, knots), (count, 4, knots))
+    messages = []
+    generated = nurbs_patch.mesh(patch.GetPrim(), SampleReader(Usd.TimeCode(1.0)),
+                                 messages.append, "/noisy")
+    assert len(generated.tessellation.points) <= 2000
+    assert len(messages) == 1 and messages[0].startswith("/noisy: its tessellation would have ")
+    assert messages[0].endswith("(at most 2,000 a patch)")
+    first, last = generated.tessellation.points[0], generated.tessellation.points[-1]
+    np.testing.assert_allclose(first, net[0], atol=1e-5)  # the corners are kept
+    np.testing.assert_allclose(last, net[-1], atol=1e-5)
+
+
+def test_primvars_that_are_not_constant_are_warned_of_and_left_out():
+    stage = new_stage()
+    patch = define_patch(stage, "/patch", QUAD, LINEAR, LINEAR)
+    api = UsdGeom.PrimvarsAPI(patch)
+    api.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+        [(0, 0), (1, 0), (0, 1), (1, 1)])
+    api.CreatePrimvar("roughness", Sdf.ValueTypeNames.Float, UsdGeom.Tokens.constant).Set(0.3)
+    core, messages = RecordingCore(), []
+    assert sync_mesh_data(core, patch.GetPrim(), SampleReader(Usd.TimeCode(1.0)), messages.append)
+    assert messages == ["/patch: primvars st are not constant; a NurbsPatch takes only constant "
+                        "primvars, these are left out"]
+    ((_, mesh),) = core.calls["set_mesh"]
+    assert set(mesh["primvars"]) == {"roughness"}
 
 
 def test_a_sphere_patch_renders_through_the_scene_delegate_as_a_disk():

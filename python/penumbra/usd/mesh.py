@@ -361,6 +361,15 @@ def _sync_nurbs_patch(
     if colors[1] != UsdGeom.Tokens.constant and len(colors[0]):
         warn(f"{path}: primvars:displayColor is {colors[1]}; a NurbsPatch takes only constant")
         colors = _NO_VECTORS, UsdGeom.Tokens.constant
+    varying = sorted(
+        primvar.GetPrimvarName()
+        for primvar in UsdGeom.PrimvarsAPI(prim).GetPrimvarsWithAuthoredValues()
+        if primvar.GetInterpolation() != UsdGeom.Tokens.constant
+        and primvar.GetPrimvarName() not in _DEDICATED_PRIMVARS
+    )
+    if varying:
+        warn(f"{path}: primvars {', '.join(varying)} are not constant; a NurbsPatch takes only "
+             "constant primvars, these are left out")
     push_mesh(
         core,
         prim,

@@ -40,6 +40,9 @@ from .sampling import SampleReader
 
 MAX_TURN_PER_SEGMENT = math.pi / 32
 MAX_SEGMENTS_PER_SPAN = 64
+MAX_VERTICES = 1_000_000
+"""At most this many vertices a patch: a denser grid is thinned evenly, with a warning (a noisy
+100 × 100 net would otherwise reach 33 million vertices and gigabytes of evaluation)."""
 
 _TRIM_ATTRIBUTES = (
     "trimCurve:counts",
@@ -368,6 +371,26 @@ def _unit_normals(normals: np.ndarray, positions: np.ndarray) -> np.ndarray:
     return flat_unit.reshape(unit.shape)
 
 
+def _within_budget(
+    u_params: np.ndarray, v_params: np.ndarray, warn: Callable[[str], None], path: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """The parameters, both directions thinned evenly (their ends kept) when their grid would
+    exceed MAX_VERTICES, after a warning naming the prim."""
+    total = len(u_params) * len(v_params)
+    if total <= MAX_VERTICES:
+        return u_params, v_params
+    scale = math.sqrt(MAX_VERTICES / total)
+
+    def thinned(params: np.ndarray) -> np.ndarray:
+        keep = max(2, int(len(params) * scale))
+        return params[np.round(np.linspace(0, len(params) - 1, keep)).astype(np.int64)]
+
+    u_params, v_params = thinned(u_params), thinned(v_params)
+    warn(f"{path}: its tessellation would have {total:,} vertices; thinned to "
+         f"{len(u_params) * len(v_params):,} (at most {MAX_VERTICES:,} a patch)")
+    return u_params, v_params
+
+
 class Generated(NamedTuple):
     """A patch read and tessellated at one time."""
 
@@ -388,8 +411,9 @@ def mesh(
         return None
     patch, control = read
     net = control.reshape(patch.v.count, patch.u.count, 3)
-    u_params = parameters(patch.u, net)
-    v_params = parameters(patch.v, net.transpose(1, 0, 2))
+    u_params, v_params = _within_budget(
+        parameters(patch.u, net), parameters(patch.v, net.transpose(1, 0, 2)), warn, path
+    )
     bilinear = patch.u.degree == 1 and patch.v.degree == 1  # shaded flat, as its quads
     tessellation = tessellate(patch, control, u_params, v_params, with_normals=not bilinear)
 

@@ -3,33 +3,12 @@
 #pragma once
 
 #include <cstdint>
-#include <string>
 #include <vector>
 
 #include "penumbra/curves.h"
 #include "penumbra/shape.h"
 
 namespace penumbra {
-
-/// How the schema splits the curves of one prim (all of one type, basis and wrap) into
-/// segments, and how many values their varying data has.
-struct CurveSegmentRules {
-  explicit CurveSegmentRules(const CurvesData& curves);
-
-  /// Whether a curve of `vertices` vertices is well formed; else `*expected` says what is.
-  bool fits(uint32_t vertices, std::string* expected) const;
-  /// Segments of a well-formed curve of `vertices` vertices.
-  uint32_t segments(uint32_t vertices) const;
-  /// Values varying data has on such a curve: one per segment end.
-  uint32_t varyingValues(uint32_t vertices) const;
-
-  bool cubic;
-  CurveBasis basis;
-  /// Pinned only where the schema gives it a meaning (cubic B-spline and Catmull-Rom curves),
-  /// nonperiodic for the others.
-  CurveWrap wrap;
-  uint32_t vstep;  // vertices from one cubic segment's first to the next one's: 3 Bézier, else 1
-};
 
 /// Curves of radius width/2 along their centre lines: round tubes (solids), or, where normals
 /// are authored, flat ribbons of that half-width facing the interpolated normals (thin).
