@@ -1,6 +1,6 @@
 """Groom benchmark: N cubic Bézier strands of 4 vertices each (one segment) growing from a unit
-sphere, tapered (widths per vertex), a displayColor per strand (uniform), in one BasisCurves
-prim written to a temporary .usdc; then opened with ``Usd.Stage.Open`` and rendered for one
+sphere, tapered (varying widths: a strand's root and tip), a displayColor per strand (uniform),
+in one BasisCurves prim written to a temporary .usdc; then opened with ``Usd.Stage.Open`` and rendered for one
 sample per pixel through ``penumbra.Renderer`` (bench/first_sample.py).
 
 Prints the load → first-sample time (open, delegate sync, first pass with its BVH build) and the
@@ -31,9 +31,10 @@ ROOT_WIDTH, TIP_WIDTH = 0.004, 0.0008
 
 
 def strands(count: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Control points (float32 [count·4, 3]), widths per vertex (float32 [count·4]) and one
-    colour per strand (float32 [count, 3]): roots evenly spread over the unit sphere (a
-    Fibonacci lattice), each strand leaving along the normal and bending aside."""
+    """Control points (float32 [count·4, 3]), varying widths (float32 [count·2]: a strand's one
+    segment has two ends) and one colour per strand (float32 [count, 3]): roots evenly spread
+    over the unit sphere (a Fibonacci lattice), each strand leaving along the normal and bending
+    aside."""
     rng = np.random.default_rng(seed)
     k = np.arange(count) + 0.5
     y = 1 - 2 * k / count
@@ -54,7 +55,7 @@ def strands(count: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarr
         ],
         axis=1,
     )
-    taper = np.linspace(ROOT_WIDTH, TIP_WIDTH, VERTICES)
+    taper = np.array([ROOT_WIDTH, TIP_WIDTH])
     widths = taper[None, :] * rng.uniform(0.8, 1.2, size=(count, 1))
     tint = rng.uniform(0.8, 1.2, size=(count, 1))
     colors = np.clip(np.array([0.45, 0.3, 0.18]) * tint, 0, 1)
@@ -78,7 +79,7 @@ def write_stage(path: str, count: int) -> None:
     curves.CreateCurveVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(count, VERTICES, np.int32)))
     curves.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
     curves.CreateWidthsAttr(Vt.FloatArray.FromNumpy(widths))
-    curves.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+    curves.SetWidthsInterpolation(UsdGeom.Tokens.varying)
     curves.CreateDisplayColorPrimvar(UsdGeom.Tokens.uniform).Set(Vt.Vec3fArray.FromNumpy(colors))
     reach = float(np.abs(points).max()) + ROOT_WIDTH
     curves.CreateExtentAttr([Gf.Vec3f(-reach), Gf.Vec3f(reach)])
