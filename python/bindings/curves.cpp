@@ -3,6 +3,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "bindings.h"
 #include "conversions.h"
@@ -43,19 +44,25 @@ void bindCurves(py::module_&, DelegateClass& delegate) {
          const std::string& normalsInterpolation, const FloatArray& displayColor,
          const std::string& displayColorInterpolation, const py::dict& primvars) {
         plugin::Curves& curves = self.curves(id);
-        // Every token first: a bad one changes nothing.
+        // Everything is converted first: a bad token or array changes nothing.
         const CurveType curveType = toCurveType(type);
         const CurveBasis curveBasis = toCurveBasis(basis);
         const CurveWrap curveWrap = toCurveWrap(wrap);
-        curves.setTopology(curveType, curveBasis, curveWrap,
-                           toIntVector(curveVertexCounts, "curve vertex counts"));
+        std::vector<int> counts = toIntVector(curveVertexCounts, "curve vertex counts");
         auto [first, motion] = toPointSamples(id, positions);
+        std::vector<float> widthValues = toFloatVector(widths, "widths");
+        const Interpolation widthsBy = toInterpolation(widthsInterpolation);
+        std::vector<Vec3f> normalValues = toVec3Array(normals, "normals");
+        const Interpolation normalsBy = toInterpolation(normalsInterpolation);
+        std::vector<Vec3f> colors = toVec3Array(displayColor, "display colour");
+        const Interpolation colorsBy = toInterpolation(displayColorInterpolation);
+        std::vector<Primvar> primvarValues = toPrimvars(id, primvars);
+        curves.setTopology(curveType, curveBasis, curveWrap, std::move(counts));
         curves.setPositions(std::move(first), std::move(motion));
-        curves.setWidths(toFloatVector(widths, "widths"), toInterpolation(widthsInterpolation));
-        curves.setNormals(toVec3Array(normals, "normals"), toInterpolation(normalsInterpolation));
-        curves.setDisplayColor(toVec3Array(displayColor, "display colour"),
-                               toInterpolation(displayColorInterpolation));
-        curves.setPrimvars(toPrimvars(id, primvars));
+        curves.setWidths(std::move(widthValues), widthsBy);
+        curves.setNormals(std::move(normalValues), normalsBy);
+        curves.setDisplayColor(std::move(colors), colorsBy);
+        curves.setPrimvars(std::move(primvarValues));
       },
       py::arg("id"), py::arg("type"), py::arg("basis"), py::arg("wrap"),
       py::arg("curve_vertex_counts"), py::arg("positions"), py::arg("widths"),

@@ -2,6 +2,7 @@
 // material binding go through the per-prim setters of scene_bindings.cpp.
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "bindings.h"
 #include "conversions.h"
@@ -15,13 +16,18 @@ void bindPoints(py::module_&, DelegateClass& delegate) {
          const FloatArray& widths, const FloatArray& normals, const FloatArray& displayColor,
          const std::string& displayColorInterpolation, const py::dict& primvars) {
         plugin::Points& points = self.points(id);
+        // Everything is converted first: a bad array or token changes nothing.
         auto [first, motion] = toPointSamples(id, positions);
+        std::vector<float> widthValues = toFloatVector(widths, "widths");
+        std::vector<Vec3f> normalValues = toVec3Array(normals, "normals");
+        std::vector<Vec3f> colors = toVec3Array(displayColor, "display colour");
+        const Interpolation colorsBy = toInterpolation(displayColorInterpolation);
+        std::vector<Primvar> primvarValues = toPrimvars(id, primvars);
         points.setPositions(std::move(first), std::move(motion));
-        points.setWidths(toFloatVector(widths, "widths"));
-        points.setNormals(toVec3Array(normals, "normals"));
-        points.setDisplayColor(toVec3Array(displayColor, "display colour"),
-                               toInterpolation(displayColorInterpolation));
-        points.setPrimvars(toPrimvars(id, primvars));
+        points.setWidths(std::move(widthValues));
+        points.setNormals(std::move(normalValues));
+        points.setDisplayColor(std::move(colors), colorsBy);
+        points.setPrimvars(std::move(primvarValues));
       },
       py::arg("id"), py::arg("positions"), py::arg("widths"),
       py::arg("normals") = FloatArray(py::array::ShapeContainer{0, 3}),

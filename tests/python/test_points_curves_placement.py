@@ -199,3 +199,34 @@ def test_native_instances_of_points_and_curves_share_one_prototype(kind):
     ids = renderer.delegate.prim_ids()
     assert not any(i.startswith("/World/tuft") for i in ids), ids
     assert sum("/prototypes" in i for i in ids) == 1, ids
+
+
+@pytest.mark.parametrize("kind", ["points", "curves"])
+def test_a_rejected_setter_call_changes_nothing(kind):
+    """set_points / set_curves convert every argument before they set any: a bad primvar (its
+    last argument) raises and leaves the prim as it was, instead of half updated."""
+    delegate = _scene_with_prototype(kind)
+    before = _depth_at(delegate, [LEFT_SEEN, RIGHT_SEEN])
+    moved = np.float32([(0, 0, 1.0)]) if kind == "points" else np.float32([(0, -0.5, 1), (0, 0.5, 1)])
+    bad_primvars = {"rough": (np.float32([0.5]), "sideways")}  # no such interpolation
+    with pytest.raises(ValueError):
+        if kind == "points":
+            delegate.set_points("/proto", moved, np.float32([0.5]), primvars=bad_primvars)
+        else:
+            delegate.set_curves("/proto", "linear", "bezier", "nonperiodic", np.int32([2]), moved,
+                                np.float32([0.5]), "constant", primvars=bad_primvars)
+    assert _depth_at(delegate, [LEFT_SEEN, RIGHT_SEEN]) == before  # not moved towards the camera
+
+
+def test_invisible_curves_do_not_grow_the_frame():
+    """The default width is added to the bounds of visible curves only: an invisible curve far
+    away leaves the visible one framed as if it were alone."""
+    stage = new_stage()
+    for path, x in (("/World/hair", 0.0), ("/World/hidden", 60.0)):
+        hair = UsdGeom.BasisCurves.Define(stage, path)
+        hair.CreatePointsAttr([Gf.Vec3f(x, -1, 0), Gf.Vec3f(x, 1, 0)])
+        hair.CreateCurveVertexCountsAttr([2])
+        hair.CreateTypeAttr(UsdGeom.Tokens.linear)
+    UsdGeom.Imageable(stage.GetPrimAtPath("/World/hidden")).MakeInvisible()
+    image = penumbra.render(stage, width=32, samples=4, dome_light_visibility=False)
+    assert (image["color"][:, :, 3] > 0.5).sum() > 20  # framed whole, not a speck far off

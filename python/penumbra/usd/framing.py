@@ -52,9 +52,18 @@ def framing_camera(stage: Usd.Stage, time: Usd.TimeCode, purposes: Iterable[str]
 def _default_width_bounds(
     stage: Usd.Stage, cache: UsdGeom.BBoxCache, time: Usd.TimeCode
 ) -> Iterable[Gf.Range3d]:
-    """World bounds of the points and curves without authored widths, grown by half the width
-    they render with (their extent, from their positions alone, leaves it out)."""
-    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+    """World bounds of the visible points and curves without authored widths (instance proxies
+    included; point-instancer prototypes are the instancer's bound; the cache's purposes apply),
+    grown by half the width they render with (their extent, from their positions alone, leaves
+    it out)."""
+    walk = iter(Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()))
+    for prim in walk:
+        imageable = UsdGeom.Imageable(prim)
+        if prim.IsA(UsdGeom.PointInstancer) or (
+            imageable and imageable.GetVisibilityAttr().Get(time) == UsdGeom.Tokens.invisible
+        ):
+            walk.PruneChildren()
+            continue
         if prim.IsA(UsdGeom.Points):
             width = points.DEFAULT_WIDTH
         elif prim.IsA(UsdGeom.Curves):
