@@ -189,6 +189,41 @@ def test_melanin_with_other_pigments_than_deons_warns_naming_them():
     assert len(messages) == 1 and "absorption.eumelanin_color is not supported" in messages[0]
 
 
+def test_an_untranslatable_hair_colour_warns_once_and_keeps_the_default_absorption():
+    stage = Usd.Stage.CreateInMemory()
+    bsdf = hair_material(stage)
+    absorption = node(stage, "absorption", "ND_chiang_hair_absorption_from_color")
+    noise = node(stage, "noise", "ND_noise2d_color3")
+    connect(absorption, "color", noise, "out", Sdf.ValueTypeNames.Color3f)
+    connect(bsdf, "absorption_coefficient", absorption, "absorption",
+            Sdf.ValueTypeNames.Vector3f)
+    messages: list[str] = []
+    params = params_of(stage, messages.append)
+    assert params["penumbra:hairAbsorption"] == pytest.approx((0.0, 0.0, 0.0))
+    assert "penumbra:hairAbsorptionFromColor" not in params
+    assert len(messages) == 1 and f"{LOOK}/noise" in messages[0]
+
+
+def test_a_usd_preview_surface_reads_the_hair_colour_inputs():
+    """The per-point conversion's inputs on a UsdPreviewSurface, the colour from a primvar
+    reader."""
+    stage = Usd.Stage.CreateInMemory()
+    material = add_preview_material(stage, LOOK, **{
+        "penumbra:hair": 1, "penumbra:hairAbsorptionFromColor": 1,
+        "penumbra:hairColorAzimuthalRoughness": 0.25})
+    surface = UsdShade.Shader(stage.GetPrimAtPath(f"{LOOK}/Surface"))
+    reader = UsdShade.Shader.Define(stage, f"{LOOK}/colour")
+    reader.CreateIdAttr("UsdPrimvarReader_float3")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("strandColor")
+    surface.CreateInput("penumbra:hairColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        reader.CreateOutput("result", Sdf.ValueTypeNames.Float3))
+    assert material
+    params = params_of(stage)
+    assert params["penumbra:hairAbsorptionFromColor"] == 1
+    assert params["penumbra:hairColorAzimuthalRoughness"] == pytest.approx(0.25)
+    assert params["penumbra:hairColor"]["primvar"] == "strandColor"
+
+
 def test_a_surface_over_another_bsdf_warns_and_renders_a_default_standard_surface():
     stage = Usd.Stage.CreateInMemory()
     hair_material(stage, "ND_oren_nayar_diffuse_bsdf")

@@ -379,9 +379,13 @@ def _map_hair_absorption(h: Surface, mapping: Mapping) -> None:
     node = source[0] if source else None
     inputs_of = _ABSORPTION_INPUTS.get(node.GetShaderId() or "") if node else None
     if node is not None and inputs_of is not None:
-        inputs = Surface(h.network, node)
-        values = {name: inputs(node_input) for node_input, name in inputs_of.items()}
-        if not all(isinstance(value, mv.Constant) for value in values.values()):
+        try:
+            values = {name: h.network.input(node, node_input)
+                      for node_input, name in inputs_of.items()}
+        except mv.Untranslatable:
+            values = {}  # reported once below, by the absorption's own evaluation
+        if values and not all(isinstance(value, mv.Constant) for value in values.values()):
+            inputs = Surface(h.network, node)
             h.network.data.sources.add(node.GetPath())
             mapping.values.update(values)
             if node.GetShaderId() == ABSORPTION_FROM_COLOR:
