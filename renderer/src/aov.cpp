@@ -54,8 +54,7 @@ AovRequest parseAov(const std::string& name) {
 
 Vec3f surfaceAlbedo(const MaterialParams& material) {
   // A fibre's colour is that of its absorption under multiple scattering (Chiang et al.).
-  if (material.hair)
-    return hairColorFromAbsorption(material.hairAbsorption, material.hairAzimuthalRoughness);
+  if (material.hair) return hairColorAt(material);
   Vec3f reflectance = material.diffuseColor;
   if (material.useSpecularWorkflow) reflectance += material.specularColor;
   reflectance = {std::min(reflectance.x, 1.0f), std::min(reflectance.y, 1.0f),

@@ -124,6 +124,30 @@ Vec3f hairAbsorptionFromMelanin(float concentration, float redness, const Vec3f&
                          pheomelanin);
 }
 
+namespace {
+
+/// β_n a material's colour is converted with (MaterialParams::hairColorAzimuthalRoughness).
+float colorAzimuthalRoughness(const MaterialParams& material) {
+  return material.hairColorAzimuthalRoughness >= 0 ? material.hairColorAzimuthalRoughness
+                                                   : material.hairAzimuthalRoughness;
+}
+
+}  // namespace
+
+Vec3f hairAbsorptionAt(const MaterialParams& material) {
+  if (material.hairAbsorptionFromColor)
+    return hairAbsorptionFromColor(material.hairColor, colorAzimuthalRoughness(material));
+  if (material.hairAbsorptionFromMelanin)
+    return hairAbsorptionFromMelanin(material.hairMelanin, material.hairMelaninRedness);
+  return material.hairAbsorption;
+}
+
+Vec3f hairColorAt(const MaterialParams& material) {
+  const float roughness = material.hairAbsorptionFromColor ? colorAzimuthalRoughness(material)
+                                                           : material.hairAzimuthalRoughness;
+  return hairColorFromAbsorption(hairAbsorptionAt(material), roughness);
+}
+
 float hairLongitudinalVariance(float b) {
   return square(0.726f * b + 0.812f * b * b + 3.7f * std::pow(b, 20.0f));
 }

@@ -155,11 +155,14 @@ PreviewSurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const PathSpect
                             hit.tangent);
 }
 
-/// A hair material's fibre BSDF: the glossy filter raises β_m and β_n as it raises roughness;
-/// in spectral scenes the tints are upsampled as reflectances and σa through the transmittance
-/// e^(−σa) of one unit of length, which lies in [0, 1] like a reflectance.
+/// A hair material's fibre BSDF: σa is derived first (hairAbsorptionAt: a colour is converted
+/// with β_n as authored, as MaterialX's node converts it with its own), then the glossy filter
+/// raises β_m and β_n as it raises roughness; in spectral scenes the tints are upsampled as
+/// reflectances and σa through the transmittance e^(−σa) of one unit of length, which lies in
+/// [0, 1] like a reflectance.
 HairBsdf makeHairBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float minAlpha) {
   MaterialParams material = hit.material;
+  material.hairAbsorption = hairAbsorptionAt(material);
   if (minAlpha > 0) {
     const float minRoughness = std::sqrt(minAlpha);
     material.hairLongitudinalRoughness = std::max(material.hairLongitudinalRoughness, minRoughness);

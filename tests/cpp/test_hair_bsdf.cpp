@@ -4,7 +4,10 @@
 #include <vector>
 
 #include "penumbra/hair_bsdf.h"
+#include "penumbra/material_inputs.h"
+#include "penumbra/mesh_shape.h"
 #include "penumbra/sampler.h"
+#include "penumbra/shading.h"
 
 using namespace penumbra;
 
@@ -314,6 +317,94 @@ TEST(HairAbsorption, AbsorptionFromMelaninFollowsDEonsFormula) {
   EXPECT_NEAR(mixed.x, 0.419f + 0.187f, 2e-4f);
   EXPECT_NEAR(mixed.z, 1.37f + 1.05f, 2e-4f);
   EXPECT_TRUE(isBlack(hairAbsorptionFromMelanin(0, 0.3f)));
+}
+
+namespace {
+
+/// A hair material whose `input` reads the uniform primvar `primvar`.
+Material hairReading(std::vector<std::pair<MaterialInput, std::string>> readers) {
+  Material material;
+  material.constants.hair = true;
+  for (const auto& [input, primvar] : readers) {
+    InputConnection connection;
+    connection.input = input;
+    connection.primvar = PrimvarName(primvar);
+    connection.channelCount = isVectorInput(input) ? 3 : 1;
+    material.connections.push_back(connection);
+  }
+  return material;
+}
+
+/// The parameters of `material` on each of the two triangles of a square whose uniform
+/// primvars are `primvars`.
+std::array<MaterialParams, 2> onBothTriangles(const Material& material,
+                                              std::vector<Primvar> primvars) {
+  MeshData data;
+  data.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  data.faceVertexCounts = {3, 3};
+  data.faceVertexIndices = {0, 1, 2, 0, 2, 3};
+  TriangleMesh mesh = triangulate(data);
+  mesh.primvars = std::move(primvars);
+  const MeshShape shape(mesh);
+  const TextureSystem textures;
+  std::array<MaterialParams, 2> params;
+  for (uint32_t triangle = 0; triangle < 2; ++triangle) {
+    SurfacePoint point = shape.pointAt(triangle, 0.3f, 0.3f, 0);
+    point.normal = point.shadingNormal = {0, 0, 1};
+    Vec3f shadingNormal = point.shadingNormal;
+    params[triangle] = evaluateMaterial(material, textures, point, &shadingNormal);
+  }
+  return params;
+}
+
+void expectNear(const Vec3f& a, const Vec3f& b) {
+  EXPECT_NEAR(a.x, b.x, 1e-6f * std::max(1.0f, std::abs(b.x)));
+  EXPECT_NEAR(a.y, b.y, 1e-6f * std::max(1.0f, std::abs(b.y)));
+  EXPECT_NEAR(a.z, b.z, 1e-6f * std::max(1.0f, std::abs(b.z)));
+}
+
+}  // namespace
+
+TEST(HairAbsorption, AbsorptionAtAHitIsAsGivenByDefault) {
+  MaterialParams m;
+  m.hairAbsorption = Vec3f(0.5f, 1.0f, 2.0f);
+  m.hairColor = Vec3f(0.2f);
+  m.hairMelanin = 0.9f;
+  expectNear(hairAbsorptionAt(m), m.hairAbsorption);
+}
+
+TEST(HairAbsorption, AbsorptionAtAHitDerivesFromEachPointsColour) {
+  Material material = hairReading({{MaterialInput::HairColor, "strandColor"}});
+  material.constants.hairAbsorptionFromColor = true;
+  material.constants.hairAzimuthalRoughness = 0.45f;
+  const Vec3f redBrown(0.35f, 0.12f, 0.05f), blond(0.85f, 0.65f, 0.4f);
+  const auto params =
+      onBothTriangles(material, {{"strandColor",
+                                  {redBrown.x, redBrown.y, redBrown.z, blond.x, blond.y, blond.z},
+                                  3,
+                                  Interpolation::Uniform}});
+  expectNear(hairAbsorptionAt(params[0]), hairAbsorptionFromColor(redBrown, 0.45f));
+  expectNear(hairAbsorptionAt(params[1]), hairAbsorptionFromColor(blond, 0.45f));
+  // The albedo AOV's colour is the strand's own.
+  expectNear(hairColorAt(params[1]), blond);
+  // The node's own β_n, where given, converts the colour instead.
+  MaterialParams own = params[0];
+  own.hairColorAzimuthalRoughness = 0.2f;
+  expectNear(hairAbsorptionAt(own), hairAbsorptionFromColor(redBrown, 0.2f));
+  expectNear(hairColorAt(own), redBrown);
+}
+
+TEST(HairAbsorption, AbsorptionAtAHitDerivesFromEachPointsMelanin) {
+  Material material = hairReading(
+      {{MaterialInput::HairMelanin, "melanin"}, {MaterialInput::HairMelaninRedness, "redness"}});
+  material.constants.hairAbsorptionFromMelanin = true;
+  const auto params =
+      onBothTriangles(material, {{"melanin", {0.8f, 0.2f}, 1, Interpolation::Uniform},
+                                 {"redness", {0.1f, 0.7f}, 1, Interpolation::Uniform}});
+  expectNear(hairAbsorptionAt(params[0]), hairAbsorptionFromMelanin(0.8f, 0.1f));
+  expectNear(hairAbsorptionAt(params[1]), hairAbsorptionFromMelanin(0.2f, 0.7f));
+  expectNear(hairColorAt(params[0]),
+             hairColorFromAbsorption(hairAbsorptionFromMelanin(0.8f, 0.1f), 0.3f));
 }
 
 TEST(HairRoughness, MappingsFollowThePaper) {

@@ -133,20 +133,95 @@ def test_what_the_hair_bsdf_ignores_warns_once_naming_it():
     assert "curve_direction is not supported" in messages[0] and LOOK in messages[0]
 
 
-def test_a_varying_hair_colour_warns_and_keeps_the_default_absorption():
+def test_a_varying_hair_colour_drives_the_colour_input_converted_per_shading_point():
+    """A per-strand colour (a geompropvalue) feeding chiang_hair_absorption_from_color: the
+    colour input reads the primvar, σa derives from it at each shading point with the node's
+    azimuthal roughness, and nothing warns."""
     stage = Usd.Stage.CreateInMemory()
     bsdf = hair_material(stage)
-    absorption = node(stage, "absorption", "ND_chiang_hair_absorption_from_color")
+    absorption = node(stage, "absorption", "ND_chiang_hair_absorption_from_color",
+                      azimuthal_roughness=0.35)
     reader = node(stage, "tint", "ND_geompropvalue_color3")
     reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("hairColor")
     connect(absorption, "color", reader, "out", Sdf.ValueTypeNames.Color3f)
     connect(bsdf, "absorption_coefficient", absorption, "absorption",
             Sdf.ValueTypeNames.Vector3f)
+    params = params_of(stage)
+    assert params["penumbra:hairAbsorptionFromColor"] == 1
+    assert "penumbra:hairAbsorptionFromMelanin" not in params
+    assert "penumbra:hairAbsorption" not in params
+    assert params["penumbra:hairColor"]["primvar"] == "hairColor"
+    assert params["penumbra:hairColorAzimuthalRoughness"] == pytest.approx(0.35)
+
+
+def test_a_varying_melanin_drives_the_melanin_inputs():
+    """A per-strand melanin concentration feeding deon_hair_absorption_from_melanin: the
+    melanin input reads the primvar, the constant redness is kept as it is."""
+    stage = Usd.Stage.CreateInMemory()
+    bsdf = hair_material(stage)
+    absorption = node(stage, "absorption", "ND_deon_hair_absorption_from_melanin",
+                      melanin_redness=0.3)
+    reader = node(stage, "melanin", "ND_geompropvalue_float")
+    reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("melanin")
+    connect(absorption, "melanin_concentration", reader, "out", Sdf.ValueTypeNames.Float)
+    connect(bsdf, "absorption_coefficient", absorption, "absorption",
+            Sdf.ValueTypeNames.Vector3f)
+    params = params_of(stage)
+    assert params["penumbra:hairAbsorptionFromMelanin"] == 1
+    assert "penumbra:hairAbsorption" not in params
+    assert params["penumbra:hairMelanin"]["primvar"] == "melanin"
+    assert params["penumbra:hairMelaninRedness"] == pytest.approx(0.3)
+
+
+def test_melanin_with_other_pigments_than_deons_warns_naming_them():
+    stage = Usd.Stage.CreateInMemory()
+    bsdf = hair_material(stage)
+    absorption = node(stage, "absorption", "ND_deon_hair_absorption_from_melanin",
+                      eumelanin_color=(0.5, 0.5, 0.5))
+    reader = node(stage, "melanin", "ND_geompropvalue_float")
+    reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("melanin")
+    connect(absorption, "melanin_concentration", reader, "out", Sdf.ValueTypeNames.Float)
+    connect(bsdf, "absorption_coefficient", absorption, "absorption",
+            Sdf.ValueTypeNames.Vector3f)
+    messages: list[str] = []
+    params = params_of(stage, messages.append)
+    assert params["penumbra:hairMelanin"]["primvar"] == "melanin"
+    assert len(messages) == 1 and "absorption.eumelanin_color is not supported" in messages[0]
+
+
+def test_an_untranslatable_hair_colour_warns_once_and_keeps_the_default_absorption():
+    stage = Usd.Stage.CreateInMemory()
+    bsdf = hair_material(stage)
+    absorption = node(stage, "absorption", "ND_chiang_hair_absorption_from_color")
+    noise = node(stage, "noise", "ND_noise2d_color3")
+    connect(absorption, "color", noise, "out", Sdf.ValueTypeNames.Color3f)
+    connect(bsdf, "absorption_coefficient", absorption, "absorption",
+            Sdf.ValueTypeNames.Vector3f)
     messages: list[str] = []
     params = params_of(stage, messages.append)
     assert params["penumbra:hairAbsorption"] == pytest.approx((0.0, 0.0, 0.0))
-    assert len(messages) == 1 and "a varying color" in messages[0]
-    assert f"{LOOK}/absorption" in messages[0]
+    assert "penumbra:hairAbsorptionFromColor" not in params
+    assert len(messages) == 1 and f"{LOOK}/noise" in messages[0]
+
+
+def test_a_usd_preview_surface_reads_the_hair_colour_inputs():
+    """The per-point conversion's inputs on a UsdPreviewSurface, the colour from a primvar
+    reader."""
+    stage = Usd.Stage.CreateInMemory()
+    material = add_preview_material(stage, LOOK, **{
+        "penumbra:hair": 1, "penumbra:hairAbsorptionFromColor": 1,
+        "penumbra:hairColorAzimuthalRoughness": 0.25})
+    surface = UsdShade.Shader(stage.GetPrimAtPath(f"{LOOK}/Surface"))
+    reader = UsdShade.Shader.Define(stage, f"{LOOK}/colour")
+    reader.CreateIdAttr("UsdPrimvarReader_float3")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("strandColor")
+    surface.CreateInput("penumbra:hairColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        reader.CreateOutput("result", Sdf.ValueTypeNames.Float3))
+    assert material
+    params = params_of(stage)
+    assert params["penumbra:hairAbsorptionFromColor"] == 1
+    assert params["penumbra:hairColorAzimuthalRoughness"] == pytest.approx(0.25)
+    assert params["penumbra:hairColor"]["primvar"] == "strandColor"
 
 
 def test_a_surface_over_another_bsdf_warns_and_renders_a_default_standard_surface():
@@ -276,3 +351,99 @@ def test_a_wrongly_typed_constant_input_takes_its_default_and_the_rest_renders()
     assert messages == ["/World/Looks/preview: penumbra:hair expects a bool or an int; its "
                         "default is used"]
     assert radiance[0] > 0.9 and radiance[1] < 0.05  # the red diffuse quad
+
+
+# The strands' y, each across the view; far apart, each hides little of the dome from the other.
+STRAND_HEIGHTS = (1.4, -1.4)
+
+
+def groom_stage(primvar: str, values: list, value_type: Sdf.ValueTypeName,
+                ) -> tuple[Usd.Stage, UsdGeom.BasisCurves]:
+    """A camera looking at a groom of two straight round strands across the view (the upper one
+    first), each with its own value of the uniform primvar ``primvar``."""
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    camera = UsdGeom.Camera.Define(stage, "/cam")
+    camera.AddTranslateOp().Set(Gf.Vec3d(0, 0, 10))
+    camera.CreateFocalLengthAttr(50.0)
+    camera.CreateHorizontalApertureAttr(20.0)
+    camera.CreateVerticalApertureAttr(20.0)
+    groom = UsdGeom.BasisCurves.Define(stage, "/World/groom")
+    groom.CreatePointsAttr([Gf.Vec3f(x, y, 0) for y in STRAND_HEIGHTS
+                            for x in (-1.5, -0.5, 0.5, 1.5)])
+    groom.CreateCurveVertexCountsAttr([4, 4])
+    groom.CreateWidthsAttr([FIBRE_WIDTH])
+    groom.SetWidthsInterpolation(UsdGeom.Tokens.constant)
+    UsdGeom.PrimvarsAPI(groom).CreatePrimvar(primvar, value_type,
+                                             UsdGeom.Tokens.uniform).Set(values)
+    return stage, groom
+
+
+def render_strands(stage: Usd.Stage, groom: UsdGeom.BasisCurves,
+                   ) -> list[tuple[np.ndarray, float]]:
+    """The groom with the material at LOOK under a white dome hidden from the camera: each
+    strand's mean radiance and the largest |h| its pixels reach, as fibre_radiance measures
+    them."""
+    bind(groom, UsdShade.Material(stage.GetPrimAtPath(LOOK)))
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateIntensityAttr(1.0)
+    image = penumbra.render(stage, camera="/cam", width=64, samples=64, seed=3,
+                            dome_light_visibility=False)["color"]
+    pixels_per_unit = 64 / 4.0  # the camera sees [-2, 2]² at the strands' distance
+    strands = []
+    for rows in (slice(0, 32), slice(32, 64)):  # image rows run downwards: the upper strand first
+        half = image[rows]
+        covered = half[..., 3] > 0.99
+        rows_per_column = covered.sum(axis=0).max()
+        strands.append((half[covered][:, :3].mean(axis=0),
+                        rows_per_column / (FIBRE_WIDTH * pixels_per_unit)))
+    return strands
+
+
+def test_each_strand_takes_the_absorption_of_its_own_colour():
+    """The production groom: displayColor per strand read by a geompropvalue, through
+    chiang_hair_absorption_from_color, into chiang_hair_bsdf: each strand returns what light
+    crossing a fibre of σa(its colour) once keeps (as an absorbing fibre does, above)."""
+    colours = [(0.3, 0.12, 0.05), (0.9, 0.7, 0.45)]  # red-brown, blond
+    beta_n = 0.3
+    stage, groom = groom_stage("displayColor", [Gf.Vec3f(*c) for c in colours],
+                                    Sdf.ValueTypeNames.Color3fArray)
+    bsdf = hair_material(stage)
+    absorption = node(stage, "absorption", "ND_chiang_hair_absorption_from_color",
+                      azimuthal_roughness=beta_n)
+    reader = node(stage, "colour", "ND_geompropvalue_color3")
+    reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("displayColor")
+    connect(absorption, "color", reader, "out", Sdf.ValueTypeNames.Color3f)
+    connect(bsdf, "absorption_coefficient", absorption, "absorption",
+            Sdf.ValueTypeNames.Vector3f)
+    strands = render_strands(stage, groom)
+    for colour, (radiance, h_max) in zip(colours, strands):
+        assert h_max > 0.7
+        sigma_a = [(math.log(c) / chiang_denominator(beta_n)) ** 2 for c in colour]
+        np.testing.assert_allclose(radiance, fibre_albedo(sigma_a, h_max), rtol=0.02)
+    # The strands differ as their colours do (the red-brown one's blue is well below the
+    # blond one's).
+    assert strands[0][0][2] < 0.8 * strands[1][0][2]
+
+
+def test_each_strand_takes_the_absorption_of_its_own_melanin():
+    """The same with a per-strand melanin concentration through
+    deon_hair_absorption_from_melanin (a constant redness)."""
+    melanin, redness = [0.7, 0.3], 0.2
+    stage, groom = groom_stage("melanin", melanin, Sdf.ValueTypeNames.FloatArray)
+    bsdf = hair_material(stage)
+    absorption = node(stage, "absorption", "ND_deon_hair_absorption_from_melanin",
+                      melanin_redness=redness)
+    reader = node(stage, "melanin", "ND_geompropvalue_float")
+    reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("melanin")
+    connect(absorption, "melanin_concentration", reader, "out", Sdf.ValueTypeNames.Float)
+    connect(bsdf, "absorption_coefficient", absorption, "absorption",
+            Sdf.ValueTypeNames.Vector3f)
+    strands = render_strands(stage, groom)
+    eumelanin, pheomelanin = (0.657704, 0.498077, 0.254107), (0.829444, 0.670320, 0.349938)
+    for concentration, (radiance, h_max) in zip(melanin, strands):
+        assert h_max > 0.7
+        amount = -math.log(1 - concentration)
+        sigma_a = [-amount * ((1 - redness) * math.log(e) + redness * math.log(p))
+                   for e, p in zip(eumelanin, pheomelanin)]
+        np.testing.assert_allclose(radiance, fibre_albedo(sigma_a, h_max), rtol=0.02)
+    assert strands[0][0][2] < 0.8 * strands[1][0][2]

@@ -257,7 +257,9 @@ def _constant_or(value: mv.Value | None, default: tuple[float, ...]) -> tuple[fl
 
 def _constant(value: mv.Value, name: str) -> tuple[float, ...]:
     """The values of a hair node's input, which must not vary: the nodes are not affine in
-    them."""
+    them (an absorption node feeding chiang_hair_bsdf directly is converted per shading point
+    instead, materialx_surfaces._map_hair_absorption)."""
     if not isinstance(value, mv.Constant):
-        raise mv.Untranslatable(f"a varying {name} (hair nodes are evaluated on constants)")
+        raise mv.Untranslatable(f"a varying {name} (hair nodes are evaluated on constants, "
+                                "except an absorption node feeding absorption_coefficient)")
     return value.values

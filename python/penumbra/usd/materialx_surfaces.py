@@ -23,6 +23,15 @@ PREVIEW_SURFACE = "ND_UsdPreviewSurface_surfaceshader"
 SURFACE = "ND_surface"  # the surfaceshader constructor over a BSDF
 CHIANG_HAIR = "ND_chiang_hair_bsdf"
 CHIANG_HAIR_ROUGHNESS = "ND_chiang_hair_roughness"
+ABSORPTION_FROM_COLOR = "ND_chiang_hair_absorption_from_color"
+ABSORPTION_FROM_MELANIN = "ND_deon_hair_absorption_from_melanin"
+# The inputs of the absorption nodes that become the renderer's when one of them varies.
+_ABSORPTION_INPUTS = {
+    ABSORPTION_FROM_COLOR: {"color": "penumbra:hairColor",
+                            "azimuthal_roughness": "penumbra:hairColorAzimuthalRoughness"},
+    ABSORPTION_FROM_MELANIN: {"melanin_concentration": "penumbra:hairMelanin",
+                              "melanin_redness": "penumbra:hairMelaninRedness"},
+}
 SHEEN_PARAMS = ("penumbra:sheen", "penumbra:sheenColor", "penumbra:sheenRoughness")
 ANISOTROPY_PARAMS = ("penumbra:anisotropy", "penumbra:clearcoatAnisotropy",
                      "penumbra:anisotropyRotation")
@@ -353,12 +362,43 @@ def _map_chiang_hair(h: Surface, mapping: Mapping) -> None:
     if cuticle is not None:
         values["penumbra:hairCuticleAngle"] = mv.affine(cuticle, mv.Constant((180.0,)),
                                                         mv.Constant((-90.0,)))
-    values["penumbra:hairAbsorption"] = h("absorption_coefficient")
+    _map_hair_absorption(h, mapping)
     _map_hair_roughness(h, mapping)
     # The fibre's own direction and normal serve (hair_bsdf.h).
     for name in ("normal", "curve_direction"):
         if h.connected(name):
             h.unsupported.append(name)
+
+
+def _map_hair_absorption(h: Surface, mapping: Mapping) -> None:
+    """absorption_coefficient: folded to a constant where it can be; from a
+    chiang_hair_absorption_from_color or deon_hair_absorption_from_melanin node whose colour or
+    melanin varies (a per-strand primvar, a texture), those inputs drive the renderer's, which
+    derives σa at each shading point (material.h, hairAbsorptionFromColor)."""
+    source = _source(h.shader, "absorption_coefficient")
+    node = source[0] if source else None
+    inputs_of = _ABSORPTION_INPUTS.get(node.GetShaderId() or "") if node else None
+    if node is not None and inputs_of is not None:
+        try:
+            values = {name: h.network.input(node, node_input)
+                      for node_input, name in inputs_of.items()}
+        except mv.Untranslatable:
+            values = {}  # reported once below, by the absorption's own evaluation
+        if values and not all(isinstance(value, mv.Constant) for value in values.values()):
+            inputs = Surface(h.network, node)
+            h.network.data.sources.add(node.GetPath())
+            mapping.values.update(values)
+            if node.GetShaderId() == ABSORPTION_FROM_COLOR:
+                mapping.params["penumbra:hairAbsorptionFromColor"] = 1
+            else:
+                mapping.params["penumbra:hairAbsorptionFromMelanin"] = 1
+                # The renderer holds d'Eon's pigments only.
+                for name in ("eumelanin_color", "pheomelanin_color"):
+                    inputs.ignore(name, definition_default(  # type: ignore[union-attr]
+                        ABSORPTION_FROM_MELANIN, name).values, tolerance=1e-5)
+            h.unsupported.extend(f"{node.GetPath().name}.{name}" for name in inputs.unsupported)
+            return
+    mapping.values["penumbra:hairAbsorption"] = h("absorption_coefficient")
 
 
 def _map_hair_roughness(h: Surface, mapping: Mapping) -> None:

@@ -71,6 +71,14 @@ Vec3f hairAbsorptionFromMelanin(float concentration, float redness,
                                 const Vec3f& eumelaninColor = kEumelaninColor,
                                 const Vec3f& pheomelaninColor = kPheomelaninColor);
 
+/// σa of a hair material at a shading point (its inputs evaluated there): hairAbsorption, or
+/// derived from its colour or melanin as its hairAbsorptionFrom* switches say (material.h).
+Vec3f hairAbsorptionAt(const MaterialParams& material);
+/// The colour a hair material's fibre shows under multiple scattering (the albedo AOV's): its
+/// hairColor, clamped as the conversion clamps it, when σa derives from that; else the colour of
+/// its σa (hairColorFromAbsorption with β_n).
+Vec3f hairColorAt(const MaterialParams& material);
+
 /// The hair BSDF's longitudinal variance v from β_m (pbrt-v4, Chiang et al. eq. 7):
 /// (0.726β + 0.812β² + 3.7β²⁰)².
 float hairLongitudinalVariance(float longitudinalRoughness);

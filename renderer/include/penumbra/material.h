@@ -69,6 +69,20 @@ struct MaterialParams {
   /// penumbra:hairAbsorption: σa of the fibre's interior per unit fibre radius (0: clear;
   /// hairAbsorptionFromColor and hairAbsorptionFromMelanin derive it).
   Vec3f hairAbsorption{0.0f};
+  /// penumbra:hairAbsorptionFromColor and penumbra:hairAbsorptionFromMelanin: σa is derived at
+  /// each shading point (hairAbsorptionAt in hair_bsdf.h) instead of taken from hairAbsorption:
+  /// from penumbra:hairColor, the fibre's multiply scattered colour, with β_n
+  /// penumbra:hairColorAzimuthalRoughness (< 0: hairAzimuthalRoughness as authored, before any
+  /// glossy filtering), as MaterialX's chiang_hair_absorption_from_color; or from
+  /// penumbra:hairMelanin (concentration) and penumbra:hairMelaninRedness, as
+  /// deon_hair_absorption_from_melanin with d'Eon's pigments. Colour wins if both are set.
+  /// The colour and melanin default to MaterialX's nodes' defaults.
+  bool hairAbsorptionFromColor = false;
+  bool hairAbsorptionFromMelanin = false;
+  Vec3f hairColor{1.0f};
+  float hairColorAzimuthalRoughness = -1;
+  float hairMelanin = 0.25f;
+  float hairMelaninRedness = 0.5f;
   /// penumbra:hairLongitudinalRoughness and penumbra:hairAzimuthalRoughness: β_m and β_n in
   /// [0.01, 1] (pbrt-v4's parameters), the R lobe's. The TT and TRT lobes' longitudinal width
   /// (the square root of M_p's variance) is R's times penumbra:hairLongitudinalScaleTT and
@@ -122,6 +136,9 @@ enum class MaterialInput : uint8_t {
   HairTintR,
   HairTintTT,
   HairTintTRT,
+  HairColor,
+  HairMelanin,
+  HairMelaninRedness,
   Normal,
 };
 
