@@ -12,6 +12,11 @@
   curves through ``REFINED_SAMPLES_PER_SPAN`` points per span, evaluated by de Boor's
   recurrence with the weights. Vertex data goes through the same linear map as the points.
   ``ranges`` is not read: curves span their whole knot domain.
+
+  Curves of the same order and vertex count whose knot vectors are the same relative to their
+  domains (a groom's strands share one) share one map, computed once from the first of them
+  and applied to all of them at once: a million strands cost no Python loop per strand. Curves
+  whose knots are shifted or scaled copies of another's get its map (the same up to rounding).
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import UsdGeom
 
+from .nurbs_patch import Direction, basis
 from .sampling import SampleReader
 
 REFINED_SAMPLES_PER_SPAN = 8
@@ -46,7 +52,7 @@ class BasisCurves:
     wrap: str
     counts: np.ndarray  # int32 (C,)
     positions: np.ndarray  # float32 (N, 3), or (K, N, 3) over the shutter
-    vertex_map: _BlockDiagonal | None = None
+    vertex_map: _GroupedMap | None = None
     vertex_as_varying: bool = False
     source: str = ""  # the converted prim's type, for messages
 
@@ -68,13 +74,19 @@ class BasisCurves:
             return values, interpolation
         if self.vertex_as_varying:  # Hermite: one value per point is one per segment end
             return values, UsdGeom.Tokens.varying
-        if interpolation == UsdGeom.Tokens.vertex and len(values) == self.vertex_map.columns:
+        expected = self.vertex_map.columns
+        if interpolation == UsdGeom.Tokens.vertex and len(values) == expected:
             mapped = self.vertex_map.apply(values.reshape(len(values), -1))
             return mapped.reshape((-1,) + values.shape[1:]), interpolation
-        warn(
-            f"{path}: {attribute} ({interpolation}, {len(values)} values) cannot be carried over "
-            f"to the curves {self.source} converts to; {consequence}"
-        )
+        found = f"{len(values)} value{'' if len(values) == 1 else 's'}"
+        if interpolation == UsdGeom.Tokens.vertex:
+            problem = f"has {found}, expected {expected} (one per point)"
+        else:
+            problem = (
+                f"has {found}; {self.source} data is read as constant, uniform or vertex "
+                "(one value per point) only"
+            )
+        warn(f"{path}: {attribute} ({interpolation}) {problem}; {consequence}")
         return None, interpolation
 
 
@@ -148,116 +160,183 @@ def nurbs_to_basis(
     if len(weights) and (len(weights) != counts.sum() or not (weights > 0).all()):
         warn(f"{path}: pointWeights must be positive, one per point; skipped")
         return None
-    knot_starts = np.concatenate([[0], np.cumsum(counts + orders)[:-1]])
-    vertex_starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    pieces = [
-        (knots[k0 : k0 + n + p], int(p), weights[v0 : v0 + n] if len(weights) else None)
-        for k0, v0, n, p in zip(knot_starts, vertex_starts, counts, orders)
-    ]
-    if any((np.diff(k) < 0).any() for k, _, _ in pieces):
+    layout = _Layout(counts.astype(np.int64), orders)
+    decreasing = np.diff(knots) < 0
+    decreasing[layout.knot_starts[1:] - 1] = False  # from one curve to the next
+    if decreasing.any():
         warn(f"{path}: knots must not decrease within a curve; skipped")
         return None
-    rational = [w is not None and np.ptp(w) > 1e-12 * w.max() for _, _, w in pieces]
-    if not any(rational) and (orders == 2).all():
+    rational = len(weights) > 0 and _per_curve(
+        weights, layout.vertex_starts, lambda w_max, w_min: w_max - w_min > 1e-12 * w_max
+    ).any()
+    if not rational and (orders == 2).all():
         return BasisCurves("linear", "bezier", "nonperiodic", counts, positions)
-    if not any(rational) and (orders == 4).all() and all(_uniform(k) for k, _, _ in pieces):
+    if not rational and (orders == 4).all() and _uniform(knots, layout).all():
         return BasisCurves("cubic", "bspline", "nonperiodic", counts, positions)
-    if not any(rational) and (orders <= 4).all():
-        blocks = [_bezier_rows(k, p, len(k) - p) for k, p, _ in pieces]
-        basis, wrap = "bezier", "nonperiodic"
-    else:
-        blocks = [_refined_rows(k, p, len(k) - p, w) for k, p, w in pieces]
-        basis, wrap = "catmullRom", "pinned"
-    if any(len(block) == 0 for block in blocks):
+    if not rational and (orders <= 4).all():
+        convert, curve_basis, wrap, weights = _BezierSpans, "bezier", "nonperiodic", None
+    else:  # every curve weighted as soon as pointWeights are authored, as a single one may be
+        convert, curve_basis, wrap = _RefinedSpans, "catmullRom", "pinned"
+        weights = weights if len(weights) else None
+    groups = _groups(knots, layout)
+    if any(len(spans) == 0 for _, spans, _ in groups):
         warn(f"{path}: knots leave a curve without a span of positive length; skipped")
         return None
-    vertex_map = _BlockDiagonal(blocks)
+    vertex_map = _GroupedMap(
+        layout.vertex_starts, int(counts.sum()),
+        [(members, convert(*first, spans)) for members, spans, first in groups],
+        weights,
+    )
     return BasisCurves(
-        "cubic", basis, wrap, np.array([len(b) for b in blocks], dtype=np.int32),
-        vertex_map.apply(positions), vertex_map=vertex_map, source="NurbsCurves",
+        "cubic", curve_basis, wrap, vertex_map.counts, vertex_map.apply(positions),
+        vertex_map=vertex_map, source="NurbsCurves",
     )
 
 
-def _uniform(knots: np.ndarray) -> bool:
-    steps = np.diff(knots)
-    return bool(steps.min() > 0 and np.ptp(steps) <= 1e-9 * steps.max())
+class _Layout:
+    """Where each curve's vertices and knots start in the prim's flat arrays."""
+
+    def __init__(self, counts: np.ndarray, orders: np.ndarray):
+        self.counts, self.orders = counts, orders
+        self.vertex_starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        self.knot_starts = np.concatenate([[0], np.cumsum(counts + orders)[:-1]])
 
 
-def _spans(knots: np.ndarray, order: int, count: int) -> list[int]:
-    """The indices i of the knot spans [t_i, t_i+1) of positive length in the curve's domain."""
-    return [i for i in range(order - 1, count) if knots[i + 1] > knots[i]]
+def _per_curve(
+    values: np.ndarray, starts: np.ndarray, test: Callable[[np.ndarray, np.ndarray], np.ndarray]
+) -> np.ndarray:
+    """``test(max, min)`` of each curve's ``values`` (curves start at ``starts``; none empty)."""
+    return test(np.maximum.reduceat(values, starts), np.minimum.reduceat(values, starts))
 
 
-def _basis(knots: np.ndarray, order: int, span: int, u: float) -> np.ndarray:
-    """The ``order`` B-spline basis functions that are not zero on ``span`` at ``u``
-    (functions span − order + 1 … span), by de Boor's recurrence (The NURBS Book, A2.2)."""
-    values = np.zeros(order)
-    values[0] = 1.0
-    left, right = np.zeros(order), np.zeros(order)
-    for j in range(1, order):
-        left[j] = u - knots[span + 1 - j]
-        right[j] = knots[span + j] - u
-        saved = 0.0
-        for r in range(j):
-            term = values[r] / (right[r + 1] + left[j - r])
-            values[r] = saved + right[r + 1] * term
-            saved = left[j - r] * term
-        values[j] = saved
-    return values
+def _uniform(knots: np.ndarray, layout: _Layout) -> np.ndarray:
+    """Whether each curve's knot vector is uniform."""
+    steps = np.delete(np.diff(knots), layout.knot_starts[1:] - 1)  # within curves only
+    starts = layout.knot_starts - np.arange(len(layout.counts))
+    return _per_curve(
+        steps, starts, lambda most, least: (least > 0) & (most - least <= 1e-9 * most)
+    )
 
 
-def _row(knots: np.ndarray, order: int, count: int, span: int, u: float, weights) -> np.ndarray:
-    """The curve's point at ``u`` (in ``span``) as weights of its ``count`` control points."""
-    row = np.zeros(count)
-    values = _basis(knots, order, span, u)
-    if weights is not None:
-        values = values * weights[span - order + 1 : span + 1]
-        values /= values.sum()
-    row[span - order + 1 : span + 1] = values
-    return row
+def _groups(
+    knots: np.ndarray, layout: _Layout
+) -> list[tuple[np.ndarray, np.ndarray, tuple[np.ndarray, int]]]:
+    """The curves that share one conversion: the same order, vertex count and knot vector
+    relative to its domain (a groom's strands share one). Each group: its curves, the indices
+    of their knot spans of positive length within the domain, and the knots and order of its
+    first curve, from which its conversion is computed."""
+    counts, orders = layout.counts, layout.orders
+    shape_of = np.unique(orders * (counts.max() + 1) + counts, return_inverse=True)[1]
+    groups = []
+    for members in _classes(shape_of.reshape(-1)):
+        order, count = int(orders[members[0]]), int(counts[members[0]])
+        rows = knots[layout.knot_starts[members, None] + np.arange(count + order)]
+        if (rows == rows[0]).all():  # a groom's strands
+            kinds = [np.arange(len(members))]
+        else:
+            low, high = rows[:, order - 1 : order], rows[:, count : count + 1]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                relative = np.nan_to_num((rows - low) / (high - low), nan=-1.0)
+            # Knot multiplicities too: rounding must not merge a tiny span with a repeated knot.
+            key = np.concatenate([relative, np.diff(rows, axis=1) > 0], 1)
+            kinds = _classes(np.unique(key, axis=0, return_inverse=True)[1].reshape(-1))
+        for kind in kinds:
+            own = rows[kind[0]]
+            spans = np.flatnonzero(own[order : count + 1] > own[order - 1 : count]) + order - 1
+            groups.append((members[kind], spans, (own, order)))
+    return groups
 
 
-def _bezier_rows(knots: np.ndarray, order: int, count: int) -> np.ndarray:
-    """Bézier points (as weights of the control points) of each span of a non-rational curve
-    of order at most 4, consecutive spans sharing their end point."""
-    rows = []
-    for n, span in enumerate(_spans(knots, order, count)):
-        a, b = knots[span], knots[span + 1]
-        on_curve = np.array(
-            [_row(knots, order, count, span, a + (b - a) * f, None) for f in np.linspace(0, 1, 4)]
+def _classes(labels: np.ndarray) -> list[np.ndarray]:
+    """The indices of each label's entries (labels 0 … L − 1), in order."""
+    return np.split(np.argsort(labels, kind="stable"), np.cumsum(np.bincount(labels))[:-1])
+
+
+class _Rows:
+    """A linear map from a curve's control points to the vertices it converts to: vertex r is
+    Σ_k ``values[r, k]`` · (control point ``first[r] + k``), the ``order`` points whose basis
+    functions are not zero where it is taken."""
+
+    first: np.ndarray  # int (R,)
+    values: np.ndarray  # float64 (R, order)
+
+
+class _BezierSpans(_Rows):
+    """Bézier points of each span of a non-rational curve of order at most 4, consecutive spans
+    sharing their end point: each span's polynomial through its points at 0, 1/3, 2/3 and 1."""
+
+    def __init__(self, knots: np.ndarray, order: int, spans: np.ndarray):
+        a, b = knots[spans, None], knots[spans + 1, None]
+        on_curve = basis(
+            Direction(len(knots) - order, order - 1, knots, a[0, 0], b[-1, 0]),
+            (a + (b - a) * np.linspace(0, 1, 4)).reshape(-1),
+            np.repeat(spans, 4),
         )
-        bezier = _BEZIER_FIT @ on_curve
-        rows.extend(bezier if n == 0 else bezier[1:])
-    return np.array(rows).reshape(-1, count)
+        bezier = _BEZIER_FIT @ on_curve.values.reshape(len(spans), 4, order)
+        keep = np.ones((len(spans), 4), dtype=bool)
+        keep[1:, 0] = False  # the end point of the span before
+        self.values = bezier[keep]
+        self.first = on_curve.first.reshape(len(spans), 4)[keep]
 
 
-def _refined_rows(knots: np.ndarray, order: int, count: int, weights) -> np.ndarray:
-    """Points through which a rational (or higher-order) curve is refined, as weights of its
-    control points: ``REFINED_SAMPLES_PER_SPAN`` per span and the curve's end."""
-    spans = _spans(knots, order, count)
-    rows = [
-        _row(knots, order, count, span, knots[span] + (knots[span + 1] - knots[span]) * f, weights)
-        for span in spans
-        for f in np.arange(REFINED_SAMPLES_PER_SPAN) / REFINED_SAMPLES_PER_SPAN
-    ]
-    if spans:
-        rows.append(_row(knots, order, count, spans[-1], knots[spans[-1] + 1], weights))
-    return np.array(rows).reshape(-1, count)
+class _RefinedSpans(_Rows):
+    """Points of a (rational or higher-order) curve through which it is refined, before any
+    weights: ``REFINED_SAMPLES_PER_SPAN`` per span and the curve's end."""
+
+    def __init__(self, knots: np.ndarray, order: int, spans: np.ndarray):
+        fractions = np.arange(REFINED_SAMPLES_PER_SPAN) / REFINED_SAMPLES_PER_SPAN
+        params = knots[spans, None] + (knots[spans + 1, None] - knots[spans, None]) * fractions
+        on_curve = basis(
+            Direction(len(knots) - order, order - 1, knots, knots[spans[0]], knots[spans[-1] + 1]),
+            np.append(params.reshape(-1), knots[spans[-1] + 1]),
+            np.append(np.repeat(spans, REFINED_SAMPLES_PER_SPAN), spans[-1]),
+        )
+        self.values, self.first = on_curve.values, on_curve.first
 
 
-class _BlockDiagonal:
-    """A linear map of vertex rows, curve by curve: each curve's block maps its own vertices
-    (kept as blocks: a dense matrix over all curves would grow with their count squared)."""
+class _GroupedMap:
+    """The linear map of vertex rows of all the curves of a prim: one :class:`_Rows` per group
+    of curves converted alike, applied to all its curves at once (weighted per curve by
+    ``weights`` when given: a rational curve's point is Σ wᵢNᵢPᵢ / Σ wᵢNᵢ)."""
 
-    def __init__(self, blocks: list[np.ndarray]):
-        self.blocks = blocks
-        self.columns = sum(block.shape[1] for block in blocks)
+    CHUNK = 1 << 16  # curves mapped at once, bounding the temporary arrays
+
+    def __init__(
+        self,
+        vertex_starts: np.ndarray,
+        columns: int,
+        groups: list[tuple[np.ndarray, _Rows]],
+        weights: np.ndarray | None,
+    ):
+        self.vertex_starts, self.groups, self.weights = vertex_starts, groups, weights
+        rows = np.zeros(len(vertex_starts), dtype=np.int64)
+        for curves, conversion in groups:
+            rows[curves] = len(conversion.first)
+        self.counts = rows.astype(np.int32)
+        self.starts = np.concatenate([[0], np.cumsum(rows)[:-1]])
+        self.rows = int(rows.sum())
+        self.columns = columns
 
     def apply(self, values: np.ndarray) -> np.ndarray:
         """``values`` (..., N_source, W) mapped to float32 (..., N, W)."""
-        parts, start = [], 0
-        for block in self.blocks:
-            source = values[..., start : start + block.shape[1], :].astype(np.float64)
-            parts.append(np.einsum("ij,...jk->...ik", block, source))
-            start += block.shape[1]
-        return np.concatenate(parts, axis=-2).astype(np.float32)
+        out = np.empty(values.shape[:-2] + (self.rows, values.shape[-1]), dtype=np.float32)
+        for curves, conversion in self.groups:
+            order = conversion.values.shape[1]
+            for chunk in range(0, len(curves), self.CHUNK):
+                part = curves[chunk : chunk + self.CHUNK]
+                sources = self.vertex_starts[part, None] + conversion.first  # (C, R)
+                coefficients = self._coefficients(conversion.values, sources)
+                # Summed in the order of the control points, as the product of the curve's
+                # dense matrix with its points sums them (the same result to the last bit).
+                total = sum(
+                    coefficients[..., k, None] * values[..., sources + k, :] for k in range(order)
+                )
+                out[..., self.starts[part, None] + np.arange(len(conversion.first)), :] = total
+        return out
+
+    def _coefficients(self, values: np.ndarray, sources: np.ndarray) -> np.ndarray:
+        """``values`` (R, order), weighted for each curve whose rows start at ``sources``."""
+        if self.weights is None:
+            return values
+        weighted = values * self.weights[sources[..., None] + np.arange(values.shape[1])]
+        return weighted / weighted.sum(axis=-1, keepdims=True)
