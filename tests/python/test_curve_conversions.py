@@ -235,7 +235,7 @@ def test_grouped_conversion_gives_what_curve_by_curve_conversion_gives(name, see
         np.testing.assert_allclose(converted.positions, expected_positions, rtol=0, atol=1e-6)
         np.testing.assert_allclose(mapped, expected_primvar, rtol=0, atol=1e-6)
     if name == "shifted and scaled knots":
-        assert len(converted.vertex_map.groups) == 1
+        assert converted.vertex_map.kinds == 1
 
 
 def _alone_in_their_group(counts, orders, knots):
@@ -262,7 +262,7 @@ def test_a_groom_of_clamped_cubic_strands_converts_as_one_group_to_its_bezier_cu
     knots = np.tile([0.0, 0, 0, 0, 1, 1, 1, 1], strands)
     converted = _convert(counts, orders, knots, None, positions)
     assert (converted.type, converted.basis, converted.wrap) == ("cubic", "bezier", "nonperiodic")
-    assert len(converted.vertex_map.groups) == 1
+    assert converted.vertex_map.kinds == 1
     np.testing.assert_array_equal(converted.counts, counts)
     np.testing.assert_allclose(converted.positions, positions, rtol=0, atol=1e-5)
 

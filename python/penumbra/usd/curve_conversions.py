@@ -178,15 +178,12 @@ def nurbs_to_basis(
     else:  # every curve weighted as soon as pointWeights are authored, as a single one may be
         convert, curve_basis, wrap = _RefinedSpans, "catmullRom", "pinned"
         weights = weights if len(weights) else None
-    groups = _groups(knots, layout)
-    if any(len(spans) == 0 for _, spans, _ in groups):
+    classes = [(members, kind_of, convert(rows, order)) for members, kind_of, rows, order
+               in _classes_of_curves(knots, layout)]
+    if any((conversion.rows_per_curve == 0).any() for _, _, conversion in classes):
         warn(f"{path}: knots leave a curve without a span of positive length; skipped")
         return None
-    vertex_map = _GroupedMap(
-        layout.vertex_starts, int(counts.sum()),
-        [(members, convert(*first, spans)) for members, spans, first in groups],
-        weights,
-    )
+    vertex_map = _GroupedMap(layout.vertex_starts, int(counts.sum()), classes, weights)
     return BasisCurves(
         "cubic", curve_basis, wrap, vertex_map.counts, vertex_map.apply(positions),
         vertex_map=vertex_map, source="NurbsCurves",
@@ -218,86 +215,110 @@ def _uniform(knots: np.ndarray, layout: _Layout) -> np.ndarray:
     )
 
 
-def _groups(
+def _classes_of_curves(
     knots: np.ndarray, layout: _Layout
-) -> list[tuple[np.ndarray, np.ndarray, tuple[np.ndarray, int]]]:
-    """The curves that share one conversion: the same order, vertex count and knot vector
-    relative to its domain (a groom's strands share one). Each group: its curves, the indices
-    of their knot spans of positive length within the domain, and the knots and order of its
-    first curve, from which its conversion is computed."""
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, int]]:
+    """The curves by order and vertex count, each class with its kinds of knot vector: those
+    the same relative to their domain (a groom's strands share one) share one conversion. Each
+    class: its curves, the kind of each, the knots of the first curve of each kind (one row a
+    kind), from which the kind's conversion is computed, and the order."""
     counts, orders = layout.counts, layout.orders
     shape_of = np.unique(orders * (counts.max() + 1) + counts, return_inverse=True)[1]
-    groups = []
-    for members in _classes(shape_of.reshape(-1)):
+    classes = []
+    for members in _indices_by_label(shape_of.reshape(-1)):
         order, count = int(orders[members[0]]), int(counts[members[0]])
         rows = knots[layout.knot_starts[members, None] + np.arange(count + order)]
         if (rows == rows[0]).all():  # a groom's strands
-            kinds = [np.arange(len(members))]
+            kind_of = np.zeros(len(members), dtype=np.int64)
         else:
             low, high = rows[:, order - 1 : order], rows[:, count : count + 1]
             with np.errstate(divide="ignore", invalid="ignore"):
                 relative = np.nan_to_num((rows - low) / (high - low), nan=-1.0)
             # Knot multiplicities too: rounding must not merge a tiny span with a repeated knot.
             key = np.concatenate([relative, np.diff(rows, axis=1) > 0], 1)
-            kinds = _classes(np.unique(key, axis=0, return_inverse=True)[1].reshape(-1))
-        for kind in kinds:
-            own = rows[kind[0]]
-            spans = np.flatnonzero(own[order : count + 1] > own[order - 1 : count]) + order - 1
-            groups.append((members[kind], spans, (own, order)))
-    return groups
+            kind_of = np.unique(key, axis=0, return_inverse=True)[1].reshape(-1)
+        firsts = np.array([kind[0] for kind in _indices_by_label(kind_of)])
+        classes.append((members, kind_of, rows[firsts], order))
+    return classes
 
 
-def _classes(labels: np.ndarray) -> list[np.ndarray]:
+def _indices_by_label(labels: np.ndarray) -> list[np.ndarray]:
     """The indices of each label's entries (labels 0 … L − 1), in order."""
     return np.split(np.argsort(labels, kind="stable"), np.cumsum(np.bincount(labels))[:-1])
 
 
-class _Rows:
-    """A linear map from a curve's control points to the vertices it converts to: vertex r is
-    Σ_k ``values[r, k]`` · (control point ``first[r] + k``), the ``order`` points whose basis
-    functions are not zero where it is taken."""
+class _Conversion:
+    """Linear maps from the control points of curves of one order and vertex count, one curve
+    of each knot vector in ``knots`` (a row each), to the vertices they convert to: vertex r is
+    Σ_k ``values[r, k]`` · (control point ``first[r] + k`` of curve ``curve[r]``): the ``order``
+    points whose basis functions are not zero where it is taken. Rows are curve by curve."""
 
-    first: np.ndarray  # int (R,)
-    values: np.ndarray  # float64 (R, order)
+    def __init__(self, knots: np.ndarray, order: int):
+        kinds, length = knots.shape
+        count = length - order
+        positive = knots[:, order : count + 1] > knots[:, order - 1 : count]
+        curve, span = np.nonzero(positive)  # the spans of positive length, curve by curve
+        # All the knot vectors in a row: each span's recurrence reads its own curve's knots only.
+        self._flat = Direction(kinds * length - order, order - 1, knots.reshape(-1), 0.0, 0.0)
+        self._spans = span + order - 1 + curve * length
+        self._span_curve, self._order, self._length = curve, order, length
+        self.curve, self.first, self.values = self._rows()
+        self.rows_per_curve = np.bincount(self.curve, minlength=kinds)
+        self.row_starts = np.concatenate([[0], np.cumsum(self.rows_per_curve)[:-1]])
+
+    def _rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def _basis(self, params: np.ndarray, spans: np.ndarray, curve: np.ndarray):
+        """The non-zero basis functions at ``params`` in (flat) ``spans`` of curves ``curve``,
+        and the first control point (of its curve) they weigh."""
+        on_curve = basis(self._flat, params, spans)
+        return on_curve.values, on_curve.first - curve * self._length
 
 
-class _BezierSpans(_Rows):
-    """Bézier points of each span of a non-rational curve of order at most 4, consecutive spans
+class _BezierSpans(_Conversion):
+    """Bézier points of each span of non-rational curves of order at most 4, consecutive spans
     sharing their end point: each span's polynomial through its points at 0, 1/3, 2/3 and 1."""
 
-    def __init__(self, knots: np.ndarray, order: int, spans: np.ndarray):
+    def _rows(self):
+        knots, spans, curve = self._flat.knots, self._spans, self._span_curve
         a, b = knots[spans, None], knots[spans + 1, None]
-        on_curve = basis(
-            Direction(len(knots) - order, order - 1, knots, a[0, 0], b[-1, 0]),
-            (a + (b - a) * np.linspace(0, 1, 4)).reshape(-1),
-            np.repeat(spans, 4),
+        values, first = self._basis(
+            (a + (b - a) * np.linspace(0, 1, 4)).reshape(-1), np.repeat(spans, 4),
+            np.repeat(curve, 4),
         )
-        bezier = _BEZIER_FIT @ on_curve.values.reshape(len(spans), 4, order)
+        bezier = _BEZIER_FIT @ values.reshape(len(spans), 4, self._order)
         keep = np.ones((len(spans), 4), dtype=bool)
-        keep[1:, 0] = False  # the end point of the span before
-        self.values = bezier[keep]
-        self.first = on_curve.first.reshape(len(spans), 4)[keep]
+        keep[1:, 0] = curve[1:] != curve[:-1]  # else the end point of the span before
+        return np.repeat(curve, 4)[keep.reshape(-1)], first.reshape(-1, 4)[keep], bezier[keep]
 
 
-class _RefinedSpans(_Rows):
-    """Points of a (rational or higher-order) curve through which it is refined, before any
-    weights: ``REFINED_SAMPLES_PER_SPAN`` per span and the curve's end."""
+class _RefinedSpans(_Conversion):
+    """Points of (rational or higher-order) curves through which they are refined, before any
+    weights: ``REFINED_SAMPLES_PER_SPAN`` per span and each curve's end."""
 
-    def __init__(self, knots: np.ndarray, order: int, spans: np.ndarray):
+    def _rows(self):
+        knots, spans, curve = self._flat.knots, self._spans, self._span_curve
         fractions = np.arange(REFINED_SAMPLES_PER_SPAN) / REFINED_SAMPLES_PER_SPAN
         params = knots[spans, None] + (knots[spans + 1, None] - knots[spans, None]) * fractions
-        on_curve = basis(
-            Direction(len(knots) - order, order - 1, knots, knots[spans[0]], knots[spans[-1] + 1]),
-            np.append(params.reshape(-1), knots[spans[-1] + 1]),
-            np.append(np.repeat(spans, REFINED_SAMPLES_PER_SPAN), spans[-1]),
+        last = np.flatnonzero(np.append(curve[1:] != curve[:-1], True))  # each curve's last span
+        order = np.argsort(  # each curve's end after its last span's samples
+            np.append(np.arange(params.size), last * REFINED_SAMPLES_PER_SPAN + 7.5), kind="stable"
         )
-        self.values, self.first = on_curve.values, on_curve.first
+        all_curves = np.append(np.repeat(curve, REFINED_SAMPLES_PER_SPAN), curve[last])[order]
+        values, first = self._basis(
+            np.append(params.reshape(-1), knots[spans[last] + 1])[order],
+            np.append(np.repeat(spans, REFINED_SAMPLES_PER_SPAN), spans[last])[order],
+            all_curves,
+        )
+        return all_curves, first, values
 
 
 class _GroupedMap:
-    """The linear map of vertex rows of all the curves of a prim: one :class:`_Rows` per group
-    of curves converted alike, applied to all its curves at once (weighted per curve by
-    ``weights`` when given: a rational curve's point is Σ wᵢNᵢPᵢ / Σ wᵢNᵢ)."""
+    """The linear map of vertex rows of all the curves of a prim, applied class by class of
+    curves (one order and vertex count) to all its curves at once, each curve taking the rows
+    of its kind of knot vector; weighted per curve by ``weights`` when given (a rational
+    curve's point is Σ wᵢNᵢPᵢ / Σ wᵢNᵢ)."""
 
     CHUNK = 1 << 16  # curves mapped at once, bounding the temporary arrays
 
@@ -305,38 +326,44 @@ class _GroupedMap:
         self,
         vertex_starts: np.ndarray,
         columns: int,
-        groups: list[tuple[np.ndarray, _Rows]],
+        classes: list[tuple[np.ndarray, np.ndarray, _Conversion]],
         weights: np.ndarray | None,
     ):
-        self.vertex_starts, self.groups, self.weights = vertex_starts, groups, weights
+        self.vertex_starts, self.classes, self.weights = vertex_starts, classes, weights
         rows = np.zeros(len(vertex_starts), dtype=np.int64)
-        for curves, conversion in groups:
-            rows[curves] = len(conversion.first)
+        for curves, kind_of, conversion in classes:
+            rows[curves] = conversion.rows_per_curve[kind_of]
         self.counts = rows.astype(np.int32)
         self.starts = np.concatenate([[0], np.cumsum(rows)[:-1]])
         self.rows = int(rows.sum())
         self.columns = columns
+        self.kinds = sum(len(conversion.rows_per_curve) for _, _, conversion in classes)
+        """How many knot vectors the conversions were computed for."""
 
     def apply(self, values: np.ndarray) -> np.ndarray:
         """``values`` (..., N_source, W) mapped to float32 (..., N, W)."""
         out = np.empty(values.shape[:-2] + (self.rows, values.shape[-1]), dtype=np.float32)
-        for curves, conversion in self.groups:
-            order = conversion.values.shape[1]
+        for curves, kind_of, conversion in self.classes:
             for chunk in range(0, len(curves), self.CHUNK):
-                part = curves[chunk : chunk + self.CHUNK]
-                sources = self.vertex_starts[part, None] + conversion.first  # (C, R)
-                coefficients = self._coefficients(conversion.values, sources)
+                part, kinds = curves[chunk : chunk + self.CHUNK], kind_of[chunk : chunk + self.CHUNK]
+                per_curve = conversion.rows_per_curve[kinds]
+                row_curve = np.repeat(np.arange(len(part)), per_curve)
+                within = np.arange(len(row_curve)) - np.repeat(np.cumsum(per_curve) - per_curve,
+                                                               per_curve)
+                row = conversion.row_starts[kinds][row_curve] + within
+                sources = self.vertex_starts[part][row_curve] + conversion.first[row]
+                coefficients = self._coefficients(conversion.values[row], sources)
                 # Summed in the order of the control points, as the product of the curve's
                 # dense matrix with its points sums them (the same result to the last bit).
-                total = sum(
-                    coefficients[..., k, None] * values[..., sources + k, :] for k in range(order)
+                out[..., self.starts[part][row_curve] + within, :] = sum(
+                    coefficients[:, k, None] * values[..., sources + k, :]
+                    for k in range(coefficients.shape[1])
                 )
-                out[..., self.starts[part, None] + np.arange(len(conversion.first)), :] = total
         return out
 
     def _coefficients(self, values: np.ndarray, sources: np.ndarray) -> np.ndarray:
-        """``values`` (R, order), weighted for each curve whose rows start at ``sources``."""
+        """``values`` (R, order), weighted for the curves whose rows start at ``sources``."""
         if self.weights is None:
             return values
-        weighted = values * self.weights[sources[..., None] + np.arange(values.shape[1])]
+        weighted = values * self.weights[sources[:, None] + np.arange(values.shape[1])]
         return weighted / weighted.sum(axis=-1, keepdims=True)
