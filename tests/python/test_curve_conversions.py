@@ -1,8 +1,9 @@
-"""NurbsCurves converted to BasisCurves group by group (curves sharing order, vertex count and
-knot vector share one conversion) give what converting them one curve at a time gives: the
-reference below is that per-curve conversion (dense rows per curve, de Boor's recurrence point
-by point), checked on randomised prims covering every branch; a groom of 100,000 strands
-converts as one group; vertex data that does not fit is warned of as authored."""
+"""NurbsCurves converted to BasisCurves in batches (curves of one order and vertex count at once,
+those sharing a knot vector sharing one conversion) give what converting them one curve at a
+time gives: the reference below is that per-curve conversion (dense rows per curve, de Boor's
+recurrence point by point), checked on randomised prims covering every branch; a groom of
+100,000 strands converts with one conversion; vertex data that does not fit is warned of as
+authored."""
 
 from __future__ import annotations
 

@@ -267,6 +267,7 @@ class _Conversion:
         self.row_starts = np.concatenate([[0], np.cumsum(self.rows_per_curve)[:-1]])
 
     def _rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``curve``, ``first`` and ``values`` of every row (by subclass)."""
         raise NotImplementedError
 
     def _basis(self, params: np.ndarray, spans: np.ndarray, curve: np.ndarray):
@@ -289,7 +290,7 @@ class _BezierSpans(_Conversion):
         )
         bezier = _BEZIER_FIT @ values.reshape(len(spans), 4, self._order)
         keep = np.ones((len(spans), 4), dtype=bool)
-        keep[1:, 0] = curve[1:] != curve[:-1]  # else the end point of the span before
+        keep[1:, 0] = curve[1:] != curve[:-1]  # a later span starts where the one before ends
         return np.repeat(curve, 4)[keep.reshape(-1)], first.reshape(-1, 4)[keep], bezier[keep]
 
 
@@ -337,15 +338,16 @@ class _GroupedMap:
         self.starts = np.concatenate([[0], np.cumsum(rows)[:-1]])
         self.rows = int(rows.sum())
         self.columns = columns
+        # How many knot vectors conversions were computed for (fewer than curves: shared).
         self.kinds = sum(len(conversion.rows_per_curve) for _, _, conversion in classes)
-        """How many knot vectors the conversions were computed for."""
 
     def apply(self, values: np.ndarray) -> np.ndarray:
         """``values`` (..., N_source, W) mapped to float32 (..., N, W)."""
         out = np.empty(values.shape[:-2] + (self.rows, values.shape[-1]), dtype=np.float32)
         for curves, kind_of, conversion in self.classes:
             for chunk in range(0, len(curves), self.CHUNK):
-                part, kinds = curves[chunk : chunk + self.CHUNK], kind_of[chunk : chunk + self.CHUNK]
+                part = curves[chunk : chunk + self.CHUNK]
+                kinds = kind_of[chunk : chunk + self.CHUNK]
                 per_curve = conversion.rows_per_curve[kinds]
                 row_curve = np.repeat(np.arange(len(part)), per_curve)
                 within = np.arange(len(row_curve)) - np.repeat(np.cumsum(per_curve) - per_curve,
