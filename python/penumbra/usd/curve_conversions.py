@@ -12,6 +12,11 @@
   curves through ``REFINED_SAMPLES_PER_SPAN`` points per span, evaluated by de Boor's
   recurrence with the weights. Vertex data goes through the same linear map as the points.
   ``ranges`` is not read: curves span their whole knot domain.
+
+  Curves of the same order and vertex count whose knot vectors are the same relative to their
+  domains (a groom's strands share one) share one map, computed once from the first of them
+  and applied to all of them at once: a million strands cost no Python loop per strand. Curves
+  whose knots are shifted or scaled copies of another's get its map (the same up to rounding).
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import UsdGeom
 
+from .nurbs_patch import Direction, basis
 from .sampling import SampleReader
 
 REFINED_SAMPLES_PER_SPAN = 8
@@ -46,7 +52,7 @@ class BasisCurves:
     wrap: str
     counts: np.ndarray  # int32 (C,)
     positions: np.ndarray  # float32 (N, 3), or (K, N, 3) over the shutter
-    vertex_map: _BlockDiagonal | None = None
+    vertex_map: _GroupedMap | None = None
     vertex_as_varying: bool = False
     source: str = ""  # the converted prim's type, for messages
 
@@ -68,13 +74,19 @@ class BasisCurves:
             return values, interpolation
         if self.vertex_as_varying:  # Hermite: one value per point is one per segment end
             return values, UsdGeom.Tokens.varying
-        if interpolation == UsdGeom.Tokens.vertex and len(values) == self.vertex_map.columns:
+        expected = self.vertex_map.columns
+        if interpolation == UsdGeom.Tokens.vertex and len(values) == expected:
             mapped = self.vertex_map.apply(values.reshape(len(values), -1))
             return mapped.reshape((-1,) + values.shape[1:]), interpolation
-        warn(
-            f"{path}: {attribute} ({interpolation}, {len(values)} values) cannot be carried over "
-            f"to the curves {self.source} converts to; {consequence}"
-        )
+        found = f"{len(values)} value{'' if len(values) == 1 else 's'}"
+        if interpolation == UsdGeom.Tokens.vertex:
+            problem = f"has {found}, expected {expected} (one per point)"
+        else:
+            problem = (
+                f"has {found}; {self.source} data is read as constant, uniform or vertex "
+                "(one value per point) only"
+            )
+        warn(f"{path}: {attribute} ({interpolation}) {problem}; {consequence}")
         return None, interpolation
 
 
@@ -148,116 +160,212 @@ def nurbs_to_basis(
     if len(weights) and (len(weights) != counts.sum() or not (weights > 0).all()):
         warn(f"{path}: pointWeights must be positive, one per point; skipped")
         return None
-    knot_starts = np.concatenate([[0], np.cumsum(counts + orders)[:-1]])
-    vertex_starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    pieces = [
-        (knots[k0 : k0 + n + p], int(p), weights[v0 : v0 + n] if len(weights) else None)
-        for k0, v0, n, p in zip(knot_starts, vertex_starts, counts, orders)
-    ]
-    if any((np.diff(k) < 0).any() for k, _, _ in pieces):
+    layout = _Layout(counts.astype(np.int64), orders)
+    decreasing = np.diff(knots) < 0
+    decreasing[layout.knot_starts[1:] - 1] = False  # from one curve to the next
+    if decreasing.any():
         warn(f"{path}: knots must not decrease within a curve; skipped")
         return None
-    rational = [w is not None and np.ptp(w) > 1e-12 * w.max() for _, _, w in pieces]
-    if not any(rational) and (orders == 2).all():
+    rational = len(weights) > 0 and _per_curve(
+        weights, layout.vertex_starts, lambda w_max, w_min: w_max - w_min > 1e-12 * w_max
+    ).any()
+    if not rational and (orders == 2).all():
         return BasisCurves("linear", "bezier", "nonperiodic", counts, positions)
-    if not any(rational) and (orders == 4).all() and all(_uniform(k) for k, _, _ in pieces):
+    if not rational and (orders == 4).all() and _uniform(knots, layout).all():
         return BasisCurves("cubic", "bspline", "nonperiodic", counts, positions)
-    if not any(rational) and (orders <= 4).all():
-        blocks = [_bezier_rows(k, p, len(k) - p) for k, p, _ in pieces]
-        basis, wrap = "bezier", "nonperiodic"
-    else:
-        blocks = [_refined_rows(k, p, len(k) - p, w) for k, p, w in pieces]
-        basis, wrap = "catmullRom", "pinned"
-    if any(len(block) == 0 for block in blocks):
+    if not rational and (orders <= 4).all():
+        convert, curve_basis, wrap, weights = _BezierSpans, "bezier", "nonperiodic", None
+    else:  # every curve weighted as soon as pointWeights are authored, as a single one may be
+        convert, curve_basis, wrap = _RefinedSpans, "catmullRom", "pinned"
+        weights = weights if len(weights) else None
+    classes = [(members, kind_of, convert(rows, order)) for members, kind_of, rows, order
+               in _classes_of_curves(knots, layout)]
+    if any((conversion.rows_per_curve == 0).any() for _, _, conversion in classes):
         warn(f"{path}: knots leave a curve without a span of positive length; skipped")
         return None
-    vertex_map = _BlockDiagonal(blocks)
+    vertex_map = _GroupedMap(layout.vertex_starts, int(counts.sum()), classes, weights)
     return BasisCurves(
-        "cubic", basis, wrap, np.array([len(b) for b in blocks], dtype=np.int32),
-        vertex_map.apply(positions), vertex_map=vertex_map, source="NurbsCurves",
+        "cubic", curve_basis, wrap, vertex_map.counts, vertex_map.apply(positions),
+        vertex_map=vertex_map, source="NurbsCurves",
     )
 
 
-def _uniform(knots: np.ndarray) -> bool:
-    steps = np.diff(knots)
-    return bool(steps.min() > 0 and np.ptp(steps) <= 1e-9 * steps.max())
+class _Layout:
+    """Where each curve's vertices and knots start in the prim's flat arrays."""
+
+    def __init__(self, counts: np.ndarray, orders: np.ndarray):
+        self.counts, self.orders = counts, orders
+        self.vertex_starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        self.knot_starts = np.concatenate([[0], np.cumsum(counts + orders)[:-1]])
 
 
-def _spans(knots: np.ndarray, order: int, count: int) -> list[int]:
-    """The indices i of the knot spans [t_i, t_i+1) of positive length in the curve's domain."""
-    return [i for i in range(order - 1, count) if knots[i + 1] > knots[i]]
+def _per_curve(
+    values: np.ndarray, starts: np.ndarray, test: Callable[[np.ndarray, np.ndarray], np.ndarray]
+) -> np.ndarray:
+    """``test(max, min)`` of each curve's ``values`` (curves start at ``starts``; none empty)."""
+    return test(np.maximum.reduceat(values, starts), np.minimum.reduceat(values, starts))
 
 
-def _basis(knots: np.ndarray, order: int, span: int, u: float) -> np.ndarray:
-    """The ``order`` B-spline basis functions that are not zero on ``span`` at ``u``
-    (functions span − order + 1 … span), by de Boor's recurrence (The NURBS Book, A2.2)."""
-    values = np.zeros(order)
-    values[0] = 1.0
-    left, right = np.zeros(order), np.zeros(order)
-    for j in range(1, order):
-        left[j] = u - knots[span + 1 - j]
-        right[j] = knots[span + j] - u
-        saved = 0.0
-        for r in range(j):
-            term = values[r] / (right[r + 1] + left[j - r])
-            values[r] = saved + right[r + 1] * term
-            saved = left[j - r] * term
-        values[j] = saved
-    return values
+def _uniform(knots: np.ndarray, layout: _Layout) -> np.ndarray:
+    """Whether each curve's knot vector is uniform."""
+    steps = np.delete(np.diff(knots), layout.knot_starts[1:] - 1)  # within curves only
+    starts = layout.knot_starts - np.arange(len(layout.counts))
+    return _per_curve(
+        steps, starts, lambda most, least: (least > 0) & (most - least <= 1e-9 * most)
+    )
 
 
-def _row(knots: np.ndarray, order: int, count: int, span: int, u: float, weights) -> np.ndarray:
-    """The curve's point at ``u`` (in ``span``) as weights of its ``count`` control points."""
-    row = np.zeros(count)
-    values = _basis(knots, order, span, u)
-    if weights is not None:
-        values = values * weights[span - order + 1 : span + 1]
-        values /= values.sum()
-    row[span - order + 1 : span + 1] = values
-    return row
+def _classes_of_curves(
+    knots: np.ndarray, layout: _Layout
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, int]]:
+    """The curves by order and vertex count, each class with its kinds of knot vector: those
+    the same relative to their domain (a groom's strands share one) share one conversion. Each
+    class: its curves, the kind of each, the knots of the first curve of each kind (one row a
+    kind), from which the kind's conversion is computed, and the order."""
+    counts, orders = layout.counts, layout.orders
+    shape_of = np.unique(orders * (counts.max() + 1) + counts, return_inverse=True)[1]
+    classes = []
+    for members in _indices_by_label(shape_of.reshape(-1)):
+        order, count = int(orders[members[0]]), int(counts[members[0]])
+        rows = knots[layout.knot_starts[members, None] + np.arange(count + order)]
+        if (rows == rows[0]).all():  # a groom's strands
+            kind_of = np.zeros(len(members), dtype=np.int64)
+        else:
+            low, high = rows[:, order - 1 : order], rows[:, count : count + 1]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                relative = np.nan_to_num((rows - low) / (high - low), nan=-1.0)
+            # Knot multiplicities too: rounding must not merge a tiny span with a repeated knot.
+            key = np.concatenate([relative, np.diff(rows, axis=1) > 0], 1)
+            kind_of = np.unique(key, axis=0, return_inverse=True)[1].reshape(-1)
+        firsts = np.array([kind[0] for kind in _indices_by_label(kind_of)])
+        classes.append((members, kind_of, rows[firsts], order))
+    return classes
 
 
-def _bezier_rows(knots: np.ndarray, order: int, count: int) -> np.ndarray:
-    """Bézier points (as weights of the control points) of each span of a non-rational curve
-    of order at most 4, consecutive spans sharing their end point."""
-    rows = []
-    for n, span in enumerate(_spans(knots, order, count)):
-        a, b = knots[span], knots[span + 1]
-        on_curve = np.array(
-            [_row(knots, order, count, span, a + (b - a) * f, None) for f in np.linspace(0, 1, 4)]
+def _indices_by_label(labels: np.ndarray) -> list[np.ndarray]:
+    """The indices of each label's entries (labels 0 … L − 1), in order."""
+    return np.split(np.argsort(labels, kind="stable"), np.cumsum(np.bincount(labels))[:-1])
+
+
+class _Conversion:
+    """Linear maps from the control points of curves of one order and vertex count, one curve
+    of each knot vector in ``knots`` (a row each), to the vertices they convert to: vertex r is
+    Σ_k ``values[r, k]`` · (control point ``first[r] + k`` of curve ``curve[r]``): the ``order``
+    points whose basis functions are not zero where it is taken. Rows are curve by curve."""
+
+    def __init__(self, knots: np.ndarray, order: int):
+        kinds, length = knots.shape
+        count = length - order
+        positive = knots[:, order : count + 1] > knots[:, order - 1 : count]
+        curve, span = np.nonzero(positive)  # the spans of positive length, curve by curve
+        # All the knot vectors in a row: each span's recurrence reads its own curve's knots only.
+        self._flat = Direction(kinds * length - order, order - 1, knots.reshape(-1), 0.0, 0.0)
+        self._spans = span + order - 1 + curve * length
+        self._span_curve, self._order, self._length = curve, order, length
+        self.curve, self.first, self.values = self._rows()
+        self.rows_per_curve = np.bincount(self.curve, minlength=kinds)
+        self.row_starts = np.concatenate([[0], np.cumsum(self.rows_per_curve)[:-1]])
+
+    def _rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``curve``, ``first`` and ``values`` of every row (by subclass)."""
+        raise NotImplementedError
+
+    def _basis(self, params: np.ndarray, spans: np.ndarray, curve: np.ndarray):
+        """The non-zero basis functions at ``params`` in (flat) ``spans`` of curves ``curve``,
+        and the first control point (of its curve) they weigh."""
+        on_curve = basis(self._flat, params, spans)
+        return on_curve.values, on_curve.first - curve * self._length
+
+
+class _BezierSpans(_Conversion):
+    """Bézier points of each span of non-rational curves of order at most 4, consecutive spans
+    sharing their end point: each span's polynomial through its points at 0, 1/3, 2/3 and 1."""
+
+    def _rows(self):
+        knots, spans, curve = self._flat.knots, self._spans, self._span_curve
+        a, b = knots[spans, None], knots[spans + 1, None]
+        values, first = self._basis(
+            (a + (b - a) * np.linspace(0, 1, 4)).reshape(-1), np.repeat(spans, 4),
+            np.repeat(curve, 4),
         )
-        bezier = _BEZIER_FIT @ on_curve
-        rows.extend(bezier if n == 0 else bezier[1:])
-    return np.array(rows).reshape(-1, count)
+        bezier = _BEZIER_FIT @ values.reshape(len(spans), 4, self._order)
+        keep = np.ones((len(spans), 4), dtype=bool)
+        keep[1:, 0] = curve[1:] != curve[:-1]  # a later span starts where the one before ends
+        return np.repeat(curve, 4)[keep.reshape(-1)], first.reshape(-1, 4)[keep], bezier[keep]
 
 
-def _refined_rows(knots: np.ndarray, order: int, count: int, weights) -> np.ndarray:
-    """Points through which a rational (or higher-order) curve is refined, as weights of its
-    control points: ``REFINED_SAMPLES_PER_SPAN`` per span and the curve's end."""
-    spans = _spans(knots, order, count)
-    rows = [
-        _row(knots, order, count, span, knots[span] + (knots[span + 1] - knots[span]) * f, weights)
-        for span in spans
-        for f in np.arange(REFINED_SAMPLES_PER_SPAN) / REFINED_SAMPLES_PER_SPAN
-    ]
-    if spans:
-        rows.append(_row(knots, order, count, spans[-1], knots[spans[-1] + 1], weights))
-    return np.array(rows).reshape(-1, count)
+class _RefinedSpans(_Conversion):
+    """Points of (rational or higher-order) curves through which they are refined, before any
+    weights: ``REFINED_SAMPLES_PER_SPAN`` per span and each curve's end."""
+
+    def _rows(self):
+        knots, spans, curve = self._flat.knots, self._spans, self._span_curve
+        fractions = np.arange(REFINED_SAMPLES_PER_SPAN) / REFINED_SAMPLES_PER_SPAN
+        params = knots[spans, None] + (knots[spans + 1, None] - knots[spans, None]) * fractions
+        last = np.flatnonzero(np.append(curve[1:] != curve[:-1], True))  # each curve's last span
+        order = np.argsort(  # each curve's end after its last span's samples
+            np.append(np.arange(params.size), last * REFINED_SAMPLES_PER_SPAN + 7.5), kind="stable"
+        )
+        all_curves = np.append(np.repeat(curve, REFINED_SAMPLES_PER_SPAN), curve[last])[order]
+        values, first = self._basis(
+            np.append(params.reshape(-1), knots[spans[last] + 1])[order],
+            np.append(np.repeat(spans, REFINED_SAMPLES_PER_SPAN), spans[last])[order],
+            all_curves,
+        )
+        return all_curves, first, values
 
 
-class _BlockDiagonal:
-    """A linear map of vertex rows, curve by curve: each curve's block maps its own vertices
-    (kept as blocks: a dense matrix over all curves would grow with their count squared)."""
+class _GroupedMap:
+    """The linear map of vertex rows of all the curves of a prim, applied class by class of
+    curves (one order and vertex count) to all its curves at once, each curve taking the rows
+    of its kind of knot vector; weighted per curve by ``weights`` when given (a rational
+    curve's point is Σ wᵢNᵢPᵢ / Σ wᵢNᵢ)."""
 
-    def __init__(self, blocks: list[np.ndarray]):
-        self.blocks = blocks
-        self.columns = sum(block.shape[1] for block in blocks)
+    CHUNK = 1 << 16  # curves mapped at once, bounding the temporary arrays
+
+    def __init__(
+        self,
+        vertex_starts: np.ndarray,
+        columns: int,
+        classes: list[tuple[np.ndarray, np.ndarray, _Conversion]],
+        weights: np.ndarray | None,
+    ):
+        self.vertex_starts, self.classes, self.weights = vertex_starts, classes, weights
+        rows = np.zeros(len(vertex_starts), dtype=np.int64)
+        for curves, kind_of, conversion in classes:
+            rows[curves] = conversion.rows_per_curve[kind_of]
+        self.counts = rows.astype(np.int32)
+        self.starts = np.concatenate([[0], np.cumsum(rows)[:-1]])
+        self.rows = int(rows.sum())
+        self.columns = columns
+        # How many knot vectors conversions were computed for (fewer than curves: shared).
+        self.kinds = sum(len(conversion.rows_per_curve) for _, _, conversion in classes)
 
     def apply(self, values: np.ndarray) -> np.ndarray:
         """``values`` (..., N_source, W) mapped to float32 (..., N, W)."""
-        parts, start = [], 0
-        for block in self.blocks:
-            source = values[..., start : start + block.shape[1], :].astype(np.float64)
-            parts.append(np.einsum("ij,...jk->...ik", block, source))
-            start += block.shape[1]
-        return np.concatenate(parts, axis=-2).astype(np.float32)
+        out = np.empty(values.shape[:-2] + (self.rows, values.shape[-1]), dtype=np.float32)
+        for curves, kind_of, conversion in self.classes:
+            for chunk in range(0, len(curves), self.CHUNK):
+                part = curves[chunk : chunk + self.CHUNK]
+                kinds = kind_of[chunk : chunk + self.CHUNK]
+                per_curve = conversion.rows_per_curve[kinds]
+                row_curve = np.repeat(np.arange(len(part)), per_curve)
+                within = np.arange(len(row_curve)) - np.repeat(np.cumsum(per_curve) - per_curve,
+                                                               per_curve)
+                row = conversion.row_starts[kinds][row_curve] + within
+                sources = self.vertex_starts[part][row_curve] + conversion.first[row]
+                coefficients = self._coefficients(conversion.values[row], sources)
+                # Summed in the order of the control points, as the product of the curve's
+                # dense matrix with its points sums them (the same result to the last bit).
+                out[..., self.starts[part][row_curve] + within, :] = sum(
+                    coefficients[:, k, None] * values[..., sources + k, :]
+                    for k in range(coefficients.shape[1])
+                )
+        return out
+
+    def _coefficients(self, values: np.ndarray, sources: np.ndarray) -> np.ndarray:
+        """``values`` (R, order), weighted for the curves whose rows start at ``sources``."""
+        if self.weights is None:
+            return values
+        weighted = values * self.weights[sources[:, None] + np.arange(values.shape[1])]
+        return weighted / weighted.sum(axis=-1, keepdims=True)

@@ -243,15 +243,20 @@ class Basis(NamedTuple):
     derivatives: np.ndarray  # float64 [m, degree + 1]: their first derivatives
 
 
-def basis(direction: Direction, params: np.ndarray) -> Basis:
+def basis(direction: Direction, params: np.ndarray, spans: np.ndarray | None = None) -> Basis:
     """The basis functions of ``direction`` at ``params`` (de Boor's triangular scheme over all
-    parameters at once: memory in proportion to the parameters, not to the control points)."""
+    parameters at once: memory in proportion to the parameters, not to the control points).
+    ``spans``: the non-empty knot span whose polynomial each parameter is evaluated in (by
+    default the one it lies in; a curve that is not continuous at a knot has two values there)."""
     knots, degree, count = direction.knots, direction.degree, direction.count
-    # The span of each parameter: the last non-empty one starting at or before it, except that
-    # the end of the range belongs to the span it closes.
-    span = np.searchsorted(knots, params, side="right") - 1
-    closing = np.searchsorted(knots, params, side="left") - 1
-    span = np.where(params >= knots[count], closing, span).clip(degree, count - 1)
+    if spans is None:
+        # The span of each parameter: the last non-empty one starting at or before it, except
+        # that the end of the range belongs to the span it closes.
+        span = np.searchsorted(knots, params, side="right") - 1
+        closing = np.searchsorted(knots, params, side="left") - 1
+        span = np.where(params >= knots[count], closing, span).clip(degree, count - 1)
+    else:
+        span = spans
     # left[j] = t − t_{span+1−j}, right[j] = t_{span+j} − t (j = 1 … degree)
     steps = np.arange(1, degree + 1)
     left = params[:, None] - knots[span[:, None] + 1 - steps]
