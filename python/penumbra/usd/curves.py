@@ -149,20 +149,22 @@ def _widths(
     when one is not finite or not positive, or they cannot be converted."""
     primvar = UsdGeom.PrimvarsAPI(gprim).GetPrimvar(UsdGeom.Tokens.widths)
     if primvar and primvar.HasAuthoredValue():
+        name = "primvars:widths"
         values, interpolation = reader.flattened_primvar(primvar), str(primvar.GetInterpolation())
         if values is None or len(values) == 0:  # e.g. indices that do not fit its values
-            warn(f"{path}: primvars:widths is authored but has no usable values; skipped")
+            warn(f"{path}: {name} is authored but has no usable values; skipped")
             return None
     else:
+        name = "widths"
         values = reader.get(gprim.GetWidthsAttr())
         interpolation = str(gprim.GetWidthsInterpolation())
     if values is None or len(values) == 0:
         return np.full(1, DEFAULT_WIDTH, dtype=np.float32), UsdGeom.Tokens.constant
     widths = np.asarray(values, dtype=np.float32).reshape(-1)
     if not (np.isfinite(widths) & (widths > 0)).all():
-        warn(f"{path}: widths must be finite and greater than 0; skipped")
+        warn(f"{path}: {name} must be finite and greater than 0; skipped")
         return None
-    widths, interpolation = curves.remap(widths, interpolation, "widths", warn, path, "skipped")
+    widths, interpolation = curves.remap(widths, interpolation, name, warn, path, "skipped")
     return None if widths is None else (widths, interpolation)
 
 
@@ -178,8 +180,10 @@ def _normals(
     they cannot be converted with the curves."""
     primvar = UsdGeom.PrimvarsAPI(gprim).GetPrimvar(UsdGeom.Tokens.normals)
     if primvar and primvar.HasAuthoredValue():
+        name = "primvars:normals"
         values, interpolation = reader.flattened_primvar(primvar), str(primvar.GetInterpolation())
     elif gprim.GetNormalsAttr().HasAuthoredValue():
+        name = "normals"
         values = reader.get(gprim.GetNormalsAttr())
         interpolation = str(gprim.GetNormalsInterpolation())
     else:
@@ -187,5 +191,5 @@ def _normals(
     normals = as_vec3_array(values)
     if normals is None or len(normals) == 0:
         return _NO_VECTORS, UsdGeom.Tokens.vertex
-    normals, interpolation = curves.remap(normals, interpolation, "normals", warn, path, "skipped")
+    normals, interpolation = curves.remap(normals, interpolation, name, warn, path, "skipped")
     return None if normals is None else (normals, interpolation)
