@@ -6,13 +6,11 @@
 #include <limits>
 #include <string>
 
-#include "penumbra/aov.h"
-#include "penumbra/filter.h"
-#include "penumbra/integrator.h"
 #include "penumbra/points.h"
 #include "penumbra/scene.h"
 #include "penumbra/surface_hit.h"
 #include "transforms.h"
+#include "white_furnace.h"
 
 using namespace penumbra;
 using penumbra::test::translation;
@@ -263,34 +261,9 @@ TEST(Points, WhiteSpheresUnderAWhiteDomeAreWhite) {
   points.widths = {1, 1.2f, 1};
   points.displayColor = {Vec3f(1.0f)};
   PointsScene s(points);
-  LightParams dome;
-  dome.type = LightType::Dome;
-  std::vector<Light> lights;
-  lights.emplace_back(dome);
-  s.scene.lights().setLights(std::move(lights));
-  s.scene.commit();
-  CameraParams lens;
-  lens.cameraToWorld = translation(0, 0, 6);
-  const int size = 16;
-  const Camera camera(lens, size, size);
-  const PixelFilter filter;
-  IntegratorSettings settings;
-  settings.maxPathDepth = settings.maxDiffuseDepth = 32;
-  double sum = 0;
-  int spheresSeen = 0;
-  const uint32_t samples = 64;
-  for (int y = 0; y < size; ++y)
-    for (int x = 0; x < size; ++x)
-      for (uint32_t i = 0; i < samples; ++i) {
-        FirstHitSample first;
-        const CameraSample sample =
-            renderCameraSample(s.scene, camera, filter, x, y, i, settings, &first);
-        sum += (sample.radiance.x + sample.radiance.y + sample.radiance.z) / 3;
-        spheresSeen += first.hit;
-      }
-  const int total = size * size * int(samples);
-  EXPECT_GT(spheresSeen, total / 5);  // the spheres fill much of the image
-  EXPECT_NEAR(sum / total, 1.0, 0.01);
+  const test::FurnaceImage image = test::renderUnderWhiteDome(s.scene);
+  EXPECT_GT(image.coverage, 1.0 / 5);  // the spheres fill much of the image
+  EXPECT_NEAR(image.meanRadiance, 1.0, 0.01);
 }
 
 TEST(Points, MaterialsReadPerPointPrimvarsAndCutPointsOut) {
