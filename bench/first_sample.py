@@ -7,18 +7,43 @@ from __future__ import annotations
 
 import multiprocessing
 import resource
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from pxr import Usd
+from pxr import Gf, Usd, UsdGeom, UsdLux
 
 import penumbra
 
 
 def peak_memory_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def add_camera_and_sun(stage: Usd.Stage, distance: float) -> None:
+    """Camera /cam on the +z axis at ``distance``, looking down −z, and a normalised sun."""
+    camera = UsdGeom.Camera.Define(stage, "/cam")
+    camera.CreateFocalLengthAttr(35)
+    camera.CreateClippingRangeAttr(Gf.Vec2f(0.1, 100))
+    camera.AddTranslateOp().Set(Gf.Vec3d(0, 0, distance))
+    sun = UsdLux.DistantLight.Define(stage, "/sun")
+    sun.CreateIntensityAttr(3)
+    sun.CreateNormalizeAttr(True)
+    sun.AddRotateXYZOp().Set(Gf.Vec3f(-35, 30, 0))
+
+
+def author_and_measure(
+    write: Callable[[str, int], None], name: str, count: int, width: int
+) -> tuple[float, float, FirstSample]:
+    """``write(path, count)`` into a temporary ``name`` in a child process, then
+    :func:`measure` it through /cam: the write time, the file's size in MB and the result."""
+    with tempfile.TemporaryDirectory() as directory:
+        path = Path(directory) / name
+        written = author_in_child(write, str(path), count)
+        size_mb = path.stat().st_size / 2**20
+        return written, size_mb, measure(path, "/cam", width)
 
 
 def author_in_child(write: Callable[..., None], *args) -> float:

@@ -1,7 +1,7 @@
 """Groom benchmark: N cubic Bézier strands of 4 vertices each (one segment) growing from a unit
 sphere, tapered (varying widths: a strand's root and tip), a displayColor per strand (uniform),
-in one BasisCurves prim written to a temporary .usdc; then opened with ``Usd.Stage.Open`` and rendered for one
-sample per pixel through ``penumbra.Renderer`` (bench/first_sample.py).
+in one BasisCurves prim written to a temporary .usdc; then opened with ``Usd.Stage.Open`` and
+rendered for one sample per pixel through ``penumbra.Renderer`` (bench/first_sample.py).
 
 Prints the load → first-sample time (open, delegate sync, first pass with its BVH build) and the
 peak resident memory, against the targets for a million strands: under 10 s and under 2 GB.
@@ -14,13 +14,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import tempfile
-from pathlib import Path
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom, UsdLux, Vt
+from pxr import Gf, Usd, UsdGeom, Vt
 
-from first_sample import author_in_child, measure, verdict
+from first_sample import add_camera_and_sun, author_and_measure, verdict
 from provenance import print_provenance
 
 TARGET_SECONDS = 10.0
@@ -84,14 +82,7 @@ def write_stage(path: str, count: int) -> None:
     reach = float(np.abs(points).max()) + ROOT_WIDTH
     curves.CreateExtentAttr([Gf.Vec3f(-reach), Gf.Vec3f(reach)])
     UsdGeom.Sphere.Define(stage, "/World/head").CreateRadiusAttr(1.0)
-    camera = UsdGeom.Camera.Define(stage, "/cam")
-    camera.CreateFocalLengthAttr(35)
-    camera.CreateClippingRangeAttr(Gf.Vec2f(0.1, 100))
-    camera.AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
-    sun = UsdLux.DistantLight.Define(stage, "/sun")
-    sun.CreateIntensityAttr(3)
-    sun.CreateNormalizeAttr(True)
-    sun.AddRotateXYZOp().Set(Gf.Vec3f(-35, 30, 0))
+    add_camera_and_sun(stage, 5)
     stage.Save()
 
 
@@ -101,11 +92,9 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=320)
     args = parser.parse_args()
     print_provenance()
-    with tempfile.TemporaryDirectory() as directory:
-        path = Path(directory) / "groom.usdc"
-        written = author_in_child(write_stage, str(path), args.strands)
-        size_mb = path.stat().st_size / 2**20
-        result = measure(path, "/cam", args.width)
+    written, size_mb, result = author_and_measure(
+        write_stage, "groom.usdc", args.strands, args.width
+    )
     print(
         "| strands | vertices | .usdc (MB) | write (s) | open (s) | sync (s) | first pass (s) "
         f"| load → first sample (s), target {TARGET_SECONDS:g} "

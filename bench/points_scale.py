@@ -12,13 +12,11 @@ peak resident memory, against the memory target for ten million points: under 2 
 from __future__ import annotations
 
 import argparse
-import tempfile
-from pathlib import Path
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom, UsdLux, Vt
+from pxr import Gf, Usd, UsdGeom, Vt
 
-from first_sample import author_in_child, measure, verdict
+from first_sample import add_camera_and_sun, author_and_measure, verdict
 from provenance import print_provenance
 
 TARGET_MB = 2048.0
@@ -40,14 +38,7 @@ def write_stage(path: str, count: int, seed: int = 1) -> None:
     points.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
     points.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(Vt.Vec3fArray.FromNumpy(colors))
     points.CreateExtentAttr([Gf.Vec3f(-2.01, -2.01, -0.51), Gf.Vec3f(2.01, 2.01, 0.51)])
-    camera = UsdGeom.Camera.Define(stage, "/cam")
-    camera.CreateFocalLengthAttr(35)
-    camera.CreateClippingRangeAttr(Gf.Vec2f(0.1, 100))
-    camera.AddTranslateOp().Set(Gf.Vec3d(0, 0, 8))
-    sun = UsdLux.DistantLight.Define(stage, "/sun")
-    sun.CreateIntensityAttr(3)
-    sun.CreateNormalizeAttr(True)
-    sun.AddRotateXYZOp().Set(Gf.Vec3f(-35, 30, 0))
+    add_camera_and_sun(stage, 8)
     stage.Save()
 
 
@@ -57,11 +48,9 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=320)
     args = parser.parse_args()
     print_provenance()
-    with tempfile.TemporaryDirectory() as directory:
-        path = Path(directory) / "points.usdc"
-        written = author_in_child(write_stage, str(path), args.points)
-        size_mb = path.stat().st_size / 2**20
-        result = measure(path, "/cam", args.width)
+    written, size_mb, result = author_and_measure(
+        write_stage, "points.usdc", args.points, args.width
+    )
     print(
         "| points | .usdc (MB) | write (s) | open (s) | sync (s) | first pass (s) "
         f"| load → first sample (s) | peak memory (MB), target {TARGET_MB:g} "
