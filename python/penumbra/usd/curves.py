@@ -17,6 +17,7 @@ warned of by the delegate, naming the prim, and the prim is skipped.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from pxr import Usd, UsdGeom
@@ -137,6 +138,21 @@ def _token(
     return None
 
 
+def _primvar_over_attribute(
+    gprim: UsdGeom.Curves, reader: SampleReader, token: str, attribute: Usd.Attribute,
+    interpolation: str,
+) -> tuple[str, Any, str]:
+    """``primvars:<token>`` (flattened) where it is authored, else the schema's ``attribute``
+    with ``interpolation``: the name to report, the values (``None``: neither is authored) and
+    their interpolation."""
+    primvar = UsdGeom.PrimvarsAPI(gprim).GetPrimvar(token)
+    if primvar and primvar.HasAuthoredValue():
+        values = reader.flattened_primvar(primvar)
+        return f"primvars:{token}", values, str(primvar.GetInterpolation())
+    values = reader.get(attribute) if attribute.HasAuthoredValue() else None
+    return token, values, str(interpolation)
+
+
 def _widths(
     gprim: UsdGeom.Curves,
     reader: SampleReader,
@@ -147,18 +163,14 @@ def _widths(
     """The widths (primvars:widths over widths) as float32 (M,) with their interpolation, as
     the converted curves take them; ``None`` (after a warning naming the prim and ``widths``)
     when one is not finite or not positive, or they cannot be converted."""
-    primvar = UsdGeom.PrimvarsAPI(gprim).GetPrimvar(UsdGeom.Tokens.widths)
-    if primvar and primvar.HasAuthoredValue():
-        name = "primvars:widths"
-        values, interpolation = reader.flattened_primvar(primvar), str(primvar.GetInterpolation())
-        if values is None or len(values) == 0:  # e.g. indices that do not fit its values
+    name, values, interpolation = _primvar_over_attribute(
+        gprim, reader, UsdGeom.Tokens.widths, gprim.GetWidthsAttr(),
+        gprim.GetWidthsInterpolation(),
+    )
+    if values is None or len(values) == 0:
+        if name != UsdGeom.Tokens.widths:  # e.g. indices that do not fit its values
             warn(f"{path}: {name} is authored but has no usable values; skipped")
             return None
-    else:
-        name = "widths"
-        values = reader.get(gprim.GetWidthsAttr())
-        interpolation = str(gprim.GetWidthsInterpolation())
-    if values is None or len(values) == 0:
         return np.full(1, DEFAULT_WIDTH, dtype=np.float32), UsdGeom.Tokens.constant
     widths = np.asarray(values, dtype=np.float32).reshape(-1)
     if not (np.isfinite(widths) & (widths > 0)).all():
@@ -178,15 +190,11 @@ def _normals(
     """The normals ribbons face (primvars:normals over normals), float32 (M, 3), with their
     interpolation; none (round tubes) when neither is authored; ``None`` (after a warning) when
     they cannot be converted with the curves."""
-    primvar = UsdGeom.PrimvarsAPI(gprim).GetPrimvar(UsdGeom.Tokens.normals)
-    if primvar and primvar.HasAuthoredValue():
-        name = "primvars:normals"
-        values, interpolation = reader.flattened_primvar(primvar), str(primvar.GetInterpolation())
-    elif gprim.GetNormalsAttr().HasAuthoredValue():
-        name = "normals"
-        values = reader.get(gprim.GetNormalsAttr())
-        interpolation = str(gprim.GetNormalsInterpolation())
-    else:
+    name, values, interpolation = _primvar_over_attribute(
+        gprim, reader, UsdGeom.Tokens.normals, gprim.GetNormalsAttr(),
+        gprim.GetNormalsInterpolation(),
+    )
+    if values is None:
         return _NO_VECTORS, UsdGeom.Tokens.vertex
     normals = as_vec3_array(values)
     if normals is None or len(normals) == 0:
