@@ -15,6 +15,7 @@ void Scene::commit() {
   const auto started = std::chrono::steady_clock::now();
   geometry_.commit();
   lights_.commit();
+  volumes_.commit();
   commitSeconds_ +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   materials_.commit();

@@ -1,6 +1,6 @@
-// The scene the tracer sees, composed of three parts: the geometry rays meet (geometry.h), the
-// lights (light_set.h) and the materials with their textures (material_table.h). The scene
-// holds them together, and does what involves more than one of them. Plain data only; no USD.
+// The scene the tracer sees, composed of four parts: the geometry rays meet (geometry.h), the
+// lights (light_set.h), the materials with their textures (material_table.h) and the volumes
+// (volume_set.h). The scene holds them together, and does what involves more than one of them. Plain data only; no USD.
 #pragma once
 
 #include <string>
@@ -9,6 +9,7 @@
 #include "penumbra/geometry.h"
 #include "penumbra/light_set.h"
 #include "penumbra/material_table.h"
+#include "penumbra/volume_set.h"
 
 namespace penumbra {
 
@@ -25,6 +26,8 @@ class Scene {
   const LightSet& lights() const { return lights_; }
   MaterialTable& materials() { return materials_; }
   const MaterialTable& materials() const { return materials_; }
+  VolumeSet& volumes() { return volumes_; }
+  const VolumeSet& volumes() const { return volumes_; }
 
   /// Sets the material at `index` (MaterialTable::replace); the meshes using it follow its
   /// cut-outs (Geometry::followMaterial). An index no mesh uses any longer is given a default
@@ -49,6 +52,7 @@ class Scene {
   MaterialTable materials_;  // before geometry_, which refers to it
   Geometry geometry_;
   LightSet lights_;
+  VolumeSet volumes_;
   double commitSeconds_ = 0;  // in commit(), building the BVHs and the light sampler
 };
 
