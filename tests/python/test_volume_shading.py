@@ -299,13 +299,54 @@ def test_an_unreducible_network_gives_the_input_its_default(network, named):
     assert_one_warning(said, named, "scattering")
 
 
+def test_two_scalar_fields_in_one_product_keep_the_first():
+    stage, _ = volume_stage()
+    density = node(stage, "density", "ND_geompropvalue_float", geomprop="density")
+    heat = node(stage, "heat", "ND_geompropvalue_float", geomprop="heat")
+    both = node(stage, "both", "ND_multiply_float", in1=density, in2=heat)
+    vdf = node(stage, "vdf", "ND_absorption_vdf",
+               absorption=density_scaled(stage, "a", (0.5, 0.5, 0.5), both))
+    bind_volume(stage, vdf)
+    shading, said = read(stage)
+    assert shading.density_fields == ("density",)
+    assert close(shading.absorption, (0.5, 0.5, 0.5))
+    assert_one_warning(said, f"{MATERIAL}/vdf", "absorption", "'heat'")
+
+
+def test_an_emission_with_a_scalar_and_a_colour_field_keeps_the_colour_field():
+    stage, _ = volume_stage()
+    heat = node(stage, "heat", "ND_geompropvalue_float", geomprop="heat")
+    tint = node(stage, "tint", "ND_geompropvalue_color3", geomprop="Cd")
+    edf = node(stage, "edf", "ND_uniform_edf",
+               color=node(stage, "e", "ND_multiply_color3FA", in1=tint, in2=heat))
+    bind_volume(stage, edf=edf)
+    shading, said = read(stage)
+    assert shading.emission_fields == ("Cd",) and shading.emission == (1.0, 1.0, 1.0)
+    assert_one_warning(said, f"{MATERIAL}/edf", "color", "'heat'")
+
+
+def test_a_varying_anisotropy_is_zero():
+    stage, _ = volume_stage()
+    density = node(stage, "density", "ND_geompropvalue_float", geomprop="density")
+    bind_volume(stage, node(stage, "vdf", "ND_anisotropic_vdf", anisotropy=density))
+    shading, said = read(stage)
+    assert shading.anisotropy == 0.0
+    assert_one_warning(said, f"{MATERIAL}/vdf", "anisotropy")
+
+
+def test_a_bound_prim_that_is_not_a_material_gives_the_default():
+    stage, _ = volume_stage()
+    stage.DefinePrim(f"{MATERIAL}/scope", "Scope")
+    shading, said = read(stage, f"{MATERIAL}/scope")
+    assert shading == VolumeShading()
+    assert_one_warning(said, "not a Material")
+
+
 def test_an_unsupported_vdf_gives_the_default_medium():
     stage, _ = volume_stage()
     bind_volume(stage, node(stage, "vdf", "ND_add_vdf"))
     shading, said = read(stage)
-    assert (shading.scattering, shading.principled_absorption, shading.density_fields) == (
-        (0.5, 0.5, 0.5), (1.0, 1.0, 1.0), ("density",))
-    assert shading.blackbody_intensity == 0.0
+    assert shading == VolumeShading(blackbody_intensity=0.0, temperature_fields=())
     assert_one_warning(said, f"{MATERIAL}/vdf", "ND_add_vdf")
 
 

@@ -49,16 +49,16 @@ def read_materialx_volume(volume: Usd.Prim, material: Sdf.Path, shader: UsdShade
     """The ``VolumeShading`` fields given by MaterialX ``volume`` node ``shader`` of
     ``material``, bound to ``volume``; ``warn`` is told of each approximation once."""
     volume_node = _VolumeNode(volume, material, reader, warn)
-    shading: dict[str, Any] = {
-        "density": 1.0, "principled_absorption": _BLACK, "blackbody_intensity": 0.0,
-        "color_fields": (), "temperature_fields": (),
-    }
+    shading: dict[str, Any] = {"density": 1.0, "blackbody_intensity": 0.0,
+                               "temperature_fields": ()}
     shading.update(volume_node.medium(shader))
     shading.update(volume_node.emission(shader))
     return shading
 
 
 class _VolumeNode:
+    """Reads one ``volume`` node's closures through the pattern network of its material."""
+
     def __init__(self, volume: Usd.Prim, material: Sdf.Path, reader: SampleReader,
                  warn: Callable[[str], None]):
         self.network = Network(material, reader, MaterialData(), warn)
@@ -82,13 +82,14 @@ class _VolumeNode:
         no VDF is an empty medium."""
         vdf = self._closure(shader, "vdf")
         if vdf is None:
-            return {"scattering": _BLACK, "absorption": _BLACK, "density_fields": ()}
+            return {"scattering": _BLACK, "absorption": _BLACK, "principled_absorption": _BLACK,
+                    "density_fields": (), "color_fields": ()}
         vdf_id = vdf.GetShaderId() or ""
         if vdf_id not in (ANISOTROPIC_VDF, ABSORPTION_VDF):
             self.report(vdf, f"VDF {vdf_id or 'without info:id'} is not supported (Penumbra "
                         f"reads {ANISOTROPIC_VDF} and {ABSORPTION_VDF}); the default volume "
                         "(grey scattering of the density field) is used")
-            return {"principled_absorption": (1.0, 1.0, 1.0)}
+            return {}  # VolumeShading's defaults
         absorption = self._factors(vdf, "absorption")
         if vdf_id == ABSORPTION_VDF:
             scattering, anisotropy = _Factors(_BLACK), 0.0
@@ -102,7 +103,8 @@ class _VolumeNode:
             self.report(vdf, f"scattering and absorption: the renderer multiplies one density "
                         f"field into both; field {density!r} is used for both")
         return {"scattering": scattering.constant, "absorption": absorption.constant,
-                "anisotropy": anisotropy, "density_fields": (density,) if density else (),
+                "principled_absorption": _BLACK, "anisotropy": anisotropy,
+                "density_fields": (density,) if density else (),
                 "color_fields": (scattering.color,) if scattering.color else ()}
 
     def emission(self, shader: UsdShade.Shader) -> dict[str, Any]:
@@ -126,8 +128,7 @@ class _VolumeNode:
     def _value(self, node: UsdShade.Shader, name: str, size: int) -> mv.Value:
         """Input ``name`` of ``node`` reduced by the pattern network; its node definition's
         default (after a warning) when it has the wrong type or cannot be reduced."""
-        default = definition_default(node.GetShaderId() or "", name) or mv.Constant(
-            (0.0,) * size)
+        default = self._default(node, name, size)
         shader_input = node.GetInput(name)
         producers = shader_input.GetValueProducingAttributes() if shader_input else []
         if producers and UsdShade.Input.IsInput(producers[0]):
@@ -155,7 +156,7 @@ class _VolumeNode:
     def _factors(self, node: UsdShade.Shader, name: str) -> _Factors:
         """Colour input ``name`` of ``node`` as factors; its default (after one warning) when
         it is not a product of constants and fields."""
-        default = _Factors(_color(self._default(node, name)))
+        default = _Factors(_color(self._default(node, name, 3)))
         factors = self._reduce(node, name, self._value(node, name, 3))
         if factors is None:
             return default
@@ -163,8 +164,8 @@ class _VolumeNode:
                                  lambda message: self.report(node, f"{name}: {message}"))
         return _Factors(constant, factors.scalar, factors.color)
 
-    def _default(self, node: UsdShade.Shader, name: str) -> mv.Constant:
-        return definition_default(node.GetShaderId() or "", name) or mv.Constant(_BLACK)
+    def _default(self, node: UsdShade.Shader, name: str, size: int) -> mv.Constant:
+        return definition_default(node.GetShaderId() or "", name) or mv.Constant((0.0,) * size)
 
     def _reduce(self, node: UsdShade.Shader, name: str, value: mv.Value) -> _Factors | None:
         """``value`` as constant ⊙ fields; None (after a warning) when it is not one."""
@@ -205,7 +206,7 @@ class _VolumeNode:
                         "geompropvalue default is used")
             fallback = mv.Constant(tuple(value.fallback[c] for c in value.channels))
             return _Factors(tuple(s * f for s, f in zip(scale, _color(fallback))))  # type: ignore
-        if len(set(value.channels)) == 1:
+        if set(value.channels) == {0}:  # a float geompropvalue, perhaps broadcast
             return _Factors(scale, scalar=value.primvar)
         if value.channels == (0, 1, 2):
             return _Factors(scale, color=value.primvar)
