@@ -3,26 +3,13 @@
 #include <algorithm>
 #include <cmath>
 
+#include "penumbra/phase.h"
+
 namespace penumbra {
 namespace {
 
 /// Scattering events before Russian roulette may end a walk.
 constexpr int kRouletteStart = 8;
-
-/// A scattered direction for a walk travelling along `incoming`, by inverting the
-/// Henyey–Greenstein distribution of the scattering angle's cosine.
-Vec3f sampleHenyeyGreenstein(const Vec3f& incoming, float g, Vec2f u) {
-  float cosTheta = 1 - 2 * u.x;
-  if (std::abs(g) >= 1e-3f) {
-    const float ratio = (1 - g * g) / (1 - g + 2 * g * u.x);
-    cosTheta = (1 + g * g - ratio * ratio) / (2 * g);
-  }
-  cosTheta = std::clamp(cosTheta, -1.0f, 1.0f);
-  const float sinTheta = std::sqrt(std::max(0.0f, 1 - cosTheta * cosTheta));
-  const float phi = 2 * kPi * u.y;
-  const Frame frame(incoming);
-  return normalize(frame.toWorld({sinTheta * std::cos(phi), sinTheta * std::sin(phi), cosTheta}));
-}
 
 Vec3f transmittance(const Vec3f& extinction, float distance) {
   return {std::exp(-extinction.x * distance), std::exp(-extinction.y * distance),
@@ -72,6 +59,7 @@ std::optional<SubsurfaceExit> subsurfaceRandomWalk(const Scene& scene, const Sur
   ray.direction = normalize(inwardDirection);
   ray.time = time;
   const Vec3f scattering = medium.albedo * medium.extinction;
+  const HenyeyGreenstein phase(medium.anisotropy);
   Vec3f throughput{1.0f};
   for (int events = 0;; ++events) {
     const std::optional<GeometryHit> wall = scene.geometry().intersect(ray, RayKind::Secondary);
@@ -119,7 +107,7 @@ std::optional<SubsurfaceExit> subsurfaceRandomWalk(const Scene& scene, const Sur
       }
     }
     ray.origin = ray.origin + ray.direction * flight;
-    ray.direction = sampleHenyeyGreenstein(ray.direction, medium.anisotropy, random.next2D());
+    ray.direction = phase.sample(ray.direction, random.next2D());
   }
 }
 
