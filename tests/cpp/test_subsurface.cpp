@@ -288,3 +288,22 @@ TEST(Subsurface, SheetsReflectTheSubsurfaceShareDiffusely) {
     EXPECT_NE(s->lobe, BsdfLobe::Subsurface);
   }
 }
+
+TEST(Subsurface, AnotherObjectInsideEndsTheWalkAndOpenMeshesLoseIt) {
+  // A clear medium (a mean free path far longer than the solid): the walk goes straight down.
+  const SubsurfaceMedium clear = subsurfaceMedium(subsurfaceMaterial(Vec3f(0.5f), Vec3f(1e6f)));
+  Solid solid(sphere(5, 24, 48));
+  const Geometry::MeshId inner = solid.scene.geometry().addMesh();
+  solid.scene.geometry().setMeshGeometry(inner, cube());
+  solid.scene.geometry().setMeshInstance(inner, Transform(), MaterialTable::kNoMaterial, true);
+  solid.scene.commit();
+  RandomStream random(1, 0, 0, 0, 0);
+  const std::optional<SubsurfaceExit> exit =
+      subsurfaceRandomWalk(solid.scene, solid.top, {0, -1, 0}, clear, random, 0);
+  ASSERT_TRUE(exit);
+  EXPECT_FALSE(exit->sameObject);
+  EXPECT_EQ(exit->hit.meshId, inner);
+  EXPECT_NEAR(exit->hit.position.y, 1, 1e-4f);  // the cube's top
+  // Walking away from every surface: nothing ahead, the light is lost.
+  EXPECT_FALSE(subsurfaceRandomWalk(solid.scene, solid.top, {0, 1, 0}, clear, random, 0));
+}
