@@ -1,5 +1,6 @@
 #include "penumbra/integrator.h"
 
+#include <type_traits>
 #include <utility>
 #include <variant>
 
@@ -9,7 +10,9 @@
 #include "penumbra/random_stream.h"
 #include "penumbra/sampler.h"
 #include "penumbra/spectrum.h"
+#include "penumbra/subsurface.h"
 #include "penumbra/surface_hit.h"
+#include "penumbra/warp.h"
 #include "volume_transport.h"
 
 namespace penumbra {
@@ -218,6 +221,104 @@ SurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float 
   return SurfaceBsdf(makePreviewSurfaceBsdf(hit, spectrum, ior, minAlpha));
 }
 
+/// The white Lambertian lobe through which light leaves a solid at the end of a subsurface
+/// random walk (the walk's throughput carries the colour): f·cos = cos θ/π on the outside.
+class LambertianExit {
+ public:
+  explicit LambertianExit(const Vec3f& outward) : frame_(outward) {}
+
+  Vec3f evaluate(const Vec3f& wi, Vec3f* diffusePart) const {
+    const Vec3f f(std::max(dot(wi, frame_.n), 0.0f) * kInvPi);
+    *diffusePart = f;
+    return f;
+  }
+  float pdf(const Vec3f& wi) const { return std::max(dot(wi, frame_.n), 0.0f) * kInvPi; }
+  BsdfSample sample(Vec2f u) const {
+    const Vec3f local = sampleCosineHemisphere(u);
+    BsdfSample result;
+    result.direction = frame_.toWorld(local);
+    result.weight = Vec3f(1.0f);
+    result.pdf = cosineHemispherePdf(local.z);
+    return result;
+  }
+
+ private:
+  Frame frame_;
+};
+
+/// What next-event estimation needs of a path vertex: f·|cos| towards a light (with its diffuse
+/// part, which lights scale by their diffuse multiplier), the density of the vertex's own
+/// sampling of that direction, and the shadow ray towards it.
+template <class Scatter>
+struct SurfaceVertex {
+  const Scene& scene;
+  const SurfaceHit& hit;
+  const Scatter& bsdf;
+  Vec3f wo;
+  float time;
+
+  Vec3f evaluate(const Vec3f& wi, Vec3f* diffusePart) const {
+    if constexpr (std::is_same_v<Scatter, LambertianExit>)
+      return bsdf.evaluate(wi, diffusePart);
+    else
+      return bsdf.evaluate(wo, wi, diffusePart);
+  }
+  float pdf(const Vec3f& wi) const {
+    if constexpr (std::is_same_v<Scatter, LambertianExit>)
+      return bsdf.pdf(wi);
+    else
+      return bsdf.pdf(wo, wi);
+  }
+  Ray shadowRay(const Vec3f& wi, float tFar) const { return spawnRay(scene, hit, wi, tFar, time); }
+};
+
+template <class Scatter>
+SurfaceVertex<Scatter> surfaceVertex(const Scene& scene, const SurfaceHit& hit, const Scatter& bsdf,
+                                     const Vec3f& wo, float time) {
+  return {scene, hit, bsdf, wo, time};
+}
+
+/// A scattering event in a medium: the phase function in the BSDF's place, all of it diffuse.
+struct MediumVertex {
+  HenyeyGreenstein phase;
+  Vec3f incoming;  // the direction the ray travelled
+  Vec3f position;
+  float time;
+
+  Vec3f evaluate(const Vec3f& wi, Vec3f* diffusePart) const {
+    *diffusePart = Vec3f(phase.evaluate(incoming, wi));
+    return *diffusePart;
+  }
+  float pdf(const Vec3f& wi) const { return phase.evaluate(incoming, wi); }
+  Ray shadowRay(const Vec3f& wi, float tFar) const {
+    Ray shadow;
+    shadow.origin = position;
+    shadow.direction = wi;
+    shadow.tFar = tFar;
+    shadow.time = time;
+    return shadow;
+  }
+};
+
+/// The subsurface medium of a hit's material, at the path's wavelengths when it carries a
+/// spectrum (the colour upsampled as a reflectance, the radius as an unbounded spectrum).
+SubsurfaceMedium subsurfaceMediumAt(const SurfaceHit& hit, const PathSpectrum& spectrum) {
+  if (!spectrum.spectral) return subsurfaceMedium(hit.material);
+  MaterialParams material = hit.material;
+  material.subsurfaceColor = spectrum.reflectance(material.subsurfaceColor);
+  material.subsurfaceRadius =
+      RgbSpectrum::unbounded(material.subsurfaceRadius).at(spectrum.wavelengths.lambda);
+  return subsurfaceMedium(material);
+}
+
+/// σa inside absorbing glass, at the path's wavelengths when it carries a spectrum.
+Vec3f glassAbsorptionAt(const SurfaceHit& hit, const PathSpectrum& spectrum) {
+  if (!spectrum.spectral) return transmissionAbsorption(hit.material);
+  MaterialParams material = hit.material;
+  material.transmissionColor = spectrum.reflectance(material.transmissionColor);
+  return transmissionAbsorption(material);
+}
+
 /// Records what the camera ray `ray` met first: a surface (`hit`), or only a light at
 /// `firstHitDistance` (infinity: nothing).
 void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
@@ -287,6 +388,52 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                : Vec3f(1.0f);
   };
 
+  // Next-event estimation at a vertex (SurfaceVertex, MediumVertex) seen from `receiver`: every
+  // infinite light (or one, when there are many) and one local light chosen by its estimated
+  // contribution there, each sampled over its area or solid angle from a dimension of its own
+  // (its choice's slot). The light it adds has `interactions` surface or medium interactions.
+  const auto estimateDirectLight = [&](const auto& vertex, const Receiver& receiver,
+                                       bool sampleLights, int interactions) {
+    const Vec2f lightChoices = sampler.next2D();
+    const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
+    if (!sampleLights || settings.directLighting == DirectLighting::BsdfSamplingOnly) return;
+    const auto sampleLight = [&](const LightSampler::Choice& choice) {
+      const Light& light = lights[choice.index];
+      const Vec2f lightSample = sampler.draw2D(firstLightDimension + choice.slot);
+      const std::optional<LightSample> sample =
+          light.sample(receiver.position, lightSample, receiver.normal);
+      Vec3f diffusePart;
+      const Vec3f f = sample && sample->pdf > 0 ? vertex.evaluate(sample->direction, &diffusePart)
+                                                : Vec3f(0.0f);
+      if (isBlack(f)) return;
+      const float tFar =
+          std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
+      result.rays += light.castsShadows();
+      Vec3f transmittance{1.0f};
+      if (light.castsShadows()) {
+        const Ray shadow = vertex.shadowRay(sample->direction, tFar);
+        if (scene.geometry().occluded(shadow)) return;
+        if (hasVolumes) {
+          transmittance = volumeTransmittance(shadow, shadow.tFar);
+          if (isBlack(transmittance)) return;
+        }
+      }
+      const float lightPdf = choice.probability * sample->pdf;
+      const float weight =
+          sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
+              ? 1.0f
+              : powerHeuristic(lightPdf, vertex.pdf(sample->direction));
+      const Vec3f response =
+          diffusePart * light.diffuseMultiplier() + (f - diffusePart) * light.specularMultiplier();
+      result.radiance +=
+          clampIndirect(throughput * transmittance * response *
+                            spectrum.emission(sample->radiance) * (weight / lightPdf),
+                        interactions, settings.indirectClamp);
+    };
+    scene.lights().lightSampler().forEachChoice(receiver, lightChoices.x, lightChoices.y,
+                                                sampleLight);
+  };
+
   for (int bounce = 0;; ++bounce) {
     const std::optional<SurfaceHit> hit =
         intersectSurface(scene, ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary, cone);
@@ -303,6 +450,13 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       result.radiance += clampIndirect(mediumEmission, bounce, settings.indirectClamp);
     }
     const bool passed = flight == FlightOutcome::Passed;
+    // Inside absorbing glass (a solid whose surface the ray meets from within): Beer–Lambert.
+    if (hit && passed && hit->closed && hit->material.transmissionDepth > 0 &&
+        dot(ray.direction, hit->normal) > 0) {
+      const Vec3f absorption = glassAbsorptionAt(*hit, spectrum) * hit->distance;
+      throughput *=
+          Vec3f(std::exp(-absorption.x), std::exp(-absorption.y), std::exp(-absorption.z));
+    }
     float nearestLight = kInfinity;
     bool sawLight = false;
     // Light met by this ray has `bounce` interactions behind it, plus its emission. Lights in
@@ -343,43 +497,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (bounce >= settings.maxPathDepth || lastVertex || volumeBounces >= settings.maxVolumeDepth)
         break;
       const HenyeyGreenstein phase(mediumPoint.anisotropy);
-      const Vec2f lightChoices = sampler.next2D();
-      const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
       const Receiver receiver{mediumPoint.position, Vec3f()};
-      const auto sampleLight = [&](const LightSampler::Choice& choice) {
-        const Light& light = lights[choice.index];
-        const Vec2f lightSample = sampler.draw2D(firstLightDimension + choice.slot);
-        const std::optional<LightSample> sample =
-            light.sample(mediumPoint.position, lightSample, receiver.normal);
-        if (!sample || !(sample->pdf > 0)) return;
-        const float f = phase.evaluate(ray.direction, sample->direction);
-        const float tFar =
-            std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
-        Ray shadow;
-        shadow.origin = mediumPoint.position;
-        shadow.direction = sample->direction;
-        shadow.tFar = tFar;
-        shadow.time = ray.time;
-        result.rays += light.castsShadows();
-        Vec3f transmittance{1.0f};
-        if (light.castsShadows()) {
-          if (scene.geometry().occluded(shadow)) return;
-          transmittance = volumeTransmittance(shadow, tFar);
-          if (isBlack(transmittance)) return;
-        }
-        const float lightPdf = choice.probability * sample->pdf;
-        const float weight =
-            sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
-                ? 1.0f
-                : powerHeuristic(lightPdf, f);
-        result.radiance +=
-            clampIndirect(throughput * transmittance * spectrum.emission(sample->radiance) *
-                              (f * light.diffuseMultiplier() * weight / lightPdf),
-                          bounce + 1, settings.indirectClamp);
-      };
-      if (settings.directLighting != DirectLighting::BsdfSamplingOnly)
-        scene.lights().lightSampler().forEachChoice(receiver, lightChoices.x, lightChoices.y,
-                                                    sampleLight);
+      estimateDirectLight(MediumVertex{phase, ray.direction, mediumPoint.position, ray.time},
+                          receiver, true, bounce + 1);
       // Phase sampling continues the path; its weight f / pdf is 1.
       const Sample4D phaseSample = sampler.next4D();
       const Vec3f direction = phase.sample(ray.direction, {phaseSample.y, phaseSample.z});
@@ -429,52 +549,12 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     const SurfaceBsdf bsdf =
         makeBsdf(*hit, spectrum, ior, filteredAlpha(settings.glossyFilter, minRayPdf));
 
-    // Next-event estimation: every infinite light (or one, when there are many) and one local
-    // light chosen by its estimated contribution here (lights on the surface's front and back
-    // count for translucent surfaces), each sampled over its area or solid angle.
-    // Each light sampled here draws its point from a dimension of its own (its choice's slot).
-    const Vec2f lightChoices = sampler.next2D();
-    const float infiniteChoice = lightChoices.x, localChoice = lightChoices.y;
-    const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
+    // Lights on the surface's front and back count for translucent surfaces.
     const Vec3f facingNormal =
         dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
     const Receiver receiver{hit->position, bsdf.hasTransmission() ? Vec3f() : facingNormal};
-    const auto sampleLight = [&](const LightSampler::Choice& choice) {
-      const Light& light = lights[choice.index];
-      const Vec2f lightSample = sampler.draw2D(firstLightDimension + choice.slot);
-      const std::optional<LightSample> sample =
-          light.sample(hit->position, lightSample, receiver.normal);
-      Vec3f diffusePart;
-      const Vec3f f = sample && sample->pdf > 0 ? bsdf.evaluate(wo, sample->direction, &diffusePart)
-                                                : Vec3f(0.0f);
-      if (isBlack(f)) return;
-      const float tFar =
-          std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
-      result.rays += light.castsShadows();
-      Vec3f transmittance{1.0f};
-      if (light.castsShadows()) {
-        const Ray shadow = spawnRay(scene, *hit, sample->direction, tFar, ray.time);
-        if (scene.geometry().occluded(shadow)) return;
-        if (hasVolumes) {
-          transmittance = volumeTransmittance(shadow, shadow.tFar);
-          if (isBlack(transmittance)) return;
-        }
-      }
-      const float lightPdf = choice.probability * sample->pdf;
-      const float weight =
-          sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
-              ? 1.0f
-              : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
-      const Vec3f response =
-          diffusePart * light.diffuseMultiplier() + (f - diffusePart) * light.specularMultiplier();
-      result.radiance +=
-          clampIndirect(throughput * transmittance * response *
-                            spectrum.emission(sample->radiance) * (weight / lightPdf),
-                        bounce + 1, settings.indirectClamp);
-    };
-    if (!bsdf.isPurelySpecular() && settings.directLighting != DirectLighting::BsdfSamplingOnly)
-      scene.lights().lightSampler().forEachChoice(receiver, infiniteChoice, localChoice,
-                                                  sampleLight);
+    estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
+                        !bsdf.isPurelySpecular(), bounce + 1);
 
     // BSDF sampling continues the path; the lobe and the direction in it are stratified jointly.
     const Sample4D scatteringSample = sampler.next4D();
@@ -489,13 +569,40 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         scattered->transmitted)
       break;
     throughput *= scattered->weight;
-    if (!scattered->isDelta) minRayPdf = std::min(minRayPdf, scattered->pdf);
-    scattering = {scattered->isDelta ? 0.0f : scattered->pdf, true,
-                  scattered->lobe == BsdfLobe::Diffuse, receiver};
-    int& lobeBounces = scattered->lobe == BsdfLobe::Diffuse        ? diffuseBounces
+    // Where the path goes on from: here, or where a subsurface random walk left the solid.
+    BsdfSample next = *scattered;
+    Receiver nextReceiver = receiver;
+    std::optional<SubsurfaceExit> exit;
+    if (scattered->lobe == BsdfLobe::Subsurface) {
+      // The walk takes as many random numbers as it scatters: a stream of its own per vertex.
+      RandomStream walkRandom(settings.seed, uint32_t(x), uint32_t(y), sampleIndex,
+                              1 + uint32_t(bounce));
+      exit = subsurfaceRandomWalk(scene, *hit, scattered->direction,
+                                  subsurfaceMediumAt(*hit, spectrum), walkRandom, ray.time);
+      if (!exit) break;
+      throughput *= exit->weight;
+      // Light leaves through a white Lambertian lobe facing out of the solid: lights are
+      // sampled there, and the path goes on from it.
+      const Vec3f outward =
+          dot(exit->direction, exit->hit.normal) >= 0 ? exit->hit.normal : -exit->hit.normal;
+      const LambertianExit lambert(outward);
+      nextReceiver = {exit->hit.position, outward};
+      estimateDirectLight(surfaceVertex(scene, exit->hit, lambert, outward, ray.time), nextReceiver,
+                          true, bounce + 2);
+      const Sample4D exitSample = sampler.next4D();
+      next = lambert.sample({exitSample.y, exitSample.z});
+      if (!(next.pdf > 0)) break;
+    }
+    if (!next.isDelta) minRayPdf = std::min(minRayPdf, next.pdf);
+    scattering = {next.isDelta ? 0.0f : next.pdf, true, next.lobe == BsdfLobe::Diffuse,
+                  nextReceiver};
+    // A subsurface walk counts as one diffuse bounce.
+    const bool diffuseLobe =
+        scattered->lobe == BsdfLobe::Diffuse || scattered->lobe == BsdfLobe::Subsurface;
+    int& lobeBounces = diffuseLobe                                 ? diffuseBounces
                        : scattered->lobe == BsdfLobe::Transmission ? transmissionBounces
                                                                    : glossyBounces;
-    const int lobeLimit = scattered->lobe == BsdfLobe::Diffuse ? settings.maxDiffuseDepth
+    const int lobeLimit = diffuseLobe ? settings.maxDiffuseDepth
                           : scattered->lobe == BsdfLobe::Transmission
                               ? settings.maxTransmissionDepth
                               : settings.maxGlossyDepth;
@@ -512,7 +619,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     // The footprint keeps widening at the camera's rate; surface curvature and roughness,
     // which would widen it further, are ignored.
     cone.width = cone.radiusAt(hit->distance);
-    ray = spawnRay(scene, *hit, scattered->direction, kInfinity, ray.time);
+    ray = spawnRay(scene, exit ? exit->hit : *hit, next.direction, kInfinity, ray.time);
   }
   if (spectrum.spectral) result.radiance = spectralToRgb(result.radiance, spectrum.wavelengths);
   return result;

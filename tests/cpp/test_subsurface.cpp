@@ -4,14 +4,21 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include "penumbra/bsdf.h"
+#include "penumbra/camera.h"
+#include "penumbra/filter.h"
+#include "penumbra/integrator.h"
+#include "penumbra/light.h"
 #include "penumbra/scene.h"
 #include "penumbra/subsurface.h"
 #include "penumbra/surface_hit.h"
 #include "penumbra/warp.h"
+#include "transforms.h"
+#include "white_furnace.h"
 
 using namespace penumbra;
 
@@ -306,4 +313,82 @@ TEST(Subsurface, AnotherObjectInsideEndsTheWalkAndOpenMeshesLoseIt) {
   EXPECT_NEAR(exit->hit.position.y, 1, 1e-4f);  // the cube's top
   // Walking away from every surface: nothing ahead, the light is lost.
   EXPECT_FALSE(subsurfaceRandomWalk(solid.scene, solid.top, {0, 1, 0}, clear, random, 0));
+}
+
+namespace {
+
+/// A unit sphere whose material is all subsurface (no specular layer): white-coloured with mean
+/// free path `radius`.
+struct SubsurfaceSphere {
+  Device device;
+  Scene scene{device};
+  explicit SubsurfaceSphere(float radius) {
+    Material material;
+    material.constants.useSpecularWorkflow = true;
+    material.constants.specularColor = Vec3f(0.0f);
+    material.constants.diffuseColor = Vec3f(1.0f);
+    material.constants.subsurface = 1;
+    material.constants.subsurfaceColor = Vec3f(1.0f);
+    material.constants.subsurfaceRadius = Vec3f(radius);
+    scene.setMaterial(0, material);
+    const Geometry::MeshId id = scene.geometry().addMesh();
+    scene.geometry().setMeshGeometry(id, sphere(1, 48, 96));
+    scene.geometry().setMeshInstance(id, Transform(), 0, true);
+  }
+};
+
+/// The mean radiance of the left (x < 0) and right halves of the sphere, lit from the right
+/// (+x) by a distant light, seen from z = 6.
+std::pair<double, double> halvesLitFromTheRight(float radius) {
+  SubsurfaceSphere s(radius);
+  LightParams sun;
+  sun.type = LightType::Distant;
+  const double towardsMinusX[16] = {0, 0, -1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1};
+  sun.lightToWorld = Transform::fromRowMajor(towardsMinusX);  // local −z onto world −x
+  sun.angle = 0;
+  std::vector<Light> lights;
+  lights.emplace_back(sun);
+  s.scene.lights().setLights(std::move(lights));
+  s.scene.commit();
+  CameraParams lens;
+  lens.cameraToWorld = test::translation(0, 0, 6);
+  const int size = 24;
+  const Camera camera(lens, size, size);
+  const PixelFilter filter;
+  IntegratorSettings settings;
+  settings.maxPathDepth = settings.maxDiffuseDepth = 8;
+  double halves[2] = {0, 0};
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x)
+      for (uint32_t i = 0; i < 32; ++i)
+        halves[x >= size / 2] +=
+            luminance(renderCameraSample(s.scene, camera, filter, x, y, i, settings).radiance);
+  return {halves[0], halves[1]};
+}
+
+}  // namespace
+
+TEST(Subsurface, WhiteSubsurfaceSphereUnderAWhiteDomeIsWhite) {
+  // End to end through the integrator: entry lobe, walk, Lambertian exit and its next-event
+  // estimation together lose and add no light.
+  for (const float radius : {0.05f, 0.5f}) {
+    SubsurfaceSphere s(radius);
+    const test::FurnaceImage image = test::renderUnderWhiteDome(s.scene);
+    ASSERT_GT(image.coverage, 0.3);
+    const double sphereMean = (image.meanRadiance - (1 - image.coverage)) / image.coverage;
+    EXPECT_NEAR(sphereMean, 1.0, 0.02) << "radius " << radius;
+  }
+}
+
+TEST(Subsurface, LongerMeanFreePathsCarryLightIntoTheShadow) {
+  // Lit from the right, the left half of the sphere is in shadow: only light that travels
+  // through the material reaches it, more of it the longer the mean free path.
+  const auto [shortLeft, shortRight] = halvesLitFromTheRight(0.01f);
+  const auto [longLeft, longRight] = halvesLitFromTheRight(0.5f);
+  const double shortShare = shortLeft / shortRight, longShare = longLeft / longRight;
+  RecordProperty("shadowShareRadius0.01", std::to_string(shortShare));
+  RecordProperty("shadowShareRadius0.5", std::to_string(longShare));
+  EXPECT_LT(shortShare, 0.05);
+  EXPECT_GT(longShare, 4 * shortShare);
+  EXPECT_GT(longShare, 0.1);
 }
