@@ -392,3 +392,41 @@ TEST(Subsurface, LongerMeanFreePathsCarryLightIntoTheShadow) {
   EXPECT_GT(longShare, 4 * shortShare);
   EXPECT_GT(longShare, 0.1);
 }
+
+TEST(Subsurface, AbsorbingGlassFollowsBeerLambertEndToEnd) {
+  // A clear cube of index 1 (no reflection, no bending) 2 units thick in front of a white dome:
+  // the camera sees transmissionColor^(2 / transmissionDepth) through it.
+  Device device;
+  Scene scene(device);
+  Material glass;
+  glass.constants.opacity = 0;
+  glass.constants.ior = 1;
+  glass.constants.roughness = 0;
+  glass.constants.transmissionColor = {0.5f, 0.8f, 1.0f};
+  glass.constants.transmissionDepth = 1;
+  scene.setMaterial(0, glass);
+  const Geometry::MeshId id = scene.geometry().addMesh();
+  scene.geometry().setMeshGeometry(id, cube());
+  scene.geometry().setMeshInstance(id, Transform(), 0, true);
+  LightParams dome;
+  dome.type = LightType::Dome;
+  std::vector<Light> lights;
+  lights.emplace_back(dome);
+  scene.lights().setLights(std::move(lights));
+  scene.commit();
+  CameraParams lens;
+  lens.projection = Projection::Orthographic;
+  lens.horizontalAperture = lens.verticalAperture = 10;  // a 1 × 1 window inside the cube's face
+  lens.cameraToWorld = test::translation(0, 0, 6);
+  const Camera camera(lens, 4, 4);
+  const PixelFilter filter;
+  Vec3f sum{0.0f};
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 4; ++x)
+      for (uint32_t i = 0; i < 4; ++i)
+        sum += renderCameraSample(scene, camera, filter, x, y, i, IntegratorSettings()).radiance;
+  const Vec3f mean = sum / 64.0f;
+  EXPECT_NEAR(mean.x, 0.25f, 1e-3f);
+  EXPECT_NEAR(mean.y, 0.64f, 1e-3f);
+  EXPECT_NEAR(mean.z, 1.0f, 1e-3f);
+}
