@@ -246,13 +246,14 @@ def test_added_and_removed_prims():
 
 def test_unsupported_prims_warn_once_per_type():
     stage = lit_quad_stage()
-    UsdVol.Volume.Define(stage, "/World/smoke1")
-    UsdVol.Volume.Define(stage, "/World/smoke2")
+    UsdVol.ParticleField3DGaussianSplat.Define(stage, "/World/splats1")
+    UsdVol.ParticleField3DGaussianSplat.Define(stage, "/World/splats2")
     UsdGeom.Sphere.Define(stage, "/World/ball")  # implicit surfaces are supported (tessellated)
     with pytest.warns(penumbra.PenumbraWarning) as record:
         penumbra.Renderer(stage)
     messages = [str(w.message) for w in record]
-    assert "2 Volume prims not supported yet, skipped (first: /World/smoke1)" in messages
+    expected = "2 ParticleField3DGaussianSplat prims not supported yet, skipped (first: /World/splats1)"
+    assert expected in messages
     assert not any("Sphere" in message for message in messages)
 
 
