@@ -5,9 +5,12 @@
 
 #include "penumbra/bsdf.h"
 #include "penumbra/hair_bsdf.h"
+#include "penumbra/phase.h"
+#include "penumbra/random_stream.h"
 #include "penumbra/sampler.h"
 #include "penumbra/spectrum.h"
 #include "penumbra/surface_hit.h"
+#include "volume_transport.h"
 
 namespace penumbra {
 namespace {
@@ -270,32 +273,132 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   bool lastVertex = false;      // a lobe's depth is exhausted: only collect what the ray reaches
   float minRayPdf = kInfinity;  // the smallest density of a scattered direction so far
   const std::vector<Light>& lights = scene.lights().all();
+  // Volumes: their decisions take as many random numbers as the medium asks, from a stream of
+  // their own so that the sampler's dimensions stay aligned with the path's vertices.
+  const bool hasVolumes = !scene.volumes().empty();
+  std::optional<RandomStream> volumeRandom;
+  if (hasVolumes) volumeRandom.emplace(settings.seed, uint32_t(x), uint32_t(y), sampleIndex, 0);
+  const MediumSpectrum mediumSpectrum{spectrum.spectral ? &spectrum.wavelengths : nullptr};
+  int volumeBounces = 0;
+  // The share of light that a shadow ray towards `tFar` carries through the volumes.
+  const auto volumeTransmittance = [&](const Ray& shadow, float tFar) {
+    return hasVolumes
+               ? estimateTransmittance(scene.volumes(), shadow, tFar, mediumSpectrum, *volumeRandom)
+               : Vec3f(1.0f);
+  };
 
   for (int bounce = 0;; ++bounce) {
     const std::optional<SurfaceHit> hit =
         intersectSurface(scene, ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary, cone);
     ++result.rays;
+    // The volumes between the ray's origin and the surface: the ray may scatter or end there.
+    FlightOutcome flight = FlightOutcome::Passed;
+    MediumScattering mediumPoint;
+    const Vec3f throughputBeforeFlight = throughput;
+    if (hasVolumes) {
+      Vec3f mediumEmission{0.0f};
+      flight =
+          sampleFreeFlight(scene.volumes(), ray, hit ? hit->distance : ray.tFar, mediumSpectrum,
+                           *volumeRandom, &throughput, &mediumEmission, &mediumPoint);
+      result.radiance += clampIndirect(mediumEmission, bounce, settings.indirectClamp);
+    }
+    const bool passed = flight == FlightOutcome::Passed;
     float nearestLight = kInfinity;
     bool sawLight = false;
-    // Light met by this ray has `bounce` interactions behind it, plus its emission.
-    result.radiance += clampIndirect(
-        throughput * emittedAlongRay(scene, ray, hit ? hit->distance : ray.tFar, !hit, scattering,
-                                     settings.directLighting, spectrum, &nearestLight, &sawLight),
-        bounce, settings.indirectClamp);
+    // Light met by this ray has `bounce` interactions behind it, plus its emission. Lights in
+    // front of a collision in a medium take the path's weight from before the flight (exact
+    // for grey media, whose tracking leaves the weight as it is).
+    result.radiance +=
+        clampIndirect((passed ? throughput : throughputBeforeFlight) *
+                          emittedAlongRay(scene, ray,
+                                          !passed ? mediumPoint.distance
+                                          : hit   ? hit->distance
+                                                  : ray.tFar,
+                                          !hit && passed, scattering, settings.directLighting,
+                                          spectrum, &nearestLight, &sawLight),
+                      bounce, settings.indirectClamp);
+    // What the ray stops at: the surface, or the medium where it collided.
+    const SurfaceHit* surface = hit && passed ? &*hit : nullptr;
     if (bounce == 0) {
-      const float firstHit = std::min(hit ? hit->distance : kInfinity, nearestLight);
+      const float stop = !passed ? mediumPoint.distance : hit ? hit->distance : kInfinity;
+      const float firstHit = std::min(stop, nearestLight);
       if (firstHit < kInfinity) result.depth = camera.viewDepth(ray, firstHit);
-      if (hit || sawLight) result.alpha = 1;
+      if (hit || sawLight || !passed) result.alpha = 1;
       if (firstHitRecord) {
         firstHitRecord->filterOffset = filterOffset;
         // A holdout sets the distances only: it is no surface of the image.
-        recordFirstHit(camera, ray, hit && !hit->matte ? &*hit : nullptr, firstHit, firstHitRecord);
+        recordFirstHit(camera, ray, surface && !surface->matte ? surface : nullptr, firstHit,
+                       firstHitRecord);
       }
       // A holdout: what lies behind it is hidden, and only lights in front of it count.
-      if (hit && hit->matte) {
+      if (surface && surface->matte) {
         result.alpha = sawLight ? 1 : 0;
         break;
       }
+    }
+    if (flight == FlightOutcome::Absorbed) break;
+    if (flight == FlightOutcome::Scattered) {
+      // A scattering event in a medium: light is estimated there as at a surface, with the
+      // phase function in the BSDF's place and no normal to face.
+      if (bounce >= settings.maxPathDepth || lastVertex || volumeBounces >= settings.maxVolumeDepth)
+        break;
+      const HenyeyGreenstein phase(mediumPoint.anisotropy);
+      const Vec2f lightChoices = sampler.next2D();
+      const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
+      const Receiver receiver{mediumPoint.position, Vec3f()};
+      const auto sampleLight = [&](const LightSampler::Choice& choice) {
+        const Light& light = lights[choice.index];
+        const Vec2f lightSample = sampler.draw2D(firstLightDimension + choice.slot);
+        const std::optional<LightSample> sample =
+            light.sample(mediumPoint.position, lightSample, receiver.normal);
+        if (!sample || !(sample->pdf > 0)) return;
+        const float f = phase.evaluate(ray.direction, sample->direction);
+        const float tFar =
+            std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
+        Ray shadow;
+        shadow.origin = mediumPoint.position;
+        shadow.direction = sample->direction;
+        shadow.tFar = tFar;
+        shadow.time = ray.time;
+        result.rays += light.castsShadows();
+        Vec3f transmittance{1.0f};
+        if (light.castsShadows()) {
+          if (scene.geometry().occluded(shadow)) return;
+          transmittance = volumeTransmittance(shadow, tFar);
+          if (isBlack(transmittance)) return;
+        }
+        const float lightPdf = choice.probability * sample->pdf;
+        const float weight =
+            sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
+                ? 1.0f
+                : powerHeuristic(lightPdf, f);
+        result.radiance +=
+            clampIndirect(throughput * transmittance * spectrum.emission(sample->radiance) *
+                              (f * light.diffuseMultiplier() * weight / lightPdf),
+                          bounce + 1, settings.indirectClamp);
+      };
+      if (settings.directLighting != DirectLighting::BsdfSamplingOnly)
+        scene.lights().lightSampler().forEachChoice(receiver, lightChoices.x, lightChoices.y,
+                                                    sampleLight);
+      // Phase sampling continues the path; its weight f / pdf is 1.
+      const Sample4D phaseSample = sampler.next4D();
+      const Vec3f direction = phase.sample(ray.direction, {phaseSample.y, phaseSample.z});
+      const float pdf = phase.evaluate(ray.direction, direction);
+      minRayPdf = std::min(minRayPdf, pdf);
+      scattering = {pdf, true, true, receiver};
+      lastVertex = ++volumeBounces >= settings.maxVolumeDepth;
+      if (bounce >= 3 && maxComponent(throughput) < 1) {
+        const float survival = maxComponent(throughput);
+        if (phaseSample.w >= survival) break;
+        throughput *= 1 / survival;
+      }
+      if (isBlack(throughput)) break;
+      cone.width = cone.radiusAt(mediumPoint.distance);
+      ray.origin = mediumPoint.position;
+      ray.direction = direction;
+      ray.tNear = 0;
+      ray.tFar = kInfinity;
+      continue;
     }
     if (!hit) break;
     if (!isBlack(hit->emission)) {
@@ -348,9 +451,15 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const float tFar =
           std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
       result.rays += light.castsShadows();
-      if (light.castsShadows() &&
-          scene.geometry().occluded(spawnRay(scene, *hit, sample->direction, tFar, ray.time)))
-        return;
+      Vec3f transmittance{1.0f};
+      if (light.castsShadows()) {
+        const Ray shadow = spawnRay(scene, *hit, sample->direction, tFar, ray.time);
+        if (scene.geometry().occluded(shadow)) return;
+        if (hasVolumes) {
+          transmittance = volumeTransmittance(shadow, shadow.tFar);
+          if (isBlack(transmittance)) return;
+        }
+      }
       const float lightPdf = choice.probability * sample->pdf;
       const float weight =
           sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
@@ -358,9 +467,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
               : powerHeuristic(lightPdf, bsdf.pdf(wo, sample->direction));
       const Vec3f response =
           diffusePart * light.diffuseMultiplier() + (f - diffusePart) * light.specularMultiplier();
-      result.radiance += clampIndirect(
-          throughput * response * spectrum.emission(sample->radiance) * (weight / lightPdf),
-          bounce + 1, settings.indirectClamp);
+      result.radiance +=
+          clampIndirect(throughput * transmittance * response *
+                            spectrum.emission(sample->radiance) * (weight / lightPdf),
+                        bounce + 1, settings.indirectClamp);
     };
     if (!bsdf.isPurelySpecular() && settings.directLighting != DirectLighting::BsdfSamplingOnly)
       scene.lights().lightSampler().forEachChoice(receiver, infiniteChoice, localChoice,

@@ -12,11 +12,13 @@ namespace penumbra {
 namespace {
 
 bool finiteNonNegative(const Vec3f& v) {
-  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z) && v.x >= 0 &&
-         v.y >= 0 && v.z >= 0;
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z) && v.x >= 0 && v.y >= 0 &&
+         v.z >= 0;
 }
 
-bool finiteNonNegative(float v) { return std::isfinite(v) && v >= 0; }
+bool finiteNonNegative(float v) {
+  return std::isfinite(v) && v >= 0;
+}
 
 /// The colour of a blackbody at `kelvin`, with a luminance of 1 (a table over 0–20,000 K built
 /// once from Planck's law and the rendering space's colour-matching functions).
@@ -155,16 +157,15 @@ Volume::Volume(VolumeData data) : data_(std::move(data)) {
     for (int y = 0; y < cells_[1]; ++y)
       for (int x = 0; x < cells_[0]; ++x) {
         Bounds3f cell;
-        cell.lower = bounds_.lower + Vec3f(float(x) * cellSize_.x, float(y) * cellSize_.y,
-                                           float(z) * cellSize_.z);
+        cell.lower = bounds_.lower +
+                     Vec3f(float(x) * cellSize_.x, float(y) * cellSize_.y, float(z) * cellSize_.z);
         cell.upper = cell.lower + cellSize_;
         const float densityMax = m.density * maxOver(data_.density, cell);
         float majorant = densityMax * extinctionPerDensity(m, maxOver(data_.color, cell));
         const float temperatureMax = m.temperature * maxOver(data_.temperature, cell);
         const bool emitting =
             (maxComponent(m.emission) > 0 && maxOver(data_.emission, cell) > 0) ||
-            (m.blackbodyIntensity > 0 && maxComponent(m.blackbodyTint) > 0 &&
-             temperatureMax > 0);
+            (m.blackbodyIntensity > 0 && maxComponent(m.blackbodyTint) > 0 && temperatureMax > 0);
         if (emitting) {
           emits_ = true;
           majorant = std::max(majorant, emissionMajorant);
@@ -258,8 +259,8 @@ MajorantWalk::MajorantWalk(const Volume& volume, const Vec3f& origin, const Vec3
 
 bool MajorantWalk::next(MajorantSegment* segment) {
   if (done_) return false;
-  const int axis = tNext_[0] < tNext_[1] ? (tNext_[0] < tNext_[2] ? 0 : 2)
-                                          : (tNext_[1] < tNext_[2] ? 1 : 2);
+  const int axis =
+      tNext_[0] < tNext_[1] ? (tNext_[0] < tNext_[2] ? 0 : 2) : (tNext_[1] < tNext_[2] ? 1 : 2);
   const float end = std::min(tNext_[axis], tEnd_);
   segment->tStart = t_;
   segment->tEnd = std::max(end, t_);

@@ -11,9 +11,7 @@ class ConstantField final : public VolumeField {
   void sample(const Vec3f&, float* value) const override {
     for (int c = 0; c < components_; ++c) value[c] = value_[c];
   }
-  Bounds3f objectBounds() const override {
-    return {Vec3f(-kInfinity), Vec3f(kInfinity)};
-  }
+  Bounds3f objectBounds() const override { return {Vec3f(-kInfinity), Vec3f(kInfinity)}; }
   float maxIn(const Bounds3f&) const override {
     return components_ == 1 ? value_.x : maxComponent(value_);
   }

@@ -44,7 +44,9 @@ void VolumeSet::setData(VolumeId id, VolumeData data) {
   records_.at(id).volume = std::move(volume);
 }
 
-void VolumeSet::clearData(VolumeId id) { records_.at(id).volume.reset(); }
+void VolumeSet::clearData(VolumeId id) {
+  records_.at(id).volume.reset();
+}
 
 void VolumeSet::setPlacement(VolumeId id, const MotionTransform& objectToWorld, bool visible) {
   Record& record = records_.at(id);

@@ -25,6 +25,9 @@ struct IntegratorSettings {
   int maxDiffuseDepth = 4;
   int maxGlossyDepth = 4;
   int maxTransmissionDepth = 8;
+  /// Scattering events in volumes along a path (as the lobe caps; 0: volumes absorb and emit
+  /// but do not scatter light on).
+  int maxVolumeDepth = 4;
   DirectLighting directLighting = DirectLighting::MultipleImportance;
   /// Largest component a sample of indirect light (two or more surface interactions) may add;
   /// 0: no limit. Biased (darker), as Cycles' "clamp indirect"; off by default.

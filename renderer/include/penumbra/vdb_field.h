@@ -25,7 +25,7 @@ class VolumeFieldError : public std::runtime_error {
 /// A grid read from a file, and what was repaired in it.
 struct VdbFieldRead {
   std::shared_ptr<const VolumeField> field;
-  std::string valueType;       // OpenVDB's name of the grid's value type ("float", "vec3s", …)
+  std::string valueType;         // OpenVDB's name of the grid's value type ("float", "vec3s", …)
   uint64_t nonFiniteVoxels = 0;  // NaN or infinite values, read as 0
   uint64_t negativeVoxels = 0;   // negative values of scalar grids, read as 0
 };

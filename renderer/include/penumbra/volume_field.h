@@ -26,8 +26,8 @@ struct Bounds3f {
     upper = componentMax(upper, other.upper);
   }
   bool contains(const Vec3f& p) const {
-    return p.x >= lower.x && p.x <= upper.x && p.y >= lower.y && p.y <= upper.y &&
-           p.z >= lower.z && p.z <= upper.z;
+    return p.x >= lower.x && p.x <= upper.x && p.y >= lower.y && p.y <= upper.y && p.z >= lower.z &&
+           p.z <= upper.z;
   }
 };
 

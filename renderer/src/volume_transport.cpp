@@ -1,0 +1,227 @@
+#include "volume_transport.h"
+
+#include <cmath>
+#include <vector>
+
+namespace penumbra {
+namespace {
+
+/// Tentative collisions one ray may take through the volumes before it is ended (absorbed,
+/// or opaque for a shadow ray): a guard against majorants so large that steps stop advancing.
+constexpr int kMaxTentativeCollisions = 1 << 20;
+
+float average(const Vec3f& v) {
+  return (v.x + v.y + v.z) * (1.0f / 3);
+}
+
+/// The volumes that a ray crosses, walked together: each volume's majorant cells (MajorantWalk)
+/// merged into stretches over which the sum of the majorants of the volumes there is constant.
+class MergedMajorants {
+ public:
+  MergedMajorants(const VolumeSet& volumes, const Ray& ray, float tMax, float majorantScale)
+      : scale_(majorantScale), t_(ray.tNear) {
+    for (const VolumeSet::Placed& placed : volumes.shown()) {
+      if (!placed.objectToWorld.isAnimated() && !crosses(placed.worldBounds, ray, tMax)) continue;
+      const Transform worldToObject = placed.objectToWorld.isAnimated()
+                                          ? placed.objectToWorld.at(ray.time).inverse()
+                                          : placed.worldToObject;
+      const Vec3f origin = worldToObject.applyToPoint(ray.origin);
+      const Vec3f direction = worldToObject.applyToVector(ray.direction);
+      Track track{placed.volume.get(),
+                  origin,
+                  direction,
+                  MajorantWalk(*placed.volume, origin, direction, ray.tNear, tMax),
+                  {},
+                  false};
+      track.live = track.walk.next(&track.segment);
+      if (track.live) tracks_.push_back(track);
+    }
+  }
+
+  /// The stretch from the current position: its end and summed majorant; false when every
+  /// volume is behind.
+  bool stretch(float* end, float* majorant) const {
+    bool any = false;
+    float nearestEnd = kInfinity, sum = 0;
+    for (const Track& track : tracks_) {
+      if (!track.live) continue;
+      any = true;
+      if (track.segment.tStart > t_) {
+        nearestEnd = std::min(nearestEnd, track.segment.tStart);
+      } else {
+        nearestEnd = std::min(nearestEnd, track.segment.tEnd);
+        sum += track.segment.majorant;
+      }
+    }
+    *end = nearestEnd;
+    *majorant = sum * scale_;
+    return any;
+  }
+  /// Moves the current position to `t` (within the current stretch or at its end).
+  void advanceTo(float t) {
+    t_ = t;
+    for (Track& track : tracks_)
+      while (track.live && track.segment.tEnd <= t_) track.live = track.walk.next(&track.segment);
+  }
+  float position() const { return t_; }
+
+  /// The volumes' summed coefficients at `t` (inside the current stretch), and the anisotropy of
+  /// one of the volumes there, chosen in proportion to its scattering (by `u`).
+  MediumCoefficients coefficientsAt(float t, float u, float* anisotropy) const {
+    MediumCoefficients sum;
+    const Volume* covering[8];
+    float scatterings[8];
+    int count = 0;
+    for (const Track& track : tracks_) {
+      if (!track.live || track.segment.tStart > t) continue;
+      const MediumCoefficients c = track.volume->at(track.origin + track.direction * t);
+      sum.scattering += c.scattering;
+      sum.absorption += c.absorption;
+      sum.emission += c.emission;
+      if (count < 8) {
+        covering[count] = track.volume;
+        scatterings[count++] = average(c.scattering);
+      }
+    }
+    *anisotropy = count > 0 ? covering[0]->anisotropy() : 0.0f;
+    if (count > 1) {
+      float total = 0;
+      for (int k = 0; k < count; ++k) total += scatterings[k];
+      float target = u * total;
+      for (int k = 0; k < count; ++k) {
+        *anisotropy = covering[k]->anisotropy();
+        if ((target -= scatterings[k]) < 0) break;
+      }
+    }
+    return sum;
+  }
+
+ private:
+  struct Track {
+    const Volume* volume;
+    Vec3f origin, direction;  // the ray in the volume's object space (same parameter t)
+    MajorantWalk walk;
+    MajorantSegment segment;
+    bool live;
+  };
+
+  static bool crosses(const Bounds3f& box, const Ray& ray, float tMax) {
+    float t0 = ray.tNear, t1 = tMax;
+    for (int axis = 0; axis < 3; ++axis) {
+      const float inverse = 1 / ray.direction[axis];
+      float near = (box.lower[axis] - ray.origin[axis]) * inverse;
+      float far = (box.upper[axis] - ray.origin[axis]) * inverse;
+      if (std::isnan(near) || std::isnan(far)) continue;  // on a slab plane: keep it
+      if (near > far) std::swap(near, far);
+      t0 = std::max(t0, near);
+      t1 = std::min(t1, far);
+    }
+    return t0 <= t1;
+  }
+
+  std::vector<Track> tracks_;
+  float scale_;
+  float t_;
+};
+
+/// RGB coefficients read at the path's wavelengths when it carries a spectrum.
+MediumCoefficients atWavelengths(const MediumCoefficients& c, const MediumSpectrum& spectrum) {
+  if (!spectrum.wavelengths) return c;
+  const Vec3f& lambda = spectrum.wavelengths->lambda;
+  return {RgbSpectrum::unbounded(c.scattering).at(lambda),
+          RgbSpectrum::unbounded(c.absorption).at(lambda),
+          RgbSpectrum::unbounded(c.emission).at(lambda)};
+}
+
+/// An RGB spectrum upsampled without bound reaches at most twice its largest component.
+float majorantScale(const MediumSpectrum& spectrum) {
+  return spectrum.wavelengths ? 2.0f : 1.0f;
+}
+
+float exponentialStep(float majorant, float u) {
+  return -std::log1p(-u) / majorant;
+}
+
+}  // namespace
+
+FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float tMax,
+                               const MediumSpectrum& spectrum, RandomStream& random,
+                               Vec3f* throughput, Vec3f* emitted, MediumScattering* scattering) {
+  MergedMajorants majorants(volumes, ray, tMax, majorantScale(spectrum));
+  float end = 0, majorant = 0;
+  for (int collisions = 0; majorants.stretch(&end, &majorant);) {
+    if (majorant <= 0) {
+      majorants.advanceTo(end);
+      continue;
+    }
+    const float t = majorants.position() + exponentialStep(majorant, random.next());
+    if (!(t < end)) {
+      majorants.advanceTo(end);
+      continue;
+    }
+    if (++collisions > kMaxTentativeCollisions) return FlightOutcome::Absorbed;
+    majorants.advanceTo(t);
+    float anisotropy = 0;
+    const MediumCoefficients c =
+        atWavelengths(majorants.coefficientsAt(t, random.next(), &anisotropy), spectrum);
+    Vec3f& beta = *throughput;
+    *emitted += beta * c.emission * (1 / majorant);
+    const Vec3f nullCollision{std::max(majorant - c.scattering.x - c.absorption.x, 0.0f),
+                              std::max(majorant - c.scattering.y - c.absorption.y, 0.0f),
+                              std::max(majorant - c.scattering.z - c.absorption.z, 0.0f)};
+    // History-aware probabilities (Kutz et al. 2017): the events in proportion to what they
+    // would carry of the path's weight; for grey media and weights, the analogue ones.
+    const float pAbsorb = average(beta * c.absorption), pScatter = average(beta * c.scattering),
+                pNull = average(beta * nullCollision);
+    const float total = pAbsorb + pScatter + pNull;
+    if (!(total > 0)) return FlightOutcome::Absorbed;
+    const float u = random.next() * total;
+    if (u < pAbsorb) return FlightOutcome::Absorbed;
+    if (u < pAbsorb + pScatter) {
+      beta *= c.scattering * (total / (majorant * pScatter));
+      scattering->position = ray.origin + ray.direction * t;
+      scattering->distance = t;
+      scattering->anisotropy = anisotropy;
+      return FlightOutcome::Scattered;
+    }
+    beta *= nullCollision * (total / (majorant * pNull));
+  }
+  return FlightOutcome::Passed;
+}
+
+Vec3f estimateTransmittance(const VolumeSet& volumes, const Ray& ray, float tMax,
+                            const MediumSpectrum& spectrum, RandomStream& random) {
+  MergedMajorants majorants(volumes, ray, tMax, majorantScale(spectrum));
+  Vec3f transmittance{1.0f};
+  float end = 0, majorant = 0;
+  for (int collisions = 0; majorants.stretch(&end, &majorant);) {
+    if (majorant <= 0) {
+      majorants.advanceTo(end);
+      continue;
+    }
+    const float t = majorants.position() + exponentialStep(majorant, random.next());
+    if (!(t < end)) {
+      majorants.advanceTo(end);
+      continue;
+    }
+    if (++collisions > kMaxTentativeCollisions) return Vec3f(0.0f);
+    majorants.advanceTo(t);
+    float anisotropy = 0;
+    const MediumCoefficients c =
+        atWavelengths(majorants.coefficientsAt(t, 0.5f, &anisotropy), spectrum);
+    const Vec3f extinction = c.scattering + c.absorption;
+    transmittance *= Vec3f(std::max(1 - extinction.x / majorant, 0.0f),
+                           std::max(1 - extinction.y / majorant, 0.0f),
+                           std::max(1 - extinction.z / majorant, 0.0f));
+    // Russian roulette once little is left: ratio tracking through a thick cloud would
+    // otherwise take every tentative collision to find what is nearly zero.
+    const float largest = maxComponent(transmittance);
+    if (largest < 0.1f) {
+      if (random.next() >= 0.5f) return Vec3f(0.0f);
+      transmittance *= 2.0f;
+    }
+  }
+  return transmittance;
+}
+
+}  // namespace penumbra
