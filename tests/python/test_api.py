@@ -249,12 +249,14 @@ def test_unsupported_prims_warn_once_per_type():
     UsdVol.ParticleField3DGaussianSplat.Define(stage, "/World/splats1")
     UsdVol.ParticleField3DGaussianSplat.Define(stage, "/World/splats2")
     UsdGeom.Sphere.Define(stage, "/World/ball")  # implicit surfaces are supported (tessellated)
+    UsdVol.Volume.Define(stage, "/World/smoke")  # volumes are supported (test_volumes.py)
     with pytest.warns(penumbra.PenumbraWarning) as record:
         penumbra.Renderer(stage)
     messages = [str(w.message) for w in record]
-    expected = "2 ParticleField3DGaussianSplat prims not supported yet, skipped (first: /World/splats1)"
-    assert expected in messages
+    first = "(first: /World/splats1)"
+    assert f"2 ParticleField3DGaussianSplat prims not supported yet, skipped {first}" in messages
     assert not any("Sphere" in message for message in messages)
+    assert not any("Volume prim" in message for message in messages)
 
 
 def test_mesh_without_points_is_skipped_with_warning():

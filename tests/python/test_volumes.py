@@ -156,9 +156,8 @@ def test_bad_volumes_warn_naming_prim_field_and_file_and_the_rest_renders(tmp_pa
     add_volume(stage, "/World/vector", {"density": vector})
     stage.GetPrimAtPath("/World/vector/density").GetAttribute("fieldName").Set("vel")
     add_volume(stage, "/World/declared_vector", {"density": good})
-    UsdVol.OpenVDBAsset(stage.GetPrimAtPath("/World/declared_vector/density")).CreateFieldDataTypeAttr(
-        "float3"
-    )
+    declared = UsdVol.OpenVDBAsset(stage.GetPrimAtPath("/World/declared_vector/density"))
+    declared.CreateFieldDataTypeAttr("float3")
     add_volume(stage, "/World/no_color", {"density": good, "color": tmp_path / "gone.vdb"})
     renderer, messages = new_renderer(stage)
     color, rendered = render(renderer)
@@ -322,3 +321,14 @@ def test_set_volume_refuses_bad_keys_and_types_and_changes_nothing():
         delegate.set_volume("/nothing", {}, {})
     with pytest.raises(ValueError, match="shape"):
         penumbra.write_vdb("unused.vdb", {"density": np.ones((2, 2), np.float32)})
+
+
+def test_default_camera_frames_a_volume_by_its_authored_extent(tmp_path):
+    stage = new_stage()
+    volume = add_volume(stage, "/World/smoke", {"density": write_cube(tmp_path / "cube.vdb")})
+    volume.CreateExtentAttr([Gf.Vec3f(-1, -1, -1), Gf.Vec3f(1, 1, 1)])
+    renderer, _ = new_renderer(stage)
+    color, messages = render(renderer, camera=None)
+    assert messages == []
+    assert brightness(color, 0.5, 0.5) < 0.5
+    assert brightness(color, 0.02, 0.02) == pytest.approx(1.0, abs=1e-3)

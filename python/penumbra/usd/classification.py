@@ -83,8 +83,8 @@ class Classifier:
     def _role_of_type(self, prim: Usd.Prim) -> str | None:
         """What prims of ``prim``'s type are (as UsdImaging finds its prim adapters by type
         name): "camera", a light type, "mesh" (meshes, implicit surfaces, NURBS patches and tet
-        meshes), "points", "basisCurves" (every UsdGeomCurves), "volume", "unsupported" (other gprims)
-        or ``None``; decided once per type name by its schema."""
+        meshes), "points", "basisCurves" (every UsdGeomCurves), "volume", "unsupported" (other
+        gprims) or ``None``; decided once per type name by its schema."""
         type_name = prim.GetTypeName()
         if type_name in self._roles:
             return self._roles[type_name]

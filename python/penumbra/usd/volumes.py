@@ -67,7 +67,10 @@ def sync_volume_data(
     ``path``; ``False`` when it cannot render (warned)."""
     field_paths = UsdVol.Volume(prim).GetFieldPaths()
     if not field_paths:
-        warn(f"{path}: a Volume without fields (field:NAME relationships to OpenVDBAsset prims); skipped")
+        warn(
+            f"{path}: a Volume without fields (field:NAME relationships to OpenVDBAsset "
+            "prims); skipped"
+        )
         return False
     shading = read_volume_shading(prim, material, warn)
     fields: dict[str, tuple[str, str, int]] = {}
@@ -103,7 +106,8 @@ def _field_request(
     where = f"{path}: field {name} ({field_path})"
     field_prim = volume.GetStage().GetPrimAtPath(field_path)
     if not field_prim or not field_prim.IsA(UsdVol.OpenVDBAsset):
-        kind = "does not exist" if not field_prim else f"is a {field_prim.GetTypeName() or 'typeless'} prim"
+        type_name = field_prim.GetTypeName() or "typeless" if field_prim else ""
+        kind = f"is a {type_name} prim" if field_prim else "does not exist"
         warn(f"{where} {kind}, not an OpenVDBAsset; {outcome}")
         return None
     asset = UsdVol.OpenVDBAsset(field_prim)
