@@ -12,7 +12,8 @@ EXAMPLE_IMAGE := examples/images/cornell.png
 DEBIAN_PACKAGES := build-essential cmake ninja-build pkg-config git \
 	python3.11 python3.11-venv python3.11-dev \
 	libembree-dev libosd-dev libopencolorio-dev libopenimageio-dev libtbb-dev \
-	libopencv-core-dev openimageio-tools opencolorio-tools libgtest-dev
+	libopencv-core-dev openimageio-tools opencolorio-tools libgtest-dev \
+	libopenvdb-dev libnanovdb-dev libboost-dev
 PYTHON_PACKAGES := usd-core==26.11 "numpy>=1.26" "pybind11>=2.12" "scikit-build-core>=0.10" "pytest>=8" "atheris>=2.3" \
 	"materialx>=1.39" "pyoidn>=2.3" "dask[distributed]==2026.8.0"
 
