@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdVol
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, UsdVol
 
 import penumbra
 from stages import add_camera, add_instance, add_quad, new_stage
@@ -332,3 +332,40 @@ def test_default_camera_frames_a_volume_by_its_authored_extent(tmp_path):
     assert messages == []
     assert brightness(color, 0.5, 0.5) < 0.5
     assert brightness(color, 0.02, 0.02) == pytest.approx(1.0, abs=1e-3)
+
+
+def test_volumes_in_point_instancer_prototypes_are_skipped_with_a_warning(tmp_path):
+    stage = new_stage()
+    add_camera(stage)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/World/scatter")
+    add_volume(stage, "/World/scatter/smoke", {"density": write_cube(tmp_path / "cube.vdb")})
+    add_quad(stage, "/World/scatter/card", half_size=0.2)
+    instancer.CreatePrototypesRel().SetTargets(
+        [Sdf.Path("/World/scatter/smoke"), Sdf.Path("/World/scatter/card")]
+    )
+    instancer.CreateProtoIndicesAttr([0, 1])
+    instancer.CreatePositionsAttr([Gf.Vec3f(-1, 0, 0), Gf.Vec3f(1, 0, 0)])
+    renderer, messages = new_renderer(stage)
+    color, rendered = render(renderer)
+    skipped = [m for m in messages + rendered if "point-instancer prototypes" in m]
+    assert skipped and all(m.startswith("/World/scatter/smoke:") for m in skipped)
+    assert not renderer.delegate.has_prim("/World/scatter/smoke")
+    assert brightness(color, 0.25, 0.5) == pytest.approx(1.0, abs=1e-3)  # no medium
+
+
+def test_binding_and_material_edits_re_read_the_volume(tmp_path):
+    stage = cube_stage(tmp_path)
+    renderer, _ = new_renderer(stage)
+    render(renderer)
+    syncs = renderer.delegate.sync_count("/World/smoke")
+    material = UsdShade.Material.Define(stage, "/World/looks/fog")
+    shader = UsdShade.Shader.Define(stage, "/World/looks/fog/node")
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World/smoke")).Bind(material)
+    render(renderer)
+    assert renderer.delegate.sync_count("/World/smoke") == syncs + 1
+    shader.CreateInput("density", Sdf.ValueTypeNames.Float).Set(2.0)  # a node of its material
+    render(renderer)
+    assert renderer.delegate.sync_count("/World/smoke") == syncs + 2
+    add_quad(stage, "/World/looks_elsewhere", half_size=0.1)  # unrelated: nothing re-read
+    render(renderer)
+    assert renderer.delegate.sync_count("/World/smoke") == syncs + 2
