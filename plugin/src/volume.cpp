@@ -25,8 +25,8 @@ constexpr std::array<Slot, 4> kSlots{{
 }};
 
 std::string describe(const PrimId& id, const Slot& slot, const FieldRequest& request) {
-  return id + ": field slot '" + slot.name + "' (file " + request.path + ", grid '" + request.gridName +
-         "' #" + std::to_string(request.index) + ")";
+  return id + ": field slot '" + slot.name + "' (file " + request.path + ", grid '" +
+         request.gridName + "' #" + std::to_string(request.index) + ")";
 }
 
 }  // namespace
