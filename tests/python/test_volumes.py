@@ -14,6 +14,7 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, UsdVol
 
 import penumbra
+from penumbra.memory import FILM_BYTES_PER_PIXEL, resident_memory
 from stages import add_camera, add_instance, add_quad, new_stage
 
 WIDTH = 16
@@ -23,6 +24,7 @@ RENDER = dict(camera="/cam", width=WIDTH, samples=16)
 VOXEL = 0.25
 SIDE = 8  # voxels per side of the cube: [-1, 1]³ around its centre
 DENSE = 40.0  # per unit: light crossing the cube is gone
+CACHE = 16 * 2**20  # the smallest texture cache: the budgets below are tight
 
 
 def cube_transform(centre=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -369,3 +371,38 @@ def test_binding_and_material_edits_re_read_the_volume(tmp_path):
     add_quad(stage, "/World/looks_elsewhere", half_size=0.1)  # unrelated: nothing re-read
     render(renderer)
     assert renderer.delegate.sync_count("/World/smoke") == syncs + 2
+
+
+def test_a_volume_is_checked_against_the_memory_budget_before_it_is_read(tmp_path):
+    side = 128  # random values: the file does not compress below the voxels' 8 MiB
+    grid = np.random.default_rng(1).uniform(0.5, 1.0, (side, side, side)).astype(np.float32)
+    to_object = np.diag([2 / side, 2 / side, 2 / side, 1.0])  # [0, 2)³
+    penumbra.write_vdb(str(tmp_path / "noise.vdb"), {"density": grid}, to_object)
+    stage = new_stage()
+    add_camera(stage)
+    add_volume(stage, "/World/smoke", {"density": tmp_path / "noise.vdb"})
+    renderer, _ = new_renderer(stage)
+    estimate = renderer.delegate.estimated_sync_bytes()
+    assert estimate == 2 * os.path.getsize(tmp_path / "noise.vdb") > 8 * 2**20
+    budget = resident_memory() + CACHE + WIDTH * WIDTH * FILM_BYTES_PER_PIXEL + estimate // 2
+    with pytest.raises(penumbra.SceneError, match="acceleration structures"):
+        renderer.render(**RENDER, max_memory=budget, texture_cache=CACHE)
+    assert renderer.delegate.sync_statistics()["volumeFieldReads"] == 0  # nothing was read
+    renderer.render(**RENDER, texture_cache=CACHE)
+    held = renderer.delegate.sync_statistics()["volumeBytes"]
+    assert side**3 * 4 < held < estimate  # the voxels, and less than the estimate
+
+
+def test_a_material_the_renderer_refuses_skips_the_volume_with_a_warning(tmp_path):
+    stage = cube_stage(tmp_path)
+    renderer, _ = new_renderer(stage)
+    fields = {"density": (str(tmp_path / "cube.vdb"), "density", 0)}
+    renderer.delegate.set_volume("/World/smoke", fields, {"anisotropy": 1.5})
+    color, messages = render(renderer)
+    assert len(messages) == 1
+    assert messages[0].startswith("/World/smoke: ") and "anisotropy" in messages[0]
+    assert messages[0].endswith("; skipped")
+    assert brightness(color, 0.5, 0.5) == pytest.approx(1.0, abs=1e-3)
+    renderer.delegate.set_volume("/World/smoke", fields, {"anisotropy": 0.5})
+    color, messages = render(renderer)
+    assert messages == [] and brightness(color, 0.5, 0.5) < 0.5
