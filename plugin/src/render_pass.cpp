@@ -112,6 +112,7 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator.maxDiffuseDepth = settings.maxDiffuseDepth;
   renderSettings.integrator.maxGlossyDepth = settings.maxGlossyDepth;
   renderSettings.integrator.maxTransmissionDepth = settings.maxTransmissionDepth;
+  renderSettings.integrator.maxVolumeDepth = settings.maxVolumeDepth;
   renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
   renderSettings.integrator.indirectClamp = settings.indirectClamp;
   renderSettings.integrator.glossyFilter = settings.glossyFilter;

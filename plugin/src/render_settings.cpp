@@ -73,6 +73,8 @@ std::vector<RenderOption> buildRenderOptions() {
                                   "maximum number of glossy bounces of a path"));
   options.push_back(integerOption("maxTransmissionDepth", &Settings::maxTransmissionDepth, 8, 0,
                                   "N", "maximum number of transmission bounces of a path"));
+  options.push_back(integerOption("maxVolumeDepth", &Settings::maxVolumeDepth, 4, 0, "N",
+                                  "maximum number of scattering events in volumes of a path"));
   RenderOption& complexity = options.emplace_back(levelOption(
       "complexity", &Settings::complexity, {"low", "medium", "high", "veryhigh"},
       "how finely subdivision surfaces are diced: Penumbra renders their limit surface, "

@@ -144,6 +144,22 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
                                multipleScatteringScale(albedo, averageAlbedo) * metallic;
     diffuseReflectance_ = albedo * (1 - metallic);
   }
+  const float subsurface = clamp01(material.subsurface);
+  if (subsurface > 0) {
+    // Subsurface scattering shares the diffuse layer (with its metallic weight): solids let
+    // that share in; sheets, which hold no medium, reflect it with the subsurface colour.
+    const float dielectricShare =
+        material.useSpecularWorkflow ? 1.0f : 1 - clamp01(material.metallic);
+    const Vec3f subsurfaceColor = clamp01(material.subsurfaceColor);
+    if (dielectricKind_ == DielectricKind::Solid) {
+      diffuseReflectance_ = diffuseReflectance_ * (1 - subsurface);
+      subsurface_ = subsurface * dielectricShare;
+      subsurfaceColor_ = subsurfaceColor;
+    } else {
+      diffuseReflectance_ =
+          lerp(diffuseReflectance_, subsurfaceColor * dielectricShare, subsurface);
+    }
+  }
   const Vec3f coverAverage =
       SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}.averageAlbedo(
           lobeAverage);
@@ -227,10 +243,15 @@ PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(const Vec3f& wo
           below * luminance(tintUnderCoat(multipleScatteringScale_)) * outgoing.specularLoss;
     }
     p.diffuse = below * luminance(tintUnderCoat(diffuseReflectance_ * outgoing.underSpecular));
+    if (subsurface_ > 0) {
+      p.subsurface =
+          below * subsurface_ * luminance(tintUnderCoat(subsurfaceColor_ * outgoing.underSpecular));
+    }
   }
   p.dielectric = 1 - opacity_;  // its albedo is 1: energy-compensated, and nothing is absorbed
-  const float total =
-      p.coat + p.specular + p.multipleScattering + p.diffuse + p.sheen + p.dielectric;
+  // (Subsurface last: where it is 0 the sum is bit-identical to the one without it.)
+  const float total = p.coat + p.specular + p.multipleScattering + p.diffuse + p.sheen +
+                      p.dielectric + p.subsurface;
   if (!(total > 0)) {
     p = {};
     return outgoing;
@@ -242,6 +263,7 @@ PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(const Vec3f& wo
   p.multipleScattering *= scale;
   p.diffuse *= scale;
   p.dielectric *= scale;
+  p.subsurface *= scale;
   return outgoing;
 }
 
@@ -356,12 +378,14 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
   const LobeProbabilities& p = forWo.probabilities;
 
   // Picks lobe k if uLobe falls in its interval and rescales uLobe to [0, 1) within it, so that
-  // the dielectric can reuse it for its reflect/refract choice.
-  const std::array<float, 6> probabilities{p.coat,    p.specular, p.multipleScattering,
-                                           p.diffuse, p.sheen,    p.dielectric};
+  // the dielectric can reuse it for its reflect/refract choice. Subsurface comes last, so that
+  // materials without it choose exactly as before.
+  constexpr int kLobes = 7;
+  const std::array<float, kLobes> probabilities{
+      p.coat, p.specular, p.multipleScattering, p.diffuse, p.sheen, p.dielectric, p.subsurface};
   int lobe = -1;
   float cumulative = 0;
-  for (int k = 0; k < 6; ++k) {
+  for (int k = 0; k < kLobes; ++k) {
     if (probabilities[k] > 0 && uLobe < cumulative + probabilities[k]) {
       lobe = k;
       uLobe = std::min((uLobe - cumulative) / probabilities[k], 0.99999994f);
@@ -370,7 +394,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
     cumulative += probabilities[k];
   }
   if (lobe < 0) {  // rounding left uLobe past the last interval: take the last non-empty lobe
-    for (int k = 5; k >= 0 && lobe < 0; --k) {
+    for (int k = kLobes - 1; k >= 0 && lobe < 0; --k) {
       if (probabilities[k] > 0) lobe = k;
     }
     if (lobe < 0) return std::nullopt;
@@ -428,6 +452,19 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
       wi = sampleUniformHemisphere(u);
       result.lobe = BsdfLobe::Glossy;
       break;
+    case 6: {  // into the solid: what the diffuse share would have reflected, without colour
+      Vec3f inward = sampleCosineHemisphere(u);
+      inward.z = -inward.z;
+      const float coat = forWo.coatTransmittance;
+      result.direction = toWorld(inward);
+      result.weight = tintUnderCoat(forWo.underSpecular) *
+                      (opacity_ * subsurface_ * coat * forWo.sheenTransmittance / p.subsurface);
+      result.pdf = p.subsurface * -inward.z * kInvPi;
+      result.lobe = BsdfLobe::Subsurface;
+      result.transmitted = true;
+      if (!(result.pdf > 0)) return std::nullopt;
+      return result;
+    }
     default: {  // translucent part
       const float eta = flipped ? 1 / ior_ : ior_;
       const float weight = 1 - opacity_;

@@ -33,7 +33,7 @@ bool invertible(const Transform& transform) {
   return std::fabs(det) > 1e-9 * rowLengths;
 }
 
-// Scalars and 3-vectors as the renderer reads them (float), whatever the file held.
+// What maxIn bounds: the value of a scalar, the largest component of a vector.
 float largestComponent(float value) {
   return value;
 }
@@ -91,7 +91,6 @@ template <typename ValueT>
 class VdbField final : public VolumeField {
   using NanoTree = nanovdb::NanoTree<ValueT>;
   using Upper = typename NanoTree::Node2;
-  using Lower = typename NanoTree::Node1;
   using Leaf = typename NanoTree::Node0;
   using Accessor = typename nanovdb::NanoGrid<ValueT>::AccessorType;
 
@@ -395,8 +394,13 @@ void writeVdbFile(const std::string& path, const std::vector<VdbGridToWrite>& gr
     else
       vdbGrid = sparseGridOf<openvdb::Vec3SGrid>(grid.nx, grid.ny, grid.nz, grid.values);
     vdbGrid->setName(grid.name);
-    vdbGrid->setTransform(
-        openvdb::math::Transform::createLinearTransform(toOpenVdb(grid.indexToObject)));
+    try {
+      vdbGrid->setTransform(
+          openvdb::math::Transform::createLinearTransform(toOpenVdb(grid.indexToObject)));
+    } catch (const openvdb::ArithmeticError& e) {  // nearly singular by OpenVDB's measure
+      throw std::invalid_argument("grid '" + grid.name + "' has a singular transform (" + e.what() +
+                                  ")");
+    }
     vdbGrids.push_back(vdbGrid);
   }
   // A uniquely named sibling, so that a reader never sees a half-written file.

@@ -192,9 +192,8 @@ def _mean(value: mv.Value) -> mv.Value:
 def _map_standard_surface(s: Surface, mapping: Mapping) -> None:
     base = s.combine(mv.multiply, ("base", s("base")), ("base_color", s("base_color")),
                      keep=1)
-    if s.connected("subsurface") or (s.constant("subsurface") or (0.0,))[0] > 0:
-        base = s.combine(mv.mix, ("subsurface_color", s("subsurface_color")),
-                         ("base_color", base), ("subsurface", s("subsurface")), keep=1)
+    _subsurface(s, mapping, weight="subsurface", radius="subsurface_radius",
+                scale="subsurface_scale", anisotropy="subsurface_anisotropy", keep_radius=0)
     roughness = s.constant("specular_roughness")
     extra = s.constant("transmission_extra_roughness")
     # standard_surface's sheen lies on the diffuse base only, not on the metal mixed beside it:
@@ -222,11 +221,10 @@ def _map_standard_surface(s: Surface, mapping: Mapping) -> None:
         sheen=(sheen, s("sheen_color"), s("sheen_roughness")),
     )
     _standard_surface_anisotropy(s, mapping)
+    _transmission_absorption(s, mapping, "transmission")
     for name, neutral, weight in (
         ("diffuse_roughness", (0.0,), None),
         ("coat_IOR", (1.5,), "coat"),
-        ("transmission_color", (1.0,), "transmission"),
-        ("transmission_depth", (0.0,), "transmission"),
         ("transmission_scatter", (0.0,), "transmission"),
         ("thin_film_thickness", (0.0,), None),
     ):
@@ -256,10 +254,9 @@ def _anisotropic(*anisotropies: mv.Value | None) -> bool:
 def _map_open_pbr(s: Surface, mapping: Mapping) -> None:
     base = s.combine(mv.multiply, ("base_weight", s("base_weight")),
                      ("base_color", s("base_color")), keep=1)
-    if s.connected("subsurface_weight") or (s.constant("subsurface_weight") or (0.0,))[0] > 0:
-        base = s.combine(mv.mix, ("subsurface_color", s("subsurface_color")),
-                         ("base_color", base), ("subsurface_weight", s("subsurface_weight")),
-                         keep=1)
+    _subsurface(s, mapping, weight="subsurface_weight", radius="subsurface_radius",
+                scale="subsurface_radius_scale", anisotropy="subsurface_scatter_anisotropy",
+                keep_radius=1)
     dispersion = (s.constant("transmission_dispersion_scale") or (0.0,))[0]
     abbe = (s.constant("transmission_dispersion_abbe_number") or (0.0,))[0]
     roughness = s.constant("specular_roughness")
@@ -288,14 +285,48 @@ def _map_open_pbr(s: Surface, mapping: Mapping) -> None:
                                 ("geometry_coat_tangent", coat_anisotropy)):
         if s.connected(tangent) and _anisotropic(anisotropy):
             s.unsupported.append(tangent)
+    _transmission_absorption(s, mapping, "transmission_weight")
     for name, neutral, weight, tolerance in (
         ("base_diffuse_roughness", (0.0,), None, 1e-6),
         ("coat_ior", (1.5,), "coat_weight", 0.15),  # the BSDF's coat has ior 1.5
-        ("transmission_color", (1.0,), "transmission_weight", 1e-6),
-        ("transmission_depth", (0.0,), "transmission_weight", 1e-6),
+        ("transmission_scatter", (0.0,), "transmission_weight", 1e-6),
         ("thin_film_weight", (0.0,), None, 1e-6),
     ):
         s.ignore(name, neutral, weight, tolerance)
+
+
+def _subsurface(s: Surface, mapping: Mapping, *, weight: str, radius: str, scale: str,
+                anisotropy: str, keep_radius: int) -> None:
+    """Subsurface scattering (a random walk through closed meshes, diffuse reflection of the
+    subsurface colour on open ones; renderer/include/penumbra/subsurface.h): its weight, colour,
+    anisotropy and mean free path, the radius times its scale (``keep_radius``: which of the two
+    is kept, after a warning, when they cannot be multiplied — the colour one). Nothing is sent
+    for a weight of 0."""
+    if not s.connected(weight) and (s.constant(weight) or (0.0,))[0] <= 0:
+        return
+    mapping.values.update({
+        "penumbra:subsurface": s(weight),
+        "penumbra:subsurfaceColor": s("subsurface_color"),
+        "penumbra:subsurfaceRadius": s.combine(mv.multiply, (radius, s(radius)),
+                                               (scale, s(scale)), keep=keep_radius),
+        "penumbra:subsurfaceAnisotropy": s(anisotropy),
+    })
+
+
+def _transmission_absorption(s: Surface, mapping: Mapping, weight: str) -> None:
+    """A solid's transmission colour reached at its transmission depth (absorbing glass;
+    renderer/include/penumbra/material.h, transmissionDepth). Without a positive constant depth
+    the colour would tint the interface itself, which the BSDF's translucent part cannot: it is
+    reported then."""
+    depth = s.constant("transmission_depth")
+    if s.constant(weight) == (0.0,):
+        return
+    if depth is not None and depth[0] > 0:
+        mapping.params["penumbra:transmissionDepth"] = depth[0]
+        mapping.values["penumbra:transmissionColor"] = s("transmission_color")
+        return
+    s.ignore("transmission_color", (1.0,), weight)
+    s.ignore("transmission_depth", (0.0,), weight)
 
 
 def _map_preview_surface(s: Surface, mapping: Mapping) -> None:

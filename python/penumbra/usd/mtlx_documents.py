@@ -185,15 +185,18 @@ class _Translator:
         self.stage.DefinePrim(materials, "Scope")
         for node in self.document.getMaterialNodes():
             material = UsdShade.Material.Define(self.stage, materials.AppendChild(node.getName()))
-            shader_input = node.getInput("surfaceshader")
-            shader_node = shader_input.getConnectedNode() if shader_input else None
-            if shader_node is None:
-                continue
             copied: dict[str, UsdShade.Shader] = {}
-            shader = self._node(shader_node, material.GetPath(), copied, None)
-            surface = shader.CreateOutput("surface", Sdf.ValueTypeNames.Token)
-            material.CreateOutput("mtlx:surface", Sdf.ValueTypeNames.Token).ConnectToSource(
-                surface)
+            for terminal in ("surfaceshader", "volumeshader"):
+                shader_input = node.getInput(terminal)
+                shader_node = shader_input.getConnectedNode() if shader_input else None
+                if shader_node is None:
+                    continue
+                shader = self._node(shader_node, material.GetPath(), copied, None)
+                # A volume node keeps its ``out`` output (_node); a surface gets ``surface``.
+                source = shader.CreateOutput("surface", Sdf.ValueTypeNames.Token) \
+                    if terminal == "surfaceshader" else shader.GetOutput("out")
+                material.CreateOutput(f"mtlx:{terminal[:-len('shader')]}",
+                                      Sdf.ValueTypeNames.Token).ConnectToSource(source)
 
     def _node(self, node: Any, parent: Sdf.Path, copied: dict[str, UsdShade.Shader],
               graph: UsdShade.NodeGraph | None) -> UsdShade.Shader:

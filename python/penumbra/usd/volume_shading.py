@@ -5,16 +5,24 @@ fields feed its density, colour, temperature and emission.
 Without a material, the default is close to Cycles' Principled Volume with its defaults: grey
 scattering (colour 0.5) of density 1 × the ``density`` field, colour from ``color`` or ``Cd``,
 and blackbody emission (intensity 1) from ``temperature`` or ``heat`` × 1000 K when the volume
-has such a field. A bound MaterialX volume material (``outputs:mtlx:volume``) is read by
-:func:`read_volume_shading`.
+has such a field. A bound material is read by :func:`read_volume_shading`: a MaterialX
+``volume`` node (``materialx_volumes``) or Penumbra's principled volume shader
+(``principled_volume``) on its ``outputs:mtlx:volume`` or ``outputs:volume``
+(docs/volume-materials.md).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
-from pxr import Usd
+from pxr import Usd, UsdShade, UsdVol
+
+from .materialx import RENDER_CONTEXT
+from .materialx_volumes import VOLUME, read_materialx_volume
+from .principled_volume import PRINCIPLED_VOLUME, read_principled_volume
+from .sampling import SampleReader
+from .volume_inputs import VolumeWarnings
 
 Color = tuple[float, float, float]
 
@@ -48,9 +56,47 @@ class VolumeShading:
 
 
 def read_volume_shading(
-    volume: Usd.Prim, material: Usd.Prim | None, warn: Callable[[str], None]
+    volume: Usd.Prim, material: Usd.Prim | None, warn: Callable[[str], None],
+    time: Usd.TimeCode = Usd.TimeCode.Default(),
 ) -> VolumeShading:
-    """The shading of ``volume`` with ``material`` bound (``None``: the default). A material
-    without a volume output, or with nodes that cannot be read, gives the default with one
-    warning naming the volume and the material."""
-    return VolumeShading()
+    """The shading of ``volume`` with ``material`` bound (``None``: the default) at ``time``.
+    What a material asks for that the renderer cannot do is approximated by the closest
+    mapping, with one warning naming the volume, the material and the node and input; a
+    material without a volume shader Penumbra reads gives the default, with one warning."""
+    if material is None:
+        return default_shading(volume)
+    report = VolumeWarnings(volume.GetPath(), warn)
+    if not material.IsA(UsdShade.Material):
+        report(f"{material.GetPath()} is not a Material; the default volume is used")
+        return default_shading(volume)
+    reader = SampleReader(time)
+    shaders = [UsdShade.Material(material).ComputeVolumeSource(context)[0]
+               for context in (RENDER_CONTEXT, UsdShade.Tokens.universalRenderContext)]
+    shaders = [shader for shader in shaders if shader]
+    for shader in shaders:
+        shader_id = shader.GetShaderId() or ""
+        if shader_id == VOLUME:
+            return replace(VolumeShading(), **read_materialx_volume(
+                volume, material.GetPath(), shader, reader, report))
+        if shader_id == PRINCIPLED_VOLUME:
+            return replace(VolumeShading(), **read_principled_volume(
+                material.GetPath(), shader, reader, report))
+    if shaders:
+        report(f"{material.GetPath()}: volume shader {shaders[0].GetPath()} "
+               f"({shaders[0].GetShaderId() or 'no info:id'}) is not supported (Penumbra reads "
+               f"{VOLUME} and {PRINCIPLED_VOLUME}); the default volume is used")
+    else:
+        report(f"{material.GetPath()} has no volume shader (outputs:mtlx:volume or "
+               "outputs:volume); the default volume is used")
+    return default_shading(volume)
+
+
+def default_shading(volume: Usd.Prim) -> VolumeShading:
+    """The shading of ``volume`` without a material: :class:`VolumeShading`'s defaults, without
+    blackbody emission when the volume has no temperature field (T would be a uniform
+    1000 K)."""
+    shading = VolumeShading()
+    if any(UsdVol.Volume(volume).HasFieldRelationship(name)
+           for name in shading.temperature_fields):
+        return shading
+    return replace(shading, blackbody_intensity=0.0, temperature_fields=())

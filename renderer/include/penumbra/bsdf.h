@@ -15,6 +15,9 @@
 //              workflow) or ((1 − ior)/(1 + ior))² mixed towards diffuseColor by `metallic`
 //              (metallic workflow) — plus Kulla–Conty multiple-scattering compensation
 //   diffuse    Lambertian, diffuseColor (× (1 − metallic) in the metallic workflow)
+//   subsurface on solids, a share `subsurface` of the diffuse layer enters the solid instead
+//              (BsdfLobe::Subsurface: its light leaves elsewhere, through a random walk in
+//              subsurface.h); on thin sheets that share reflects diffusely with subsurfaceColor
 // The translucent part is a clear (untinted) dielectric interface with index of refraction `ior`
 // and α = transmissionRoughness², reflection and refraction split by the exact Fresnel equations.
 // Every GGX lobe is sampled by its visible normals (Heitz 2018) and uses Smith's
@@ -79,6 +82,13 @@ enum class BsdfLobe : uint8_t {
   Glossy,        // rough reflection (microfacet, incl. its multiple-scattering term)
   Specular,      // delta reflection
   Transmission,  // refraction, rough or delta (see BsdfSample::isDelta)
+  /// Entry into a solid's scattering interior (MaterialParams::subsurface): a direction into
+  /// the surface, cosine-distributed about the normal on the side away from wo, weighted by
+  /// what the diffuse layer's share would have reflected (its Fresnel and coat losses for wo,
+  /// without colour: the walk's albedo gives that). Light does not return through this lobe at
+  /// this point: evaluate() and pdf() have no part of it; the integrator follows a random walk
+  /// (subsurfaceRandomWalk) to where the light leaves.
+  Subsurface,
 };
 
 struct BsdfSample {
@@ -141,7 +151,8 @@ class PreviewSurfaceBsdf {
 
  private:
   struct LobeProbabilities {
-    float coat = 0, specular = 0, multipleScattering = 0, diffuse = 0, sheen = 0, dielectric = 0;
+    float coat = 0, specular = 0, multipleScattering = 0, diffuse = 0, sheen = 0, dielectric = 0,
+          subsurface = 0;
   };
   /// What depends on the outgoing direction alone (wo, local, wo.z > 0): the lobe choice
   /// probabilities and the factors for wo of evaluateOpaque. Isotropic lobes read only wo.z.
@@ -198,6 +209,10 @@ class PreviewSurfaceBsdf {
   Vec3f diffuseCoverF0_;
   Vec3f diffuseCoverMultipleScattering_;
   Vec3f diffuseNormalization_;  // 1 / (π (1 − E_avg)) of that cover, 0 where nothing gets through
+  // The diffuse layer's share entering a solid (× (1 − metallic) in the metallic workflow; 0:
+  // none) and the colour it shows, which weighs the lobe's choice.
+  float subsurface_ = 0;
+  Vec3f subsurfaceColor_{0.0f};
   // Translucent part.
   float ior_;
   float dielectricAlpha_;

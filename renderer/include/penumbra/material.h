@@ -61,6 +61,22 @@ struct MaterialParams {
   /// inputs:penumbra:thinWalled: whether translucency is a thin sheet (true) or the boundary of
   /// a solid (false); unset: as the mesh's geometry says (TriangleMesh::closed).
   std::optional<bool> thinWalled;
+  /// inputs:penumbra:subsurface, subsurfaceColor, subsurfaceRadius, subsurfaceAnisotropy: the
+  /// share (0–1) of the diffuse layer that enters the solid and scatters through its volume
+  /// (a random walk, subsurface.h) instead of reflecting at the surface, as standard_surface's
+  /// and OpenPBR's subsurface: the colour the walk's multiple scattering shows (its albedo), the
+  /// mean free path per channel in scene units (the authored radius times its scale) and the
+  /// Henyey–Greenstein g of the interior (−1..1). Only solids (closed meshes) hold a medium: on
+  /// open ones the share reflects diffusely with subsurfaceColor.
+  float subsurface = 0;
+  Vec3f subsurfaceColor{0.8f};
+  Vec3f subsurfaceRadius{1.0f};
+  float subsurfaceAnisotropy = 0;
+  /// inputs:penumbra:transmissionDepth and transmissionColor: the translucent part of a solid is
+  /// absorbing glass whose interior lets transmissionColor through over transmissionDepth scene
+  /// units (σa = −ln(transmissionColor) / transmissionDepth); depth 0: clear glass.
+  float transmissionDepth = 0;
+  Vec3f transmissionColor{1.0f};
 
   /// inputs:penumbra:hair: the surface scatters as a hair fibre (Chiang et al. 2016's model,
   /// HairBsdf in hair_bsdf.h) instead of as a UsdPreviewSurface; the hair* parameters below are
@@ -139,6 +155,9 @@ enum class MaterialInput : uint8_t {
   HairColor,
   HairMelanin,
   HairMelaninRedness,
+  Subsurface,
+  SubsurfaceColor,
+  SubsurfaceRadius,
   Normal,
 };
 

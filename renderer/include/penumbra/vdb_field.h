@@ -31,8 +31,9 @@ struct VdbFieldRead {
 };
 
 /// Reads the `index`-th grid named `gridName` (0: the first of that name) of the OpenVDB file
-/// `path`. Float, double and half grids give scalar fields; Vec3 grids of float or double give
-/// 3-component fields; every other value type (int, bool, masks, …) is refused. The field's
+/// `path`. Float, double and half grids (OpenVDB reads half as float) give scalar fields; Vec3
+/// grids of float or double give 3-component fields; every other value type (int, bool, masks,
+/// …) is refused. The field's
 /// object space is the grid's world space (the grid's own transform is applied). Throws
 /// VolumeFieldError.
 VdbFieldRead readVdbField(const std::string& path, const std::string& gridName, int index = 0);
@@ -55,7 +56,7 @@ struct VdbGridToWrite {
 
 /// Writes the grids (zero voxels left inactive) to the OpenVDB file `path`, atomically (a
 /// temporary file renamed into place). Throws VolumeFieldError naming the file on failure and
-/// std::invalid_argument for grids whose sizes do not match.
+/// std::invalid_argument for grids whose sizes do not match or whose transform is singular.
 void writeVdbFile(const std::string& path, const std::vector<VdbGridToWrite>& grids);
 
 }  // namespace penumbra

@@ -21,6 +21,7 @@ struct RenderSettingsMap {
   int maxDiffuseDepth;
   int maxGlossyDepth;
   int maxTransmissionDepth;
+  int maxVolumeDepth;
   int complexity;
   int directLighting;
   float adaptiveThreshold;
