@@ -23,6 +23,7 @@ void RenderDelegate::forEachKind(Self& self, Visit visit) {
   visit(self.meshes_);
   visit(self.points_);
   visit(self.curves_);
+  visit(self.volumes_);
   visit(self.instancers_);
   visit(self.cameras_);
   visit(self.materials_);
@@ -34,6 +35,10 @@ void RenderDelegate::insertRprim(const std::string& type, const PrimId& id) {
   if (hasPrim(id)) throw std::invalid_argument(id + ": a prim with this id already exists");
   if (type == "instancer") {
     instancers_.insert(std::make_unique<Instancer>(id, scene_->geometry().addInstancer()));
+    return;
+  }
+  if (type == "volume") {  // not in the geometry: instancers cannot copy it
+    volumes_.insert(std::make_unique<Volume>(id, scene_->volumes().add()));
     return;
   }
   if (type == "mesh")
@@ -127,6 +132,9 @@ Points& RenderDelegate::points(const PrimId& id) {
 Curves& RenderDelegate::curves(const PrimId& id) {
   return curves_.at(id, "curves");
 }
+Volume& RenderDelegate::volume(const PrimId& id) {
+  return volumes_.at(id, "volume");
+}
 RenderBuffer& RenderDelegate::renderBuffer(const PrimId& id) {
   return renderBuffers_.at(id, "render buffer");
 }
@@ -160,6 +168,8 @@ RenderDelegate::SyncStatistics RenderDelegate::syncStatistics() const {
   statistics.materialTextureOpens = counters.materialTextureOpens;
   statistics.lightBuilds = counters.lightBuilds;
   statistics.lightTextureLoads = counters.lightTextureLoads;
+  statistics.volumeFieldReads = context_.volumeFields.reads();
+  statistics.volumeBytes = scene_->volumes().memoryBytes();
   return statistics;
 }
 
@@ -200,6 +210,8 @@ size_t RenderDelegate::estimatedSyncBytes() const {
     if (points.visible()) bytes += estimatedPointsBytes(points.data());
   }
   for (const PrimId& id : curves_.dirty()) bytes += curves_.find(id)->estimatedSyncBytes();
+  for (const PrimId& id : volumes_.dirty())
+    bytes += volumes_.find(id)->estimatedSyncBytes(context_.volumeFields);
   for (const PrimId& id : instancers_.dirty()) bytes += instancers_.find(id)->estimatedSyncBytes();
   return bytes;
 }
@@ -228,6 +240,7 @@ bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
   meshes_.syncDirty(context_);
   points_.syncDirty(context_);
   curves_.syncDirty(context_);
+  volumes_.syncDirty(context_);
   // After the geometry: copies follow their prototype's geometry, placed by the scene.
   instancers_.syncDirty(context_);
   renderBuffers_.syncDirty(context_);

@@ -16,6 +16,8 @@ void bindScene(pybind11::module_& m, DelegateClass& delegate);
 void bindPoints(pybind11::module_& m, DelegateClass& delegate);
 /// Curves rprims: set_curves (curves.cpp).
 void bindCurves(pybind11::module_& m, DelegateClass& delegate);
+/// Volume rprims: set_volume; and write_vdb (volumes.cpp).
+void bindVolumes(pybind11::module_& m, DelegateClass& delegate);
 /// Materials: set_material and the dict schemas of its networks (materials.cpp).
 void bindMaterials(pybind11::module_& m, DelegateClass& delegate);
 /// The delegate's sync state (render settings, dicing camera, statistics, warnings), render

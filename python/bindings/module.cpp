@@ -30,6 +30,7 @@ PYBIND11_MODULE(_core, m) {
   bindScene(m, delegate);
   bindPoints(m, delegate);
   bindCurves(m, delegate);
+  bindVolumes(m, delegate);
   bindMaterials(m, delegate);
   bindRender(m, delegate);
   bindImages(m);

@@ -113,6 +113,8 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
              result["materialTextureOpens"] = stats.materialTextureOpens;
              result["lightBuilds"] = stats.lightBuilds;
              result["lightTextureLoads"] = stats.lightTextureLoads;
+             result["volumeFieldReads"] = stats.volumeFieldReads;
+             result["volumeBytes"] = stats.volumeBytes;
              return result;
            })
       .def(

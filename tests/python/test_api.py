@@ -246,14 +246,17 @@ def test_added_and_removed_prims():
 
 def test_unsupported_prims_warn_once_per_type():
     stage = lit_quad_stage()
-    UsdVol.Volume.Define(stage, "/World/smoke1")
-    UsdVol.Volume.Define(stage, "/World/smoke2")
+    UsdVol.ParticleField3DGaussianSplat.Define(stage, "/World/splats1")
+    UsdVol.ParticleField3DGaussianSplat.Define(stage, "/World/splats2")
     UsdGeom.Sphere.Define(stage, "/World/ball")  # implicit surfaces are supported (tessellated)
+    UsdVol.Volume.Define(stage, "/World/smoke")  # volumes are supported (test_volumes.py)
     with pytest.warns(penumbra.PenumbraWarning) as record:
         penumbra.Renderer(stage)
     messages = [str(w.message) for w in record]
-    assert "2 Volume prims not supported yet, skipped (first: /World/smoke1)" in messages
+    first = "(first: /World/splats1)"
+    assert f"2 ParticleField3DGaussianSplat prims not supported yet, skipped {first}" in messages
     assert not any("Sphere" in message for message in messages)
+    assert not any("Volume prim" in message for message in messages)
 
 
 def test_mesh_without_points_is_skipped_with_warning():

@@ -2,8 +2,10 @@
 
 Like UsdImaging's prim adapters, found by type name: cameras, lights (their sprim type), meshes
 (meshes, implicit surfaces, NURBS patches and tet meshes), points, curves (BasisCurves,
-NurbsCurves and HermiteCurves, the delegate's "basisCurves"), and what is not supported yet
-(volumes), reported once per update naming a prim.
+NurbsCurves and HermiteCurves, the delegate's "basisCurves"), volumes (UsdVolVolume; those in
+native instances and point-instancer prototypes are skipped with a warning by
+:mod:`.flattening`), and what is not supported yet (other gprims, e.g. particle fields),
+reported once per update naming a prim.
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ from .lights import is_light, light_type
 
 CURVES = "basisCurves"
 """The delegate's rprim type of every UsdGeomCurves (NURBS and Hermite curves converted)."""
+VOLUME = "volume"
+"""The delegate's rprim type of UsdVolVolumes."""
 
 
 class Classifier:
@@ -33,9 +37,9 @@ class Classifier:
 
     def classify(self, prim: Usd.Prim, path: Sdf.Path) -> tuple[str | None, Inherited | None]:
         """The delegate prim type for ``prim`` (at ``path``), or ``None`` when it is not
-        rendered; with its inherited state when it is a mesh, points or curves."""
+        rendered; with its inherited state when it is a mesh, points, curves or a volume."""
         role = self._role_of_type(prim)
-        if role in ("mesh", "points", CURVES, "unsupported"):
+        if role in ("mesh", "points", CURVES, VOLUME, "unsupported"):
             if role != "unsupported" and prim.IsInstanceProxy():
                 return None, None  # natively instanced: NativeInstancing
             state = self._inherited.state(prim, path)
@@ -79,8 +83,8 @@ class Classifier:
     def _role_of_type(self, prim: Usd.Prim) -> str | None:
         """What prims of ``prim``'s type are (as UsdImaging finds its prim adapters by type
         name): "camera", a light type, "mesh" (meshes, implicit surfaces, NURBS patches and tet
-        meshes), "points", "basisCurves" (every UsdGeomCurves), "unsupported" (other gprims and
-        volumes) or ``None``; decided once per type name by its schema."""
+        meshes), "points", "basisCurves" (every UsdGeomCurves), "volume", "unsupported" (other
+        gprims) or ``None``; decided once per type name by its schema."""
         type_name = prim.GetTypeName()
         if type_name in self._roles:
             return self._roles[type_name]
@@ -95,7 +99,9 @@ class Classifier:
             role = "points"
         elif prim.IsA(UsdGeom.Curves):
             role = CURVES
-        elif prim.IsA(UsdGeom.Gprim) or prim.IsA(UsdVol.Volume):
+        elif prim.IsA(UsdVol.Volume):
+            role = VOLUME
+        elif prim.IsA(UsdGeom.Gprim):
             role = "unsupported"  # point instancers: PointInstancerDelegate
         self._roles[type_name] = role
         return role

@@ -36,7 +36,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Sdf, Usd, UsdGeom, UsdVol
 
 from .mesh import numeric_primvar, reads_as_mesh
 from .motion import ACCELERATION_SEGMENTS, XformCaches, transform_samples
@@ -422,7 +422,8 @@ class Flattener:
 
     def _walk(self, root: Usd.Prim) -> Iterator[tuple[Usd.Prim, str]]:
         """``(prim, kind)`` below ``root`` (included) that instancing renders: "mesh",
-        "instance" (an instanceable prim), "point instancer"; invisible subtrees skipped."""
+        "instance" (an instanceable prim), "point instancer"; invisible subtrees skipped, volumes
+        skipped with a warning."""
         walk = iter(Usd.PrimRange(root, Usd.PrimDefaultPredicate))
         for prim in walk:
             if _invisible(prim, self):
@@ -431,6 +432,13 @@ class Flattener:
             if prim.IsA(UsdGeom.PointInstancer):
                 walk.PruneChildren()
                 yield prim, "point instancer"
+                continue
+            if prim.IsA(UsdVol.Volume):
+                self.warn(
+                    f"{user_facing_path(prim)}: volumes in native instances and point-instancer "
+                    "prototypes are not rendered; skipped"
+                )
+                walk.PruneChildren()
                 continue
             if reads_as_mesh(prim) or prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.Curves):
                 yield prim, "mesh"  # a leaf: meshes, points and curves are copied alike

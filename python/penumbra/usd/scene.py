@@ -15,10 +15,10 @@ data at a time code, and afterwards pushes only what changed:
 
 Which prims are rendered, as what, is :mod:`.classification`'s; each kind is read by its syncer
 (:mod:`.prim_sync` for cameras and lights, :mod:`.mesh_sync` for meshes, :mod:`.points_sync`
-for points, :mod:`.curves_sync` for curves), materials by the
+for points, :mod:`.curves_sync` for curves, :mod:`.volumes_sync` for volumes), materials by the
 :class:`~.material_registry.MaterialRegistry`. Implicit surfaces (Sphere, Cube, Cylinder, Cone,
 Capsule, Plane) are tessellated and tracked as meshes (see :mod:`.implicit`). Meshes, points,
-curves and cameras move over the shutter (transform, points, lens); lights keep their
+curves, volumes and cameras move over the shutter (transform, points, lens); lights keep their
 transform at the frame.
 
 Meshes inside native prototypes are not instance proxies here: :mod:`.native_instancing` syncs
@@ -35,7 +35,7 @@ from contextlib import contextmanager
 from pxr import Sdf, Usd, UsdGeom
 
 from ..errors import warn
-from .classification import CURVES, Classifier
+from .classification import CURVES, VOLUME, Classifier
 from .core_batch import CoreBatch
 from .curves_sync import CurvesSync
 from .inherited import InheritedState
@@ -51,12 +51,13 @@ from .render_pass import RenderPassCollections
 from .sampling import Shutter
 from .settings import FilmWindow
 from .tracking import ChangeTracker, Dirty, aspects
+from .volumes_sync import VolumeSync
 
 DEFAULT_PURPOSES = ("default", "proxy")
 """usdrecord's default: the "default" purpose plus "proxy"."""
 
 _LIGHT = "light"  # the syncer of every kind not in the table: the light types
-_RPRIMS = ("mesh", "points", CURVES)  # the kinds inserted as rprims, the others as sprims
+_RPRIMS = ("mesh", "points", CURVES, VOLUME)  # the kinds inserted as rprims, the others as sprims
 
 
 class SceneDelegate:
@@ -94,9 +95,13 @@ class SceneDelegate:
             stage, core, self.purposes, warn, self.materials, render_pass
         )
         self._classifier = Classifier(self.purposes, self._inherited)
-        # The one listener: native and point instancing hear of edits from it.
+        self._volumes = VolumeSync(core, self._warn, render_pass, self._inherited)
+        # The one listener: native and point instancing and volumes hear of edits from it.
         self._tracker = ChangeTracker(
-            stage, self._classifier, self.materials, [self._native, self._point_instancers]
+            stage,
+            self._classifier,
+            self.materials,
+            [self._native, self._point_instancers, self._volumes],
         )
         # Each kind of prim → its syncer, in the order a flush runs them.
         self._syncers: dict[str, PrimSync] = {
@@ -107,6 +112,7 @@ class SceneDelegate:
             ),
             "points": PointsSync(core, self._warn, render_pass, self._inherited, self.materials),
             CURVES: CurvesSync(core, self._warn, render_pass, self._inherited, self.materials),
+            VOLUME: self._volumes,
         }
 
     # ----------------------------------------------------------------------------------------
@@ -167,6 +173,8 @@ class SceneDelegate:
             self.materials.at(self.time)
             tracker.resync(Sdf.Path.absoluteRootPath)
         tracker.process_notices()
+        for volume in self._volumes.take_affected():  # its field prims or material were edited
+            tracker.mark(volume, Dirty.DATA)
         self._forget_removed()
         film_windows = film_windows or {}
         if film_windows != self.film_windows:
@@ -233,6 +241,7 @@ class SceneDelegate:
         """Take the prims no longer tracked out of the delegate."""
         for path, record in self._tracker.take_removed():
             self._emitters.discard(path)
+            self._volumes.forget(path)
             if record.in_core:
                 self.core.remove_prim(str(path))
             if record.material:

@@ -26,7 +26,7 @@ class Dirty:
     DATA = 1  # the prim's own attributes (geometry, camera, light inputs)
     TRANSFORM = 2
     VISIBILITY = 4
-    BINDING = 8  # meshes, points and curves: which material is bound
+    BINDING = 8  # meshes, points, curves and volumes: which material is bound
     ALL = DATA | TRANSFORM | VISIBILITY | BINDING
 
 
@@ -35,6 +35,7 @@ _ASPECTS = {
     "mesh": Dirty.ALL,
     "points": Dirty.ALL,
     "basisCurves": Dirty.ALL,
+    "volume": Dirty.ALL,  # a volume's binding is part of its data
     "camera": Dirty.DATA | Dirty.TRANSFORM,
 }
 _LIGHT_ASPECTS = Dirty.DATA | Dirty.TRANSFORM | Dirty.VISIBILITY

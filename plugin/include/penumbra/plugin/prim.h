@@ -92,10 +92,10 @@ class Prim {
   }
 
   /// Setters the scene delegate calls on a prim whatever its kind: the kinds that have a
-  /// transform (meshes, points, cameras, lights), a visibility (meshes, points, instancers,
-  /// lights), a render pass visibility (meshes, points, instancers) or a bound material
-  /// (meshes, points) override them; on the others they throw std::invalid_argument naming the
-  /// prim.
+  /// transform (meshes, points, volumes, cameras, lights), a visibility (meshes, points, volumes,
+  /// instancers, lights), a render pass visibility (meshes, points, instancers) or a bound
+  /// material (meshes, points) override them; on the others they throw std::invalid_argument
+  /// naming the prim.
   virtual void setTransform(const MotionTransform& toWorld);
   virtual void setVisible(bool visible);
   /// How camera rays treat the prim (a render pass's cameraVisibility and matte collections).

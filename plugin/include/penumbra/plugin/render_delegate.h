@@ -22,6 +22,7 @@
 #include "penumbra/plugin/render_buffer.h"
 #include "penumbra/plugin/render_settings.h"
 #include "penumbra/plugin/sync_context.h"
+#include "penumbra/plugin/volume.h"
 #include "penumbra/scene.h"
 
 namespace penumbra::plugin {
@@ -32,7 +33,7 @@ class RenderDelegate {
   explicit RenderDelegate(const std::string& colorConfig = {});
   ~RenderDelegate();
 
-  /// Rprim types: "mesh", "points", "basisCurves", "instancer". Sprim types: "camera",
+  /// Rprim types: "mesh", "points", "basisCurves", "volume", "instancer". Sprim types: "camera",
   /// "material", and the light types (lightTypes()). Throws std::invalid_argument for an unknown
   /// type or an id already in use. Instancers copying a prototype of a new mesh's, points' or
   /// curves' id place their copies of it at the next sync.
@@ -51,6 +52,7 @@ class RenderDelegate {
   Mesh& mesh(const PrimId& id);
   Points& points(const PrimId& id);
   Curves& curves(const PrimId& id);
+  Volume& volume(const PrimId& id);
   RenderBuffer& renderBuffer(const PrimId& id);
   Instancer& instancer(const PrimId& id);
   Camera& camera(const PrimId& id);
@@ -72,7 +74,8 @@ class RenderDelegate {
   /// marked clean. The order is fixed, each kind in id order: materials; the meshes bound to a
   /// material inserted or removed since the last sync are placed again (they need not be
   /// dirty); lights; cameras; meshes (placed with their material's index; a mesh light syncs
-  /// its light); points and curves (placed as meshes are); instancers (their copies follow
+  /// its light); points and curves (placed as meshes are); volumes (their fields read
+  /// through the context's VolumeFieldCache); instancers (their copies follow
   /// their prototype's geometry, so after every kind of geometry); render buffers.
   /// Then the lights that synced go into the scene's light list (LightList::update).
   /// `view`: the camera and width of the pass asking, which become the dicing context of the
@@ -82,9 +85,11 @@ class RenderDelegate {
   /// decides whether placements edited since the last full build stay in the scene's overlay
   /// (Geometry::prepareForSamples).
   bool sync(const DicingContext& view, uint64_t cameraSamples = UINT64_MAX);
-  /// Bytes the next sync will allocate to build the dirty meshes, points, curves and instancers
-  /// (an estimate from their counts: penumbra::estimatedBuildBytes, estimatedPointsBytes,
-  /// estimatedCurvesBytes), to be checked against a memory budget before it runs.
+  /// Bytes the next sync will allocate to build the dirty meshes, points, curves, volumes and
+  /// instancers (an estimate from their counts: penumbra::estimatedBuildBytes,
+  /// estimatedPointsBytes, estimatedCurvesBytes; from their files' sizes for the volumes' grids
+  /// not read yet: Volume::estimatedSyncBytes), to be checked against a memory budget before it
+  /// runs.
   size_t estimatedSyncBytes() const;
   /// Incremented by every sync that changed the scene's contents.
   uint64_t sceneVersion() const { return sceneVersion_; }
@@ -92,7 +97,9 @@ class RenderDelegate {
   /// surfaces diced, and mesh BVHs built (a mesh whose triangles did not change keeps its BVH);
   /// renderer materials built and the textures they opened; renderer lights built (mesh lights
   /// too) and light textures loaded; instances in the top-level BVHs built
-  /// (Geometry::topLevelBvhPrimitives).
+  /// (Geometry::topLevelBvhPrimitives); volume grids read from files (a grid held for another
+  /// volume or an earlier sync, its file unchanged, is not read again) and the bytes the
+  /// scene's volumes hold.
   struct SyncStatistics {
     uint64_t meshGeometrySyncs = 0;
     uint64_t subdivisionDicings = 0;
@@ -104,6 +111,8 @@ class RenderDelegate {
     uint64_t materialTextureOpens = 0;
     uint64_t lightBuilds = 0;
     uint64_t lightTextureLoads = 0;
+    uint64_t volumeFieldReads = 0;
+    uint64_t volumeBytes = 0;
   };
   SyncStatistics syncStatistics() const;
   const Scene& scene() const { return *scene_; }
@@ -131,10 +140,11 @@ class RenderDelegate {
   Device device_;
   std::unique_ptr<Scene> scene_;
   // The render index (cf. HdRenderIndex), one collection per kind: rprims (meshes, points,
-  // curves, instancers), sprims (cameras, materials, lights), bprims (render buffers).
+  // curves, volumes, instancers), sprims (cameras, materials, lights), bprims (render buffers).
   PrimCollection<Mesh> meshes_;
   PrimCollection<Points> points_;
   PrimCollection<Curves> curves_;
+  PrimCollection<Volume> volumes_;
   PrimCollection<Instancer> instancers_;
   PrimCollection<Camera> cameras_;
   PrimCollection<Material> materials_;

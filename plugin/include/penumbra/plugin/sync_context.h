@@ -1,8 +1,9 @@
 // What a prim's sync and finalize read and change besides the prim itself (cf. Hydra's
 // HdRenderParam, which HdRprim::Sync, HdSprim::Sync and their Finalize receive): the renderer's
 // scene, the material indices, the light list, the meshes, points, curves and instancers (which
-// instancers and their prototypes reach each other through), the dicing context, the warnings
-// and the sync counters. The render delegate owns one for its lifetime (docs/architecture.md).
+// instancers and their prototypes reach each other through), the volumes' field cache, the dicing
+// context, the warnings and the sync counters. The render delegate owns one for its lifetime
+// (docs/architecture.md).
 #pragma once
 
 #include <cstdint>
@@ -17,6 +18,7 @@
 #include "penumbra/light.h"
 #include "penumbra/plugin/prim.h"
 #include "penumbra/plugin/prim_collection.h"
+#include "penumbra/plugin/volume_field_cache.h"
 #include "penumbra/scene.h"
 
 namespace penumbra::plugin {
@@ -119,6 +121,8 @@ struct SyncContext {
   std::map<PrimId, std::set<PrimId>> instancersByPrototype;
   /// The context of this sync (set by the render delegate before the prims sync).
   DicingContext dicing;
+  /// The volumes' fields read from files, shared between volumes, syncs and frames.
+  VolumeFieldCache volumeFields;
   /// RenderSettingsMap::complexity: how finely subdivision surfaces are diced.
   int complexity = 0;
   std::vector<std::string> warnings;

@@ -1,0 +1,67 @@
+// Volume rprim (cf. HdVolume): a UsdVolVolume's fields (OpenVDB grids, one per slot: density,
+// colour, temperature, emission) and its volume material, placed in the scene's volumes (not in
+// the geometry) with its transform (motion too) and visibility.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+
+#include "penumbra/plugin/prim.h"
+#include "penumbra/plugin/sync_context.h"
+#include "penumbra/plugin/volume_field_cache.h"
+#include "penumbra/volume.h"
+#include "penumbra/volume_set.h"
+
+namespace penumbra::plugin {
+
+/// The grids a volume asks for, slot by slot (none: the slot has no field).
+struct VolumeFieldRequests {
+  std::optional<FieldRequest> density, color, temperature, emission;
+
+  bool operator==(const VolumeFieldRequests& other) const {
+    return density == other.density && color == other.color && temperature == other.temperature &&
+           emission == other.emission;
+  }
+};
+
+class Volume : public Prim {
+ public:
+  Volume(PrimId id, VolumeSet::VolumeId handle) : Prim(std::move(id)), handle_(handle) {}
+
+  void setFields(VolumeFieldRequests fields);
+  void setMaterial(const VolumeMaterial& material);
+  void setTransform(const MotionTransform& objectToWorld) override;
+  void setVisible(bool visible) override;
+
+  /// Syncs what its dirty bits say changed into the scene's volumes: its fields, read through
+  /// the context's VolumeFieldCache, and material (an unreadable density field, or a volume the
+  /// renderer refuses: one warning naming the prim, and it renders nothing until it changes;
+  /// another unreadable field: one warning naming the prim, slot, file and grid, and the slot
+  /// is dropped), then its placement.
+  void sync(SyncContext& context, uint32_t dirtyBits) override;
+  /// Removes it from the scene.
+  void finalize(SyncContext& context) override;
+  /// Bytes its next sync will allocate: for each grid not held by the cache, twice its file's
+  /// size (the OpenVDB grid read and its sparse copy), an estimate made before reading.
+  size_t estimatedSyncBytes(const VolumeFieldCache& cache) const;
+
+  VolumeSet::VolumeId handle() const { return handle_; }
+  const VolumeFieldRequests& fields() const { return fields_; }
+  const VolumeMaterial& material() const { return material_; }
+  const MotionTransform& transform() const { return objectToWorld_; }
+  bool visible() const { return visible_; }
+
+ private:
+  /// The volume's data from its fields; none when it cannot render (warned).
+  std::optional<VolumeData> readData(SyncContext& context) const;
+
+  VolumeSet::VolumeId handle_;
+  VolumeFieldRequests fields_;
+  VolumeMaterial material_;
+  MotionTransform objectToWorld_;
+  bool visible_ = true;
+};
+
+}  // namespace penumbra::plugin
