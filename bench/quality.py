@@ -89,14 +89,15 @@ def render_rgb(
     stage: Usd.Stage, args: argparse.Namespace, setting: Setting, seed: int
 ) -> tuple[np.ndarray, float, float]:
     """One render by a fresh Renderer: its RGB (float64), seconds (construction + render) and
-    the samples per pixel it took on average (fewer than ``samples`` with adaptive sampling)."""
+    the samples per pixel it took on average (fewer than ``samples`` with adaptive sampling).
+    ``args.render_options``, when set, are more keywords of ``render``."""
     started = time.perf_counter()
     with penumbra.Renderer(stage) as renderer:
         image = renderer.render(
             time=TIME_CODE, width=args.width, samples=setting.samples, seed=seed,
             adaptive_threshold=setting.adaptive_threshold,
             adaptive_min_samples=args.adaptive_min_samples, indirect_clamp=args.indirect_clamp,
-            glossy_filter=args.glossy_filter,
+            glossy_filter=args.glossy_filter, **getattr(args, "render_options", {}),
         )
         seconds = time.perf_counter() - started
     return image["color"][..., :3].astype(np.float64), seconds, image.metadata["meanSamples"]

@@ -159,8 +159,10 @@ FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float t
       majorants.advanceTo(end);
       continue;
     }
-    if (++collisions > kMaxTentativeCollisions) return FlightOutcome::Absorbed;
     majorants.advanceTo(t);
+    scattering->position = ray.origin + ray.direction * t;
+    scattering->distance = t;
+    if (++collisions > kMaxTentativeCollisions) return FlightOutcome::Absorbed;
     float anisotropy = 0;
     const MediumCoefficients c =
         atWavelengths(majorants.coefficientsAt(t, random.next(), &anisotropy), spectrum);
@@ -179,8 +181,6 @@ FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float t
     if (u < pAbsorb) return FlightOutcome::Absorbed;
     if (u < pAbsorb + pScatter) {
       beta *= c.scattering * (total / (majorant * pScatter));
-      scattering->position = ray.origin + ray.direction * t;
-      scattering->distance = t;
       scattering->anisotropy = anisotropy;
       return FlightOutcome::Scattered;
     }

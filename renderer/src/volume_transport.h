@@ -25,15 +25,17 @@ enum class FlightOutcome {
   Absorbed,   // the path ended in the medium (its emission up to there was collected)
 };
 
+/// Where a flight collided in the medium (scattered or absorbed there).
 struct MediumScattering {
   Vec3f position;
-  float distance = 0;  // along the ray, in its own parameter
-  float anisotropy = 0;
+  float distance = 0;    // along the ray, in its own parameter
+  float anisotropy = 0;  // of the medium that scattered it
 };
 
-/// Samples where the ray first collides with the medium within [ray.tNear, tMax). `throughput`
-/// is the path's weight on entry and is reweighted by the tracking's event probabilities; the
-/// volumes' emission met on the way is added to `emitted`, already multiplied by throughput.
+/// Samples where the ray first collides with the medium within [ray.tNear, tMax) (`scattering`
+/// says where, unless it passed). `throughput` is the path's weight on entry and is reweighted
+/// by the tracking's event probabilities; the volumes' emission met on the way is added to
+/// `emitted`, already multiplied by throughput.
 FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float tMax,
                                const MediumSpectrum& spectrum, RandomStream& random,
                                Vec3f* throughput, Vec3f* emitted, MediumScattering* scattering);

@@ -17,6 +17,7 @@
 #include "penumbra/phase.h"
 #include "penumbra/random_stream.h"
 #include "penumbra/scene.h"
+#include "penumbra/vdb_field.h"
 #include "penumbra/volume.h"
 #include "transforms.h"
 
@@ -141,6 +142,37 @@ TEST(Volumes, AbsorbingSlabPassesBeerLambert) {
       EXPECT_NEAR(meanRadiance(scene, IntegratorSettings(), 8, 128), expected, tolerance)
           << "sigma " << sigma << ", thickness " << thickness;
     }
+}
+
+TEST(Volumes, AlphaIsTheMediumsOpacityAndDepthItsFirstCollision) {
+  // Nothing behind the slab: a camera sample is opaque where it collided in the medium, so alpha
+  // averages 1 − T, and its depth is where it collided (the slab's front at z = 0.5).
+  const Device device;
+  Scene scene(device);
+  VolumeData data;
+  data.material = absorbing(1);
+  data.objectBounds = slab(-0.5f, 0.5f);
+  addVolume(scene, std::move(data));
+  scene.commit();
+  const Camera camera = orthographicCamera(8);
+  const PixelFilter filter;
+  double alpha = 0;
+  int collided = 0;
+  for (uint32_t i = 0; i < 4096; ++i) {
+    const CameraSample s = renderCameraSample(scene, camera, filter, int(i % 8), int(i / 8 % 8),
+                                              i / 64, IntegratorSettings());
+    alpha += s.alpha;
+    if (s.alpha > 0) {
+      ++collided;
+      EXPECT_GE(s.depth, 5.5f - 1e-4f);  // the camera is at z = 6
+      EXPECT_LE(s.depth, 6.5f + 1e-4f);
+    } else {
+      EXPECT_EQ(s.depth, kInfinity);
+    }
+  }
+  const double expected = 1 - std::exp(-1.0);
+  EXPECT_NEAR(alpha / 4096, expected, 5 * std::sqrt(expected * (1 - expected) / 4096));
+  EXPECT_GT(collided, 0);
 }
 
 TEST(Volumes, ScatteringMediumUnderWhiteDomeStaysWhite) {
@@ -281,6 +313,46 @@ TEST(Volumes, HeterogeneousTransmittanceMatchesNumericalIntegration) {
   }
   ASSERT_GT(lit[0], 0.05);
   EXPECT_NEAR(lit[1] / lit[0], transmittance * transmittance, 0.03 * transmittance);
+}
+
+TEST(Volumes, OpenVdbGridTransmittanceMatchesNumericalIntegration) {
+  // A sparse grid (NanoVDB) whose voxels vary at random along z and repeat across x and y, so
+  // that every camera ray down −z sees the same profile: its transmittance must match the
+  // numerical integral of the grid's own trilinear interpolant along the ray. Zero voxels (a gap)
+  // stay inactive, so the majorant grid has empty cells to skip.
+  const int nx = 24, ny = 24, nz = 40;
+  std::vector<float> profile(nz);
+  RandomStream random(7, 0, 0, 0, 0);
+  for (int k = 0; k < nz; ++k) profile[size_t(k)] = k >= 15 && k < 22 ? 0 : 3 * random.next();
+  std::vector<float> values;
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) values.push_back(profile[size_t(k)]);
+  const double voxel = 0.1;
+  const double indexToObject[16] = {voxel, 0, 0,     0, 0,     voxel, 0,  0,
+                                    0,     0, voxel, 0, -1.15, -1.15, -2, 1};
+  VolumeData data;
+  data.density = denseVdbField(nx, ny, nz, 1, values, Transform::fromRowMajor(indexToObject));
+  data.material = absorbing(0.3f);
+  double opticalDepth = 0;
+  const int steps = 200000;
+  const float zLow = -2.2f, zHigh = 2.2f;
+  for (int i = 0; i < steps; ++i) {
+    float density = 0;
+    data.density->sample({0.1f, -0.2f, zLow + (zHigh - zLow) * (float(i) + 0.5f) / steps},
+                         &density);
+    opticalDepth += 0.3 * density * (zHigh - zLow) / steps;
+  }
+  const double transmittance = std::exp(-opticalDepth);
+  ASSERT_GT(transmittance, 0.02);
+  ASSERT_LT(transmittance, 0.9);
+  const Device device;
+  Scene scene(device);
+  addVolume(scene, data, translation(0, 0, 0.3));
+  addLight(scene, whiteDome());
+  scene.commit();
+  const double tolerance = 5 * std::sqrt(transmittance * (1 - transmittance) / 8192) + 1e-3;
+  EXPECT_NEAR(meanRadiance(scene, IntegratorSettings(), 8, 128), transmittance, tolerance);
 }
 
 TEST(Volumes, PlacementMovesTheMedium) {
