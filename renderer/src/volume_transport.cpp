@@ -1,5 +1,6 @@
 #include "volume_transport.h"
 
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -34,16 +35,24 @@ class MergedMajorants {
                   {},
                   false};
       track.live = track.walk.next(&track.segment);
-      if (track.live) tracks_.push_back(track);
+      if (!track.live) continue;
+      if (count_ == inPlace_.size()) overflow_.assign(inPlace_.begin(), inPlace_.end());
+      if (count_ >= inPlace_.size())
+        overflow_.push_back(track);
+      else
+        inPlace_[count_] = track;
+      ++count_;
     }
   }
+  MergedMajorants(const MergedMajorants&) = delete;
+  MergedMajorants& operator=(const MergedMajorants&) = delete;
 
   /// The stretch from the current position: its end and summed majorant; false when every
   /// volume is behind.
   bool stretch(float* end, float* majorant) const {
     bool any = false;
     float nearestEnd = kInfinity, sum = 0;
-    for (const Track& track : tracks_) {
+    for (const Track& track : tracks()) {
       if (!track.live) continue;
       any = true;
       if (track.segment.tStart > t_) {
@@ -60,7 +69,7 @@ class MergedMajorants {
   /// Moves the current position to `t` (within the current stretch or at its end).
   void advanceTo(float t) {
     t_ = t;
-    for (Track& track : tracks_)
+    for (Track& track : tracks())
       while (track.live && track.segment.tEnd <= t_) track.live = track.walk.next(&track.segment);
   }
   float position() const { return t_; }
@@ -72,7 +81,7 @@ class MergedMajorants {
     const Volume* covering[8];
     float scatterings[8];
     int count = 0;
-    for (const Track& track : tracks_) {
+    for (const Track& track : tracks()) {
       if (!track.live || track.segment.tStart > t) continue;
       const MediumCoefficients c = track.volume->at(track.origin + track.direction * t);
       sum.scattering += c.scattering;
@@ -119,7 +128,25 @@ class MergedMajorants {
     return t0 <= t1;
   }
 
-  std::vector<Track> tracks_;
+  template <typename T>
+  struct Range {
+    T* first;
+    size_t count;
+    T* begin() const { return first; }
+    T* end() const { return first + count; }
+  };
+  Range<const Track> tracks() const {
+    return {count_ > inPlace_.size() ? overflow_.data() : inPlace_.data(), count_};
+  }
+  Range<Track> tracks() {
+    return {count_ > inPlace_.size() ? overflow_.data() : inPlace_.data(), count_};
+  }
+
+  // The volumes the ray crosses: in place for the few a ray usually meets (a heap allocation
+  // per ray costs about as much as tracking through a thin medium), on the heap beyond.
+  std::array<Track, 4> inPlace_;
+  std::vector<Track> overflow_;
+  size_t count_ = 0;
   float scale_;
   float t_;
 };

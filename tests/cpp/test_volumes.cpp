@@ -144,6 +144,33 @@ TEST(Volumes, AbsorbingSlabPassesBeerLambert) {
     }
 }
 
+TEST(Volumes, OverlappingVolumesAddTheirCoefficients) {
+  // Six slabs (more than a ray keeps in place) overlapping over [−0.5, 0.5], two more
+  // overlapping over half of that: T = exp(−(6 · 0.2 · 1 + 2 · 0.3 · 0.5)).
+  const Device device;
+  Scene scene(device);
+  for (int i = 0; i < 6; ++i) {
+    VolumeData data;
+    data.material = absorbing(0.2f);
+    data.objectBounds = slab(-0.5f - 0.1f * float(i), 0.5f + 0.1f * float(i));
+    // Placed so that each covers exactly [−0.5, 0.5] along z: translated, scaled boxes.
+    const double scale = 1 / (1 + 0.2 * i);
+    const double m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, scale, 0, 0, 0, 0, 1};
+    addVolume(scene, std::move(data), Transform::fromRowMajor(m));
+  }
+  for (int i = 0; i < 2; ++i) {
+    VolumeData data;
+    data.material = absorbing(0.3f);
+    data.objectBounds = slab(0, 0.5f);
+    addVolume(scene, std::move(data));
+  }
+  addLight(scene, whiteDome());
+  scene.commit();
+  const double expected = std::exp(-(6 * 0.2 + 2 * 0.3 * 0.5));
+  const double tolerance = 5 * std::sqrt(expected * (1 - expected) / 8192) + 1e-3;
+  EXPECT_NEAR(meanRadiance(scene, IntegratorSettings(), 8, 128), expected, tolerance);
+}
+
 TEST(Volumes, AlphaIsTheMediumsOpacityAndDepthItsFirstCollision) {
   // Nothing behind the slab: a camera sample is opaque where it collided in the medium, so alpha
   // averages 1 − T, and its depth is where it collided (the slab's front at z = 0.5).

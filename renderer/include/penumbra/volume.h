@@ -99,13 +99,14 @@ struct MajorantSegment {
 /// affine transform keeps its distances.
 class MajorantWalk {
  public:
+  MajorantWalk() = default;  // an empty walk
   MajorantWalk(const Volume& volume, const Vec3f& origin, const Vec3f& direction, float tMin,
                float tMax);
   /// The next segment; false when the ray has left the medium or reached tMax.
   bool next(MajorantSegment* segment);
 
  private:
-  const Volume* volume_;
+  const Volume* volume_ = nullptr;
   float t_ = 0, tEnd_ = 0;
   int cell_[3] = {0, 0, 0};
   int step_[3] = {0, 0, 0};
