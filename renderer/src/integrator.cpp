@@ -579,16 +579,19 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                               1 + uint32_t(bounce));
       exit = subsurfaceRandomWalk(scene, *hit, scattered->direction,
                                   subsurfaceMediumAt(*hit, spectrum), walkRandom, ray.time);
-      if (!exit) break;
+      // A walk that met another object inside the solid ends there: the light it carried is
+      // lost (a little dark where objects are embedded) rather than let into that object.
+      if (!exit || !exit->sameObject) break;
       throughput *= exit->weight;
       // Light leaves through a white Lambertian lobe facing out of the solid: lights are
-      // sampled there, and the path goes on from it.
+      // sampled there, and the path goes on from it. Entry, walk and exit are one interaction
+      // of the path (as the light they add is counted, for the indirect clamp).
       const Vec3f outward =
           dot(exit->direction, exit->hit.normal) >= 0 ? exit->hit.normal : -exit->hit.normal;
       const LambertianExit lambert(outward);
       nextReceiver = {exit->hit.position, outward};
       estimateDirectLight(surfaceVertex(scene, exit->hit, lambert, outward, ray.time), nextReceiver,
-                          true, bounce + 2);
+                          true, bounce + 1);
       const Sample4D exitSample = sampler.next4D();
       next = lambert.sample({exitSample.y, exitSample.z});
       if (!(next.pdf > 0)) break;

@@ -37,8 +37,9 @@ SubsurfaceMedium subsurfaceMedium(const MaterialParams& material) {
     // the reduced mean free path 1 / (σt (1 − α g)); both solved here for α and σt.
     const float reduced = subsurfaceSingleScatteringAlbedo(std::isfinite(color) ? color : 0.0f);
     *albedo = reduced / (1 - g + reduced * g);
-    const float meanFreePath =
-        std::isfinite(radius) ? std::max(radius, kMinSubsurfaceRadius) : kMinSubsurfaceRadius;
+    const float meanFreePath = std::isnan(radius)
+                                   ? kMinSubsurfaceRadius
+                                   : std::clamp(radius, kMinSubsurfaceRadius, kMaxSubsurfaceRadius);
     *extinction = 1 / (meanFreePath * (1 - *albedo * g));
   };
   const Vec3f& color = material.subsurfaceColor;

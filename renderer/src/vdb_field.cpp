@@ -46,7 +46,8 @@ struct Repairs {
   uint64_t negative = 0;
 };
 
-/// The value the renderer keeps: non-finite components read as 0, negative scalars as 0.
+/// The value the renderer keeps: non-finite and negative components read as 0 (fields are
+/// densities, temperatures, colours and emission, none of which may be negative).
 float repaired(double value, uint64_t voxels, Repairs& repairs) {
   if (!std::isfinite(value)) {
     repairs.nonFinite += voxels;
@@ -61,12 +62,14 @@ float repaired(double value, uint64_t voxels, Repairs& repairs) {
 template <typename T>
 openvdb::Vec3s repaired(const openvdb::math::Vec3<T>& value, uint64_t voxels, Repairs& repairs) {
   openvdb::Vec3s result;
-  bool nonFinite = false;
+  bool nonFinite = false, negative = false;
   for (int c = 0; c < 3; ++c) {
     nonFinite = nonFinite || !std::isfinite(value[c]);
-    result[c] = std::isfinite(value[c]) ? float(value[c]) : 0.0f;
+    negative = negative || value[c] < 0;
+    result[c] = std::isfinite(value[c]) && value[c] > 0 ? float(value[c]) : 0.0f;
   }
   if (nonFinite) repairs.nonFinite += voxels;
+  if (negative) repairs.negative += voxels;
   return result;
 }
 

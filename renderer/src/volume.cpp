@@ -49,11 +49,14 @@ Vec3f blackbodyColor(float kelvin) {
   return table[size_t(below)] * (1 - f) + table[size_t(below + 1)] * f;
 }
 
-/// Radiance per unit length that a blackbody at `kelvin` adds at intensity 1 (Cycles'
-/// convention: σ_SB T⁴ · 10⁻⁶ / π).
+/// Hottest temperature emission follows (kelvin): T⁴ beyond it would overflow a float.
+constexpr float kMaxKelvin = 1e6f;
+
+/// Radiance per unit length that a blackbody at `kelvin` (at most kMaxKelvin) adds at intensity
+/// 1 (Cycles' convention: σ_SB T⁴ · 10⁻⁶ / π).
 float blackbodyStrength(float kelvin) {
   constexpr float kStefanBoltzmann = 5.670373e-8f;
-  const float t2 = kelvin * kelvin;
+  const float t2 = std::min(kelvin, kMaxKelvin) * std::min(kelvin, kMaxKelvin);
   return kStefanBoltzmann * 1e-6f * kInvPi * t2 * t2;
 }
 

@@ -1,5 +1,7 @@
 #include "penumbra/volume_set.h"
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -14,6 +16,14 @@ Bounds3f placedBounds(const Bounds3f& box, const Transform& transform) {
                                           corner & 2 ? box.upper.y : box.lower.y,
                                           corner & 4 ? box.upper.z : box.lower.z}));
   return result;
+}
+
+/// Whether `transform` maps a box onto a box of some volume: finite, and not flattening it.
+bool placesAVolume(const Transform& transform) {
+  for (const double value : transform.m)
+    if (!std::isfinite(value)) return false;
+  const double determinant = transform.linearDeterminant();
+  return std::isfinite(determinant) && determinant != 0;
 }
 
 }  // namespace
@@ -58,6 +68,9 @@ void VolumeSet::commit() {
   shown_.clear();
   for (const Record& record : records_) {
     if (!record.registered || !record.volume || !record.visible) continue;
+    // A volume scaled to nothing (at some step of the shutter) holds no medium worth tracking.
+    const std::vector<Transform>& steps = record.objectToWorld.steps();
+    if (!std::all_of(steps.begin(), steps.end(), placesAVolume)) continue;
     Placed placed;
     placed.volume = record.volume;
     placed.objectToWorld = record.objectToWorld;

@@ -9,7 +9,16 @@ namespace {
 
 /// Tentative collisions one ray may take through the volumes before it is ended (absorbed,
 /// or opaque for a shadow ray): a guard against majorants so large that steps stop advancing.
-constexpr int kMaxTentativeCollisions = 1 << 20;
+/// Rays through a thick cloud take hundreds.
+constexpr int kMaxTentativeCollisions = 1 << 16;
+
+float exponentialStep(float majorant, float u) {
+  return -std::log1p(-u) / majorant;
+}
+
+bool finite(const Vec3f& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
 
 float average(const Vec3f& v) {
   return (v.x + v.y + v.z) * (1.0f / 3);
@@ -28,6 +37,7 @@ class MergedMajorants {
                                           : placed.worldToObject;
       const Vec3f origin = worldToObject.applyToPoint(ray.origin);
       const Vec3f direction = worldToObject.applyToVector(ray.direction);
+      if (!finite(origin) || !finite(direction)) continue;  // a degenerate placement at this time
       Track track{placed.volume.get(),
                   origin,
                   direction,
@@ -72,7 +82,23 @@ class MergedMajorants {
     for (Track& track : tracks())
       while (track.live && track.segment.tEnd <= t_) track.live = track.walk.next(&track.segment);
   }
-  float position() const { return t_; }
+  /// The next tentative collision (empty stretches skipped), where the ray then is: its
+  /// distance and the summed majorant there; false once the ray has left every volume.
+  bool nextTentativeCollision(RandomStream& random, float* t, float* majorant) {
+    float end = 0;
+    while (stretch(&end, majorant)) {
+      if (*majorant > 0) {
+        const float candidate = t_ + exponentialStep(*majorant, random.next());
+        if (candidate < end) {
+          advanceTo(candidate);
+          *t = candidate;
+          return true;
+        }
+      }
+      advanceTo(end);
+    }
+    return false;
+  }
 
   /// The volumes' summed coefficients at `t` (inside the current stretch), and the anisotropy of
   /// one of the volumes there, chosen in proportion to its scattering (by `u`).
@@ -160,13 +186,11 @@ MediumCoefficients atWavelengths(const MediumCoefficients& c, const MediumSpectr
           RgbSpectrum::unbounded(c.emission).at(lambda)};
 }
 
-/// An RGB spectrum upsampled without bound reaches at most twice its largest component.
+/// An RGB spectrum upsampled without bound reaches at most twice its largest component; σs and
+/// σa are upsampled apart, so their sum at a wavelength reaches at most twice the largest
+/// component of each, which the majorant (of the largest component of their sum) bounds twice.
 float majorantScale(const MediumSpectrum& spectrum) {
-  return spectrum.wavelengths ? 2.0f : 1.0f;
-}
-
-float exponentialStep(float majorant, float u) {
-  return -std::log1p(-u) / majorant;
+  return spectrum.wavelengths ? 4.0f : 1.0f;
 }
 
 }  // namespace
@@ -175,18 +199,8 @@ FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float t
                                const MediumSpectrum& spectrum, RandomStream& random,
                                Vec3f* throughput, Vec3f* emitted, MediumScattering* scattering) {
   MergedMajorants majorants(volumes, ray, tMax, majorantScale(spectrum));
-  float end = 0, majorant = 0;
-  for (int collisions = 0; majorants.stretch(&end, &majorant);) {
-    if (majorant <= 0) {
-      majorants.advanceTo(end);
-      continue;
-    }
-    const float t = majorants.position() + exponentialStep(majorant, random.next());
-    if (!(t < end)) {
-      majorants.advanceTo(end);
-      continue;
-    }
-    majorants.advanceTo(t);
+  float t = 0, majorant = 0;
+  for (int collisions = 0; majorants.nextTentativeCollision(random, &t, &majorant);) {
     scattering->position = ray.origin + ray.direction * t;
     scattering->distance = t;
     if (++collisions > kMaxTentativeCollisions) return FlightOutcome::Absorbed;
@@ -220,19 +234,9 @@ Vec3f estimateTransmittance(const VolumeSet& volumes, const Ray& ray, float tMax
                             const MediumSpectrum& spectrum, RandomStream& random) {
   MergedMajorants majorants(volumes, ray, tMax, majorantScale(spectrum));
   Vec3f transmittance{1.0f};
-  float end = 0, majorant = 0;
-  for (int collisions = 0; majorants.stretch(&end, &majorant);) {
-    if (majorant <= 0) {
-      majorants.advanceTo(end);
-      continue;
-    }
-    const float t = majorants.position() + exponentialStep(majorant, random.next());
-    if (!(t < end)) {
-      majorants.advanceTo(end);
-      continue;
-    }
+  float t = 0, majorant = 0;
+  for (int collisions = 0; majorants.nextTentativeCollision(random, &t, &majorant);) {
     if (++collisions > kMaxTentativeCollisions) return Vec3f(0.0f);
-    majorants.advanceTo(t);
     float anisotropy = 0;
     const MediumCoefficients c =
         atWavelengths(majorants.coefficientsAt(t, 0.5f, &anisotropy), spectrum);

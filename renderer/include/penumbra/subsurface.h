@@ -40,6 +40,8 @@ struct SubsurfaceMedium {
 constexpr float kMaxSubsurfaceAnisotropy = 0.9f;
 /// Shortest mean free path, in scene units (a radius of 0 would make σt infinite).
 constexpr float kMinSubsurfaceRadius = 1e-6f;
+/// Longest mean free path: an infinite radius is a clear medium, as far as floats go.
+constexpr float kMaxSubsurfaceRadius = 1e6f;
 /// Scattering events after which a walk gives up (counted as absorbed): four times Cycles'
 /// 256. With 256, a thick solid of multiple-scattering albedo 0.9 lost 2 % (g = 0) to 4 %
 /// (g = 0.5, whose forward scattering needs more events for the same spread) of its light
@@ -53,7 +55,7 @@ constexpr int kMaxSubsurfaceSteps = 1024;
 float subsurfaceSingleScatteringAlbedo(float multipleScatteringAlbedo);
 
 /// The medium of `material` (subsurfaceColor, subsurfaceRadius, subsurfaceAnisotropy): the
-/// colour clamped to [0, 1], the radius to at least kMinSubsurfaceRadius, g to
+/// colour clamped to [0, 1], the radius to [kMinSubsurfaceRadius, kMaxSubsurfaceRadius], g to
 /// ±kMaxSubsurfaceAnisotropy.
 SubsurfaceMedium subsurfaceMedium(const MaterialParams& material);
 

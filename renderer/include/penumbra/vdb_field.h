@@ -27,7 +27,7 @@ struct VdbFieldRead {
   std::shared_ptr<const VolumeField> field;
   std::string valueType;         // OpenVDB's name of the grid's value type ("float", "vec3s", …)
   uint64_t nonFiniteVoxels = 0;  // NaN or infinite values, read as 0
-  uint64_t negativeVoxels = 0;   // negative values of scalar grids, read as 0
+  uint64_t negativeVoxels = 0;   // voxels with a negative value or component, read as 0
 };
 
 /// Reads the `index`-th grid named `gridName` (0: the first of that name) of the OpenVDB file
