@@ -1,6 +1,7 @@
 // The scene the tracer sees, composed of four parts: the geometry rays meet (geometry.h), the
 // lights (light_set.h), the materials with their textures (material_table.h) and the volumes
-// (volume_set.h). The scene holds them together, and does what involves more than one of them. Plain data only; no USD.
+// (volume_set.h). The scene holds them together, and does what involves more than one of them.
+// Plain data only; no USD.
 #pragma once
 
 #include <string>
