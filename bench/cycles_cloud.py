@@ -19,17 +19,21 @@ absorption colour). The UsdLux sun's intensity is the radiance of its disk; Blen
 strength is irradiance: 60000·π·sin²(angle/2). The dome is a constant world background of the
 same radiance, seen by the camera. Pixel filter: Gaussian of σ = 0.5 px as Penumbra's (Cycles'
 Gaussian of width w has σ = w/12: width 6 px). The converged image is written to
-/tmp/cycles_cloud.exr (scene-linear RGBA float). Progress goes to stderr, the table to stdout.
+/tmp/cycles_cloud.exr (scene-linear RGBA float; --exr). Progress goes to stderr, the table to
+stdout.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
+import os
 import sys
 import tempfile
 import time
 import types
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -64,7 +68,7 @@ from quality import (  # noqa: E402
     Rung, crossing, format_number, mean_luminance, progress, relative_rmse, rrmse_at,
 )
 
-CONVERGED_EXR = Path("/tmp/cycles_cloud.exr")
+CONVERGED_EXR, QUICK_EXR = Path("/tmp/cycles_cloud.exr"), Path("/tmp/cycles_cloud_quick.exr")
 ASPECT = 16 / 9  # examples/cloud.py: aperture 36 × 20.25 mm
 # From examples/cloud.py, in USD's Y-up coordinates.
 CLOUD_TRANSLATE = (0.0, 1.2, 0.0)
@@ -215,6 +219,21 @@ def build_scene(grid: Path, width: int, samples: int, seed: int) -> bpy.types.Sc
     return scene
 
 
+@contextlib.contextmanager
+def blender_output_silenced() -> Iterator[None]:
+    """Blender prints its render progress on the process's standard output, where the table
+    goes: send it to /dev/null meanwhile."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    with open(os.devnull, "w") as null:
+        os.dup2(null.fileno(), 1)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+
+
 def reset() -> None:
     bpy.ops.wm.read_factory_settings(use_empty=True)
 
@@ -227,7 +246,8 @@ def render_rgb(
     reset()
     started = time.perf_counter()
     scene = build_scene(grid, width, samples, seed)
-    bpy.ops.render.render()
+    with blender_output_silenced():
+        bpy.ops.render.render()
     seconds = time.perf_counter() - started
     return read_render_result(scene, exr), seconds
 
@@ -279,10 +299,13 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--converged-spp", type=int, default=512)
     parser.add_argument("--width", type=int, default=480)
     parser.add_argument("--grid", type=Path, default=cloud.GRID)
+    parser.add_argument("--exr", type=Path, help=f"the converged image (default {CONVERGED_EXR}, "
+                        f"with --quick {QUICK_EXR})")
     parser.add_argument("--quick", action="store_true", help="smoke test: 2 and 8 spp, 160 px")
     args = parser.parse_args()
     if args.quick:
         args.spp, args.converged_spp, args.width = [2, 8], 32, 160
+    args.exr = args.exr or (QUICK_EXR if args.quick else CONVERGED_EXR)
     return args
 
 
@@ -296,7 +319,7 @@ def main() -> None:
     placement_check(args.grid)
     progress(f"sun: direction {tuple(round(c, 4) for c in sun_direction())} (Z up), "
              f"irradiance {sun_irradiance():.4f} W/m²")
-    converged, seconds = render_rgb(args.grid, args.width, args.converged_spp, 99, CONVERGED_EXR)
+    converged, seconds = render_rgb(args.grid, args.width, args.converged_spp, 99, args.exr)
     progress(f"cycles cloud: converged, {args.converged_spp} spp: {seconds:.1f} s")
     rungs = []
     rung_exr = Path(tempfile.gettempdir()) / "cycles_cloud_rung.exr"
@@ -325,7 +348,7 @@ def main() -> None:
     print("\n| spp | seconds (mean of 2 seeds) | rRMSE |\n|---:|---:|---:|")
     for rung in rungs:
         print(f"| {rung.samples} | {rung.seconds:.2f} | {rung.rrmse:.4f} |")
-    print(f"\nConverged image: {CONVERGED_EXR}")
+    print(f"\nConverged image: {args.exr}")
 
 
 if __name__ == "__main__":
