@@ -115,9 +115,15 @@ def look_at_matrix(eye: Vector, target: Vector) -> Matrix:
     return Matrix.Translation(eye) @ rotation
 
 
+def use_nodes(datablock: bpy.types.Material | bpy.types.World) -> None:
+    """Shader nodes on (always on, and the switch deprecated, from Blender 5.0)."""
+    if bpy.app.version < (5, 0, 0):
+        datablock.use_nodes = True
+
+
 def new_material(name: str) -> tuple[bpy.types.Material, bpy.types.NodeTree]:
     material = bpy.data.materials.new(name)
-    material.use_nodes = True
+    use_nodes(material)
     tree = material.node_tree
     tree.nodes.clear()
     return material, tree
@@ -164,7 +170,7 @@ def add_ground(scene: bpy.types.Scene) -> None:
 
 def add_lights_and_camera(scene: bpy.types.Scene, width: int) -> None:
     world = bpy.data.worlds.new("sky")
-    world.use_nodes = True
+    use_nodes(world)
     background = world.node_tree.nodes["Background"]
     background.inputs["Color"].default_value = (*SKY_COLOUR, 1.0)
     background.inputs["Strength"].default_value = SKY_INTENSITY
@@ -270,8 +276,8 @@ def read_render_result(scene: bpy.types.Scene, path: Path) -> np.ndarray:
 def placement_check(grid: Path) -> None:
     """Blender's world box of the cloud beside where Penumbra puts its voxels: voxel (i, j, k)
     at the Volume's translate + the grid's index-to-object transform (examples/cloud.py), in
-    Z up. Blender's box spans the active voxels' tree leaves (8³ voxels, centre to centre), so
-    the expected box is of the leaves holding the non-zero voxels."""
+    Z up. Blender's box spans the active voxels' tree leaves (8³ voxels), so the expected box is
+    of the leaves holding the non-zero voxels."""
     reset()
     obj = add_cloud(bpy.context.scene, grid)
     evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
@@ -285,8 +291,15 @@ def placement_check(grid: Path) -> None:
     nx, _, nz = cloud.RESOLUTION
     offset = np.array([-nx * cloud.VOXEL / 2, 0.0, -nz * cloud.VOXEL / 2]) + CLOUD_TRANSLATE
     ends = [z_up(first * cloud.VOXEL + offset), z_up(last * cloud.VOXEL + offset)]
-    penumbra_box = np.sort(np.array(ends).T, axis=1)
-    verdict = "match" if np.allclose(blender, penumbra_box, atol=1e-4) else "DIFFER"
+    penumbra_box = np.sort(np.array(ends, dtype=np.float64).T, axis=1)
+    # Blender 4.2's box runs from centre to centre, 5.0's over the voxels' cells.
+    half = cloud.VOXEL / 2
+    verdict = next(
+        (f"match ({convention})" for grow, convention in
+         ((0.0, "voxel centres"), (half, "voxel cells, half a voxel beyond the centres"))
+         if np.allclose(blender, penumbra_box + [-grow, grow], atol=1e-4)),
+        "DIFFER",
+    )
     progress(f"placement: grids {[g.name for g in evaluated.data.grids]}; world box (x, y, z) "
              f"in Blender {blender.round(4).tolist()}, by Penumbra's transform "
              f"{penumbra_box.round(4).tolist()}: {verdict}")
