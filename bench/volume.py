@@ -4,8 +4,8 @@ takes per million active voxels.
 
 Same method as bench/quality.py: two seeds per rung of an spp ladder, rRMSE against a converged
 render, interpolated log-log to 5 %. Volume scattering is capped at 64 events per path (the
-example's setting), paths at 64 bounces. There are no Cycles numbers for this scene: Cycles is
-not installable here (``bpy`` is not served for this machine's Python).
+example's setting), paths at 64 bounces. Cycles' numbers on the same cloud: bench/cycles_cloud.py
+(run with a Python 3.11 that has PyPI's ``bpy``).
 
     .venv/bin/python bench/volume.py [--quick]
 """
