@@ -122,6 +122,7 @@ bench: build
 	$(VPY) bench/instances.py --instances 1000000
 	$(VPY) bench/groom.py
 	$(VPY) bench/points_scale.py
+	$(VPY) bench/volume.py
 	$(VPY) bench/sync.py
 	$(VPY) bench/sprim_sync.py
 	$(VPY) bench/texture_memory.py --size 16384
