@@ -16,16 +16,13 @@ length at density 1, forward-scattering (g = 0.6) as water droplets are.
 from __future__ import annotations
 
 import argparse
-import shutil
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, UsdVol
 
 import penumbra
+from example_stages import add_ground, add_look_at_camera, record
 
 HERE = Path(__file__).resolve().parent
 OUTPUT = HERE.parent / "build" / "examples"
@@ -144,19 +141,9 @@ def write_stage(path: Path) -> None:
         cloud_material(stage, "/World/Looks/cloud")
     )
 
-    ground = UsdGeom.Mesh.Define(stage, "/World/ground")
-    ground.CreatePointsAttr([(-60, 0, -60), (60, 0, -60), (60, 0, 60), (-60, 0, 60)])
-    ground.CreateFaceVertexCountsAttr([4])
-    ground.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
-    ground.CreateDisplayColorAttr([(0.16, 0.2, 0.09)])
-
-    camera = UsdGeom.Camera.Define(stage, "/World/camera")
-    camera.CreateFocalLengthAttr(30)
-    camera.CreateHorizontalApertureAttr(36)
-    camera.CreateVerticalApertureAttr(20.25)
-    camera.CreateClippingRangeAttr(Gf.Vec2f(0.1, 500))
-    eye, centre = Gf.Vec3d(0.5, 1.0, 9.5), Gf.Vec3d(0, 2.6, 0)
-    camera.AddTransformOp().Set(Gf.Matrix4d().SetLookAt(eye, centre, Gf.Vec3d(0, 1, 0)).GetInverse())
+    add_ground(stage, "/World/ground", 60, (0.16, 0.2, 0.09))
+    add_look_at_camera(stage, "/World/camera", Gf.Vec3d(0.5, 1.0, 9.5), Gf.Vec3d(0, 2.6, 0),
+                       30, (36, 20.25), far=500)
 
     sky = UsdLux.DomeLight.Define(stage, "/World/sky")
     sky.CreateColorAttr(Gf.Vec3f(0.35, 0.55, 1.0))
@@ -174,21 +161,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--render", action="store_true", help="render examples/images/cloud.png")
     parser.add_argument("--width", type=int, default=960)
-    parser.add_argument("--samples", type=int, default=64)
+    parser.add_argument("--samples", type=int, default=256)
     args = parser.parse_args()
     write_grid(GRID)
     write_stage(STAGE)
-    beside = shutil.which("penumbra-record", path=str(Path(sys.executable).parent))
-    record = beside or "penumbra-record"
-    command = [
-        record, str(STAGE), str(IMAGE), "-w", str(args.width), "-spp", str(args.samples),
-        "--maxVolumeDepth", "64", "--maxPathDepth", "64", "--enableDomeLightVisibility",
-    ]
-    print(f"wrote {STAGE} and {GRID}; render with:\n  {' '.join(command)}")
-    if args.render:
-        started = time.perf_counter()
-        subprocess.run(command, check=True)
-        print(f"rendered {IMAGE} in {time.perf_counter() - started:.1f} s")
+    flags = ["--maxVolumeDepth", "64", "--maxPathDepth", "64", "--enableDomeLightVisibility"]
+    record(STAGE, IMAGE, args.width, args.samples, flags, args.render, f"{STAGE} and {GRID}")
 
 
 if __name__ == "__main__":

@@ -16,14 +16,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import shutil
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
+
+from example_stages import add_look_at_camera, record
 
 HERE = Path(__file__).resolve().parent
 STAGE = HERE.parent / "build" / "examples" / "groom.usdc"
@@ -177,14 +175,8 @@ def write_stage(path: Path, strands: int) -> None:
     )
     bind(floor.GetPrim(), floor_look)
 
-    camera = UsdGeom.Camera.Define(stage, "/World/main_cam")
-    camera.CreateFocalLengthAttr(40)
-    camera.CreateHorizontalApertureAttr(36)
-    camera.CreateVerticalApertureAttr(24)
-    camera.CreateClippingRangeAttr(Gf.Vec2f(0.1, 200))
-    eye, centre = Gf.Vec3d(0.6, 3.6, 5.2), Gf.Vec3d(0, 0.95, 0)
-    view = Gf.Matrix4d().SetLookAt(eye, centre, Gf.Vec3d(0, 1, 0)).GetInverse()
-    camera.AddTransformOp().Set(view)
+    centre = Gf.Vec3d(0, 0.95, 0)
+    add_look_at_camera(stage, "/World/main_cam", Gf.Vec3d(0.6, 3.6, 5.2), centre, 40, (36, 24))
 
     sky = UsdLux.DomeLight.Define(stage, "/World/Lights/sky")
     sky.CreateIntensityAttr(0.35)
@@ -219,16 +211,8 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=64)
     args = parser.parse_args()
     write_stage(STAGE, args.strands)
-    # The penumbra-record beside this Python (.venv/bin), else the one on PATH.
-    beside = shutil.which("penumbra-record", path=str(Path(sys.executable).parent))
-    record = beside or "penumbra-record"
-    command = [record, str(STAGE), str(IMAGE), "-w", str(args.width), "-spp", str(args.samples)]
-    print(f"wrote {STAGE} ({args.strands:,} strands); render with:\n  {' '.join(command)}")
-    if args.render:
-        started = time.perf_counter()
-        subprocess.run(command, check=True)
-        print(f"rendered {IMAGE} in {time.perf_counter() - started:.1f} s")
-
+    record(STAGE, IMAGE, args.width, args.samples, [], args.render,
+           f"{STAGE} ({args.strands:,} strands)")
 
 if __name__ == "__main__":
     main()

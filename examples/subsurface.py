@@ -17,13 +17,11 @@ block's transmission_color is reached at a depth of 0.5 units (Beer–Lambert in
 from __future__ import annotations
 
 import argparse
-import shutil
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+from example_stages import add_ground, add_look_at_camera, record
 
 HERE = Path(__file__).resolve().parent
 STAGE = HERE.parent / "build" / "examples" / "subsurface.usda"
@@ -72,19 +70,9 @@ def write_stage(path: Path) -> None:
         stage, "/World/Looks/glass", base=0.0, specular=1.0, specular_roughness=0.02,
         transmission=1.0, transmission_color=(0.35, 0.8, 0.45), transmission_depth=0.5,
     ))
-    floor = UsdGeom.Mesh.Define(stage, "/World/floor")
-    floor.CreatePointsAttr([(-20, 0, -20), (20, 0, -20), (20, 0, 20), (-20, 0, 20)])
-    floor.CreateFaceVertexCountsAttr([4])
-    floor.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
-    floor.CreateDisplayColorAttr([(0.3, 0.3, 0.32)])
-
-    camera = UsdGeom.Camera.Define(stage, "/World/camera")
-    camera.CreateFocalLengthAttr(40)
-    camera.CreateHorizontalApertureAttr(36)
-    camera.CreateVerticalApertureAttr(20.25)
-    camera.CreateClippingRangeAttr(Gf.Vec2f(0.1, 200))
-    eye, centre = Gf.Vec3d(0, 1.6, 6.5), Gf.Vec3d(0, 0.45, 0)
-    camera.AddTransformOp().Set(Gf.Matrix4d().SetLookAt(eye, centre, Gf.Vec3d(0, 1, 0)).GetInverse())
+    add_ground(stage, "/World/floor", 20, (0.3, 0.3, 0.32))
+    centre = Gf.Vec3d(0, 0.45, 0)
+    add_look_at_camera(stage, "/World/camera", Gf.Vec3d(0, 1.6, 6.5), centre, 40, (36, 20.25))
 
     back = UsdLux.RectLight.Define(stage, "/World/back")
     back.CreateWidthAttr(3)
@@ -108,16 +96,8 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=128)
     args = parser.parse_args()
     write_stage(STAGE)
-    beside = shutil.which("penumbra-record", path=str(Path(sys.executable).parent))
-    record = beside or "penumbra-record"
-    command = [record, str(STAGE), str(IMAGE), "-w", str(args.width), "-spp", str(args.samples),
-               "--enableDomeLightVisibility"]
-    print(f"wrote {STAGE}; render with:\n  {' '.join(command)}")
-    if args.render:
-        started = time.perf_counter()
-        subprocess.run(command, check=True)
-        print(f"rendered {IMAGE} in {time.perf_counter() - started:.1f} s")
-
+    record(STAGE, IMAGE, args.width, args.samples, ["--enableDomeLightVisibility"], args.render,
+           str(STAGE))
 
 if __name__ == "__main__":
     main()
