@@ -68,24 +68,28 @@ Camera orthographicCamera(int size) {
   return Camera(lens, size, size);
 }
 
-/// The mean radiance (channel average) of every sample of pixel row `row`, or of the whole image
-/// for row −1.
-double meanRadiance(const Scene& scene, const IntegratorSettings& settings, int size,
-                    uint32_t samples, int row = -1) {
+/// The mean radiance of every sample of a size × size image by orthographicCamera.
+Vec3f meanColor(const Scene& scene, const IntegratorSettings& settings, int size,
+                uint32_t samples) {
   const Camera camera = orthographicCamera(size);
   const PixelFilter filter;
-  double sum = 0;
-  int count = 0;
-  for (int y = 0; y < size; ++y) {
-    if (row >= 0 && y != row) continue;
+  double sum[3] = {0, 0, 0};
+  for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x)
       for (uint32_t i = 0; i < samples; ++i) {
-        const CameraSample s = renderCameraSample(scene, camera, filter, x, y, i, settings);
-        sum += (s.radiance.x + s.radiance.y + s.radiance.z) / 3;
-        ++count;
+        const Vec3f radiance =
+            renderCameraSample(scene, camera, filter, x, y, i, settings).radiance;
+        for (int c = 0; c < 3; ++c) sum[c] += radiance[c];
       }
-  }
-  return sum / count;
+  const double count = double(size) * size * samples;
+  return {float(sum[0] / count), float(sum[1] / count), float(sum[2] / count)};
+}
+
+/// Its channel average.
+double meanRadiance(const Scene& scene, const IntegratorSettings& settings, int size,
+                    uint32_t samples) {
+  const Vec3f mean = meanColor(scene, settings, size, samples);
+  return (double(mean.x) + mean.y + mean.z) / 3;
 }
 
 TEST(PhaseFunction, HenyeyGreensteinIntegratesToOneAndSamplesItsDensity) {
@@ -256,16 +260,7 @@ TEST(Volumes, BlackbodyEmissionFollowsStefanBoltzmann) {
   scene.commit();
   // Where nothing absorbs, emission is collected at tentative collisions about two per unit of
   // length here: the estimate is noisy per sample, so take many.
-  const Camera camera = orthographicCamera(8);
-  const PixelFilter filter;
-  Vec3f sum{0.0f};
-  const int samples = 128;
-  for (int y = 0; y < 8; ++y)
-    for (int x = 0; x < 8; ++x)
-      for (int i = 0; i < samples; ++i)
-        sum += renderCameraSample(scene, camera, filter, x, y, uint32_t(i), IntegratorSettings())
-                   .radiance;
-  const Vec3f mean = sum / float(samples * 64);
+  const Vec3f mean = meanColor(scene, IntegratorSettings(), 8, 128);
   const double expected = 5.670373e-8 * 1e-6 / M_PI * std::pow(1500.0, 4) * 2;
   EXPECT_NEAR(luminance(mean) / expected, 1.0, 0.03);
   EXPECT_GT(mean.x, mean.y);  // 1500 K glows red-orange
