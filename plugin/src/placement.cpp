@@ -2,6 +2,11 @@
 
 namespace penumbra::plugin {
 
+static_assert(Geometry::kMaxCoordinate == 1e18f, "kBeyondReach states it");
+const char* const kBeyondReach =
+    "its world bounds reach beyond 1e18 units from the origin (or are not finite), where "
+    "single-precision ray tracing cannot place it";
+
 void PlacedRprim::setMaterialId(PrimId materialId) {
   materialId_ = std::move(materialId);
   markDirty(DirtyMaterialId);
@@ -23,12 +28,17 @@ void PlacedRprim::setPassVisibility(PassVisibility pass) {
 }
 
 void PlacedRprim::syncPlacement(SyncContext& context, uint32_t bits) const {
-  if (!(bits & kPlacementDirtyBits)) return;
-  if (!materialId_.empty() && !context.materials.find(materialId_) && (bits & DirtyMaterialId))
-    context.warn(id() + ": bound material " + materialId_ +
-                 " is not in the render index; displayColor is used");
-  if (bits & DirtyVisibility) context.scene.geometry().setMeshPassVisibility(handle_, pass_);
-  place(context);
+  if (bits & kPlacementDirtyBits) {
+    if (!materialId_.empty() && !context.materials.find(materialId_) && (bits & DirtyMaterialId))
+      context.warn(id() + ": bound material " + materialId_ +
+                   " is not in the render index; displayColor is used");
+    if (bits & DirtyVisibility) context.scene.geometry().setMeshPassVisibility(handle_, pass_);
+    place(context);
+  }
+  // Moved or reshaped (the geometry placed it again as it changed) out of reach.
+  if ((bits & (kPlacementDirtyBits | DirtyTopology | DirtyPoints)) &&
+      context.scene.geometry().beyondReach(handle_))
+    context.warn(id() + ": " + kBeyondReach + "; the prim is not rendered");
 }
 
 void PlacedRprim::place(SyncContext& context) const {
