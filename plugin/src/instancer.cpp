@@ -1,6 +1,7 @@
 #include "penumbra/plugin/instancer.h"
 
 #include <stdexcept>
+#include <string>
 
 #include "penumbra/plugin/curves.h"
 #include "penumbra/plugin/mesh.h"
@@ -49,6 +50,10 @@ void Instancer::sync(SyncContext& context, uint32_t) {
   if (Mesh* mesh = context.meshes.find(prototype_)) mesh->addInstancer(id());
   scene.geometry().setInstancerPassVisibility(handle_, pass_);
   scene.geometry().setInstances(handle_, prototype->handle(), transforms_, visible_);
+  if (const size_t beyond = scene.geometry().copiesBeyondReach(handle_))
+    context.warn(id() + ": " + std::to_string(beyond) + " of " +
+                 std::to_string(transforms_.size()) + " copies: " + kBeyondReach +
+                 "; those copies are not rendered");
   try {
     scene.geometry().setInstancePrimvars(handle_, primvars_);
   } catch (const std::invalid_argument& error) {

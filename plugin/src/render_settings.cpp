@@ -12,6 +12,10 @@ namespace {
 
 constexpr double kIntMax = std::numeric_limits<int>::max();
 constexpr double kFloatMax = std::numeric_limits<float>::max();
+/// Far more threads than any machine has cores, and far below what oneTBB can hold: an arena of
+/// more than 65536 slots crashes its workers (slot ids are 16-bit). The same on every machine,
+/// so a job validated on one host is valid on any.
+constexpr int kMaxThreads = 1024;
 
 RenderOption integerOption(std::string key, int RenderSettingsMap::*field, int defaultValue,
                            int minimum, std::string metavar, std::string help) {
@@ -64,6 +68,7 @@ std::vector<RenderOption> buildRenderOptions() {
   RenderOption& threads = options.emplace_back(
       integerOption("threads", &Settings::threads, 0, 0, "N", "render threads"));
   threads.defaultMeaning = "every core";
+  threads.maximum = kMaxThreads;
   threads.changesPixels = false;
   options.push_back(integerOption("maxPathDepth", &Settings::maxPathDepth, 8, 0, "N",
                                   "maximum number of bounces of a path"));

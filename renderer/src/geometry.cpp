@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "penumbra/curves_shape.h"
 #include "penumbra/mesh_shape.h"
@@ -67,16 +68,24 @@ Geometry::~Geometry() {
   rtcReleaseDevice(device_);
 }
 
-Geometry::MeshRecord& Geometry::record(MeshId id) {
+const Geometry::MeshRecord& Geometry::record(MeshId id) const {
   if (id >= meshes_.size() || !meshes_[id])
     throw std::out_of_range("no mesh with id " + std::to_string(id));
   return *meshes_[id];
 }
 
-Geometry::InstancerRecord& Geometry::instancer(InstancerId id) {
+Geometry::MeshRecord& Geometry::record(MeshId id) {
+  return const_cast<MeshRecord&>(std::as_const(*this).record(id));
+}
+
+const Geometry::InstancerRecord& Geometry::instancer(InstancerId id) const {
   if (id >= instancers_.size() || !instancers_[id])
     throw std::out_of_range("no instancer with id " + std::to_string(id));
   return *instancers_[id];
+}
+
+Geometry::InstancerRecord& Geometry::instancer(InstancerId id) {
+  return const_cast<InstancerRecord&>(std::as_const(*this).instancer(id));
 }
 
 std::unique_ptr<Geometry::Placement> Geometry::newPlacement(MeshId mesh) {
@@ -120,6 +129,8 @@ void Geometry::updatePlacement(Placement& placement, bool enabled) {
     topChanged_ = true;
     return;
   }
+  mesh.ownBeyondReach = enabled && !withinReach(placement);
+  enabled = enabled && !mesh.ownBeyondReach;
   mesh.ownEnabled = enabled;
   ownBounds_.set(placement.mesh, worldBounds(placement, enabled));
   if (mayOverlay(mesh)) {
@@ -189,6 +200,25 @@ Geometry::Box Geometry::worldBounds(const Placement& placement, bool enabled) co
       box.extend({point, point});
     }
   return box;
+}
+
+bool Geometry::withinReach(const Placement& placement) const {
+  const Box box = worldBounds(placement, true);
+  if (box.lower.x > box.upper.x) return true;  // empty: nothing to place
+  const auto within = [](const Vec3f& p) {
+    // Written so that NaN fails too.
+    return std::abs(p.x) <= kMaxCoordinate && std::abs(p.y) <= kMaxCoordinate &&
+           std::abs(p.z) <= kMaxCoordinate;
+  };
+  return within(box.lower) && within(box.upper);
+}
+
+bool Geometry::beyondReach(MeshId id) const {
+  return record(id).ownBeyondReach;
+}
+
+size_t Geometry::copiesBeyondReach(InstancerId id) const {
+  return instancer(id).beyondReach;
 }
 
 void Geometry::placeInstance(RTCGeometry geometry, const Placement& placement, bool enabled) const {
@@ -279,10 +309,13 @@ void Geometry::updateAllPlacements(MeshId id) {
 
 void Geometry::updateCopies(InstancerRecord& copies, bool shown) {
   copies.bounds = Box{};
+  copies.beyondReach = 0;
   const bool enabled = shown && meshes_[copies.prototype]->bvh;
   for (auto& copy : copies.copies) {
-    updatePlacement(*copy, enabled);
-    copies.bounds.extend(worldBounds(*copy, enabled));
+    const bool placed = enabled && withinReach(*copy);
+    copies.beyondReach += enabled && !placed;
+    updatePlacement(*copy, placed);
+    copies.bounds.extend(worldBounds(*copy, placed));
   }
 }
 

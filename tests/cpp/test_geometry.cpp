@@ -83,3 +83,28 @@ TEST(Geometry, ShadingAHitWithoutAMaterialUsesDisplayColor) {
   scene.lights().setMeshLight(id, 3);
   EXPECT_EQ(intersectSurface(scene, downAt(0.5f, 0.5f), RayKind::Camera)->lightIndex, -1);
 }
+
+TEST(Geometry, PlacementsReachingBeyondFloatRangeAreNotRendered) {
+  const Device device;
+  Scene scene(device);
+  Geometry& geometry = scene.geometry();
+  const Geometry::MeshId id = geometry.addMesh();
+  geometry.setMeshGeometry(id, redSquare());
+  const double huge[16] = {1e30, 0, 0, 0, 0, 1e30, 0, 0, 0, 0, 1e30, 0, 0, 0, 0, 1};
+  geometry.setMeshInstance(id, Transform::fromRowMajor(huge), MaterialTable::kNoMaterial, true);
+  const Geometry::InstancerId copies = geometry.addInstancer();
+  geometry.setInstances(copies, id, {translation(0, 1, 0), Transform::fromRowMajor(huge)}, true);
+  scene.commit();
+
+  EXPECT_TRUE(geometry.beyondReach(id));
+  EXPECT_EQ(geometry.copiesBeyondReach(copies), 1u);
+  // Only the copy within reach is hit, and the scene's extent is that copy's.
+  const std::optional<GeometryHit> hit = geometry.intersect(downAt(0.5f, 0.5f), RayKind::Camera);
+  ASSERT_TRUE(hit);
+  EXPECT_EQ(hit->instance, 0);
+  EXPECT_FLOAT_EQ(hit->distance, 4);
+  EXPECT_FLOAT_EQ(geometry.extent(), 2);
+
+  geometry.setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
+  EXPECT_FALSE(geometry.beyondReach(id));
+}

@@ -5,6 +5,7 @@ print a traceback. ``test_malformed.py`` runs it; ``fuzz_scene.py`` mutates its 
 
 from __future__ import annotations
 
+import os
 import struct
 import zlib
 from dataclasses import dataclass, field
@@ -58,6 +59,7 @@ class Case:
     extra: str = ""
     args: tuple[str, ...] = ()
     files: dict[str, bytes] = field(default_factory=dict)  # written beside the stage
+    stage_kind: str = "file"  # or "fifo", "directory": what stands at the stage's path
 
     def usda(self) -> str:
         return BASE.format(camera=self.camera, mesh=self.mesh, light=self.light, extra=self.extra)
@@ -92,6 +94,9 @@ def Material "mat"
     }
 }
 """
+
+HUGE_SCALE = "(1e30, 1e30, 1e30)"
+SCALE_ONLY = 'uniform token[] xformOpOrder = ["xformOp:scale"]'
 
 CASES = [
     # Cameras: the render would be meaningless → exit 1 naming the camera and attribute.
@@ -132,6 +137,7 @@ CASES = [
     Case("width past int32", 2, "--imageWidth must be at most", args=("-w", str(2**40))),
     Case("seed past uint32", 2, "--seed must be at most", args=("--seed", str(2**32))),
     Case("seed negative", 2, "--seed cannot be negative", args=("--seed", "-1")),
+    Case("threads past TBB's arenas", 2, "--threads must be in [0, 1024]", args=("--threads", "100000")),
     Case("max memory malformed", 2, "invalid memory size", args=("--maxMemory", "lots")),
     Case("texture cache too small", 2, "below 16M", args=("--textureCacheSize", "1M")),
     Case("frames not finite", 2, "frames must be finite", args=("-f", "1:" + "9" * 400)),
@@ -142,6 +148,10 @@ CASES = [
     Case("NaN points", 0, "/quad", mesh="point3f[] points = [(nan, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]"),
     Case("mesh NaN transform", 0, "/quad", mesh='double3 xformOp:translate = (nan, 0, 0)\nuniform token[] xformOpOrder = ["xformOp:translate"]'),
     Case("mesh at 1e20", 0, "/quad", mesh='double3 xformOp:translate = (1e20, 0, 0)\nuniform token[] xformOpOrder = ["xformOp:translate"]'),
+    # Finite, but hits out there would start rays Embree cannot take (it asserts ray.valid()).
+    Case("mesh scaled 1e30", 0, "/quad: its world bounds reach beyond 1e18", mesh=f"float3 xformOp:scale = {HUGE_SCALE}\n{SCALE_ONLY}"),
+    Case("points scaled 1e30", 0, "/pts: its world bounds reach beyond 1e18", extra=f'def Points "pts"\n{{\n    point3f[] points = [(0, 0, 0), (1, 1, 1)]\n    float[] widths = [0.1, 0.1]\n    float3 xformOp:scale = {HUGE_SCALE}\n    {SCALE_ONLY}\n}}'),
+    Case("instance scaled 1e30", 0, "/inst/instances/inst/proto: 1 of 2 copies: its world bounds reach beyond 1e18", extra=f'def PointInstancer "inst"\n{{\n    rel prototypes = [</inst/proto>]\n    int[] protoIndices = [0, 0]\n    point3f[] positions = [(0, 0, 0), (1, 0, 0)]\n    float3[] scales = [(1, 1, 1), {HUGE_SCALE}]\n    def Cube "proto"\n    {{\n        double size = 0.2\n    }}\n}}'),
     Case("primvar count mismatch", 0, "/quad", mesh='color3f[] primvars:displayColor = [(1, 0, 0), (0, 1, 0)] (interpolation = "vertex")'),
     Case(
         "shader input of the wrong type",
@@ -172,6 +182,8 @@ CASES = [
     # Files and composition: exit 1 naming the file, or a warning.
     Case("reference cycle", 0, "composition error", extra='def "a" (references = </b>) {}\ndef "b" (references = </a>) {}'),
     Case("missing reference", 0, "composition error", extra='def "r" (references = @missing.usda@) {}'),
+    Case("stage a FIFO", 1, "stage.usda: cannot read the file: it is a FIFO", stage_kind="fifo"),
+    Case("stage a directory", 1, "stage.usda: cannot read the file: it is a directory", stage_kind="directory"),
 ]
 
 
@@ -180,5 +192,10 @@ def write_case(case: Case, directory: Path) -> Path:
     for name, data in case.files.items():
         (directory / name).write_bytes(data)
     stage = directory / "stage.usda"
-    stage.write_text(case.usda())
+    if case.stage_kind == "fifo":
+        os.mkfifo(stage)  # nothing ever writes to it: reading it would block forever
+    elif case.stage_kind == "directory":
+        stage.mkdir()
+    else:
+        stage.write_text(case.usda())
     return stage

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdVol
@@ -317,6 +319,17 @@ def test_render_convenience_on_a_path():
     assert image.metadata["seed"] == 3 and image.metadata["timeCode"] == 1.0
     with pytest.raises(penumbra.SceneError, match="missing.usda: no such file"):
         penumbra.render("missing.usda")
+
+
+def test_a_stage_path_that_is_no_regular_file_is_refused(tmp_path):
+    """Reading a FIFO would block until something writes to it: refused before opening."""
+    fifo, folder = tmp_path / "pipe.usda", tmp_path / "folder.usda"
+    os.mkfifo(fifo)
+    folder.mkdir()
+    with pytest.raises(penumbra.SceneError, match="pipe.usda: cannot read the file: it is a FIFO"):
+        penumbra.Renderer(fifo)
+    with pytest.raises(penumbra.SceneError, match="folder.usda: cannot read the file: it is a dir"):
+        penumbra.render(str(folder))
 
 
 def test_memory_budget_counts_the_aovs_asked_for():

@@ -34,6 +34,15 @@ def test_malformed_input(case: Case, tmp_path: Path, capsys) -> None:
         assert "warning" in stderr
 
 
+@pytest.mark.parametrize("name", ["mesh at 1e20", "mesh NaN transform", "mesh scaled 1e30"])
+def test_a_mesh_out_of_reach_is_reported_once(name: str, tmp_path: Path, capsys) -> None:
+    """Its transform (the scene delegate) or its world bounds (the render delegate): one
+    warning, not one from each."""
+    case = next(case for case in CASES if case.name == name)
+    assert main([str(write_case(case, tmp_path)), str(tmp_path / "out.png"), *SMALL]) == 0
+    assert capsys.readouterr().err.count("/quad:") == 1
+
+
 @pytest.mark.parametrize(
     "content",
     [b"#usda 1.0\n(\x00\xff{{{ def def", b'#usda 1.0\ndef Xform "a\xac" {}\n'],  # 2nd: fuzzer

@@ -179,6 +179,8 @@ def test_unknown_or_invalid_options_are_rejected():
             renderer.render(width=8, samples=1, max_depth=3)
         with pytest.raises(ValueError, match="samples must be at least 1"):
             renderer.render(width=8, samples=0)
+        with pytest.raises(ValueError, match=r"threads must be in \[0, 1024\]"):
+            renderer.render(width=8, samples=1, threads=100_000)  # oneTBB crashed past 65536
         with pytest.raises(ValueError, match="unknown render setting 'spp'"):
             renderer.delegate.set_render_setting("spp", 4)
     prim.CreateAttribute("penumbra:maxDepth", Sdf.ValueTypeNames.Int).Set(3)

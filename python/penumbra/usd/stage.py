@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import stat
 from collections.abc import Iterable
 
 from pxr import Ar, Sdf, Tf, Usd
@@ -35,7 +36,29 @@ RESOLVERS = ("root", "inherit")
 default context (inherited from the environment)."""
 
 
+def _refuse_special_file(path: str, role: str) -> None:
+    """Raise :class:`SceneError` when ``path`` names a directory, FIFO, socket or device:
+    reading a FIFO blocks until something writes to it, and the others are no layers. Paths
+    that name no file on disk (resolver identifiers) are left to USD. ``os.stat`` does not
+    open the file, so it cannot block."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return
+    if stat.S_ISREG(mode):
+        return
+    kind = (
+        "a directory"
+        if stat.S_ISDIR(mode)
+        else "a FIFO (named pipe)"
+        if stat.S_ISFIFO(mode)
+        else "not a regular file"
+    )
+    raise SceneError(f"{path}: cannot read the {role}: it is {kind}")
+
+
 def _open_layer(path: str, role: str) -> Sdf.Layer:
+    _refuse_special_file(path, role)
     try:
         layer = Sdf.Layer.FindOrOpen(path)
     except Tf.ErrorException as error:

@@ -89,6 +89,14 @@ class Geometry {
   /// How camera rays treat the mesh itself (not its instancers' copies).
   void setMeshPassVisibility(MeshId id, PassVisibility pass);
 
+  /// Farthest a shown placement may reach from the origin, in every coordinate: Embree wants
+  /// ray origins within about 1.8e19 (it asserts so), and hits on geometry farther out would
+  /// start rays beyond that. A placement reaching farther (or not finite) is not rendered.
+  static constexpr float kMaxCoordinate = 1e18f;
+  /// Whether the mesh's own placement would show but is not rendered: its world bounds reach
+  /// beyond kMaxCoordinate or are not finite.
+  bool beyondReach(MeshId id) const;
+
   /// Copies of a mesh (its geometry and material), one per transform, sharing its BVH: memory
   /// grows with the number of copies, not with their triangles. The mesh itself need not be
   /// visible (a prototype). Replaces the instancer's previous copies.
@@ -96,6 +104,8 @@ class Geometry {
   void setInstances(InstancerId id, MeshId prototype, std::vector<MotionTransform> transforms,
                     bool visible);
   void removeInstancer(InstancerId id);
+  /// How many of the instancer's copies would show but are not rendered (as beyondReach).
+  size_t copiesBeyondReach(InstancerId id) const;
   /// Per-copy primvars of an instancer (one value per copy, in the order of setInstances'
   /// transforms), overriding the prototype's primvars of the same name; displayColor among them
   /// colours copies without a material. Throws std::invalid_argument for a count that does not
@@ -202,6 +212,7 @@ class Geometry {
     // Its own placement: whether it shows, the BVH its instance in top_
     // places as committed, and its instance in the overlay, if any (rays then see that one).
     bool ownEnabled = false;
+    bool ownBeyondReach = false;  // it would show, but reaches beyond kMaxCoordinate
     RTCScene placedBvh = nullptr;
     RTCGeometry overlay = nullptr;
     unsigned overlayGeomId = 0;
@@ -213,6 +224,7 @@ class Geometry {
     std::vector<std::unique_ptr<Placement>> copies;
     std::vector<Primvar> primvars;  // one value per copy
     Box bounds;                     // in the world, of the copies shown
+    size_t beyondReach = 0;         // copies that would show but reach beyond kMaxCoordinate
   };
 
   // Ray mask bits of the placements: camera rays test only kCameraRays, so geometry a render
@@ -225,7 +237,9 @@ class Geometry {
   /// rtcIntersect1 through the top-level BVH, with the hit filters' context.
   RTCRayHit trace(const Ray& ray, RayKind kind) const;
   MeshRecord& record(MeshId id);
+  const MeshRecord& record(MeshId id) const;
   InstancerRecord& instancer(InstancerId id);
+  const InstancerRecord& instancer(InstancerId id) const;
   std::unique_ptr<Placement> newPlacement(MeshId mesh);
   void releasePlacement(std::unique_ptr<Placement>& placement);
   /// Pushes a placement's BVH, transform, enabled state and ray mask to Embree: for a mesh's
@@ -244,6 +258,8 @@ class Geometry {
   void removeFromOverlay(MeshRecord& mesh);
   /// Where `placement` shows its mesh (empty when not enabled).
   Box worldBounds(const Placement& placement, bool enabled) const;
+  /// Whether the placement's world bounds are finite and within kMaxCoordinate.
+  bool withinReach(const Placement& placement) const;
   /// Installs the hit filters the mesh's sidedness and cut-outs call for and commits its BVH
   /// again; Embree then wants the instances placing it committed again (updateAllPlacements),
   /// and the top-level BVH rebuilt.

@@ -12,6 +12,9 @@
 
 namespace penumbra::plugin {
 
+/// Why a placement Geometry::beyondReach reports is not rendered (for warnings).
+extern const char* const kBeyondReach;
+
 class PlacedRprim : public Prim {
  public:
   /// The dirty bits on which a sync places the object again.
