@@ -1,6 +1,5 @@
 #include "penumbra/integrator.h"
 
-#include <type_traits>
 #include <utility>
 #include <variant>
 
@@ -222,17 +221,20 @@ SurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float 
 }
 
 /// The white Lambertian lobe through which light leaves a solid at the end of a subsurface
-/// random walk (the walk's throughput carries the colour): f·cos = cos θ/π on the outside.
+/// random walk (the walk's throughput carries the colour): f·cos = cos θ/π on the outside,
+/// whatever wo (it takes wo only to be evaluated as the BSDFs are).
 class LambertianExit {
  public:
   explicit LambertianExit(const Vec3f& outward) : frame_(outward) {}
 
-  Vec3f evaluate(const Vec3f& wi, Vec3f* diffusePart) const {
+  Vec3f evaluate(const Vec3f&, const Vec3f& wi, Vec3f* diffusePart) const {
     const Vec3f f(std::max(dot(wi, frame_.n), 0.0f) * kInvPi);
     *diffusePart = f;
     return f;
   }
-  float pdf(const Vec3f& wi) const { return std::max(dot(wi, frame_.n), 0.0f) * kInvPi; }
+  float pdf(const Vec3f&, const Vec3f& wi) const {
+    return std::max(dot(wi, frame_.n), 0.0f) * kInvPi;
+  }
   BsdfSample sample(Vec2f u) const {
     const Vec3f local = sampleCosineHemisphere(u);
     BsdfSample result;
@@ -258,17 +260,9 @@ struct SurfaceVertex {
   float time;
 
   Vec3f evaluate(const Vec3f& wi, Vec3f* diffusePart) const {
-    if constexpr (std::is_same_v<Scatter, LambertianExit>)
-      return bsdf.evaluate(wi, diffusePart);
-    else
-      return bsdf.evaluate(wo, wi, diffusePart);
+    return bsdf.evaluate(wo, wi, diffusePart);
   }
-  float pdf(const Vec3f& wi) const {
-    if constexpr (std::is_same_v<Scatter, LambertianExit>)
-      return bsdf.pdf(wi);
-    else
-      return bsdf.pdf(wo, wi);
-  }
+  float pdf(const Vec3f& wi) const { return bsdf.pdf(wo, wi); }
   Ray shadowRay(const Vec3f& wi, float tFar) const { return spawnRay(scene, hit, wi, tFar, time); }
 };
 

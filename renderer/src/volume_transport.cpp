@@ -57,31 +57,6 @@ class MergedMajorants {
   MergedMajorants(const MergedMajorants&) = delete;
   MergedMajorants& operator=(const MergedMajorants&) = delete;
 
-  /// The stretch from the current position: its end and summed majorant; false when every
-  /// volume is behind.
-  bool stretch(float* end, float* majorant) const {
-    bool any = false;
-    float nearestEnd = kInfinity, sum = 0;
-    for (const Track& track : tracks()) {
-      if (!track.live) continue;
-      any = true;
-      if (track.segment.tStart > t_) {
-        nearestEnd = std::min(nearestEnd, track.segment.tStart);
-      } else {
-        nearestEnd = std::min(nearestEnd, track.segment.tEnd);
-        sum += track.segment.majorant;
-      }
-    }
-    *end = nearestEnd;
-    *majorant = sum * scale_;
-    return any;
-  }
-  /// Moves the current position to `t` (within the current stretch or at its end).
-  void advanceTo(float t) {
-    t_ = t;
-    for (Track& track : tracks())
-      while (track.live && track.segment.tEnd <= t_) track.live = track.walk.next(&track.segment);
-  }
   /// The next tentative collision (empty stretches skipped), where the ray then is: its
   /// distance and the summed majorant there; false once the ray has left every volume.
   bool nextTentativeCollision(RandomStream& random, float* t, float* majorant) {
@@ -132,6 +107,31 @@ class MergedMajorants {
   }
 
  private:
+  /// The stretch from the current position: its end and summed majorant; false when every
+  /// volume is behind.
+  bool stretch(float* end, float* majorant) const {
+    bool any = false;
+    float nearestEnd = kInfinity, sum = 0;
+    for (const Track& track : tracks()) {
+      if (!track.live) continue;
+      any = true;
+      if (track.segment.tStart > t_) {
+        nearestEnd = std::min(nearestEnd, track.segment.tStart);
+      } else {
+        nearestEnd = std::min(nearestEnd, track.segment.tEnd);
+        sum += track.segment.majorant;
+      }
+    }
+    *end = nearestEnd;
+    *majorant = sum * scale_;
+    return any;
+  }
+  /// Moves the current position to `t` (within the current stretch or at its end).
+  void advanceTo(float t) {
+    t_ = t;
+    for (Track& track : tracks())
+      while (track.live && track.segment.tEnd <= t_) track.live = track.walk.next(&track.segment);
+  }
   struct Track {
     const Volume* volume;
     Vec3f origin, direction;  // the ray in the volume's object space (same parameter t)

@@ -68,6 +68,13 @@ Camera orthographicCamera(int size) {
   return Camera(lens, size, size);
 }
 
+/// Five standard deviations (plus a little for float sums) of the mean of `samples` draws that
+/// are each 1 with probability `p` and 0 otherwise: camera samples through absorbing media,
+/// which either pass or are absorbed.
+double binomialTolerance(double p, double samples) {
+  return 5 * std::sqrt(p * (1 - p) / samples) + 1e-3;
+}
+
 /// The mean radiance of every sample of a size × size image by orthographicCamera.
 Vec3f meanColor(const Scene& scene, const IntegratorSettings& settings, int size,
                 uint32_t samples) {
@@ -142,7 +149,7 @@ TEST(Volumes, AbsorbingSlabPassesBeerLambert) {
       scene.commit();
       const double expected = std::exp(-double(sigma) * thickness);
       // Each sample passes (1) or is absorbed (0): binomial noise over 8·8·128 samples.
-      const double tolerance = 5 * std::sqrt(expected * (1 - expected) / 8192) + 1e-3;
+      const double tolerance = binomialTolerance(expected, 8192);
       EXPECT_NEAR(meanRadiance(scene, IntegratorSettings(), 8, 128), expected, tolerance)
           << "sigma " << sigma << ", thickness " << thickness;
     }
@@ -171,7 +178,7 @@ TEST(Volumes, OverlappingVolumesAddTheirCoefficients) {
   addLight(scene, whiteDome());
   scene.commit();
   const double expected = std::exp(-(6 * 0.2 + 2 * 0.3 * 0.5));
-  const double tolerance = 5 * std::sqrt(expected * (1 - expected) / 8192) + 1e-3;
+  const double tolerance = binomialTolerance(expected, 8192);
   EXPECT_NEAR(meanRadiance(scene, IntegratorSettings(), 8, 128), expected, tolerance);
 }
 
@@ -305,7 +312,7 @@ TEST(Volumes, HeterogeneousTransmittanceMatchesNumericalIntegration) {
     addVolume(scene, data);
     addLight(scene, whiteDome());
     scene.commit();
-    const double tolerance = 5 * std::sqrt(transmittance * (1 - transmittance) / 8192) + 1e-3;
+    const double tolerance = binomialTolerance(transmittance, 8192);
     EXPECT_NEAR(meanRadiance(scene, IntegratorSettings(), 8, 128), transmittance, tolerance);
   }
   // Shadow rays (ratio tracking): a white floor behind the field, lit by a distant light
@@ -373,7 +380,7 @@ TEST(Volumes, OpenVdbGridTransmittanceMatchesNumericalIntegration) {
   addVolume(scene, data, translation(0, 0, 0.3));
   addLight(scene, whiteDome());
   scene.commit();
-  const double tolerance = 5 * std::sqrt(transmittance * (1 - transmittance) / 8192) + 1e-3;
+  const double tolerance = binomialTolerance(transmittance, 8192);
   EXPECT_NEAR(meanRadiance(scene, IntegratorSettings(), 8, 128), transmittance, tolerance);
 }
 
