@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import inspect
 
+import numpy as np
 import pytest
 from pxr import Sdf, UsdLux, UsdRender
 
@@ -17,7 +18,8 @@ from penumbra.errors import PenumbraWarning, SceneError
 from penumbra.jobs import START_TIME
 from penumbra.usd import read_render_settings
 from penumbra.usd.lights import light_type
-from stages import lit_quad_stage, new_stage
+from stages import add_camera, add_preview_material, add_sphere_mesh, bind, lit_quad_stage, \
+    new_stage
 
 OPTIONS = render_options.OPTIONS
 
@@ -205,3 +207,56 @@ def test_light_types_are_the_delegates_sprim_types():
     }
     with pytest.raises(ValueError, match="unsupported sprim type"):
         delegate.insert_sprim("portalLight", "/portal")
+
+
+# Caps high enough that a path through rough glass ends by escaping, not by a cap.
+RAISED_CAPS = {"max_path_depth": 64, "max_glossy_depth": 64, "max_transmission_depth": 64}
+
+
+def glass_furnace_stage(path=None):
+    """A white rough glass sphere (radius 1, seen whole) under a white dome of radiance 1: a
+    lossless BSDF there has radiance 1 wherever the sphere is seen."""
+    stage = new_stage(path)
+    add_camera(stage)  # sees [-2, 2]² of the z = 0 plane
+    sphere = add_sphere_mesh(stage, "/World/ball", rings=48, sectors=96)
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateIntensityAttr(1.0)
+    bind(sphere, add_preview_material(stage, "/Looks/glass", opacity=0.0, ior=1.5,
+                                      roughness=0.3))
+    return stage
+
+
+def sphere_mean(rgb: np.ndarray) -> float:
+    """Mean luminance over the sphere's interior (radius < 0.9, off the silhouette)."""
+    size = rgb.shape[0]
+    coordinates = (np.arange(size) + 0.5) / size * 4 - 2
+    radius = np.hypot(*np.meshgrid(coordinates, coordinates))
+    return float(rgb[radius < 0.9][:, :3].mean())
+
+
+def test_raised_depth_caps_keep_rough_glass_at_one_through_every_door(tmp_path):
+    """The glossy and transmission caps are a flag, a keyword and a render settings attribute
+    alike: each lifts the cap under which rough glass in a white furnace loses light, and the
+    three give the same pixels."""
+    path = tmp_path / "furnace.usda"
+    stage = glass_furnace_stage(path)
+    stage.GetRootLayer().Save()
+    common = {"camera": "/cam", "width": 48, "samples": 64, "seed": 5}
+    capped = sphere_mean(penumbra.render(stage, **common)["color"])
+    assert capped < 0.97  # the default caps (glossy 4, transmission 8) lose light
+    by_keyword = penumbra.render(stage, **common, **RAISED_CAPS)["color"]
+    assert sphere_mean(by_keyword) == pytest.approx(1.0, abs=0.02)
+
+    flags = [f"--{render_options.BY_KEYWORD[k].key}={v}" for k, v in RAISED_CAPS.items()]
+    out = tmp_path / "furnace.exr"
+    assert main([str(path), str(out), "-cam", "/cam", "-w", "48", "-spp", "64", "--seed", "5",
+                 "--enableDomeLightVisibility", *flags]) == 0
+    by_flag, _, metadata = _core.read_image(str(out))
+    assert int(metadata["penumbra:maxGlossyDepth"]) == 64
+    np.testing.assert_array_equal(by_flag, by_keyword)
+
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    for keyword, value in RAISED_CAPS.items():
+        author(settings.GetPrim(), render_options.BY_KEYWORD[keyword], value)
+    by_attribute = penumbra.render(stage, **common)["color"]
+    np.testing.assert_array_equal(by_attribute, by_keyword)

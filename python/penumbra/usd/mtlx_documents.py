@@ -168,16 +168,19 @@ def _translate(file: str, stage: Usd.Stage, root: Sdf.Path, warn: Callable[[str]
     from .materialx_library import library
 
     document.setDataLibrary(library())  # node definitions, without copying them
-    _Translator(document, stage, root, os.path.dirname(file)).run()
+    _Translator(document, stage, root, file, warn).run()
     return True
 
 
 class _Translator:
-    def __init__(self, document: Any, stage: Usd.Stage, root: Sdf.Path, directory: str):
+    def __init__(self, document: Any, stage: Usd.Stage, root: Sdf.Path, file: str,
+                 warn: Callable[[str], None]):
         self.document = document
         self.stage = stage
         self.materialx = root.AppendChild("MaterialX")
-        self.directory = directory
+        self.file = file
+        self.directory = os.path.dirname(file)
+        self.warn = warn
 
     def run(self) -> None:
         self.stage.DefinePrim(self.materialx, "Scope")
@@ -284,6 +287,28 @@ class _Translator:
                     usd_output.ConnectToSource(source_output)
         return graph
 
+    def _absolute(self, path: str) -> str:
+        """``path`` relative to the document's directory, unless absolute."""
+        return os.path.normpath(os.path.join(self.directory, path)) if path else path
+
+    def _file_path(self, mx_input: Any) -> str:
+        """The file a ``filename`` input names: its value under the document's ``fileprefix``,
+        as MaterialX resolves it. Some assets repeat the prefix in the value
+        (``fileprefix="./textures/"``, ``value="./textures/a.jpg"``), which viewers that
+        resolve values beside the document accept: where prefix + value names no file but the
+        value alone does, that file, after a warning naming both."""
+        resolved = self._absolute(mx_input.getResolvedValueString())
+        if not resolved or "<UDIM>" in resolved or os.path.exists(resolved):
+            return resolved
+        plain = self._absolute(mx_input.getValueString())
+        if plain != resolved and os.path.exists(plain):
+            self.warn(
+                f"{self.file}: {mx_input.getNamePath()}: {resolved} (fileprefix and value) "
+                f"does not exist; using {plain} (the value alone)"
+            )
+            return plain
+        return resolved
+
     def _set_value(self, mx_input: Any, usd_input: UsdShade.Input) -> None:
         from .materialx_library import mx_value
 
@@ -291,10 +316,7 @@ class _Translator:
             return
         attr = usd_input.GetAttr()
         if mx_input.getType() == "filename":
-            path = mx_input.getResolvedValueString()
-            if path and not os.path.isabs(path):
-                path = os.path.normpath(os.path.join(self.directory, path))
-            attr.Set(Sdf.AssetPath(path))
+            attr.Set(Sdf.AssetPath(self._file_path(mx_input)))
         else:
             value = mx_value(mx_input.getValue())
             if value is None:

@@ -69,6 +69,34 @@ def _open_layer(path: str, role: str) -> Sdf.Layer:
     return layer
 
 
+def _names_any(text: str, documents: set[str]) -> bool:
+    """Whether a diagnostic's or composition error's ``text`` is about one of ``documents``
+    (the MaterialX files compose_materialx_documents handled)."""
+    return any(os.path.basename(document) in text for document in documents)
+
+
+def _open(
+    path: str, layer: Sdf.Layer, session: Sdf.Layer, context: Ar.ResolverContext,
+    mask_paths: list[str],
+) -> Usd.Stage:
+    """The stage of ``layer``, populated by ``mask_paths`` when given."""
+    try:
+        if mask_paths:
+            population = Usd.StagePopulationMask()
+            for mask_path in mask_paths:
+                if not Sdf.Path.IsValidPathString(mask_path) or not mask_path.startswith("/"):
+                    raise SceneError(f"{path}: --mask path {mask_path!r} is not an absolute prim path")
+                population.Add(Sdf.Path(mask_path))
+            stage = Usd.Stage.OpenMasked(layer, session, context, population)
+        else:
+            stage = Usd.Stage.Open(layer, session, context)
+    except Tf.ErrorException as error:
+        raise SceneError(f"{path}: cannot open the stage: {_tf_error_text(error)}") from None
+    if not stage:
+        raise SceneError(f"{path}: cannot open the stage")
+    return stage
+
+
 def open_stage(
     path: str | os.PathLike,
     *,
@@ -95,23 +123,15 @@ def open_stage(
         ar.CreateDefaultContext() if resolver == "inherit" else ar.CreateDefaultContextForAsset(path)
     )
     mask_paths = list(mask)
-    try:
-        if mask_paths:
-            population = Usd.StagePopulationMask()
-            for mask_path in mask_paths:
-                if not Sdf.Path.IsValidPathString(mask_path) or not mask_path.startswith("/"):
-                    raise SceneError(f"{path}: --mask path {mask_path!r} is not an absolute prim path")
-                population.Add(Sdf.Path(mask_path))
-            stage = Usd.Stage.OpenMasked(layer, session, context, population)
-        else:
-            stage = Usd.Stage.Open(layer, session, context)
-    except Tf.ErrorException as error:
-        raise SceneError(f"{path}: cannot open the stage: {_tf_error_text(error)}") from None
-    if not stage:
-        raise SceneError(f"{path}: cannot open the stage")
-    documents = compose_materialx_documents(stage, warn)
+    # usd-core reports each arc to a .mtlx document as a failed composition (it has no file
+    # format for them) while opening; those Penumbra composes itself, so their raw warnings
+    # are dropped and every other diagnostic is posted as usual when the trap closes.
+    with Tf.DiagnosticTrap() as trap:
+        stage = _open(path, layer, session, context, mask_paths)
+        documents = compose_materialx_documents(stage, warn)
+        trap.EraseMatching(lambda diagnostic: _names_any(diagnostic.commentary, documents))
     for error in stage.GetCompositionErrors():
-        if any(os.path.basename(document) in str(error) for document in documents):
+        if _names_any(str(error), documents):
             continue  # translated by compose_materialx_documents
         warn(f"{path}: composition error, the arc is ignored: {' '.join(str(error).split())}")
     return stage
