@@ -420,9 +420,12 @@ class Renderer:
         about: dict,
         make_image: Callable[[], Image],
     ) -> None:
-        """Write the render pass's state (``about`` the render: size, crop, AOVs), then the
-        image rendered so far (metadata ``partial`` 1)."""
+        """Write the image rendered so far (metadata ``partial`` 1), then the render pass's
+        state (``about`` the render: size, crop, AOVs): a state file always has its image."""
         with self.tracer.span("write checkpoint", file=checkpoint.path):
+            image = make_image()
+            image.metadata.update({"partial": 1, RENDER_KEY: key})
+            image.write(checkpoint.path, color_mode=checkpoint.color_mode)
             write_state(
                 checkpoint.state_path,
                 key,
@@ -431,9 +434,6 @@ class Renderer:
                 about,
                 render_pass.save_state(key),
             )
-            image = make_image()
-            image.metadata.update({"partial": 1, RENDER_KEY: key})
-            image.write(checkpoint.path, color_mode=checkpoint.color_mode)
         logger.info("%s: checkpoint at %d samples", checkpoint.path, render_pass.samples_done)
 
     def image_size(
