@@ -18,6 +18,9 @@ import math
 import os
 import struct
 from dataclasses import dataclass
+from pathlib import Path
+
+from .image import remove_stale_temporaries
 
 RENDER_KEY = "Exif:ImageUniqueID"
 """The metadata attribute holding a render's key (``penumbra-record``'s
@@ -103,8 +106,10 @@ def write_state(
         "stateSha256": hashlib.sha256(state).hexdigest(),
     }
     encoded = json.dumps(header, sort_keys=True).encode()
-    directory, name = os.path.split(os.path.abspath(path))
-    temporary = os.path.join(directory, f".{name}.tmp{os.getpid()}")
+    remove_stale_temporaries(path)
+    target = Path(path)
+    # Named as the image writer names its temporaries, so that the same clean-up finds them.
+    temporary = target.parent / f".{target.stem}.tmp{os.getpid()}-0{target.suffix}"
     try:
         with open(temporary, "wb") as file:
             file.write(_MAGIC + _HEADER_LENGTH.pack(len(encoded)) + encoded)

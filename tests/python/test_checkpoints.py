@@ -22,6 +22,9 @@ import penumbra
 from penumbra import _core
 from penumbra.checkpoints import STATE_SUFFIX, read_state, write_state
 from penumbra.cli import main
+from penumbra.cli_arguments import build_parser
+from penumbra.cli_record import render_job
+from penumbra.jobs import START_TIME
 from stages import CORNELL, lit_quad_stage
 
 PENUMBRA_RECORD = [sys.executable, "-m", "penumbra.cli"]
@@ -306,3 +309,13 @@ def test_the_render_pass_refuses_a_state_of_another_render():
     render_pass.set_aovs([])
     render_pass.load_state(state, "key")
     assert render_pass.samples_done == 8
+
+
+def test_the_frame_key_holds_the_time_limit_not_the_checkpoint_interval(tmp_path):
+    def key(*flags: str) -> str:
+        args = build_parser().parse_args([str(tmp_path / "in.usda"), "out.exr", *flags])
+        args.aovs = ["color"]
+        return render_job(args, START_TIME).frame_key(START_TIME)
+
+    assert key("--checkpoint", "60") == key()
+    assert key("--timeLimit", "60") != key()
