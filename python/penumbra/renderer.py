@@ -380,9 +380,8 @@ class Renderer:
         pass_seconds: float | None = None  # the last pass's: the next one's estimate
         stopped_by_time_limit = False
         while not render_pass.converged:
-            spent = spent_before + clock.perf_counter() - started
             if time_limit is not None and pass_seconds is not None:
-                if spent + pass_seconds > time_limit:
+                if spent_before + clock.perf_counter() - started + pass_seconds > time_limit:
                     stopped_by_time_limit = True
                     break
             first, count = render_pass.samples_done, min(step, samples - render_pass.samples_done)
