@@ -192,9 +192,10 @@ def test_a_time_limit_ends_the_frame_after_the_last_pass_that_fits(tmp_path, cap
     assert int(metadata["penumbra:stoppedByTimeLimit"]) == 1
     assert 128 <= done < 2048 and done % 128 == 0  # whole passes of 2048 / 16
     assert float(metadata["penumbra:meanSamples"]) == done
-    # A pass takes about half a second here (the whole frame 8 s): well past the limit means
-    # it was not kept (a shared machine's load makes the estimate wobble, hence the slack).
-    assert float(metadata["penumbra:renderTimeSeconds"]) < 3.5
+    # The limit may be overrun by the pass that was estimated to fit (a shared machine's load
+    # makes estimates wobble, hence the slack of half a pass more), and by the first pass.
+    seconds = float(metadata["penumbra:renderTimeSeconds"])
+    assert seconds <= 1.5 + 1.5 * seconds / (done // 128)
 
 
 def test_a_time_limit_not_reached_says_so(tmp_path):
