@@ -5,7 +5,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "penumbra/plugin/render_settings.h"
 #include "penumbra/render.h"
+#include "penumbra/state_io.h"
 
 namespace penumbra::plugin {
 
@@ -27,6 +29,20 @@ PixelRect cropWithMargin(int width, int height, const PixelRect& crop, int margi
   const int right = int(std::min<int64_t>(width, int64_t(crop.x) + crop.width + margin));
   const int bottom = int(std::min<int64_t>(height, int64_t(crop.y) + crop.height + margin));
   return {left, top, right - left, bottom - top};
+}
+
+constexpr char kPassTag[5] = "PASS";
+constexpr uint32_t kPassVersion = 1;
+
+/// The settings among `used` that change pixels (a saved state's samples stay valid under the
+/// others).
+std::map<std::string, double> pixelSettings(const std::map<std::string, double>& used) {
+  std::map<std::string, double> kept;
+  for (const RenderOption& option : renderOptions()) {
+    const auto found = used.find(option.key);
+    if (option.changesPixels && found != used.end()) kept.insert(*found);
+  }
+  return kept;
 }
 
 }  // namespace
@@ -193,6 +209,56 @@ std::vector<float> RenderPass::aov(const std::string& name) const {
           cropped.begin() + std::ptrdiff_t((size_t(y) * size_t(crop_.width) + size_t(x)) * wanted));
     }
   return cropped;
+}
+
+std::vector<uint8_t> RenderPass::saveState(const std::string& renderKey) const {
+  std::vector<uint8_t> state;
+  StateWriter writer(state);
+  const size_t block = writer.beginBlock(kPassTag, kPassVersion);
+  writer.putString(renderKey);
+  writer.put(imageWidth_);
+  writer.put(imageHeight_);
+  writer.put(crop_);
+  const std::map<std::string, double> settings = pixelSettings(settingsUsed_);
+  writer.put(uint64_t(settings.size()));
+  for (const auto& [key, value] : settings) {
+    writer.putString(key);
+    writer.put(value);
+  }
+  writer.put(samplesDone_);
+  writer.endBlock(block);
+  film_.saveState(state);
+  return state;
+}
+
+void RenderPass::loadState(const std::vector<uint8_t>& state, const std::string& renderKey) {
+  if (sceneVersion_ == ~uint64_t(0))
+    throw std::logic_error("RenderPass::loadState needs the scene synced first (execute(0))");
+  const uint8_t* cursor = state.data();
+  const uint8_t* end = state.data() + state.size();
+  StateReader reader(cursor, end, "the render pass state");
+  reader.beginBlock(kPassTag, kPassVersion);
+  if (reader.getString() != renderKey) reader.fail("is of another render (render key)");
+  const int width = reader.get<int>(), height = reader.get<int>();
+  if (width != imageWidth_ || height != imageHeight_)
+    reader.fail("is of a " + std::to_string(width) + "x" + std::to_string(height) + " image, not " +
+                std::to_string(imageWidth_) + "x" + std::to_string(imageHeight_));
+  if (!(reader.get<PixelRect>() == crop_)) reader.fail("is of another crop");
+  std::map<std::string, double> settings;
+  for (uint64_t i = reader.get<uint64_t>(); i > 0; --i) {
+    std::string key = reader.getString();
+    settings[key] = reader.get<double>();
+  }
+  if (settings != pixelSettings(settingsUsed_)) reader.fail("was rendered with other settings");
+  const int samplesDone = reader.get<int>();
+  if (samplesDone < 0) reader.fail("has a negative sample count");
+  reader.endBlock();
+  film_.loadState(cursor, end);
+  if (cursor != end) {
+    reset();
+    reader.fail("has more than a render pass's state");
+  }
+  samplesDone_ = samplesDone;
 }
 
 }  // namespace penumbra::plugin

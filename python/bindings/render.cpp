@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <thread>
+#include <vector>
 
 #include "bindings.h"
 #include "conversions.h"
@@ -144,6 +145,23 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
       .def("set_aov_bindings", &RenderPass::setAovBindings, py::arg("bindings"))
       .def("set_aovs", &RenderPass::setAovs, py::arg("names"),
            "Accumulate these AOVs besides color, alpha, Z and sampleCount (a change restarts).")
+      .def(
+          "save_state",
+          [](const RenderPass& self, const std::string& renderKey) {
+            const std::vector<uint8_t> state = self.saveState(renderKey);
+            return py::bytes(reinterpret_cast<const char*>(state.data()), state.size());
+          },
+          py::arg("render_key"),
+          "The pass's exact state (samples done, accumulators) under render_key, as bytes.")
+      .def(
+          "load_state",
+          [](RenderPass& self, const py::bytes& state, const std::string& renderKey) {
+            const std::string bytes = state;
+            self.loadState(std::vector<uint8_t>(bytes.begin(), bytes.end()), renderKey);
+          },
+          py::arg("state"), py::arg("render_key"),
+          "Continue from save_state's bytes (after execute(0)); ValueError for a state of "
+          "another render key, size, crop, AOV set or settings.")
       .def_property_readonly("samples_done", &RenderPass::samplesDone)
       .def_property_readonly("mean_samples", &RenderPass::meanSamples)
       .def_property_readonly("samples_taken", &RenderPass::samplesTaken)

@@ -15,10 +15,20 @@ from . import _interrupts
 with _interrupts.deferred():  # USD's module loader would swallow a Ctrl-C (_interrupts.py)
     from . import _core
     from ._core import write_vdb
+    from .checkpoints import Checkpoint
     from .errors import PenumbraWarning, SceneError
     from .image import Image
     from .renderer import Renderer, render
 
 __version__: str = _core.version()
 
-__all__ = ["Image", "PenumbraWarning", "Renderer", "SceneError", "__version__", "render", "write_vdb"]
+__all__ = [
+    "Checkpoint",
+    "Image",
+    "PenumbraWarning",
+    "Renderer",
+    "SceneError",
+    "__version__",
+    "render",
+    "write_vdb",
+]

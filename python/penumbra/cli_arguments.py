@@ -5,6 +5,7 @@ options derived from ``render_options``), and the checks of the values given.
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 
 from . import _core, render_options
@@ -304,7 +305,27 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help=(
             "skip frames whose output exists and was rendered from the same stage, settings "
-            "and frame (checked by a key in the image's metadata)"
+            "and frame (checked by a key in the image's metadata), and continue a partly "
+            "rendered frame from its checkpoint (see --checkpoint)"
+        ),
+    )
+    own.add_argument(
+        "--checkpoint",
+        type=float,
+        metavar="SECONDS",
+        help=(
+            "every SECONDS of rendering (between passes of samples; 0: after every pass) "
+            "write the frame rendered so far to its output, and its exact state beside it "
+            "(OUTPUT.penumbra-checkpoint), from which --resume continues bit-identically"
+        ),
+    )
+    own.add_argument(
+        "--timeLimit",
+        type=float,
+        metavar="SECONDS",
+        help=(
+            "end each frame after the last whole pass of samples that fits in SECONDS (at "
+            "least one pass); the metadata says the samples reached"
         ),
     )
     own.add_argument("--version", action="version", version=f"{PROG} {_core.version()}")
@@ -346,6 +367,13 @@ def check_usage(args: argparse.Namespace) -> list[FrameRange]:
             raise UsageError(f"{option.flag} {problem}")
     if args.workers is not None and args.workers < 1:
         raise UsageError("--workers must be at least 1")
+    for flag, seconds in (("--checkpoint", args.checkpoint), ("--timeLimit", args.timeLimit)):
+        if seconds is not None and not (math.isfinite(seconds) and seconds >= 0):
+            raise UsageError(f"{flag} must be a finite number of seconds >= 0, not {seconds:g}")
+        if seconds is not None and (args.scheduler or args.workers):
+            raise UsageError(
+                f"{flag} renders on this machine only, not with --scheduler or --workers"
+            )
     args.aovs = _aov_list(args.aov or "", args.denoise)
     if len(args.aovs) > 1 and not args.outputImagePath.lower().endswith(".exr"):
         raise UsageError(f"--aov needs an .exr output; {args.outputImagePath} holds colour only")

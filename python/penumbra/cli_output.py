@@ -45,11 +45,15 @@ def peak_memory_bytes() -> int:
 
 def frame_summary(label: str, image: Image) -> str:
     """One line about a finished frame: time, samples per pixel (their mean where adaptive
-    sampling stopped pixels early), rays per second, peak memory."""
+    sampling or the time limit stopped pixels early), rays per second, peak memory."""
     seconds = max(float(image.metadata["renderTimeSeconds"]), 1e-9)
     samples = int(image.metadata["samples"])
     mean = float(image.metadata["meanSamples"])
-    taken = f"{samples}" if mean == samples else f"{mean:.1f} (at most {samples})"
+    stopped = bool(image.metadata.get("stoppedByTimeLimit"))
+    cap = int(image.metadata["samplesDone"]) if stopped else samples
+    taken = f"{cap}" if mean == cap else f"{mean:.1f} (at most {cap})"
+    if stopped:
+        taken += f" of {samples} (time limit reached)"
     rays = int(image.metadata["rays"]) / seconds
     return (
         f"{label}: {image.width}x{image.height}, {taken} samples/pixel in {seconds:.2f} s "

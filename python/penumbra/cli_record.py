@@ -13,6 +13,7 @@ from pxr import Usd
 
 from . import render_options
 from .cli_arguments import EXIT_OK, RENDERER_NAME
+from .checkpoints import Checkpoint
 from .cli_output import Progress, frame_summary
 from .frames import FrameRange, frame_path, iter_frames
 from .image import Image, check_output_directory
@@ -27,6 +28,7 @@ from .jobs import (
     output_is_complete,
     time_code,
 )
+from .errors import warn
 from .trace import Tracer
 
 
@@ -58,6 +60,7 @@ def render_job(args: argparse.Namespace, first_frame: FrameTime) -> RenderJob:
         disable_camera_light=args.disableCameraLight,
         max_memory=args.maxMemory,
         texture_cache=args.textureCacheSize,
+        time_limit=args.timeLimit,
     )
 
 
@@ -103,6 +106,11 @@ def record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) -
     with JobRenderer(job, tracer) as session:
         say(f"Camera: {session.camera}")
         say(f"Renderer plugin: {RENDERER_NAME}")
+        checkpoints = args.checkpoint is not None or args.resume
+        if checkpoints and session.products is not None:
+            checkpoints = False
+            if args.checkpoint is not None:
+                warn("--checkpoint applies to renders without render products; ignored")
         for frame in itertools.chain([first_frame], times):
             label = _time_code_label(time_code(session.renderer.stage, frame))
             output = output_path(frame)
@@ -120,10 +128,16 @@ def record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) -
                     )
                     image = products[0][1]
                     image.metadata[RENDER_KEY] = job.frame_key(frame)
+                elif checkpoints:  # the render writes the image and its checkpoints
+                    checkpoint = Checkpoint(
+                        output, args.checkpoint, resume=args.resume, color_mode=job.color_mode
+                    )
+                    image = session.render(frame, progress=progress, checkpoint=checkpoint)
                 else:
                     image = session.render(frame, progress=progress)
-                with tracer.span("write image", file=output):
-                    image.write(output, color_mode=job.color_mode)
+                if not checkpoints:
+                    with tracer.span("write image", file=output):
+                        image.write(output, color_mode=job.color_mode)
             say(frame_summary(f"time code {label}", image))
             for path, _ in products:
                 say(f"Wrote {os.path.abspath(path)}")

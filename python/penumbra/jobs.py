@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pxr import Usd
 
 from . import _core, render_options
+from .checkpoints import PARTIAL, RENDER_KEY, Checkpoint
 from .errors import SceneError, warn
 from .image import Image
 from .products import render_products
@@ -33,9 +34,6 @@ FrameTime = float | str
 DEFAULT_TIME = "default"
 START_TIME = "start"
 
-RENDER_KEY = "Exif:ImageUniqueID"
-"""The metadata attribute holding :meth:`RenderJob.frame_key`: Exif's unique image id (128 bits
-as 32 hexadecimal digits), which every output format keeps (EXR, PNG, JPEG and TIFF)."""
 
 # Settings that change how a frame is computed but not a bit of its pixels (besides the render
 # options that say so).
@@ -79,6 +77,8 @@ class RenderJob:
     disable_camera_light: bool = False
     max_memory: int | None = None
     texture_cache: int | None = None
+    time_limit: float | None = None
+    """``--timeLimit``: seconds per frame (in the key: it decides how many samples are taken)."""
 
     def frame_key(self, frame: FrameTime) -> str:
         """A hash of everything that decides the pixels of ``frame`` (stage, population,
@@ -119,12 +119,12 @@ def frame_label(frame: FrameTime) -> str:
 
 def output_is_complete(path: str, key: str) -> bool:
     """Whether ``path`` holds the frame whose key is ``key`` (read from its header only); a
-    missing, unreadable or different file is not."""
+    missing, unreadable or different file is not, nor a checkpoint of it (``partial``)."""
     try:
         metadata = _core.read_image_header(path)[3]
     except RuntimeError:
         return False
-    return metadata.get(RENDER_KEY) == key
+    return metadata.get(RENDER_KEY) == key and not metadata.get(PARTIAL)
 
 
 class JobRenderer:
@@ -195,6 +195,7 @@ class JobRenderer:
             max_memory=job.max_memory,
             texture_cache=job.texture_cache,
             denoise=job.denoise,
+            time_limit=job.time_limit,
         )
 
     def render(
@@ -202,10 +203,12 @@ class JobRenderer:
         frame: FrameTime,
         region: tuple[int, int, int, int] | None = None,
         progress: Callable[[int, int], None] | None = None,
+        checkpoint: Checkpoint | None = None,
     ) -> Image:
         """Render ``frame`` (only the pixels of ``region``, ``(x, y, width, height)``, if
         given); the image's metadata holds the frame's key. Stages whose render settings have
-        products render them with :meth:`render_products` instead."""
+        products render them with :meth:`render_products` instead. ``checkpoint``: as
+        :meth:`penumbra.Renderer.render`'s, its key set to the frame's."""
         if self.products is not None:
             raise SceneError(
                 f"{self.render_settings}: render products are rendered on this machine only "
@@ -218,6 +221,11 @@ class JobRenderer:
             aovs=self.job.aovs,
             render_settings=self.render_settings,
             region=region,
+            checkpoint=(
+                None
+                if checkpoint is None
+                else dataclasses.replace(checkpoint, key=self.job.frame_key(frame))
+            ),
             **self._options(progress),
         )
         image.metadata[RENDER_KEY] = self.job.frame_key(frame)

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
+import logging
 import math
 import os
 import time as clock
@@ -12,9 +14,18 @@ import numpy as np
 from pxr import Sdf, Usd
 
 from . import _core
+from .checkpoints import (
+    RENDER_KEY,
+    Checkpoint,
+    CorruptCheckpoint,
+    check_seconds,
+    read_state,
+    remove_state,
+    write_state,
+)
 from .errors import SceneError, warn
 from .denoise import GUIDE_AOVS, NOISY_COLOR, denoise_color
-from .image import Image, ocio_config_path
+from .image import Image, check_output_directory, check_output_format, ocio_config_path
 from . import render_options
 from .memory import (
     MIN_TEXTURE_CACHE,
@@ -51,6 +62,7 @@ ProgressCallback = Callable[[int, int], None]
 """Called as ``progress(samples_done, samples_total)`` while a render runs."""
 
 TimeLike = float | Usd.TimeCode | None
+logger = logging.getLogger("penumbra")
 
 
 def _time_code(stage: Usd.Stage, time: TimeLike) -> Usd.TimeCode:
@@ -167,6 +179,8 @@ class Renderer:
         region: tuple[int, int, int, int] | None = None,
         dicing_camera: str | Sdf.Path | None = None,
         texture_cache: int | None = None,
+        checkpoint: Checkpoint | None = None,
+        time_limit: float | None = None,
         **options: render_options.OptionValue,
     ) -> Image:
         """Render the stage and return its AOVs as an :class:`Image`.
@@ -209,11 +223,25 @@ class Renderer:
         name) subdivision surfaces are diced for, from this render on; they are re-diced when it
         moves. By default they are diced for the camera and width of the renderer's first
         render and kept so, so that moving or switching the view camera re-dices nothing.
+        ``checkpoint``: a :class:`penumbra.Checkpoint` saying where (the image's path) and how
+        often to save the frame rendered so far and the exact state to resume it from
+        (``Checkpoint(path, interval=60, resume=True)``); with it, the finished image is also
+        written to its path and the state removed; a resumed render ends bit-identical to an
+        uninterrupted one. ``time_limit``: seconds after which the render ends with the last
+        whole pass of samples that fits (estimated from the previous pass; at least one pass),
+        its metadata saying ``samplesDone`` and ``stoppedByTimeLimit``; with adaptive sampling
+        the image is the one ``samples=samplesDone`` renders. Seconds must be finite and >= 0.
         Raises :class:`penumbra.SceneError` when the
         stage cannot be rendered (e.g. a camera's shutter:close < shutter:open); warnings about
         skipped prims are :class:`penumbra.PenumbraWarning`.
         """
         render_options.check(options, "render")
+        time_limit = check_seconds(time_limit, "time_limit")
+        if checkpoint is not None:
+            if not isinstance(checkpoint, Checkpoint):
+                raise TypeError(f"checkpoint must be a penumbra.Checkpoint, not {checkpoint!r}")
+            check_output_format(checkpoint.path)
+            check_output_directory(checkpoint.path)
         if texture_cache is not None and texture_cache < MIN_TEXTURE_CACHE:
             raise ValueError(f"texture_cache must be at least 16 MiB, not {texture_cache} bytes")
         check_default_light(default_light)
@@ -288,54 +316,124 @@ class Renderer:
             started_us, before = self.tracer.now_us(), self.delegate.sync_statistics()
             render_pass.execute(0)  # syncs what is dirty and renders nothing
             self._trace_sync(started_us, before)
+
+        def make_image() -> Image:
+            """The image of the samples taken so far."""
+            arrays = {name: np.array(render_pass.aov(name)) for name in accumulated | {"color"}}
+            if denoise:
+                with self.tracer.span("denoise (OIDN)"):
+                    arrays[NOISY_COLOR] = arrays["color"]
+                    arrays["color"] = denoise_color(
+                        arrays["color"], render_pass.aov("albedo"), render_pass.aov("normal")
+                    )
+            elapsed = spent_before + clock.perf_counter() - started
+
+            metadata = {
+                "camera": camera_id,
+                **{
+                    option.key: values[option.keyword]
+                    for option in render_options.OPTIONS
+                    if option.changes_pixels
+                },
+                "meanSamples": round(render_pass.mean_samples, 3),
+                "samplesTaken": render_pass.samples_taken,
+                "samplesDone": render_pass.samples_done,
+                "rays": render_pass.rays_traced,
+                "renderTimeSeconds": round(elapsed, 3),
+                "version": _core.version(),
+                "timeCode": "default" if time_code.IsDefault() else time_code.GetValue(),
+                "shutterOpen": shutter.open,
+                "shutterClose": shutter.close,
+                "stage": stage_name(self.stage),
+                "renderSettings": settings.path if settings is not None else "",
+                "denoised": int(denoise),
+                **camera_metadata(
+                    camera_prim,
+                    time_code,
+                    width,
+                    height,
+                    settings.aspect_ratio_conform_policy if settings else "expandAperture",
+                    settings.pixel_aspect_ratio if settings else 1.0,
+                ),
+            }
+            if "primId" in aovs:
+                manifest = self.delegate.prim_id_manifest()
+                metadata["primIds"] = json.dumps({str(key): path for key, path in manifest.items()})
+            return Image({name: arrays[name] for name in aovs}, metadata)
+
+        key, spent_before = "", 0.0  # seconds spent on the samples of a resumed checkpoint
+        if checkpoint is not None:
+            pixel_options = {
+                name: value
+                for name, value in values.items()
+                if render_options.BY_KEYWORD[name].changes_pixels
+            }
+            key = checkpoint.key or _render_key(
+                self.stage,
+                (camera_id, time_code, window, crop, aovs, denoise, pixel_options),
+                (motion_blur, depth_of_field, dome_light_visibility, default_light, time_limit),
+            )
+            if checkpoint.resume:
+                spent_before = _resume(render_pass, checkpoint, key)
         step = max(1, math.ceil(samples / PROGRESS_STEPS))
+        last_saved = clock.perf_counter()
+        pass_seconds: float | None = None  # the last pass's: the next one's estimate
+        stopped_by_time_limit = False
         while not render_pass.converged:
+            if time_limit is not None and pass_seconds is not None:
+                if spent_before + clock.perf_counter() - started + pass_seconds > time_limit:
+                    stopped_by_time_limit = True
+                    break
             first, count = render_pass.samples_done, min(step, samples - render_pass.samples_done)
+            pass_started = clock.perf_counter()
             with self.tracer.span("render pass: samples", first=first + 1, last=first + count):
                 render_pass.execute(count)
+            pass_seconds = clock.perf_counter() - pass_started
             self._forward_warnings()
             if progress is not None:
                 progress(render_pass.samples_done, samples)
-        arrays = {name: np.array(render_pass.aov(name)) for name in accumulated | {"color"}}
-        if denoise:
-            with self.tracer.span("denoise (OIDN)"):
-                arrays[NOISY_COLOR] = arrays["color"]
-                arrays["color"] = denoise_color(
-                    arrays["color"], render_pass.aov("albedo"), render_pass.aov("normal")
-                )
-        elapsed = clock.perf_counter() - started
+            due = checkpoint is not None and checkpoint.interval is not None
+            if due and not render_pass.converged:
+                if clock.perf_counter() - last_saved >= checkpoint.interval:
+                    spent = spent_before + clock.perf_counter() - started
+                    about = {"size": [width, height], "crop": crop, "aovs": sorted(accumulated)}
+                    self._save_checkpoint(render_pass, checkpoint, key, spent, about, make_image)
+                    last_saved = clock.perf_counter()
+        image = make_image()
+        if time_limit is not None:
+            image.metadata["timeLimitSeconds"] = time_limit
+            image.metadata["stoppedByTimeLimit"] = int(stopped_by_time_limit)
+        if checkpoint is not None:
+            image.metadata[RENDER_KEY] = key
+            with self.tracer.span("write image", file=checkpoint.path):
+                image.write(checkpoint.path, color_mode=checkpoint.color_mode)
+            remove_state(checkpoint.state_path)
+        return image
 
-        metadata = {
-            "camera": camera_id,
-            **{
-                option.key: values[option.keyword]
-                for option in render_options.OPTIONS
-                if option.changes_pixels
-            },
-            "meanSamples": round(render_pass.mean_samples, 3),
-            "samplesTaken": render_pass.samples_taken,
-            "rays": render_pass.rays_traced,
-            "renderTimeSeconds": round(elapsed, 3),
-            "version": _core.version(),
-            "timeCode": "default" if time_code.IsDefault() else time_code.GetValue(),
-            "shutterOpen": shutter.open,
-            "shutterClose": shutter.close,
-            "stage": stage_name(self.stage),
-            "renderSettings": settings.path if settings is not None else "",
-            "denoised": int(denoise),
-            **camera_metadata(
-                camera_prim,
-                time_code,
-                width,
-                height,
-                settings.aspect_ratio_conform_policy if settings else "expandAperture",
-                settings.pixel_aspect_ratio if settings else 1.0,
-            ),
-        }
-        if "primId" in aovs:
-            manifest = self.delegate.prim_id_manifest()
-            metadata["primIds"] = json.dumps({str(key): path for key, path in manifest.items()})
-        return Image({name: arrays[name] for name in aovs}, metadata)
+    def _save_checkpoint(
+        self,
+        render_pass: _core.RenderPass,
+        checkpoint: Checkpoint,
+        key: str,
+        spent: float,
+        about: dict,
+        make_image: Callable[[], Image],
+    ) -> None:
+        """Write the image rendered so far (metadata ``partial`` 1), then the render pass's
+        state (``about`` the render: size, crop, AOVs): a state file always has its image."""
+        with self.tracer.span("write checkpoint", file=checkpoint.path):
+            image = make_image()
+            image.metadata.update({"partial": 1, RENDER_KEY: key})
+            image.write(checkpoint.path, color_mode=checkpoint.color_mode)
+            write_state(
+                checkpoint.state_path,
+                key,
+                render_pass.samples_done,
+                spent,
+                about,
+                render_pass.save_state(key),
+            )
+        logger.info("%s: checkpoint at %d samples", checkpoint.path, render_pass.samples_done)
 
     def image_size(
         self,
@@ -414,6 +512,44 @@ class Renderer:
     def _forward_warnings(self) -> None:
         for message in self.delegate.take_warnings():
             warn(message)
+
+
+def _render_key(stage: Usd.Stage, *fields: object) -> str:
+    """A hash of a render's arguments (``fields``), the stage's files and Penumbra's version:
+    a checkpoint saved under the same key continues the same render."""
+    layers = [stage.GetRootLayer().identifier]
+    if stage.GetSessionLayer() is not None:
+        layers.append(stage.GetSessionLayer().ExportToString())
+    text = json.dumps([layers, _core.version(), fields], sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def _resume(render_pass: _core.RenderPass, checkpoint: Checkpoint, key: str) -> float:
+    """Load the state saved beside ``checkpoint``'s image into ``render_pass`` when it is the
+    same render's (``key``); returns the seconds spent on its samples (0 when it renders from
+    scratch). A corrupt or unusable state file is reported and ignored."""
+    path = checkpoint.state_path
+    try:
+        saved = read_state(path)
+    except CorruptCheckpoint as error:
+        warn(f"{path}: {error}; rendering from scratch")
+        return 0.0
+    if saved is None:
+        return 0.0
+    if saved.key != key:
+        logger.info(
+            "%s: saved by another render (other stage, settings or frame); rendering from "
+            "scratch",
+            path,
+        )
+        return 0.0
+    try:
+        render_pass.load_state(saved.state, key)
+    except ValueError as error:
+        warn(f"{path}: {error}; rendering from scratch")
+        return 0.0
+    logger.info("%s: resuming from %d samples", path, render_pass.samples_done)
+    return saved.render_seconds
 
 
 def _check_region(

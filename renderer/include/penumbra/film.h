@@ -2,6 +2,7 @@
 // so the sums, and hence the image, do not depend on how pixels are spread over threads.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <vector>
 
@@ -86,6 +87,15 @@ class Film {
   uint64_t samplesTaken(const std::optional<PixelRect>& within = std::nullopt) const;
   /// Rays traced for the samples of the pixels of `within` (as samplesTaken).
   uint64_t raysTraced(const std::optional<PixelRect>& within = std::nullopt) const;
+
+  /// Appends the film's exact accumulators (sums, counts, active pixels) to `out` as a "FILM"
+  /// block (state_io.h); members with state of their own append their blocks after it.
+  void saveState(std::vector<uint8_t>& out) const;
+  /// Replaces the accumulators by a state saveState wrote, read from [cursor, end) (cursor ends
+  /// past it): resolving and adding samples then go on exactly as on the film that saved it.
+  /// Throws std::invalid_argument, leaving the film unchanged, for a truncated state or one of
+  /// another region or AOV set.
+  void loadState(const uint8_t*& cursor, const uint8_t* end);
 
  private:
   struct Pixel {

@@ -47,6 +47,17 @@ class RenderPass {
   void execute(int samples, const std::atomic<bool>* cancel = nullptr);
   void reset();
 
+  /// The pass's exact state (samples done, the film's accumulators, what they were rendered
+  /// with) under `renderKey`, the caller's name for the render (a checkpoint's key).
+  std::vector<uint8_t> saveState(const std::string& renderKey) const;
+  /// Continues from a state saveState gave: later execute() calls add the same samples as on
+  /// the pass that saved it, so the image ends bit-identical. Call after execute(0) synced the
+  /// scene. Throws std::invalid_argument, leaving the pass unchanged, for a truncated state or
+  /// one of another render key, image size, crop, AOV set or render settings (threads, the
+  /// target sample count and the texture cache aside); a state with bytes past its end leaves
+  /// the pass reset.
+  void loadState(const std::vector<uint8_t>& state, const std::string& renderKey);
+
   int samplesDone() const { return samplesDone_; }
   /// Samples per pixel actually taken, on average (fewer than samplesDone() where adaptive
   /// sampling stopped pixels).
