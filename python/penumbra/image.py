@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _core
+from . import _core, cryptomatte
 
 BUNDLED_OCIO_CONFIG = Path(__file__).resolve().parent / "ocio" / "config.ocio"
 """The OCIO config used (for display output and for linearising textures) when ``$OCIO`` is
@@ -92,6 +92,8 @@ OIIO_METADATA = ("worldtocamera", "worldtoscreen")
 
 def _attribute_name(key: str) -> str:
     """The file attribute of a metadata key (see :data:`METADATA_PREFIX`)."""
+    if key.startswith(cryptomatte.METADATA_PREFIX):  # the specification's names
+        return key
     return key if ":" in key or key in OIIO_METADATA else METADATA_PREFIX + key
 
 
@@ -105,8 +107,11 @@ def channel_names(aov: str, channels: int, layer: str | None = None) -> list[str
     """EXR channel names of an AOV written as ``layer`` (by default its name): ``color`` is R,
     G, B, A and ``Z`` is Z; a one-channel AOV is the layer's name; others are the layer's
     channels ``layer.R``, ``layer.G``, … for colours, ``layer.x``, ``layer.y``, … for vectors
-    (normals, positions, primvars), as OIIO names layered channels."""
+    (normals, positions, primvars), as OIIO names layered channels; Cryptomatte AOVs are
+    ``layer00.R``, ``layer00.G``, … as the specification names them."""
     layer = layer or aov
+    if aov in cryptomatte.LAYERS:
+        return cryptomatte.channel_names(layer, channels)
     if aov == "color" and layer == "color":
         return list(_COLOR_SUFFIXES[:channels])
     if aov == "Z" and layer == "Z" and channels == 1:
@@ -190,6 +195,7 @@ class Image(Mapping[str, np.ndarray]):
             raise ValueError(f"color_mode must be one of {COLOR_MODES}, not {color_mode!r}")
         path = os.fspath(path)
         check_output_format(path)
+        cryptomatte.check_output(path, self.sources.values())
         check_output_directory(path)
         remove_stale_temporaries(path)
         if path.lower().endswith(".exr"):

@@ -11,7 +11,7 @@ from collections.abc import Callable, Iterable
 import numpy as np
 from pxr import Sdf, Usd
 
-from . import _core
+from . import _core, cryptomatte
 from .errors import SceneError, warn
 from .denoise import GUIDE_AOVS, NOISY_COLOR, denoise_color
 from .image import Image, ocio_config_path
@@ -296,7 +296,18 @@ class Renderer:
             self._forward_warnings()
             if progress is not None:
                 progress(render_pass.samples_done, samples)
-        arrays = {name: np.array(render_pass.aov(name)) for name in accumulated | {"color"}}
+        crypto_layers = [aov for aov in aovs if aov in cryptomatte.LAYERS]
+        arrays = {
+            name: np.array(render_pass.aov(name))
+            for name in (accumulated | {"color"}) - set(crypto_layers)
+        }
+        crypto_metadata = {}
+        for layer, names in self._scene.cryptomatte_names(crypto_layers).items():
+            arrays[layer] = render_pass.cryptomatte(names)
+            every_name = {name for placements in names.values() for name in placements}
+            crypto_metadata.update(
+                cryptomatte.metadata(layer, cryptomatte.manifest(arrays[layer], every_name))
+            )
         if denoise:
             with self.tracer.span("denoise (OIDN)"):
                 arrays[NOISY_COLOR] = arrays["color"]
@@ -332,6 +343,7 @@ class Renderer:
                 settings.pixel_aspect_ratio if settings else 1.0,
             ),
         }
+        metadata.update(crypto_metadata)
         if "primId" in aovs:
             manifest = self.delegate.prim_id_manifest()
             metadata["primIds"] = json.dumps({str(key): path for key, path in manifest.items()})
