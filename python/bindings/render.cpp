@@ -183,7 +183,8 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
           "cryptomatte",
           [](const RenderPass& self, const std::map<std::string, std::vector<std::string>>& names) {
             const std::vector<float> values = self.cryptomatte(names);
-            const int channels = int(values.size() / (size_t(self.width()) * size_t(self.height())));
+            const int channels =
+                int(values.size() / (size_t(self.width()) * size_t(self.height())));
             py::array_t<float> result({self.height(), self.width(), channels});
             std::memcpy(result.mutable_data(), values.data(), values.size() * sizeof(float));
             return result;

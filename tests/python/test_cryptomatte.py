@@ -311,7 +311,7 @@ def test_farm_tiles_merge_to_the_local_render(scene, tmp_path, capsys):
     assert set(json.loads(merge_tiles(tiles).metadata[key])) == OBJECTS
 
 
-def test_render_vars_name_their_layer(scene, tmp_path):
+def test_render_vars_name_their_layer(scene, tmp_path, capsys):
     stage = Usd.Stage.Open(str(scene))
     var = UsdRender.Var.Define(stage, "/Render/Vars/objects")
     var.CreateSourceNameAttr("crypto_object")  # Arnold's name, an alias
@@ -336,3 +336,7 @@ def test_render_vars_name_their_layer(scene, tmp_path):
     np.testing.assert_allclose(
         sum(matte(manifest, ranks, name) for name in manifest), 1.0, atol=1e-6
     )
+    product.GetProductNameAttr().Set("mattes.png")  # no Cryptomatte outside OpenEXR
+    stage.Export(str(path))
+    assert main([str(path), str(tmp_path / "beauty.exr"), "-rs", "/Render/Settings", "-spp", "1", "-q"]) == 1
+    assert "mattes.png: Cryptomatte AOVs (CryptoObject) are written to OpenEXR" in capsys.readouterr().err
