@@ -276,10 +276,14 @@ class Image(Mapping[str, np.ndarray]):
 
 
 def preview_pixels(aov: str, pixels: np.ndarray) -> np.ndarray:
-    """A non-colour AOV as RGB in [0, 1] for a glance: ids as distinct hashed colours (black:
-    nothing), distances and other single channels scaled over their finite range (near
+    """A non-colour AOV as RGB in [0, 1] for a glance: ids (Cryptomatte's most covering one)
+    as distinct hashed colours (black: nothing), distances and other single channels scaled over their finite range (near
     bright), vectors with 3 channels (normals, positions, albedo) scaled the same way."""
     pixels = pixels.reshape(pixels.shape[0], pixels.shape[1], -1)
+    if aov in cryptomatte.LAYERS:  # rank 0's id as a colour, dimmed by its coverage
+        bits = np.ascontiguousarray(pixels[..., 0], dtype=np.float32).view(np.uint32)
+        rgb = np.stack([(bits >> shift & 0xFF) / 255.0 for shift in (0, 8, 16)], axis=-1)
+        return (0.25 + 0.75 * rgb) * pixels[..., 1:2]
     if aov in ("primId", "instanceId", "elementId"):
         ids = pixels[..., 0].astype(np.int64)
         hashed = (ids + 1) * np.array([2654435761, 2246822519, 3266489917], dtype=np.int64)[:, None, None]

@@ -19,6 +19,7 @@ import penumbra
 from penumbra import _core
 from penumbra.cli import main
 from penumbra.farm import Tile, merge_tiles
+from penumbra.image import preview_pixels
 
 from stages import add_camera, add_instance, add_preview_material, add_quad, bind, new_stage
 
@@ -276,6 +277,10 @@ def test_depth_is_a_render_option(scene, tmp_path):
     assert image["CryptoObject"].shape == (32, 32, 4)
     deep = penumbra.render(scene, width=32, samples=8, aovs=("CryptoObject",))
     np.testing.assert_array_equal(image["CryptoObject"][..., :2], deep["CryptoObject"][..., :2])
+    # Notebooks show rank 0's id as a colour, dimmed by its coverage.
+    preview = preview_pixels("CryptoObject", image["CryptoObject"])
+    assert preview.shape == (32, 32, 3) and 0 < preview.min() and preview.max() <= 1
+    assert len(np.unique(preview.reshape(-1, 3)[image["CryptoObject"][..., 1].ravel() == 1], axis=0)) == 6
     assert main([str(scene), str(out), *flags, "--cryptomatteDepth", "0"]) == 2
 
 
