@@ -53,7 +53,8 @@ class Film {
   void addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
                  const FirstHitSample* firstHit = nullptr);
 
-  /// Floats per pixel of an AOV (4 for primvars, whatever their width).
+  /// Floats per pixel of an AOV (4 for primvars, whatever their width; 0 for Cryptomatte AOVs,
+  /// which resolveCryptomatte serves).
   static int channels(AovKind kind);
   /// The AOV per pixel, row-major from the top row, channels() floats each. How samples
   /// combine: filtered AOVs (color, alpha, normals, position, albedo, primvars) average all of
