@@ -123,6 +123,38 @@ std::map<uint32_t, PrimId> RenderDelegate::primIdManifest() const {
   return manifest;
 }
 
+PlacementHashes RenderDelegate::placementHashes(
+    const std::map<PrimId, std::vector<std::string>>& names) const {
+  const auto placedRprim = [this](const PrimId& id) -> const PlacedRprim* {
+    if (const Mesh* mesh = meshes_.find(id)) return mesh;
+    if (const Points* points = points_.find(id)) return points;
+    return curves_.find(id);
+  };
+  PlacementHashes hashes;
+  for (const auto& [id, placementNames] : names) {
+    if (const PlacedRprim* rprim = placedRprim(id)) {
+      if (placementNames.size() != 1)
+        throw std::invalid_argument(id + ": a mesh, points or curves takes one Cryptomatte name, "
+                                         "not " + std::to_string(placementNames.size()));
+      hashes[placementKey(rprim->handle(), -1)] = murmurHash3(placementNames.front());
+      continue;
+    }
+    const Instancer* instancer = instancers_.find(id);
+    if (!instancer)
+      throw std::invalid_argument(id + ": Cryptomatte names are for meshes, points, curves and "
+                                       "instancers in the render index");
+    if (placementNames.size() != instancer->transforms().size())
+      throw std::invalid_argument(id + ": " + std::to_string(placementNames.size()) +
+                                  " Cryptomatte names for " +
+                                  std::to_string(instancer->transforms().size()) + " copies");
+    const PlacedRprim* prototype = placedRprim(instancer->prototype());
+    if (!prototype) continue;  // no copies are placed (the instancer's sync warned)
+    for (size_t copy = 0; copy < placementNames.size(); ++copy)
+      hashes[placementKey(prototype->handle(), int(copy))] = murmurHash3(placementNames[copy]);
+  }
+  return hashes;
+}
+
 Mesh& RenderDelegate::mesh(const PrimId& id) {
   return meshes_.at(id, "mesh");
 }

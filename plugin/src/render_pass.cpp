@@ -75,6 +75,8 @@ int RenderPass::aovChannels(const std::string& name) const {
   const AovRequest request = parseAov(name);
   if (request.kind == AovKind::Primvar)
     return std::max(1, delegate_.scene().geometry().primvarWidth(request.primvar));
+  if (isCryptomatte(request.kind))
+    return Film::cryptomatteChannels(delegate_.settings().cryptomatteDepth);
   return Film::channels(request.kind);
 }
 
@@ -110,6 +112,7 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   std::map<std::string, double> settingsUsed = settings.asMap();
   settingsUsed.erase("samples");
   settingsUsed.erase("threads");
+  settingsUsed.erase("cryptomatteDepth");  // how the film is resolved, not what a sample is
   if (delegate_.sceneVersion() != sceneVersion_ || cameraPrim.syncCount() != cameraSyncCount_ ||
       settingsUsed != settingsUsed_) {
     reset();
@@ -181,6 +184,9 @@ RawRayThroughput RenderPass::measureRawThroughput() {
 
 void RenderPass::setAovBindings(std::map<std::string, PrimId> bindings) {
   for (const auto& [aovName, bufferId] : bindings) {
+    if (isCryptomatte(parseAov(aovName).kind))
+      throw std::invalid_argument("AOV '" + aovName +
+                                  "' is resolved with names (RenderPass::cryptomatte), not bound");
     if (!film_.has(parseAov(aovName)))
       throw std::invalid_argument("AOV '" + aovName + "' is not accumulated by this render pass");
     delegate_.renderBuffer(bufferId);
@@ -193,10 +199,21 @@ std::vector<float> RenderPass::aov(const std::string& name) const {
   if (!film_.has(request))
     throw std::invalid_argument("AOV '" + name + "' is not accumulated by this render pass");
   const std::vector<float> values = film_.resolve(request);
-  // Primvars are accumulated as 4 floats: keep as many as the primvar has; a film with a margin
-  // keeps only the crop's pixels.
-  const size_t stored = size_t(Film::channels(request.kind));
-  const size_t wanted = size_t(aovChannels(name));
+  // Primvars are accumulated as 4 floats: keep as many as the primvar has.
+  return cropped(values, size_t(Film::channels(request.kind)), size_t(aovChannels(name)));
+}
+
+std::vector<float> RenderPass::cryptomatte(
+    const std::map<PrimId, std::vector<std::string>>& names) const {
+  const int depth = delegate_.settings().cryptomatteDepth;
+  const size_t channels = size_t(Film::cryptomatteChannels(depth));
+  return cropped(film_.resolveCryptomatte(delegate_.placementHashes(names), depth), channels,
+                 channels);
+}
+
+std::vector<float> RenderPass::cropped(const std::vector<float>& values, size_t stored,
+                                       size_t wanted) const {
+  // A film with a margin keeps only the crop's pixels.
   const PixelRect& filmRegion = film_.region();
   if (wanted == stored && filmRegion == crop_) return values;
   std::vector<float> cropped(size_t(crop_.width) * size_t(crop_.height) * wanted);

@@ -112,6 +112,11 @@ std::vector<RenderOption> buildRenderOptions() {
       "data whatever the textures' resolution"));
   textureCache.changesPixels = false;
   textureCache.userSet = false;
+  RenderOption& cryptomatteDepth = options.emplace_back(integerOption(
+      "cryptomatteDepth", &Settings::cryptomatteDepth, 6, 1, "N",
+      "ids per pixel of the Cryptomatte AOVs (CryptoObject, CryptoMaterial, CryptoAsset), the "
+      "most covering first: N/2 RGBA layers, rounded up"));
+  cryptomatteDepth.maximum = 64;
   return options;
 }
 

@@ -258,7 +258,8 @@ def build_parser() -> argparse.ArgumentParser:
         help=(
             "AOVs written besides color (.exr only): alpha, depth, Z, normal, Neye, position, "
             "albedo, primId, instanceId, elementId, primvars:NAME, sampleCount, variance, "
-            "noisyColor (with --denoise); render products name their own"
+            "noisyColor (with --denoise), CryptoObject, CryptoMaterial, CryptoAsset "
+            "(Cryptomatte); render products name their own"
         ),
     )
     own.add_argument(

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _core
+from . import _core, cryptomatte
 
 BUNDLED_OCIO_CONFIG = Path(__file__).resolve().parent / "ocio" / "config.ocio"
 """The OCIO config used (for display output and for linearising textures) when ``$OCIO`` is
@@ -92,6 +92,8 @@ OIIO_METADATA = ("worldtocamera", "worldtoscreen")
 
 def _attribute_name(key: str) -> str:
     """The file attribute of a metadata key (see :data:`METADATA_PREFIX`)."""
+    if key.startswith(cryptomatte.METADATA_PREFIX):  # the specification's names
+        return key
     return key if ":" in key or key in OIIO_METADATA else METADATA_PREFIX + key
 
 
@@ -105,8 +107,11 @@ def channel_names(aov: str, channels: int, layer: str | None = None) -> list[str
     """EXR channel names of an AOV written as ``layer`` (by default its name): ``color`` is R,
     G, B, A and ``Z`` is Z; a one-channel AOV is the layer's name; others are the layer's
     channels ``layer.R``, ``layer.G``, … for colours, ``layer.x``, ``layer.y``, … for vectors
-    (normals, positions, primvars), as OIIO names layered channels."""
+    (normals, positions, primvars), as OIIO names layered channels; Cryptomatte AOVs are
+    ``layer00.R``, ``layer00.G``, … as the specification names them."""
     layer = layer or aov
+    if aov in cryptomatte.LAYERS:
+        return cryptomatte.channel_names(layer, channels)
     if aov == "color" and layer == "color":
         return list(_COLOR_SUFFIXES[:channels])
     if aov == "Z" and layer == "Z" and channels == 1:
@@ -190,6 +195,7 @@ class Image(Mapping[str, np.ndarray]):
             raise ValueError(f"color_mode must be one of {COLOR_MODES}, not {color_mode!r}")
         path = os.fspath(path)
         check_output_format(path)
+        cryptomatte.check_output(path, self.sources.values())
         check_output_directory(path)
         remove_stale_temporaries(path)
         if path.lower().endswith(".exr"):
@@ -270,10 +276,14 @@ class Image(Mapping[str, np.ndarray]):
 
 
 def preview_pixels(aov: str, pixels: np.ndarray) -> np.ndarray:
-    """A non-colour AOV as RGB in [0, 1] for a glance: ids as distinct hashed colours (black:
-    nothing), distances and other single channels scaled over their finite range (near
+    """A non-colour AOV as RGB in [0, 1] for a glance: ids (Cryptomatte's most covering one)
+    as distinct hashed colours (black: nothing), distances and other single channels scaled over their finite range (near
     bright), vectors with 3 channels (normals, positions, albedo) scaled the same way."""
     pixels = pixels.reshape(pixels.shape[0], pixels.shape[1], -1)
+    if aov in cryptomatte.LAYERS:  # rank 0's id as a colour, dimmed by its coverage
+        bits = np.ascontiguousarray(pixels[..., 0], dtype=np.float32).view(np.uint32)
+        rgb = np.stack([(bits >> shift & 0xFF) / 255.0 for shift in (0, 8, 16)], axis=-1)
+        return (0.25 + 0.75 * rgb) * pixels[..., 1:2]
     if aov in ("primId", "instanceId", "elementId"):
         ids = pixels[..., 0].astype(np.int64)
         hashed = (ids + 1) * np.array([2654435761, 2246822519, 3266489917], dtype=np.int64)[:, None, None]

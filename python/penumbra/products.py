@@ -8,6 +8,7 @@ from collections.abc import Callable
 
 from pxr import Usd
 
+from . import cryptomatte
 from .denoise import NOISY_COLOR
 from .errors import SceneError, warn
 from .image import Image, check_output_directory, check_output_format
@@ -81,8 +82,9 @@ def _write_product(product: RenderProduct, image: Image, path: str) -> None:
             half.append(layer)
     try:
         check_output_format(path)
+        cryptomatte.check_output(path, sources.values())
         check_output_directory(path)
     except (ValueError, OSError) as error:
         raise SceneError(f"{product.path}: productName: {error}") from None
-    metadata = {**image.metadata, "renderProduct": product.path}
+    metadata = {**cryptomatte.renamed(image.metadata, sources), "renderProduct": product.path}
     Image(layers, metadata, sources=sources).write(path, half=half)

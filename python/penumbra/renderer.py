@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable
 import numpy as np
 from pxr import Sdf, Usd
 
-from . import _core
+from . import _core, cryptomatte
 from .checkpoints import (
     RENDER_KEY,
     Checkpoint,
@@ -319,7 +319,18 @@ class Renderer:
 
         def make_image() -> Image:
             """The image of the samples taken so far."""
-            arrays = {name: np.array(render_pass.aov(name)) for name in accumulated | {"color"}}
+            crypto_layers = [aov for aov in aovs if aov in cryptomatte.LAYERS]
+            arrays = {
+                name: np.array(render_pass.aov(name))
+                for name in (accumulated | {"color"}) - set(crypto_layers)
+            }
+            crypto_metadata = {}
+            for layer, names in self._scene.cryptomatte_names(crypto_layers).items():
+                arrays[layer] = render_pass.cryptomatte(names)
+                every_name = {name for placements in names.values() for name in placements}
+                crypto_metadata.update(
+                    cryptomatte.metadata(layer, cryptomatte.manifest(arrays[layer], every_name))
+                )
             if denoise:
                 with self.tracer.span("denoise (OIDN)"):
                     arrays[NOISY_COLOR] = arrays["color"]
@@ -356,6 +367,7 @@ class Renderer:
                     settings.pixel_aspect_ratio if settings else 1.0,
                 ),
             }
+            metadata.update(crypto_metadata)
             if "primId" in aovs:
                 manifest = self.delegate.prim_id_manifest()
                 metadata["primIds"] = json.dumps({str(key): path for key, path in manifest.items()})

@@ -19,7 +19,8 @@ const std::vector<std::pair<std::string, AovKind>>& namedAovs() {
       {"position", AovKind::Position},   {"albedo", AovKind::Albedo},
       {"primId", AovKind::PrimId},       {"instanceId", AovKind::InstanceId},
       {"elementId", AovKind::ElementId}, {"sampleCount", AovKind::SampleCount},
-      {"variance", AovKind::Variance},
+      {"variance", AovKind::Variance},   {"CryptoObject", AovKind::CryptoObject},
+      {"CryptoMaterial", AovKind::CryptoMaterial}, {"CryptoAsset", AovKind::CryptoAsset},
   };
   return names;
 }

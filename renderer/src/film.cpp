@@ -41,6 +41,7 @@ Film::Film(const PixelRect& region, std::vector<AovRequest> aovs) : region_(regi
   for (AovRequest& aov : aovs) {
     if (isBuiltIn(aov.kind) || slot(aov)) continue;
     wantsFirstHit_ = wantsFirstHit_ || aov.needsFirstHit();
+    wantsCryptomatte_ = wantsCryptomatte_ || isCryptomatte(aov.kind);
     size_t& stride = isNearest(aov.kind) ? nearestStride_ : sumStride_;
     slots_.push_back({std::move(aov), stride});
     stride += size_t(channels(slots_.back().aov.kind));
@@ -59,6 +60,10 @@ int Film::channels(AovKind kind) {
     case AovKind::Albedo:
     case AovKind::Variance:
       return 3;
+    case AovKind::CryptoObject:
+    case AovKind::CryptoMaterial:
+    case AovKind::CryptoAsset:
+      return 0;  // in cryptomatte_, not in sums_ or nearest_
     default:
       return 1;
   }
@@ -86,6 +91,7 @@ void Film::clear() {
   pixels_.assign(size_t(region_.width) * size_t(region_.height), Pixel{});
   active_.assign(pixels_.size(), 1);
   activePixels_ = pixels_.size();
+  if (wantsCryptomatte_) cryptomatte_.reset(pixels_.size());
   sums_.assign(pixels_.size() * sumStride_, 0.0);
   nearest_.assign(pixels_.size() * nearestStride_, 0.0f);
   for (size_t i = 0; nearestStride_ > 0 && i < pixels_.size(); ++i) {
@@ -131,6 +137,10 @@ void Film::addFirstHit(size_t index, const CameraSample& sample, const FirstHitS
       case AovKind::Variance:
         add3(sums + s.offset, sample.radiance * sample.radiance);
         break;
+      case AovKind::CryptoObject:
+      case AovKind::CryptoMaterial:
+      case AovKind::CryptoAsset:
+        break;  // one count serves the three layers (below)
       default:
         if (!firstHit.hit) break;
         if (s.aov.kind == AovKind::Normal) add3(sums + s.offset, firstHit.normal);
@@ -152,6 +162,8 @@ void Film::addFirstHit(size_t index, const CameraSample& sample, const FirstHitS
         }
     }
   }
+  if (wantsCryptomatte_ && firstHit.hit)
+    cryptomatte_.add(index, placementKey(uint32_t(firstHit.primId), firstHit.instanceId));
 }
 
 void Film::addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
@@ -273,6 +285,8 @@ std::vector<float> Film::resolve(const AovRequest& aov) const {
     default:
       break;
   }
+  if (isCryptomatte(aov.kind))
+    throw std::invalid_argument("a Cryptomatte AOV is resolved with names (resolveCryptomatte)");
   const Slot* found = slot(aov);
   if (!found) throw std::invalid_argument("the film does not accumulate this AOV");
   const size_t channelCount = size_t(channels(aov.kind));
@@ -297,6 +311,19 @@ std::vector<float> Film::resolve(const AovRequest& aov) const {
     }
     for (size_t c = 0; c < channelCount; ++c) out[c] = float(sums[c] / n);
   }
+  return values;
+}
+
+std::vector<float> Film::resolveCryptomatte(const PlacementHashes& hashes, int depth) const {
+  if (!wantsCryptomatte_)
+    throw std::invalid_argument("the film does not accumulate a Cryptomatte AOV");
+  if (depth < 1)
+    throw std::invalid_argument("Cryptomatte depth must be at least 1, got " +
+                                std::to_string(depth));
+  const size_t stride = size_t(cryptomatteChannels(depth));
+  std::vector<float> values(pixels_.size() * stride, 0.0f);
+  for (size_t i = 0; i < pixels_.size(); ++i)
+    cryptomatte_.resolve(i, pixels_[i].samples, hashes, depth, values.data() + i * stride);
   return values;
 }
 

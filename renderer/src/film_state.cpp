@@ -38,6 +38,7 @@ void Film::saveState(std::vector<uint8_t>& out) const {
   writer.putArray(nearest_);
   writer.putArray(active_);
   writer.endBlock(block);
+  if (wantsCryptomatte_) cryptomatte_.saveState(out);
 }
 
 void Film::loadState(const uint8_t*& cursor, const uint8_t* end) {
@@ -67,10 +68,16 @@ void Film::loadState(const uint8_t*& cursor, const uint8_t* end) {
   std::vector<float> nearest = reader.getArray<float>(nearest_.size());
   std::vector<uint8_t> active = reader.getArray<uint8_t>(active_.size());
   reader.endBlock();
+  CryptomatteCoverage cryptomatte;  // replaces cryptomatte_ only once all of it is read
+  if (wantsCryptomatte_) {
+    cryptomatte.reset(pixels_.size());
+    cryptomatte.loadState(cursor, end);
+  }
   pixels_ = std::move(pixels);
   sums_ = std::move(sums);
   nearest_ = std::move(nearest);
   active_ = std::move(active);
+  if (wantsCryptomatte_) cryptomatte_ = std::move(cryptomatte);
   activePixels_ = size_t(std::count(active_.begin(), active_.end(), uint8_t(1)));
 }
 

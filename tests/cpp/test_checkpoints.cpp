@@ -19,7 +19,14 @@ using namespace penumbra::plugin;
 namespace {
 
 const std::vector<AovRequest> kAovs = {parseAov("normal"), parseAov("depth"), parseAov("primId"),
-                                       parseAov("variance")};
+                                       parseAov("variance"), parseAov("CryptoObject")};
+/// Names of the placements addSampleOf hits (primIds 0-6, no instancer copy).
+PlacementHashes placementHashes() {
+  PlacementHashes hashes;
+  for (uint32_t primId = 0; primId < 7; ++primId)
+    hashes[placementKey(primId, -1)] = 1000 + primId;
+  return hashes;
+}
 
 /// Sample `index` of pixel (x, y): values that differ per pixel and sample, in no pattern,
 /// but a constant colour in the two leftmost columns (which adaptive sampling stops).
@@ -49,8 +56,10 @@ void addSamples(Film& film, uint32_t first, uint32_t count) {
 
 std::vector<std::vector<float>> resolveAll(const Film& film) {
   std::vector<std::vector<float>> images = {film.resolveColor(), film.resolveDepth()};
-  for (const AovRequest& aov : kAovs) images.push_back(film.resolve(aov));
+  for (const AovRequest& aov : kAovs)
+    if (aov.kind != AovKind::CryptoObject) images.push_back(film.resolve(aov));
   images.push_back(film.resolve(parseAov("sampleCount")));
+  images.push_back(film.resolveCryptomatte(placementHashes(), 6));
   return images;
 }
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import cryptomatte
 from ..image import Image
 
 
@@ -43,7 +44,8 @@ def band_rows(height: int, band: int, bands: int) -> tuple[int, int]:
 def merge_tiles(tiles: list[Tile]) -> Image:
     """The frame the bands ``tiles`` cover (all of them, any order). Its metadata is the first
     band's, with the counts summed over the bands: ``samplesTaken``, ``rays``, ``meanSamples``
-    (as the whole image's) and ``renderTimeSeconds`` (the workers' time, not wall time)."""
+    (as the whole image's) and ``renderTimeSeconds`` (the workers' time, not wall time); each
+    Cryptomatte manifest is the union of the bands'."""
     rendered = sorted((tile for tile in tiles if tile.aovs), key=lambda tile: tile.first_row)
     if not rendered:
         raise ValueError("no tile holds pixels")
@@ -70,4 +72,5 @@ def merge_tiles(tiles: list[Tile]) -> Image:
             sum(float(tile.metadata["renderTimeSeconds"]) for tile in rendered), 3
         ),
     )
+    metadata.update(cryptomatte.merge_manifests(tile.metadata for tile in rendered))
     return Image(aovs, metadata)

@@ -44,6 +44,7 @@ class Group:
     material: Sdf.Path | None
     transforms: list[np.ndarray] = field(default_factory=list)  # (N_i, K_i, 4, 4) each
     primvars: list[dict[str, np.ndarray]] = field(default_factory=list)  # N_i rows each
+    names: list[str] = field(default_factory=list)  # each copy's Cryptomatte object name
 
     def stacked(self) -> np.ndarray:
         """(N, 4, 4) for static copies, else (N, K, 4, 4) with static ones held over K."""
@@ -77,15 +78,18 @@ def group_leaves(
     transforms: np.ndarray,
     primvars: dict[str, np.ndarray],
     shown: PassVisibility = SHOWN,
+    names: list[str] | None = None,
 ) -> None:
     """Add ``transforms`` (copies of ``leaf``'s mesh bound to ``material``, with their per-copy
-    ``primvars``, shown by the render pass as ``shown``) to ``groups``."""
+    ``primvars``, shown by the render pass as ``shown``) to ``groups``. ``names``: each copy's
+    Cryptomatte object name (by default the path of the leaf's mesh, ``leaf.proxy``)."""
     key = (leaf.mesh.GetPath(), material, shown)
     group = groups.get(key)
     if group is None:
         group = groups[key] = Group(leaf.mesh, material)
     group.transforms.append(transforms)
     group.primvars.append(primvars)
+    group.names += names if names is not None else [str(leaf.proxy)] * len(transforms)
 
 
 @dataclass
@@ -97,6 +101,7 @@ class _Pushed:
     digest: bytes | None = None  # of the copies' transforms last sent (None: not sent)
     varying: bool = False  # the mesh's data might change with time
     usable: bool = True  # False when the mesh could not be read (no instancer then)
+    names: list[str] = field(default_factory=list)  # the copies' Cryptomatte object names
 
 
 class InstancedMeshes:
@@ -119,6 +124,13 @@ class InstancedMeshes:
         for pushed in self._pushed.values():
             yield pushed.mesh_id
             yield pushed.instancer_id
+
+    def copies(self) -> Iterator[tuple[str, Sdf.Path | None, list[str]]]:
+        """``(instancer id, bound material, Cryptomatte object name of each copy)`` of every
+        instancer placing copies."""
+        for (_, material, _), pushed in self._pushed.items():
+            if pushed.usable and pushed.names:
+                yield pushed.instancer_id, material, pushed.names
 
     def update(
         self,
@@ -155,6 +167,7 @@ class InstancedMeshes:
                 self.core.set_instances(pushed.instancer_id, pushed.mesh_id, transforms)
                 self.core.set_instance_primvars(pushed.instancer_id, primvars)
                 pushed.digest = digest
+            pushed.names = group.names
 
     def clear(self) -> None:
         for key in list(self._pushed):
@@ -191,6 +204,7 @@ class InstancedMeshes:
             self.core.set_instances(pushed.instancer_id, pushed.mesh_id, np.empty((0, 4, 4)))
             self.core.set_instance_primvars(pushed.instancer_id, {})
             pushed.digest = None
+            pushed.names = []
         pushed.material_id = None  # re-sent with the mesh
 
     def _remove(self, key: GroupKey) -> None:

@@ -104,6 +104,11 @@ class NativeInstancing:
         self._varying = flattener.varying or self.meshes.varying
         self._dirty = False
 
+    def copies(self) -> Iterator[tuple[str, Sdf.Path | None, list[str]]]:
+        """``(instancer id, bound material, Cryptomatte object names)`` of every instancer rprim
+        placing copies (see :meth:`InstancedMeshes.copies`)."""
+        return self.meshes.copies()
+
     def close(self) -> None:
         """Remove every prim this put into the delegate."""
         self.meshes.clear()
@@ -182,6 +187,8 @@ class NativeInstancing:
         for leaf, transforms, kept_instances in pending:
             count = len(transforms)
             bound = materials[start : start + count]
+            # Each copy's Cryptomatte object name: the instance proxy path of its mesh.
+            names = [str(proxy.GetPath()) for proxy in proxies[start : start + count]]
             start += count
             copies_per_instance = len(leaf.transforms)
             shown = [
@@ -200,6 +207,7 @@ class NativeInstancing:
                         selected.reshape(-1, *selected.shape[2:]),
                         primvars,
                         pass_shown,
+                        [names[n] for n in chosen for _ in range(copies_per_instance)],
                     )
                     continue
                 # Each instance's own primvars reach its copies of the mesh (unless the mesh
@@ -211,7 +219,15 @@ class NativeInstancing:
                         1,
                         copies_per_instance,
                     )
-                    group_leaves(groups, leaf, material, transforms[n], primvars, pass_shown)
+                    group_leaves(
+                        groups,
+                        leaf,
+                        material,
+                        transforms[n],
+                        primvars,
+                        pass_shown,
+                        [names[n]] * copies_per_instance,
+                    )
         return groups
 
 

@@ -88,6 +88,12 @@ class PointInstancerDelegate:
             if record.dirty or (time_changed and record.varying):
                 self._sync(self.stage.GetPrimAtPath(path), record, stale, time_changed)
 
+    def copies(self) -> Iterator[tuple[str, Sdf.Path | None, list[str]]]:
+        """``(instancer id, bound material, Cryptomatte object names)`` of every instancer rprim
+        placing copies (see :meth:`InstancedMeshes.copies`)."""
+        for record in self._instancers.values():
+            yield from record.meshes.copies()
+
     def _find(self) -> Iterator[Sdf.Path]:
         """Point instancers outside native prototypes and outside other instancers' prototypes
         (those are flattened into their outer instancer)."""

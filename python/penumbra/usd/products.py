@@ -36,10 +36,21 @@ AOV_NAMES = (
     "sampleCount",
     "variance",
     "noisyColor",
+    "CryptoObject",
+    "CryptoMaterial",
+    "CryptoAsset",
 )
 """The AOVs a ``raw`` or ``intrinsic`` RenderVar may name (besides ``primvars:NAME``);
 ``noisyColor`` only with denoising."""
-AOV_ALIASES = {"cameraDepth": "depth", "N": "normal", "P": "position", "Ci": "color"}
+AOV_ALIASES = {
+    "cameraDepth": "depth",
+    "N": "normal",
+    "P": "position",
+    "Ci": "color",
+    "crypto_object": "CryptoObject",
+    "crypto_material": "CryptoMaterial",
+    "crypto_asset": "CryptoAsset",
+}
 """Other renderers' names for the same AOVs."""
 BEAUTY_LPES = ("C.*", "C.*[<L.>O]", "C[DS]*[<L.>O]")
 """Light path expressions that mean all light reaching the camera: the color AOV."""

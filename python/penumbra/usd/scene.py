@@ -37,6 +37,7 @@ from pxr import Sdf, Usd, UsdGeom
 from ..errors import warn
 from .classification import CURVES, VOLUME, Classifier
 from .core_batch import CoreBatch
+from .cryptomatte_names import cryptomatte_names
 from .curves_sync import CurvesSync
 from .inherited import InheritedState
 from .material_registry import MaterialRegistry
@@ -151,6 +152,22 @@ class SceneDelegate:
         """The delegate prim type tracked at ``path`` (``None`` if untracked)."""
         record = self._tracker.prims.get(Sdf.Path(path))
         return record.kind if record else None
+
+    def cryptomatte_names(self, layers: Iterable[str]) -> dict[str, dict[str, list[str]]]:
+        """For each Cryptomatte layer of ``layers``: delegate prim id → the names of its
+        placements (:mod:`.cryptomatte_names`), for every mesh, points, curves and instancer
+        rprim in the delegate."""
+        layers = list(layers)
+        if not layers:
+            return {}
+        placed = ("mesh", "points", CURVES)
+        rprims = [
+            (str(path), path)
+            for path, record in self._tracker.prims.items()
+            if record.kind in placed and record.in_core
+        ]
+        copies = [*self._native.copies(), *self._point_instancers.copies()]
+        return cryptomatte_names(self.stage, rprims, copies, layers)
 
     def take_prims_resynced(self) -> bool:
         """Whether prims were resynced since the last call: their composition (variant

@@ -28,7 +28,18 @@ enum class AovKind {
   Primvar,       // a primvar's value, filtered; `primvar` names it
   SampleCount,   // samples taken (fewer where adaptive sampling stopped the pixel)
   Variance,      // RGB variance of the pixel's mean colour (sample variance / samples)
+  // Cryptomatte layers (cryptomatte.h): which placements the samples first hit, resolved with
+  // the names of the objects, of their materials or of their assets.
+  CryptoObject,
+  CryptoMaterial,
+  CryptoAsset,
 };
+
+/// Whether the AOV is a Cryptomatte layer.
+inline bool isCryptomatte(AovKind kind) {
+  return kind == AovKind::CryptoObject || kind == AovKind::CryptoMaterial ||
+         kind == AovKind::CryptoAsset;
+}
 
 struct AovRequest {
   AovKind kind = AovKind::Color;
@@ -42,7 +53,8 @@ struct AovRequest {
 };
 
 /// The AOV a name stands for: color, alpha, depth, Z, normal, Neye, position, albedo, primId,
-/// instanceId, elementId, primvars:NAME, sampleCount, variance. Throws std::invalid_argument
+/// instanceId, elementId, primvars:NAME, sampleCount, variance, CryptoObject, CryptoMaterial,
+/// CryptoAsset. Throws std::invalid_argument
 /// listing the names for an unknown one.
 AovRequest parseAov(const std::string& name);
 /// The names parseAov knows (primvars as "primvars:NAME").

@@ -6,6 +6,7 @@
 #include <optional>
 #include <vector>
 
+#include "penumbra/cryptomatte.h"
 #include "penumbra/integrator.h"
 
 namespace penumbra {
@@ -53,7 +54,8 @@ class Film {
   void addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
                  const FirstHitSample* firstHit = nullptr);
 
-  /// Floats per pixel of an AOV (4 for primvars, whatever their width).
+  /// Floats per pixel of an AOV (4 for primvars, whatever their width; 0 for Cryptomatte AOVs,
+  /// which resolveCryptomatte serves).
   static int channels(AovKind kind);
   /// The AOV per pixel, row-major from the top row, channels() floats each. How samples
   /// combine: filtered AOVs (color, alpha, normals, position, albedo, primvars) average all of
@@ -66,6 +68,13 @@ class Film {
   std::vector<float> resolveColor() const;
   /// Nearest view-axis depth per pixel (infinity where nothing was hit).
   std::vector<float> resolveDepth() const;
+  /// The Cryptomatte ranks per pixel (film pixels, row-major from the top row): `depth` (id,
+  /// coverage) pairs, zero-padded to a multiple of 4 floats (whole RGBA layers), ids the
+  /// `hashes` of the placements hit, coverage the share of the pixel's samples. Throws
+  /// std::invalid_argument unless the film accumulates a Cryptomatte AOV, or for depth < 1.
+  std::vector<float> resolveCryptomatte(const PlacementHashes& hashes, int depth) const;
+  /// Floats per pixel of a Cryptomatte AOV of `depth` ranks: whole RGBA layers of 2 ranks.
+  static int cryptomatteChannels(int depth) { return 4 * ((depth + 1) / 2); }
 
   /// Adaptive sampling: stops every active pixel whose estimated relative error is below
   /// `threshold`. A pixel's error is the difference between the means of its even- and
@@ -130,6 +139,8 @@ class Film {
   std::vector<float> nearest_;
   std::vector<uint8_t> active_;
   size_t activePixels_ = 0;
+  bool wantsCryptomatte_ = false;
+  CryptomatteCoverage cryptomatte_;  // empty unless wantsCryptomatte_
 };
 
 }  // namespace penumbra

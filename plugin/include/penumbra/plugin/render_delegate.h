@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/cryptomatte.h"
 #include "penumbra/plugin/camera.h"
 #include "penumbra/plugin/curves.h"
 #include "penumbra/plugin/instancer.h"
@@ -119,6 +120,12 @@ class RenderDelegate {
 
   /// The mesh, points and curves rprims by the id the primId AOV gives them.
   std::map<uint32_t, PrimId> primIdManifest() const;
+  /// Cryptomatte names as the renderer knows what they name: the hash (penumbra::murmurHash3)
+  /// of each name of `names` by the placement it names. A mesh, points or curves rprim id has
+  /// one name (its own placement); an instancer id one per copy, in the order of its
+  /// transforms (they name its prototype's copies). Throws std::invalid_argument for another
+  /// id, or for as many names as an instancer does not have copies.
+  PlacementHashes placementHashes(const std::map<PrimId, std::vector<std::string>>& names) const;
 
   /// Warnings raised since the last call, each naming its prim.
   std::vector<std::string> takeWarnings();

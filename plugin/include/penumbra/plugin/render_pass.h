@@ -91,8 +91,14 @@ class RenderPass {
   /// per pixel. Throws std::invalid_argument for an unknown name or one not accumulated (see
   /// setAovs).
   std::vector<float> aov(const std::string& name) const;
+  /// A Cryptomatte AOV (CryptoObject, CryptoMaterial or CryptoAsset, accumulated: see
+  /// setAovs) of the crop (or image), row-major from the top: per pixel the render settings'
+  /// cryptomatteDepth ranks as (id, coverage) pairs, zero-padded to whole RGBA layers
+  /// (aovChannels). `names`: the names of the placements for this layer
+  /// (RenderDelegate::placementHashes); a placement without one counts as a miss.
+  std::vector<float> cryptomatte(const std::map<PrimId, std::vector<std::string>>& names) const;
   /// Floats per pixel of an AOV: 4 for color, 3 for vectors, a primvar's width as the scene's
-  /// meshes have it (1 where none has it), 1 otherwise.
+  /// meshes have it (1 where none has it), 4 per two ranks of Cryptomatte AOVs, 1 otherwise.
   int aovChannels(const std::string& name) const;
   /// AOV bindings (cf. HdRenderPassAovBinding): after every execute() each bound AOV is
   /// resolved into its render buffer, which must have the pass's size. Throws
@@ -105,6 +111,9 @@ class RenderPass {
   /// Throws std::invalid_argument if the crop's margin is too narrow for adaptive sampling to
   /// take `samples` samples per pixel in the crop as in the whole image.
   void checkCropMargin(int samples) const;
+  /// The crop's pixels of `values`, resolved for the film with `stored` floats per pixel, of
+  /// which the first `wanted` are kept.
+  std::vector<float> cropped(const std::vector<float>& values, size_t stored, size_t wanted) const;
 
   RenderDelegate& delegate_;
   PrimId cameraId_;

@@ -29,6 +29,7 @@ struct RenderSettingsMap {
   float indirectClamp;
   float glossyFilter;
   int textureCacheMB;
+  int cryptomatteDepth;  // ranks per pixel of Cryptomatte AOVs
 
   /// Throws std::invalid_argument for an unknown key, an out-of-range value or a fraction for an
   /// integer setting.
