@@ -26,6 +26,7 @@ time-varying (see :class:`~penumbra.usd.instanced_meshes.InstancedMeshes`).
 from __future__ import annotations
 
 from collections import defaultdict
+from dataclasses import replace
 from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
@@ -40,6 +41,8 @@ from .flattening import (
 )
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
 from .material import bound_materials
+from .inherited import InheritedState
+from .ray_visibility import authored_below
 from .render_pass import SHOWN, RenderPassCollections
 from .sampling import SampleReader, Shutter, visibility_might_vary
 
@@ -177,6 +180,15 @@ class NativeInstancing:
             for instance, _, _ in instances
         }
         flattener.varying |= reader.varying
+        # Ray visibility: each instance's (inherited), and what its prototype authors on the
+        # way to the mesh, nearer.
+        ray_visibility = InheritedState(self.warn)
+        ray_visibility.at(frame)
+        instance_prims = {
+            instance.GetPath(): instance
+            for instances in by_prototype.values()
+            for instance, _, _ in instances
+        }
         groups: dict[GroupKey, Group] = {}
         start = 0
         for leaf, transforms, kept_instances in pending:
@@ -184,10 +196,14 @@ class NativeInstancing:
             bound = materials[start : start + count]
             start += count
             copies_per_instance = len(leaf.transforms)
-            shown = [
-                self.render_pass.visibility(path) if self.render_pass is not None else SHOWN
-                for path in kept_instances
-            ]
+            within = authored_below(
+                self.stage, leaf.proxy.GetPrefixes()[0], leaf.proxy, frame, self.warn
+            )
+            shown = []
+            for path in kept_instances:
+                rays = ray_visibility.ray_visibility(instance_prims[path], path)
+                passed = SHOWN if self.render_pass is None else self.render_pass.visibility(path)
+                shown.append((replace(rays, **within) if within else rays).shown(passed))
             for material, pass_shown in dict.fromkeys(zip(bound, shown)):
                 chosen = [n for n in range(count) if (bound[n], shown[n]) == (material, pass_shown)]
                 if not any(inherited[kept_instances[n]] for n in chosen):
