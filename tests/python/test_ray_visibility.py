@@ -82,9 +82,14 @@ def add_caster(stage, path: str, x: float, y: float) -> UsdGeom.Mesh:
 
 def shadow_pixel(image, x: float, y: float):
     """The wall inside the shadow of the quad at (x, y), where the camera sees it beside the
-    quad."""
-    inset = QUAD_HALF - 0.1
-    return plane_pixel(image, *on_wall(x - np.sign(x) * inset, y - np.sign(y) * inset))
+    quad: halfway between where the shadow's inner edge and the quad's appear."""
+    scale = on_wall(1, 1)[0]
+
+    def halfway(centre: float) -> float:
+        edge = centre - np.sign(centre) * QUAD_HALF
+        return edge * (1 + scale) / 2
+
+    return plane_pixel(image, halfway(x), halfway(y))
 
 
 def direct(stage, **kwargs):
