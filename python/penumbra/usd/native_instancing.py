@@ -26,8 +26,8 @@ time-varying (see :class:`~penumbra.usd.instanced_meshes.InstancedMeshes`).
 from __future__ import annotations
 
 from collections import defaultdict
-from dataclasses import replace
 from collections.abc import Callable, Iterable, Iterator
+from dataclasses import replace
 
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom
@@ -39,10 +39,10 @@ from .flattening import (
     nest_primvars,
     outer_primvars,
 )
+from .inherited import InheritedState
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
 from .material import bound_materials
-from .inherited import InheritedState
-from .ray_visibility import authored_below
+from .ray_visibility import PRIMVAR_NAMES, VISIBLE, authored_below
 from .render_pass import SHOWN, RenderPassCollections
 from .sampling import SampleReader, Shutter, visibility_might_vary
 
@@ -181,14 +181,10 @@ class NativeInstancing:
         }
         flattener.varying |= reader.varying
         # Ray visibility: each instance's (inherited), and what its prototype authors on the
-        # way to the mesh, nearer.
+        # way to the mesh, nearer. Instances that inherit none of its primvars (most) are
+        # visible to every ray without asking USD again.
         ray_visibility = InheritedState(self.warn)
         ray_visibility.at(frame)
-        instance_prims = {
-            instance.GetPath(): instance
-            for instances in by_prototype.values()
-            for instance, _, _ in instances
-        }
         groups: dict[GroupKey, Group] = {}
         start = 0
         for leaf, transforms, kept_instances in pending:
@@ -201,7 +197,9 @@ class NativeInstancing:
             )
             shown = []
             for path in kept_instances:
-                rays = ray_visibility.ray_visibility(instance_prims[path], path)
+                rays = VISIBLE
+                if not PRIMVAR_NAMES.isdisjoint(inherited[path]):
+                    rays = ray_visibility.ray_visibility(self.stage.GetPrimAtPath(path), path)
                 passed = SHOWN if self.render_pass is None else self.render_pass.visibility(path)
                 shown.append((replace(rays, **within) if within else rays).shown(passed))
             for material, pass_shown in dict.fromkeys(zip(bound, shown)):

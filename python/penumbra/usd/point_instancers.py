@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 from pxr import Sdf, Usd, UsdGeom
 
 from .flattening import Flattener, prototype_roots, combine_segments
+from .inherited import InheritedState
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
 from .material import bound_material
-from .inherited import InheritedState
 from .render_pass import SHOWN, RenderPassCollections
 from .sampling import Shutter
 

@@ -26,6 +26,8 @@ HOLDOUT = _PREFIX + "holdout"
 RAY_KINDS = ("camera", "shadow", "diffuse", "glossy", "transmission")
 ATTRIBUTES = tuple(_VISIBILITY + kind for kind in RAY_KINDS) + (HOLDOUT,)
 _FIELDS = dict(zip(ATTRIBUTES, RAY_KINDS + ("holdout",)))
+PRIMVAR_NAMES = frozenset(name.removeprefix("primvars:") for name in ATTRIBUTES)
+"""The primvars' names as UsdGeom.Primvar.GetPrimvarName gives them."""
 
 
 @dataclass(frozen=True)
