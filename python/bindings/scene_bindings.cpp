@@ -342,12 +342,18 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
           py::arg("ids"), py::arg("visible"), "set_visible for many prims.")
       .def(
           "set_pass_visibility",
-          [](RenderDelegate& self, const std::string& id, bool cameraVisible, bool matte) {
-            self.prim(id).setPassVisibility({cameraVisible, matte});
+          [](RenderDelegate& self, const std::string& id, bool cameraVisible, bool matte,
+             bool shadow, bool diffuse, bool glossy, bool transmission) {
+            self.prim(id).setPassVisibility(
+                {cameraVisible, matte, shadow, diffuse, glossy, transmission});
           },
           py::arg("id"), py::arg("camera_visible") = true, py::arg("matte") = false,
+          py::arg("shadow") = true, py::arg("diffuse") = true, py::arg("glossy") = true,
+          py::arg("transmission") = true,
           "How camera rays treat a mesh, points or an instancer's copies (UsdRenderPass "
-          "cameraVisibility and matte collections): hidden from them, or a holdout.")
+          "cameraVisibility and matte collections, primvars:penumbra:visibility:camera and "
+          "primvars:penumbra:holdout): hidden from them, or a holdout; and which other rays see "
+          "them (primvars:penumbra:visibility:shadow, :diffuse, :glossy, :transmission).")
       .def(
           "set_instances",
           [](RenderDelegate& self, const std::string& id, const std::string& prototype,

@@ -256,7 +256,7 @@ void Geometry::placeInstance(RTCGeometry geometry, const Placement& placement, b
       rtcSetGeometryTransformQuaternion(geometry, step, &embree);
     }
   }
-  rtcSetGeometryMask(geometry, passOf(placement).camera ? kCameraRays | kOtherRays : kOtherRays);
+  rtcSetGeometryMask(geometry, ray_mask::ofPlacement(passOf(placement)));
   if (enabled)
     rtcEnableGeometry(geometry);
   else

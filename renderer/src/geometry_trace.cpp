@@ -94,7 +94,7 @@ RTCRayHit Geometry::trace(const Ray& ray, RayKind kind) const {
   TraceContext context(*this, kind);
   RTCRayHit rayHit;
   rayHit.ray = toEmbreeRay(ray);
-  if (context.cameraRay) rayHit.ray.mask = kCameraRays;
+  rayHit.ray.mask = ray_mask::ofRay(kind);
   rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rayHit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(top_, &context.embree, &rayHit);
@@ -157,6 +157,7 @@ std::optional<GeometryHit> Geometry::intersect(const Ray& ray, RayKind kind) con
 bool Geometry::occluded(const Ray& ray) const {
   TraceContext context(*this, RayKind::Secondary);
   RTCRay r = toEmbreeRay(ray);
+  r.mask = ray_mask::kShadow;
   rtcOccluded1(top_, &context.embree, &r);
   if (r.tfar >= 0 && overlaid_ && mayHitOverlay(r)) {
     context.embree.filter = nullptr;

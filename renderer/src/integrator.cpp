@@ -365,6 +365,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   Vec3f throughput{1.0f};
   ScatteringRecord scattering;
   int diffuseBounces = 0, glossyBounces = 0, transmissionBounces = 0;
+  RayKind rayKind = RayKind::Camera;  // which objects the ray may see (PassVisibility)
   bool lastVertex = false;      // a lobe's depth is exhausted: only collect what the ray reaches
   float minRayPdf = kInfinity;  // the smallest density of a scattered direction so far
   const std::vector<Light>& lights = scene.lights().all();
@@ -429,8 +430,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   };
 
   for (int bounce = 0;; ++bounce) {
-    const std::optional<SurfaceHit> hit =
-        intersectSurface(scene, ray, bounce == 0 ? RayKind::Camera : RayKind::Secondary, cone);
+    const std::optional<SurfaceHit> hit = intersectSurface(scene, ray, rayKind, cone);
     ++result.rays;
     // The volumes between the ray's origin and the surface: the ray may scatter or end there.
     FlightOutcome flight = FlightOutcome::Passed;
@@ -500,6 +500,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const float pdf = phase.evaluate(ray.direction, direction);
       minRayPdf = std::min(minRayPdf, pdf);
       scattering = {pdf, true, true, receiver};
+      rayKind = RayKind::Diffuse;  // as the lights' diffuse multiplier takes it
       lastVertex = ++volumeBounces >= settings.maxVolumeDepth;
       if (bounce >= 3 && maxComponent(throughput) < 1) {
         const float survival = maxComponent(throughput);
@@ -604,6 +605,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                               ? settings.maxTransmissionDepth
                               : settings.maxGlossyDepth;
     lastVertex = ++lobeBounces >= lobeLimit;
+    // A subsurface walk leaves by its Lambertian exit: a diffuse ray.
+    rayKind = diffuseLobe                                 ? RayKind::Diffuse
+              : scattered->lobe == BsdfLobe::Transmission ? RayKind::Transmission
+                                                          : RayKind::Glossy;
     // Russian roulette once paths are long enough to be dim, in proportion to what they still
     // carry; paths as bright as a camera ray's (glass, mirrors) are never cut, since cutting
     // them saves little and adds the most variance. Survivors are reweighted.

@@ -144,6 +144,8 @@ CASES = [
     # Meshes, primvars, materials, instancers, lights: warning and skip (exit 0).
     Case("unknown primvar interpolation", 0, "/quad", mesh='float[] primvars:foo = [1] (interpolation = "bogus")'),
     Case("faces with fewer than 3 vertices", 0, "/quad", mesh="int[] faceVertexCounts = [2, 2]"),
+    Case("ray visibility not a bool", 0, "/quad: primvars:penumbra:visibility:shadow has type float", mesh="float primvars:penumbra:visibility:shadow = 0"),
+    Case("holdout per face", 0, "/quad: primvars:penumbra:holdout has uniform interpolation", mesh='bool primvars:penumbra:holdout = 1 (interpolation = "uniform")'),
     Case("face index out of range", 0, "/quad", mesh="int[] faceVertexIndices = [0, 1, 2, 9]"),
     Case("NaN points", 0, "/quad", mesh="point3f[] points = [(nan, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]"),
     Case("mesh NaN transform", 0, "/quad", mesh='double3 xformOp:translate = (nan, 0, 0)\nuniform token[] xformOpOrder = ["xformOp:translate"]'),

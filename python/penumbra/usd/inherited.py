@@ -12,9 +12,11 @@ schema's fallback, which neither overrides the inherited value nor varies with t
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 from pxr import Sdf, Usd, UsdGeom
+
+from .ray_visibility import VISIBLE, RayVisibility, own_ray_visibility
 
 _PURPOSE = UsdGeom.Tokens.purpose
 _VISIBILITY = UsdGeom.Tokens.visibility
@@ -48,7 +50,8 @@ class InheritedState:
     Each kind of state is computed only when asked for (a leaf mesh's primvars for children,
     say, never are)."""
 
-    def __init__(self) -> None:
+    def __init__(self, warn: Callable[[str], None] | None = None) -> None:
+        self._warn = warn or (lambda message: None)  # of ray visibility values ignored
         self._states: dict[Sdf.Path, Inherited] = {}
         self._authored: dict[Sdf.Path, frozenset[str]] = {}
         # Prims of a kind mostly author the same properties: one set serves them all.
@@ -56,18 +59,21 @@ class InheritedState:
         self._visible: dict[Sdf.Path, bool] = {}  # at the current time
         self._transform_varies: dict[Sdf.Path, bool] = {}
         self._primvars: dict[Sdf.Path, tuple[UsdGeom.Primvar, ...]] = {}  # for descendants
+        self._ray_visibility: dict[Sdf.Path, RayVisibility] = {}  # at the current time
         self._time = Usd.TimeCode.Default()
 
     def forget(self) -> None:
         for cache in (self._states, self._authored, self._visible, self._transform_varies):
             cache.clear()
         self._primvars.clear()
+        self._ray_visibility.clear()
         self._name_sets.clear()
 
     def at(self, time: Usd.TimeCode) -> None:
         """Read visibility at ``time`` from now on."""
         if time != self._time:
             self._visible.clear()
+            self._ray_visibility.clear()
         self._time = time
 
     def authored(self, prim: Usd.Prim, path: Sdf.Path) -> frozenset[str]:
@@ -115,6 +121,24 @@ class InheritedState:
                     visible = value != UsdGeom.Tokens.invisible
             self._visible[path] = visible
         return visible
+
+    def ray_visibility(self, prim: Usd.Prim, path: Sdf.Path) -> RayVisibility:
+        """Which rays see ``prim`` and whether it is a holdout, from its own and its ancestors'
+        ``primvars:penumbra:visibility:*`` and ``primvars:penumbra:holdout`` (ray_visibility.py)
+        at the current time."""
+        found = self._ray_visibility.get(path)
+        if found is None:
+            found = VISIBLE
+            if path.pathElementCount > 1:
+                parent_path = path.GetParentPath()
+                found = self._ray_visibility.get(parent_path)
+                if found is None:
+                    found = self.ray_visibility(prim.GetParent(), parent_path)
+            found = own_ray_visibility(
+                found, prim, self.authored(prim, path), self._time, self._warn
+            )
+            self._ray_visibility[path] = found
+        return found
 
     def transform_might_vary(self, prim: Usd.Prim, path: Sdf.Path) -> bool:
         """Whether the local-to-world transform of ``prim`` might change with time: an xformOp

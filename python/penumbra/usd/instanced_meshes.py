@@ -21,7 +21,7 @@ from .flattening import Leaf, user_facing_path
 from .curves import sync_curves_data
 from .mesh import sync_mesh_data
 from .points import sync_points_data
-from .render_pass import SHOWN, PassVisibility
+from .render_pass import HIDING_RAYS, SHOWN, PassVisibility, set_pass_visibility
 from .sampling import SampleReader, Shutter
 
 class MaterialSource(Protocol):
@@ -185,7 +185,7 @@ class InstancedMeshes:
         self.core.insert_rprim(_rprim_type(group.mesh), pushed.mesh_id)
         self.core.insert_rprim("instancer", pushed.instancer_id)
         if shown != SHOWN:
-            self.core.set_pass_visibility(pushed.instancer_id, shown.camera, shown.matte)
+            set_pass_visibility(self.core, pushed.instancer_id, shown)
         self._read_mesh(pushed, group, shutter)
         return pushed
 
@@ -232,6 +232,7 @@ def _id_tail(mesh: Sdf.Path, material: Sdf.Path | None, shown: PassVisibility) -
     suffix = f"/materials{material}" if material else ""
     if shown != SHOWN:  # copies the render pass shows otherwise are an instancer of their own
         suffix += f"/pass{'' if shown.camera else '/cameraHidden'}{'/matte' if shown.matte else ''}"
+        suffix += "".join(f"/{rays}Hidden" for rays in HIDING_RAYS if not getattr(shown, rays))
     return f"{mesh}{suffix}"
 
 

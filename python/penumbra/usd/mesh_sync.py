@@ -19,6 +19,7 @@ from .material_registry import MaterialRegistry
 from .mesh import Authored, is_plain, push_plain_meshes, sync_mesh_data
 from .motion import XformCaches, transforms_samples
 from .prim_sync import SyncSettings
+from .ray_visibility import ShownSender
 from .render_pass import RenderPassCollections
 from .sampling import SampleReader
 from .tracking import Dirty, Flush, TrackedPrim, set_flag
@@ -49,6 +50,7 @@ class MeshSync:
         self._inherited = inherited
         self._materials = materials
         self._emitters = emitters
+        self._shown = ShownSender(core, render_pass, inherited)
 
     def sync(
         self, meshes: Flush, settings: SyncSettings, xform_caches: XformCaches, batch: CoreBatch
@@ -142,8 +144,8 @@ class MeshSync:
             records[n].unknown |= Dirty.TRANSFORM
 
     def _sync_visibilities(self, meshes: Flush, removed: set[int], batch: CoreBatch) -> None:
-        """Queue the visibility (and render-pass visibility) of ``meshes`` whose visibility is
-        dirty; a new mesh's default, visible, is not sent."""
+        """Queue the visibility (and render-pass and ray visibility) of ``meshes`` whose
+        visibility is dirty; a new mesh's defaults, visible to every ray, are not sent."""
         passes = self.render_pass
         for n, path in enumerate(meshes.paths):
             if not meshes.bits[n] & Dirty.VISIBILITY or n in removed:
@@ -154,9 +156,7 @@ class MeshSync:
             visible = visible and (passes is None or passes.rendered(path))
             if not visible or not meshes.new[n]:
                 batch.set_visible(meshes.ids[n], visible)
-            if passes is not None:
-                shown = passes.visibility(path)
-                self.core.set_pass_visibility(meshes.ids[n], shown.camera, shown.matte)
+            self._shown.send(meshes.ids[n], meshes.prims[n], path)
             record = meshes.records[n]
             record.varying = set_flag(record.varying, Dirty.VISIBILITY, might_vary)
 

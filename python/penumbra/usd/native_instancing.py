@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator
+from dataclasses import replace
 
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom
@@ -38,8 +39,10 @@ from .flattening import (
     nest_primvars,
     outer_primvars,
 )
+from .inherited import InheritedState
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
 from .material import bound_materials
+from .ray_visibility import PRIMVAR_NAMES, VISIBLE, authored_below
 from .render_pass import SHOWN, RenderPassCollections
 from .sampling import SampleReader, Shutter, visibility_might_vary
 
@@ -182,6 +185,11 @@ class NativeInstancing:
             for instance, _, _ in instances
         }
         flattener.varying |= reader.varying
+        # Ray visibility: each instance's (inherited), and what its prototype authors on the
+        # way to the mesh, nearer. Instances that inherit none of its primvars (most) are
+        # visible to every ray without asking USD again.
+        ray_visibility = InheritedState(self.warn)
+        ray_visibility.at(frame)
         groups: dict[GroupKey, Group] = {}
         start = 0
         for leaf, transforms, kept_instances in pending:
@@ -191,10 +199,16 @@ class NativeInstancing:
             names = [str(proxy.GetPath()) for proxy in proxies[start : start + count]]
             start += count
             copies_per_instance = len(leaf.transforms)
-            shown = [
-                self.render_pass.visibility(path) if self.render_pass is not None else SHOWN
-                for path in kept_instances
-            ]
+            within = authored_below(
+                self.stage, leaf.proxy.GetPrefixes()[0], leaf.proxy, frame, self.warn
+            )
+            shown = []
+            for path in kept_instances:
+                rays = VISIBLE
+                if not PRIMVAR_NAMES.isdisjoint(inherited[path]):
+                    rays = ray_visibility.ray_visibility(self.stage.GetPrimAtPath(path), path)
+                passed = SHOWN if self.render_pass is None else self.render_pass.visibility(path)
+                shown.append((replace(rays, **within) if within else rays).shown(passed))
             for material, pass_shown in dict.fromkeys(zip(bound, shown)):
                 chosen = [n for n in range(count) if (bound[n], shown[n]) == (material, pass_shown)]
                 if not any(inherited[kept_instances[n]] for n in chosen):

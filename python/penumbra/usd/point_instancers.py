@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pxr import Sdf, Usd, UsdGeom
 
 from .flattening import Flattener, prototype_roots, combine_segments
+from .inherited import InheritedState
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
 from .material import bound_material
 from .render_pass import SHOWN, RenderPassCollections
@@ -136,14 +137,19 @@ class PointInstancerDelegate:
             segments = combine_segments(segments, flattener.content_segments(prototype), limit)
         groups: dict[GroupKey, Group] = {}
         materials: dict[Sdf.Path, Sdf.Path | None] = {}
+        # Ray visibility: the instancer's and its ancestors', nearer in a prototype.
+        inherited = InheritedState(self.warn)
+        inherited.at(self.shutter.frame)
         leaves = flattener.point_instancer_leaves(prim, self.stage.GetPseudoRoot(), segments)
         for leaf in leaves:
             if (leaf.purpose or purpose) not in self.purposes:
                 continue
+            proxy = self.stage.GetPrimAtPath(leaf.proxy)
             if leaf.proxy not in materials:
-                material = bound_material(self.stage.GetPrimAtPath(leaf.proxy))
+                material = bound_material(proxy)
                 materials[leaf.proxy] = material.GetPath() if material else None
+            leaf_shown = inherited.ray_visibility(proxy, leaf.proxy).shown(shown)
             group_leaves(
-                groups, leaf, materials[leaf.proxy], leaf.transforms, leaf.primvars, shown
+                groups, leaf, materials[leaf.proxy], leaf.transforms, leaf.primvars, leaf_shown
             )
         return groups

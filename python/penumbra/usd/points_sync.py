@@ -16,6 +16,7 @@ from .material_registry import MaterialRegistry
 from .motion import XformCaches
 from .points import sync_points_data
 from .prim_sync import OneByOneSync, SyncSettings
+from .ray_visibility import ShownSender
 from .render_pass import RenderPassCollections
 from .sampling import SampleReader
 from .tracking import Dirty, Flush
@@ -37,12 +38,12 @@ class PointsSync(OneByOneSync):
         super().__init__(core, render_pass, inherited)
         self._warn = warn
         self._materials = materials
+        self._shown = ShownSender(core, render_pass, inherited)
 
     def sync(
         self, prims: Flush, settings: SyncSettings, xform_caches: XformCaches, batch: CoreBatch
     ) -> None:
         super().sync(prims, settings, xform_caches, batch)
-        passes = self.render_pass
         binding = [
             n
             for n, bits in enumerate(prims.bits)
@@ -53,12 +54,9 @@ class PointsSync(OneByOneSync):
             material_id = self._materials.bind(prims.paths[n], record.material, material)
             record.material = "" if material is None else str(material)
             batch.set_mesh_material(prims.ids[n], material_id)
-        if passes is None:
-            return
         for n, path in enumerate(prims.paths):
             if prims.bits[n] & Dirty.VISIBILITY and prims.records[n].in_core:
-                shown = passes.visibility(path)
-                self.core.set_pass_visibility(prims.ids[n], shown.camera, shown.matte)
+                self._shown.send(prims.ids[n], prims.prims[n], path)
 
     def _read(
         self, path: Sdf.Path, path_str: str, prim: Usd.Prim, reader: SampleReader,

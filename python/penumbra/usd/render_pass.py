@@ -24,14 +24,35 @@ from .stage import stage_name
 
 @dataclass(frozen=True)
 class PassVisibility:
-    """How a render pass shows one prim (when it is rendered at all)."""
+    """How a render pass shows one prim (when it is rendered at all); the other rays' view of
+    it comes from its own primvars (ray_visibility.py), as core.set_pass_visibility takes it."""
 
     camera: bool = True
     matte: bool = False
+    shadow: bool = True
+    diffuse: bool = True
+    glossy: bool = True
+    transmission: bool = True
 
 
 SHOWN = PassVisibility()
 """A prim that no collection of the pass changes."""
+
+HIDING_RAYS = ("shadow", "diffuse", "glossy", "transmission")
+"""The rays other than the camera's that an object may be hidden from (its own primvars)."""
+
+
+def set_pass_visibility(core, prim_id: str, shown: PassVisibility) -> None:
+    """Send ``shown`` to the mesh, points, curves or instancer ``prim_id`` of ``core``."""
+    core.set_pass_visibility(
+        prim_id,
+        shown.camera,
+        shown.matte,
+        shadow=shown.shadow,
+        diffuse=shown.diffuse,
+        glossy=shown.glossy,
+        transmission=shown.transmission,
+    )
 
 
 class RenderPassCollections:

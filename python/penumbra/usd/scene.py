@@ -84,9 +84,9 @@ class SceneDelegate:
         self.depth_of_field = True
         self.dome_light_visibility = True
         self.film_windows: dict[str, FilmWindow] = {}
-        self._inherited = InheritedState()
-        self._emitters: set[Sdf.Path] = set()  # synced lights and UsdLuxMeshLightAPI meshes
         self._warn = _OnceWarner()
+        self._inherited = InheritedState(self._warn)
+        self._emitters: set[Sdf.Path] = set()  # synced lights and UsdLuxMeshLightAPI meshes
         self.materials = MaterialRegistry(stage, core, self._warn)
         """The one material registry, shared with native and point instancing."""
         self._native = NativeInstancing(

@@ -17,6 +17,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom
 from .classification import Classifier
 from .inherited import Inherited
 from .material_registry import MaterialRegistry
+from .ray_visibility import ATTRIBUTES as RAY_VISIBILITY_ATTRIBUTES
 
 
 class Dirty:
@@ -218,6 +219,8 @@ class ChangeTracker:
             self._mark_subtree(prim_path, Dirty.VISIBILITY)
         elif name.startswith("material:binding"):
             self._mark_subtree(prim_path, Dirty.BINDING)
+        elif name in RAY_VISIBILITY_ATTRIBUTES:
+            self._mark_subtree(prim_path, Dirty.VISIBILITY)
         elif name.startswith("primvars:") and prim_path not in self.prims:
             self._mark_subtree(prim_path, Dirty.DATA)  # inherited constant primvars
         elif prim_path in self.prims:

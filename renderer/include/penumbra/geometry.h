@@ -24,15 +24,62 @@
 namespace penumbra {
 
 /// How a render pass shows a mesh or an instancer's copies (the UsdRenderPass cameraVisibility
-/// and matte collections). Either way the geometry still casts shadows and shows in reflections.
+/// and matte collections, combined with the object's primvars:penumbra:holdout and
+/// primvars:penumbra:visibility:camera). Either way the geometry still casts shadows and shows
+/// in reflections. The other members are the object's ray visibility
+/// (primvars:penumbra:visibility:*, docs/ray-visibility.md): which rays leaving a surface see it.
 struct PassVisibility {
   bool camera = true;  // false: camera rays pass through it
   bool matte = false;  // camera rays that meet it end there, adding no colour and no alpha
+  // false: shadow rays pass through it (it casts no shadow); rays leaving a diffuse lobe (or a
+  // medium), a reflecting lobe, a refracting lobe pass through it.
+  bool shadow = true;
+  bool diffuse = true;
+  bool glossy = true;
+  bool transmission = true;
 };
 
-/// Camera rays do not see the back faces of single-sided meshes (doubleSided = 0), as in
-/// Storm; other rays see both sides, so that a single-sided wall still blocks light.
-enum class RayKind { Camera, Secondary };
+/// Which rays a trace is for, so that objects hidden from them (PassVisibility) are passed
+/// through. Camera rays do not see the back faces of single-sided meshes (doubleSided = 0), as
+/// in Storm; other rays see both sides, so that a single-sided wall still blocks light.
+/// Secondary rays see every shown object whatever its ray visibility: the walks inside an object
+/// (subsurface, a hair fibre's far wall) and measurements. Diffuse, Glossy and Transmission: rays
+/// the path continues with after scattering by that kind of lobe (a medium's phase function and
+/// a subsurface exit count as diffuse). Shadow rays are occluded()'s.
+enum class RayKind { Camera, Secondary, Diffuse, Glossy, Transmission };
+
+/// The Embree ray mask bits of the ray kinds, and which of them a placement shown as `pass`
+/// answers to (Geometry sets these; public so that they can be tested).
+namespace ray_mask {
+inline constexpr unsigned kCamera = 1u;
+inline constexpr unsigned kAny = 2u;  // every shown placement has it: Secondary rays
+inline constexpr unsigned kShadow = 4u;
+inline constexpr unsigned kDiffuse = 8u;
+inline constexpr unsigned kGlossy = 16u;
+inline constexpr unsigned kTransmission = 32u;
+/// The mask rays of `kind` are traced with.
+constexpr unsigned ofRay(RayKind kind) {
+  switch (kind) {
+    case RayKind::Camera:
+      return kCamera;
+    case RayKind::Secondary:
+      return ~0u;
+    case RayKind::Diffuse:
+      return kDiffuse;
+    case RayKind::Glossy:
+      return kGlossy;
+    case RayKind::Transmission:
+      return kTransmission;
+  }
+  return ~0u;
+}
+/// The mask of a placement shown as `pass`.
+constexpr unsigned ofPlacement(const PassVisibility& pass) {
+  return kAny | (pass.camera ? kCamera : 0u) | (pass.shadow ? kShadow : 0u) |
+         (pass.diffuse ? kDiffuse : 0u) | (pass.glossy ? kGlossy : 0u) |
+         (pass.transmission ? kTransmission : 0u);
+}
+}  // namespace ray_mask
 
 /// A ray's first intersection, as the geometry knows it.
 struct GeometryHit {
@@ -159,7 +206,8 @@ class Geometry {
   std::optional<GeometryHit> intersect(const Ray& ray, RayKind kind) const;
   /// The distance to the first hit, infinity for none.
   float hitDistance(const Ray& ray, RayKind kind) const;
-  /// True if anything blocks the segment [tNear, tFar] of the ray.
+  /// True if anything that casts shadows (PassVisibility::shadow) blocks the segment
+  /// [tNear, tFar] of the ray.
   bool occluded(const Ray& ray) const;
   /// The widest value of primvar `name` on any mesh or instancer (0: none has it).
   int primvarWidth(const PrimvarName& name) const;
@@ -226,11 +274,6 @@ class Geometry {
     Box bounds;                     // in the world, of the copies shown
     size_t beyondReach = 0;         // copies that would show but reach beyond kMaxCoordinate
   };
-
-  // Ray mask bits of the placements: camera rays test only kCameraRays, so geometry a render
-  // pass hides from the camera keeps only kOtherRays and still casts shadows and reflects.
-  static constexpr unsigned kCameraRays = 1u;
-  static constexpr unsigned kOtherRays = 2u;
 
   /// Replaces the mesh's shape (see setMeshGeometry).
   void setShape(MeshId id, std::shared_ptr<const Shape> shape);
