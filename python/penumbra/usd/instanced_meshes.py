@@ -44,6 +44,8 @@ class Group:
     material: Sdf.Path | None
     transforms: list[np.ndarray] = field(default_factory=list)  # (N_i, K_i, 4, 4) each
     primvars: list[dict[str, np.ndarray]] = field(default_factory=list)  # N_i rows each
+    # Linking classes (linking.py), N_i each; None: those copies are linked to every light.
+    linking: list[np.ndarray | None] = field(default_factory=list)
 
     def stacked(self) -> np.ndarray:
         """(N, 4, 4) for static copies, else (N, K, 4, 4) with static ones held over K."""
@@ -65,6 +67,18 @@ class Group:
             stacked[name] = np.ascontiguousarray(np.concatenate(rows), dtype=np.float32)
         return stacked
 
+    def stacked_linking(self) -> np.ndarray | None:
+        """Linking classes in the order of :meth:`stacked`; None when every copy is linked to
+        every light."""
+        if all(classes is None for classes in self.linking):
+            return None
+        return np.concatenate(
+            [
+                np.zeros(len(transforms), np.uint32) if classes is None else classes
+                for classes, transforms in zip(self.linking, self.transforms)
+            ]
+        )
+
 
 GroupKey = tuple[Sdf.Path, Sdf.Path | None, PassVisibility]
 """(mesh, bound material, how the render pass shows the copies)."""
@@ -77,15 +91,18 @@ def group_leaves(
     transforms: np.ndarray,
     primvars: dict[str, np.ndarray],
     shown: PassVisibility = SHOWN,
+    linking: np.ndarray | None = None,
 ) -> None:
     """Add ``transforms`` (copies of ``leaf``'s mesh bound to ``material``, with their per-copy
-    ``primvars``, shown by the render pass as ``shown``) to ``groups``."""
+    ``primvars``, shown by the render pass as ``shown``, of linking classes ``linking``, None:
+    linked to every light) to ``groups``."""
     key = (leaf.mesh.GetPath(), material, shown)
     group = groups.get(key)
     if group is None:
         group = groups[key] = Group(leaf.mesh, material)
     group.transforms.append(transforms)
     group.primvars.append(primvars)
+    group.linking.append(linking)
 
 
 @dataclass
@@ -95,6 +112,7 @@ class _Pushed:
     instancer_id: str
     material_id: str | None = None  # None: not sent yet
     digest: bytes | None = None  # of the copies' transforms last sent (None: not sent)
+    linked: bool = False  # linking classes were sent for its copies
     varying: bool = False  # the mesh's data might change with time
     usable: bool = True  # False when the mesh could not be read (no instancer then)
 
@@ -150,10 +168,17 @@ class InstancedMeshes:
                 pushed.material_id = material_id
             transforms = group.stacked()
             primvars = group.stacked_primvars()
-            digest = _digest(transforms, *primvars.values()) + str(sorted(primvars)).encode()
+            linking = group.stacked_linking()
+            arrays = (*primvars.values(), *(() if linking is None else (linking,)))
+            digest = _digest(transforms, *arrays) + str(sorted(primvars)).encode()
             if digest != pushed.digest:
                 self.core.set_instances(pushed.instancer_id, pushed.mesh_id, transforms)
                 self.core.set_instance_primvars(pushed.instancer_id, primvars)
+                if linking is not None or pushed.linked:
+                    self.core.set_instance_linking_classes(
+                        pushed.instancer_id, np.zeros(0, np.uint32) if linking is None else linking
+                    )
+                    pushed.linked = linking is not None
                 pushed.digest = digest
 
     def clear(self) -> None:

@@ -39,6 +39,7 @@ from .flattening import (
     outer_primvars,
 )
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
+from .linking import Linking
 from .material import bound_materials
 from .render_pass import SHOWN, RenderPassCollections
 from .sampling import SampleReader, Shutter, visibility_might_vary
@@ -55,10 +56,12 @@ class NativeInstancing:
         warn: Callable[[str], None],
         materials: MaterialSource,
         render_pass: RenderPassCollections | None = None,
+        linking: Linking | None = None,
     ):
         self.stage = stage
         self.purposes = purposes
         self.render_pass = render_pass
+        self.linking = linking
         self.warn = warn
         self.meshes = InstancedMeshes(core, warn, materials)
         self.shutter: Shutter | None = None
@@ -182,6 +185,13 @@ class NativeInstancing:
         for leaf, transforms, kept_instances in pending:
             count = len(transforms)
             bound = materials[start : start + count]
+            # Each copy's linking class, by its instance proxy's path.
+            linked = np.array(
+                [self.linking.class_of(proxy.GetPath()) for proxy in proxies[start : start + count]]
+                if self.linking is not None and self.linking.active
+                else np.zeros(count),
+                np.uint32,
+            )
             start += count
             copies_per_instance = len(leaf.transforms)
             shown = [
@@ -200,6 +210,7 @@ class NativeInstancing:
                         selected.reshape(-1, *selected.shape[2:]),
                         primvars,
                         pass_shown,
+                        _linking(np.repeat(linked[chosen], copies_per_instance)),
                     )
                     continue
                 # Each instance's own primvars reach its copies of the mesh (unless the mesh
@@ -211,8 +222,16 @@ class NativeInstancing:
                         1,
                         copies_per_instance,
                     )
-                    group_leaves(groups, leaf, material, transforms[n], primvars, pass_shown)
+                    group_leaves(
+                        groups, leaf, material, transforms[n], primvars, pass_shown,
+                        _linking(np.full(copies_per_instance, linked[n], np.uint32)),
+                    )
         return groups
+
+
+def _linking(classes: np.ndarray) -> np.ndarray | None:
+    """Copies' linking classes, None when all are linked to every light."""
+    return classes if classes.any() else None
 
 
 def _held(matrices: np.ndarray, segments: int) -> np.ndarray:

@@ -16,6 +16,7 @@ from pxr import Sdf, Usd, UsdGeom
 
 from .flattening import Flattener, prototype_roots, combine_segments
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
+from .linking import Linking
 from .material import bound_material
 from .render_pass import SHOWN, RenderPassCollections
 from .sampling import Shutter
@@ -42,10 +43,12 @@ class PointInstancerDelegate:
         warn: Callable[[str], None],
         materials: MaterialSource,
         render_pass: RenderPassCollections | None = None,
+        linking: Linking | None = None,
     ):
         self.stage = stage
         self.core = core
         self.render_pass = render_pass
+        self.linking = linking
         self.materials = materials  # the scene delegate's registry
         self.purposes = frozenset(purposes) | {UsdGeom.Tokens.default_}
         self.warn = warn
@@ -68,6 +71,11 @@ class PointInstancerDelegate:
                     prim_path.HasPrefix(root) or root.HasPrefix(prim_path) for root in record.roots
                 ):
                     record.dirty = True
+
+    def relink(self) -> None:
+        """Classify every copy again at the next update (the lights' links changed)."""
+        for record in self._instancers.values():
+            record.dirty = True
 
     def update(self, shutter: Shutter) -> None:
         """Re-flatten the point instancers whose inputs changed (or, at a new frame or shutter,
@@ -137,7 +145,13 @@ class PointInstancerDelegate:
             if leaf.proxy not in materials:
                 material = bound_material(self.stage.GetPrimAtPath(leaf.proxy))
                 materials[leaf.proxy] = material.GetPath() if material else None
+            # Copies are linked as their prototype is, by its path (below the instancer's).
+            linking = (
+                self.linking.classes_of(leaf.proxy, len(leaf.transforms))
+                if self.linking is not None
+                else None
+            )
             group_leaves(
-                groups, leaf, materials[leaf.proxy], leaf.transforms, leaf.primvars, shown
+                groups, leaf, materials[leaf.proxy], leaf.transforms, leaf.primvars, shown, linking
             )
         return groups
