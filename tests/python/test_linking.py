@@ -2,9 +2,10 @@
 
 The stage: a grey back wall at z = -1 and small grey quads at z = 0 in front of it, seen by a
 camera at z = 5, lit by two distant lights 30° off the view axis on either side: ``/key``
-casts each quad's shadow on the wall tan 30° to its right, ``/side`` tan 30° to its left. Direct light only (``max_path_depth=1``), so that a pixel's
-value depends only on the surface it shows, the lights and what shadows them: changing how one
-quad is linked changes no other pixel, bit for bit.
+casts each quad's shadow on the wall tan 30° to its right, ``/side`` tan 30° to its left.
+Direct light only (``max_path_depth=1``), so that a pixel's value depends only on the surface it
+shows, the lights and what shadows them: changing how one quad is linked changes no other pixel,
+bit for bit.
 """
 
 from __future__ import annotations
@@ -193,7 +194,8 @@ def test_linking_follows_live_edits():
     exclude(fresh, "/key", "lightLink", ["/World/target", "/World/inst0"])
     np.testing.assert_array_equal(edited, render(fresh))
     assert not np.array_equal(edited, reference)
-    UsdLux.LightAPI(stage.GetPrimAtPath("/key")).GetLightLinkCollectionAPI().GetExcludesRel().ClearTargets(True)
+    key = UsdLux.LightAPI(stage.GetPrimAtPath("/key"))
+    key.GetLightLinkCollectionAPI().GetExcludesRel().ClearTargets(True)
     np.testing.assert_array_equal(again(), reference)
 
 
@@ -232,4 +234,23 @@ def test_a_mesh_light_lights_only_what_its_link_includes():
     inside = inner(CENTRES["target"])
     assert lit[inside, 0].mean() > 1.2 * dark[inside, 0].mean()
     assert linked[inside, 0].mean() == pytest.approx(dark[inside, 0].mean(), rel=0.03)
-    np.testing.assert_array_equal(linked[~region(CENTRES["target"])], lit[~region(CENTRES["target"])])
+    elsewhere = ~region(CENTRES["target"])
+    np.testing.assert_array_equal(linked[elsewhere], lit[elsewhere])
+
+
+def test_points_are_linked_like_meshes():
+    def with_points(excluded: bool) -> Usd.Stage:
+        stage = linking_stage()
+        points = UsdGeom.Points.Define(stage, "/World/dots")
+        points.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(0, -1.6, 0)]))
+        points.CreateWidthsAttr(Vt.FloatArray([0.5]))
+        points.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([Gf.Vec3f(GREY)])
+        if excluded:
+            exclude(stage, "/key", "lightLink", ["/World/dots"])
+        return stage
+
+    reference = render(with_points(False))
+    linked = render(with_points(True))
+    assert_only_changed(linked, reference, region((0, -1.6), 0.25))
+    inside = inner((0, -1.6), 0.1)
+    assert linked[inside, 0].mean() < 0.6 * reference[inside, 0].mean()
