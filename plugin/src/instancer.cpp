@@ -60,6 +60,12 @@ void Instancer::sync(SyncContext& context, uint32_t) {
     context.warn(id() + ": " + error.what() + "; the per-instance primvars are ignored");
     scene.geometry().setInstancePrimvars(handle_, {});
   }
+  try {
+    scene.geometry().setInstanceLinkingClasses(handle_, linkingClasses_);
+  } catch (const std::invalid_argument& error) {
+    context.warn(id() + ": " + error.what() + "; the copies are linked to every light");
+    scene.geometry().setInstanceLinkingClasses(handle_, {});
+  }
 }
 
 void Instancer::finalize(SyncContext& context) {

@@ -145,6 +145,7 @@ void Mesh::syncLight(SyncContext& context) {
   }
   light_->setVisible(corners != nullptr);
   light_->setMeshTriangles(std::move(corners));
+  light_->setLinkSlot(lightLinkSlot_);
   light_->syncDirty(context);
 }
 

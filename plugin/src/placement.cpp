@@ -48,12 +48,20 @@ void PlacedRprim::setPassVisibility(PassVisibility pass) {
   markDirty(DirtyVisibility);
 }
 
+void PlacedRprim::setLinkingClass(uint32_t linkingClass) {
+  linkingClass_ = linkingClass;
+  markDirty(DirtyVisibility);
+}
+
 void PlacedRprim::syncPlacement(SyncContext& context, uint32_t bits) const {
   if (bits & kPlacementDirtyBits) {
     if (!materialId_.empty() && !context.materials.find(materialId_) && (bits & DirtyMaterialId))
       context.warn(id() + ": bound material " + materialId_ +
                    " is not in the render index; displayColor is used");
-    if (bits & DirtyVisibility) context.scene.geometry().setMeshPassVisibility(handle_, pass_);
+    if (bits & DirtyVisibility) {
+      context.scene.geometry().setMeshPassVisibility(handle_, pass_);
+      context.scene.geometry().setMeshLinkingClass(handle_, linkingClass_);
+    }
     place(context);
   }
   // Moved or reshaped (the geometry placed it again as it changed) out of reach.

@@ -187,6 +187,18 @@ void RenderDelegate::setDicingCamera(PrimId cameraId) {
   dicingCamera_ = std::move(cameraId);
 }
 
+void RenderDelegate::setLinkingClasses(const std::vector<LinkingClass>& classes) {
+  scene_->geometry().setLinkingClasses(classes);
+  context_.sceneChanged = true;
+}
+
+void RenderDelegate::setLightLinkSlot(const PrimId& id, int slot) {
+  if (meshes_.find(id))
+    mesh(id).setLightLinkSlot(slot);
+  else
+    light(id).setLinkSlot(slot);
+}
+
 RenderDelegate::SyncStatistics RenderDelegate::syncStatistics() const {
   const SyncCounters& counters = context_.counters;
   SyncStatistics statistics;

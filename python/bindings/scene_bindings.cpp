@@ -355,6 +355,43 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
           "primvars:penumbra:holdout): hidden from them, or a holdout; and which other rays see "
           "them (primvars:penumbra:visibility:shadow, :diffuse, :glossy, :transmission).")
       .def(
+          "set_linking_class",
+          [](RenderDelegate& self, const std::string& id, uint32_t linkingClass) {
+            auto* placed = dynamic_cast<plugin::PlacedRprim*>(&self.prim(id));
+            if (!placed)
+              throw std::invalid_argument(id +
+                                          ": only meshes, points and curves have a linking "
+                                          "class (instancers: set_instance_linking_classes)");
+            placed->setLinkingClass(linkingClass);
+          },
+          py::arg("id"), py::arg("linking_class"),
+          "Light and shadow linking: the class (of set_linking_classes) of a mesh, points or "
+          "curves; 0: linked to every light.")
+      .def(
+          "set_instance_linking_classes",
+          [](RenderDelegate& self, const std::string& id, const std::vector<uint32_t>& classes) {
+            self.instancer(id).setLinkingClasses(classes);
+          },
+          py::arg("id"), py::arg("classes"),
+          "The linking class of each copy of an instancer, in the order of its transforms "
+          "(empty: all linked to every light).")
+      .def(
+          "set_linking_classes",
+          [](RenderDelegate& self,
+             const std::vector<std::pair<std::vector<uint32_t>, std::vector<uint32_t>>>& classes) {
+            std::vector<LinkingClass> table;
+            table.reserve(classes.size());
+            for (const auto& [unlit, unshadowed] : classes) table.push_back({unlit, unshadowed});
+            self.setLinkingClasses(table);
+          },
+          py::arg("classes"),
+          "Light and shadow linking classes: class i + 1 is classes[i], a pair (the link slots "
+          "whose light link excludes it, those whose shadow link excludes it); class 0 is "
+          "linked to every light.")
+      .def("set_light_link_slot", &RenderDelegate::setLightLinkSlot, py::arg("id"), py::arg("slot"),
+           "The light and shadow linking slot of a light or mesh light (-1: it lights and "
+           "shadows everything).")
+      .def(
           "set_instances",
           [](RenderDelegate& self, const std::string& id, const std::string& prototype,
              const DoubleArray& matrices) {

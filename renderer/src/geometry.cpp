@@ -453,7 +453,10 @@ void Geometry::setInstances(InstancerId id, MeshId prototype,
   }
   copies.prototype = prototype;
   copies.visible = visible;
-  if (transforms.size() != copies.copies.size()) copies.primvars.clear();  // one value per copy
+  if (transforms.size() != copies.copies.size()) {  // one value per copy
+    copies.primvars.clear();
+    copies.linkingClasses.clear();
+  }
   // Reuse the Embree geometries already there; create or drop the difference.
   while (copies.copies.size() > transforms.size()) {
     releasePlacement(copies.copies.back());
@@ -466,6 +469,8 @@ void Geometry::setInstances(InstancerId id, MeshId prototype,
     copy.instancer = &copies;
     copy.copy = uint32_t(i);
     copy.objectToWorld = std::move(transforms[i]);
+    copy.linkingClass =
+        copies.linkingClasses.empty() ? LinkingTable::kLinkedToAll : copies.linkingClasses[i];
   }
   updateCopies(copies, renderable(mesh) && visible);
 }
@@ -482,6 +487,21 @@ void Geometry::setInstancePrimvars(InstancerId id, std::vector<Primvar> primvars
                                   std::to_string(primvar.width));
   }
   copies.primvars = std::move(primvars);
+}
+
+void Geometry::setInstanceLinkingClasses(InstancerId id, std::vector<uint32_t> classes) {
+  InstancerRecord& copies = instancer(id);
+  if (!classes.empty() && classes.size() != copies.copies.size())
+    throw std::invalid_argument(std::to_string(classes.size()) + " linking classes for " +
+                                std::to_string(copies.copies.size()) + " copies");
+  // The classes are read by shading and the shadow-ray filter only: Embree's state stays.
+  for (size_t i = 0; i < copies.copies.size(); ++i)
+    copies.copies[i]->linkingClass = classes.empty() ? LinkingTable::kLinkedToAll : classes[i];
+  copies.linkingClasses = std::move(classes);
+}
+
+void Geometry::setMeshLinkingClass(MeshId id, uint32_t linkingClass) {
+  record(id).own->linkingClass = linkingClass;
 }
 
 void Geometry::setInstancerPassVisibility(InstancerId id, PassVisibility pass) {

@@ -35,6 +35,7 @@ struct Geometry::TraceContext {
   bool cameraRay;
   const Geometry* geometry;
   const std::vector<uint32_t>* overlayIds = nullptr;  // while tracing the overlay
+  int shadowLinkSlot = -1;  // a shadow ray's light, when its shadow link excludes something
 
   /// For a trace of `traced`'s top_ (skipping overlaid placements' stale instances there).
   TraceContext(const Geometry& traced, RayKind kind)
@@ -120,6 +121,19 @@ void Geometry::traceOverlay(TraceContext& context, RTCRayHit& rayHit) const {
     rayHit.hit.instID[0] = overlayIds_[rayHit.hit.instID[0]];
 }
 
+void Geometry::passShadowExcluded(const RTCFilterFunctionNArguments* args) {
+  const auto* context = reinterpret_cast<const TraceContext*>(args->context);
+  const Geometry& geometry = *context->geometry;
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const uint32_t placementId = context->placementId(RTCHitN_instID(args->hit, args->N, i, 0));
+    if ((!context->overlayIds && geometry.staleInTop_[placementId]) ||
+        geometry.linking_.shadowExcluded(geometry.placements_[placementId]->linkingClass,
+                                         context->shadowLinkSlot))
+      args->valid[i] = 0;
+  }
+}
+
 void Geometry::skipOverlaid(const RTCFilterFunctionNArguments* args) {
   const auto* context = reinterpret_cast<const TraceContext*>(args->context);
   for (unsigned i = 0; i < args->N; ++i)
@@ -151,16 +165,23 @@ std::optional<GeometryHit> Geometry::intersect(const Ray& ray, RayKind kind) con
   hit.materialIndex = mesh.materialIndex;
   hit.pass = passOf(placement);
   hit.instancePrimvars = copyPrimvars(placement);
+  hit.linkingClass = placement.linkingClass;
   return hit;
 }
 
-bool Geometry::occluded(const Ray& ray) const {
+bool Geometry::occluded(const Ray& ray, int linkSlot) const {
   TraceContext context(*this, RayKind::Secondary);
+  // Only the shadow rays of a light whose shadow link excludes something are filtered.
+  const bool shadowLinked = linking_.shadowLinked(linkSlot);
+  if (shadowLinked) {
+    context.shadowLinkSlot = linkSlot;
+    context.embree.filter = passShadowExcluded;
+  }
   RTCRay r = toEmbreeRay(ray);
   r.mask = ray_mask::kShadow;
   rtcOccluded1(top_, &context.embree, &r);
   if (r.tfar >= 0 && overlaid_ && mayHitOverlay(r)) {
-    context.embree.filter = nullptr;
+    context.embree.filter = shadowLinked ? passShadowExcluded : nullptr;
     context.overlayIds = &overlayIds_;
     rtcOccluded1(overlay_, &context.embree, &r);
   }

@@ -37,7 +37,16 @@ struct ScatteringRecord {
   bool fromSurface = false;
   bool diffuse = false;  // which light multiplier (diffuse or specular) applies
   Receiver receiver;     // the surface it left, as next-event estimation saw it there
+  uint32_t linkingClass = 0;  // the surface's placement's (linking.h): the lights it receives
 };
+
+/// Whether light `index` lights what `origin`'s ray left (light linking). Camera rays and
+/// media are lit by every light; a surface excluded from a light's light link gets nothing from
+/// it, by light sampling or BSDF sampling alike, so the two strategies stay consistent.
+bool lightReaches(const Scene& scene, const ScatteringRecord& origin, size_t index) {
+  return !origin.fromSurface || !scene.geometry().linking().lightExcluded(
+                                    origin.linkingClass, scene.lights().all()[index].linkSlot());
+}
 
 /// MIS weight of a BSDF-sampled ray that met light `index` (`lightPdf`: the density of sampling
 /// that point of the light once chosen).
@@ -69,6 +78,7 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
   const auto add = [&](uint32_t index, const LightHit& hit) {
     const Light& light = lights[index];
     if (!origin.fromSurface && !light.cameraVisible()) return;
+    if (!lightReaches(scene, origin, index)) return;
     // Light surfaces may overlap; each contributes, and the nearest defines depth. A visible
     // light (the dome too) makes the pixel opaque.
     nearest = std::min(nearest, hit.distance);
@@ -387,13 +397,18 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // infinite light (or one, when there are many) and one local light chosen by its estimated
   // contribution there, each sampled over its area or solid angle from a dimension of its own
   // (its choice's slot). The light it adds has `interactions` surface or medium interactions.
+  // `linkingClass`: the vertex's placement's (light linking), 0 in media.
   const auto estimateDirectLight = [&](const auto& vertex, const Receiver& receiver,
-                                       bool sampleLights, int interactions) {
+                                       bool sampleLights, int interactions, uint32_t linkingClass) {
     const Vec2f lightChoices = sampler.next2D();
     const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
     if (!sampleLights || settings.directLighting == DirectLighting::BsdfSamplingOnly) return;
     const auto sampleLight = [&](const LightSampler::Choice& choice) {
       const Light& light = lights[choice.index];
+      // A light whose light link excludes the vertex adds nothing: the estimate sums over the
+      // linked lights alone, with the same choice probabilities (unbiased, as BSDF-sampled
+      // hits on it add nothing either).
+      if (scene.geometry().linking().lightExcluded(linkingClass, light.linkSlot())) return;
       const Vec2f lightSample = sampler.draw2D(firstLightDimension + choice.slot);
       const std::optional<LightSample> sample =
           light.sample(receiver.position, lightSample, receiver.normal);
@@ -407,7 +422,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       Vec3f transmittance{1.0f};
       if (light.castsShadows()) {
         const Ray shadow = vertex.shadowRay(sample->direction, tFar);
-        if (scene.geometry().occluded(shadow)) return;
+        if (scene.geometry().occluded(shadow, light.linkSlot())) return;
         if (hasVolumes) {
           transmittance = volumeTransmittance(shadow, shadow.tFar);
           if (isBlack(transmittance)) return;
@@ -493,13 +508,13 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const HenyeyGreenstein phase(mediumPoint.anisotropy);
       const Receiver receiver{mediumPoint.position, Vec3f()};
       estimateDirectLight(MediumVertex{phase, ray.direction, mediumPoint.position, ray.time},
-                          receiver, true, bounce + 1);
+                          receiver, true, bounce + 1, LinkingTable::kLinkedToAll);
       // Phase sampling continues the path; its weight f / pdf is 1.
       const Sample4D phaseSample = sampler.next4D();
       const Vec3f direction = phase.sample(ray.direction, {phaseSample.y, phaseSample.z});
       const float pdf = phase.evaluate(ray.direction, direction);
       minRayPdf = std::min(minRayPdf, pdf);
-      scattering = {pdf, true, true, receiver};
+      scattering = {pdf, true, true, receiver, LinkingTable::kLinkedToAll};
       rayKind = RayKind::Diffuse;  // as the lights' diffuse multiplier takes it
       lastVertex = ++volumeBounces >= settings.maxVolumeDepth;
       if (bounce >= 3 && maxComponent(throughput) < 1) {
@@ -521,9 +536,12 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       float weight = 1;
       if (hit->lightIndex >= 0) {
         const size_t index = size_t(hit->lightIndex);
-        weight = bsdfStrategyWeight(scene, scattering, index,
-                                    lights[index].meshPdf(ray.origin, hit->position, hit->normal),
-                                    settings.directLighting);
+        weight =
+            lightReaches(scene, scattering, index)
+                ? bsdfStrategyWeight(scene, scattering, index,
+                                     lights[index].meshPdf(ray.origin, hit->position, hit->normal),
+                                     settings.directLighting)
+                : 0.0f;
         if (scattering.fromSurface)
           weight *= scattering.diffuse ? lights[index].diffuseMultiplier()
                                        : lights[index].specularMultiplier();
@@ -549,7 +567,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
     const Receiver receiver{hit->position, bsdf.hasTransmission() ? Vec3f() : facingNormal};
     estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
-                        !bsdf.isPurelySpecular(), bounce + 1);
+                        !bsdf.isPurelySpecular(), bounce + 1, hit->linkingClass);
 
     // BSDF sampling continues the path; the lobe and the direction in it are stratified jointly.
     const Sample4D scatteringSample = sampler.next4D();
@@ -586,14 +604,14 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const LambertianExit lambert(outward);
       nextReceiver = {exit->hit.position, outward};
       estimateDirectLight(surfaceVertex(scene, exit->hit, lambert, outward, ray.time), nextReceiver,
-                          true, bounce + 1);
+                          true, bounce + 1, exit->hit.linkingClass);
       const Sample4D exitSample = sampler.next4D();
       next = lambert.sample({exitSample.y, exitSample.z});
       if (!(next.pdf > 0)) break;
     }
     if (!next.isDelta) minRayPdf = std::min(minRayPdf, next.pdf);
     scattering = {next.isDelta ? 0.0f : next.pdf, true, next.lobe == BsdfLobe::Diffuse,
-                  nextReceiver};
+                  nextReceiver, exit ? exit->hit.linkingClass : hit->linkingClass};
     // A subsurface walk counts as one diffuse bounce.
     const bool diffuseLobe =
         scattered->lobe == BsdfLobe::Diffuse || scattered->lobe == BsdfLobe::Subsurface;

@@ -27,6 +27,7 @@ std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, R
   attachCopyPrimvars(point, found->instancePrimvars, uint32_t(found->instance));
   hit.meshId = found->meshId;
   hit.instance = found->instance;
+  hit.linkingClass = found->linkingClass;
   hit.shape = point.shape;
   hit.primitive = point.primitive;
   hit.u = point.u;

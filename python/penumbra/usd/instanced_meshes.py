@@ -45,6 +45,8 @@ class Group:
     transforms: list[np.ndarray] = field(default_factory=list)  # (N_i, K_i, 4, 4) each
     primvars: list[dict[str, np.ndarray]] = field(default_factory=list)  # N_i rows each
     names: list[str] = field(default_factory=list)  # each copy's Cryptomatte object name
+    # Linking classes (linking.py), N_i each; None: those copies are linked to every light.
+    linking: list[np.ndarray | None] = field(default_factory=list)
 
     def stacked(self) -> np.ndarray:
         """(N, 4, 4) for static copies, else (N, K, 4, 4) with static ones held over K."""
@@ -66,6 +68,18 @@ class Group:
             stacked[name] = np.ascontiguousarray(np.concatenate(rows), dtype=np.float32)
         return stacked
 
+    def stacked_linking(self) -> np.ndarray | None:
+        """Linking classes in the order of :meth:`stacked`; None when every copy is linked to
+        every light."""
+        if all(classes is None for classes in self.linking):
+            return None
+        return np.concatenate(
+            [
+                np.zeros(len(transforms), np.uint32) if classes is None else classes
+                for classes, transforms in zip(self.linking, self.transforms)
+            ]
+        )
+
 
 GroupKey = tuple[Sdf.Path, Sdf.Path | None, PassVisibility]
 """(mesh, bound material, how the render pass shows the copies)."""
@@ -79,10 +93,12 @@ def group_leaves(
     primvars: dict[str, np.ndarray],
     shown: PassVisibility = SHOWN,
     names: list[str] | None = None,
+    linking: np.ndarray | None = None,
 ) -> None:
     """Add ``transforms`` (copies of ``leaf``'s mesh bound to ``material``, with their per-copy
-    ``primvars``, shown by the render pass as ``shown``) to ``groups``. ``names``: each copy's
-    Cryptomatte object name (by default the path of the leaf's mesh, ``leaf.proxy``)."""
+    ``primvars``, shown by the render pass as ``shown``, of linking classes ``linking``, None:
+    linked to every light) to ``groups``. ``names``: each copy's Cryptomatte object name (by
+    default the path of the leaf's mesh, ``leaf.proxy``)."""
     key = (leaf.mesh.GetPath(), material, shown)
     group = groups.get(key)
     if group is None:
@@ -90,6 +106,7 @@ def group_leaves(
     group.transforms.append(transforms)
     group.primvars.append(primvars)
     group.names += names if names is not None else [str(leaf.proxy)] * len(transforms)
+    group.linking.append(linking)
 
 
 @dataclass
@@ -99,6 +116,7 @@ class _Pushed:
     instancer_id: str
     material_id: str | None = None  # None: not sent yet
     digest: bytes | None = None  # of the copies' transforms last sent (None: not sent)
+    linked: bool = False  # linking classes were sent for its copies
     varying: bool = False  # the mesh's data might change with time
     usable: bool = True  # False when the mesh could not be read (no instancer then)
     names: list[str] = field(default_factory=list)  # the copies' Cryptomatte object names
@@ -162,10 +180,17 @@ class InstancedMeshes:
                 pushed.material_id = material_id
             transforms = group.stacked()
             primvars = group.stacked_primvars()
-            digest = _digest(transforms, *primvars.values()) + str(sorted(primvars)).encode()
+            linking = group.stacked_linking()
+            arrays = (*primvars.values(), *(() if linking is None else (linking,)))
+            digest = _digest(transforms, *arrays) + str(sorted(primvars)).encode()
             if digest != pushed.digest:
                 self.core.set_instances(pushed.instancer_id, pushed.mesh_id, transforms)
                 self.core.set_instance_primvars(pushed.instancer_id, primvars)
+                if linking is not None or pushed.linked:
+                    self.core.set_instance_linking_classes(
+                        pushed.instancer_id, np.zeros(0, np.uint32) if linking is None else linking
+                    )
+                    pushed.linked = linking is not None
                 pushed.digest = digest
             pushed.names = group.names
 

@@ -41,6 +41,7 @@ from .flattening import (
 )
 from .inherited import InheritedState
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
+from .linking import Linking
 from .material import bound_materials
 from .ray_visibility import PRIMVAR_NAMES, VISIBLE, authored_below
 from .render_pass import SHOWN, RenderPassCollections
@@ -58,10 +59,12 @@ class NativeInstancing:
         warn: Callable[[str], None],
         materials: MaterialSource,
         render_pass: RenderPassCollections | None = None,
+        linking: Linking | None = None,
     ):
         self.stage = stage
         self.purposes = purposes
         self.render_pass = render_pass
+        self.linking = linking
         self.warn = warn
         self.meshes = InstancedMeshes(core, warn, materials)
         self.shutter: Shutter | None = None
@@ -197,6 +200,13 @@ class NativeInstancing:
             bound = materials[start : start + count]
             # Each copy's Cryptomatte object name: the instance proxy path of its mesh.
             names = [str(proxy.GetPath()) for proxy in proxies[start : start + count]]
+            # Each copy's linking class, by its instance proxy's path.
+            linked = np.array(
+                [self.linking.class_of(proxy.GetPath()) for proxy in proxies[start : start + count]]
+                if self.linking is not None and self.linking.active
+                else np.zeros(count),
+                np.uint32,
+            )
             start += count
             copies_per_instance = len(leaf.transforms)
             within = authored_below(
@@ -222,6 +232,7 @@ class NativeInstancing:
                         primvars,
                         pass_shown,
                         [names[n] for n in chosen for _ in range(copies_per_instance)],
+                        _linking(np.repeat(linked[chosen], copies_per_instance)),
                     )
                     continue
                 # Each instance's own primvars reach its copies of the mesh (unless the mesh
@@ -241,8 +252,14 @@ class NativeInstancing:
                         primvars,
                         pass_shown,
                         [names[n]] * copies_per_instance,
+                        _linking(np.full(copies_per_instance, linked[n], np.uint32)),
                     )
         return groups
+
+
+def _linking(classes: np.ndarray) -> np.ndarray | None:
+    """Copies' linking classes, None when all are linked to every light."""
+    return classes if classes.any() else None
 
 
 def _held(matrices: np.ndarray, segments: int) -> np.ndarray:

@@ -17,6 +17,7 @@ from pxr import Sdf, Usd, UsdGeom
 from .flattening import Flattener, prototype_roots, combine_segments
 from .inherited import InheritedState
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
+from .linking import Linking
 from .material import bound_material
 from .render_pass import SHOWN, RenderPassCollections
 from .sampling import Shutter
@@ -43,10 +44,12 @@ class PointInstancerDelegate:
         warn: Callable[[str], None],
         materials: MaterialSource,
         render_pass: RenderPassCollections | None = None,
+        linking: Linking | None = None,
     ):
         self.stage = stage
         self.core = core
         self.render_pass = render_pass
+        self.linking = linking
         self.materials = materials  # the scene delegate's registry
         self.purposes = frozenset(purposes) | {UsdGeom.Tokens.default_}
         self.warn = warn
@@ -69,6 +72,11 @@ class PointInstancerDelegate:
                     prim_path.HasPrefix(root) or root.HasPrefix(prim_path) for root in record.roots
                 ):
                     record.dirty = True
+
+    def relink(self) -> None:
+        """Classify every copy again at the next update (the lights' links changed)."""
+        for record in self._instancers.values():
+            record.dirty = True
 
     def update(self, shutter: Shutter) -> None:
         """Re-flatten the point instancers whose inputs changed (or, at a new frame or shutter,
@@ -149,7 +157,19 @@ class PointInstancerDelegate:
                 material = bound_material(proxy)
                 materials[leaf.proxy] = material.GetPath() if material else None
             leaf_shown = inherited.ray_visibility(proxy, leaf.proxy).shown(shown)
+            # Copies are linked as their prototype is, by its path (below the instancer's).
+            linking = (
+                self.linking.classes_of(leaf.proxy, len(leaf.transforms))
+                if self.linking is not None
+                else None
+            )
             group_leaves(
-                groups, leaf, materials[leaf.proxy], leaf.transforms, leaf.primvars, leaf_shown
+                groups,
+                leaf,
+                materials[leaf.proxy],
+                leaf.transforms,
+                leaf.primvars,
+                leaf_shown,
+                linking=linking,
             )
         return groups

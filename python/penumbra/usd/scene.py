@@ -40,6 +40,7 @@ from .core_batch import CoreBatch
 from .cryptomatte_names import cryptomatte_names
 from .curves_sync import CurvesSync
 from .inherited import InheritedState
+from .linking import Linking
 from .material_registry import MaterialRegistry
 from .mesh import data_might_vary
 from .mesh_sync import MeshSync, authored
@@ -59,6 +60,7 @@ DEFAULT_PURPOSES = ("default", "proxy")
 
 _LIGHT = "light"  # the syncer of every kind not in the table: the light types
 _RPRIMS = ("mesh", "points", CURVES, VOLUME)  # the kinds inserted as rprims, the others as sprims
+_LINKED = ("mesh", "points", CURVES)  # the kinds light and shadow linking classify
 
 
 class SceneDelegate:
@@ -87,13 +89,15 @@ class SceneDelegate:
         self._warn = _OnceWarner()
         self._inherited = InheritedState(self._warn)
         self._emitters: set[Sdf.Path] = set()  # synced lights and UsdLuxMeshLightAPI meshes
+        self._entered: list[Sdf.Path] = []  # prims inserted in the delegate since _relink
         self.materials = MaterialRegistry(stage, core, self._warn)
         """The one material registry, shared with native and point instancing."""
+        self._linking = Linking(stage, core, self._warn)
         self._native = NativeInstancing(
-            stage, core, self.purposes, self._warn, self.materials, render_pass
+            stage, core, self.purposes, self._warn, self.materials, render_pass, self._linking
         )
         self._point_instancers = PointInstancerDelegate(
-            stage, core, self.purposes, warn, self.materials, render_pass
+            stage, core, self.purposes, warn, self.materials, render_pass, self._linking
         )
         self._classifier = Classifier(self.purposes, self._inherited)
         self._volumes = VolumeSync(core, self._warn, render_pass, self._inherited)
@@ -102,7 +106,7 @@ class SceneDelegate:
             stage,
             self._classifier,
             self.materials,
-            [self._native, self._point_instancers, self._volumes],
+            [self._native, self._point_instancers, self._volumes, self._linking],
         )
         # Each kind of prim → its syncer, in the order a flush runs them.
         self._syncers: dict[str, PrimSync] = {
@@ -232,9 +236,32 @@ class SceneDelegate:
             )
         )
         self._inherited.forget()  # the stage may be edited before the next update
+        self._relink()
         self._native.update(shutter)
         self._point_instancers.update(shutter)
+        self._linking.send()
         self._classifier.report_unsupported()
+
+    def _relink(self) -> None:
+        """Classify the placements for light and shadow linking: every one when the lights'
+        links changed, else the rprims that entered the delegate in this update."""
+        relinked = self._linking.refresh(self._emitters)
+        prims = self._tracker.prims
+        entered = [p for p in self._entered if p in prims and prims[p].in_core]
+        self._entered = []
+        if not relinked:
+            self._linking.resend_slots(entered)  # lights (and mesh lights) inserted anew
+        entered = [p for p in entered if prims[p].kind in _LINKED]
+        if relinked:
+            self._native.invalidate()
+            self._point_instancers.relink()
+            entered = [
+                path
+                for path, record in prims.items()
+                if record.kind in _LINKED and record.in_core
+            ]
+        if self._linking.active or relinked:
+            self._linking.classify_rprims(entered)
 
     def _find_variability(self) -> None:
         """Find out which aspects of the prims synced without noting it might vary with time
@@ -259,6 +286,7 @@ class SceneDelegate:
         for path, record in self._tracker.take_removed():
             self._emitters.discard(path)
             self._volumes.forget(path)
+            self._linking.forget(path)
             if record.in_core:
                 self.core.remove_prim(str(path))
             if record.material:
@@ -283,6 +311,8 @@ class SceneDelegate:
                 if todo.new[n]:
                     if record.kind not in _RPRIMS:
                         self.core.insert_sprim(record.kind, todo.ids[n])
+                    self._linking.forget(todo.paths[n])
+                    self._entered.append(todo.paths[n])
                     record.in_core = True
                     todo.bits[n] = aspects(record.kind)  # entering the delegate: everything
                 by_syncer[record.kind if record.kind in self._syncers else _LIGHT].append(n)

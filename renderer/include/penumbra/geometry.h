@@ -15,6 +15,7 @@
 #include "penumbra/camera.h"
 #include "penumbra/curves.h"
 #include "penumbra/embree.h"
+#include "penumbra/linking.h"
 #include "penumbra/material_table.h"
 #include "penumbra/mesh.h"
 #include "penumbra/motion.h"
@@ -95,6 +96,7 @@ struct GeometryHit {
   PassVisibility pass;                             // the placement owner's
   /// For copies of an instancer with per-copy primvars: those primvars (see SurfacePoint).
   const std::vector<Primvar>* instancePrimvars = nullptr;
+  uint32_t linkingClass = LinkingTable::kLinkedToAll;  // the placement's (linking.h)
 };
 
 /// Gives `point`, on instancer copy `copy`, that copy's per-copy primvars `primvars` (null: the
@@ -161,6 +163,16 @@ class Geometry {
   /// How camera rays treat the instancer's copies.
   void setInstancerPassVisibility(InstancerId id, PassVisibility pass);
 
+  /// Light and shadow linking (linking.h): the classes the placements name.
+  void setLinkingClasses(const std::vector<LinkingClass>& classes) { linking_.setClasses(classes); }
+  const LinkingTable& linking() const { return linking_; }
+  /// The linking class of the mesh's own placement (default LinkingTable::kLinkedToAll).
+  void setMeshLinkingClass(MeshId id, uint32_t linkingClass);
+  /// The linking class of each of the instancer's copies, in the order of setInstances'
+  /// transforms (empty: every copy linked to all lights). Throws std::invalid_argument for a
+  /// count that does not match the copies.
+  void setInstanceLinkingClasses(InstancerId id, std::vector<uint32_t> classes);
+
   /// Where a material's opacity is below its non-zero opacityThreshold the surface is cut out:
   /// whole meshes for constant opacity, per hit for textured opacity. After material `index`
   /// was replaced (MaterialTable::replace), the meshes using it follow `change` (their
@@ -207,8 +219,9 @@ class Geometry {
   /// The distance to the first hit, infinity for none.
   float hitDistance(const Ray& ray, RayKind kind) const;
   /// True if anything that casts shadows (PassVisibility::shadow) blocks the segment
-  /// [tNear, tFar] of the ray.
-  bool occluded(const Ray& ray) const;
+  /// [tNear, tFar] of the ray; a shadow ray of a light with link slot `linkSlot`
+  /// (Light::linkSlot) passes the placements its shadow link excludes.
+  bool occluded(const Ray& ray, int linkSlot = -1) const;
   /// The widest value of primvar `name` on any mesh or instancer (0: none has it).
   int primvarWidth(const PrimvarName& name) const;
 
@@ -222,6 +235,7 @@ class Geometry {
     MotionTransform objectToWorld;
     const InstancerRecord* instancer = nullptr;  // for copies: whose, and which copy
     uint32_t copy = 0;
+    uint32_t linkingClass = LinkingTable::kLinkedToAll;
   };
   /// An axis-aligned box; empty (lower > upper) by default.
   struct Box {
@@ -271,6 +285,7 @@ class Geometry {
     PassVisibility pass;
     std::vector<std::unique_ptr<Placement>> copies;
     std::vector<Primvar> primvars;  // one value per copy
+    std::vector<uint32_t> linkingClasses;  // one per copy, or none: all kLinkedToAll
     Box bounds;                     // in the world, of the copies shown
     size_t beyondReach = 0;         // copies that would show but reach beyond kMaxCoordinate
   };
@@ -330,12 +345,17 @@ class Geometry {
   static const std::vector<Primvar>* copyPrimvars(const Placement& placement);
   /// Embree hit filter (any hit, intersection and occlusion rays).
   static void filterHits(const RTCFilterFunctionNArguments* args);
+  /// Intersect-context filter of the shadow rays of a shadow-linked light: passes the
+  /// placements its shadow link excludes (and, while the overlay holds placements, skips their
+  /// stale instances in top_ as skipOverlaid does).
+  static void passShadowExcluded(const RTCFilterFunctionNArguments* args);
   void updateAllPlacements(MeshId id);
   /// Updates an instancer's copies (and their bounds).
   void updateCopies(InstancerRecord& copies, bool shown);
 
   RTCDevice device_;
   MaterialTable& materials_;
+  LinkingTable linking_;
   RTCScene top_;
   std::vector<std::unique_ptr<MeshRecord>> meshes_;           // by MeshId
   std::vector<std::unique_ptr<InstancerRecord>> instancers_;  // by InstancerId

@@ -81,6 +81,8 @@ struct LightParams {
   /// UsdLuxMeshLightAPI: the emitting triangles in world space (3 points each), front side
   /// counter-clockwise. The mesh itself is traced as geometry; the light samples its surface.
   std::shared_ptr<const std::vector<Vec3f>> meshTriangles;
+  /// Its slot in the linking table (linking.h); -1: it lights and shadows everything.
+  int linkSlot = -1;
 };
 
 /// Where light is received: a point, and the unit normal of its surface, or a zero normal for
@@ -141,6 +143,8 @@ class Light {
   bool cameraVisible() const { return params_.cameraVisible; }
   float diffuseMultiplier() const { return params_.diffuse; }
   float specularMultiplier() const { return params_.specular; }
+  /// Its light and shadow linking slot (LinkingTable), -1: it lights and shadows everything.
+  int linkSlot() const { return params_.linkSlot; }
 
   /// A direction towards the light from `point`. An untextured dome is sampled cosine-weighted
   /// about the receiving surface's unit `normal` (uniformly over the sphere for a zero normal).

@@ -37,6 +37,7 @@ struct SurfaceHit {
   uint32_t primitive = 0;
   float u = 0, v = 0;
   const std::vector<Primvar>* instancePrimvars = nullptr;
+  uint32_t linkingClass = 0;  // its placement's (GeometryHit::linkingClass)
 };
 
 /// The first hit of the ray in `scene`, shaded: textures are filtered over `cone`'s

@@ -40,6 +40,13 @@ class Instancer : public Prim {
     markDirty(DirtyPrimvar);
   }
 
+  /// Each copy's light and shadow linking class (LinkingTable), in the order of the transforms;
+  /// empty: all linked to every light.
+  void setLinkingClasses(std::vector<uint32_t> classes) {
+    linkingClasses_ = std::move(classes);
+    markDirty(DirtyPrimvar);
+  }
+
   /// Places its copies of its prototype in the scene, and registers with a prototype mesh; when
   /// the prototype is not a mesh, points or curves in the render index there are none (with a
   /// warning). The render delegate syncs instancers after every kind of geometry: the copies
@@ -68,6 +75,7 @@ class Instancer : public Prim {
   bool visible_ = true;
   PassVisibility pass_;
   std::vector<Primvar> primvars_;
+  std::vector<uint32_t> linkingClasses_;
 };
 
 }  // namespace penumbra::plugin

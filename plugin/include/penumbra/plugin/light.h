@@ -30,6 +30,11 @@ class Light : public Prim {
   void setVisible(bool visible) override;
   /// A mesh light's emitting triangles in world space (3 points each), set by its mesh's sync.
   void setMeshTriangles(std::shared_ptr<const std::vector<Vec3f>> triangles);
+  /// Its light and shadow linking slot (LinkingTable; -1: it lights and shadows everything).
+  void setLinkSlot(int slot) {
+    params_.linkSlot = slot;
+    markDirty(DirtyParams);
+  }
 
   /// Builds its renderer light from what its dirty bits say changed (cf. HdLight::Sync):
   /// texture:file is loaded only when the file changed (a warning names a file that cannot be

@@ -40,6 +40,11 @@ class Mesh : public PlacedRprim {
   /// UsdLuxMeshLightAPI: the mesh also emits, and is sampled as a light, with these inputs
   /// (names as Light::setParam). `enabled` false removes the light.
   void setLight(bool enabled, const std::vector<std::pair<std::string, ParamValue>>& params);
+  /// Its light's linking slot (Light::setLinkSlot), kept when setLight replaces the light.
+  void setLightLinkSlot(int slot) {
+    lightLinkSlot_ = slot;
+    markDirty(DirtyParams);
+  }
 
   /// The instancers placing copies of this mesh (cf. HdRprim::GetInstancerId, from the
   /// prototype's side): each registers as it syncs, and leaves as it is removed.
@@ -81,6 +86,7 @@ class Mesh : public PlacedRprim {
   SubdivisionTags tags_;
   std::unique_ptr<LimitSurfaceTessellator> tessellator_;
   std::unique_ptr<Light> light_;
+  int lightLinkSlot_ = -1;
   std::set<PrimId> instancers_;
 };
 

@@ -27,6 +27,8 @@ class PlacedRprim : public Prim {
   void setTransform(const MotionTransform& objectToWorld) override;
   void setVisible(bool visible) override;
   void setPassVisibility(PassVisibility pass) override;
+  /// Its light and shadow linking class (LinkingTable; 0: linked to every light).
+  void setLinkingClass(uint32_t linkingClass);
 
   /// Places its object with its transform, material and visibility (a material it is bound to
   /// changed or moved in the scene's list).
@@ -37,6 +39,7 @@ class PlacedRprim : public Prim {
   const MotionTransform& transform() const { return objectToWorld_; }
   bool visible() const { return visible_; }
   PassVisibility passVisibility() const { return pass_; }
+  uint32_t linkingClass() const { return linkingClass_; }
 
  protected:
   /// What a sync does for the placement on `bits`: warns of a newly bound material missing from
@@ -50,6 +53,7 @@ class PlacedRprim : public Prim {
   MotionTransform objectToWorld_;
   bool visible_ = true;
   PassVisibility pass_;
+  uint32_t linkingClass_ = LinkingTable::kLinkedToAll;
 };
 
 }  // namespace penumbra::plugin

@@ -68,6 +68,13 @@ class RenderDelegate {
   /// Empty (the default): the camera and width of the first render, kept thereafter, so that
   /// moving or switching the view camera re-dices nothing.
   void setDicingCamera(PrimId cameraId);
+  /// Light and shadow linking: the classes (class i + 1 is classes[i]) that placements name
+  /// (PlacedRprim::setLinkingClass, Instancer::setLinkingClasses) over the lights' link slots
+  /// (Light::setLinkSlot, Mesh::setLightLinkSlot).
+  void setLinkingClasses(const std::vector<LinkingClass>& classes);
+  /// Sets the link slot of the light or mesh light `id`. Throws std::out_of_range for an id
+  /// that is neither.
+  void setLightLinkSlot(const PrimId& id, int slot);
   const PrimId& dicingCamera() const { return dicingCamera_; }
 
   /// Syncs the dirty prims into the scene and commits it (cf. HdRenderIndex::SyncAll): each
