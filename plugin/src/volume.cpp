@@ -51,6 +51,11 @@ void Volume::setVisible(bool visible) {
   markDirty(DirtyVisibility);
 }
 
+void Volume::setLinkingClass(uint32_t linkingClass) {
+  linkingClass_ = linkingClass;
+  markDirty(DirtyVisibility);
+}
+
 std::optional<VolumeData> Volume::readData(SyncContext& context) const {
   VolumeData data;
   data.material = material_;
@@ -93,8 +98,10 @@ void Volume::sync(SyncContext& context, uint32_t bits) {
     }
     if (!data) volumes.clearData(handle_);
   }
-  if (bits & (DirtyTransform | DirtyVisibility))
+  if (bits & (DirtyTransform | DirtyVisibility)) {
     volumes.setPlacement(handle_, objectToWorld_, visible_);
+    volumes.setLinkingClass(handle_, linkingClass_);
+  }
 }
 
 void Volume::finalize(SyncContext& context) {

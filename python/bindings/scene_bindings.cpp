@@ -357,16 +357,20 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
       .def(
           "set_linking_class",
           [](RenderDelegate& self, const std::string& id, uint32_t linkingClass) {
-            auto* placed = dynamic_cast<plugin::PlacedRprim*>(&self.prim(id));
-            if (!placed)
+            plugin::Prim& prim = self.prim(id);
+            if (auto* placed = dynamic_cast<plugin::PlacedRprim*>(&prim))
+              placed->setLinkingClass(linkingClass);
+            else if (auto* volume = dynamic_cast<plugin::Volume*>(&prim))
+              volume->setLinkingClass(linkingClass);
+            else
               throw std::invalid_argument(id +
-                                          ": only meshes, points and curves have a linking "
-                                          "class (instancers: set_instance_linking_classes)");
-            placed->setLinkingClass(linkingClass);
+                                          ": only meshes, points, curves and volumes have a "
+                                          "linking class (instancers: "
+                                          "set_instance_linking_classes)");
           },
           py::arg("id"), py::arg("linking_class"),
-          "Light and shadow linking: the class (of set_linking_classes) of a mesh, points or "
-          "curves; 0: linked to every light.")
+          "Light and shadow linking: the class (of set_linking_classes) of a mesh, points, "
+          "curves or volume; 0: linked to every light.")
       .def(
           "set_instance_linking_classes",
           [](RenderDelegate& self, const std::string& id, const std::vector<uint32_t>& classes) {

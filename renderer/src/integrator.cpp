@@ -387,17 +387,18 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   const MediumSpectrum mediumSpectrum{spectrum.spectral ? &spectrum.wavelengths : nullptr};
   int volumeBounces = 0;
   // The share of light that a shadow ray towards `tFar` carries through the volumes.
-  const auto volumeTransmittance = [&](const Ray& shadow, float tFar) {
-    return hasVolumes
-               ? estimateTransmittance(scene.volumes(), shadow, tFar, mediumSpectrum, *volumeRandom)
-               : Vec3f(1.0f);
+  // `linkSlot`: the light's (its shadow link may let the ray pass some volumes).
+  const auto volumeTransmittance = [&](const Ray& shadow, float tFar, int linkSlot) {
+    return hasVolumes ? estimateTransmittance(scene.volumes(), shadow, tFar, mediumSpectrum,
+                                              *volumeRandom, scene.geometry().linking(), linkSlot)
+                      : Vec3f(1.0f);
   };
 
   // Next-event estimation at a vertex (SurfaceVertex, MediumVertex) seen from `receiver`: every
   // infinite light (or one, when there are many) and one local light chosen by its estimated
   // contribution there, each sampled over its area or solid angle from a dimension of its own
   // (its choice's slot). The light it adds has `interactions` surface or medium interactions.
-  // `linkingClass`: the vertex's placement's (light linking), 0 in media.
+  // `linkingClass`: the vertex's placement's, or the scattering medium's (light linking).
   const auto estimateDirectLight = [&](const auto& vertex, const Receiver& receiver,
                                        bool sampleLights, int interactions, uint32_t linkingClass) {
     const Vec2f lightChoices = sampler.next2D();
@@ -424,7 +425,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         const Ray shadow = vertex.shadowRay(sample->direction, tFar);
         if (scene.geometry().occluded(shadow, light.linkSlot())) return;
         if (hasVolumes) {
-          transmittance = volumeTransmittance(shadow, shadow.tFar);
+          transmittance = volumeTransmittance(shadow, shadow.tFar, light.linkSlot());
           if (isBlack(transmittance)) return;
         }
       }
@@ -508,13 +509,13 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const HenyeyGreenstein phase(mediumPoint.anisotropy);
       const Receiver receiver{mediumPoint.position, Vec3f()};
       estimateDirectLight(MediumVertex{phase, ray.direction, mediumPoint.position, ray.time},
-                          receiver, true, bounce + 1, LinkingTable::kLinkedToAll);
+                          receiver, true, bounce + 1, mediumPoint.linkingClass);
       // Phase sampling continues the path; its weight f / pdf is 1.
       const Sample4D phaseSample = sampler.next4D();
       const Vec3f direction = phase.sample(ray.direction, {phaseSample.y, phaseSample.z});
       const float pdf = phase.evaluate(ray.direction, direction);
       minRayPdf = std::min(minRayPdf, pdf);
-      scattering = {pdf, true, true, receiver, LinkingTable::kLinkedToAll};
+      scattering = {pdf, true, true, receiver, mediumPoint.linkingClass};
       rayKind = RayKind::Diffuse;  // as the lights' diffuse multiplier takes it
       lastVertex = ++volumeBounces >= settings.maxVolumeDepth;
       if (bounce >= 3 && maxComponent(throughput) < 1) {

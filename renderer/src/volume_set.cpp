@@ -64,6 +64,10 @@ void VolumeSet::setPlacement(VolumeId id, const MotionTransform& objectToWorld, 
   record.visible = visible;
 }
 
+void VolumeSet::setLinkingClass(VolumeId id, uint32_t linkingClass) {
+  records_.at(id).linkingClass = linkingClass;
+}
+
 void VolumeSet::commit() {
   shown_.clear();
   for (const Record& record : records_) {
@@ -75,6 +79,7 @@ void VolumeSet::commit() {
     placed.volume = record.volume;
     placed.objectToWorld = record.objectToWorld;
     placed.worldToObject = record.objectToWorld.first().inverse();
+    placed.linkingClass = record.linkingClass;
     // The box over the shutter: the steps' boxes (interpolation between steps stays close to
     // them; motion.h's decomposition keeps rotations short).
     for (const Transform& step : record.objectToWorld.steps())

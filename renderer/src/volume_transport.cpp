@@ -28,9 +28,14 @@ float average(const Vec3f& v) {
 /// merged into stretches over which the sum of the majorants of the volumes there is constant.
 class MergedMajorants {
  public:
-  MergedMajorants(const VolumeSet& volumes, const Ray& ray, float tMax, float majorantScale)
+  /// `passes(placed)`: whether the ray goes through a volume as if it were not there (the
+  /// shadow rays of a light whose shadow link excludes it).
+  template <typename Passes>
+  MergedMajorants(const VolumeSet& volumes, const Ray& ray, float tMax, float majorantScale,
+                  Passes passes)
       : scale_(majorantScale), t_(ray.tNear) {
     for (const VolumeSet::Placed& placed : volumes.shown()) {
+      if (passes(placed)) continue;
       if (!placed.objectToWorld.isAnimated() && !crosses(placed.worldBounds, ray, tMax)) continue;
       const Transform worldToObject = placed.objectToWorld.isAnimated()
                                           ? placed.objectToWorld.at(ray.time).inverse()
@@ -39,6 +44,7 @@ class MergedMajorants {
       const Vec3f direction = worldToObject.applyToVector(ray.direction);
       if (!finite(origin) || !finite(direction)) continue;  // a degenerate placement at this time
       Track track{placed.volume.get(),
+                  placed.linkingClass,
                   origin,
                   direction,
                   MajorantWalk(*placed.volume, origin, direction, ray.tNear, tMax),
@@ -75,11 +81,11 @@ class MergedMajorants {
     return false;
   }
 
-  /// The volumes' summed coefficients at `t` (inside the current stretch), and the anisotropy of
-  /// one of the volumes there, chosen in proportion to its scattering (by `u`).
-  MediumCoefficients coefficientsAt(float t, float u, float* anisotropy) const {
+  /// The volumes' summed coefficients at `t` (inside the current stretch), and one of the
+  /// volumes there, chosen in proportion to its scattering (by `u`): the medium that scatters.
+  MediumCoefficients coefficientsAt(float t, float u, ScatteringMedium* medium) const {
     MediumCoefficients sum;
-    const Volume* covering[8];
+    const Track* covering[8];
     float scatterings[8];
     int count = 0;
     for (const Track& track : tracks()) {
@@ -89,20 +95,22 @@ class MergedMajorants {
       sum.absorption += c.absorption;
       sum.emission += c.emission;
       if (count < 8) {
-        covering[count] = track.volume;
+        covering[count] = &track;
         scatterings[count++] = average(c.scattering);
       }
     }
-    *anisotropy = count > 0 ? covering[0]->anisotropy() : 0.0f;
+    int chosen = 0;
     if (count > 1) {
       float total = 0;
       for (int k = 0; k < count; ++k) total += scatterings[k];
       float target = u * total;
-      for (int k = 0; k < count; ++k) {
-        *anisotropy = covering[k]->anisotropy();
-        if ((target -= scatterings[k]) < 0) break;
-      }
+      for (chosen = 0; chosen < count; ++chosen)
+        if ((target -= scatterings[chosen]) < 0) break;
+      chosen = std::min(chosen, count - 1);
     }
+    *medium = count > 0 ? ScatteringMedium{covering[chosen]->volume->anisotropy(),
+                                           covering[chosen]->linkingClass}
+                        : ScatteringMedium{};
     return sum;
   }
 
@@ -134,6 +142,7 @@ class MergedMajorants {
   }
   struct Track {
     const Volume* volume;
+    uint32_t linkingClass;  // the placement's (linking.h)
     Vec3f origin, direction;  // the ray in the volume's object space (same parameter t)
     MajorantWalk walk;
     MajorantSegment segment;
@@ -198,15 +207,16 @@ float majorantScale(const MediumSpectrum& spectrum) {
 FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float tMax,
                                const MediumSpectrum& spectrum, RandomStream& random,
                                Vec3f* throughput, Vec3f* emitted, MediumScattering* scattering) {
-  MergedMajorants majorants(volumes, ray, tMax, majorantScale(spectrum));
+  MergedMajorants majorants(volumes, ray, tMax, majorantScale(spectrum),
+                            [](const VolumeSet::Placed&) { return false; });
   float t = 0, majorant = 0;
   for (int collisions = 0; majorants.nextTentativeCollision(random, &t, &majorant);) {
     scattering->position = ray.origin + ray.direction * t;
     scattering->distance = t;
     if (++collisions > kMaxTentativeCollisions) return FlightOutcome::Absorbed;
-    float anisotropy = 0;
+    ScatteringMedium medium;
     const MediumCoefficients c =
-        atWavelengths(majorants.coefficientsAt(t, random.next(), &anisotropy), spectrum);
+        atWavelengths(majorants.coefficientsAt(t, random.next(), &medium), spectrum);
     Vec3f& beta = *throughput;
     *emitted += beta * c.emission * (1 / majorant);
     const Vec3f nullCollision{std::max(majorant - c.scattering.x - c.absorption.x, 0.0f),
@@ -222,7 +232,8 @@ FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float t
     if (u < pAbsorb) return FlightOutcome::Absorbed;
     if (u < pAbsorb + pScatter) {
       beta *= c.scattering * (total / (majorant * pScatter));
-      scattering->anisotropy = anisotropy;
+      scattering->anisotropy = medium.anisotropy;
+      scattering->linkingClass = medium.linkingClass;
       return FlightOutcome::Scattered;
     }
     beta *= nullCollision * (total / (majorant * pNull));
@@ -231,15 +242,19 @@ FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float t
 }
 
 Vec3f estimateTransmittance(const VolumeSet& volumes, const Ray& ray, float tMax,
-                            const MediumSpectrum& spectrum, RandomStream& random) {
-  MergedMajorants majorants(volumes, ray, tMax, majorantScale(spectrum));
+                            const MediumSpectrum& spectrum, RandomStream& random,
+                            const LinkingTable& linking, int linkSlot) {
+  MergedMajorants majorants(
+      volumes, ray, tMax, majorantScale(spectrum), [&](const VolumeSet::Placed& placed) {
+        return linking.shadowExcluded(placed.linkingClass, linkSlot);
+      });
   Vec3f transmittance{1.0f};
   float t = 0, majorant = 0;
   for (int collisions = 0; majorants.nextTentativeCollision(random, &t, &majorant);) {
     if (++collisions > kMaxTentativeCollisions) return Vec3f(0.0f);
-    float anisotropy = 0;
+    ScatteringMedium medium;
     const MediumCoefficients c =
-        atWavelengths(majorants.coefficientsAt(t, 0.5f, &anisotropy), spectrum);
+        atWavelengths(majorants.coefficientsAt(t, 0.5f, &medium), spectrum);
     const Vec3f extinction = c.scattering + c.absorption;
     transmittance *= Vec3f(std::max(1 - extinction.x / majorant, 0.0f),
                            std::max(1 - extinction.y / majorant, 0.0f),

@@ -7,6 +7,7 @@
 #pragma once
 
 #include "penumbra/camera.h"
+#include "penumbra/linking.h"
 #include "penumbra/random_stream.h"
 #include "penumbra/spectrum.h"
 #include "penumbra/volume_set.h"
@@ -25,11 +26,19 @@ enum class FlightOutcome {
   Absorbed,   // the path ended in the medium (its emission up to there was collected)
 };
 
+/// Which of the volumes at a point scatters there: its phase function's anisotropy and its
+/// placement's linking class (linking.h).
+struct ScatteringMedium {
+  float anisotropy = 0;
+  uint32_t linkingClass = 0;
+};
+
 /// Where a flight collided in the medium (scattered or absorbed there).
 struct MediumScattering {
   Vec3f position;
-  float distance = 0;    // along the ray, in its own parameter
-  float anisotropy = 0;  // of the medium that scattered it
+  float distance = 0;         // along the ray, in its own parameter
+  float anisotropy = 0;       // of the medium that scattered it
+  uint32_t linkingClass = 0;  // of the medium that scattered it (light linking)
 };
 
 /// Samples where the ray first collides with the medium within [ray.tNear, tMax) (`scattering`
@@ -40,8 +49,11 @@ FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float t
                                const MediumSpectrum& spectrum, RandomStream& random,
                                Vec3f* throughput, Vec3f* emitted, MediumScattering* scattering);
 
-/// An unbiased estimate of the transmittance of the volumes over [ray.tNear, tMax).
+/// An unbiased estimate of the transmittance of the volumes over [ray.tNear, tMax) for a shadow
+/// ray of the light with link slot `linkSlot` (-1: linked to everything): volumes whose class
+/// `linking` says its shadow link excludes are passed through.
 Vec3f estimateTransmittance(const VolumeSet& volumes, const Ray& ray, float tMax,
-                            const MediumSpectrum& spectrum, RandomStream& random);
+                            const MediumSpectrum& spectrum, RandomStream& random,
+                            const LinkingTable& linking, int linkSlot);
 
 }  // namespace penumbra

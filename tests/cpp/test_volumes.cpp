@@ -40,10 +40,12 @@ VolumeMaterial absorbing(float sigma) {
   return m;
 }
 
-void addVolume(Scene& scene, VolumeData data, const Transform& placement = Transform()) {
+VolumeSet::VolumeId addVolume(Scene& scene, VolumeData data,
+                              const Transform& placement = Transform()) {
   const VolumeSet::VolumeId id = scene.volumes().add();
   scene.volumes().setData(id, std::move(data));
   scene.volumes().setPlacement(id, placement, true);
+  return id;
 }
 
 void addLight(Scene& scene, const LightParams& params) {
@@ -425,6 +427,94 @@ TEST(Volumes, InvalidVolumesAreRefused) {
   EXPECT_TRUE(refused(bad));
   bad.density = constantField(Vec3f(1.0f));  // a constant has no bounds of its own
   EXPECT_TRUE(refused(bad));
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+/// A floor at z = −3 lit by a distant light shining down −z (link slot `slot`) through an
+/// absorbing slab of optical depth 0.5 that is of linking class `linkingClass`, whose class 1
+/// leaves slot 0 out of its light link (`lightLink`) or its shadow link; the floor's mean
+/// radiance, direct light only.
+double floorUnderLinkedSlab(int slot, uint32_t linkingClass, bool lightLink) {
+  const Device device;
+  Scene scene(device);
+  MeshData floor;
+  floor.points = {{-20, -20, -3}, {20, -20, -3}, {20, 20, -3}, {-20, 20, -3}};
+  floor.faceVertexCounts = {4};
+  floor.faceVertexIndices = {0, 1, 2, 3};
+  floor.displayColor = {{1, 1, 1}};
+  const Geometry::MeshId id = scene.geometry().addMesh();
+  scene.geometry().setMeshGeometry(id, triangulate(floor));
+  scene.geometry().setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
+  LightParams sun;
+  sun.type = LightType::Distant;
+  sun.angle = 0;
+  sun.linkSlot = slot;
+  addLight(scene, sun);
+  VolumeData data;
+  data.material = absorbing(0.25f);
+  data.objectBounds = slab(-1, 1);
+  const VolumeSet::VolumeId volume = addVolume(scene, std::move(data));
+  scene.volumes().setLinkingClass(volume, linkingClass);
+  LinkingClass excluded;
+  (lightLink ? excluded.lightExcludedSlots : excluded.shadowExcludedSlots) = {0};
+  scene.geometry().setLinkingClasses({excluded});
+  scene.commit();
+  IntegratorSettings settings;
+  settings.maxPathDepth = 1;
+  return meanRadiance(scene, settings, 8, 64);
+}
+
+TEST(Volumes, AVolumeOutsideALightsShadowLinkLetsItsShadowRaysPass) {
+  const double transmittance = std::exp(-0.5);
+  // Linked (the light links everything, or the volume's class is 0): the floor looks T² as
+  // bright as unshadowed (T for the camera ray, T for the shadow ray); outside the shadow
+  // link, T (camera rays still cross the medium).
+  const double linked = floorUnderLinkedSlab(-1, 1, false);
+  const double ofClassZero = floorUnderLinkedSlab(0, 0, false);
+  const double passed = floorUnderLinkedSlab(0, 1, false);
+  ASSERT_GT(passed, 0.01);
+  EXPECT_EQ(linked, ofClassZero);
+  // The same camera flights in both: the ratio is the shadow rays' mean transmittance over the
+  // ~T × 4096 samples that reach the floor, each 0 or 1 here (a constant medium's majorant is
+  // its extinction): binomial noise.
+  const double reaching = transmittance * 4096;
+  EXPECT_NEAR(linked / passed, transmittance, binomialTolerance(transmittance, reaching));
+  // A light link only (the shadow link includes it): the slab still shadows.
+  EXPECT_EQ(floorUnderLinkedSlab(0, 1, true), linked);
+}
+
+TEST(Volumes, AVolumeOutsideALightsLightLinkScattersNoneOfItsLight) {
+  // An albedo-1 slab under a white dome: about 1 when linked (the white furnace); outside the
+  // dome's light link, only the dome seen through it without a collision, e^(−σd).
+  const auto render = [](uint32_t linkingClass) {
+    const Device device;
+    Scene scene(device);
+    VolumeData data;
+    data.material.density = 1;
+    data.material.scattering = Vec3f(1.0f);
+    data.material.principledAbsorption = Vec3f(0.0f);
+    data.objectBounds = slab(-1, 1);
+    const VolumeSet::VolumeId volume = addVolume(scene, std::move(data));
+    scene.volumes().setLinkingClass(volume, linkingClass);
+    LightParams dome = whiteDome();
+    dome.linkSlot = 0;
+    addLight(scene, dome);
+    LinkingClass excluded;
+    excluded.lightExcludedSlots = {0};
+    scene.geometry().setLinkingClasses({excluded});
+    scene.commit();
+    IntegratorSettings settings;
+    settings.maxPathDepth = settings.maxVolumeDepth = 1000;
+    return meanRadiance(scene, settings, 8, 128);
+  };
+  EXPECT_NEAR(render(0), 1.0, 0.03);  // the furnace through the whole view: 8192 samples' noise
+  const double uncollided = std::exp(-2.0);
+  EXPECT_NEAR(render(1), uncollided, binomialTolerance(uncollided, 8192));
 }
 
 }  // namespace

@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, UsdVol
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, UsdVol
 
 import penumbra
 from penumbra.memory import FILM_BYTES_PER_PIXEL, resident_memory
-from stages import add_camera, add_instance, add_quad, new_stage
+from stages import add_camera, add_distant_light, add_instance, add_quad, new_stage
 
 WIDTH = 16
 # The camera (stages.add_camera) sees [-2, 2]² of the z = 0 plane from z = 5; the default dome
@@ -425,3 +425,26 @@ def test_scattering_volume_is_bit_identical_across_threads_and_regions(tmp_path)
     assert np.array_equal(band, two[5:11])
     # The cube scatters (it is neither black nor the white background behind it).
     assert 0.05 < float(one[WIDTH // 2, WIDTH // 2, :3].mean()) < 0.95
+
+
+def test_a_volume_outside_a_lights_light_link_scatters_none_of_its_light(tmp_path):
+    """Light linking reaches volumes (docs/linking.md): a thin scattering cube lit by a distant
+    light alone glows where the light links it and is black where its light link excludes it,
+    the rest of the image (black) unchanged."""
+    stage = new_stage()
+    add_camera(stage)
+    grid = write_cube(tmp_path / "thin.vdb", value=1.0)
+    add_volume(stage, "/World/smoke", {"density": grid})
+    sun = add_distant_light(stage, intensity=5.0)
+    renderer, _ = new_renderer(stage)
+    linked, _ = render(renderer, samples=32)
+    link = UsdLux.LightAPI(sun.GetPrim()).GetLightLinkCollectionAPI()
+    link.GetExcludesRel().SetTargets(["/World/smoke"])
+    excluded, messages = render(renderer, samples=32)
+    assert messages == []
+    assert brightness(linked, 0.5, 0.5) > 0.05
+    assert excluded.max() == 0.0
+    assert linked[0, 0].max() == 0.0  # the black background, both times
+    link.GetExcludesRel().ClearTargets(True)
+    restored, _ = render(renderer, samples=32)
+    np.testing.assert_array_equal(restored, linked)

@@ -60,7 +60,7 @@ DEFAULT_PURPOSES = ("default", "proxy")
 
 _LIGHT = "light"  # the syncer of every kind not in the table: the light types
 _RPRIMS = ("mesh", "points", CURVES, VOLUME)  # the kinds inserted as rprims, the others as sprims
-_LINKED = ("mesh", "points", CURVES)  # the kinds light and shadow linking classify
+_LINKED = ("mesh", "points", CURVES, VOLUME)  # the kinds light and shadow linking classify
 
 
 class SceneDelegate:

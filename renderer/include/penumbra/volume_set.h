@@ -24,6 +24,10 @@ class VolumeSet {
   /// Drops the volume's medium (it stays registered but renders nothing).
   void clearData(VolumeId id);
   void setPlacement(VolumeId id, const MotionTransform& objectToWorld, bool visible);
+  /// Its light and shadow linking class (linking.h; LinkingTable::kLinkedToAll by default): a
+  /// medium outside a light's light link scatters none of its light, one outside its shadow
+  /// link lets its shadow rays pass.
+  void setLinkingClass(VolumeId id, uint32_t linkingClass);
   /// Brings the list of shown volumes up to date; call after edits and before tracing.
   void commit();
 
@@ -33,6 +37,7 @@ class VolumeSet {
     MotionTransform objectToWorld;
     Transform worldToObject;  // of a static placement
     Bounds3f worldBounds;     // over the shutter
+    uint32_t linkingClass = 0;
   };
   const std::vector<Placed>& shown() const { return shown_; }
   bool empty() const { return shown_.empty(); }
@@ -47,6 +52,7 @@ class VolumeSet {
     std::shared_ptr<const Volume> volume;
     MotionTransform objectToWorld;
     bool visible = true;
+    uint32_t linkingClass = 0;
   };
   std::vector<Record> records_;
   std::vector<VolumeId> freeIds_;

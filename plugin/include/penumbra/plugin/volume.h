@@ -34,6 +34,8 @@ class Volume : public Prim {
   void setMaterial(const VolumeMaterial& material);
   void setTransform(const MotionTransform& objectToWorld) override;
   void setVisible(bool visible) override;
+  /// Its light and shadow linking class (VolumeSet::setLinkingClass; 0: linked to every light).
+  void setLinkingClass(uint32_t linkingClass);
 
   /// Syncs what its dirty bits say changed into the scene's volumes: its fields, read through
   /// the context's VolumeFieldCache, and material (an unreadable density field, or a volume the
@@ -62,6 +64,7 @@ class Volume : public Prim {
   VolumeMaterial material_;
   MotionTransform objectToWorld_;
   bool visible_ = true;
+  uint32_t linkingClass_ = 0;
 };
 
 }  // namespace penumbra::plugin
