@@ -134,15 +134,18 @@ PlacementHashes RenderDelegate::placementHashes(
   for (const auto& [id, placementNames] : names) {
     if (const PlacedRprim* rprim = placedRprim(id)) {
       if (placementNames.size() != 1)
-        throw std::invalid_argument(id + ": a mesh, points or curves takes one Cryptomatte name, "
-                                         "not " + std::to_string(placementNames.size()));
+        throw std::invalid_argument(id +
+                                    ": a mesh, points or curves takes one Cryptomatte name, "
+                                    "not " +
+                                    std::to_string(placementNames.size()));
       hashes[placementKey(rprim->handle(), -1)] = murmurHash3(placementNames.front());
       continue;
     }
     const Instancer* instancer = instancers_.find(id);
     if (!instancer)
-      throw std::invalid_argument(id + ": Cryptomatte names are for meshes, points, curves and "
-                                       "instancers in the render index");
+      throw std::invalid_argument(id +
+                                  ": Cryptomatte names are for meshes, points, curves and "
+                                  "instancers in the render index");
     if (placementNames.size() != instancer->transforms().size())
       throw std::invalid_argument(id + ": " + std::to_string(placementNames.size()) +
                                   " Cryptomatte names for " +

@@ -17,7 +17,7 @@ constexpr double kFloatMax = std::numeric_limits<float>::max();
 /// so a job validated on one host is valid on any.
 constexpr int kMaxThreads = 1024;
 
-RenderOption integerOption(std::string key, int RenderSettingsMap::*field, int defaultValue,
+RenderOption integerOption(std::string key, int RenderSettingsMap::* field, int defaultValue,
                            int minimum, std::string metavar, std::string help) {
   RenderOption option;
   option.key = std::move(key);
@@ -31,7 +31,7 @@ RenderOption integerOption(std::string key, int RenderSettingsMap::*field, int d
 }
 
 /// A real option in [0, maximum], off (0) by default.
-RenderOption realOption(std::string key, float RenderSettingsMap::*field, double maximum,
+RenderOption realOption(std::string key, float RenderSettingsMap::* field, double maximum,
                         std::string metavar, std::string help) {
   RenderOption option;
   option.key = std::move(key);
@@ -45,7 +45,7 @@ RenderOption realOption(std::string key, float RenderSettingsMap::*field, double
 }
 
 /// A level option, its first level by default.
-RenderOption levelOption(std::string key, int RenderSettingsMap::*field,
+RenderOption levelOption(std::string key, int RenderSettingsMap::* field,
                          std::vector<std::string> levels, std::string help) {
   RenderOption option;
   option.key = std::move(key);

@@ -12,8 +12,8 @@ namespace {
 // must be a scalar, and whether the volume is nothing without it.
 struct Slot {
   const char* name;
-  std::optional<FieldRequest> VolumeFieldRequests::*request;
-  std::shared_ptr<const VolumeField> VolumeData::*field;
+  std::optional<FieldRequest> VolumeFieldRequests::* request;
+  std::shared_ptr<const VolumeField> VolumeData::* field;
   bool scalar;
   bool required;
 };

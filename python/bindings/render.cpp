@@ -210,8 +210,9 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
           py::arg("names"),
           "A Cryptomatte AOV (H, W, 4 per two ranks): (id, coverage) pairs by coverage, ids "
           "from `names` (delegate prim id -> its placement's name, or an instancer's copies').");
-  m.def("murmur_hash3", [](const std::string& bytes) { return murmurHash3(bytes); },
-        py::arg("name"), "MurmurHash3_x86_32 (seed 0) of the UTF-8 bytes of a name.");
+  m.def(
+      "murmur_hash3", [](const std::string& bytes) { return murmurHash3(bytes); }, py::arg("name"),
+      "MurmurHash3_x86_32 (seed 0) of the UTF-8 bytes of a name.");
   m.def("cryptomatte_bits", &cryptomatteBits, py::arg("hash"),
         "The bits of the float a Cryptomatte image stores for a hash (as a manifest names it).");
 }

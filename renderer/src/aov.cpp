@@ -13,14 +13,22 @@ constexpr const char* kPrimvarPrefix = "primvars:";
 
 const std::vector<std::pair<std::string, AovKind>>& namedAovs() {
   static const std::vector<std::pair<std::string, AovKind>> names = {
-      {"color", AovKind::Color},         {"alpha", AovKind::Alpha},
-      {"depth", AovKind::Depth},         {"Z", AovKind::Z},
-      {"normal", AovKind::Normal},       {"Neye", AovKind::CameraNormal},
-      {"position", AovKind::Position},   {"albedo", AovKind::Albedo},
-      {"primId", AovKind::PrimId},       {"instanceId", AovKind::InstanceId},
-      {"elementId", AovKind::ElementId}, {"sampleCount", AovKind::SampleCount},
-      {"variance", AovKind::Variance},   {"CryptoObject", AovKind::CryptoObject},
-      {"CryptoMaterial", AovKind::CryptoMaterial}, {"CryptoAsset", AovKind::CryptoAsset},
+      {"color", AovKind::Color},
+      {"alpha", AovKind::Alpha},
+      {"depth", AovKind::Depth},
+      {"Z", AovKind::Z},
+      {"normal", AovKind::Normal},
+      {"Neye", AovKind::CameraNormal},
+      {"position", AovKind::Position},
+      {"albedo", AovKind::Albedo},
+      {"primId", AovKind::PrimId},
+      {"instanceId", AovKind::InstanceId},
+      {"elementId", AovKind::ElementId},
+      {"sampleCount", AovKind::SampleCount},
+      {"variance", AovKind::Variance},
+      {"CryptoObject", AovKind::CryptoObject},
+      {"CryptoMaterial", AovKind::CryptoMaterial},
+      {"CryptoAsset", AovKind::CryptoAsset},
   };
   return names;
 }

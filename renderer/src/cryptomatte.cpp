@@ -2,15 +2,17 @@
 
 #include <algorithm>
 #include <cstring>
-#include <string>
 #include <stdexcept>
+#include <string>
 
 #include "penumbra/state_io.h"
 
 namespace penumbra {
 namespace {
 
-uint32_t rotateLeft(uint32_t x, int r) { return (x << r) | (x >> (32 - r)); }
+uint32_t rotateLeft(uint32_t x, int r) {
+  return (x << r) | (x >> (32 - r));
+}
 
 constexpr char kCryptomatteTag[5] = "CRYP";
 constexpr uint32_t kCryptomatteVersion = 1;

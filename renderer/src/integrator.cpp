@@ -35,8 +35,8 @@ struct PathSpectrum {
 struct ScatteringRecord {
   float pdf = 0;  // solid-angle density of a non-delta BSDF sample; 0: no MIS
   bool fromSurface = false;
-  bool diffuse = false;  // which light multiplier (diffuse or specular) applies
-  Receiver receiver;     // the surface it left, as next-event estimation saw it there
+  bool diffuse = false;       // which light multiplier (diffuse or specular) applies
+  Receiver receiver;          // the surface it left, as next-event estimation saw it there
   uint32_t linkingClass = 0;  // the surface's placement's (linking.h): the lights it receives
 };
 

@@ -142,7 +142,7 @@ class MergedMajorants {
   }
   struct Track {
     const Volume* volume;
-    uint32_t linkingClass;  // the placement's (linking.h)
+    uint32_t linkingClass;    // the placement's (linking.h)
     Vec3f origin, direction;  // the ray in the volume's object space (same parameter t)
     MajorantWalk walk;
     MajorantSegment segment;
@@ -244,10 +244,10 @@ FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float t
 Vec3f estimateTransmittance(const VolumeSet& volumes, const Ray& ray, float tMax,
                             const MediumSpectrum& spectrum, RandomStream& random,
                             const LinkingTable& linking, int linkSlot) {
-  MergedMajorants majorants(
-      volumes, ray, tMax, majorantScale(spectrum), [&](const VolumeSet::Placed& placed) {
-        return linking.shadowExcluded(placed.linkingClass, linkSlot);
-      });
+  MergedMajorants majorants(volumes, ray, tMax, majorantScale(spectrum),
+                            [&](const VolumeSet::Placed& placed) {
+                              return linking.shadowExcluded(placed.linkingClass, linkSlot);
+                            });
   Vec3f transmittance{1.0f};
   float t = 0, majorant = 0;
   for (int collisions = 0; majorants.nextTentativeCollision(random, &t, &majorant);) {

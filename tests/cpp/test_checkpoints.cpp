@@ -23,8 +23,7 @@ const std::vector<AovRequest> kAovs = {parseAov("normal"), parseAov("depth"), pa
 /// Names of the placements addSampleOf hits (primIds 0-6, no instancer copy).
 PlacementHashes placementHashes() {
   PlacementHashes hashes;
-  for (uint32_t primId = 0; primId < 7; ++primId)
-    hashes[placementKey(primId, -1)] = 1000 + primId;
+  for (uint32_t primId = 0; primId < 7; ++primId) hashes[placementKey(primId, -1)] = 1000 + primId;
   return hashes;
 }
 
@@ -33,8 +32,8 @@ PlacementHashes placementHashes() {
 void addSampleOf(Film& film, int x, int y, uint32_t index) {
   const float noise = std::fmod(std::sin(float(x * 131 + y * 71 + int(index) * 17)) * 43758.5f, 1);
   CameraSample sample;
-  sample.radiance = x < 2 ? Vec3f(1, 1, 1)
-                          : Vec3f(std::abs(noise), 0.5f * noise * noise, float(index % 3));
+  sample.radiance =
+      x < 2 ? Vec3f(1, 1, 1) : Vec3f(std::abs(noise), 0.5f * noise * noise, float(index % 3));
   sample.alpha = index % 2 ? 1.0f : 0.0f;
   sample.depth = 10 + noise;
   sample.rays = 3 + index % 5;

@@ -38,7 +38,7 @@ void floorAndOccluder(RenderDelegate& delegate) {
 }
 
 const std::map<PrimId, std::vector<std::string>> kObjectNames = {{"/floor", {"floor"}},
-                                                                   {"/occluder", {"occluder"}}};
+                                                                 {"/occluder", {"occluder"}}};
 
 }  // namespace
 

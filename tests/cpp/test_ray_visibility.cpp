@@ -35,7 +35,7 @@ bool masksMeet(RayKind kind, const PassVisibility& pass) {
 }
 
 /// `PassVisibility` with one ray kind (by member) turned off.
-PassVisibility hiding(bool PassVisibility::*member) {
+PassVisibility hiding(bool PassVisibility::* member) {
   PassVisibility pass;
   pass.*member = false;
   return pass;
@@ -44,7 +44,7 @@ PassVisibility hiding(bool PassVisibility::*member) {
 }  // namespace
 
 TEST(RayVisibility, EachRayKindHasItsOwnBit) {
-  const unsigned bits[] = {ray_mask::kCamera, ray_mask::kAny, ray_mask::kShadow,
+  const unsigned bits[] = {ray_mask::kCamera,  ray_mask::kAny,    ray_mask::kShadow,
                            ray_mask::kDiffuse, ray_mask::kGlossy, ray_mask::kTransmission};
   unsigned all = 0;
   for (const unsigned bit : bits) {
@@ -56,9 +56,8 @@ TEST(RayVisibility, EachRayKindHasItsOwnBit) {
 
 TEST(RayVisibility, MasksHideAnObjectFromExactlyTheRaysItSays) {
   const PassVisibility shown;
-  for (const RayKind kind :
-       {RayKind::Camera, RayKind::Secondary, RayKind::Diffuse, RayKind::Glossy,
-        RayKind::Transmission})
+  for (const RayKind kind : {RayKind::Camera, RayKind::Secondary, RayKind::Diffuse, RayKind::Glossy,
+                             RayKind::Transmission})
     EXPECT_TRUE(masksMeet(kind, shown));
   const PassVisibility noCamera = hiding(&PassVisibility::camera);
   EXPECT_FALSE(masksMeet(RayKind::Camera, noCamera));
@@ -67,11 +66,11 @@ TEST(RayVisibility, MasksHideAnObjectFromExactlyTheRaysItSays) {
 
   const PassVisibility noShadow = hiding(&PassVisibility::shadow);
   EXPECT_EQ(ray_mask::ofPlacement(noShadow) & ray_mask::kShadow, 0u);
-  for (const RayKind kind : {RayKind::Camera, RayKind::Diffuse, RayKind::Glossy,
-                             RayKind::Transmission})
+  for (const RayKind kind :
+       {RayKind::Camera, RayKind::Diffuse, RayKind::Glossy, RayKind::Transmission})
     EXPECT_TRUE(masksMeet(kind, noShadow));
 
-  bool PassVisibility::*const bounceMembers[] = {&PassVisibility::diffuse, &PassVisibility::glossy,
+  bool PassVisibility::* const bounceMembers[] = {&PassVisibility::diffuse, &PassVisibility::glossy,
                                                   &PassVisibility::transmission};
   for (size_t hidden = 0; hidden < 3; ++hidden) {
     const PassVisibility pass = hiding(bounceMembers[hidden]);

@@ -284,10 +284,10 @@ class Geometry {
     bool visible = true;
     PassVisibility pass;
     std::vector<std::unique_ptr<Placement>> copies;
-    std::vector<Primvar> primvars;  // one value per copy
+    std::vector<Primvar> primvars;         // one value per copy
     std::vector<uint32_t> linkingClasses;  // one per copy, or none: all kLinkedToAll
-    Box bounds;                     // in the world, of the copies shown
-    size_t beyondReach = 0;         // copies that would show but reach beyond kMaxCoordinate
+    Box bounds;                            // in the world, of the copies shown
+    size_t beyondReach = 0;                // copies that would show but reach beyond kMaxCoordinate
   };
 
   /// Replaces the mesh's shape (see setMeshGeometry).

@@ -48,8 +48,8 @@ enum class RenderOptionType {
 struct RenderOption {
   std::string key;  // camelCase
   RenderOptionType type = RenderOptionType::Int;
-  int RenderSettingsMap::*intField = nullptr;  // Int and Level
-  float RenderSettingsMap::*floatField = nullptr;
+  int RenderSettingsMap::* intField = nullptr;  // Int and Level
+  float RenderSettingsMap::* floatField = nullptr;
   double defaultValue = 0;  // the render delegate's
   /// What penumbra-record and Renderer.render use when neither they nor the render settings
   /// prim set the option (they render finished images: more samples than a preview).
