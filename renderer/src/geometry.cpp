@@ -50,7 +50,7 @@ Geometry::Box Geometry::BoxUnion::all() {
 Geometry::Geometry(const Device& device, MaterialTable& materials)
     : device_(device.get()), materials_(materials), top_(rtcNewScene(device_)) {
   rtcRetainDevice(device_);
-  rtcSetSceneFlags(top_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);  // see skipOverlaid
+  rtcSetSceneFlags(top_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);  // see skipPlacements
   throwOnEmbreeError(device_, "create a scene");
 }
 
@@ -375,7 +375,7 @@ void Geometry::setShape(MeshId id, std::shared_ptr<const Shape> shape) {
   RTCGeometry geometry = shape->newEmbreeGeometry(device_);
   if (geometry) {
     bvh = rtcNewScene(device_);
-    rtcSetSceneFlags(bvh, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);  // see skipOverlaid
+    rtcSetSceneFlags(bvh, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);  // see skipPlacements
     rtcSetGeometryUserData(geometry, &mesh);
     if (!shape->doubleSided()) rtcSetGeometryIntersectFilterFunction(geometry, filterHits);
     rtcCommitGeometry(geometry);

@@ -41,7 +41,7 @@ struct Geometry::TraceContext {
   TraceContext(const Geometry& traced, RayKind kind)
       : cameraRay(kind == RayKind::Camera), geometry(&traced) {
     rtcInitIntersectContext(&embree);
-    if (traced.overlaid_) embree.filter = skipOverlaid;
+    if (traced.overlaid_) embree.filter = skipPlacements;
   }
 
   /// The top_ geomID of the placement of an instance met in the BVH being traced.
@@ -121,25 +121,18 @@ void Geometry::traceOverlay(TraceContext& context, RTCRayHit& rayHit) const {
     rayHit.hit.instID[0] = overlayIds_[rayHit.hit.instID[0]];
 }
 
-void Geometry::passShadowExcluded(const RTCFilterFunctionNArguments* args) {
+void Geometry::skipPlacements(const RTCFilterFunctionNArguments* args) {
   const auto* context = reinterpret_cast<const TraceContext*>(args->context);
   const Geometry& geometry = *context->geometry;
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] != -1) continue;
     const uint32_t placementId = context->placementId(RTCHitN_instID(args->hit, args->N, i, 0));
     if ((!context->overlayIds && geometry.staleInTop_[placementId]) ||
-        geometry.linking_.shadowExcluded(geometry.placements_[placementId]->linkingClass,
-                                         context->shadowLinkSlot))
+        (context->shadowLinkSlot >= 0 &&
+         geometry.linking_.shadowExcluded(geometry.placements_[placementId]->linkingClass,
+                                          context->shadowLinkSlot)))
       args->valid[i] = 0;
   }
-}
-
-void Geometry::skipOverlaid(const RTCFilterFunctionNArguments* args) {
-  const auto* context = reinterpret_cast<const TraceContext*>(args->context);
-  for (unsigned i = 0; i < args->N; ++i)
-    if (args->valid[i] == -1 &&
-        context->geometry->staleInTop_[RTCHitN_instID(args->hit, args->N, i, 0)])
-      args->valid[i] = 0;
 }
 
 float Geometry::hitDistance(const Ray& ray, RayKind kind) const {
@@ -175,13 +168,13 @@ bool Geometry::occluded(const Ray& ray, int linkSlot) const {
   const bool shadowLinked = linking_.shadowLinked(linkSlot);
   if (shadowLinked) {
     context.shadowLinkSlot = linkSlot;
-    context.embree.filter = passShadowExcluded;
+    context.embree.filter = skipPlacements;
   }
   RTCRay r = toEmbreeRay(ray);
   r.mask = ray_mask::kShadow;
   rtcOccluded1(top_, &context.embree, &r);
   if (r.tfar >= 0 && overlaid_ && mayHitOverlay(r)) {
-    context.embree.filter = shadowLinked ? passShadowExcluded : nullptr;
+    context.embree.filter = shadowLinked ? skipPlacements : nullptr;
     context.overlayIds = &overlayIds_;
     rtcOccluded1(overlay_, &context.embree, &r);
   }

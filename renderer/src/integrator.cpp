@@ -40,9 +40,9 @@ struct ScatteringRecord {
   uint32_t linkingClass = 0;  // the surface's placement's (linking.h): the lights it receives
 };
 
-/// Whether light `index` lights what `origin`'s ray left (light linking). Camera rays and
-/// media are lit by every light; a surface excluded from a light's light link gets nothing from
-/// it, by light sampling or BSDF sampling alike, so the two strategies stay consistent.
+/// Whether light `index` lights what `origin`'s ray left (light linking). Camera rays see every
+/// light; a surface or medium excluded from a light's light link gets nothing from it, by light
+/// sampling or BSDF (phase) sampling alike, so the two strategies stay consistent.
 bool lightReaches(const Scene& scene, const ScatteringRecord& origin, size_t index) {
   return !origin.fromSurface || !scene.geometry().linking().lightExcluded(
                                     origin.linkingClass, scene.lights().all()[index].linkSlot());

@@ -48,6 +48,18 @@ VolumeSet::VolumeId addVolume(Scene& scene, VolumeData data,
   return id;
 }
 
+/// A white floor at z = −3, wider than any view here (the floor the shadow-ray tests light).
+void addWhiteFloor(Scene& scene) {
+  MeshData floor;
+  floor.points = {{-20, -20, -3}, {20, -20, -3}, {20, 20, -3}, {-20, 20, -3}};
+  floor.faceVertexCounts = {4};
+  floor.faceVertexIndices = {0, 1, 2, 3};
+  floor.displayColor = {{1, 1, 1}};
+  const Geometry::MeshId id = scene.geometry().addMesh();
+  scene.geometry().setMeshGeometry(id, triangulate(floor));
+  scene.geometry().setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
+}
+
 void addLight(Scene& scene, const LightParams& params) {
   std::vector<Light> lights;
   lights.emplace_back(params);
@@ -324,14 +336,7 @@ TEST(Volumes, HeterogeneousTransmittanceMatchesNumericalIntegration) {
   for (const bool withField : {false, true}) {
     const Device device;
     Scene scene(device);
-    MeshData floor;
-    floor.points = {{-20, -20, -3}, {20, -20, -3}, {20, 20, -3}, {-20, 20, -3}};
-    floor.faceVertexCounts = {4};
-    floor.faceVertexIndices = {0, 1, 2, 3};
-    floor.displayColor = {{1, 1, 1}};
-    const Geometry::MeshId id = scene.geometry().addMesh();
-    scene.geometry().setMeshGeometry(id, triangulate(floor));
-    scene.geometry().setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
+    addWhiteFloor(scene);
     LightParams sun;
     sun.type = LightType::Distant;  // shines down its local −z
     sun.angle = 0;
@@ -442,14 +447,7 @@ namespace {
 double floorUnderLinkedSlab(int slot, uint32_t linkingClass, bool lightLink) {
   const Device device;
   Scene scene(device);
-  MeshData floor;
-  floor.points = {{-20, -20, -3}, {20, -20, -3}, {20, 20, -3}, {-20, 20, -3}};
-  floor.faceVertexCounts = {4};
-  floor.faceVertexIndices = {0, 1, 2, 3};
-  floor.displayColor = {{1, 1, 1}};
-  const Geometry::MeshId id = scene.geometry().addMesh();
-  scene.geometry().setMeshGeometry(id, triangulate(floor));
-  scene.geometry().setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
+  addWhiteFloor(scene);
   LightParams sun;
   sun.type = LightType::Distant;
   sun.angle = 0;

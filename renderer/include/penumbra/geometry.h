@@ -330,9 +330,10 @@ class Geometry {
   void traceOverlay(TraceContext& context, RTCRayHit& rayHit) const;
   /// Whether the ray's segment may meet an instance in the overlay (its bounds).
   bool mayHitOverlay(const RTCRay& ray) const;
-  /// Intersect-context filter of top_ while the overlay holds placements: skips their stale
-  /// instances there.
-  static void skipOverlaid(const RTCFilterFunctionNArguments* args);
+  /// Intersect-context filter of a trace that must pass some hits: in top_ while the overlay
+  /// holds placements, their stale instances there; for the shadow rays of a shadow-linked
+  /// light (TraceContext::shadowLinkSlot), the placements its shadow link excludes.
+  static void skipPlacements(const RTCFilterFunctionNArguments* args);
   /// The pass visibility of a placement's owner: its instancer's, or its mesh's.
   const PassVisibility& passOf(const Placement& placement) const;
   /// Whether copies of a mesh render: it has geometry and its material does not cut it out.
@@ -345,10 +346,6 @@ class Geometry {
   static const std::vector<Primvar>* copyPrimvars(const Placement& placement);
   /// Embree hit filter (any hit, intersection and occlusion rays).
   static void filterHits(const RTCFilterFunctionNArguments* args);
-  /// Intersect-context filter of the shadow rays of a shadow-linked light: passes the
-  /// placements its shadow link excludes (and, while the overlay holds placements, skips their
-  /// stale instances in top_ as skipOverlaid does).
-  static void passShadowExcluded(const RTCFilterFunctionNArguments* args);
   void updateAllPlacements(MeshId id);
   /// Updates an instancer's copies (and their bounds).
   void updateCopies(InstancerRecord& copies, bool shown);
