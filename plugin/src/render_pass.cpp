@@ -98,6 +98,9 @@ int RenderPass::adaptiveSamplingReach(int samples, int minSamples) {
 void RenderPass::reset() {
   film_.clear();
   samplesDone_ = 0;
+  guidingField_.reset();
+  guidingRecorder_.clear();
+  guidingRecordedThrough_ = 0;
 }
 
 void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
@@ -135,16 +138,30 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
   renderSettings.integrator.indirectClamp = settings.indirectClamp;
   renderSettings.integrator.glossyFilter = settings.glossyFilter;
+  const int trainingSamples = settings.guidingTrainingSamples;
+  const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {
     const int checkpoint = settings.adaptiveThreshold > 0
                                ? nextConvergenceTest(samplesDone_, settings.adaptiveMinSamples)
                                : end;
-    const int stop = std::min(end, checkpoint);
+    int stop = std::min(end, checkpoint);
+    // The training samples are rendered unguided; they train the field as they go where they
+    // are the whole image's (else prepareGuiding traces them for the whole image).
+    const bool training = trainingSamples > 0 && samplesDone_ < trainingSamples;
+    if (training) stop = std::min(stop, trainingSamples);
+    const bool recordHere = training && guidingRecordedThrough_ == samplesDone_ &&
+                            film_.region() == PixelRect{0, 0, imageWidth_, imageHeight_} &&
+                            film_.activePixels() == filmPixels;
+    if (trainingSamples > 0 && !training && !guidingField_)
+      prepareGuiding(camera, renderSettings, cancel);
+    renderSettings.integrator.guidingRecorder = recordHere ? &guidingRecorder_ : nullptr;
+    renderSettings.integrator.guidingField = guidingField_ ? &*guidingField_ : nullptr;
     if (!renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_),
                        uint32_t(stop - samplesDone_), renderSettings, cancel)) {
       reset();
       throw RenderCancelled();
     }
+    if (recordHere) guidingRecordedThrough_ = stop;
     samplesDone_ = stop;
     if (stop == checkpoint) film_.updateConvergence(settings.adaptiveThreshold);
   }
@@ -158,6 +175,27 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
                                   std::to_string(width()) + "x" + std::to_string(height()));
     buffer.resolve(aov(aovName), aovChannels(aovName), converged());
   }
+}
+
+void RenderPass::prepareGuiding(const penumbra::Camera& camera,
+                                const penumbra::RenderSettings& renderSettings,
+                                const std::atomic<bool>* cancel) {
+  const int trainingSamples = delegate_.settings().guidingTrainingSamples;
+  if (guidingRecordedThrough_ < trainingSamples) {
+    // A crop, a resumed render or pixels stopped early: the training samples the film did not
+    // record are traced again over the whole image, so that every pass trains the same field.
+    penumbra::RenderSettings tracing = renderSettings;
+    tracing.integrator.guidingField = nullptr;
+    tracing.integrator.guidingRecorder = &guidingRecorder_;
+    if (!traceSamples(delegate_.scene(), camera, imageWidth_, imageHeight_,
+                      uint32_t(guidingRecordedThrough_),
+                      uint32_t(trainingSamples - guidingRecordedThrough_), tracing, cancel)) {
+      reset();
+      throw RenderCancelled();
+    }
+    guidingRecordedThrough_ = trainingSamples;
+  }
+  guidingField_ = GuidingField::build(guidingRecorder_.take());
 }
 
 void RenderPass::checkCropMargin(int samples) const {

@@ -105,6 +105,12 @@ std::vector<RenderOption> buildRenderOptions() {
                                "blur sharp reflection and refraction lobes met after rougher "
                                "bounces, as Cycles' filter glossy (Cycles' default: 1): caustics "
                                "converge sooner, biased"));
+  RenderOption& guiding = options.emplace_back(integerOption(
+      "guidingTrainingSamples", &Settings::guidingTrainingSamples, 0, 0, "N",
+      "path guiding: the first N samples per pixel learn where indirect light comes from, and "
+      "later samples aim rough surfaces' bounces there as well as by their BSDF "
+      "(docs/path-guiding.md); 0 turns guiding off"));
+  guiding.maximum = 1024;
   RenderOption& textureCache = options.emplace_back(integerOption(
       "textureCacheMB", &Settings::textureCacheMB, int(TextureSystem::kDefaultCacheBytes >> 20), 16,
       "MB",

@@ -1,9 +1,11 @@
 #include "penumbra/integrator.h"
 
+#include <array>
 #include <utility>
 #include <variant>
 
 #include "penumbra/bsdf.h"
+#include "penumbra/guiding.h"
 #include "penumbra/hair_bsdf.h"
 #include "penumbra/phase.h"
 #include "penumbra/random_stream.h"
@@ -230,6 +232,122 @@ SurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float 
   return SurfaceBsdf(makePreviewSurfaceBsdf(hit, spectrum, ior, minAlpha));
 }
 
+/// Whether paths may be guided at a surface (and train the guide there): opaque, rough, not
+/// hair and without subsurface scattering, so that every direction the guide draws is one of
+/// the BSDF's reflection lobes.
+bool guidable(const SurfaceHit& hit, const SurfaceBsdf& bsdf) {
+  return !hit.material.hair && hit.material.subsurface <= 0 && !bsdf.hasTransmission() &&
+         !bsdf.isPurelySpecular();
+}
+
+/// A surface's BSDF beside the guiding field's distribution at its vertex (one-sample MIS: a
+/// direction comes from the field with probability kGuideProbability, else from the BSDF, and
+/// is weighted by the mixture of the two densities). Without a distribution it is the BSDF.
+class GuidedBsdf {
+ public:
+  GuidedBsdf(const SurfaceBsdf& bsdf, const DirectionalDistribution* guide)
+      : bsdf_(bsdf), guide_(guide) {}
+
+  Vec3f evaluate(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart) const {
+    return bsdf_.evaluate(wo, wi, diffusePart);
+  }
+  float pdf(const Vec3f& wo, const Vec3f& wi) const {
+    const float bsdfPdf = bsdf_.pdf(wo, wi);
+    return guide_ ? mixedPdf(guide_->pdf(wi), bsdfPdf) : bsdfPdf;
+  }
+  /// `uChoice` picks the strategy (and, rescaled, the BSDF's lobe or the guide's leaf).
+  std::optional<BsdfSample> sample(const Vec3f& wo, float uChoice, Vec2f u) const {
+    if (!guide_) return bsdf_.sample(wo, uChoice, u);
+    if (uChoice < kGuideProbability) {
+      BsdfSample sample;
+      sample.direction = guide_->sample(uChoice / kGuideProbability, u);
+      Vec3f diffusePart;
+      const Vec3f f = bsdf_.evaluate(wo, sample.direction, &diffusePart);
+      sample.pdf = mixedPdf(guide_->pdf(sample.direction), bsdf_.pdf(wo, sample.direction));
+      if (isBlack(f) || !(sample.pdf > 0)) return std::nullopt;
+      sample.weight = f / sample.pdf;
+      // Which lobe the direction counts for (depth caps, ray visibility, light multipliers).
+      sample.lobe =
+          luminance(diffusePart) >= 0.5f * luminance(f) ? BsdfLobe::Diffuse : BsdfLobe::Glossy;
+      return sample;
+    }
+    std::optional<BsdfSample> sample = bsdf_.sample(
+        wo, std::min((uChoice - kGuideProbability) / (1 - kGuideProbability), 0x1.fffffep-1f), u);
+    if (!sample) return sample;
+    if (sample->isDelta) {
+      sample->weight = sample->weight / (1 - kGuideProbability);
+      sample->pdf *= 1 - kGuideProbability;
+    } else {
+      // The BSDF's weight is f / its pdf: rescaled to f / the mixture's.
+      const float pdf = mixedPdf(guide_->pdf(sample->direction), sample->pdf);
+      sample->weight = sample->weight * (sample->pdf / pdf);
+      sample->pdf = pdf;
+    }
+    return sample;
+  }
+
+ private:
+  static float mixedPdf(float guidePdf, float bsdfPdf) {
+    return kGuideProbability * guidePdf + (1 - kGuideProbability) * bsdfPdf;
+  }
+
+  const SurfaceBsdf& bsdf_;
+  const DirectionalDistribution* guide_;
+};
+
+/// The vertices of a training path that the guide learns from: the direction each left in,
+/// its density, the path's throughput after it, and the light found beyond it.
+class GuidingTrainer {
+ public:
+  static constexpr int kMaxVertices = 16;
+
+  void addVertex(const Vec3f& position, const Vec3f& normal, const Vec3f& direction, float pdf,
+                 const Vec3f& throughput, int bounce) {
+    if (count_ == kMaxVertices) return;
+    vertices_[size_t(count_++)] = {
+        position,   orientationOf(normal), direction, std::max(dot(normal, direction), 0.0f) / pdf,
+        throughput, Vec3f(0.0f),           bounce};
+  }
+  /// Light reaching the camera by way of every vertex so far.
+  void addLight(const Vec3f& light) {
+    for (int i = 0; i < count_; ++i) vertices_[size_t(i)].light += light;
+  }
+  /// Hands the vertices to `recorder` as records of sample `sampleIndex` of pixel (x, y).
+  void record(GuidingRecorder& recorder, int x, int y, uint32_t sampleIndex) const {
+    if (count_ == 0) return;
+    std::array<GuidingRecord, kMaxVertices> records;
+    for (int i = 0; i < count_; ++i) {
+      const Vertex& v = vertices_[size_t(i)];
+      // The radiance that arrived along the vertex's direction: what reached the camera over
+      // the throughput that carried it there.
+      const auto arrived = [](float light, float throughput) {
+        return throughput > 0 ? light / throughput : 0.0f;
+      };
+      const Vec3f incident{arrived(v.light.x, v.throughput.x), arrived(v.light.y, v.throughput.y),
+                           arrived(v.light.z, v.throughput.z)};
+      GuidingRecord& r = records[size_t(i)];
+      r.position = v.position;
+      r.orientation = v.orientation;
+      r.direction = directionToSquare(v.direction);
+      r.flux = std::max(luminance(incident), 0.0f) * v.cosineOverPdf;
+      r.key = GuidingRecord::makeKey(uint32_t(x), uint32_t(y), sampleIndex, uint32_t(v.bounce));
+    }
+    recorder.add(records.data(), size_t(count_));
+  }
+
+ private:
+  struct Vertex {
+    Vec3f position;
+    uint32_t orientation;
+    Vec3f direction;
+    float cosineOverPdf;  // |cos θ| over the direction's density
+    Vec3f throughput, light;
+    int bounce;
+  };
+  std::array<Vertex, kMaxVertices> vertices_;
+  int count_ = 0;
+};
+
 /// The white Lambertian lobe through which light leaves a solid at the end of a subsurface
 /// random walk (the walk's throughput carries the colour): f·cos = cos θ/π on the outside,
 /// whatever wo (it takes wo only to be evaluated as the BSDFs are).
@@ -371,6 +489,13 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                lensSample, shutterTime);
 
   CameraSample result;
+  const bool training = settings.guidingRecorder != nullptr;
+  GuidingTrainer trainer;
+  // Every light the sample gathers goes through here, so that training sees it too.
+  const auto addLight = [&](const Vec3f& light) {
+    result.radiance += light;
+    if (training) trainer.addLight(light);
+  };
   RayCone cone = camera.pixelCone();
   Vec3f throughput{1.0f};
   ScatteringRecord scattering;
@@ -436,10 +561,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
               : powerHeuristic(lightPdf, vertex.pdf(sample->direction));
       const Vec3f response =
           diffusePart * light.diffuseMultiplier() + (f - diffusePart) * light.specularMultiplier();
-      result.radiance +=
-          clampIndirect(throughput * transmittance * response *
-                            spectrum.emission(sample->radiance) * (weight / lightPdf),
-                        interactions, settings.indirectClamp);
+      addLight(clampIndirect(throughput * transmittance * response *
+                                 spectrum.emission(sample->radiance) * (weight / lightPdf),
+                             interactions, settings.indirectClamp));
     };
     scene.lights().lightSampler().forEachChoice(receiver, lightChoices.x, lightChoices.y,
                                                 sampleLight);
@@ -457,7 +581,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       flight =
           sampleFreeFlight(scene.volumes(), ray, hit ? hit->distance : ray.tFar, mediumSpectrum,
                            *volumeRandom, &throughput, &mediumEmission, &mediumPoint);
-      result.radiance += clampIndirect(mediumEmission, bounce, settings.indirectClamp);
+      addLight(clampIndirect(mediumEmission, bounce, settings.indirectClamp));
     }
     const bool passed = flight == FlightOutcome::Passed;
     // Inside absorbing glass (a solid whose surface the ray meets from within): Beer–Lambert.
@@ -472,15 +596,14 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     // Light met by this ray has `bounce` interactions behind it, plus its emission. Lights in
     // front of a collision in a medium take the path's weight from before the flight (exact
     // for grey media, whose tracking leaves the weight as it is).
-    result.radiance +=
-        clampIndirect((passed ? throughput : throughputBeforeFlight) *
-                          emittedAlongRay(scene, ray,
-                                          !passed ? mediumPoint.distance
-                                          : hit   ? hit->distance
-                                                  : ray.tFar,
-                                          !hit && passed, scattering, settings.directLighting,
-                                          spectrum, &nearestLight, &sawLight),
-                      bounce, settings.indirectClamp);
+    addLight(clampIndirect((passed ? throughput : throughputBeforeFlight) *
+                               emittedAlongRay(scene, ray,
+                                               !passed ? mediumPoint.distance
+                                               : hit   ? hit->distance
+                                                       : ray.tFar,
+                                               !hit && passed, scattering, settings.directLighting,
+                                               spectrum, &nearestLight, &sawLight),
+                           bounce, settings.indirectClamp));
     // What the ray stops at: the surface, or the medium where it collided.
     const SurfaceHit* surface = hit && passed ? &*hit : nullptr;
     if (bounce == 0) {
@@ -547,8 +670,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           weight *= scattering.diffuse ? lights[index].diffuseMultiplier()
                                        : lights[index].specularMultiplier();
       }
-      result.radiance += clampIndirect(throughput * spectrum.emission(hit->emission) * weight,
-                                       bounce, settings.indirectClamp);
+      addLight(clampIndirect(throughput * spectrum.emission(hit->emission) * weight, bounce,
+                             settings.indirectClamp));
     }
     if (bounce >= settings.maxPathDepth || lastVertex) break;
     const Vec3f wo = -ray.direction;
@@ -560,15 +683,19 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       throughput = {throughput.x, 0, 0};
       ior = dispersiveIor(ior, hit->material.abbeNumber, spectrum.wavelengths.hero());
     }
-    const SurfaceBsdf bsdf =
-        makeBsdf(*hit, spectrum, ior, filteredAlpha(settings.glossyFilter, minRayPdf));
-
-    // Lights on the surface's front and back count for translucent surfaces.
     const Vec3f facingNormal =
         dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
-    const Receiver receiver{hit->position, bsdf.hasTransmission() ? Vec3f() : facingNormal};
+    const SurfaceBsdf surfaceBsdf =
+        makeBsdf(*hit, spectrum, ior, filteredAlpha(settings.glossyFilter, minRayPdf));
+    const bool guided = (settings.guidingField || training) && guidable(*hit, surfaceBsdf);
+    const GuidedBsdf bsdf(surfaceBsdf, guided && settings.guidingField
+                                           ? settings.guidingField->at(hit->position, facingNormal)
+                                           : nullptr);
+
+    // Lights on the surface's front and back count for translucent surfaces.
+    const Receiver receiver{hit->position, surfaceBsdf.hasTransmission() ? Vec3f() : facingNormal};
     estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
-                        !bsdf.isPurelySpecular(), bounce + 1, hit->linkingClass);
+                        !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass);
 
     // BSDF sampling continues the path; the lobe and the direction in it are stratified jointly.
     const Sample4D scatteringSample = sampler.next4D();
@@ -583,6 +710,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         scattered->transmitted)
       break;
     throughput *= scattered->weight;
+    if (training && guided && !scattered->isDelta)
+      trainer.addVertex(hit->position, facingNormal, scattered->direction, scattered->pdf,
+                        throughput, bounce);
     // Where the path goes on from: here, or where a subsurface random walk left the solid.
     BsdfSample next = *scattered;
     Receiver nextReceiver = receiver;
@@ -642,6 +772,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     cone.width = cone.radiusAt(hit->distance);
     ray = spawnRay(scene, exit ? exit->hit : *hit, next.direction, kInfinity, ray.time);
   }
+  if (training) trainer.record(*settings.guidingRecorder, x, y, sampleIndex);
   if (spectrum.spectral) result.radiance = spectralToRgb(result.radiance, spectrum.wavelengths);
   return result;
 }

@@ -7,45 +7,69 @@
 namespace penumbra {
 namespace {
 constexpr int kTileSize = 16;
+
+/// Calls `renderPixel(x, y)` for every pixel of a `width` x `height` grid, in parallel over
+/// tiles on `threads` threads (0: all cores), until `cancelled()`; returns false if it was.
+template <class Cancelled, class RenderPixel>
+bool forEachPixel(int width, int height, int threads, const Cancelled& cancelled,
+                  const RenderPixel& renderPixel) {
+  const auto renderTiles = [&] {
+    tbb::parallel_for(tbb::blocked_range2d<int>(0, height, kTileSize, 0, width, kTileSize),
+                      [&](const tbb::blocked_range2d<int>& tile) {
+                        for (int y = tile.rows().begin(); y < tile.rows().end(); ++y)
+                          for (int x = tile.cols().begin(); x < tile.cols().end(); ++x) {
+                            if (cancelled()) return;
+                            renderPixel(x, y);
+                          }
+                      });
+  };
+  if (threads > 0) {
+    tbb::task_arena arena(threads);
+    arena.execute(renderTiles);
+  } else {
+    renderTiles();
+  }
+  return !cancelled();
 }
+
+}  // namespace
 
 bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_t firstSample,
                    uint32_t sampleCount, const RenderSettings& settings,
                    const std::atomic<bool>* cancel) {
   const PixelFilter filter;
   const auto cancelled = [cancel] { return cancel && cancel->load(std::memory_order_relaxed); };
-  const auto renderTiles = [&] {
-    tbb::parallel_for(
-        tbb::blocked_range2d<int>(0, film.height(), kTileSize, 0, film.width(), kTileSize),
-        [&](const tbb::blocked_range2d<int>& tile) {
-          for (int y = tile.rows().begin(); y < tile.rows().end(); ++y)
-            for (int x = tile.cols().begin(); x < tile.cols().end(); ++x) {
-              if (!film.isActive(x, y)) continue;
-              // Samples are seeded by the pixel's position in the image, not on the film.
-              const int imageX = film.region().x + x, imageY = film.region().y + y;
-              for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s) {
-                if (cancelled()) return;
-                if (film.wantsFirstHit()) {
-                  FirstHitSample firstHit;
-                  const CameraSample sample = renderCameraSample(
-                      scene, camera, filter, imageX, imageY, s, settings.integrator, &firstHit);
-                  film.addSample(x, y, s, sample, &firstHit);
-                } else {
-                  film.addSample(x, y, s,
-                                 renderCameraSample(scene, camera, filter, imageX, imageY, s,
-                                                    settings.integrator));
-                }
-              }
-            }
-        });
-  };
-  if (settings.threads > 0) {
-    tbb::task_arena arena(settings.threads);
-    arena.execute(renderTiles);
-  } else {
-    renderTiles();
-  }
-  return !cancelled();
+  return forEachPixel(film.width(), film.height(), settings.threads, cancelled, [&](int x, int y) {
+    if (!film.isActive(x, y)) return;
+    // Samples are seeded by the pixel's position in the image, not on the film.
+    const int imageX = film.region().x + x, imageY = film.region().y + y;
+    for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s) {
+      if (cancelled()) return;
+      if (film.wantsFirstHit()) {
+        FirstHitSample firstHit;
+        const CameraSample sample = renderCameraSample(scene, camera, filter, imageX, imageY, s,
+                                                       settings.integrator, &firstHit);
+        film.addSample(x, y, s, sample, &firstHit);
+      } else {
+        film.addSample(
+            x, y, s,
+            renderCameraSample(scene, camera, filter, imageX, imageY, s, settings.integrator));
+      }
+    }
+  });
+}
+
+bool traceSamples(const Scene& scene, const Camera& camera, int width, int height,
+                  uint32_t firstSample, uint32_t sampleCount, const RenderSettings& settings,
+                  const std::atomic<bool>* cancel) {
+  const PixelFilter filter;
+  const auto cancelled = [cancel] { return cancel && cancel->load(std::memory_order_relaxed); };
+  return forEachPixel(width, height, settings.threads, cancelled, [&](int x, int y) {
+    for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s) {
+      if (cancelled()) return;
+      renderCameraSample(scene, camera, filter, x, y, s, settings.integrator);
+    }
+  });
 }
 
 }  // namespace penumbra

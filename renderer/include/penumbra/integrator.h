@@ -17,6 +17,9 @@ namespace penumbra {
 /// single strategies exist to check it (all three converge to the same result).
 enum class DirectLighting { MultipleImportance, LightSamplingOnly, BsdfSamplingOnly };
 
+class GuidingField;
+class GuidingRecorder;
+
 struct IntegratorSettings {
   uint32_t seed = 0;
   /// Surface interactions per path: 0 shows emitters only, 1 direct lighting, 2+ indirect.
@@ -37,7 +40,16 @@ struct IntegratorSettings {
   /// path so far), so that light reflected by a sharp lobe after a diffuse bounce (caustics) is
   /// blurred instead of noisy. 0: off. Biased, off by default.
   float glossyFilter = 0;
+  /// Path guiding (guiding.h). Where `guidingField` is set, opaque rough surfaces draw the
+  /// path's next direction from its distribution there (with probability kGuideProbability) or
+  /// from their BSDF; where `guidingRecorder` is set, each sample records what training needs
+  /// of those vertices. Neither is owned.
+  const GuidingField* guidingField = nullptr;
+  GuidingRecorder* guidingRecorder = nullptr;
 };
+
+/// Share of a guided vertex's directions drawn from the guiding field (the rest: its BSDF).
+constexpr float kGuideProbability = 0.5f;
 
 struct CameraSample {
   Vec3f radiance;

@@ -22,4 +22,11 @@ bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_
                    uint32_t sampleCount, const RenderSettings& settings,
                    const std::atomic<bool>* cancel = nullptr);
 
+/// Traces samples [firstSample, firstSample + sampleCount) of every pixel of a `width` x
+/// `height` image for what they record (IntegratorSettings::guidingRecorder), keeping no image.
+/// Returns false once `cancel` is set.
+bool traceSamples(const Scene& scene, const Camera& camera, int width, int height,
+                  uint32_t firstSample, uint32_t sampleCount, const RenderSettings& settings,
+                  const std::atomic<bool>* cancel = nullptr);
+
 }  // namespace penumbra

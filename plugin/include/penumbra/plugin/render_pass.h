@@ -3,12 +3,15 @@
 #pragma once
 
 #include <atomic>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "penumbra/film.h"
+#include "penumbra/guiding.h"
 #include "penumbra/plugin/render_delegate.h"
+#include "penumbra/render.h"
 #include "penumbra/throughput.h"
 
 namespace penumbra::plugin {
@@ -115,6 +118,12 @@ class RenderPass {
   /// which the first `wanted` are kept.
   std::vector<float> cropped(const std::vector<float>& values, size_t stored, size_t wanted) const;
 
+  /// Path guiding: records the samples that train it while they are rendered, and builds the
+  /// field once they are all taken (docs/path-guiding.md).
+  void prepareGuiding(const penumbra::Camera& camera,
+                      const penumbra::RenderSettings& renderSettings,
+                      const std::atomic<bool>* cancel);
+
   RenderDelegate& delegate_;
   PrimId cameraId_;
   int imageWidth_, imageHeight_;
@@ -126,6 +135,11 @@ class RenderPass {
   int cameraSyncCount_ = -1;
   std::map<std::string, double> settingsUsed_;
   std::map<std::string, PrimId> aovBindings_;
+  // Path guiding: the field once trained, the training records until then, and the samples
+  // [0, guidingRecordedThrough_) of every image pixel they hold.
+  std::optional<GuidingField> guidingField_;
+  GuidingRecorder guidingRecorder_;
+  int guidingRecordedThrough_ = 0;
 };
 
 }  // namespace penumbra::plugin

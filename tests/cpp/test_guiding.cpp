@@ -1,0 +1,240 @@
+// Path guiding (guiding.h): the field's distributions, their determinism, and guided renders
+// against unguided ones and analytic values.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "penumbra/guiding.h"
+#include "penumbra/plugin/render_delegate.h"
+#include "penumbra/plugin/render_pass.h"
+#include "penumbra/warp.h"
+#include "scene_builders.h"
+#include "transforms.h"
+
+using namespace penumbra;
+using penumbra::test::addCamera;
+using penumbra::test::addFloor;
+using penumbra::test::facingDown;
+using penumbra::test::translation;
+using namespace penumbra::plugin;
+
+namespace {
+
+const Vec3f kUp{0, 1, 0};
+const Vec3f kBright = normalize(Vec3f(0.3f, 1, 0.2f));  // where the training light comes from
+
+/// Records of a surface facing up near the origin: most flux from a 10° cone about kBright, a
+/// little from everywhere above; `count` of them, in a random order.
+std::vector<GuidingRecord> coneRecords(size_t count, uint32_t seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<float> uniform(0, 1);
+  const Frame frame(kBright);
+  std::vector<GuidingRecord> records(count);
+  for (size_t i = 0; i < count; ++i) {
+    GuidingRecord& r = records[i];
+    r.position = {uniform(random) * 0.1f, 0, uniform(random) * 0.1f};
+    r.orientation = orientationOf(kUp);
+    const bool inCone = i % 2 == 0;
+    const Vec3f local =
+        inCone ? sampleUniformCone({uniform(random), uniform(random)}, 1 - std::cos(10 * kPi / 180))
+               : sampleUniformHemisphere({uniform(random), uniform(random)});
+    const Vec3f direction = inCone ? frame.toWorld(local) : Vec3f(local.x, local.z, local.y);
+    r.direction = directionToSquare(direction);
+    r.flux = inCone ? 1.0f : 0.01f;
+    r.key = GuidingRecord::makeKey(uint32_t(i % 1000), uint32_t(i / 1000), 0, 0);
+  }
+  return records;
+}
+
+Vec3f uniformSphere(std::mt19937& random) {
+  std::uniform_real_distribution<float> uniform(0, 1);
+  return sampleUniformSphere({uniform(random), uniform(random)});
+}
+
+}  // namespace
+
+TEST(Guiding, CylindricalMapRoundTrips) {
+  std::mt19937 random(1);
+  for (int i = 0; i < 1000; ++i) {
+    const Vec3f direction = uniformSphere(random);
+    const Vec3f back = squareToDirection(directionToSquare(direction));
+    EXPECT_NEAR(length(back - direction), 0, 1e-5f);
+  }
+}
+
+TEST(Guiding, DistributionSamplesItsOwnDensityWhichIntegratesToOne) {
+  const GuidingField field = GuidingField::build(coneRecords(4000, 1));
+  const DirectionalDistribution* guide = field.at({0.05f, 0, 0.05f}, kUp);
+  ASSERT_NE(guide, nullptr);
+  EXPECT_EQ(field.at({0.05f, 0, 0.05f}, -kUp), nullptr);  // nothing learnt facing down
+  std::mt19937 random(2);
+  std::uniform_real_distribution<float> uniform(0, 1);
+  // ∫ pdf dω = 1, by uniform sampling of the sphere; the solid angle where pdf > 0 (no
+  // record came from below the surface).
+  double integral = 0, support = 0;
+  const int n = 400000;
+  for (int i = 0; i < n; ++i) {
+    const float pdf = guide->pdf(uniformSphere(random));
+    integral += pdf;
+    support += pdf > 0;
+  }
+  EXPECT_NEAR(integral / n * 4 * M_PI, 1.0, 0.02);
+  EXPECT_LT(support / n, 0.75);
+  // E[1 / pdf(ω)] over its own samples is the solid angle where pdf > 0, and most samples
+  // fall where most of the flux came from.
+  double inverseDensity = 0;
+  int inCone = 0;
+  for (int i = 0; i < n; ++i) {
+    const Vec3f direction = guide->sample(uniform(random), {uniform(random), uniform(random)});
+    EXPECT_NEAR(length(direction), 1, 1e-4f);
+    const float pdf = guide->pdf(direction);
+    ASSERT_GT(pdf, 0);
+    inverseDensity += 1 / pdf;
+    inCone += dot(direction, kBright) > std::cos(15 * kPi / 180);
+  }
+  EXPECT_NEAR(inverseDensity / n / (4 * M_PI * support / n), 1.0, 0.03);
+  EXPECT_GT(double(inCone) / n, 0.8);
+}
+
+TEST(Guiding, FieldDoesNotDependOnTheRecordsOrder) {
+  std::vector<GuidingRecord> records = coneRecords(20000, 3);
+  const GuidingField field = GuidingField::build(records);
+  std::shuffle(records.begin(), records.end(), std::mt19937(4));
+  const GuidingField shuffled = GuidingField::build(records);
+  std::mt19937 random(5);
+  for (int i = 0; i < 200; ++i) {
+    const Vec3f position{0.1f * float(i % 10) / 10, 0, 0.1f * float(i / 10) / 20};
+    const DirectionalDistribution* a = field.at(position, kUp);
+    const DirectionalDistribution* b = shuffled.at(position, kUp);
+    ASSERT_NE(a, nullptr);
+    ASSERT_NE(b, nullptr);
+    const Vec3f direction = uniformSphere(random);
+    EXPECT_EQ(a->pdf(direction), b->pdf(direction));
+    EXPECT_EQ(length(a->sample(0.3f, {0.6f, 0.2f}) - b->sample(0.3f, {0.6f, 0.2f})), 0.0f);
+  }
+}
+
+namespace {
+
+/// Local -Z onto world +Y, then a translation: a camera looking up.
+Transform facingUp(double x, double y, double z) {
+  const double m[16] = {1, 0, 0, 0, 0, 0, 1, 0, 0, -1, 0, 0, x, y, z, 1};
+  return Transform::fromRowMajor(m);
+}
+
+/// A grey room lit only through what its floor reflects: a panel shining down on the floor
+/// under a low ceiling that hides it from the camera, which looks up at the ceiling from
+/// below. The ceiling's light is all indirect, from one bright patch of floor.
+void indirectlyLitRoom(RenderDelegate& delegate, int trainingSamples) {
+  addFloor(delegate, "/floor", 4);
+  delegate.mesh("/floor").setDisplayColor({Vec3f(0.8f)}, Interpolation::Constant);
+  // The ceiling faces down (its square turned over) at y = 1.
+  addFloor(delegate, "/ceiling", 4);
+  delegate.mesh("/ceiling").setTopology({4}, {0, 3, 2, 1}, false, "none");
+  delegate.mesh("/ceiling").setTransform(translation(0, 1, 0));
+  delegate.mesh("/ceiling").setDisplayColor({Vec3f(0.8f)}, Interpolation::Constant);
+  delegate.insertSprim("rectLight", "/panel");
+  delegate.light("/panel").setParam("width", 0.4f);
+  delegate.light("/panel").setParam("height", 0.4f);
+  delegate.light("/panel").setParam("intensity", 40.0f);
+  delegate.light("/panel").setTransform(facingDown(2.5, 0.9, 0));
+  addCamera(delegate, facingUp(-1.5, 0.05, 0), 1);
+  delegate.settings().set("guidingTrainingSamples", trainingSamples);
+}
+
+constexpr int kRoomSize = 24;
+
+/// The room's colour (RGBA) at `samples` per pixel with `seed`, in passes of `passes`
+/// samples, on `threads` threads.
+std::vector<float> renderRoom(int trainingSamples, int samples, int seed, int threads = 0,
+                              int passes = 0) {
+  RenderDelegate delegate;
+  indirectlyLitRoom(delegate, trainingSamples);
+  delegate.settings().set("seed", seed);
+  delegate.settings().set("threads", threads);
+  RenderPass pass(delegate, "/cam", kRoomSize, kRoomSize);
+  for (int done = 0; done < samples; done += passes ? passes : samples)
+    pass.execute(passes ? std::min(passes, samples - done) : samples);
+  return pass.aov("color");
+}
+
+double meanRed(const std::vector<float>& rgba) {
+  double sum = 0;
+  for (size_t i = 0; i < rgba.size(); i += 4) sum += rgba[i];
+  return sum / double(rgba.size() / 4);
+}
+
+/// Mean squared difference of the red channel between two renders, relative to their mean.
+double relativeSquaredDifference(const std::vector<float>& a, const std::vector<float>& b) {
+  double sum = 0;
+  for (size_t i = 0; i < a.size(); i += 4) sum += double(a[i] - b[i]) * double(a[i] - b[i]);
+  const double mean = (meanRed(a) + meanRed(b)) / 2;
+  return sum / double(a.size() / 4) / (mean * mean);
+}
+
+}  // namespace
+
+TEST(Guiding, GuidedRendersAreUnbiasedAndLessNoisyWhereLightIsIndirect) {
+  // Enough samples that the unguided estimate's rare bright paths (the noise guiding cuts)
+  // average out.
+  const int spp = 256;
+  const std::vector<float> plainA = renderRoom(0, spp, 1), plainB = renderRoom(0, spp, 2);
+  const std::vector<float> guidedA = renderRoom(4, spp, 1), guidedB = renderRoom(4, spp, 2);
+  const double plain = (meanRed(plainA) + meanRed(plainB)) / 2;
+  ASSERT_GT(plain, 0.01);  // the ceiling is lit
+  EXPECT_NEAR((meanRed(guidedA) + meanRed(guidedB)) / 2 / plain, 1.0, 0.03);
+  // The difference of two seeds' images measures the noise.
+  EXPECT_LT(relativeSquaredDifference(guidedA, guidedB),
+            0.7 * relativeSquaredDifference(plainA, plainB));
+}
+
+TEST(Guiding, TrainingSamplesAreUnguidedAndGuidedImagesAreDeterministic) {
+  // Up to the training budget a render is the unguided one; past it, it differs.
+  EXPECT_EQ(renderRoom(4, 4, 1), renderRoom(0, 4, 1));
+  const std::vector<float> guided = renderRoom(4, 12, 1, 1);
+  EXPECT_NE(guided, renderRoom(0, 12, 1, 1));
+  // Any thread count, any split into passes: the same field, the same pixels.
+  EXPECT_EQ(guided, renderRoom(4, 12, 1, 2));
+  EXPECT_EQ(guided, renderRoom(4, 12, 1, 2, 3));
+}
+
+TEST(Guiding, CropsRenderTheWholeImagesPixels) {
+  // A farm's band trains on the whole image (traced again for it), so its pixels are the
+  // whole image's.
+  const std::vector<float> whole = renderRoom(4, 12, 1);
+  RenderDelegate delegate;
+  indirectlyLitRoom(delegate, 4);
+  delegate.settings().set("seed", 1);
+  const PixelRect band{0, 8, kRoomSize, 6};
+  RenderPass pass(delegate, "/cam", kRoomSize, kRoomSize, band);
+  pass.execute(12);
+  const std::vector<float> cropped = pass.aov("color");
+  for (int y = 0; y < band.height; ++y)
+    for (int x = 0; x < band.width; ++x)
+      for (int c = 0; c < 4; ++c)
+        ASSERT_EQ(cropped[size_t((y * band.width + x) * 4 + c)],
+                  whole[size_t(((band.y + y) * kRoomSize + x) * 4 + c)]);
+}
+
+TEST(Guiding, SavedStatesResumeToTheSamePixels) {
+  const std::vector<float> straight = renderRoom(4, 12, 1);
+  std::vector<uint8_t> state;
+  {
+    RenderDelegate delegate;
+    indirectlyLitRoom(delegate, 4);
+    delegate.settings().set("seed", 1);
+    RenderPass pass(delegate, "/cam", kRoomSize, kRoomSize);
+    pass.execute(6);  // past the training: the field is not saved, it is trained again
+    state = pass.saveState("room");
+  }
+  RenderDelegate delegate;
+  indirectlyLitRoom(delegate, 4);
+  delegate.settings().set("seed", 1);
+  RenderPass pass(delegate, "/cam", kRoomSize, kRoomSize);
+  pass.execute(0);
+  pass.loadState(state, "room");
+  pass.execute(6);
+  EXPECT_EQ(pass.aov("color"), straight);
+}
