@@ -265,6 +265,11 @@ def read_render_result(scene: bpy.types.Scene, path: Path) -> np.ndarray:
     settings.file_format, settings.color_mode, settings.color_depth = "OPEN_EXR", "RGBA", "32"
     settings.exr_codec = "ZIP"
     bpy.data.images["Render Result"].save_render(str(path), scene=scene)
+    return load_exr_rgb(path)
+
+
+def load_exr_rgb(path: Path) -> np.ndarray:
+    """An EXR's R, G, B as float64, top row first (Blender's pixels start at the bottom)."""
     image = bpy.data.images.load(str(path))
     height, width = image.size[1], image.size[0]
     pixels = np.empty(width * height * 4, dtype=np.float32)
