@@ -85,7 +85,8 @@ constexpr SobolByteTables kSobolByteTables = [] {
   return tables;
 }();
 
-SobolReversed sobolReversed(uint32_t index) {
+/// Inlined: a 2D draw takes only dimension 1, and the lookups of the others then go.
+[[gnu::always_inline]] inline SobolReversed sobolReversed(uint32_t index) {
   const SobolReversed& a = kSobolByteTables[0][index & 0xffu];
   const SobolReversed& b = kSobolByteTables[1][(index >> 8) & 0xffu];
   const SobolReversed& c = kSobolByteTables[2][(index >> 16) & 0xffu];
