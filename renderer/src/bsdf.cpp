@@ -179,24 +179,27 @@ bool PreviewSurfaceBsdf::isPurelySpecular() const {
   return opaqueIsDelta && translucentIsDelta;
 }
 
-float PreviewSurfaceBsdf::coatTransmittance(const Vec3f& w) const {
+// The private helpers on every evaluation's path are declared `inline` here (only this file
+// uses them): in position-independent code GCC does not inline a function that is not inline,
+// since another module could interpose it, so each would cost a call.
+inline float PreviewSurfaceBsdf::coatTransmittance(const Vec3f& w) const {
   if (clearcoat_ == 0) return 1;
   return 1 - clearcoat_ * SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.albedo(w).x;
 }
 
-Vec3f PreviewSurfaceBsdf::tintUnderCoat(const Vec3f& value) const {
+inline Vec3f PreviewSurfaceBsdf::tintUnderCoat(const Vec3f& value) const {
   return value * coatTint_;  // exact (bit-identical) where the tint is 1
 }
 
-float PreviewSurfaceBsdf::sheenAlbedo(float cosTheta) const {
+inline float PreviewSurfaceBsdf::sheenAlbedo(float cosTheta) const {
   return sheen_ * sheenTables().albedo(cosTheta, sheenAlpha_);
 }
 
-float PreviewSurfaceBsdf::sheenTransmittance(float cosThetaO) const {
+inline float PreviewSurfaceBsdf::sheenTransmittance(float cosThetaO) const {
   return sheen_ > 0 ? 1 - sheenAlbedo(cosThetaO) : 1.0f;
 }
 
-const PreviewSurfaceBsdf::Outgoing& PreviewSurfaceBsdf::outgoing(const Vec3f& wo) const {
+inline const PreviewSurfaceBsdf::Outgoing& PreviewSurfaceBsdf::outgoing(const Vec3f& wo) const {
   if (wo.z != cachedWo_.z || wo.x != cachedWo_.x || wo.y != cachedWo_.y) {
     cachedWo_ = wo;
     cachedOutgoing_ = computeOutgoing(wo);
@@ -267,8 +270,8 @@ PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(const Vec3f& wo
   return outgoing;
 }
 
-Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
-                                         Vec3f* diffusePart) const {
+inline Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
+                                                Vec3f* diffusePart) const {
   if (wi.z <= 0) return Vec3f(0.0f);
   const Outgoing& forWo = outgoing(wo);
   const Vec3f h = normalize(wo + wi);
@@ -309,7 +312,8 @@ Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
   return value * opacity_;
 }
 
-float PreviewSurfaceBsdf::pdfOpaque(const Vec3f& wo, const Vec3f& wi, const Outgoing& forWo) const {
+inline float PreviewSurfaceBsdf::pdfOpaque(const Vec3f& wo, const Vec3f& wi,
+                                           const Outgoing& forWo) const {
   if (wi.z <= 0) return 0;
   const LobeProbabilities& p = forWo.probabilities;
   const Vec3f h = normalize(wo + wi);

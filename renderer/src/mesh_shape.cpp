@@ -66,11 +66,12 @@ SurfaceGeometry MeshShape::surfaceAt(uint32_t triangle, float u, float v, float 
   SurfaceGeometry surface;
   surface.point = pointAt(triangle, u, v, time);
   const Vec3f* corners = surface.point.corners;
-  surface.normal = normalize(
-      objectToWorld.applyToNormal(cross(corners[1] - corners[0], corners[2] - corners[0])));
+  const Transform::NormalMatrix normalToWorld = objectToWorld.normalMatrix();
+  surface.normal =
+      normalize(normalToWorld.apply(cross(corners[1] - corners[0], corners[2] - corners[0])));
   surface.shadingNormal = surface.normal;
   if (!mesh_.normals.empty()) {
-    const Vec3f interpolated = objectToWorld.applyToNormal(
+    const Vec3f interpolated = normalToWorld.apply(
         mesh_.interpolate(mesh_.normals, mesh_.normalsInterpolation, triangle, u, v));
     // A shading normal on the other side than the surface would turn shading inside out.
     if (length(interpolated) > 0 && dot(interpolated, surface.normal) > 0)

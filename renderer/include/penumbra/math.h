@@ -151,25 +151,32 @@ struct Transform {
            at(0, 1) * (at(1, 0) * at(2, 2) - at(1, 2) * at(2, 0)) +
            at(0, 2) * (at(1, 0) * at(2, 1) - at(1, 1) * at(2, 0));
   }
-  /// Transforms a normal: by the inverse transpose of the linear part, computed as the cofactor
-  /// matrix times the determinant's sign (unnormalised). A mirroring transform therefore keeps
+  /// What transforms normals: the inverse transpose of the linear part, as the cofactor matrix
+  /// times the determinant's sign (unnormalised results). A mirroring transform therefore keeps
   /// the authored front side, as Hydra's rule "flip the orientation when det < 0" requires.
-  Vec3f applyToNormal(const Vec3f& n) const {
-    // In column-vector form A[i][j] = at(j, i); the result is sign(det A) · cof(A) · n.
+  /// Made once for several normals of one transform (applyToNormal makes it for one).
+  struct NormalMatrix {
+    double sign;
+    std::array<double, 9> cofactors;  // row-major, in column-vector form
+
+    Vec3f apply(const Vec3f& n) const {
+      const std::array<double, 9>& c = cofactors;
+      return {float(sign * (c[0] * n.x + c[1] * n.y + c[2] * n.z)),
+              float(sign * (c[3] * n.x + c[4] * n.y + c[5] * n.z)),
+              float(sign * (c[6] * n.x + c[7] * n.y + c[8] * n.z))};
+    }
+  };
+  NormalMatrix normalMatrix() const {
+    // In column-vector form A[i][j] = at(j, i); normals transform by sign(det A) · cof(A).
     const double a00 = at(0, 0), a01 = at(1, 0), a02 = at(2, 0);
     const double a10 = at(0, 1), a11 = at(1, 1), a12 = at(2, 1);
     const double a20 = at(0, 2), a21 = at(1, 2), a22 = at(2, 2);
-    const double sign = linearDeterminant() < 0 ? -1.0 : 1.0;
-    const double c00 = a11 * a22 - a12 * a21, c01 = a12 * a20 - a10 * a22,
-                 c02 = a10 * a21 - a11 * a20;
-    const double c10 = a02 * a21 - a01 * a22, c11 = a00 * a22 - a02 * a20,
-                 c12 = a01 * a20 - a00 * a21;
-    const double c20 = a01 * a12 - a02 * a11, c21 = a02 * a10 - a00 * a12,
-                 c22 = a00 * a11 - a01 * a10;
-    return {float(sign * (c00 * n.x + c01 * n.y + c02 * n.z)),
-            float(sign * (c10 * n.x + c11 * n.y + c12 * n.z)),
-            float(sign * (c20 * n.x + c21 * n.y + c22 * n.z))};
+    return {linearDeterminant() < 0 ? -1.0 : 1.0,
+            {a11 * a22 - a12 * a21, a12 * a20 - a10 * a22, a10 * a21 - a11 * a20,
+             a02 * a21 - a01 * a22, a00 * a22 - a02 * a20, a01 * a20 - a00 * a21,
+             a01 * a12 - a02 * a11, a02 * a10 - a00 * a12, a00 * a11 - a01 * a10}};
   }
+  Vec3f applyToNormal(const Vec3f& n) const { return normalMatrix().apply(n); }
   /// The inverse of an affine transform (singular linear parts give non-finite values).
   Transform inverse() const {
     Transform result;
