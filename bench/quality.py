@@ -20,6 +20,7 @@ markdown tables to stdout.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import re
 import sys
@@ -170,8 +171,14 @@ def read_rgb(path: Path) -> np.ndarray:
     return np.asarray(pixels, dtype=np.float64)[..., channels]
 
 
-def cycles_numbers(readme: Path) -> dict[str, tuple[float, float]]:
-    """Cycles' (time to 5 % in seconds, spp at 5 %) per scene, from its README's table."""
+def cycles_numbers(readme: Path, measured: Path | None = None) -> dict[str, tuple[float, float]]:
+    """Cycles' (time to 5 % in seconds, spp at 5 %) per scene: from ``measured``, the JSON file
+    bench/cycles_scenes.py --json wrote on this machine, when given, else from the shared
+    README's table."""
+    if measured is not None:
+        numbers = json.loads(measured.read_text())
+        return {name: (row["seconds"], row["spp"]) for name, row in numbers.items()
+                if row.get("seconds") is not None}
     if not readme.is_file():
         return {}
     row = re.compile(r"^\|\s*(\w+)\s*\|\s*([\d.]+)\s*\|\s*([\d.]+)\s*\|", re.MULTILINE)
@@ -244,10 +251,14 @@ def shared_scene_row(
 
 
 def shared_scenes_table(args: argparse.Namespace) -> None:
-    cycles = cycles_numbers(CYCLES / "README.md")
+    cycles = cycles_numbers(CYCLES / "README.md", args.cycles_json)
+    source = f"measured here ({args.cycles_json})" if args.cycles_json else "the shared README"
+    print(f"Cycles' numbers: {source}.\n")
     clamp = f"indirect clamp {args.indirect_clamp:g}" if args.indirect_clamp else "no clamp"
     if args.glossy_filter:
         clamp += f", glossy filter {args.glossy_filter:g}"
+    if args.guiding_training_samples:
+        clamp += f", path guiding trained on {args.guiding_training_samples} spp"
     print(f"Shared scenes, {args.width} px wide, spp ladder {', '.join(map(str, args.spp))}, "
           f"seeds {args.seeds[0]} and {args.seeds[1]}, {clamp}; converged: "
           f"{args.converged_spp or 'not'} rendered; * extrapolated beyond the ladder.\n")
@@ -368,6 +379,12 @@ def parse_args() -> argparse.Namespace:
                         help="render everything with this indirect clamp (Cycles' numbers use 10)")
     parser.add_argument("--glossy-filter", type=float, default=0.0,
                         help="render everything with this glossy filter (Cycles' numbers use 1)")
+    parser.add_argument("--guiding-training-samples", type=int, default=0,
+                        help="render everything with path guiding trained on this many spp "
+                        "(docs/path-guiding.md; 0: off, the default)")
+    parser.add_argument("--cycles-json", type=Path,
+                        help="Cycles' numbers measured on this machine by "
+                        "bench/cycles_scenes.py --json, instead of ../shared/cycles/README.md's")
     parser.add_argument("--ray-cost-width", type=int, default=320)
     parser.add_argument("--skip-many-lights", action="store_true")
     parser.add_argument("--quick", action="store_true",
@@ -380,6 +397,7 @@ def parse_args() -> argparse.Namespace:
     if len(args.spp) < 2 or sorted(args.spp) != args.spp:
         parser.error("--spp needs at least two ascending sample counts")
     args.seeds = tuple(args.seeds)
+    args.render_options = {"guiding_training_samples": args.guiding_training_samples}
     return args
 
 
