@@ -283,11 +283,4 @@ const DirectionalDistribution* GuidingField::at(const Vec3f& position, const Vec
   return node->index == kNoDistribution ? nullptr : &distributions_[node->index];
 }
 
-size_t GuidingField::bytes() const {
-  size_t total = nodes_.size() * sizeof(Node);
-  for (const DirectionalDistribution& d : distributions_)
-    total += d.children_.size() * sizeof(uint32_t) + d.share_.size() * sizeof(float);
-  return total;
-}
-
 }  // namespace penumbra

@@ -105,9 +105,6 @@ class GuidingField {
   /// The distribution of the cell holding `position` on a surface facing `normal`, or nullptr
   /// where the field cannot guide.
   const DirectionalDistribution* at(const Vec3f& position, const Vec3f& normal) const;
-  bool empty() const { return distributions_.empty(); }
-  size_t cellCount() const { return (nodes_.size() + kOrientations) / 2; }
-  size_t bytes() const;
 
  private:
   struct Node {
