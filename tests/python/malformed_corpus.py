@@ -163,6 +163,7 @@ CASES = [
         extra='def Material "mat"\n{\n    token outputs:surface.connect = </mat/s.outputs:surface>\n    def Shader "s"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n        string inputs:diffuseColor = "red"\n        float3 inputs:roughness = (1, 1, 1)\n        token outputs:surface\n    }\n}',
     ),
     Case("point instancer without prototypes", 0, "/inst", extra='def PointInstancer "inst"\n{\n    int[] protoIndices = [0, 0]\n    point3f[] positions = [(0, 0, 0), (1, 0, 0)]\n}'),
+    Case("point instancer without positions", 0, "/inst: no positions", extra='def PointInstancer "inst"\n{\n    rel prototypes = [</inst/proto>]\n    int[] protoIndices = [0, 0]\n    def Cube "proto"\n    {\n        double size = 0.2\n    }\n}'),
     Case("negative light intensity", 0, "/light", light="float inputs:intensity = -20"),
     Case("NaN light colour", 0, "/light", light="color3f inputs:color = (nan, 1, 1)"),
     Case("light zero scale", 0, "/light", light='float3 xformOp:scale = (0, 0, 0)\nuniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]'),

@@ -330,6 +330,11 @@ class Flattener:
             UsdGeom.PointInstancer.IncludeProtoXform,
             UsdGeom.PointInstancer.IgnoreMask,
         )
+        if not samples:
+            # usd-core computes nothing when positions are missing (UsdGeomPointInstancer
+            # requires them).
+            self.warn(f"{path}: no positions for {len(indices)} protoIndices; the instancer is skipped")
+            return []
         # (N, K, 4, 4): each copy's transform at every sample time.
         local = np.stack([np.asarray(s, dtype=np.float64).reshape(-1, 4, 4) for s in samples], axis=1)
         if len(local) != len(indices):
