@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -129,6 +130,7 @@ void Geometry::updatePlacement(Placement& placement, bool enabled) {
     topChanged_ = true;
     return;
   }
+  enabled = enabled && invertible(placement);
   mesh.ownBeyondReach = enabled && !withinReach(placement);
   enabled = enabled && !mesh.ownBeyondReach;
   mesh.ownEnabled = enabled;
@@ -211,6 +213,18 @@ bool Geometry::withinReach(const Placement& placement) const {
            std::abs(p.z) <= kMaxCoordinate;
   };
   return within(box.lower) && within(box.upper);
+}
+
+bool Geometry::invertible(const Placement& placement) {
+  for (const Transform& step : placement.objectToWorld.steps()) {
+    // Embree inverts each instance transform in single precision for every ray.
+    if (!(std::abs(step.linearDeterminant()) >= double(std::numeric_limits<float>::min())))
+      return false;
+    const Transform inverse = step.inverse();
+    for (const double value : inverse.m)
+      if (!(std::abs(value) <= double(std::numeric_limits<float>::max()))) return false;
+  }
+  return true;
 }
 
 bool Geometry::beyondReach(MeshId id) const {
@@ -312,8 +326,9 @@ void Geometry::updateCopies(InstancerRecord& copies, bool shown) {
   copies.beyondReach = 0;
   const bool enabled = shown && meshes_[copies.prototype]->bvh;
   for (auto& copy : copies.copies) {
-    const bool placed = enabled && withinReach(*copy);
-    copies.beyondReach += enabled && !placed;
+    const bool shows = enabled && invertible(*copy);
+    const bool placed = shows && withinReach(*copy);
+    copies.beyondReach += shows && !placed;
     updatePlacement(*copy, placed);
     copies.bounds.extend(worldBounds(*copy, placed));
   }

@@ -108,3 +108,29 @@ TEST(Geometry, PlacementsReachingBeyondFloatRangeAreNotRendered) {
   geometry.setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
   EXPECT_FALSE(geometry.beyondReach(id));
 }
+
+TEST(Geometry, PlacementsScaledFlatAreNotPlaced) {
+  const Device device;
+  Scene scene(device);
+  Geometry& geometry = scene.geometry();
+  const Geometry::MeshId id = geometry.addMesh();
+  geometry.setMeshGeometry(id, redSquare());
+  // Scale 0 along Z: the square becomes a segment, and the transform has no inverse.
+  const double flat[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+  geometry.setMeshInstance(id, Transform::fromRowMajor(flat), MaterialTable::kNoMaterial, true);
+  const Geometry::InstancerId copies = geometry.addInstancer();
+  geometry.setInstances(copies, id, {translation(10, 0, 0), Transform::fromRowMajor(flat)}, true);
+  scene.commit();
+
+  // Not placed (Embree would abort on the non-finite rays its inverse gives), and nothing to
+  // report: it would show nothing.
+  EXPECT_FALSE(geometry.beyondReach(id));
+  EXPECT_EQ(geometry.copiesBeyondReach(copies), 0u);
+  EXPECT_FALSE(geometry.intersect(downAt(0.5f, 0), RayKind::Camera));
+  // The scene's extent is the other copy's alone.
+  EXPECT_FLOAT_EQ(geometry.extent(), 2);
+  const std::optional<GeometryHit> hit = geometry.intersect(downAt(10.5f, 0), RayKind::Camera);
+  ASSERT_TRUE(hit);
+  EXPECT_EQ(hit->instance, 0);
+  EXPECT_FLOAT_EQ(hit->distance, 5);
+}

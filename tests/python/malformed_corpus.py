@@ -105,6 +105,7 @@ CASES = [
     Case("clipping inverted", 1, "/cam: clippingRange", camera="float2 clippingRange = (10, 1)"),
     Case("clipping empty", 1, "/cam: clippingRange", camera="float2 clippingRange = (0, 0)"),
     Case("clipping NaN", 1, "/cam: clippingRange", camera="float2 clippingRange = (nan, 10)"),
+    Case("camera beyond 1e18", 1, "/cam: the camera's world transform translates it beyond 1e+18", camera='double3 xformOp:translate:far = (0, 1e30, 5)\nuniform token[] xformOpOrder = ["xformOp:translate:far"]'),
     Case(
         "camera zero scale",
         1,
@@ -164,7 +165,12 @@ CASES = [
     ),
     Case("point instancer without prototypes", 0, "/inst", extra='def PointInstancer "inst"\n{\n    int[] protoIndices = [0, 0]\n    point3f[] positions = [(0, 0, 0), (1, 0, 0)]\n}'),
     Case("point instancer without positions", 0, "/inst: no positions", extra='def PointInstancer "inst"\n{\n    rel prototypes = [</inst/proto>]\n    int[] protoIndices = [0, 0]\n    def Cube "proto"\n    {\n        double size = 0.2\n    }\n}'),
+    Case("cube size of an unknown type", 0, "/box: size has a value of type UnregisteredValue", extra='def Cube "box"\n{\n    ououble size = 0.2\n}'),
+    Case("sphere radius negative", 0, "/ball: radius must be a finite number >= 0, not -1", extra='def Sphere "ball"\n{\n    double radius = -1\n}'),
+    Case("cylinder axis unknown", 0, "/can: axis must be X, Y or Z, not 'W'", extra='def Cylinder "can"\n{\n    uniform token axis = "W"\n}'),
     Case("negative light intensity", 0, "/light", light="float inputs:intensity = -20"),
+    Case("light input of an unknown type", 0, "/light: inputs:exposure has a value of type UnregisteredValue", light="floa1 inputs:exposure = 1"),
+    Case("light input of the wrong type", 0, "/light: inputs:color has a value of type str", light='string inputs:color = "red"'),
     Case("NaN light colour", 0, "/light", light="color3f inputs:color = (nan, 1, 1)"),
     Case("light zero scale", 0, "/light", light='float3 xformOp:scale = (0, 0, 0)\nuniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]'),
     Case(

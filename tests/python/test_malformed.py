@@ -12,8 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from malformed_corpus import CASES, Case, write_case
-from penumbra import _interrupts
+import numpy as np
+
+from malformed_corpus import CASES, SCALE_ONLY, Case, write_case
+from penumbra import _core, _interrupts
 from processes import default_sigint
 from penumbra.cli import main
 
@@ -41,6 +43,50 @@ def test_a_mesh_out_of_reach_is_reported_once(name: str, tmp_path: Path, capsys)
     case = next(case for case in CASES if case.name == name)
     assert main([str(write_case(case, tmp_path)), str(tmp_path / "out.png"), *SMALL]) == 0
     assert capsys.readouterr().err.count("/quad:") == 1
+
+
+BALL = 'def Sphere "ball"\n{\n    double radius = 0.5\n}'
+FLAT_COPY = """def PointInstancer "inst"
+{
+    rel prototypes = [</inst/proto>]
+    int[] protoIndices = %s
+    point3f[] positions = %s
+    float3[] scales = %s
+    def Cube "proto"
+    {
+        double size = 0.5
+    }
+}"""
+
+
+@pytest.mark.parametrize(
+    ("flat", "without"),
+    [
+        (
+            Case("", 0, "", mesh="float3 xformOp:scale = (0, 1, 1)\n" + SCALE_ONLY, extra=BALL),
+            Case("", 0, "", mesh='token visibility = "invisible"', extra=BALL),
+        ),
+        (
+            Case("", 0, "", extra=FLAT_COPY % ("[0, 0]", "[(0, 0, 1), (0.6, 0, 1)]", "[(1, 1, 1), (1, 0, 1)]")),
+            Case("", 0, "", extra=FLAT_COPY % ("[0]", "[(0, 0, 1)]", "[(1, 1, 1)]")),
+        ),
+    ],
+    ids=["mesh", "instance"],
+)
+def test_an_object_scaled_flat_renders_as_nothing(
+    flat: Case, without: Case, tmp_path: Path, capsys
+) -> None:
+    """A scale of 0 on one axis (a common way to hide an object): nothing to see, and no ray
+    may carry the non-finite coordinates its inverse would give (Embree's checks abort)."""
+    images = []
+    for name, case in (("flat", flat), ("without", without)):
+        directory = tmp_path / name
+        directory.mkdir()
+        out = directory / "out.exr"
+        assert main([str(write_case(case, directory)), str(out), *SMALL]) == 0
+        images.append(np.asarray(_core.read_image(str(out))[0]))
+    assert np.array_equal(images[0], images[1])
+    assert images[0].max() > 0
 
 
 @pytest.mark.parametrize(

@@ -10,6 +10,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from ..errors import SceneError
+from .core_batch import MAX_COORDINATE
 from .sampling import DEFAULT_MAX_MOTION_SEGMENTS, SampleReader, Shutter, changes_within
 
 if TYPE_CHECKING:
@@ -98,6 +99,11 @@ def camera_problem(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
         return (
             f"{path}: the camera's world transform is not finite or not invertible "
             "(a NaN or a zero scale in its xformOps or an ancestor's)"
+        )
+    if np.abs(matrix[3, :3]).max() > MAX_COORDINATE:
+        return (
+            f"{path}: the camera's world transform translates it beyond {MAX_COORDINATE:g} "
+            "units, where single-precision rays cannot start"
         )
     return None
 

@@ -93,6 +93,22 @@ def shape_attributes(prim: Usd.Prim) -> list[Usd.Attribute]:
     return [prim.GetAttribute(a) for a in _SCHEMAS[name][1]] if name else []
 
 
+def shape_problem(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
+    """Why implicit ``prim``'s shaping attributes at ``time`` cannot be tessellated (naming
+    the attribute), or ``None``: lengths must be finite numbers >= 0, the axis X, Y or Z."""
+    name = _schema_of(prim)
+    for attr_name in _SCHEMAS[name][1] if name else ():
+        value = prim.GetAttribute(attr_name).Get(time)
+        if attr_name == "axis":
+            if str(value) not in ("X", "Y", "Z"):
+                return f"axis must be X, Y or Z, not {value!r}"
+        elif not isinstance(value, (int, float)) or isinstance(value, bool):
+            return f"{attr_name} has a value of type {type(value).__name__}, not a number"
+        elif not (math.isfinite(value) and value >= 0):
+            return f"{attr_name} must be a finite number >= 0, not {value:g}"
+    return None
+
+
 def tessellate(prim: Usd.Prim, time: Usd.TimeCode) -> GeneratedMesh:
     """The mesh of implicit ``prim`` with its attributes read at ``time``."""
     name = _schema_of(prim)

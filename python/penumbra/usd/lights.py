@@ -44,6 +44,22 @@ _SHADOW_INPUTS = _inputs("ShadowAPI")
 _COLOR_INPUTS = tuple(
     light_input.name for light_input in _core.light_inputs() if light_input.kind == "color"
 )
+_KINDS = {light_input.name: light_input.kind for light_input in _core.light_inputs()}
+
+
+def _has_kind(value, kind: str) -> bool:
+    """Whether an input's value can be sent as an input of ``kind`` ("float", "bool",
+    "color")."""
+    if kind == "float":
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind == "bool":
+        return isinstance(value, bool)
+    if kind == "color":
+        try:
+            return len(value) == 3 and all(_has_kind(c, "float") for c in value)
+        except TypeError:
+            return False
+    return True
 
 
 def sync_mesh_light(core, prim: Usd.Prim, prim_id: str, reader: SampleReader) -> None:
@@ -101,6 +117,14 @@ def sync_light(
     if prim.HasAPI(UsdLux.ShadowAPI):
         shadow = UsdLux.ShadowAPI(prim)
         params.update({name: reader.get(_getter(shadow, name)) for name in _SHADOW_INPUTS})
+    wrong = [name for name, value in params.items()
+             if value is not None and not _has_kind(value, _KINDS[name])]
+    for name in wrong:
+        warn(f"{path}: inputs:{name} has a value of type {type(params[name]).__name__}, not "
+             f"{_KINDS[name]}; the light is skipped (intensity 0)")
+        params[name] = prim.GetPrimDefinition().GetAttributeFallbackValue(f"inputs:{name}")
+    if wrong:
+        params["intensity"] = 0.0
     for name in _COLOR_INPUTS:
         if name in params:
             params[name] = tuple(float(c) for c in params[name])

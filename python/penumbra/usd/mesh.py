@@ -68,7 +68,7 @@ def sync_mesh_data(
             return _sync_nurbs_patch(core, prim, path, reader, warn, authored)
         if prim.IsA(UsdGeom.TetMesh):
             return _sync_tet_mesh(core, prim, path, reader, warn, authored)
-        return _sync_implicit(core, prim, path, reader, authored)
+        return _sync_implicit(core, prim, path, reader, warn, authored)
     attributes = _Attributes(prim, reader, authored)
     get = attributes.get
     arrays = []
@@ -307,19 +307,33 @@ def push_mesh(
 
 
 def _sync_implicit(
-    core, prim: Usd.Prim, path: str, reader: SampleReader, authored: Authored | None
+    core,
+    prim: Usd.Prim,
+    path: str,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    authored: Authored | None,
 ) -> bool:
     """Tessellate implicit surface ``prim`` (at the reader's time, and over its shutter when
-    a shaping attribute changes within it) and push it as a polygon mesh with smooth normals."""
+    a shaping attribute changes within it) and push it as a polygon mesh with smooth normals;
+    ``False`` after a warning when a shaping attribute is unusable."""
     attrs = implicit.shape_attributes(prim)
     for attr in attrs:
         reader.get(attr)  # notes whether the shape might vary with time
+    problem = implicit.shape_problem(prim, reader.time)
+    if problem:
+        warn(f"{path}: {problem}; skipped")
+        return False
     generated = implicit.tessellate(prim, reader.time)
     points = generated.points
     shutter = reader.shutter
     if shutter.blurred and any(changes_within(attr, shutter.interval) for attr in attrs):
         keys = [t for attr in attrs for t in attr.GetTimeSamplesInInterval(shutter.interval)]
         times = shutter.times(shutter.segments(keys))
+        problem = next(filter(None, (implicit.shape_problem(prim, time) for time in times)), None)
+        if problem:
+            warn(f"{path}: {problem} within the shutter; skipped")
+            return False
         samples = np.stack([implicit.tessellate(prim, time).points for time in times])
         if not all(np.array_equal(sample, samples[0]) for sample in samples):
             points = samples

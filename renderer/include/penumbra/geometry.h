@@ -318,6 +318,11 @@ class Geometry {
   Box worldBounds(const Placement& placement, bool enabled) const;
   /// Whether the placement's world bounds are finite and within kMaxCoordinate.
   bool withinReach(const Placement& placement) const;
+  /// Whether every step of the placement's transform has an inverse in single precision. One
+  /// that has none (a scale of 0 on some axis: the object is flat, or a point, and shows
+  /// nothing) is not placed, silently: Embree would trace rays with non-finite coordinates
+  /// through it (its debug builds abort on them).
+  static bool invertible(const Placement& placement);
   /// Installs the hit filters the mesh's sidedness and cut-outs call for and commits its BVH
   /// again; Embree then wants the instances placing it committed again (updateAllPlacements),
   /// and the top-level BVH rebuilt.
