@@ -1,9 +1,10 @@
 """Denoising with Intel Open Image Denoise (the ``pyoidn`` package), guided by the albedo and
 normal AOVs (docs/aovs.md, "Denoising").
 
-OIDN runs in a child process (``python -m penumbra._oidn``): its wheel brings its own TBB, and
-loading it beside the TBB that Embree and the renderer use made later renders in the same
-process crash.
+OIDN runs in a child process (``_oidn.py``): its wheel brings its own TBB, and loading it beside
+the TBB that Embree and the renderer use made later renders in the same process crash. The child
+runs the file as a script, not ``-m penumbra._oidn``: that would import the package first (the
+renderer's library and USD), which took most of a denoised render's time at 640x360.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 import io
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -33,7 +35,9 @@ def denoise_color(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> 
         normal=np.ascontiguousarray(np.clip(normal, -1.0, 1.0), dtype=np.float32),
     )
     result = subprocess.run(
-        [sys.executable, "-m", "penumbra._oidn"],
+        # -P: the script's folder (this package's, with modules named like the standard
+        # library's) does not go on sys.path.
+        [sys.executable, "-P", str(Path(__file__).with_name("_oidn.py"))],
         input=request.getvalue(),
         capture_output=True,
         check=False,
