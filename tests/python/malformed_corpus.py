@@ -168,6 +168,7 @@ CASES = [
     Case("cube size of an unknown type", 0, "/box: size has a value of type UnregisteredValue", extra='def Cube "box"\n{\n    ououble size = 0.2\n}'),
     Case("sphere radius negative", 0, "/ball: radius must be a finite number >= 0, not -1", extra='def Sphere "ball"\n{\n    double radius = -1\n}'),
     Case("cylinder axis unknown", 0, "/can: axis must be X, Y or Z, not 'W'", extra='def Cylinder "can"\n{\n    uniform token axis = "W"\n}'),
+    Case("protoIndices of an unknown type", 0, "/inst: protoIndices has a value of type UnregisteredValue", extra='def PointInstancer "inst"\n{\n    rel prototypes = [</inst/proto>]\n    hnt[] protoIndices = [0, 0]\n    point3f[] positions = [(0, 0, 0), (1, 0, 0)]\n    def Cube "proto"\n    {\n        double size = 0.2\n    }\n}'),
     Case("negative light intensity", 0, "/light", light="float inputs:intensity = -20"),
     Case("light input of an unknown type", 0, "/light: inputs:exposure has a value of type UnregisteredValue", light="floa1 inputs:exposure = 1"),
     Case("light input of the wrong type", 0, "/light: inputs:color has a value of type str", light='string inputs:color = "red"'),

@@ -36,7 +36,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom, UsdVol
+from pxr import Sdf, Usd, UsdGeom, UsdVol, Vt
 
 from .mesh import numeric_primvar, reads_as_mesh
 from .motion import ACCELERATION_SEGMENTS, XformCaches, transform_samples
@@ -309,7 +309,12 @@ class Flattener:
         path = prim.GetPath()
         frame = self.shutter.frame
         prototypes = instancer.GetPrototypesRel().GetForwardedTargets()
-        indices = np.asarray(instancer.GetProtoIndicesAttr().Get(frame) or [], dtype=np.int64)
+        authored = instancer.GetProtoIndicesAttr().Get(frame)
+        if authored is not None and not isinstance(authored, Vt.IntArray):
+            self.warn(f"{path}: protoIndices has a value of type {type(authored).__name__}, not "
+                      "int[]; the instancer is skipped")
+            return []
+        indices = np.asarray(authored or [], dtype=np.int64)
         if len(indices) == 0:
             return []
         if len(prototypes) == 0:
