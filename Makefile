@@ -116,6 +116,7 @@ sanitize: venv
 bench: build
 	$(VPY) bench/run.py cornell.usda dof.usda motion.usda glass.usda instances.usda
 	$(VPY) bench/quality.py
+	$(VPY) bench/camera_noise.py
 	$(VPY) bench/fingerprint.py
 	$(VPY) bench/denoise.py
 	$(VPY) bench/instances.py --instances 100000

@@ -13,6 +13,13 @@ counted), the mean of the two seeds. Time to 5 % interpolates rRMSE against time
 the two rungs of the spp ladder around 0.05; when the ladder does not reach (or starts below)
 0.05, it is extrapolated from the last (or first) two rungs and marked with *.
 
+Denoised (--denoised-spp, with a converged image): the same renders with ``denoise=True`` (OIDN,
+guided by albedo and normal: docs/aovs.md), each compared with the converged image directly,
+since a denoiser's error is mostly not noise that differs between seeds; the two seeds' rRMSEs
+are averaged and the time includes the denoiser, as bench/cycles_scenes.py measures Cycles with
+OIDN. Its ladder is rendered upwards until a rung is below 5 %; when the first is already, that
+rung is given as an upper bound (≤).
+
 Every image is rendered at time code 1 (as Cycles' were). Progress goes to stderr, the
 markdown tables to stdout.
 """
@@ -87,18 +94,21 @@ class Crossing:
 
 
 def render_rgb(
-    stage: Usd.Stage, args: argparse.Namespace, setting: Setting, seed: int
+    stage: Usd.Stage, args: argparse.Namespace, setting: Setting, seed: int,
+    denoise: bool = False,
 ) -> tuple[np.ndarray, float, float]:
-    """One render by a fresh Renderer: its RGB (float64), seconds (construction + render) and
-    the samples per pixel it took on average (fewer than ``samples`` with adaptive sampling).
-    ``args.render_options``, when set, are more keywords of ``render``."""
+    """One render by a fresh Renderer: its RGB (float64), seconds (construction + render, and
+    the denoiser with ``denoise``) and the samples per pixel it took on average (fewer than
+    ``samples`` with adaptive sampling). ``args.render_options``, when set, are more keywords
+    of ``render``."""
     started = time.perf_counter()
     with penumbra.Renderer(stage) as renderer:
         image = renderer.render(
             time=TIME_CODE, width=args.width, samples=setting.samples, seed=seed,
             adaptive_threshold=setting.adaptive_threshold,
             adaptive_min_samples=args.adaptive_min_samples, indirect_clamp=args.indirect_clamp,
-            glossy_filter=args.glossy_filter, **getattr(args, "render_options", {}),
+            glossy_filter=args.glossy_filter, denoise=denoise,
+            **getattr(args, "render_options", {}),
         )
         seconds = time.perf_counter() - started
     return image["color"][..., :3].astype(np.float64), seconds, image.metadata["meanSamples"]
@@ -139,6 +149,29 @@ def measure_ladder(
         Rung(samples, seconds, relative_rmse(a - b, reference) / math.sqrt(2))
         for samples, (a, b), seconds in renders
     ]
+
+
+def measure_denoised_ladder(
+    stage: Usd.Stage, label: str, args: argparse.Namespace, converged: np.ndarray
+) -> tuple[Crossing, bool]:
+    """Denoised renders of ``args.denoised_spp`` rungs upwards until one is below 5 %, each
+    image's rRMSE against ``converged``; where 5 % is crossed, and whether the first rung is
+    below it already (the crossing is then that rung: an upper bound)."""
+    rungs: list[Rung] = []
+    for samples in args.denoised_spp:
+        errors, seconds = [], []
+        for seed in args.seeds:
+            rgb, elapsed, _ = render_rgb(stage, args, Setting(samples), seed, denoise=True)
+            errors.append(relative_rmse(rgb - converged, converged))
+            seconds.append(elapsed)
+            progress(f"{label} denoised: {samples} spp, seed {seed}: {elapsed:.2f} s, "
+                     f"rRMSE {errors[-1]:.4f}")
+        rungs.append(Rung(samples, sum(seconds) / len(seconds), sum(errors) / len(errors)))
+        if rungs[-1].rrmse < TARGET_RRMSE:
+            break
+    if len(rungs) == 1 and rungs[0].rrmse < TARGET_RRMSE:
+        return Crossing(rungs[0].seconds, rungs[0].samples, False), True
+    return crossing(rungs), False
 
 
 def log_log_crossing(xs: Sequence[float], errors: Sequence[float]) -> tuple[float, bool]:
@@ -185,6 +218,16 @@ def cycles_numbers(readme: Path, measured: Path | None = None) -> dict[str, tupl
     return {name: (float(t), float(spp)) for name, t, spp in row.findall(readme.read_text())}
 
 
+def cycles_denoised_seconds(measured: Path | None) -> dict[str, float]:
+    """Cycles+OIDN's time to 5 % per scene from bench/cycles_scenes.py --json's file (the
+    shared README has none)."""
+    if measured is None:
+        return {}
+    numbers = json.loads(measured.read_text())
+    return {name: row["denoised_seconds"] for name, row in numbers.items()
+            if row.get("denoised_seconds") is not None}
+
+
 def format_number(value: float | None, digits: int = 3, marked: bool = False) -> str:
     if value is None:
         return "–"
@@ -205,7 +248,8 @@ def adaptive_ladder(args: argparse.Namespace) -> list[Setting]:
 
 
 def shared_scene_row(
-    name: str, args: argparse.Namespace, cycles: dict[str, tuple[float, float]]
+    name: str, args: argparse.Namespace, cycles: dict[str, tuple[float, float]],
+    cycles_denoised: dict[str, float],
 ) -> str:
     stage = Usd.Stage.Open(str(SCENES / f"{name}.usda"))
     converged: np.ndarray | None = None
@@ -242,6 +286,16 @@ def shared_scene_row(
             format_number(adaptive.seconds / cycles_seconds if cycles_seconds else None, 2,
                           marked=adaptive.extrapolated),
         ]
+    if args.converged_spp and args.denoised_spp:
+        denoised, bound = measure_denoised_ladder(stage, name, args, converged)
+        cycles_denoised_time = cycles_denoised.get(name)
+        prefix = "≤ " if bound else ""
+        cells += [
+            prefix + format_number(denoised.seconds, marked=denoised.extrapolated),
+            format_number(cycles_denoised_time),
+            format_number(denoised.seconds / cycles_denoised_time if cycles_denoised_time
+                          else None, 2, marked=denoised.extrapolated),
+        ]
     cells += [
         format_number(rrmse_at(rungs, 64), 2),
         format_number(luminance_difference, 2),
@@ -252,6 +306,7 @@ def shared_scene_row(
 
 def shared_scenes_table(args: argparse.Namespace) -> None:
     cycles = cycles_numbers(CYCLES / "README.md", args.cycles_json)
+    cycles_denoised = cycles_denoised_seconds(args.cycles_json)
     source = f"measured here ({args.cycles_json})" if args.cycles_json else "the shared README"
     print(f"Cycles' numbers: {source}.\n")
     clamp = f"indirect clamp {args.indirect_clamp:g}" if args.indirect_clamp else "no clamp"
@@ -267,13 +322,20 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
         print(f"Adaptive: thresholds {', '.join(f'{t:g}' for t in args.adaptive)}, at most "
               f"{args.adaptive_cap} spp, tested from {args.adaptive_min_samples} spp on.\n")
         adaptive = " adaptive time to 5 % (s) | adaptive ratio |"
+    denoised = ""
+    if args.converged_spp and args.denoised_spp:
+        print(f"Denoised (OIDN): ladder {', '.join(map(str, args.denoised_spp))} spp, each image "
+              f"against the converged one; Cycles+OIDN "
+              f"{'measured here' if cycles_denoised else 'not given (--cycles-json)'}; "
+              "≤: the first rung is below 5 % already.\n")
+        denoised = " denoised time to 5 % (s) | Cycles+OIDN (s) | denoised ratio |"
     print("| scene | spp at 5 % | Cycles spp at 5 % | time to 5 % (s) | Cycles (s) | ratio |"
-          + adaptive + " 64-spp rRMSE | converged mean lum vs Cycles (%) "
+          + adaptive + denoised + " 64-spp rRMSE | converged mean lum vs Cycles (%) "
           "| converged rRMSE vs Cycles |")
-    print("|---|" + "---:|" * (8 + (2 if args.adaptive else 0)))
+    print("|---|" + "---:|" * (8 + (2 if args.adaptive else 0) + (3 if denoised else 0)))
     for name in args.scenes:
         try:
-            print(shared_scene_row(name, args, cycles), flush=True)
+            print(shared_scene_row(name, args, cycles, cycles_denoised), flush=True)
         except penumbra.SceneError as error:
             print(f"| {name} | failed: {error} |", flush=True)
 
@@ -370,6 +432,9 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--converged-spp", type=int, default=1024,
                         help="samples per pixel of the converged image (0: skip it)")
     parser.add_argument("--width", type=int, default=640)
+    parser.add_argument("--denoised-spp", type=int, nargs="*", default=[1, 2, 4, 8, 16, 32],
+                        help="the ladder of denoised renders, ascending (needs --converged-spp; "
+                        "none: skip denoising)")
     parser.add_argument("--adaptive", type=float, nargs="*", default=[0.2, 0.1, 0.05, 0.025],
                         help="adaptive sampling thresholds, descending (none: skip adaptive)")
     parser.add_argument("--adaptive-cap", type=int, default=1024,
