@@ -158,6 +158,12 @@ void raiseRoughness(MaterialParams& material, float minAlpha) {
 /// The UsdPreviewSurface BSDF of a hit's material.
 PreviewSurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
                                           float ior, float minAlpha) {
+  // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
+  const DielectricKind dielectricKind =
+      hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet;
+  // Usually the material is taken as it is: no copy of it then.
+  if (!(minAlpha > 0) && !spectrum.spectral)
+    return PreviewSurfaceBsdf(hit.material, hit.shadingNormal, ior, dielectricKind, hit.tangent);
   MaterialParams material = hit.material;
   if (minAlpha > 0) raiseRoughness(material, minAlpha);
   if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
@@ -166,10 +172,7 @@ PreviewSurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const PathSpect
     material.sheenColor = spectrum.reflectance(material.sheenColor);
   if (spectrum.spectral && material.clearcoat > 0)
     material.clearcoatColor = spectrum.reflectance(material.clearcoatColor);
-  // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
-  return PreviewSurfaceBsdf(material, hit.shadingNormal, ior,
-                            hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet,
-                            hit.tangent);
+  return PreviewSurfaceBsdf(material, hit.shadingNormal, ior, dielectricKind, hit.tangent);
 }
 
 /// A hair material's fibre BSDF: σa is derived first (hairAbsorptionAt: a colour is converted
