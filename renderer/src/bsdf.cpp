@@ -140,8 +140,11 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     specularF0_ = lerp(dielectricF0, albedo, metallic);
     diffuseCoverF0_ = dielectricF0;
     diffuseCoverMultipleScattering_ = multipleScatteringScale(dielectricF0, averageAlbedo);
-    multipleScatteringScale_ = diffuseCoverMultipleScattering_ * (1 - metallic) +
-                               multipleScatteringScale(albedo, averageAlbedo) * metallic;
+    // Without metal the conductor's term would add exactly 0: it is not computed then.
+    multipleScatteringScale_ =
+        metallic > 0 ? diffuseCoverMultipleScattering_ * (1 - metallic) +
+                           multipleScatteringScale(albedo, averageAlbedo) * metallic
+                     : diffuseCoverMultipleScattering_;
     diffuseReflectance_ = albedo * (1 - metallic);
   }
   const float subsurface = clamp01(material.subsurface);
