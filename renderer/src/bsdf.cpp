@@ -141,10 +141,10 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     diffuseCoverF0_ = dielectricF0;
     diffuseCoverMultipleScattering_ = multipleScatteringScale(dielectricF0, averageAlbedo);
     // Without metal the conductor's term would add exactly 0: it is not computed then.
-    multipleScatteringScale_ =
-        metallic > 0 ? diffuseCoverMultipleScattering_ * (1 - metallic) +
-                           multipleScatteringScale(albedo, averageAlbedo) * metallic
-                     : diffuseCoverMultipleScattering_;
+    multipleScatteringScale_ = metallic > 0
+                                   ? diffuseCoverMultipleScattering_ * (1 - metallic) +
+                                         multipleScatteringScale(albedo, averageAlbedo) * metallic
+                                   : diffuseCoverMultipleScattering_;
     diffuseReflectance_ = albedo * (1 - metallic);
   }
   const float subsurface = clamp01(material.subsurface);
