@@ -140,8 +140,11 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     specularF0_ = lerp(dielectricF0, albedo, metallic);
     diffuseCoverF0_ = dielectricF0;
     diffuseCoverMultipleScattering_ = multipleScatteringScale(dielectricF0, averageAlbedo);
-    multipleScatteringScale_ = diffuseCoverMultipleScattering_ * (1 - metallic) +
-                               multipleScatteringScale(albedo, averageAlbedo) * metallic;
+    // Without metal the conductor's term would add exactly 0: it is not computed then.
+    multipleScatteringScale_ = metallic > 0
+                                   ? diffuseCoverMultipleScattering_ * (1 - metallic) +
+                                         multipleScatteringScale(albedo, averageAlbedo) * metallic
+                                   : diffuseCoverMultipleScattering_;
     diffuseReflectance_ = albedo * (1 - metallic);
   }
   const float subsurface = clamp01(material.subsurface);
@@ -270,16 +273,25 @@ PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(const Vec3f& wo
   return outgoing;
 }
 
+inline PreviewSurfaceBsdf::Reflection PreviewSurfaceBsdf::reflection(const Vec3f& wo,
+                                                                     const Vec3f& wi) const {
+  Reflection reflected;
+  reflected.h = normalize(wo + wi);
+  if (specularAlpha_.x > 0) reflected.specularDensity = ggxDensity(reflected.h, specularAlpha_);
+  if (coatAlpha_.x > 0) reflected.coatDensity = ggxDensity(reflected.h, coatAlpha_);
+  return reflected;
+}
+
 inline Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi,
+                                                const Outgoing& forWo, const Reflection& reflected,
                                                 Vec3f* diffusePart) const {
-  if (wi.z <= 0) return Vec3f(0.0f);
-  const Outgoing& forWo = outgoing(wo);
-  const Vec3f h = normalize(wo + wi);
+  const Vec3f& h = reflected.h;
   const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_};
   Vec3f base(0.0f), underSpecularForWi(1.0f);
   if (specularAlpha_.x > 0) {
     base += schlickFresnel(specularF0_, dot(wo, h)) *
-            ggxReflectionWithoutFresnel(wo, wi, h, specularAlpha_, forWo.specularLambda);
+            ggxReflectionWithoutFresnel(wo, wi, reflected.specularDensity, specularAlpha_,
+                                        forWo.specularLambda);
     // The diffuse layer's cover is the specular layer, with its own F0: one table entry each.
     const GgxAlbedoTable::Albedo ei = ggxDirectionalAlbedo(wi, specularAlpha_);
     if (specularAverageLoss_ > 0) {
@@ -301,8 +313,9 @@ inline Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi
   if (diffusePart) *diffusePart = tintUnderCoat(diffuse) * (coat * opacity_);
   Vec3f value = tintUnderCoat(base) * coat;
   if (clearcoat_ > 0 && coatAlpha_.x > 0) {
-    value += Vec3f(clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), dot(wo, h)).x *
-                   ggxReflectionWithoutFresnel(wo, wi, h, coatAlpha_, forWo.coatLambda));
+    value += Vec3f(
+        clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), dot(wo, h)).x *
+        ggxReflectionWithoutFresnel(wo, wi, reflected.coatDensity, coatAlpha_, forWo.coatLambda));
   }
   if (sheen_ > 0) {
     const float underSheen = forWo.sheenTransmittance;
@@ -312,15 +325,17 @@ inline Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi
   return value * opacity_;
 }
 
-inline float PreviewSurfaceBsdf::pdfOpaque(const Vec3f& wo, const Vec3f& wi,
-                                           const Outgoing& forWo) const {
-  if (wi.z <= 0) return 0;
+inline float PreviewSurfaceBsdf::pdfOpaque(const Vec3f& wo, const Vec3f& wi, const Outgoing& forWo,
+                                           const Reflection& reflected) const {
   const LobeProbabilities& p = forWo.probabilities;
-  const Vec3f h = normalize(wo + wi);
+  const Vec3f& h = reflected.h;
   float density = (p.multipleScattering + p.diffuse) * wi.z * kInvPi;
-  if (specularAlpha_.x > 0)
-    density += p.specular * ggxReflectionPdf(wo, h, specularAlpha_, forWo.specularLambda);
-  if (coatAlpha_.x > 0) density += p.coat * ggxReflectionPdf(wo, h, coatAlpha_, forWo.coatLambda);
+  if (specularAlpha_.x > 0) {
+    density +=
+        p.specular * ggxReflectionPdf(wo, h, reflected.specularDensity, forWo.specularLambda);
+  }
+  if (coatAlpha_.x > 0)
+    density += p.coat * ggxReflectionPdf(wo, h, reflected.coatDensity, forWo.coatLambda);
   if (sheen_ > 0) density += p.sheen * kUniformHemispherePdf;
   return density;
 }
@@ -351,7 +366,9 @@ Vec3f PreviewSurfaceBsdf::evaluate(const Vec3f& woWorld, const Vec3f& wiWorld,
   const OrientedPair pair = orient(frame_, woWorld, wiWorld);
   const Vec3f &wo = pair.wo, &wi = pair.wi;
   if (wo.z == 0 || wi.z == 0) return Vec3f(0.0f);
-  Vec3f value = opacity_ > 0 ? evaluateOpaque(wo, wi, diffusePart) : Vec3f(0.0f);
+  Vec3f value(0.0f);
+  if (opacity_ > 0 && wi.z > 0)
+    value = evaluateOpaque(wo, wi, outgoing(wo), reflection(wo, wi), diffusePart);
   if (opacity_ < 1 && dielectricAlpha_ > 0 && ior_ != 1) {
     const float eta = pair.flipped ? 1 / ior_ : ior_;
     value += Vec3f((1 - opacity_) * evaluateDielectric(wo, wi, eta));
@@ -365,11 +382,35 @@ float PreviewSurfaceBsdf::pdf(const Vec3f& woWorld, const Vec3f& wiWorld) const 
   if (wo.z == 0 || wi.z == 0) return 0;
   const Outgoing& forWo = outgoing(wo);
   const LobeProbabilities& p = forWo.probabilities;
-  float density = p.dielectric < 1 ? pdfOpaque(wo, wi, forWo) : 0.0f;
+  float density =
+      p.dielectric < 1 && wi.z > 0 ? pdfOpaque(wo, wi, forWo, reflection(wo, wi)) : 0.0f;
   if (p.dielectric > 0 && dielectricAlpha_ > 0 && ior_ != 1) {
     density += p.dielectric * pdfDielectric(wo, wi, pair.flipped ? 1 / ior_ : ior_);
   }
   return density;
+}
+
+BsdfEvaluation PreviewSurfaceBsdf::evaluateWithPdf(const Vec3f& woWorld, const Vec3f& wiWorld,
+                                                   Vec3f* diffusePart) const {
+  if (diffusePart) *diffusePart = Vec3f(0.0f);
+  const OrientedPair pair = orient(frame_, woWorld, wiWorld);
+  const Vec3f &wo = pair.wo, &wi = pair.wi;
+  BsdfEvaluation result{Vec3f(0.0f), 0.0f};
+  if (wo.z == 0 || wi.z == 0) return result;
+  const Outgoing& forWo = outgoing(wo);
+  const LobeProbabilities& p = forWo.probabilities;
+  const bool opaqueValue = opacity_ > 0, opaqueDensity = p.dielectric < 1;
+  if (wi.z > 0 && (opaqueValue || opaqueDensity)) {
+    const Reflection reflected = reflection(wo, wi);
+    if (opaqueValue) result.value = evaluateOpaque(wo, wi, forWo, reflected, diffusePart);
+    if (opaqueDensity) result.pdf = pdfOpaque(wo, wi, forWo, reflected);
+  }
+  if (dielectricAlpha_ > 0 && ior_ != 1) {
+    const float eta = pair.flipped ? 1 / ior_ : ior_;
+    if (opacity_ < 1) result.value += Vec3f((1 - opacity_) * evaluateDielectric(wo, wi, eta));
+    if (p.dielectric > 0) result.pdf += p.dielectric * pdfDielectric(wo, wi, eta);
+  }
+  return result;
 }
 
 std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float uLobe,
@@ -512,9 +553,10 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
   if (transmitted ? wi.z >= 0 : wi.z <= 0) return std::nullopt;
   result.direction = toWorld(wi);
   result.transmitted = transmitted;
-  result.pdf = pdf(woWorld, result.direction);
+  const BsdfEvaluation evaluated = evaluateWithPdf(woWorld, result.direction);
+  result.pdf = evaluated.pdf;
   if (!(result.pdf > 0)) return std::nullopt;
-  result.weight = evaluate(woWorld, result.direction) / result.pdf;
+  result.weight = evaluated.value / result.pdf;
   return result;
 }
 

@@ -155,23 +155,6 @@ void raiseRoughness(MaterialParams& material, float minAlpha) {
     material.transmissionRoughness = std::max(material.transmissionRoughness, minRoughness);
 }
 
-/// The UsdPreviewSurface BSDF of a hit's material.
-PreviewSurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum,
-                                          float ior, float minAlpha) {
-  MaterialParams material = hit.material;
-  if (minAlpha > 0) raiseRoughness(material, minAlpha);
-  if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
-  material.diffuseColor = spectrum.reflectance(material.diffuseColor);
-  if (spectrum.spectral && material.sheen > 0)
-    material.sheenColor = spectrum.reflectance(material.sheenColor);
-  if (spectrum.spectral && material.clearcoat > 0)
-    material.clearcoatColor = spectrum.reflectance(material.clearcoatColor);
-  // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
-  return PreviewSurfaceBsdf(material, hit.shadingNormal, ior,
-                            hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet,
-                            hit.tangent);
-}
-
 /// A hair material's fibre BSDF: σa is derived first (hairAbsorptionAt: a colour is converted
 /// with β_n as authored, as MaterialX's node converts it with its own), then the glossy filter
 /// raises β_m and β_n as it raises roughness; in spectral scenes the tints are upsampled as
@@ -201,8 +184,11 @@ HairBsdf makeHairBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float
 /// The scattering function at a hit: the UsdPreviewSurface BSDF, or a hair material's fibre BSDF.
 class SurfaceBsdf {
  public:
-  explicit SurfaceBsdf(PreviewSurfaceBsdf bsdf) : bsdf_(std::move(bsdf)) {}
   explicit SurfaceBsdf(HairBsdf bsdf) : bsdf_(std::move(bsdf)) {}
+  /// Constructs the BSDF in place from `arguments` (a BSDF is some 250 bytes: no copy of it).
+  template <class Bsdf, class... Arguments>
+  explicit SurfaceBsdf(std::in_place_type_t<Bsdf> type, Arguments&&... arguments)
+      : bsdf_(type, std::forward<Arguments>(arguments)...) {}
 
   Vec3f evaluate(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart) const {
     return std::visit([&](const auto& b) { return b.evaluate(wo, wi, diffusePart); }, bsdf_);
@@ -224,12 +210,35 @@ class SurfaceBsdf {
   std::variant<PreviewSurfaceBsdf, HairBsdf> bsdf_;
 };
 
+/// The UsdPreviewSurface BSDF of a hit's material.
+SurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior,
+                                   float minAlpha) {
+  constexpr std::in_place_type_t<PreviewSurfaceBsdf> kPreviewSurface;
+  // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
+  const DielectricKind dielectricKind =
+      hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet;
+  // Usually the material is taken as it is: no copy of it then.
+  if (!(minAlpha > 0) && !spectrum.spectral)
+    return SurfaceBsdf(kPreviewSurface, hit.material, hit.shadingNormal, ior, dielectricKind,
+                       hit.tangent);
+  MaterialParams material = hit.material;
+  if (minAlpha > 0) raiseRoughness(material, minAlpha);
+  if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
+  material.diffuseColor = spectrum.reflectance(material.diffuseColor);
+  if (spectrum.spectral && material.sheen > 0)
+    material.sheenColor = spectrum.reflectance(material.sheenColor);
+  if (spectrum.spectral && material.clearcoat > 0)
+    material.clearcoatColor = spectrum.reflectance(material.clearcoatColor);
+  return SurfaceBsdf(kPreviewSurface, material, hit.shadingNormal, ior, dielectricKind,
+                     hit.tangent);
+}
+
 /// `ior`: the material's, or its value at the hero wavelength under dispersion; `minAlpha`: the
 /// glossy filter's (filteredAlpha).
 SurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior,
                      float minAlpha) {
   if (hit.material.hair) return SurfaceBsdf(makeHairBsdf(hit, spectrum, minAlpha));
-  return SurfaceBsdf(makePreviewSurfaceBsdf(hit, spectrum, ior, minAlpha));
+  return makePreviewSurfaceBsdf(hit, spectrum, ior, minAlpha);
 }
 
 /// Whether paths may be guided at a surface (and train the guide there): opaque, rough, not

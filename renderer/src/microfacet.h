@@ -161,28 +161,33 @@ inline float ggxVisibleNormalPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha
 }
 
 /// f · cos θi of single-scattering GGX reflection without Fresnel: D G2 / (4 cos θo), given
-/// Λ(wo) = lambdaO.
+/// D(h) = density and Λ(wo) = lambdaO (a BSDF evaluating and taking the density of one
+/// direction computes D once for both).
+inline float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, float density,
+                                         GgxAlpha alpha, float lambdaO) {
+  const float lambdaI =
+      alpha.isotropic() ? ggxLambdaOf<false>(wi, alpha) : ggxLambdaOf<true>(wi, alpha);
+  const float maskingShadowing = 1 / (1 + lambdaO + lambdaI);
+  return density * maskingShadowing / (4 * wo.z);
+}
 inline float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, const Vec3f& h,
                                          GgxAlpha alpha, float lambdaO) {
-  if (alpha.isotropic()) {
-    const float maskingShadowing = 1 / (1 + lambdaO + ggxLambdaOf<false>(wi, alpha));
-    return ggxDensityOf<false>(h, alpha) * maskingShadowing / (4 * wo.z);
-  }
-  const float maskingShadowing = 1 / (1 + lambdaO + ggxLambdaOf<true>(wi, alpha));
-  return ggxDensityOf<true>(h, alpha) * maskingShadowing / (4 * wo.z);
+  return ggxReflectionWithoutFresnel(wo, wi, ggxDensity(h, alpha), alpha, lambdaO);
 }
 inline float ggxReflectionWithoutFresnel(const Vec3f& wo, const Vec3f& wi, const Vec3f& h,
                                          GgxAlpha alpha) {
   return ggxReflectionWithoutFresnel(wo, wi, h, alpha, ggxLambda(wo, alpha));
 }
 /// Solid-angle density of wi = reflect(wo, h) with h sampled by sampleGgxVisibleNormal, given
-/// Λ(wo) = lambdaO.
-inline float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha, float lambdaO) {
+/// D(h) = density and Λ(wo) = lambdaO.
+inline float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, float density, float lambdaO) {
   const float cosThetaOH = dot(wo, h);
   if (!(cosThetaOH > 0)) return 0.0f;
-  const float visible = alpha.isotropic() ? ggxVisibleNormalPdfOf<false>(wo, h, alpha, lambdaO)
-                                          : ggxVisibleNormalPdfOf<true>(wo, h, alpha, lambdaO);
+  const float visible = 1 / (1 + lambdaO) * cosThetaOH * density / wo.z;
   return visible / (4 * cosThetaOH);
+}
+inline float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha, float lambdaO) {
+  return ggxReflectionPdf(wo, h, ggxDensity(h, alpha), lambdaO);
 }
 inline float ggxReflectionPdf(const Vec3f& wo, const Vec3f& h, GgxAlpha alpha) {
   return ggxReflectionPdf(wo, h, alpha, ggxLambda(wo, alpha));

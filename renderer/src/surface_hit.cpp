@@ -9,12 +9,15 @@ std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, R
   const std::optional<GeometryHit> found = scene.geometry().intersect(ray, kind);
   if (!found) return std::nullopt;
 
-  SurfaceHit hit;
+  // Built in place in what is returned: a SurfaceHit is some 400 bytes, copied at every hit
+  // otherwise.
+  std::optional<SurfaceHit> shaded(std::in_place);
+  SurfaceHit& hit = *shaded;
   hit.distance = found->distance;
   hit.position = ray.origin + ray.direction * hit.distance;
   if (kind == RayKind::Camera && found->pass.matte) {
     hit.matte = true;
-    return hit;
+    return shaded;
   }
   const Transform objectToWorld = found->objectToWorld->at(ray.time);
   SurfaceGeometry surface = found->shape->surfaceAt(found->primitive, found->u, found->v, ray.time,
@@ -74,7 +77,7 @@ std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, R
     if (dot(ray.direction, hit.normal) < 0)
       hit.emission = lights.all()[size_t(lightIndex)].radiance();
   }
-  return hit;
+  return shaded;
 }
 
 }  // namespace penumbra

@@ -365,6 +365,48 @@ TEST(BsdfSample, WeightIsEvaluateOverPdf) {
   EXPECT_GT(checked, 1000);
 }
 
+// The integrator takes both from one call where it needs both: they must be the very same bits.
+TEST(BsdfEvaluate, WithPdfIsEvaluateAndPdfBitForBit) {
+  MaterialParams layered;
+  layered.diffuseColor = Vec3f(0.7f, 0.5f, 0.2f);
+  layered.metallic = 0.5f;
+  layered.roughness = 0.35f;
+  layered.clearcoat = 0.5f;
+  layered.clearcoatRoughness = 0.2f;
+  layered.opacity = 0.7f;
+  layered.sheen = 0.6f;
+  MaterialParams anisotropic = layered;
+  anisotropic.anisotropy = 0.6f;
+  anisotropic.clearcoatAnisotropy = 0.3f;
+  MaterialParams plastic;
+  plastic.diffuseColor = Vec3f(0.8f, 0.15f, 0.1f);
+  plastic.roughness = 0.35f;
+  const auto same = [](const Vec3f& a, const Vec3f& b) {
+    return a.x == b.x && a.y == b.y && a.z == b.z;
+  };
+  int nonZero = 0;
+  for (const MaterialParams& m : {layered, anisotropic, plastic, glass(0.3f), whiteMetal(0.5f)}) {
+    for (const DielectricKind kind : {DielectricKind::Solid, DielectricKind::ThinSheet}) {
+      const PreviewSurfaceBsdf bsdf = makeBsdf(m, kind);
+      for (uint32_t i = 0; i < 512; ++i) {
+        SampleStream stream(7, 7, 7, i);
+        const Vec2f u = stream.next2D(), v = stream.next2D();
+        const Vec3f wo = directionAt(2 * u.x - 1, 2 * kPi * u.y);
+        const Vec3f wi = directionAt(2 * v.x - 1, 2 * kPi * v.y);
+        Vec3f diffuse, diffuseTogether;
+        const Vec3f f = bsdf.evaluate(wo, wi, &diffuse);
+        const float pdf = bsdf.pdf(wo, wi);
+        const BsdfEvaluation together = bsdf.evaluateWithPdf(wo, wi, &diffuseTogether);
+        EXPECT_TRUE(same(together.value, f));
+        EXPECT_TRUE(same(diffuseTogether, diffuse));
+        EXPECT_EQ(together.pdf, pdf);
+        nonZero += pdf > 0 && !isBlack(f);
+      }
+    }
+  }
+  EXPECT_GT(nonZero, 2000);  // most pairs scatter: the comparison saw real values
+}
+
 TEST(BsdfEvaluate, ReflectionIsReciprocal) {
   MaterialParams layered;
   layered.diffuseColor = Vec3f(0.9f, 0.4f, 0.2f);

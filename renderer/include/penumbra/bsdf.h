@@ -104,6 +104,12 @@ struct BsdfSample {
   bool transmitted = false;  // wi is on the other side of the shading normal than wo
 };
 
+/// A BSDF's value and density for one pair of directions (evaluateWithPdf).
+struct BsdfEvaluation {
+  Vec3f value;    // f(wo, wi) · |cos θi| over the non-delta lobes, as evaluate()
+  float pdf = 0;  // as pdf()
+};
+
 /// How the translucent part treats the side behind its shading normal. The renderer cannot tell
 /// from a single hit whether a mesh is closed; the integrator (or the scene, e.g. by checking that
 /// every edge of a mesh has exactly two faces) must choose:
@@ -140,6 +146,10 @@ class PreviewSurfaceBsdf {
   /// integrates to the probability of choosing a non-delta lobe (less the rare samples a
   /// microfacet lobe sends below the surface), which is all MIS needs.
   float pdf(const Vec3f& wo, const Vec3f& wi) const;
+  /// evaluate() and pdf() at once, bit for bit the same, for callers that need both: the local
+  /// directions, the half vector and the microfacet densities there are computed once.
+  BsdfEvaluation evaluateWithPdf(const Vec3f& wo, const Vec3f& wi,
+                                 Vec3f* diffusePart = nullptr) const;
   /// Chooses a lobe with `uLobe` (by its estimated albedo) and a direction in it with `u`.
   /// Non-delta samples are weighted against the whole BSDF (weight = evaluate / pdf), so the
   /// result does not depend on which lobe produced the direction. Empty when nothing scatters.
@@ -176,11 +186,23 @@ class PreviewSurfaceBsdf {
   /// What the sheen lets through to the layers under it for wo at cos θo: 1 − s·E_sh(μo).
   float sheenTransmittance(float cosThetaO) const;
 
+  /// What the opaque part's value and density share for a pair of local directions with
+  /// wo.z > 0 and wi.z > 0: the half vector and the GGX densities D(h) of the rough specular
+  /// and clearcoat lobes (0 for delta lobes).
+  struct Reflection {
+    Vec3f h;
+    float specularDensity = 0, coatDensity = 0;
+  };
+  Reflection reflection(const Vec3f& wo, const Vec3f& wi) const;
+
   /// Everything below in the local frame (z = shading normal); "opaque" functions expect
-  /// wo.z > 0, "dielectric" functions wo.z > 0 and the relative index η = n(wi side)/n(wo side)
-  /// of the reflection–refraction pair (1 for a thin sheet).
-  Vec3f evaluateOpaque(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart = nullptr) const;
-  float pdfOpaque(const Vec3f& wo, const Vec3f& wi, const Outgoing& forWo) const;
+  /// wo.z > 0 (and wi.z > 0 with a Reflection), "dielectric" functions wo.z > 0 and the
+  /// relative index η = n(wi side)/n(wo side) of the reflection–refraction pair (1 for a thin
+  /// sheet).
+  Vec3f evaluateOpaque(const Vec3f& wo, const Vec3f& wi, const Outgoing& forWo,
+                       const Reflection& reflected, Vec3f* diffusePart) const;
+  float pdfOpaque(const Vec3f& wo, const Vec3f& wi, const Outgoing& forWo,
+                  const Reflection& reflected) const;
   float evaluateDielectric(const Vec3f& wo, const Vec3f& wi, float eta) const;
   float evaluateDielectricSingleScattering(const Vec3f& wo, const Vec3f& wi, float eta) const;
   /// Directional albedo of the single-scattering dielectric lobe (reflected plus transmitted flux).
