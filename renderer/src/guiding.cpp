@@ -12,6 +12,8 @@ namespace {
 
 constexpr float kSquareToSolidAngle = 1 / (4 * kPi);  // density on the square → per steradian
 constexpr int kMaxSpatialDepth = 48;                  // coincident records cannot be split apart
+/// The guide probabilities a cell chooses from (GuidingField::build).
+constexpr std::array<float, 6> kGuideProbabilities{0.125f, 0.25f, 0.375f, 0.5f, 0.625f, 0.75f};
 
 float coordinate(const Vec3f& v, uint32_t axis) {
   return axis == 0 ? v.x : axis == 1 ? v.y : v.z;
@@ -37,11 +39,15 @@ class FluxPyramid {
     }
   }
   int depth() const { return int(flux_.size()) - 1; }
-  void add(const Vec2f& square, float flux) {
+  /// The finest level's column and row holding `square`.
+  std::array<size_t, 2> finest(const Vec2f& square) const {
     const int resolution = 1 << depth();
-    const int u = std::min(int(square.x * float(resolution)), resolution - 1);
-    const int v = std::min(int(square.y * float(resolution)), resolution - 1);
-    const size_t cell = size_t(v) * size_t(resolution) + size_t(u);
+    return {size_t(std::min(int(square.x * float(resolution)), resolution - 1)),
+            size_t(std::min(int(square.y * float(resolution)), resolution - 1))};
+  }
+  void add(const Vec2f& square, float flux) {
+    const auto [u, v] = finest(square);
+    const size_t cell = index(depth(), u, v);
     flux_.back()[cell] += flux;
     ++counts_.back()[cell];
   }
@@ -115,7 +121,7 @@ std::vector<GuidingRecord> GuidingRecorder::take() {
   return all;
 }
 
-Vec3f DirectionalDistribution::sample(float uChoice, Vec2f u) const {
+Vec3f DirectionalDistribution::sample(float uChoice, Vec2f u, float* pdf) const {
   uint32_t node = 0;
   Vec2f origin{0, 0};
   float size = 1;
@@ -142,6 +148,7 @@ Vec3f DirectionalDistribution::sample(float uChoice, Vec2f u) const {
     origin.y += size * float(chosen >> 1);
     node = first + uint32_t(chosen);
   }
+  *pdf = density_[node];
   return squareToDirection(
       {std::min(origin.x + size * u.x, 1.0f), std::min(origin.y + size * u.y, 1.0f)});
 }
@@ -149,15 +156,8 @@ Vec3f DirectionalDistribution::sample(float uChoice, Vec2f u) const {
 float DirectionalDistribution::pdf(const Vec3f& direction) const {
   Vec2f point = directionToSquare(direction);
   uint32_t node = 0;
-  float density = 1;  // on the square
-  while (children_[node] != 0) {
-    const uint32_t first = children_[node];
-    const float total = share_[first] + share_[first + 1] + share_[first + 2] + share_[first + 3];
-    const uint32_t child = first + uint32_t(quadrant(&point));
-    density *= 4 * share_[child] / total;
-    node = child;
-  }
-  return density * kSquareToSolidAngle;
+  while (children_[node] != 0) node = children_[node] + uint32_t(quadrant(&point));
+  return density_[node];
 }
 
 GuidingField GuidingField::build(std::vector<GuidingRecord> records, const Settings& settings) {
@@ -232,10 +232,12 @@ GuidingField GuidingField::build(std::vector<GuidingRecord> records, const Setti
   std::vector<char> usable(cells.size(), 0);
   tbb::parallel_for(size_t(0), cells.size(), [&](size_t c) {
     const Cell& cell = cells[c];
+    const auto fluxOf = [](const GuidingRecord& record) {
+      return record.flux > 0 && std::isfinite(record.flux) ? record.flux : 0.0f;
+    };
     FluxPyramid pyramid(settings.maxDirectionalDepth);
     for (size_t i = cell.begin; i < cell.end; ++i)
-      pyramid.add(records[i].direction,
-                  records[i].flux > 0 && std::isfinite(records[i].flux) ? records[i].flux : 0.0f);
+      pyramid.add(records[i].direction, fluxOf(records[i]));
     pyramid.sumUp();
     const float total = pyramid.flux(0, 0, 0);
     if (!(total > 0) || !std::isfinite(total)) return;
@@ -247,6 +249,7 @@ GuidingField GuidingField::build(std::vector<GuidingRecord> records, const Setti
     };
     distribution.children_.push_back(0);
     distribution.share_.push_back(1);
+    distribution.density_.push_back(kSquareToSolidAngle);
     std::vector<Square> queue{{0, 0, 0, 0}};
     for (size_t q = 0; q < queue.size(); ++q) {
       const Square square = queue[q];
@@ -258,13 +261,61 @@ GuidingField GuidingField::build(std::vector<GuidingRecord> records, const Setti
         continue;
       const uint32_t first = uint32_t(distribution.share_.size());
       distribution.children_[square.node] = first;
+      float childrenShare = 0;
       for (size_t k = 0; k < 4; ++k) {
         const size_t u = 2 * square.u + (k & 1), v = 2 * square.v + (k >> 1);
         distribution.children_.push_back(0);
-        distribution.share_.push_back(pyramid.flux(square.level + 1, u, v) / total);
+        childrenShare +=
+            distribution.share_.emplace_back(pyramid.flux(square.level + 1, u, v) / total);
         queue.push_back({first + uint32_t(k), square.level + 1, u, v});
       }
+      // sample() picks a child by its share of the four: its density on the square is the
+      // parent's times 4 times that.
+      for (uint32_t k = 0; k < 4; ++k)
+        distribution.density_.push_back(distribution.density_[square.node] *
+                                        (4 * distribution.share_[first + k] / childrenShare));
     }
+
+    // The guide probability α: the one under which the cell's training estimates c (drawn
+    // from the BSDF's density p) would have had the least second moment, E_p[c² p / q] with
+    // q = α g + (1 − α) p, against E_p[c²] without guiding. g at each record leaves out the
+    // record's own flux, so that a lone bright record does not vouch for the guide it shaped.
+    std::array<double, kGuideProbabilities.size()> guided{};
+    double unguided = 0;
+    const int depth = pyramid.depth();
+    for (size_t i = cell.begin; i < cell.end; ++i) {
+      const GuidingRecord& record = records[i];
+      const float estimate = std::isfinite(record.estimate) ? record.estimate : 0.0f;
+      if (!(estimate > 0) || !(record.sampledPdf > 0) || !std::isfinite(record.sampledPdf))
+        continue;
+      // The record's leaf, found by the finest grid cell it was counted in.
+      const auto [u, v] = pyramid.finest(record.direction);
+      uint32_t node = 0;
+      int level = 0;
+      while (distribution.children_[node] != 0) {
+        ++level;
+        const int shift = depth - level;
+        node =
+            distribution.children_[node] + uint32_t(((u >> shift) & 1) | (((v >> shift) & 1) << 1));
+      }
+      const int shift = depth - level;
+      const float flux = fluxOf(record);
+      const float othersFlux = total - flux;
+      const float leafFlux = std::max(pyramid.flux(level, u >> shift, v >> shift) - flux, 0.0f);
+      const double guidePdf = othersFlux > 0
+                                  ? double(leafFlux) / othersFlux *
+                                        double(size_t(1) << (2 * level)) * kSquareToSolidAngle
+                                  : 0.0;
+      const double p = record.sampledPdf, squared = double(estimate) * estimate;
+      unguided += squared;
+      for (size_t a = 0; a < kGuideProbabilities.size(); ++a) {
+        const double alpha = kGuideProbabilities[a];
+        guided[a] += squared * p / (alpha * guidePdf + (1 - alpha) * p);
+      }
+    }
+    const size_t best = size_t(std::min_element(guided.begin(), guided.end()) - guided.begin());
+    if (!(guided[best] < (1 - double(settings.minSecondMomentGain)) * unguided)) return;
+    distribution.guideProbability_ = kGuideProbabilities[best];
     usable[c] = 1;
   });
   for (size_t c = 0; c < cells.size(); ++c) {

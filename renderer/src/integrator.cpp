@@ -250,12 +250,12 @@ bool guidable(const SurfaceHit& hit, const SurfaceBsdf& bsdf) {
 }
 
 /// A surface's BSDF beside the guiding field's distribution at its vertex (one-sample MIS: a
-/// direction comes from the field with probability kGuideProbability, else from the BSDF, and
+/// direction comes from the field with the cell's guide probability, else from the BSDF, and
 /// is weighted by the mixture of the two densities). Without a distribution it is the BSDF.
 class GuidedBsdf {
  public:
   GuidedBsdf(const SurfaceBsdf& bsdf, const DirectionalDistribution* guide)
-      : bsdf_(bsdf), guide_(guide) {}
+      : bsdf_(bsdf), guide_(guide), probability_(guide ? guide->guideProbability() : 0.0f) {}
 
   Vec3f evaluate(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart) const {
     return bsdf_.evaluate(wo, wi, diffusePart);
@@ -267,13 +267,15 @@ class GuidedBsdf {
   /// `uChoice` picks the strategy (and, rescaled, the BSDF's lobe or the guide's leaf).
   std::optional<BsdfSample> sample(const Vec3f& wo, float uChoice, Vec2f u) const {
     if (!guide_) return bsdf_.sample(wo, uChoice, u);
-    if (uChoice < kGuideProbability) {
+    if (uChoice < probability_) {
       BsdfSample sample;
-      sample.direction = guide_->sample(uChoice / kGuideProbability, u);
+      float guidePdf = 0;
+      sample.direction = guide_->sample(uChoice / probability_, u, &guidePdf);
       Vec3f diffusePart;
       const Vec3f f = bsdf_.evaluate(wo, sample.direction, &diffusePart);
-      sample.pdf = mixedPdf(guide_->pdf(sample.direction), bsdf_.pdf(wo, sample.direction));
-      if (isBlack(f) || !(sample.pdf > 0)) return std::nullopt;
+      if (isBlack(f)) return std::nullopt;
+      sample.pdf = mixedPdf(guidePdf, bsdf_.pdf(wo, sample.direction));
+      if (!(sample.pdf > 0)) return std::nullopt;
       sample.weight = f / sample.pdf;
       // Which lobe the direction counts for (depth caps, ray visibility, light multipliers).
       sample.lobe =
@@ -281,11 +283,11 @@ class GuidedBsdf {
       return sample;
     }
     std::optional<BsdfSample> sample = bsdf_.sample(
-        wo, std::min((uChoice - kGuideProbability) / (1 - kGuideProbability), 0x1.fffffep-1f), u);
+        wo, std::min((uChoice - probability_) / (1 - probability_), 0x1.fffffep-1f), u);
     if (!sample) return sample;
     if (sample->isDelta) {
-      sample->weight = sample->weight / (1 - kGuideProbability);
-      sample->pdf *= 1 - kGuideProbability;
+      sample->weight = sample->weight / (1 - probability_);
+      sample->pdf *= 1 - probability_;
     } else {
       // The BSDF's weight is f / its pdf: rescaled to f / the mixture's.
       const float pdf = mixedPdf(guide_->pdf(sample->direction), sample->pdf);
@@ -296,12 +298,13 @@ class GuidedBsdf {
   }
 
  private:
-  static float mixedPdf(float guidePdf, float bsdfPdf) {
-    return kGuideProbability * guidePdf + (1 - kGuideProbability) * bsdfPdf;
+  float mixedPdf(float guidePdf, float bsdfPdf) const {
+    return probability_ * guidePdf + (1 - probability_) * bsdfPdf;
   }
 
   const SurfaceBsdf& bsdf_;
   const DirectionalDistribution* guide_;
+  float probability_;  // of drawing from guide_
 };
 
 /// The vertices of a training path that the guide learns from: the direction each left in,
@@ -310,12 +313,19 @@ class GuidingTrainer {
  public:
   static constexpr int kMaxVertices = 16;
 
-  void addVertex(const Vec3f& position, const Vec3f& normal, const Vec3f& direction, float pdf,
+  /// `scattered`: the BSDF's sample there; `throughput`: the path's after it.
+  void addVertex(const Vec3f& position, const Vec3f& normal, const BsdfSample& scattered,
                  const Vec3f& throughput, int bounce) {
     if (count_ == kMaxVertices) return;
-    vertices_[size_t(count_++)] = {
-        position,   orientationOf(normal), direction, std::max(dot(normal, direction), 0.0f) / pdf,
-        throughput, Vec3f(0.0f),           bounce};
+    vertices_[size_t(count_++)] = {position,
+                                   orientationOf(normal),
+                                   scattered.direction,
+                                   std::max(dot(normal, scattered.direction), 0.0f) / scattered.pdf,
+                                   scattered.pdf,
+                                   scattered.weight,
+                                   throughput,
+                                   Vec3f(0.0f),
+                                   bounce};
   }
   /// Light reaching the camera by way of every vertex so far.
   void addLight(const Vec3f& light) {
@@ -339,6 +349,8 @@ class GuidingTrainer {
       r.orientation = v.orientation;
       r.direction = directionToSquare(v.direction);
       r.flux = std::max(luminance(incident), 0.0f) * v.cosineOverPdf;
+      r.sampledPdf = v.pdf;
+      r.estimate = std::max(luminance(incident * v.weight), 0.0f);
       r.key = GuidingRecord::makeKey(uint32_t(x), uint32_t(y), sampleIndex, uint32_t(v.bounce));
     }
     recorder.add(records.data(), size_t(count_));
@@ -350,6 +362,8 @@ class GuidingTrainer {
     uint32_t orientation;
     Vec3f direction;
     float cosineOverPdf;  // |cos θ| over the direction's density
+    float pdf;
+    Vec3f weight;  // the BSDF sample's f·|cos θ| / pdf
     Vec3f throughput, light;
     int bounce;
   };
@@ -720,8 +734,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       break;
     throughput *= scattered->weight;
     if (training && guided && !scattered->isDelta)
-      trainer.addVertex(hit->position, facingNormal, scattered->direction, scattered->pdf,
-                        throughput, bounce);
+      trainer.addVertex(hit->position, facingNormal, *scattered, throughput, bounce);
     // Where the path goes on from: here, or where a subsurface random walk left the solid.
     BsdfSample next = *scattered;
     Receiver nextReceiver = receiver;

@@ -26,7 +26,9 @@ const Vec3f kUp{0, 1, 0};
 const Vec3f kBright = normalize(Vec3f(0.3f, 1, 0.2f));  // where the training light comes from
 
 /// Records of a surface facing up near the origin: most flux from a 10° cone about kBright, a
-/// little from everywhere above; `count` of them, in a random order.
+/// little from everywhere above; `count` of them, in a random order. Their estimates are
+/// taken as a uniform hemisphere sampler's (the density the guide competes with), which the
+/// cone's flux beats.
 std::vector<GuidingRecord> coneRecords(size_t count, uint32_t seed) {
   std::mt19937 random(seed);
   std::uniform_real_distribution<float> uniform(0, 1);
@@ -43,6 +45,8 @@ std::vector<GuidingRecord> coneRecords(size_t count, uint32_t seed) {
     const Vec3f direction = inCone ? frame.toWorld(local) : Vec3f(local.x, local.z, local.y);
     r.direction = directionToSquare(direction);
     r.flux = inCone ? 1.0f : 0.01f;
+    r.sampledPdf = 1 / (2 * kPi);
+    r.estimate = r.flux;
     r.key = GuidingRecord::makeKey(uint32_t(i % 1000), uint32_t(i / 1000), 0, 0);
   }
   return records;
@@ -85,17 +89,22 @@ TEST(Guiding, DistributionSamplesItsOwnDensityWhichIntegratesToOne) {
   // E[1 / pdf(ω)] over its own samples is the solid angle where pdf > 0, and most samples
   // fall where most of the flux came from.
   double inverseDensity = 0;
-  int inCone = 0;
+  int inCone = 0, sameDensity = 0;
   for (int i = 0; i < n; ++i) {
-    const Vec3f direction = guide->sample(uniform(random), {uniform(random), uniform(random)});
+    float pdf = 0;
+    const Vec3f direction =
+        guide->sample(uniform(random), {uniform(random), uniform(random)}, &pdf);
     EXPECT_NEAR(length(direction), 1, 1e-4f);
-    const float pdf = guide->pdf(direction);
     ASSERT_GT(pdf, 0);
+    // The leaf's density is the one pdf() finds for the direction (but where rounding moves a
+    // direction on a leaf's edge across it).
+    sameDensity += guide->pdf(direction) == pdf;
     inverseDensity += 1 / pdf;
     inCone += dot(direction, kBright) > std::cos(15 * kPi / 180);
   }
   EXPECT_NEAR(inverseDensity / n / (4 * M_PI * support / n), 1.0, 0.03);
   EXPECT_GT(double(inCone) / n, 0.8);
+  EXPECT_GT(double(sameDensity) / n, 0.999);
 }
 
 TEST(Guiding, FieldDoesNotDependOnTheRecordsOrder) {
@@ -112,8 +121,57 @@ TEST(Guiding, FieldDoesNotDependOnTheRecordsOrder) {
     ASSERT_NE(b, nullptr);
     const Vec3f direction = uniformSphere(random);
     EXPECT_EQ(a->pdf(direction), b->pdf(direction));
-    EXPECT_EQ(length(a->sample(0.3f, {0.6f, 0.2f}) - b->sample(0.3f, {0.6f, 0.2f})), 0.0f);
+    float pdfA = 0, pdfB = 0;
+    EXPECT_EQ(length(a->sample(0.3f, {0.6f, 0.2f}, &pdfA) - b->sample(0.3f, {0.6f, 0.2f}, &pdfB)),
+              0.0f);
+    EXPECT_EQ(pdfA, pdfB);
+    EXPECT_EQ(a->guideProbability(), b->guideProbability());
   }
+}
+
+namespace {
+
+/// `count` training records of a white Lambertian floor facing up near the origin, sampled
+/// as its BSDF samples (cosine-weighted): radiance 1 from everywhere, but `peak` from a 10°
+/// cone about kBright, and `firefly` from the first record's direction.
+std::vector<GuidingRecord> floorRecords(size_t count, float peak, float firefly = 1) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<float> uniform(0, 1);
+  std::vector<GuidingRecord> records(count);
+  for (size_t i = 0; i < count; ++i) {
+    GuidingRecord& r = records[i];
+    r.position = {uniform(random) * 0.1f, 0, uniform(random) * 0.1f};
+    r.orientation = orientationOf(kUp);
+    const Vec3f local = sampleCosineHemisphere({uniform(random), uniform(random)});
+    const Vec3f direction{local.x, local.z, local.y};
+    const float radiance = i == 0                                               ? firefly
+                           : dot(direction, kBright) > std::cos(10 * kPi / 180) ? peak
+                                                                                : 1.0f;
+    r.direction = directionToSquare(direction);
+    r.sampledPdf = cosineHemispherePdf(local.z);
+    r.flux = radiance * local.z / r.sampledPdf;               // radiance·cos θ / pdf
+    r.estimate = kInvPi * local.z * radiance / r.sampledPdf;  // f·cos θ·radiance / pdf
+    r.key = GuidingRecord::makeKey(uint32_t(i % 1000), uint32_t(i / 1000), 0, 0);
+  }
+  return records;
+}
+
+}  // namespace
+
+TEST(Guiding, CellsGuideOnlyWhereTheGuideWouldHaveCutTheirVariance) {
+  const Vec3f here{0.05f, 0, 0.05f};
+  // Light from everywhere: cosine sampling is already the best a Lambertian floor can do.
+  const GuidingField uniform = GuidingField::build(floorRecords(4000, 1));
+  EXPECT_EQ(uniform.at(here, kUp), nullptr);
+  // Light from a small bright patch: the guide finds it far more often than the BSDF.
+  const GuidingField concentrated = GuidingField::build(floorRecords(4000, 1000));
+  const DirectionalDistribution* guide = concentrated.at(here, kUp);
+  ASSERT_NE(guide, nullptr);
+  EXPECT_GE(guide->guideProbability(), 0.5f);
+  EXPECT_LT(guide->guideProbability(), 1.0f);
+  // One bright record alone shapes the distribution towards itself, but is not counted as
+  // evidence for it: the cell does not guide.
+  EXPECT_EQ(GuidingField::build(floorRecords(4000, 1, 1e6f)).at(here, kUp), nullptr);
 }
 
 namespace {

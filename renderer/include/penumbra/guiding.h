@@ -9,7 +9,9 @@
 // cylindrical map (cos θ, φ), which preserves area, refined where the cell's flux is concentrated
 // (Müller et al. 2017, "Practical Path Guiding", with one training pass and no product with the
 // BSDF). The integrator then draws directions from the cell's distribution or the BSDF by
-// one-sample MIS (their densities mixed).
+// one-sample MIS (their densities mixed), with a probability learnt per cell: the one that
+// would have given the cell's training records the least variance (0 where the guide would
+// not help, and then the cell has no distribution at all).
 //
 // Determinism: build sorts the records by their key (pixel, sample, vertex) before anything
 // else, so the field is the same whatever order threads recorded them in, for the whole image
@@ -31,6 +33,11 @@ struct GuidingRecord {
   Vec3f position;
   Vec2f direction;  // [0, 1)²: ((cos θ + 1) / 2, φ / 2π) in world space
   float flux = 0;   // luminance of the incident radiance found, over the direction's density
+  /// The density the direction was drawn with (the BSDF's), and the luminance of the vertex's
+  /// estimate of its reflected light (f·|cos θ|·radiance over that density): what choosing
+  /// the guide's probability weighs (GuidingField::Settings::minSecondMomentGain).
+  float sampledPdf = 0;
+  float estimate = 0;
   uint32_t orientation = 0;  // orientationOf the surface's normal
   uint64_t key = 0;          // GuidingRecord::makeKey: a total order independent of threads
 
@@ -65,20 +72,26 @@ class GuidingRecorder {
   tbb::enumerable_thread_specific<std::vector<GuidingRecord>> perThread_;
 };
 
-/// A distribution over directions: a quadtree over the cylindrical square.
+/// A distribution over directions: a quadtree over the cylindrical square, and how often a
+/// guided vertex draws from it rather than from its BSDF.
 class DirectionalDistribution {
  public:
-  /// Draws a direction: `uChoice` descends the tree, `u` places the direction in its leaf.
-  Vec3f sample(float uChoice, Vec2f u) const;
+  /// Draws a direction: `uChoice` descends the tree, `u` places the direction in its leaf;
+  /// `*pdf`: its solid-angle density (the leaf's, without mapping the direction back).
+  Vec3f sample(float uChoice, Vec2f u, float* pdf) const;
   /// Solid-angle density of sample() at `direction`.
   float pdf(const Vec3f& direction) const;
+  /// The share of a guided vertex's directions drawn from this distribution, in (0, 1).
+  float guideProbability() const { return guideProbability_; }
 
  private:
   friend class GuidingField;
   /// Node i's children are nodes children[i] .. children[i] + 3 (quadrants in the order
   /// (low, low), (high, low), (low, high), (high, high) of (u, v)); 0: a leaf.
   std::vector<uint32_t> children_;
-  std::vector<float> share_;  // of the root's flux
+  std::vector<float> share_;    // of the root's flux
+  std::vector<float> density_;  // leaves: the solid-angle density sample() gives them
+  float guideProbability_ = 0;
 };
 
 class GuidingField {
@@ -93,6 +106,10 @@ class GuidingField {
     /// ... and holds at least this many records.
     uint32_t minRecordsToSplit = 64;
     int maxDirectionalDepth = 7;  // 128 x 128 directions at the finest
+    /// A cell guides only where the best guide probability would have cut the second moment
+    /// of its training records' estimates by at least this share (which also pays for the
+    /// guide's lookups); elsewhere it has no distribution and its vertices sample the BSDF.
+    float minSecondMomentGain = 0.1f;
   };
 
   GuidingField() = default;
@@ -103,7 +120,7 @@ class GuidingField {
   }
 
   /// The distribution of the cell holding `position` on a surface facing `normal`, or nullptr
-  /// where the field cannot guide.
+  /// where the field does not guide.
   const DirectionalDistribution* at(const Vec3f& position, const Vec3f& normal) const;
 
  private:

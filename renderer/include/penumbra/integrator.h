@@ -41,15 +41,12 @@ struct IntegratorSettings {
   /// blurred instead of noisy. 0: off. Biased, off by default.
   float glossyFilter = 0;
   /// Path guiding (guiding.h). Where `guidingField` is set, opaque rough surfaces draw the
-  /// path's next direction from its distribution there (with probability kGuideProbability) or
-  /// from their BSDF; where `guidingRecorder` is set, each sample records what training needs
-  /// of those vertices. Neither is owned.
+  /// path's next direction from its distribution there (with the probability learnt for that
+  /// cell) or from their BSDF; where `guidingRecorder` is set, each sample records what training
+  /// needs of those vertices. Neither is owned.
   const GuidingField* guidingField = nullptr;
   GuidingRecorder* guidingRecorder = nullptr;
 };
-
-/// Share of a guided vertex's directions drawn from the guiding field (the rest: its BSDF).
-constexpr float kGuideProbability = 0.5f;
 
 struct CameraSample {
   Vec3f radiance;
