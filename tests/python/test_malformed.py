@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -139,19 +140,28 @@ def test_signal_stops_a_billion_sample_render(signal_name: str, status: int, tmp
     out = tmp_path / "out.exr"
     process = subprocess.Popen(
         [sys.executable, "-m", "penumbra.cli", str(stage), str(out), "-w", "64", "-spp", "1000000000"],
+        stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
         preexec_fn=default_sigint,
     )
+    # Should the line below never come, the render is killed (and the status assert fails).
+    watchdog = threading.Timer(120, process.kill)
+    watchdog.start()
     try:
-        # Most likely in the render pass by then; a signal during start-up must end it alike.
-        time.sleep(3)
+        # Once the render is under way: a fixed wait lost the race on a loaded machine, and a
+        # signal before Python has installed its handlers ends any Python program by the
+        # signal's default action.
+        for line in process.stdout:
+            if line.startswith("Recording time code"):
+                break
         process.send_signal(getattr(signal, signal_name))
         # Without the signal the render would take days: the bound only stops a hung test.
         assert process.wait(timeout=120) == status
         assert "Traceback" not in process.stderr.read()
         assert list(tmp_path.glob("*out*")) == []
     finally:  # a render that missed the signal would run on, and slow every later test
+        watchdog.cancel()
         if process.poll() is None:
             process.kill()
             process.wait()
