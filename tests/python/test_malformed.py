@@ -155,6 +155,9 @@ def test_signal_stops_a_billion_sample_render(signal_name: str, status: int, tmp
         for line in process.stdout:
             if line.startswith("Recording time code"):
                 break
+        # Then into the render pass: a signal while the stage is still being read can still be
+        # lost in USD's bindings (an exit 1 naming a prim instead of the signal's status).
+        time.sleep(2)
         process.send_signal(getattr(signal, signal_name))
         # Without the signal the render would take days: the bound only stops a hung test.
         assert process.wait(timeout=120) == status
