@@ -62,7 +62,25 @@ def _has_kind(value, kind: str) -> bool:
     return True
 
 
-def sync_mesh_light(core, prim: Usd.Prim, prim_id: str, reader: SampleReader) -> None:
+def _skip_wrong_kinds(
+    prim: Usd.Prim, path: str, params: dict, warn: Callable[[str], None]
+) -> None:
+    """Replace each input in ``params`` whose value is not of its kind (an attribute authored
+    with a wrong or unknown type) by the schema's fallback, with a warning naming it, and then
+    skip the light: intensity 0."""
+    wrong = [name for name, value in params.items()
+             if value is not None and not _has_kind(value, _KINDS[name])]
+    for name in wrong:
+        warn(f"{path}: inputs:{name} has a value of type {type(params[name]).__name__}, not "
+             f"{_KINDS[name]}; the light is skipped (intensity 0)")
+        params[name] = prim.GetPrimDefinition().GetAttributeFallbackValue(f"inputs:{name}")
+    if wrong:
+        params["intensity"] = 0.0
+
+
+def sync_mesh_light(
+    core, prim: Usd.Prim, prim_id: str, reader: SampleReader, warn: Callable[[str], None]
+) -> None:
     """Make mesh ``prim`` (delegate prim ``prim_id``) an emitter sampled as a light when it has
     UsdLuxMeshLightAPI applied, or not."""
     if not prim.HasAPI(UsdLux.MeshLightAPI):
@@ -70,6 +88,7 @@ def sync_mesh_light(core, prim: Usd.Prim, prim_id: str, reader: SampleReader) ->
         return
     light_api = UsdLux.LightAPI(prim)
     params = {name: reader.get(_getter(light_api, name)) for name in _COMMON_INPUTS}
+    _skip_wrong_kinds(prim, prim_id, params, warn)
     params["color"] = tuple(float(c) for c in params["color"])
     core.set_mesh_light(prim_id, True, **params)
 
@@ -117,14 +136,7 @@ def sync_light(
     if prim.HasAPI(UsdLux.ShadowAPI):
         shadow = UsdLux.ShadowAPI(prim)
         params.update({name: reader.get(_getter(shadow, name)) for name in _SHADOW_INPUTS})
-    wrong = [name for name, value in params.items()
-             if value is not None and not _has_kind(value, _KINDS[name])]
-    for name in wrong:
-        warn(f"{path}: inputs:{name} has a value of type {type(params[name]).__name__}, not "
-             f"{_KINDS[name]}; the light is skipped (intensity 0)")
-        params[name] = prim.GetPrimDefinition().GetAttributeFallbackValue(f"inputs:{name}")
-    if wrong:
-        params["intensity"] = 0.0
+    _skip_wrong_kinds(prim, path, params, warn)
     for name in _COLOR_INPUTS:
         if name in params:
             params[name] = tuple(float(c) for c in params[name])

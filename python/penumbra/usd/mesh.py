@@ -108,6 +108,7 @@ def sync_mesh_data(
         primvars=gprim_primvars(prim, reader, warn, path, authored=authored),
         authored=authored,
         attributes=attributes,
+        warn=warn,
     )
     if scheme != UsdGeom.Tokens.none:
         _sync_subdivision_tags(core, path, attributes)
@@ -276,6 +277,7 @@ def push_mesh(
     authored: Authored | None = None,
     attributes: _Attributes | None = None,
     colors: tuple[np.ndarray, str] | None = None,
+    warn: Callable[[str], None],
 ) -> None:
     """Push a polygon mesh (or subdivision cage) of gprim ``prim`` as delegate prim ``path``
     in one call: the given topology, points (float32 (N, 3) or (K, N, 3) motion samples),
@@ -303,7 +305,7 @@ def push_mesh(
         normals_interpolation=normals[1],
         primvars=primvars,
     )
-    sync_mesh_light(core, prim, path, reader)
+    sync_mesh_light(core, prim, path, reader, warn)
 
 
 def _sync_implicit(
@@ -347,6 +349,7 @@ def _sync_implicit(
         points=points,
         normals=(generated.normals, UsdGeom.Tokens.faceVarying),
         authored=authored,
+        warn=warn,
     )
     return True
 
@@ -396,6 +399,7 @@ def _sync_nurbs_patch(
         left_handed=patch.left_handed,
         authored=authored,
         colors=colors,
+        warn=warn,
     )
     return True
 
@@ -438,6 +442,7 @@ def _sync_tet_mesh(
         primvars=primvars,
         authored=authored,
         colors=colors or (_NO_VECTORS, UsdGeom.Tokens.constant),
+        warn=warn,
     )
     return True
 
