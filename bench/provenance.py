@@ -13,7 +13,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 
-def _commit() -> str:
+def commit() -> str:
+    """The checkout's commit (`git describe --always --dirty`)."""
     try:
         found = subprocess.run(
             ["git", "-C", str(REPO), "describe", "--always", "--dirty"],
@@ -46,7 +47,7 @@ def provenance() -> str:
     command = " ".join([name] + sys.argv[1:])
     return (
         f"Measured {now} on {_cpu()}, {os.cpu_count()} cores (load average {load:.1f} at the "
-        f"start), commit {_commit()}: `{command}`"
+        f"start), commit {commit()}: `{command}`"
     )
 
 

@@ -44,7 +44,7 @@ import penumbra
 from penumbra import _core
 
 from many_lights import write_stage
-from provenance import print_provenance
+from provenance import commit, print_provenance
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 SCENES = SHARED / "scenes"
@@ -247,6 +247,29 @@ def adaptive_ladder(args: argparse.Namespace) -> list[Setting]:
     return [Setting(args.adaptive_cap, threshold) for threshold in args.adaptive]
 
 
+def converged_image(stage: Usd.Stage, name: str, args: argparse.Namespace) -> np.ndarray:
+    """The scene's converged image: rendered here, or read from ``args.converged_cache`` when an
+    earlier run left one rendered with the same settings there (it is written there otherwise).
+    The cache is keyed by the settings, not the commit: it is for a reference that takes many
+    minutes, rendered while the machine is busy and reused by the timed runs later; the commit
+    that rendered it is printed."""
+    cache = args.converged_cache
+    key = (f"{name}_{args.width}px_{args.converged_spp}spp_seed{max(args.seeds) + 1}"
+           f"_clamp{args.indirect_clamp:g}_glossy{args.glossy_filter:g}"
+           f"_guiding{args.guiding_training_samples}")
+    if cache is not None and (cache / f"{key}.npy").is_file():
+        rendered_at = json.loads((cache / f"{key}.json").read_text())["commit"]
+        progress(f"{name}: converged image read from {cache / key}.npy (commit {rendered_at})")
+        return np.load(cache / f"{key}.npy")
+    converged, seconds, _ = render_rgb(stage, args, Setting(args.converged_spp), max(args.seeds) + 1)
+    progress(f"{name}: converged, {args.converged_spp} spp: {seconds:.1f} s")
+    if cache is not None:
+        cache.mkdir(parents=True, exist_ok=True)
+        np.save(cache / f"{key}.npy", converged)
+        (cache / f"{key}.json").write_text(json.dumps({"commit": commit()}))
+    return converged
+
+
 def shared_scene_row(
     name: str, args: argparse.Namespace, cycles: dict[str, tuple[float, float]],
     cycles_denoised: dict[str, float],
@@ -255,10 +278,7 @@ def shared_scene_row(
     converged: np.ndarray | None = None
     luminance_difference = converged_rrmse = None
     if args.converged_spp:
-        converged, seconds, _ = render_rgb(
-            stage, args, Setting(args.converged_spp), max(args.seeds) + 1
-        )
-        progress(f"{name}: converged, {args.converged_spp} spp: {seconds:.1f} s")
+        converged = converged_image(stage, name, args)
         reference_path = CYCLES / f"{name}.exr"
         reference = read_rgb(reference_path) if reference_path.is_file() else None
         if reference is not None and reference.shape != converged.shape:
@@ -450,6 +470,10 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--cycles-json", type=Path,
                         help="Cycles' numbers measured on this machine by "
                         "bench/cycles_scenes.py --json, instead of ../shared/cycles/README.md's")
+    parser.add_argument("--converged-cache", type=Path,
+                        help="a folder for converged images: one rendered with the same settings "
+                        "is read from it instead of rendered again (so a long reference can be "
+                        "rendered while the machine is busy and the timed runs made later)")
     parser.add_argument("--ray-cost-width", type=int, default=320)
     parser.add_argument("--skip-many-lights", action="store_true")
     parser.add_argument("--quick", action="store_true",
