@@ -1,7 +1,10 @@
 """``penumbra-record``: renders a USD file to images, with usdrecord's command line.
 
 Exit status: 0 success; 1 the scene or a file could not be rendered (the message names the file
-or prim); 2 usage error (including flags Penumbra does not support yet).
+or prim); 2 usage error (including flags Penumbra does not support yet); 130 Ctrl-C (SIGINT) and
+143 SIGTERM, nothing written for the frame in progress. A signal that comes while the stage is
+read takes effect as the reads end (``_interrupts``: USD's bindings would lose it), one during a
+render pass within 50 ms.
 
 The command line is defined in ``cli_arguments``, the renders in ``cli_record``, what is printed
 in ``cli_output``; here: running them, and the exit status of each outcome.
@@ -10,13 +13,12 @@ in ``cli_output``; here: running them, and the exit status of each outcome.
 from __future__ import annotations
 
 import logging
-import signal
 import sys
-import threading
 import traceback
 import warnings
 from collections.abc import Sequence
 
+from ._interrupts import Terminated, TerminateAsInterrupt
 from .cli_arguments import (
     EXIT_INTERRUPTED,
     EXIT_SCENE,
@@ -31,29 +33,6 @@ from .cli_output import peak_memory_bytes, report_information, show_warning
 from .cli_record import record
 from .errors import PenumbraWarning, SceneError
 from .trace import Tracer
-
-
-class _Terminated(BaseException):
-    """SIGTERM arrived: the render stops as on Ctrl-C (a BaseException, so that no ``except
-    Exception`` on the way swallows it)."""
-
-
-class _TerminateAsInterrupt:
-    """While active (in the main thread), SIGTERM raises :class:`_Terminated` where Python
-    next checks for signals; a running render pass checks every 50 ms and stops."""
-
-    def __enter__(self) -> None:
-        self.previous = None
-        if threading.current_thread() is threading.main_thread():
-            self.previous = signal.signal(signal.SIGTERM, self._raise)
-
-    def __exit__(self, *_exc) -> None:
-        if self.previous is not None:
-            signal.signal(signal.SIGTERM, self.previous)
-
-    @staticmethod
-    def _raise(_signum: int, _frame) -> None:
-        raise _Terminated()
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -74,7 +53,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         report_information()
 
     tracer = Tracer(enabled=bool(args.traceToFile) or args.verbose)
-    with warnings.catch_warnings(), _TerminateAsInterrupt():
+    with warnings.catch_warnings(), TerminateAsInterrupt():
         warnings.simplefilter("always", PenumbraWarning)
         warnings.showwarning = show_warning
         try:
@@ -85,7 +64,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         except KeyboardInterrupt:
             sys.stderr.write(f"\n{PROG}: interrupted, nothing written for the frame in progress\n")
             return EXIT_INTERRUPTED
-        except _Terminated:
+        except Terminated:
             sys.stderr.write(f"\n{PROG}: terminated, nothing written for the frame in progress\n")
             return EXIT_TERMINATED
         except Exception as error:  # anything else: a bug or an input nothing checked yet

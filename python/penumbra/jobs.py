@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 from pxr import Usd
 
-from . import _core, render_options
+from . import _core, _interrupts, render_options
 from .checkpoints import PARTIAL, RENDER_KEY, Checkpoint
 from .errors import SceneError, warn
 from .image import Image
@@ -134,34 +134,35 @@ class JobRenderer:
     def __init__(self, job: RenderJob, tracer: Tracer | None = None):
         self.job = job
         tracer = tracer or Tracer(enabled=False)
-        with tracer.span("open stage", file=job.usd_file):
-            stage = open_stage(
-                job.usd_file,
-                mask=job.mask,
-                session_layer=job.session_layer,
-                resolver=job.resolver,
+        with _interrupts.deferred():  # USD's bindings would lose a signal (_interrupts.py)
+            with tracer.span("open stage", file=job.usd_file):
+                stage = open_stage(
+                    job.usd_file,
+                    mask=job.mask,
+                    session_layer=job.session_layer,
+                    resolver=job.resolver,
+                )
+            settings_path = job.render_settings_path
+            if job.render_pass_path:
+                settings_path = render_pass_settings(stage, job.render_pass_path)
+            settings = read_render_settings(stage, settings_path)
+            self.render_settings = settings.path if settings else None
+            self.products = read_products(stage, settings) if settings is not None else None
+            """The render products of the render settings, if they name any."""
+            if self.products is not None and not self.products.products:
+                self.products = None
+            purposes = job.purposes
+            if self.products is not None:
+                if job.aovs != ("color",):
+                    warn("--aov applies to renders without render products; the products name "
+                         "their vars")
+                if self.products.included_purposes is not None:
+                    purposes = tuple(self.products.included_purposes)
+            camera = resolve_camera(
+                stage, job.camera, settings, time_code(stage, job.camera_time), purposes
             )
-        settings_path = job.render_settings_path
-        if job.render_pass_path:
-            settings_path = render_pass_settings(stage, job.render_pass_path)
-        settings = read_render_settings(stage, settings_path)
-        self.render_settings = settings.path if settings else None
-        self.products = read_products(stage, settings) if settings is not None else None
-        """The render products of the render settings, if they name any."""
-        if self.products is not None and not self.products.products:
-            self.products = None
-        purposes = job.purposes
-        if self.products is not None:
-            if job.aovs != ("color",):
-                warn("--aov applies to renders without render products; the products name "
-                     "their vars")
-            if self.products.included_purposes is not None:
-                purposes = tuple(self.products.included_purposes)
-        camera = resolve_camera(
-            stage, job.camera, settings, time_code(stage, job.camera_time), purposes
-        )
-        self.camera = str(camera.GetPath())
-        self.renderer = Renderer(stage, purposes=purposes, render_pass=job.render_pass_path)
+            self.camera = str(camera.GetPath())
+            self.renderer = Renderer(stage, purposes=purposes, render_pass=job.render_pass_path)
         self.renderer.tracer = tracer
 
     def close(self) -> None:

@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable
 import numpy as np
 from pxr import Sdf, Usd
 
-from . import _core, cryptomatte
+from . import _core, _interrupts, cryptomatte
 from .checkpoints import (
     RENDER_KEY,
     Checkpoint,
@@ -103,6 +103,11 @@ class Renderer:
     (``penumbra-record -rp``): ``prune`` and prims outside ``renderVisibility`` are left out,
     prims outside ``cameraVisibility`` are hidden from camera rays only, ``matte`` prims are
     holdouts (no colour, no alpha); read once, when the renderer is created.
+
+    Ctrl-C (Python's own SIGINT handler, in the main thread) stops a render pass within 50 ms;
+    while the renderer reads the stage (creating it, :meth:`sync`, the reads before each
+    render) it is held until the reads end, since USD's bindings would lose the
+    ``KeyboardInterrupt`` (``penumbra/_interrupts.py``). A program's own handler is left alone.
     """
 
     def __init__(
@@ -115,24 +120,25 @@ class Renderer:
     ):
         if max_motion_segments < 1:
             raise ValueError(f"max_motion_segments must be at least 1, not {max_motion_segments}")
-        stage = as_stage(stage)
-        self.stage = stage
         self.max_motion_segments = max_motion_segments
         self.delegate = _core.RenderDelegate(ocio_config=ocio_config_path())
         """The ``penumbra._core.RenderDelegate`` holding the synced scene (for inspection)."""
-        collections = render_pass_collections(stage, render_pass) if render_pass else None
-        self._scene = SceneDelegate(stage, self.delegate, purposes, collections)
         self._passes: dict[PassKey, _core.RenderPass] = {}
-        self._default_light = DefaultLightManager(self.delegate, stage_name(stage))
         self.tracer = Tracer(enabled=False)
         """Records timing spans of each render when enabled (``penumbra-record --traceToFile``)."""
-        self._scene.update(self._still(_time_code(stage, None)))
+        with _interrupts.deferred():  # USD's bindings would lose a signal (_interrupts.py)
+            self.stage = stage = as_stage(stage)
+            collections = render_pass_collections(stage, render_pass) if render_pass else None
+            self._scene = SceneDelegate(stage, self.delegate, purposes, collections)
+            self._default_light = DefaultLightManager(self.delegate, stage_name(stage))
+            self._scene.update(self._still(_time_code(stage, None)))
 
     def sync(self, time: TimeLike = None) -> None:
         """Push the stage (as edited since the last sync) at ``time`` (without motion) into the
         render delegate; :meth:`render` does this itself, over the camera's shutter.
         Acceleration structures are built by the first render."""
-        self._sync(self._still(_time_code(self.stage, time)))
+        with _interrupts.deferred():
+            self._sync(self._still(_time_code(self.stage, time)))
 
     def _still(self, time_code: Usd.TimeCode) -> Shutter:
         return Shutter(time_code, max_segments=self.max_motion_segments)
@@ -245,54 +251,70 @@ class Renderer:
         if texture_cache is not None and texture_cache < MIN_TEXTURE_CACHE:
             raise ValueError(f"texture_cache must be at least 16 MiB, not {texture_cache} bytes")
         check_default_light(default_light)
-        if dicing_camera is not None:
-            self.delegate.set_dicing_camera(str(find_camera(self.stage, dicing_camera).GetPath()))
-        aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
-        time_code, settings, camera_prim, (width, height), window = self._framing(
-            camera, time, width, height, render_settings
-        )
-        values = render_options.resolve(options, settings.options if settings else None)
-        samples = int(values["samples"])
-        camera_id = str(camera_prim.GetPath())
-        crop, margin = None, 0
-        film_width, film_height = window.width, window.height
-        if region is not None:
-            crop = _check_region(region, window.width, window.height)
-            if values["adaptive_threshold"] > 0:
-                margin = _core.RenderPass.adaptive_sampling_reach(
-                    samples, values["adaptive_min_samples"]
-                )
-            film_width = min(film_width, crop[2] + 2 * margin)  # at most: margins stop at edges
-            film_height = min(film_height, crop[3] + 2 * margin)
-
-        motion_blur = not (disable_motion_blur or (settings and settings.disable_motion_blur))
-        depth_of_field = not (
-            disable_depth_of_field or (settings and settings.disable_depth_of_field)
-        )
-        shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
-        budget = default_budget() if max_memory is None else max_memory
-        cache = texture_cache_size(budget) if texture_cache is None else texture_cache
-        pass_key = (camera_id, window.width, window.height, crop, margin)
-        new_pass = pass_key not in self._passes
-        extra_aovs = len(set(aovs) - {"color"}) + (len(GUIDE_AOVS) if denoise else 0)
-        if new_pass:
-            check_film(film_width, film_height, budget, camera_id, extra_aovs, cache)
-        with self.tracer.span("sync stage (USD to render delegate)"):
-            self._sync(
-                shutter,
-                depth_of_field,
-                dome_light_visibility,
-                {camera_id: window} if settings is not None else None,
+        # Signals wait for the stage's reads to end (USD's bindings would lose them,
+        # _interrupts.py); the render passes below stop at once.
+        with _interrupts.deferred():
+            if dicing_camera is not None:
+                dicing_path = find_camera(self.stage, dicing_camera).GetPath()
+                self.delegate.set_dicing_camera(str(dicing_path))
+            aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
+            time_code, settings, camera_prim, (width, height), window = self._framing(
+                camera, time, width, height, render_settings
             )
-            self._default_light.update(
-                default_light,
-                self._scene.has_lights(),
+            values = render_options.resolve(options, settings.options if settings else None)
+            samples = int(values["samples"])
+            camera_id = str(camera_prim.GetPath())
+            crop, margin = None, 0
+            film_width, film_height = window.width, window.height
+            if region is not None:
+                crop = _check_region(region, window.width, window.height)
+                if values["adaptive_threshold"] > 0:
+                    margin = _core.RenderPass.adaptive_sampling_reach(
+                        samples, values["adaptive_min_samples"]
+                    )
+                film_width = min(film_width, crop[2] + 2 * margin)  # at most: margins stop at edges
+                film_height = min(film_height, crop[3] + 2 * margin)
+
+            motion_blur = not (disable_motion_blur or (settings and settings.disable_motion_blur))
+            depth_of_field = not (
+                disable_depth_of_field or (settings and settings.disable_depth_of_field)
+            )
+            shutter = read_shutter(camera_prim, time_code, motion_blur, self.max_motion_segments)
+            budget = default_budget() if max_memory is None else max_memory
+            cache = texture_cache_size(budget) if texture_cache is None else texture_cache
+            pass_key = (camera_id, window.width, window.height, crop, margin)
+            new_pass = pass_key not in self._passes
+            extra_aovs = len(set(aovs) - {"color"}) + (len(GUIDE_AOVS) if denoise else 0)
+            if new_pass:
+                check_film(film_width, film_height, budget, camera_id, extra_aovs, cache)
+            with self.tracer.span("sync stage (USD to render delegate)"):
+                self._sync(
+                    shutter,
+                    depth_of_field,
+                    dome_light_visibility,
+                    {camera_id: window} if settings is not None else None,
+                )
+                self._default_light.update(
+                    default_light,
+                    self._scene.has_lights(),
+                    camera_prim,
+                    time_code,
+                    dome_light_visibility,
+                )
+            stage_label = stage_name(self.stage)
+            if self._scene.prim_kind(camera_id) != "camera":
+                raise SceneError(f"{stage_label}: camera {camera_id} is not rendered")
+            # What the images say of the stage, read once for the image and each checkpoint's.
+            crypto_layers = [aov for aov in aovs if aov in cryptomatte.LAYERS]
+            crypto_names = self._scene.cryptomatte_names(crypto_layers)
+            lens_metadata = camera_metadata(
                 camera_prim,
                 time_code,
-                dome_light_visibility,
+                width,
+                height,
+                settings.aspect_ratio_conform_policy if settings else "expandAperture",
+                settings.pixel_aspect_ratio if settings else 1.0,
             )
-        if self._scene.prim_kind(camera_id) != "camera":
-            raise SceneError(f"{stage_name(self.stage)}: camera {camera_id} is not rendered")
         if new_pass:  # the synced scene is in memory now; its BVH and the film are not yet
             check_film(film_width, film_height, budget, camera_id, extra_aovs, cache)
         render_pass = self._render_pass(pass_key)
@@ -309,9 +331,7 @@ class Renderer:
         self.delegate.set_render_setting("textureCacheMB", cache >> 20)
         started = clock.perf_counter()
         render_pass.reset()
-        check_scene_build(
-            self.delegate.estimated_sync_bytes(), budget, stage_name(self.stage), cache
-        )
+        check_scene_build(self.delegate.estimated_sync_bytes(), budget, stage_label, cache)
         with self.tracer.span("render delegate sync (subdivision dicing, BVH builds)"):
             started_us, before = self.tracer.now_us(), self.delegate.sync_statistics()
             render_pass.execute(0)  # syncs what is dirty and renders nothing
@@ -319,13 +339,12 @@ class Renderer:
 
         def make_image() -> Image:
             """The image of the samples taken so far."""
-            crypto_layers = [aov for aov in aovs if aov in cryptomatte.LAYERS]
             arrays = {
                 name: np.array(render_pass.aov(name))
                 for name in (accumulated | {"color"}) - set(crypto_layers)
             }
             crypto_metadata = {}
-            for layer, names in self._scene.cryptomatte_names(crypto_layers).items():
+            for layer, names in crypto_names.items():
                 arrays[layer] = render_pass.cryptomatte(names)
                 every_name = {name for placements in names.values() for name in placements}
                 crypto_metadata.update(
@@ -355,17 +374,10 @@ class Renderer:
                 "timeCode": "default" if time_code.IsDefault() else time_code.GetValue(),
                 "shutterOpen": shutter.open,
                 "shutterClose": shutter.close,
-                "stage": stage_name(self.stage),
+                "stage": stage_label,
                 "renderSettings": settings.path if settings is not None else "",
                 "denoised": int(denoise),
-                **camera_metadata(
-                    camera_prim,
-                    time_code,
-                    width,
-                    height,
-                    settings.aspect_ratio_conform_policy if settings else "expandAperture",
-                    settings.pixel_aspect_ratio if settings else 1.0,
-                ),
+                **lens_metadata,
             }
             metadata.update(crypto_metadata)
             if "primId" in aovs:
@@ -458,7 +470,8 @@ class Renderer:
     ) -> tuple[int, int]:
         """``(width, height)`` of the image :meth:`render` gives for these arguments (after
         the render settings' ``dataWindowNDC``)."""
-        window = self._framing(camera, time, width, height, render_settings)[4]
+        with _interrupts.deferred():
+            window = self._framing(camera, time, width, height, render_settings)[4]
         return window.width, window.height
 
     def _framing(
@@ -529,9 +542,10 @@ class Renderer:
 def _render_key(stage: Usd.Stage, *fields: object) -> str:
     """A hash of a render's arguments (``fields``), the stage's files and Penumbra's version:
     a checkpoint saved under the same key continues the same render."""
-    layers = [stage.GetRootLayer().identifier]
-    if stage.GetSessionLayer() is not None:
-        layers.append(stage.GetSessionLayer().ExportToString())
+    with _interrupts.deferred():
+        layers = [stage.GetRootLayer().identifier]
+        if stage.GetSessionLayer() is not None:
+            layers.append(stage.GetSessionLayer().ExportToString())
     text = json.dumps([layers, _core.version(), fields], sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 

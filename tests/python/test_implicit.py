@@ -185,7 +185,8 @@ def test_bounds_match_usd_extents(type_name, attrs):
     for axis in AXES if prim.HasAttribute("axis") else ("Z",):
         if prim.HasAttribute("axis"):
             prim.GetAttribute("axis").Set(axis)
-        mesh = implicit.tessellate(prim, Usd.TimeCode.Default())
+        shape = {attr.GetName(): attr.Get() for attr in implicit.shape_attributes(prim)}
+        mesh = implicit.tessellate(prim, shape)
         extent = UsdGeom.Boundable.ComputeExtentFromPlugins(
             UsdGeom.Boundable(prim), Usd.TimeCode.Default()
         )

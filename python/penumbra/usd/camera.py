@@ -12,6 +12,7 @@ from pxr import Usd, UsdGeom
 from ..errors import SceneError
 from .core_batch import MAX_COORDINATE
 from .sampling import DEFAULT_MAX_MOTION_SEGMENTS, SampleReader, Shutter, changes_within
+from .values import is_number_value
 
 if TYPE_CHECKING:
     from .settings import FilmWindow
@@ -46,7 +47,7 @@ def _number(attr: Usd.Attribute, time: Usd.TimeCode) -> float | None:
     """The attribute's value as a float, or None when it is not a number (an attribute authored
     with the wrong or an unknown type)."""
     value = attr.Get(time)
-    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
+    return float(value) if is_number_value(value) else None
 
 
 def camera_problem(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:

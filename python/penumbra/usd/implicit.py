@@ -29,17 +29,21 @@ for axis Z and X, along Z for axis Y — as the schema documents and ``ComputeEx
 Hydra's own plane generator maps them by its cyclic basis instead). A plane faces +axis.
 ``extent`` is ignored. ``doubleSided`` is read as authored (fallback false, true for Plane).
 
-Everything here is a pure function of attribute values except :func:`tessellate`, which reads
-a prim at a time code.
+Nothing here reads attribute values: the caller reads the attributes :func:`shape_attributes`
+lists once per time code it needs, and :func:`shape_problem` and :func:`tessellate` take those
+values by name; the generators are pure functions of them.
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from collections.abc import Mapping
+from typing import Any, NamedTuple
 
 import numpy as np
 from pxr import Usd, UsdGeom
+
+from .values import is_number_value
 
 SPHERE_SEGMENTS = 64
 SPHERE_RINGS = 32
@@ -93,28 +97,30 @@ def shape_attributes(prim: Usd.Prim) -> list[Usd.Attribute]:
     return [prim.GetAttribute(a) for a in _SCHEMAS[name][1]] if name else []
 
 
-def shape_problem(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
-    """Why implicit ``prim``'s shaping attributes at ``time`` cannot be tessellated (naming
-    the attribute), or ``None``: lengths must be finite numbers >= 0, the axis X, Y or Z."""
-    name = _schema_of(prim)
-    for attr_name in _SCHEMAS[name][1] if name else ():
-        value = prim.GetAttribute(attr_name).Get(time)
+ShapeValues = Mapping[str, Any]
+"""The values of an implicit surface's :func:`shape_attributes` at one time, by attribute name."""
+
+
+def shape_problem(values: ShapeValues) -> str | None:
+    """Why an implicit surface shaped by ``values`` cannot be tessellated (naming the
+    attribute), or ``None``: lengths must be finite numbers >= 0, the axis X, Y or Z."""
+    for attr_name, value in values.items():
         if attr_name == "axis":
             if str(value) not in ("X", "Y", "Z"):
                 return f"axis must be X, Y or Z, not {value!r}"
-        elif not isinstance(value, (int, float)) or isinstance(value, bool):
+        elif not is_number_value(value):
             return f"{attr_name} has a value of type {type(value).__name__}, not a number"
         elif not (math.isfinite(value) and value >= 0):
             return f"{attr_name} must be a finite number >= 0, not {value:g}"
     return None
 
 
-def tessellate(prim: Usd.Prim, time: Usd.TimeCode) -> GeneratedMesh:
-    """The mesh of implicit ``prim`` with its attributes read at ``time``."""
+def tessellate(prim: Usd.Prim, values: ShapeValues) -> GeneratedMesh:
+    """The mesh of implicit ``prim`` shaped by ``values`` (which :func:`shape_problem` finds
+    no problem with)."""
     name = _schema_of(prim)
     if name is None:
         raise TypeError(f"{prim.GetPath()}: not an implicit surface")
-    values = {a: prim.GetAttribute(a).Get(time) for a in _SCHEMAS[name][1]}
     axis = str(values.get("axis") or "Z")
     if name == "Sphere":
         return sphere(values["radius"])

@@ -14,6 +14,7 @@ from pxr import Usd, UsdLux
 
 from .. import _core
 from .sampling import SampleReader
+from .values import is_color_value, is_number_value
 
 
 def _inputs(origin: str, sprim_type: str | None = None) -> tuple[str, ...]:
@@ -51,14 +52,11 @@ def _has_kind(value, kind: str) -> bool:
     """Whether an input's value can be sent as an input of ``kind`` ("float", "bool",
     "color")."""
     if kind == "float":
-        return isinstance(value, (int, float)) and not isinstance(value, bool)
+        return is_number_value(value)
     if kind == "bool":
         return isinstance(value, bool)
     if kind == "color":
-        try:
-            return len(value) == 3 and all(_has_kind(c, "float") for c in value)
-        except TypeError:
-            return False
+        return is_color_value(value)
     return True
 
 

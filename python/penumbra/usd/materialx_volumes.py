@@ -23,8 +23,8 @@ from .material_data import MaterialData
 from .materialx_library import definition_default
 from .materialx_patterns import Network
 from .sampling import SampleReader
-from .volume_inputs import (Color, checked_anisotropy, checked_color, is_color_value,
-                            is_number_value)
+from .values import is_color_value, is_number_value
+from .volume_inputs import Color, checked_anisotropy, checked_color
 
 VOLUME = "ND_volume"
 ANISOTROPIC_VDF = "ND_anisotropic_vdf"

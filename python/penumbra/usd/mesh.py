@@ -320,23 +320,24 @@ def _sync_implicit(
     a shaping attribute changes within it) and push it as a polygon mesh with smooth normals;
     ``False`` after a warning when a shaping attribute is unusable."""
     attrs = implicit.shape_attributes(prim)
-    for attr in attrs:
-        reader.get(attr)  # notes whether the shape might vary with time
-    problem = implicit.shape_problem(prim, reader.time)
+    # Read through the reader, which notes whether the shape might vary with time.
+    values = {attr.GetName(): reader.get(attr) for attr in attrs}
+    problem = implicit.shape_problem(values)
     if problem:
         warn(f"{path}: {problem}; skipped")
         return False
-    generated = implicit.tessellate(prim, reader.time)
+    generated = implicit.tessellate(prim, values)
     points = generated.points
     shutter = reader.shutter
     if shutter.blurred and any(changes_within(attr, shutter.interval) for attr in attrs):
         keys = [t for attr in attrs for t in attr.GetTimeSamplesInInterval(shutter.interval)]
         times = shutter.times(shutter.segments(keys))
-        problem = next(filter(None, (implicit.shape_problem(prim, time) for time in times)), None)
+        shapes = [{attr.GetName(): attr.Get(time) for attr in attrs} for time in times]
+        problem = next(filter(None, map(implicit.shape_problem, shapes)), None)
         if problem:
             warn(f"{path}: {problem} within the shutter; skipped")
             return False
-        samples = np.stack([implicit.tessellate(prim, time).points for time in times])
+        samples = np.stack([implicit.tessellate(prim, shape).points for shape in shapes])
         if not all(np.array_equal(sample, samples[0]) for sample in samples):
             points = samples
     push_mesh(

@@ -18,8 +18,8 @@ from pxr import Sdf, UsdShade
 
 from .color_spaces import authored_color_space, constant_to_scene_linear
 from .sampling import SampleReader
-from .volume_inputs import (Color, checked_anisotropy, checked_color, checked_number,
-                            is_color_value, is_number_value)
+from .values import is_color_value, is_number_value
+from .volume_inputs import Color, checked_anisotropy, checked_color, checked_number
 
 PRINCIPLED_VOLUME = "penumbra:PrincipledVolume"
 

@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from numbers import Real
-from typing import Any
 
 from pxr import Sdf
 
@@ -31,17 +29,6 @@ class VolumeWarnings:
         if text not in self._said:
             self._said.add(text)
             self._warn(text)
-
-
-def is_number_value(value: Any) -> bool:
-    """Whether an attribute's value is a number (a float, double, half or integer)."""
-    return isinstance(value, Real) and not isinstance(value, bool)
-
-
-def is_color_value(value: Any) -> bool:
-    """Whether an attribute's value is three numbers (a color3f, float3, vector3f…)."""
-    return not isinstance(value, (str, bytes)) and hasattr(value, "__len__") and \
-        len(value) == 3 and all(is_number_value(v) for v in value)
 
 
 def checked_color(values: Sequence[float], default: Color,

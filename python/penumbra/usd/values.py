@@ -1,0 +1,20 @@
+"""What kind of value an attribute holds. USD hands a number attribute's value to Python as an
+``int`` or a ``float`` (half, float and double alike), a bool as a ``bool`` (which Python counts
+as an ``int``), a color3f as a ``Gf.Vec3f``; an attribute authored with a wrong or an unknown
+type holds anything else, which the readers reject with a warning naming it."""
+
+from __future__ import annotations
+
+from numbers import Real
+from typing import Any
+
+
+def is_number_value(value: Any) -> bool:
+    """Whether an attribute's value is a number (a float, double, half or integer), not a bool."""
+    return isinstance(value, Real) and not isinstance(value, bool)
+
+
+def is_color_value(value: Any) -> bool:
+    """Whether an attribute's value is three numbers (a color3f, float3, vector3f…)."""
+    return not isinstance(value, (str, bytes)) and hasattr(value, "__len__") and \
+        len(value) == 3 and all(is_number_value(v) for v in value)
