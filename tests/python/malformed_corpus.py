@@ -190,6 +190,19 @@ CASES = [
         extra=TEXTURED_MATERIAL,
         files={"huge.png": png_header(60000, 60000)},
     ),
+    Case(
+        "dome texture file of an unknown type",
+        0,
+        "/dome: inputs:texture:file has a value of type UnregisteredValue",
+        extra='def DomeLight "dome"\n{\n    Uasset inputs:texture:file = @huge.png@\n}',
+    ),
+    Case(
+        "material texture file of an unknown type",
+        0,
+        "/mat/tex: UsdUVTexture has no file",
+        mesh='rel material:binding = </mat>\ntexCoord2f[] primvars:st = [(0, 0), (1, 0), (1, 1), (0, 1)] (interpolation = "vertex")',
+        extra=TEXTURED_MATERIAL.replace("asset inputs:file", "Uasset inputs:file"),
+    ),
     # Files and composition: exit 1 naming the file, or a warning.
     Case("reference cycle", 0, "composition error", extra='def "a" (references = </b>) {}\ndef "b" (references = </a>) {}'),
     Case("missing reference", 0, "composition error", extra='def "r" (references = @missing.usda@) {}'),

@@ -14,7 +14,7 @@ from pxr import Usd, UsdLux
 
 from .. import _core
 from .sampling import SampleReader
-from .values import is_color_value, is_number_value
+from .values import as_asset_path, is_color_value, is_number_value
 
 
 def _inputs(origin: str, sprim_type: str | None = None) -> tuple[str, ...]:
@@ -164,7 +164,11 @@ def _texture_path(prim: Usd.Prim, schema, reader: SampleReader, warn: Callable[[
     An unresolvable path is passed on as authored: the delegate then warns, naming the file.
     """
     texture_attr = getattr(schema, "GetTextureFileAttr", None)
-    texture = reader.get(texture_attr()) if texture_attr is not None else None
+    value = reader.get(texture_attr()) if texture_attr is not None else None
+    texture = as_asset_path(value)
+    if texture is None and value is not None:
+        warn(f"{prim.GetPath()}: inputs:texture:file has a value of type {type(value).__name__}, "
+             "not an asset path; the light has no texture")
     if texture is None or not texture.path:
         return ""
     if isinstance(schema, UsdLux.DomeLight):

@@ -10,6 +10,7 @@ from pxr import Sdf, UsdShade
 
 from .. import _core
 from .sampling import SampleReader
+from .values import as_asset_path
 
 MATERIAL_INPUTS: tuple[_core.MaterialInput, ...] = tuple(
     _core.material_inputs()
@@ -44,10 +45,8 @@ def texture_file(file_input: UsdShade.Input | None, reader: SampleReader) -> str
         return ""
     producers = file_input.GetValueProducingAttributes()
     attr = producers[0] if producers else file_input.GetAttr()
-    asset = reader.get(attr)
-    if isinstance(asset, str):  # authored as a string rather than an asset path
-        asset = Sdf.AssetPath(asset)
-    if not asset or not asset.path:
+    asset = as_asset_path(reader.get(attr))  # of a wrong type: no file, and the caller warns
+    if asset is None or not asset.path:
         return ""
     if asset.resolvedPath:
         return asset.resolvedPath

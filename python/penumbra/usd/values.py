@@ -8,6 +8,8 @@ from __future__ import annotations
 from numbers import Real
 from typing import Any
 
+from pxr import Sdf
+
 
 def is_number_value(value: Any) -> bool:
     """Whether an attribute's value is a number (a float, double, half or integer), not a bool."""
@@ -18,3 +20,13 @@ def is_color_value(value: Any) -> bool:
     """Whether an attribute's value is three numbers (a color3f, float3, vector3f…)."""
     return not isinstance(value, (str, bytes)) and hasattr(value, "__len__") and \
         len(value) == 3 and all(is_number_value(v) for v in value)
+
+
+def as_asset_path(value: Any) -> Sdf.AssetPath | None:
+    """An attribute's value as an asset path: an asset as it is, a string (a path authored as
+    a string) made one; ``None`` for anything else (no value, or a wrong or unknown type)."""
+    if isinstance(value, Sdf.AssetPath):
+        return value
+    if isinstance(value, str):
+        return Sdf.AssetPath(value)
+    return None
