@@ -253,15 +253,15 @@ def converged_image(stage: Usd.Stage, name: str, args: argparse.Namespace) -> np
     The cache is keyed by the settings, not the commit: it is for a reference that takes many
     minutes, rendered while the machine is busy and reused by the timed runs later; the commit
     that rendered it is printed."""
-    cache = args.converged_cache
-    key = (f"{name}_{args.width}px_{args.converged_spp}spp_seed{max(args.seeds) + 1}"
+    cache, seed = args.converged_cache, max(args.seeds) + 1  # a seed neither ladder uses
+    key = (f"{name}_{args.width}px_{args.converged_spp}spp_seed{seed}"
            f"_clamp{args.indirect_clamp:g}_glossy{args.glossy_filter:g}"
            f"_guiding{args.guiding_training_samples}")
     if cache is not None and (cache / f"{key}.npy").is_file():
         rendered_at = json.loads((cache / f"{key}.json").read_text())["commit"]
         progress(f"{name}: converged image read from {cache / key}.npy (commit {rendered_at})")
         return np.load(cache / f"{key}.npy")
-    converged, seconds, _ = render_rgb(stage, args, Setting(args.converged_spp), max(args.seeds) + 1)
+    converged, seconds, _ = render_rgb(stage, args, Setting(args.converged_spp), seed)
     progress(f"{name}: converged, {args.converged_spp} spp: {seconds:.1f} s")
     if cache is not None:
         cache.mkdir(parents=True, exist_ok=True)
