@@ -23,25 +23,41 @@ float sineOf(float cosine) {
 }  // namespace
 
 float LightBounds::importance(const Receiver& receiver) const {
+  return LightCluster(*this).importance(receiver);
+}
+
+LightCluster::LightCluster(const LightBounds& bounds)
+    : center(bounds.centroid()),
+      halfDiagonal2(0.25f * dot(bounds.upper - bounds.lower, bounds.upper - bounds.lower)),
+      power(bounds.power),
+      axis(bounds.axis),
+      cosThetaO(bounds.cosThetaO),
+      sinThetaO(sineOf(bounds.cosThetaO)),
+      cosThetaE(bounds.cosThetaE) {}
+
+float LightCluster::importance(const Receiver& receiver) const {
   if (!(power > 0)) return 0;
-  const Vec3f center = centroid();
   const Vec3f offset = receiver.position - center;
-  const float halfDiagonal2 = 0.25f * dot(upper - lower, upper - lower);
+  const float offset2 = dot(offset, offset);
+  // At the box's centre the direction is undefined and the bound below is NaN, that is 0.
+  if (!(offset2 > 0)) return 0;
   // Inside or near the box the distance is unknown: bound it below by a quarter of its size.
-  const float distance2 = std::max(dot(offset, offset), 0.25f * halfDiagonal2);
-  const Vec3f fromLights = normalize(offset);
+  const float distance2 = std::max(offset2, 0.25f * halfDiagonal2);
+  const Vec3f fromLights = offset / std::sqrt(offset2);
   // The box seen from the receiver lies within a cone of half-angle thetaB about `fromLights`.
-  const float cosThetaB = dot(offset, offset) > halfDiagonal2
-                              ? std::sqrt(std::max(0.0f, 1 - halfDiagonal2 / distance2))
-                              : -1.0f;
+  const float cosThetaB =
+      offset2 > halfDiagonal2 ? std::sqrt(std::max(0.0f, 1 - halfDiagonal2 / distance2)) : -1.0f;
   const float sinThetaB = sineOf(cosThetaB);
-  // The smallest angle between an emission axis and a direction to the receiver.
-  const float cosThetaW = dot(axis, fromLights);
-  const float sinThetaW = sineOf(cosThetaW);
-  const float sinThetaO = sineOf(cosThetaO);
-  const float cosX = cosOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
-  const float sinX = sinOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
-  const float cosEmission = cosOfClampedDifference(cosX, sinX, cosThetaB, sinThetaB);
+  // The smallest angle between an emission axis and a direction to the receiver. Lights that
+  // emit every way (thetaO = π) face the receiver whatever the direction.
+  float cosEmission = 1;
+  if (cosThetaO > -1) {
+    const float cosThetaW = dot(axis, fromLights);
+    const float sinThetaW = sineOf(cosThetaW);
+    const float cosX = cosOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
+    const float sinX = sinOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
+    cosEmission = cosOfClampedDifference(cosX, sinX, cosThetaB, sinThetaB);
+  }
   if (cosEmission <= cosThetaE) return 0;
   float result = power * cosEmission / distance2;
   if (!isBlack(receiver.normal)) {

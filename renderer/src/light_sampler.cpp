@@ -65,7 +65,7 @@ uint32_t LightSampler::build(std::vector<uint32_t>& lights, size_t begin, size_t
   if (end - begin == 1) {
     nodes_[index].leaf = true;
     nodes_[index].light = lights[begin];
-    nodes_[index].bounds = bounds[lights[begin]];
+    nodes_[index].cluster = LightCluster(bounds[lights[begin]]);
     paths_[lights[begin]] = path;
     return index;
   }
@@ -120,7 +120,7 @@ uint32_t LightSampler::build(std::vector<uint32_t>& lights, size_t begin, size_t
       build(lights, middle, end, bounds, {path.branches | (uint64_t(1) << depth), depth + 1});
   nodes_[index].children[0] = first;
   nodes_[index].children[1] = second;
-  nodes_[index].bounds = all;
+  nodes_[index].cluster = LightCluster(all);
   return index;
 }
 
@@ -152,17 +152,16 @@ float LightSampler::infiniteTotal(const Receiver& receiver) const {
 
 std::optional<float> LightSampler::firstChildProbability(const Node& parent,
                                                          const Receiver& receiver) const {
-  const float first = nodes_[parent.children[0]].bounds.importance(receiver);
-  const float second = nodes_[parent.children[1]].bounds.importance(receiver);
+  const float first = nodes_[parent.children[0]].cluster.importance(receiver);
+  const float second = nodes_[parent.children[1]].cluster.importance(receiver);
   if (!(first + second > 0)) return std::nullopt;
   return first / (first + second);
 }
 
 bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
   if (node.leaf) return false;
-  const Vec3f offset = receiver.position - node.bounds.centroid();
-  const Vec3f diagonal = node.bounds.upper - node.bounds.lower;
-  return dot(offset, offset) < 0.25f * dot(diagonal, diagonal);
+  const Vec3f offset = receiver.position - node.cluster.center;
+  return dot(offset, offset) < node.cluster.halfDiagonal2;
 }
 
 std::optional<LightSampler::Choice> LightSampler::walk(uint32_t node, const Receiver& receiver,
@@ -203,7 +202,7 @@ std::optional<LightSampler::Choice> LightSampler::sampleInfinite(const Receiver&
 float LightSampler::probability(const Receiver& receiver, size_t index) const {
   const LeafPath& path = paths_[index];
   if (path.depth >= 0) {
-    if (!(nodes_[0].bounds.importance(receiver) > 0)) return 0;
+    if (!(nodes_[0].cluster.importance(receiver) > 0)) return 0;
     float probability = 1;
     bool splitting = true;  // the levels above went down both children
     uint32_t node = 0;
@@ -213,7 +212,7 @@ float LightSampler::probability(const Receiver& receiver, size_t index) const {
       node = parent.children[branch];
       splitting = splitting && level < kMaxSplitDepth && splits(parent, receiver);
       if (splitting) {
-        if (!(nodes_[node].bounds.importance(receiver) > 0)) return 0;
+        if (!(nodes_[node].cluster.importance(receiver) > 0)) return 0;
         continue;
       }
       const std::optional<float> first = firstChildProbability(parent, receiver);

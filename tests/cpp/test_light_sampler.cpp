@@ -229,3 +229,26 @@ TEST(LightSampler, TreeStaysShallowForThousandsOfLights) {
   // of a large node (measured: 0.34 against 0.68).
   EXPECT_GT(treeShare, 0.4 * nearImportance / allImportance);
 }
+
+TEST(LightCluster, ImportanceIsFiniteEverywhereAndZeroOnlyAtTheClusterCentre) {
+  // Omnidirectional lights (sphere bounds, thetaO = π) take the shortcut past the emission
+  // cone; a receiver exactly at the centre has no direction to the lights and gets 0, not NaN.
+  LightParams bulb;
+  bulb.type = LightType::Sphere;
+  bulb.radius = 0.5f;
+  bulb.lightToWorld = translation(1, 2, 3);
+  const LightCluster cluster(Light(bulb).bounds());
+  EXPECT_EQ(cluster.cosThetaO, -1.0f);
+  EXPECT_EQ(cluster.importance(Receiver{{1, 2, 3}, {0, 1, 0}}), 0.0f);
+  EXPECT_EQ(cluster.importance(Receiver{{1, 2, 3}, {0, 0, 0}}), 0.0f);
+  for (const Vec3f& offset : {Vec3f(0, 0.1f, 0), Vec3f(0, -4, 0), Vec3f(30, 0, 0)}) {
+    const float importance = cluster.importance(Receiver{Vec3f(1, 2, 3) + offset, {0, 1, 0}});
+    EXPECT_TRUE(std::isfinite(importance));
+    EXPECT_GT(importance, 0.0f);
+    EXPECT_EQ(importance,
+              Light(bulb).bounds().importance(Receiver{Vec3f(1, 2, 3) + offset, {0, 1, 0}}));
+  }
+  // Seen edge-on from afar, the bulb gives less than to a receiver facing it from below.
+  EXPECT_LT(cluster.importance(Receiver{{31, 2, 3}, {0, 1, 0}}),
+            cluster.importance(Receiver{{1, -2, 3}, {0, 1, 0}}));
+}

@@ -110,6 +110,23 @@ struct LightBounds {
 /// The smallest bounds holding both (cones are merged as in Conty Estevez & Kulla 2018).
 LightBounds unite(const LightBounds& a, const LightBounds& b);
 
+/// LightBounds as the light tree evaluates them, at every level of every walk: with what
+/// importance() derives from the bounds alone computed once.
+struct LightCluster {
+  LightCluster() = default;
+  explicit LightCluster(const LightBounds& bounds);
+
+  /// LightBounds::importance, to the bit.
+  float importance(const Receiver& receiver) const;
+
+  Vec3f center;             // of the bounding box
+  float halfDiagonal2 = 0;  // squared radius of the box's bounding sphere
+  float power = 0;
+  Vec3f axis{0, 0, 1};
+  float cosThetaO = 1, sinThetaO = 0;
+  float cosThetaE = 0;
+};
+
 /// A light sample as seen from a shading point.
 struct LightSample {
   Vec3f direction;     // unit, from the shading point towards the light

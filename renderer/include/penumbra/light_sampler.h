@@ -64,7 +64,7 @@ class LightSampler {
       visit(*choice);
     }
     uint32_t localSlot = uint32_t(kInfiniteLightsSampledEach);
-    if (!nodes_.empty() && nodes_[0].bounds.importance(receiver) > 0)
+    if (!nodes_.empty() && nodes_[0].cluster.importance(receiver) > 0)
       visitLocal(0, 0, receiver, uLocal, localSlot, visit);
   }
   /// The probability that forEachChoice() visits light `index` at the receiver.
@@ -77,7 +77,7 @@ class LightSampler {
 
  private:
   struct Node {
-    LightBounds bounds;
+    LightCluster cluster;
     uint32_t children[2] = {0, 0};  // interior nodes
     uint32_t light = 0;             // leaves: the light's index
     bool leaf = false;
@@ -96,7 +96,7 @@ class LightSampler {
     const Node& parent = nodes_[node];
     if (depth < kMaxSplitDepth && splits(parent, receiver)) {
       for (const uint32_t child : parent.children)
-        if (nodes_[child].bounds.importance(receiver) > 0)
+        if (nodes_[child].cluster.importance(receiver) > 0)
           visitLocal(child, depth + 1, receiver, u, slot, visit);
     } else if (std::optional<Choice> choice = walk(node, receiver, u)) {
       choice->slot = slot++;
