@@ -91,6 +91,9 @@ Light::Light(const LightParams& params) : params_(params) {
       throw std::invalid_argument("the light has zero area (check width/height/radius and scale)");
     normal_ = normalize(normal_);
     orthogonalEdges_ = std::fabs(dot(edgeU_, edgeV_)) <= 1e-5f * length(edgeU_) * length(edgeV_);
+    if (params.type == LightType::Rect && orthogonalEdges_)
+      rectangle_ =
+          SphericalRectangle::Rectangle(center_ - (edgeU_ + edgeV_) * 0.5f, edgeU_, edgeV_);
   }
   if ((params.type == LightType::Sphere || params.type == LightType::Cylinder) && !(area_ > 0))
     throw std::invalid_argument("the light has zero radius or length");
@@ -157,7 +160,7 @@ std::optional<SphericalRectangle> Light::sphericalRect(const Vec3f& point) const
   // Textures are sampled by their own distribution; sheared rectangles are parallelograms.
   if (params_.texture || !orthogonalEdges_) return std::nullopt;
   if (!(dot(point - center_, normal_) > 0)) return std::nullopt;  // behind the emitting side
-  SphericalRectangle seen(point, center_ - (edgeU_ + edgeV_) * 0.5f, edgeU_, edgeV_);
+  SphericalRectangle seen(point, rectangle_);
   // Nearly edge-on or far away, the parametrisation loses precision; area sampling is as good.
   if (!(seen.solidAngle() > kMinSphericalSolidAngle)) return std::nullopt;
   return seen;

@@ -205,7 +205,8 @@ class Light {
   float oneMinusCosHalfAngle_ = 0;  // kept separately for precision at small angles
   Vec3f axis_;                      // shaping axis: the light's -Z in world space
   bool shaped_ = false;
-  bool orthogonalEdges_ = false;  // rect: not sheared by its transform
+  bool orthogonalEdges_ = false;             // rect: not sheared by its transform
+  SphericalRectangle::Rectangle rectangle_;  // rect with orthogonalEdges_: for sphericalRect
   float coneCosOuter_ = -1, coneCosInner_ = -1;
   Transform worldToLight_;
   std::optional<Distribution1D> triangleChoice_;  // mesh lights: triangles by area
