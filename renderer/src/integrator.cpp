@@ -763,13 +763,18 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     // Where the path goes on from: here, or where a subsurface random walk left the solid.
     BsdfSample next = *scattered;
     Receiver nextReceiver = receiver;
-    std::optional<SubsurfaceExit> exit;
-    if (scattered->lobe == BsdfLobe::Subsurface) {
+    const auto walk = [&] {
       // The walk takes as many random numbers as it scatters: a stream of its own per vertex.
       RandomStream walkRandom(settings.seed, uint32_t(x), uint32_t(y), sampleIndex,
                               1 + uint32_t(bounce));
-      exit = subsurfaceRandomWalk(scene, *hit, scattered->direction,
+      return subsurfaceRandomWalk(scene, *hit, scattered->direction,
                                   subsurfaceMediumAt(*hit, spectrum), walkRandom, ray.time);
+    };
+    // Initialised as it is returned: an empty std::optional of this size that is assigned to
+    // later is cleared first (some 460 bytes at every vertex).
+    const std::optional<SubsurfaceExit> exit =
+        scattered->lobe == BsdfLobe::Subsurface ? walk() : std::nullopt;
+    if (scattered->lobe == BsdfLobe::Subsurface) {
       // A walk that met another object inside the solid ends there: the light it carried is
       // lost (a little dark where objects are embedded) rather than let into that object.
       if (!exit || !exit->sameObject) break;
