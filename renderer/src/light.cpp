@@ -111,6 +111,10 @@ Light::Light(const LightParams& params) : params_(params) {
     throw std::invalid_argument("the light's parameters or transform are not finite");
   axis_ = normalize(toWorld.applyToVector({0, 0, -1}));
   if (params.type == LightType::Distant) normal_ = axis_;  // the direction the light travels
+  if (params.type == LightType::Distant && !isDelta()) {
+    coneFrame_.emplace(-normal_);
+    conePdf_ = uniformConePdf(oneMinusCosHalfAngle_);
+  }
   if (params.type == LightType::Dome) worldToLight_ = toWorld.inverse();
   const float coneAngle = std::clamp(params.coneAngle, 0.0f, 180.0f) * kPi / 180;
   coneCosOuter_ = std::cos(coneAngle);
@@ -260,8 +264,8 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
         return result;
       }
       result.direction =
-          normalize(Frame(-normal_).toWorld(sampleUniformCone(u, oneMinusCosHalfAngle_)));
-      result.pdf = uniformConePdf(oneMinusCosHalfAngle_);
+          normalize(coneFrame_->toWorld(sampleUniformCone(u, oneMinusCosHalfAngle_)));
+      result.pdf = conePdf_;
       return result;
     case LightType::Dome:
       result.distance = kInfinity;
@@ -412,7 +416,7 @@ std::optional<LightHit> Light::escaped(const Vec3f& direction, const Vec3f& norm
     return hit;
   }
   if (dot(direction, -normal_) < cosHalfAngle_) return std::nullopt;
-  hit.pdf = uniformConePdf(oneMinusCosHalfAngle_);
+  hit.pdf = conePdf_;
   return hit;
 }
 
