@@ -419,7 +419,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
   const bool flipped = wo.z < 0;
   if (flipped) wo.z = -wo.z;
   if (!(wo.z > 0)) return std::nullopt;
-  const Outgoing forWo = outgoing(wo);
+  const Outgoing& forWo = outgoing(wo);
   const LobeProbabilities& p = forWo.probabilities;
 
   // Picks lobe k if uLobe falls in its interval and rescales uLobe to [0, 1) within it, so that

@@ -31,6 +31,7 @@ Camera::Camera(const CameraParams& params, int imageWidth, int imageHeight)
   for (const float focalLength : params.focalLengthSteps)
     if (!(focalLength > 0))
       throw std::invalid_argument("camera focalLength samples must be positive");
+  if (!params_.cameraToWorld.isAnimated()) staticViewAxis_ = viewAxisAt(0);
 }
 
 namespace {
@@ -101,8 +102,12 @@ RayCone Camera::pixelCone() const {
   return {0.0f, pixelFilm / focalLengthAt(0)};
 }
 
+Vec3f Camera::viewAxisAt(float time) const {
+  return normalize(params_.cameraToWorld.at(time).applyToVector({0, 0, -1}));
+}
+
 float Camera::viewDepth(const Ray& ray, float t) const {
-  const Vec3f viewAxis = normalize(params_.cameraToWorld.at(ray.time).applyToVector({0, 0, -1}));
+  const Vec3f viewAxis = staticViewAxis_ ? *staticViewAxis_ : viewAxisAt(ray.time);
   return t * dot(ray.direction, viewAxis);
 }
 

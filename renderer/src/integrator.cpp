@@ -1,6 +1,7 @@
 #include "penumbra/integrator.h"
 
 #include <array>
+#include <type_traits>
 #include <utility>
 #include <variant>
 
@@ -196,6 +197,17 @@ class SurfaceBsdf {
   float pdf(const Vec3f& wo, const Vec3f& wi) const {
     return std::visit([&](const auto& b) { return b.pdf(wo, wi); }, bsdf_);
   }
+  /// evaluate() and pdf() at once (the UsdPreviewSurface BSDF shares their work).
+  BsdfEvaluation evaluateWithPdf(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart) const {
+    return std::visit(
+        [&](const auto& b) {
+          if constexpr (std::is_same_v<std::decay_t<decltype(b)>, PreviewSurfaceBsdf>)
+            return b.evaluateWithPdf(wo, wi, diffusePart);
+          else
+            return BsdfEvaluation{b.evaluate(wo, wi, diffusePart), b.pdf(wo, wi)};
+        },
+        bsdf_);
+  }
   std::optional<BsdfSample> sample(const Vec3f& wo, float uLobe, Vec2f u) const {
     return std::visit([&](const auto& b) { return b.sample(wo, uLobe, u); }, bsdf_);
   }
@@ -260,9 +272,10 @@ class GuidedBsdf {
   Vec3f evaluate(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart) const {
     return bsdf_.evaluate(wo, wi, diffusePart);
   }
-  float pdf(const Vec3f& wo, const Vec3f& wi) const {
-    const float bsdfPdf = bsdf_.pdf(wo, wi);
-    return guide_ ? mixedPdf(guide_->pdf(wi), bsdfPdf) : bsdfPdf;
+  BsdfEvaluation evaluateWithPdf(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart) const {
+    BsdfEvaluation evaluation = bsdf_.evaluateWithPdf(wo, wi, diffusePart);
+    if (guide_) evaluation.pdf = mixedPdf(guide_->pdf(wi), evaluation.pdf);
+    return evaluation;
   }
   /// `uChoice` picks the strategy (and, rescaled, the BSDF's lobe or the guide's leaf).
   std::optional<BsdfSample> sample(const Vec3f& wo, float uChoice, Vec2f u) const {
@@ -386,6 +399,9 @@ class LambertianExit {
   float pdf(const Vec3f&, const Vec3f& wi) const {
     return std::max(dot(wi, frame_.n), 0.0f) * kInvPi;
   }
+  BsdfEvaluation evaluateWithPdf(const Vec3f& wo, const Vec3f& wi, Vec3f* diffusePart) const {
+    return {evaluate(wo, wi, diffusePart), pdf(wo, wi)};
+  }
   BsdfSample sample(Vec2f u) const {
     const Vec3f local = sampleCosineHemisphere(u);
     BsdfSample result;
@@ -401,7 +417,7 @@ class LambertianExit {
 
 /// What next-event estimation needs of a path vertex: f·|cos| towards a light (with its diffuse
 /// part, which lights scale by their diffuse multiplier), the density of the vertex's own
-/// sampling of that direction, and the shadow ray towards it.
+/// sampling of that direction (found with f: evaluateWithPdf), and the shadow ray towards it.
 template <class Scatter>
 struct SurfaceVertex {
   const Scene& scene;
@@ -413,7 +429,9 @@ struct SurfaceVertex {
   Vec3f evaluate(const Vec3f& wi, Vec3f* diffusePart) const {
     return bsdf.evaluate(wo, wi, diffusePart);
   }
-  float pdf(const Vec3f& wi) const { return bsdf.pdf(wo, wi); }
+  BsdfEvaluation evaluateWithPdf(const Vec3f& wi, Vec3f* diffusePart) const {
+    return bsdf.evaluateWithPdf(wo, wi, diffusePart);
+  }
   Ray shadowRay(const Vec3f& wi, float tFar) const { return spawnRay(scene, hit, wi, tFar, time); }
 };
 
@@ -435,6 +453,9 @@ struct MediumVertex {
     return *diffusePart;
   }
   float pdf(const Vec3f& wi) const { return phase.evaluate(incoming, wi); }
+  BsdfEvaluation evaluateWithPdf(const Vec3f& wi, Vec3f* diffusePart) const {
+    return {evaluate(wi, diffusePart), pdf(wi)};
+  }
   Ray shadowRay(const Vec3f& wi, float tFar) const {
     Ray shadow;
     shadow.origin = position;
@@ -561,9 +582,16 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const Vec2f lightSample = sampler.draw2D(firstLightDimension + choice.slot);
       const std::optional<LightSample> sample =
           light.sample(receiver.position, lightSample, receiver.normal);
+      // Multiple importance sampling weighs the light's density against the vertex's: that is
+      // found with f, with which it shares most of its work.
+      const bool weighed = sample && !sample->isDelta &&
+                           settings.directLighting != DirectLighting::LightSamplingOnly;
       Vec3f diffusePart;
-      const Vec3f f = sample && sample->pdf > 0 ? vertex.evaluate(sample->direction, &diffusePart)
-                                                : Vec3f(0.0f);
+      const BsdfEvaluation evaluated =
+          !sample || !(sample->pdf > 0) ? BsdfEvaluation{Vec3f(0.0f), 0.0f}
+          : weighed ? vertex.evaluateWithPdf(sample->direction, &diffusePart)
+                    : BsdfEvaluation{vertex.evaluate(sample->direction, &diffusePart), 0.0f};
+      const Vec3f& f = evaluated.value;
       if (isBlack(f)) return;
       const float tFar =
           std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
@@ -578,10 +606,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         }
       }
       const float lightPdf = choice.probability * sample->pdf;
-      const float weight =
-          sample->isDelta || settings.directLighting == DirectLighting::LightSamplingOnly
-              ? 1.0f
-              : powerHeuristic(lightPdf, vertex.pdf(sample->direction));
+      const float weight = weighed ? powerHeuristic(lightPdf, evaluated.pdf) : 1.0f;
       const Vec3f response =
           diffusePart * light.diffuseMultiplier() + (f - diffusePart) * light.specularMultiplier();
       addLight(clampIndirect(throughput * transmittance * response *
@@ -738,13 +763,18 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     // Where the path goes on from: here, or where a subsurface random walk left the solid.
     BsdfSample next = *scattered;
     Receiver nextReceiver = receiver;
-    std::optional<SubsurfaceExit> exit;
-    if (scattered->lobe == BsdfLobe::Subsurface) {
+    const auto walk = [&] {
       // The walk takes as many random numbers as it scatters: a stream of its own per vertex.
       RandomStream walkRandom(settings.seed, uint32_t(x), uint32_t(y), sampleIndex,
                               1 + uint32_t(bounce));
-      exit = subsurfaceRandomWalk(scene, *hit, scattered->direction,
+      return subsurfaceRandomWalk(scene, *hit, scattered->direction,
                                   subsurfaceMediumAt(*hit, spectrum), walkRandom, ray.time);
+    };
+    // Initialised as it is returned: an empty std::optional of this size that is assigned to
+    // later is cleared first (some 460 bytes at every vertex).
+    const std::optional<SubsurfaceExit> exit =
+        scattered->lobe == BsdfLobe::Subsurface ? walk() : std::nullopt;
+    if (scattered->lobe == BsdfLobe::Subsurface) {
       // A walk that met another object inside the solid ends there: the light it carried is
       // lost (a little dark where objects are embedded) rather than let into that object.
       if (!exit || !exit->sameObject) break;

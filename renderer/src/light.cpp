@@ -91,6 +91,9 @@ Light::Light(const LightParams& params) : params_(params) {
       throw std::invalid_argument("the light has zero area (check width/height/radius and scale)");
     normal_ = normalize(normal_);
     orthogonalEdges_ = std::fabs(dot(edgeU_, edgeV_)) <= 1e-5f * length(edgeU_) * length(edgeV_);
+    if (params.type == LightType::Rect && orthogonalEdges_)
+      rectangle_ =
+          SphericalRectangle::Rectangle(center_ - (edgeU_ + edgeV_) * 0.5f, edgeU_, edgeV_);
   }
   if ((params.type == LightType::Sphere || params.type == LightType::Cylinder) && !(area_ > 0))
     throw std::invalid_argument("the light has zero radius or length");
@@ -108,6 +111,10 @@ Light::Light(const LightParams& params) : params_(params) {
     throw std::invalid_argument("the light's parameters or transform are not finite");
   axis_ = normalize(toWorld.applyToVector({0, 0, -1}));
   if (params.type == LightType::Distant) normal_ = axis_;  // the direction the light travels
+  if (params.type == LightType::Distant && !isDelta()) {
+    coneFrame_.emplace(-normal_);
+    conePdf_ = uniformConePdf(oneMinusCosHalfAngle_);
+  }
   if (params.type == LightType::Dome) worldToLight_ = toWorld.inverse();
   const float coneAngle = std::clamp(params.coneAngle, 0.0f, 180.0f) * kPi / 180;
   coneCosOuter_ = std::cos(coneAngle);
@@ -157,7 +164,7 @@ std::optional<SphericalRectangle> Light::sphericalRect(const Vec3f& point) const
   // Textures are sampled by their own distribution; sheared rectangles are parallelograms.
   if (params_.texture || !orthogonalEdges_) return std::nullopt;
   if (!(dot(point - center_, normal_) > 0)) return std::nullopt;  // behind the emitting side
-  SphericalRectangle seen(point, center_ - (edgeU_ + edgeV_) * 0.5f, edgeU_, edgeV_);
+  SphericalRectangle seen(point, rectangle_);
   // Nearly edge-on or far away, the parametrisation loses precision; area sampling is as good.
   if (!(seen.solidAngle() > kMinSphericalSolidAngle)) return std::nullopt;
   return seen;
@@ -257,8 +264,8 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
         return result;
       }
       result.direction =
-          normalize(Frame(-normal_).toWorld(sampleUniformCone(u, oneMinusCosHalfAngle_)));
-      result.pdf = uniformConePdf(oneMinusCosHalfAngle_);
+          normalize(coneFrame_->toWorld(sampleUniformCone(u, oneMinusCosHalfAngle_)));
+      result.pdf = conePdf_;
       return result;
     case LightType::Dome:
       result.distance = kInfinity;
@@ -409,7 +416,7 @@ std::optional<LightHit> Light::escaped(const Vec3f& direction, const Vec3f& norm
     return hit;
   }
   if (dot(direction, -normal_) < cosHalfAngle_) return std::nullopt;
-  hit.pdf = uniformConePdf(oneMinusCosHalfAngle_);
+  hit.pdf = conePdf_;
   return hit;
 }
 

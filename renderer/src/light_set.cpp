@@ -82,7 +82,7 @@ void LightSet::buildLightScene() {
     if (!light.isInfinite() && !light.isDelta() && light.type() != LightType::Mesh)
       areaLights_.push_back(uint32_t(i));
   }
-  if (areaLights_.empty()) return;
+  if (areaLights_.size() < 2) return;  // one light is met without a BVH (forEachLightHit)
   lightScene_ = rtcNewScene(device_);
   RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
   rtcSetGeometryUserPrimitiveCount(geometry, unsigned(areaLights_.size()));

@@ -4,40 +4,40 @@
 
 namespace penumbra {
 
-std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, RayKind kind,
-                                           const RayCone& cone) {
-  const std::optional<GeometryHit> found = scene.geometry().intersect(ray, kind);
-  if (!found) return std::nullopt;
+namespace {
 
-  // Built in place in what is returned: a SurfaceHit is some 400 bytes, copied at every hit
-  // otherwise.
+/// The surface of `found`, the hit of `ray`. Every return returns `shaded`, so the compiler
+/// builds it in the caller's storage, which intersectSurface hands on as it is: a SurfaceHit is
+/// some 400 bytes, copied at every hit otherwise.
+std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind kind,
+                                   const RayCone& cone, const GeometryHit& found) {
   std::optional<SurfaceHit> shaded(std::in_place);
   SurfaceHit& hit = *shaded;
-  hit.distance = found->distance;
+  hit.distance = found.distance;
   hit.position = ray.origin + ray.direction * hit.distance;
-  if (kind == RayKind::Camera && found->pass.matte) {
+  if (kind == RayKind::Camera && found.pass.matte) {
     hit.matte = true;
     return shaded;
   }
-  const Transform objectToWorld = found->objectToWorld->at(ray.time);
-  SurfaceGeometry surface = found->shape->surfaceAt(found->primitive, found->u, found->v, ray.time,
-                                                    found->geometricNormal, objectToWorld);
+  const Transform objectToWorld = found.objectToWorld->at(ray.time);
+  SurfaceGeometry surface = found.shape->surfaceAt(found.primitive, found.u, found.v, ray.time,
+                                                   found.geometricNormal, objectToWorld);
   SurfacePoint& point = surface.point;
   hit.normal = surface.normal;
   hit.shadingNormal = surface.shadingNormal;
   hit.closed = surface.closed;
   hit.fibreDirection = surface.fibreDirection;
-  attachCopyPrimvars(point, found->instancePrimvars, uint32_t(found->instance));
-  hit.meshId = found->meshId;
-  hit.instance = found->instance;
-  hit.linkingClass = found->linkingClass;
+  attachCopyPrimvars(point, found.instancePrimvars, uint32_t(found.instance));
+  hit.meshId = found.meshId;
+  hit.instance = found.instance;
+  hit.linkingClass = found.linkingClass;
   hit.shape = point.shape;
   hit.primitive = point.primitive;
   hit.u = point.u;
   hit.v = point.v;
   hit.instancePrimvars = point.instancePrimvars;
   const MaterialTable& materials = scene.materials();
-  if (const Material* material = materials.find(found->materialIndex)) {
+  if (const Material* material = materials.find(found.materialIndex)) {
     const bool anisotropic = material->mayBeAnisotropic();
     if (material->varies() || anisotropic) {
       // Texture footprints and tangent frames need the primitive in world space.
@@ -72,12 +72,21 @@ std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, R
   }
   hit.emission = hit.material.emissiveColor;
   const LightSet& lights = scene.lights();
-  if (const int lightIndex = lights.meshLight(found->meshId); lightIndex >= 0) {
+  if (const int lightIndex = lights.meshLight(found.meshId); lightIndex >= 0) {
     hit.lightIndex = lightIndex;
     if (dot(ray.direction, hit.normal) < 0)
       hit.emission = lights.all()[size_t(lightIndex)].radiance();
   }
   return shaded;
+}
+
+}  // namespace
+
+std::optional<SurfaceHit> intersectSurface(const Scene& scene, const Ray& ray, RayKind kind,
+                                           const RayCone& cone) {
+  const std::optional<GeometryHit> found = scene.geometry().intersect(ray, kind);
+  if (!found) return std::nullopt;
+  return shadeHit(scene, ray, kind, cone, *found);
 }
 
 }  // namespace penumbra

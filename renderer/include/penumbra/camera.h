@@ -2,6 +2,7 @@
 // and apertures in tenths of a scene unit, distances in scene units, looking down -Z with +Y up.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "penumbra/motion.h"
@@ -79,11 +80,15 @@ class Camera {
   float focalLengthAt(float time) const;
   float focusDistanceAt(float time) const;
   float lensRadiusAt(float time) const;
+  /// The unit view axis (the camera's -Z in world space).
+  Vec3f viewAxisAt(float time) const;
 
   CameraParams params_;
   int width_, height_;
   float filmWidth_, filmHeight_;
   bool thinLens_;
+  // viewAxisAt of a camera that does not move, made once: viewDepth asks at every camera sample.
+  std::optional<Vec3f> staticViewAxis_;
 };
 
 }  // namespace penumbra

@@ -220,9 +220,14 @@ class Light {
   float area_ = 0;
   float cosHalfAngle_ = 1;          // distant light cone
   float oneMinusCosHalfAngle_ = 0;  // kept separately for precision at small angles
-  Vec3f axis_;                      // shaping axis: the light's -Z in world space
+  // Distant lights that are not delta: the frame of the cone about the direction to the light
+  // and the cone's uniform density, made once.
+  std::optional<Frame> coneFrame_;
+  float conePdf_ = 0;
+  Vec3f axis_;  // shaping axis: the light's -Z in world space
   bool shaped_ = false;
-  bool orthogonalEdges_ = false;  // rect: not sheared by its transform
+  bool orthogonalEdges_ = false;             // rect: not sheared by its transform
+  SphericalRectangle::Rectangle rectangle_;  // rect with orthogonalEdges_: for sphericalRect
   float coneCosOuter_ = -1, coneCosInner_ = -1;
   Transform worldToLight_;
   std::optional<Distribution1D> triangleChoice_;  // mesh lights: triangles by area

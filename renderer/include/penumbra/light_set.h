@@ -6,6 +6,7 @@
 #include <embree3/rtcore.h>
 
 #include <cstdint>
+#include <optional>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -55,10 +56,21 @@ class LightSet {
   /// How forEachLightHit reaches its visitor through Embree's callbacks.
   using LightHitCallback = void (*)(const void* visitor, uint32_t index, const LightHit& hit);
   /// Calls visit(lightIndex, LightHit) for each area light (rect, disk, sphere, cylinder) whose
-  /// emitting surface the ray meets before `tMax`, found through an Embree BVH of the lights.
+  /// emitting surface the ray meets before `tMax`, found through an Embree BVH of the lights
+  /// (when there are several).
   /// Mesh lights are met as geometry instead (meshLight).
   template <class Visit>
   void forEachLightHit(const Ray& ray, float tMax, Visit&& visit) const {
+    if (areaLights_.size() == 1) {
+      // Embree's BVH of one primitive is a leaf, whose bounds it does not test: it would call
+      // intersectLight for every ray, with these very values. Calling the light directly meets
+      // it alike without the traversal's cost (every ray of the scene asks).
+      const uint32_t index = areaLights_.front();
+      if (const std::optional<LightHit> hit =
+              lights_[index].intersect(ray.origin, ray.direction, tMax))
+        visit(index, *hit);
+      return;
+    }
     visitLightHits(
         ray, tMax,
         [](const void* visitor, uint32_t index, const LightHit& hit) {
@@ -73,7 +85,7 @@ class LightSet {
  private:
   void visitLightHits(const Ray& ray, float tMax, LightHitCallback callback,
                       const void* visitor) const;
-  /// Rebuilds the BVH of the area lights (lightScene_) from lights_.
+  /// Rebuilds the BVH of the area lights (lightScene_) from lights_, if there are two or more.
   void buildLightScene();
   /// Embree callbacks of the light BVH's user geometry (user data: the light set).
   static void boundLight(const RTCBoundsFunctionArguments* args);
@@ -84,7 +96,8 @@ class LightSet {
   LightSampler lightSampler_;
   std::vector<uint32_t> infiniteLights_;
   RTCScene lightScene_ = nullptr;
-  std::vector<uint32_t> areaLights_;  // light index of each primitive of lightScene_
+  std::vector<uint32_t> areaLights_;  // light index of each primitive of lightScene_ (or of the
+                                      // one area light, which has no lightScene_)
   std::vector<int> meshLights_;       // by mesh: the light it emits for, -1: none
   bool changed_ = true;               // since the last commit()
 };

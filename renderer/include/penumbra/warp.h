@@ -92,15 +92,28 @@ inline Vec3f sampleUniformTriangle(Vec2f u) {
 /// Rectangles"). Computed in double: the angles cancel badly for small rectangles.
 class SphericalRectangle {
  public:
+  /// What does not depend on where the rectangle is seen from: `corner`, the two orthogonal
+  /// edges from it as unit vectors and lengths, and their normal. Made once per rectangle.
+  struct Rectangle {
+    Vec3f corner, x, y, z;
+    double lengthX = 0, lengthY = 0;
+
+    Rectangle() = default;
+    Rectangle(const Vec3f& from, const Vec3f& edgeX, const Vec3f& edgeY)
+        : corner(from), lengthX(length(edgeX)), lengthY(length(edgeY)) {
+      x = edgeX / float(lengthX);
+      y = edgeY / float(lengthY);
+      z = cross(x, y);
+    }
+  };
+
   /// `corner` and the two orthogonal edges from it, seen from `point`.
   SphericalRectangle(const Vec3f& point, const Vec3f& corner, const Vec3f& edgeX,
                      const Vec3f& edgeY)
-      : origin_(point) {
-    const double lengthX = length(edgeX), lengthY = length(edgeY);
-    x_ = edgeX / float(lengthX);
-    y_ = edgeY / float(lengthY);
-    z_ = cross(x_, y_);
-    const Vec3f toCorner = corner - point;
+      : SphericalRectangle(point, Rectangle(corner, edgeX, edgeY)) {}
+  SphericalRectangle(const Vec3f& point, const Rectangle& rectangle)
+      : origin_(point), x_(rectangle.x), y_(rectangle.y), z_(rectangle.z) {
+    const Vec3f toCorner = rectangle.corner - point;
     x0_ = dot(toCorner, x_);
     y0_ = dot(toCorner, y_);
     z0_ = dot(toCorner, z_);
@@ -108,8 +121,8 @@ class SphericalRectangle {
       z0_ = -z0_;
       z_ = -z_;
     }
-    x1_ = x0_ + lengthX;
-    y1_ = y0_ + lengthY;
+    x1_ = x0_ + rectangle.lengthX;
+    y1_ = y0_ + rectangle.lengthY;
     // Normals of the planes through the point and each edge, then the interior angles.
     const auto planeNormal = [](double ax, double ay, double bx, double by, double z) {
       // cross((ax, ay, z), (bx, by, z)), normalised
