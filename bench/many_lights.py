@@ -22,6 +22,9 @@ REFERENCE_LIGHT_COUNT = 10  # the light count at which intensities are used as d
 FLOOR_SIZE = 16.0
 LIGHT_RADIUS = 0.05
 LIGHT_HEIGHTS = (0.3, 3.0)  # metres above the floor
+# Above the camera (at 5 m, looking 28° down): no camera ray meets a light, so the noise left is
+# light selection and shadows, not sub-pixel emitters seen directly (bench/camera_noise.py).
+ABOVE_VIEW_HEIGHTS = (5.5, 7.0)
 
 
 def add_objects(stage: Usd.Stage) -> None:
@@ -48,14 +51,17 @@ def add_objects(stage: Usd.Stage) -> None:
         shape.CreateDisplayColorAttr([Gf.Vec3f(*colour)])
 
 
-def add_lights(stage: Usd.Stage, count: int, seed: int) -> None:
-    """``count`` small SphereLights scattered over the floor, plus a dim sky dome."""
+def add_lights(
+    stage: Usd.Stage, count: int, seed: int, heights: tuple[float, float] = LIGHT_HEIGHTS
+) -> None:
+    """``count`` small SphereLights scattered over the floor at ``heights`` (metres, lowest and
+    highest), plus a dim sky dome."""
     rng = np.random.default_rng(seed)
     half = FLOOR_SIZE / 2
     positions = np.column_stack(
         (
             rng.uniform(-half, half, count),
-            rng.uniform(*LIGHT_HEIGHTS, count),
+            rng.uniform(*heights, count),
             rng.uniform(-half, half, count),
         )
     )
@@ -88,8 +94,11 @@ def add_camera(stage: Usd.Stage) -> None:
     stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
 
 
-def write_stage(path: Path, count: int, seed: int = DEFAULT_SEED) -> Path:
-    """Write the scene with ``count`` sphere lights to ``path`` and return ``path``."""
+def write_stage(
+    path: Path, count: int, seed: int = DEFAULT_SEED, above_view: bool = False
+) -> Path:
+    """Write the scene with ``count`` sphere lights to ``path`` and return ``path``;
+    ``above_view``: the lights hang above what the camera sees."""
     stage = Usd.Stage.CreateNew(str(path))
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
@@ -97,7 +106,7 @@ def write_stage(path: Path, count: int, seed: int = DEFAULT_SEED) -> Path:
     stage.SetEndTimeCode(1)
     stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/World").GetPrim())
     add_objects(stage)
-    add_lights(stage, count, seed)
+    add_lights(stage, count, seed, ABOVE_VIEW_HEIGHTS if above_view else LIGHT_HEIGHTS)
     add_camera(stage)
     stage.GetRootLayer().Save()
     return path
@@ -110,8 +119,10 @@ def main() -> None:
     parser.add_argument("output", type=Path, help="the .usda file to write")
     parser.add_argument("--lights", type=int, default=1000, help="number of sphere lights")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED)
+    parser.add_argument("--above-view", action="store_true",
+                        help="hang the lights 5.5-7 m up, above what the camera sees")
     args = parser.parse_args()
-    write_stage(args.output, args.lights, args.seed)
+    write_stage(args.output, args.lights, args.seed, args.above_view)
 
 
 if __name__ == "__main__":

@@ -174,26 +174,28 @@ def measure_denoised_ladder(
     return crossing(rungs), False
 
 
-def log_log_crossing(xs: Sequence[float], errors: Sequence[float]) -> tuple[float, bool]:
-    """The x at which ``errors`` reaches TARGET_RRMSE, interpolated log-log between the first
+def log_log_crossing(
+    xs: Sequence[float], errors: Sequence[float], target: float = TARGET_RRMSE
+) -> tuple[float, bool]:
+    """The x at which ``errors`` reaches ``target``, interpolated log-log between the first
     pair of points around it, else extrapolated from the nearest pair (then True)."""
     pairs = [(i, i + 1) for i in range(len(xs) - 1)]
-    around = [(i, j) for i, j in pairs if errors[i] >= TARGET_RRMSE >= errors[j]]
+    around = [(i, j) for i, j in pairs if errors[i] >= target >= errors[j]]
     if around:
         i, j = around[0]
     else:
-        i, j = pairs[0] if errors[0] < TARGET_RRMSE else pairs[-1]
+        i, j = pairs[0] if errors[0] < target else pairs[-1]
         if errors[j] >= errors[i]:  # not converging: no trend to extrapolate
             return math.nan, True
     slope = (math.log(xs[j]) - math.log(xs[i])) / (math.log(errors[j]) - math.log(errors[i]))
-    x = math.exp(math.log(xs[i]) + slope * (math.log(TARGET_RRMSE) - math.log(errors[i])))
+    x = math.exp(math.log(xs[i]) + slope * (math.log(target) - math.log(errors[i])))
     return x, not around
 
 
-def crossing(rungs: Sequence[Rung]) -> Crossing:
+def crossing(rungs: Sequence[Rung], target: float = TARGET_RRMSE) -> Crossing:
     errors = [rung.rrmse for rung in rungs]
-    seconds, extrapolated = log_log_crossing([rung.seconds for rung in rungs], errors)
-    samples, _ = log_log_crossing([rung.samples for rung in rungs], errors)
+    seconds, extrapolated = log_log_crossing([rung.seconds for rung in rungs], errors, target)
+    samples, _ = log_log_crossing([rung.samples for rung in rungs], errors, target)
     return Crossing(seconds, samples, extrapolated)
 
 
@@ -360,26 +362,38 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
             print(f"| {name} | failed: {error} |", flush=True)
 
 
+# Where the many-light scene's lights hang, and the rRMSE its time is measured to: in view, sub-pixel
+# emitters seen by the camera dominate the noise (bench/camera_noise.py); above the view, light
+# selection and shadows do, and the target is the issue's 1 %.
+MANY_LIGHT_PLACEMENTS = (("in view", False, TARGET_RRMSE), ("above the view", True, 0.01))
+
+
 def many_lights_table(args: argparse.Namespace) -> None:
     print(f"\nMany lights (bench/many_lights.py), {args.width} px wide; * extrapolated.\n")
-    print("| sphere lights | spp at 5 % | time to 5 % (s) | 64-spp rRMSE | time vs 10 lights |")
-    print("|---:|---:|---:|---:|---:|")
-    first_seconds: float | None = None
+    print("| lights | sphere lights | target rRMSE | spp at target | time to target (s) "
+          "| 64-spp rRMSE | time vs 10 lights |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
     with tempfile.TemporaryDirectory(prefix="penumbra-many-lights-") as directory:
-        for count in MANY_LIGHT_COUNTS:
-            path = write_stage(Path(directory) / f"lights_{count}.usda", count)
-            stage = Usd.Stage.Open(str(path))
-            rungs = measure_ladder(stage, f"{count} lights", fixed_ladder(args), args, None)
-            quality = crossing(rungs)
-            first_seconds = first_seconds or quality.seconds
-            print(
-                f"| {count} | {format_number(quality.samples, marked=quality.extrapolated)} "
-                f"| {format_number(quality.seconds, marked=quality.extrapolated)} "
-                f"| {format_number(rrmse_at(rungs, 64), 2)} "
-                f"| {format_number(quality.seconds / first_seconds, 2)} |",
-                flush=True,
-            )
-    print("\nTarget: time to 5 % at 1000 lights ≤ 2 × at 10 lights.")
+        for placement, above_view, target in MANY_LIGHT_PLACEMENTS:
+            first_seconds: float | None = None
+            for count in MANY_LIGHT_COUNTS:
+                path = write_stage(Path(directory) / f"lights_{count}_{above_view}.usda", count,
+                                   above_view=above_view)
+                stage = Usd.Stage.Open(str(path))
+                rungs = measure_ladder(stage, f"{count} lights {placement}", fixed_ladder(args),
+                                       args, None)
+                quality = crossing(rungs, target)
+                first_seconds = first_seconds or quality.seconds
+                print(
+                    f"| {placement} | {count} | {target * 100:g} % "
+                    f"| {format_number(quality.samples, marked=quality.extrapolated)} "
+                    f"| {format_number(quality.seconds, marked=quality.extrapolated)} "
+                    f"| {format_number(rrmse_at(rungs, 64), 2)} "
+                    f"| {format_number(quality.seconds / first_seconds, 2)} |",
+                    flush=True,
+                )
+    print("\nTargets: time to 5 % at 1000 lights in view, and to 1 % above the view, ≤ 2 × at "
+          "10 lights.")
 
 
 def threads_table() -> None:
