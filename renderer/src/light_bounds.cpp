@@ -22,10 +22,6 @@ float sineOf(float cosine) {
 
 }  // namespace
 
-float LightBounds::importance(const Receiver& receiver) const {
-  return LightCluster(*this).importance(receiver);
-}
-
 LightCluster::LightCluster(const LightBounds& bounds)
     : center(bounds.centroid()),
       halfDiagonal2(0.25f * dot(bounds.upper - bounds.lower, bounds.upper - bounds.lower)),

@@ -219,10 +219,10 @@ TEST(LightSampler, TreeStaysShallowForThousandsOfLights) {
   double treeShare = 0, nearImportance = 0, allImportance = 0;
   for (size_t i = 0; i < lights.size(); ++i) {
     const LightBounds bounds = lights[i].bounds();
-    allImportance += bounds.importance(corner);
+    allImportance += LightCluster(bounds).importance(corner);
     if (bounds.centroid().x < -6 && bounds.centroid().z < -6) {
       treeShare += sampler.probability(corner, i);
-      nearImportance += bounds.importance(corner);
+      nearImportance += LightCluster(bounds).importance(corner);
     }
   }
   // A node's lights are weighed as if they were at its centre, which undersells a near corner
@@ -245,9 +245,9 @@ TEST(LightCluster, ImportanceIsFiniteEverywhereAndZeroOnlyAtTheClusterCentre) {
     const float importance = cluster.importance(Receiver{Vec3f(1, 2, 3) + offset, {0, 1, 0}});
     EXPECT_TRUE(std::isfinite(importance));
     EXPECT_GT(importance, 0.0f);
-    EXPECT_EQ(importance,
-              Light(bulb).bounds().importance(Receiver{Vec3f(1, 2, 3) + offset, {0, 1, 0}}));
   }
+  // Straight below, facing it, 4 m from its centre: power / distance², no emission-cone factor.
+  EXPECT_FLOAT_EQ(cluster.importance(Receiver{{1, -2, 3}, {0, 1, 0}}), cluster.power / 16);
   // Seen edge-on from afar, the bulb gives less than to a receiver facing it from below.
   EXPECT_LT(cluster.importance(Receiver{{31, 2, 3}, {0, 1, 0}}),
             cluster.importance(Receiver{{1, -2, 3}, {0, 1, 0}}));

@@ -118,7 +118,8 @@ TEST(Warp, SphericalRectangleSamplesTheRectangleEvenlyInSolidAngle) {
   // A 2 × 2 square at distance 1 below the point, centred on the axis: solid angle
   // 4 asin(ab / √((a² + d²)(b² + d²))) = 4 asin(1/2) = 2π/3 for half sides a = b = d = 1.
   const Vec3f point(0, 0, 1);
-  const SphericalRectangle seen(point, Vec3f(-1, -1, 0), Vec3f(2, 0, 0), Vec3f(0, 2, 0));
+  const SphericalRectangle seen(
+      point, SphericalRectangle::Rectangle(Vec3f(-1, -1, 0), Vec3f(2, 0, 0), Vec3f(0, 2, 0)));
   EXPECT_NEAR(seen.solidAngle(), 2 * M_PI / 3, 1e-9);
   int quadrants[2][2] = {{0, 0}, {0, 0}};
   forEachGridPoint([&](Vec2f u) {

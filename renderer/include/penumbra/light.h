@@ -101,9 +101,6 @@ struct LightBounds {
   float cosThetaO = 1;  // 1: every axis along `axis`; -1: any direction
   float cosThetaE = 0;  // 0: each light emits over the hemisphere around its axis
 
-  /// An upper-bound estimate of the irradiance these lights give the receiver (0 only where
-  /// they cannot light it at all).
-  float importance(const Receiver& receiver) const;
   Vec3f centroid() const { return (lower + upper) * 0.5f; }
 };
 
@@ -116,7 +113,8 @@ struct LightCluster {
   LightCluster() = default;
   explicit LightCluster(const LightBounds& bounds);
 
-  /// LightBounds::importance, to the bit.
+  /// An upper-bound estimate of the irradiance these lights give the receiver (0 only where
+  /// they cannot light it at all).
   float importance(const Receiver& receiver) const;
 
   Vec3f center;             // of the bounding box

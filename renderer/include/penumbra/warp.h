@@ -107,10 +107,7 @@ class SphericalRectangle {
     }
   };
 
-  /// `corner` and the two orthogonal edges from it, seen from `point`.
-  SphericalRectangle(const Vec3f& point, const Vec3f& corner, const Vec3f& edgeX,
-                     const Vec3f& edgeY)
-      : SphericalRectangle(point, Rectangle(corner, edgeX, edgeY)) {}
+  /// The rectangle seen from `point`.
   SphericalRectangle(const Vec3f& point, const Rectangle& rectangle)
       : origin_(point), x_(rectangle.x), y_(rectangle.y), z_(rectangle.z) {
     const Vec3f toCorner = rectangle.corner - point;
