@@ -101,7 +101,7 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
                                            ? material.roughness
                                            : material.transmissionRoughness)),
       dielectricKind_(dielectricKind) {
-  if (!specularAlpha_.isotropic() || !coatAlpha_.isotropic()) {
+  if (!isotropic()) {
     // x along the tangent turned by the rotation (counter-clockwise about the normal).
     frame_ = Frame::withTangent(normal, tangent);
     const float angle =
@@ -171,6 +171,11 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
   };
   diffuseNormalization_ = {normalization(coverAverage.x), normalization(coverAverage.y),
                            normalization(coverAverage.z)};
+}
+
+PreviewSurfaceBsdf::PreviewSurfaceBsdf(const PreviewSurfaceBsdf& isotropic, const Vec3f& normal)
+    : PreviewSurfaceBsdf(isotropic) {
+  frame_ = Frame(normal);
 }
 
 bool PreviewSurfaceBsdf::isPurelySpecular() const {

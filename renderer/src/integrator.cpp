@@ -222,15 +222,29 @@ class SurfaceBsdf {
   std::variant<PreviewSurfaceBsdf, HairBsdf> bsdf_;
 };
 
+/// Whether raiseRoughness(material, minAlpha) would change the material.
+bool raisesRoughness(const MaterialParams& material, float minAlpha) {
+  if (!(minAlpha > 0)) return false;
+  const float minRoughness = std::sqrt(minAlpha);
+  return material.roughness < minRoughness || material.clearcoatRoughness < minRoughness ||
+         (material.transmissionRoughness >= 0 && material.transmissionRoughness < minRoughness);
+}
+
 /// The UsdPreviewSurface BSDF of a hit's material.
-SurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior,
-                                   float minAlpha) {
+SurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const MaterialTable& materials,
+                                   const PathSpectrum& spectrum, float ior, float minAlpha) {
   constexpr std::in_place_type_t<PreviewSurfaceBsdf> kPreviewSurface;
   // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
   const DielectricKind dielectricKind =
       hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet;
+  const bool materialAsItIs = !raisesRoughness(hit.material, minAlpha) && !spectrum.spectral;
+  // A material that does not vary was set up once (ior is its own where paths are not spectral).
+  if (materialAsItIs)
+    if (const PreviewSurfaceBsdf* prototype =
+            materials.bsdfPrototype(hit.materialIndex, dielectricKind))
+      return SurfaceBsdf(kPreviewSurface, *prototype, hit.shadingNormal);
   // Usually the material is taken as it is: no copy of it then.
-  if (!(minAlpha > 0) && !spectrum.spectral)
+  if (materialAsItIs)
     return SurfaceBsdf(kPreviewSurface, hit.material, hit.shadingNormal, ior, dielectricKind,
                        hit.tangent);
   MaterialParams material = hit.material;
@@ -247,10 +261,10 @@ SurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const PathSpectrum& sp
 
 /// `ior`: the material's, or its value at the hero wavelength under dispersion; `minAlpha`: the
 /// glossy filter's (filteredAlpha).
-SurfaceBsdf makeBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float ior,
-                     float minAlpha) {
+SurfaceBsdf makeBsdf(const SurfaceHit& hit, const MaterialTable& materials,
+                     const PathSpectrum& spectrum, float ior, float minAlpha) {
   if (hit.material.hair) return SurfaceBsdf(makeHairBsdf(hit, spectrum, minAlpha));
-  return makePreviewSurfaceBsdf(hit, spectrum, ior, minAlpha);
+  return makePreviewSurfaceBsdf(hit, materials, spectrum, ior, minAlpha);
 }
 
 /// Whether paths may be guided at a surface (and train the guide there): opaque, rough, not
@@ -733,8 +747,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     }
     const Vec3f facingNormal =
         dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
-    const SurfaceBsdf surfaceBsdf =
-        makeBsdf(*hit, spectrum, ior, filteredAlpha(settings.glossyFilter, minRayPdf));
+    const SurfaceBsdf surfaceBsdf = makeBsdf(*hit, scene.materials(), spectrum, ior,
+                                             filteredAlpha(settings.glossyFilter, minRayPdf));
     const bool guided = (settings.guidingField || training) && guidable(*hit, surfaceBsdf);
     const GuidedBsdf bsdf(surfaceBsdf, guided && settings.guidingField
                                            ? settings.guidingField->at(hit->position, facingNormal)

@@ -17,6 +17,24 @@ bool cutsOutPerHit(const Material& material) {
   return material.opacityVaries() && material.constants.opacityThreshold > 0;
 }
 
+namespace {
+
+/// The BSDFs a material gives every hit, facing +z, for a solid and a thin sheet; none where
+/// they depend on the hit (varying or anisotropic lobes) or it is no UsdPreviewSurface (hair).
+std::optional<std::array<PreviewSurfaceBsdf, 2>> bsdfPrototypes(const Material& material) {
+  if (material.varies() || material.mayBeAnisotropic() || material.constants.hair) return {};
+  MaterialParams shaded = material.constants;  // as shadeHit passes them on
+  applyOpacityThreshold(shaded);
+  const Vec3f up(0, 0, 1);
+  std::array<PreviewSurfaceBsdf, 2> prototypes{
+      PreviewSurfaceBsdf(shaded, up, shaded.ior, DielectricKind::Solid),
+      PreviewSurfaceBsdf(shaded, up, shaded.ior, DielectricKind::ThinSheet)};
+  if (!prototypes[0].isotropic()) return {};
+  return prototypes;
+}
+
+}  // namespace
+
 MaterialTable::MaterialTable(const std::string& colorConfig)
     : textures_(std::make_shared<TextureSystem>(colorConfig)) {}
 
@@ -30,10 +48,14 @@ MaterialTable::CutoutChange MaterialTable::replace(size_t index, Material materi
     registerPrimvarName(reader.coordinates.primvar);
   for (const ExpressionProgram& program : material.programs)
     for (const ExpressionNode& node : program.nodes) registerPrimvarName(node.primvar);
-  if (index == materials_.size()) materials_.emplace_back();
+  if (index == materials_.size()) {
+    materials_.emplace_back();
+    bsdfPrototypes_.emplace_back();
+  }
   Material& replaced = materials_[index];
   const CutoutChange change{cutsOutWhole(material) != cutsOutWhole(replaced),
                             cutsOutPerHit(material) != cutsOutPerHit(replaced)};
+  bsdfPrototypes_[index] = bsdfPrototypes(material);
   replaced = std::move(material);
   return change;
 }

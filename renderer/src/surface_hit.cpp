@@ -36,6 +36,7 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
   hit.u = point.u;
   hit.v = point.v;
   hit.instancePrimvars = point.instancePrimvars;
+  hit.materialIndex = found.materialIndex;
   const MaterialTable& materials = scene.materials();
   if (const Material* material = materials.find(found.materialIndex)) {
     const bool anisotropic = material->mayBeAnisotropic();
@@ -56,9 +57,7 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
     if (anisotropic)
       hit.tangent = length(surface.fibreDirection) > 0 ? surface.fibreDirection
                                                        : surfaceTangent(point, objectToWorld);
-    // With a threshold, opacity decides presence (the filter cut out what is below it); what
-    // remains is opaque, not translucent (UsdPreviewSurface spec).
-    if (hit.material.opacityThreshold > 0) hit.material.opacity = 1;
+    applyOpacityThreshold(hit.material);
     if (hit.material.thinWalled) hit.closed = !*hit.material.thinWalled;
   } else {
     hit.material = fallbackSurface();

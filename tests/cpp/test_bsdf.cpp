@@ -407,6 +407,61 @@ TEST(BsdfEvaluate, WithPdfIsEvaluateAndPdfBitForBit) {
   EXPECT_GT(nonZero, 2000);  // most pairs scatter: the comparison saw real values
 }
 
+TEST(BsdfEvaluate, TurnedPrototypeIsTheBsdfOfItsMaterialBitForBit) {
+  // What a non-varying material's BSDF set up once, facing +z, gives once turned to a hit's
+  // normal: every evaluation and sample the same as a BSDF set up at that hit.
+  MaterialParams layered;
+  layered.diffuseColor = Vec3f(0.7f, 0.5f, 0.2f);
+  layered.metallic = 0.5f;
+  layered.roughness = 0.35f;
+  layered.clearcoat = 0.5f;
+  layered.clearcoatRoughness = 0.2f;
+  layered.opacity = 0.7f;
+  layered.sheen = 0.6f;
+  layered.subsurface = 0.4f;
+  const auto same = [](const Vec3f& a, const Vec3f& b) {
+    return a.x == b.x && a.y == b.y && a.z == b.z;
+  };
+  int scattered = 0;
+  for (const MaterialParams& m : {layered, glass(0.3f), whiteMetal(0.5f), sheenAlone(0.4f)}) {
+    for (const DielectricKind kind : {DielectricKind::Solid, DielectricKind::ThinSheet}) {
+      const PreviewSurfaceBsdf prototype(m, Vec3f(0, 0, 1), m.ior, kind);
+      ASSERT_TRUE(prototype.isotropic());
+      const PreviewSurfaceBsdf turned(prototype, kNormal);
+      const PreviewSurfaceBsdf direct(m, kNormal, m.ior, kind);
+      EXPECT_EQ(turned.isPurelySpecular(), direct.isPurelySpecular());
+      EXPECT_EQ(turned.hasTransmission(), direct.hasTransmission());
+      for (uint32_t i = 0; i < 256; ++i) {
+        SampleStream stream(5, 6, 7, i);
+        const Vec2f u = stream.next2D(), v = stream.next2D(), w = stream.next2D();
+        const Vec3f wo = directionAt(2 * u.x - 1, 2 * kPi * u.y);
+        const Vec3f wi = directionAt(2 * v.x - 1, 2 * kPi * v.y);
+        Vec3f diffuseTurned, diffuseDirect;
+        const BsdfEvaluation a = turned.evaluateWithPdf(wo, wi, &diffuseTurned);
+        const BsdfEvaluation b = direct.evaluateWithPdf(wo, wi, &diffuseDirect);
+        EXPECT_TRUE(same(a.value, b.value));
+        EXPECT_TRUE(same(diffuseTurned, diffuseDirect));
+        EXPECT_EQ(a.pdf, b.pdf);
+        const std::optional<BsdfSample> sa = turned.sample(wo, w.x, {w.y, u.x});
+        const std::optional<BsdfSample> sb = direct.sample(wo, w.x, {w.y, u.x});
+        ASSERT_EQ(sa.has_value(), sb.has_value());
+        if (!sa) continue;
+        EXPECT_TRUE(same(sa->direction, sb->direction));
+        EXPECT_TRUE(same(sa->weight, sb->weight));
+        EXPECT_EQ(sa->pdf, sb->pdf);
+        EXPECT_EQ(sa->lobe, sb->lobe);
+        scattered += !isBlack(sa->weight);
+      }
+    }
+  }
+  EXPECT_GT(scattered, 1000);  // the comparison saw real samples
+  // The frame is the hit's, not the prototype's: facing +z, it would scatter differently.
+  const PreviewSurfaceBsdf plastic(whiteMetal(0.3f), Vec3f(0, 0, 1), 1.5f);
+  const Vec3f wo = directionAt(0.9f), wi = directionAt(0.8f, 2.0f);
+  EXPECT_FALSE(
+      same(PreviewSurfaceBsdf(plastic, kNormal).evaluate(wo, wi), plastic.evaluate(wo, wi)));
+}
+
 TEST(BsdfEvaluate, ReflectionIsReciprocal) {
   MaterialParams layered;
   layered.diffuseColor = Vec3f(0.9f, 0.4f, 0.2f);

@@ -349,3 +349,50 @@ TEST(Materials, EveryConnectableInputIsInTheTableOnce) {
     EXPECT_EQ(isVectorInput(input), info.kind == MaterialInputKind::Vector) << info.name;
   }
 }
+
+TEST(Materials, TableSetsUpTheBsdfOnceOnlyForMaterialsThatDoNotVary) {
+  MaterialTable table("");
+  penumbra::Material plastic;
+  plastic.constants.diffuseColor = Vec3f(0.8f, 0.2f, 0.1f);
+  plastic.constants.roughness = 0.4f;
+  plastic.constants.opacity = 0.5f;
+  table.replace(0, plastic);
+  const Vec3f up(0, 0, 1), wo = normalize(Vec3f(0.2f, 0.1f, 0.9f));
+  const Vec3f wi = normalize(Vec3f(-0.3f, 0.2f, 0.8f)), through = normalize(Vec3f(-0.3f, 0, -0.9f));
+  for (const DielectricKind kind : {DielectricKind::Solid, DielectricKind::ThinSheet}) {
+    const PreviewSurfaceBsdf* prototype = table.bsdfPrototype(0, kind);
+    ASSERT_NE(prototype, nullptr);
+    const PreviewSurfaceBsdf direct(plastic.constants, up, plastic.constants.ior, kind);
+    for (const Vec3f& w : {wi, through}) {
+      EXPECT_EQ(prototype->evaluate(wo, w).y, direct.evaluate(wo, w).y);
+      EXPECT_EQ(prototype->pdf(wo, w), direct.pdf(wo, w));
+    }
+  }
+  // Solid and sheet transmit differently: each kind has its own.
+  EXPECT_NE(table.bsdfPrototype(0, DielectricKind::Solid)->evaluate(wo, through).y,
+            table.bsdfPrototype(0, DielectricKind::ThinSheet)->evaluate(wo, through).y);
+  // As shading sees the constants: with a threshold, what is present is opaque.
+  penumbra::Material cutOut = plastic;
+  cutOut.constants.opacityThreshold = 0.2f;
+  table.replace(0, cutOut);
+  EXPECT_FALSE(table.bsdfPrototype(0, DielectricKind::Solid)->hasTransmission());
+  // What depends on the hit has none, and a replaced material follows (live edits).
+  penumbra::Material anisotropic = plastic;
+  anisotropic.constants.anisotropy = 0.5f;
+  penumbra::Material hair = plastic;
+  hair.constants.hair = true;
+  penumbra::Material textured = plastic;
+  InputConnection fromPrimvar;
+  fromPrimvar.input = MaterialInput::DiffuseColor;
+  fromPrimvar.primvar = PrimvarName("tint");
+  textured.connections.push_back(fromPrimvar);
+  for (const penumbra::Material& perHit : {anisotropic, hair, textured}) {
+    table.replace(0, perHit);
+    EXPECT_EQ(table.bsdfPrototype(0, DielectricKind::Solid), nullptr);
+    EXPECT_EQ(table.bsdfPrototype(0, DielectricKind::ThinSheet), nullptr);
+  }
+  table.replace(0, plastic);
+  EXPECT_NE(table.bsdfPrototype(0, DielectricKind::Solid), nullptr);
+  EXPECT_EQ(table.bsdfPrototype(MaterialTable::kNoMaterial, DielectricKind::Solid), nullptr);
+  EXPECT_EQ(table.bsdfPrototype(1, DielectricKind::Solid), nullptr);
+}

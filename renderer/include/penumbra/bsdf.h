@@ -138,6 +138,11 @@ class PreviewSurfaceBsdf {
   PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& normal, float ior,
                      DielectricKind dielectricKind = DielectricKind::Solid,
                      const Vec3f& tangent = Vec3f(0.0f));
+  /// `isotropic` turned to face `normal`: bit for bit the BSDF its material would give there.
+  /// Everything else the constructor derives depends on the material alone, so a material
+  /// that does not vary over its surfaces sets up its BSDF once (MaterialTable::bsdfPrototype)
+  /// instead of at every hit. Only for isotropic lobes, whose frame needs no tangent.
+  PreviewSurfaceBsdf(const PreviewSurfaceBsdf& isotropic, const Vec3f& normal);
 
   /// f(wo, wi) · |cos θi| over the non-delta lobes. `diffusePart`, if given, receives the
   /// diffuse lobe's share (lights scale diffuse and specular response separately).
@@ -158,6 +163,8 @@ class PreviewSurfaceBsdf {
   /// Every lobe with non-zero weight is a delta: light sampling cannot hit any of them.
   bool isPurelySpecular() const;
   bool hasTransmission() const { return opacity_ < 1; }
+  /// Whether every lobe is isotropic: the frame about the normal needs no tangent then.
+  bool isotropic() const { return specularAlpha_.isotropic() && coatAlpha_.isotropic(); }
 
  private:
   struct LobeProbabilities {

@@ -126,6 +126,12 @@ struct MaterialParams {
 /// displayColor and displayOpacity where they are authored.
 MaterialParams fallbackSurface();
 
+/// Shading's opacity where a threshold is set: opacity decided presence (the filter cut out
+/// what is below it), and what remains is opaque, not translucent (UsdPreviewSurface spec).
+inline void applyOpacityThreshold(MaterialParams& params) {
+  if (params.opacityThreshold > 0) params.opacity = 1;
+}
+
 /// The inputs a shader network can drive (material_inputs.h names them). `Normal` is the
 /// tangent-space normal (a normal map); the others are the MaterialParams of the same name.
 enum class MaterialInput : uint8_t {

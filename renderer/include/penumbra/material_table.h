@@ -2,11 +2,14 @@
 // enter the scene (so that lookups by a name's 64-bit key never mistake one primvar for another).
 #pragma once
 
+#include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
+#include "penumbra/bsdf.h"
 #include "penumbra/material.h"
 #include "penumbra/mesh.h"
 #include "penumbra/texture.h"
@@ -45,6 +48,14 @@ class MaterialTable {
     return index < 0 || size_t(index) >= materials_.size() ? nullptr : &materials_[size_t(index)];
   }
 
+  /// The BSDF of the material at `index` as set up for any hit (see PreviewSurfaceBsdf's
+  /// turning constructor), for the dielectric kind of the surface hit; null where a hit must set
+  /// it up itself: no material, a varying or anisotropic one, or a hair material.
+  const PreviewSurfaceBsdf* bsdfPrototype(int index, DielectricKind kind) const {
+    if (!find(index)) return nullptr;
+    const auto& prototypes = bsdfPrototypes_[size_t(index)];
+    return prototypes ? &(*prototypes)[size_t(kind)] : nullptr;
+  }
   /// The textures materials read; open files here before referencing them.
   TextureSystem& textures() { return *textures_; }
   const TextureSystem& textures() const { return *textures_; }
@@ -65,6 +76,9 @@ class MaterialTable {
 
  private:
   std::vector<Material> materials_;
+  /// By material index and DielectricKind: the BSDFs of materials that do not vary (as
+  /// shading sees their constants), empty for the others.
+  std::vector<std::optional<std::array<PreviewSurfaceBsdf, 2>>> bsdfPrototypes_;
   std::unordered_map<uint64_t, std::string> primvarNames_;  // by key, every name registered
   std::shared_ptr<TextureSystem> textures_;
   bool spectral_ = false;

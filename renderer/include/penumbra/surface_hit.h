@@ -27,6 +27,7 @@ struct SurfaceHit {
   /// The bound material's parameters evaluated here (textures, primvar readers, normal map), or
   /// fallbackSurface() with displayColor and displayOpacity for meshes without one.
   MaterialParams material;
+  int materialIndex = MaterialTable::kNoMaterial;  // the bound material's, in scene.materials()
   int lightIndex = -1;  // the mesh light this surface is (UsdLuxMeshLightAPI)
   bool closed = false;  // a solid: the mesh bounds one, or its material is not thin-walled
   bool matte = false;   // a holdout (PassVisibility::matte): only distance and position are set
