@@ -11,7 +11,13 @@ namespace {
 /// some 400 bytes, copied at every hit otherwise.
 std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind kind,
                                    const RayCone& cone, const GeometryHit& found) {
-  std::optional<SurfaceHit> shaded(std::in_place);
+  const MaterialTable& materials = scene.materials();
+  const Material* material = materials.find(found.materialIndex);
+  // A material that does not vary is what the hit takes: set at construction.
+  std::optional<SurfaceHit> shaded =
+      material && !material->varies()
+          ? std::optional<SurfaceHit>(std::in_place, material->constants)
+          : std::optional<SurfaceHit>(std::in_place);
   SurfaceHit& hit = *shaded;
   hit.distance = found.distance;
   hit.position = ray.origin + ray.direction * hit.distance;
@@ -37,8 +43,7 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
   hit.v = point.v;
   hit.instancePrimvars = point.instancePrimvars;
   hit.materialIndex = found.materialIndex;
-  const MaterialTable& materials = scene.materials();
-  if (const Material* material = materials.find(found.materialIndex)) {
+  if (material) {
     const bool anisotropic = material->mayBeAnisotropic();
     if (material->varies() || anisotropic) {
       // Texture footprints and tangent frames need the primitive in world space.
@@ -50,8 +55,6 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
       footprintOnSurface(ray.direction, hit.normal, cone.radiusAt(hit.distance), &point.dpdx,
                          &point.dpdy);
       hit.material = evaluateMaterial(*material, materials.textures(), point, &hit.shadingNormal);
-    } else {
-      hit.material = material->constants;
     }
     // A fibre's tangent is its direction (its corners, all one point, span no surface).
     if (anisotropic)

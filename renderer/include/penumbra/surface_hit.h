@@ -15,6 +15,10 @@ namespace penumbra {
 
 /// A ray's first intersection with a surface, shaded.
 struct SurfaceHit {
+  SurfaceHit() = default;
+  /// With its material's parameters taken as they are (copied once, not set to defaults first).
+  explicit SurfaceHit(const MaterialParams& boundMaterial) : material(boundMaterial) {}
+
   float distance = 0;
   Vec3f position;
   Vec3f normal;         // unit geometric normal on the authored front side
