@@ -72,6 +72,24 @@ MaterialParams anisotropicWhiteMetal(float roughness, float anisotropy,
 /// A tangent off the normal's fixed frame (not orthogonal to kNormal: the BSDF projects it).
 const Vec3f kTangent = normalize(Vec3f(1.0f, 0.4f, 0.2f));
 
+/// Every layer of the opaque part (metal, coat, sheen) over a translucent share.
+MaterialParams layeredMaterial() {
+  MaterialParams m;
+  m.diffuseColor = Vec3f(0.7f, 0.5f, 0.2f);
+  m.metallic = 0.5f;
+  m.roughness = 0.35f;
+  m.clearcoat = 0.5f;
+  m.clearcoatRoughness = 0.2f;
+  m.opacity = 0.7f;
+  m.sheen = 0.6f;
+  return m;
+}
+
+/// Every component equal (what the bit-for-bit tests compare).
+bool sameValue(const Vec3f& a, const Vec3f& b) {
+  return a.x == b.x && a.y == b.y && a.z == b.z;
+}
+
 PreviewSurfaceBsdf makeBsdf(const MaterialParams& m, DielectricKind kind = DielectricKind::Solid) {
   return PreviewSurfaceBsdf(m, kNormal, m.ior, kind, kTangent);
 }
@@ -367,23 +385,13 @@ TEST(BsdfSample, WeightIsEvaluateOverPdf) {
 
 // The integrator takes both from one call where it needs both: they must be the very same bits.
 TEST(BsdfEvaluate, WithPdfIsEvaluateAndPdfBitForBit) {
-  MaterialParams layered;
-  layered.diffuseColor = Vec3f(0.7f, 0.5f, 0.2f);
-  layered.metallic = 0.5f;
-  layered.roughness = 0.35f;
-  layered.clearcoat = 0.5f;
-  layered.clearcoatRoughness = 0.2f;
-  layered.opacity = 0.7f;
-  layered.sheen = 0.6f;
+  const MaterialParams layered = layeredMaterial();
   MaterialParams anisotropic = layered;
   anisotropic.anisotropy = 0.6f;
   anisotropic.clearcoatAnisotropy = 0.3f;
   MaterialParams plastic;
   plastic.diffuseColor = Vec3f(0.8f, 0.15f, 0.1f);
   plastic.roughness = 0.35f;
-  const auto same = [](const Vec3f& a, const Vec3f& b) {
-    return a.x == b.x && a.y == b.y && a.z == b.z;
-  };
   int nonZero = 0;
   for (const MaterialParams& m : {layered, anisotropic, plastic, glass(0.3f), whiteMetal(0.5f)}) {
     for (const DielectricKind kind : {DielectricKind::Solid, DielectricKind::ThinSheet}) {
@@ -397,8 +405,8 @@ TEST(BsdfEvaluate, WithPdfIsEvaluateAndPdfBitForBit) {
         const Vec3f f = bsdf.evaluate(wo, wi, &diffuse);
         const float pdf = bsdf.pdf(wo, wi);
         const BsdfEvaluation together = bsdf.evaluateWithPdf(wo, wi, &diffuseTogether);
-        EXPECT_TRUE(same(together.value, f));
-        EXPECT_TRUE(same(diffuseTogether, diffuse));
+        EXPECT_TRUE(sameValue(together.value, f));
+        EXPECT_TRUE(sameValue(diffuseTogether, diffuse));
         EXPECT_EQ(together.pdf, pdf);
         nonZero += pdf > 0 && !isBlack(f);
       }
@@ -410,18 +418,8 @@ TEST(BsdfEvaluate, WithPdfIsEvaluateAndPdfBitForBit) {
 TEST(BsdfEvaluate, TurnedPrototypeIsTheBsdfOfItsMaterialBitForBit) {
   // What a non-varying material's BSDF set up once, facing +z, gives once turned to a hit's
   // normal: every evaluation and sample the same as a BSDF set up at that hit.
-  MaterialParams layered;
-  layered.diffuseColor = Vec3f(0.7f, 0.5f, 0.2f);
-  layered.metallic = 0.5f;
-  layered.roughness = 0.35f;
-  layered.clearcoat = 0.5f;
-  layered.clearcoatRoughness = 0.2f;
-  layered.opacity = 0.7f;
-  layered.sheen = 0.6f;
+  MaterialParams layered = layeredMaterial();
   layered.subsurface = 0.4f;
-  const auto same = [](const Vec3f& a, const Vec3f& b) {
-    return a.x == b.x && a.y == b.y && a.z == b.z;
-  };
   int scattered = 0;
   for (const MaterialParams& m : {layered, glass(0.3f), whiteMetal(0.5f), sheenAlone(0.4f)}) {
     for (const DielectricKind kind : {DielectricKind::Solid, DielectricKind::ThinSheet}) {
@@ -439,15 +437,15 @@ TEST(BsdfEvaluate, TurnedPrototypeIsTheBsdfOfItsMaterialBitForBit) {
         Vec3f diffuseTurned, diffuseDirect;
         const BsdfEvaluation a = turned.evaluateWithPdf(wo, wi, &diffuseTurned);
         const BsdfEvaluation b = direct.evaluateWithPdf(wo, wi, &diffuseDirect);
-        EXPECT_TRUE(same(a.value, b.value));
-        EXPECT_TRUE(same(diffuseTurned, diffuseDirect));
+        EXPECT_TRUE(sameValue(a.value, b.value));
+        EXPECT_TRUE(sameValue(diffuseTurned, diffuseDirect));
         EXPECT_EQ(a.pdf, b.pdf);
         const std::optional<BsdfSample> sa = turned.sample(wo, w.x, {w.y, u.x});
         const std::optional<BsdfSample> sb = direct.sample(wo, w.x, {w.y, u.x});
         ASSERT_EQ(sa.has_value(), sb.has_value());
         if (!sa) continue;
-        EXPECT_TRUE(same(sa->direction, sb->direction));
-        EXPECT_TRUE(same(sa->weight, sb->weight));
+        EXPECT_TRUE(sameValue(sa->direction, sb->direction));
+        EXPECT_TRUE(sameValue(sa->weight, sb->weight));
         EXPECT_EQ(sa->pdf, sb->pdf);
         EXPECT_EQ(sa->lobe, sb->lobe);
         scattered += !isBlack(sa->weight);
@@ -456,10 +454,10 @@ TEST(BsdfEvaluate, TurnedPrototypeIsTheBsdfOfItsMaterialBitForBit) {
   }
   EXPECT_GT(scattered, 1000);  // the comparison saw real samples
   // The frame is the hit's, not the prototype's: facing +z, it would scatter differently.
-  const PreviewSurfaceBsdf plastic(whiteMetal(0.3f), Vec3f(0, 0, 1), 1.5f);
+  const PreviewSurfaceBsdf facingUp(whiteMetal(0.3f), Vec3f(0, 0, 1), 1.5f);
   const Vec3f wo = directionAt(0.9f), wi = directionAt(0.8f, 2.0f);
   EXPECT_FALSE(
-      same(PreviewSurfaceBsdf(plastic, kNormal).evaluate(wo, wi), plastic.evaluate(wo, wi)));
+      sameValue(PreviewSurfaceBsdf(facingUp, kNormal).evaluate(wo, wi), facingUp.evaluate(wo, wi)));
 }
 
 TEST(BsdfEvaluate, ReflectionIsReciprocal) {
