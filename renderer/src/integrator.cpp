@@ -237,16 +237,15 @@ SurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const MaterialTable& m
   // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
   const DielectricKind dielectricKind =
       hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet;
-  const bool materialAsItIs = !raisesRoughness(hit.material, minAlpha) && !spectrum.spectral;
-  // A material that does not vary was set up once (ior is its own where paths are not spectral).
-  if (materialAsItIs)
+  // Usually the material is taken as it is: no copy of it then, and none of its set-up where
+  // it does not vary (set up once; ior is its own where paths are not spectral).
+  if (!raisesRoughness(hit.material, minAlpha) && !spectrum.spectral) {
     if (const PreviewSurfaceBsdf* prototype =
             materials.bsdfPrototype(hit.materialIndex, dielectricKind))
       return SurfaceBsdf(kPreviewSurface, *prototype, hit.shadingNormal);
-  // Usually the material is taken as it is: no copy of it then.
-  if (materialAsItIs)
     return SurfaceBsdf(kPreviewSurface, hit.material, hit.shadingNormal, ior, dielectricKind,
                        hit.tangent);
+  }
   MaterialParams material = hit.material;
   if (minAlpha > 0) raiseRoughness(material, minAlpha);
   if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);

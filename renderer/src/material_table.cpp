@@ -22,14 +22,14 @@ namespace {
 /// The BSDFs a material gives every hit, facing +z, for a solid and a thin sheet; none where
 /// they depend on the hit (varying or anisotropic lobes) or it is no UsdPreviewSurface (hair).
 std::optional<std::array<PreviewSurfaceBsdf, 2>> bsdfPrototypes(const Material& material) {
-  if (material.varies() || material.mayBeAnisotropic() || material.constants.hair) return {};
+  if (material.varies() || material.constants.hair) return {};
   MaterialParams shaded = material.constants;  // as shadeHit passes them on
   applyOpacityThreshold(shaded);
   const Vec3f up(0, 0, 1);
   std::array<PreviewSurfaceBsdf, 2> prototypes{
       PreviewSurfaceBsdf(shaded, up, shaded.ior, DielectricKind::Solid),
       PreviewSurfaceBsdf(shaded, up, shaded.ior, DielectricKind::ThinSheet)};
-  if (!prototypes[0].isotropic()) return {};
+  if (!prototypes[0].isotropic()) return {};  // its frame follows each hit's tangent
   return prototypes;
 }
 
