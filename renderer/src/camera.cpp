@@ -94,6 +94,35 @@ Ray Camera::generateRay(float imageX, float imageY, Vec2f lensSample, float time
   return ray;
 }
 
+bool Camera::isStatic() const {
+  return !params_.cameraToWorld.isAnimated() && params_.focalLengthSteps.size() <= 1 &&
+         params_.focusDistanceSteps.size() <= 1;
+}
+
+std::optional<PointImage> Camera::pointImage(const Vec3f& point) const {
+  const Vec3f q = params_.cameraToWorld.at(0).inverse().applyToPoint(point);
+  const float viewDepth = -q.z;  // in camera units, as generateRay's clipping distances
+  if (!(viewDepth > params_.nearClip) || !(viewDepth < params_.farClip)) return std::nullopt;
+  // generateRay backwards: from the film window (tenths of a unit) to pixels.
+  const auto toImage = [&](float filmX, float filmY) {
+    return Vec2f{((filmX - params_.horizontalApertureOffset) / filmWidth_ + 0.5f) * width_,
+                 (0.5f - (filmY - params_.verticalApertureOffset) / filmHeight_) * height_};
+  };
+  if (params_.projection == Projection::Orthographic)
+    return PointImage{toImage(10 * q.x, 10 * q.y), {0, 0}};
+  const float focalLength = focalLengthAt(0);
+  PointImage image{toImage(q.x * focalLength / viewDepth, q.y * focalLength / viewDepth), {0, 0}};
+  if (thinLens_) {
+    // The ray from lens point l through q meets the plane of focus (depth D) at
+    // q·D/depth + l·(1 − D/depth), which the film sees at focalLength / D times that.
+    const float focus = focusDistanceAt(0);
+    const float filmPerLensUnit = lensRadiusAt(0) * (1 - focus / viewDepth) * focalLength / focus;
+    image.perLensUnit = {filmPerLensUnit / filmWidth_ * width_,
+                         -filmPerLensUnit / filmHeight_ * height_};
+  }
+  return image;
+}
+
 RayCone Camera::pixelCone() const {
   // The side of a square of a pixel's film area (pixels are square unless pixelAspectRatio).
   const float pixelFilm =

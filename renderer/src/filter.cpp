@@ -41,4 +41,22 @@ float PixelFilter::sample1D(float u) const {
   return inverseCdf_[size_t(knot)] * (1 - within) + inverseCdf_[size_t(knot) + 1] * within;
 }
 
+float PixelFilter::cdf1D(float x) const {
+  if (!(x > inverseCdf_.front())) return 0;
+  if (!(x < inverseCdf_.back())) return 1;
+  // The knot interval holding x; each holds probability 1 / kInverseSize.
+  const size_t knot =
+      size_t(std::upper_bound(inverseCdf_.begin(), inverseCdf_.end(), x) - inverseCdf_.begin()) - 1;
+  const float width = inverseCdf_[knot + 1] - inverseCdf_[knot];
+  const float within = width > 0 ? (x - inverseCdf_[knot]) / width : 0.0f;
+  return std::min((float(knot) + within) / kInverseSize, 1.0f);
+}
+
+PixelFilter::OffsetWithin PixelFilter::sampleOffsetWithin(Vec2f lower, Vec2f upper, Vec2f u) const {
+  const float x0 = cdf1D(lower.x), x1 = cdf1D(upper.x);
+  const float y0 = cdf1D(lower.y), y1 = cdf1D(upper.y);
+  return {{sample1D(x0 + u.x * (x1 - x0)), sample1D(y0 + u.y * (y1 - y0))},
+          std::max(0.0f, x1 - x0) * std::max(0.0f, y1 - y0)};
+}
+
 }  // namespace penumbra

@@ -8,6 +8,7 @@
 #include "penumbra/bsdf.h"
 #include "penumbra/guiding.h"
 #include "penumbra/hair_bsdf.h"
+#include "penumbra/light_images.h"
 #include "penumbra/phase.h"
 #include "penumbra/random_stream.h"
 #include "penumbra/sampler.h"
@@ -72,9 +73,12 @@ float bsdfStrategyWeight(const Scene& scene, const ScatteringRecord& origin, siz
 
 /// Emission from the lights a ray meets before `tMax` (area lights) or, if it escapes, from the
 /// infinite ones, weighted against the BSDF sampling that produced it.
+/// Camera rays find the emission of the lights that `lightImages` (if any) integrates over their
+/// image all the same (for depth and alpha) but do not add it.
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
                       const ScatteringRecord& origin, DirectLighting mode,
-                      const PathSpectrum& spectrum, float* nearestLight, bool* sawLight) {
+                      const PathSpectrum& spectrum, const LightImages* lightImages,
+                      float* nearestLight, bool* sawLight) {
   const std::vector<Light>& lights = scene.lights().all();
   Vec3f total{0.0f};
   float nearest = kInfinity;
@@ -86,6 +90,7 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     // light (the dome too) makes the pixel opaque.
     nearest = std::min(nearest, hit.distance);
     *sawLight = true;
+    if (!origin.fromSurface && lightImages && lightImages->integrates(index)) return;
     const float weight = bsdfStrategyWeight(scene, origin, index, hit.pdf, mode);
     // Camera rays see lights as they are; reflected light is scaled by the lobe's multiplier.
     const float multiplier = !origin.fromSurface ? 1.0f
@@ -498,6 +503,61 @@ Vec3f glassAbsorptionAt(const SurfaceHit& hit, const PathSpectrum& spectrum) {
   return transmissionAbsorption(material);
 }
 
+/// The sampler dimensions of lightsSeenDirectly's draws, one per light: far above any path's,
+/// so that the path draws what it would without them.
+constexpr uint32_t kLightImageDimensions = 0x80000000u;
+/// The purpose of the random stream of their rays' transmittance (RandomStream): neither the
+/// volumes' along the path (0) nor a subsurface walk's (1 + its vertex).
+constexpr uint32_t kLightImageStream = 0xffffffffu;
+
+/// The emission that pixel (x, y)'s camera sample (lens sample `lensSample`, shutter time
+/// `time`) sees directly of the lights `images` integrates over their image (light_images.h).
+/// For each light near the pixel: a filter offset drawn as the camera ray's are but only within
+/// the box around the light's image as the sample's lens point sees it, and the emission the
+/// camera ray through it sees there, weighted by the share of the filter in that box. Adds the
+/// rays it traces to `rays`.
+Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFilter& filter,
+                         const LightImages& images, const SampleStream& sampler, int x, int y,
+                         uint32_t sampleIndex, uint32_t seed, Vec2f lensSample, float time,
+                         const PathSpectrum& spectrum, uint32_t* rays) {
+  const auto [begin, end] = images.near(x, y);
+  Vec3f total{0.0f};
+  if (begin == end) return total;
+  const Vec2f lens = concentricSampleDisk(lensSample);
+  const Vec2f centre{float(x) + 0.5f, float(y) + 0.5f};
+  const ImageBox filterReach = ImageBox{centre, centre}.widened(filter.radius());
+  const std::vector<Light>& lights = scene.lights().all();
+  std::optional<RandomStream> volumeRandom;
+  for (const LightImages::Integrated* light = begin; light != end; ++light) {
+    if (!light->reaches(centre)) continue;
+    const ImageBox region = light->imageBox(lens).intersected(filterReach);
+    if (region.empty()) continue;
+    const PixelFilter::OffsetWithin drawn =
+        filter.sampleOffsetWithin({region.lower.x - centre.x, region.lower.y - centre.y},
+                                  {region.upper.x - centre.x, region.upper.y - centre.y},
+                                  sampler.draw2D(kLightImageDimensions + light->light));
+    if (!(drawn.share > 0)) continue;
+    const Ray ray =
+        camera.generateRay(centre.x + drawn.offset.x, centre.y + drawn.offset.y, lensSample, time);
+    const std::optional<LightHit> hit =
+        lights[light->light].intersect(ray.origin, ray.direction, ray.tFar);
+    if (!hit) continue;
+    ++*rays;
+    // What the camera ray would count: the light in front of the first surface it sees.
+    if (scene.geometry().hitDistance(ray, RayKind::Camera) < hit->distance) continue;
+    Vec3f transmittance{1.0f};
+    if (!scene.volumes().empty()) {
+      if (!volumeRandom)
+        volumeRandom.emplace(seed, uint32_t(x), uint32_t(y), sampleIndex, kLightImageStream);
+      const MediumSpectrum mediumSpectrum{spectrum.spectral ? &spectrum.wavelengths : nullptr};
+      transmittance = estimateTransmittance(scene.volumes(), ray, hit->distance, mediumSpectrum,
+                                            *volumeRandom, scene.geometry().linking(), -1);
+    }
+    total += spectrum.emission(hit->radiance) * transmittance * drawn.share;
+  }
+  return total;
+}
+
 /// Records what the camera ray `ray` met first: a surface (`hit`), or only a light at
 /// `firstHitDistance` (infinity: nothing).
 void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
@@ -546,6 +606,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                lensSample, shutterTime);
 
   CameraSample result;
+  if (settings.lightImages)
+    result.radiance =
+        lightsSeenDirectly(scene, camera, filter, *settings.lightImages, sampler, x, y, sampleIndex,
+                           settings.seed, lensSample, shutterTime, spectrum, &result.rays);
   const bool training = settings.guidingRecorder != nullptr;
   GuidingTrainer trainer;
   // Every light the sample gathers goes through here, so that training sees it too.
@@ -657,14 +721,15 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     // Light met by this ray has `bounce` interactions behind it, plus its emission. Lights in
     // front of a collision in a medium take the path's weight from before the flight (exact
     // for grey media, whose tracking leaves the weight as it is).
-    addLight(clampIndirect((passed ? throughput : throughputBeforeFlight) *
-                               emittedAlongRay(scene, ray,
-                                               !passed ? mediumPoint.distance
-                                               : hit   ? hit->distance
-                                                       : ray.tFar,
-                                               !hit && passed, scattering, settings.directLighting,
-                                               spectrum, &nearestLight, &sawLight),
-                           bounce, settings.indirectClamp));
+    addLight(
+        clampIndirect((passed ? throughput : throughputBeforeFlight) *
+                          emittedAlongRay(scene, ray,
+                                          !passed ? mediumPoint.distance
+                                          : hit   ? hit->distance
+                                                  : ray.tFar,
+                                          !hit && passed, scattering, settings.directLighting,
+                                          spectrum, settings.lightImages, &nearestLight, &sawLight),
+                      bounce, settings.indirectClamp));
     // What the ray stops at: the surface, or the medium where it collided.
     const SurfaceHit* surface = hit && passed ? &*hit : nullptr;
     if (bounce == 0) {

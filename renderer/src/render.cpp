@@ -4,6 +4,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "penumbra/light_images.h"
+
 namespace penumbra {
 namespace {
 constexpr int kTileSize = 16;
@@ -37,12 +39,21 @@ bool forEachPixel(int width, int height, int threads, const std::atomic<bool>* c
   return !cancelled(cancel);
 }
 
+/// The integrator's settings with `lightImages`, when it integrates any light.
+IntegratorSettings integrating(const IntegratorSettings& settings, const LightImages& lightImages) {
+  IntegratorSettings result = settings;
+  if (!lightImages.empty()) result.lightImages = &lightImages;
+  return result;
+}
+
 }  // namespace
 
 bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_t firstSample,
                    uint32_t sampleCount, const RenderSettings& settings,
                    const std::atomic<bool>* cancel) {
   const PixelFilter filter;
+  const LightImages lightImages(scene.lights().all(), camera, filter.radius());
+  const IntegratorSettings integrator = integrating(settings.integrator, lightImages);
   return forEachPixel(film.width(), film.height(), settings.threads, cancel, [&](int x, int y) {
     if (!film.isActive(x, y)) return;
     // Samples are seeded by the pixel's position in the image, not on the film.
@@ -51,13 +62,12 @@ bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_
       if (cancelled(cancel)) return;
       if (film.wantsFirstHit()) {
         FirstHitSample firstHit;
-        const CameraSample sample = renderCameraSample(scene, camera, filter, imageX, imageY, s,
-                                                       settings.integrator, &firstHit);
+        const CameraSample sample =
+            renderCameraSample(scene, camera, filter, imageX, imageY, s, integrator, &firstHit);
         film.addSample(x, y, s, sample, &firstHit);
       } else {
-        film.addSample(
-            x, y, s,
-            renderCameraSample(scene, camera, filter, imageX, imageY, s, settings.integrator));
+        film.addSample(x, y, s,
+                       renderCameraSample(scene, camera, filter, imageX, imageY, s, integrator));
       }
     }
   });
@@ -67,10 +77,12 @@ bool traceSamples(const Scene& scene, const Camera& camera, int width, int heigh
                   uint32_t firstSample, uint32_t sampleCount, const RenderSettings& settings,
                   const std::atomic<bool>* cancel) {
   const PixelFilter filter;
+  const LightImages lightImages(scene.lights().all(), camera, filter.radius());
+  const IntegratorSettings integrator = integrating(settings.integrator, lightImages);
   return forEachPixel(width, height, settings.threads, cancel, [&](int x, int y) {
     for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s) {
       if (cancelled(cancel)) return;
-      renderCameraSample(scene, camera, filter, x, y, s, settings.integrator);
+      renderCameraSample(scene, camera, filter, x, y, s, integrator);
     }
   });
 }

@@ -1,6 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <optional>
+#include <vector>
+
 #include "penumbra/camera.h"
+#include "penumbra/warp.h"
 
 using namespace penumbra;
 
@@ -111,4 +115,58 @@ TEST(Camera, PixelAspectRatioStretchesPixelsOnTheFilm) {
   expectNear(corner.direction, normalize(Vec3f(0.2f / 0.35f, 0.1f / 0.35f, -1)), 1e-6f);
   params.pixelAspectRatio = 0;
   EXPECT_THROW(Camera(params, 100, 100), std::invalid_argument);
+}
+
+TEST(Camera, PointImageIsWhereCameraRaysThroughThePointCameFrom) {
+  // A turned, offset camera with a non-square pixel aspect: pinhole, thin lens, orthographic.
+  CameraParams params = cornellCamera();
+  const double turned[16] = {0.8, 0, -0.6, 0, 0, 1, 0, 0, 0.6, 0, 0.8, 0, 1, 2, 3, 1};
+  params.cameraToWorld = Transform::fromRowMajor(turned);
+  params.horizontalApertureOffset = 0.02f;
+  params.verticalApertureOffset = -0.01f;
+  params.pixelAspectRatio = 1.25f;
+  CameraParams thinLens = params;
+  thinLens.fStop = 1.4f;
+  thinLens.focusDistance = 3;
+  CameraParams orthographic = params;
+  orthographic.projection = Projection::Orthographic;
+  // 3.6 units wide, so that a pixel is well above the rounding of points 40 units away.
+  orthographic.horizontalAperture *= 100;
+  orthographic.verticalAperture *= 100;
+  for (const CameraParams& lens : {params, thinLens, orthographic}) {
+    const Camera camera(lens, 320, 200);
+    ASSERT_TRUE(camera.isStatic());
+    for (const Vec2f position : {Vec2f{10.5f, 20.25f}, Vec2f{160, 100}, Vec2f{300.75f, 190.5f}})
+      for (const Vec2f lensSample : {Vec2f{0.5f, 0.5f}, Vec2f{0.1f, 0.8f}, Vec2f{0.95f, 0.3f}})
+        for (const float distance : {1.5f, 3.0f, 40.0f}) {
+          const Ray ray = camera.generateRay(position.x, position.y, lensSample);
+          const std::optional<PointImage> image =
+              camera.pointImage(ray.origin + ray.direction * distance);
+          ASSERT_TRUE(image);
+          const Vec2f lensPoint = concentricSampleDisk(lensSample);
+          EXPECT_NEAR(image->position.x + image->perLensUnit.x * lensPoint.x, position.x, 2e-3f);
+          EXPECT_NEAR(image->position.y + image->perLensUnit.y * lensPoint.y, position.y, 2e-3f);
+          if (lens.fStop == 0) {
+            EXPECT_EQ(image->perLensUnit.x, 0);
+            EXPECT_EQ(image->perLensUnit.y, 0);
+          }
+        }
+    // Nothing in front of the near clipping plane or behind the camera has an image.
+    const Vec3f centre = camera.centre(0);
+    const Ray axis = camera.generateRay(160, 100, {0.5f, 0.5f});
+    EXPECT_FALSE(camera.pointImage(centre + axis.direction * 0.01f));
+    EXPECT_FALSE(camera.pointImage(centre - axis.direction * 2.0f));
+  }
+}
+
+TEST(Camera, IsStaticUnlessItsTransformOrLensChangesOverTheShutter) {
+  EXPECT_TRUE(Camera(cornellCamera(), 64, 64).isStatic());
+  CameraParams zooming = cornellCamera();
+  zooming.focalLengthSteps = {0.35f, 0.5f};
+  EXPECT_FALSE(Camera(zooming, 64, 64).isStatic());
+  CameraParams moving = cornellCamera();
+  const double later[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 1, 1, 4.45679, 1};
+  moving.cameraToWorld = MotionTransform(
+      std::vector<Transform>{cornellCamera().cameraToWorld.at(0), Transform::fromRowMajor(later)});
+  EXPECT_FALSE(Camera(moving, 64, 64).isStatic());
 }

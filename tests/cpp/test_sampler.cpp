@@ -173,3 +173,42 @@ TEST(PixelFilter, OffsetsFollowTheFilterProfile) {
   for (int b = 0; b < bins; ++b)
     EXPECT_NEAR(histogram[size_t(b)], expected[size_t(b)] / mass, 2e-3) << "bin " << b;
 }
+
+TEST(PixelFilter, OffsetsWithinABoxAreTheFiltersThereAndCarryItsShare) {
+  // Restricted to a box, offsets are drawn as sampleOffset draws them, conditioned on landing
+  // in the box; the share is the probability that sampleOffset lands there.
+  const PixelFilter filter;
+  const PixelFilter::OffsetWithin whole = filter.sampleOffsetWithin({-2, -2}, {2, 2}, {0.3f, 0.7f});
+  EXPECT_FLOAT_EQ(whole.share, 1);
+  const Vec2f wholeOffset = filter.sampleOffset({0.3f, 0.7f});
+  EXPECT_NEAR(whole.offset.x, wholeOffset.x, 1e-6f);
+  EXPECT_NEAR(whole.offset.y, wholeOffset.y, 1e-6f);
+  EXPECT_EQ(filter.sampleOffsetWithin({2, -1}, {3, 1}, {0.5f, 0.5f}).share, 0);
+
+  const Vec2f lower{-0.9f, 0.2f}, upper{0.1f, 1.3f};
+  const int n = 512;  // an n × n grid of draws of the whole filter
+  int inside = 0;
+  double insideX = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const Vec2f offset = filter.sampleOffset({(float(i) + 0.5f) / n, (float(j) + 0.5f) / n});
+      if (offset.x >= lower.x && offset.x < upper.x && offset.y >= lower.y && offset.y < upper.y) {
+        ++inside;
+        insideX += offset.x;
+      }
+    }
+  double restrictedX = 0;
+  float share = 0;
+  for (int i = 0; i < n; ++i) {
+    const PixelFilter::OffsetWithin drawn =
+        filter.sampleOffsetWithin(lower, upper, {(float(i) + 0.5f) / n, 0.5f});
+    ASSERT_GE(drawn.offset.x, lower.x);
+    ASSERT_LE(drawn.offset.x, upper.x);
+    ASSERT_GE(drawn.offset.y, lower.y);
+    ASSERT_LE(drawn.offset.y, upper.y);
+    restrictedX += drawn.offset.x;
+    share = drawn.share;
+  }
+  EXPECT_NEAR(share, double(inside) / (double(n) * n), 2e-3);
+  EXPECT_NEAR(restrictedX / n, insideX / inside, 2e-3);
+}

@@ -73,3 +73,37 @@ def test_light_exposure_and_normalize():
     light.CreateNormalizeAttr(True)
     area = 4 * math.pi * 0.5**2
     assert mean_radiance(stage) == pytest.approx(4 * base / area, rel=0.01)
+
+
+def test_lights_smaller_than_a_pixel_seen_directly():
+    """Sphere lights a third of a pixel across, seen by the camera against black: each camera
+    sample integrates the filter over their image (README, "Lights small in the image"), so the
+    image holds their emission, radiance × their image's area, and two seeds agree pixel by
+    pixel. Camera rays alone find each light in about one sample of 12: their pixels jump by
+    radiance / samples per hit, and two seeds differ by several times that."""
+    stage = new_stage()
+    add_camera(stage)  # 64 px over 4 units at 5 units away: 0.0125 radians per pixel
+    radius, radiance = 0.01, 50.0
+    centres = [(0.1, 0.05, 0.0), (-0.3, 0.2, 0.0), (0.25, -0.35, 0.0)]
+    expected = 0.0
+    for index, centre in enumerate(centres):
+        light = UsdLux.SphereLight.Define(stage, f"/World/lamp{index}")
+        light.CreateRadiusAttr(radius)
+        light.CreateIntensityAttr(radiance)
+        light.AddTranslateOp().Set(Gf.Vec3d(*centre))
+        # The light's solid angle over a pixel's there (which shrinks as cos³ off the axis).
+        offset = math.hypot(centre[0], centre[1])
+        distance = math.hypot(offset, 5.0)
+        solid_angle = 2 * math.pi * (1 - math.sqrt(1 - (radius / distance) ** 2))
+        cos_off_axis = 5.0 / distance
+        expected += radiance * solid_angle / (0.0125**2 * cos_off_axis**3)
+    images = [
+        penumbra.Renderer(stage).render(
+            camera="/cam", width=64, samples=64, seed=seed, default_light="none"
+        )["color"][..., 0]
+        for seed in (1, 2)
+    ]
+    # The filter's weights over the pixel grid sum to 1 within 3 % wherever a light lies.
+    assert [float(image.sum()) for image in images] == pytest.approx([expected] * 2, rel=0.05)
+    # A tenth of what a whole light adds to the image (its pixels' sum over the three lights).
+    assert float(abs(images[0] - images[1]).max()) < 0.1 * expected / len(centres)

@@ -27,6 +27,14 @@ struct RayCone {
 
 enum class Projection { Perspective, Orthographic };
 
+/// Where a point appears in the image of a camera that does not move: through the lens point
+/// d of the unit disk (the lens sample's concentricSampleDisk), at `position + perLensUnit ∘ d`
+/// (pixels, x right, y down; the position is affine in the lens point).
+struct PointImage {
+  Vec2f position;
+  Vec2f perLensUnit;  // {0, 0} for a pinhole
+};
+
 struct CameraParams {
   MotionTransform cameraToWorld;
   Projection projection = Projection::Perspective;
@@ -68,6 +76,15 @@ class Camera {
   Vec3f centre(float time) const;
   /// A world-space direction in camera space (+X right, +Y up, looking down -Z) at `time`.
   Vec3f toCameraSpace(const Vec3f& direction, float time) const;
+
+  /// True if neither the camera's transform nor its lens changes over the shutter.
+  bool isStatic() const;
+  /// Where `point` (world space) appears in the image (PointImage) for a static camera; none
+  /// when it is not between the clipping planes. Camera rays through that image position and
+  /// lens point pass through `point`.
+  std::optional<PointImage> pointImage(const Vec3f& point) const;
+  int imageWidth() const { return width_; }
+  int imageHeight() const { return height_; }
 
   /// Lens radius in scene units (0 for a pinhole) at the start of the shutter.
   float lensRadius() const { return lensRadiusAt(0); }

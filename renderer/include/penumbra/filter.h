@@ -17,12 +17,24 @@ class PixelFilter {
 
   /// Offset from the pixel centre, in pixels, for a uniform 2D sample.
   Vec2f sampleOffset(Vec2f u) const { return {sample1D(u.x), sample1D(u.y)}; }
+  /// An offset drawn as sampleOffset draws them but only within the box [lower, upper] (pixels
+  /// from the pixel centre), with the share of the filter's weight that lies in that box: an
+  /// estimate of the filter-weighted integral over the box is that share times what the offset
+  /// sees.
+  struct OffsetWithin {
+    Vec2f offset;
+    float share;
+  };
+  OffsetWithin sampleOffsetWithin(Vec2f lower, Vec2f upper, Vec2f u) const;
   float radius() const { return radius_; }
   /// The filter's 1D profile (unnormalised), exposed for tests.
   float evaluate1D(float x) const;
 
  private:
   float sample1D(float u) const;
+  /// The probability that sample1D draws an offset below x (piecewise linear between the
+  /// inverse CDF's knots, as sample1D interpolates them).
+  float cdf1D(float x) const;
 
   float radius_, sigma_;
   std::vector<float> inverseCdf_;  // offsets at equally spaced probabilities 0 .. 1

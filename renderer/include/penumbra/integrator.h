@@ -19,6 +19,7 @@ enum class DirectLighting { MultipleImportance, LightSamplingOnly, BsdfSamplingO
 
 class GuidingField;
 class GuidingRecorder;
+class LightImages;
 
 struct IntegratorSettings {
   uint32_t seed = 0;
@@ -46,6 +47,10 @@ struct IntegratorSettings {
   /// needs of those vertices. Neither is owned.
   const GuidingField* guidingField = nullptr;
   GuidingRecorder* guidingRecorder = nullptr;
+  /// The lights small in the image whose directly seen emission each camera sample integrates
+  /// over their image (light_images.h) instead of its camera ray finding it; not owned. Null:
+  /// camera rays find every light.
+  const LightImages* lightImages = nullptr;
 };
 
 struct CameraSample {

@@ -1,0 +1,88 @@
+// Lights the camera sees directly that are only a few pixels across in the image. A camera ray
+// finds such a light only when its filter offset happens to land on the light's image, so the
+// pixels around it carry most of the image's noise (a many-light scene's sky of small lamps).
+// Instead, each camera sample integrates the pixel filter over each such light's image: it
+// draws a filter offset as camera rays do, but only within the box around the light's image (as
+// the sample's lens point sees it), and weighs what the camera ray through it sees of the light
+// by the share of the filter in that box. Camera rays then pass through these lights without
+// adding their emission, so each light's directly seen emission is counted once, by one
+// estimator or the other; both converge to the same image.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "penumbra/camera.h"
+#include "penumbra/light.h"
+
+namespace penumbra {
+
+/// An axis-aligned box of image positions (pixels).
+struct ImageBox {
+  Vec2f lower{kInfinity, kInfinity}, upper{-kInfinity, -kInfinity};
+
+  bool empty() const { return !(lower.x < upper.x) || !(lower.y < upper.y); }
+  void include(Vec2f p) {
+    lower = {std::min(lower.x, p.x), std::min(lower.y, p.y)};
+    upper = {std::max(upper.x, p.x), std::max(upper.y, p.y)};
+  }
+  ImageBox widened(float by) const {
+    return {{lower.x - by, lower.y - by}, {upper.x + by, upper.y + by}};
+  }
+  ImageBox intersected(const ImageBox& other) const {
+    return {{std::max(lower.x, other.lower.x), std::max(lower.y, other.lower.y)},
+            {std::min(upper.x, other.upper.x), std::min(upper.y, other.upper.y)}};
+  }
+};
+
+class LightImages {
+ public:
+  /// Lights whose image (over the whole lens) fits in a box of this side (pixels) are
+  /// integrated over their image. The gain shrinks as lights grow (about 1.5 times less
+  /// variance at 5 pixels across) while the cost, a ray per sample of every pixel they cover,
+  /// grows.
+  static constexpr float kMaxImageSide = 8;
+  /// Pixels per side of the cells that list the lights near them.
+  static constexpr int kCellSize = 8;
+
+  /// The lights of `lights` that `camera` sees directly, small in its image: area lights (rect,
+  /// disk, sphere, cylinder) visible to the camera, whole between its clipping planes. None
+  /// when the camera moves over the shutter (an image box would have to hold every moment's).
+  /// `filterRadius`: how far (pixels) a sample may land from its pixel's centre.
+  LightImages(const std::vector<Light>& lights, const Camera& camera, float filterRadius);
+
+  bool empty() const { return cellLights_.empty(); }
+  /// Whether light `index`'s directly seen emission is integrated here (camera rays skip it).
+  bool integrates(uint32_t index) const {
+    return index < integratesLight_.size() && integratesLight_[index];
+  }
+  /// An integrated light: its bounding box's corners as the camera sees them, and the box of
+  /// image positions whose filter may reach its image through some lens point.
+  struct Integrated {
+    uint32_t light;
+    PointImage corners[8];
+    ImageBox reach;
+
+    /// The box holding the light's image seen through lens point `lens` (unit disk).
+    ImageBox imageBox(Vec2f lens) const;
+    /// Whether samples of the pixel with centre `centre` may see its image.
+    bool reaches(Vec2f centre) const {
+      return centre.x >= reach.lower.x && centre.x <= reach.upper.x && centre.y >= reach.lower.y &&
+             centre.y <= reach.upper.y;
+    }
+  };
+
+  /// The integrated lights whose image may reach samples of pixel (x, y) (image coordinates),
+  /// as [begin, end): those whose reach holds some pixel of its cell.
+  std::pair<const Integrated*, const Integrated*> near(int x, int y) const;
+
+ private:
+  std::vector<bool> integratesLight_;  // by light index
+  int cellsX_ = 0, cellsY_ = 0;
+  std::vector<uint32_t> cellStart_;     // by cell: its first entry in cellLights_ (one more at end)
+  std::vector<Integrated> cellLights_;  // each cell's lights, in light order
+};
+
+}  // namespace penumbra

@@ -1,0 +1,245 @@
+// Lights small in the image, integrated over their image by each camera sample (light_images.h):
+// which lights qualify, and that the estimate is the filter-weighted emission a camera ray
+// finds (same expectation, computed here by quadrature over the light's image) with far less
+// noise, occluders included.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "penumbra/camera.h"
+#include "penumbra/filter.h"
+#include "penumbra/integrator.h"
+#include "penumbra/light.h"
+#include "penumbra/light_images.h"
+#include "penumbra/mesh.h"
+#include "penumbra/scene.h"
+#include "transforms.h"
+
+namespace penumbra {
+namespace {
+
+using test::translation;
+
+constexpr int kImageSize = 64;
+// The pixels around the light's image (about pixel (32.8, 32.7)): the others see nothing.
+constexpr int kWindowLow = 28, kWindowHigh = 38;
+
+/// A pinhole at the origin looking down -Z: 50 / 36 (tenths) lens and film, so a pixel is
+/// 0.01125 units across at 1 unit away.
+CameraParams pinhole() {
+  CameraParams params;
+  params.focalLength = 50;
+  params.horizontalAperture = params.verticalAperture = 36;
+  params.nearClip = 0.1f;
+  params.farClip = 1000;
+  return params;
+}
+
+/// A white sphere light of radiance `radiance` at `centre`.
+LightParams sphereLight(const Vec3f& centre, float radius, float radiance = 100) {
+  LightParams light;
+  light.type = LightType::Sphere;
+  light.radius = radius;
+  light.intensity = radiance;
+  light.lightToWorld = translation(centre.x, centre.y, centre.z);
+  return light;
+}
+
+std::vector<Light> lightsOf(const std::vector<LightParams>& params) {
+  std::vector<Light> lights;
+  for (const LightParams& light : params) lights.emplace_back(light);
+  return lights;
+}
+
+bool integrated(const LightParams& light, const CameraParams& lens = pinhole()) {
+  const Camera camera(lens, kImageSize, kImageSize);
+  return LightImages(lightsOf({light}), camera, PixelFilter().radius()).integrates(0);
+}
+
+// 10 units away: a radius of 0.02 is 0.36 pixels across, 0.1 is 1.8, 2 is 36 pixels.
+const Vec3f kLightCentre{0.0931f, -0.0417f, -10};
+
+TEST(LightImages, IntegratesAreaLightsTheCameraSeesSmall) {
+  EXPECT_TRUE(integrated(sphereLight(kLightCentre, 0.02f)));
+  EXPECT_TRUE(integrated(sphereLight(kLightCentre, 0.1f)));
+  EXPECT_FALSE(integrated(sphereLight(kLightCentre, 2)));       // camera rays find it often enough
+  EXPECT_FALSE(integrated(sphereLight({0, 0, 10}, 0.02f)));     // behind the camera
+  EXPECT_FALSE(integrated(sphereLight({0, 0, -0.1f}, 0.02f)));  // across the near plane
+  EXPECT_FALSE(integrated(sphereLight({50, 0, -10}, 0.02f)));   // out of the image
+  LightParams hidden = sphereLight(kLightCentre, 0.02f);
+  hidden.cameraVisible = false;
+  EXPECT_FALSE(integrated(hidden));
+  LightParams point = sphereLight(kLightCentre, 0.02f);
+  point.treatAsPoint = true;
+  EXPECT_FALSE(integrated(point));
+  LightParams dome;
+  dome.type = LightType::Dome;
+  EXPECT_FALSE(integrated(dome));
+  // A moving camera's image of a light moves: none is integrated.
+  CameraParams moving = pinhole();
+  moving.cameraToWorld = MotionTransform(std::vector<Transform>{Transform(), translation(1, 0, 0)});
+  EXPECT_FALSE(integrated(sphereLight(kLightCentre, 0.02f), moving));
+  // Its defocus blur counts towards its size: out of focus through a wide aperture it is not.
+  CameraParams wide = pinhole();
+  wide.fStop = 1;
+  wide.focusDistance = 1;
+  EXPECT_FALSE(integrated(sphereLight(kLightCentre, 0.02f), wide));
+  wide.fStop = 64;
+  EXPECT_TRUE(integrated(sphereLight(kLightCentre, 0.02f), wide));
+}
+
+TEST(LightImages, PixelsListTheLightsTheirFilterReaches) {
+  const Camera camera(pinhole(), kImageSize, kImageSize);
+  const LightImages images(lightsOf({sphereLight({100, 0, -10}, 0.02f),  // out of the image
+                                     sphereLight(kLightCentre, 0.02f)}),
+                           camera, PixelFilter().radius());
+  EXPECT_FALSE(images.integrates(0));
+  EXPECT_TRUE(images.integrates(1));
+  // The light's image is about pixel (32.8, 32.7); the filter reaches 1.5 pixels.
+  const auto [begin, end] = images.near(32, 32);
+  ASSERT_EQ(end - begin, 1);
+  EXPECT_EQ(begin->light, 1u);
+  EXPECT_TRUE(begin->reaches({32.5f, 32.5f}));
+  EXPECT_FALSE(begin->reaches({29.5f, 32.5f}));
+  const auto [farBegin, farEnd] = images.near(2, 60);
+  EXPECT_EQ(farBegin, farEnd);
+}
+
+struct PixelStatistics {
+  std::vector<double> mean, variance;  // per pixel of the window, of one sample's luminance
+  double sum = 0;                      // of the means
+};
+
+/// Each pixel's mean and variance over `samples` camera samples, with or without the light
+/// images, over the window around the light.
+PixelStatistics render(const Scene& scene, const Camera& camera, const LightImages* images,
+                       uint32_t samples) {
+  IntegratorSettings settings;
+  settings.lightImages = images;
+  const PixelFilter filter;
+  PixelStatistics statistics;
+  for (int y = kWindowLow; y < kWindowHigh; ++y)
+    for (int x = kWindowLow; x < kWindowHigh; ++x) {
+      double sum = 0, sum2 = 0;
+      for (uint32_t i = 0; i < samples; ++i) {
+        const double value =
+            renderCameraSample(scene, camera, filter, x, y, i, settings).radiance.y;
+        sum += value;
+        sum2 += value * value;
+      }
+      const double mean = sum / samples;
+      statistics.mean.push_back(mean);
+      statistics.variance.push_back(std::max(0.0, sum2 / samples - mean * mean));
+      statistics.sum += mean;
+    }
+  return statistics;
+}
+
+/// What a camera sample of each pixel of the window sees of `light` on average: the filter's
+/// share over each cell of a fine grid of image positions, where the camera ray through the
+/// cell's centre meets the light before any surface.
+std::vector<double> expectedImage(const Scene& scene, const Camera& camera, const Light& light) {
+  const PixelFilter filter;
+  std::vector<double> image;
+  const double cell = 1.0 / 64;
+  for (int y = kWindowLow; y < kWindowHigh; ++y)
+    for (int x = kWindowLow; x < kWindowHigh; ++x) {
+      const Vec2f centre{float(x) + 0.5f, float(y) + 0.5f};
+      const float reach = filter.radius();
+      double value = 0;
+      for (double dy = -reach; dy < reach; dy += cell)
+        for (double dx = -reach; dx < reach; dx += cell) {
+          const Ray ray = camera.generateRay(centre.x + float(dx + cell / 2),
+                                             centre.y + float(dy + cell / 2), {0.5f, 0.5f});
+          const std::optional<LightHit> hit = light.intersect(ray.origin, ray.direction, ray.tFar);
+          if (!hit || scene.geometry().hitDistance(ray, RayKind::Camera) < hit->distance) continue;
+          value += filter
+                       .sampleOffsetWithin({float(dx), float(dy)},
+                                           {float(dx + cell), float(dy + cell)}, {0.5f, 0.5f})
+                       .share *
+                   hit->radiance.y;
+        }
+      image.push_back(value);
+    }
+  return image;
+}
+
+double total(const std::vector<double>& values) {
+  double sum = 0;
+  for (const double value : values) sum += value;
+  return sum;
+}
+
+struct Outcome {
+  double sum;            // of the pixels' means, with the light images
+  double varianceRatio;  // the pixels' summed variance without them over that with them
+};
+
+/// Renders a light small in the image (behind a card that hides its left half if `occluded`)
+/// with and without the light images, and checks both against the quadrature.
+Outcome checkAgainstQuadrature(float radius, bool occluded) {
+  const Device device;
+  Scene scene(device);
+  scene.lights().setLights(lightsOf({sphereLight(kLightCentre, radius)}));
+  if (occluded) {
+    // An opaque card at z = -5 whose edge is on the line of sight to the light's centre.
+    MeshData card;
+    const float edge = kLightCentre.x / 2;
+    card.points = {{-1, -1, -5}, {edge, -1, -5}, {edge, 1, -5}, {-1, 1, -5}};
+    card.faceVertexCounts = {4};
+    card.faceVertexIndices = {0, 1, 2, 3};
+    const Geometry::MeshId id = scene.geometry().addMesh();
+    scene.geometry().setMeshGeometry(id, triangulate(card));
+    scene.geometry().setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
+  }
+  scene.commit();
+  const Camera camera(pinhole(), kImageSize, kImageSize);
+  const LightImages images(scene.lights().all(), camera, PixelFilter().radius());
+  EXPECT_TRUE(images.integrates(0));
+
+  const std::vector<double> expected = expectedImage(scene, camera, scene.lights().all()[0]);
+  const uint32_t samples = 512;
+  const PixelStatistics integrating = render(scene, camera, &images, samples);
+  const PixelStatistics cameraRays = render(scene, camera, nullptr, samples);
+  double brightest = 0, variance = 0, cameraVariance = 0;
+  for (const double value : expected) brightest = std::max(brightest, value);
+  for (size_t pixel = 0; pixel < expected.size(); ++pixel) {
+    // Five standard deviations of each mean, plus the quadrature's own error.
+    const double tolerance =
+        5 * std::sqrt(integrating.variance[pixel] / samples) + 0.01 * brightest;
+    EXPECT_NEAR(integrating.mean[pixel], expected[pixel], tolerance) << "pixel " << pixel;
+    variance += integrating.variance[pixel];
+    cameraVariance += cameraRays.variance[pixel];
+  }
+  // The light's emission, counted once (camera rays do not add it again), and what camera
+  // rays alone find, within their noise.
+  EXPECT_NEAR(integrating.sum, total(expected), 0.005 * total(expected));
+  EXPECT_NEAR(cameraRays.sum, total(expected), 5 * std::sqrt(cameraVariance / samples));
+  return {integrating.sum, cameraVariance / variance};
+}
+
+TEST(LightImages, ASubpixelLightIsItsFilterWeightedEmissionWithLittleNoise) {
+  const Outcome outcome = checkAgainstQuadrature(0.02f, false);
+  // Radiance 100 over the light's 0.0993 square pixels (the filter's weights sum to 1 within
+  // 3 % wherever the light is on the pixel grid).
+  const double analytic = 100 * kPi * std::pow(0.02 * 5 / 10 * 64 / 3.6, 2);
+  EXPECT_NEAR(outcome.sum, analytic, 0.03 * analytic);
+  EXPECT_GT(outcome.varianceRatio, 50);
+}
+
+TEST(LightImages, ALightTwoPixelsAcrossIsItsFilterWeightedEmission) {
+  EXPECT_GT(checkAgainstQuadrature(0.1f, false).varianceRatio, 1.5);
+}
+
+TEST(LightImages, SurfacesInFrontHideWhatCameraRaysWouldNotSee) {
+  const Outcome whole = checkAgainstQuadrature(0.1f, false);
+  const Outcome halfHidden = checkAgainstQuadrature(0.1f, true);
+  EXPECT_NEAR(halfHidden.sum / whole.sum, 0.5, 0.02);
+  EXPECT_GT(halfHidden.varianceRatio, 1.5);
+}
+
+}  // namespace
+}  // namespace penumbra
