@@ -528,7 +528,8 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
   const ImageBox filterReach = ImageBox{centre, centre}.widened(filter.radius());
   const std::vector<Light>& lights = scene.lights().all();
   std::optional<RandomStream> volumeRandom;
-  for (const LightImages::Integrated* light = begin; light != end; ++light) {
+  for (const uint32_t* position = begin; position != end; ++position) {
+    const LightImages::Integrated* light = &images.integrated()[*position];
     if (!light->reaches(centre)) continue;
     const ImageBox region = light->imageBox(lens).intersected(filterReach);
     if (region.empty()) continue;

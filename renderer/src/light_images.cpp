@@ -30,7 +30,6 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
   const int width = camera.imageWidth(), height = camera.imageHeight();
   cellsX_ = (width + kCellSize - 1) / kCellSize;
   cellsY_ = (height + kCellSize - 1) / kCellSize;
-  std::vector<Integrated> integrated;
   for (uint32_t index = 0; index < lights.size(); ++index) {
     const Light& light = lights[index];
     if (!light.cameraVisible() || !areaLight(light)) continue;
@@ -61,7 +60,7 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
     if (inImage.empty()) continue;
     entry.reach = inImage;
     integratesLight_[index] = true;
-    integrated.push_back(entry);
+    integrated_.push_back(entry);
   }
   // The lights near each cell, in light order (so every pixel visits them alike).
   cellStart_.assign(size_t(cellsX_) * size_t(cellsY_) + 1, 0);
@@ -72,7 +71,7 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
     *y1 = std::clamp(int(std::floor(box.upper.y / kCellSize)), 0, cellsY_ - 1);
   };
   int x0, x1, y0, y1;
-  for (const Integrated& entry : integrated) {
+  for (const Integrated& entry : integrated_) {
     cellRange(entry.reach, &x0, &x1, &y0, &y1);
     for (int cy = y0; cy <= y1; ++cy)
       for (int cx = x0; cx <= x1; ++cx) ++cellStart_[size_t(cy) * size_t(cellsX_) + size_t(cx) + 1];
@@ -80,17 +79,16 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
   for (size_t cell = 1; cell < cellStart_.size(); ++cell) cellStart_[cell] += cellStart_[cell - 1];
   cellLights_.resize(cellStart_.back());
   std::vector<uint32_t> filled(cellStart_.begin(), cellStart_.end() - 1);
-  for (const Integrated& entry : integrated) {
-    cellRange(entry.reach, &x0, &x1, &y0, &y1);
+  for (uint32_t position = 0; position < integrated_.size(); ++position) {
+    cellRange(integrated_[position].reach, &x0, &x1, &y0, &y1);
     for (int cy = y0; cy <= y1; ++cy)
       for (int cx = x0; cx <= x1; ++cx)
-        cellLights_[filled[size_t(cy) * size_t(cellsX_) + size_t(cx)]++] = entry;
+        cellLights_[filled[size_t(cy) * size_t(cellsX_) + size_t(cx)]++] = position;
   }
 }
 
-std::pair<const LightImages::Integrated*, const LightImages::Integrated*> LightImages::near(
-    int x, int y) const {
-  if (cellLights_.empty() || x < 0 || y < 0) return {nullptr, nullptr};
+std::pair<const uint32_t*, const uint32_t*> LightImages::near(int x, int y) const {
+  if (integrated_.empty() || x < 0 || y < 0) return {nullptr, nullptr};
   const int cx = x / kCellSize, cy = y / kCellSize;
   if (cx >= cellsX_ || cy >= cellsY_) return {nullptr, nullptr};
   const size_t cell = size_t(cy) * size_t(cellsX_) + size_t(cx);

@@ -101,9 +101,10 @@ TEST(LightImages, PixelsListTheLightsTheirFilterReaches) {
   // The light's image is about pixel (32.8, 32.7); the filter reaches 1.5 pixels.
   const auto [begin, end] = images.near(32, 32);
   ASSERT_EQ(end - begin, 1);
-  EXPECT_EQ(begin->light, 1u);
-  EXPECT_TRUE(begin->reaches({32.5f, 32.5f}));
-  EXPECT_FALSE(begin->reaches({29.5f, 32.5f}));
+  const LightImages::Integrated& light = images.integrated()[*begin];
+  EXPECT_EQ(light.light, 1u);
+  EXPECT_TRUE(light.reaches({32.5f, 32.5f}));
+  EXPECT_FALSE(light.reaches({29.5f, 32.5f}));
   const auto [farBegin, farEnd] = images.near(2, 60);
   EXPECT_EQ(farBegin, farEnd);
 }

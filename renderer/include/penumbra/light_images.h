@@ -53,7 +53,7 @@ class LightImages {
   /// `filterRadius`: how far (pixels) a sample may land from its pixel's centre.
   LightImages(const std::vector<Light>& lights, const Camera& camera, float filterRadius);
 
-  bool empty() const { return cellLights_.empty(); }
+  bool empty() const { return integrated_.empty(); }
   /// Whether light `index`'s directly seen emission is integrated here (camera rays skip it).
   bool integrates(uint32_t index) const {
     return index < integratesLight_.size() && integratesLight_[index];
@@ -74,15 +74,18 @@ class LightImages {
     }
   };
 
-  /// The integrated lights whose image may reach samples of pixel (x, y) (image coordinates),
-  /// as [begin, end): those whose reach holds some pixel of its cell.
-  std::pair<const Integrated*, const Integrated*> near(int x, int y) const;
+  /// The integrated lights, in light order.
+  const std::vector<Integrated>& integrated() const { return integrated_; }
+  /// Those whose image may reach samples of pixel (x, y) (image coordinates), as [begin, end)
+  /// of positions in integrated(): those whose reach holds some pixel of its cell.
+  std::pair<const uint32_t*, const uint32_t*> near(int x, int y) const;
 
  private:
+  std::vector<Integrated> integrated_;
   std::vector<bool> integratesLight_;  // by light index
   int cellsX_ = 0, cellsY_ = 0;
-  std::vector<uint32_t> cellStart_;     // by cell: its first entry in cellLights_ (one more at end)
-  std::vector<Integrated> cellLights_;  // each cell's lights, in light order
+  std::vector<uint32_t> cellStart_;   // by cell: its first entry in cellLights_ (one more at end)
+  std::vector<uint32_t> cellLights_;  // each cell's lights (positions in integrated_), in order
 };
 
 }  // namespace penumbra
