@@ -1,5 +1,6 @@
 #include "penumbra/camera.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -102,7 +103,9 @@ bool Camera::isStatic() const {
 std::optional<PointImage> Camera::pointImage(const Vec3f& point) const {
   const Vec3f q = params_.cameraToWorld.at(0).inverse().applyToPoint(point);
   const float viewDepth = -q.z;  // in camera units, as generateRay's clipping distances
-  if (!(viewDepth > params_.nearClip) || !(viewDepth < params_.farClip)) return std::nullopt;
+  // In front of the lens too, whatever the near clip: a projection is only an image there.
+  if (!(viewDepth > std::max(params_.nearClip, 0.0f)) || !(viewDepth < params_.farClip))
+    return std::nullopt;
   // generateRay backwards: from the film window (tenths of a unit) to pixels.
   const auto toImage = [&](float filmX, float filmY) {
     return Vec2f{((filmX - params_.horizontalApertureOffset) / filmWidth_ + 0.5f) * width_,

@@ -503,8 +503,18 @@ Vec3f glassAbsorptionAt(const SurfaceHit& hit, const PathSpectrum& spectrum) {
   return transmissionAbsorption(material);
 }
 
+/// Inside absorbing glass (a solid whose surface `hit` a ray along `direction` meets from
+/// within): the Beer–Lambert transmittance of the ray's way there; 1 elsewhere.
+Vec3f glassTransmittance(const SurfaceHit& hit, const Vec3f& direction,
+                         const PathSpectrum& spectrum) {
+  if (!hit.closed || !(hit.material.transmissionDepth > 0) || !(dot(direction, hit.normal) > 0))
+    return Vec3f(1.0f);
+  const Vec3f absorption = glassAbsorptionAt(hit, spectrum) * hit.distance;
+  return {std::exp(-absorption.x), std::exp(-absorption.y), std::exp(-absorption.z)};
+}
+
 /// The sampler dimensions of lightsSeenDirectly's draws, one per light: far above any path's,
-/// so that the path draws what it would without them.
+/// so that they are not correlated with the path's draws.
 constexpr uint32_t kLightImageDimensions = 0x80000000u;
 /// The purpose of the random stream of their rays' transmittance (RandomStream): neither the
 /// volumes' along the path (0) nor a subsurface walk's (1 + its vertex).
@@ -529,30 +539,34 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
   const std::vector<Light>& lights = scene.lights().all();
   std::optional<RandomStream> volumeRandom;
   for (const uint32_t* position = begin; position != end; ++position) {
-    const LightImages::Integrated* light = &images.integrated()[*position];
-    if (!light->reaches(centre)) continue;
-    const ImageBox region = light->imageBox(lens).intersected(filterReach);
+    const LightImages::Integrated& image = images.integrated()[*position];
+    if (!image.reaches(centre)) continue;
+    const ImageBox region = image.imageBox(lens).intersected(filterReach);
     if (region.empty()) continue;
     const PixelFilter::OffsetWithin drawn =
         filter.sampleOffsetWithin({region.lower.x - centre.x, region.lower.y - centre.y},
                                   {region.upper.x - centre.x, region.upper.y - centre.y},
-                                  sampler.draw2D(kLightImageDimensions + light->light));
+                                  sampler.draw2D(kLightImageDimensions + image.lightIndex));
     if (!(drawn.share > 0)) continue;
     const Ray ray =
         camera.generateRay(centre.x + drawn.offset.x, centre.y + drawn.offset.y, lensSample, time);
     const std::optional<LightHit> hit =
-        lights[light->light].intersect(ray.origin, ray.direction, ray.tFar);
+        lights[image.lightIndex].intersect(ray.origin, ray.direction, ray.tFar);
     if (!hit) continue;
     ++*rays;
-    // What the camera ray would count: the light in front of the first surface it sees.
-    if (scene.geometry().hitDistance(ray, RayKind::Camera) < hit->distance) continue;
-    Vec3f transmittance{1.0f};
+    // What the camera ray would count: the light in front of the first surface it sees, dimmed
+    // as the camera ray is inside absorbing glass.
+    const std::optional<SurfaceHit> surface =
+        intersectSurface(scene, ray, RayKind::Camera, camera.pixelCone());
+    if (surface && surface->distance < hit->distance) continue;
+    Vec3f transmittance =
+        surface ? glassTransmittance(*surface, ray.direction, spectrum) : Vec3f(1.0f);
     if (!scene.volumes().empty()) {
       if (!volumeRandom)
         volumeRandom.emplace(seed, uint32_t(x), uint32_t(y), sampleIndex, kLightImageStream);
       const MediumSpectrum mediumSpectrum{spectrum.spectral ? &spectrum.wavelengths : nullptr};
-      transmittance = estimateTransmittance(scene.volumes(), ray, hit->distance, mediumSpectrum,
-                                            *volumeRandom, scene.geometry().linking(), -1);
+      transmittance *= estimateTransmittance(scene.volumes(), ray, hit->distance, mediumSpectrum,
+                                             *volumeRandom, scene.geometry().linking(), -1);
     }
     total += spectrum.emission(hit->radiance) * transmittance * drawn.share;
   }
@@ -710,13 +724,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       addLight(clampIndirect(mediumEmission, bounce, settings.indirectClamp));
     }
     const bool passed = flight == FlightOutcome::Passed;
-    // Inside absorbing glass (a solid whose surface the ray meets from within): Beer–Lambert.
-    if (hit && passed && hit->closed && hit->material.transmissionDepth > 0 &&
-        dot(ray.direction, hit->normal) > 0) {
-      const Vec3f absorption = glassAbsorptionAt(*hit, spectrum) * hit->distance;
-      throughput *=
-          Vec3f(std::exp(-absorption.x), std::exp(-absorption.y), std::exp(-absorption.z));
-    }
+    if (hit && passed) throughput *= glassTransmittance(*hit, ray.direction, spectrum);
     float nearestLight = kInfinity;
     bool sawLight = false;
     // Light met by this ray has `bounce` interactions behind it, plus its emission. Lights in

@@ -346,7 +346,7 @@ std::optional<float> Light::intersectCylinder(const Vec3f& origin, const Vec3f& 
 std::optional<LightHit> Light::intersect(const Vec3f& origin, const Vec3f& direction,
                                          float tMax) const {
   // Mesh lights are met as geometry (SurfaceHit::lightIndex), not here.
-  if (isInfinite() || isDelta() || params_.type == LightType::Mesh) return std::nullopt;
+  if (!isAreaLight()) return std::nullopt;
   LightHit hit;
   if (params_.type == LightType::Sphere) {
     const std::optional<float> t = intersectSphere(origin, direction);

@@ -6,20 +6,23 @@
 namespace penumbra {
 namespace {
 
-/// Widens an image box by this many pixels, so that rounding in projecting its corners never
-/// leaves a point of the light's image outside it.
-constexpr float kImageBoxMargin = 0.01f;
+/// How far (pixels) to widen a light's image box so that rounding in projecting its corners
+/// and in the camera rays through it never leaves a point of its image outside (a flat light's
+/// outline touches its box): a hundredth of a pixel, plus what a millionth of the coordinates'
+/// magnitude (a few float roundings) moves the image by, at `pixelsPerUnit`.
+float imageBoxMargin(const LightBounds& bounds, const Camera& camera, float pixelsPerUnit) {
+  float magnitude = 0;
+  for (const Vec3f& point : {bounds.lower, bounds.upper, camera.centre(0)})
+    magnitude = std::max({magnitude, std::abs(point.x), std::abs(point.y), std::abs(point.z)});
+  return 0.01f + 1e-6f * magnitude * pixelsPerUnit;
+}
 
-bool areaLight(const Light& light) {
-  switch (light.type()) {
-    case LightType::Rect:
-    case LightType::Disk:
-    case LightType::Sphere:
-    case LightType::Cylinder:
-      return !light.isDelta();
-    default:
-      return false;
-  }
+/// Whether camera rays may see a light with these bounds emit: it emits, and a one-sided light
+/// (rect, disk: one emission axis) faces the pinhole (a lens sees it from several sides).
+bool seenEmitting(const LightBounds& bounds, const Camera& camera) {
+  if (!(bounds.power > 0)) return false;
+  if (bounds.cosThetaO < 1 || camera.lensRadius() > 0) return true;
+  return dot(camera.centre(0) - bounds.centroid(), bounds.axis) > 0;
 }
 
 }  // namespace
@@ -28,16 +31,15 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
     : integratesLight_(lights.size(), false) {
   if (!camera.isStatic()) return;
   const int width = camera.imageWidth(), height = camera.imageHeight();
-  cellsX_ = (width + kCellSize - 1) / kCellSize;
-  cellsY_ = (height + kCellSize - 1) / kCellSize;
   for (uint32_t index = 0; index < lights.size(); ++index) {
     const Light& light = lights[index];
-    if (!light.cameraVisible() || !areaLight(light)) continue;
+    if (!light.cameraVisible() || !light.isAreaLight()) continue;
     const LightBounds bounds = light.bounds();
-    Integrated entry{index, {}, {}};
+    if (!seenEmitting(bounds, camera)) continue;
+    Integrated entry{index, {}, {}, 0};  // lightIndex, corners, reach, margin
     ImageBox box;
     bool seen = true;
-    for (int corner = 0; corner < 8 && seen; ++corner) {
+    for (int corner = 0; corner < 8; ++corner) {
       const Vec3f point{corner & 1 ? bounds.upper.x : bounds.lower.x,
                         corner & 2 ? bounds.upper.y : bounds.lower.y,
                         corner & 4 ? bounds.upper.z : bounds.lower.z};
@@ -54,15 +56,21 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
     if (!seen || box.upper.x - box.lower.x > kMaxImageSide ||
         box.upper.y - box.lower.y > kMaxImageSide)
       continue;
+    const float side = std::max(box.upper.x - box.lower.x, box.upper.y - box.lower.y);
+    const float extent = length(bounds.upper - bounds.lower);
+    entry.margin = imageBoxMargin(bounds, camera, extent > 0 ? side / extent : 0.0f);
     // The pixels whose samples may land on its image, through any lens point.
-    const ImageBox inImage = box.widened(filterRadius + kImageBoxMargin)
+    const ImageBox inImage = box.widened(filterRadius + entry.margin)
                                  .intersected({{0, 0}, {float(width), float(height)}});
     if (inImage.empty()) continue;
     entry.reach = inImage;
     integratesLight_[index] = true;
     integrated_.push_back(entry);
   }
+  if (integrated_.empty()) return;
   // The lights near each cell, in light order (so every pixel visits them alike).
+  cellsX_ = (width + kCellSize - 1) / kCellSize;
+  cellsY_ = (height + kCellSize - 1) / kCellSize;
   cellStart_.assign(size_t(cellsX_) * size_t(cellsY_) + 1, 0);
   const auto cellRange = [&](const ImageBox& box, int* x0, int* x1, int* y0, int* y1) {
     *x0 = std::clamp(int(std::floor(box.lower.x / kCellSize)), 0, cellsX_ - 1);
@@ -100,7 +108,7 @@ ImageBox LightImages::Integrated::imageBox(Vec2f lens) const {
   for (const PointImage& corner : corners)
     box.include({corner.position.x + corner.perLensUnit.x * lens.x,
                  corner.position.y + corner.perLensUnit.y * lens.y});
-  return box.widened(kImageBoxMargin);
+  return box.widened(margin);
 }
 
 }  // namespace penumbra

@@ -79,8 +79,7 @@ void LightSet::buildLightScene() {
   areaLights_.clear();
   for (size_t i = 0; i < lights_.size(); ++i) {
     const Light& light = lights_[i];
-    if (!light.isInfinite() && !light.isDelta() && light.type() != LightType::Mesh)
-      areaLights_.push_back(uint32_t(i));
+    if (light.isAreaLight()) areaLights_.push_back(uint32_t(i));
   }
   if (areaLights_.size() < 2) return;  // one light is met without a BVH (forEachLightHit)
   lightScene_ = rtcNewScene(device_);

@@ -39,13 +39,6 @@ bool forEachPixel(int width, int height, int threads, const std::atomic<bool>* c
   return !cancelled(cancel);
 }
 
-/// The integrator's settings with `lightImages`, when it integrates any light.
-IntegratorSettings integrating(const IntegratorSettings& settings, const LightImages& lightImages) {
-  IntegratorSettings result = settings;
-  if (!lightImages.empty()) result.lightImages = &lightImages;
-  return result;
-}
-
 }  // namespace
 
 bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_t firstSample,
@@ -53,7 +46,8 @@ bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_
                    const std::atomic<bool>* cancel) {
   const PixelFilter filter;
   const LightImages lightImages(scene.lights().all(), camera, filter.radius());
-  const IntegratorSettings integrator = integrating(settings.integrator, lightImages);
+  IntegratorSettings integrator = settings.integrator;
+  if (!lightImages.empty()) integrator.lightImages = &lightImages;
   return forEachPixel(film.width(), film.height(), settings.threads, cancel, [&](int x, int y) {
     if (!film.isActive(x, y)) return;
     // Samples are seeded by the pixel's position in the image, not on the film.
@@ -76,13 +70,12 @@ bool renderSamples(const Scene& scene, const Camera& camera, Film& film, uint32_
 bool traceSamples(const Scene& scene, const Camera& camera, int width, int height,
                   uint32_t firstSample, uint32_t sampleCount, const RenderSettings& settings,
                   const std::atomic<bool>* cancel) {
+  // No image is kept: the light images, which only add to it, are left out.
   const PixelFilter filter;
-  const LightImages lightImages(scene.lights().all(), camera, filter.radius());
-  const IntegratorSettings integrator = integrating(settings.integrator, lightImages);
   return forEachPixel(width, height, settings.threads, cancel, [&](int x, int y) {
     for (uint32_t s = firstSample; s < firstSample + sampleCount; ++s) {
       if (cancelled(cancel)) return;
-      renderCameraSample(scene, camera, filter, x, y, s, integrator);
+      renderCameraSample(scene, camera, filter, x, y, s, settings.integrator);
     }
   });
 }

@@ -102,7 +102,7 @@ TEST(LightImages, PixelsListTheLightsTheirFilterReaches) {
   const auto [begin, end] = images.near(32, 32);
   ASSERT_EQ(end - begin, 1);
   const LightImages::Integrated& light = images.integrated()[*begin];
-  EXPECT_EQ(light.light, 1u);
+  EXPECT_EQ(light.lightIndex, 1u);
   EXPECT_TRUE(light.reaches({32.5f, 32.5f}));
   EXPECT_FALSE(light.reaches({29.5f, 32.5f}));
   const auto [farBegin, farEnd] = images.near(2, 60);
@@ -240,6 +240,32 @@ TEST(LightImages, SurfacesInFrontHideWhatCameraRaysWouldNotSee) {
   const Outcome halfHidden = checkAgainstQuadrature(0.1f, true);
   EXPECT_NEAR(halfHidden.sum / whole.sum, 0.5, 0.02);
   EXPECT_GT(halfHidden.varianceRatio, 1.5);
+}
+
+TEST(LightImages, ThroughALensTheBlurredLightKeepsItsEmission) {
+  // Out of focus (f/8, focused at 7 units), the 0.36-pixel light blurs over about 2.4 pixels.
+  const Device device;
+  Scene scene(device);
+  scene.lights().setLights(lightsOf({sphereLight(kLightCentre, 0.02f)}));
+  scene.commit();
+  CameraParams lens = pinhole();
+  lens.fStop = 8;
+  lens.focusDistance = 7;
+  const Camera camera(lens, kImageSize, kImageSize);
+  const LightImages images(scene.lights().all(), camera, PixelFilter().radius());
+  ASSERT_TRUE(images.integrates(0));
+  const uint32_t samples = 512;
+  const PixelStatistics integrating = render(scene, camera, &images, samples);
+  const PixelStatistics cameraRays = render(scene, camera, nullptr, samples);
+  double variance = 0, cameraVariance = 0;
+  for (size_t pixel = 0; pixel < integrating.variance.size(); ++pixel) {
+    variance += integrating.variance[pixel];
+    cameraVariance += cameraRays.variance[pixel];
+  }
+  EXPECT_NEAR(integrating.sum, cameraRays.sum, 5 * std::sqrt(cameraVariance / samples));
+  const double inFocus = 100 * kPi * std::pow(0.02 * 5 / 10 * 64 / 3.6, 2);
+  EXPECT_NEAR(integrating.sum, inFocus, 0.03 * inFocus);
+  EXPECT_GT(cameraVariance / variance, 1.5);
 }
 
 }  // namespace

@@ -80,8 +80,8 @@ class Camera {
   /// True if neither the camera's transform nor its lens changes over the shutter.
   bool isStatic() const;
   /// Where `point` (world space) appears in the image (PointImage) for a static camera; none
-  /// when it is not between the clipping planes. Camera rays through that image position and
-  /// lens point pass through `point`.
+  /// when it is not between the clipping planes (or not in front of the lens). Camera rays through
+  /// that image position and lens point pass through `point`.
   std::optional<PointImage> pointImage(const Vec3f& point) const;
   int imageWidth() const { return width_; }
   int imageHeight() const { return height_; }

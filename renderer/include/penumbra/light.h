@@ -153,6 +153,11 @@ class Light {
   }
   /// True for lights no ray can hit (point-like sphere, zero-angle distant light).
   bool isDelta() const;
+  /// True for the lights rays meet as surfaces of their own (rect, disk, sphere, cylinder; not
+  /// point-like): those intersect() finds. Mesh lights are met as geometry.
+  bool isAreaLight() const {
+    return !isInfinite() && !isDelta() && params_.type != LightType::Mesh;
+  }
   bool castsShadows() const { return params_.shadowEnable; }
   /// False for lights camera rays do not see (they still light the scene).
   bool cameraVisible() const { return params_.cameraVisible; }

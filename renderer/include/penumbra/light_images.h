@@ -6,11 +6,12 @@
 // the sample's lens point sees it), and weighs what the camera ray through it sees of the light
 // by the share of the filter in that box. Camera rays then pass through these lights without
 // adding their emission, so each light's directly seen emission is counted once, by one
-// estimator or the other; both converge to the same image.
+// estimator or the other; both converge to the same image (but for media whose colour the
+// camera ray's free flight only approximates, which ratio tracking here estimates exactly).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
-#include <optional>
 #include <utility>
 #include <vector>
 
@@ -48,8 +49,9 @@ class LightImages {
   static constexpr int kCellSize = 8;
 
   /// The lights of `lights` that `camera` sees directly, small in its image: area lights (rect,
-  /// disk, sphere, cylinder) visible to the camera, whole between its clipping planes. None
-  /// when the camera moves over the shutter (an image box would have to hold every moment's).
+  /// disk, sphere, cylinder) visible to the camera, emitting towards it, whole between its
+  /// clipping planes. None when the camera moves, zooms or refocuses over the shutter (an
+  /// image box would have to hold every moment's).
   /// `filterRadius`: how far (pixels) a sample may land from its pixel's centre.
   LightImages(const std::vector<Light>& lights, const Camera& camera, float filterRadius);
 
@@ -61,9 +63,10 @@ class LightImages {
   /// An integrated light: its bounding box's corners as the camera sees them, and the box of
   /// image positions whose filter may reach its image through some lens point.
   struct Integrated {
-    uint32_t light;
+    uint32_t lightIndex;
     PointImage corners[8];
     ImageBox reach;
+    float margin;  // pixels the boxes are widened by, for rounding
 
     /// The box holding the light's image seen through lens point `lens` (unit disk).
     ImageBox imageBox(Vec2f lens) const;
