@@ -6,8 +6,8 @@
 // the sample's lens point sees it), and weighs what the camera ray through it sees of the light
 // by the share of the filter in that box. Camera rays then pass through these lights without
 // adding their emission, so each light's directly seen emission is counted once, by one
-// estimator or the other; both converge to the same image (but for media whose colour the
-// camera ray's free flight only approximates, which ratio tracking here estimates exactly).
+// estimator or the other; both converge to the same image (in chromatic media, where the
+// camera ray's free flight is only approximate, this estimate is the exact one).
 #pragma once
 
 #include <algorithm>
