@@ -16,6 +16,7 @@
 #include "penumbra/light_images.h"
 #include "penumbra/mesh.h"
 #include "penumbra/scene.h"
+#include "penumbra/volume.h"
 #include "transforms.h"
 
 namespace penumbra {
@@ -266,6 +267,39 @@ TEST(LightImages, ThroughALensTheBlurredLightKeepsItsEmission) {
   const double inFocus = 100 * kPi * std::pow(0.02 * 5 / 10 * 64 / 3.6, 2);
   EXPECT_NEAR(integrating.sum, inFocus, 0.03 * inFocus);
   EXPECT_GT(cameraVariance / variance, 1.5);
+}
+
+TEST(LightImages, AnAbsorbingMediumInFrontDimsTheLightByBeerLambert) {
+  // A slab of σa = 0.5 between z = -4 and z = -6 (2 units thick) in front of the light.
+  const uint32_t samples = 1024;
+  const auto statistics = [&](bool withSlab) {
+    const Device device;
+    Scene scene(device);
+    scene.lights().setLights(lightsOf({sphereLight(kLightCentre, 0.02f)}));
+    if (withSlab) {
+      VolumeData data;
+      data.material.scattering = Vec3f(0.0f);
+      data.material.absorption = Vec3f(0.5f);
+      data.material.principledAbsorption = Vec3f(0.0f);
+      data.material.blackbodyIntensity = 0;
+      data.objectBounds = {{-5, -5, -6}, {5, 5, -4}};
+      const VolumeSet::VolumeId id = scene.volumes().add();
+      scene.volumes().setData(id, std::move(data));
+      scene.volumes().setPlacement(id, Transform(), true);
+    }
+    scene.commit();
+    const Camera camera(pinhole(), kImageSize, kImageSize);
+    const LightImages images(scene.lights().all(), camera, PixelFilter().radius());
+    EXPECT_TRUE(images.integrates(0));
+    return render(scene, camera, &images, samples);
+  };
+  const PixelStatistics clear = statistics(false), dimmed = statistics(true);
+  // The transmittance estimate is what is noisy: five standard deviations of the dimmed sum.
+  double variance = 0;
+  for (const double pixel : dimmed.variance) variance += pixel;
+  const double tolerance = 5 * std::sqrt(variance / samples) / clear.sum;
+  EXPECT_LT(tolerance, 0.1);
+  EXPECT_NEAR(dimmed.sum / clear.sum, std::exp(-0.5 * 2), tolerance);
 }
 
 }  // namespace
