@@ -53,10 +53,9 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
       box.include({image->position.x - spread.x, image->position.y - spread.y});
       box.include({image->position.x + spread.x, image->position.y + spread.y});
     }
-    if (!seen || box.upper.x - box.lower.x > kMaxImageSide ||
-        box.upper.y - box.lower.y > kMaxImageSide)
-      continue;
+    if (!seen) continue;
     const float side = std::max(box.upper.x - box.lower.x, box.upper.y - box.lower.y);
+    if (side > kMaxImageSide) continue;
     const float extent = length(bounds.upper - bounds.lower);
     entry.margin = imageBoxMargin(bounds, camera, extent > 0 ? side / extent : 0.0f);
     // The pixels whose samples may land on its image, through any lens point.

@@ -348,15 +348,9 @@ TEST(BsdfPdf, MatchesTheHistogramOfSampledDirections) {
 }
 
 TEST(BsdfSample, WeightIsEvaluateOverPdf) {
-  MaterialParams m;
-  m.diffuseColor = Vec3f(0.7f, 0.5f, 0.2f);
-  m.metallic = 0.5f;
-  m.roughness = 0.35f;
-  m.clearcoat = 0.5f;
+  MaterialParams m = layeredMaterial();
   m.clearcoatRoughness = 0.1f;
-  m.opacity = 0.7f;
   m.clearcoatColor = Vec3f(0.9f, 0.6f, 0.3f);
-  m.sheen = 0.6f;
   m.sheenColor = Vec3f(0.3f, 0.9f, 0.6f);
   m.sheenRoughness = 0.5f;
   m.anisotropy = 0.6f;
