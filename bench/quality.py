@@ -117,11 +117,13 @@ def render_rgb(
 @dataclass
 class Rung:
     """One rung of a ladder: samples per pixel taken (on average), mean seconds of the two
-    seeds' renders, and rRMSE."""
+    seeds' renders, and rRMSE (of RGB, and of luminance alone where measured: the difference
+    between the two is colour noise)."""
 
     samples: float
     seconds: float
     rrmse: float
+    luminance_rrmse: float | None = None
 
 
 def measure_ladder(
@@ -146,7 +148,8 @@ def measure_ladder(
     if reference is None:
         reference = (renders[-1][1][0] + renders[-1][1][1]) / 2
     return [
-        Rung(samples, seconds, relative_rmse(a - b, reference) / math.sqrt(2))
+        Rung(samples, seconds, relative_rmse(a - b, reference) / math.sqrt(2),
+             relative_rmse((a - b) @ REC709, reference @ REC709) / math.sqrt(2))
         for samples, (a, b), seconds in renders
     ]
 
@@ -237,8 +240,9 @@ def format_number(value: float | None, digits: int = 3, marked: bool = False) ->
     return text + ("*" if marked else "")
 
 
-def rrmse_at(rungs: Sequence[Rung], samples: int) -> float | None:
-    return next((rung.rrmse for rung in rungs if rung.samples == samples), None)
+def rrmse_at(rungs: Sequence[Rung], samples: int, luminance: bool = False) -> float | None:
+    return next((rung.luminance_rrmse if luminance else rung.rrmse
+                 for rung in rungs if rung.samples == samples), None)
 
 
 def fixed_ladder(args: argparse.Namespace) -> list[Setting]:
@@ -371,8 +375,8 @@ MANY_LIGHT_PLACEMENTS = (("in view", False, TARGET_RRMSE), ("above the view", Tr
 def many_lights_table(args: argparse.Namespace) -> None:
     print(f"\nMany lights (bench/many_lights.py), {args.width} px wide; * extrapolated.\n")
     print("| lights | sphere lights | target rRMSE | spp at target | time to target (s) "
-          "| 64-spp rRMSE | time vs 10 lights |")
-    print("|---|---:|---:|---:|---:|---:|---:|")
+          "| 64-spp rRMSE | of luminance | time vs 10 lights |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
     with tempfile.TemporaryDirectory(prefix="penumbra-many-lights-") as directory:
         for placement, above_view, target in MANY_LIGHT_PLACEMENTS:
             first_seconds: float | None = None
@@ -389,6 +393,7 @@ def many_lights_table(args: argparse.Namespace) -> None:
                     f"| {format_number(quality.samples, marked=quality.extrapolated)} "
                     f"| {format_number(quality.seconds, marked=quality.extrapolated)} "
                     f"| {format_number(rrmse_at(rungs, 64), 2)} "
+                    f"| {format_number(rrmse_at(rungs, 64, luminance=True), 2)} "
                     f"| {format_number(quality.seconds / first_seconds, 2)} |",
                     flush=True,
                 )
