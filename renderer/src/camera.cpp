@@ -100,8 +100,13 @@ bool Camera::isStatic() const {
          params_.focusDistanceSteps.size() <= 1;
 }
 
-std::optional<PointImage> Camera::pointImage(const Vec3f& point) const {
-  const Vec3f q = params_.cameraToWorld.at(0).inverse().applyToPoint(point);
+Camera::Moment Camera::momentAt(float time) const {
+  return {params_.cameraToWorld.at(time).inverse(), focalLengthAt(time), focusDistanceAt(time),
+          lensRadiusAt(time)};
+}
+
+std::optional<PointImage> Camera::pointImage(const Vec3f& point, const Moment& moment) const {
+  const Vec3f q = moment.worldToCamera.applyToPoint(point);
   const float viewDepth = -q.z;  // in camera units, as generateRay's clipping distances
   // In front of the lens too, whatever the near clip: a projection is only an image there.
   if (!(viewDepth > std::max(params_.nearClip, 0.0f)) || !(viewDepth < params_.farClip))
@@ -113,13 +118,13 @@ std::optional<PointImage> Camera::pointImage(const Vec3f& point) const {
   };
   if (params_.projection == Projection::Orthographic)
     return PointImage{toImage(10 * q.x, 10 * q.y), {0, 0}};
-  const float focalLength = focalLengthAt(0);
+  const float focalLength = moment.focalLength;
   PointImage image{toImage(q.x * focalLength / viewDepth, q.y * focalLength / viewDepth), {0, 0}};
   if (thinLens_) {
     // The ray from lens point l through q meets the plane of focus (depth D) at
     // q·D/depth + l·(1 − D/depth), which the film sees at focalLength / D times that.
-    const float focus = focusDistanceAt(0);
-    const float filmPerLensUnit = lensRadiusAt(0) * (1 - focus / viewDepth) * focalLength / focus;
+    const float focus = moment.focusDistance;
+    const float filmPerLensUnit = moment.lensRadius * (1 - focus / viewDepth) * focalLength / focus;
     image.perLensUnit = {filmPerLensUnit / filmWidth_ * width_,
                          -filmPerLensUnit / filmHeight_ * height_};
   }

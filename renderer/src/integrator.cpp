@@ -71,13 +71,26 @@ float bsdfStrategyWeight(const Scene& scene, const ScatteringRecord& origin, siz
   return 1;
 }
 
+/// A camera sample, for knowing which lights it integrates over their image
+/// (lightsSeenDirectly): its camera ray passes those.
+struct CameraSampleView {
+  const LightImages* images = nullptr;  // none: it integrates none
+  int x = 0, y = 0;
+  Vec2f lensSample;
+  float time = 0;
+
+  bool integrates(uint32_t index) const {
+    return images && images->integratesAt(index, x, y, concentricSampleDisk(lensSample), time);
+  }
+};
+
 /// Emission from the lights a ray meets before `tMax` (area lights) or, if it escapes, from the
 /// infinite ones, weighted against the BSDF sampling that produced it.
-/// Camera rays find the emission of the lights that `lightImages` (if any) integrates over their
-/// image all the same (for depth and alpha) but do not add it.
+/// Camera rays find the emission of the lights that `cameraSample` integrates over their image
+/// all the same (for depth and alpha) but do not add it.
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
                       const ScatteringRecord& origin, DirectLighting mode,
-                      const PathSpectrum& spectrum, const LightImages* lightImages,
+                      const PathSpectrum& spectrum, const CameraSampleView& cameraSample,
                       float* nearestLight, bool* sawLight) {
   const std::vector<Light>& lights = scene.lights().all();
   Vec3f total{0.0f};
@@ -90,7 +103,7 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     // light (the dome too) makes the pixel opaque.
     nearest = std::min(nearest, hit.distance);
     *sawLight = true;
-    if (!origin.fromSurface && lightImages && lightImages->integrates(index)) return;
+    if (!origin.fromSurface && cameraSample.integrates(index)) return;
     const float weight = bsdfStrategyWeight(scene, origin, index, hit.pdf, mode);
     // Camera rays see lights as they are; reflected light is scaled by the lobe's multiplier.
     const float multiplier = !origin.fromSurface ? 1.0f
@@ -541,7 +554,9 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
   for (const uint32_t* position = begin; position != end; ++position) {
     const LightImages::Integrated& image = images.integrated()[*position];
     if (!image.reaches(centre)) continue;
-    const ImageBox region = image.imageBox(lens).intersected(filterReach);
+    const std::optional<ImageBox> box = images.imageBox(image, lens, time);
+    if (!box) continue;
+    const ImageBox region = box->intersected(filterReach);
     if (region.empty()) continue;
     const PixelFilter::OffsetWithin drawn =
         filter.sampleOffsetWithin({region.lower.x - centre.x, region.lower.y - centre.y},
@@ -621,6 +636,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                lensSample, shutterTime);
 
   CameraSample result;
+  const CameraSampleView cameraSample{settings.lightImages, x, y, lensSample, shutterTime};
   if (settings.lightImages)
     result.radiance =
         lightsSeenDirectly(scene, camera, filter, *settings.lightImages, sampler, x, y, sampleIndex,
@@ -730,15 +746,14 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     // Light met by this ray has `bounce` interactions behind it, plus its emission. Lights in
     // front of a collision in a medium take the path's weight from before the flight (exact
     // for grey media, whose tracking leaves the weight as it is).
-    addLight(
-        clampIndirect((passed ? throughput : throughputBeforeFlight) *
-                          emittedAlongRay(scene, ray,
-                                          !passed ? mediumPoint.distance
-                                          : hit   ? hit->distance
-                                                  : ray.tFar,
-                                          !hit && passed, scattering, settings.directLighting,
-                                          spectrum, settings.lightImages, &nearestLight, &sawLight),
-                      bounce, settings.indirectClamp));
+    addLight(clampIndirect((passed ? throughput : throughputBeforeFlight) *
+                               emittedAlongRay(scene, ray,
+                                               !passed ? mediumPoint.distance
+                                               : hit   ? hit->distance
+                                                       : ray.tFar,
+                                               !hit && passed, scattering, settings.directLighting,
+                                               spectrum, cameraSample, &nearestLight, &sawLight),
+                           bounce, settings.indirectClamp));
     // What the ray stops at: the surface, or the medium where it collided.
     const SurfaceHit* surface = hit && passed ? &*hit : nullptr;
     if (bounce == 0) {

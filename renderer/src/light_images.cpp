@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <optional>
+#include <vector>
 
 namespace penumbra {
 namespace {
@@ -9,57 +12,100 @@ namespace {
 /// How far (pixels) to widen a light's image box so that rounding in projecting its corners
 /// and in the camera rays through it never leaves a point of its image outside (a flat light's
 /// outline touches its box): a hundredth of a pixel, plus what a millionth of the coordinates'
-/// magnitude (a few float roundings) moves the image by, at `pixelsPerUnit`.
-float imageBoxMargin(const LightBounds& bounds, const Camera& camera, float pixelsPerUnit) {
+/// magnitude (a few float roundings) moves the image by, at `pixelsPerUnit`. `times`: the
+/// moments the camera is looked at.
+float imageBoxMargin(const LightBounds& bounds, const Camera& camera,
+                     const std::vector<float>& times, float pixelsPerUnit) {
   float magnitude = 0;
-  for (const Vec3f& point : {bounds.lower, bounds.upper, camera.centre(0)})
+  for (const Vec3f& point : {bounds.lower, bounds.upper})
     magnitude = std::max({magnitude, std::abs(point.x), std::abs(point.y), std::abs(point.z)});
+  for (const float time : times) {
+    const Vec3f centre = camera.centre(time);
+    magnitude = std::max({magnitude, std::abs(centre.x), std::abs(centre.y), std::abs(centre.z)});
+  }
   return 0.01f + 1e-6f * magnitude * pixelsPerUnit;
 }
 
 /// Whether camera rays may see a light with these bounds emit: it emits, and a one-sided light
-/// (rect, disk: one emission axis) faces the pinhole (a lens sees it from several sides).
+/// (rect, disk: one emission axis) faces the pinhole (a lens, or a moving camera, sees it from
+/// several sides).
 bool seenEmitting(const LightBounds& bounds, const Camera& camera) {
   if (!(bounds.power > 0)) return false;
-  if (bounds.cosThetaO < 1 || camera.lensRadius() > 0) return true;
+  if (bounds.cosThetaO < 1 || camera.lensRadius() > 0 || !camera.isStatic()) return true;
   return dot(camera.centre(0) - bounds.centroid(), bounds.axis) > 0;
+}
+
+/// The images of the corners of the box [lower, upper] at `moment`; false when one has none
+/// (outside the clipping planes) or it is not finite.
+bool cornerImages(const Camera& camera, const Camera::Moment& moment, const Vec3f& lower,
+                  const Vec3f& upper, PointImage (&corners)[8]) {
+  for (int corner = 0; corner < 8; ++corner) {
+    const Vec3f point{corner & 1 ? upper.x : lower.x, corner & 2 ? upper.y : lower.y,
+                      corner & 4 ? upper.z : lower.z};
+    const std::optional<PointImage> image = camera.pointImage(point, moment);
+    if (!image || !std::isfinite(image->position.x) || !std::isfinite(image->position.y) ||
+        !std::isfinite(image->perLensUnit.x) || !std::isfinite(image->perLensUnit.y))
+      return false;
+    corners[corner] = *image;
+  }
+  return true;
+}
+
+/// The box holding the images of `corners` through lens point `lens` (unit disk), widened by
+/// `margin`.
+ImageBox boxThroughLens(const PointImage (&corners)[8], Vec2f lens, float margin) {
+  ImageBox box;
+  for (const PointImage& corner : corners)
+    box.include({corner.position.x + corner.perLensUnit.x * lens.x,
+                 corner.position.y + corner.perLensUnit.y * lens.y});
+  return box.widened(margin);
 }
 
 }  // namespace
 
 LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera, float filterRadius)
-    : integratesLight_(lights.size(), false) {
-  if (!camera.isStatic()) return;
+    : camera_(camera.isStatic() ? nullptr : &camera), integratesLight_(lights.size(), false) {
   const int width = camera.imageWidth(), height = camera.imageHeight();
+  std::vector<float> times{0.0f};
+  if (camera_) {
+    times.resize(kShutterTimes);
+    for (int moment = 0; moment < kShutterTimes; ++moment)
+      times[size_t(moment)] = float(moment) / float(kShutterTimes - 1);
+  }
+  std::vector<Camera::Moment> moments;
+  for (const float time : times) moments.push_back(camera.momentAt(time));
   for (uint32_t index = 0; index < lights.size(); ++index) {
     const Light& light = lights[index];
     if (!light.cameraVisible() || !light.isAreaLight()) continue;
     const LightBounds bounds = light.bounds();
     if (!seenEmitting(bounds, camera)) continue;
-    Integrated entry{index, {}, {}, 0};  // lightIndex, corners, reach, margin
-    ImageBox box;
+    Integrated entry{index, bounds.lower, bounds.upper, {}, {}, 0};  // corners, reach, margin
+    // Its image's box over the whole lens at each moment: each must be small; together they
+    // are the streak whose pixels list it.
+    ImageBox streak;
+    float side = 0;
     bool seen = true;
-    for (int corner = 0; corner < 8; ++corner) {
-      const Vec3f point{corner & 1 ? bounds.upper.x : bounds.lower.x,
-                        corner & 2 ? bounds.upper.y : bounds.lower.y,
-                        corner & 4 ? bounds.upper.z : bounds.lower.z};
-      const std::optional<PointImage> image = camera.pointImage(point);
-      seen = image && std::isfinite(image->position.x) && std::isfinite(image->position.y) &&
-             std::isfinite(image->perLensUnit.x) && std::isfinite(image->perLensUnit.y);
+    for (size_t moment = 0; moment < times.size(); ++moment) {
+      PointImage corners[8];
+      seen = cornerImages(camera, moments[moment], entry.lower, entry.upper, corners);
       if (!seen) break;
-      entry.corners[corner] = *image;
-      // The lens is the unit disk: each coordinate of its points within [-1, 1].
-      const Vec2f spread{std::abs(image->perLensUnit.x), std::abs(image->perLensUnit.y)};
-      box.include({image->position.x - spread.x, image->position.y - spread.y});
-      box.include({image->position.x + spread.x, image->position.y + spread.y});
+      ImageBox box;
+      for (const PointImage& image : corners) {
+        // The lens is the unit disk: each coordinate of its points within [-1, 1].
+        const Vec2f spread{std::abs(image.perLensUnit.x), std::abs(image.perLensUnit.y)};
+        box.include({image.position.x - spread.x, image.position.y - spread.y});
+        box.include({image.position.x + spread.x, image.position.y + spread.y});
+      }
+      side = std::max({side, box.upper.x - box.lower.x, box.upper.y - box.lower.y});
+      streak.include(box.lower);
+      streak.include(box.upper);
+      if (moment == 0) std::copy(std::begin(corners), std::end(corners), entry.corners);
     }
-    if (!seen) continue;
-    const float side = std::max(box.upper.x - box.lower.x, box.upper.y - box.lower.y);
-    if (side > kMaxImageSide) continue;
+    if (!seen || side > kMaxImageSide) continue;
     const float extent = length(bounds.upper - bounds.lower);
-    entry.margin = imageBoxMargin(bounds, camera, extent > 0 ? side / extent : 0.0f);
+    entry.margin = imageBoxMargin(bounds, camera, times, extent > 0 ? side / extent : 0.0f);
     // The pixels whose samples may land on its image, through any lens point.
-    const ImageBox inImage = box.widened(filterRadius + entry.margin)
+    const ImageBox inImage = streak.widened(filterRadius + entry.margin)
                                  .intersected({{0, 0}, {float(width), float(height)}});
     if (inImage.empty()) continue;
     entry.reach = inImage;
@@ -102,12 +148,27 @@ std::pair<const uint32_t*, const uint32_t*> LightImages::near(int x, int y) cons
   return {cellLights_.data() + cellStart_[cell], cellLights_.data() + cellStart_[cell + 1]};
 }
 
-ImageBox LightImages::Integrated::imageBox(Vec2f lens) const {
-  ImageBox box;
-  for (const PointImage& corner : corners)
-    box.include({corner.position.x + corner.perLensUnit.x * lens.x,
-                 corner.position.y + corner.perLensUnit.y * lens.y});
-  return box.widened(margin);
+std::optional<ImageBox> LightImages::imageBox(const Integrated& light, Vec2f lens,
+                                              float time) const {
+  if (!camera_) return boxThroughLens(light.corners, lens, light.margin);
+  PointImage corners[8];
+  if (!cornerImages(*camera_, camera_->momentAt(time), light.lower, light.upper, corners))
+    return std::nullopt;
+  return boxThroughLens(corners, lens, light.margin);
+}
+
+bool LightImages::integratesAt(uint32_t index, int x, int y, Vec2f lens, float time) const {
+  if (!integrates(index)) return false;
+  // A static camera sees each light's image only from pixels that list it.
+  if (!camera_) return true;
+  // A moving one may see it, at moments between those looked at, from a pixel that does not.
+  const Vec2f centre{float(x) + 0.5f, float(y) + 0.5f};
+  const auto [begin, end] = near(x, y);
+  for (const uint32_t* position = begin; position != end; ++position) {
+    const Integrated& light = integrated_[*position];
+    if (light.lightIndex == index) return light.reaches(centre) && imageBox(light, lens, time);
+  }
+  return false;
 }
 
 }  // namespace penumbra

@@ -118,7 +118,8 @@ TEST(Camera, PixelAspectRatioStretchesPixelsOnTheFilm) {
 }
 
 TEST(Camera, PointImageIsWhereCameraRaysThroughThePointCameFrom) {
-  // A turned, offset camera with a non-square pixel aspect: pinhole, thin lens, orthographic.
+  // A turned, offset camera with a non-square pixel aspect: pinhole, thin lens, orthographic,
+  // and a thin lens that moves, zooms and refocuses over the shutter.
   CameraParams params = cornellCamera();
   const double turned[16] = {0.8, 0, -0.6, 0, 0, 1, 0, 0, 0.6, 0, 0.8, 0, 1, 2, 3, 1};
   params.cameraToWorld = Transform::fromRowMajor(turned);
@@ -133,29 +134,35 @@ TEST(Camera, PointImageIsWhereCameraRaysThroughThePointCameFrom) {
   // 3.6 units wide, so that a pixel is well above the rounding of points 40 units away.
   orthographic.horizontalAperture *= 100;
   orthographic.verticalAperture *= 100;
-  for (const CameraParams& lens : {params, thinLens, orthographic}) {
+  CameraParams moving = thinLens;
+  const double later[16] = {0.6, 0, -0.8, 0, 0, 1, 0, 0, 0.8, 0, 0.6, 0, 1.5, 2, 2.5, 1};
+  moving.cameraToWorld = MotionTransform(
+      std::vector<Transform>{Transform::fromRowMajor(turned), Transform::fromRowMajor(later)});
+  moving.focalLengthSteps = {0.35f, 0.5f, 0.4f};
+  moving.focusDistanceSteps = {3, 2};
+  for (const CameraParams& lens : {params, thinLens, orthographic, moving}) {
     const Camera camera(lens, 320, 200);
-    ASSERT_TRUE(camera.isStatic());
-    for (const Vec2f position : {Vec2f{10.5f, 20.25f}, Vec2f{160, 100}, Vec2f{300.75f, 190.5f}})
-      for (const Vec2f lensSample : {Vec2f{0.5f, 0.5f}, Vec2f{0.1f, 0.8f}, Vec2f{0.95f, 0.3f}})
-        for (const float distance : {1.5f, 3.0f, 40.0f}) {
-          const Ray ray = camera.generateRay(position.x, position.y, lensSample);
-          const std::optional<PointImage> image =
-              camera.pointImage(ray.origin + ray.direction * distance);
-          ASSERT_TRUE(image);
-          const Vec2f lensPoint = concentricSampleDisk(lensSample);
-          EXPECT_NEAR(image->position.x + image->perLensUnit.x * lensPoint.x, position.x, 2e-3f);
-          EXPECT_NEAR(image->position.y + image->perLensUnit.y * lensPoint.y, position.y, 2e-3f);
-          if (lens.fStop == 0) {
-            EXPECT_EQ(image->perLensUnit.x, 0);
-            EXPECT_EQ(image->perLensUnit.y, 0);
+    for (const float time : {0.0f, 0.37f, 0.9f})
+      for (const Vec2f position : {Vec2f{10.5f, 20.25f}, Vec2f{160, 100}, Vec2f{300.75f, 190.5f}})
+        for (const Vec2f lensSample : {Vec2f{0.5f, 0.5f}, Vec2f{0.1f, 0.8f}, Vec2f{0.95f, 0.3f}})
+          for (const float distance : {1.5f, 3.0f, 40.0f}) {
+            const Ray ray = camera.generateRay(position.x, position.y, lensSample, time);
+            const std::optional<PointImage> image =
+                camera.pointImage(ray.origin + ray.direction * distance, camera.momentAt(time));
+            ASSERT_TRUE(image);
+            const Vec2f lensPoint = concentricSampleDisk(lensSample);
+            EXPECT_NEAR(image->position.x + image->perLensUnit.x * lensPoint.x, position.x, 2e-3f);
+            EXPECT_NEAR(image->position.y + image->perLensUnit.y * lensPoint.y, position.y, 2e-3f);
+            if (lens.fStop == 0) {
+              EXPECT_EQ(image->perLensUnit.x, 0);
+              EXPECT_EQ(image->perLensUnit.y, 0);
+            }
           }
-        }
     // Nothing in front of the near clipping plane or behind the camera has an image.
     const Vec3f centre = camera.centre(0);
     const Ray axis = camera.generateRay(160, 100, {0.5f, 0.5f});
-    EXPECT_FALSE(camera.pointImage(centre + axis.direction * 0.01f));
-    EXPECT_FALSE(camera.pointImage(centre - axis.direction * 2.0f));
+    EXPECT_FALSE(camera.pointImage(centre + axis.direction * 0.01f, camera.momentAt(0)));
+    EXPECT_FALSE(camera.pointImage(centre - axis.direction * 2.0f, camera.momentAt(0)));
   }
 }
 

@@ -80,10 +80,19 @@ TEST(LightImages, IntegratesAreaLightsTheCameraSeesSmall) {
   LightParams dome;
   dome.type = LightType::Dome;
   EXPECT_FALSE(integrated(dome));
-  // A moving camera's image of a light moves: none is integrated.
+  // A moving camera's image of a light moves (here by 9 pixels): it is integrated while small
+  // at every moment, and not once part of it crosses the near plane at some moment.
   CameraParams moving = pinhole();
   moving.cameraToWorld = MotionTransform(std::vector<Transform>{Transform(), translation(1, 0, 0)});
+  EXPECT_TRUE(integrated(sphereLight(kLightCentre, 0.02f), moving));
+  moving.cameraToWorld =
+      MotionTransform(std::vector<Transform>{Transform(), translation(0, 0, -9.95)});
   EXPECT_FALSE(integrated(sphereLight(kLightCentre, 0.02f), moving));
+  // A zoom that makes it larger than kMaxImageSide by the shutter's end.
+  CameraParams zooming = pinhole();
+  zooming.focalLengthSteps = {50, 1000};
+  EXPECT_TRUE(integrated(sphereLight(kLightCentre, 0.1f)));
+  EXPECT_FALSE(integrated(sphereLight(kLightCentre, 0.1f), zooming));
   // Its defocus blur counts towards its size: out of focus through a wide aperture it is not.
   CameraParams wide = pinhole();
   wide.fStop = 1;
@@ -297,6 +306,43 @@ TEST(LightImages, ThroughALensTheBlurredLightKeepsItsEmission) {
   const double inFocus = 100 * kPi * std::pow(0.02 * 5 / 10 * 64 / 3.6, 2);
   EXPECT_NEAR(integrating.sum, inFocus, 0.03 * inFocus);
   EXPECT_GT(cameraRays.varianceSum / integrating.varianceSum, 1.5);
+}
+
+TEST(LightImages, AMovingCameraSeesTheLightsStreakWithLessNoise) {
+  // The camera moves 0.3 units along X over the shutter: the 0.36-pixel light's image sweeps
+  // 2.7 pixels. Camera rays find it as often as the streak covers their filter; each sample
+  // integrates it at the sample's own moment.
+  const Device device;
+  Scene scene(device);
+  scene.lights().setLights(lightsOf({sphereLight(kLightCentre, 0.02f)}));
+  scene.commit();
+  CameraParams moving = pinhole();
+  moving.cameraToWorld =
+      MotionTransform(std::vector<Transform>{Transform(), translation(0.3, 0, 0)});
+  const Camera camera(moving, kImageSize, kImageSize);
+  const LightImages images(scene.lights().all(), camera, PixelFilter().radius());
+  ASSERT_TRUE(images.integrates(0));
+  // Pixels on the streak integrate it at any moment; one far from it does not.
+  EXPECT_TRUE(images.integratesAt(0, 31, 32, {0, 0}, 0.5f));
+  EXPECT_FALSE(images.integratesAt(0, 40, 32, {0, 0}, 0.5f));
+  const uint32_t samples = 1024;
+  const PixelStatistics integrating = render(scene, camera, &images, samples);
+  const PixelStatistics cameraRays = render(scene, camera, nullptr, samples);
+  for (size_t pixel = 0; pixel < integrating.mean.size(); ++pixel) {
+    // Where camera rays find the light rarely, their own variance says little (none found it
+    // in some pixels): a camera sample adds at most the radiance, 100, so its variance is at
+    // most 100 × its mean.
+    const double cameraRayVariance =
+        std::max(cameraRays.variance[pixel], 100 * integrating.mean[pixel]);
+    const double tolerance =
+        5 * std::sqrt((integrating.variance[pixel] + cameraRayVariance) / samples);
+    EXPECT_NEAR(integrating.mean[pixel], cameraRays.mean[pixel], tolerance) << "pixel " << pixel;
+  }
+  // Radiance 100 over the light's image, as for a static camera (the streak spreads it).
+  const double still = 100 * kPi * std::pow(0.02 * 5 / 10 * 64 / 3.6, 2);
+  EXPECT_NEAR(integrating.sum, still, 0.03 * still);
+  EXPECT_NEAR(cameraRays.sum, still, 5 * std::sqrt(cameraRays.varianceSum / samples));
+  EXPECT_GT(cameraRays.varianceSum / integrating.varianceSum, 10);
 }
 
 TEST(LightImages, AnAbsorbingMediumInFrontDimsTheLightByBeerLambert) {

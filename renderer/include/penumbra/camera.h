@@ -79,10 +79,17 @@ class Camera {
 
   /// True if neither the camera's transform nor its lens changes over the shutter.
   bool isStatic() const;
-  /// Where `point` (world space) appears in the image (PointImage) for a static camera; none
-  /// when it is not between the clipping planes (or not in front of the lens). Camera rays through
-  /// that image position and lens point pass through `point`.
-  std::optional<PointImage> pointImage(const Vec3f& point) const;
+  /// The camera at one moment of the shutter, as pointImage() needs it (made once for many
+  /// points).
+  struct Moment {
+    Transform worldToCamera;
+    float focalLength = 0, focusDistance = 0, lensRadius = 0;
+  };
+  Moment momentAt(float time) const;
+  /// Where `point` (world space) appears in the image (PointImage) at `moment`; none when it is
+  /// not between the clipping planes (or not in front of the lens). Camera rays at that moment
+  /// through that image position and lens point pass through `point`.
+  std::optional<PointImage> pointImage(const Vec3f& point, const Moment& moment) const;
   int imageWidth() const { return width_; }
   int imageHeight() const { return height_; }
 

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -47,35 +48,47 @@ class LightImages {
   static constexpr float kMaxImageSide = 8;
   /// Pixels per side of the cells that list the lights near them.
   static constexpr int kCellSize = 8;
+  /// The moments of the shutter (evenly spaced, ends included) at which a moving camera's view
+  /// of the lights is looked at to choose them and list them near pixels.
+  static constexpr int kShutterTimes = 33;
 
   /// The lights of `lights` that `camera` sees directly, small in its image: area lights (rect,
   /// disk, sphere, cylinder) visible to the camera, emitting towards it, whole between its
-  /// clipping planes. None when the camera moves, zooms or refocuses over the shutter (an
-  /// image box would have to hold every moment's).
+  /// clipping planes. A camera that moves, zooms or refocuses over the shutter is looked at
+  /// at kShutterTimes moments: a light qualifies when it does at each, and the pixels near any
+  /// of those images list it (its streak); each sample then finds its image at its own time.
+  /// The camera must outlive this.
   /// `filterRadius`: how far (pixels) a sample may land from its pixel's centre.
   LightImages(const std::vector<Light>& lights, const Camera& camera, float filterRadius);
 
   bool empty() const { return integrated_.empty(); }
-  /// Whether light `index`'s directly seen emission is integrated here (camera rays skip it).
+  /// Whether light `index`'s directly seen emission may be integrated here.
   bool integrates(uint32_t index) const {
     return index < integratesLight_.size() && integratesLight_[index];
   }
-  /// An integrated light: its bounding box's corners as the camera sees them, and the box of
-  /// image positions whose filter may reach its image through some lens point.
+  /// An integrated light: its bounding box, its corners as a static camera sees them, and the
+  /// box of image positions whose filter may reach its image through some lens point (at some
+  /// moment).
   struct Integrated {
     uint32_t lightIndex;
+    Vec3f lower, upper;
     PointImage corners[8];
     ImageBox reach;
     float margin;  // pixels the boxes are widened by, for rounding
 
-    /// The box holding the light's image seen through lens point `lens` (unit disk).
-    ImageBox imageBox(Vec2f lens) const;
     /// Whether samples of the pixel with centre `centre` may see its image.
     bool reaches(Vec2f centre) const {
       return centre.x >= reach.lower.x && centre.x <= reach.upper.x && centre.y >= reach.lower.y &&
              centre.y <= reach.upper.y;
     }
   };
+  /// The box holding `light`'s image seen through lens point `lens` (unit disk) at shutter time
+  /// `time`; none when the camera moves and, at that moment, part of the light is outside its
+  /// clipping planes.
+  std::optional<ImageBox> imageBox(const Integrated& light, Vec2f lens, float time) const;
+  /// Whether pixel (x, y)'s camera sample at lens point `lens` and time `time` integrates light
+  /// `index` over its image, so that its camera ray must pass the light without adding it.
+  bool integratesAt(uint32_t index, int x, int y, Vec2f lens, float time) const;
 
   /// The integrated lights, in light order.
   const std::vector<Integrated>& integrated() const { return integrated_; }
@@ -84,6 +97,7 @@ class LightImages {
   std::pair<const uint32_t*, const uint32_t*> near(int x, int y) const;
 
  private:
+  const Camera* camera_ = nullptr;  // set when the camera moves: boxes are found per sample
   std::vector<Integrated> integrated_;
   std::vector<bool> integratesLight_;  // by light index
   int cellsX_ = 0, cellsY_ = 0;
