@@ -304,7 +304,8 @@ TEST(RenderDelegate, OnlyDirtyPrimsAreSynced) {
 
 TEST(RenderDelegate, RejectsUnknownTypesIdsAndSettings) {
   RenderDelegate delegate;
-  EXPECT_THROW(delegate.insertRprim("tetMesh", "/c"), std::invalid_argument);  // a USD type read as a mesh
+  EXPECT_THROW(delegate.insertRprim("tetMesh", "/c"),
+               std::invalid_argument);  // a USD type read as a mesh
   EXPECT_THROW(delegate.insertSprim("cylinderLightX", "/l"), std::invalid_argument);
   delegate.insertSprim("camera", "/cam");
   EXPECT_THROW(delegate.insertSprim("camera", "/cam"), std::invalid_argument);
