@@ -547,6 +547,7 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
   Vec3f total{0.0f};
   if (begin == end) return total;
   const Vec2f lens = concentricSampleDisk(lensSample);
+  const std::optional<Camera::Moment> moment = images.momentAt(time);
   const Vec2f centre{float(x) + 0.5f, float(y) + 0.5f};
   const ImageBox filterReach = ImageBox{centre, centre}.widened(filter.radius());
   const std::vector<Light>& lights = scene.lights().all();
@@ -554,7 +555,7 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
   for (const uint32_t* position = begin; position != end; ++position) {
     const LightImages::Integrated& image = images.integrated()[*position];
     if (!image.reaches(centre)) continue;
-    const std::optional<ImageBox> box = images.imageBox(image, lens, time);
+    const std::optional<ImageBox> box = images.imageBox(image, lens, moment);
     if (!box) continue;
     const ImageBox region = box->intersected(filterReach);
     if (region.empty()) continue;

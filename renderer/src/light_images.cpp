@@ -148,12 +148,16 @@ std::pair<const uint32_t*, const uint32_t*> LightImages::near(int x, int y) cons
   return {cellLights_.data() + cellStart_[cell], cellLights_.data() + cellStart_[cell + 1]};
 }
 
+std::optional<Camera::Moment> LightImages::momentAt(float time) const {
+  if (!camera_) return std::nullopt;
+  return camera_->momentAt(time);
+}
+
 std::optional<ImageBox> LightImages::imageBox(const Integrated& light, Vec2f lens,
-                                              float time) const {
-  if (!camera_) return boxThroughLens(light.corners, lens, light.margin);
+                                              const std::optional<Camera::Moment>& moment) const {
+  if (!moment) return boxThroughLens(light.corners, lens, light.margin);
   PointImage corners[8];
-  if (!cornerImages(*camera_, camera_->momentAt(time), light.lower, light.upper, corners))
-    return std::nullopt;
+  if (!cornerImages(*camera_, *moment, light.lower, light.upper, corners)) return std::nullopt;
   return boxThroughLens(corners, lens, light.margin);
 }
 
@@ -166,7 +170,8 @@ bool LightImages::integratesAt(uint32_t index, int x, int y, Vec2f lens, float t
   const auto [begin, end] = near(x, y);
   for (const uint32_t* position = begin; position != end; ++position) {
     const Integrated& light = integrated_[*position];
-    if (light.lightIndex == index) return light.reaches(centre) && imageBox(light, lens, time);
+    if (light.lightIndex == index)
+      return light.reaches(centre) && imageBox(light, lens, momentAt(time));
   }
   return false;
 }

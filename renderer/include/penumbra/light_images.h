@@ -82,10 +82,13 @@ class LightImages {
              centre.y <= reach.upper.y;
     }
   };
-  /// The box holding `light`'s image seen through lens point `lens` (unit disk) at shutter time
-  /// `time`; none when the camera moves and, at that moment, part of the light is outside its
-  /// clipping planes.
-  std::optional<ImageBox> imageBox(const Integrated& light, Vec2f lens, float time) const;
+  /// The camera at shutter time `time` when it moves (for imageBox, made once per sample); none
+  /// when it is static.
+  std::optional<Camera::Moment> momentAt(float time) const;
+  /// The box holding `light`'s image seen through lens point `lens` (unit disk) at `moment`
+  /// (momentAt's); none when, at that moment, part of the light is outside the clipping planes.
+  std::optional<ImageBox> imageBox(const Integrated& light, Vec2f lens,
+                                   const std::optional<Camera::Moment>& moment) const;
   /// Whether pixel (x, y)'s camera sample at lens point `lens` and time `time` integrates light
   /// `index` over its image, so that its camera ray must pass the light without adding it.
   bool integratesAt(uint32_t index, int x, int y, Vec2f lens, float time) const;
