@@ -12,17 +12,12 @@ namespace {
 /// How far (pixels) to widen a light's image box so that rounding in projecting its corners
 /// and in the camera rays through it never leaves a point of its image outside (a flat light's
 /// outline touches its box): a hundredth of a pixel, plus what a millionth of the coordinates'
-/// magnitude (a few float roundings) moves the image by, at `pixelsPerUnit`. `times`: the
-/// moments the camera is looked at.
-float imageBoxMargin(const LightBounds& bounds, const Camera& camera,
-                     const std::vector<float>& times, float pixelsPerUnit) {
-  float magnitude = 0;
+/// magnitude (a few float roundings) moves the image by, at `pixelsPerUnit`.
+/// `cameraMagnitude`: the largest coordinate of the camera's centre at the moments looked at.
+float imageBoxMargin(const LightBounds& bounds, float cameraMagnitude, float pixelsPerUnit) {
+  float magnitude = cameraMagnitude;
   for (const Vec3f& point : {bounds.lower, bounds.upper})
     magnitude = std::max({magnitude, std::abs(point.x), std::abs(point.y), std::abs(point.z)});
-  for (const float time : times) {
-    const Vec3f centre = camera.centre(time);
-    magnitude = std::max({magnitude, std::abs(centre.x), std::abs(centre.y), std::abs(centre.z)});
-  }
   return 0.01f + 1e-6f * magnitude * pixelsPerUnit;
 }
 
@@ -73,7 +68,13 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
       times[size_t(moment)] = float(moment) / float(kShutterTimes - 1);
   }
   std::vector<Camera::Moment> moments;
-  for (const float time : times) moments.push_back(camera.momentAt(time));
+  float cameraMagnitude = 0;
+  for (const float time : times) {
+    moments.push_back(camera.momentAt(time));
+    const Vec3f centre = camera.centre(time);
+    cameraMagnitude =
+        std::max({cameraMagnitude, std::abs(centre.x), std::abs(centre.y), std::abs(centre.z)});
+  }
   for (uint32_t index = 0; index < lights.size(); ++index) {
     const Light& light = lights[index];
     if (!light.cameraVisible() || !light.isAreaLight()) continue;
@@ -102,8 +103,11 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
       if (moment == 0) std::copy(std::begin(corners), std::end(corners), entry.corners);
     }
     if (!seen || side > kMaxImageSide) continue;
+    if (streak.upper.x - streak.lower.x > kMaxStreakSide ||
+        streak.upper.y - streak.lower.y > kMaxStreakSide)
+      continue;
     const float extent = length(bounds.upper - bounds.lower);
-    entry.margin = imageBoxMargin(bounds, camera, times, extent > 0 ? side / extent : 0.0f);
+    entry.margin = imageBoxMargin(bounds, cameraMagnitude, extent > 0 ? side / extent : 0.0f);
     // The pixels whose samples may land on its image, through any lens point.
     const ImageBox inImage = streak.widened(filterRadius + entry.margin)
                                  .intersected({{0, 0}, {float(width), float(height)}});

@@ -81,12 +81,20 @@ TEST(LightImages, IntegratesAreaLightsTheCameraSeesSmall) {
   dome.type = LightType::Dome;
   EXPECT_FALSE(integrated(dome));
   // A moving camera's image of a light moves (here by 9 pixels): it is integrated while small
-  // at every moment, and not once part of it crosses the near plane at some moment.
+  // at every moment; not once part of it crosses the near plane at some moment (still 0.7
+  // pixels across then), nor when it streaks over more than kMaxStreakSide (36 pixels).
   CameraParams moving = pinhole();
   moving.cameraToWorld = MotionTransform(std::vector<Transform>{Transform(), translation(1, 0, 0)});
   EXPECT_TRUE(integrated(sphereLight(kLightCentre, 0.02f), moving));
-  moving.cameraToWorld =
-      MotionTransform(std::vector<Transform>{Transform(), translation(0, 0, -9.95)});
+  CameraParams nearing = moving;
+  nearing.nearClip = 5;
+  nearing.cameraToWorld =
+      MotionTransform(std::vector<Transform>{Transform(), translation(0, 0, -5.1)});
+  EXPECT_FALSE(integrated(sphereLight(kLightCentre, 0.02f), nearing));
+  nearing.cameraToWorld =
+      MotionTransform(std::vector<Transform>{Transform(), translation(0, 0, -4.9)});
+  EXPECT_TRUE(integrated(sphereLight(kLightCentre, 0.02f), nearing));
+  moving.cameraToWorld = MotionTransform(std::vector<Transform>{Transform(), translation(4, 0, 0)});
   EXPECT_FALSE(integrated(sphereLight(kLightCentre, 0.02f), moving));
   // A zoom that makes it larger than kMaxImageSide by the shutter's end.
   CameraParams zooming = pinhole();

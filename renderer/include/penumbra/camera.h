@@ -27,7 +27,7 @@ struct RayCone {
 
 enum class Projection { Perspective, Orthographic };
 
-/// Where a point appears in the image of a camera that does not move: through the lens point
+/// Where a point appears in the image at one moment of the shutter: through the lens point
 /// d of the unit disk (the lens sample's concentricSampleDisk), at `position + perLensUnit ∘ d`
 /// (pixels, x right, y down; the position is affine in the lens point).
 struct PointImage {

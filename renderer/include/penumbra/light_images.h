@@ -42,10 +42,14 @@ struct ImageBox {
 class LightImages {
  public:
   /// Lights whose image (over the whole lens) fits in a box of this side (pixels) are
-  /// integrated over their image. The gain shrinks as lights grow (about 1.5 times less
+  /// integrated over their image; with a moving camera, at each moment looked at, and only
+  /// while the box around its streak over the shutter is at most kMaxStreakSide (past that, the
+  /// box would list it in many pixels its streak does not cross, each paying for its image box
+  /// every sample). The gain shrinks as lights grow (about 1.5 times less
   /// variance at 5 pixels across) while the cost, a ray per sample of every pixel they cover,
   /// grows.
   static constexpr float kMaxImageSide = 8;
+  static constexpr float kMaxStreakSide = 4 * kMaxImageSide;
   /// Pixels per side of the cells that list the lights near them.
   static constexpr int kCellSize = 8;
   /// The moments of the shutter (evenly spaced, ends included) at which a moving camera's view
@@ -60,13 +64,16 @@ class LightImages {
   /// The camera must outlive this.
   /// `filterRadius`: how far (pixels) a sample may land from its pixel's centre.
   LightImages(const std::vector<Light>& lights, const Camera& camera, float filterRadius);
+  /// It keeps the camera when it moves.
+  LightImages(const std::vector<Light>& lights, Camera&& camera, float filterRadius) = delete;
 
   bool empty() const { return integrated_.empty(); }
   /// Whether light `index`'s directly seen emission may be integrated here.
   bool integrates(uint32_t index) const {
     return index < integratesLight_.size() && integratesLight_[index];
   }
-  /// An integrated light: its bounding box, its corners as a static camera sees them, and the
+  /// An integrated light: its bounding box, its corners as a static camera sees them (unused
+  /// when it moves: they are projected per sample), and the
   /// box of image positions whose filter may reach its image through some lens point (at some
   /// moment).
   struct Integrated {
