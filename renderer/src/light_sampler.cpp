@@ -1,6 +1,8 @@
 #include "penumbra/light_sampler.h"
 
 #include <algorithm>
+#include <cmath>
+#include <optional>
 
 namespace penumbra {
 namespace {
@@ -32,6 +34,69 @@ float splitCost(const LightBounds& bounds) {
   return bounds.power * orientationMeasure(bounds) * std::max(surfaceArea(bounds), 1e-12f);
 }
 
+/// A node at the levels the walk may split at is split by colour when it holds at least this
+/// many lights and their chromaticities (radiance over luminance) spread by more than
+/// kColourSplitSpread (a power-weighted standard deviation along an opponent-colour axis; a mix
+/// of 2700 K and 6500 K lamps spreads by about 0.37, saturated hues by more).
+constexpr size_t kColourSplitMinLights = 16;
+constexpr float kColourSplitSpread = 0.1f;
+
+/// Where to split lights[begin, end) by colour, after ordering them along the opponent-colour
+/// axis (red-green, yellow-blue) their chromaticities spread most along. None when they spread
+/// by less than kColourSplitSpread.
+std::optional<size_t> colourSplit(std::vector<uint32_t>& lights, size_t begin, size_t end,
+                                  const std::vector<LightBounds>& bounds,
+                                  const std::vector<Vec3f>& chromaticities) {
+  const Vec3f axes[2] = {Vec3f(1, -1, 0) / std::sqrt(2.0f), Vec3f(1, 1, -2) / std::sqrt(6.0f)};
+  float widest = kColourSplitSpread;
+  const Vec3f* axis = nullptr;
+  for (const Vec3f& candidate : axes) {
+    double power = 0, sum = 0, sumOfSquares = 0;
+    for (size_t i = begin; i < end; ++i) {
+      const double weight = bounds[lights[i]].power;
+      const double x = dot(chromaticities[lights[i]], candidate);
+      power += weight;
+      sum += weight * x;
+      sumOfSquares += weight * x * x;
+    }
+    const double mean = sum / power;
+    const float spread = float(std::sqrt(std::max(0.0, sumOfSquares / power - mean * mean)));
+    if (spread > widest) {
+      widest = spread;
+      axis = &candidate;
+    }
+  }
+  if (!axis) return std::nullopt;
+  const auto along = [&](uint32_t light) { return dot(chromaticities[light], *axis); };
+  std::sort(lights.begin() + std::ptrdiff_t(begin), lights.begin() + std::ptrdiff_t(end),
+            [&](uint32_t a, uint32_t b) {
+              const float x = along(a), y = along(b);
+              return x < y || (x == y && a < b);
+            });
+  // The cut that separates the colours best (Otsu's): the most power-weighted variance
+  // between the two groups' mean chromaticities, W_below W_above (mean_below - mean_above)².
+  double power = 0, sum = 0;
+  for (size_t i = begin; i < end; ++i) {
+    power += bounds[lights[i]].power;
+    sum += bounds[lights[i]].power * along(lights[i]);
+  }
+  double powerBelow = 0, sumBelow = 0, best = -1;
+  size_t middle = begin + 1;
+  for (size_t cut = begin + 1; cut < end; ++cut) {
+    powerBelow += bounds[lights[cut - 1]].power;
+    sumBelow += bounds[lights[cut - 1]].power * along(lights[cut - 1]);
+    const double powerAbove = power - powerBelow;
+    if (!(powerBelow > 0) || !(powerAbove > 0)) continue;
+    const double difference = sumBelow / powerBelow - (sum - sumBelow) / powerAbove;
+    const double between = powerBelow * powerAbove * difference * difference;
+    if (between > best) {
+      best = between;
+      middle = cut;
+    }
+  }
+  return middle;
+}
+
 }  // namespace
 
 LightSampler::LightSampler(const std::vector<Light>& lights) : paths_(lights.size()) {
@@ -53,13 +118,18 @@ LightSampler::LightSampler(const std::vector<Light>& lights) : paths_(lights.siz
     if (bounds[i].power > 0) local.push_back(uint32_t(i));
   }
   if (!local.empty()) {
+    std::vector<Vec3f> chromaticities(lights.size(), Vec3f(1.0f));
+    for (const uint32_t i : local)
+      if (const float radiance = luminance(lights[i].radiance()); radiance > 0)
+        chromaticities[i] = lights[i].radiance() / radiance;
     nodes_.reserve(2 * local.size() - 1);
-    build(local, 0, local.size(), bounds, {0, 0});
+    build(local, 0, local.size(), bounds, chromaticities, {0, 0});
   }
 }
 
 uint32_t LightSampler::build(std::vector<uint32_t>& lights, size_t begin, size_t end,
-                             const std::vector<LightBounds>& bounds, LeafPath path) {
+                             const std::vector<LightBounds>& bounds,
+                             const std::vector<Vec3f>& chromaticities, LeafPath path) {
   const uint32_t index = uint32_t(nodes_.size());
   nodes_.emplace_back();
   if (end - begin == 1) {
@@ -78,13 +148,18 @@ uint32_t LightSampler::build(std::vector<uint32_t>& lights, size_t begin, size_t
     point.power = 1;
     centroids = unite(centroids, point);
   }
-  // The cheapest split into buckets along an axis of the centroids' box; without one (all
-  // centroids together, or too deep), the list is halved.
-  size_t middle = begin + (end - begin) / 2;
+  // Many lights of different colours at the levels the walk may split at: by colour (see
+  // light_sampler.h). Otherwise the cheapest split into buckets along an axis of the
+  // centroids' box; without one (all centroids together, or too deep), the list is halved.
+  const std::optional<size_t> byColour =
+      depth < kMaxSplitDepth && end - begin >= kColourSplitMinLights
+          ? colourSplit(lights, begin, end, bounds, chromaticities)
+          : std::nullopt;
+  size_t middle = byColour ? *byColour : begin + (end - begin) / 2;
   float bestCost = kInfinity;
   int bestAxis = -1, bestBucket = 0;
   const Vec3f extent = centroids.upper - centroids.lower;
-  for (int axis = 0; axis < 3 && depth < kMaxSearchDepth; ++axis) {
+  for (int axis = 0; axis < 3 && !byColour && depth < kMaxSearchDepth; ++axis) {
     if (!(extent[axis] > 0)) continue;
     LightBounds buckets[kBuckets];
     const auto bucketOf = [&](uint32_t light) {
@@ -115,9 +190,10 @@ uint32_t LightSampler::build(std::vector<uint32_t>& lights, size_t begin, size_t
       middle = size_t(firstAbove - lights.begin());
     }
   }
-  const uint32_t first = build(lights, begin, middle, bounds, {path.branches, depth + 1});
-  const uint32_t second =
-      build(lights, middle, end, bounds, {path.branches | (uint64_t(1) << depth), depth + 1});
+  const uint32_t first =
+      build(lights, begin, middle, bounds, chromaticities, {path.branches, depth + 1});
+  const uint32_t second = build(lights, middle, end, bounds, chromaticities,
+                                {path.branches | (uint64_t(1) << depth), depth + 1});
   nodes_[index].children[0] = first;
   nodes_[index].children[1] = second;
   nodes_[index].cluster = LightCluster(all);

@@ -166,6 +166,46 @@ TEST(LightSampler, NearbyLightsAreEachSampledWhereTheTreeCannotTellThemApart) {
   EXPECT_NEAR(sampler.probability(far, 0) + sampler.probability(far, 1), 1.0, 1e-6);
 }
 
+TEST(LightSampler, AmongManyLightsOfTwoColoursAPointSamplesBoth) {
+  // 64 bulbs on a grid 3 m up, red and green in a checkerboard, of varied power: below them
+  // the walk splits twice and samples four lights. Split by place, any of the four could be of
+  // either colour and a point's light would be as noisy in colour as one light; split by colour
+  // first, two are red and two green whatever the numbers drawn. 64 white bulbs are split by
+  // place: they are not all sampled in halves of a checkerboard.
+  for (const bool coloured : {true, false}) {
+    SCOPED_TRACE(coloured);
+    std::vector<Light> lights;
+    for (int i = 0; i < 64; ++i) {
+      LightParams bulb;
+      bulb.type = LightType::Sphere;
+      bulb.radius = 0.05f;
+      bulb.intensity = 1 + 4 * random01(uint32_t(i), 9);
+      const bool red = (i % 8 + i / 8) % 2 == 0;
+      bulb.color = !coloured ? Vec3f(1.0f) : red ? Vec3f(1, 0.1f, 0.1f) : Vec3f(0.1f, 1, 0.1f);
+      bulb.lightToWorld = translation(i % 8 - 3.5, 3, i / 8 - 3.5);
+      lights.emplace_back(bulb);
+    }
+    const LightSampler sampler(lights);
+    const Receiver below{{0.3f, 0, -0.2f}, {0, 1, 0}};
+    int mixed = 0;
+    for (int j = 0; j < 256; ++j) {
+      const float u = (float(j) + 0.5f) / 256;
+      int reds = 0, choices = 0;
+      sampler.forEachChoice(below, u, u, [&](LightSampler::Choice c) {
+        EXPECT_EQ(c.probability, sampler.probability(below, c.index));
+        reds += (c.index % 8 + c.index / 8) % 2 == 0;
+        ++choices;
+      });
+      ASSERT_EQ(choices, 4);
+      mixed += reds == 2;
+    }
+    if (coloured)
+      EXPECT_EQ(mixed, 256);
+    else
+      EXPECT_LT(mixed, 256);
+  }
+}
+
 TEST(LightSampler, NeitherInfiniteNorLocalLightsStarve) {
   // However bright the dome, the panel is sampled at every point that it can light, and the
   // dome too.

@@ -14,6 +14,11 @@
 //   about which child gives more: there the walk splits and goes down both children (adaptive
 //   tree splitting, Conty Estevez & Kulla 2018 §5), so that up to 2^kMaxSplitDepth local lights
 //   are sampled at a point among many lights.
+//   Those levels split many lights of different colours by colour rather than by place: the
+//   walk chooses by luminance, so among many lights of every hue the colour of the few sampled
+//   at a point is most of the noise; one light from each colour group is much less so, while
+//   the walk below still chooses by place (with fewer lights per group the samples of a pixel
+//   already spread over them).
 //
 // Each choice is a strategy of its own, so the estimate sums them. Every probability is a pure
 // function of (point, normal, light), so that the integrator can weigh emission met by
@@ -109,8 +114,10 @@ class LightSampler {
   /// reaching `node`.
   std::optional<Choice> walk(uint32_t node, const Receiver& receiver, float u) const;
   /// Builds the subtree of lights[begin, end) whose root is reached by `path`; returns its index.
+  /// `chromaticities`: each light's radiance over its luminance.
   uint32_t build(std::vector<uint32_t>& lights, size_t begin, size_t end,
-                 const std::vector<LightBounds>& bounds, LeafPath path);
+                 const std::vector<LightBounds>& bounds, const std::vector<Vec3f>& chromaticities,
+                 LeafPath path);
   /// The probability that the walk goes from `parent` to its first child at the receiver; none
   /// where neither child's lights can reach it.
   std::optional<float> firstChildProbability(const Node& parent, const Receiver& receiver) const;
