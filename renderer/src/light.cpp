@@ -424,9 +424,12 @@ float Light::meshPdf(const Vec3f& origin, const Vec3f& point, const Vec3f& norma
   return solidAnglePdfFromArea(origin, point, normal, 1 / area_);
 }
 
+Vec3f Light::meanRadiance() const {
+  return params_.texture ? radiance_ * params_.texture->average() : radiance_;
+}
+
 float Light::meanRadianceLuminance() const {
-  const Vec3f mean = params_.texture ? radiance_ * params_.texture->average() : radiance_;
-  return std::max(0.0f, luminance(mean));
+  return std::max(0.0f, luminance(meanRadiance()));
 }
 
 LightBounds Light::bounds() const {

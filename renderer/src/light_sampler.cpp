@@ -37,21 +37,28 @@ float splitCost(const LightBounds& bounds) {
 /// A node at the levels the walk may split at is split by colour when it holds at least this
 /// many lights and their chromaticities (radiance over luminance) spread by more than
 /// kColourSplitSpread (a power-weighted standard deviation along an opponent-colour axis; a mix
-/// of 2700 K and 6500 K lamps spreads by about 0.37, saturated hues by more).
+/// of 2700 K and 6500 K lamps spreads by about 0.37, saturated hues by more), into two groups
+/// each with at least kColourSplitMinShare of the power, whose means account for at least
+/// kColourSplitMinSeparation of that spread's variance: colour groups, not an outlier or two
+/// cut off from the rest (which would take a shadow ray of every point).
 constexpr size_t kColourSplitMinLights = 16;
 constexpr float kColourSplitSpread = 0.1f;
+constexpr double kColourSplitMinShare = 0.25;
+constexpr double kColourSplitMinSeparation = 0.5;
 
-/// Where to split lights[begin, end) by colour, after ordering them along the opponent-colour
-/// axis (red-green, yellow-blue) their chromaticities spread most along. None when they spread
-/// by less than kColourSplitSpread.
+/// Where to split lights[begin, end) by colour (see above), after ordering them along the
+/// opponent-colour axis (red-green, yellow-blue) their chromaticities spread most along: the cut
+/// that separates them best (Otsu's, the most variance between the two groups' means). None
+/// when they are not in colour groups.
 std::optional<size_t> colourSplit(std::vector<uint32_t>& lights, size_t begin, size_t end,
                                   const std::vector<LightBounds>& bounds,
                                   const std::vector<Vec3f>& chromaticities) {
   const Vec3f axes[2] = {Vec3f(1, -1, 0) / std::sqrt(2.0f), Vec3f(1, 1, -2) / std::sqrt(6.0f)};
-  float widest = kColourSplitSpread;
+  double power = 0, widestVariance = double(kColourSplitSpread) * kColourSplitSpread;
   const Vec3f* axis = nullptr;
   for (const Vec3f& candidate : axes) {
-    double power = 0, sum = 0, sumOfSquares = 0;
+    double sum = 0, sumOfSquares = 0;
+    power = 0;
     for (size_t i = begin; i < end; ++i) {
       const double weight = bounds[lights[i]].power;
       const double x = dot(chromaticities[lights[i]], candidate);
@@ -60,9 +67,9 @@ std::optional<size_t> colourSplit(std::vector<uint32_t>& lights, size_t begin, s
       sumOfSquares += weight * x * x;
     }
     const double mean = sum / power;
-    const float spread = float(std::sqrt(std::max(0.0, sumOfSquares / power - mean * mean)));
-    if (spread > widest) {
-      widest = spread;
+    const double variance = sumOfSquares / power - mean * mean;
+    if (variance > widestVariance) {
+      widestVariance = variance;
       axis = &candidate;
     }
   }
@@ -73,22 +80,19 @@ std::optional<size_t> colourSplit(std::vector<uint32_t>& lights, size_t begin, s
               const float x = along(a), y = along(b);
               return x < y || (x == y && a < b);
             });
-  // The cut that separates the colours best (Otsu's): the most power-weighted variance
-  // between the two groups' mean chromaticities, W_below W_above (mean_below - mean_above)².
-  double power = 0, sum = 0;
-  for (size_t i = begin; i < end; ++i) {
-    power += bounds[lights[i]].power;
-    sum += bounds[lights[i]].power * along(lights[i]);
-  }
-  double powerBelow = 0, sumBelow = 0, best = -1;
-  size_t middle = begin + 1;
+  double sum = 0;
+  for (size_t i = begin; i < end; ++i) sum += bounds[lights[i]].power * along(lights[i]);
+  // The variance between the groups' means is W_below W_above (mean_below - mean_above)² / W².
+  double powerBelow = 0, sumBelow = 0, best = kColourSplitMinSeparation * widestVariance;
+  std::optional<size_t> middle;
   for (size_t cut = begin + 1; cut < end; ++cut) {
     powerBelow += bounds[lights[cut - 1]].power;
     sumBelow += bounds[lights[cut - 1]].power * along(lights[cut - 1]);
     const double powerAbove = power - powerBelow;
-    if (!(powerBelow > 0) || !(powerAbove > 0)) continue;
+    if (powerBelow < kColourSplitMinShare * power || powerAbove < kColourSplitMinShare * power)
+      continue;
     const double difference = sumBelow / powerBelow - (sum - sumBelow) / powerAbove;
-    const double between = powerBelow * powerAbove * difference * difference;
+    const double between = powerBelow * powerAbove * difference * difference / (power * power);
     if (between > best) {
       best = between;
       middle = cut;
@@ -118,10 +122,15 @@ LightSampler::LightSampler(const std::vector<Light>& lights) : paths_(lights.siz
     if (bounds[i].power > 0) local.push_back(uint32_t(i));
   }
   if (!local.empty()) {
+    // Grey where the colour is not a colour: no luminance, or not finite.
     std::vector<Vec3f> chromaticities(lights.size(), Vec3f(1.0f));
-    for (const uint32_t i : local)
-      if (const float radiance = luminance(lights[i].radiance()); radiance > 0)
-        chromaticities[i] = lights[i].radiance() / radiance;
+    for (const uint32_t i : local) {
+      const Vec3f radiance = componentMax(lights[i].meanRadiance(), Vec3f(0.0f));
+      const Vec3f chromaticity = radiance / luminance(radiance);
+      if (std::isfinite(chromaticity.x) && std::isfinite(chromaticity.y) &&
+          std::isfinite(chromaticity.z))
+        chromaticities[i] = chromaticity;
+    }
     nodes_.reserve(2 * local.size() - 1);
     build(local, 0, local.size(), bounds, chromaticities, {0, 0});
   }

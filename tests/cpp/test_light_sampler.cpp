@@ -206,6 +206,26 @@ TEST(LightSampler, AmongManyLightsOfTwoColoursAPointSamplesBoth) {
   }
 }
 
+TEST(LightSampler, OneOddlyColouredLightAmongManyIsNotSplitOff) {
+  // 63 white bulbs and one blue one: the colours spread (the blue one's chromaticity is far from
+  // white), but cutting the blue one off at the root would give it a shadow ray of every point
+  // below; the tree stays split by place, and it is sampled about as often as a white one.
+  std::vector<Light> lights;
+  for (int i = 0; i < 64; ++i) {
+    LightParams bulb;
+    bulb.type = LightType::Sphere;
+    bulb.radius = 0.05f;
+    bulb.intensity = 3;
+    bulb.color = i == 63 ? Vec3f(0.05f, 0.05f, 1) : Vec3f(1.0f);
+    bulb.lightToWorld = translation(i % 8 - 3.5, 3, i / 8 - 3.5);
+    lights.emplace_back(bulb);
+  }
+  const LightSampler sampler(lights);
+  const Receiver below{{-2.5f, 0, -2.5f}, {0, 1, 0}};
+  EXPECT_LT(sampler.probability(below, 63), 0.1f);
+  EXPECT_GT(sampler.probability(below, 9), sampler.probability(below, 63));
+}
+
 TEST(LightSampler, NeitherInfiniteNorLocalLightsStarve) {
   // However bright the dome, the panel is sampled at every point that it can light, and the
   // dome too.

@@ -189,9 +189,11 @@ class Light {
   /// of the cone's half-angle.
   Vec3f towardsLight() const { return -normal_; }
   float cosHalfAngle() const { return cosHalfAngle_; }
+  /// The emitted radiance averaged over the texture, if any.
+  Vec3f meanRadiance() const;
 
  private:
-  /// Luminance of the emitted radiance averaged over the texture, if any (never negative).
+  /// Luminance of meanRadiance() (never negative).
   float meanRadianceLuminance() const;
   /// Rect lights are sampled uniformly in the solid angle they subtend where that is at least
   /// this (steradians), and by area elsewhere.
