@@ -554,8 +554,7 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
   std::optional<RandomStream> volumeRandom;
   for (const uint32_t* position = begin; position != end; ++position) {
     const LightImages::Integrated& image = images.integrated()[*position];
-    if (!image.reaches(centre)) continue;
-    const std::optional<ImageBox> box = images.imageBox(image, lens, moment);
+    const std::optional<ImageBox> box = images.integratedBox(image, centre, lens, moment);
     if (!box) continue;
     const ImageBox region = box->intersected(filterReach);
     if (region.empty()) continue;

@@ -175,7 +175,7 @@ bool LightImages::integratesAt(uint32_t index, int x, int y, Vec2f lens, float t
   for (const uint32_t* position = begin; position != end; ++position) {
     const Integrated& light = integrated_[*position];
     if (light.lightIndex == index)
-      return light.reaches(centre) && imageBox(light, lens, momentAt(time));
+      return integratedBox(light, centre, lens, momentAt(time)).has_value();
   }
   return false;
 }

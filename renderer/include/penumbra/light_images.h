@@ -96,6 +96,13 @@ class LightImages {
   /// (momentAt's); none when, at that moment, part of the light is outside the clipping planes.
   std::optional<ImageBox> imageBox(const Integrated& light, Vec2f lens,
                                    const std::optional<Camera::Moment>& moment) const;
+  /// The box a sample of the pixel with centre `centre` integrates `light` over (imageBox),
+  /// none where it does not integrate it: the pixel is beyond its reach, or imageBox has none.
+  std::optional<ImageBox> integratedBox(const Integrated& light, Vec2f centre, Vec2f lens,
+                                        const std::optional<Camera::Moment>& moment) const {
+    if (!light.reaches(centre)) return std::nullopt;
+    return imageBox(light, lens, moment);
+  }
   /// Whether pixel (x, y)'s camera sample at lens point `lens` and time `time` integrates light
   /// `index` over its image, so that its camera ray must pass the light without adding it.
   bool integratesAt(uint32_t index, int x, int y, Vec2f lens, float time) const;
