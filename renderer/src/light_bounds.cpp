@@ -1,67 +1,125 @@
 // LightBounds: what a group of local lights can contribute to a receiver, for the light tree.
+#include <cstdint>
+#include <cstring>
+
 #include "penumbra/light.h"
+
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#endif
 
 namespace penumbra {
 
 namespace {
 
+// Four floats operated on lane by lane (GCC and Clang vector extensions: SSE on x86-64). Each
+// lane does exactly the arithmetic a scalar evaluation would, in the same order, so the results
+// do not depend on which lane or how many lanes are used.
+typedef float Float4 __attribute__((vector_size(16)));
+typedef int32_t Mask4 __attribute__((vector_size(16)));  // comparisons: -1 true, 0 false
+
+Float4 broadcast(float x) {
+  return Float4{x, x, x, x};
+}
+
+Float4 load(const float* lanes) {
+  Float4 result;
+  std::memcpy(&result, lanes, sizeof(result));
+  return result;
+}
+
+Float4 select(Mask4 condition, Float4 ifTrue, Float4 ifFalse) {
+  return condition ? ifTrue : ifFalse;
+}
+
+/// std::max's and std::min's lane-wise: the first argument unless the order says otherwise.
+Float4 max(Float4 a, Float4 b) {
+  return select(a < b, b, a);
+}
+
+Float4 squareRoot(Float4 x) {
+#if defined(__SSE__)
+  return _mm_sqrt_ps(x);
+#else
+  for (int lane = 0; lane < 4; ++lane) x[lane] = std::sqrt(x[lane]);
+  return x;
+#endif
+}
+
+Float4 absolute(Float4 x) {
+  return Float4(Mask4(x) & Mask4{0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff});
+}
+
+Float4 sineOf(Float4 cosine) {
+  return squareRoot(max(broadcast(0), 1 - cosine * cosine));
+}
+
 /// cos(max(0, a - b)) from the cosines and sines of angles a, b in [0, π].
-float cosOfClampedDifference(float cosA, float sinA, float cosB, float sinB) {
-  if (cosA >= cosB) return 1;  // a <= b
-  return cosA * cosB + sinA * sinB;
+Float4 cosOfClampedDifference(Float4 cosA, Float4 sinA, Float4 cosB, Float4 sinB) {
+  return select(cosA >= cosB, broadcast(1), cosA * cosB + sinA * sinB);
 }
 
-float sinOfClampedDifference(float cosA, float sinA, float cosB, float sinB) {
-  if (cosA >= cosB) return 0;
-  return sinA * cosB - cosA * sinB;
-}
-
-float sineOf(float cosine) {
-  return std::sqrt(std::max(0.0f, 1 - cosine * cosine));
+Float4 sinOfClampedDifference(Float4 cosA, Float4 sinA, Float4 cosB, Float4 sinB) {
+  return select(cosA >= cosB, broadcast(0), sinA * cosB - cosA * sinB);
 }
 
 }  // namespace
 
-LightCluster::LightCluster(const LightBounds& bounds)
-    : center(bounds.centroid()),
-      halfDiagonal2(0.25f * dot(bounds.upper - bounds.lower, bounds.upper - bounds.lower)),
-      power(bounds.power),
-      axis(bounds.axis),
-      cosThetaO(bounds.cosThetaO),
-      sinThetaO(sineOf(bounds.cosThetaO)),
-      cosThetaE(bounds.cosThetaE) {}
+void LightClusters::set(int lane, const LightBounds& bounds) {
+  const Vec3f center = bounds.centroid();
+  centerX_[lane] = center.x;
+  centerY_[lane] = center.y;
+  centerZ_[lane] = center.z;
+  halfDiagonal2_[lane] = 0.25f * dot(bounds.upper - bounds.lower, bounds.upper - bounds.lower);
+  power_[lane] = bounds.power;
+  axisX_[lane] = bounds.axis.x;
+  axisY_[lane] = bounds.axis.y;
+  axisZ_[lane] = bounds.axis.z;
+  cosThetaO_[lane] = bounds.cosThetaO;
+  sinThetaO_[lane] = std::sqrt(std::max(0.0f, 1 - bounds.cosThetaO * bounds.cosThetaO));
+  cosThetaE_[lane] = bounds.cosThetaE;
+}
 
-float LightCluster::importance(const Receiver& receiver) const {
-  if (!(power > 0)) return 0;
-  const Vec3f offset = receiver.position - center;
-  const float offset2 = dot(offset, offset);
-  // At the box's centre the direction is undefined and the bound below is NaN, that is 0.
-  if (!(offset2 > 0)) return 0;
+std::array<float, LightClusters::kLanes> LightClusters::importance(const Receiver& receiver) const {
+  static_assert(kLanes == 4, "one Float4 holds the lanes");
+  const Float4 halfDiagonal2 = load(halfDiagonal2_), power = load(power_);
+  const Float4 offsetX = receiver.position.x - load(centerX_);
+  const Float4 offsetY = receiver.position.y - load(centerY_);
+  const Float4 offsetZ = receiver.position.z - load(centerZ_);
+  const Float4 offset2 = offsetX * offsetX + offsetY * offsetY + offsetZ * offsetZ;
   // Inside or near the box the distance is unknown: bound it below by a quarter of its size.
-  const float distance2 = std::max(offset2, 0.25f * halfDiagonal2);
-  const Vec3f fromLights = offset / std::sqrt(offset2);
+  const Float4 distance2 = max(offset2, 0.25f * halfDiagonal2);
+  const Float4 inverseDistance = 1.0f / squareRoot(offset2);
+  const Float4 fromLightsX = offsetX * inverseDistance, fromLightsY = offsetY * inverseDistance,
+               fromLightsZ = offsetZ * inverseDistance;
   // The box seen from the receiver lies within a cone of half-angle thetaB about `fromLights`.
-  const float cosThetaB =
-      offset2 > halfDiagonal2 ? std::sqrt(std::max(0.0f, 1 - halfDiagonal2 / distance2)) : -1.0f;
-  const float sinThetaB = sineOf(cosThetaB);
+  const Float4 cosThetaB =
+      select(offset2 > halfDiagonal2, squareRoot(max(broadcast(0), 1 - halfDiagonal2 / distance2)),
+             broadcast(-1));
+  const Float4 sinThetaB = sineOf(cosThetaB);
   // The smallest angle between an emission axis and a direction to the receiver. Lights that
   // emit every way (thetaO = π) face the receiver whatever the direction.
-  float cosEmission = 1;
-  if (cosThetaO > -1) {
-    const float cosThetaW = dot(axis, fromLights);
-    const float sinThetaW = sineOf(cosThetaW);
-    const float cosX = cosOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
-    const float sinX = sinOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
-    cosEmission = cosOfClampedDifference(cosX, sinX, cosThetaB, sinThetaB);
-  }
-  if (cosEmission <= cosThetaE) return 0;
-  float result = power * cosEmission / distance2;
+  const Float4 cosThetaO = load(cosThetaO_), sinThetaO = load(sinThetaO_);
+  const Float4 cosThetaW =
+      load(axisX_) * fromLightsX + load(axisY_) * fromLightsY + load(axisZ_) * fromLightsZ;
+  const Float4 sinThetaW = sineOf(cosThetaW);
+  const Float4 cosX = cosOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
+  const Float4 sinX = sinOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
+  const Float4 cosEmission = select(
+      cosThetaO > -1.0f, cosOfClampedDifference(cosX, sinX, cosThetaB, sinThetaB), broadcast(1));
+  Float4 result = power * cosEmission / distance2;
   if (!isBlack(receiver.normal)) {
     // The smallest incidence angle on the receiving surface (either side).
-    const float cosIncidence = std::fabs(dot(fromLights, receiver.normal));
+    const Float4 cosIncidence =
+        absolute(fromLightsX * receiver.normal.x + fromLightsY * receiver.normal.y +
+                 fromLightsZ * receiver.normal.z);
     result *= cosOfClampedDifference(cosIncidence, sineOf(cosIncidence), cosThetaB, sinThetaB);
   }
-  return std::max(0.0f, result);
+  // No lights; a receiver at the box's centre, where the direction is undefined; or beyond
+  // every light's emission: 0.
+  const Mask4 dark = ~(power > 0) | ~(offset2 > 0) | (cosEmission <= load(cosThetaE_));
+  const Float4 lit = select(dark, broadcast(0), max(broadcast(0), result));
+  return {lit[0], lit[1], lit[2], lit[3]};
 }
 
 LightBounds unite(const LightBounds& a, const LightBounds& b) {

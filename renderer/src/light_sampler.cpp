@@ -132,21 +132,22 @@ LightSampler::LightSampler(const std::vector<Light>& lights) : paths_(lights.siz
         chromaticities[i] = chromaticity;
     }
     nodes_.reserve(2 * local.size() - 1);
-    build(local, 0, local.size(), bounds, chromaticities, {0, 0});
+    root_.set(0, build(local, 0, local.size(), bounds, chromaticities, {0, 0}).second);
   }
 }
 
-uint32_t LightSampler::build(std::vector<uint32_t>& lights, size_t begin, size_t end,
-                             const std::vector<LightBounds>& bounds,
-                             const std::vector<Vec3f>& chromaticities, LeafPath path) {
+std::pair<uint32_t, LightBounds> LightSampler::build(std::vector<uint32_t>& lights, size_t begin,
+                                                     size_t end,
+                                                     const std::vector<LightBounds>& bounds,
+                                                     const std::vector<Vec3f>& chromaticities,
+                                                     LeafPath path) {
   const uint32_t index = uint32_t(nodes_.size());
   nodes_.emplace_back();
   if (end - begin == 1) {
     nodes_[index].leaf = true;
     nodes_[index].light = lights[begin];
-    nodes_[index].cluster = LightCluster(bounds[lights[begin]]);
     paths_[lights[begin]] = path;
-    return index;
+    return {index, bounds[lights[begin]]};
   }
   const int depth = path.depth;
   LightBounds all, centroids;
@@ -199,14 +200,18 @@ uint32_t LightSampler::build(std::vector<uint32_t>& lights, size_t begin, size_t
       middle = size_t(firstAbove - lights.begin());
     }
   }
-  const uint32_t first =
+  const auto [first, firstBounds] =
       build(lights, begin, middle, bounds, chromaticities, {path.branches, depth + 1});
-  const uint32_t second = build(lights, middle, end, bounds, chromaticities,
-                                {path.branches | (uint64_t(1) << depth), depth + 1});
-  nodes_[index].children[0] = first;
-  nodes_[index].children[1] = second;
-  nodes_[index].cluster = LightCluster(all);
-  return index;
+  const auto [second, secondBounds] = build(lights, middle, end, bounds, chromaticities,
+                                            {path.branches | (uint64_t(1) << depth), depth + 1});
+  Node& node = nodes_[index];
+  node.children[0] = first;
+  node.children[1] = second;
+  node.childClusters.set(0, firstBounds);
+  node.childClusters.set(1, secondBounds);
+  node.center = all.centroid();
+  node.halfDiagonal2 = 0.25f * dot(all.upper - all.lower, all.upper - all.lower);
+  return {index, all};
 }
 
 int LightSampler::treeDepth() const {
@@ -237,37 +242,69 @@ float LightSampler::infiniteTotal(const Receiver& receiver) const {
 
 std::optional<float> LightSampler::firstChildProbability(const Node& parent,
                                                          const Receiver& receiver) const {
-  const float first = nodes_[parent.children[0]].cluster.importance(receiver);
-  const float second = nodes_[parent.children[1]].cluster.importance(receiver);
+  const std::array<float, LightClusters::kLanes> importance =
+      parent.childClusters.importance(receiver);
+  const float first = importance[0], second = importance[1];
   if (!(first + second > 0)) return std::nullopt;
   return first / (first + second);
 }
 
 bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
   if (node.leaf) return false;
-  const Vec3f offset = receiver.position - node.cluster.center;
-  return dot(offset, offset) < node.cluster.halfDiagonal2;
+  const Vec3f offset = receiver.position - node.center;
+  return dot(offset, offset) < node.halfDiagonal2;
 }
 
-std::optional<LightSampler::Choice> LightSampler::walk(uint32_t node, const Receiver& receiver,
-                                                       float u) const {
-  float probability = 1;
-  while (!nodes_[node].leaf) {
+void LightSampler::chooseLocal(const Receiver& receiver, float u, LocalChoices& local) const {
+  local.count = 0;
+  if (nodes_.empty() || !(root_.importance(receiver)[0] > 0)) return;
+  // The nodes the walk splits into, depth first, each reached with probability 1.
+  struct Walk {
+    uint32_t node = 0;
+    float u = 0;
+    float probability = 1;
+    bool lost = false;  // neither child's lights reach the receiver
+  };
+  Walk walks[1u << kMaxSplitDepth];
+  size_t count = 0;
+  const auto startFrom = [&](const auto& self, uint32_t node, int depth) -> void {
     const Node& parent = nodes_[node];
-    const std::optional<float> first = firstChildProbability(parent, receiver);
-    if (!first) return std::nullopt;
-    const float pFirst = *first;
-    if (u < pFirst) {
-      u = std::min(u / pFirst, 0x1.fffffep-1f);
-      probability *= pFirst;
-      node = parent.children[0];
+    if (depth < kMaxSplitDepth && splits(parent, receiver)) {
+      const std::array<float, LightClusters::kLanes> importance =
+          parent.childClusters.importance(receiver);
+      for (int child = 0; child < 2; ++child)
+        if (importance[child] > 0) self(self, parent.children[child], depth + 1);
     } else {
-      u = std::min((u - pFirst) / (1 - pFirst), 0x1.fffffep-1f);
-      probability *= 1 - pFirst;
-      node = parent.children[1];
+      walks[count++] = Walk{node, u};
+    }
+  };
+  startFrom(startFrom, 0, 0);
+  for (bool stepped = true; stepped;) {
+    stepped = false;
+    for (size_t i = 0; i < count; ++i) {
+      Walk& walk = walks[i];
+      if (walk.lost || nodes_[walk.node].leaf) continue;
+      stepped = true;
+      const Node& parent = nodes_[walk.node];
+      const std::optional<float> first = firstChildProbability(parent, receiver);
+      if (!first) {
+        walk.lost = true;
+        continue;
+      }
+      // Without branches: which child is a coin toss the processor cannot predict.
+      const float pFirst = *first;
+      const bool second = !(walk.u < pFirst);
+      const float below = second ? pFirst : 0.0f, pChild = second ? 1 - pFirst : pFirst;
+      walk.u = std::min((walk.u - below) / pChild, 0x1.fffffep-1f);
+      walk.probability *= pChild;
+      walk.node = parent.children[int(second)];
     }
   }
-  return Choice{nodes_[node].light, probability};
+  uint32_t slot = uint32_t(kInfiniteLightsSampledEach);
+  for (size_t i = 0; i < count; ++i)
+    if (!walks[i].lost)
+      local.choices[local.count++] =
+          Choice{nodes_[walks[i].node].light, walks[i].probability, slot++};
 }
 
 std::optional<LightSampler::Choice> LightSampler::sampleInfinite(const Receiver& receiver,
@@ -287,7 +324,7 @@ std::optional<LightSampler::Choice> LightSampler::sampleInfinite(const Receiver&
 float LightSampler::probability(const Receiver& receiver, size_t index) const {
   const LeafPath& path = paths_[index];
   if (path.depth >= 0) {
-    if (!(nodes_[0].cluster.importance(receiver) > 0)) return 0;
+    if (!(root_.importance(receiver)[0] > 0)) return 0;
     float probability = 1;
     bool splitting = true;  // the levels above went down both children
     uint32_t node = 0;
@@ -297,7 +334,7 @@ float LightSampler::probability(const Receiver& receiver, size_t index) const {
       node = parent.children[branch];
       splitting = splitting && level < kMaxSplitDepth && splits(parent, receiver);
       if (splitting) {
-        if (!(nodes_[node].cluster.importance(receiver) > 0)) return 0;
+        if (!(parent.childClusters.importance(receiver)[branch] > 0)) return 0;
         continue;
       }
       const std::optional<float> first = firstChildProbability(parent, receiver);

@@ -44,6 +44,13 @@ std::vector<Light> scatteredLights(int count) {
   return lights;
 }
 
+/// What the light tree weighs one cluster of lights with: lane 0 of LightClusters.
+float importanceOf(const LightBounds& bounds, const Receiver& receiver) {
+  LightClusters clusters;
+  clusters.set(0, bounds);
+  return clusters.importance(receiver)[0];
+}
+
 LightParams infinite(LightType type, float intensity) {
   LightParams p;
   p.type = type;
@@ -279,10 +286,10 @@ TEST(LightSampler, TreeStaysShallowForThousandsOfLights) {
   double treeShare = 0, nearImportance = 0, allImportance = 0;
   for (size_t i = 0; i < lights.size(); ++i) {
     const LightBounds bounds = lights[i].bounds();
-    allImportance += LightCluster(bounds).importance(corner);
+    allImportance += importanceOf(bounds, corner);
     if (bounds.centroid().x < -6 && bounds.centroid().z < -6) {
       treeShare += sampler.probability(corner, i);
-      nearImportance += LightCluster(bounds).importance(corner);
+      nearImportance += importanceOf(bounds, corner);
     }
   }
   // A node's lights are weighed as if they were at its centre, which undersells a near corner
@@ -290,25 +297,51 @@ TEST(LightSampler, TreeStaysShallowForThousandsOfLights) {
   EXPECT_GT(treeShare, 0.4 * nearImportance / allImportance);
 }
 
-TEST(LightCluster, ImportanceIsFiniteEverywhereAndZeroOnlyAtTheClusterCentre) {
+TEST(LightClusters, ImportanceIsFiniteEverywhereAndZeroOnlyAtTheClusterCentre) {
   // Omnidirectional lights (sphere bounds, thetaO = π) take the shortcut past the emission
   // cone; a receiver exactly at the centre has no direction to the lights and gets 0, not NaN.
   LightParams bulb;
   bulb.type = LightType::Sphere;
   bulb.radius = 0.5f;
   bulb.lightToWorld = translation(1, 2, 3);
-  const LightCluster cluster(Light(bulb).bounds());
-  EXPECT_EQ(cluster.cosThetaO, -1.0f);
-  EXPECT_EQ(cluster.importance(Receiver{{1, 2, 3}, {0, 1, 0}}), 0.0f);
-  EXPECT_EQ(cluster.importance(Receiver{{1, 2, 3}, {0, 0, 0}}), 0.0f);
+  const LightBounds bounds = Light(bulb).bounds();
+  EXPECT_EQ(bounds.cosThetaO, -1.0f);
+  EXPECT_EQ(importanceOf(bounds, Receiver{{1, 2, 3}, {0, 1, 0}}), 0.0f);
+  EXPECT_EQ(importanceOf(bounds, Receiver{{1, 2, 3}, {0, 0, 0}}), 0.0f);
   for (const Vec3f& offset : {Vec3f(0, 0.1f, 0), Vec3f(0, -4, 0), Vec3f(30, 0, 0)}) {
-    const float importance = cluster.importance(Receiver{Vec3f(1, 2, 3) + offset, {0, 1, 0}});
+    const float importance = importanceOf(bounds, Receiver{Vec3f(1, 2, 3) + offset, {0, 1, 0}});
     EXPECT_TRUE(std::isfinite(importance));
     EXPECT_GT(importance, 0.0f);
   }
   // Straight below, facing it, 4 m from its centre: power / distance², no emission-cone factor.
-  EXPECT_FLOAT_EQ(cluster.importance(Receiver{{1, -2, 3}, {0, 1, 0}}), cluster.power / 16);
+  EXPECT_FLOAT_EQ(importanceOf(bounds, Receiver{{1, -2, 3}, {0, 1, 0}}), bounds.power / 16);
   // Seen edge-on from afar, the bulb gives less than to a receiver facing it from below.
-  EXPECT_LT(cluster.importance(Receiver{{31, 2, 3}, {0, 1, 0}}),
-            cluster.importance(Receiver{{1, -2, 3}, {0, 1, 0}}));
+  EXPECT_LT(importanceOf(bounds, Receiver{{31, 2, 3}, {0, 1, 0}}),
+            importanceOf(bounds, Receiver{{1, -2, 3}, {0, 1, 0}}));
+}
+
+TEST(LightClusters, EachLaneIsWeighedAsIfAlone) {
+  // A walk weighs a node's two children side by side; what one gets must not depend on its
+  // neighbours (other clusters, lit or not by their emission cones, or an empty lane) or on its
+  // lane, to the bit.
+  const std::vector<Light> lights = scatteredLights(64);
+  const Receiver receivers[] = {
+      {{-9, 0, -9}, {0, 1, 0}}, {{2, 5, 1}, {0, 0, 0}}, {{0.5f, -1, 3}, normalize(Vec3f(1, 1, 0))}};
+  for (const Receiver& receiver : receivers) {
+    for (size_t i = 0; i + 3 < lights.size(); i += 3) {
+      LightClusters lanes;
+      lanes.set(0, lights[i].bounds());
+      lanes.set(1, lights[i + 1].bounds());
+      lanes.set(2, unite(lights[i + 2].bounds(), lights[i + 3].bounds()));
+      const std::array<float, LightClusters::kLanes> importance = lanes.importance(receiver);
+      EXPECT_EQ(importance[0], importanceOf(lights[i].bounds(), receiver));
+      EXPECT_EQ(importance[1], importanceOf(lights[i + 1].bounds(), receiver));
+      EXPECT_EQ(importance[2],
+                importanceOf(unite(lights[i + 2].bounds(), lights[i + 3].bounds()), receiver));
+      EXPECT_EQ(importance[3], 0.0f);  // empty
+      LightClusters moved;
+      moved.set(3, lights[i].bounds());
+      EXPECT_EQ(moved.importance(receiver)[3], importance[0]);
+    }
+  }
 }

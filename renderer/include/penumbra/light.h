@@ -9,6 +9,7 @@
 // BSDF sampling by multiple importance sampling.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <optional>
 #include <string>
@@ -107,22 +108,29 @@ struct LightBounds {
 /// The smallest bounds holding both (cones are merged as in Conty Estevez & Kulla 2018).
 LightBounds unite(const LightBounds& a, const LightBounds& b);
 
-/// LightBounds as the light tree evaluates them, at every level of every walk: with what
-/// importance() derives from the bounds alone computed once.
-struct LightCluster {
-  LightCluster() = default;
-  explicit LightCluster(const LightBounds& bounds);
+/// LightBounds as the light tree evaluates them, at every level of every walk: up to kLanes side
+/// by side, evaluated at once in SIMD lanes (a walk weighs a node's two children together), with
+/// what importance() derives from the bounds alone computed once.
+class LightClusters {
+ public:
+  static constexpr int kLanes = 4;
 
-  /// An upper-bound estimate of the irradiance these lights give the receiver (0 only where
-  /// they cannot light it at all).
-  float importance(const Receiver& receiver) const;
+  /// Every lane empty (importance 0).
+  LightClusters() = default;
+  void set(int lane, const LightBounds& bounds);
 
-  Vec3f center;             // of the bounding box
-  float halfDiagonal2 = 0;  // squared radius of the box's bounding sphere
-  float power = 0;
-  Vec3f axis{0, 0, 1};
-  float cosThetaO = 1, sinThetaO = 0;
-  float cosThetaE = 0;
+  /// For each lane, an upper-bound estimate of the irradiance its lights give the receiver (0
+  /// only where they cannot light it at all, and in empty lanes).
+  std::array<float, kLanes> importance(const Receiver& receiver) const;
+
+ private:
+  // Lane-wise, as the bounds give them: the box's centre and the squared radius of its bounding
+  // sphere, power, emission axis and the cosines and sine of thetaO and thetaE.
+  alignas(16) float centerX_[kLanes] = {}, centerY_[kLanes] = {}, centerZ_[kLanes] = {};
+  alignas(16) float halfDiagonal2_[kLanes] = {}, power_[kLanes] = {};
+  alignas(16) float axisX_[kLanes] = {}, axisY_[kLanes] = {}, axisZ_[kLanes] = {1, 1, 1, 1};
+  alignas(16) float cosThetaO_[kLanes] = {1, 1, 1, 1}, sinThetaO_[kLanes] = {};
+  alignas(16) float cosThetaE_[kLanes] = {};
 };
 
 /// A light sample as seen from a shading point.

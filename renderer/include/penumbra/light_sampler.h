@@ -27,8 +27,10 @@
 // BSDF-sampled rays against light sampling (multiple importance sampling).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "penumbra/light.h"
@@ -70,9 +72,9 @@ class LightSampler {
     } else if (const std::optional<Choice> choice = sampleInfinite(receiver, uInfinite)) {
       visit(*choice);
     }
-    uint32_t localSlot = uint32_t(kInfiniteLightsSampledEach);
-    if (!nodes_.empty() && nodes_[0].cluster.importance(receiver) > 0)
-      visitLocal(0, 0, receiver, uLocal, localSlot, visit);
+    LocalChoices local;
+    chooseLocal(receiver, uLocal, local);
+    for (size_t i = 0; i < local.count; ++i) visit(local.choices[i]);
   }
   /// The probability that forEachChoice() visits light `index` at the receiver.
   float probability(const Receiver& receiver, size_t index) const;
@@ -84,10 +86,12 @@ class LightSampler {
 
  private:
   struct Node {
-    LightCluster cluster;
+    LightClusters childClusters;    // interior nodes: lanes 0 and 1, the two children's lights
     uint32_t children[2] = {0, 0};  // interior nodes
     uint32_t light = 0;             // leaves: the light's index
     bool leaf = false;
+    Vec3f center;             // of the bounding box of the node's lights
+    float halfDiagonal2 = 0;  // squared radius of the box's bounding sphere
   };
   /// Where a local light's leaf is: the branch taken at each level, from the root.
   struct LeafPath {
@@ -95,31 +99,25 @@ class LightSampler {
     int depth = -1;         // -1: not a local light
   };
 
-  /// Visits the local lights chosen below `node` (at `depth`, reached with probability 1).
-  /// `slot` is the next local choice's slot.
-  template <class Visit>
-  void visitLocal(uint32_t node, int depth, const Receiver& receiver, float u, uint32_t& slot,
-                  Visit& visit) const {
-    const Node& parent = nodes_[node];
-    if (depth < kMaxSplitDepth && splits(parent, receiver)) {
-      for (const uint32_t child : parent.children)
-        if (nodes_[child].cluster.importance(receiver) > 0)
-          visitLocal(child, depth + 1, receiver, u, slot, visit);
-    } else if (std::optional<Choice> choice = walk(node, receiver, u)) {
-      choice->slot = slot++;
-      visit(*choice);
-    }
-  }
+  /// The local lights chosen at a receiver, in the order of the nodes the walk split into
+  /// (first children first), with their slots.
+  struct LocalChoices {
+    Choice choices[1u << kMaxSplitDepth];
+    size_t count = 0;
+  };
+  /// Fills `local` with the local lights chosen at the receiver: the walk from the root splits
+  /// where the receiver lies within a node's bounding sphere (first kMaxSplitDepth levels) and
+  /// goes on from each node it split into with one choice per level. Those walks are stepped
+  /// together, level by level, so that their independent chains of square roots and divisions
+  /// can overlap; each step weighs both children at once (LightClusters' lanes).
+  void chooseLocal(const Receiver& receiver, float u, LocalChoices& local) const;
   /// Whether the walk goes down both children of `node` at the receiver (below the split depth).
   bool splits(const Node& node, const Receiver& receiver) const;
-  /// One light below `node`, chosen by a single walk from it; its probability is relative to
-  /// reaching `node`.
-  std::optional<Choice> walk(uint32_t node, const Receiver& receiver, float u) const;
-  /// Builds the subtree of lights[begin, end) whose root is reached by `path`; returns its index.
-  /// `chromaticities`: each light's radiance over its luminance.
-  uint32_t build(std::vector<uint32_t>& lights, size_t begin, size_t end,
-                 const std::vector<LightBounds>& bounds, const std::vector<Vec3f>& chromaticities,
-                 LeafPath path);
+  /// Builds the subtree of lights[begin, end) whose root is reached by `path`; returns its index
+  /// and the bounds of its lights. `chromaticities`: each light's radiance over its luminance.
+  std::pair<uint32_t, LightBounds> build(std::vector<uint32_t>& lights, size_t begin, size_t end,
+                                         const std::vector<LightBounds>& bounds,
+                                         const std::vector<Vec3f>& chromaticities, LeafPath path);
   /// The probability that the walk goes from `parent` to its first child at the receiver; none
   /// where neither child's lights can reach it.
   std::optional<float> firstChildProbability(const Node& parent, const Receiver& receiver) const;
@@ -136,6 +134,7 @@ class LightSampler {
   };
 
   std::vector<Node> nodes_;      // nodes_[0] is the root, when there are local lights
+  LightClusters root_;           // lane 0: the root's lights
   std::vector<LeafPath> paths_;  // by light index
   std::vector<InfiniteLight> infinite_;
 };
