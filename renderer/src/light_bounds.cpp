@@ -70,7 +70,7 @@ void LightClusters::set(int lane, const LightBounds& bounds) {
   centerX_[lane] = center.x;
   centerY_[lane] = center.y;
   centerZ_[lane] = center.z;
-  halfDiagonal2_[lane] = 0.25f * dot(bounds.upper - bounds.lower, bounds.upper - bounds.lower);
+  halfDiagonal2_[lane] = bounds.halfDiagonal2();
   power_[lane] = bounds.power;
   axisX_[lane] = bounds.axis.x;
   axisY_[lane] = bounds.axis.y;

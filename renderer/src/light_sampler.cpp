@@ -210,7 +210,7 @@ std::pair<uint32_t, LightBounds> LightSampler::build(std::vector<uint32_t>& ligh
   node.childClusters.set(0, firstBounds);
   node.childClusters.set(1, secondBounds);
   node.center = all.centroid();
-  node.halfDiagonal2 = 0.25f * dot(all.upper - all.lower, all.upper - all.lower);
+  node.halfDiagonal2 = all.halfDiagonal2();
   return {index, all};
 }
 

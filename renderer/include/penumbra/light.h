@@ -103,6 +103,8 @@ struct LightBounds {
   float cosThetaE = 0;  // 0: each light emits over the hemisphere around its axis
 
   Vec3f centroid() const { return (lower + upper) * 0.5f; }
+  /// The squared radius of the box's bounding sphere.
+  float halfDiagonal2() const { return 0.25f * dot(upper - lower, upper - lower); }
 };
 
 /// The smallest bounds holding both (cones are merged as in Conty Estevez & Kulla 2018).
