@@ -428,13 +428,14 @@ Vec3f Light::meanRadiance() const {
   return params_.texture ? radiance_ * params_.texture->average() : radiance_;
 }
 
-float Light::meanRadianceLuminance() const {
-  return std::max(0.0f, luminance(meanRadiance()));
+float Light::meanRadianceGrey() const {
+  const Vec3f radiance = meanRadiance();
+  return std::max(0.0f, (radiance.x + radiance.y + radiance.z) / 3);
 }
 
 LightBounds Light::bounds() const {
   LightBounds bounds;
-  const float radianceLuminance = meanRadianceLuminance();
+  const float radianceGrey = meanRadianceGrey();
   const auto include = [&bounds](const Vec3f& p) {
     bounds.lower = componentMin(bounds.lower, p);
     bounds.upper = componentMax(bounds.upper, p);
@@ -448,26 +449,26 @@ LightBounds Light::bounds() const {
         for (const float b : {-1.0f, 1.0f})
           include(center_ + edgeU_ * (params_.type == LightType::Rect ? 0.5f * a : a) +
                   edgeV_ * (params_.type == LightType::Rect ? 0.5f * b : b));
-      bounds.power = radianceLuminance * area_;
+      bounds.power = radianceGrey * area_;
       bounds.axis = normal_;
       bounds.cosThetaO = 1;
       break;
     case LightType::Sphere:
       include(center_ - Vec3f(radius_));
       include(center_ + Vec3f(radius_));
-      bounds.power = radianceLuminance * kPi * radius_ * radius_;
+      bounds.power = radianceGrey * kPi * radius_ * radius_;
       break;
     case LightType::Cylinder:
       for (const float end : {-0.5f, 0.5f}) {
         include(center_ + edgeU_ * end - Vec3f(radius_));
         include(center_ + edgeU_ * end + Vec3f(radius_));
       }
-      bounds.power = radianceLuminance * 2 * radius_ * length(edgeU_);
+      bounds.power = radianceGrey * 2 * radius_ * length(edgeU_);
       break;
     case LightType::Mesh:
       include(meshLower_);
       include(meshUpper_);
-      bounds.power = radianceLuminance * area_;
+      bounds.power = radianceGrey * area_;
       break;
     case LightType::Distant:
     case LightType::Dome:
@@ -477,11 +478,11 @@ LightBounds Light::bounds() const {
 }
 
 float Light::irradiance() const {
-  const float radianceLuminance = meanRadianceLuminance();
-  if (params_.type == LightType::Dome) return kPi * radianceLuminance;
+  const float radianceGrey = meanRadianceGrey();
+  if (params_.type == LightType::Dome) return kPi * radianceGrey;
   if (params_.type == LightType::Distant && !isDelta())
-    return radianceLuminance * kPi * oneMinusCosHalfAngle_ * (1 + cosHalfAngle_);
-  return radianceLuminance;
+    return radianceGrey * kPi * oneMinusCosHalfAngle_ * (1 + cosHalfAngle_);
+  return radianceGrey;
 }
 
 }  // namespace penumbra

@@ -8,8 +8,9 @@ namespace penumbra {
 namespace {
 
 constexpr int kBuckets = 12;
-/// Deeper than this the build halves the list instead of searching for the best split, so that
-/// leaf paths fit in 64 bits whatever the lights' layout.
+/// Deeper than this (in binary levels, two to a node of the tree) the build halves the list
+/// instead of searching for the best split, so that leaf paths fit in 64 bits whatever the
+/// lights' layout.
 constexpr int kMaxSearchDepth = 32;
 
 float surfaceArea(const LightBounds& bounds) {
@@ -101,6 +102,62 @@ std::optional<size_t> colourSplit(std::vector<uint32_t>& lights, size_t begin, s
   return middle;
 }
 
+/// Where to cut lights[begin, end) (at least two lights) in two, reordering them: by colour at
+/// the levels the walk may split at (`colourLevel`) when they are many lights of different
+/// colours (see light_sampler.h); otherwise the cheapest cut into buckets along an axis of the
+/// centroids' box; without one (all centroids together, or `binaryDepth` too deep), halfway.
+size_t partition(std::vector<uint32_t>& lights, size_t begin, size_t end,
+                 const std::vector<LightBounds>& bounds, const std::vector<Vec3f>& chromaticities,
+                 int binaryDepth, bool colourLevel) {
+  LightBounds centroids;
+  for (size_t i = begin; i < end; ++i) {
+    LightBounds point;
+    point.lower = point.upper = bounds[lights[i]].centroid();
+    point.power = 1;
+    centroids = unite(centroids, point);
+  }
+  const std::optional<size_t> byColour =
+      colourLevel && end - begin >= kColourSplitMinLights
+          ? colourSplit(lights, begin, end, bounds, chromaticities)
+          : std::nullopt;
+  size_t middle = byColour ? *byColour : begin + (end - begin) / 2;
+  float bestCost = kInfinity;
+  int bestAxis = -1, bestBucket = 0;
+  const Vec3f extent = centroids.upper - centroids.lower;
+  for (int axis = 0; axis < 3 && !byColour && binaryDepth < kMaxSearchDepth; ++axis) {
+    if (!(extent[axis] > 0)) continue;
+    LightBounds buckets[kBuckets];
+    const auto bucketOf = [&](uint32_t light) {
+      const float t = (bounds[light].centroid()[axis] - centroids.lower[axis]) / extent[axis];
+      return std::clamp(int(t * kBuckets), 0, kBuckets - 1);
+    };
+    for (size_t i = begin; i < end; ++i)
+      buckets[bucketOf(lights[i])] = unite(buckets[bucketOf(lights[i])], bounds[lights[i]]);
+    for (int split = 1; split < kBuckets; ++split) {
+      LightBounds below, above;
+      for (int b = 0; b < split; ++b) below = unite(below, buckets[b]);
+      for (int b = split; b < kBuckets; ++b) above = unite(above, buckets[b]);
+      if (!(below.power > 0) || !(above.power > 0)) continue;
+      // Long thin boxes split across their length (the regularisation of Conty Estevez & Kulla).
+      const float elongation = std::max({extent.x, extent.y, extent.z}) / extent[axis];
+      const float cost = elongation * (splitCost(below) + splitCost(above));
+      if (cost < bestCost) {
+        bestCost = cost;
+        bestAxis = axis;
+        bestBucket = split;
+      }
+    }
+    if (axis == bestAxis) {
+      // Partition now, while bucketOf describes this axis.
+      const auto firstAbove = std::partition(
+          lights.begin() + std::ptrdiff_t(begin), lights.begin() + std::ptrdiff_t(end),
+          [&](uint32_t light) { return bucketOf(light) < bestBucket; });
+      middle = size_t(firstAbove - lights.begin());
+    }
+  }
+  return middle;
+}
+
 }  // namespace
 
 LightSampler::LightSampler(const std::vector<Light>& lights) : paths_(lights.size()) {
@@ -149,68 +206,34 @@ std::pair<uint32_t, LightBounds> LightSampler::build(std::vector<uint32_t>& ligh
     paths_[lights[begin]] = path;
     return {index, bounds[lights[begin]]};
   }
-  const int depth = path.depth;
-  LightBounds all, centroids;
-  for (size_t i = begin; i < end; ++i) {
-    all = unite(all, bounds[lights[i]]);
-    LightBounds point;
-    point.lower = point.upper = bounds[lights[i]].centroid();
-    point.power = 1;
-    centroids = unite(centroids, point);
+  // Two levels of a binary build: the list cut in two, and each part of several lights cut
+  // again, give the node's (up to four) children. A node at depth d is at binary depth 2d and
+  // binary depths stay within 64 (kMaxSearchDepth), so paths (two bits a level) fit in 64 bits.
+  const int binaryDepth = 2 * path.depth;
+  const bool colourLevel = path.depth < kMaxSplitDepth;
+  std::array<size_t, kBranching + 1> cuts{};
+  int groups = 0;
+  cuts[0] = begin;
+  const size_t middle =
+      partition(lights, begin, end, bounds, chromaticities, binaryDepth, colourLevel);
+  for (const auto& [from, to] : {std::pair(begin, middle), std::pair(middle, end)}) {
+    if (to - from > 1)
+      cuts[++groups] =
+          partition(lights, from, to, bounds, chromaticities, binaryDepth + 1, colourLevel);
+    cuts[++groups] = to;
   }
-  // Many lights of different colours at the levels the walk may split at: by colour (see
-  // light_sampler.h). Otherwise the cheapest split into buckets along an axis of the
-  // centroids' box; without one (all centroids together, or too deep), the list is halved.
-  const std::optional<size_t> byColour =
-      depth < kMaxSplitDepth && end - begin >= kColourSplitMinLights
-          ? colourSplit(lights, begin, end, bounds, chromaticities)
-          : std::nullopt;
-  size_t middle = byColour ? *byColour : begin + (end - begin) / 2;
-  float bestCost = kInfinity;
-  int bestAxis = -1, bestBucket = 0;
-  const Vec3f extent = centroids.upper - centroids.lower;
-  for (int axis = 0; axis < 3 && !byColour && depth < kMaxSearchDepth; ++axis) {
-    if (!(extent[axis] > 0)) continue;
-    LightBounds buckets[kBuckets];
-    const auto bucketOf = [&](uint32_t light) {
-      const float t = (bounds[light].centroid()[axis] - centroids.lower[axis]) / extent[axis];
-      return std::clamp(int(t * kBuckets), 0, kBuckets - 1);
-    };
-    for (size_t i = begin; i < end; ++i)
-      buckets[bucketOf(lights[i])] = unite(buckets[bucketOf(lights[i])], bounds[lights[i]]);
-    for (int split = 1; split < kBuckets; ++split) {
-      LightBounds below, above;
-      for (int b = 0; b < split; ++b) below = unite(below, buckets[b]);
-      for (int b = split; b < kBuckets; ++b) above = unite(above, buckets[b]);
-      if (!(below.power > 0) || !(above.power > 0)) continue;
-      // Long thin boxes split across their length (the regularisation of Conty Estevez & Kulla).
-      const float elongation = std::max({extent.x, extent.y, extent.z}) / extent[axis];
-      const float cost = elongation * (splitCost(below) + splitCost(above));
-      if (cost < bestCost) {
-        bestCost = cost;
-        bestAxis = axis;
-        bestBucket = split;
-      }
-    }
-    if (axis == bestAxis) {
-      // Partition now, while bucketOf describes this axis.
-      const auto firstAbove = std::partition(
-          lights.begin() + std::ptrdiff_t(begin), lights.begin() + std::ptrdiff_t(end),
-          [&](uint32_t light) { return bucketOf(light) < bestBucket; });
-      middle = size_t(firstAbove - lights.begin());
-    }
+  LightBounds all;
+  for (int child = 0; child < groups; ++child) {
+    const LeafPath childPath{path.branches | (uint64_t(child) << (2 * path.depth)), path.depth + 1};
+    const auto [childIndex, childBounds] =
+        build(lights, cuts[child], cuts[child + 1], bounds, chromaticities, childPath);
+    Node& node = nodes_[index];
+    node.children[child] = childIndex;
+    node.childClusters.set(child, childBounds);
+    all = unite(all, childBounds);
   }
-  const auto [first, firstBounds] =
-      build(lights, begin, middle, bounds, chromaticities, {path.branches, depth + 1});
-  const auto [second, secondBounds] = build(lights, middle, end, bounds, chromaticities,
-                                            {path.branches | (uint64_t(1) << depth), depth + 1});
-  Node& node = nodes_[index];
-  node.children[0] = first;
-  node.children[1] = second;
-  node.childClusters.set(0, firstBounds);
-  node.childClusters.set(1, secondBounds);
-  node.center = all.centroid();
-  node.halfDiagonal2 = all.halfDiagonal2();
+  nodes_[index].center = all.centroid();
+  nodes_[index].halfDiagonal2 = all.halfDiagonal2();
   return {index, all};
 }
 
@@ -240,13 +263,15 @@ float LightSampler::infiniteTotal(const Receiver& receiver) const {
   return total;
 }
 
-std::optional<float> LightSampler::firstChildProbability(const Node& parent,
-                                                         const Receiver& receiver) const {
-  const std::array<float, LightClusters::kLanes> importance =
-      parent.childClusters.importance(receiver);
-  const float first = importance[0], second = importance[1];
-  if (!(first + second > 0)) return std::nullopt;
-  return first / (first + second);
+LightSampler::ChildWeights LightSampler::weighChildren(const Node& parent,
+                                                       const Receiver& receiver) const {
+  ChildWeights weights;
+  weights.importance = parent.childClusters.importance(receiver);
+  for (int child = 0; child < kBranching; ++child) {
+    weights.before[child] = weights.total;
+    weights.total += weights.importance[child];
+  }
+  return weights;
 }
 
 bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
@@ -265,14 +290,13 @@ void LightSampler::chooseLocal(const Receiver& receiver, float u, LocalChoices& 
     float probability = 1;
     bool lost = false;  // neither child's lights reach the receiver
   };
-  Walk walks[1u << kMaxSplitDepth];
+  Walk walks[kMaxLocalChoices];
   size_t count = 0;
   const auto startFrom = [&](const auto& self, uint32_t node, int depth) -> void {
     const Node& parent = nodes_[node];
     if (depth < kMaxSplitDepth && splits(parent, receiver)) {
-      const std::array<float, LightClusters::kLanes> importance =
-          parent.childClusters.importance(receiver);
-      for (int child = 0; child < 2; ++child)
+      const std::array<float, kBranching> importance = parent.childClusters.importance(receiver);
+      for (int child = 0; child < kBranching; ++child)
         if (importance[child] > 0) self(self, parent.children[child], depth + 1);
     } else {
       walks[count++] = Walk{node, u};
@@ -286,18 +310,21 @@ void LightSampler::chooseLocal(const Receiver& receiver, float u, LocalChoices& 
       if (walk.lost || nodes_[walk.node].leaf) continue;
       stepped = true;
       const Node& parent = nodes_[walk.node];
-      const std::optional<float> first = firstChildProbability(parent, receiver);
-      if (!first) {
+      const ChildWeights weights = weighChildren(parent, receiver);
+      if (!(weights.total > 0)) {
         walk.lost = true;
         continue;
       }
-      // Without branches: which child is a coin toss the processor cannot predict.
-      const float pFirst = *first;
-      const bool second = !(walk.u < pFirst);
-      const float below = second ? pFirst : 0.0f, pChild = second ? 1 - pFirst : pFirst;
-      walk.u = std::min((walk.u - below) / pChild, 0x1.fffffep-1f);
-      walk.probability *= pChild;
-      walk.node = parent.children[int(second)];
+      // The child whose share of the total holds u, counted without branches: which child is a
+      // coin toss the processor cannot predict. Empty children have no share; only a product
+      // rounded up to the total lands past the last child with one.
+      const float x = walk.u * weights.total;
+      int child = 0;
+      for (int k = 1; k < kBranching; ++k) child += int(x >= weights.before[k]);
+      while (!(weights.importance[child] > 0)) --child;
+      walk.u = std::min((x - weights.before[child]) / weights.importance[child], 0x1.fffffep-1f);
+      walk.probability *= weights.importance[child] / weights.total;
+      walk.node = parent.children[child];
     }
   }
   uint32_t slot = uint32_t(kInfiniteLightsSampledEach);
@@ -326,20 +353,20 @@ float LightSampler::probability(const Receiver& receiver, size_t index) const {
   if (path.depth >= 0) {
     if (!(root_.importance(receiver)[0] > 0)) return 0;
     float probability = 1;
-    bool splitting = true;  // the levels above went down both children
+    bool splitting = true;  // the levels above went down every child
     uint32_t node = 0;
     for (int level = 0; level < path.depth; ++level) {
       const Node& parent = nodes_[node];
-      const int branch = int((path.branches >> level) & 1u);
+      const int branch = int((path.branches >> (2 * level)) & 3u);
       node = parent.children[branch];
       splitting = splitting && level < kMaxSplitDepth && splits(parent, receiver);
       if (splitting) {
         if (!(parent.childClusters.importance(receiver)[branch] > 0)) return 0;
         continue;
       }
-      const std::optional<float> first = firstChildProbability(parent, receiver);
-      if (!first) return 0;
-      probability *= branch ? 1 - *first : *first;
+      const ChildWeights weights = weighChildren(parent, receiver);
+      if (!(weights.total > 0) || !(weights.importance[branch] > 0)) return 0;
+      probability *= weights.importance[branch] / weights.total;
     }
     return probability;
   }

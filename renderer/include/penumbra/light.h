@@ -97,7 +97,7 @@ struct Receiver {
 /// (emission axes within thetaO of `axis`, each light emitting within thetaE of its own axis).
 struct LightBounds {
   Vec3f lower{kInfinity}, upper{-kInfinity};
-  float power = 0;  // luminance · projected area: irradiance ≈ power · cos / distance²
+  float power = 0;  // grey radiance · projected area: irradiance ≈ power · cos / distance²
   Vec3f axis{0, 0, 1};
   float cosThetaO = 1;  // 1: every axis along `axis`; -1: any direction
   float cosThetaE = 0;  // 0: each light emits over the hemisphere around its axis
@@ -193,7 +193,8 @@ class Light {
   float area() const { return area_; }
   /// Local lights: where and how they emit, for the light tree.
   LightBounds bounds() const;
-  /// Infinite lights: luminance of the irradiance on an unoccluded surface facing them.
+  /// Infinite lights: the irradiance on an unoccluded surface facing them, grey (the mean of
+  /// its channels).
   float irradiance() const;
   /// Distant lights: the direction light arrives from (unit, towards the light) and the cosine
   /// of the cone's half-angle.
@@ -203,8 +204,10 @@ class Light {
   Vec3f meanRadiance() const;
 
  private:
-  /// Luminance of meanRadiance() (never negative).
-  float meanRadianceLuminance() const;
+  /// The mean of meanRadiance()'s channels (never negative): what lights are weighed by when one
+  /// is chosen, so that each channel's noise counts alike (pbrt-v4 averages over wavelengths;
+  /// luminance would sample blue lights too rarely for their share of the blue channel).
+  float meanRadianceGrey() const;
   /// Rect lights are sampled uniformly in the solid angle they subtend where that is at least
   /// this (steradians), and by area elsewhere.
   static constexpr double kMinSphericalSolidAngle = 1e-4;

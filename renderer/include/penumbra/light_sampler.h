@@ -9,14 +9,18 @@
 // - local lights, organised in a light tree (Conty Estevez & Kulla 2018, "Importance Sampling of
 //   Many Lights with Adaptive Tree Splitting"): each node bounds its lights' positions, emitted
 //   power and emission directions, and a walk from the root picks one light with probability
-//   proportional to the bound on what each subtree can contribute to the point. Near the top
-//   of the tree, where the point lies within a node's bounding sphere, that bound says least
-//   about which child gives more: there the walk splits and goes down both children (adaptive
-//   tree splitting, Conty Estevez & Kulla 2018 §5), so that up to 2^kMaxSplitDepth local lights
-//   are sampled at a point among many lights.
+//   proportional to the bound on what each subtree can contribute to the point. The tree is
+//   4-wide (each node is two levels of a binary build, whose four groups are weighed at once in
+//   SIMD lanes): half the levels, so half the serial chain of square roots and divisions a walk
+//   waits on, and a choice among four tighter bounds instead of two looser ones and then two
+//   more. Near the top of the tree, where the point lies within a node's bounding sphere, the
+//   bound says least about which child gives more: there the walk splits and goes down every
+//   child (adaptive tree splitting, Conty Estevez & Kulla 2018 §5), so that up to
+//   kMaxLocalChoices local lights are sampled at a point among many lights.
 //   Those levels split many lights of different colours by colour rather than by place: the
-//   walk chooses by luminance, so among many lights of every hue the colour of the few sampled
-//   at a point is most of the noise; one light from each colour group is much less so, while
+//   walk chooses by a grey power (LightBounds), so among many lights of every hue the colour of
+//   the few sampled at a point is most of the noise; one light from each colour group is much
+//   less so, while
 //   the walk below still chooses by place (with fewer lights per group the samples of a pixel
 //   already spread over them). The groups each span the lights' extent, so near its edge a
 //   point splits where it would not have by place (more shadow rays), and warm and cool lamps
@@ -41,8 +45,13 @@ class LightSampler {
  public:
   /// Up to this many infinite lights, each is sampled at every shading point.
   static constexpr size_t kInfiniteLightsSampledEach = 4;
+  /// Children of a light-tree node: one per lane of LightClusters.
+  static constexpr int kBranching = LightClusters::kLanes;
   /// The walk through the light tree may split at the first this many levels.
-  static constexpr int kMaxSplitDepth = 2;
+  static constexpr int kMaxSplitDepth = 1;
+  /// Local lights sampled at a point at most: one per node the splitting walk ends in.
+  static constexpr uint32_t kMaxLocalChoices = uint32_t(kBranching);
+  static_assert(kMaxSplitDepth == 1, "kMaxLocalChoices = kBranching^kMaxSplitDepth");
 
   LightSampler() = default;
   explicit LightSampler(const std::vector<Light>& lights);
@@ -57,8 +66,7 @@ class LightSampler {
   };
   /// At most this many choices per shading point: every infinite light sampled each, and as
   /// many local lights as the splitting walk can reach.
-  static constexpr uint32_t kMaxChoices =
-      uint32_t(kInfiniteLightsSampledEach) + (1u << kMaxSplitDepth);
+  static constexpr uint32_t kMaxChoices = uint32_t(kInfiniteLightsSampledEach) + kMaxLocalChoices;
 
   /// Calls `visit(Choice)` for each light next-event estimation samples at the receiver (see
   /// above), at most kMaxChoices times: `uInfinite` chooses among many infinite lights, `uLocal`
@@ -86,41 +94,46 @@ class LightSampler {
 
  private:
   struct Node {
-    LightClusters childClusters;    // interior nodes: lanes 0 and 1, the two children's lights
-    uint32_t children[2] = {0, 0};  // interior nodes
-    uint32_t light = 0;             // leaves: the light's index
+    LightClusters childClusters;         // interior nodes: a lane per child, the rest empty
+    uint32_t children[kBranching] = {};  // interior nodes
+    uint32_t light = 0;                  // leaves: the light's index
     bool leaf = false;
     Vec3f center;             // of the bounding box of the node's lights
     float halfDiagonal2 = 0;  // squared radius of the box's bounding sphere
   };
-  /// Where a local light's leaf is: the branch taken at each level, from the root.
+  /// Where a local light's leaf is: the child taken at each level, from the root.
   struct LeafPath {
-    uint64_t branches = 0;  // bit k: 1 for the second child at depth k
+    uint64_t branches = 0;  // bits 2k and 2k + 1: the child taken at depth k
     int depth = -1;         // -1: not a local light
+  };
+  /// What a walk weighs a node's children by at a receiver: their importances and running sums
+  /// (`before[k]`: lanes below k), added in one order for the walk and probability() alike.
+  struct ChildWeights {
+    std::array<float, kBranching> importance;
+    std::array<float, kBranching> before;
+    float total = 0;
   };
 
   /// The local lights chosen at a receiver, in the order of the nodes the walk split into
   /// (first children first), with their slots.
   struct LocalChoices {
-    Choice choices[1u << kMaxSplitDepth];
+    Choice choices[kMaxLocalChoices];
     size_t count = 0;
   };
   /// Fills `local` with the local lights chosen at the receiver: the walk from the root splits
   /// where the receiver lies within a node's bounding sphere (first kMaxSplitDepth levels) and
   /// goes on from each node it split into with one choice per level. Those walks are stepped
   /// together, level by level, so that their independent chains of square roots and divisions
-  /// can overlap; each step weighs both children at once (LightClusters' lanes).
+  /// can overlap; each step weighs a node's children at once (LightClusters' lanes).
   void chooseLocal(const Receiver& receiver, float u, LocalChoices& local) const;
-  /// Whether the walk goes down both children of `node` at the receiver (below the split depth).
+  /// Whether the walk goes down every child of `node` at the receiver (above the split depth).
   bool splits(const Node& node, const Receiver& receiver) const;
   /// Builds the subtree of lights[begin, end) whose root is reached by `path`; returns its index
   /// and the bounds of its lights. `chromaticities`: each light's radiance over its luminance.
   std::pair<uint32_t, LightBounds> build(std::vector<uint32_t>& lights, size_t begin, size_t end,
                                          const std::vector<LightBounds>& bounds,
                                          const std::vector<Vec3f>& chromaticities, LeafPath path);
-  /// The probability that the walk goes from `parent` to its first child at the receiver; none
-  /// where neither child's lights can reach it.
-  std::optional<float> firstChildProbability(const Node& parent, const Receiver& receiver) const;
+  ChildWeights weighChildren(const Node& parent, const Receiver& receiver) const;
   /// Estimated irradiance of infinite light `i` (of infinite_) at the receiver; never 0.
   float infiniteWeight(size_t i, const Receiver& receiver) const;
   float infiniteTotal(const Receiver& receiver) const;
