@@ -288,7 +288,7 @@ void LightSampler::chooseLocal(const Receiver& receiver, float u, LocalChoices& 
     uint32_t node = 0;
     float u = 0;
     float probability = 1;
-    bool lost = false;  // neither child's lights reach the receiver
+    bool lost = false;  // none of the node's children's lights reach the receiver
   };
   Walk walks[kMaxLocalChoices];
   size_t count = 0;

@@ -126,6 +126,32 @@ TEST(LightSampler, ProbabilitiesMatchWhatForEachChoiceVisits) {
   }
 }
 
+TEST(LightSampler, EveryTreeShapeVisitsLightsAsOftenAsTheirProbability) {
+  // Up to nine lights: nodes of two, three and four children (the rest of their lanes empty),
+  // leaves beside inner nodes, a root the receiver lies within (it splits) or far from.
+  for (int count = 1; count <= 9; ++count) {
+    SCOPED_TRACE(count);
+    const std::vector<Light> lights = scatteredLights(count);
+    const LightSampler sampler(lights);
+    for (const Receiver& receiver :
+         {Receiver{{0, 0, 0}, {0, 1, 0}}, Receiver{{40, 0, -30}, {0, 1, 0}}}) {
+      double total = 0;
+      std::vector<double> expected(lights.size());
+      for (size_t i = 0; i < lights.size(); ++i)
+        total += expected[i] = sampler.probability(receiver, i);
+      EXPECT_LE(total, LightSampler::kMaxLocalChoices + 1e-5);
+      EXPECT_GT(total, 0.99);
+      const int n = 1 << 14;
+      int noLocal = 0;
+      const std::vector<int> counts =
+          choiceCounts(sampler, receiver, n, expected, lights.size(), &noLocal);
+      for (size_t i = 0; i < lights.size(); ++i)
+        EXPECT_NEAR(counts[i], expected[i] * n, 8) << "light " << i;
+      EXPECT_EQ(noLocal, 0);
+    }
+  }
+}
+
 TEST(LightSampler, LightsThatCannotReachTheReceiverAreNeverChosen) {
   LightParams panel;
   panel.type = LightType::Rect;
