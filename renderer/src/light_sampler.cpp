@@ -207,10 +207,11 @@ std::pair<uint32_t, LightBounds> LightSampler::build(std::vector<uint32_t>& ligh
     return {index, bounds[lights[begin]]};
   }
   // Two levels of a binary build: the list cut in two, and each part of several lights cut
-  // again, give the node's (up to four) children. A node at depth d is at binary depth 2d and
-  // binary depths stay within 64 (kMaxSearchDepth), so paths (two bits a level) fit in 64 bits.
+  // again, give the node's (up to four) children. A node at depth d is at binary depth 2d, and
+  // binary depths stay within 64 (kMaxSearchDepth searched levels, then at most 32 halvings of
+  // fewer than 2^32 lights), so paths (two bits a level) fit in 64 bits.
   const int binaryDepth = 2 * path.depth;
-  const bool colourLevel = path.depth < kMaxSplitDepth;
+  const bool colourLevel = path.depth == 0;  // the root, where the walk splits
   std::array<size_t, kBranching + 1> cuts{};
   int groups = 0;
   cuts[0] = begin;
@@ -283,7 +284,7 @@ bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
 void LightSampler::chooseLocal(const Receiver& receiver, float u, LocalChoices& local) const {
   local.count = 0;
   if (nodes_.empty() || !(root_.importance(receiver)[0] > 0)) return;
-  // The nodes the walk splits into, depth first, each reached with probability 1.
+  // The nodes the walk splits into, each reached with probability 1.
   struct Walk {
     uint32_t node = 0;
     float u = 0;
@@ -292,17 +293,14 @@ void LightSampler::chooseLocal(const Receiver& receiver, float u, LocalChoices& 
   };
   Walk walks[kMaxLocalChoices];
   size_t count = 0;
-  const auto startFrom = [&](const auto& self, uint32_t node, int depth) -> void {
-    const Node& parent = nodes_[node];
-    if (depth < kMaxSplitDepth && splits(parent, receiver)) {
-      const std::array<float, kBranching> importance = parent.childClusters.importance(receiver);
-      for (int child = 0; child < kBranching; ++child)
-        if (importance[child] > 0) self(self, parent.children[child], depth + 1);
-    } else {
-      walks[count++] = Walk{node, u};
-    }
-  };
-  startFrom(startFrom, 0, 0);
+  const Node& root = nodes_[0];
+  if (splits(root, receiver)) {
+    const std::array<float, kBranching> importance = root.childClusters.importance(receiver);
+    for (int child = 0; child < kBranching; ++child)
+      if (importance[child] > 0) walks[count++] = Walk{root.children[child], u};
+  } else {
+    walks[count++] = Walk{0, u};
+  }
   for (bool stepped = true; stepped;) {
     stepped = false;
     for (size_t i = 0; i < count; ++i) {
@@ -311,7 +309,7 @@ void LightSampler::chooseLocal(const Receiver& receiver, float u, LocalChoices& 
       stepped = true;
       const Node& parent = nodes_[walk.node];
       const ChildWeights weights = weighChildren(parent, receiver);
-      if (!(weights.total > 0)) {
+      if (!(weights.total > 0 && weights.total < kInfinity)) {  // none reach it, or overflow
         walk.lost = true;
         continue;
       }
@@ -353,19 +351,18 @@ float LightSampler::probability(const Receiver& receiver, size_t index) const {
   if (path.depth >= 0) {
     if (!(root_.importance(receiver)[0] > 0)) return 0;
     float probability = 1;
-    bool splitting = true;  // the levels above went down every child
     uint32_t node = 0;
     for (int level = 0; level < path.depth; ++level) {
       const Node& parent = nodes_[node];
       const int branch = int((path.branches >> (2 * level)) & 3u);
       node = parent.children[branch];
-      splitting = splitting && level < kMaxSplitDepth && splits(parent, receiver);
-      if (splitting) {
+      if (level == 0 && splits(parent, receiver)) {
         if (!(parent.childClusters.importance(receiver)[branch] > 0)) return 0;
         continue;
       }
       const ChildWeights weights = weighChildren(parent, receiver);
-      if (!(weights.total > 0) || !(weights.importance[branch] > 0)) return 0;
+      if (!(weights.total > 0 && weights.total < kInfinity) || !(weights.importance[branch] > 0))
+        return 0;
       probability *= weights.importance[branch] / weights.total;
     }
     return probability;

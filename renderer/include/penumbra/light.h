@@ -111,7 +111,7 @@ struct LightBounds {
 LightBounds unite(const LightBounds& a, const LightBounds& b);
 
 /// LightBounds as the light tree evaluates them, at every level of every walk: up to kLanes side
-/// by side, evaluated at once in SIMD lanes (a walk weighs a node's two children together), with
+/// by side, evaluated at once in SIMD lanes (a walk weighs a node's four children together), with
 /// what importance() derives from the bounds alone computed once.
 class LightClusters {
  public:

@@ -13,12 +13,13 @@
 //   4-wide (each node is two levels of a binary build, whose four groups are weighed at once in
 //   SIMD lanes): half the levels, so half the serial chain of square roots and divisions a walk
 //   waits on, and a choice among four tighter bounds instead of two looser ones and then two
-//   more. Near the top of the tree, where the point lies within a node's bounding sphere, the
-//   bound says least about which child gives more: there the walk splits and goes down every
-//   child (adaptive tree splitting, Conty Estevez & Kulla 2018 §5), so that up to
-//   kMaxLocalChoices local lights are sampled at a point among many lights.
-//   Those levels split many lights of different colours by colour rather than by place: the
-//   walk chooses by a grey power (LightBounds), so among many lights of every hue the colour of
+//   more. Where the point lies within the root's bounding sphere, the bound says least about
+//   which child gives more: there the walk splits and goes down every child of the root
+//   (adaptive tree splitting, Conty Estevez & Kulla 2018 §5), so that up to kMaxLocalChoices
+//   local lights are sampled at a point among many lights.
+//   The root's two binary levels split many lights of different colours by colour rather than
+//   by place: the walk chooses by a grey power (LightBounds), so among many lights of every hue
+//   the colour of
 //   the few sampled at a point is most of the noise; one light from each colour group is much
 //   less so, while
 //   the walk below still chooses by place (with fewer lights per group the samples of a pixel
@@ -47,11 +48,9 @@ class LightSampler {
   static constexpr size_t kInfiniteLightsSampledEach = 4;
   /// Children of a light-tree node: one per lane of LightClusters.
   static constexpr int kBranching = LightClusters::kLanes;
-  /// The walk through the light tree may split at the first this many levels.
-  static constexpr int kMaxSplitDepth = 1;
-  /// Local lights sampled at a point at most: one per node the splitting walk ends in.
+  static_assert(kBranching == 4, "a node is two levels of the binary build");
+  /// Local lights sampled at a point at most: one per child of the root, where the walk splits.
   static constexpr uint32_t kMaxLocalChoices = uint32_t(kBranching);
-  static_assert(kMaxSplitDepth == 1, "kMaxLocalChoices = kBranching^kMaxSplitDepth");
 
   LightSampler() = default;
   explicit LightSampler(const std::vector<Light>& lights);
@@ -121,18 +120,20 @@ class LightSampler {
     size_t count = 0;
   };
   /// Fills `local` with the local lights chosen at the receiver: the walk from the root splits
-  /// where the receiver lies within a node's bounding sphere (first kMaxSplitDepth levels) and
-  /// goes on from each node it split into with one choice per level. Those walks are stepped
+  /// into every child where the receiver lies within the root's bounding sphere, and goes on
+  /// from each child (or from the root) with one choice per level. Those walks are stepped
   /// together, level by level, so that their independent chains of square roots and divisions
   /// can overlap; each step weighs a node's children at once (LightClusters' lanes).
   void chooseLocal(const Receiver& receiver, float u, LocalChoices& local) const;
-  /// Whether the walk goes down every child of `node` at the receiver (above the split depth).
+  /// Whether the receiver lies within `node`'s bounding sphere, where the walk goes down every
+  /// child of the root.
   bool splits(const Node& node, const Receiver& receiver) const;
   /// Builds the subtree of lights[begin, end) whose root is reached by `path`; returns its index
   /// and the bounds of its lights. `chromaticities`: each light's radiance over its luminance.
   std::pair<uint32_t, LightBounds> build(std::vector<uint32_t>& lights, size_t begin, size_t end,
                                          const std::vector<LightBounds>& bounds,
                                          const std::vector<Vec3f>& chromaticities, LeafPath path);
+  /// The importances of `parent`'s children at the receiver, and their running sums.
   ChildWeights weighChildren(const Node& parent, const Receiver& receiver) const;
   /// Estimated irradiance of infinite light `i` (of infinite_) at the receiver; never 0.
   float infiniteWeight(size_t i, const Receiver& receiver) const;
