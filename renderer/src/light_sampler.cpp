@@ -189,7 +189,7 @@ LightSampler::LightSampler(const std::vector<Light>& lights) : paths_(lights.siz
         chromaticities[i] = chromaticity;
     }
     nodes_.reserve(2 * local.size() - 1);
-    root_.set(0, build(local, 0, local.size(), bounds, chromaticities, {0, 0}).second);
+    build(local, 0, local.size(), bounds, chromaticities, {0, 0});
   }
 }
 
@@ -283,7 +283,9 @@ bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
 
 void LightSampler::chooseLocal(const Receiver& receiver, float u, LocalChoices& local) const {
   local.count = 0;
-  if (nodes_.empty() || !(root_.importance(receiver)[0] > 0)) return;
+  if (nodes_.empty()) return;
+  // The root's own importance is not asked first: a lone light's sample says itself where it
+  // gives nothing (most scenes have one), and among several the walk finds no child reaching.
   // The nodes the walk splits into, each reached with probability 1.
   struct Walk {
     uint32_t node = 0;
@@ -349,7 +351,6 @@ std::optional<LightSampler::Choice> LightSampler::sampleInfinite(const Receiver&
 float LightSampler::probability(const Receiver& receiver, size_t index) const {
   const LeafPath& path = paths_[index];
   if (path.depth >= 0) {
-    if (!(root_.importance(receiver)[0] > 0)) return 0;
     float probability = 1;
     uint32_t node = 0;
     for (int level = 0; level < path.depth; ++level) {

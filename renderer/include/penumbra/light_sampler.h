@@ -148,7 +148,6 @@ class LightSampler {
   };
 
   std::vector<Node> nodes_;      // nodes_[0] is the root, when there are local lights
-  LightClusters root_;           // lane 0: the root's lights
   std::vector<LeafPath> paths_;  // by light index
   std::vector<InfiniteLight> infinite_;
 };
