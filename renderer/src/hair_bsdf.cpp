@@ -22,10 +22,6 @@ Vec3f nonNegative(const Vec3f& v) {
           clampOrLow(v.z, 0, kInfinity)};
 }
 
-float average(const Vec3f& v) {
-  return (v.x + v.y + v.z) / 3;
-}
-
 /// The modified Bessel function I0 by its power series Σ (x²/4)^k / (k!)², for x ≤ 30.
 double besselI0(double x) {
   const double quarterSquare = 0.25 * x * x;

@@ -429,8 +429,7 @@ Vec3f Light::meanRadiance() const {
 }
 
 float Light::meanRadianceGrey() const {
-  const Vec3f radiance = meanRadiance();
-  return std::max(0.0f, (radiance.x + radiance.y + radiance.z) / 3);
+  return std::max(0.0f, average(meanRadiance()));
 }
 
 LightBounds Light::bounds() const {

@@ -20,7 +20,9 @@ bool finite(const Vec3f& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
-float average(const Vec3f& v) {
+/// The mean of the components as (x + y + z) · (1/3), which rounds differently from average():
+/// the volume estimators' images were made with it.
+float sumTimesOneThird(const Vec3f& v) {
   return (v.x + v.y + v.z) * (1.0f / 3);
 }
 
@@ -96,7 +98,7 @@ class MergedMajorants {
       sum.emission += c.emission;
       if (count < 8) {
         covering[count] = &track;
-        scatterings[count++] = average(c.scattering);
+        scatterings[count++] = sumTimesOneThird(c.scattering);
       }
     }
     int chosen = 0;
@@ -224,8 +226,9 @@ FlightOutcome sampleFreeFlight(const VolumeSet& volumes, const Ray& ray, float t
                               std::max(majorant - c.scattering.z - c.absorption.z, 0.0f)};
     // History-aware probabilities (Kutz et al. 2017): the events in proportion to what they
     // would carry of the path's weight; for grey media and weights, the analogue ones.
-    const float pAbsorb = average(beta * c.absorption), pScatter = average(beta * c.scattering),
-                pNull = average(beta * nullCollision);
+    const float pAbsorb = sumTimesOneThird(beta * c.absorption),
+                pScatter = sumTimesOneThird(beta * c.scattering),
+                pNull = sumTimesOneThird(beta * nullCollision);
     const float total = pAbsorb + pScatter + pNull;
     if (!(total > 0)) return FlightOutcome::Absorbed;
     const float u = random.next() * total;

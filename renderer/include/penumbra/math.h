@@ -92,6 +92,10 @@ inline Vec3f componentMax(const Vec3f& a, const Vec3f& b) {
 inline bool isBlack(const Vec3f& a) {
   return a.x == 0 && a.y == 0 && a.z == 0;
 }
+/// The mean of the three components.
+inline float average(const Vec3f& v) {
+  return (v.x + v.y + v.z) / 3;
+}
 /// Rec.709 luminance of a linear RGB triple.
 inline float luminance(const Vec3f& rgb) {
   return 0.2126f * rgb.x + 0.7152f * rgb.y + 0.0722f * rgb.z;
