@@ -133,3 +133,51 @@ TEST(Warp, SphericalRectangleSamplesTheRectangleEvenlyInSolidAngle) {
   for (const auto& row : quadrants)
     for (const int count : row) EXPECT_NEAR(double(count) / (kGrid * kGrid), 0.25, 2e-3);
 }
+
+TEST(Warp, SphericalRectangleSolidAngleMatchesTheCornerFormulaFromEveryViewpoint) {
+  // Seen from height h, the rectangle [x0, x1] × [y0, y1] subtends F(x1, y1) − F(x0, y1) −
+  // F(x1, y0) + F(x0, y0), F(x, y) = atan(xy / (h √(x² + y² + h²))): an independent formula.
+  const auto cornerFormula = [](double x0, double x1, double y0, double y1, double h) {
+    const auto f = [h](double x, double y) {
+      return std::atan(x * y / (h * std::sqrt(x * x + y * y + h * h)));
+    };
+    return f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0);
+  };
+  const SphericalRectangle::Rectangle rectangle(Vec3f(-1, -0.5f, 0), Vec3f(2, 0, 0),
+                                                Vec3f(0, 1, 0));
+  // Over the middle and a corner, close to the plane (towards 2π), beside it at grazing
+  // heights, far off to the side and far above (a tiny solid angle), and from below.
+  const Vec3f points[] = {{0, 0, 1},      {0.2f, 0.1f, 1e-3f}, {0.9f, 0.4f, 0.01f},
+                          {3, 0, 0.01f},  {-2, 5, 0.2f},       {40, -30, 1},
+                          {0.3f, 0, 300}, {0, 0, -2},          {1.5f, 0.7f, -0.05f}};
+  for (const Vec3f& point : points) {
+    const SphericalRectangle seen(point, rectangle);
+    const double h = std::fabs(double(point.z));
+    // The solid angle of the part [x0, x1] × [y0, y1] of the rectangle.
+    const auto part = [&](double x0, double x1, double y0, double y1) {
+      return cornerFormula(x0 - double(point.x), x1 - double(point.x), y0 - double(point.y),
+                           y1 - double(point.y), h);
+    };
+    const double expected = part(-1, 1, -0.5, 0.5);
+    // To the rounding of the point's offsets in float.
+    EXPECT_NEAR(seen.solidAngle() / expected, 1, 1e-6)
+        << point.x << ' ' << point.y << ' ' << point.z << ": " << expected;
+    if (!(expected > 1e-4)) continue;  // lights sample such rectangles by area
+    // Samples land in each quarter, split off centre, in proportion to its solid angle.
+    constexpr double kSplitX = 0.3, kSplitY = -0.1;
+    double counts[2][2] = {{0, 0}, {0, 0}};
+    forEachGridPoint([&](Vec2f u) {
+      const Vec3f p = seen.sample(u);
+      ++counts[p.x > kSplitX][p.y > kSplitY];
+    });
+    const double xs[] = {-1, kSplitX, 1}, ys[] = {-0.5, kSplitY, 0.5};
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) {
+        EXPECT_NEAR(counts[i][j] / (kGrid * kGrid),
+                    part(xs[i], xs[i + 1], ys[j], ys[j + 1]) / expected, 3e-3)
+            << point.x << ' ' << point.y << ' ' << point.z << " quarter " << i << j;
+      }
+  }
+  // In the plane there is nothing to sample.
+  EXPECT_EQ(SphericalRectangle(Vec3f(3, 0, 0), rectangle).solidAngle(), 0.0);
+}

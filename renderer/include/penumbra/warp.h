@@ -7,7 +7,6 @@
 #pragma once
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 
 #include "penumbra/math.h"
@@ -89,7 +88,8 @@ inline Vec3f sampleUniformTriangle(Vec2f u) {
 
 /// A rectangle seen from a point, for sampling directions uniformly within the solid angle it
 /// subtends (Ureña, Fajardo & King 2013, "An Area-Preserving Parametrization for Spherical
-/// Rectangles"). Computed in double: the angles cancel badly for small rectangles.
+/// Rectangles"). Computed in double: inverting the parametrisation loses precision for small
+/// rectangles.
 class SphericalRectangle {
  public:
   /// What does not depend on where the rectangle is seen from: `corner`, the two orthogonal
@@ -120,39 +120,58 @@ class SphericalRectangle {
     }
     x1_ = x0_ + rectangle.lengthX;
     y1_ = y0_ + rectangle.lengthY;
-    // Normals of the planes through the point and each edge, then the interior angles.
-    const auto planeNormal = [](double ax, double ay, double bx, double by, double z) {
-      // cross((ax, ay, z), (bx, by, z)), normalised
-      const double nx = ay * z - z * by, ny = z * bx - ax * z, nz = ax * by - ay * bx;
-      const double norm = std::sqrt(nx * nx + ny * ny + nz * nz);
-      return std::array<double, 3>{nx / norm, ny / norm, nz / norm};
+    if (!(z0_ < 0)) return;  // in the plane: no solid angle
+    const double z2 = z0_ * z0_;
+    // Corners 00, 10, 11 and 01 as seen from the point: lengths and dot products.
+    const auto distance = [z2](double x, double y) { return std::sqrt(x * x + y * y + z2); };
+    const auto dotOf = [z2](double ax, double ay, double bx, double by) {
+      return ax * bx + ay * by + z2;
     };
-    const auto n0 = planeNormal(x0_, y0_, x1_, y0_, z0_);
-    const auto n1 = planeNormal(x1_, y0_, x1_, y1_, z0_);
-    const auto n2 = planeNormal(x1_, y1_, x0_, y1_, z0_);
-    const auto n3 = planeNormal(x0_, y1_, x0_, y0_, z0_);
-    const auto angle = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
-      return std::acos(std::clamp(-(a[0] * b[0] + a[1] * b[1] + a[2] * b[2]), -1.0, 1.0));
-    };
-    const double g0 = angle(n0, n1), g1 = angle(n1, n2), g2 = angle(n2, n3), g3 = angle(n3, n0);
-    b0_ = n0[2];
-    b1_ = n2[2];
-    k_ = 2 * M_PI - g2 - g3;
-    solidAngle_ = g0 + g1 - k_;
+    const double d00 = distance(x0_, y0_), d10 = distance(x1_, y0_), d11 = distance(x1_, y1_),
+                 d01 = distance(x0_, y1_);
+    // The two triangles (00, 10, 11) and (00, 11, 01), each as den + i·num with
+    // tan(Ω/2) = num / den = |a · (b × c)| / (abc + (a·b)c + (a·c)b + (b·c)a) (Van Oosterom &
+    // Strackee 1983). Their half solid angles add as these multiply, and the sum is in [0, π):
+    // one atan2, and no difference of nearly equal angles to lose a small rectangle's precision.
+    const double triple = -z0_ * rectangle.lengthX * rectangle.lengthY;
+    const double diagonal = dotOf(x0_, y0_, x1_, y1_);
+    const double first = d00 * d10 * d11 + dotOf(x0_, y0_, x1_, y0_) * d11 + diagonal * d10 +
+                         dotOf(x1_, y0_, x1_, y1_) * d00;
+    const double second = d00 * d11 * d01 + diagonal * d01 + dotOf(x0_, y0_, x0_, y1_) * d11 +
+                          dotOf(x1_, y1_, x0_, y1_) * d00;
+    solidAngle_ =
+        2 * std::atan2(std::max(0.0, triple * (first + second)), first * second - triple * triple);
+    // The sampling's offset angle k = 2π − g2 − g3, by the interior angles g at corners 01 and
+    // 00 between the planes through the point and the edges. Those planes' normals are
+    // (0, z0, −y0), (−z0, 0, x1), (0, −z0, y1) and (z0, 0, −x0) over their lengths: corner c's
+    // angle is that of the complex number ±x·y + i·|z0|·d_c (its cosine and sine times a positive
+    // length), and g2 + g3 that of their product.
+    const double cos01 = x0_ * y1_, sin01 = -z0_ * d01, cos00 = -x0_ * y0_, sin00 = -z0_ * d00;
+    const double cosSum = cos01 * cos00 - sin01 * sin00, sinSum = cos01 * sin00 + sin01 * cos00;
+    const double length = std::sqrt(cosSum * cosSum + sinSum * sinSum);
+    cosK_ = cosSum / length;
+    sinK_ = -sinSum / length;
+    b0_ = -y0_ / std::sqrt(z2 + y0_ * y0_);  // the z of the first and third planes' normals
+    b1_ = y1_ / std::sqrt(z2 + y1_ * y1_);
+    oneMinusB0Squared_ = z2 / (z2 + y0_ * y0_);
   }
 
-  /// Steradians; not finite or tiny when the point is (nearly) in the rectangle's plane.
+  /// Steradians; 0 or tiny when the point is (nearly) in the rectangle's plane.
   double solidAngle() const { return solidAngle_; }
 
   /// The point of the rectangle in direction u ∈ [0, 1)² of the parametrisation.
   Vec3f sample(Vec2f u) const {
-    const double au = u.x * solidAngle_ + k_;
-    const double fu = (std::cos(au) * b0_ - b1_) / std::sin(au);
-    double cu = std::copysign(1.0, fu) / std::sqrt(fu * fu + b0_ * b0_);
-    cu = std::clamp(cu, -1.0, 1.0);
-    const double xu = std::clamp(-(cu * z0_) / std::sqrt(std::max(1e-30, 1 - cu * cu)), x0_, x1_);
-    const double d = std::sqrt(xu * xu + z0_ * z0_);
-    const double h0 = y0_ / std::sqrt(d * d + y0_ * y0_), h1 = y1_ / std::sqrt(d * d + y1_ * y1_);
+    // The angle k + u.x Ω, by its cosine and sine.
+    const double cosU = std::cos(u.x * solidAngle_), sinU = std::sin(u.x * solidAngle_);
+    const double cosAu = cosU * cosK_ - sinU * sinK_, sinAu = sinU * cosK_ + cosU * sinK_;
+    const double fu = (cosAu * b0_ - b1_) / sinAu;
+    // x = −cu z0 / √(1 − cu²) with cu = sign(fu) / √(fu² + b0²), in one square root: the
+    // chain of dependent roots and divisions is what a sample waits for.
+    const double xu = std::clamp(
+        std::copysign(z0_, fu) / std::sqrt(std::max(1e-30, fu * fu - oneMinusB0Squared_)), x0_,
+        x1_);
+    const double d2 = xu * xu + z0_ * z0_, d = std::sqrt(d2);
+    const double h0 = y0_ / std::sqrt(d2 + y0_ * y0_), h1 = y1_ / std::sqrt(d2 + y1_ * y1_);
     const double hv = h0 + u.y * (h1 - h0), hv2 = hv * hv;
     const double yv = hv2 < 1 - 1e-12 ? std::clamp(hv * d / std::sqrt(1 - hv2), y0_, y1_) : y1_;
     return origin_ + x_ * float(xu) + y_ * float(yv) + z_ * float(z0_);
@@ -161,7 +180,7 @@ class SphericalRectangle {
  private:
   Vec3f origin_, x_, y_, z_;
   double x0_, y0_, z0_, x1_, y1_;
-  double b0_, b1_, k_, solidAngle_;
+  double b0_ = 0, b1_ = 0, oneMinusB0Squared_ = 0, cosK_ = 1, sinK_ = 0, solidAngle_ = 0;
 };
 
 }  // namespace penumbra
