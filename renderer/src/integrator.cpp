@@ -678,9 +678,13 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // `linkingClass`: the vertex's placement's, or the scattering medium's (light linking).
   const auto estimateDirectLight = [&](const auto& vertex, const Receiver& receiver,
                                        bool sampleLights, int interactions, uint32_t linkingClass) {
-    const Vec2f lightChoices = sampler.next2D();
+    const uint32_t choiceDimension = sampler.reserve(1);
     const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
     if (!sampleLights || settings.directLighting == DirectLighting::BsdfSamplingOnly) return;
+    const LightSampler& lightSampler = scene.lights().lightSampler();
+    // Drawn only where they choose: most scenes have a lamp or two and a sky, each sampled.
+    const Vec2f lightChoices =
+        lightSampler.choosesAtRandom() ? sampler.draw2D(choiceDimension) : Vec2f{0.0f, 0.0f};
     const auto sampleLight = [&](const LightSampler::Choice& choice) {
       const Light& light = lights[choice.index];
       // A light whose light link excludes the vertex adds nothing: the estimate sums over the
@@ -721,8 +725,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                  spectrum.emission(sample->radiance) * (weight / lightPdf),
                              interactions, settings.indirectClamp));
     };
-    scene.lights().lightSampler().forEachChoice(receiver, lightChoices.x, lightChoices.y,
-                                                sampleLight);
+    lightSampler.forEachChoice(receiver, lightChoices.x, lightChoices.y, sampleLight);
   };
 
   for (int bounce = 0;; ++bounce) {

@@ -371,3 +371,35 @@ TEST(LightClusters, EachLaneIsWeighedAsIfAlone) {
     }
   }
 }
+
+TEST(LightSampler, SaysWhetherItsChoicesDependOnTheRandomNumbers) {
+  // The integrator draws the choice's numbers only where this says they matter: where it does
+  // not, every number must visit the same lights with the same probabilities.
+  const Receiver receiver{{0.5f, 0, 0.5f}, {0, 1, 0}};
+  const auto visits = [&](const LightSampler& sampler, float u) {
+    std::vector<std::pair<size_t, float>> visited;
+    sampler.forEachChoice(receiver, u, u, [&](LightSampler::Choice c) {
+      visited.emplace_back(c.index, c.probability);
+    });
+    return visited;
+  };
+  const auto withInfinite = [](std::vector<Light> lights, int count) {
+    for (int i = 0; i < count; ++i)
+      lights.emplace_back(infinite(i % 2 ? LightType::Dome : LightType::Distant, 1.0f + float(i)));
+    return lights;
+  };
+  struct Case {
+    int local, infinite;
+    bool random;
+  };
+  const Case cases[] = {{0, 0, false}, {1, 0, false}, {1, 2, false}, {0, 4, false},
+                        {2, 0, true},  {9, 1, true},  {0, 5, true},  {1, 6, true}};
+  for (const Case& c : cases) {
+    const std::vector<Light> lights = withInfinite(scatteredLights(c.local), c.infinite);
+    const LightSampler sampler(lights);
+    EXPECT_EQ(sampler.choosesAtRandom(), c.random) << c.local << " local, " << c.infinite;
+    if (sampler.choosesAtRandom()) continue;
+    for (const float u : {0.0f, 0.37f, 0.99f})
+      EXPECT_EQ(visits(sampler, u), visits(sampler, 0.5f)) << c.local << " local, " << u;
+  }
+}

@@ -83,6 +83,11 @@ class LightSampler {
     chooseLocal(receiver, uLocal, local);
     for (size_t i = 0; i < local.count; ++i) visit(local.choices[i]);
   }
+  /// Whether forEachChoice() reads its random numbers at all: with at most
+  /// kInfiniteLightsSampledEach infinite lights and one local light, every choice is certain.
+  bool choosesAtRandom() const {
+    return infinite_.size() > kInfiniteLightsSampledEach || nodes_.size() > 1;
+  }
   /// The probability that forEachChoice() visits light `index` at the receiver.
   float probability(const Receiver& receiver, size_t index) const;
   /// One infinite light, chosen in proportion to its estimated irradiance at the receiver.
