@@ -682,7 +682,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
     if (!sampleLights || settings.directLighting == DirectLighting::BsdfSamplingOnly) return;
     const LightSampler& lightSampler = scene.lights().lightSampler();
-    // Drawn only where they choose: most scenes have a lamp or two and a sky, each sampled.
+    // Drawn only where they choose something (one lamp, a sun and a sky are each sampled).
     const Vec2f lightChoices =
         lightSampler.choosesAtRandom() ? sampler.draw2D(choiceDimension) : Vec2f{0.0f, 0.0f};
     const auto sampleLight = [&](const LightSampler::Choice& choice) {
