@@ -526,6 +526,8 @@ def parse_args() -> argparse.Namespace:
         args.adaptive, args.adaptive_cap = [0.2, 0.1], 64
     if len(args.spp) < 2 or sorted(args.spp) != args.spp:
         parser.error("--spp needs at least two ascending sample counts")
+    if args.ray_cost_rounds < 1:
+        parser.error("--ray-cost-rounds needs at least one round")
     args.seeds = tuple(args.seeds)
     args.render_options = {"guiding_training_samples": args.guiding_training_samples}
     return args
