@@ -19,13 +19,11 @@
 //   local lights are sampled at a point among many lights.
 //   The root's two binary levels split many lights of different colours by colour rather than
 //   by place: the walk chooses by a grey power (LightBounds), so among many lights of every hue
-//   the colour of
-//   the few sampled at a point is most of the noise; one light from each colour group is much
-//   less so, while
-//   the walk below still chooses by place (with fewer lights per group the samples of a pixel
-//   already spread over them). The groups each span the lights' extent, so near its edge a
-//   point splits where it would not have by place (more shadow rays), and warm and cool lamps
-//   mixed are grouped by colour too.
+//   the colour of the few sampled at a point is most of the noise; one light from each colour
+//   group is much less so, while the walk below still chooses by place (with fewer lights per
+//   group the samples of a pixel already spread over them). The groups each span the lights'
+//   extent, so near its edge a point splits where it would not have by place (more shadow rays),
+//   and warm and cool lamps mixed are grouped by colour too.
 //
 // Each choice is a strategy of its own, so the estimate sums them. Every probability is a pure
 // function of (point, normal, light), so that the integrator can weigh emission met by
