@@ -683,8 +683,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     if (!sampleLights || settings.directLighting == DirectLighting::BsdfSamplingOnly) return;
     const LightSampler& lightSampler = scene.lights().lightSampler();
     // Drawn only where they choose something (one lamp, a sun and a sky are each sampled).
-    const Vec2f lightChoices =
-        lightSampler.choosesAtRandom() ? sampler.draw2D(choiceDimension) : Vec2f{0.0f, 0.0f};
+    const Sample4D lightChoices =
+        lightSampler.choosesAtRandom() ? sampler.draw4D(choiceDimension) : Sample4D{0, 0, 0, 0};
     const auto sampleLight = [&](const LightSampler::Choice& choice) {
       const Light& light = lights[choice.index];
       // A light whose light link excludes the vertex adds nothing: the estimate sums over the
@@ -725,7 +725,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                  spectrum.emission(sample->radiance) * (weight / lightPdf),
                              interactions, settings.indirectClamp));
     };
-    lightSampler.forEachChoice(receiver, lightChoices.x, lightChoices.y, sampleLight);
+    lightSampler.forEachChoice(receiver, lightChoices, sampleLight);
   };
 
   for (int bounce = 0;; ++bounce) {

@@ -281,7 +281,8 @@ bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
   return dot(offset, offset) < node.halfDiagonal2;
 }
 
-void LightSampler::chooseLocal(const Receiver& receiver, float u, LocalChoices& local) const {
+void LightSampler::chooseLocal(const Receiver& receiver, const Sample4D& u,
+                               LocalChoices& local) const {
   local.count = 0;
   if (nodes_.empty()) return;
   // The root's own importance is not asked first: a lone light's sample says itself where it
@@ -293,15 +294,20 @@ void LightSampler::chooseLocal(const Receiver& receiver, float u, LocalChoices& 
     float probability = 1;
     bool lost = false;  // none of the node's children's lights reach the receiver
   };
+  static_assert(kMaxLocalChoices == 4, "one number of the 4D draw per walk");
+  const float numbers[kMaxLocalChoices] = {u.y, u.z, u.w, u.x};
   Walk walks[kMaxLocalChoices];
   size_t count = 0;
   const Node& root = nodes_[0];
   if (splits(root, receiver)) {
     const std::array<float, kBranching> importance = root.childClusters.importance(receiver);
     for (int child = 0; child < kBranching; ++child)
-      if (importance[child] > 0) walks[count++] = Walk{root.children[child], u};
+      if (importance[child] > 0) {
+        walks[count] = Walk{root.children[child], numbers[count]};
+        ++count;
+      }
   } else {
-    walks[count++] = Walk{0, u};
+    walks[count++] = Walk{0, numbers[0]};
   }
   for (bool stepped = true; stepped;) {
     stepped = false;

@@ -16,7 +16,7 @@
 //   more. Where the point lies within the root's bounding sphere, the bound says least about
 //   which child gives more: there the walk splits and goes down every child of the root
 //   (adaptive tree splitting, Conty Estevez & Kulla 2018 §5), so that up to kMaxLocalChoices
-//   local lights are sampled at a point among many lights.
+//   local lights are sampled at a point among many lights, each walk with a number of its own.
 //   The root's two binary levels split many lights of different colours by colour rather than
 //   by place: the walk chooses by a grey power (LightBounds), so among many lights of every hue
 //   the colour of the few sampled at a point is most of the noise; one light from each colour
@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "penumbra/light.h"
+#include "penumbra/sampler.h"
 
 namespace penumbra {
 
@@ -66,19 +67,23 @@ class LightSampler {
   static constexpr uint32_t kMaxChoices = uint32_t(kInfiniteLightsSampledEach) + kMaxLocalChoices;
 
   /// Calls `visit(Choice)` for each light next-event estimation samples at the receiver (see
-  /// above), at most kMaxChoices times: `uInfinite` chooses among many infinite lights, `uLocal`
-  /// walks the tree. A choice's probability is that of its light within its set, so the caller
-  /// adds up what each choice gives.
+  /// above), at most kMaxChoices times, with the numbers of one 4D draw: `u.x` chooses among
+  /// many infinite lights; the walks down the tree take u.y, u.z, u.w and u.x in turn (a walk
+  /// that does not split, u.y). Walks split into the root's children each have a number of
+  /// their own: sharing one, children laid out alike (colour groups that each span the lights'
+  /// extent) pick lights on the same side of the receiver together, and their errors add up
+  /// instead of cancelling. A choice's probability is that of its light within its set, so the
+  /// caller adds up what each choice gives.
   template <class Visit>
-  void forEachChoice(const Receiver& receiver, float uInfinite, float uLocal, Visit&& visit) const {
+  void forEachChoice(const Receiver& receiver, const Sample4D& u, Visit&& visit) const {
     if (infinite_.size() <= kInfiniteLightsSampledEach) {
       uint32_t slot = 0;
       for (const InfiniteLight& light : infinite_) visit(Choice{light.index, 1.0f, slot++});
-    } else if (const std::optional<Choice> choice = sampleInfinite(receiver, uInfinite)) {
+    } else if (const std::optional<Choice> choice = sampleInfinite(receiver, u.x)) {
       visit(*choice);
     }
     LocalChoices local;
-    chooseLocal(receiver, uLocal, local);
+    chooseLocal(receiver, u, local);
     for (size_t i = 0; i < local.count; ++i) visit(local.choices[i]);
   }
   /// Whether forEachChoice() reads its random numbers at all: with at most
@@ -126,8 +131,9 @@ class LightSampler {
   /// into every child where the receiver lies within the root's bounding sphere, and goes on
   /// from each child (or from the root) with one choice per level. Those walks are stepped
   /// together, level by level, so that their independent chains of square roots and divisions
-  /// can overlap; each step weighs a node's children at once (LightClusters' lanes).
-  void chooseLocal(const Receiver& receiver, float u, LocalChoices& local) const;
+  /// can overlap; each step weighs a node's children at once (LightClusters' lanes). `u`: as
+  /// forEachChoice()'s.
+  void chooseLocal(const Receiver& receiver, const Sample4D& u, LocalChoices& local) const;
   /// Whether the receiver lies within `node`'s bounding sphere, where the walk goes down every
   /// child of the root.
   bool splits(const Node& node, const Receiver& receiver) const;
