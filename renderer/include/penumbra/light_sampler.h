@@ -72,8 +72,9 @@ class LightSampler {
   /// that does not split, u.y). Walks split into the root's children each have a number of
   /// their own: sharing one, children laid out alike (colour groups that each span the lights'
   /// extent) pick lights on the same side of the receiver together, and their errors add up
-  /// instead of cancelling. A choice's probability is that of its light within its set, so the
-  /// caller adds up what each choice gives.
+  /// instead of cancelling. (A fourth walk shares u.x with the choice among many infinite
+  /// lights, a sum of its own.) A choice's probability is that of its light within its set, so
+  /// the caller adds up what each choice gives.
   template <class Visit>
   void forEachChoice(const Receiver& receiver, const Sample4D& u, Visit&& visit) const {
     if (infinite_.size() <= kInfiniteLightsSampledEach) {
