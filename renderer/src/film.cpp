@@ -1,6 +1,7 @@
 #include "penumbra/film.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -217,9 +218,13 @@ double Film::squaredRelativeError(const Pixel& pixel) {
 }
 
 void Film::updateConvergence(float threshold) {
-  std::vector<double> error(pixels_.size());
-  for (size_t i = 0; i < pixels_.size(); ++i) error[i] = squaredRelativeError(pixels_[i]);
-  const double limit = double(threshold) * double(threshold);
+  // The relative variance of one sample, e²·n; infinite until a pixel has two samples.
+  std::vector<double> sampleVariance(pixels_.size());
+  for (size_t i = 0; i < pixels_.size(); ++i) {
+    const double error = squaredRelativeError(pixels_[i]);
+    sampleVariance[i] = std::isinf(error) ? error : error * pixels_[i].samples;
+  }
+  const double squaredThreshold = double(threshold) * double(threshold);
   const int width = region_.width, height = region_.height;
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) {
@@ -229,8 +234,10 @@ void Film::updateConvergence(float threshold) {
       int count = 0;
       for (int ny = std::max(0, y - 1); ny <= std::min(height - 1, y + 1); ++ny)
         for (int nx = std::max(0, x - 1); nx <= std::min(width - 1, x + 1); ++nx, ++count)
-          sum += error[size_t(ny) * size_t(width) + size_t(nx)];
-      if (sum / count < limit) {
+          sum += sampleVariance[size_t(ny) * size_t(width) + size_t(nx)];
+      // n ≥ √kThresholdSamples·σ/threshold, squared.
+      const double samples = pixels_[i].samples;
+      if (sum / count * kThresholdSamples < squaredThreshold * samples * samples) {
         active_[i] = 0;
         --activePixels_;
       }

@@ -76,14 +76,18 @@ class Film {
   /// Floats per pixel of a Cryptomatte AOV of `depth` ranks: whole RGBA layers of 2 ranks.
   static int cryptomatteChannels(int depth) { return 4 * ((depth + 1) / 2); }
 
-  /// Adaptive sampling: stops every active pixel whose estimated relative error is below
-  /// `threshold`. A pixel's error is the difference between the means of its even- and
-  /// odd-indexed samples (half of it estimates the standard error of the full mean), relative
-  /// to its value as rRMSE weighs it (|x − ref| / sqrt(ref² + 0.01)), averaged in squares over
-  /// its 3×3 neighbourhood so that one lucky estimate does not stop it. Call when every active
-  /// pixel has the same, even number of samples. The neighbourhood is the film's: in a crop of
-  /// a larger image, pixels within k pixels of a crop edge inside the image may decide
-  /// differently from the whole image's after k tests (see RenderPass's crop margin).
+  /// Adaptive sampling: stops every active pixel that has taken its share of samples. A pixel's
+  /// error e is the difference between the means of its even- and odd-indexed samples (half of
+  /// it estimates the standard error of the full mean), relative to its value as rRMSE weighs it
+  /// (|x − ref| / sqrt(ref² + 0.01)); its n samples give the spread of one sample, σ = e·√n,
+  /// averaged in squares over its 3×3 neighbourhood so that one lucky estimate does not stop it.
+  /// The pixel stops once n ≥ √kThresholdSamples·σ/threshold, i.e. once e < threshold·
+  /// √(n/kThresholdSamples): samples go in proportion to σ, which makes the image's mean squared
+  /// relative error the least for the samples spent (stopping at e < threshold instead, n ∝ σ²,
+  /// spends most samples on the noisiest few pixels). Call when every active pixel has the
+  /// same, even number of samples. The neighbourhood is the film's: in a crop of a larger
+  /// image, pixels within k pixels of a crop edge inside the image may decide differently from
+  /// the whole image's after k tests (see RenderPass's crop margin).
   void updateConvergence(float threshold);
   bool isActive(int x, int y) const {
     return active_[size_t(y) * size_t(region_.width) + size_t(x)];
@@ -116,6 +120,8 @@ class Film {
   };
   /// A pixel's squared relative error estimate (see updateConvergence).
   static double squaredRelativeError(const Pixel& pixel);
+  /// The sample count at which updateConvergence's threshold is the pixel's relative error.
+  static constexpr double kThresholdSamples = 16;
   /// Where an AOV's per-pixel data starts: in sums_ (filtered AOVs, variance) or in nearest_.
   struct Slot {
     AovRequest aov;
