@@ -43,7 +43,7 @@ class RenderPass {
   /// Syncs, then renders `samples` more samples per pixel. Sample indices continue where the
   /// previous call stopped, so execute(64) equals 4 × execute(16) bit for bit. With adaptive
   /// sampling, pixels are tested for convergence at fixed sample counts (adaptiveMinSamples, then
-  /// every eighth more, at least 4), whatever the calls' sizes.
+  /// each power of two above it), whatever the calls' sizes.
   /// Throws std::out_of_range if the camera is not in the render index. Setting `cancel` (from
   /// another thread) stops the render within a sample per thread: the accumulated samples are
   /// dropped (as by reset()) and RenderCancelled is thrown.
