@@ -93,7 +93,8 @@ std::vector<RenderOption> buildRenderOptions() {
   options.push_back(realOption("adaptiveThreshold", &Settings::adaptiveThreshold, 1, "T",
                                "adaptive sampling: pixels take samples in proportion to their "
                                "noise, each stopping once its estimated relative error is below "
-                               "T·√(n/16) after n samples (e.g. 0.05); --samples is then a cap"));
+                               "T*sqrt(n/16) after n samples (e.g. 0.05); --samples is then a "
+                               "cap"));
   options.push_back(integerOption("adaptiveMinSamples", &Settings::adaptiveMinSamples, 16, 2, "N",
                                   "samples every pixel takes before adaptive sampling may stop "
                                   "it"));

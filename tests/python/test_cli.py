@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -111,6 +112,19 @@ def test_usage_errors(tmp_path, capsys):
     assert main([str(CORNELL), str(tmp_path / "o.exr"), "-w", "0"]) == 2
     assert main(["--help"]) == 0
     assert "--samples" in capsys.readouterr().out
+
+
+def test_help_prints_where_the_terminal_takes_only_ascii():
+    """Every option's help is ASCII: --help must not fail where stdout cannot encode more."""
+    result = subprocess.run(
+        [sys.executable, "-m", "penumbra.cli", "--help"],
+        env={**os.environ, "PYTHONIOENCODING": "ascii"},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "--adaptiveThreshold" in result.stdout
 
 
 def test_missing_and_unreadable_files(tmp_path, capsys):
