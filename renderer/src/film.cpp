@@ -1,7 +1,6 @@
 #include "penumbra/film.h"
 
 #include <algorithm>
-#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -203,7 +202,7 @@ std::vector<float> Film::resolveColor() const {
   return rgba;
 }
 
-double Film::squaredRelativeError(const Pixel& pixel) {
+double Film::sampleRelativeVariance(const Pixel& pixel) {
   if (pixel.samples < 2) return kInfinity;
   const double half = 0.5 * pixel.samples;
   double sum = 0;
@@ -214,16 +213,13 @@ double Film::squaredRelativeError(const Pixel& pixel) {
     const double halfDifference = 0.5 * (even - (all - even)) / half;
     sum += halfDifference * halfDifference / (mean * mean + 0.01);
   }
-  return sum / 3;
+  return sum / 3 * pixel.samples;  // e² of the mean, times n
 }
 
 void Film::updateConvergence(float threshold) {
-  // The relative variance of one sample, e²·n; infinite until a pixel has two samples.
   std::vector<double> sampleVariance(pixels_.size());
-  for (size_t i = 0; i < pixels_.size(); ++i) {
-    const double error = squaredRelativeError(pixels_[i]);
-    sampleVariance[i] = std::isinf(error) ? error : error * pixels_[i].samples;
-  }
+  for (size_t i = 0; i < pixels_.size(); ++i)
+    sampleVariance[i] = sampleRelativeVariance(pixels_[i]);
   const double squaredThreshold = double(threshold) * double(threshold);
   const int width = region_.width, height = region_.height;
   for (int y = 0; y < height; ++y)

@@ -118,8 +118,9 @@ class Film {
     uint32_t samples = 0;
     uint64_t rays = 0;
   };
-  /// A pixel's squared relative error estimate (see updateConvergence).
-  static double squaredRelativeError(const Pixel& pixel);
+  /// The relative variance of one of a pixel's samples, e²·n (see updateConvergence); infinite
+  /// below two samples.
+  static double sampleRelativeVariance(const Pixel& pixel);
   /// The sample count at which updateConvergence's threshold is the pixel's relative error.
   static constexpr double kThresholdSamples = 16;
   /// Where an AOV's per-pixel data starts: in sums_ (filtered AOVs, variance) or in nearest_.
