@@ -262,7 +262,7 @@ def converged_image(stage: Usd.Stage, name: str, args: argparse.Namespace) -> np
     cache, seed = args.converged_cache, max(args.seeds) + 1  # a seed neither ladder uses
     key = (f"{name}_{args.width}px_{args.converged_spp}spp_seed{seed}"
            f"_clamp{args.indirect_clamp:g}_glossy{args.glossy_filter:g}"
-           f"_guiding{args.guiding_training_samples}")
+           f"_guiding{args.guiding_training_samples}_branches{args.indirect_samples}")
     if cache is not None and (cache / f"{key}.npy").is_file():
         rendered_at = json.loads((cache / f"{key}.json").read_text())["commit"]
         progress(f"{name}: converged image read from {cache / key}.npy (commit {rendered_at})")
@@ -340,6 +340,8 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
         clamp += f", glossy filter {args.glossy_filter:g}"
     if args.guiding_training_samples:
         clamp += f", path guiding trained on {args.guiding_training_samples} spp"
+    if args.indirect_samples > 1:
+        clamp += f", {args.indirect_samples} indirect samples"
     print(f"Shared scenes, {args.width} px wide, spp ladder {', '.join(map(str, args.spp))}, "
           f"seeds {args.seeds[0]} and {args.seeds[1]}, {clamp}; converged: "
           f"{args.converged_spp or 'not'} rendered; * extrapolated beyond the ladder.\n")
@@ -505,6 +507,9 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--guiding-training-samples", type=int, default=0,
                         help="render everything with path guiding trained on this many spp "
                         "(docs/path-guiding.md; 0: off, the default)")
+    parser.add_argument("--indirect-samples", type=int, default=1,
+                        help="render everything with this many paths from each camera ray's "
+                        "first surface (docs/branching.md; 1: no branching, the default)")
     parser.add_argument("--cycles-json", type=Path,
                         help="Cycles' numbers measured on this machine by "
                         "bench/cycles_scenes.py --json, instead of ../shared/cycles/README.md's")
@@ -529,7 +534,8 @@ def parse_args() -> argparse.Namespace:
     if args.ray_cost_rounds < 1:
         parser.error("--ray-cost-rounds needs at least one round")
     args.seeds = tuple(args.seeds)
-    args.render_options = {"guiding_training_samples": args.guiding_training_samples}
+    args.render_options = {"guiding_training_samples": args.guiding_training_samples,
+                           "indirect_samples": args.indirect_samples}
     return args
 
 

@@ -144,6 +144,7 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
   renderSettings.integrator.indirectClamp = settings.indirectClamp;
   renderSettings.integrator.glossyFilter = settings.glossyFilter;
+  renderSettings.integrator.indirectSamples = settings.indirectSamples;
   const int trainingSamples = settings.guidingTrainingSamples;
   const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {

@@ -4,6 +4,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "penumbra/integrator.h"
 #include "penumbra/texture.h"
 
 namespace penumbra::plugin {
@@ -106,6 +107,12 @@ std::vector<RenderOption> buildRenderOptions() {
                                "blur sharp reflection and refraction lobes met after rougher "
                                "bounces, as Cycles' filter glossy (Cycles' default: 1): caustics "
                                "converge sooner, biased"));
+  RenderOption& indirectSamples = options.emplace_back(integerOption(
+      "indirectSamples", &Settings::indirectSamples, 1, 1, "N",
+      "paths that go on from each camera ray's first surface (branched path tracing): its "
+      "indirect light is their mean, for the cost of one camera ray and its direct light; "
+      "unbiased, fewer camera samples for the same indirect noise (docs/branching.md)"));
+  indirectSamples.maximum = penumbra::kMaxIndirectSamples;
   RenderOption& guiding = options.emplace_back(integerOption(
       "guidingTrainingSamples", &Settings::guidingTrainingSamples, 0, 0, "N",
       "path guiding: the first N samples per pixel learn where indirect light comes from, and "

@@ -613,13 +613,62 @@ void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
   record->instancePrimvars = hit->instancePrimvars;
 }
 
+/// What a path carries from vertex to vertex. Copied where it branches at its first surface
+/// (IntegratorSettings::indirectSamples): each branch then goes on with random numbers of its own.
+struct PathState {
+  explicit PathState(const SampleStream& stream) : sampler(stream) {}
+
+  SampleStream sampler;
+  /// Added to the purposes of the path's random streams (volumes, subsurface walks): a branch's
+  /// differ from every other branch's and from an unbranched path's.
+  uint32_t streamPurposeOffset = 0;
+  float share = 1;  // of the camera sample's light that the path carries: 1 / its branches
+  PathSpectrum spectrum;
+  Ray ray;
+  RayCone cone;
+  Vec3f throughput{1.0f};
+  ScatteringRecord scattering;
+  int diffuseBounces = 0, glossyBounces = 0, transmissionBounces = 0, volumeBounces = 0;
+  RayKind rayKind = RayKind::Camera;  // which objects the ray may see (PassVisibility)
+  bool lastVertex = false;      // a lobe's depth is exhausted: only collect what the ray reaches
+  float minRayPdf = kInfinity;  // the smallest density of a scattered direction so far
+  // Volumes: their decisions take as many random numbers as the medium asks, from a stream of
+  // their own so that the sampler's dimensions stay aligned with the path's vertices.
+  std::optional<RandomStream> volumeRandom;
+
+  /// Turns the path at its first surface into branch `branch` of `branches` of camera sample
+  /// `sampleIndex`: its dimensions from here on take sample index sampleIndex · branches +
+  /// branch, so that a pixel's branches together are as well stratified as its camera samples.
+  void branchOff(int branch, int branches, uint32_t seed, int x, int y, uint32_t sampleIndex) {
+    sampler = sampler.atSample(sampleIndex * uint32_t(branches) + uint32_t(branch));
+    streamPurposeOffset = uint32_t(branch + 1) << 24;  // above every vertex's purpose
+    share = 1.0f / float(branches);
+    if (volumeRandom)
+      volumeRandom.emplace(seed, uint32_t(x), uint32_t(y), sampleIndex, streamPurposeOffset);
+  }
+};
+
 }  // namespace
 
 CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                                 int x, int y, uint32_t sampleIndex,
                                 const IntegratorSettings& settings,
                                 FirstHitSample* firstHitRecord) {
-  SampleStream sampler(settings.seed, uint32_t(x), uint32_t(y), sampleIndex);
+  PathState path(SampleStream(settings.seed, uint32_t(x), uint32_t(y), sampleIndex));
+  // The loop below reads and writes the path through these names; a branch that waits its turn
+  // (at most kMaxIndirectSamples - 1 of them) is copied into `path` when it begins.
+  SampleStream& sampler = path.sampler;
+  PathSpectrum& spectrum = path.spectrum;
+  Ray& ray = path.ray;
+  RayCone& cone = path.cone;
+  Vec3f& throughput = path.throughput;
+  ScatteringRecord& scattering = path.scattering;
+  int &diffuseBounces = path.diffuseBounces, &glossyBounces = path.glossyBounces,
+      &transmissionBounces = path.transmissionBounces, &volumeBounces = path.volumeBounces;
+  RayKind& rayKind = path.rayKind;
+  bool& lastVertex = path.lastVertex;
+  float& minRayPdf = path.minRayPdf;
+  std::optional<RandomStream>& volumeRandom = path.volumeRandom;
   // Where on the pixel and where on the lens are stratified jointly: with depth of field, each
   // pixel sees the scene through the whole lens. So are shutter time and wavelength.
   const Sample4D pixelAndLens = sampler.next4D();
@@ -627,13 +676,12 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   const Vec2f lensSample{pixelAndLens.z, pixelAndLens.w};
   const Vec2f timeAndWavelength = sampler.next2D();
   const float shutterTime = timeAndWavelength.x;
-  PathSpectrum spectrum;
   if (scene.materials().spectral()) {
     spectrum.spectral = true;
     spectrum.wavelengths = sampleWavelengths(timeAndWavelength.y);
   }
-  Ray ray = camera.generateRay(float(x) + 0.5f + filterOffset.x, float(y) + 0.5f + filterOffset.y,
-                               lensSample, shutterTime);
+  ray = camera.generateRay(float(x) + 0.5f + filterOffset.x, float(y) + 0.5f + filterOffset.y,
+                           lensSample, shutterTime);
 
   CameraSample result;
   const CameraSampleView cameraSample{settings.lightImages, x, y, lensSample, shutterTime};
@@ -645,24 +693,18 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   GuidingTrainer trainer;
   // Every light the sample gathers goes through here, so that training sees it too.
   const auto addLight = [&](const Vec3f& light) {
-    result.radiance += light;
+    result.radiance += light * path.share;
     if (training) trainer.addLight(light);
   };
-  RayCone cone = camera.pixelCone();
-  Vec3f throughput{1.0f};
-  ScatteringRecord scattering;
-  int diffuseBounces = 0, glossyBounces = 0, transmissionBounces = 0;
-  RayKind rayKind = RayKind::Camera;  // which objects the ray may see (PassVisibility)
-  bool lastVertex = false;      // a lobe's depth is exhausted: only collect what the ray reaches
-  float minRayPdf = kInfinity;  // the smallest density of a scattered direction so far
+  cone = camera.pixelCone();
   const std::vector<Light>& lights = scene.lights().all();
-  // Volumes: their decisions take as many random numbers as the medium asks, from a stream of
-  // their own so that the sampler's dimensions stay aligned with the path's vertices.
   const bool hasVolumes = !scene.volumes().empty();
-  std::optional<RandomStream> volumeRandom;
   if (hasVolumes) volumeRandom.emplace(settings.seed, uint32_t(x), uint32_t(y), sampleIndex, 0);
   const MediumSpectrum mediumSpectrum{spectrum.spectral ? &spectrum.wavelengths : nullptr};
-  int volumeBounces = 0;
+  // Branching at the first surface (not while training: the trainer follows one path).
+  const int branches = training ? 1 : settings.indirectSamples;
+  std::array<std::optional<PathState>, kMaxIndirectSamples - 1> waitingBranches;
+  size_t waitingCount = 0;
   // The share of light that a shadow ray towards `tFar` carries through the volumes.
   // `linkSlot`: the light's (its shadow link may let the ray pass some volumes).
   const auto volumeTransmittance = [&](const Ray& shadow, float tFar, int linkSlot) {
@@ -728,206 +770,231 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     lightSampler.forEachChoice(receiver, lightChoices, sampleLight);
   };
 
-  for (int bounce = 0;; ++bounce) {
-    const std::optional<SurfaceHit> hit = intersectSurface(scene, ray, rayKind, cone);
-    ++result.rays;
-    // The volumes between the ray's origin and the surface: the ray may scatter or end there.
-    FlightOutcome flight = FlightOutcome::Passed;
-    MediumScattering mediumPoint;
-    const Vec3f throughputBeforeFlight = throughput;
-    if (hasVolumes) {
-      Vec3f mediumEmission{0.0f};
-      flight =
-          sampleFreeFlight(scene.volumes(), ray, hit ? hit->distance : ray.tFar, mediumSpectrum,
-                           *volumeRandom, &throughput, &mediumEmission, &mediumPoint);
-      addLight(clampIndirect(mediumEmission, bounce, settings.indirectClamp));
-    }
-    const bool passed = flight == FlightOutcome::Passed;
-    if (hit && passed) throughput *= glassTransmittance(*hit, ray.direction, spectrum);
-    float nearestLight = kInfinity;
-    bool sawLight = false;
-    // Light met by this ray has `bounce` interactions behind it, plus its emission. Lights in
-    // front of a collision in a medium take the path's weight from before the flight (exact
-    // for grey media, whose tracking leaves the weight as it is).
-    addLight(clampIndirect((passed ? throughput : throughputBeforeFlight) *
-                               emittedAlongRay(scene, ray,
-                                               !passed ? mediumPoint.distance
-                                               : hit   ? hit->distance
-                                                       : ray.tFar,
-                                               !hit && passed, scattering, settings.directLighting,
-                                               spectrum, cameraSample, &nearestLight, &sawLight),
-                           bounce, settings.indirectClamp));
-    // What the ray stops at: the surface, or the medium where it collided.
-    const SurfaceHit* surface = hit && passed ? &*hit : nullptr;
-    if (bounce == 0) {
-      const float stop = !passed ? mediumPoint.distance : hit ? hit->distance : kInfinity;
-      const float firstHit = std::min(stop, nearestLight);
-      if (firstHit < kInfinity) result.depth = camera.viewDepth(ray, firstHit);
-      if (hit || sawLight || !passed) result.alpha = 1;
-      if (firstHitRecord) {
-        firstHitRecord->filterOffset = filterOffset;
-        // A holdout sets the distances only: it is no surface of the image.
-        recordFirstHit(camera, ray, surface && !surface->matte ? surface : nullptr, firstHit,
-                       firstHitRecord);
+  // The camera sample's path, then each branch it left waiting at its first surface.
+  for (int firstBounce = 0;; firstBounce = 1) {
+    for (int bounce = firstBounce;; ++bounce) {
+      const std::optional<SurfaceHit> hit = intersectSurface(scene, ray, rayKind, cone);
+      ++result.rays;
+      // The volumes between the ray's origin and the surface: the ray may scatter or end there.
+      FlightOutcome flight = FlightOutcome::Passed;
+      MediumScattering mediumPoint;
+      const Vec3f throughputBeforeFlight = throughput;
+      if (hasVolumes) {
+        Vec3f mediumEmission{0.0f};
+        flight =
+            sampleFreeFlight(scene.volumes(), ray, hit ? hit->distance : ray.tFar, mediumSpectrum,
+                             *volumeRandom, &throughput, &mediumEmission, &mediumPoint);
+        addLight(clampIndirect(mediumEmission, bounce, settings.indirectClamp));
       }
-      // A holdout: what lies behind it is hidden, and only lights in front of it count.
-      if (surface && surface->matte) {
-        result.alpha = sawLight ? 1 : 0;
-        break;
+      const bool passed = flight == FlightOutcome::Passed;
+      if (hit && passed) throughput *= glassTransmittance(*hit, ray.direction, spectrum);
+      float nearestLight = kInfinity;
+      bool sawLight = false;
+      // Light met by this ray has `bounce` interactions behind it, plus its emission. Lights in
+      // front of a collision in a medium take the path's weight from before the flight (exact
+      // for grey media, whose tracking leaves the weight as it is).
+      addLight(
+          clampIndirect((passed ? throughput : throughputBeforeFlight) *
+                            emittedAlongRay(scene, ray,
+                                            !passed ? mediumPoint.distance
+                                            : hit   ? hit->distance
+                                                    : ray.tFar,
+                                            !hit && passed, scattering, settings.directLighting,
+                                            spectrum, cameraSample, &nearestLight, &sawLight),
+                        bounce, settings.indirectClamp));
+      // What the ray stops at: the surface, or the medium where it collided.
+      const SurfaceHit* surface = hit && passed ? &*hit : nullptr;
+      if (bounce == 0) {
+        const float stop = !passed ? mediumPoint.distance : hit ? hit->distance : kInfinity;
+        const float firstHit = std::min(stop, nearestLight);
+        if (firstHit < kInfinity) result.depth = camera.viewDepth(ray, firstHit);
+        if (hit || sawLight || !passed) result.alpha = 1;
+        if (firstHitRecord) {
+          firstHitRecord->filterOffset = filterOffset;
+          // A holdout sets the distances only: it is no surface of the image.
+          recordFirstHit(camera, ray, surface && !surface->matte ? surface : nullptr, firstHit,
+                         firstHitRecord);
+        }
+        // A holdout: what lies behind it is hidden, and only lights in front of it count.
+        if (surface && surface->matte) {
+          result.alpha = sawLight ? 1 : 0;
+          break;
+        }
       }
-    }
-    if (flight == FlightOutcome::Absorbed) break;
-    if (flight == FlightOutcome::Scattered) {
-      // A scattering event in a medium: light is estimated there as at a surface, with the
-      // phase function in the BSDF's place and no normal to face.
-      if (bounce >= settings.maxPathDepth || lastVertex || volumeBounces >= settings.maxVolumeDepth)
-        break;
-      const HenyeyGreenstein phase(mediumPoint.anisotropy);
-      const Receiver receiver{mediumPoint.position, Vec3f()};
-      estimateDirectLight(MediumVertex{phase, ray.direction, mediumPoint.position, ray.time},
-                          receiver, true, bounce + 1, mediumPoint.linkingClass);
-      // Phase sampling continues the path; its weight f / pdf is 1.
-      const Sample4D phaseSample = sampler.next4D();
-      const Vec3f direction = phase.sample(ray.direction, {phaseSample.y, phaseSample.z});
-      const float pdf = phase.evaluate(ray.direction, direction);
-      minRayPdf = std::min(minRayPdf, pdf);
-      scattering = {pdf, true, true, receiver, mediumPoint.linkingClass};
-      rayKind = RayKind::Diffuse;  // as the lights' diffuse multiplier takes it
-      lastVertex = ++volumeBounces >= settings.maxVolumeDepth;
-      if (bounce >= 3 && maxComponent(throughput) < 1) {
-        const float survival = maxComponent(throughput);
-        if (phaseSample.w >= survival) break;
-        throughput *= 1 / survival;
+      if (flight == FlightOutcome::Absorbed) break;
+      if (flight == FlightOutcome::Scattered) {
+        // A scattering event in a medium: light is estimated there as at a surface, with the
+        // phase function in the BSDF's place and no normal to face.
+        if (bounce >= settings.maxPathDepth || lastVertex ||
+            volumeBounces >= settings.maxVolumeDepth)
+          break;
+        const HenyeyGreenstein phase(mediumPoint.anisotropy);
+        const Receiver receiver{mediumPoint.position, Vec3f()};
+        estimateDirectLight(MediumVertex{phase, ray.direction, mediumPoint.position, ray.time},
+                            receiver, true, bounce + 1, mediumPoint.linkingClass);
+        // Phase sampling continues the path; its weight f / pdf is 1.
+        const Sample4D phaseSample = sampler.next4D();
+        const Vec3f direction = phase.sample(ray.direction, {phaseSample.y, phaseSample.z});
+        const float pdf = phase.evaluate(ray.direction, direction);
+        minRayPdf = std::min(minRayPdf, pdf);
+        scattering = {pdf, true, true, receiver, mediumPoint.linkingClass};
+        rayKind = RayKind::Diffuse;  // as the lights' diffuse multiplier takes it
+        lastVertex = ++volumeBounces >= settings.maxVolumeDepth;
+        if (bounce >= 3 && maxComponent(throughput) < 1) {
+          const float survival = maxComponent(throughput);
+          if (phaseSample.w >= survival) break;
+          throughput *= 1 / survival;
+        }
+        if (isBlack(throughput)) break;
+        cone.width = cone.radiusAt(mediumPoint.distance);
+        ray.origin = mediumPoint.position;
+        ray.direction = direction;
+        ray.tNear = 0;
+        ray.tFar = kInfinity;
+        continue;
       }
-      if (isBlack(throughput)) break;
-      cone.width = cone.radiusAt(mediumPoint.distance);
-      ray.origin = mediumPoint.position;
-      ray.direction = direction;
-      ray.tNear = 0;
-      ray.tFar = kInfinity;
-      continue;
-    }
-    if (!hit) break;
-    if (!isBlack(hit->emission)) {
-      // A mesh light's surface: weigh against sampling that light, as for the other lights.
-      float weight = 1;
-      if (hit->lightIndex >= 0) {
-        const size_t index = size_t(hit->lightIndex);
-        weight =
-            lightReaches(scene, scattering, index)
-                ? bsdfStrategyWeight(scene, scattering, index,
-                                     lights[index].meshPdf(ray.origin, hit->position, hit->normal),
-                                     settings.directLighting)
-                : 0.0f;
-        if (scattering.fromSurface)
-          weight *= scattering.diffuse ? lights[index].diffuseMultiplier()
-                                       : lights[index].specularMultiplier();
+      if (!hit) break;
+      if (!isBlack(hit->emission)) {
+        // A mesh light's surface: weigh against sampling that light, as for the other lights.
+        float weight = 1;
+        if (hit->lightIndex >= 0) {
+          const size_t index = size_t(hit->lightIndex);
+          weight = lightReaches(scene, scattering, index)
+                       ? bsdfStrategyWeight(
+                             scene, scattering, index,
+                             lights[index].meshPdf(ray.origin, hit->position, hit->normal),
+                             settings.directLighting)
+                       : 0.0f;
+          if (scattering.fromSurface)
+            weight *= scattering.diffuse ? lights[index].diffuseMultiplier()
+                                         : lights[index].specularMultiplier();
+        }
+        addLight(clampIndirect(throughput * spectrum.emission(hit->emission) * weight, bounce,
+                               settings.indirectClamp));
       }
-      addLight(clampIndirect(throughput * spectrum.emission(hit->emission) * weight, bounce,
-                             settings.indirectClamp));
-    }
-    if (bounce >= settings.maxPathDepth || lastVertex) break;
-    const Vec3f wo = -ray.direction;
-    float ior = hit->material.ior;
-    if (spectrum.spectral && !hit->material.hair && hit->material.abbeNumber > 0 &&
-        hit->material.opacity < 1) {
-      // A dispersive interface sends each wavelength its own way: only the hero's path goes on.
-      spectrum.wavelengths.keepHeroOnly();
-      throughput = {throughput.x, 0, 0};
-      ior = dispersiveIor(ior, hit->material.abbeNumber, spectrum.wavelengths.hero());
-    }
-    const Vec3f facingNormal =
-        dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
-    const SurfaceBsdf surfaceBsdf = makeBsdf(*hit, scene.materials(), spectrum, ior,
-                                             filteredAlpha(settings.glossyFilter, minRayPdf));
-    const bool guided = (settings.guidingField || training) && guidable(*hit, surfaceBsdf);
-    const GuidedBsdf bsdf(surfaceBsdf, guided && settings.guidingField
-                                           ? settings.guidingField->at(hit->position, facingNormal)
-                                           : nullptr);
+      if (bounce >= settings.maxPathDepth || lastVertex) break;
+      const Vec3f wo = -ray.direction;
+      float ior = hit->material.ior;
+      if (spectrum.spectral && !hit->material.hair && hit->material.abbeNumber > 0 &&
+          hit->material.opacity < 1) {
+        // A dispersive interface sends each wavelength its own way: only the hero's path goes on.
+        spectrum.wavelengths.keepHeroOnly();
+        throughput = {throughput.x, 0, 0};
+        ior = dispersiveIor(ior, hit->material.abbeNumber, spectrum.wavelengths.hero());
+      }
+      const Vec3f facingNormal =
+          dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
+      const SurfaceBsdf surfaceBsdf = makeBsdf(*hit, scene.materials(), spectrum, ior,
+                                               filteredAlpha(settings.glossyFilter, minRayPdf));
+      const bool guided = (settings.guidingField || training) && guidable(*hit, surfaceBsdf);
+      const GuidedBsdf bsdf(surfaceBsdf,
+                            guided && settings.guidingField
+                                ? settings.guidingField->at(hit->position, facingNormal)
+                                : nullptr);
 
-    // Lights on the surface's front and back count for translucent surfaces.
-    const Receiver receiver{hit->position, surfaceBsdf.hasTransmission() ? Vec3f() : facingNormal};
-    estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
-                        !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass);
+      // Lights on the surface's front and back count for translucent surfaces.
+      const Receiver receiver{hit->position,
+                              surfaceBsdf.hasTransmission() ? Vec3f() : facingNormal};
+      estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
+                          !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass);
 
-    // BSDF sampling continues the path; the lobe and the direction in it are stratified jointly.
-    const Sample4D scatteringSample = sampler.next4D();
-    const float lobeChoice = scatteringSample.x;
-    const Vec2f directionSample{scatteringSample.y, scatteringSample.z};
-    const float rouletteSample = scatteringSample.w;
-    const std::optional<BsdfSample> scattered = bsdf.sample(wo, lobeChoice, directionSample);
-    if (!scattered || isBlack(scattered->weight)) break;
-    // A direction on the other side of the geometric surface than the lobe intends (possible
-    // with shading normals) would leak light through the surface.
-    if ((dot(scattered->direction, hit->normal) * dot(wo, hit->normal) < 0) !=
-        scattered->transmitted)
-      break;
-    throughput *= scattered->weight;
-    if (training && guided && !scattered->isDelta)
-      trainer.addVertex(hit->position, facingNormal, *scattered, throughput, bounce);
-    // Where the path goes on from: here, or where a subsurface random walk left the solid.
-    BsdfSample next = *scattered;
-    Receiver nextReceiver = receiver;
-    const auto walk = [&] {
-      // The walk takes as many random numbers as it scatters: a stream of its own per vertex.
-      RandomStream walkRandom(settings.seed, uint32_t(x), uint32_t(y), sampleIndex,
-                              1 + uint32_t(bounce));
-      return subsurfaceRandomWalk(scene, *hit, scattered->direction,
-                                  subsurfaceMediumAt(*hit, spectrum), walkRandom, ray.time);
-    };
-    // Initialised as it is returned: an empty std::optional of this size that is assigned to
-    // later is cleared first (some 460 bytes at every vertex).
-    const std::optional<SubsurfaceExit> exit =
-        scattered->lobe == BsdfLobe::Subsurface ? walk() : std::nullopt;
-    if (scattered->lobe == BsdfLobe::Subsurface) {
-      // A walk that met another object inside the solid ends there: the light it carried is
-      // lost (a little dark where objects are embedded) rather than let into that object.
-      if (!exit || !exit->sameObject) break;
-      throughput *= exit->weight;
-      // Light leaves through a white Lambertian lobe facing out of the solid: lights are
-      // sampled there, and the path goes on from it. Entry, walk and exit are one interaction
-      // of the path (as the light they add is counted, for the indirect clamp).
-      const Vec3f outward =
-          dot(exit->direction, exit->hit.normal) >= 0 ? exit->hit.normal : -exit->hit.normal;
-      const LambertianExit lambert(outward);
-      nextReceiver = {exit->hit.position, outward};
-      estimateDirectLight(surfaceVertex(scene, exit->hit, lambert, outward, ray.time), nextReceiver,
-                          true, bounce + 1, exit->hit.linkingClass);
-      const Sample4D exitSample = sampler.next4D();
-      next = lambert.sample({exitSample.y, exitSample.z});
-      if (!(next.pdf > 0)) break;
+      // BSDF sampling continues the path (false: it ends here).
+      const auto scatter = [&]() -> bool {
+        // The lobe and the direction in it are stratified jointly.
+        const Sample4D scatteringSample = sampler.next4D();
+        const float lobeChoice = scatteringSample.x;
+        const Vec2f directionSample{scatteringSample.y, scatteringSample.z};
+        const float rouletteSample = scatteringSample.w;
+        const std::optional<BsdfSample> scattered = bsdf.sample(wo, lobeChoice, directionSample);
+        if (!scattered || isBlack(scattered->weight)) return false;
+        // A direction on the other side of the geometric surface than the lobe intends (possible
+        // with shading normals) would leak light through the surface.
+        if ((dot(scattered->direction, hit->normal) * dot(wo, hit->normal) < 0) !=
+            scattered->transmitted)
+          return false;
+        throughput *= scattered->weight;
+        if (training && guided && !scattered->isDelta)
+          trainer.addVertex(hit->position, facingNormal, *scattered, throughput, bounce);
+        // Where the path goes on from: here, or where a subsurface random walk left the solid.
+        BsdfSample next = *scattered;
+        Receiver nextReceiver = receiver;
+        const auto walk = [&] {
+          // The walk takes as many random numbers as it scatters: a stream of its own per vertex.
+          RandomStream walkRandom(settings.seed, uint32_t(x), uint32_t(y), sampleIndex,
+                                  path.streamPurposeOffset + 1 + uint32_t(bounce));
+          return subsurfaceRandomWalk(scene, *hit, scattered->direction,
+                                      subsurfaceMediumAt(*hit, spectrum), walkRandom, ray.time);
+        };
+        // Initialised as it is returned: an empty std::optional of this size that is assigned to
+        // later is cleared first (some 460 bytes at every vertex).
+        const std::optional<SubsurfaceExit> exit =
+            scattered->lobe == BsdfLobe::Subsurface ? walk() : std::nullopt;
+        if (scattered->lobe == BsdfLobe::Subsurface) {
+          // A walk that met another object inside the solid ends there: the light it carried is
+          // lost (a little dark where objects are embedded) rather than let into that object.
+          if (!exit || !exit->sameObject) return false;
+          throughput *= exit->weight;
+          // Light leaves through a white Lambertian lobe facing out of the solid: lights are
+          // sampled there, and the path goes on from it. Entry, walk and exit are one interaction
+          // of the path (as the light they add is counted, for the indirect clamp).
+          const Vec3f outward =
+              dot(exit->direction, exit->hit.normal) >= 0 ? exit->hit.normal : -exit->hit.normal;
+          const LambertianExit lambert(outward);
+          nextReceiver = {exit->hit.position, outward};
+          estimateDirectLight(surfaceVertex(scene, exit->hit, lambert, outward, ray.time),
+                              nextReceiver, true, bounce + 1, exit->hit.linkingClass);
+          const Sample4D exitSample = sampler.next4D();
+          next = lambert.sample({exitSample.y, exitSample.z});
+          if (!(next.pdf > 0)) return false;
+        }
+        if (!next.isDelta) minRayPdf = std::min(minRayPdf, next.pdf);
+        scattering = {next.isDelta ? 0.0f : next.pdf, true, next.lobe == BsdfLobe::Diffuse,
+                      nextReceiver, exit ? exit->hit.linkingClass : hit->linkingClass};
+        // A subsurface walk counts as one diffuse bounce.
+        const bool diffuseLobe =
+            scattered->lobe == BsdfLobe::Diffuse || scattered->lobe == BsdfLobe::Subsurface;
+        int& lobeBounces = diffuseLobe                                 ? diffuseBounces
+                           : scattered->lobe == BsdfLobe::Transmission ? transmissionBounces
+                                                                       : glossyBounces;
+        const int lobeLimit = diffuseLobe ? settings.maxDiffuseDepth
+                              : scattered->lobe == BsdfLobe::Transmission
+                                  ? settings.maxTransmissionDepth
+                                  : settings.maxGlossyDepth;
+        lastVertex = ++lobeBounces >= lobeLimit;
+        // A subsurface walk leaves by its Lambertian exit: a diffuse ray.
+        rayKind = diffuseLobe                                 ? RayKind::Diffuse
+                  : scattered->lobe == BsdfLobe::Transmission ? RayKind::Transmission
+                                                              : RayKind::Glossy;
+        // Russian roulette once paths are long enough to be dim, in proportion to what they still
+        // carry; paths as bright as a camera ray's (glass, mirrors) are never cut, since cutting
+        // them saves little and adds the most variance. Survivors are reweighted.
+        if (bounce >= 3 && maxComponent(throughput) < 1) {
+          const float survival = maxComponent(throughput);
+          if (rouletteSample >= survival) return false;
+          throughput *= 1 / survival;
+        }
+        if (isBlack(throughput)) return false;
+        // The footprint keeps widening at the camera's rate; surface curvature and roughness,
+        // which would widen it further, are ignored.
+        cone.width = cone.radiusAt(hit->distance);
+        ray = spawnRay(scene, exit ? exit->hit : *hit, next.direction, kInfinity, ray.time);
+        return true;
+      };
+      if (bounce == 0 && branches > 1) {
+        // Each branch scatters from here on its own; the first goes on now, the others wait.
+        const PathState atSurface = path;
+        for (int branch = branches - 1; branch > 0; --branch) {
+          path = atSurface;
+          path.branchOff(branch, branches, settings.seed, x, y, sampleIndex);
+          if (scatter()) waitingBranches[waitingCount++] = path;
+        }
+        path = atSurface;
+        path.branchOff(0, branches, settings.seed, x, y, sampleIndex);
+      }
+      if (!scatter()) break;
     }
-    if (!next.isDelta) minRayPdf = std::min(minRayPdf, next.pdf);
-    scattering = {next.isDelta ? 0.0f : next.pdf, true, next.lobe == BsdfLobe::Diffuse,
-                  nextReceiver, exit ? exit->hit.linkingClass : hit->linkingClass};
-    // A subsurface walk counts as one diffuse bounce.
-    const bool diffuseLobe =
-        scattered->lobe == BsdfLobe::Diffuse || scattered->lobe == BsdfLobe::Subsurface;
-    int& lobeBounces = diffuseLobe                                 ? diffuseBounces
-                       : scattered->lobe == BsdfLobe::Transmission ? transmissionBounces
-                                                                   : glossyBounces;
-    const int lobeLimit = diffuseLobe ? settings.maxDiffuseDepth
-                          : scattered->lobe == BsdfLobe::Transmission
-                              ? settings.maxTransmissionDepth
-                              : settings.maxGlossyDepth;
-    lastVertex = ++lobeBounces >= lobeLimit;
-    // A subsurface walk leaves by its Lambertian exit: a diffuse ray.
-    rayKind = diffuseLobe                                 ? RayKind::Diffuse
-              : scattered->lobe == BsdfLobe::Transmission ? RayKind::Transmission
-                                                          : RayKind::Glossy;
-    // Russian roulette once paths are long enough to be dim, in proportion to what they still
-    // carry; paths as bright as a camera ray's (glass, mirrors) are never cut, since cutting
-    // them saves little and adds the most variance. Survivors are reweighted.
-    if (bounce >= 3 && maxComponent(throughput) < 1) {
-      const float survival = maxComponent(throughput);
-      if (rouletteSample >= survival) break;
-      throughput *= 1 / survival;
-    }
-    if (isBlack(throughput)) break;
-    // The footprint keeps widening at the camera's rate; surface curvature and roughness,
-    // which would widen it further, are ignored.
-    cone.width = cone.radiusAt(hit->distance);
-    ray = spawnRay(scene, exit ? exit->hit : *hit, next.direction, kInfinity, ray.time);
+    if (waitingCount == 0) break;
+    path = std::move(*waitingBranches[--waitingCount]);
   }
   if (training) trainer.record(*settings.guidingRecorder, x, y, sampleIndex);
   if (spectrum.spectral) result.radiance = spectralToRgb(result.radiance, spectrum.wavelengths);

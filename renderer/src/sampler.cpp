@@ -127,6 +127,12 @@ SampleStream::SampleStream(uint32_t seed, uint32_t pixelX, uint32_t pixelY, uint
     : pixelSeed_(hashCombine(hashCombine(hashUint32(seed), pixelX), pixelY)),
       reversedSampleIndex_(reverseBits(sampleIndex)) {}
 
+SampleStream SampleStream::atSample(uint32_t sampleIndex) const {
+  SampleStream stream = *this;
+  stream.reversedSampleIndex_ = reverseBits(sampleIndex);
+  return stream;
+}
+
 Vec2f SampleStream::draw2D(uint32_t dimension) const {
   const uint32_t dimensionSeed = hashCombine(pixelSeed_, dimension);
   // Scrambling the index in base-2 reversed order permutes aligned blocks of 2^k indices among

@@ -27,6 +27,15 @@ void lambertianFloorScene(RenderDelegate& delegate, float albedo) {
   addCamera(delegate, facingDown(0, 5, 0));
 }
 
+/// A grey floor (Lambertian, albedo 0.5) under a double-sided square `ceiling` at height
+/// `ceilingHeight`, both 100 units across.
+void floorUnderCeiling(RenderDelegate& delegate, const PrimId& ceiling, float ceilingHeight) {
+  addFloor(delegate, "/floor", 50);
+  delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
+  addFloor(delegate, ceiling, 50, ceilingHeight);
+  delegate.mesh(ceiling).setDoubleSided(true);
+}
+
 double meanChannel(const std::vector<float>& rgba, int channel) {
   double sum = 0;
   for (size_t i = size_t(channel); i < rgba.size(); i += 4) sum += rgba[i];
@@ -698,6 +707,54 @@ TEST(Render, AdaptiveSamplingBeatsUniformSamplingAtTheSameMeanSampleCount) {
   EXPECT_LT(adaptiveError, 0.67 * uniformError) << meanSamples << " samples on average";
 }
 
+TEST(Render, IndirectSamplesKeepTheMeanAndCutTheNoiseBeyondTheFirstSurface) {
+  // A floor lit only by a ceiling that a panel facing up lights: all of the floor's light is
+  // found beyond its first surface, where the branches share it out.
+  const auto renderWith = [](int indirectSamples, int samples, int seed) {
+    RenderDelegate delegate;
+    floorUnderCeiling(delegate, "/ceiling", 3);
+    delegate.insertSprim("rectLight", "/panel");
+    delegate.light("/panel").setParam("intensity", 20.0f);
+    const double facingUp[16] = {1, 0, 0, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 2.5, 0, 1};
+    delegate.light("/panel").setTransform(Transform::fromRowMajor(facingUp));
+    addCamera(delegate, facingDown(0, 2, 0), 10);
+    delegate.settings().set("indirectSamples", indirectSamples);
+    delegate.settings().set("seed", seed);
+    return render(delegate, 48, 40, samples);
+  };
+  const std::vector<float> reference = renderWith(1, 1024, 7);
+  const std::vector<float> single = renderWith(1, 16, 1), branched = renderWith(4, 16, 1);
+  EXPECT_GT(meanChannel(reference, 0), 0.01);
+  EXPECT_NEAR(meanChannel(branched, 0) / meanChannel(reference, 0), 1.0, 0.01);
+  EXPECT_NEAR(meanChannel(branched, 3), 1.0, 1e-6);
+  // Four times the paths beyond the floor, stratified together: 0.31 of the noise (independent
+  // paths would leave half of it).
+  const double singleError = relativeRmse(single, reference);
+  const double branchedError = relativeRmse(branched, reference);
+  EXPECT_LT(branchedError, 0.6 * singleError) << singleError;
+}
+
+TEST(Render, IndirectSamplesAreBitIdenticalForAnyThreadCountAndSplit) {
+  const auto renderWith = [](int threads, std::vector<int> passes) {
+    RenderDelegate delegate;
+    occludedPanelScene(delegate);
+    delegate.settings().set("indirectSamples", 3);
+    delegate.settings().set("threads", threads);
+    RenderPass pass(delegate, "/cam", 48, 40);
+    for (int samples : passes) pass.execute(samples);
+    return pass.aov("color");
+  };
+  const std::vector<float> one = renderWith(1, {8});
+  EXPECT_EQ(one, renderWith(2, {8}));
+  EXPECT_EQ(one, renderWith(2, {2, 5, 1}));
+  RenderDelegate delegate;
+  occludedPanelScene(delegate);
+  EXPECT_NE(one, render(delegate, 48, 40, 8));  // the branches are not the unbranched path
+  EXPECT_THROW(delegate.settings().set("indirectSamples", 0), std::invalid_argument);
+  EXPECT_THROW(delegate.settings().set("indirectSamples", kMaxIndirectSamples + 1),
+               std::invalid_argument);
+}
+
 namespace {
 
 /// The pixels `crop` of a row-major image `width` pixels wide with `channels` per pixel.
@@ -806,10 +863,7 @@ TEST(Render, GlossyFilterBlursCausticsButNotWhatTheCameraSees) {
   // the bulb: far less noise, a slightly different (biased) mean.
   const auto renderWith = [](float glossyFilter, int maxPathDepth, int seed) {
     RenderDelegate delegate;
-    addFloor(delegate, "/floor", 50);
-    delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
-    addFloor(delegate, "/mirror", 50, 2);
-    delegate.mesh("/mirror").setDoubleSided(true);
+    floorUnderCeiling(delegate, "/mirror", 2);
     delegate.insertSprim("material", "/chrome");
     delegate.material("/chrome").setParam("metallic", 1.0f);
     delegate.material("/chrome").setParam("roughness", 0.0f);

@@ -218,7 +218,8 @@ def test_console_script_progress(tmp_path):
 
 def test_adaptive_sampling_and_clamp_flags(tmp_path, capsys):
     """--adaptiveThreshold stops converged pixels (the summary gives the mean samples taken),
-    --indirectClamp and --glossyFilter reach the render; out-of-range values are usage errors."""
+    --indirectClamp, --glossyFilter and --indirectSamples reach the render; out-of-range values
+    are usage errors."""
     stage_path = tmp_path / "quad.usda"
     lit_quad_stage(stage_path).Save()
     out = tmp_path / "o.exr"
@@ -231,6 +232,8 @@ def test_adaptive_sampling_and_clamp_flags(tmp_path, capsys):
     assert float(_core.read_image(str(out))[2]["penumbra:indirectClamp"]) == 10
     assert main([*args, "--glossyFilter", "1"]) == 0
     assert float(_core.read_image(str(out))[2]["penumbra:glossyFilter"]) == 1
+    assert main([*args, "--indirectSamples", "2"]) == 0
+    assert float(_core.read_image(str(out))[2]["penumbra:indirectSamples"]) == 2
     for flag, value in (
         ("--adaptiveThreshold", "2"),
         ("--adaptiveMinSamples", "1"),
@@ -238,6 +241,8 @@ def test_adaptive_sampling_and_clamp_flags(tmp_path, capsys):
         ("--indirectClamp", "nan"),
         ("--glossyFilter", "-0.5"),
         ("--glossyFilter", "inf"),
+        ("--indirectSamples", "0"),
+        ("--indirectSamples", "17"),
     ):
         assert main([*args, flag, value]) == 2
         assert f"{flag} must" in capsys.readouterr().err

@@ -21,6 +21,9 @@ class GuidingField;
 class GuidingRecorder;
 class LightImages;
 
+/// Most branches a path may split into at its first surface (IntegratorSettings::indirectSamples).
+constexpr int kMaxIndirectSamples = 16;
+
 struct IntegratorSettings {
   uint32_t seed = 0;
   /// Surface interactions per path: 0 shows emitters only, 1 direct lighting, 2+ indirect.
@@ -41,6 +44,11 @@ struct IntegratorSettings {
   /// path so far), so that light reflected by a sharp lobe after a diffuse bounce (caustics) is
   /// blurred instead of noisy. 0: off. Biased, off by default.
   float glossyFilter = 0;
+  /// Paths that go on from each camera ray's first surface (branched path tracing, as Cook et
+  /// al. 1984 trace several rays from a hit): the light found beyond it is the mean of this many
+  /// independent continuations, while the camera ray, the surface's shading and its direct light
+  /// are paid for once. 1: no branching. Unbiased; not while a guiding field is being recorded.
+  int indirectSamples = 1;
   /// Path guiding (guiding.h). Where `guidingField` is set, opaque rough surfaces draw the
   /// path's next direction from its distribution there (with the probability learnt for that
   /// cell) or from their BSDF; where `guidingRecorder` is set, each sample records what training

@@ -66,6 +66,10 @@ class SampleStream {
   /// Its first two numbers are draw2D(dimension)'s.
   Sample4D draw4D(uint32_t dimension) const;
   uint32_t dimension() const { return dimension_; }
+  /// The same pixel's stream of sample `sampleIndex`, at this stream's dimension: a path that
+  /// branches (IntegratorSettings::indirectSamples) draws each branch's remaining dimensions
+  /// from a sample index of its own.
+  SampleStream atSample(uint32_t sampleIndex) const;
 
  private:
   uint32_t pixelSeed_;

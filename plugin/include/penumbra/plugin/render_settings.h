@@ -28,6 +28,7 @@ struct RenderSettingsMap {
   int adaptiveMinSamples;
   float indirectClamp;
   float glossyFilter;
+  int indirectSamples;         // paths that go on from each camera ray's first surface
   int guidingTrainingSamples;  // samples per pixel that train path guiding; 0: no guiding
   int textureCacheMB;
   int cryptomatteDepth;  // ranks per pixel of Cryptomatte AOVs
