@@ -144,7 +144,6 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
   renderSettings.integrator.indirectClamp = settings.indirectClamp;
   renderSettings.integrator.glossyFilter = settings.glossyFilter;
-  renderSettings.integrator.indirectSamples = settings.indirectSamples;
   const int trainingSamples = settings.guidingTrainingSamples;
   const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {
@@ -156,6 +155,9 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
     // are the whole image's (else prepareGuiding traces them for the whole image).
     const bool training = trainingSamples > 0 && samplesDone_ < trainingSamples;
     if (training) stop = std::min(stop, trainingSamples);
+    // Training samples do not branch, whether this pass records them or not (a crop's are
+    // traced again over the whole image): so a crop's pixels are the whole image's.
+    renderSettings.integrator.indirectSamples = training ? 1 : settings.indirectSamples;
     const bool recordHere = training && guidingRecordedThrough_ == samplesDone_ &&
                             film_.region() == PixelRect{0, 0, imageWidth_, imageHeight_} &&
                             film_.activePixels() == filmPixels;

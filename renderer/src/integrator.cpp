@@ -701,7 +701,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   const bool hasVolumes = !scene.volumes().empty();
   if (hasVolumes) volumeRandom.emplace(settings.seed, uint32_t(x), uint32_t(y), sampleIndex, 0);
   const MediumSpectrum mediumSpectrum{spectrum.spectral ? &spectrum.wavelengths : nullptr};
-  // Branching at the first surface (not while training: the trainer follows one path).
+  // Branching at the first surface; never while recording for guiding, whose trainer follows
+  // one path (the render pass does not branch training samples at all, recorded or not).
   const int branches = training ? 1 : settings.indirectSamples;
   std::array<std::optional<PathState>, kMaxIndirectSamples - 1> waitingBranches;
   size_t waitingCount = 0;

@@ -707,54 +707,6 @@ TEST(Render, AdaptiveSamplingBeatsUniformSamplingAtTheSameMeanSampleCount) {
   EXPECT_LT(adaptiveError, 0.67 * uniformError) << meanSamples << " samples on average";
 }
 
-TEST(Render, IndirectSamplesKeepTheMeanAndCutTheNoiseBeyondTheFirstSurface) {
-  // A floor lit only by a ceiling that a panel facing up lights: all of the floor's light is
-  // found beyond its first surface, where the branches share it out.
-  const auto renderWith = [](int indirectSamples, int samples, int seed) {
-    RenderDelegate delegate;
-    floorUnderCeiling(delegate, "/ceiling", 3);
-    delegate.insertSprim("rectLight", "/panel");
-    delegate.light("/panel").setParam("intensity", 20.0f);
-    const double facingUp[16] = {1, 0, 0, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 2.5, 0, 1};
-    delegate.light("/panel").setTransform(Transform::fromRowMajor(facingUp));
-    addCamera(delegate, facingDown(0, 2, 0), 10);
-    delegate.settings().set("indirectSamples", indirectSamples);
-    delegate.settings().set("seed", seed);
-    return render(delegate, 48, 40, samples);
-  };
-  const std::vector<float> reference = renderWith(1, 1024, 7);
-  const std::vector<float> single = renderWith(1, 16, 1), branched = renderWith(4, 16, 1);
-  EXPECT_GT(meanChannel(reference, 0), 0.01);
-  EXPECT_NEAR(meanChannel(branched, 0) / meanChannel(reference, 0), 1.0, 0.01);
-  EXPECT_NEAR(meanChannel(branched, 3), 1.0, 1e-6);
-  // Four times the paths beyond the floor, stratified together: 0.31 of the noise (independent
-  // paths would leave half of it).
-  const double singleError = relativeRmse(single, reference);
-  const double branchedError = relativeRmse(branched, reference);
-  EXPECT_LT(branchedError, 0.6 * singleError) << singleError;
-}
-
-TEST(Render, IndirectSamplesAreBitIdenticalForAnyThreadCountAndSplit) {
-  const auto renderWith = [](int threads, std::vector<int> passes) {
-    RenderDelegate delegate;
-    occludedPanelScene(delegate);
-    delegate.settings().set("indirectSamples", 3);
-    delegate.settings().set("threads", threads);
-    RenderPass pass(delegate, "/cam", 48, 40);
-    for (int samples : passes) pass.execute(samples);
-    return pass.aov("color");
-  };
-  const std::vector<float> one = renderWith(1, {8});
-  EXPECT_EQ(one, renderWith(2, {8}));
-  EXPECT_EQ(one, renderWith(2, {2, 5, 1}));
-  RenderDelegate delegate;
-  occludedPanelScene(delegate);
-  EXPECT_NE(one, render(delegate, 48, 40, 8));  // the branches are not the unbranched path
-  EXPECT_THROW(delegate.settings().set("indirectSamples", 0), std::invalid_argument);
-  EXPECT_THROW(delegate.settings().set("indirectSamples", kMaxIndirectSamples + 1),
-               std::invalid_argument);
-}
-
 namespace {
 
 /// The pixels `crop` of a row-major image `width` pixels wide with `channels` per pixel.
@@ -825,6 +777,64 @@ TEST(Render, AdaptiveCropsNeedAMarginAsWideAsTheConvergenceTestsReach) {
   EXPECT_THROW(narrow.execute(64), std::invalid_argument);
   RenderPass enough(delegate, "/cam", 48, 40, PixelRect{0, 15, 48, 10}, reach - 1);
   EXPECT_NO_THROW(enough.execute(32));  // fewer samples, fewer tests
+}
+
+TEST(Render, IndirectSamplesKeepTheMeanAndCutTheNoiseBeyondTheFirstSurface) {
+  // A floor lit only by a ceiling that a panel facing up lights: all of the floor's light is
+  // found beyond its first surface, where the branches share it out.
+  const auto renderWith = [](int indirectSamples, int samples, int seed) {
+    RenderDelegate delegate;
+    floorUnderCeiling(delegate, "/ceiling", 3);
+    delegate.insertSprim("rectLight", "/panel");
+    delegate.light("/panel").setParam("intensity", 20.0f);
+    const double facingUp[16] = {1, 0, 0, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 2.5, 0, 1};
+    delegate.light("/panel").setTransform(Transform::fromRowMajor(facingUp));
+    addCamera(delegate, facingDown(0, 2, 0), 10);
+    delegate.settings().set("indirectSamples", indirectSamples);
+    delegate.settings().set("seed", seed);
+    return render(delegate, 48, 40, samples);
+  };
+  const std::vector<float> reference = renderWith(1, 1024, 7);
+  const std::vector<float> single = renderWith(1, 16, 1), branched = renderWith(4, 16, 1);
+  EXPECT_GT(meanChannel(reference, 0), 0.01);
+  EXPECT_NEAR(meanChannel(branched, 0) / meanChannel(reference, 0), 1.0, 0.01);
+  EXPECT_NEAR(meanChannel(branched, 3), 1.0, 1e-6);
+  // Four times the paths beyond the floor, stratified together: 0.31 of the noise (independent
+  // paths would leave half of it).
+  const double singleError = relativeRmse(single, reference);
+  const double branchedError = relativeRmse(branched, reference);
+  EXPECT_LT(branchedError, 0.6 * singleError) << singleError;
+}
+
+TEST(Render, IndirectSamplesAreBitIdenticalForAnyThreadCountAndSplit) {
+  const auto renderWith = [](int threads, std::vector<int> passes) {
+    RenderDelegate delegate;
+    occludedPanelScene(delegate);
+    delegate.settings().set("indirectSamples", 3);
+    delegate.settings().set("threads", threads);
+    RenderPass pass(delegate, "/cam", 48, 40);
+    for (int samples : passes) pass.execute(samples);
+    return pass.aov("color");
+  };
+  const std::vector<float> one = renderWith(1, {8});
+  EXPECT_EQ(one, renderWith(2, {8}));
+  EXPECT_EQ(one, renderWith(2, {2, 5, 1}));
+  RenderDelegate delegate;
+  occludedPanelScene(delegate);
+  EXPECT_NE(one, render(delegate, 48, 40, 8));  // the branches are not the unbranched path
+  // With path guiding, whose training samples do not branch: a crop traces them again over the
+  // whole image without recording them into its film, and its pixels are still the image's.
+  delegate.settings().set("indirectSamples", 2);
+  delegate.settings().set("guidingTrainingSamples", 4);
+  RenderPass whole(delegate, "/cam", 48, 40);
+  whole.execute(8);
+  const PixelRect crop{17, 9, 5, 21};
+  RenderPass part(delegate, "/cam", 48, 40, crop);
+  part.execute(8);
+  EXPECT_EQ(part.aov("color"), cropOf(whole.aov("color"), 48, 4, crop));
+  EXPECT_THROW(delegate.settings().set("indirectSamples", 0), std::invalid_argument);
+  EXPECT_THROW(delegate.settings().set("indirectSamples", kMaxIndirectSamples + 1),
+               std::invalid_argument);
 }
 
 TEST(Render, IndirectClampLimitsOnlyIndirectLight) {

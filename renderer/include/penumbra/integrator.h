@@ -47,7 +47,7 @@ struct IntegratorSettings {
   /// Paths that go on from each camera ray's first surface (branched path tracing, as Cook et
   /// al. 1984 trace several rays from a hit): the light found beyond it is the mean of this many
   /// independent continuations, while the camera ray, the surface's shading and its direct light
-  /// are paid for once. 1: no branching. Unbiased; not while a guiding field is being recorded.
+  /// are paid for once. 1: no branching. Unbiased. Ignored (1) where `guidingRecorder` is set.
   int indirectSamples = 1;
   /// Path guiding (guiding.h). Where `guidingField` is set, opaque rough surfaces draw the
   /// path's next direction from its distribution there (with the probability learnt for that
