@@ -370,14 +370,17 @@ std::pair<double, double> halvesLitFromTheRight(float radius) {
 
 TEST(Subsurface, WhiteSubsurfaceSphereUnderAWhiteDomeIsWhite) {
   // End to end through the integrator: entry lobe, walk, Lambertian exit and its next-event
-  // estimation together lose and add no light.
-  for (const float radius : {0.05f, 0.5f}) {
-    SubsurfaceSphere s(radius);
-    const test::FurnaceImage image = test::renderUnderWhiteDome(s.scene);
-    ASSERT_GT(image.coverage, 0.3);
-    const double sphereMean = (image.meanRadiance - (1 - image.coverage)) / image.coverage;
-    EXPECT_NEAR(sphereMean, 1.0, 0.02) << "radius " << radius;
-  }
+  // estimation together lose and add no light; so do paths that branch at the sphere, each
+  // branch walking with random numbers of its own.
+  for (const float radius : {0.05f, 0.5f})
+    for (const int indirectSamples : {1, 3}) {
+      SubsurfaceSphere s(radius);
+      const test::FurnaceImage image = test::renderUnderWhiteDome(s.scene, indirectSamples);
+      ASSERT_GT(image.coverage, 0.3);
+      const double sphereMean = (image.meanRadiance - (1 - image.coverage)) / image.coverage;
+      EXPECT_NEAR(sphereMean, 1.0, 0.02)
+          << "radius " << radius << ", " << indirectSamples << " indirect samples";
+    }
 }
 
 TEST(Subsurface, LongerMeanFreePathsCarryLightIntoTheShadow) {

@@ -248,6 +248,27 @@ TEST(Volumes, ScatteringMediumUnderWhiteDomeStaysWhite) {
   }
 }
 
+TEST(Volumes, PathsBranchingAtAFloorBelowAScatteringMediumStayWhite) {
+  // A white floor seen through a white scattering slab, under a white dome: camera rays that
+  // reach the floor branch there (IntegratorSettings::indirectSamples), and the branches cross
+  // the slab again with volume random numbers of their own, losing and adding no light.
+  const Device device;
+  Scene scene(device);
+  VolumeData data;
+  data.material.density = 0.3f;
+  data.material.scattering = Vec3f(1.0f);
+  data.material.principledAbsorption = Vec3f(0.0f);
+  data.objectBounds = slab(-1, 1);
+  addVolume(scene, std::move(data));
+  addWhiteFloor(scene);
+  addLight(scene, whiteDome());
+  scene.commit();
+  IntegratorSettings settings;
+  settings.maxPathDepth = settings.maxDiffuseDepth = settings.maxVolumeDepth = 1000;
+  settings.indirectSamples = 3;
+  EXPECT_NEAR(meanRadiance(scene, settings, 8, 64), 1.0, 0.01);
+}
+
 TEST(Volumes, EmittingMediumMatchesItsClosedForm) {
   // dL/ds = E − σa L through a slab of thickness d, nothing behind: L = E/σa · (1 − e^(−σa d));
   // without absorption, L = E d.

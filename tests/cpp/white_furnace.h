@@ -21,8 +21,9 @@ struct FurnaceImage {
 };
 
 /// Lights `scene` by a white dome alone, commits it, and renders 16 × 16 pixels at 64 samples
-/// from a camera at z = 6 looking down −z, with the path and diffuse depths raised to 32.
-inline FurnaceImage renderUnderWhiteDome(Scene& scene) {
+/// from a camera at z = 6 looking down −z, with the path and diffuse depths raised to 32 and
+/// `indirectSamples` paths from each camera ray's first surface.
+inline FurnaceImage renderUnderWhiteDome(Scene& scene, int indirectSamples = 1) {
   LightParams dome;
   dome.type = LightType::Dome;
   std::vector<Light> lights;
@@ -36,6 +37,7 @@ inline FurnaceImage renderUnderWhiteDome(Scene& scene) {
   const PixelFilter filter;
   IntegratorSettings settings;
   settings.maxPathDepth = settings.maxDiffuseDepth = 32;
+  settings.indirectSamples = indirectSamples;
   double sum = 0;
   int seen = 0;
   const uint32_t samples = 64;
