@@ -40,6 +40,16 @@ VolumeMaterial absorbing(float sigma) {
   return m;
 }
 
+/// A slab(−1, 1, halfWidth) of medium that scatters all the light it meets (albedo 1).
+VolumeData whiteScatteringSlab(float density, float halfWidth = 10) {
+  VolumeData data;
+  data.material.density = density;
+  data.material.scattering = Vec3f(1.0f);
+  data.material.principledAbsorption = Vec3f(0.0f);
+  data.objectBounds = slab(-1, 1, halfWidth);
+  return data;
+}
+
 VolumeSet::VolumeId addVolume(Scene& scene, VolumeData data,
                               const Transform& placement = Transform()) {
   const VolumeSet::VolumeId id = scene.volumes().add();
@@ -231,12 +241,8 @@ TEST(Volumes, ScatteringMediumUnderWhiteDomeStaysWhite) {
   for (const float g : {0.0f, 0.7f, -0.4f}) {
     const Device device;
     Scene scene(device);
-    VolumeData data;
-    data.material.density = 2;
-    data.material.scattering = Vec3f(1.0f);  // albedo 1: no absorption
-    data.material.principledAbsorption = Vec3f(0.0f);
+    VolumeData data = whiteScatteringSlab(2, 0.4f);  // the camera sees its face and the dome
     data.material.anisotropy = g;
-    data.objectBounds = slab(-1, 1, 0.4f);  // the camera sees its face and the dome around it
     addVolume(scene, std::move(data));
     addLight(scene, whiteDome());
     scene.commit();
@@ -254,12 +260,7 @@ TEST(Volumes, PathsBranchingAtAFloorBelowAScatteringMediumStayWhite) {
   // the slab again with volume random numbers of their own, losing and adding no light.
   const Device device;
   Scene scene(device);
-  VolumeData data;
-  data.material.density = 0.3f;
-  data.material.scattering = Vec3f(1.0f);
-  data.material.principledAbsorption = Vec3f(0.0f);
-  data.objectBounds = slab(-1, 1);
-  addVolume(scene, std::move(data));
+  addVolume(scene, whiteScatteringSlab(0.3f));
   addWhiteFloor(scene);
   addLight(scene, whiteDome());
   scene.commit();
@@ -513,12 +514,7 @@ TEST(Volumes, AVolumeOutsideALightsLightLinkScattersNoneOfItsLight) {
   const auto render = [](uint32_t linkingClass) {
     const Device device;
     Scene scene(device);
-    VolumeData data;
-    data.material.density = 1;
-    data.material.scattering = Vec3f(1.0f);
-    data.material.principledAbsorption = Vec3f(0.0f);
-    data.objectBounds = slab(-1, 1);
-    const VolumeSet::VolumeId volume = addVolume(scene, std::move(data));
+    const VolumeSet::VolumeId volume = addVolume(scene, whiteScatteringSlab(1));
     scene.volumes().setLinkingClass(volume, linkingClass);
     LightParams dome = whiteDome();
     dome.linkSlot = 0;
