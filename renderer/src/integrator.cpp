@@ -622,7 +622,6 @@ struct PathState {
   /// Added to the purposes of the path's random streams (volumes, subsurface walks): a branch's
   /// differ from every other branch's and from an unbranched path's.
   uint32_t streamPurposeOffset = 0;
-  float share = 1;  // of the camera sample's light that the path carries: 1 / its branches
   PathSpectrum spectrum;
   Ray ray;
   RayCone cone;
@@ -642,7 +641,6 @@ struct PathState {
   void branchOff(int branch, int branches, uint32_t seed, int x, int y, uint32_t sampleIndex) {
     sampler = sampler.atSample(sampleIndex * uint32_t(branches) + uint32_t(branch));
     streamPurposeOffset = uint32_t(branch + 1) << 24;  // above every vertex's purpose
-    share = 1.0f / float(branches);
     if (volumeRandom)
       volumeRandom.emplace(seed, uint32_t(x), uint32_t(y), sampleIndex, streamPurposeOffset);
   }
@@ -693,7 +691,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   GuidingTrainer trainer;
   // Every light the sample gathers goes through here, so that training sees it too.
   const auto addLight = [&](const Vec3f& light) {
-    result.radiance += light * path.share;
+    result.radiance += light;
     if (training) trainer.addLight(light);
   };
   cone = camera.pixelCone();
@@ -705,6 +703,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // one path (the render pass does not branch training samples at all, recorded or not).
   const int branches = training ? 1 : settings.indirectSamples;
   std::vector<PathState> waitingBranches;  // empty unless the path branches: no allocation
+  // What the sample found before it branched; the branches' light is added up apart and
+  // averaged at the end.
+  std::optional<Vec3f> radianceBeforeBranching;
   // The share of light that a shadow ray towards `tFar` carries through the volumes.
   // `linkSlot`: the light's (its shadow link may let the ray pass some volumes).
   const auto volumeTransmittance = [&](const Ray& shadow, float tFar, int linkSlot) {
@@ -985,6 +986,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         // Each branch scatters from here on its own; the first goes on now, the others wait.
         const PathState atSurface = path;
         waitingBranches.reserve(size_t(branches - 1));
+        radianceBeforeBranching = result.radiance;
+        result.radiance = Vec3f(0.0f);
         for (int branch = branches - 1; branch > 0; --branch) {
           path = atSurface;
           path.branchOff(branch, branches, settings.seed, x, y, sampleIndex);
@@ -999,6 +1002,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     path = waitingBranches.back();
     waitingBranches.pop_back();
   }
+  if (radianceBeforeBranching)
+    result.radiance = *radianceBeforeBranching + result.radiance * (1.0f / float(branches));
   if (training) trainer.record(*settings.guidingRecorder, x, y, sampleIndex);
   if (spectrum.spectral) result.radiance = spectralToRgb(result.radiance, spectrum.wavelengths);
   return result;
