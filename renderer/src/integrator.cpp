@@ -703,9 +703,14 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // one path (the render pass does not branch training samples at all, recorded or not).
   const int branches = training ? 1 : settings.indirectSamples;
   std::vector<PathState> waitingBranches;  // empty unless the path branches: no allocation
-  // What the sample found before it branched; the branches' light is added up apart and
-  // averaged at the end.
+  // What the sample found before it branched, and the sum of its branches' estimates (each with
+  // that light), in RGB: a branch that meets a dispersive interface keeps only its hero
+  // wavelength, so each branch is turned into RGB with its own wavelengths.
   std::optional<Vec3f> radianceBeforeBranching;
+  Vec3f branchesRgb{0.0f};
+  const auto toRgb = [&](const Vec3f& radiance) {
+    return spectrum.spectral ? spectralToRgb(radiance, spectrum.wavelengths) : radiance;
+  };
   // The share of light that a shadow ray towards `tFar` carries through the volumes.
   // `linkSlot`: the light's (its shadow link may let the ray pass some volumes).
   const auto volumeTransmittance = [&](const Ray& shadow, float tFar, int linkSlot) {
@@ -991,21 +996,27 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         for (int branch = branches - 1; branch > 0; --branch) {
           path = atSurface;
           path.branchOff(branch, branches, settings.seed, x, y, sampleIndex);
-          if (scatter()) waitingBranches.push_back(path);
+          if (scatter())
+            waitingBranches.push_back(path);
+          else
+            branchesRgb += toRgb(*radianceBeforeBranching);  // it ends here
         }
         path = atSurface;
         path.branchOff(0, branches, settings.seed, x, y, sampleIndex);
       }
       if (!scatter()) break;
     }
+    if (radianceBeforeBranching) {
+      branchesRgb += toRgb(*radianceBeforeBranching + result.radiance);
+      result.radiance = Vec3f(0.0f);
+    }
     if (waitingBranches.empty()) break;
     path = waitingBranches.back();
     waitingBranches.pop_back();
   }
-  if (radianceBeforeBranching)
-    result.radiance = *radianceBeforeBranching + result.radiance * (1.0f / float(branches));
   if (training) trainer.record(*settings.guidingRecorder, x, y, sampleIndex);
-  if (spectrum.spectral) result.radiance = spectralToRgb(result.radiance, spectrum.wavelengths);
+  result.radiance =
+      radianceBeforeBranching ? branchesRgb * (1.0f / float(branches)) : toRgb(result.radiance);
   return result;
 }
 

@@ -7,44 +7,13 @@
 #include "penumbra/material_inputs.h"
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
+#include "scene_builders.h"
 
 using namespace penumbra;
 using namespace penumbra::plugin;
+using penumbra::test::addSphere;
 
 namespace {
-
-/// A closed UV sphere (shared seam and pole vertices, so every edge has two faces).
-void addSphere(RenderDelegate& delegate, const PrimId& id, float radius, int stacks = 32,
-               int slices = 64) {
-  std::vector<Vec3f> points{{0, radius, 0}};
-  for (int i = 1; i < stacks; ++i) {
-    const float theta = kPi * float(i) / float(stacks);
-    for (int j = 0; j < slices; ++j) {
-      const float phi = 2 * kPi * float(j) / float(slices);
-      points.push_back({radius * std::sin(theta) * std::cos(phi), radius * std::cos(theta),
-                        -radius * std::sin(theta) * std::sin(phi)});
-    }
-  }
-  points.push_back({0, -radius, 0});
-  const int bottom = int(points.size()) - 1;
-  const auto ring = [&](int i, int j) { return 1 + (i - 1) * slices + (j % slices); };
-  std::vector<int> counts, indices;
-  for (int j = 0; j < slices; ++j) {
-    counts.push_back(3);
-    indices.insert(indices.end(), {0, ring(1, j), ring(1, j + 1)});
-    counts.push_back(3);
-    indices.insert(indices.end(), {bottom, ring(stacks - 1, j + 1), ring(stacks - 1, j)});
-  }
-  for (int i = 1; i + 1 < stacks; ++i)
-    for (int j = 0; j < slices; ++j) {
-      counts.push_back(4);
-      indices.insert(indices.end(),
-                     {ring(i, j), ring(i + 1, j), ring(i + 1, j + 1), ring(i, j + 1)});
-    }
-  delegate.insertRprim("mesh", id);
-  delegate.mesh(id).setPoints(std::move(points));
-  delegate.mesh(id).setTopology(std::move(counts), std::move(indices), false, "none");
-}
 
 void addFloor(RenderDelegate& delegate, const PrimId& id) {
   delegate.insertRprim("mesh", id);

@@ -13,6 +13,7 @@
 using namespace penumbra;
 using penumbra::test::addCamera;
 using penumbra::test::addFloor;
+using penumbra::test::addSphere;
 using penumbra::test::facingDown;
 using penumbra::test::translation;
 using namespace penumbra::plugin;
@@ -804,6 +805,31 @@ TEST(Render, IndirectSamplesKeepTheMeanAndCutTheNoiseBeyondTheFirstSurface) {
   const double singleError = relativeRmse(single, reference);
   const double branchedError = relativeRmse(branched, reference);
   EXPECT_LT(branchedError, 0.6 * singleError) << singleError;
+}
+
+TEST(Render, BranchesThroughDispersiveGlassEachKeepTheirOwnWavelengths) {
+  // A white furnace: a white floor beside a dispersive glass sphere, under a white dome, seen
+  // from above. Branches from the floor that pass through the glass keep only their hero
+  // wavelength, the others all three: each branch's light is turned into RGB with its own
+  // wavelengths, else the ones that went through the glass count a third of what they carry.
+  RenderDelegate delegate;
+  addFloor(delegate, "/floor", 50);
+  delegate.mesh("/floor").setDisplayColor({Vec3f(1.0f)}, Interpolation::Constant);
+  addSphere(delegate, "/ball", 1);
+  delegate.mesh("/ball").setTransform(translation(1.5, 1.2, 0));
+  delegate.insertSprim("material", "/glass");
+  delegate.material("/glass").setParam("opacity", 0.0f);
+  delegate.material("/glass").setParam("roughness", 0.0f);
+  delegate.material("/glass").setParam("penumbra:abbeNumber", 20.0f);
+  delegate.mesh("/ball").setMaterialId("/glass");
+  delegate.insertSprim("domeLight", "/sky");
+  addCamera(delegate, facingDown(0, 5, 0));
+  for (const char* key : {"maxPathDepth", "maxDiffuseDepth", "maxTransmissionDepth"})
+    delegate.settings().set(key, 64);
+  delegate.settings().set("indirectSamples", 3);
+  const std::vector<float> image = render(delegate, 16, 16, 64);
+  for (int channel = 0; channel < 3; ++channel)
+    EXPECT_NEAR(meanChannel(image, channel), 1.0, 0.02) << "channel " << channel;
 }
 
 TEST(Render, IndirectSamplesAreBitIdenticalForAnyThreadCountAndSplit) {
