@@ -701,7 +701,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   const MediumSpectrum mediumSpectrum{spectrum.spectral ? &spectrum.wavelengths : nullptr};
   // Branching at the first surface; never while recording for guiding, whose trainer follows
   // one path (the render pass does not branch training samples at all, recorded or not).
-  const int branches = training ? 1 : settings.indirectSamples;
+  const int branches = training ? 1 : std::clamp(settings.indirectSamples, 1, kMaxIndirectSamples);
   std::vector<PathState> waitingBranches;  // empty unless the path branches: no allocation
   // What the sample found before it branched, and the sum of its branches' estimates (each with
   // that light), in RGB: a branch that meets a dispersive interface keeps only its hero

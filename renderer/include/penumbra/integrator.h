@@ -21,7 +21,9 @@ class GuidingField;
 class GuidingRecorder;
 class LightImages;
 
-/// Most branches a path may split into at its first surface (IntegratorSettings::indirectSamples).
+/// Most branches a path may split into at its first surface (IntegratorSettings::indirectSamples,
+/// the render option's bound): more only multiply a sample's cost, and each branch's random
+/// streams stay apart from every other's below 256 (PathState::branchOff).
 constexpr int kMaxIndirectSamples = 16;
 
 struct IntegratorSettings {
@@ -47,7 +49,8 @@ struct IntegratorSettings {
   /// Paths that go on from each camera ray's first surface (branched path tracing, as Cook et
   /// al. 1984 trace several rays from a hit): the light found beyond it is the mean of this many
   /// independent continuations, while the camera ray, the surface's shading and its direct light
-  /// are paid for once. 1: no branching. Unbiased. Ignored (1) where `guidingRecorder` is set.
+  /// are paid for once. 1: no branching; clamped to [1, kMaxIndirectSamples]. Unbiased. Ignored
+  /// (1) where `guidingRecorder` is set.
   int indirectSamples = 1;
   /// Path guiding (guiding.h). Where `guidingField` is set, opaque rough surfaces draw the
   /// path's next direction from its distribution there (with the probability learnt for that
