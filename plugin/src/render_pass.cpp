@@ -135,15 +135,7 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   const penumbra::Camera camera(cameraPrim.params(), imageWidth_, imageHeight_);
   RenderSettings renderSettings;
   renderSettings.threads = settings.threads;
-  renderSettings.integrator.seed = uint32_t(settings.seed);
-  renderSettings.integrator.maxPathDepth = settings.maxPathDepth;
-  renderSettings.integrator.maxDiffuseDepth = settings.maxDiffuseDepth;
-  renderSettings.integrator.maxGlossyDepth = settings.maxGlossyDepth;
-  renderSettings.integrator.maxTransmissionDepth = settings.maxTransmissionDepth;
-  renderSettings.integrator.maxVolumeDepth = settings.maxVolumeDepth;
-  renderSettings.integrator.directLighting = DirectLighting(settings.directLighting);
-  renderSettings.integrator.indirectClamp = settings.indirectClamp;
-  renderSettings.integrator.glossyFilter = settings.glossyFilter;
+  renderSettings.integrator = integratorSettings();
   const int trainingSamples = settings.guidingTrainingSamples;
   const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {
@@ -222,11 +214,29 @@ void RenderPass::checkCropMargin(int samples) const {
                                 " pixels to render the crop as the whole image would");
 }
 
+IntegratorSettings RenderPass::integratorSettings() const {
+  const RenderSettingsMap& settings = delegate_.settings();
+  IntegratorSettings integrator;
+  integrator.seed = uint32_t(settings.seed);
+  integrator.maxPathDepth = settings.maxPathDepth;
+  integrator.maxDiffuseDepth = settings.maxDiffuseDepth;
+  integrator.maxGlossyDepth = settings.maxGlossyDepth;
+  integrator.maxTransmissionDepth = settings.maxTransmissionDepth;
+  integrator.maxVolumeDepth = settings.maxVolumeDepth;
+  integrator.directLighting = DirectLighting(settings.directLighting);
+  integrator.indirectClamp = settings.indirectClamp;
+  integrator.glossyFilter = settings.glossyFilter;
+  return integrator;
+}
+
 RawRayThroughput RenderPass::measureRawThroughput() {
   execute(0);  // sync
   const penumbra::Camera camera(delegate_.camera(cameraId_).params(), imageWidth_, imageHeight_);
+  // The rays of unguided samples, branching as settings say.
+  IntegratorSettings path = integratorSettings();
+  path.indirectSamples = delegate_.settings().indirectSamples;
   return penumbra::measureRawThroughput(delegate_.scene(), camera, imageWidth_, imageHeight_,
-                                        delegate_.settings().threads);
+                                        delegate_.settings().threads, 3, &path);
 }
 
 void RenderPass::setAovBindings(std::map<std::string, PrimId> bindings) {

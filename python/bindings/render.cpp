@@ -179,10 +179,14 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
             out["bounce_intersect"] = result.bounceIntersect;
             out["bounce_occluded"] = result.bounceOccluded;
             out["bounce_rays"] = result.bounceRays;
+            out["path"] = result.pathRays;
+            out["path_rays"] = result.pathRayCount;
             return out;
           },
           "Embree alone on this pass's scene and camera: rays per second of camera rays, "
-          "cosine bounce rays (intersect) and the same rays as shadow rays (occluded).")
+          "cosine bounce rays (intersect), the same rays as shadow rays (occluded), and the "
+          "rays that one sample per pixel traces with the render settings ('path': its paths' "
+          "rays and their shadow rays, each intersected or tested as traced).")
       .def_property_readonly("converged", &RenderPass::converged)
       .def_property_readonly("width", &RenderPass::width)
       .def_property_readonly("height", &RenderPass::height)

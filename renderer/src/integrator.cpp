@@ -11,6 +11,7 @@
 #include "penumbra/light_images.h"
 #include "penumbra/phase.h"
 #include "penumbra/random_stream.h"
+#include "penumbra/ray_log.h"
 #include "penumbra/sampler.h"
 #include "penumbra/spectrum.h"
 #include "penumbra/subsurface.h"
@@ -759,6 +760,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       Vec3f transmittance{1.0f};
       if (light.castsShadows()) {
         const Ray shadow = vertex.shadowRay(sample->direction, tFar);
+        if (settings.rayLog)
+          settings.rayLog->add({shadow, RayKind::Secondary, true, light.linkSlot()});
         if (scene.geometry().occluded(shadow, light.linkSlot())) return;
         if (hasVolumes) {
           transmittance = volumeTransmittance(shadow, shadow.tFar, light.linkSlot());
@@ -779,6 +782,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // The camera sample's path, then each branch it left waiting at its first surface.
   for (int firstBounce = 0;; firstBounce = 1) {
     for (int bounce = firstBounce;; ++bounce) {
+      if (settings.rayLog) settings.rayLog->add({ray, rayKind, false, -1});
       const std::optional<SurfaceHit> hit = intersectSurface(scene, ray, rayKind, cone);
       ++result.rays;
       // The volumes between the ray's origin and the surface: the ray may scatter or end there.

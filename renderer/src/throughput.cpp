@@ -6,6 +6,8 @@
 #include <chrono>
 #include <vector>
 
+#include "penumbra/ray_log.h"
+#include "penumbra/render.h"
 #include "penumbra/sampler.h"
 #include "penumbra/warp.h"
 
@@ -13,8 +15,8 @@ namespace penumbra {
 namespace {
 
 /// Rays per second of `trace` over `rays`, best of `repeats` runs.
-template <class Trace>
-double raysPerSecond(const std::vector<Ray>& rays, int threads, int repeats, Trace trace) {
+template <class RayType, class Trace>
+double raysPerSecond(const std::vector<RayType>& rays, int threads, int repeats, Trace trace) {
   double best = 0;
   for (int run = 0; run < repeats; ++run) {
     const auto started = std::chrono::steady_clock::now();
@@ -34,7 +36,8 @@ double raysPerSecond(const std::vector<Ray>& rays, int threads, int repeats, Tra
 }  // namespace
 
 RawRayThroughput measureRawThroughput(const Scene& scene, const Camera& camera, int width,
-                                      int height, int threads, int repeats) {
+                                      int height, int threads, int repeats,
+                                      const IntegratorSettings* pathSettings) {
   std::vector<Ray> primary;
   primary.reserve(size_t(width) * size_t(height));
   for (int y = 0; y < height; ++y)
@@ -68,6 +71,21 @@ RawRayThroughput measureRawThroughput(const Scene& scene, const Camera& camera, 
   });
   result.bounceOccluded = raysPerSecond(
       bounces, threads, repeats, [&](const Ray& ray) { return scene.geometry().occluded(ray); });
+  if (pathSettings) {
+    RayLog log;
+    RenderSettings loggedRender;
+    loggedRender.integrator = *pathSettings;
+    loggedRender.integrator.rayLog = &log;
+    loggedRender.threads = threads;
+    traceSamples(scene, camera, width, height, 0, 1, loggedRender);
+    const std::vector<LoggedRay> pathRays = log.rays();
+    result.pathRayCount = pathRays.size();
+    if (!pathRays.empty())
+      result.pathRays = raysPerSecond(pathRays, threads, repeats, [&](const LoggedRay& logged) {
+        return logged.shadow ? scene.geometry().occluded(logged.ray, logged.shadowLinkSlot)
+                             : scene.geometry().hitDistance(logged.ray, logged.kind) < kInfinity;
+      });
+  }
   return result;
 }
 

@@ -89,3 +89,24 @@ def test_batched_setters_reject_lists_of_different_lengths():
         delegate.set_transforms(["/missing"], [np.eye(4)])
     with pytest.raises(TypeError, match="MeshRecord"):
         delegate.set_meshes([("/a", np.array([3], np.int32))])
+
+
+def test_raw_throughput_counts_the_rays_one_sample_per_pixel_traces():
+    """measure_raw_throughput (bench/quality.py's ray-cost table) times Embree on the rays the
+    render settings trace: one camera ray per pixel, then a shadow ray to the sky and a bounce
+    from each pixel that sees the quad; more with branching."""
+    delegate = _core.RenderDelegate()
+    delegate.insert_rprim("mesh", "/quad")
+    delegate.set_mesh_topology("/quad", np.array([4], np.int32), np.array([0, 1, 2, 3], np.int32))
+    delegate.set_mesh_points("/quad", np.array([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], np.float32))
+    delegate.insert_sprim("camera", "/cam")
+    delegate.set_camera("/cam", focal_length=5, horizontal_aperture=4, vertical_aperture=4)
+    delegate.set_transform("/cam", np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 5, 1]], float))
+    delegate.insert_sprim("domeLight", "/sky")
+    counts = []
+    for branches in (1, 3):
+        delegate.set_render_setting("indirectSamples", branches)
+        raw = _core.RenderPass(delegate, "/cam", 8, 8).measure_raw_throughput()
+        assert raw["path"] > 0 and raw["primary"] > 0
+        counts.append(raw["path_rays"])
+    assert 64 < counts[0] < counts[1]

@@ -20,6 +20,7 @@ enum class DirectLighting { MultipleImportance, LightSamplingOnly, BsdfSamplingO
 class GuidingField;
 class GuidingRecorder;
 class LightImages;
+class RayLog;
 
 /// Most branches a path may split into at its first surface (IntegratorSettings::indirectSamples,
 /// the render option's bound): more only multiply a sample's cost, and each branch's random
@@ -62,6 +63,9 @@ struct IntegratorSettings {
   /// over their image (light_images.h) instead of its camera ray finding it; not owned. Null:
   /// camera rays find every light.
   const LightImages* lightImages = nullptr;
+  /// Where set, every ray a sample counts in CameraSample::rays (its path's rays and their
+  /// shadow rays) is logged there as it is traced; not owned. For timing Embree alone on them.
+  RayLog* rayLog = nullptr;
 };
 
 struct CameraSample {

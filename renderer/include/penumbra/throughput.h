@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include "penumbra/camera.h"
+#include "penumbra/integrator.h"
 #include "penumbra/scene.h"
 
 namespace penumbra {
@@ -14,10 +15,16 @@ struct RawRayThroughput {
   double bounceIntersect = 0;  // cosine-distributed rays from the camera rays' hits
   double bounceOccluded = 0;   // the same rays, rtcOccluded1
   uint64_t bounceRays = 0;     // how many camera rays hit something
+  /// The path tracer's own rays: those one sample per pixel traces (its paths' rays and their
+  /// shadow rays, RayLog), each as it was traced (intersect or occluded, its kind's mask).
+  double pathRays = 0;
+  uint64_t pathRayCount = 0;
 };
 
 /// Times each kind of ray over the image (best of `repeats`) on `threads` threads (0: all).
+/// With `pathSettings`, also the rays that sample 0 of every pixel traces with those settings.
 RawRayThroughput measureRawThroughput(const Scene& scene, const Camera& camera, int width,
-                                      int height, int threads, int repeats = 3);
+                                      int height, int threads, int repeats = 3,
+                                      const IntegratorSettings* pathSettings = nullptr);
 
 }  // namespace penumbra

@@ -72,7 +72,8 @@ class RenderPass {
   /// Rays traced through the scene's BVH for the samples accumulated so far.
   uint64_t raysTraced() const { return film_.raysTraced(crop_); }
   /// Syncs, then times Embree alone on this pass's camera and scene (see throughput.h), with
-  /// the render settings' thread count.
+  /// the render settings' thread count, on made-up rays and on the rays of one sample per pixel
+  /// with the render settings.
   RawRayThroughput measureRawThroughput();
   /// The target sample count is reached, or adaptive sampling has stopped every pixel.
   bool converged() const {
@@ -114,6 +115,9 @@ class RenderPass {
   /// Throws std::invalid_argument if the crop's margin is too narrow for adaptive sampling to
   /// take `samples` samples per pixel in the crop as in the whole image.
   void checkCropMargin(int samples) const;
+  /// What a sample is, from the render settings (the render loop sets per pass whether it
+  /// branches and guides).
+  IntegratorSettings integratorSettings() const;
   /// The crop's pixels of `values`, resolved for the film with `stored` floats per pixel, of
   /// which the first `wanted` are kept.
   std::vector<float> cropped(const std::vector<float>& values, size_t stored, size_t wanted) const;

@@ -1,0 +1,106 @@
+// The ray log and Embree's raw speed on the path tracer's own rays (throughput.h).
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "penumbra/filter.h"
+#include "penumbra/plugin/render_delegate.h"
+#include "penumbra/plugin/render_pass.h"
+#include "penumbra/ray_log.h"
+#include "scene_builders.h"
+#include "transforms.h"
+
+using namespace penumbra;
+using penumbra::test::addCamera;
+using penumbra::test::addFloor;
+using penumbra::test::addSphere;
+using penumbra::test::facingDown;
+using penumbra::test::translation;
+using namespace penumbra::plugin;
+
+namespace {
+
+constexpr int kSize = 24;
+
+/// A grey floor with a ball on it under a square lamp (shadow rays, some blocked) and a sky
+/// (rays that escape), seen from above.
+void ballUnderLamp(RenderDelegate& delegate) {
+  addFloor(delegate, "/floor", 10);
+  delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
+  addSphere(delegate, "/ball", 0.5f, 12, 24);
+  delegate.mesh("/ball").setTransform(translation(0, 0.5, 0));
+  delegate.insertSprim("rectLight", "/lamp");
+  delegate.light("/lamp").setParam("intensity", 10.0f);
+  delegate.light("/lamp").setTransform(facingDown(0, 3, 0));
+  delegate.insertSprim("domeLight", "/sky");
+  delegate.light("/sky").setParam("intensity", 0.2f);
+  addCamera(delegate, facingDown(0, 4, 0), 12);
+}
+
+bool sameBits(const Vec3f& a, const Vec3f& b) {
+  return std::memcmp(&a, &b, sizeof(Vec3f)) == 0;
+}
+
+}  // namespace
+
+TEST(RayLog, HoldsExactlyTheRaysEachSampleCountsAndChangesNoSample) {
+  RenderDelegate delegate;
+  ballUnderLamp(delegate);
+  RenderPass pass(delegate, "/cam", kSize, kSize);
+  pass.execute(0);  // sync
+  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  const PixelFilter filter;
+  IntegratorSettings settings;
+  RayLog log;
+  IntegratorSettings logging = settings;
+  logging.rayLog = &log;
+  uint64_t counted = 0;
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x)
+      for (uint32_t s = 0; s < 2; ++s) {
+        const CameraSample plain =
+            renderCameraSample(delegate.scene(), camera, filter, x, y, s, settings);
+        const CameraSample logged =
+            renderCameraSample(delegate.scene(), camera, filter, x, y, s, logging);
+        ASSERT_TRUE(sameBits(plain.radiance, logged.radiance)) << x << ", " << y;
+        ASSERT_EQ(plain.rays, logged.rays);
+        counted += logged.rays;
+      }
+  const std::vector<LoggedRay> rays = log.rays();
+  ASSERT_EQ(rays.size(), counted);
+  size_t cameraRays = 0, shadowRays = 0, blocked = 0;
+  for (const LoggedRay& ray : rays) {
+    cameraRays += !ray.shadow && ray.kind == RayKind::Camera;
+    if (ray.shadow) {
+      ++shadowRays;
+      blocked += delegate.scene().geometry().occluded(ray.ray, ray.shadowLinkSlot);
+    }
+  }
+  EXPECT_EQ(cameraRays, size_t(2 * kSize * kSize));  // one per sample, first
+  EXPECT_GT(shadowRays, cameraRays);                 // lamp and sky at each hit
+  EXPECT_GT(blocked, 0u);                            // the ball's shadow
+  EXPECT_LT(blocked, shadowRays);
+}
+
+TEST(RawThroughput, TimesEmbreeOnTheRaysOneSamplePerPixelTraces) {
+  RenderDelegate delegate;
+  ballUnderLamp(delegate);
+  delegate.settings().set("indirectSamples", 3);  // the pass's settings are the ones logged
+  RenderPass pass(delegate, "/cam", kSize, kSize);
+  const RawRayThroughput raw = pass.measureRawThroughput();
+  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  IntegratorSettings branched;
+  branched.indirectSamples = 3;
+  uint64_t rays = 0, unbranched = 0;
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      rays += renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, branched).rays;
+      unbranched +=
+          renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, IntegratorSettings())
+              .rays;
+    }
+  EXPECT_EQ(raw.pathRayCount, rays);
+  EXPECT_GT(rays, unbranched);  // so the count does say which settings were logged
+  EXPECT_GT(raw.pathRays, 0);
+  EXPECT_GT(raw.primary, 0);
+}
