@@ -20,6 +20,7 @@
 
 #include <OpenImageIO/imagecache.h>
 #include <OpenImageIO/texture.h>
+#include <tbb/enumerable_thread_specific.h>
 
 #include <algorithm>
 #include <array>
@@ -88,6 +89,12 @@ struct TextureSystem::Impl {
   detail::TextureFiles files;
   std::vector<Texture> textures;
   std::map<std::tuple<std::string, SourceColorSpace, std::string>, Handle> handles;
+  // Each thread's OIIO per-thread record for this system, made here and destroyed with it. OIIO
+  // 2.4 keeps the ones it makes itself (get_perthread_info()) per thread under the address of
+  // the cache: a thread pool's thread that looked textures up in a destroyed system would find
+  // its stale record, holding tiles of the freed cache, in a new system allocated at that
+  // address, and crash there.
+  tbb::enumerable_thread_specific<OIIO::TextureSystem::Perthread*> threadInfos{nullptr};
 
   explicit Impl(const std::string& configPath)
       : oiio(OIIO::TextureSystem::create(/*shared=*/false)), files(oiio, configPath) {
@@ -96,9 +103,19 @@ struct TextureSystem::Impl {
   }
 
   ~Impl() {
+    if (!oiio) return;
+    for (OIIO::TextureSystem::Perthread* info : threadInfos)
+      if (info) oiio->destroy_thread_info(info);
     // Tears the private ImageCache down too, so each scene's cache and its tiles end with the
     // scene. Closes the files before `files` removes them.
-    if (oiio) OIIO::TextureSystem::destroy(oiio, /*teardown_imagecache=*/true);
+    OIIO::TextureSystem::destroy(oiio, /*teardown_imagecache=*/true);
+  }
+
+  /// The calling thread's per-thread record (OIIO still does its housekeeping on it).
+  OIIO::TextureSystem::Perthread* threadInfo() {
+    OIIO::TextureSystem::Perthread*& info = threadInfos.local();
+    if (!info) info = oiio->create_thread_info();
+    return oiio->get_perthread_info(info);
   }
 };
 
@@ -123,7 +140,8 @@ TextureSystem::Handle TextureSystem::open(const std::string& path,
       std::error_code code;
       if (!fs::exists(file, code)) continue;
       TextureFile opened;
-      if (!impl_->files.open(file, colorSpace, &opened, error)) return kInvalid;
+      if (!impl_->files.open(file, colorSpace, impl_->threadInfo(), &opened, error))
+        return kInvalid;
       texture.tiles[i] = opened.tile;
       texture.channels = std::max(texture.channels, opened.tile.channels);
       ++tiles;
@@ -134,7 +152,7 @@ TextureSystem::Handle TextureSystem::open(const std::string& path,
     }
   } else {
     TextureFile opened;
-    if (!impl_->files.open(path, colorSpace, &opened, error)) return kInvalid;
+    if (!impl_->files.open(path, colorSpace, impl_->threadInfo(), &opened, error)) return kInvalid;
     texture.single = opened.tile;
     texture.channels = opened.tile.channels;
     texture.metadataS = opened.metadataS;
@@ -189,7 +207,7 @@ bool TextureSystem::readLevel(Handle handle, size_t maxTexels, int* width, int* 
   const int channels = texture.single.channels;
   std::vector<float> values(size_t(spec.width) * size_t(spec.height) * size_t(channels));
   OIIO::TextureOpt options;
-  if (!impl_->oiio->get_texels(texture.single.handle, nullptr, options, level, spec.x,
+  if (!impl_->oiio->get_texels(texture.single.handle, impl_->threadInfo(), options, level, spec.x,
                                spec.x + spec.width, spec.y, spec.y + spec.height, 0, 1, 0, channels,
                                OIIO::TypeFloat, values.data()))
     return false;
@@ -211,8 +229,8 @@ Vec3f TextureSystem::texel(Handle handle, Vec2f uv) const {
   float value[4] = {0, 0, 0, 0};
   OIIO::TextureOpt options;
   OIIO::TextureSystem* oiio = impl_->oiio;
-  if (!oiio->get_texels(tile.handle, oiio->get_perthread_info(), options, 0, x, x + 1, y, y + 1, 0,
-                        1, 0, tile.channels, OIIO::TypeFloat, value))
+  if (!oiio->get_texels(tile.handle, impl_->threadInfo(), options, 0, x, x + 1, y, y + 1, 0, 1, 0,
+                        tile.channels, OIIO::TypeFloat, value))
     return Vec3f(0.0f);
   return toRgb(value, tile.channels);
 }
@@ -248,8 +266,8 @@ bool TextureSystem::lookup(Handle handle, TextureWrap wrapS, TextureWrap wrapT,
 
   OIIO::TextureSystem* oiio = impl_->oiio;
   float value[4];
-  if (!oiio->texture(tile->handle, oiio->get_perthread_info(), options, s, 1.0f - t, dsdx, dtdx,
-                     dsdy, dtdy, tile->channels, value))
+  if (!oiio->texture(tile->handle, impl_->threadInfo(), options, s, 1.0f - t, dsdx, dtdx, dsdy,
+                     dtdy, tile->channels, value))
     return false;
   switch (tile->channels) {
     case 1:

@@ -189,7 +189,8 @@ bool TextureFiles::prepare(const std::string& file, const OIIO::ImageSpec& fileS
 }
 
 bool TextureFiles::open(const std::string& file, const TextureColorSpace& colorSpace,
-                        TextureFile* result, std::string* error) {
+                        OIIO::TextureSystem::Perthread* threadInfo, TextureFile* result,
+                        std::string* error) {
   std::error_code code;
   if (!fs::exists(file, code)) {
     *error = file + ": no such file";
@@ -240,11 +241,11 @@ bool TextureFiles::open(const std::string& file, const TextureColorSpace& colorS
   std::string texture = file;
   const bool ready = spec.tile_width > 0 && mipmapped && spec.nchannels <= 4;
   if ((!source.empty() || !ready) && !prepare(file, spec, source, &texture, error)) return false;
-  opened.tile.handle = oiio_->get_texture_handle(OIIO::ustring(texture));
+  opened.tile.handle = oiio_->get_texture_handle(OIIO::ustring(texture), threadInfo);
   opened.tile.path = texture;
   OIIO::ImageSpec textureSpec;
   if (!opened.tile.handle || !oiio_->good(opened.tile.handle) ||
-      !oiio_->get_imagespec(opened.tile.handle, nullptr, 0, textureSpec)) {
+      !oiio_->get_imagespec(opened.tile.handle, threadInfo, 0, textureSpec)) {
     *error = file + ": cannot open as a texture: " + trimmed(oiio_->geterror());
     return false;
   }

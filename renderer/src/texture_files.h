@@ -49,8 +49,8 @@ class TextureFiles {
 
   /// Prepares one image file for lookups (shared between handles that read it the same way).
   /// False with *error naming the file and what is wrong.
-  bool open(const std::string& file, const TextureColorSpace& colorSpace, TextureFile* result,
-            std::string* error);
+  bool open(const std::string& file, const TextureColorSpace& colorSpace,
+            OIIO::TextureSystem::Perthread* threadInfo, TextureFile* result, std::string* error);
 
  private:
   bool makeDirectory(std::string* error);

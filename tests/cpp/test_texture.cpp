@@ -5,11 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <condition_variable>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
+#include <mutex>
 #include <thread>
 #include <tuple>
 #include <utility>
@@ -609,6 +612,70 @@ TEST_F(Texture, LookupsAreDeterministicAcrossCallsAndThreads) {
   EXPECT_EQ(std::memcmp(once.data(), twice.data(), once.size() * sizeof(float)), 0);
   EXPECT_EQ(std::memcmp(once.data(), threadA.data(), once.size() * sizeof(float)), 0);
   EXPECT_EQ(std::memcmp(once.data(), threadB.data(), once.size() * sizeof(float)), 0);
+}
+
+TEST_F(Texture, APoolThreadLooksUpInOneSystemAfterAnotherWasDestroyed) {
+  // A render's pool threads outlive the scenes they render. OIIO 2.4 keeps the per-thread
+  // records it makes itself under the address of the cache; a system made where a destroyed
+  // one was would give a pool thread its stale record, whose tiles are freed. Each system here
+  // is made right after the last one is destroyed, and one long-lived thread looks up in each.
+  std::vector<float> pixels;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x) pixels.insert(pixels.end(), {float(x) / 31, float(y) / 31, 0.5f});
+  const std::string file = write("ramp.png", 32, 32, 3, OIIO::TypeUInt8, pixels);
+  std::mutex mutex;
+  std::condition_variable changed;
+  const TextureSystem* textures = nullptr;
+  TextureSystem::Handle handle = TextureSystem::kInvalid;
+  int posted = 0, finished = 0;
+  std::vector<float> pooled;
+  const auto lookUp = [&](const TextureSystem& system, std::vector<float>* out) {
+    out->clear();
+    for (int i = 0; i < 200; ++i) {
+      const float s = 0.37f * float(i) - std::floor(0.37f * float(i));
+      const TextureFootprint footprint{{s, 1 - s}, {0.01f, 0}, {0, 0.01f}};
+      float rgba[4] = {};
+      system.lookup(handle, TextureWrap::Repeat, TextureWrap::Repeat, footprint, rgba);
+      out->insert(out->end(), rgba, rgba + 4);
+    }
+  };
+  std::thread pool([&] {
+    for (int done = 0;; ++done) {
+      std::unique_lock<std::mutex> lock(mutex);
+      changed.wait(lock, [&] { return posted > done; });
+      if (!textures) return;
+      lock.unlock();
+      lookUp(*textures, &pooled);
+      lock.lock();
+      finished = done + 1;
+      changed.notify_all();
+    }
+  });
+  for (int round = 0; round < 12; ++round) {
+    auto system = std::make_unique<TextureSystem>(kBundledConfig);
+    std::string error;
+    handle = system->open(file, SourceColorSpace::Raw, &error);
+    ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+    std::vector<float> own;
+    lookUp(*system, &own);
+    {
+      std::unique_lock<std::mutex> lock(mutex);
+      textures = system.get();
+      ++posted;
+      changed.notify_all();
+      changed.wait(lock, [&] { return finished == posted; });
+    }
+    ASSERT_EQ(pooled.size(), own.size());
+    EXPECT_EQ(std::memcmp(pooled.data(), own.data(), own.size() * sizeof(float)), 0)
+        << "round " << round;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    textures = nullptr;
+    ++posted;
+  }
+  changed.notify_all();
+  pool.join();
 }
 
 TEST_F(Texture, TheSrgbSpaceIsFoundUnderOtherConfigsNames) {
