@@ -26,7 +26,9 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <map>
+#include <memory>
 #include <tuple>
 #include <vector>
 
@@ -194,13 +196,21 @@ bool TextureSystem::readLevel(Handle handle, size_t maxTexels, int* width, int* 
   if (handle < 0 || size_t(handle) >= impl_->textures.size()) return false;
   const Texture& texture = impl_->textures[size_t(handle)];
   if (texture.udim) return false;
+  // The MIP levels' specs come from the cache, with a per-thread record of its own for this
+  // call (see Impl::threadInfos).
   OIIO::ImageCache* cache = impl_->oiio->imagecache();
-  const OIIO::ustring path(texture.single.path);
+  const std::unique_ptr<OIIO::ImageCache::Perthread,
+                        std::function<void(OIIO::ImageCache::Perthread*)>>
+      cacheInfo(cache->create_thread_info(),
+                [cache](OIIO::ImageCache::Perthread* info) { cache->destroy_thread_info(info); });
+  OIIO::ImageCache::ImageHandle* file =
+      cache->get_image_handle(OIIO::ustring(texture.single.path), cacheInfo.get());
   OIIO::ImageSpec spec;
   int level = 0;
-  if (!cache->get_imagespec(path, spec, 0, level)) return false;
-  for (OIIO::ImageSpec coarser; size_t(spec.width) * size_t(spec.height) > maxTexels &&
-                                cache->get_imagespec(path, coarser, 0, level + 1);) {
+  if (!file || !cache->get_imagespec(file, cacheInfo.get(), spec, 0, level)) return false;
+  for (OIIO::ImageSpec coarser;
+       size_t(spec.width) * size_t(spec.height) > maxTexels &&
+       cache->get_imagespec(file, cacheInfo.get(), coarser, 0, level + 1);) {
     spec = coarser;
     ++level;
   }
