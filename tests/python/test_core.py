@@ -8,7 +8,8 @@ import pytest
 from penumbra import _core
 
 
-def test_render_buffers_receive_bound_aovs():
+def quad_under_sky() -> _core.RenderDelegate:
+    """A 2x2 quad at z = 0 under a white dome, seen by camera /cam from z = 5."""
     delegate = _core.RenderDelegate()
     delegate.insert_rprim("mesh", "/quad")
     delegate.set_mesh_topology("/quad", np.array([4], np.int32), np.array([0, 1, 2, 3], np.int32))
@@ -17,6 +18,11 @@ def test_render_buffers_receive_bound_aovs():
     delegate.set_camera("/cam", focal_length=5, horizontal_aperture=4, vertical_aperture=4)
     delegate.set_transform("/cam", np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 5, 1]], float))
     delegate.insert_sprim("domeLight", "/sky")
+    return delegate
+
+
+def test_render_buffers_receive_bound_aovs():
+    delegate = quad_under_sky()
     delegate.insert_bprim("renderBuffer", "/depth")
     delegate.allocate_render_buffer("/depth", 8, 8)
     render_pass = _core.RenderPass(delegate, "/cam", 8, 8)
@@ -95,14 +101,7 @@ def test_raw_throughput_counts_the_rays_one_sample_per_pixel_traces():
     """measure_raw_throughput (bench/quality.py's ray-cost table) times Embree on the rays the
     render settings trace: one camera ray per pixel, then a shadow ray to the sky and a bounce
     from each pixel that sees the quad; more with branching."""
-    delegate = _core.RenderDelegate()
-    delegate.insert_rprim("mesh", "/quad")
-    delegate.set_mesh_topology("/quad", np.array([4], np.int32), np.array([0, 1, 2, 3], np.int32))
-    delegate.set_mesh_points("/quad", np.array([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], np.float32))
-    delegate.insert_sprim("camera", "/cam")
-    delegate.set_camera("/cam", focal_length=5, horizontal_aperture=4, vertical_aperture=4)
-    delegate.set_transform("/cam", np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 5, 1]], float))
-    delegate.insert_sprim("domeLight", "/sky")
+    delegate = quad_under_sky()
     counts = []
     for branches in (1, 3):
         delegate.set_render_setting("indirectSamples", branches)
