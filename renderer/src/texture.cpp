@@ -201,16 +201,17 @@ bool TextureSystem::readLevel(Handle handle, size_t maxTexels, int* width, int* 
   OIIO::ImageCache* cache = impl_->oiio->imagecache();
   const std::unique_ptr<OIIO::ImageCache::Perthread,
                         std::function<void(OIIO::ImageCache::Perthread*)>>
-      cacheInfo(cache->create_thread_info(),
-                [cache](OIIO::ImageCache::Perthread* info) { cache->destroy_thread_info(info); });
+      cacheInfo(cache->create_thread_info(), [cache](OIIO::ImageCache::Perthread* record) {
+        cache->destroy_thread_info(record);
+      });
+  OIIO::ImageCache::Perthread* info = cache->get_perthread_info(cacheInfo.get());
   OIIO::ImageCache::ImageHandle* file =
-      cache->get_image_handle(OIIO::ustring(texture.single.path), cacheInfo.get());
+      cache->get_image_handle(OIIO::ustring(texture.single.path), info);
   OIIO::ImageSpec spec;
   int level = 0;
-  if (!file || !cache->get_imagespec(file, cacheInfo.get(), spec, 0, level)) return false;
-  for (OIIO::ImageSpec coarser;
-       size_t(spec.width) * size_t(spec.height) > maxTexels &&
-       cache->get_imagespec(file, cacheInfo.get(), coarser, 0, level + 1);) {
+  if (!file || !cache->get_imagespec(file, info, spec, 0, level)) return false;
+  for (OIIO::ImageSpec coarser; size_t(spec.width) * size_t(spec.height) > maxTexels &&
+                                cache->get_imagespec(file, info, coarser, 0, level + 1);) {
     spec = coarser;
     ++level;
   }

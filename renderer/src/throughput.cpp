@@ -3,11 +3,13 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <vector>
 
+#include "penumbra/filter.h"
 #include "penumbra/ray_log.h"
-#include "penumbra/render.h"
 #include "penumbra/sampler.h"
 #include "penumbra/warp.h"
 
@@ -65,19 +67,30 @@ RawRayThroughput measureRawThroughput(const Scene& scene, const Camera& camera, 
     bounces.push_back(bounce);
   }
   result.bounceRays = bounces.size();
-  if (bounces.empty()) return result;
-  result.bounceIntersect = raysPerSecond(bounces, threads, repeats, [&](const Ray& ray) {
-    return scene.geometry().hitDistance(ray, RayKind::Secondary);
-  });
-  result.bounceOccluded = raysPerSecond(
-      bounces, threads, repeats, [&](const Ray& ray) { return scene.geometry().occluded(ray); });
+  if (!bounces.empty()) {
+    result.bounceIntersect = raysPerSecond(bounces, threads, repeats, [&](const Ray& ray) {
+      return scene.geometry().hitDistance(ray, RayKind::Secondary);
+    });
+    result.bounceOccluded = raysPerSecond(
+        bounces, threads, repeats, [&](const Ray& ray) { return scene.geometry().occluded(ray); });
+  }
   if (pathSettings) {
+    // Every pixel's sample 0, or every stride-th pixel's each way in larger images: the log
+    // (about 50 bytes a ray) stays within some tens of megabytes.
+    const int stride = std::max(
+        1, int(std::ceil(std::sqrt(double(width) * double(height) / double(kMaxLoggedPixels)))));
+    const int columns = (width + stride - 1) / stride, rows = (height + stride - 1) / stride;
     RayLog log;
-    RenderSettings loggedRender;
-    loggedRender.integrator = *pathSettings;
-    loggedRender.integrator.rayLog = &log;
-    loggedRender.threads = threads;
-    traceSamples(scene, camera, width, height, 0, 1, loggedRender);
+    IntegratorSettings logging = *pathSettings;
+    logging.rayLog = &log;
+    const PixelFilter filter;
+    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+    arena.execute([&] {
+      tbb::parallel_for(0, rows, [&](int row) {
+        for (int column = 0; column < columns; ++column)
+          renderCameraSample(scene, camera, filter, column * stride, row * stride, 0, logging);
+      });
+    });
     const std::vector<LoggedRay> pathRays = log.rays();
     result.pathRayCount = pathRays.size();
     if (!pathRays.empty())

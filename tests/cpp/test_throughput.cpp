@@ -104,3 +104,20 @@ TEST(RawThroughput, TimesEmbreeOnTheRaysOneSamplePerPixelTraces) {
   EXPECT_GT(raw.pathRays, 0);
   EXPECT_GT(raw.primary, 0);
 }
+
+TEST(RawThroughput, LargeImagesLogTheRaysOfEveryKthPixelEachWay) {
+  RenderDelegate delegate;
+  ballUnderLamp(delegate);
+  constexpr int kLarge = 300;  // 90,000 pixels: every second pixel each way, 22,500 of them
+  RenderPass pass(delegate, "/cam", kLarge, kLarge);
+  const RawRayThroughput raw = pass.measureRawThroughput();
+  const penumbra::Camera camera(delegate.camera("/cam").params(), kLarge, kLarge);
+  uint64_t everySecond = 0;
+  for (int y = 0; y < kLarge; y += 2)
+    for (int x = 0; x < kLarge; x += 2)
+      everySecond +=
+          renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, IntegratorSettings())
+              .rays;
+  EXPECT_EQ(raw.pathRayCount, everySecond);
+  EXPECT_LE(22500u, everySecond);  // a camera ray each at least
+}

@@ -63,8 +63,9 @@ struct IntegratorSettings {
   /// over their image (light_images.h) instead of its camera ray finding it; not owned. Null:
   /// camera rays find every light.
   const LightImages* lightImages = nullptr;
-  /// Where set, every ray a sample counts in CameraSample::rays (its path's rays and their
-  /// shadow rays) is logged there as it is traced; not owned. For timing Embree alone on them.
+  /// Where set, the rays a sample counts in CameraSample::rays for its path (the path's rays and
+  /// their shadow rays; not those towards lights seen directly, `lightImages`) are logged there
+  /// as they are traced; not owned. For timing Embree alone on them.
   RayLog* rayLog = nullptr;
 };
 

@@ -1,6 +1,6 @@
-// The rays a render traces through the scene's BVH, kept so that Embree alone can be timed on
-// exactly those rays (measureRawThroughput): the path tracer's cost per ray against Embree's on
-// the same rays, not on rays made up to resemble them.
+// The rays a render's paths trace through the scene's BVH (IntegratorSettings::rayLog), kept so
+// that Embree alone can be timed on exactly those rays (measureRawThroughput): the path tracer's
+// cost per ray against Embree's on the same rays, not on rays made up to resemble them.
 #pragma once
 
 #include <tbb/enumerable_thread_specific.h>

@@ -72,8 +72,8 @@ class RenderPass {
   /// Rays traced through the scene's BVH for the samples accumulated so far.
   uint64_t raysTraced() const { return film_.raysTraced(crop_); }
   /// Syncs, then times Embree alone on this pass's camera and scene (see throughput.h), with
-  /// the render settings' thread count, on made-up rays and on the rays of one sample per pixel
-  /// with the render settings.
+  /// the render settings' thread count, on made-up rays and on the rays of one unguided sample
+  /// per pixel with the render settings (branching as they say).
   RawRayThroughput measureRawThroughput();
   /// The target sample count is reached, or adaptive sampling has stopped every pixel.
   bool converged() const {
