@@ -16,14 +16,20 @@
 namespace penumbra {
 namespace {
 
+/// Runs `body` on `threads` threads (0: all).
+template <class Body>
+void onThreads(int threads, const Body& body) {
+  tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+  arena.execute(body);
+}
+
 /// Rays per second of `trace` over `rays`, best of `repeats` runs.
 template <class RayType, class Trace>
 double raysPerSecond(const std::vector<RayType>& rays, int threads, int repeats, Trace trace) {
   double best = 0;
   for (int run = 0; run < repeats; ++run) {
     const auto started = std::chrono::steady_clock::now();
-    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-    arena.execute([&] {
+    onThreads(threads, [&] {
       tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 256),
                         [&](const tbb::blocked_range<size_t>& range) {
                           for (size_t i = range.begin(); i < range.end(); ++i) trace(rays[i]);
@@ -84,8 +90,7 @@ RawRayThroughput measureRawThroughput(const Scene& scene, const Camera& camera, 
     IntegratorSettings logging = *pathSettings;
     logging.rayLog = &log;
     const PixelFilter filter;
-    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-    arena.execute([&] {
+    onThreads(threads, [&] {
       tbb::parallel_for(0, rows, [&](int row) {
         for (int column = 0; column < columns; ++column)
           renderCameraSample(scene, camera, filter, column * stride, row * stride, 0, logging);
