@@ -287,3 +287,23 @@ def test_deferring_in_another_thread_changes_nothing() -> None:
         assert failures == []  # not "signal only works in main thread"
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+FUZZ_HARNESS = Path(__file__).resolve().parents[1] / "fuzz" / "fuzz_scene.py"
+
+
+@pytest.mark.parametrize("failing", [False, True], ids=["clean", "finding"])
+def test_fuzz_harness_leaves_no_scratch_directory(failing: bool, tmp_path: Path) -> None:
+    """libFuzzer ends its process with C's exit(), which skips Python's clean-up: the harness's
+    scratch directory must go all the same, and a finding's exit status must come through."""
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    arguments = [sys.executable, str(FUZZ_HARNESS), "-runs=2", "-seed=1"]
+    if failing:  # libFuzzer stops with an error status when its dictionary cannot be read
+        arguments.append(f"-dict={tmp_path / 'missing.dict'}")
+    environment = {**os.environ, "TMPDIR": str(scratch)}
+    result = subprocess.run(
+        arguments, cwd=tmp_path, env=environment, capture_output=True, text=True, timeout=300
+    )
+    assert (result.returncode != 0) == failing, result.stderr[-2000:]
+    assert list(scratch.iterdir()) == []
