@@ -109,6 +109,25 @@ def bind(mesh: UsdGeom.Mesh, material: UsdShade.Material) -> None:
     UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
 
 
+def add_primvar_emission_material(stage: Usd.Stage, path: str, primvar: str) -> UsdShade.Material:
+    """A black, non-reflecting UsdPreviewSurface whose emissiveColor a UsdPrimvarReader_float3
+    reads from the float3 primvar `primvar`: the image shows the primvar itself."""
+    material = UsdShade.Material.Define(stage, path)
+    surface = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    surface.CreateIdAttr("UsdPreviewSurface")
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0))
+    surface.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0))
+    surface.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
+    reader = UsdShade.Shader.Define(stage, f"{path}/Reader")
+    reader.CreateIdAttr("UsdPrimvarReader_float3")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set(primvar)
+    surface.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        reader.CreateOutput("result", Sdf.ValueTypeNames.Float3)
+    )
+    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    return material
+
+
 def lit_quad_stage(path: Path | None = None) -> Usd.Stage:
     """A camera looking at a grey quad facing it, lit by a distant light: the quad fills the
     central half of the image."""

@@ -15,7 +15,13 @@ from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
 import penumbra
 from penumbra import _core
 from penumbra.memory import FILM_BYTES_PER_PIXEL, resident_memory
-from stages import add_camera, add_preview_material, bind, new_stage
+from stages import (
+    add_camera,
+    add_preview_material,
+    add_primvar_emission_material,
+    bind,
+    new_stage,
+)
 
 WIDTH = 64
 FOCAL = 50.0
@@ -579,19 +585,7 @@ def test_a_material_reads_per_curve_primvars():
         "tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.uniform
     )
     tint.Set([Gf.Vec3f(1, 0.5, 0), Gf.Vec3f(0, 0.5, 1)])
-    material = UsdShade.Material.Define(stage, "/World/Looks/tinted")
-    surface = UsdShade.Shader.Define(stage, "/World/Looks/tinted/Surface")
-    surface.CreateIdAttr("UsdPreviewSurface")
-    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0))
-    surface.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0))
-    surface.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
-    reader = UsdShade.Shader.Define(stage, "/World/Looks/tinted/Tint")
-    reader.CreateIdAttr("UsdPrimvarReader_float3")
-    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("tint")
-    surface.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
-        reader.CreateOutput("result", Sdf.ValueTypeNames.Float3)
-    )
-    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    material = add_primvar_emission_material(stage, "/World/Looks/tinted", "tint")
     bind(hair, material)
     color = penumbra.render(stage, **{**FAST, "samples": 16})["color"]
     # Emission alone: each tube shows its curve's tint where it covers a pixel whole.

@@ -16,7 +16,14 @@ from pxr import Gf, Sdf, UsdGeom, UsdShade
 
 import penumbra
 from penumbra import _core
-from stages import add_camera, add_distant_light, add_quad, bind, new_stage
+from stages import (
+    add_camera,
+    add_distant_light,
+    add_primvar_emission_material,
+    add_quad,
+    bind,
+    new_stage,
+)
 
 # The camera sees x, y in [-0.8, 0.8] of the unit quad [-1, 1]², whose st runs 0..1.
 VIEW = 0.8
@@ -268,25 +275,14 @@ def test_primvar_readers_drive_any_input():
     primvars = UsdGeom.PrimvarsAPI(mesh)
     tint = primvars.CreatePrimvar("tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.uniform)
     tint.Set([Gf.Vec3f(1, 0.5, 0), Gf.Vec3f(0, 0.5, 1)])
-    material = UsdShade.Material.Define(stage, "/World/Looks/tinted")
-    surface = UsdShade.Shader.Define(stage, "/World/Looks/tinted/Surface")
-    surface.CreateIdAttr("UsdPreviewSurface")
-    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0))
-    surface.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0))
-    surface.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
-    reader = UsdShade.Shader.Define(stage, "/World/Looks/tinted/Tint")
-    reader.CreateIdAttr("UsdPrimvarReader_float3")
-    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("tint")
-    surface.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
-        reader.CreateOutput("result", Sdf.ValueTypeNames.Float3)
-    )
-    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    material = add_primvar_emission_material(stage, "/World/Looks/tinted", "tint")
     bind(mesh, material)
     image = render(stage)
     np.testing.assert_allclose(at(image, -0.5, 0), (1, 0.5, 0), atol=0.01)
     np.testing.assert_allclose(at(image, 0.5, 0), (0, 0.5, 1), atol=0.01)
 
     # Where the primvar is missing the reader's fallback is used; editing the primvar re-renders.
+    reader = UsdShade.Shader.Get(stage, "/World/Looks/tinted/Reader")
     reader.CreateInput("fallback", Sdf.ValueTypeNames.Float3).Set(Gf.Vec3f(0.25, 0.25, 0.25))
     reader.GetInput("varname").Set("absent")
     np.testing.assert_allclose(at(render(stage), 0.5, 0), (0.25, 0.25, 0.25), atol=0.01)
