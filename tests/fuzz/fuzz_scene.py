@@ -3,8 +3,8 @@ malformed-input corpus, rendered by ``penumbra-record`` at 16 px, 1 spp. A findi
 a hang (libFuzzer's -timeout) or an error only the CLI's catch-all reports (an exception nothing
 checked: ``cannot render: <ExceptionType>``).
 
-    python tests/fuzz/fuzz_scene.py -runs=200          # make test (short)
-    python tests/fuzz/fuzz_scene.py -max_total_time=600 # make fuzz
+    python tests/fuzz/fuzz_scene.py -runs=300 -seed=1     # make test (short)
+    python tests/fuzz/fuzz_scene.py -max_total_time=600   # make fuzz
 
 libFuzzer ends the process with C's exit(), which skips Python's clean-up, so the fuzzer runs in a
 child process and this one removes the child's scratch directory whatever way it ended.
@@ -18,13 +18,14 @@ import os
 import sys
 import tempfile
 from pathlib import Path
+from typing import NoReturn
 
 WORK_VARIABLE = "PENUMBRA_FUZZ_WORK"
 CATCH_ALL = ": cannot render: "
 
 
-def fuzz(work: Path) -> None:
-    """Runs libFuzzer in this process, writing stages and images into `work`; does not return."""
+def fuzz(work: Path) -> NoReturn:
+    """Runs libFuzzer in this process, writing stages and images into `work`."""
     import atheris
 
     with atheris.instrument_imports():

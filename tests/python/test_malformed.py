@@ -292,10 +292,10 @@ def test_deferring_in_another_thread_changes_nothing() -> None:
 FUZZ_HARNESS = Path(__file__).resolve().parents[1] / "fuzz" / "fuzz_scene.py"
 
 
-@pytest.mark.parametrize("failing", [False, True], ids=["clean", "finding"])
+@pytest.mark.parametrize("failing", [False, True], ids=["clean", "error"])
 def test_fuzz_harness_leaves_no_scratch_directory(failing: bool, tmp_path: Path) -> None:
     """libFuzzer ends its process with C's exit(), which skips Python's clean-up: the harness's
-    scratch directory must go all the same, and a finding's exit status must come through."""
+    scratch directory must go all the same, and libFuzzer's exit status must come through."""
     scratch = tmp_path / "tmp"
     scratch.mkdir()
     arguments = [sys.executable, str(FUZZ_HARNESS), "-runs=2", "-seed=1"]
