@@ -372,10 +372,19 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
 # emitters seen by the camera dominate the noise (bench/camera_noise.py); above the view, light
 # selection and shadows do, and the target is the 1 %.
 MANY_LIGHT_PLACEMENTS = (("in view", False, TARGET_RRMSE), ("above the view", True, 0.01))
+# Ten lights in view reach 5 % near 2 spp: rungs below the ladder's make that a crossing, not an
+# extrapolation below the first rung, so that the ratio to ten lights means something.
+MANY_LIGHT_LOW_RUNGS = (1, 2)
+
+
+def many_light_ladder(args: argparse.Namespace) -> list[Setting]:
+    return [Setting(samples) for samples in sorted({*MANY_LIGHT_LOW_RUNGS, *args.spp})]
 
 
 def many_lights_table(args: argparse.Namespace) -> None:
-    print(f"\nMany lights (bench/many_lights.py), {args.width} px wide; * extrapolated.\n")
+    ladder = ", ".join(setting.describe() for setting in many_light_ladder(args))
+    print(f"\nMany lights (bench/many_lights.py), {args.width} px wide, ladder {ladder}; "
+          "* extrapolated.\n")
     print("| lights | sphere lights | target rRMSE | spp at target | time to target (s) "
           "| 64-spp rRMSE | of luminance | time vs 10 lights |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
@@ -386,8 +395,8 @@ def many_lights_table(args: argparse.Namespace) -> None:
                 path = write_stage(Path(directory) / f"lights_{count}_{above_view}.usda", count,
                                    above_view=above_view)
                 stage = Usd.Stage.Open(str(path))
-                rungs = measure_ladder(stage, f"{count} lights {placement}", fixed_ladder(args),
-                                       args, None)
+                rungs = measure_ladder(stage, f"{count} lights {placement}",
+                                       many_light_ladder(args), args, None)
                 quality = crossing(rungs, target)
                 first_seconds = first_seconds or quality.seconds
                 print(
