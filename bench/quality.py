@@ -560,14 +560,17 @@ def parse_args() -> argparse.Namespace:
 def main() -> None:
     args = parse_args()
     print_provenance()
-    if not SCENES.is_dir():
-        print(f"quality.py: skipped, the shared scenes are needed and {SCENES} is missing.")
-        return
-    shared_scenes_table(args)
+    shared = SCENES.is_dir()
+    if shared:
+        shared_scenes_table(args)
     if not args.skip_many_lights:
-        many_lights_table(args)
-    ray_cost_table(args)
-    threads_table()
+        many_lights_table(args)  # its scenes are written here
+    if shared:
+        ray_cost_table(args)
+        threads_table()
+    else:
+        print(f"\nquality.py: the shared-scene, ray-cost and threads tables are skipped: they "
+              f"need the shared scenes, and {SCENES} is missing.")
 
 
 if __name__ == "__main__":
