@@ -372,8 +372,8 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
 # emitters seen by the camera dominate the noise (bench/camera_noise.py); above the view, light
 # selection and shadows do, and the target is the 1 %.
 MANY_LIGHT_PLACEMENTS = (("in view", False, TARGET_RRMSE), ("above the view", True, 0.01))
-# Ten lights in view reach 5 % near 2 spp: rungs below the ladder's make that a crossing, not an
-# extrapolation below the first rung, so that the ratio to ten lights means something.
+# Ten lights in view reach 5 % near 3 spp, below a ladder starting at 4: rungs at 1 and 2 spp make
+# that a crossing, not an extrapolation, so that the ratio to ten lights means something.
 MANY_LIGHT_LOW_RUNGS = (1, 2)
 
 
