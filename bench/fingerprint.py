@@ -10,6 +10,9 @@ then ``diff`` the two listings::
     # ... change, rebuild ...
     .venv/bin/python bench/fingerprint.py > after.txt && diff before.txt after.txt
 
+``--option KEYWORD=VALUE`` (repeatable) passes a render option to every render, for comparing a
+change under the setting that keeps the old behaviour (``--option dome_sampling=mis``).
+
 The edited-stage entries also cover the scene-sync path: the stage is rendered, one prim is
 moved, hidden and shown again, and each re-render is fingerprinted.
 """
@@ -64,7 +67,20 @@ def first_movable(stage: Usd.Stage) -> UsdGeom.Xformable | None:
     return None
 
 
-def fingerprint_edits(path: Path, width: int, samples: int) -> list[str]:
+def parse_option(text: str) -> tuple[str, str | float]:
+    """``keyword=value``: a number where it reads as one, else a level's name."""
+    keyword, separator, value = text.partition("=")
+    if not separator or not keyword:
+        raise argparse.ArgumentTypeError(f"expected KEYWORD=VALUE, got {text!r}")
+    try:
+        return keyword, float(value)
+    except ValueError:
+        return keyword, value
+
+
+def fingerprint_edits(
+    path: Path, width: int, samples: int, extra: dict[str, str | float]
+) -> list[str]:
     """Renders after moving, hiding and showing the first mesh: the incremental sync path."""
     stage = Usd.Stage.Open(str(path))
     mesh = first_movable(stage)
@@ -72,7 +88,7 @@ def fingerprint_edits(path: Path, width: int, samples: int) -> list[str]:
         return []
     lines = []
     with penumbra.Renderer(stage) as renderer:
-        options = dict(width=width, samples=samples, aovs=AOVS, threads=2)
+        options = dict(width=width, samples=samples, aovs=AOVS, threads=2, **extra)
         renderer.render(**options)
         mesh.AddTranslateOp(opSuffix="fingerprint").Set(Gf.Vec3d(0.05, 0.02, 0.0))
         lines.append(f"{path.name}:moved {digest(renderer.render(**options))}")
@@ -88,18 +104,27 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=48)
     parser.add_argument("--samples", type=int, default=4)
     parser.add_argument("--no-shared", action="store_true", help="skip ../shared/scenes")
+    parser.add_argument(
+        "--option",
+        type=parse_option,
+        action="append",
+        default=[],
+        metavar="KEYWORD=VALUE",
+        help="a render option for every render (repeatable)",
+    )
     args = parser.parse_args()
+    extra = dict(args.option)
     for path in stages(not args.no_shared):
         name = path.relative_to(REPO.parent if SHARED_SCENES in path.parents else REPO)
         try:
             image = penumbra.render(
-                str(path), width=args.width, samples=args.samples, aovs=AOVS, threads=2
+                str(path), width=args.width, samples=args.samples, aovs=AOVS, threads=2, **extra
             )
             print(f"{name} {digest(image)}", flush=True)
         except Exception as error:  # noqa: BLE001 - a stage that fails is part of the listing
             print(f"{name} error {type(error).__name__}", flush=True)
     for path in (REPO / "examples" / "cornell.usda", REPO / "examples" / "showcase.usda"):
-        for line in fingerprint_edits(path, args.width, args.samples):
+        for line in fingerprint_edits(path, args.width, args.samples, extra):
             print(line, flush=True)
 
 

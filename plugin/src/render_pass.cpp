@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "penumbra/dome_sampling.h"
 #include "penumbra/plugin/render_settings.h"
 #include "penumbra/render.h"
 #include "penumbra/state_io.h"
@@ -107,6 +108,7 @@ void RenderPass::reset() {
   guidingField_.reset();
   guidingRecorder_.clear();
   guidingRecordedThrough_ = 0;
+  sampleConstantDomes_.reset();
 }
 
 void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
@@ -136,6 +138,8 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   RenderSettings renderSettings;
   renderSettings.threads = settings.threads;
   renderSettings.integrator = integratorSettings();
+  renderSettings.integrator.sampleConstantDomesAtFirstSurface =
+      sampleConstantDomes(camera, renderSettings);
   const int trainingSamples = settings.guidingTrainingSamples;
   const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {
@@ -199,6 +203,24 @@ void RenderPass::prepareGuiding(const penumbra::Camera& camera,
   guidingField_ = GuidingField::build(guidingRecorder_.take());
 }
 
+bool RenderPass::sampleConstantDomes(const penumbra::Camera& camera,
+                                     const penumbra::RenderSettings& renderSettings) {
+  switch (DomeSampling(delegate_.settings().domeSampling)) {
+    case DomeSampling::Mis:
+      return true;
+    case DomeSampling::Bsdf:
+      return false;
+    case DomeSampling::Auto:
+      break;
+  }
+  // Over the whole image, so that a crop or a band chooses as the whole image does.
+  if (!sampleConstantDomes_)
+    sampleConstantDomes_ =
+        runDomeSamplingPilot(delegate_.scene(), camera, imageWidth_, imageHeight_, renderSettings)
+            .sampleConstantDomes();
+  return *sampleConstantDomes_;
+}
+
 void RenderPass::checkCropMargin(int samples) const {
   const int reach = adaptiveSamplingReach(samples, delegate_.settings().adaptiveMinSamples);
   const PixelRect& film = film_.region();
@@ -235,6 +257,10 @@ RawRayThroughput RenderPass::measureRawThroughput() {
   // The rays of unguided samples, branching as settings say.
   IntegratorSettings path = integratorSettings();
   path.indirectSamples = delegate_.settings().indirectSamples;
+  RenderSettings renderSettings;
+  renderSettings.threads = delegate_.settings().threads;
+  renderSettings.integrator = path;
+  path.sampleConstantDomesAtFirstSurface = sampleConstantDomes(camera, renderSettings);
   return penumbra::measureRawThroughput(delegate_.scene(), camera, imageWidth_, imageHeight_,
                                         delegate_.settings().threads, 3, &path);
 }

@@ -91,6 +91,13 @@ std::vector<RenderOption> buildRenderOptions() {
                                 {"mis", "light", "bsdf"},
                                 "how direct light is estimated, a diagnostic: multiple importance "
                                 "sampling, or light or BSDF sampling alone"));
+  options.push_back(levelOption(
+      "domeSampling", &Settings::domeSampling, {"auto", "mis", "bsdf"},
+      "how the light of untextured dome lights is found at the surfaces camera rays meet: mis "
+      "samples them as every light, beside the BSDF-sampled ray; bsdf leaves them to that ray, "
+      "less noisy where what occludes the sky is about as bright as the sky (sunlit scenes); "
+      "auto chooses per render from a pilot of a few thousand paths (docs/dome-sampling.md). "
+      "Unbiased either way"));
   options.push_back(realOption("adaptiveThreshold", &Settings::adaptiveThreshold, 1, "T",
                                "adaptive sampling: pixels take samples in proportion to their "
                                "noise, each stopping once its estimated relative error is below "

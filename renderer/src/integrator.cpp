@@ -43,6 +43,9 @@ struct ScatteringRecord {
   bool diffuse = false;       // which light multiplier (diffuse or specular) applies
   Receiver receiver;          // the surface it left, as next-event estimation saw it there
   uint32_t linkingClass = 0;  // the surface's placement's (linking.h): the lights it receives
+  /// Next-event estimation left the constant domes out at the surface it left: their light is
+  /// this ray's alone (IntegratorSettings::sampleConstantDomesAtFirstSurface).
+  bool constantDomesUnsampled = false;
 };
 
 /// Whether light `index` lights what `origin`'s ray left (light linking). Camera rays see every
@@ -88,11 +91,13 @@ struct CameraSampleView {
 /// Emission from the lights a ray meets before `tMax` (area lights) or, if it escapes, from the
 /// infinite ones, weighted against the BSDF sampling that produced it.
 /// Camera rays find the emission of the lights that `cameraSample` integrates over their image
-/// all the same (for depth and alpha) but do not add it.
+/// all the same (for depth and alpha) but do not add it. Where the origin left the constant
+/// domes unsampled and `domeSamplingShift` is given, what sampling them would have taken from
+/// this ray's share of their light is subtracted there.
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
                       const ScatteringRecord& origin, DirectLighting mode,
                       const PathSpectrum& spectrum, const CameraSampleView& cameraSample,
-                      float* nearestLight, bool* sawLight) {
+                      float* nearestLight, bool* sawLight, Vec3f* domeSamplingShift) {
   const std::vector<Light>& lights = scene.lights().all();
   Vec3f total{0.0f};
   float nearest = kInfinity;
@@ -110,6 +115,12 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     const float multiplier = !origin.fromSurface ? 1.0f
                              : origin.diffuse    ? light.diffuseMultiplier()
                                                  : light.specularMultiplier();
+    if (origin.constantDomesUnsampled && light.isConstantDome()) {
+      const Vec3f emitted = spectrum.emission(hit.radiance) * multiplier;
+      total += emitted;
+      if (domeSamplingShift) *domeSamplingShift += emitted * (weight - 1);
+      return;
+    }
     total += spectrum.emission(hit.radiance) * (weight * multiplier);
   };
   scene.lights().forEachLightHit(ray, tMax, add);
@@ -704,6 +715,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // one path (the render pass does not branch training samples at all, recorded or not).
   const int branches = training ? 1 : std::clamp(settings.indirectSamples, 1, kMaxIndirectSamples);
   std::vector<PathState> waitingBranches;  // empty unless the path branches: no allocation
+  // What sampling the constant domes at the first surface would have changed (path space).
+  const bool measuringDomes = settings.measureConstantDomeSampling && branches == 1;
+  Vec3f domeSamplingShift{0.0f};
   // What the sample found before it branched, and the sum of its branches' estimates (each with
   // that light), in RGB: a branch that meets a dispersive interface keeps only its hero
   // wavelength, so each branch is turned into RGB with its own wavelengths.
@@ -725,8 +739,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // contribution there, each sampled over its area or solid angle from a dimension of its own
   // (its choice's slot). The light it adds has `interactions` surface or medium interactions.
   // `linkingClass`: the vertex's placement's, or the scattering medium's (light linking).
+  // `constantDomesUnsampled`: leave untextured domes to BSDF sampling (only measuring them).
   const auto estimateDirectLight = [&](const auto& vertex, const Receiver& receiver,
-                                       bool sampleLights, int interactions, uint32_t linkingClass) {
+                                       bool sampleLights, int interactions, uint32_t linkingClass,
+                                       bool constantDomesUnsampled = false) {
     const uint32_t choiceDimension = sampler.reserve(1);
     const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
     if (!sampleLights || settings.directLighting == DirectLighting::BsdfSamplingOnly) return;
@@ -740,6 +756,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       // linked lights alone, with the same choice probabilities (unbiased, as BSDF-sampled
       // hits on it add nothing either).
       if (scene.geometry().linking().lightExcluded(linkingClass, light.linkSlot())) return;
+      const bool unsampled = constantDomesUnsampled && light.isConstantDome();
+      if (unsampled && !measuringDomes) return;
       const Vec2f lightSample = sampler.draw2D(firstLightDimension + choice.slot);
       const std::optional<LightSample> sample =
           light.sample(receiver.position, lightSample, receiver.normal);
@@ -756,7 +774,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (isBlack(f)) return;
       const float tFar =
           std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
-      result.rays += light.castsShadows();
+      (unsampled ? result.domeSamplingShadowRays : result.rays) += light.castsShadows();
       Vec3f transmittance{1.0f};
       if (light.castsShadows()) {
         const Ray shadow = vertex.shadowRay(sample->direction, tFar);
@@ -772,9 +790,14 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const float weight = weighed ? powerHeuristic(lightPdf, evaluated.pdf) : 1.0f;
       const Vec3f response =
           diffusePart * light.diffuseMultiplier() + (f - diffusePart) * light.specularMultiplier();
-      addLight(clampIndirect(throughput * transmittance * response *
-                                 spectrum.emission(sample->radiance) * (weight / lightPdf),
-                             interactions, settings.indirectClamp));
+      const Vec3f contribution =
+          clampIndirect(throughput * transmittance * response *
+                            spectrum.emission(sample->radiance) * (weight / lightPdf),
+                        interactions, settings.indirectClamp);
+      if (unsampled)
+        domeSamplingShift += contribution;
+      else
+        addLight(contribution);
     };
     lightSampler.forEachChoice(receiver, lightChoices, sampleLight);
   };
@@ -800,6 +823,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (hit && passed) throughput *= glassTransmittance(*hit, ray.direction, spectrum);
       float nearestLight = kInfinity;
       bool sawLight = false;
+      Vec3f escapedDomeShift{0.0f};
       // Light met by this ray has `bounce` interactions behind it, plus its emission. Lights in
       // front of a collision in a medium take the path's weight from before the flight (exact
       // for grey media, whose tracking leaves the weight as it is).
@@ -810,8 +834,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                             : hit   ? hit->distance
                                                     : ray.tFar,
                                             !hit && passed, scattering, settings.directLighting,
-                                            spectrum, cameraSample, &nearestLight, &sawLight),
+                                            spectrum, cameraSample, &nearestLight, &sawLight,
+                                            measuringDomes ? &escapedDomeShift : nullptr),
                         bounce, settings.indirectClamp));
+      if (measuringDomes)
+        domeSamplingShift += (passed ? throughput : throughputBeforeFlight) * escapedDomeShift;
       // What the ray stops at: the surface, or the medium where it collided.
       const SurfaceHit* surface = hit && passed ? &*hit : nullptr;
       if (bounce == 0) {
@@ -905,8 +932,12 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       // Lights on the surface's front and back count for translucent surfaces.
       const Receiver receiver{hit->position,
                               surfaceBsdf.hasTransmission() ? Vec3f() : facingNormal};
+      const bool constantDomesUnsampled =
+          bounce == 0 && !settings.sampleConstantDomesAtFirstSurface &&
+          settings.directLighting == DirectLighting::MultipleImportance;
       estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
-                          !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass);
+                          !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass,
+                          constantDomesUnsampled);
 
       // BSDF sampling continues the path (false: it ends here). Inlined at both calls: called,
       // it reached the path's state through its captures and cost 1 % more per sample.
@@ -959,8 +990,12 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           if (!(next.pdf > 0)) return false;
         }
         if (!next.isDelta) minRayPdf = std::min(minRayPdf, next.pdf);
-        scattering = {next.isDelta ? 0.0f : next.pdf, true, next.lobe == BsdfLobe::Diffuse,
-                      nextReceiver, exit ? exit->hit.linkingClass : hit->linkingClass};
+        scattering = {next.isDelta ? 0.0f : next.pdf,
+                      true,
+                      next.lobe == BsdfLobe::Diffuse,
+                      nextReceiver,
+                      exit ? exit->hit.linkingClass : hit->linkingClass,
+                      constantDomesUnsampled && !exit};
         // A subsurface walk counts as one diffuse bounce.
         const bool diffuseLobe =
             scattered->lobe == BsdfLobe::Diffuse || scattered->lobe == BsdfLobe::Subsurface;
@@ -1019,6 +1054,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     waitingBranches.pop_back();
   }
   if (training) trainer.record(*settings.guidingRecorder, x, y, sampleIndex);
+  if (measuringDomes) result.domeSamplingShift = toRgb(domeSamplingShift);
   result.radiance =
       radianceBeforeBranching ? branchesRgb * (1.0f / float(branches)) : toRgb(result.radiance);
   return result;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "image_stats.h"
 #include "penumbra/guiding.h"
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
@@ -17,6 +18,8 @@ using namespace penumbra;
 using penumbra::test::addCamera;
 using penumbra::test::addFloor;
 using penumbra::test::facingDown;
+using penumbra::test::meanRed;
+using penumbra::test::redSquaredDifference;
 using penumbra::test::translation;
 using namespace penumbra::plugin;
 
@@ -218,18 +221,10 @@ std::vector<float> renderRoom(int trainingSamples, int samples, int seed, int th
   return pass.aov("color");
 }
 
-double meanRed(const std::vector<float>& rgba) {
-  double sum = 0;
-  for (size_t i = 0; i < rgba.size(); i += 4) sum += rgba[i];
-  return sum / double(rgba.size() / 4);
-}
-
 /// Mean squared difference of the red channel between two renders, relative to their mean.
 double relativeSquaredDifference(const std::vector<float>& a, const std::vector<float>& b) {
-  double sum = 0;
-  for (size_t i = 0; i < a.size(); i += 4) sum += double(a[i] - b[i]) * double(a[i] - b[i]);
   const double mean = (meanRed(a) + meanRed(b)) / 2;
-  return sum / double(a.size() / 4) / (mean * mean);
+  return redSquaredDifference(a, b) / (mean * mean);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // linking classes of placements and link slots of lights do to pixels.
 #include <gtest/gtest.h>
 
+#include "image_stats.h"
 #include "penumbra/linking.h"
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
@@ -12,6 +13,7 @@ using namespace penumbra;
 using penumbra::test::addCamera;
 using penumbra::test::addFloor;
 using penumbra::test::facingDown;
+using penumbra::test::meanRed;
 using penumbra::test::translation;
 using namespace penumbra::plugin;
 
@@ -21,12 +23,6 @@ std::vector<float> render(RenderDelegate& delegate, int samples = 16) {
   RenderPass pass(delegate, "/cam", 8, 8);
   pass.execute(samples);
   return pass.aov("color");
-}
-
-double meanRed(const std::vector<float>& rgba) {
-  double sum = 0;
-  for (size_t i = 0; i < rgba.size(); i += 4) sum += rgba[i];
-  return sum / double(rgba.size() / 4);
 }
 
 /// A grey floor seen from straight above (direct light only; `focalLength` 5 sees x and z in

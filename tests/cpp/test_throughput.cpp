@@ -3,6 +3,7 @@
 
 #include <cstring>
 
+#include "penumbra/dome_sampling.h"
 #include "penumbra/filter.h"
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
@@ -35,6 +36,17 @@ void ballUnderLamp(RenderDelegate& delegate) {
   delegate.insertSprim("domeLight", "/sky");
   delegate.light("/sky").setParam("intensity", 0.2f);
   addCamera(delegate, facingDown(0, 4, 0), 12);
+}
+
+/// The integrator settings a pass renders ballUnderLamp with at `size` pixels square (default
+/// render settings): the sky at the first surfaces as the pass's pilot chooses.
+IntegratorSettings passIntegrator(const RenderDelegate& delegate, const penumbra::Camera& camera,
+                                  int size) {
+  IntegratorSettings settings;
+  settings.sampleConstantDomesAtFirstSurface =
+      runDomeSamplingPilot(delegate.scene(), camera, size, size, RenderSettings())
+          .sampleConstantDomes();
+  return settings;
 }
 
 bool sameBits(const Vec3f& a, const Vec3f& b) {
@@ -89,18 +101,27 @@ TEST(RawThroughput, TimesEmbreeOnTheRaysOneSamplePerPixelTraces) {
   RenderPass pass(delegate, "/cam", kSize, kSize);
   const RawRayThroughput raw = pass.measureRawThroughput();
   const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
-  IntegratorSettings branched;
+  const IntegratorSettings unbranched = passIntegrator(delegate, camera, kSize);
+  // The ball, lit by the lamp, hides the sky from the floor: the pilot leaves the sky to BSDF
+  // rays there, one shadow ray fewer than IntegratorSettings' default.
+  EXPECT_FALSE(unbranched.sampleConstantDomesAtFirstSurface);
+  IntegratorSettings branched = unbranched;
   branched.indirectSamples = 3;
-  uint64_t rays = 0, unbranched = 0;
+  uint64_t rays = 0, unbranchedRays = 0, skySampledRays = 0;
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
       rays += renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, branched).rays;
-      unbranched +=
-          renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, IntegratorSettings())
-              .rays;
+      unbranchedRays +=
+          renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, unbranched).rays;
+      IntegratorSettings skySampled = branched;
+      skySampled.sampleConstantDomesAtFirstSurface = true;
+      skySampledRays +=
+          renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, skySampled).rays;
     }
   EXPECT_EQ(raw.pathRayCount, rays);
-  EXPECT_GT(rays, unbranched);  // so the count does say which settings were logged
+  // So the count does say which settings were logged.
+  EXPECT_GT(rays, unbranchedRays);
+  EXPECT_GT(skySampledRays, rays);
   EXPECT_GT(raw.pathRays, 0);
   EXPECT_GT(raw.primary, 0);
 }
@@ -112,12 +133,12 @@ TEST(RawThroughput, LargeImagesLogTheRaysOfEveryKthPixelEachWay) {
   RenderPass pass(delegate, "/cam", kLarge, kLarge);
   const RawRayThroughput raw = pass.measureRawThroughput();
   const penumbra::Camera camera(delegate.camera("/cam").params(), kLarge, kLarge);
+  const IntegratorSettings settings = passIntegrator(delegate, camera, kLarge);
   uint64_t everySecond = 0;
   for (int y = 0; y < kLarge; y += 2)
     for (int x = 0; x < kLarge; x += 2)
       everySecond +=
-          renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, IntegratorSettings())
-              .rays;
+          renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, settings).rays;
   EXPECT_EQ(raw.pathRayCount, everySecond);
   EXPECT_LE(22500u, everySecond);  // a camera ray each at least
 }

@@ -63,6 +63,16 @@ struct IntegratorSettings {
   /// over their image (light_images.h) instead of its camera ray finding it; not owned. Null:
   /// camera rays find every light.
   const LightImages* lightImages = nullptr;
+  /// Whether next-event estimation samples untextured dome lights at the camera rays' first
+  /// surfaces. Where it does not, the BSDF-sampled rays that leave those surfaces take the
+  /// domes' whole light when they escape (MIS weight 1); deeper vertices sample them as every
+  /// light. Both are unbiased; which is less noisy depends on the scene (dome_sampling.h
+  /// chooses).
+  bool sampleConstantDomesAtFirstSurface = true;
+  /// Where set, an unbranched sample whose first surface does not sample the constant domes
+  /// also finds what sampling them would have changed, with the same random numbers
+  /// (CameraSample::domeSamplingShift).
+  bool measureConstantDomeSampling = false;
   /// Where set, the rays a sample counts in CameraSample::rays for its path (the path's rays and
   /// their shadow rays; not those towards lights seen directly, `lightImages`) are logged there
   /// as they are traced; not owned. For timing Embree alone on them.
@@ -74,6 +84,12 @@ struct CameraSample {
   float alpha = 0;          // 1 when the camera ray hit a surface or saw a light (dome too)
   float depth = kInfinity;  // view-axis distance of the first hit
   uint32_t rays = 0;        // rays traced through the scene's BVH (intersection and shadow)
+  /// With IntegratorSettings::measureConstantDomeSampling: what `radiance` would have been
+  /// with the constant domes sampled at the first surface, less what it is (RGB), and the
+  /// shadow rays that finding it traced (not in `rays`: the sample's strategy does not trace
+  /// them).
+  Vec3f domeSamplingShift{0.0f};
+  uint32_t domeSamplingShadowRays = 0;
 };
 
 /// Renders sample `sampleIndex` of pixel (x, y); a pure function of its arguments. When

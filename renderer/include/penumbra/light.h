@@ -163,6 +163,8 @@ class Light {
   }
   /// True for lights no ray can hit (point-like sphere, zero-angle distant light).
   bool isDelta() const;
+  /// True for a dome without a texture: the same radiance from every direction.
+  bool isConstantDome() const { return params_.type == LightType::Dome && !params_.texture; }
   /// True for the lights rays meet as surfaces of their own (rect, disk, sphere, cylinder; not
   /// point-like): those intersect() finds. Mesh lights are met as geometry.
   bool isAreaLight() const {

@@ -24,6 +24,7 @@ struct RenderSettingsMap {
   int maxVolumeDepth;
   int complexity;
   int directLighting;
+  int domeSampling;  // DomeSampling
   float adaptiveThreshold;
   int adaptiveMinSamples;
   float indirectClamp;

@@ -1,0 +1,190 @@
+// Untextured domes at the camera rays' first surfaces (dome_sampling.h): left to BSDF sampling or
+// sampled by next-event estimation, both unbiased, the pilot choosing the less noisy, the same
+// for any crop and thread count.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "image_stats.h"
+#include "penumbra/dome_sampling.h"
+#include "penumbra/filter.h"
+#include "penumbra/plugin/render_delegate.h"
+#include "penumbra/plugin/render_pass.h"
+#include "scene_builders.h"
+#include "transforms.h"
+
+using namespace penumbra;
+using penumbra::test::addCamera;
+using penumbra::test::addFloor;
+using penumbra::test::addSphere;
+using penumbra::test::facingDown;
+using penumbra::test::meanRed;
+using penumbra::test::redSquaredDifference;
+using penumbra::test::translation;
+using namespace penumbra::plugin;
+
+namespace {
+
+constexpr int kSize = 32;
+
+/// Grey balls on a grey floor under a sky, seen from above. Seen from the floor, the balls hide
+/// part of the sky; lit by the sky alone they are much darker than it (with an albedo below ½,
+/// what they reflect is below half the sky's radiance). With `sun`, a sun whose irradiance is five
+/// times the sky's (the benchmark's outdoor scenes have about four) lights them too, and their
+/// sunlit sides are brighter than the sky.
+void ballsUnderSky(RenderDelegate& delegate, bool sun) {
+  addFloor(delegate, "/floor", 20);
+  delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
+  for (int i = 0; i < 3; ++i) {
+    const std::string id = "/ball" + std::to_string(i);
+    addSphere(delegate, id, 0.6f, 12, 24);
+    delegate.mesh(id).setTransform(translation(1.3 * (i - 1), 0.6, 0));
+    delegate.mesh(id).setDisplayColor({Vec3f(0.4f)}, Interpolation::Constant);
+  }
+  delegate.insertSprim("domeLight", "/sky");
+  delegate.light("/sky").setParam("intensity", 0.35f);
+  if (sun) {
+    delegate.insertSprim("distantLight", "/sun");
+    delegate.light("/sun").setParam("intensity", 6.0f);
+    delegate.light("/sun").setParam("angle", 2.0f);
+    delegate.light("/sun").setParam("normalize", true);
+    delegate.light("/sun").setTransform(facingDown(0, 10, 0));
+  }
+  addCamera(delegate, facingDown(0, 5, 0), 1.5f);
+}
+
+/// The colour (RGBA) of ballsUnderSky at `samples` per pixel, with the domeSampling setting
+/// `domeSampling` (DomeSampling's levels), on `threads` threads, of the pixels of `crop`.
+std::vector<float> renderBalls(bool sun, DomeSampling domeSampling, int samples, int seed,
+                               int threads = 0, PixelRect crop = {0, 0, kSize, kSize}) {
+  RenderDelegate delegate;
+  ballsUnderSky(delegate, sun);
+  delegate.settings().set("domeSampling", double(domeSampling));
+  delegate.settings().set("seed", seed);
+  delegate.settings().set("threads", threads);
+  RenderPass pass(delegate, "/cam", kSize, kSize, crop);
+  pass.execute(samples);
+  return pass.aov("color");
+}
+
+/// The pilot's measurement of ballsUnderSky.
+DomeSamplingPilot pilotOf(bool sun, int seed = 0, int threads = 0) {
+  RenderDelegate delegate;
+  ballsUnderSky(delegate, sun);
+  RenderPass pass(delegate, "/cam", kSize, kSize);
+  pass.execute(0);  // sync
+  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  RenderSettings settings;
+  settings.integrator.seed = uint32_t(seed);
+  settings.threads = threads;
+  return runDomeSamplingPilot(delegate.scene(), camera, kSize, kSize, settings);
+}
+
+}  // namespace
+
+TEST(DomeSampling, MeasuredShiftTurnsASampleIntoTheOtherStrategysSample) {
+  // With the same random numbers, a sample that leaves the sky to BSDF sampling plus what the
+  // measurement says sampling it would change is the sample that samples it.
+  RenderDelegate delegate;
+  ballsUnderSky(delegate, true);
+  RenderPass pass(delegate, "/cam", kSize, kSize);
+  pass.execute(0);  // sync
+  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  const PixelFilter filter;
+  IntegratorSettings sampled;
+  IntegratorSettings measured;
+  measured.sampleConstantDomesAtFirstSurface = false;
+  measured.measureConstantDomeSampling = true;
+  IntegratorSettings unsampled = measured;
+  unsampled.measureConstantDomeSampling = false;
+  int shifted = 0;
+  for (int y = 0; y < kSize; y += 3)
+    for (int x = 0; x < kSize; x += 3)
+      for (uint32_t s = 0; s < 4; ++s) {
+        const CameraSample a =
+            renderCameraSample(delegate.scene(), camera, filter, x, y, s, sampled);
+        const CameraSample b =
+            renderCameraSample(delegate.scene(), camera, filter, x, y, s, measured);
+        const CameraSample c =
+            renderCameraSample(delegate.scene(), camera, filter, x, y, s, unsampled);
+        // Measuring changes nothing of the sample itself.
+        for (int k = 0; k < 3; ++k) ASSERT_EQ(b.radiance[k], c.radiance[k]);
+        ASSERT_EQ(b.rays, c.rays);
+        ASSERT_EQ(c.domeSamplingShadowRays, 0u);
+        const Vec3f other = b.radiance + b.domeSamplingShift;
+        for (int k = 0; k < 3; ++k)
+          ASSERT_NEAR(other[k], a.radiance[k], 1e-4f * std::max(1.0f, a.radiance[k]));
+        ASSERT_EQ(a.rays, b.rays + b.domeSamplingShadowRays);
+        shifted += !isBlack(b.domeSamplingShift);
+      }
+  EXPECT_GT(shifted, 100);  // most samples see the sky and shift
+}
+
+TEST(DomeSampling, BothStrategiesConvergeToTheSameImage) {
+  for (const bool sun : {false, true}) {
+    const double mis = meanRed(renderBalls(sun, DomeSampling::Mis, 256, 1));
+    const double bsdf = meanRed(renderBalls(sun, DomeSampling::Bsdf, 256, 1));
+    ASSERT_GT(mis, 0.1);
+    EXPECT_NEAR(bsdf / mis, 1.0, 0.01) << "sun " << sun;
+  }
+}
+
+TEST(DomeSampling, PilotChoosesTheLessNoisyStrategy) {
+  // Sunlit balls hide the sky from the floor: the BSDF-sampled ray that finds either is the
+  // less noisy estimate, and saves a shadow ray; under the sky alone the balls are dark, and
+  // the shadow ray towards the sky halves its noise.
+  const int spp = 16;
+  for (const bool sun : {false, true}) {
+    const DomeSamplingPilot pilot = pilotOf(sun);
+    ASSERT_GT(pilot.pixels, 0u);
+    const double mis = redSquaredDifference(renderBalls(sun, DomeSampling::Mis, spp, 1),
+                                            renderBalls(sun, DomeSampling::Mis, spp, 2));
+    const double bsdf = redSquaredDifference(renderBalls(sun, DomeSampling::Bsdf, spp, 1),
+                                             renderBalls(sun, DomeSampling::Bsdf, spp, 2));
+    EXPECT_EQ(pilot.sampleConstantDomes(), !sun);
+    EXPECT_LT(sun ? bsdf : mis, 0.9 * (sun ? mis : bsdf)) << "sun " << sun;
+    // The render takes the pilot's choice.
+    EXPECT_EQ(renderBalls(sun, DomeSampling::Auto, 4, 1),
+              renderBalls(sun, sun ? DomeSampling::Bsdf : DomeSampling::Mis, 4, 1));
+  }
+}
+
+TEST(DomeSampling, PilotIsTheSameForAnyThreadsAndCrop) {
+  const DomeSamplingPilot one = pilotOf(true, 3, 1), two = pilotOf(true, 3, 2);
+  EXPECT_EQ(one.varianceSampled, two.varianceSampled);
+  EXPECT_EQ(one.varianceUnsampled, two.varianceUnsampled);
+  EXPECT_EQ(one.rays, two.rays);
+  EXPECT_EQ(one.domeShadowRays, two.domeShadowRays);
+  // A band runs the whole image's pilot, so its pixels are the whole image's.
+  const std::vector<float> whole = renderBalls(true, DomeSampling::Auto, 4, 1, 1);
+  const PixelRect band{0, 10, kSize, 7};
+  const std::vector<float> cropped = renderBalls(true, DomeSampling::Auto, 4, 1, 2, band);
+  for (int y = 0; y < band.height; ++y)
+    for (int x = 0; x < band.width; ++x)
+      for (int c = 0; c < 4; ++c)
+        ASSERT_EQ(cropped[size_t((y * band.width + x) * 4 + c)],
+                  whole[size_t(((band.y + y) * kSize + x) * 4 + c)]);
+}
+
+TEST(DomeSampling, WithoutAConstantDomeThereIsNoPilotAndNothingChanges) {
+  RenderDelegate delegate;
+  addFloor(delegate, "/floor", 20);
+  delegate.insertSprim("distantLight", "/sun");
+  delegate.light("/sun").setTransform(facingDown(0, 10, 0));
+  addCamera(delegate, facingDown(0, 5, 0), 1.5f);
+  RenderPass pass(delegate, "/cam", kSize, kSize);
+  pass.execute(0);
+  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  const DomeSamplingPilot pilot =
+      runDomeSamplingPilot(delegate.scene(), camera, kSize, kSize, RenderSettings());
+  EXPECT_EQ(pilot.pixels, 0u);
+  EXPECT_TRUE(pilot.sampleConstantDomes());
+  pass.execute(4);
+  const std::vector<float> mis = pass.aov("color");
+  delegate.settings().set("domeSampling", double(DomeSampling::Bsdf));
+  pass.execute(4);  // a changed setting starts the render again
+  EXPECT_EQ(pass.aov("color"), mis);
+}

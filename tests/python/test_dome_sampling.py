@@ -1,0 +1,66 @@
+"""The ``dome_sampling`` option (docs/dome-sampling.md): an untextured dome at the surfaces the
+camera sees is sampled by a shadow ray (``mis``) or left to the BSDF ray (``bsdf``); ``auto``
+renders one of the two bit for bit, as its pilot chooses for the stage."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Sdf, UsdLux
+
+import penumbra
+from penumbra import _core
+from stages import add_camera, add_distant_light, add_quad, add_sphere_mesh, new_stage
+
+
+def balls_under_sky(sun: bool, texture: str | None = None):
+    """Grey balls (albedo 0.4) on a grey ground under a sky of radiance 0.35, seen from above;
+    with ``sun``, a sun of irradiance 6 lights them, and their sunlit sides outshine the sky."""
+    stage = new_stage()
+    add_camera(stage, translate=(0.0, 0.0, 5.0))
+    add_quad(stage, "/ground", half_size=20.0, color=(0.5, 0.5, 0.5))
+    for i in range(3):
+        ball = add_sphere_mesh(stage, f"/ball{i}", center=(1.3 * (i - 1), 0.0, 0.6), radius=0.6)
+        ball.CreateDisplayColorPrimvar().Set([(0.4, 0.4, 0.4)])
+    sky = UsdLux.DomeLight.Define(stage, "/sky")
+    sky.CreateIntensityAttr(0.35)
+    if texture:
+        sky.CreateTextureFileAttr(Sdf.AssetPath(texture))
+    if sun:
+        add_distant_light(stage, intensity=6.0)
+    return stage
+
+
+def color(stage, samples: int = 4, **options) -> np.ndarray:
+    image = penumbra.render(stage, width=32, samples=samples, threads=2, **options)
+    return np.asarray(image.get("color"))
+
+
+@pytest.mark.parametrize("sun, chosen", [(True, "bsdf"), (False, "mis")])
+def test_auto_renders_the_strategy_its_pilot_chooses(sun, chosen):
+    stage = balls_under_sky(sun)
+    auto = color(stage)
+    assert np.array_equal(auto, color(stage, dome_sampling=chosen))
+    other = "mis" if chosen == "bsdf" else "bsdf"
+    assert not np.array_equal(auto, color(stage, dome_sampling=other))
+
+
+def test_both_strategies_converge_to_the_same_image():
+    stage = balls_under_sky(True)
+    means = [
+        color(stage, dome_sampling=strategy, samples=64)[..., :3].mean()
+        for strategy in ("mis", "bsdf")
+    ]
+    assert means[0] > 0.1
+    assert means[1] == pytest.approx(means[0], rel=0.01)
+
+
+def test_a_textured_dome_is_sampled_either_way(tmp_path):
+    # A sky map's bright spots are found by sampling its texture, which the BSDF ray could not
+    # do: only untextured domes are left to it.
+    sky = np.full((16, 32, 3), 0.5, dtype=np.float32)
+    sky[2:4, 8:10] = 40.0  # a sun in the map
+    path = tmp_path / "sky.exr"
+    _core.write_image(str(path), sky, ["R", "G", "B"], {})
+    stage = balls_under_sky(False, texture=str(path))
+    assert np.array_equal(color(stage, dome_sampling="mis"), color(stage, dome_sampling="bsdf"))
