@@ -262,7 +262,8 @@ def converged_image(stage: Usd.Stage, name: str, args: argparse.Namespace) -> np
     cache, seed = args.converged_cache, max(args.seeds) + 1  # a seed neither ladder uses
     key = (f"{name}_{args.width}px_{args.converged_spp}spp_seed{seed}"
            f"_clamp{args.indirect_clamp:g}_glossy{args.glossy_filter:g}"
-           f"_guiding{args.guiding_training_samples}_branches{args.indirect_samples}")
+           f"_guiding{args.guiding_training_samples}_branches{args.indirect_samples}"
+           + (f"_dome{args.dome_sampling}" if args.dome_sampling != "auto" else ""))
     if cache is not None and (cache / f"{key}.npy").is_file():
         rendered_at = json.loads((cache / f"{key}.json").read_text())["commit"]
         progress(f"{name}: converged image read from {cache / key}.npy (commit {rendered_at})")
@@ -342,6 +343,8 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
         clamp += f", path guiding trained on {args.guiding_training_samples} spp"
     if args.indirect_samples > 1:
         clamp += f", {args.indirect_samples} indirect samples"
+    if args.dome_sampling != "auto":
+        clamp += f", dome sampling {args.dome_sampling}"
     print(f"Shared scenes, {args.width} px wide, spp ladder {', '.join(map(str, args.spp))}, "
           f"seeds {args.seeds[0]} and {args.seeds[1]}, {clamp}; converged: "
           f"{args.converged_spp or 'not'} rendered; * extrapolated beyond the ladder.\n")
@@ -528,6 +531,9 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--indirect-samples", type=int, default=1,
                         help="render everything with this many paths from each camera ray's "
                         "first surface (docs/branching.md; 1: no branching, the default)")
+    parser.add_argument("--dome-sampling", choices=("auto", "mis", "bsdf"), default="auto",
+                        help="how a constant dome is found at the first surface "
+                        "(docs/dome-sampling.md; auto, the default, chooses per render)")
     parser.add_argument("--cycles-json", type=Path,
                         help="Cycles' numbers measured on this machine by "
                         "bench/cycles_scenes.py --json, instead of ../shared/cycles/README.md's")
@@ -553,7 +559,8 @@ def parse_args() -> argparse.Namespace:
         parser.error("--ray-cost-rounds needs at least one round")
     args.seeds = tuple(args.seeds)
     args.render_options = {"guiding_training_samples": args.guiding_training_samples,
-                           "indirect_samples": args.indirect_samples}
+                           "indirect_samples": args.indirect_samples,
+                           "dome_sampling": args.dome_sampling}
     return args
 
 
