@@ -108,7 +108,7 @@ void RenderPass::reset() {
   guidingField_.reset();
   guidingRecorder_.clear();
   guidingRecordedThrough_ = 0;
-  sampleConstantDomes_.reset();
+  constantDomeShare_.reset();
 }
 
 void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
@@ -138,8 +138,8 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   RenderSettings renderSettings;
   renderSettings.threads = settings.threads;
   renderSettings.integrator = integratorSettings();
-  renderSettings.integrator.sampleConstantDomesAtFirstSurface =
-      sampleConstantDomes(camera, renderSettings);
+  renderSettings.integrator.firstSurfaceConstantDomeShare =
+      constantDomeShare(camera, renderSettings);
   const int trainingSamples = settings.guidingTrainingSamples;
   const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {
@@ -203,22 +203,22 @@ void RenderPass::prepareGuiding(const penumbra::Camera& camera,
   guidingField_ = GuidingField::build(guidingRecorder_.take());
 }
 
-bool RenderPass::sampleConstantDomes(const penumbra::Camera& camera,
-                                     const penumbra::RenderSettings& renderSettings) {
+float RenderPass::constantDomeShare(const penumbra::Camera& camera,
+                                    const penumbra::RenderSettings& renderSettings) {
   switch (DomeSampling(delegate_.settings().domeSampling)) {
     case DomeSampling::Mis:
-      return true;
+      return 1;
     case DomeSampling::Bsdf:
-      return false;
+      return 0;
     case DomeSampling::Auto:
       break;
   }
   // Over the whole image, so that a crop or a band chooses as the whole image does.
-  if (!sampleConstantDomes_)
-    sampleConstantDomes_ =
+  if (!constantDomeShare_)
+    constantDomeShare_ =
         runDomeSamplingPilot(delegate_.scene(), camera, imageWidth_, imageHeight_, renderSettings)
-            .sampleConstantDomes();
-  return *sampleConstantDomes_;
+            .firstSurfaceShare();
+  return *constantDomeShare_;
 }
 
 void RenderPass::checkCropMargin(int samples) const {
@@ -260,7 +260,7 @@ RawRayThroughput RenderPass::measureRawThroughput() {
   RenderSettings renderSettings;
   renderSettings.threads = delegate_.settings().threads;
   renderSettings.integrator = path;
-  path.sampleConstantDomesAtFirstSurface = sampleConstantDomes(camera, renderSettings);
+  path.firstSurfaceConstantDomeShare = constantDomeShare(camera, renderSettings);
   return penumbra::measureRawThroughput(delegate_.scene(), camera, imageWidth_, imageHeight_,
                                         delegate_.settings().threads, 3, &path);
 }

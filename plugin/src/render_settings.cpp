@@ -96,8 +96,8 @@ std::vector<RenderOption> buildRenderOptions() {
       "how the light of untextured dome lights is found at the surfaces camera rays meet: mis "
       "samples them as every light, beside the BSDF-sampled ray; bsdf leaves them to that ray, "
       "less noisy where what occludes the sky is about as bright as the sky (sunlit scenes); "
-      "auto chooses per render from a pilot of a few thousand paths (docs/dome-sampling.md). "
-      "Unbiased either way"));
+      "auto gives the shadow ray the share of their light, from none to mis's, that a pilot of "
+      "a few thousand paths finds least noisy (docs/dome-sampling.md). Unbiased either way"));
   options.push_back(realOption("adaptiveThreshold", &Settings::adaptiveThreshold, 1, "T",
                                "adaptive sampling: pixels take samples in proportion to their "
                                "noise, each stopping once its estimated relative error is below "

@@ -25,24 +25,37 @@ bool hasConstantDome(const Scene& scene) {
                      [&](uint32_t index) { return lights[index].isConstantDome(); });
 }
 
-/// Half the squared difference of two samples (an unbiased estimate of their variance), over
-/// the squared pixel value `mean` + 0.01, summed over the channels.
-double relativeVariance(const Vec3f& a, const Vec3f& b, const Vec3f& mean) {
+/// Half the product of two samples' differences (an unbiased estimate of the covariance of what
+/// they sample; of the variance where `a` and `b` are the same), over the squared pixel value
+/// `mean` + 0.01, summed over the channels.
+double relativeCovariance(const Vec3f& a1, const Vec3f& a2, const Vec3f& b1, const Vec3f& b2,
+                          const Vec3f& mean) {
   double sum = 0;
   for (int c = 0; c < 3; ++c) {
-    const double difference = double(a[c]) - double(b[c]), value = mean[c];
-    sum += 0.5 * difference * difference / (value * value + 0.01);
+    const double value = mean[c];
+    sum += 0.5 * (double(a1[c]) - double(a2[c])) * (double(b1[c]) - double(b2[c])) /
+           (value * value + 0.01);
   }
   return sum;
 }
 
-/// One grid pixel's two samples, under both strategies.
+/// One grid pixel's two samples: DomeSamplingPilot's terms.
 struct PilotPixel {
-  double varianceSampled = 0, varianceUnsampled = 0;
+  double varianceUnsampled = 0, varianceShift = 0, covariance = 0;
   uint32_t rays = 0, domeShadowRays = 0;
 };
 
 }  // namespace
+
+float DomeSamplingPilot::firstSurfaceShare() const {
+  if (pixels == 0) return 1;
+  // The least of the quadratic over (0, 1], on the grid of shares.
+  const double least =
+      varianceShift > 0 ? std::clamp(-covariance / varianceShift, kShareStep, 1.0) : 1.0;
+  const double share = std::round(least / kShareStep) * kShareStep;
+  const double costShared = double(rays) + kDomeShadowRayCost * double(domeShadowRays);
+  return variance(share) * costShared < variance(0) * double(rays) ? float(share) : 0.0f;
+}
 
 DomeSamplingPilot runDomeSamplingPilot(const Scene& scene, const Camera& camera, int width,
                                        int height, const RenderSettings& settings) {
@@ -52,7 +65,7 @@ DomeSamplingPilot runDomeSamplingPilot(const Scene& scene, const Camera& camera,
     return pilot;
   IntegratorSettings integrator = settings.integrator;
   integrator.seed = pilotSeed(settings.integrator.seed);
-  integrator.sampleConstantDomesAtFirstSurface = false;
+  integrator.firstSurfaceConstantDomeShare = 0;
   integrator.measureConstantDomeSampling = true;
   integrator.indirectSamples = 1;
   integrator.guidingField = nullptr;
@@ -73,13 +86,15 @@ DomeSamplingPilot runDomeSamplingPilot(const Scene& scene, const Camera& camera,
         const int y = std::min(height - 1, row * stride + stride / 2);
         const CameraSample a = renderCameraSample(scene, camera, filter, x, y, 0, integrator);
         const CameraSample b = renderCameraSample(scene, camera, filter, x, y, 1, integrator);
-        const Vec3f sampledA = a.radiance + a.domeSamplingShift;
-        const Vec3f sampledB = b.radiance + b.domeSamplingShift;
-        // The pixel's value, from all four estimates of it.
-        const Vec3f mean = (a.radiance + b.radiance + sampledA + sampledB) * 0.25f;
+        // The pixel's value, from the estimates of both ends (a share of 0 and of 1).
+        const Vec3f mean =
+            (a.radiance + b.radiance) * 0.5f + (a.domeSamplingShift + b.domeSamplingShift) * 0.25f;
+        const Vec3f &ua = a.radiance, &ub = b.radiance;
+        const Vec3f &da = a.domeSamplingShift, &db = b.domeSamplingShift;
         PilotPixel& pixel = grid[size_t(row) * size_t(columns) + size_t(column)];
-        pixel.varianceUnsampled = relativeVariance(a.radiance, b.radiance, mean);
-        pixel.varianceSampled = relativeVariance(sampledA, sampledB, mean);
+        pixel.varianceUnsampled = relativeCovariance(ua, ub, ua, ub, mean);
+        pixel.varianceShift = relativeCovariance(da, db, da, db, mean);
+        pixel.covariance = relativeCovariance(ua, ub, da, db, mean);
         pixel.rays = a.rays + b.rays;
         pixel.domeShadowRays = a.domeSamplingShadowRays + b.domeSamplingShadowRays;
       }
@@ -93,8 +108,9 @@ DomeSamplingPilot runDomeSamplingPilot(const Scene& scene, const Camera& camera,
   }
   // Summed in the grid's order, so that the sums do not depend on the threads.
   for (const PilotPixel& pixel : grid) {
-    pilot.varianceSampled += pixel.varianceSampled;
     pilot.varianceUnsampled += pixel.varianceUnsampled;
+    pilot.varianceShift += pixel.varianceShift;
+    pilot.covariance += pixel.covariance;
     pilot.rays += pixel.rays;
     pilot.domeShadowRays += pixel.domeShadowRays;
   }

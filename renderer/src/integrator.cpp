@@ -43,9 +43,9 @@ struct ScatteringRecord {
   bool diffuse = false;       // which light multiplier (diffuse or specular) applies
   Receiver receiver;          // the surface it left, as next-event estimation saw it there
   uint32_t linkingClass = 0;  // the surface's placement's (linking.h): the lights it receives
-  /// Next-event estimation left the constant domes out at the surface it left: their light is
-  /// this ray's alone (IntegratorSettings::sampleConstantDomesAtFirstSurface).
-  bool constantDomesUnsampled = false;
+  /// The share of its MIS weight next-event estimation kept for the constant domes at the
+  /// surface it left (IntegratorSettings::firstSurfaceConstantDomeShare): this ray takes the rest.
+  float constantDomeShare = 1;
 };
 
 /// Whether light `index` lights what `origin`'s ray left (light linking). Camera rays see every
@@ -91,9 +91,9 @@ struct CameraSampleView {
 /// Emission from the lights a ray meets before `tMax` (area lights) or, if it escapes, from the
 /// infinite ones, weighted against the BSDF sampling that produced it.
 /// Camera rays find the emission of the lights that `cameraSample` integrates over their image
-/// all the same (for depth and alpha) but do not add it. Where the origin left the constant
-/// domes unsampled and `domeSamplingShift` is given, what sampling them would have taken from
-/// this ray's share of their light is subtracted there.
+/// all the same (for depth and alpha) but do not add it. Where the origin gave the constant
+/// domes a share of 0 and `domeSamplingShift` is given, what a share of 1 would have taken from
+/// this ray's light is subtracted there.
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
                       const ScatteringRecord& origin, DirectLighting mode,
                       const PathSpectrum& spectrum, const CameraSampleView& cameraSample,
@@ -115,9 +115,9 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     const float multiplier = !origin.fromSurface ? 1.0f
                              : origin.diffuse    ? light.diffuseMultiplier()
                                                  : light.specularMultiplier();
-    if (origin.constantDomesUnsampled && light.isConstantDome()) {
+    if (origin.constantDomeShare < 1 && light.isConstantDome()) {
       const Vec3f emitted = spectrum.emission(hit.radiance) * multiplier;
-      total += emitted;
+      total += emitted * (1 - origin.constantDomeShare * (1 - weight));
       if (domeSamplingShift) *domeSamplingShift += emitted * (weight - 1);
       return;
     }
@@ -739,10 +739,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // contribution there, each sampled over its area or solid angle from a dimension of its own
   // (its choice's slot). The light it adds has `interactions` surface or medium interactions.
   // `linkingClass`: the vertex's placement's, or the scattering medium's (light linking).
-  // `constantDomesUnsampled`: leave untextured domes to BSDF sampling (only measuring them).
+  // `constantDomeShare`: the share of its MIS weight untextured domes keep (0: not sampled, and
+  // only measured where measuringDomes).
   const auto estimateDirectLight = [&](const auto& vertex, const Receiver& receiver,
                                        bool sampleLights, int interactions, uint32_t linkingClass,
-                                       bool constantDomesUnsampled = false) {
+                                       float constantDomeShare = 1) {
     const uint32_t choiceDimension = sampler.reserve(1);
     const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
     if (!sampleLights || settings.directLighting == DirectLighting::BsdfSamplingOnly) return;
@@ -756,7 +757,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       // linked lights alone, with the same choice probabilities (unbiased, as BSDF-sampled
       // hits on it add nothing either).
       if (scene.geometry().linking().lightExcluded(linkingClass, light.linkSlot())) return;
-      const bool unsampled = constantDomesUnsampled && light.isConstantDome();
+      const bool shared = constantDomeShare < 1 && light.isConstantDome();
+      const bool unsampled = shared && constantDomeShare == 0;
       if (unsampled && !measuringDomes) return;
       const Vec2f lightSample = sampler.draw2D(firstLightDimension + choice.slot);
       const std::optional<LightSample> sample =
@@ -787,7 +789,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         }
       }
       const float lightPdf = choice.probability * sample->pdf;
-      const float weight = weighed ? powerHeuristic(lightPdf, evaluated.pdf) : 1.0f;
+      const float weight = weighed ? powerHeuristic(lightPdf, evaluated.pdf) *
+                                         (shared && !unsampled ? constantDomeShare : 1.0f)
+                                   : 1.0f;
       const Vec3f response =
           diffusePart * light.diffuseMultiplier() + (f - diffusePart) * light.specularMultiplier();
       const Vec3f contribution =
@@ -932,12 +936,13 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       // Lights on the surface's front and back count for translucent surfaces.
       const Receiver receiver{hit->position,
                               surfaceBsdf.hasTransmission() ? Vec3f() : facingNormal};
-      const bool constantDomesUnsampled =
-          bounce == 0 && !settings.sampleConstantDomesAtFirstSurface &&
-          settings.directLighting == DirectLighting::MultipleImportance;
+      const float constantDomeShare =
+          bounce == 0 && settings.directLighting == DirectLighting::MultipleImportance
+              ? std::clamp(settings.firstSurfaceConstantDomeShare, 0.0f, 1.0f)
+              : 1.0f;
       estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
                           !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass,
-                          constantDomesUnsampled);
+                          constantDomeShare);
 
       // BSDF sampling continues the path (false: it ends here). Inlined at both calls: called,
       // it reached the path's state through its captures and cost 1 % more per sample.
@@ -995,7 +1000,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                       next.lobe == BsdfLobe::Diffuse,
                       nextReceiver,
                       exit ? exit->hit.linkingClass : hit->linkingClass,
-                      constantDomesUnsampled && !exit};
+                      exit ? 1.0f : constantDomeShare};
         // A subsurface walk counts as one diffuse bounce.
         const bool diffuseLobe =
             scattered->lobe == BsdfLobe::Diffuse || scattered->lobe == BsdfLobe::Subsurface;

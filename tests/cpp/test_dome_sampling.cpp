@@ -1,6 +1,6 @@
-// Untextured domes at the camera rays' first surfaces (dome_sampling.h): left to BSDF sampling or
-// sampled by next-event estimation, both unbiased, the pilot choosing the less noisy, the same
-// for any crop and thread count.
+// Untextured domes at the camera rays' first surfaces (dome_sampling.h): the share of its MIS
+// weight next-event estimation keeps for them, from none (left to BSDF sampling) to all, every
+// share unbiased, the pilot choosing the least noisy, the same for any crop and thread count.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -85,18 +85,17 @@ DomeSamplingPilot pilotOf(bool sun, int seed = 0, int threads = 0) {
 
 }  // namespace
 
-TEST(DomeSampling, MeasuredShiftTurnsASampleIntoTheOtherStrategysSample) {
-  // With the same random numbers, a sample that leaves the sky to BSDF sampling plus what the
-  // measurement says sampling it would change is the sample that samples it.
+TEST(DomeSampling, ASampleIsLinearInTheDomesShare) {
+  // With the same random numbers, a sample with share k is the sample with share 0 plus k times
+  // the shift the measurement finds (the MIS weights are linear in k).
   RenderDelegate delegate;
   ballsUnderSky(delegate, true);
   RenderPass pass(delegate, "/cam", kSize, kSize);
   pass.execute(0);  // sync
   const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
   const PixelFilter filter;
-  IntegratorSettings sampled;
   IntegratorSettings measured;
-  measured.sampleConstantDomesAtFirstSurface = false;
+  measured.firstSurfaceConstantDomeShare = 0;
   measured.measureConstantDomeSampling = true;
   IntegratorSettings unsampled = measured;
   unsampled.measureConstantDomeSampling = false;
@@ -104,8 +103,6 @@ TEST(DomeSampling, MeasuredShiftTurnsASampleIntoTheOtherStrategysSample) {
   for (int y = 0; y < kSize; y += 3)
     for (int x = 0; x < kSize; x += 3)
       for (uint32_t s = 0; s < 4; ++s) {
-        const CameraSample a =
-            renderCameraSample(delegate.scene(), camera, filter, x, y, s, sampled);
         const CameraSample b =
             renderCameraSample(delegate.scene(), camera, filter, x, y, s, measured);
         const CameraSample c =
@@ -114,59 +111,72 @@ TEST(DomeSampling, MeasuredShiftTurnsASampleIntoTheOtherStrategysSample) {
         for (int k = 0; k < 3; ++k) ASSERT_EQ(b.radiance[k], c.radiance[k]);
         ASSERT_EQ(b.rays, c.rays);
         ASSERT_EQ(c.domeSamplingShadowRays, 0u);
-        const Vec3f other = b.radiance + b.domeSamplingShift;
-        for (int k = 0; k < 3; ++k)
-          ASSERT_NEAR(other[k], a.radiance[k], 1e-4f * std::max(1.0f, a.radiance[k]));
-        ASSERT_EQ(a.rays, b.rays + b.domeSamplingShadowRays);
         shifted += !isBlack(b.domeSamplingShift);
+        for (const float share : {0.375f, 1.0f}) {
+          IntegratorSettings shared;
+          shared.firstSurfaceConstantDomeShare = share;
+          const CameraSample a =
+              renderCameraSample(delegate.scene(), camera, filter, x, y, s, shared);
+          const Vec3f expected = b.radiance + b.domeSamplingShift * share;
+          for (int k = 0; k < 3; ++k)
+            ASSERT_NEAR(a.radiance[k], expected[k], 1e-4f * std::max(1.0f, expected[k]));
+          ASSERT_EQ(a.rays, b.rays + b.domeSamplingShadowRays);
+        }
       }
   EXPECT_GT(shifted, 100);  // most samples see the sky and shift
 }
 
-TEST(DomeSampling, BothStrategiesConvergeToTheSameImage) {
+TEST(DomeSampling, EveryShareConvergesToTheSameImage) {
   for (const bool sun : {false, true}) {
     const double mis = meanRed(renderBalls(sun, DomeSampling::Mis, 256, 1));
-    const double bsdf = meanRed(renderBalls(sun, DomeSampling::Bsdf, 256, 1));
     ASSERT_GT(mis, 0.1);
-    EXPECT_NEAR(bsdf / mis, 1.0, 0.01) << "sun " << sun;
+    for (const DomeSampling other : {DomeSampling::Bsdf, DomeSampling::Auto})
+      EXPECT_NEAR(meanRed(renderBalls(sun, other, 256, 1)) / mis, 1.0, 0.01)
+          << "sun " << sun << ", strategy " << int(other);
   }
 }
 
-TEST(DomeSampling, PilotChoosesTheLessNoisyStrategy) {
-  // Sunlit balls hide the sky from the floor: the BSDF-sampled ray that finds either is the
-  // less noisy estimate, and saves a shadow ray; under the sky alone the balls are dark, and
-  // the shadow ray towards the sky halves its noise.
+TEST(DomeSampling, PilotChoosesTheShareOfLeastNoise) {
   const int spp = 16;
-  for (const bool sun : {false, true}) {
-    const DomeSamplingPilot pilot = pilotOf(sun);
-    ASSERT_GT(pilot.pixels, 0u);
-    const double mis = redSquaredDifference(renderBalls(sun, DomeSampling::Mis, spp, 1),
-                                            renderBalls(sun, DomeSampling::Mis, spp, 2));
-    const double bsdf = redSquaredDifference(renderBalls(sun, DomeSampling::Bsdf, spp, 1),
-                                             renderBalls(sun, DomeSampling::Bsdf, spp, 2));
-    EXPECT_EQ(pilot.sampleConstantDomes(), !sun);
-    EXPECT_LT(sun ? bsdf : mis, 0.9 * (sun ? mis : bsdf)) << "sun " << sun;
-    // The render takes the pilot's choice.
-    EXPECT_EQ(renderBalls(sun, DomeSampling::Auto, 4, 1),
-              renderBalls(sun, sun ? DomeSampling::Bsdf : DomeSampling::Mis, 4, 1));
-  }
+  // The difference of two seeds' images measures the noise.
+  const auto noise = [&](bool sun, DomeSampling strategy) {
+    return redSquaredDifference(renderBalls(sun, strategy, spp, 1),
+                                renderBalls(sun, strategy, spp, 2));
+  };
+  // Sunlit balls hide the sky from the floor: the BSDF-sampled ray that finds either is the
+  // less noisy estimate, and saves a shadow ray.
+  EXPECT_EQ(pilotOf(true).firstSurfaceShare(), 0.0f);
+  EXPECT_LT(noise(true, DomeSampling::Bsdf), 0.9 * noise(true, DomeSampling::Mis));
+  EXPECT_EQ(renderBalls(true, DomeSampling::Auto, 4, 1),
+            renderBalls(true, DomeSampling::Bsdf, 4, 1));
+  // Under the sky alone the balls are darker than the sky, but not black: the shadow ray pays,
+  // with less of the sky's light than MIS gives it.
+  const DomeSamplingPilot skyAlone = pilotOf(false);
+  EXPECT_GT(skyAlone.firstSurfaceShare(), 0.0f);
+  EXPECT_LT(skyAlone.firstSurfaceShare(), 1.0f);
+  const double mis = noise(false, DomeSampling::Mis);
+  EXPECT_LT(mis, 0.9 * noise(false, DomeSampling::Bsdf));
+  EXPECT_LT(noise(false, DomeSampling::Auto), 0.95 * mis);
 }
 
 TEST(DomeSampling, PilotIsTheSameForAnyThreadsAndCrop) {
   const DomeSamplingPilot one = pilotOf(true, 3, 1), two = pilotOf(true, 3, 2);
-  EXPECT_EQ(one.varianceSampled, two.varianceSampled);
   EXPECT_EQ(one.varianceUnsampled, two.varianceUnsampled);
+  EXPECT_EQ(one.varianceShift, two.varianceShift);
+  EXPECT_EQ(one.covariance, two.covariance);
   EXPECT_EQ(one.rays, two.rays);
   EXPECT_EQ(one.domeShadowRays, two.domeShadowRays);
   // A band runs the whole image's pilot, so its pixels are the whole image's.
-  const std::vector<float> whole = renderBalls(true, DomeSampling::Auto, 4, 1, 1);
-  const PixelRect band{0, 10, kSize, 7};
-  const std::vector<float> cropped = renderBalls(true, DomeSampling::Auto, 4, 1, 2, band);
-  for (int y = 0; y < band.height; ++y)
-    for (int x = 0; x < band.width; ++x)
-      for (int c = 0; c < 4; ++c)
-        ASSERT_EQ(cropped[size_t((y * band.width + x) * 4 + c)],
-                  whole[size_t(((band.y + y) * kSize + x) * 4 + c)]);
+  for (const bool sun : {false, true}) {
+    const std::vector<float> whole = renderBalls(sun, DomeSampling::Auto, 4, 1, 1);
+    const PixelRect band{0, 10, kSize, 7};
+    const std::vector<float> cropped = renderBalls(sun, DomeSampling::Auto, 4, 1, 2, band);
+    for (int y = 0; y < band.height; ++y)
+      for (int x = 0; x < band.width; ++x)
+        for (int c = 0; c < 4; ++c)
+          ASSERT_EQ(cropped[size_t((y * band.width + x) * 4 + c)],
+                    whole[size_t(((band.y + y) * kSize + x) * 4 + c)]);
+  }
 }
 
 TEST(DomeSampling, WithoutAConstantDomeThereIsNoPilotAndNothingChanges) {
@@ -181,7 +191,7 @@ TEST(DomeSampling, WithoutAConstantDomeThereIsNoPilotAndNothingChanges) {
   const DomeSamplingPilot pilot =
       runDomeSamplingPilot(delegate.scene(), camera, kSize, kSize, RenderSettings());
   EXPECT_EQ(pilot.pixels, 0u);
-  EXPECT_TRUE(pilot.sampleConstantDomes());
+  EXPECT_EQ(pilot.firstSurfaceShare(), 1.0f);
   pass.execute(4);
   const std::vector<float> mis = pass.aov("color");
   delegate.settings().set("domeSampling", double(DomeSampling::Bsdf));

@@ -43,9 +43,9 @@ void ballUnderLamp(RenderDelegate& delegate) {
 IntegratorSettings passIntegrator(const RenderDelegate& delegate, const penumbra::Camera& camera,
                                   int size) {
   IntegratorSettings settings;
-  settings.sampleConstantDomesAtFirstSurface =
+  settings.firstSurfaceConstantDomeShare =
       runDomeSamplingPilot(delegate.scene(), camera, size, size, RenderSettings())
-          .sampleConstantDomes();
+          .firstSurfaceShare();
   return settings;
 }
 
@@ -104,7 +104,7 @@ TEST(RawThroughput, TimesEmbreeOnTheRaysOneSamplePerPixelTraces) {
   const IntegratorSettings unbranched = passIntegrator(delegate, camera, kSize);
   // The ball, lit by the lamp, hides the sky from the floor: the pilot leaves the sky to BSDF
   // rays there, one shadow ray fewer than IntegratorSettings' default.
-  EXPECT_FALSE(unbranched.sampleConstantDomesAtFirstSurface);
+  EXPECT_EQ(unbranched.firstSurfaceConstantDomeShare, 0.0f);
   IntegratorSettings branched = unbranched;
   branched.indirectSamples = 3;
   uint64_t rays = 0, unbranchedRays = 0, skySampledRays = 0;
@@ -114,7 +114,7 @@ TEST(RawThroughput, TimesEmbreeOnTheRaysOneSamplePerPixelTraces) {
       unbranchedRays +=
           renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, unbranched).rays;
       IntegratorSettings skySampled = branched;
-      skySampled.sampleConstantDomesAtFirstSurface = true;
+      skySampled.firstSurfaceConstantDomeShare = 1;
       skySampledRays +=
           renderCameraSample(delegate.scene(), camera, PixelFilter(), x, y, 0, skySampled).rays;
     }

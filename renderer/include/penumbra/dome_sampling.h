@@ -16,8 +16,12 @@
 // each pixel of a sparse grid over the whole image (a crop or a farm's band runs the same pilot,
 // so every band makes the same choice), each traced with the sky left to BSDF sampling and
 // measured as it would have been with it sampled, with the same random numbers
-// (IntegratorSettings::measureConstantDomeSampling). Each pixel's pair gives an estimate of each
-// strategy's variance; the strategy with the smaller summed variance times cost is kept. The
+// (IntegratorSettings::measureConstantDomeSampling). Between the two, next-event estimation may
+// keep any share of its MIS weight (IntegratorSettings::firstSurfaceConstantDomeShare), and the
+// variance is quadratic in that share; each pixel's pair of samples gives estimates of its
+// terms. The pilot keeps the share of least variance times cost: 0 (no shadow ray), or the
+// share that minimises the variance (with a shadow ray). Where occluders are dark but not
+// black (a sky alone over light objects), that least lies between 0 and 1. The
 // pilot's numbers are its own (a seed derived from the render's), so the choice does not depend on
 // the samples it is used for; it costs at most half a sample per pixel (about 0.03 of one at 640 x
 // 360).
@@ -36,26 +40,34 @@ namespace penumbra {
 /// by the BSDF-sampled ray alone.
 enum class DomeSampling { Auto, Mis, Bsdf };
 
-/// What the pilot measured: each strategy's variance relative to the image (each pixel's and
-/// channel's over its squared value + 0.01, as bench/quality.py weighs error), summed over the
-/// grid, and the rays each traces.
+/// What the pilot measured, relative to the image (each pixel's and channel's variance over its
+/// squared value + 0.01, as bench/quality.py weighs error) and summed over the grid: the
+/// variance of samples that give the domes a share of 0 (U), that of the shift a share of 1
+/// would add to them (D), and their covariance; and the rays each traces. A share k gives the
+/// sample U + k·D (the weights are linear in k), of variance
+/// varianceUnsampled + 2k·covariance + k²·varianceShift.
 struct DomeSamplingPilot {
   /// What a shadow ray towards a constant dome costs, as a share of an average ray of the path
   /// (whose hits are shaded): the time that leaving those shadow rays out saved per ray left out,
   /// measured on the five benchmark scenes at 320 px, was 0.56-0.87 of it.
   static constexpr double kDomeShadowRayCost = 0.6;
+  /// Shares are chosen among multiples of this: the variance is flat near its least, and a
+  /// share that stays put while the scene changes a little keeps the images' noise put too.
+  static constexpr double kShareStep = 0.125;
 
-  double varianceSampled = 0, varianceUnsampled = 0;
-  uint64_t rays = 0;            // traced with the domes left to BSDF sampling
-  uint64_t domeShadowRays = 0;  // traced besides, with the domes sampled
+  double varianceUnsampled = 0, varianceShift = 0, covariance = 0;
+  uint64_t rays = 0;            // traced with a share of 0
+  uint64_t domeShadowRays = 0;  // traced besides with a share above 0
   uint32_t pixels = 0;          // 0: no pilot was needed (no constant dome, or not MIS)
 
-  /// Whether next-event estimation should sample the constant domes at the first surface: the
-  /// strategy of least variance times cost, sampling them where the two tie (no pilot).
-  bool sampleConstantDomes() const {
-    const double costSampled = double(rays) + kDomeShadowRayCost * double(domeShadowRays);
-    return varianceSampled * costSampled <= varianceUnsampled * double(rays);
+  /// The variance of samples with share `share`.
+  double variance(double share) const {
+    return varianceUnsampled + 2 * share * covariance + share * share * varianceShift;
   }
+  /// IntegratorSettings::firstSurfaceConstantDomeShare: 0, or the share of least variance
+  /// (a multiple of kShareStep above 0), whichever has less variance times cost; 1 where there
+  /// was no pilot.
+  float firstSurfaceShare() const;
 };
 
 /// Grid pixels of the pilot at most (two samples each).

@@ -63,14 +63,15 @@ struct IntegratorSettings {
   /// over their image (light_images.h) instead of its camera ray finding it; not owned. Null:
   /// camera rays find every light.
   const LightImages* lightImages = nullptr;
-  /// Whether next-event estimation samples untextured dome lights at the camera rays' first
-  /// surfaces. Where it does not, the BSDF-sampled rays that leave those surfaces take the
-  /// domes' whole light when they escape (MIS weight 1); deeper vertices sample them as every
-  /// light. Both are unbiased; which is less noisy depends on the scene (dome_sampling.h
-  /// chooses).
-  bool sampleConstantDomesAtFirstSurface = true;
-  /// Where set, an unbranched sample whose first surface does not sample the constant domes
-  /// also finds what sampling them would have changed, with the same random numbers
+  /// The share of its MIS weight that next-event estimation keeps for untextured dome lights at
+  /// the camera rays' first surfaces, in [0, 1]: the BSDF-sampled ray that leaves the surface
+  /// and escapes takes the rest (weights `share · w` and `1 − share · w` where MIS gives `w` and
+  /// `1 − w`: they still sum to one in every direction, so any share is unbiased). 1: MIS, as at
+  /// every other vertex; 0: no shadow ray towards them there. Which share is least noisy depends
+  /// on the scene (dome_sampling.h chooses).
+  float firstSurfaceConstantDomeShare = 1;
+  /// Where set, an unbranched sample whose first surface gives the constant domes a share of 0
+  /// also finds what a share of 1 would have changed, with the same random numbers
   /// (CameraSample::domeSamplingShift).
   bool measureConstantDomeSampling = false;
   /// Where set, the rays a sample counts in CameraSample::rays for its path (the path's rays and

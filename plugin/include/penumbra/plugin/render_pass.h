@@ -127,11 +127,11 @@ class RenderPass {
   void prepareGuiding(const penumbra::Camera& camera,
                       const penumbra::RenderSettings& renderSettings,
                       const std::atomic<bool>* cancel);
-  /// Whether next-event estimation samples untextured domes at the camera rays' first surfaces:
-  /// as the domeSampling setting says, or (auto) as the pilot chose, once per render
-  /// (penumbra/dome_sampling.h).
-  bool sampleConstantDomes(const penumbra::Camera& camera,
-                           const penumbra::RenderSettings& renderSettings);
+  /// The share of its MIS weight next-event estimation keeps for untextured domes at the camera
+  /// rays' first surfaces: as the domeSampling setting says (mis 1, bsdf 0), or (auto) as the
+  /// pilot chose, once per render (penumbra/dome_sampling.h).
+  float constantDomeShare(const penumbra::Camera& camera,
+                          const penumbra::RenderSettings& renderSettings);
 
   RenderDelegate& delegate_;
   PrimId cameraId_;
@@ -149,7 +149,7 @@ class RenderPass {
   std::optional<GuidingField> guidingField_;
   GuidingRecorder guidingRecorder_;
   int guidingRecordedThrough_ = 0;
-  std::optional<bool> sampleConstantDomes_;  // the pilot's choice, once made
+  std::optional<float> constantDomeShare_;  // the pilot's choice, once made
 };
 
 }  // namespace penumbra::plugin
