@@ -140,6 +140,7 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator = integratorSettings();
   renderSettings.integrator.firstSurfaceConstantDomeShare =
       constantDomeShare(camera, renderSettings);
+  constantDomeShareUsed_ = renderSettings.integrator.firstSurfaceConstantDomeShare;
   const int trainingSamples = settings.guidingTrainingSamples;
   const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {

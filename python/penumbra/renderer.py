@@ -369,6 +369,7 @@ class Renderer:
                 "samplesTaken": render_pass.samples_taken,
                 "samplesDone": render_pass.samples_done,
                 "rays": render_pass.rays_traced,
+                "constantDomeShare": render_pass.constant_dome_share,
                 "renderTimeSeconds": round(elapsed, 3),
                 "version": _core.version(),
                 "timeCode": "default" if time_code.IsDefault() else time_code.GetValue(),

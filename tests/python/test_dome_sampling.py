@@ -49,6 +49,16 @@ def test_auto_leaves_a_sunlit_sky_to_the_bsdf_ray_and_shares_a_lone_one():
         assert not np.array_equal(auto, color(alone, dome_sampling=strategy))
 
 
+def test_the_share_used_is_in_the_metadata():
+    def share(stage, **options) -> float:
+        image = penumbra.render(stage, width=32, samples=1, threads=2, **options)
+        return image.metadata["constantDomeShare"]
+
+    assert share(balls_under_sky(True)) == 0.0
+    assert 0.0 < share(balls_under_sky(False)) < 1.0
+    assert share(balls_under_sky(True), dome_sampling="mis") == 1.0
+
+
 @pytest.mark.parametrize("sun", [True, False])
 def test_every_strategy_converges_to_the_same_image(sun):
     stage = balls_under_sky(sun)
