@@ -1,12 +1,12 @@
 #include "penumbra/dome_sampling.h"
 
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
+#include "on_threads.h"
 #include "penumbra/filter.h"
 #include "penumbra/integrator.h"
 
@@ -100,12 +100,7 @@ DomeSamplingPilot runDomeSamplingPilot(const Scene& scene, const Camera& camera,
       }
     });
   };
-  if (settings.threads > 0) {
-    tbb::task_arena arena(settings.threads);
-    arena.execute(tracePixels);
-  } else {
-    tracePixels();
-  }
+  onThreads(settings.threads, tracePixels);
   // Summed in the grid's order, so that the sums do not depend on the threads.
   for (const PilotPixel& pixel : grid) {
     pilot.varianceUnsampled += pixel.varianceUnsampled;

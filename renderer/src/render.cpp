@@ -2,8 +2,8 @@
 
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
+#include "on_threads.h"
 #include "penumbra/light_images.h"
 
 namespace penumbra {
@@ -30,12 +30,7 @@ bool forEachPixel(int width, int height, int threads, const std::atomic<bool>* c
                           }
                       });
   };
-  if (threads > 0) {
-    tbb::task_arena arena(threads);
-    arena.execute(renderTiles);
-  } else {
-    renderTiles();
-  }
+  onThreads(threads, renderTiles);
   return !cancelled(cancel);
 }
 

@@ -1,13 +1,13 @@
 #include "penumbra/throughput.h"
 
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <vector>
 
+#include "on_threads.h"
 #include "penumbra/filter.h"
 #include "penumbra/ray_log.h"
 #include "penumbra/sampler.h"
@@ -15,13 +15,6 @@
 
 namespace penumbra {
 namespace {
-
-/// Runs `body` on `threads` threads (0: all).
-template <class Body>
-void onThreads(int threads, const Body& body) {
-  tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-  arena.execute(body);
-}
 
 /// Rays per second of `trace` over `rays`, best of `repeats` runs.
 template <class RayType, class Trace>

@@ -1,5 +1,6 @@
-// Whether next-event estimation samples untextured dome lights at the camera rays' first
-// surfaces: chosen once per render, from a pilot.
+// How much of an untextured dome's light next-event estimation takes at the camera rays' first
+// surfaces, the BSDF-sampled ray the rest: chosen once per render, from a pilot
+// (docs/dome-sampling.md).
 //
 // Under a constant sky, a surface receives the sky's light wherever the sky is not occluded.
 // Next-event estimation finds that with a shadow ray in a direction of its own; the BSDF-sampled
@@ -7,24 +8,22 @@
 // and the light that occluder sends back. Where occluders are about as bright as the sky (sunlit
 // geometry under a blue sky), that one ray estimates all the light arriving at the surface with
 // little variance, and the shadow ray, independent of it, adds noise: leaving the sky to the
-// BSDF-sampled ray is then less noisy, and cheaper by a shadow ray. Where occluders are dark (a
-// sky alone, an interior lit through a window), the shadow ray halves the sky's noise. Deeper
-// vertices, whose occluders are lit only by what paths bring back, are better off with it
-// everywhere, and there it is always taken.
+// BSDF-sampled ray is then less noisy, and cheaper by a shadow ray. Where occluders are black,
+// the shadow ray's MIS share halves the sky's noise; where they are dark but not black (a sky
+// alone over light objects), a smaller share is best. Deeper vertices, whose occluders are lit
+// only by what paths bring back, are better off with MIS everywhere, and keep it.
 //
 // Which holds depends on the scene as the camera sees it, so a pilot measures it: two samples at
 // each pixel of a sparse grid over the whole image (a crop or a farm's band runs the same pilot,
-// so every band makes the same choice), each traced with the sky left to BSDF sampling and
-// measured as it would have been with it sampled, with the same random numbers
-// (IntegratorSettings::measureConstantDomeSampling). Between the two, next-event estimation may
-// keep any share of its MIS weight (IntegratorSettings::firstSurfaceConstantDomeShare), and the
-// variance is quadratic in that share; each pixel's pair of samples gives estimates of its
-// terms. The pilot keeps the share of least variance times cost: 0 (no shadow ray), or the
-// share that minimises the variance (with a shadow ray). Where occluders are dark but not
-// black (a sky alone over light objects), that least lies between 0 and 1. The
-// pilot's numbers are its own (a seed derived from the render's), so the choice does not depend on
-// the samples it is used for; it costs at most half a sample per pixel (about 0.03 of one at 640 x
-// 360).
+// so every band makes the same choice), each traced with the sky left to the BSDF-sampled ray
+// and measured as it would have been with MIS, with the same random numbers
+// (IntegratorSettings::measureConstantDomeSampling). A sample is linear in the share
+// (IntegratorSettings::firstSurfaceConstantDomeShare), so its variance is quadratic in it, and
+// each pixel's pair of samples estimates the quadratic's terms. The pilot keeps share 0 (no
+// shadow ray) or the share of least variance (with a shadow ray), whichever has less variance
+// times cost. Its numbers are its own (a seed derived from the render's), so the choice does not
+// depend on the samples it is used for; it costs at most half a sample per pixel (about 0.03 of
+// one at 640 x 360).
 #pragma once
 
 #include <cstdint>
@@ -36,8 +35,8 @@
 namespace penumbra {
 
 /// How untextured domes are found at the camera rays' first surfaces (the domeSampling render
-/// setting): as the pilot chooses, by next-event estimation and BSDF sampling weighed by MIS, or
-/// by the BSDF-sampled ray alone.
+/// setting): with the share the pilot chooses, by next-event estimation and the BSDF-sampled ray
+/// weighed by MIS (share 1), or by the BSDF-sampled ray alone (share 0).
 enum class DomeSampling { Auto, Mis, Bsdf };
 
 /// What the pilot measured, relative to the image (each pixel's and channel's variance over its
