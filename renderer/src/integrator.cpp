@@ -715,8 +715,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // one path (the render pass does not branch training samples at all, recorded or not).
   const int branches = training ? 1 : std::clamp(settings.indirectSamples, 1, kMaxIndirectSamples);
   std::vector<PathState> waitingBranches;  // empty unless the path branches: no allocation
-  // What sampling the constant domes at the first surface would have changed (path space).
-  const bool measuringDomes = settings.measureConstantDomeSampling && branches == 1;
+  // What a share of 1 for the constant domes at the first surface would have changed, where
+  // their share is 0 (path space).
+  const bool measuringDomes = settings.measureConstantDomeSampling && branches == 1 &&
+                              settings.firstSurfaceConstantDomeShare == 0;
   Vec3f domeSamplingShift{0.0f};
   // What the sample found before it branched, and the sum of its branches' estimates (each with
   // that light), in RGB: a branch that meets a dispersive interface keeps only its hero
