@@ -140,7 +140,6 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   renderSettings.integrator = integratorSettings();
   renderSettings.integrator.firstSurfaceConstantDomeShare =
       constantDomeShare(camera, renderSettings);
-  constantDomeShareUsed_ = renderSettings.integrator.firstSurfaceConstantDomeShare;
   const int trainingSamples = settings.guidingTrainingSamples;
   const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {
@@ -204,8 +203,7 @@ void RenderPass::prepareGuiding(const penumbra::Camera& camera,
   guidingField_ = GuidingField::build(guidingRecorder_.take());
 }
 
-float RenderPass::constantDomeShare(const penumbra::Camera& camera,
-                                    const penumbra::RenderSettings& renderSettings) {
+float RenderPass::constantDomeShareUsed() const {
   switch (DomeSampling(delegate_.settings().domeSampling)) {
     case DomeSampling::Mis:
       return 1;
@@ -214,12 +212,17 @@ float RenderPass::constantDomeShare(const penumbra::Camera& camera,
     case DomeSampling::Auto:
       break;
   }
+  return constantDomeShare_.value_or(1.0f);
+}
+
+float RenderPass::constantDomeShare(const penumbra::Camera& camera,
+                                    const penumbra::RenderSettings& renderSettings) {
   // Over the whole image, so that a crop or a band chooses as the whole image does.
-  if (!constantDomeShare_)
+  if (DomeSampling(delegate_.settings().domeSampling) == DomeSampling::Auto && !constantDomeShare_)
     constantDomeShare_ =
         runDomeSamplingPilot(delegate_.scene(), camera, imageWidth_, imageHeight_, renderSettings)
             .firstSurfaceShare();
-  return *constantDomeShare_;
+  return constantDomeShareUsed();
 }
 
 void RenderPass::checkCropMargin(int samples) const {

@@ -167,8 +167,9 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
       .def_property_readonly("samples_taken", &RenderPass::samplesTaken)
       .def_property_readonly("rays_traced", &RenderPass::raysTraced)
       .def_property_readonly("constant_dome_share", &RenderPass::constantDomeShareUsed,
-                             "The share of an untextured dome's light the shadow ray took at "
-                             "the first surfaces in the last execute() (docs/dome-sampling.md)")
+                             "The share of an untextured dome's light the shadow ray takes at "
+                             "the first surfaces: the dome_sampling setting's, or the pilot's "
+                             "choice (docs/dome-sampling.md)")
       .def(
           "measure_raw_throughput",
           [](RenderPass& self) {

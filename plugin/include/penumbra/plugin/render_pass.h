@@ -71,10 +71,11 @@ class RenderPass {
   uint64_t samplesTaken() const { return film_.samplesTaken(crop_); }
   /// Rays traced through the scene's BVH for the samples accumulated so far.
   uint64_t raysTraced() const { return film_.raysTraced(crop_); }
-  /// The share of its MIS weight next-event estimation kept for untextured domes at the first
-  /// surfaces in the last execute() that rendered samples (docs/dome-sampling.md); 1 (MIS) for a
-  /// pass that has rendered none. The pilot chooses 1 where the scene has no such dome.
-  float constantDomeShareUsed() const { return constantDomeShareUsed_; }
+  /// The share of its MIS weight next-event estimation keeps for untextured domes at the first
+  /// surfaces (docs/dome-sampling.md): the domeSampling setting's (mis 1, bsdf 0), or the
+  /// pilot's choice (auto; 1 before the pass has rendered samples, and where the scene has no
+  /// such dome).
+  float constantDomeShareUsed() const;
   /// Syncs, then times Embree alone on this pass's camera and scene (see throughput.h), with
   /// the render settings' thread count, on made-up rays and on the rays of one unguided sample
   /// per pixel with the render settings (branching as they say).
@@ -154,7 +155,6 @@ class RenderPass {
   GuidingRecorder guidingRecorder_;
   int guidingRecordedThrough_ = 0;
   std::optional<float> constantDomeShare_;  // the pilot's choice, once made
-  float constantDomeShareUsed_ = 1;
 };
 
 }  // namespace penumbra::plugin
