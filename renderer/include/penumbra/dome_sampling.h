@@ -69,9 +69,6 @@ struct DomeSamplingPilot {
   float firstSurfaceShare() const;
 };
 
-/// Grid pixels of the pilot at most (two samples each).
-constexpr uint32_t kDomeSamplingPilotPixels = 4096;
-
 /// Runs the pilot for a `width` x `height` image of `camera` rendered with `settings` (its
 /// integrator's seed, depths, clamp and filter; guiding and branching are left out). Returns no
 /// measurement (pixels 0) where the scene has no untextured dome or direct lighting is not
