@@ -262,7 +262,8 @@ def converged_image(stage: Usd.Stage, name: str, args: argparse.Namespace) -> np
     cache, seed = args.converged_cache, max(args.seeds) + 1  # a seed neither ladder uses
     key = (f"{name}_{args.width}px_{args.converged_spp}spp_seed{seed}"
            f"_clamp{args.indirect_clamp:g}_glossy{args.glossy_filter:g}"
-           f"_guiding{args.guiding_training_samples}_branches{args.indirect_samples}"
+           f"_guiding{args.guiding_training_samples}"
+           + (f"_branches{args.indirect_samples}" if args.indirect_samples else "")
            + (f"_dome{args.dome_sampling}" if args.dome_sampling != "auto" else ""))
     if cache is not None and (cache / f"{key}.npy").is_file():
         rendered_at = json.loads((cache / f"{key}.json").read_text())["commit"]
@@ -341,7 +342,7 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
         clamp += f", glossy filter {args.glossy_filter:g}"
     if args.guiding_training_samples:
         clamp += f", path guiding trained on {args.guiding_training_samples} spp"
-    if args.indirect_samples > 1:
+    if args.indirect_samples:
         clamp += f", {args.indirect_samples} indirect samples"
     if args.dome_sampling != "auto":
         clamp += f", dome sampling {args.dome_sampling}"
@@ -528,9 +529,10 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--guiding-training-samples", type=int, default=0,
                         help="render everything with path guiding trained on this many spp "
                         "(docs/path-guiding.md; 0: off, the default)")
-    parser.add_argument("--indirect-samples", type=int, default=1,
+    parser.add_argument("--indirect-samples", type=int, default=0,
                         help="render everything with this many paths from each camera ray's "
-                        "first surface (docs/branching.md; 1: no branching, the default)")
+                        "first surface (docs/branching.md; 1: no branching; 0, the default: "
+                        "as a pilot chooses per render)")
     parser.add_argument("--dome-sampling", choices=("auto", "mis", "bsdf"), default="auto",
                         help="how a constant dome is found at the first surface "
                         "(docs/dome-sampling.md; auto, the default, chooses per render)")

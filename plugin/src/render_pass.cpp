@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "penumbra/branching.h"
 #include "penumbra/dome_sampling.h"
 #include "penumbra/plugin/render_settings.h"
 #include "penumbra/render.h"
@@ -109,6 +110,7 @@ void RenderPass::reset() {
   guidingRecorder_.clear();
   guidingRecordedThrough_ = 0;
   constantDomeShare_.reset();
+  indirectSamples_.reset();
 }
 
 void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
@@ -135,11 +137,8 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   const int end = samplesDone_ + samples;
   if (settings.adaptiveThreshold > 0) checkCropMargin(end);
   const penumbra::Camera camera(cameraPrim.params(), imageWidth_, imageHeight_);
-  RenderSettings renderSettings;
-  renderSettings.threads = settings.threads;
-  renderSettings.integrator = integratorSettings();
-  renderSettings.integrator.firstSurfaceConstantDomeShare =
-      constantDomeShare(camera, renderSettings);
+  RenderSettings renderSettings = pilotedSettings(camera);
+  const int branches = renderSettings.integrator.indirectSamples;
   const int trainingSamples = settings.guidingTrainingSamples;
   const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {
@@ -153,7 +152,7 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
     if (training) stop = std::min(stop, trainingSamples);
     // Training samples do not branch, whether this pass records them or not (a crop's are
     // traced again over the whole image): so a crop's pixels are the whole image's.
-    renderSettings.integrator.indirectSamples = training ? 1 : settings.indirectSamples;
+    renderSettings.integrator.indirectSamples = training ? 1 : branches;
     const bool recordHere = training && guidingRecordedThrough_ == samplesDone_ &&
                             film_.region() == PixelRect{0, 0, imageWidth_, imageHeight_} &&
                             film_.activePixels() == filmPixels;
@@ -225,6 +224,31 @@ float RenderPass::constantDomeShare(const penumbra::Camera& camera,
   return constantDomeShareUsed();
 }
 
+int RenderPass::indirectSamplesUsed() const {
+  const int setting = delegate_.settings().indirectSamples;
+  return setting > 0 ? setting : indirectSamples_.value_or(1);
+}
+
+int RenderPass::indirectSamples(const penumbra::Camera& camera,
+                                const penumbra::RenderSettings& renderSettings) {
+  // Over the whole image, so that a crop or a band chooses as the whole image does.
+  if (delegate_.settings().indirectSamples == 0 && !indirectSamples_)
+    indirectSamples_ =
+        runBranchingPilot(delegate_.scene(), camera, imageWidth_, imageHeight_, renderSettings)
+            .indirectSamples();
+  return indirectSamplesUsed();
+}
+
+RenderSettings RenderPass::pilotedSettings(const penumbra::Camera& camera) {
+  RenderSettings renderSettings;
+  renderSettings.threads = delegate_.settings().threads;
+  renderSettings.integrator = integratorSettings();
+  renderSettings.integrator.firstSurfaceConstantDomeShare =
+      constantDomeShare(camera, renderSettings);
+  renderSettings.integrator.indirectSamples = indirectSamples(camera, renderSettings);
+  return renderSettings;
+}
+
 void RenderPass::checkCropMargin(int samples) const {
   const int reach = adaptiveSamplingReach(samples, delegate_.settings().adaptiveMinSamples);
   const PixelRect& film = film_.region();
@@ -258,15 +282,10 @@ IntegratorSettings RenderPass::integratorSettings() const {
 RawRayThroughput RenderPass::measureRawThroughput() {
   execute(0);  // sync
   const penumbra::Camera camera(delegate_.camera(cameraId_).params(), imageWidth_, imageHeight_);
-  // The rays of unguided samples, branching as settings say.
-  IntegratorSettings path = integratorSettings();
-  path.indirectSamples = delegate_.settings().indirectSamples;
-  RenderSettings renderSettings;
-  renderSettings.threads = delegate_.settings().threads;
-  renderSettings.integrator = path;
-  path.firstSurfaceConstantDomeShare = constantDomeShare(camera, renderSettings);
+  // The rays of unguided samples, branching as the pass does.
+  RenderSettings renderSettings = pilotedSettings(camera);
   return penumbra::measureRawThroughput(delegate_.scene(), camera, imageWidth_, imageHeight_,
-                                        delegate_.settings().threads, 3, &path);
+                                        renderSettings.threads, 3, &renderSettings.integrator);
 }
 
 void RenderPass::setAovBindings(std::map<std::string, PrimId> bindings) {

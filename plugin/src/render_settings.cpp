@@ -115,11 +115,14 @@ std::vector<RenderOption> buildRenderOptions() {
                                "bounces, as Cycles' filter glossy (Cycles' default: 1): caustics "
                                "converge sooner, biased"));
   RenderOption& indirectSamples = options.emplace_back(integerOption(
-      "indirectSamples", &Settings::indirectSamples, 1, 1, "N",
+      "indirectSamples", &Settings::indirectSamples, 0, 0, "N",
       "paths that go on from each camera ray's first surface (branched path tracing): its "
       "indirect light is their mean, for the cost of one camera ray and its direct light; "
-      "unbiased, fewer camera samples for the same indirect noise (docs/branching.md)"));
+      "unbiased, fewer camera samples for the same indirect noise; 0 lets a pilot of a few "
+      "thousand paths choose 1 to 4, whichever it finds least noisy for the time "
+      "(docs/branching.md)"));
   indirectSamples.maximum = penumbra::kMaxIndirectSamples;
+  indirectSamples.defaultMeaning = "the pilot's choice";
   RenderOption& guiding = options.emplace_back(integerOption(
       "guidingTrainingSamples", &Settings::guidingTrainingSamples, 0, 0, "N",
       "path guiding: the first N samples per pixel learn where indirect light comes from, and "

@@ -170,6 +170,10 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
                              "The share of an untextured dome's light the shadow ray takes at "
                              "the first surfaces: the dome_sampling setting's, or the pilot's "
                              "choice (docs/dome-sampling.md)")
+      .def_property_readonly("indirect_samples", &RenderPass::indirectSamplesUsed,
+                             "The paths that go on from each camera ray's first surface: the "
+                             "indirect_samples setting's, or (0) the pilot's choice "
+                             "(docs/branching.md)")
       .def(
           "measure_raw_throughput",
           [](RenderPass& self) {

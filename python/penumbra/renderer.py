@@ -370,6 +370,7 @@ class Renderer:
                 "samplesDone": render_pass.samples_done,
                 "rays": render_pass.rays_traced,
                 "constantDomeShare": render_pass.constant_dome_share,
+                "indirectSamplesUsed": render_pass.indirect_samples,
                 "renderTimeSeconds": round(elapsed, 3),
                 "version": _core.version(),
                 "timeCode": "default" if time_code.IsDefault() else time_code.GetValue(),

@@ -725,6 +725,14 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // wavelength, so each branch is turned into RGB with its own wavelengths.
   std::optional<Vec3f> radianceBeforeBranching;
   Vec3f branchesRgb{0.0f};
+  // Each branch's estimate goes into branchesRgb through here; with two branches, their
+  // difference is kept too (CameraSample::branchDifference).
+  bool firstBranchAdded = false;
+  const auto addBranch = [&](const Vec3f& estimate) {
+    branchesRgb += estimate;
+    if (branches == 2) result.branchDifference += firstBranchAdded ? -estimate : estimate;
+    firstBranchAdded = true;
+  };
   const auto toRgb = [&](const Vec3f& radiance) {
     return spectrum.spectral ? spectralToRgb(radiance, spectrum.wavelengths) : radiance;
   };
@@ -1038,6 +1046,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         const PathState atSurface = path;
         waitingBranches.reserve(size_t(branches - 1));
         radianceBeforeBranching = result.radiance;
+        result.raysBeforeBranching = result.rays;
         result.radiance = Vec3f(0.0f);
         for (int branch = branches - 1; branch > 0; --branch) {
           path = atSurface;
@@ -1045,7 +1054,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           if (scatter())
             waitingBranches.push_back(path);
           else
-            branchesRgb += toRgb(*radianceBeforeBranching);  // it ends here
+            addBranch(toRgb(*radianceBeforeBranching));  // it ends here
         }
         path = atSurface;
         path.branchOff(0, branches, settings.seed, x, y, sampleIndex);
@@ -1053,7 +1062,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (!scatter()) break;
     }
     if (radianceBeforeBranching) {
-      branchesRgb += toRgb(*radianceBeforeBranching + result.radiance);
+      addBranch(toRgb(*radianceBeforeBranching + result.radiance));
       result.radiance = Vec3f(0.0f);
     }
     if (waitingBranches.empty()) break;
@@ -1062,6 +1071,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   }
   if (training) trainer.record(*settings.guidingRecorder, x, y, sampleIndex);
   if (measuringDomes) result.domeSamplingShift = toRgb(domeSamplingShift);
+  if (!radianceBeforeBranching) result.raysBeforeBranching = result.rays;
   result.radiance =
       radianceBeforeBranching ? branchesRgb * (1.0f / float(branches)) : toRgb(result.radiance);
   return result;

@@ -2,9 +2,11 @@
 #pragma once
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "penumbra/plugin/render_delegate.h"
+#include "transforms.h"
 
 namespace penumbra::test {
 
@@ -63,6 +65,54 @@ inline void addCamera(plugin::RenderDelegate& delegate, const Transform& transfo
   params.nearClip = 0.01f;
   delegate.camera("/cam").setParams(params);
   delegate.camera("/cam").setTransform(transform);
+}
+
+/// Grey balls on a grey floor under a sky, seen from above. Seen from the floor, the balls hide
+/// part of the sky; lit by the sky alone they are much darker than it (with an albedo below ½,
+/// what they reflect is below half the sky's radiance). With `sun`, a sun whose irradiance is five
+/// times the sky's (the benchmark's outdoor scenes have about four) lights them too, and their
+/// sunlit sides are brighter than the sky.
+inline void ballsUnderSky(plugin::RenderDelegate& delegate, bool sun) {
+  addFloor(delegate, "/floor", 20);
+  delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
+  for (int i = 0; i < 3; ++i) {
+    const std::string id = "/ball" + std::to_string(i);
+    addSphere(delegate, id, 0.6f, 12, 24);
+    delegate.mesh(id).setTransform(translation(1.3 * (i - 1), 0.6, 0));
+    delegate.mesh(id).setDisplayColor({Vec3f(0.4f)}, Interpolation::Constant);
+  }
+  delegate.insertSprim("domeLight", "/sky");
+  delegate.light("/sky").setParam("intensity", 0.35f);
+  if (sun) {
+    delegate.insertSprim("distantLight", "/sun");
+    delegate.light("/sun").setParam("intensity", 6.0f);
+    delegate.light("/sun").setParam("angle", 2.0f);
+    delegate.light("/sun").setParam("normalize", true);
+    delegate.light("/sun").setTransform(facingDown(0, 10, 0));
+  }
+  addCamera(delegate, facingDown(0, 5, 0), 1.5f);
+}
+
+/// A grey floor (Lambertian, albedo 0.5) under a double-sided square `ceiling` at height
+/// `ceilingHeight`, both 100 units across.
+inline void floorUnderCeiling(plugin::RenderDelegate& delegate, const plugin::PrimId& ceiling,
+                              float ceilingHeight) {
+  addFloor(delegate, "/floor", 50);
+  delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
+  addFloor(delegate, ceiling, 50, ceilingHeight);
+  delegate.mesh(ceiling).setDoubleSided(true);
+}
+
+/// floorUnderCeiling with the ceiling at height 3, lit only by a panel facing up below it, seen
+/// from above by "/cam": the camera sees nothing the panel lights directly, and all of the
+/// floor's light is found beyond the surfaces camera rays meet.
+inline void floorLitByCeiling(plugin::RenderDelegate& delegate) {
+  floorUnderCeiling(delegate, "/ceiling", 3);
+  delegate.insertSprim("rectLight", "/panel");
+  delegate.light("/panel").setParam("intensity", 20.0f);
+  const double facingUp[16] = {1, 0, 0, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 2.5, 0, 1};
+  delegate.light("/panel").setTransform(Transform::fromRowMajor(facingUp));
+  addCamera(delegate, facingDown(0, 2, 0), 10);
 }
 
 }  // namespace penumbra::test

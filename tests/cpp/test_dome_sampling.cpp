@@ -19,42 +19,15 @@
 using namespace penumbra;
 using penumbra::test::addCamera;
 using penumbra::test::addFloor;
-using penumbra::test::addSphere;
+using penumbra::test::ballsUnderSky;
 using penumbra::test::facingDown;
 using penumbra::test::meanRed;
 using penumbra::test::redSquaredDifference;
-using penumbra::test::translation;
 using namespace penumbra::plugin;
 
 namespace {
 
 constexpr int kSize = 32;
-
-/// Grey balls on a grey floor under a sky, seen from above. Seen from the floor, the balls hide
-/// part of the sky; lit by the sky alone they are much darker than it (with an albedo below ½,
-/// what they reflect is below half the sky's radiance). With `sun`, a sun whose irradiance is five
-/// times the sky's (the benchmark's outdoor scenes have about four) lights them too, and their
-/// sunlit sides are brighter than the sky.
-void ballsUnderSky(RenderDelegate& delegate, bool sun) {
-  addFloor(delegate, "/floor", 20);
-  delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
-  for (int i = 0; i < 3; ++i) {
-    const std::string id = "/ball" + std::to_string(i);
-    addSphere(delegate, id, 0.6f, 12, 24);
-    delegate.mesh(id).setTransform(translation(1.3 * (i - 1), 0.6, 0));
-    delegate.mesh(id).setDisplayColor({Vec3f(0.4f)}, Interpolation::Constant);
-  }
-  delegate.insertSprim("domeLight", "/sky");
-  delegate.light("/sky").setParam("intensity", 0.35f);
-  if (sun) {
-    delegate.insertSprim("distantLight", "/sun");
-    delegate.light("/sun").setParam("intensity", 6.0f);
-    delegate.light("/sun").setParam("angle", 2.0f);
-    delegate.light("/sun").setParam("normalize", true);
-    delegate.light("/sun").setTransform(facingDown(0, 10, 0));
-  }
-  addCamera(delegate, facingDown(0, 5, 0), 1.5f);
-}
 
 /// The colour (RGBA) of ballsUnderSky at `samples` per pixel, with the domeSampling setting
 /// `domeSampling` (DomeSampling's levels), on `threads` threads, of the pixels of `crop`.
@@ -63,6 +36,8 @@ std::vector<float> renderBalls(bool sun, DomeSampling domeSampling, int samples,
   RenderDelegate delegate;
   ballsUnderSky(delegate, sun);
   delegate.settings().set("domeSampling", double(domeSampling));
+  // Unbranched, so that the noise compared is the dome's sampling alone.
+  delegate.settings().set("indirectSamples", 1);
   delegate.settings().set("seed", seed);
   delegate.settings().set("threads", threads);
   RenderPass pass(delegate, "/cam", kSize, kSize, crop);

@@ -203,6 +203,9 @@ void indirectlyLitRoom(RenderDelegate& delegate, int trainingSamples) {
   delegate.light("/panel").setTransform(facingDown(2.5, 0.9, 0));
   addCamera(delegate, facingUp(-1.5, 0.05, 0), 1);
   delegate.settings().set("guidingTrainingSamples", trainingSamples);
+  // Unbranched: training samples never branch, and the guided and unguided samples compared
+  // are then one path each.
+  delegate.settings().set("indirectSamples", 1);
 }
 
 constexpr int kRoomSize = 24;

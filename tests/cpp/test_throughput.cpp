@@ -3,6 +3,7 @@
 
 #include <cstring>
 
+#include "penumbra/branching.h"
 #include "penumbra/dome_sampling.h"
 #include "penumbra/filter.h"
 #include "penumbra/plugin/render_delegate.h"
@@ -38,15 +39,20 @@ void ballUnderLamp(RenderDelegate& delegate) {
   addCamera(delegate, facingDown(0, 4, 0), 12);
 }
 
-/// The integrator settings a pass renders ballUnderLamp with at `size` pixels square (default
-/// render settings): the sky at the first surfaces as the pass's pilot chooses.
+/// The integrator settings a pass renders ballUnderLamp with at `size` pixels square (the
+/// delegate's indirectSamples, other render settings at their defaults): the sky at the first
+/// surfaces and the branches as the pass's pilots choose.
 IntegratorSettings passIntegrator(const RenderDelegate& delegate, const penumbra::Camera& camera,
                                   int size) {
-  IntegratorSettings settings;
-  settings.firstSurfaceConstantDomeShare =
-      runDomeSamplingPilot(delegate.scene(), camera, size, size, RenderSettings())
-          .firstSurfaceShare();
-  return settings;
+  RenderSettings settings;
+  settings.integrator.firstSurfaceConstantDomeShare =
+      runDomeSamplingPilot(delegate.scene(), camera, size, size, settings).firstSurfaceShare();
+  const int indirectSamples = delegate.settings().indirectSamples;
+  settings.integrator.indirectSamples =
+      indirectSamples > 0
+          ? indirectSamples
+          : runBranchingPilot(delegate.scene(), camera, size, size, settings).indirectSamples();
+  return settings.integrator;
 }
 
 bool sameBits(const Vec3f& a, const Vec3f& b) {
@@ -101,12 +107,13 @@ TEST(RawThroughput, TimesEmbreeOnTheRaysOneSamplePerPixelTraces) {
   RenderPass pass(delegate, "/cam", kSize, kSize);
   const RawRayThroughput raw = pass.measureRawThroughput();
   const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
-  const IntegratorSettings unbranched = passIntegrator(delegate, camera, kSize);
+  const IntegratorSettings branched = passIntegrator(delegate, camera, kSize);
+  EXPECT_EQ(branched.indirectSamples, 3);
   // The ball, lit by the lamp, hides the sky from the floor: the pilot leaves the sky to BSDF
   // rays there, one shadow ray fewer than IntegratorSettings' default.
-  EXPECT_EQ(unbranched.firstSurfaceConstantDomeShare, 0.0f);
-  IntegratorSettings branched = unbranched;
-  branched.indirectSamples = 3;
+  EXPECT_EQ(branched.firstSurfaceConstantDomeShare, 0.0f);
+  IntegratorSettings unbranched = branched;
+  unbranched.indirectSamples = 1;
   uint64_t rays = 0, unbranchedRays = 0, skySampledRays = 0;
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {

@@ -241,7 +241,7 @@ def test_adaptive_sampling_and_clamp_flags(tmp_path, capsys):
         ("--indirectClamp", "nan"),
         ("--glossyFilter", "-0.5"),
         ("--glossyFilter", "inf"),
-        ("--indirectSamples", "0"),
+        ("--indirectSamples", "-1"),
         ("--indirectSamples", "17"),
     ):
         assert main([*args, flag, value]) == 2

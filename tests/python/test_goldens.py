@@ -24,20 +24,37 @@ def test_showcase_materials_and_lights(golden):
 
 
 def test_showcase_with_the_dome_pilot(golden):
-    # The default, `auto`: its pilot leaves the sky to the BSDF ray at the first surface here.
+    # The defaults: the dome's pilot leaves the sky to the BSDF ray at the first surface here,
+    # and at this size, where the pixels' own noise is most of it, the branching pilot keeps one
+    # path per sample (docs/branching.md).
     image = penumbra.render(str(EXAMPLES / "showcase.usda"), width=96, samples=8, threads=2)
     assert image.metadata["constantDomeShare"] == 0.0
+    assert image.metadata["indirectSamplesUsed"] == 1
     golden.check(image, "showcase_dome_pilot", fail=0.02, failpercent=0.0)
 
 
 def test_cornell_box(golden):
-    image = penumbra.render(str(EXAMPLES / "cornell.usda"), width=96, samples=8, threads=1)
+    # One path per camera sample: the estimator this golden was made with, which
+    # `indirect_samples=1` keeps bit for bit.
+    image = penumbra.render(
+        str(EXAMPLES / "cornell.usda"), width=96, samples=8, threads=1, indirect_samples=1
+    )
     golden.check(image, "cornell", fail=0.02, failpercent=0.0)
+
+
+def test_cornell_box_with_the_branching_pilot(golden):
+    # The default: its pilot branches three ways at the first surface, the room's light being
+    # nearly all indirect (docs/branching.md).
+    image = penumbra.render(str(EXAMPLES / "cornell.usda"), width=96, samples=8, threads=1)
+    assert image.metadata["indirectSamplesUsed"] == 3
+    golden.check(image, "cornell_branching_pilot", fail=0.02, failpercent=0.0)
 
 
 def test_golden_check_fails_for_a_different_image(golden):
     if golden.update:
         return  # nothing to compare while the goldens are being rewritten
-    image = penumbra.render(str(EXAMPLES / "cornell.usda"), width=96, samples=8, seed=1)
+    image = penumbra.render(
+        str(EXAMPLES / "cornell.usda"), width=96, samples=8, seed=1, indirect_samples=1
+    )
     with pytest.raises(pytest.fail.Exception, match="differ by more than 0.02"):
         golden.check(image, "cornell", fail=0.02, failpercent=0.0)

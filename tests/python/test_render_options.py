@@ -73,7 +73,8 @@ def test_the_options_users_knew_keep_their_spellings_and_defaults():
         "adaptive_min_samples": 16,
         "indirect_clamp": 0.0,
         "glossy_filter": 0.0,
-        "indirect_samples": 1,
+        # 1 before the branching pilot; 0, its choice, since (1 renders as before).
+        "indirect_samples": 0,
     }
     for keyword, default in defaults.items():
         assert render_options.BY_KEYWORD[keyword].default == default

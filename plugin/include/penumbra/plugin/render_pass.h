@@ -76,6 +76,10 @@ class RenderPass {
   /// pilot's choice (auto; 1 before the pass has rendered samples, and where the scene has no
   /// such dome).
   float constantDomeShareUsed() const;
+  /// The paths that go on from each camera ray's first surface (docs/branching.md): the
+  /// indirectSamples setting's, or (0) the pilot's choice (1 before the pass has rendered
+  /// samples).
+  int indirectSamplesUsed() const;
   /// Syncs, then times Embree alone on this pass's camera and scene (see throughput.h), with
   /// the render settings' thread count, on made-up rays and on the rays of one unguided sample
   /// per pixel with the render settings (branching as they say).
@@ -137,6 +141,14 @@ class RenderPass {
   /// pilot chose, once per render (penumbra/dome_sampling.h).
   float constantDomeShare(const penumbra::Camera& camera,
                           const penumbra::RenderSettings& renderSettings);
+  /// The paths that go on from each camera ray's first surface: as the indirectSamples setting
+  /// says, or (0) as the pilot chose for `renderSettings` (with their dome share), once per
+  /// render (penumbra/branching.h).
+  int indirectSamples(const penumbra::Camera& camera,
+                      const penumbra::RenderSettings& renderSettings);
+  /// What a sample of this pass is rendered with (guiding aside): the settings' threads and
+  /// integrator, with the dome share and the branches the pilots chose.
+  penumbra::RenderSettings pilotedSettings(const penumbra::Camera& camera);
 
   RenderDelegate& delegate_;
   PrimId cameraId_;
@@ -154,7 +166,8 @@ class RenderPass {
   std::optional<GuidingField> guidingField_;
   GuidingRecorder guidingRecorder_;
   int guidingRecordedThrough_ = 0;
-  std::optional<float> constantDomeShare_;  // the pilot's choice, once made
+  std::optional<float> constantDomeShare_;  // the dome pilot's choice, once made
+  std::optional<int> indirectSamples_;      // the branching pilot's choice, once made
 };
 
 }  // namespace penumbra::plugin

@@ -1,0 +1,58 @@
+"""The ``indirect_samples`` option's default (docs/branching.md): a pilot chooses how many paths
+go on from each camera ray's first surface, more where the noise lies beyond it, one where it is
+the pixel's own; the count used is in the image metadata."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, UsdLux
+
+import penumbra
+from stages import add_camera, add_quad, lit_quad_stage, new_stage
+
+
+def floor_lit_by_ceiling():
+    """A grey floor under a grey ceiling, lit only by a panel facing the ceiling, seen from
+    between them: all the light the camera sees has bounced off the ceiling first."""
+    stage = new_stage()
+    add_camera(stage, translate=(0.0, 0.0, 2.0), focal_length=10.0)
+    add_quad(stage, "/floor", half_size=50.0, color=(0.5, 0.5, 0.5))
+    ceiling = add_quad(stage, "/ceiling", center=(0.0, 0.0, 3.0), half_size=50.0,
+                       color=(0.5, 0.5, 0.5))
+    ceiling.CreateDoubleSidedAttr(True)
+    panel = UsdLux.RectLight.Define(stage, "/panel")
+    panel.CreateIntensityAttr(20.0)
+    panel.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 2.5))
+    panel.AddRotateXOp().Set(180.0)  # emitting along +Z, towards the ceiling
+    return stage
+
+
+def render(stage, samples: int = 1, **options):
+    return penumbra.render(stage, width=32, samples=samples, threads=2, **options)
+
+
+def test_the_pilot_branches_where_the_light_comes_from_beyond_the_first_surface():
+    image = render(floor_lit_by_ceiling())
+    assert image.metadata["indirectSamplesUsed"] >= 2
+    assert image.metadata["indirectSamples"] == 0  # the setting: the pilot's choice
+
+
+def test_the_pilot_does_not_branch_where_the_noise_is_the_pixels_own():
+    # A quad's edges under a sun: the bounces off the quad escape to an empty sky.
+    assert render(lit_quad_stage()).metadata["indirectSamplesUsed"] == 1
+
+
+@pytest.mark.parametrize("count", [1, 3])
+def test_a_count_set_is_used_as_set(count):
+    image = render(floor_lit_by_ceiling(), indirect_samples=count)
+    assert image.metadata["indirectSamplesUsed"] == count
+    assert image.metadata["indirectSamples"] == count
+
+
+def test_the_pilots_choice_converges_to_the_unbranched_image():
+    stage = floor_lit_by_ceiling()
+    chosen = np.asarray(render(stage, samples=64).get("color"))[..., :3].mean()
+    single = np.asarray(render(stage, samples=64, indirect_samples=1).get("color"))[..., :3].mean()
+    assert chosen > 0.01
+    assert chosen == pytest.approx(single, rel=0.01)
