@@ -16,6 +16,7 @@
 using namespace penumbra;
 using penumbra::test::addCamera;
 using penumbra::test::ballsUnderSky;
+using penumbra::test::cropOf;
 using penumbra::test::facingDown;
 using penumbra::test::floorLitByCeiling;
 using penumbra::test::redSquaredDifference;
@@ -161,12 +162,7 @@ TEST(Branching, PilotChoosesTheSameForAnyThreadCountAndCrop) {
   const std::vector<float> whole = renderWith(1, {0, 0, kSize, kSize});
   EXPECT_EQ(renderWith(2, {0, 0, kSize, kSize}), whole);
   const PixelRect band{0, 11, kSize, 7};
-  const std::vector<float> cropped = renderWith(2, band);
-  for (int y = 0; y < band.height; ++y)
-    for (int x = 0; x < band.width; ++x)
-      for (int c = 0; c < 4; ++c)
-        ASSERT_EQ(cropped[size_t((y * band.width + x) * 4 + c)],
-                  whole[size_t(((band.y + y) * kSize + x) * 4 + c)]);
+  EXPECT_EQ(renderWith(2, band), cropOf(whole, kSize, 4, band));
   RenderDelegate delegate;
   floorLitByCeiling(delegate);
   EXPECT_EQ(pilotOf(delegate, 1).varianceFirst, pilotOf(delegate, 2).varianceFirst);

@@ -5,6 +5,7 @@
 #include <random>
 #include <set>
 
+#include "image_stats.h"
 #include "penumbra/dome_sampling.h"
 #include "penumbra/plugin/render_delegate.h"
 #include "penumbra/plugin/render_pass.h"
@@ -15,6 +16,7 @@ using namespace penumbra;
 using penumbra::test::addCamera;
 using penumbra::test::addFloor;
 using penumbra::test::addSphere;
+using penumbra::test::cropOf;
 using penumbra::test::facingDown;
 using penumbra::test::floorLitByCeiling;
 using penumbra::test::floorUnderCeiling;
@@ -705,22 +707,6 @@ TEST(Render, AdaptiveSamplingBeatsUniformSamplingAtTheSameMeanSampleCount) {
   // this guards the gain over uniform sampling, and the test above the split of the samples.
   EXPECT_LT(adaptiveError, 0.67 * uniformError) << meanSamples << " samples on average";
 }
-
-namespace {
-
-/// The pixels `crop` of a row-major image `width` pixels wide with `channels` per pixel.
-std::vector<float> cropOf(const std::vector<float>& image, int width, int channels,
-                          const PixelRect& crop) {
-  std::vector<float> result;
-  for (int y = crop.y; y < crop.y + crop.height; ++y) {
-    const auto row = image.begin() + std::ptrdiff_t((size_t(y) * size_t(width) + size_t(crop.x)) *
-                                                    size_t(channels));
-    result.insert(result.end(), row, row + std::ptrdiff_t(crop.width * channels));
-  }
-  return result;
-}
-
-}  // namespace
 
 TEST(Render, CropsAreBitIdenticalToThePixelsOfTheWholeImage) {
   RenderDelegate delegate;
