@@ -60,17 +60,21 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
   const std::vector<BranchingPilotPixel> grid = tracePilotGrid<BranchingPilotPixel>(
       width, height, maxPixels, settings.threads, [&](int x, int y) {
         std::array<CameraSample, 2 * kPilotSamples> samples;
-        Vec3f replicaMeans[2] = {Vec3f(0.0f), Vec3f(0.0f)};
+        // Per replica, the mean of its samples' branch 0 and of their branch 1.
+        Vec3f branchMeans[2][2] = {{Vec3f(0.0f), Vec3f(0.0f)}, {Vec3f(0.0f), Vec3f(0.0f)}};
         for (uint32_t replica = 0; replica < 2; ++replica)
           for (uint32_t index = 0; index < kPilotSamples; ++index) {
             CameraSample& sample = samples[replica * kPilotSamples + index];
             sample = renderCameraSample(scene, camera, filter, x, y, index, replicas[replica]);
-            replicaMeans[replica] += sample.radiance * (1.0f / float(kPilotSamples));
+            const Vec3f half = sample.branchDifference * 0.5f;
+            branchMeans[replica][0] += (sample.radiance + half) * (1.0f / float(kPilotSamples));
+            branchMeans[replica][1] += (sample.radiance - half) * (1.0f / float(kPilotSamples));
           }
-        const Vec3f mean = (replicaMeans[0] + replicaMeans[1]) * 0.5f;
+        const Vec3f mean =
+            (branchMeans[0][0] + branchMeans[0][1] + branchMeans[1][0] + branchMeans[1][1]) * 0.25f;
         const Vec3f zero(0.0f);
         BranchingPilotPixel pixel;
-        // Var(Y1 - Y2) = 2 V_beyond for a sample's two branches Y1, Y2.
+        // Var(Y0 - Y1) = 2 V_beyond for a sample's two branches Y0, Y1.
         for (const CameraSample& sample : samples) {
           const Vec3f& difference = sample.branchDifference;
           pixel.varianceBeyond +=
@@ -78,13 +82,15 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
           pixel.raysFirst += sample.raysBeforeBranching;
           pixel.raysBeyondBothBranches += sample.rays - sample.raysBeforeBranching;
         }
-        // A replica's mean has the variance V_first / n + V_beyond / 2n for its n samples,
-        // V_first being the variance per sample of what lies up to the first surface, as
-        // stratified over n samples (less than a single sample's: the pixel's area, the lens and
-        // the shutter are sampled evenly), and the branches' being that of independent paths.
-        const double replicaVariance = relativeCovariance(replicaMeans[0], replicaMeans[1],
-                                                          replicaMeans[0], replicaMeans[1], mean);
-        pixel.varianceFirst = double(kPilotSamples) * replicaVariance - 0.5 * pixel.varianceBeyond;
+        // A replica's branch-0 and branch-1 means share what lies up to the first surfaces and
+        // nothing beyond: their covariance is V_first / n for its n samples, V_first being the
+        // variance per sample of what lies up to the first surface as stratified over n samples
+        // (less than a single sample's: the pixel's area, the lens and the shutter are sampled
+        // evenly). Measured so, rather than as what the replicas' variance leaves of V_beyond's
+        // share, it is not swamped by rare bright paths beyond the split (caustics).
+        pixel.varianceFirst =
+            double(kPilotSamples) * relativeCovariance(branchMeans[0][0], branchMeans[1][0],
+                                                       branchMeans[0][1], branchMeans[1][1], mean);
         return pixel;
       });
   // Summed in the grid's order, so that the sums do not depend on the threads.
@@ -95,7 +101,7 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
     pilot.raysBeyond += pixel.raysBeyondBothBranches;
   }
   pilot.raysBeyond /= 2;
-  // Estimated as a difference, V_first may come out below 0 where it is small.
+  // Estimated from products of differences, V_first may come out below 0 where it is small.
   pilot.varianceFirst = std::max(pilot.varianceFirst, 0.0);
   pilot.pixels = uint32_t(grid.size());
   return pilot;

@@ -634,6 +634,7 @@ struct PathState {
   /// Added to the purposes of the path's random streams (volumes, subsurface walks): a branch's
   /// differ from every other branch's and from an unbranched path's.
   uint32_t streamPurposeOffset = 0;
+  int branch = 0;  // which branch of its camera sample this path is (0 where it does not branch)
   PathSpectrum spectrum;
   Ray ray;
   RayCone cone;
@@ -651,6 +652,7 @@ struct PathState {
   /// `sampleIndex`: its dimensions from here on take sample index sampleIndex · branches +
   /// branch, so that a pixel's branches together are as well stratified as its camera samples.
   void branchOff(int branch, int branches, uint32_t seed, int x, int y, uint32_t sampleIndex) {
+    this->branch = branch;
     sampler = sampler.atSample(sampleIndex * uint32_t(branches) + uint32_t(branch));
     streamPurposeOffset = uint32_t(branch + 1) << 24;  // above every vertex's purpose
     if (volumeRandom)
@@ -727,11 +729,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   Vec3f branchesRgb{0.0f};
   // Each branch's estimate goes into branchesRgb through here; with two branches, their
   // difference is kept too (CameraSample::branchDifference).
-  bool firstBranchAdded = false;
-  const auto addBranch = [&](const Vec3f& estimate) {
+  const auto addBranch = [&](const Vec3f& estimate, int branch) {
     branchesRgb += estimate;
-    if (branches == 2) result.branchDifference += firstBranchAdded ? -estimate : estimate;
-    firstBranchAdded = true;
+    if (branches == 2) result.branchDifference += branch == 0 ? estimate : -estimate;
   };
   const auto toRgb = [&](const Vec3f& radiance) {
     return spectrum.spectral ? spectralToRgb(radiance, spectrum.wavelengths) : radiance;
@@ -1054,7 +1054,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           if (scatter())
             waitingBranches.push_back(path);
           else
-            addBranch(toRgb(*radianceBeforeBranching));  // it ends here
+            addBranch(toRgb(*radianceBeforeBranching), branch);  // it ends here
         }
         path = atSurface;
         path.branchOff(0, branches, settings.seed, x, y, sampleIndex);
@@ -1062,7 +1062,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (!scatter()) break;
     }
     if (radianceBeforeBranching) {
-      addBranch(toRgb(*radianceBeforeBranching + result.radiance));
+      addBranch(toRgb(*radianceBeforeBranching + result.radiance), path.branch);
       result.radiance = Vec3f(0.0f);
     }
     if (waitingBranches.empty()) break;

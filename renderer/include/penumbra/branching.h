@@ -15,8 +15,9 @@
 // The pilot traces, at each pixel of a sparse grid over the whole image (a crop or a farm's band
 // runs the same pilot, so every band makes the same choice), two independent replicas of four
 // samples, each sample branching in two: the difference of a sample's two branches estimates
-// V_beyond, that of the two replicas' means V_first / 4 + V_beyond / 8, and the rays traced before
-// and after the split the costs. V_first so measured is that of samples stratified as a render's
+// V_beyond; the covariance of a replica's mean of branches 0 and its mean of branches 1, which
+// share what lies up to the first surfaces and nothing beyond, V_first / 4; the rays traced before
+// and after the split, the costs. V_first so measured is that of samples stratified as a render's
 // are (over the pixel's area, the lens, the shutter), which is far less than a lone sample's
 // where the pixel's own noise is smooth (edges, defocus). Its numbers are its own (seeds derived
 // from the render's), so the choice does not depend on the samples it is used for.

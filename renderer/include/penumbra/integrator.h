@@ -92,9 +92,9 @@ struct CameraSample {
   Vec3f domeSamplingShift{0.0f};
   uint32_t domeSamplingShadowRays = 0;
   /// The rays of `rays` traced before the path branched at its first surface (all of them
-  /// where it did not), and where it branched in two, the first branch's estimate less the
-  /// second's (RGB, each with the light found before the split): what the branching pilot
-  /// measures (branching.h).
+  /// where it did not), and where it branched in two, branch 0's estimate less branch 1's (RGB,
+  /// each with the light found before the split; `radiance` is their mean): what the branching
+  /// pilot measures (branching.h).
   uint32_t raysBeforeBranching = 0;
   Vec3f branchDifference{0.0f};
 };
