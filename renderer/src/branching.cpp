@@ -43,16 +43,13 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
   if (width <= 0 || height <= 0 || settings.integrator.maxPathDepth < 2) return pilot;
   // Two replicas of the pixel, each from a seed of its own: independent, each stratified as
   // a render's samples are.
-  IntegratorSettings replicas[2] = {settings.integrator, settings.integrator};
+  IntegratorSettings replicas[2];
   for (uint32_t replica = 0; replica < 2; ++replica) {
     IntegratorSettings& integrator = replicas[replica];
-    integrator.seed = pilotSeed(settings.integrator.seed, Pilot::Branching) + replica;
+    integrator = pilotIntegrator(settings.integrator,
+                                 pilotSeed(settings.integrator.seed, Pilot::Branching) + replica);
     integrator.indirectSamples = 2;
     integrator.measureConstantDomeSampling = false;
-    integrator.guidingField = nullptr;
-    integrator.guidingRecorder = nullptr;
-    integrator.lightImages = nullptr;
-    integrator.rayLog = nullptr;
   }
   const PixelFilter filter;
   const uint32_t maxPixels = uint32_t(

@@ -44,15 +44,11 @@ DomeSamplingPilot runDomeSamplingPilot(const Scene& scene, const Camera& camera,
   if (width <= 0 || height <= 0 || !hasConstantDome(scene) ||
       settings.integrator.directLighting != DirectLighting::MultipleImportance)
     return pilot;
-  IntegratorSettings integrator = settings.integrator;
-  integrator.seed = pilotSeed(settings.integrator.seed, Pilot::DomeSampling);
+  IntegratorSettings integrator = pilotIntegrator(
+      settings.integrator, pilotSeed(settings.integrator.seed, Pilot::DomeSampling));
   integrator.firstSurfaceConstantDomeShare = 0;
   integrator.measureConstantDomeSampling = true;
   integrator.indirectSamples = 1;
-  integrator.guidingField = nullptr;
-  integrator.guidingRecorder = nullptr;
-  integrator.lightImages = nullptr;
-  integrator.rayLog = nullptr;
   const PixelFilter filter;
   const std::vector<DomePilotPixel> grid = tracePilotGrid<DomePilotPixel>(
       width, height, kPilotPixels, settings.threads, [&](int x, int y) {

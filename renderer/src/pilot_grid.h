@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "on_threads.h"
+#include "penumbra/integrator.h"
 #include "penumbra/math.h"
 
 namespace penumbra {
@@ -21,6 +22,18 @@ enum class Pilot : uint32_t { DomeSampling = 0, Branching = 1 };
 /// choice it makes is independent of them.
 inline uint32_t pilotSeed(uint32_t seed, Pilot pilot) {
   return seed * 0x9E3779B1u + 0x7F4A7C15u + uint32_t(pilot) * 0x2545F491u;
+}
+
+/// The render's integrator settings for a pilot's samples: its seed `seed`, and none of what
+/// only the render's own samples use (guiding, the lights seen directly, the ray log).
+inline IntegratorSettings pilotIntegrator(const IntegratorSettings& render, uint32_t seed) {
+  IntegratorSettings settings = render;
+  settings.seed = seed;
+  settings.guidingField = nullptr;
+  settings.guidingRecorder = nullptr;
+  settings.lightImages = nullptr;
+  settings.rayLog = nullptr;
+  return settings;
 }
 
 /// Half the product of two samples' differences (an unbiased estimate of the covariance of what
