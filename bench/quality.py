@@ -264,6 +264,7 @@ def converged_image(stage: Usd.Stage, name: str, args: argparse.Namespace) -> np
            f"_clamp{args.indirect_clamp:g}_glossy{args.glossy_filter:g}"
            f"_guiding{args.guiding_training_samples}"
            + (f"_branches{args.indirect_samples}" if args.indirect_samples else "")
+           + (f"_lights{args.light_samples}" if args.light_samples else "")
            + (f"_dome{args.dome_sampling}" if args.dome_sampling != "auto" else ""))
     if cache is not None and (cache / f"{key}.npy").is_file():
         rendered_at = json.loads((cache / f"{key}.json").read_text())["commit"]
@@ -344,6 +345,8 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
         clamp += f", path guiding trained on {args.guiding_training_samples} spp"
     if args.indirect_samples:
         clamp += f", {args.indirect_samples} indirect samples"
+    if args.light_samples:
+        clamp += f", {args.light_samples} light samples"
     if args.dome_sampling != "auto":
         clamp += f", dome sampling {args.dome_sampling}"
     print(f"Shared scenes, {args.width} px wide, spp ladder {', '.join(map(str, args.spp))}, "
@@ -533,6 +536,10 @@ def parse_args() -> argparse.Namespace:
                         help="render everything with this many paths from each camera ray's "
                         "first surface (docs/branching.md; 1: no branching; 0, the default: "
                         "as a pilot chooses per render)")
+    parser.add_argument("--light-samples", type=int, default=0,
+                        help="render everything with this many estimates of the direct light "
+                        "at each camera ray's first surface (docs/branching.md; 0, the default: "
+                        "as the same pilot chooses per render)")
     parser.add_argument("--dome-sampling", choices=("auto", "mis", "bsdf"), default="auto",
                         help="how a constant dome is found at the first surface "
                         "(docs/dome-sampling.md; auto, the default, chooses per render)")
@@ -562,6 +569,7 @@ def parse_args() -> argparse.Namespace:
     args.seeds = tuple(args.seeds)
     args.render_options = {"guiding_training_samples": args.guiding_training_samples,
                            "indirect_samples": args.indirect_samples,
+                           "light_samples": args.light_samples,
                            "dome_sampling": args.dome_sampling}
     return args
 

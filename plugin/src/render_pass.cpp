@@ -110,7 +110,7 @@ void RenderPass::reset() {
   guidingRecorder_.clear();
   guidingRecordedThrough_ = 0;
   constantDomeShare_.reset();
-  indirectSamples_.reset();
+  firstSurfaceSamples_.reset();
 }
 
 void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
@@ -226,17 +226,23 @@ float RenderPass::constantDomeShare(const penumbra::Camera& camera,
 
 int RenderPass::indirectSamplesUsed() const {
   const int setting = delegate_.settings().indirectSamples;
-  return setting > 0 ? setting : indirectSamples_.value_or(1);
+  return setting > 0 ? setting : firstSurfaceSamples_ ? firstSurfaceSamples_->indirectSamples : 1;
 }
 
-int RenderPass::indirectSamples(const penumbra::Camera& camera,
-                                const penumbra::RenderSettings& renderSettings) {
+int RenderPass::lightSamplesUsed() const {
+  const int setting = delegate_.settings().lightSamples;
+  return setting > 0 ? setting : firstSurfaceSamples_ ? firstSurfaceSamples_->lightSamples : 1;
+}
+
+BranchingPilot::Choice RenderPass::firstSurfaceSamples(
+    const penumbra::Camera& camera, const penumbra::RenderSettings& renderSettings) {
+  const RenderSettingsMap& settings = delegate_.settings();
   // Over the whole image, so that a crop or a band chooses as the whole image does.
-  if (delegate_.settings().indirectSamples == 0 && !indirectSamples_)
-    indirectSamples_ =
+  if ((settings.indirectSamples == 0 || settings.lightSamples == 0) && !firstSurfaceSamples_)
+    firstSurfaceSamples_ =
         runBranchingPilot(delegate_.scene(), camera, imageWidth_, imageHeight_, renderSettings)
-            .indirectSamples();
-  return indirectSamplesUsed();
+            .choose({settings.indirectSamples, settings.lightSamples});
+  return {indirectSamplesUsed(), lightSamplesUsed()};
 }
 
 RenderSettings RenderPass::pilotedSettings(const penumbra::Camera& camera) {
@@ -245,7 +251,9 @@ RenderSettings RenderPass::pilotedSettings(const penumbra::Camera& camera) {
   renderSettings.integrator = integratorSettings();
   renderSettings.integrator.firstSurfaceConstantDomeShare =
       constantDomeShare(camera, renderSettings);
-  renderSettings.integrator.indirectSamples = indirectSamples(camera, renderSettings);
+  const BranchingPilot::Choice firstSurface = firstSurfaceSamples(camera, renderSettings);
+  renderSettings.integrator.indirectSamples = firstSurface.indirectSamples;
+  renderSettings.integrator.lightSamples = firstSurface.lightSamples;
   return renderSettings;
 }
 
@@ -276,6 +284,7 @@ IntegratorSettings RenderPass::integratorSettings() const {
   integrator.directLighting = DirectLighting(settings.directLighting);
   integrator.indirectClamp = settings.indirectClamp;
   integrator.glossyFilter = settings.glossyFilter;
+  integrator.lightSamples = settings.lightSamples;
   return integrator;
 }
 

@@ -123,6 +123,13 @@ std::vector<RenderOption> buildRenderOptions() {
       "(docs/branching.md)"));
   indirectSamples.maximum = penumbra::kMaxIndirectSamples;
   indirectSamples.defaultMeaning = "the pilot's choice";
+  RenderOption& lightSamples = options.emplace_back(integerOption(
+      "lightSamples", &Settings::lightSamples, 0, 0, "N",
+      "estimates of the direct light at each camera ray's first surface, averaged: where the "
+      "choice of light is the noise (many lights), more of them cost only their shadow rays; "
+      "unbiased; 0 lets the same pilot choose 1 to 8 (docs/branching.md)"));
+  lightSamples.maximum = penumbra::kMaxLightSamples;
+  lightSamples.defaultMeaning = "the pilot's choice";
   RenderOption& guiding = options.emplace_back(integerOption(
       "guidingTrainingSamples", &Settings::guidingTrainingSamples, 0, 0, "N",
       "path guiding: the first N samples per pixel learn where indirect light comes from, and "

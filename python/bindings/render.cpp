@@ -174,6 +174,10 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
                              "The paths that go on from each camera ray's first surface: the "
                              "indirect_samples setting's, or (0) the pilot's choice "
                              "(docs/branching.md)")
+      .def_property_readonly("light_samples", &RenderPass::lightSamplesUsed,
+                             "The estimates of the direct light at each camera ray's first "
+                             "surface: the light_samples setting's, or (0) the pilot's choice "
+                             "(docs/branching.md)")
       .def(
           "measure_raw_throughput",
           [](RenderPass& self) {

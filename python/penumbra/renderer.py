@@ -371,6 +371,7 @@ class Renderer:
                 "rays": render_pass.rays_traced,
                 "constantDomeShare": render_pass.constant_dome_share,
                 "indirectSamplesUsed": render_pass.indirect_samples,
+                "lightSamplesUsed": render_pass.light_samples,
                 "renderTimeSeconds": round(elapsed, 3),
                 "version": _core.version(),
                 "timeCode": "default" if time_code.IsDefault() else time_code.GetValue(),

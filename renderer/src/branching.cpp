@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <optional>
 #include <vector>
 
 #include "penumbra/filter.h"
@@ -15,32 +16,53 @@ namespace {
 /// so that it costs at most a sample per pixel on small images.
 constexpr uint32_t kPilotPixels = 1024;
 constexpr double kPilotPixelShare = 16;
-/// Samples per pixel of each of the pilot's two replicas, each branching in two.
+/// Samples per pixel of each of the pilot's two replicas, each estimating its first surface's
+/// light twice and branching in two.
 constexpr uint32_t kPilotSamples = 4;
 
 /// One grid pixel's samples: BranchingPilot's terms.
 struct BranchingPilotPixel {
-  double varianceFirst = 0, varianceBeyond = 0;
-  uint32_t raysFirst = 0, raysBeyondBothBranches = 0;
+  double varianceFirstAndHalfLight = 0, varianceLight = 0, varianceBeyond = 0;
+  uint32_t raysFirst = 0, raysBothLightEstimates = 0, raysBeyondBothBranches = 0;
 };
 
 }  // namespace
 
-int BranchingPilot::indirectSamples() const {
-  if (pixels == 0) return 1;
-  const auto product = [&](int branches) { return variance(branches) * cost(branches); };
-  double least = product(1);
-  for (int branches = 2; branches <= kMaxBranches; ++branches)
-    least = std::min(least, product(branches));
-  int branches = 1;
-  while (product(branches) > least * (1 + kTolerance)) ++branches;
-  return branches;
+BranchingPilot::Choice BranchingPilot::choose(Choice choice) const {
+  if (pixels == 0) return {std::max(choice.indirectSamples, 1), std::max(choice.lightSamples, 1)};
+  const int fewestBranches = choice.indirectSamples > 0 ? choice.indirectSamples : 1;
+  const int mostBranches = choice.indirectSamples > 0 ? choice.indirectSamples : kMaxBranches;
+  const int fewestEstimates = choice.lightSamples > 0 ? choice.lightSamples : 1;
+  const int mostEstimates = choice.lightSamples > 0 ? choice.lightSamples : kMaxLightEstimates;
+  // A sample's variance counts from the noise floor up: below it, more branches or estimates
+  // would only cost.
+  const double floor = kNoiseFloor * double(pixels);
+  const auto product = [&](int branches, int estimates) {
+    return (variance(branches, estimates) + floor) * cost(branches, estimates);
+  };
+  double least = product(fewestBranches, fewestEstimates);
+  for (int branches = fewestBranches; branches <= mostBranches; ++branches)
+    for (int estimates = fewestEstimates; estimates <= mostEstimates; ++estimates)
+      least = std::min(least, product(branches, estimates));
+  // The cheapest within the tolerance; of equally cheap ones, the fewest counts.
+  std::optional<Choice> chosen;
+  for (int branches = fewestBranches; branches <= mostBranches; ++branches)
+    for (int estimates = fewestEstimates; estimates <= mostEstimates; ++estimates) {
+      if (product(branches, estimates) > least * (1 + kTolerance)) continue;
+      const double price = cost(branches, estimates);
+      const double chosenPrice = chosen ? cost(chosen->indirectSamples, chosen->lightSamples) : 0;
+      if (!chosen || price < chosenPrice ||
+          (price == chosenPrice &&
+           branches + estimates < chosen->indirectSamples + chosen->lightSamples))
+        chosen = Choice{branches, estimates};
+    }
+  return *chosen;
 }
 
 BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int width, int height,
                                  const RenderSettings& settings) {
   BranchingPilot pilot;
-  if (width <= 0 || height <= 0 || settings.integrator.maxPathDepth < 2) return pilot;
+  if (width <= 0 || height <= 0 || settings.integrator.maxPathDepth < 1) return pilot;
   // Two replicas of the pixel, each from a seed of its own: independent, each stratified as
   // a render's samples are.
   IntegratorSettings replicas[2];
@@ -49,6 +71,7 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
     integrator = pilotIntegrator(settings.integrator,
                                  pilotSeed(settings.integrator.seed, Pilot::Branching) + replica);
     integrator.indirectSamples = 2;
+    integrator.lightSamples = 2;
     integrator.measureConstantDomeSampling = false;
   }
   const PixelFilter filter;
@@ -71,35 +94,46 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
             (branchMeans[0][0] + branchMeans[0][1] + branchMeans[1][0] + branchMeans[1][1]) * 0.25f;
         const Vec3f zero(0.0f);
         BranchingPilotPixel pixel;
-        // Var(Y0 - Y1) = 2 V_beyond for a sample's two branches Y0, Y1.
+        // Var(Y0 - Y1) = 2 V_beyond for a sample's two branches Y0, Y1; so for its two light
+        // estimates and V_light.
         for (const CameraSample& sample : samples) {
           const Vec3f& difference = sample.branchDifference;
+          const Vec3f& lightDifference = sample.lightEstimateDifference;
           pixel.varianceBeyond +=
               relativeCovariance(difference, zero, difference, zero, mean) / double(samples.size());
-          pixel.raysFirst += sample.raysBeforeBranching;
+          pixel.varianceLight +=
+              relativeCovariance(lightDifference, zero, lightDifference, zero, mean) /
+              double(samples.size());
+          pixel.raysFirst += sample.raysBeforeBranching - sample.firstSurfaceLightRays;
+          pixel.raysBothLightEstimates += sample.firstSurfaceLightRays;
           pixel.raysBeyondBothBranches += sample.rays - sample.raysBeforeBranching;
         }
         // A replica's branch-0 and branch-1 means share what lies up to the first surfaces and
-        // nothing beyond: their covariance is V_first / n for its n samples, V_first being the
-        // variance per sample of what lies up to the first surface as stratified over n samples
-        // (less than a single sample's: the pixel's area, the lens and the shutter are sampled
-        // evenly). Measured so, rather than as what the replicas' variance leaves of V_beyond's
-        // share, it is not swamped by rare bright paths beyond the split (caustics).
-        pixel.varianceFirst =
+        // nothing beyond: their covariance is (V_first + V_light / 2) / n for its n samples,
+        // V_first being the variance per sample of what lies up to the first surface as
+        // stratified over n samples (less than a single sample's: the pixel's area, the lens and
+        // the shutter are sampled evenly). Measured so, rather than as what the replicas'
+        // variance leaves of V_beyond's share, it is not swamped by rare bright paths beyond the
+        // split (caustics).
+        pixel.varianceFirstAndHalfLight =
             double(kPilotSamples) * relativeCovariance(branchMeans[0][0], branchMeans[1][0],
                                                        branchMeans[0][1], branchMeans[1][1], mean);
         return pixel;
       });
   // Summed in the grid's order, so that the sums do not depend on the threads.
+  double varianceFirstAndHalfLight = 0;
   for (const BranchingPilotPixel& pixel : grid) {
-    pilot.varianceFirst += pixel.varianceFirst;
+    varianceFirstAndHalfLight += pixel.varianceFirstAndHalfLight;
+    pilot.varianceLight += pixel.varianceLight;
     pilot.varianceBeyond += pixel.varianceBeyond;
     pilot.raysFirst += pixel.raysFirst;
+    pilot.raysLight += pixel.raysBothLightEstimates;
     pilot.raysBeyond += pixel.raysBeyondBothBranches;
   }
+  pilot.raysLight /= 2;
   pilot.raysBeyond /= 2;
   // Estimated from products of differences, V_first may come out below 0 where it is small.
-  pilot.varianceFirst = std::max(pilot.varianceFirst, 0.0);
+  pilot.varianceFirst = std::max(varianceFirstAndHalfLight - pilot.varianceLight / 2, 0.0);
   pilot.pixels = uint32_t(grid.size());
   return pilot;
 }

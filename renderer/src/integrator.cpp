@@ -46,6 +46,9 @@ struct ScatteringRecord {
   /// The share of its MIS weight next-event estimation kept for the constant domes at the
   /// surface it left (IntegratorSettings::firstSurfaceConstantDomeShare): this ray takes the rest.
   float constantDomeShare = 1;
+  /// The light estimates made at the surface it left (IntegratorSettings::lightSamples): MIS
+  /// weighs that many light samples against this ray (the power heuristic with sample counts).
+  float lightEstimates = 1;
 };
 
 /// Whether light `index` lights what `origin`'s ray left (light linking). Camera rays see every
@@ -64,7 +67,9 @@ float bsdfStrategyWeight(const Scene& scene, const ScatteringRecord& origin, siz
   switch (mode) {
     case DirectLighting::MultipleImportance:
       return powerHeuristic(
-          origin.pdf, scene.lights().lightSampler().probability(origin.receiver, index) * lightPdf);
+          origin.pdf,
+          origin.lightEstimates *
+              (scene.lights().lightSampler().probability(origin.receiver, index) * lightPdf));
     case DirectLighting::LightSamplingOnly:
       return scene.lights().lightSampler().probability(origin.receiver, index) * lightPdf > 0
                  ? 0.0f
@@ -648,13 +653,13 @@ struct PathState {
   // their own so that the sampler's dimensions stay aligned with the path's vertices.
   std::optional<RandomStream> volumeRandom;
 
-  /// Turns the path at its first surface into branch `branch` of `branches` of camera sample
+  /// Turns the path at its first surface into branch `index` of `branches` of camera sample
   /// `sampleIndex`: its dimensions from here on take sample index sampleIndex · branches +
-  /// branch, so that a pixel's branches together are as well stratified as its camera samples.
-  void branchOff(int branch, int branches, uint32_t seed, int x, int y, uint32_t sampleIndex) {
-    this->branch = branch;
-    sampler = sampler.atSample(sampleIndex * uint32_t(branches) + uint32_t(branch));
-    streamPurposeOffset = uint32_t(branch + 1) << 24;  // above every vertex's purpose
+  /// index, so that a pixel's branches together are as well stratified as its camera samples.
+  void branchOff(int index, int branches, uint32_t seed, int x, int y, uint32_t sampleIndex) {
+    branch = index;
+    sampler = sampler.atSample(sampleIndex * uint32_t(branches) + uint32_t(index));
+    streamPurposeOffset = uint32_t(index + 1) << 24;  // above every vertex's purpose
     if (volumeRandom)
       volumeRandom.emplace(seed, uint32_t(x), uint32_t(y), sampleIndex, streamPurposeOffset);
   }
@@ -717,6 +722,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // one path (the render pass does not branch training samples at all, recorded or not).
   const int branches = training ? 1 : std::clamp(settings.indirectSamples, 1, kMaxIndirectSamples);
   std::vector<PathState> waitingBranches;  // empty unless the path branches: no allocation
+  const int lightEstimates = std::clamp(settings.lightSamples, 1, kMaxLightSamples);
   // What a share of 1 for the constant domes at the first surface would have changed, where
   // their share is 0 (path space).
   const bool measuringDomes = settings.measureConstantDomeSampling && branches == 1 &&
@@ -751,16 +757,19 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // `linkingClass`: the vertex's placement's, or the scattering medium's (light linking).
   // `constantDomeShare`: the share of its MIS weight untextured domes keep (0: not sampled, and
   // only measured where measuringDomes).
+  // `estimates`: how many such estimates to average (each from sample index
+  // sampleIndex · estimates + k of the same dimensions, so that a pixel's are stratified together).
   const auto estimateDirectLight = [&](const auto& vertex, const Receiver& receiver,
                                        bool sampleLights, int interactions, uint32_t linkingClass,
-                                       float constantDomeShare = 1) {
+                                       float constantDomeShare = 1, int estimates = 1) {
     const uint32_t choiceDimension = sampler.reserve(1);
     const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
     if (!sampleLights || settings.directLighting == DirectLighting::BsdfSamplingOnly) return;
     const LightSampler& lightSampler = scene.lights().lightSampler();
-    // Drawn only where they choose something (one lamp, a sun and a sky are each sampled).
-    const Sample4D lightChoices =
-        lightSampler.choosesAtRandom() ? sampler.draw4D(choiceDimension) : Sample4D{0, 0, 0, 0};
+    const float share = 1.0f / float(estimates);  // 1 where there is one: exact
+    SampleStream lightStream = sampler;
+    int estimate = 0;
+    Vec3f estimateDifference{0.0f};  // with two estimates, the first less the second
     const auto sampleLight = [&](const LightSampler::Choice& choice) {
       const Light& light = lights[choice.index];
       // A light whose light link excludes the vertex adds nothing: the estimate sums over the
@@ -770,7 +779,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const bool shared = constantDomeShare < 1 && light.isConstantDome();
       const bool unsampled = shared && constantDomeShare == 0;
       if (unsampled && !measuringDomes) return;
-      const Vec2f lightSample = sampler.draw2D(firstLightDimension + choice.slot);
+      const Vec2f lightSample = lightStream.draw2D(firstLightDimension + choice.slot);
       const std::optional<LightSample> sample =
           light.sample(receiver.position, lightSample, receiver.normal);
       // Multiple importance sampling weighs the light's density against the vertex's: that is
@@ -799,7 +808,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         }
       }
       const float lightPdf = choice.probability * sample->pdf;
-      const float weight = weighed ? powerHeuristic(lightPdf, evaluated.pdf) *
+      const float weight = weighed ? powerHeuristic(float(estimates) * lightPdf, evaluated.pdf) *
                                          (shared && !unsampled ? constantDomeShare : 1.0f)
                                    : 1.0f;
       const Vec3f response =
@@ -807,13 +816,26 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const Vec3f contribution =
           clampIndirect(throughput * transmittance * response *
                             spectrum.emission(sample->radiance) * (weight / lightPdf),
-                        interactions, settings.indirectClamp);
-      if (unsampled)
+                        interactions, settings.indirectClamp) *
+          share;
+      if (unsampled) {
         domeSamplingShift += contribution;
-      else
-        addLight(contribution);
+        return;
+      }
+      addLight(contribution);
+      if (estimates == 2)
+        estimateDifference += estimate == 0 ? contribution * 2 : contribution * -2;
     };
-    lightSampler.forEachChoice(receiver, lightChoices, sampleLight);
+    for (; estimate < estimates; ++estimate) {
+      if (estimates > 1)
+        lightStream = sampler.atSample(sampleIndex * uint32_t(estimates) + uint32_t(estimate));
+      // Drawn only where they choose something (one lamp, a sun and a sky are each sampled).
+      const Sample4D lightChoices = lightSampler.choosesAtRandom()
+                                        ? lightStream.draw4D(choiceDimension)
+                                        : Sample4D{0, 0, 0, 0};
+      lightSampler.forEachChoice(receiver, lightChoices, sampleLight);
+    }
+    if (estimates == 2) result.lightEstimateDifference = toRgb(estimateDifference);
   };
 
   // The camera sample's path, then each branch it left waiting at its first surface.
@@ -950,9 +972,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           bounce == 0 && settings.directLighting == DirectLighting::MultipleImportance
               ? std::clamp(settings.firstSurfaceConstantDomeShare, 0.0f, 1.0f)
               : 1.0f;
+      const uint32_t raysBeforeLight = result.rays;
       estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
                           !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass,
-                          constantDomeShare);
+                          constantDomeShare, bounce == 0 ? lightEstimates : 1);
+      if (bounce == 0) result.firstSurfaceLightRays = result.rays - raysBeforeLight;
 
       // BSDF sampling continues the path (false: it ends here). Inlined at both calls: called,
       // it reached the path's state through its captures and cost 1 % more per sample.
@@ -1010,7 +1034,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                       next.lobe == BsdfLobe::Diffuse,
                       nextReceiver,
                       exit ? exit->hit.linkingClass : hit->linkingClass,
-                      exit ? 1.0f : constantDomeShare};
+                      exit ? 1.0f : constantDomeShare,
+                      exit || bounce > 0 ? 1.0f : float(lightEstimates)};
         // A subsurface walk counts as one diffuse bounce.
         const bool diffuseLobe =
             scattered->lobe == BsdfLobe::Diffuse || scattered->lobe == BsdfLobe::Subsurface;

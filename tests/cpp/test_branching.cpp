@@ -1,6 +1,7 @@
-// Branching at the first surface chosen per render (branching.h): what a sample records for the
-// pilot, the pilot's choice where the noise lies beyond the first surface and where it does not,
-// the same for any crop and thread count.
+// Branching and light estimates at the first surface chosen per render (branching.h): what a
+// sample records for the pilot, the pilot's choice where the noise lies beyond the first surface,
+// where it is the choice of light and where it is the pixel's own, the same for any crop and
+// thread count.
 #include <gtest/gtest.h>
 
 #include <vector>
@@ -19,7 +20,9 @@ using penumbra::test::ballsUnderSky;
 using penumbra::test::cropOf;
 using penumbra::test::facingDown;
 using penumbra::test::floorLitByCeiling;
+using penumbra::test::meanRed;
 using penumbra::test::redSquaredDifference;
+using penumbra::test::translation;
 using namespace penumbra::plugin;
 
 namespace {
@@ -68,6 +71,42 @@ void fineCheckerboardInTheSun(RenderDelegate& delegate) {
   addCamera(delegate, facingDown(0, 5, 0), 1.5f);
 }
 
+/// A grey floor seen from above under 64 small sphere lights of powers spread over two orders
+/// of magnitude, 1 to 2.5 units above it, direct light only: which light a shading point samples
+/// is most of its noise.
+void floorUnderManyBulbs(RenderDelegate& delegate) {
+  penumbra::test::addFloor(delegate, "/floor", 20);
+  delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
+  for (int i = 0; i < 64; ++i) {
+    const std::string id = "/bulb" + std::to_string(i);
+    delegate.insertSprim("sphereLight", id);
+    delegate.light(id).setParam("radius", 0.05f);
+    delegate.light(id).setParam("cameraVisible", false);  // their light on the floor alone
+    delegate.light(id).setParam("intensity", 20.0f * std::pow(10.0f, float(i * 37 % 64) / 32));
+    delegate.light(id).setTransform(
+        translation(-3.5 + (i % 8), 1 + 1.5 * double(i * 13 % 64) / 64, -3.5 + (i / 8)));
+  }
+  addCamera(delegate, facingDown(0, 5, 0), 1.5f);
+  delegate.settings().set("maxPathDepth", 1);
+}
+
+/// Noise (the red channel's squared difference between two seeds' images of 32 samples) times
+/// the rays the two traced, with the settings `set` (key, value) on the delegate's.
+double noiseTimesRays(RenderDelegate& delegate,
+                      const std::vector<std::pair<std::string, double>>& set) {
+  for (const auto& [key, value] : set) delegate.settings().set(key, value);
+  std::vector<float> images[2];
+  uint64_t rays = 0;
+  for (int seed = 0; seed < 2; ++seed) {
+    delegate.settings().set("seed", seed);
+    RenderPass pass(delegate, "/cam", kSize, kSize);
+    pass.execute(32);
+    images[seed] = pass.aov("color");
+    rays += pass.raysTraced();
+  }
+  return redSquaredDifference(images[0], images[1]) * double(rays);
+}
+
 }  // namespace
 
 TEST(Branching, ASampleKeepsItsBranchesDifferenceAndTheRaysBeforeTheSplit) {
@@ -113,22 +152,75 @@ TEST(Branching, PilotBranchesWhereTheNoiseLiesBeyondTheFirstSurface) {
   chosen.execute(1);
   const int branches = chosen.indirectSamplesUsed();
   EXPECT_GE(branches, 2);
-  EXPECT_EQ(branches, pilot.indirectSamples());
-  // It pays: less noise for the rays traced than without branching.
-  const auto noiseTimesRays = [&](int indirectSamples) {
-    std::vector<float> images[2];
-    uint64_t rays = 0;
-    for (int seed = 0; seed < 2; ++seed) {
-      delegate.settings().set("indirectSamples", indirectSamples);
-      delegate.settings().set("seed", seed);
-      RenderPass pass(delegate, "/cam", kSize, kSize);
-      pass.execute(32);
-      images[seed] = pass.aov("color");
-      rays += pass.raysTraced();
-    }
-    return redSquaredDifference(images[0], images[1]) * double(rays);
+  EXPECT_EQ(branches, pilot.choose({0, 0}).indirectSamples);
+  // It pays: less noise for the rays traced than without branching (one light estimate each).
+  EXPECT_LT(noiseTimesRays(delegate, {{"indirectSamples", branches}, {"lightSamples", 1}}),
+            0.85 * noiseTimesRays(delegate, {{"indirectSamples", 1}, {"lightSamples", 1}}));
+}
+
+TEST(Branching, ASampleKeepsItsLightEstimatesDifferenceAndTheirRays) {
+  RenderDelegate delegate;
+  floorUnderManyBulbs(delegate);
+  RenderPass pass(delegate, "/cam", kSize, kSize);
+  pass.execute(0);  // sync
+  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  const PixelFilter filter;
+  IntegratorSettings one, two;
+  one.maxPathDepth = two.maxPathDepth = 1;
+  two.lightSamples = 2;
+  int differing = 0;
+  for (int y = 0; y < kSize; y += 3)
+    for (int x = 0; x < kSize; x += 3)
+      for (uint32_t s = 0; s < 4; ++s) {
+        const CameraSample single =
+            renderCameraSample(delegate.scene(), camera, filter, x, y, s, one);
+        // The camera ray, the light estimate's shadow rays (up to four local lights) and the
+        // BSDF-sampled ray that finds the lights' emission (MIS).
+        ASSERT_GE(single.firstSurfaceLightRays, 1u);
+        ASSERT_LE(single.rays, single.firstSurfaceLightRays + 2);
+        ASSERT_TRUE(isBlack(single.lightEstimateDifference));
+        const CameraSample pair =
+            renderCameraSample(delegate.scene(), camera, filter, x, y, s, two);
+        ASSERT_LE(pair.rays, pair.firstSurfaceLightRays + 2);
+        ASSERT_GT(pair.firstSurfaceLightRays, single.firstSurfaceLightRays / 2);
+        // The two estimates, the mean plus and minus half the difference, are light.
+        for (int k = 0; k < 3; ++k) {
+          ASSERT_GE(pair.radiance[k] + 0.5f * pair.lightEstimateDifference[k], -1e-5f);
+          ASSERT_GE(pair.radiance[k] - 0.5f * pair.lightEstimateDifference[k], -1e-5f);
+        }
+        differing += !isBlack(pair.lightEstimateDifference);
+      }
+  EXPECT_GT(differing, 400);  // of 484: the estimates choose other lights and points on them
+}
+
+TEST(Branching, PilotEstimatesLightSeveralTimesWhereTheChoiceOfLightIsTheNoise) {
+  RenderDelegate delegate;
+  floorUnderManyBulbs(delegate);
+  const BranchingPilot pilot = pilotOf(delegate);
+  // Direct light only: beyond the first surface, the BSDF-sampled rays that find the lights'
+  // emission, which MIS gives little weight.
+  EXPECT_GT(pilot.varianceLight, 4 * (pilot.varianceFirst + pilot.varianceBeyond));
+  RenderPass chosen(delegate, "/cam", kSize, kSize);
+  chosen.execute(1);
+  const int estimates = chosen.lightSamplesUsed();
+  EXPECT_GE(estimates, 2);
+  EXPECT_EQ(chosen.indirectSamplesUsed(), 1);
+  EXPECT_EQ(estimates, pilot.choose({0, 0}).lightSamples);
+  // A count set is kept, and the other chosen for it.
+  EXPECT_EQ(pilot.choose({0, 3}).lightSamples, 3);
+  EXPECT_EQ(pilot.choose({2, 0}).indirectSamples, 2);
+  // It pays: less noise for the rays traced than with one estimate.
+  EXPECT_LT(noiseTimesRays(delegate, {{"lightSamples", estimates}}),
+            0.8 * noiseTimesRays(delegate, {{"lightSamples", 1}}));
+  // And the mean is the same (to 2 %: 32 samples of each of two seeds).
+  delegate.settings().set("samples", 32);
+  const auto meanWith = [&](int lightSamples) {
+    delegate.settings().set("lightSamples", lightSamples);
+    RenderPass pass(delegate, "/cam", kSize, kSize);
+    pass.execute(64);
+    return meanRed(pass.aov("color"));
   };
-  EXPECT_LT(noiseTimesRays(branches), 0.85 * noiseTimesRays(1));
+  EXPECT_NEAR(meanWith(estimates), meanWith(1), 0.02 * meanWith(1));
 }
 
 TEST(Branching, PilotDoesNotBranchWhereTheNoiseIsThePixelsOwn) {
@@ -137,16 +229,20 @@ TEST(Branching, PilotDoesNotBranchWhereTheNoiseIsThePixelsOwn) {
   const BranchingPilot pilot = pilotOf(delegate);
   EXPECT_GT(pilot.varianceFirst, 1);
   EXPECT_EQ(pilot.varianceBeyond, 0);
-  EXPECT_EQ(pilot.indirectSamples(), 1);
+  EXPECT_EQ(pilot.varianceLight, 0);  // a sun (a delta light) over an unshadowed board
+  EXPECT_EQ(pilot.choose({0, 0}).indirectSamples, 1);
+  EXPECT_EQ(pilot.choose({0, 0}).lightSamples, 1);
   RenderPass pass(delegate, "/cam", kSize, kSize);
   pass.execute(1);
   EXPECT_EQ(pass.indirectSamplesUsed(), 1);
-  // Paths that end at their first surface have nothing to branch: no pilot.
+  EXPECT_EQ(pass.lightSamplesUsed(), 1);
+  // Paths that end before their first surface's light have nothing to choose: no pilot.
   RenderDelegate direct;
   ballsUnderSky(direct, true);
-  direct.settings().set("maxPathDepth", 1);
+  direct.settings().set("maxPathDepth", 0);
   EXPECT_EQ(pilotOf(direct).pixels, 0u);
-  EXPECT_EQ(pilotOf(direct).indirectSamples(), 1);
+  EXPECT_EQ(pilotOf(direct).choose({0, 0}).indirectSamples, 1);
+  EXPECT_EQ(pilotOf(direct).choose({0, 0}).lightSamples, 1);
 }
 
 TEST(Branching, PilotChoosesTheSameForAnyThreadCountAndCrop) {
@@ -167,6 +263,7 @@ TEST(Branching, PilotChoosesTheSameForAnyThreadCountAndCrop) {
   floorLitByCeiling(delegate);
   EXPECT_EQ(pilotOf(delegate, 1).varianceFirst, pilotOf(delegate, 2).varianceFirst);
   EXPECT_EQ(pilotOf(delegate, 1).varianceBeyond, pilotOf(delegate, 2).varianceBeyond);
+  EXPECT_EQ(pilotOf(delegate, 1).varianceLight, pilotOf(delegate, 2).varianceLight);
 }
 
 TEST(Branching, TheSettingChoosesOrLeavesTheChoiceToThePilot) {
@@ -175,10 +272,19 @@ TEST(Branching, TheSettingChoosesOrLeavesTheChoiceToThePilot) {
   EXPECT_EQ(delegate.settings().indirectSamples, 0);  // the pilot's choice by default
   RenderPass pass(delegate, "/cam", kSize, kSize);
   EXPECT_EQ(pass.indirectSamplesUsed(), 1);  // nothing rendered yet
+  EXPECT_EQ(pass.lightSamplesUsed(), 1);
   for (const int set : {1, 2, 7}) {
     delegate.settings().set("indirectSamples", set);
     pass.execute(1);
     EXPECT_EQ(pass.indirectSamplesUsed(), set);
   }
   EXPECT_THROW(delegate.settings().set("indirectSamples", -1), std::invalid_argument);
+  EXPECT_EQ(delegate.settings().lightSamples, 0);  // the pilot's choice by default
+  for (const int set : {1, 3}) {
+    delegate.settings().set("lightSamples", set);
+    pass.execute(1);
+    EXPECT_EQ(pass.lightSamplesUsed(), set);
+  }
+  EXPECT_THROW(delegate.settings().set("lightSamples", -1), std::invalid_argument);
+  EXPECT_THROW(delegate.settings().set("lightSamples", 17), std::invalid_argument);
 }

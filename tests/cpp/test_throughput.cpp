@@ -40,18 +40,18 @@ void ballUnderLamp(RenderDelegate& delegate) {
 }
 
 /// The integrator settings a pass renders ballUnderLamp with at `size` pixels square (the
-/// delegate's indirectSamples, other render settings at their defaults): the sky at the first
-/// surfaces and the branches as the pass's pilots choose.
+/// delegate's indirectSamples and lightSamples, other render settings at their defaults): the sky
+/// at the first surfaces, the branches and the light estimates as the pass's pilots choose.
 IntegratorSettings passIntegrator(const RenderDelegate& delegate, const penumbra::Camera& camera,
                                   int size) {
   RenderSettings settings;
   settings.integrator.firstSurfaceConstantDomeShare =
       runDomeSamplingPilot(delegate.scene(), camera, size, size, settings).firstSurfaceShare();
-  const int indirectSamples = delegate.settings().indirectSamples;
-  settings.integrator.indirectSamples =
-      indirectSamples > 0
-          ? indirectSamples
-          : runBranchingPilot(delegate.scene(), camera, size, size, settings).indirectSamples();
+  const BranchingPilot::Choice firstSurface =
+      runBranchingPilot(delegate.scene(), camera, size, size, settings)
+          .choose({delegate.settings().indirectSamples, delegate.settings().lightSamples});
+  settings.integrator.indirectSamples = firstSurface.indirectSamples;
+  settings.integrator.lightSamples = firstSurface.lightSamples;
   return settings.integrator;
 }
 

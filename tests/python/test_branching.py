@@ -56,3 +56,42 @@ def test_the_pilots_choice_converges_to_the_unbranched_image():
     single = np.asarray(render(stage, samples=64, indirect_samples=1).get("color"))[..., :3].mean()
     assert chosen > 0.01
     assert chosen == pytest.approx(single, rel=0.01)
+
+
+def floor_under_many_bulbs():
+    """A grey floor under 64 small sphere lights, of powers spread over two orders of magnitude,
+    seen from just below them (the camera sees none): which light a point samples is its noise."""
+    stage = new_stage()
+    add_camera(stage, translate=(0.0, 0.0, 0.9), focal_length=1.0)
+    add_quad(stage, "/floor", half_size=20.0, color=(0.5, 0.5, 0.5))
+    for index in range(64):
+        bulb = UsdLux.SphereLight.Define(stage, f"/bulbs/bulb_{index:02d}")
+        bulb.CreateRadiusAttr(0.05)
+        bulb.CreateIntensityAttr(20.0 * 10 ** ((index * 37 % 64) / 32))
+        bulb.AddTranslateOp().Set(
+            Gf.Vec3d(-3.5 + index % 8, -3.5 + index // 8, 1.0 + 1.5 * (index * 13 % 64) / 64))
+    return stage
+
+
+def test_the_pilot_estimates_light_several_times_among_many_lights():
+    stage = floor_under_many_bulbs()
+    image = render(stage, max_path_depth=1)
+    assert image.metadata["lightSamplesUsed"] >= 2
+    assert image.metadata["lightSamples"] == 0  # the setting: the pilot's choice
+    # Where the choice of light is no noise (a sun over a quad), one estimate.
+    assert render(lit_quad_stage()).metadata["lightSamplesUsed"] == 1
+
+
+@pytest.mark.parametrize("count", [1, 5])
+def test_a_light_estimate_count_set_is_used_as_set(count):
+    image = render(floor_under_many_bulbs(), max_path_depth=1, light_samples=count)
+    assert image.metadata["lightSamplesUsed"] == count
+    assert image.metadata["lightSamples"] == count
+
+
+def test_light_estimates_converge_to_the_single_estimate_image():
+    stage = floor_under_many_bulbs()
+    many = np.asarray(render(stage, samples=64, light_samples=4).get("color"))[..., :3].mean()
+    one = np.asarray(render(stage, samples=64, light_samples=1).get("color"))[..., :3].mean()
+    assert one > 0.01
+    assert many == pytest.approx(one, rel=0.01)

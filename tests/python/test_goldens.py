@@ -30,6 +30,7 @@ def test_showcase_with_the_dome_pilot(golden):
     image = penumbra.render(str(EXAMPLES / "showcase.usda"), width=96, samples=8, threads=2)
     assert image.metadata["constantDomeShare"] == 0.0
     assert image.metadata["indirectSamplesUsed"] == 1
+    assert image.metadata["lightSamplesUsed"] == 1
     golden.check(image, "showcase_dome_pilot", fail=0.02, failpercent=0.0)
 
 
@@ -44,9 +45,10 @@ def test_cornell_box(golden):
 
 def test_cornell_box_with_the_branching_pilot(golden):
     # The default: its pilot branches three ways at the first surface, the room's light being
-    # nearly all indirect (docs/branching.md).
+    # nearly all indirect, and estimates the direct light there once (docs/branching.md).
     image = penumbra.render(str(EXAMPLES / "cornell.usda"), width=96, samples=8, threads=1)
     assert image.metadata["indirectSamplesUsed"] == 3
+    assert image.metadata["lightSamplesUsed"] == 1
     golden.check(image, "cornell_branching_pilot", fail=0.02, failpercent=0.0)
 
 

@@ -1,26 +1,30 @@
 // How many paths go on from each camera ray's first surface (IntegratorSettings::indirectSamples)
-// where the render leaves the count to Penumbra: chosen once per render, from a pilot
-// (docs/branching.md).
+// and how many light estimates are made there (IntegratorSettings::lightSamples), where the
+// render leaves the counts to Penumbra: chosen once per render, from a pilot (docs/branching.md).
 //
-// A camera sample's variance is that of what it finds up to and at its first surface (where in
-// the pixel, on the lens and in the shutter it looks, the surface's emission and direct light),
-// V_first, plus that of what lies beyond it, V_beyond; its cost is that of the camera ray, its
-// hit and its light samples, C_first, plus that of the path beyond, C_beyond. N branches give
-// the variance V_first + V_beyond / N for the cost C_first + N C_beyond, least in product at
-// N = sqrt((V_beyond / V_first) (C_first / C_beyond)): many where most of the noise lies beyond
-// the first surface and much of the cost before it (open scenes under a sky, a room lit by a
-// lamp), one where the noise is the pixel's own (motion blur, texture finer than a pixel, direct
-// light alone).
+// A camera sample's variance is that of what it finds up to and at its first surface but its
+// direct light there (where in the pixel, on the lens and in the shutter it looks, the surface's
+// emission), V_first, plus that of one estimate of the first surface's direct light (which
+// light, where on it, whether it is hidden), V_light, plus that of what lies beyond the surface,
+// V_beyond; its cost is that of the camera ray and its hit, C_first, plus that of a light
+// estimate, C_light, plus that of the path beyond, C_beyond. M light estimates and N branches
+// give the variance V_first + V_light / M + V_beyond / N for the cost C_first + M C_light +
+// N C_beyond. Branches pay where most of the noise lies beyond the first surface and much of
+// the cost before it (open scenes under a sky, a room lit by a lamp); light estimates where the
+// choice of light is the noise (many lights, large soft ones); neither where the noise is the
+// pixel's own (motion blur, texture finer than a pixel).
 //
 // The pilot traces, at each pixel of a sparse grid over the whole image (a crop or a farm's band
 // runs the same pilot, so every band makes the same choice), two independent replicas of four
-// samples, each sample branching in two: the difference of a sample's two branches estimates
-// V_beyond; the covariance of a replica's mean of branches 0 and its mean of branches 1, which
-// share what lies up to the first surfaces and nothing beyond, V_first / 4; the rays traced before
-// and after the split, the costs. V_first so measured is that of samples stratified as a render's
-// are (over the pixel's area, the lens, the shutter), which is far less than a lone sample's
-// where the pixel's own noise is smooth (edges, defocus). Its numbers are its own (seeds derived
-// from the render's), so the choice does not depend on the samples it is used for.
+// samples, each sample estimating its first surface's light twice and branching in two: the
+// difference of a sample's two branches estimates V_beyond, that of its two light estimates
+// V_light; the covariance of a replica's mean of branches 0 and its mean of branches 1, which
+// share what lies up to the first surfaces and nothing beyond, V_first / 4 + V_light / 8; the
+// rays traced before the split, by the light estimates and after the split, the costs. V_first
+// so measured is that of samples stratified as a render's are (over the pixel's area, the lens,
+// the shutter), which is far less than a lone sample's where the pixel's own noise is smooth
+// (edges, defocus). Its numbers are its own (seeds derived from the render's), so the choice does
+// not depend on the samples it is used for.
 #pragma once
 
 #include <cstdint>
@@ -38,27 +42,50 @@ struct BranchingPilot {
   /// scenes fell by 5 % at most (docs/branching.md), while a sample's cost, and so the time to a
   /// first image, keeps growing.
   static constexpr int kMaxBranches = 4;
+  /// The most light estimates it chooses: among 1,000 lights, 8 gave 3 % less variance times
+  /// cost than 4 (docs/branching.md).
+  static constexpr int kMaxLightEstimates = 8;
 
   double varianceFirst = 0;   // V_first: of what a sample finds up to its first surface (≥ 0)
+  double varianceLight = 0;   // V_light: of one estimate of the first surface's direct light
   double varianceBeyond = 0;  // V_beyond: of what one branch finds beyond it
-  uint64_t raysFirst = 0;     // traced up to the split (by samples that did not split: all)
-  uint64_t raysBeyond = 0;    // traced beyond it, per branch
-  uint32_t pixels = 0;        // 0: no pilot was needed (no path goes beyond its first surface)
+  uint64_t raysFirst = 0;     // traced up to the split, but the light estimates' (no split: all)
+  uint64_t raysLight = 0;     // traced by one light estimate at the first surface
+  uint64_t raysBeyond = 0;    // traced beyond the first surface, per branch
+  uint32_t pixels = 0;        // 0: no pilot was needed (camera rays only see)
 
-  /// A camera sample's variance and cost (rays) with `branches` branches.
-  double variance(int branches) const { return varianceFirst + varianceBeyond / branches; }
-  double cost(int branches) const { return double(raysFirst) + branches * double(raysBeyond); }
-  /// IntegratorSettings::indirectSamples: the fewest branches (1 to kMaxBranches) whose
-  /// variance times cost is within kTolerance of the least; 1 where there was no pilot.
-  int indirectSamples() const;
-  /// How much more variance times cost than the least the choice may have, for fewer branches:
-  /// the product is flat near its least, and fewer branches cost less per sample.
+  /// The counts at the first surface: IntegratorSettings::indirectSamples and lightSamples.
+  struct Choice {
+    int indirectSamples = 1;
+    int lightSamples = 1;
+  };
+
+  /// A camera sample's variance and cost (rays) with `branches` branches and `lightEstimates`
+  /// light estimates.
+  double variance(int branches, int lightEstimates) const {
+    return varianceFirst + varianceLight / lightEstimates + varianceBeyond / branches;
+  }
+  double cost(int branches, int lightEstimates) const {
+    return double(raysFirst) + lightEstimates * double(raysLight) + branches * double(raysBeyond);
+  }
+  /// Of the counts left free (`choice`'s counts that are 0; a count set is kept), from 1 to
+  /// kMaxBranches and kMaxLightEstimates, the cheapest whose variance times cost is within
+  /// kTolerance of the least; 1 for both where there was no pilot.
+  Choice choose(Choice choice) const;
+  /// How much more variance times cost than the least the choice may have, for a cheaper
+  /// sample: the product is flat near its least, and a cheaper sample makes a first image sooner.
   static constexpr double kTolerance = 0.05;
+  /// A sample's relative variance per pixel that is no noise worth paying for: (1 %)², a sample
+  /// so noisy being below the benchmark's target error (5 %) by itself. The choice weighs the
+  /// variance from it up: where every term is below it (a lone quad under a sun), the relative
+  /// decrease of a negligible V_light would otherwise buy the most estimates.
+  static constexpr double kNoiseFloor = 1e-4;
 };
 
 /// Runs the pilot for a `width` x `height` image of `camera` rendered with `settings` (its
 /// integrator's seed, depths, clamp, filter and constant dome share; guiding is left out).
-/// Returns no measurement (pixels 0) where paths end at their first surface (maxPathDepth < 2).
+/// Returns no measurement (pixels 0) where paths end before their first surface's light
+/// (maxPathDepth < 1).
 /// The scene must be committed. Deterministic for any thread count.
 BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int width, int height,
                                  const RenderSettings& settings);

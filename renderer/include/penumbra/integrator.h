@@ -26,6 +26,8 @@ class RayLog;
 /// the render option's bound): more only multiply a sample's cost, and each branch's random
 /// streams stay apart from every other's below 256 (PathState::branchOff).
 constexpr int kMaxIndirectSamples = 16;
+/// The most next-event estimates at a camera ray's first surface (IntegratorSettings).
+constexpr int kMaxLightSamples = 16;
 
 struct IntegratorSettings {
   uint32_t seed = 0;
@@ -53,6 +55,11 @@ struct IntegratorSettings {
   /// are paid for once. 1: no branching; clamped to [1, kMaxIndirectSamples]. Unbiased. Ignored
   /// (1) where `guidingRecorder` is set.
   int indirectSamples = 1;
+  /// Next-event estimates at each camera ray's first surface, averaged (as Cook et al. 1984
+  /// send several shadow rays to an area light): where the choice of light and the point on it
+  /// are most of the noise (many lights, soft shadows), more of them cost only their shadow rays.
+  /// 1: one; clamped to [1, kMaxLightSamples]. Unbiased.
+  int lightSamples = 1;
   /// Path guiding (guiding.h). Where `guidingField` is set, opaque rough surfaces draw the
   /// path's next direction from its distribution there (with the probability learnt for that
   /// cell) or from their BSDF; where `guidingRecorder` is set, each sample records what training
@@ -97,6 +104,11 @@ struct CameraSample {
   /// pilot measures (branching.h).
   uint32_t raysBeforeBranching = 0;
   Vec3f branchDifference{0.0f};
+  /// The shadow rays of `rays` that the light estimates at the first surface traced, and where
+  /// there were two (IntegratorSettings::lightSamples), the first estimate less the second
+  /// (RGB; `radiance` holds their mean): what the branching pilot measures too.
+  uint32_t firstSurfaceLightRays = 0;
+  Vec3f lightEstimateDifference{0.0f};
 };
 
 /// Renders sample `sampleIndex` of pixel (x, y); a pure function of its arguments. When

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/branching.h"
 #include "penumbra/film.h"
 #include "penumbra/guiding.h"
 #include "penumbra/plugin/render_delegate.h"
@@ -80,6 +81,9 @@ class RenderPass {
   /// indirectSamples setting's, or (0) the pilot's choice (1 before the pass has rendered
   /// samples).
   int indirectSamplesUsed() const;
+  /// The light estimates at each camera ray's first surface (docs/branching.md): the
+  /// lightSamples setting's, or (0) the pilot's choice (1 before the pass has rendered samples).
+  int lightSamplesUsed() const;
   /// Syncs, then times Embree alone on this pass's camera and scene (see throughput.h), with
   /// the render settings' thread count, on made-up rays and on the rays of one unguided sample
   /// per pixel with the render settings (branching as they say).
@@ -141,13 +145,13 @@ class RenderPass {
   /// pilot chose, once per render (penumbra/dome_sampling.h).
   float constantDomeShare(const penumbra::Camera& camera,
                           const penumbra::RenderSettings& renderSettings);
-  /// The paths that go on from each camera ray's first surface: as the indirectSamples setting
-  /// says, or (0) as the pilot chose for `renderSettings` (with their dome share), once per
-  /// render (penumbra/branching.h).
-  int indirectSamples(const penumbra::Camera& camera,
-                      const penumbra::RenderSettings& renderSettings);
+  /// The paths that go on from each camera ray's first surface and the light estimates there:
+  /// as the indirectSamples and lightSamples settings say, or (0) as the pilot chose for
+  /// `renderSettings` (with their dome share), once per render (penumbra/branching.h).
+  penumbra::BranchingPilot::Choice firstSurfaceSamples(
+      const penumbra::Camera& camera, const penumbra::RenderSettings& renderSettings);
   /// What a sample of this pass is rendered with (guiding aside): the settings' threads and
-  /// integrator, with the dome share and the branches the pilots chose.
+  /// integrator, with the dome share, the branches and the light estimates the pilots chose.
   penumbra::RenderSettings pilotedSettings(const penumbra::Camera& camera);
 
   RenderDelegate& delegate_;
@@ -167,7 +171,8 @@ class RenderPass {
   GuidingRecorder guidingRecorder_;
   int guidingRecordedThrough_ = 0;
   std::optional<float> constantDomeShare_;  // the dome pilot's choice, once made
-  std::optional<int> indirectSamples_;      // the branching pilot's choice, once made
+  // The branching pilot's choice, once made.
+  std::optional<penumbra::BranchingPilot::Choice> firstSurfaceSamples_;
 };
 
 }  // namespace penumbra::plugin

@@ -30,6 +30,7 @@ struct RenderSettingsMap {
   float indirectClamp;
   float glossyFilter;
   int indirectSamples;         // paths that go on from each camera ray's first surface; 0: auto
+  int lightSamples;            // next-event estimates at each camera ray's first surface
   int guidingTrainingSamples;  // samples per pixel that train path guiding; 0: no guiding
   int textureCacheMB;
   int cryptomatteDepth;  // ranks per pixel of Cryptomatte AOVs
