@@ -5,7 +5,9 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/camera.h"
 #include "penumbra/plugin/render_delegate.h"
+#include "penumbra/plugin/render_pass.h"
 #include "transforms.h"
 
 namespace penumbra::test {
@@ -65,6 +67,13 @@ inline void addCamera(plugin::RenderDelegate& delegate, const Transform& transfo
   params.nearClip = 0.01f;
   delegate.camera("/cam").setParams(params);
   delegate.camera("/cam").setTransform(transform);
+}
+
+/// Syncs the delegate's scene (a pass that renders no sample) and returns camera "/cam" as a
+/// `size` x `size` image sees it: for tests that call the renderer below the render pass.
+inline Camera syncedCamera(plugin::RenderDelegate& delegate, int size) {
+  plugin::RenderPass(delegate, "/cam", size, size).execute(0);
+  return Camera(delegate.camera("/cam").params(), size, size);
 }
 
 /// Grey balls on a grey floor under a sky, seen from above. Seen from the floor, the balls hide

@@ -22,6 +22,7 @@ using penumbra::test::facingDown;
 using penumbra::test::floorLitByCeiling;
 using penumbra::test::meanRed;
 using penumbra::test::redSquaredDifference;
+using penumbra::test::syncedCamera;
 using penumbra::test::translation;
 using namespace penumbra::plugin;
 
@@ -31,9 +32,7 @@ constexpr int kSize = 32;
 
 /// The pilot's measurement of the delegate's scene, seen by "/cam", with its settings' depth.
 BranchingPilot pilotOf(RenderDelegate& delegate, int threads = 0) {
-  RenderPass pass(delegate, "/cam", kSize, kSize);
-  pass.execute(0);  // sync
-  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  const penumbra::Camera camera = syncedCamera(delegate, kSize);
   RenderSettings settings;
   settings.threads = threads;
   settings.integrator.maxPathDepth = delegate.settings().maxPathDepth;
@@ -112,9 +111,7 @@ double noiseTimesRays(RenderDelegate& delegate,
 TEST(Branching, ASampleKeepsItsBranchesDifferenceAndTheRaysBeforeTheSplit) {
   RenderDelegate delegate;
   ballsUnderSky(delegate, true);
-  RenderPass pass(delegate, "/cam", kSize, kSize);
-  pass.execute(0);  // sync
-  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  const penumbra::Camera camera = syncedCamera(delegate, kSize);
   const PixelFilter filter;
   IntegratorSettings unbranched, twoBranches;
   twoBranches.indirectSamples = 2;
@@ -161,9 +158,7 @@ TEST(Branching, PilotBranchesWhereTheNoiseLiesBeyondTheFirstSurface) {
 TEST(Branching, ASampleKeepsItsLightEstimatesDifferenceAndTheirRays) {
   RenderDelegate delegate;
   floorUnderManyBulbs(delegate);
-  RenderPass pass(delegate, "/cam", kSize, kSize);
-  pass.execute(0);  // sync
-  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  const penumbra::Camera camera = syncedCamera(delegate, kSize);
   const PixelFilter filter;
   IntegratorSettings one, two;
   one.maxPathDepth = two.maxPathDepth = 1;

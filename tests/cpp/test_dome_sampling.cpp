@@ -24,6 +24,7 @@ using penumbra::test::cropOf;
 using penumbra::test::facingDown;
 using penumbra::test::meanRed;
 using penumbra::test::redSquaredDifference;
+using penumbra::test::syncedCamera;
 using namespace penumbra::plugin;
 
 namespace {
@@ -50,9 +51,7 @@ std::vector<float> renderBalls(bool sun, DomeSampling domeSampling, int samples,
 DomeSamplingPilot pilotOf(bool sun, int seed = 0, int threads = 0) {
   RenderDelegate delegate;
   ballsUnderSky(delegate, sun);
-  RenderPass pass(delegate, "/cam", kSize, kSize);
-  pass.execute(0);  // sync
-  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  const penumbra::Camera camera = syncedCamera(delegate, kSize);
   RenderSettings settings;
   settings.integrator.seed = uint32_t(seed);
   settings.threads = threads;
@@ -66,9 +65,7 @@ TEST(DomeSampling, ASampleIsLinearInTheDomesShare) {
   // the shift the measurement finds (the MIS weights are linear in k).
   RenderDelegate delegate;
   ballsUnderSky(delegate, true);
-  RenderPass pass(delegate, "/cam", kSize, kSize);
-  pass.execute(0);  // sync
-  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  const penumbra::Camera camera = syncedCamera(delegate, kSize);
   const PixelFilter filter;
   IntegratorSettings measured;
   measured.firstSurfaceConstantDomeShare = 0;

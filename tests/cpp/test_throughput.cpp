@@ -17,6 +17,7 @@ using penumbra::test::addCamera;
 using penumbra::test::addFloor;
 using penumbra::test::addSphere;
 using penumbra::test::facingDown;
+using penumbra::test::syncedCamera;
 using penumbra::test::translation;
 using namespace penumbra::plugin;
 
@@ -64,9 +65,7 @@ bool sameBits(const Vec3f& a, const Vec3f& b) {
 TEST(RayLog, HoldsExactlyTheRaysEachSampleCountsAndChangesNoSample) {
   RenderDelegate delegate;
   ballUnderLamp(delegate);
-  RenderPass pass(delegate, "/cam", kSize, kSize);
-  pass.execute(0);  // sync
-  const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
+  const penumbra::Camera camera = syncedCamera(delegate, kSize);
   const PixelFilter filter;
   IntegratorSettings settings;
   RayLog log;
