@@ -972,10 +972,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           bounce == 0 && settings.directLighting == DirectLighting::MultipleImportance
               ? std::clamp(settings.firstSurfaceConstantDomeShare, 0.0f, 1.0f)
               : 1.0f;
+      const int lightEstimatesHere = bounce == 0 ? lightEstimates : 1;
       const uint32_t raysBeforeLight = result.rays;
       estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
                           !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass,
-                          constantDomeShare, bounce == 0 ? lightEstimates : 1);
+                          constantDomeShare, lightEstimatesHere);
       if (bounce == 0) result.firstSurfaceLightRays = result.rays - raysBeforeLight;
 
       // BSDF sampling continues the path (false: it ends here). Inlined at both calls: called,
@@ -1035,7 +1036,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                       nextReceiver,
                       exit ? exit->hit.linkingClass : hit->linkingClass,
                       exit ? 1.0f : constantDomeShare,
-                      exit || bounce > 0 ? 1.0f : float(lightEstimates)};
+                      exit ? 1.0f : float(lightEstimatesHere)};
         // A subsurface walk counts as one diffuse bounce.
         const bool diffuseLobe =
             scattered->lobe == BsdfLobe::Diffuse || scattered->lobe == BsdfLobe::Subsurface;
