@@ -23,8 +23,13 @@ constexpr uint32_t kPilotSamples = 4;
 /// One grid pixel's samples: BranchingPilot's terms.
 struct BranchingPilotPixel {
   double varianceFirstAndHalfLight = 0, varianceLight = 0, varianceBeyond = 0;
-  uint32_t raysFirst = 0, raysBothLightEstimates = 0, raysBeyondBothBranches = 0;
+  double workFirst = 0, workBothLightEstimates = 0, workBeyondBothBranches = 0;
 };
+
+/// What the pilot counts a part of a sample's cost in (BranchingPilot).
+double work(uint32_t rays, uint32_t vertices) {
+  return double(rays) + BranchingPilot::kVertexCost * double(vertices);
+}
 
 }  // namespace
 
@@ -104,9 +109,12 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
           pixel.varianceLight +=
               relativeCovariance(lightDifference, zero, lightDifference, zero, mean) /
               double(samples.size());
-          pixel.raysFirst += sample.raysBeforeBranching - sample.firstSurfaceLightRays;
-          pixel.raysBothLightEstimates += sample.firstSurfaceLightRays;
-          pixel.raysBeyondBothBranches += sample.rays - sample.raysBeforeBranching;
+          // The light estimates shade no vertex of their own.
+          pixel.workFirst += work(sample.raysBeforeBranching - sample.firstSurfaceLightRays,
+                                  sample.verticesBeforeBranching);
+          pixel.workBothLightEstimates += work(sample.firstSurfaceLightRays, 0);
+          pixel.workBeyondBothBranches += work(sample.rays - sample.raysBeforeBranching,
+                                               sample.vertices - sample.verticesBeforeBranching);
         }
         // A replica's branch-0 and branch-1 means share what lies up to the first surfaces and
         // nothing beyond: their covariance is (V_first + V_light / 2) / n for its n samples,
@@ -126,12 +134,12 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
     varianceFirstAndHalfLight += pixel.varianceFirstAndHalfLight;
     pilot.varianceLight += pixel.varianceLight;
     pilot.varianceBeyond += pixel.varianceBeyond;
-    pilot.raysFirst += pixel.raysFirst;
-    pilot.raysLight += pixel.raysBothLightEstimates;
-    pilot.raysBeyond += pixel.raysBeyondBothBranches;
+    pilot.costFirst += pixel.workFirst;
+    pilot.costLight += pixel.workBothLightEstimates;
+    pilot.costBeyond += pixel.workBeyondBothBranches;
   }
-  pilot.raysLight /= 2;
-  pilot.raysBeyond /= 2;
+  pilot.costLight /= 2;
+  pilot.costBeyond /= 2;
   // Estimated from products of differences, V_first may come out below 0 where it is small.
   pilot.varianceFirst = std::max(varianceFirstAndHalfLight - pilot.varianceLight / 2, 0.0);
   pilot.pixels = uint32_t(grid.size());

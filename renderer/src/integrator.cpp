@@ -901,6 +901,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         if (bounce >= settings.maxPathDepth || lastVertex ||
             volumeBounces >= settings.maxVolumeDepth)
           break;
+        ++result.vertices;
         const HenyeyGreenstein phase(mediumPoint.anisotropy);
         const Receiver receiver{mediumPoint.position, Vec3f()};
         estimateDirectLight(MediumVertex{phase, ray.direction, mediumPoint.position, ray.time},
@@ -946,6 +947,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                settings.indirectClamp));
       }
       if (bounce >= settings.maxPathDepth || lastVertex) break;
+      ++result.vertices;
       const Vec3f wo = -ray.direction;
       float ior = hit->material.ior;
       if (spectrum.spectral && !hit->material.hair && hit->material.abbeNumber > 0 &&
@@ -1073,6 +1075,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         waitingBranches.reserve(size_t(branches - 1));
         radianceBeforeBranching = result.radiance;
         result.raysBeforeBranching = result.rays;
+        result.verticesBeforeBranching = result.vertices;
         result.radiance = Vec3f(0.0f);
         for (int branch = branches - 1; branch > 0; --branch) {
           path = atSurface;
@@ -1097,7 +1100,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   }
   if (training) trainer.record(*settings.guidingRecorder, x, y, sampleIndex);
   if (measuringDomes) result.domeSamplingShift = toRgb(domeSamplingShift);
-  if (!radianceBeforeBranching) result.raysBeforeBranching = result.rays;
+  if (!radianceBeforeBranching) {
+    result.raysBeforeBranching = result.rays;
+    result.verticesBeforeBranching = result.vertices;
+  }
   result.radiance =
       radianceBeforeBranching ? branchesRgb * (1.0f / float(branches)) : toRgb(result.radiance);
   return result;

@@ -108,7 +108,7 @@ double noiseTimesRays(RenderDelegate& delegate,
 
 }  // namespace
 
-TEST(Branching, ASampleKeepsItsBranchesDifferenceAndTheRaysBeforeTheSplit) {
+TEST(Branching, ASampleKeepsItsBranchesDifferenceAndTheWorkBeforeTheSplit) {
   RenderDelegate delegate;
   ballsUnderSky(delegate, true);
   const penumbra::Camera camera = syncedCamera(delegate, kSize);
@@ -122,6 +122,8 @@ TEST(Branching, ASampleKeepsItsBranchesDifferenceAndTheRaysBeforeTheSplit) {
         const CameraSample one =
             renderCameraSample(delegate.scene(), camera, filter, x, y, s, unbranched);
         ASSERT_EQ(one.raysBeforeBranching, one.rays);
+        ASSERT_EQ(one.verticesBeforeBranching, one.vertices);
+        ASSERT_GE(one.vertices, 1u);
         ASSERT_TRUE(isBlack(one.branchDifference));
         const CameraSample two =
             renderCameraSample(delegate.scene(), camera, filter, x, y, s, twoBranches);
@@ -129,6 +131,9 @@ TEST(Branching, ASampleKeepsItsBranchesDifferenceAndTheRaysBeforeTheSplit) {
         // traced before the split, and each branch traces at least its bounce.
         ASSERT_GE(two.raysBeforeBranching, 1u);
         ASSERT_GE(two.rays, two.raysBeforeBranching + 2);
+        // The first surface is the one vertex shaded before the split.
+        ASSERT_EQ(two.verticesBeforeBranching, 1u);
+        ASSERT_GE(two.vertices, two.verticesBeforeBranching);
         // The branches' estimates, the mean plus and minus half the difference, are light.
         for (int k = 0; k < 3; ++k) {
           ASSERT_GE(two.radiance[k] + 0.5f * two.branchDifference[k], -1e-5f);
@@ -216,6 +221,20 @@ TEST(Branching, PilotEstimatesLightSeveralTimesWhereTheChoiceOfLightIsTheNoise) 
     return meanRed(pass.aov("color"));
   };
   EXPECT_NEAR(meanWith(estimates), meanWith(1), 0.02 * meanWith(1));
+}
+
+TEST(Branching, PilotCountsTheShadingOfVerticesInASamplesCost) {
+  RenderDelegate delegate;
+  floorUnderManyBulbs(delegate);
+  const BranchingPilot pilot = pilotOf(delegate);
+  ASSERT_GT(pilot.pixels, 0u);
+  // Each of a grid pixel's 8 samples: its camera ray and the floor's vertex; each branch, its
+  // bounce ray, whose hit is not shaded (direct light only); each light estimate, its shadow
+  // rays alone. Counted in rays only, the first part would cost as much as a branch.
+  EXPECT_EQ(pilot.costBeyond, 8.0 * pilot.pixels);
+  EXPECT_EQ(pilot.costFirst, (1 + BranchingPilot::kVertexCost) * pilot.costBeyond);
+  EXPECT_GT(pilot.costFirst, pilot.costBeyond);
+  EXPECT_GE(pilot.costLight, 8.0 * pilot.pixels);
 }
 
 TEST(Branching, PilotDoesNotBranchWhereTheNoiseIsThePixelsOwn) {

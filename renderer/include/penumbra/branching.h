@@ -20,7 +20,11 @@
 // difference of a sample's two branches estimates V_beyond, that of its two light estimates
 // V_light; the covariance of a replica's mean of branches 0 and its mean of branches 1, which
 // share what lies up to the first surfaces and nothing beyond, V_first / 4 + V_light / 8; the
-// rays traced before the split, by the light estimates and after the split, the costs. V_first
+// work done before the split, by the light estimates and after the split, the costs. Work counts
+// rays traced and scattering vertices shaded (kVertexCost): more of a sample's time goes into
+// setting up BSDFs, estimating light and drawing directions than into Embree's traversal, and
+// rays alone made the camera ray and its shaded hit look as cheap as a branch's one ray into the
+// sky, which gave too few branches and estimates among many lights (docs/branching.md). V_first
 // so measured is that of samples stratified as a render's are (over the pixel's area, the lens,
 // the shutter), which is far less than a lone sample's where the pixel's own noise is smooth
 // (edges, defocus). Its numbers are its own (seeds derived from the render's), so the choice does
@@ -49,10 +53,15 @@ struct BranchingPilot {
   double varianceFirst = 0;   // V_first: of what a sample finds up to its first surface (≥ 0)
   double varianceLight = 0;   // V_light: of one estimate of the first surface's direct light
   double varianceBeyond = 0;  // V_beyond: of what one branch finds beyond it
-  uint64_t raysFirst = 0;     // traced up to the split, but the light estimates' (no split: all)
-  uint64_t raysLight = 0;     // traced by one light estimate at the first surface
-  uint64_t raysBeyond = 0;    // traced beyond the first surface, per branch
-  uint32_t pixels = 0;        // 0: no pilot was needed (camera rays only see)
+  // Work (rays traced, plus kVertexCost per scattering vertex shaded):
+  double costFirst = 0;   // up to the split, but the light estimates' (no split: all)
+  double costLight = 0;   // of one light estimate at the first surface
+  double costBeyond = 0;  // beyond the first surface, per branch
+  uint32_t pixels = 0;    // 0: no pilot was needed (camera rays only see)
+
+  /// What shading a scattering vertex costs, in rays: about one on the benchmark scenes, where
+  /// a sample's time per part follows rays + vertices (docs/branching.md).
+  static constexpr double kVertexCost = 1;
 
   /// The counts at the first surface: IntegratorSettings::indirectSamples and lightSamples.
   struct Choice {
@@ -60,13 +69,13 @@ struct BranchingPilot {
     int lightSamples = 1;
   };
 
-  /// A camera sample's variance and cost (rays) with `branches` branches and `lightEstimates`
+  /// A camera sample's variance and cost (work) with `branches` branches and `lightEstimates`
   /// light estimates.
   double variance(int branches, int lightEstimates) const {
     return varianceFirst + varianceLight / lightEstimates + varianceBeyond / branches;
   }
   double cost(int branches, int lightEstimates) const {
-    return double(raysFirst) + lightEstimates * double(raysLight) + branches * double(raysBeyond);
+    return costFirst + lightEstimates * costLight + branches * costBeyond;
   }
   /// Of the counts left free (`choice`'s counts that are 0; a count set is kept), from 1 to
   /// kMaxBranches and kMaxLightEstimates, the cheapest whose variance times cost is within

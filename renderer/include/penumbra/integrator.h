@@ -109,6 +109,11 @@ struct CameraSample {
   /// (RGB; `radiance` holds their mean): what the branching pilot measures too.
   uint32_t firstSurfaceLightRays = 0;
   Vec3f lightEstimateDifference{0.0f};
+  /// Scattering vertices the sample shaded (a surface's BSDF or a medium's phase function set
+  /// up, its light estimated, a direction drawn), and those of them before it branched (all
+  /// where it did not): with the rays, what the branching pilot counts a sample's cost in.
+  uint32_t vertices = 0;
+  uint32_t verticesBeforeBranching = 0;
 };
 
 /// Renders sample `sampleIndex` of pixel (x, y); a pure function of its arguments. When
