@@ -109,10 +109,11 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
           pixel.varianceLight +=
               relativeCovariance(lightDifference, zero, lightDifference, zero, mean) /
               double(samples.size());
-          // The light estimates shade no vertex of their own.
+          // The light estimates shade no vertex of their own; a light sample costs a ray, its
+          // shadow ray or, for a light without shadows, its evaluation.
           pixel.workFirst += work(sample.raysBeforeBranching - sample.firstSurfaceLightRays,
                                   sample.verticesBeforeBranching);
-          pixel.workBothLightEstimates += work(sample.firstSurfaceLightRays, 0);
+          pixel.workBothLightEstimates += work(sample.firstSurfaceLightSamples, 0);
           pixel.workBeyondBothBranches += work(sample.rays - sample.raysBeforeBranching,
                                                sample.vertices - sample.verticesBeforeBranching);
         }

@@ -759,9 +759,12 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // only measured where measuringDomes).
   // `estimates`: how many such estimates to average (each from sample index
   // sampleIndex · estimates + k of the same dimensions, so that a pixel's are stratified together).
+  // `lightSamplesEvaluated`, if given, counts the light samples evaluated (each with its shadow
+  // ray where its light casts shadows).
   const auto estimateDirectLight = [&](const auto& vertex, const Receiver& receiver,
                                        bool sampleLights, int interactions, uint32_t linkingClass,
-                                       float constantDomeShare = 1, int estimates = 1) {
+                                       float constantDomeShare = 1, int estimates = 1,
+                                       uint32_t* lightSamplesEvaluated = nullptr) {
     const uint32_t choiceDimension = sampler.reserve(1);
     const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
     if (!sampleLights || settings.directLighting == DirectLighting::BsdfSamplingOnly) return;
@@ -796,6 +799,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const float tFar =
           std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
       (unsampled ? result.domeSamplingShadowRays : result.rays) += light.castsShadows();
+      if (lightSamplesEvaluated && !unsampled) ++*lightSamplesEvaluated;
       Vec3f transmittance{1.0f};
       if (light.castsShadows()) {
         const Ray shadow = vertex.shadowRay(sample->direction, tFar);
@@ -978,7 +982,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const uint32_t raysBeforeLight = result.rays;
       estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
                           !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass,
-                          constantDomeShare, lightEstimatesHere);
+                          constantDomeShare, lightEstimatesHere,
+                          bounce == 0 ? &result.firstSurfaceLightSamples : nullptr);
       if (bounce == 0) result.firstSurfaceLightRays = result.rays - raysBeforeLight;
 
       // BSDF sampling continues the path (false: it ends here). Inlined at both calls: called,

@@ -4,6 +4,7 @@
 // thread count.
 #include <gtest/gtest.h>
 
+#include <string>
 #include <vector>
 
 #include "image_stats.h"
@@ -177,6 +178,8 @@ TEST(Branching, ASampleKeepsItsLightEstimatesDifferenceAndTheirRays) {
         // The camera ray, the light estimate's shadow rays (up to four local lights) and the
         // BSDF-sampled ray that finds the lights' emission (MIS).
         ASSERT_GE(single.firstSurfaceLightRays, 1u);
+        // Nothing occludes the floor: every light sample evaluated traces its shadow ray.
+        ASSERT_EQ(single.firstSurfaceLightSamples, single.firstSurfaceLightRays);
         ASSERT_LE(single.rays, single.firstSurfaceLightRays + 2);
         ASSERT_TRUE(isBlack(single.lightEstimateDifference));
         const CameraSample pair =
@@ -235,6 +238,22 @@ TEST(Branching, PilotCountsTheShadingOfVerticesInASamplesCost) {
   EXPECT_EQ(pilot.costFirst, (1 + BranchingPilot::kVertexCost) * pilot.costBeyond);
   EXPECT_GT(pilot.costFirst, pilot.costBeyond);
   EXPECT_GE(pilot.costLight, 8.0 * pilot.pixels);
+}
+
+TEST(Branching, PilotCountsTheEvaluationOfLightsWithoutShadows) {
+  // Nothing stands between the floor and its bulbs: with or without shadows, the light
+  // estimates evaluate the same light samples, whose work is the same. (Counted in shadow rays,
+  // lights without shadows cost nothing, and the pilot took the most estimates of them.)
+  RenderDelegate shadowed, unshadowed;
+  floorUnderManyBulbs(shadowed);
+  floorUnderManyBulbs(unshadowed);
+  for (int i = 0; i < 64; ++i)
+    unshadowed.light("/bulb" + std::to_string(i)).setParam("shadow:enable", false);
+  const BranchingPilot withShadows = pilotOf(shadowed), withoutShadows = pilotOf(unshadowed);
+  EXPECT_GT(withoutShadows.costLight, 0);
+  EXPECT_EQ(withoutShadows.costLight, withShadows.costLight);
+  EXPECT_EQ(withoutShadows.varianceLight, withShadows.varianceLight);
+  EXPECT_EQ(withoutShadows.choose({0, 0}).lightSamples, withShadows.choose({0, 0}).lightSamples);
 }
 
 TEST(Branching, PilotDoesNotBranchWhereTheNoiseIsThePixelsOwn) {

@@ -139,9 +139,8 @@ TEST(Linking, AShadowLinkLetsOnlyItsLightThroughTheExcludedOccluder) {
     delegate.camera("/cam").setTransform(facingDown(0, 0.5, 0));
     delegate.setLinkingClasses({{{}, {0}}});
     if (excluded) delegate.mesh("/occluder").setLinkingClass(1);
-    // Compared bit for bit: one light estimate in each, where the pilot, seeing no shadow rays
-    // to pay for, would choose more for the light without shadows.
-    delegate.settings().set("lightSamples", 1);
+    // Compared bit for bit with the pilot's choices: a light without shadows costs it the same
+    // light samples as one whose shadow rays pass.
     return render(delegate);
   };
   EXPECT_EQ(meanRed(renderFloor(0, true, false)), 0.0);

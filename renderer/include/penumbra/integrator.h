@@ -109,6 +109,9 @@ struct CameraSample {
   /// (RGB; `radiance` holds their mean): what the branching pilot measures too.
   uint32_t firstSurfaceLightRays = 0;
   Vec3f lightEstimateDifference{0.0f};
+  /// The light samples those estimates evaluated: one per shadow ray, and one per sample of a
+  /// light that casts no shadows (which traces none), which costs its evaluation all the same.
+  uint32_t firstSurfaceLightSamples = 0;
   /// Scattering vertices the sample shaded (a surface's BSDF or a medium's phase function set
   /// up, its light estimated, a direction drawn), and those of them before it branched (all
   /// where it did not): with the rays, what the branching pilot counts a sample's cost in.
