@@ -232,8 +232,8 @@ TEST(Branching, PilotCountsTheShadingOfVerticesInASamplesCost) {
   const BranchingPilot pilot = pilotOf(delegate);
   ASSERT_GT(pilot.pixels, 0u);
   // Each of a grid pixel's 8 samples: its camera ray and the floor's vertex; each branch, its
-  // bounce ray, whose hit is not shaded (direct light only); each light estimate, its shadow
-  // rays alone. Counted in rays only, the first part would cost as much as a branch.
+  // bounce ray, whose hit is not shaded (direct light only); each light estimate, its light
+  // samples alone. Counted in rays only, the first part would cost as much as a branch.
   EXPECT_EQ(pilot.costBeyond, 8.0 * pilot.pixels);
   EXPECT_EQ(pilot.costFirst, (1 + BranchingPilot::kVertexCost) * pilot.costBeyond);
   EXPECT_GT(pilot.costFirst, pilot.costBeyond);
