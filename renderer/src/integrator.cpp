@@ -759,12 +759,12 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // only measured where measuringDomes).
   // `estimates`: how many such estimates to average (each from sample index
   // sampleIndex · estimates + k of the same dimensions, so that a pixel's are stratified together).
-  // `lightSamplesEvaluated`, if given, counts the light samples evaluated (each with its shadow
-  // ray where its light casts shadows).
+  // `firstSurface`: the camera ray's first surface, whose light samples evaluated and shadow
+  // rays the sample keeps count of (CameraSample::firstSurfaceLightSamples, ...LightRays).
   const auto estimateDirectLight = [&](const auto& vertex, const Receiver& receiver,
                                        bool sampleLights, int interactions, uint32_t linkingClass,
                                        float constantDomeShare = 1, int estimates = 1,
-                                       uint32_t* lightSamplesEvaluated = nullptr) {
+                                       bool firstSurface = false) {
     const uint32_t choiceDimension = sampler.reserve(1);
     const uint32_t firstLightDimension = sampler.reserve(LightSampler::kMaxChoices);
     if (!sampleLights || settings.directLighting == DirectLighting::BsdfSamplingOnly) return;
@@ -799,7 +799,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const float tFar =
           std::isfinite(sample->distance) ? sample->distance * (1 - 1e-4f) : kInfinity;
       (unsampled ? result.domeSamplingShadowRays : result.rays) += light.castsShadows();
-      if (lightSamplesEvaluated && !unsampled) ++*lightSamplesEvaluated;
+      if (firstSurface && !unsampled) {
+        ++result.firstSurfaceLightSamples;
+        result.firstSurfaceLightRays += light.castsShadows();
+      }
       Vec3f transmittance{1.0f};
       if (light.castsShadows()) {
         const Ray shadow = vertex.shadowRay(sample->direction, tFar);
@@ -979,12 +982,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
               ? std::clamp(settings.firstSurfaceConstantDomeShare, 0.0f, 1.0f)
               : 1.0f;
       const int lightEstimatesHere = bounce == 0 ? lightEstimates : 1;
-      const uint32_t raysBeforeLight = result.rays;
       estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
                           !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass,
-                          constantDomeShare, lightEstimatesHere,
-                          bounce == 0 ? &result.firstSurfaceLightSamples : nullptr);
-      if (bounce == 0) result.firstSurfaceLightRays = result.rays - raysBeforeLight;
+                          constantDomeShare, lightEstimatesHere, bounce == 0);
 
       // BSDF sampling continues the path (false: it ends here). Inlined at both calls: called,
       // it reached the path's state through its captures and cost 1 % more per sample.
