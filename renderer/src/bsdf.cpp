@@ -88,18 +88,20 @@ constexpr float kClearcoatF0 = 0.04f;  // ((1 − 1.5) / (1 + 1.5))², fixed by 
 
 PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& normal,
                                        float ior, DielectricKind dielectricKind,
-                                       const Vec3f& tangent)
+                                       const Vec3f& tangent, float minRoughness)
     : frame_(normal),
       opacity_(clamp01(material.opacity)),
       clearcoat_(clamp01(material.clearcoat)),
-      coatAlpha_(lobeAlpha(material.clearcoatRoughness, material.clearcoatAnisotropy,
-                           material.anisotropyModel)),
+      coatAlpha_(lobeAlpha(std::max(material.clearcoatRoughness, minRoughness),
+                           material.clearcoatAnisotropy, material.anisotropyModel)),
       sheen_(clamp01(material.sheen)),
-      specularAlpha_(lobeAlpha(material.roughness, material.anisotropy, material.anisotropyModel)),
+      specularAlpha_(lobeAlpha(std::max(material.roughness, minRoughness), material.anisotropy,
+                               material.anisotropyModel)),
       ior_(std::isfinite(ior) && ior > 0 ? ior : 1.0f),
-      dielectricAlpha_(microfacetAlpha(material.transmissionRoughness < 0
-                                           ? material.roughness
-                                           : material.transmissionRoughness)),
+      // transmissionRoughness < 0 follows roughness.
+      dielectricAlpha_(microfacetAlpha(std::max(
+          material.transmissionRoughness < 0 ? material.roughness : material.transmissionRoughness,
+          minRoughness))),
       dielectricKind_(dielectricKind) {
   if (!isotropic()) {
     // x along the tangent turned by the rotation (counter-clockwise about the normal).

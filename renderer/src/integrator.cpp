@@ -162,7 +162,7 @@ Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, 
   ray.tFar = tFar;
   ray.time = time;
   const bool intoFibre =
-      side < 0 && hit.material.hair && hit.closed && length(hit.fibreDirection) > 0;
+      side < 0 && hit.material().hair && hit.closed && length(hit.fibreDirection) > 0;
   if (!intoFibre) return ray;
   const std::optional<GeometryHit> wall = scene.geometry().intersect(ray, RayKind::Secondary);
   if (!wall || wall->meshId != hit.meshId || wall->instance != hit.instance) return ray;
@@ -182,22 +182,13 @@ float filteredAlpha(float glossyFilter, float minRayPdf) {
   return glossyFilter > 0 && blurPdf < 1 ? 0.5f * std::sqrt(1 - blurPdf) : 0.0f;
 }
 
-/// Roughness (√α) raised to `minAlpha`'s; transmissionRoughness < 0 follows roughness already.
-void raiseRoughness(MaterialParams& material, float minAlpha) {
-  const float minRoughness = std::sqrt(minAlpha);
-  material.roughness = std::max(material.roughness, minRoughness);
-  material.clearcoatRoughness = std::max(material.clearcoatRoughness, minRoughness);
-  if (material.transmissionRoughness >= 0)
-    material.transmissionRoughness = std::max(material.transmissionRoughness, minRoughness);
-}
-
 /// A hair material's fibre BSDF: σa is derived first (hairAbsorptionAt: a colour is converted
 /// with β_n as authored, as MaterialX's node converts it with its own), then the glossy filter
 /// raises β_m and β_n as it raises roughness; in spectral scenes the tints are upsampled as
 /// reflectances and σa through the transmittance e^(−σa) of one unit of length, which lies in
 /// [0, 1] like a reflectance.
 HairBsdf makeHairBsdf(const SurfaceHit& hit, const PathSpectrum& spectrum, float minAlpha) {
-  MaterialParams material = hit.material;
+  MaterialParams material = hit.material();
   material.hairAbsorption = hairAbsorptionAt(material);
   if (minAlpha > 0) {
     const float minRoughness = std::sqrt(minAlpha);
@@ -257,10 +248,9 @@ class SurfaceBsdf {
   std::variant<PreviewSurfaceBsdf, HairBsdf> bsdf_;
 };
 
-/// Whether raiseRoughness(material, minAlpha) would change the material.
-bool raisesRoughness(const MaterialParams& material, float minAlpha) {
-  if (!(minAlpha > 0)) return false;
-  const float minRoughness = std::sqrt(minAlpha);
+/// Whether a lobe of `material` is narrower than the glossy filter lets it be.
+bool raisesRoughness(const MaterialParams& material, float minRoughness) {
+  if (!(minRoughness > 0)) return false;
   return material.roughness < minRoughness || material.clearcoatRoughness < minRoughness ||
          (material.transmissionRoughness >= 0 && material.transmissionRoughness < minRoughness);
 }
@@ -272,32 +262,34 @@ SurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const MaterialTable& m
   // Open meshes cannot hold a medium: their translucency is a thin sheet (DielectricKind).
   const DielectricKind dielectricKind =
       hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet;
-  // Usually the material is taken as it is: no copy of it then, and none of its set-up where
-  // it does not vary (set up once; ior is its own where paths are not spectral).
-  if (!raisesRoughness(hit.material, minAlpha) && !spectrum.spectral) {
-    if (const PreviewSurfaceBsdf* prototype =
-            materials.bsdfPrototype(hit.materialIndex, dielectricKind))
-      return SurfaceBsdf(kPreviewSurface, *prototype, hit.shadingNormal);
-    return SurfaceBsdf(kPreviewSurface, hit.material, hit.shadingNormal, ior, dielectricKind,
-                       hit.tangent);
+  const MaterialParams& authored = hit.material();
+  const float minRoughness = minAlpha > 0 ? std::sqrt(minAlpha) : 0.0f;
+  if (!spectrum.spectral) {
+    // The material is taken as it is, never copied, and where it does not vary and the glossy
+    // filter leaves it as it is, not even set up (set up once; ior is its own where paths are
+    // not spectral).
+    if (!raisesRoughness(authored, minRoughness))
+      if (const PreviewSurfaceBsdf* prototype =
+              materials.bsdfPrototype(hit.materialIndex, dielectricKind))
+        return SurfaceBsdf(kPreviewSurface, *prototype, hit.shadingNormal);
+    return SurfaceBsdf(kPreviewSurface, authored, hit.shadingNormal, ior, dielectricKind,
+                       hit.tangent, minRoughness);
   }
-  MaterialParams material = hit.material;
-  if (minAlpha > 0) raiseRoughness(material, minAlpha);
-  if (spectrum.spectral) material.specularColor = spectrum.reflectance(material.specularColor);
+  MaterialParams material = authored;
+  material.specularColor = spectrum.reflectance(material.specularColor);
   material.diffuseColor = spectrum.reflectance(material.diffuseColor);
-  if (spectrum.spectral && material.sheen > 0)
-    material.sheenColor = spectrum.reflectance(material.sheenColor);
-  if (spectrum.spectral && material.clearcoat > 0)
+  if (material.sheen > 0) material.sheenColor = spectrum.reflectance(material.sheenColor);
+  if (material.clearcoat > 0)
     material.clearcoatColor = spectrum.reflectance(material.clearcoatColor);
-  return SurfaceBsdf(kPreviewSurface, material, hit.shadingNormal, ior, dielectricKind,
-                     hit.tangent);
+  return SurfaceBsdf(kPreviewSurface, material, hit.shadingNormal, ior, dielectricKind, hit.tangent,
+                     minRoughness);
 }
 
 /// `ior`: the material's, or its value at the hero wavelength under dispersion; `minAlpha`: the
 /// glossy filter's (filteredAlpha).
 SurfaceBsdf makeBsdf(const SurfaceHit& hit, const MaterialTable& materials,
                      const PathSpectrum& spectrum, float ior, float minAlpha) {
-  if (hit.material.hair) return SurfaceBsdf(makeHairBsdf(hit, spectrum, minAlpha));
+  if (hit.material().hair) return SurfaceBsdf(makeHairBsdf(hit, spectrum, minAlpha));
   return makePreviewSurfaceBsdf(hit, materials, spectrum, ior, minAlpha);
 }
 
@@ -305,7 +297,7 @@ SurfaceBsdf makeBsdf(const SurfaceHit& hit, const MaterialTable& materials,
 /// hair and without subsurface scattering, so that every direction the guide draws is one of
 /// the BSDF's reflection lobes.
 bool guidable(const SurfaceHit& hit, const SurfaceBsdf& bsdf) {
-  return !hit.material.hair && hit.material.subsurface <= 0 && !bsdf.hasTransmission() &&
+  return !hit.material().hair && hit.material().subsurface <= 0 && !bsdf.hasTransmission() &&
          !bsdf.isPurelySpecular();
 }
 
@@ -517,8 +509,8 @@ struct MediumVertex {
 /// The subsurface medium of a hit's material, at the path's wavelengths when it carries a
 /// spectrum (the colour upsampled as a reflectance, the radius as an unbounded spectrum).
 SubsurfaceMedium subsurfaceMediumAt(const SurfaceHit& hit, const PathSpectrum& spectrum) {
-  if (!spectrum.spectral) return subsurfaceMedium(hit.material);
-  MaterialParams material = hit.material;
+  if (!spectrum.spectral) return subsurfaceMedium(hit.material());
+  MaterialParams material = hit.material();
   material.subsurfaceColor = spectrum.reflectance(material.subsurfaceColor);
   material.subsurfaceRadius =
       RgbSpectrum::unbounded(material.subsurfaceRadius).at(spectrum.wavelengths.lambda);
@@ -527,8 +519,8 @@ SubsurfaceMedium subsurfaceMediumAt(const SurfaceHit& hit, const PathSpectrum& s
 
 /// σa inside absorbing glass, at the path's wavelengths when it carries a spectrum.
 Vec3f glassAbsorptionAt(const SurfaceHit& hit, const PathSpectrum& spectrum) {
-  if (!spectrum.spectral) return transmissionAbsorption(hit.material);
-  MaterialParams material = hit.material;
+  if (!spectrum.spectral) return transmissionAbsorption(hit.material());
+  MaterialParams material = hit.material();
   material.transmissionColor = spectrum.reflectance(material.transmissionColor);
   return transmissionAbsorption(material);
 }
@@ -537,7 +529,7 @@ Vec3f glassAbsorptionAt(const SurfaceHit& hit, const PathSpectrum& spectrum) {
 /// within): the Beer–Lambert transmittance of the ray's way there; 1 elsewhere.
 Vec3f glassTransmittance(const SurfaceHit& hit, const Vec3f& direction,
                          const PathSpectrum& spectrum) {
-  if (!hit.closed || !(hit.material.transmissionDepth > 0) || !(dot(direction, hit.normal) > 0))
+  if (!hit.closed || !(hit.material().transmissionDepth > 0) || !(dot(direction, hit.normal) > 0))
     return Vec3f(1.0f);
   const Vec3f absorption = glassAbsorptionAt(hit, spectrum) * hit.distance;
   return {std::exp(-absorption.x), std::exp(-absorption.y), std::exp(-absorption.z)};
@@ -619,7 +611,7 @@ void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
   record->position = hit->position;
   record->normal = hit->shadingNormal;
   record->cameraNormal = camera.toCameraSpace(hit->shadingNormal, ray.time);
-  record->albedo = surfaceAlbedo(hit->material);
+  record->albedo = surfaceAlbedo(hit->material());
   record->primId = int(hit->meshId);
   record->instanceId = hit->instance;
   record->elementId = hit->shape->elementOf(hit->primitive);
@@ -956,13 +948,13 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (bounce >= settings.maxPathDepth || lastVertex) break;
       ++result.vertices;
       const Vec3f wo = -ray.direction;
-      float ior = hit->material.ior;
-      if (spectrum.spectral && !hit->material.hair && hit->material.abbeNumber > 0 &&
-          hit->material.opacity < 1) {
+      float ior = hit->material().ior;
+      if (spectrum.spectral && !hit->material().hair && hit->material().abbeNumber > 0 &&
+          hit->material().opacity < 1) {
         // A dispersive interface sends each wavelength its own way: only the hero's path goes on.
         spectrum.wavelengths.keepHeroOnly();
         throughput = {throughput.x, 0, 0};
-        ior = dispersiveIor(ior, hit->material.abbeNumber, spectrum.wavelengths.hero());
+        ior = dispersiveIor(ior, hit->material().abbeNumber, spectrum.wavelengths.hero());
       }
       const Vec3f facingNormal =
           dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;

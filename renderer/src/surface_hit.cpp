@@ -13,7 +13,7 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
                                    const RayCone& cone, const GeometryHit& found) {
   const MaterialTable& materials = scene.materials();
   const Material* material = materials.find(found.materialIndex);
-  // A material that does not vary is what the hit takes: set at construction.
+  // A material that does not vary is read from the table, not copied into the hit.
   std::optional<SurfaceHit> shaded =
       material && !material->varies()
           ? std::optional<SurfaceHit>(std::in_place, material->constants)
@@ -54,25 +54,27 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
       point.shadingNormal = hit.shadingNormal;
       footprintOnSurface(ray.direction, hit.normal, cone.radiusAt(hit.distance), &point.dpdx,
                          &point.dpdy);
-      hit.material = evaluateMaterial(*material, materials.textures(), point, &hit.shadingNormal);
+      hit.ownMaterial() =
+          evaluateMaterial(*material, materials.textures(), point, &hit.shadingNormal);
     }
     // A fibre's tangent is its direction (its corners, all one point, span no surface).
     if (anisotropic)
       hit.tangent = length(surface.fibreDirection) > 0 ? surface.fibreDirection
                                                        : surfaceTangent(point, objectToWorld);
-    applyOpacityThreshold(hit.material);
-    if (hit.material.thinWalled) hit.closed = !*hit.material.thinWalled;
+    // Checked first, so that a material without a threshold is not copied into the hit.
+    if (hit.material().opacityThreshold > 0) applyOpacityThreshold(hit.ownMaterial());
+    if (hit.material().thinWalled) hit.closed = !*hit.material().thinWalled;
   } else {
-    hit.material = fallbackSurface();
+    MaterialParams& fallback = hit.ownMaterial() = fallbackSurface();
     float value[4];
     int width = 0;
     // Built once: looked up on every hit of a mesh without a material.
     static const PrimvarName displayOpacity("displayOpacity");
     if (primvarAt(point, displayColorName(), value, &width) && width >= 3)
-      hit.material.diffuseColor = {value[0], value[1], value[2]};
-    if (primvarAt(point, displayOpacity, value, &width)) hit.material.opacity = value[0];
+      fallback.diffuseColor = {value[0], value[1], value[2]};
+    if (primvarAt(point, displayOpacity, value, &width)) fallback.opacity = value[0];
   }
-  hit.emission = hit.material.emissiveColor;
+  hit.emission = hit.material().emissiveColor;
   const LightSet& lights = scene.lights();
   if (const int lightIndex = lights.meshLight(found.meshId); lightIndex >= 0) {
     hit.lightIndex = lightIndex;

@@ -489,9 +489,9 @@ TEST(Curves, DisplayColorAndPrimvarsOfEachInterpolationReachShading) {
   const std::optional<SurfaceHit> hit = s.surface(downAt(-1, 0));
   ASSERT_TRUE(hit);
   EXPECT_NEAR(hit->u, 0.25f, 1e-4f);
-  EXPECT_NEAR(hit->material.diffuseColor.x, 28.0f / 64, 1e-4f);
-  EXPECT_NEAR(hit->material.diffuseColor.y, 28.0f / 64, 1e-4f);
-  EXPECT_NEAR(hit->material.diffuseColor.z, 10.0f / 64, 1e-4f);
+  EXPECT_NEAR(hit->material().diffuseColor.x, 28.0f / 64, 1e-4f);
+  EXPECT_NEAR(hit->material().diffuseColor.y, 28.0f / 64, 1e-4f);
+  EXPECT_NEAR(hit->material().diffuseColor.z, 10.0f / 64, 1e-4f);
 
   const std::vector<float> constant = primvarThere(s, downAt(-1, 3), "constant", 2);
   ASSERT_EQ(constant.size(), 2u);
@@ -527,7 +527,7 @@ TEST(Curves, DisplayColorAndPrimvarsOfEachInterpolationReachShading) {
   EXPECT_EQ(s.scene.geometry().meshBvhBuilds(), builds);
   const std::optional<SurfaceHit> recoloured = s.surface(downAt(1, 3));
   ASSERT_TRUE(recoloured);
-  EXPECT_EQ(recoloured->material.diffuseColor.z, 0.75f);
+  EXPECT_EQ(recoloured->material().diffuseColor.z, 0.75f);
 }
 
 TEST(Curves, VertexAndVaryingDataFollowBSplineSegments) {

@@ -76,8 +76,8 @@ TEST(Geometry, ShadingAHitWithoutAMaterialUsesDisplayColor) {
   ASSERT_TRUE(hit);
   EXPECT_EQ(hit->meshId, id);
   EXPECT_FLOAT_EQ(hit->position.y, 0);
-  EXPECT_EQ(hit->material.diffuseColor.x, 1);
-  EXPECT_EQ(hit->material.diffuseColor.y, 0);
+  EXPECT_EQ(hit->material().diffuseColor.x, 1);
+  EXPECT_EQ(hit->material().diffuseColor.y, 0);
   EXPECT_EQ(hit->lightIndex, -1);
   // A mesh light of an index past the lights emits nothing.
   scene.lights().setMeshLight(id, 3);

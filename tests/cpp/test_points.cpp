@@ -139,10 +139,10 @@ TEST(Points, DisplayColorPerPointOrConstantReachesTheFallbackSurface) {
   const std::optional<SurfaceHit> right =
       intersectSurface(s.scene, downAt(3.5f, 0), RayKind::Camera);
   ASSERT_TRUE(left && right);
-  EXPECT_EQ(left->material.diffuseColor.x, 1);
-  EXPECT_EQ(left->material.diffuseColor.y, 0);
-  EXPECT_EQ(right->material.diffuseColor.x, 0);
-  EXPECT_EQ(right->material.diffuseColor.y, 1);
+  EXPECT_EQ(left->material().diffuseColor.x, 1);
+  EXPECT_EQ(left->material().diffuseColor.y, 0);
+  EXPECT_EQ(right->material().diffuseColor.x, 0);
+  EXPECT_EQ(right->material().diffuseColor.y, 1);
   EXPECT_EQ(right->primitive, 1u);
 
   // Primvars: one value per point, or one for all, exactly.
@@ -169,7 +169,7 @@ TEST(Points, DisplayColorPerPointOrConstantReachesTheFallbackSurface) {
   const std::optional<SurfaceHit> constant =
       intersectSurface(s.scene, downAt(3, 0), RayKind::Camera);
   ASSERT_TRUE(constant);
-  EXPECT_EQ(constant->material.diffuseColor.z, 0.75f);
+  EXPECT_EQ(constant->material().diffuseColor.z, 0.75f);
   EXPECT_EQ(s.scene.geometry().primvarWidth("st"), 2);
 }
 
@@ -290,6 +290,6 @@ TEST(Points, MaterialsReadPerPointPrimvarsAndCutPointsOut) {
   EXPECT_FALSE(s.scene.geometry().occluded(downAt(-3, 0)));
   const std::optional<SurfaceHit> kept = intersectSurface(s.scene, downAt(3, 0), RayKind::Camera);
   ASSERT_TRUE(kept);
-  EXPECT_EQ(kept->material.roughness, 0.75f);
-  EXPECT_EQ(kept->material.opacity, 1);
+  EXPECT_EQ(kept->material().roughness, 0.75f);
+  EXPECT_EQ(kept->material().opacity, 1);
 }

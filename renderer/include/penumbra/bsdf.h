@@ -134,10 +134,12 @@ class PreviewSurfaceBsdf {
   /// refraction to use instead of material.ior (wavelength-dependent under dispersion, see
   /// dispersiveIor); it also sets F0 in the metallic workflow. `tangent`: the surface's tangent
   /// (SurfaceHit::tangent), read only by anisotropic lobes; where it is zero or along the normal
-  /// they take a fixed tangent of the normal's (Frame(normal).s).
+  /// they take a fixed tangent of the normal's (Frame(normal).s). `minRoughness`: the least
+  /// roughness of every microfacet lobe (the glossy filter's, IntegratorSettings::glossyFilter);
+  /// 0 leaves them as authored.
   PreviewSurfaceBsdf(const MaterialParams& material, const Vec3f& normal, float ior,
                      DielectricKind dielectricKind = DielectricKind::Solid,
-                     const Vec3f& tangent = Vec3f(0.0f));
+                     const Vec3f& tangent = Vec3f(0.0f), float minRoughness = 0);
   /// `isotropic` turned to face `normal`: bit for bit the BSDF its material would give there.
   /// Everything else the constructor derives depends on the material alone, so a material
   /// that does not vary over its surfaces sets up its BSDF once (MaterialTable::bsdfPrototype)

@@ -15,9 +15,20 @@ namespace penumbra {
 
 /// A ray's first intersection with a surface, shaded.
 struct SurfaceHit {
-  SurfaceHit() = default;
-  /// With its material's parameters taken as they are (copied once, not set to defaults first).
-  explicit SurfaceHit(const MaterialParams& boundMaterial) : material(boundMaterial) {}
+  /// With parameters of its own, MaterialParams' defaults until set (ownMaterial()).
+  SurfaceHit() : evaluated_(std::in_place) {}
+  /// With a material that does not vary: its parameters are read where they lie, in the scene's
+  /// material table (`constants` must outlive the hit), not copied (some 300 bytes, at every hit).
+  explicit SurfaceHit(const MaterialParams& constants) : constants_(&constants) {}
+
+  /// The bound material's parameters evaluated here (textures, primvar readers, normal map), or
+  /// fallbackSurface() with displayColor and displayOpacity for meshes without one.
+  const MaterialParams& material() const { return evaluated_ ? *evaluated_ : *constants_; }
+  /// This hit's own parameters, to change: a copy of the material's constants on first use.
+  MaterialParams& ownMaterial() {
+    if (!evaluated_) evaluated_.emplace(*constants_);
+    return *evaluated_;
+  }
 
   float distance = 0;
   Vec3f position;
@@ -28,9 +39,6 @@ struct SurfaceHit {
   Vec3f tangent{0.0f};
   /// On a fibre (a curve): its unit direction (SurfaceGeometry::fibreDirection); else zero.
   Vec3f fibreDirection{0.0f};
-  /// The bound material's parameters evaluated here (textures, primvar readers, normal map), or
-  /// fallbackSurface() with displayColor and displayOpacity for meshes without one.
-  MaterialParams material;
   int materialIndex = MaterialTable::kNoMaterial;  // the bound material's, in scene.materials()
   int lightIndex = -1;  // the mesh light this surface is (UsdLuxMeshLightAPI)
   bool closed = false;  // a solid: the mesh bounds one, or its material is not thin-walled
@@ -43,6 +51,10 @@ struct SurfaceHit {
   float u = 0, v = 0;
   const std::vector<Primvar>* instancePrimvars = nullptr;
   uint32_t linkingClass = 0;  // its placement's (GeometryHit::linkingClass)
+
+ private:
+  const MaterialParams* constants_ = nullptr;  // read where the hit has none of its own
+  std::optional<MaterialParams> evaluated_;
 };
 
 /// The first hit of the ray in `scene`, shaded: textures are filtered over `cone`'s
