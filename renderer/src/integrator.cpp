@@ -248,11 +248,18 @@ class SurfaceBsdf {
   std::variant<PreviewSurfaceBsdf, HairBsdf> bsdf_;
 };
 
-/// Whether a lobe of `material` is narrower than the glossy filter lets it be.
+/// Whether a lobe `material` has is narrower than the glossy filter lets it be. The roughness of
+/// a lobe it lacks (a coat of weight 0; transmission where it is opaque) changes nothing it
+/// scatters: such a material keeps its prototype (the BSDF set up once). UsdPreviewSurface's
+/// clearcoatRoughness defaults to 0.01, so otherwise every material would be set up anew at
+/// every vertex the filter acts on.
 bool raisesRoughness(const MaterialParams& material, float minRoughness) {
   if (!(minRoughness > 0)) return false;
-  return material.roughness < minRoughness || material.clearcoatRoughness < minRoughness ||
-         (material.transmissionRoughness >= 0 && material.transmissionRoughness < minRoughness);
+  const bool coated = material.clearcoat > 0, translucent = !(material.opacity >= 1);
+  return material.roughness < minRoughness ||
+         (coated && material.clearcoatRoughness < minRoughness) ||
+         (translucent && material.transmissionRoughness >= 0 &&
+          material.transmissionRoughness < minRoughness);
 }
 
 /// The UsdPreviewSurface BSDF of a hit's material.

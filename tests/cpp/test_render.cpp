@@ -1,6 +1,7 @@
 // End-to-end tests of the render delegate: prims in, pixels out.
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <numeric>
 #include <random>
 #include <set>
@@ -875,38 +876,66 @@ TEST(Render, IndirectClampLimitsOnlyIndirectLight) {
   EXPECT_GE(clamped, direct * 0.999);
 }
 
+/// A grey floor under a small bulb and a ceiling of `/ceiling`'s material at height 2, seen from
+/// above: the floor also receives the bulb's image in the ceiling, a caustic that only
+/// BSDF-sampled rays from the floor can find where the ceiling reflects sharply.
+std::vector<float> renderCausticUnderCeiling(const std::function<void(plugin::Material&)>& ceiling,
+                                             float glossyFilter, int maxPathDepth, int seed) {
+  RenderDelegate delegate;
+  floorUnderCeiling(delegate, "/mirror", 2);
+  delegate.insertSprim("material", "/ceiling");
+  ceiling(delegate.material("/ceiling"));
+  delegate.mesh("/mirror").setMaterialId("/ceiling");
+  delegate.insertSprim("sphereLight", "/bulb");
+  delegate.light("/bulb").setParam("radius", 0.05f);
+  delegate.light("/bulb").setParam("intensity", 100.0f);
+  delegate.light("/bulb").setTransform(translation(0, 1, 0));
+  addCamera(delegate, facingDown(0.5f, 1.5f, 0), 5);
+  delegate.settings().set("maxPathDepth", maxPathDepth);
+  delegate.settings().set("glossyFilter", glossyFilter);
+  delegate.settings().set("seed", seed);
+  return render(delegate, 16, 16, 16);
+}
+
+/// Per-pixel noise of the red channel between two renders that differ in their seed.
+double seedNoise(const std::vector<float>& a, const std::vector<float>& b) {
+  double sum = 0;
+  for (size_t i = 0; i < a.size(); i += 4) sum += (a[i] - b[i]) * (a[i] - b[i]);
+  return std::sqrt(sum / double(a.size() / 4) / 2);
+}
+
 TEST(Render, GlossyFilterBlursCausticsButNotWhatTheCameraSees) {
-  // A grey floor under a small bulb and a mirror ceiling: the floor also receives the bulb's
-  // image in the mirror, a caustic that only BSDF-sampled rays from the floor can find. The
-  // glossy filter roughens the mirror for those rays, so light sampling at the mirror finds
-  // the bulb: far less noise, a slightly different (biased) mean.
-  const auto renderWith = [](float glossyFilter, int maxPathDepth, int seed) {
-    RenderDelegate delegate;
-    floorUnderCeiling(delegate, "/mirror", 2);
-    delegate.insertSprim("material", "/chrome");
-    delegate.material("/chrome").setParam("metallic", 1.0f);
-    delegate.material("/chrome").setParam("roughness", 0.0f);
-    delegate.material("/chrome").setParam("diffuseColor", Vec3f(1));
-    delegate.mesh("/mirror").setMaterialId("/chrome");
-    delegate.insertSprim("sphereLight", "/bulb");
-    delegate.light("/bulb").setParam("radius", 0.05f);
-    delegate.light("/bulb").setParam("intensity", 100.0f);
-    delegate.light("/bulb").setTransform(translation(0, 1, 0));
-    addCamera(delegate, facingDown(0.5f, 1.5f, 0), 5);
-    delegate.settings().set("maxPathDepth", maxPathDepth);
-    delegate.settings().set("glossyFilter", glossyFilter);
-    delegate.settings().set("seed", seed);
-    return render(delegate, 16, 16, 16);
+  // A mirror ceiling: the glossy filter roughens it for the floor's rays, so light sampling at
+  // the mirror finds the bulb: far less noise, a slightly different (biased) mean.
+  const auto chrome = [](plugin::Material& material) {
+    material.setParam("metallic", 1.0f);
+    material.setParam("roughness", 0.0f);
+    material.setParam("diffuseColor", Vec3f(1));
+  };
+  const auto renderWith = [&](float glossyFilter, int maxPathDepth, int seed) {
+    return renderCausticUnderCeiling(chrome, glossyFilter, maxPathDepth, seed);
   };
   // What the camera sees first is never filtered.
   EXPECT_EQ(renderWith(1, 1, 1), renderWith(0, 1, 1));
-  const auto noise = [](const std::vector<float>& a, const std::vector<float>& b) {
-    double sum = 0;
-    for (size_t i = 0; i < a.size(); i += 4) sum += (a[i] - b[i]) * (a[i] - b[i]);
-    return std::sqrt(sum / double(a.size() / 4) / 2);
-  };
   const std::vector<float> sharp[2] = {renderWith(0, 2, 1), renderWith(0, 2, 2)};
   const std::vector<float> filtered[2] = {renderWith(1, 2, 1), renderWith(1, 2, 2)};
-  EXPECT_LT(noise(filtered[0], filtered[1]), 0.3 * noise(sharp[0], sharp[1]));
+  EXPECT_LT(seedNoise(filtered[0], filtered[1]), 0.3 * seedNoise(sharp[0], sharp[1]));
   EXPECT_NEAR(meanChannel(filtered[0], 0) / meanChannel(sharp[0], 0), 1.0, 0.25);
+}
+
+TEST(Render, GlossyFilterBlursTheCausticOfAClearcoatOverARoughBase) {
+  // A black, rough base under a mirror coat: the roughness alone is already wider than the
+  // filter's, and only the coat's (the filter must raise a coat's roughness as well, though a
+  // material without a coat keeps its BSDF as it is).
+  const auto coated = [](plugin::Material& material) {
+    material.setParam("diffuseColor", Vec3f(0));
+    material.setParam("roughness", 1.0f);
+    material.setParam("clearcoat", 1.0f);
+    material.setParam("clearcoatRoughness", 0.0f);
+  };
+  const std::vector<float> sharp[2] = {renderCausticUnderCeiling(coated, 0, 2, 1),
+                                       renderCausticUnderCeiling(coated, 0, 2, 2)};
+  const std::vector<float> filtered[2] = {renderCausticUnderCeiling(coated, 1, 2, 1),
+                                          renderCausticUnderCeiling(coated, 1, 2, 2)};
+  EXPECT_LT(seedNoise(filtered[0], filtered[1]), 0.5 * seedNoise(sharp[0], sharp[1]));
 }
