@@ -167,7 +167,8 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
     }
     if (recordHere) guidingRecordedThrough_ = stop;
     samplesDone_ = stop;
-    if (stop == checkpoint) film_.updateConvergence(settings.adaptiveThreshold);
+    if (settings.adaptiveThreshold > 0 && stop == checkpoint)
+      film_.updateConvergence(settings.adaptiveThreshold);
   }
   samplesDone_ = end;
   for (const auto& [aovName, bufferId] : aovBindings_) {
