@@ -19,12 +19,19 @@ bool cutsOutPerHit(const Material& material) {
 
 namespace {
 
-/// The BSDFs a material gives every hit, facing +z, for a solid and a thin sheet; none where
-/// they depend on the hit (varying or anisotropic lobes) or it is no UsdPreviewSurface (hair).
-std::optional<std::array<PreviewSurfaceBsdf, 2>> bsdfPrototypes(const Material& material) {
-  if (material.varies() || material.constants.hair) return {};
-  MaterialParams shaded = material.constants;  // as shadeHit passes them on
+/// The constants as every hit of the material takes them (MaterialTable::shadedConstants).
+MaterialParams constantsAsShaded(const Material& material) {
+  MaterialParams shaded = material.constants;
   applyOpacityThreshold(shaded);
+  return shaded;
+}
+
+/// The BSDFs a material gives every hit, facing +z, for a solid and a thin sheet (`shaded`: its
+/// shadedConstants); none where they depend on the hit (varying or anisotropic lobes) or it is
+/// no UsdPreviewSurface (hair).
+std::optional<std::array<PreviewSurfaceBsdf, 2>> bsdfPrototypes(const Material& material,
+                                                                const MaterialParams& shaded) {
+  if (material.varies() || material.constants.hair) return {};
   const Vec3f up(0, 0, 1);
   std::array<PreviewSurfaceBsdf, 2> prototypes{
       PreviewSurfaceBsdf(shaded, up, shaded.ior, DielectricKind::Solid),
@@ -50,12 +57,14 @@ MaterialTable::CutoutChange MaterialTable::replace(size_t index, Material materi
     for (const ExpressionNode& node : program.nodes) registerPrimvarName(node.primvar);
   if (index == materials_.size()) {
     materials_.emplace_back();
+    shadedConstants_.emplace_back();
     bsdfPrototypes_.emplace_back();
   }
   Material& replaced = materials_[index];
   const CutoutChange change{cutsOutWhole(material) != cutsOutWhole(replaced),
                             cutsOutPerHit(material) != cutsOutPerHit(replaced)};
-  bsdfPrototypes_[index] = bsdfPrototypes(material);
+  shadedConstants_[index] = constantsAsShaded(material);
+  bsdfPrototypes_[index] = bsdfPrototypes(material, shadedConstants_[index]);
   replaced = std::move(material);
   return change;
 }

@@ -16,7 +16,7 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
   // A material that does not vary is read from the table, not copied into the hit.
   std::optional<SurfaceHit> shaded =
       material && !material->varies()
-          ? std::optional<SurfaceHit>(std::in_place, material->constants)
+          ? std::optional<SurfaceHit>(std::in_place, materials.shadedConstants(found.materialIndex))
           : std::optional<SurfaceHit>(std::in_place);
   SurfaceHit& hit = *shaded;
   hit.distance = found.distance;
@@ -56,13 +56,12 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
                          &point.dpdy);
       hit.ownMaterial() =
           evaluateMaterial(*material, materials.textures(), point, &hit.shadingNormal);
+      applyOpacityThreshold(hit.ownMaterial());  // the table's constants have it applied
     }
     // A fibre's tangent is its direction (its corners, all one point, span no surface).
     if (anisotropic)
       hit.tangent = length(surface.fibreDirection) > 0 ? surface.fibreDirection
                                                        : surfaceTangent(point, objectToWorld);
-    // Checked first, so that a material without a threshold is not copied into the hit.
-    if (hit.material().opacityThreshold > 0) applyOpacityThreshold(hit.ownMaterial());
     if (hit.material().thinWalled) hit.closed = !*hit.material().thinWalled;
   } else {
     MaterialParams& fallback = hit.ownMaterial() = fallbackSurface();

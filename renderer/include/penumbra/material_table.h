@@ -48,6 +48,10 @@ class MaterialTable {
     return index < 0 || size_t(index) >= materials_.size() ? nullptr : &materials_[size_t(index)];
   }
 
+  /// The parameters every hit of the material at `index` takes where it does not vary: its
+  /// constants with the opacity threshold applied (applyOpacityThreshold). Made once here, so
+  /// that hits read them in place. `index` must be a material's.
+  const MaterialParams& shadedConstants(int index) const { return shadedConstants_[size_t(index)]; }
   /// The BSDF of the material at `index` as set up for any hit (see PreviewSurfaceBsdf's
   /// turning constructor), for the dielectric kind of the surface hit; null where a hit must set
   /// it up itself: no material, a varying or anisotropic one, or a hair material.
@@ -76,6 +80,7 @@ class MaterialTable {
 
  private:
   std::vector<Material> materials_;
+  std::vector<MaterialParams> shadedConstants_;  // by material index (shadedConstants)
   /// By material index and DielectricKind: the BSDFs of materials that do not vary (as
   /// shading sees their constants), empty for the others.
   std::vector<std::optional<std::array<PreviewSurfaceBsdf, 2>>> bsdfPrototypes_;
