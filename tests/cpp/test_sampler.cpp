@@ -96,6 +96,46 @@ TEST(Sampler, MatchesTheReferenceConstruction) {
   }
 }
 
+// The same for all four numbers of 4D draws (the byte tables of Sobol's dimensions 2 and 3
+// included): over many streams and dimensions, and at the largest fractions, which round up to
+// 1 as floats and must be clamped below it.
+TEST(Sampler, FourDimensionalDrawsMatchTheReferenceConstruction) {
+  const auto unit = [](uint32_t bits) { return std::min(float(bits) * 0x1p-32f, 0x1.fffffep-1f); };
+  EXPECT_EQ(unit(0xffffffffu), 0x1.fffffep-1f);
+  // Samples of pixel (1, 2), seed 7, whose dimension-0 draw has a fraction ≥ 0xffffff80 in
+  // component 3, 1, 4 and 2 (found by search): the draws that round up to 1.
+  const uint32_t roundingUp[4] = {5618006, 15105636, 19695468, 20900654};
+  int checked = 0, clamped = 0;
+  for (uint32_t stream = 0; stream < 4004; ++stream) {
+    const bool edge = stream >= 4000;
+    const uint32_t seed = edge ? 7 : hashUint32(stream), x = edge ? 1 : stream % 61,
+                   y = edge ? 2 : stream / 61;
+    const uint32_t sample = edge            ? roundingUp[stream - 4000]
+                            : stream < 2000 ? stream
+                                            : hashUint32(stream + 17);
+    const SampleStream drawn(seed, x, y, sample);
+    const uint32_t pixelSeed = hashCombine(hashCombine(hashUint32(seed), x), y);
+    for (uint32_t dimension = 0; dimension < 24; ++dimension) {
+      const uint32_t dimensionSeed = hashCombine(pixelSeed, dimension);
+      const uint32_t index = owenScramble(sample, dimensionSeed);
+      const uint32_t bits[4] = {
+          owenScramble(sobolDimension0(index), hashCombine(dimensionSeed, 1)),
+          owenScramble(sobolDimension1(index), hashCombine(dimensionSeed, 2)),
+          owenScramble(sobolDimension2(index), hashCombine(dimensionSeed, 3)),
+          owenScramble(sobolDimension3(index), hashCombine(dimensionSeed, 4))};
+      const Sample4D p = drawn.draw4D(dimension);
+      const float values[4] = {p.x, p.y, p.z, p.w};
+      for (int k = 0; k < 4; ++k) {
+        ASSERT_EQ(values[k], unit(bits[k])) << stream << " " << dimension << " " << k;
+        clamped += bits[k] >= 0xffffff80u;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 4004 * 24 * 4);
+  EXPECT_GE(clamped, 4);  // the rounding edge was met
+}
+
 // Sobol's third and fourth dimensions, from Joe and Kuo's direction numbers (x² + x + 1 with
 // m = 1, 3; x³ + x + 1 with m = 1, 3, 1), in natural (not Gray-code) order.
 TEST(Sampler, SobolDimensionsTwoAndThree) {
