@@ -33,6 +33,12 @@ Camera::Camera(const CameraParams& params, int imageWidth, int imageHeight)
     if (!(focalLength > 0))
       throw std::invalid_argument("camera focalLength samples must be positive");
   if (!params_.cameraToWorld.isAnimated()) staticViewAxis_ = viewAxisAt(0);
+  // The side of a square of a pixel's film area (pixels are square unless pixelAspectRatio),
+  // in tenths of a unit.
+  const float pixelFilm = std::sqrt(filmWidth_ / float(width_) * filmHeight_ / float(height_));
+  pixelCone_ = params_.projection == Projection::Orthographic
+                   ? RayCone{0.1f * pixelFilm, 0.0f}
+                   : RayCone{0.0f, pixelFilm / focalLengthAt(0)};
 }
 
 namespace {
@@ -129,14 +135,6 @@ std::optional<PointImage> Camera::pointImage(const Vec3f& point, const Moment& m
                          -filmPerLensUnit / filmHeight_ * height_};
   }
   return image;
-}
-
-RayCone Camera::pixelCone() const {
-  // The side of a square of a pixel's film area (pixels are square unless pixelAspectRatio).
-  const float pixelFilm =
-      std::sqrt(filmWidth_ / float(width_) * filmHeight_ / float(height_));  // tenths of a unit
-  if (params_.projection == Projection::Orthographic) return {0.1f * pixelFilm, 0.0f};
-  return {0.0f, pixelFilm / focalLengthAt(0)};
 }
 
 Vec3f Camera::viewAxisAt(float time) const {

@@ -69,7 +69,7 @@ class Camera {
   /// The footprint of one pixel as a ray cone (scene units): for perspective cameras the angle
   /// a pixel subtends at the image centre, for orthographic ones a pixel's width. The lens
   /// aperture is not included (defocus blurs by sampling the lens, not by filtering).
-  RayCone pixelCone() const;
+  RayCone pixelCone() const { return pixelCone_; }
   /// Distance along the view axis of the point at parameter t of a ray this camera generated.
   float viewDepth(const Ray& ray, float t) const;
   /// The camera's centre (the pinhole, or the lens's centre) at normalised shutter time `time`.
@@ -113,6 +113,7 @@ class Camera {
   bool thinLens_;
   // viewAxisAt of a camera that does not move, made once: viewDepth asks at every camera sample.
   std::optional<Vec3f> staticViewAxis_;
+  RayCone pixelCone_;  // made once: every camera sample starts its ray cone from it
 };
 
 }  // namespace penumbra
