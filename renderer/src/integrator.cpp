@@ -955,13 +955,13 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (bounce >= settings.maxPathDepth || lastVertex) break;
       ++result.vertices;
       const Vec3f wo = -ray.direction;
-      float ior = hit->material().ior;
-      if (spectrum.spectral && !hit->material().hair && hit->material().abbeNumber > 0 &&
-          hit->material().opacity < 1) {
+      const MaterialParams& material = hit->material();
+      float ior = material.ior;
+      if (spectrum.spectral && !material.hair && material.abbeNumber > 0 && material.opacity < 1) {
         // A dispersive interface sends each wavelength its own way: only the hero's path goes on.
         spectrum.wavelengths.keepHeroOnly();
         throughput = {throughput.x, 0, 0};
-        ior = dispersiveIor(ior, hit->material().abbeNumber, spectrum.wavelengths.hero());
+        ior = dispersiveIor(ior, material.abbeNumber, spectrum.wavelengths.hero());
       }
       const Vec3f facingNormal =
           dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
