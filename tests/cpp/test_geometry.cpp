@@ -75,7 +75,8 @@ TEST(Geometry, ShadingAHitWithoutAMaterialUsesDisplayColor) {
       intersectSurface(scene, downAt(0.5f, 0.5f), RayKind::Camera);
   ASSERT_TRUE(hit);
   EXPECT_EQ(hit->meshId, id);
-  EXPECT_FLOAT_EQ(hit->position.y, 0);
+  // Within an ulp of the distance 5: Embree's AVX2 kernels return 4.9999995, AVX-512's 5.
+  EXPECT_NEAR(hit->position.y, 0, 1e-6f);
   EXPECT_EQ(hit->material().diffuseColor.x, 1);
   EXPECT_EQ(hit->material().diffuseColor.y, 0);
   EXPECT_EQ(hit->lightIndex, -1);
