@@ -78,6 +78,9 @@ void LightClusters::set(int lane, const LightBounds& bounds) {
   cosThetaO_[lane] = bounds.cosThetaO;
   sinThetaO_[lane] = std::sqrt(std::max(0.0f, 1 - bounds.cosThetaO * bounds.cosThetaO));
   cosThetaE_[lane] = bounds.cosThetaE;
+  omnidirectional_ = true;
+  for (int k = 0; k < kLanes; ++k)
+    omnidirectional_ = omnidirectional_ && (!(power_[k] > 0) || cosThetaO_[k] <= -1);
 }
 
 std::array<float, LightClusters::kLanes> LightClusters::importance(const Receiver& receiver) const {
@@ -98,15 +101,19 @@ std::array<float, LightClusters::kLanes> LightClusters::importance(const Receive
              broadcast(-1));
   const Float4 sinThetaB = sineOf(cosThetaB);
   // The smallest angle between an emission axis and a direction to the receiver. Lights that
-  // emit every way (thetaO = π) face the receiver whatever the direction.
-  const Float4 cosThetaO = load(cosThetaO_), sinThetaO = load(sinThetaO_);
-  const Float4 cosThetaW =
-      load(axisX_) * fromLightsX + load(axisY_) * fromLightsY + load(axisZ_) * fromLightsZ;
-  const Float4 sinThetaW = sineOf(cosThetaW);
-  const Float4 cosX = cosOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
-  const Float4 sinX = sinOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
-  const Float4 cosEmission = select(
-      cosThetaO > -1.0f, cosOfClampedDifference(cosX, sinX, cosThetaB, sinThetaB), broadcast(1));
+  // emit every way (thetaO = π) face the receiver whatever the direction; when every lane holds
+  // such lights or none (its importance 0 whatever this is), the angles are not computed.
+  Float4 cosEmission = broadcast(1);
+  if (!omnidirectional_) {
+    const Float4 cosThetaO = load(cosThetaO_), sinThetaO = load(sinThetaO_);
+    const Float4 cosThetaW =
+        load(axisX_) * fromLightsX + load(axisY_) * fromLightsY + load(axisZ_) * fromLightsZ;
+    const Float4 sinThetaW = sineOf(cosThetaW);
+    const Float4 cosX = cosOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
+    const Float4 sinX = sinOfClampedDifference(cosThetaW, sinThetaW, cosThetaO, sinThetaO);
+    cosEmission = select(cosThetaO > -1.0f,
+                         cosOfClampedDifference(cosX, sinX, cosThetaB, sinThetaB), broadcast(1));
+  }
   Float4 result = power * cosEmission / distance2;
   if (!isBlack(receiver.normal)) {
     // The smallest incidence angle on the receiving surface (either side).

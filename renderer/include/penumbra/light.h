@@ -133,6 +133,7 @@ class LightClusters {
   alignas(16) float axisX_[kLanes] = {}, axisY_[kLanes] = {}, axisZ_[kLanes] = {1, 1, 1, 1};
   alignas(16) float cosThetaO_[kLanes] = {1, 1, 1, 1}, sinThetaO_[kLanes] = {};
   alignas(16) float cosThetaE_[kLanes] = {};
+  bool omnidirectional_ = true;  // every lane with power emits every way (thetaO = π)
 };
 
 /// A light sample as seen from a shading point.
