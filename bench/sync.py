@@ -13,6 +13,8 @@ Stages are generated into a temporary directory (nothing from ../shared is read)
   edited re-render follows an unchanged one, and its ratio is to that neighbour (medians of
   five).
 * A stage of subdivision surfaces: how many of them are re-diced when the camera moves.
+* N sphere lights (bench/many_lights.py's scene): the time from ``Usd.Stage.Open`` to the first
+  sample, as for meshes; every light is read input by input through UsdLux.
 
 The machine may be shared: the CPU column (this process's threads) is steadier than wall time.
 Targets (docs/architecture.md): 10,000 meshes < 1 s and 100,000 < 10 s to the first sample;
@@ -32,6 +34,7 @@ from pathlib import Path
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 import penumbra
+from many_lights import write_stage as write_light_stage
 from provenance import print_provenance
 
 MATERIALS = 8
@@ -107,7 +110,7 @@ def render(renderer: penumbra.Renderer, width: int = WIDTH) -> float:
 
 def first_sample(path: Path, count: int) -> tuple[float, float, float, penumbra.Renderer, Usd.Stage]:
     """Wall seconds and CPU seconds (all threads) from Stage.Open to the first sample, bytes
-    of resident memory added per mesh, the renderer and the stage."""
+    of resident memory added per prim, the renderer and the stage."""
     gc.collect()
     before = resident_mb()
     started, cpu = time.perf_counter(), time.process_time()
@@ -169,6 +172,7 @@ def main() -> None:
     parser.add_argument("--edit-count", type=int, default=10_000)
     parser.add_argument("--edit-widths", type=int, nargs="+", default=list(EDIT_WIDTHS))
     parser.add_argument("--subdivided", type=int, default=200)
+    parser.add_argument("--light-counts", type=int, nargs="*", default=[1_000, 10_000])
     args = parser.parse_args()
     print_provenance()
     with tempfile.TemporaryDirectory() as directory:
@@ -198,6 +202,14 @@ def main() -> None:
         write_mesh_stage(path, args.subdivided, subdivided=True)
         total, rediced = camera_move_redice(path)
         print(f"\ncamera move: {rediced} of {total} subdivision surfaces re-diced", flush=True)
+        if args.light_counts:
+            print("\n| sphere lights | Stage.Open to first sample (s) | CPU (s, all threads) |")
+            print("|---|---|---|")
+        for count in args.light_counts:
+            path = write_light_stage(Path(directory) / f"lights_{count}.usda", count)
+            seconds, cpu, _, renderer, _ = first_sample(path, count)
+            renderer.close()
+            print(f"| {count:,} | {seconds:.2f} | {cpu:.2f} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -145,6 +145,19 @@ def test_a_shadow_link_lets_its_light_through_the_excluded_blocker_only():
     np.testing.assert_array_equal(linked[quad], reference[quad])
 
 
+def test_a_light_link_with_only_include_root_false_authored_lights_nothing():
+    # The only opinion is includeRoot: the collection must still be evaluated (the fallback,
+    # nothing authored, is what is known to include everything without a query).
+    stage = linking_stage()
+    link = UsdLux.LightAPI(stage.GetPrimAtPath("/key")).GetLightLinkCollectionAPI()
+    link.CreateIncludeRootAttr(False)
+    linked = render(stage)
+    side_only = render(without(linking_stage(), "/key"))
+    reference = render(linking_stage())
+    assert linked[..., :3].mean() == pytest.approx(side_only[..., :3].mean(), rel=0.02)
+    assert reference[..., :3].mean() > 1.2 * side_only[..., :3].mean()
+
+
 def test_a_membership_expression_links_as_the_equivalent_excludes():
     by_excludes = linking_stage()
     exclude(by_excludes, "/key", "lightLink", ["/World/target"])

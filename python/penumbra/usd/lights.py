@@ -14,7 +14,7 @@ from pxr import Usd, UsdLux
 
 from .. import _core
 from .sampling import SampleReader
-from .values import as_asset_path, is_color_value, is_number_value
+from .values import as_asset_path, as_floats, is_color_value, is_number_value
 
 
 def _inputs(origin: str, sprim_type: str | None = None) -> tuple[str, ...]:
@@ -87,7 +87,7 @@ def sync_mesh_light(
     light_api = UsdLux.LightAPI(prim)
     params = {name: reader.get(_getter(light_api, name)) for name in _COMMON_INPUTS}
     _skip_wrong_kinds(prim, prim_id, params, warn)
-    params["color"] = tuple(float(c) for c in params["color"])
+    params["color"] = as_floats(params["color"])
     core.set_mesh_light(prim_id, True, **params)
 
 
@@ -104,11 +104,19 @@ def is_light(prim: Usd.Prim) -> bool:
     return prim.HasAPI(UsdLux.LightAPI)
 
 
+def _accessor(name: str) -> str:
+    """The name of the schema's accessor of input ``name`` (``shaping:cone:angle`` →
+    ``GetShapingConeAngleAttr``)."""
+    return "Get" + "".join(part[0].upper() + part[1:] for part in name.split(":")) + "Attr"
+
+
+# Made once: every light reads about ten inputs.
+_ACCESSORS = {light_input.name: _accessor(light_input.name) for light_input in _core.light_inputs()}
+
+
 def _getter(schema, name: str) -> Usd.Attribute:
-    """The attribute of input ``name`` through the schema's ``Get<Name>Attr`` accessor
-    (``shaping:cone:angle`` → ``GetShapingConeAngleAttr``)."""
-    accessor = "".join(part[0].upper() + part[1:] for part in name.split(":"))
-    return getattr(schema, f"Get{accessor}Attr")()
+    """The attribute of input ``name`` through the schema's ``Get<Name>Attr`` accessor."""
+    return getattr(schema, _ACCESSORS[name])()
 
 
 def sync_light(
@@ -137,7 +145,7 @@ def sync_light(
     _skip_wrong_kinds(prim, path, params, warn)
     for name in _COLOR_INPUTS:
         if name in params:
-            params[name] = tuple(float(c) for c in params[name])
+            params[name] = as_floats(params[name])
     problem = _emission_problem(params)
     if problem:
         warn(f"{path}: {problem}; the light is skipped (intensity 0)")

@@ -12,6 +12,7 @@ from .color_spaces import texture_color_space
 from .material_data import CONNECTABLE, INPUTS, PREVIEW_SURFACE_INPUTS, MaterialData, texture_file
 from .materialx import read_materialx_material, surface_shader
 from .sampling import SampleReader
+from .values import as_floats
 
 PREVIEW_SURFACE = "UsdPreviewSurface"
 
@@ -55,7 +56,7 @@ def _to_python(value: Any) -> Any:
     """A constant value as the delegate takes it: 3-tuples of floats for colours, else
     float/int."""
     if isinstance(value, (Gf.Vec3f, Gf.Vec3d, Gf.Vec3h, tuple, list)):
-        return tuple(float(c) for c in value)
+        return as_floats(value)
     if isinstance(value, bool):
         return int(value)
     if isinstance(value, int):
