@@ -82,8 +82,9 @@ struct Solid {
     Ray ray;
     // Above the largest solid (radius 50), near enough that the hit point's rounding (an ulp
     // of the distance: 8e-6 from y = 100) stays below the walk's spawn offset (2e-5 at y = 1).
-    // From y = 1000 it is 6e-5, and where it falls depends on Embree's kernels: AVX2's put
-    // the cube's top point above its face (the walk re-enters it: absorbed), AVX-512's on it.
+    // From y = 1000 it is 6e-5, and where it falls depends on Embree's kernels for the CPU: on
+    // an AMD EPYC (AVX2) the cube's top point lay above its face (each walk re-entered it and
+    // was absorbed), on the Intel Xeons on it.
     ray.origin = {0, 100, 0};
     ray.direction = {0, -1, 0};
     top = *intersectSurface(scene, ray, RayKind::Camera);

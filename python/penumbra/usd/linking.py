@@ -113,7 +113,8 @@ class Linking:
         everything (or cannot be read: then with one warning naming it)."""
         name = f"collection:{collection.GetName()}"
         # The schema's fallback (includeRoot true, nothing authored) includes everything: known
-        # without a query, which costs some 40 µs a collection, or 80 ms for 1,000 lights.
+        # without the query and its checks, at half their cost (75 against 150 ms for the two
+        # collections of 1,000 lights).
         if not light.GetAuthoredPropertiesInNamespace(name) and \
                 collection.GetIncludeRootAttr().Get():
             return None
