@@ -74,23 +74,40 @@ TEST(Sampler, MeanIsUnbiased) {
   EXPECT_NEAR(sum / n, 0.5, 1e-3);
 }
 
+namespace {
+
+/// The construction the header documents, written out: the bits of number `k` (0 to 3) of
+/// dimension `dimension`'s point for sample `sample` of pixel (x, y) under `seed`.
+uint32_t referenceBits(uint32_t seed, uint32_t x, uint32_t y, uint32_t sample, uint32_t dimension,
+                       uint32_t k) {
+  const uint32_t dimensionSeed =
+      hashCombine(hashCombine(hashCombine(hashUint32(seed), x), y), dimension);
+  const uint32_t index = owenScramble(sample, dimensionSeed);
+  uint32_t (*const sobol[4])(uint32_t) = {sobolDimension0, sobolDimension1, sobolDimension2,
+                                          sobolDimension3};
+  return owenScramble(sobol[k](index), hashCombine(dimensionSeed, k + 1));
+}
+
+/// Those bits as the number drawn: a fraction of 2^32, clamped below 1.
+float referenceUnit(uint32_t bits) {
+  return std::min(float(bits) * 0x1p-32f, 0x1.fffffep-1f);
+}
+
+}  // namespace
+
 // The stream is the construction the header documents; the implementation's shortcuts (points
 // produced bit-reversed, byte tables) must not change a single value.
 TEST(Sampler, MatchesTheReferenceConstruction) {
   for (uint32_t sample : {0u, 1u, 7u, 1000u, 65535u, 4000000000u}) {
     SampleStream stream(42, 3, 9, sample);
-    const uint32_t pixelSeed = hashCombine(hashCombine(hashUint32(42), 3), 9);
     for (uint32_t dimension = 0; dimension < 8; ++dimension) {
-      const uint32_t seed = hashCombine(pixelSeed, dimension);
-      const uint32_t index = owenScramble(sample, seed);
-      const uint32_t x = owenScramble(sobolDimension0(index), hashCombine(seed, 1));
-      const uint32_t y = owenScramble(sobolDimension1(index), hashCombine(seed, 2));
+      const float x = referenceUnit(referenceBits(42, 3, 9, sample, dimension, 0));
       if (dimension % 2 == 0) {
         const Vec2f p = stream.next2D();
-        EXPECT_EQ(p.x, std::min(float(x) * 0x1p-32f, 0x1.fffffep-1f));
-        EXPECT_EQ(p.y, std::min(float(y) * 0x1p-32f, 0x1.fffffep-1f));
+        EXPECT_EQ(p.x, x);
+        EXPECT_EQ(p.y, referenceUnit(referenceBits(42, 3, 9, sample, dimension, 1)));
       } else {
-        EXPECT_EQ(stream.next1D(), std::min(float(x) * 0x1p-32f, 0x1.fffffep-1f));
+        EXPECT_EQ(stream.next1D(), x);
       }
     }
   }
@@ -100,8 +117,7 @@ TEST(Sampler, MatchesTheReferenceConstruction) {
 // included): over many streams and dimensions, and at the largest fractions, which round up to
 // 1 as floats and must be clamped below it.
 TEST(Sampler, FourDimensionalDrawsMatchTheReferenceConstruction) {
-  const auto unit = [](uint32_t bits) { return std::min(float(bits) * 0x1p-32f, 0x1.fffffep-1f); };
-  EXPECT_EQ(unit(0xffffffffu), 0x1.fffffep-1f);
+  EXPECT_EQ(referenceUnit(0xffffffffu), 0x1.fffffep-1f);
   // Samples of pixel (1, 2), seed 7, whose dimension-0 draw has a fraction ≥ 0xffffff80 in
   // component 3, 1, 4 and 2 (found by search): the draws that round up to 1.
   const uint32_t roundingUp[4] = {5618006, 15105636, 19695468, 20900654};
@@ -114,20 +130,13 @@ TEST(Sampler, FourDimensionalDrawsMatchTheReferenceConstruction) {
                             : stream < 2000 ? stream
                                             : hashUint32(stream + 17);
     const SampleStream drawn(seed, x, y, sample);
-    const uint32_t pixelSeed = hashCombine(hashCombine(hashUint32(seed), x), y);
     for (uint32_t dimension = 0; dimension < 24; ++dimension) {
-      const uint32_t dimensionSeed = hashCombine(pixelSeed, dimension);
-      const uint32_t index = owenScramble(sample, dimensionSeed);
-      const uint32_t bits[4] = {
-          owenScramble(sobolDimension0(index), hashCombine(dimensionSeed, 1)),
-          owenScramble(sobolDimension1(index), hashCombine(dimensionSeed, 2)),
-          owenScramble(sobolDimension2(index), hashCombine(dimensionSeed, 3)),
-          owenScramble(sobolDimension3(index), hashCombine(dimensionSeed, 4))};
       const Sample4D p = drawn.draw4D(dimension);
       const float values[4] = {p.x, p.y, p.z, p.w};
-      for (int k = 0; k < 4; ++k) {
-        ASSERT_EQ(values[k], unit(bits[k])) << stream << " " << dimension << " " << k;
-        clamped += bits[k] >= 0xffffff80u;
+      for (uint32_t k = 0; k < 4; ++k) {
+        const uint32_t bits = referenceBits(seed, x, y, sample, dimension, k);
+        ASSERT_EQ(values[k], referenceUnit(bits)) << stream << " " << dimension << " " << k;
+        clamped += bits >= 0xffffff80u;
         ++checked;
       }
     }
