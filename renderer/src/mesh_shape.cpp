@@ -70,6 +70,7 @@ SurfaceGeometry MeshShape::surfaceAt(uint32_t triangle, float u, float v, float 
   surface.normal =
       normalize(normalToWorld.apply(cross(corners[1] - corners[0], corners[2] - corners[0])));
   surface.shadingNormal = surface.normal;
+  surface.objectPosition = corners[0] * (1 - u - v) + corners[1] * u + corners[2] * v;
   if (!mesh_.normals.empty()) {
     const Vec3f interpolated = normalToWorld.apply(
         mesh_.interpolate(mesh_.normals, mesh_.normalsInterpolation, triangle, u, v));

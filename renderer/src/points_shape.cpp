@@ -82,6 +82,9 @@ SurfaceGeometry PointsShape::surfaceAt(uint32_t point, float u, float v, float t
   surface.normal = normalize(objectToWorld.applyToNormal(geometricNormal));
   surface.shadingNormal = surface.normal;
   surface.closed = points_.normals.empty();
+  if (surface.closed && length(geometricNormal) > 0)
+    surface.objectPosition =
+        surface.point.corners[0] + normalize(geometricNormal) * (points_.widths[point] / 2);
   return surface;
 }
 

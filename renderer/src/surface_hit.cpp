@@ -29,6 +29,7 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
   SurfaceGeometry surface = found.shape->surfaceAt(found.primitive, found.u, found.v, ray.time,
                                                    found.geometricNormal, objectToWorld);
   SurfacePoint& point = surface.point;
+  if (surface.objectPosition) hit.position = objectToWorld.applyToPoint(*surface.objectPosition);
   hit.normal = surface.normal;
   hit.shadingNormal = surface.shadingNormal;
   hit.closed = surface.closed;

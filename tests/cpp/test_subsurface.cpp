@@ -80,12 +80,11 @@ struct Solid {
     scene.geometry().setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
     scene.commit();
     Ray ray;
-    // Above the largest solid (radius 50), near enough that the hit point's rounding (an ulp
-    // of the distance: 8e-6 from y = 100) stays below the walk's spawn offset (2e-5 at y = 1).
-    // From y = 1000 it is 6e-5, and where it falls depends on Embree's kernels for the CPU: on
-    // an AMD EPYC (AVX2) the cube's top point lay above its face (each walk re-entered it and
-    // was absorbed), on the Intel Xeons on it.
-    ray.origin = {0, 100, 0};
+    // Above the largest solid (radius 50), and far: the entry point is rebuilt from the top
+    // face's corners, so it lies on the face whatever the distance (as origin + distance ·
+    // direction from y = 1000 it lay 6e-5 above it on an AMD EPYC, more than the walk's spawn
+    // offset of 2e-5, and every walk re-entered the face).
+    ray.origin = {0, 1000, 0};
     ray.direction = {0, -1, 0};
     top = *intersectSurface(scene, ray, RayKind::Camera);
   }

@@ -10,7 +10,7 @@ import pytest
 from pxr import Gf, UsdLux
 
 import penumbra
-from stages import add_camera, add_quad, new_stage
+from stages import add_camera, add_distant_light, add_quad, new_stage
 
 ALBEDO = 0.5
 
@@ -74,6 +74,31 @@ def test_light_exposure_and_normalize():
     light.CreateNormalizeAttr(True)
     area = 4 * math.pi * 0.5**2
     assert mean_radiance(stage) == pytest.approx(4 * base / area, rel=0.01)
+
+
+@pytest.mark.parametrize("distance", [0.5, 1e4], ids=["near", "from 10^4 units"])
+def test_a_sunlit_plane_seen_from_afar(distance: float):
+    """A telephoto camera 10^4 units away sees the same radiance as one 0.5 away: the hit points
+    of its rays lie on the plane, not up to 10^-3 either side of it (before, shadow rays started
+    below the plane at a third of the pixels: 0.31 instead of 0.48)."""
+    stage = new_stage()
+    add_quad(stage, "/World/plane", half_size=20.0, color=(ALBEDO,) * 3, facing="y")
+    # Looking down at 50° onto the origin, with the same ±0.01-unit footprint from either
+    # distance; the clipping range reaches the plane. Straight down, Embree's distances to an
+    # axis-aligned plane come out exact and would show nothing.
+    elevation = math.radians(50.0)
+    camera = add_camera(
+        stage,
+        translate=(0, distance * math.sin(elevation), distance * math.cos(elevation)),
+        rotate_x=-math.degrees(elevation),
+        focal_length=50.0 * distance / 0.5,
+        aperture=(2.0, 2.0),
+    )
+    camera.CreateClippingRangeAttr(Gf.Vec2f(0.01, 2 * distance))
+    irradiance = 3.0
+    sun = add_distant_light(stage, intensity=irradiance)
+    sun.AddRotateXOp().Set(-90.0)  # shines along −Y, onto the plane
+    assert mean_radiance(stage) == pytest.approx(ALBEDO / math.pi * irradiance, rel=0.01)
 
 
 @pytest.mark.parametrize("moving", [False, True], ids=["still", "moving camera"])

@@ -8,6 +8,7 @@
 #include <embree3/rtcore.h>
 
 #include <cstdint>
+#include <optional>
 
 #include "penumbra/math.h"
 #include "penumbra/mesh.h"
@@ -25,6 +26,13 @@ struct SurfaceGeometry {
   /// For fibres (curves): the unit direction of the curve there, in world space, which fibre
   /// BSDFs need; zero for surfaces.
   Vec3f fibreDirection{0.0f};
+  /// The point in object space, rebuilt from the primitive where the kind can (a triangle's
+  /// corners weighed by the barycentrics, a sphere's centre and radius), so that its rounding
+  /// follows the point's coordinates and not the ray's length: a ray from far away would
+  /// otherwise place it on either side of the surface by more than the spawn offset (shadow
+  /// acne under a telephoto camera). Unset where the kind cannot (curves, discs): the hit is
+  /// then the ray's origin plus its distance along it.
+  std::optional<Vec3f> objectPosition;
 };
 
 /// The geometry of one object, in object space, immutable once built.
