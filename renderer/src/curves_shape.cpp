@@ -318,6 +318,16 @@ SurfaceGeometry CurvesShape::surfaceAt(uint32_t segment, float u, float v, float
   surface.shadingNormal = surface.normal;
   surface.closed = curves_.normals.empty();
   surface.fibreDirection = normalize(objectToWorld.applyToVector(bezierDerivative(controls, u)));
+  if (surface.closed && length(geometricNormal) > 0) {
+    // On a tube Embree's Ng points from the centre line at u to the hit.
+    float widths[4];
+    bezierControls(
+        segmentAt(segment), curves_.widthsInterpolation,
+        [&](uint32_t i) { return curves_.widths[i]; }, widths);
+    for (float& width : widths) width = std::max(width, 0.0f);  // as Embree was given them
+    surface.objectPosition =
+        surface.point.corners[0] + normalize(geometricNormal) * (evaluateBezier(widths, u) / 2);
+  }
   return surface;
 }
 

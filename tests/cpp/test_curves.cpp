@@ -192,6 +192,45 @@ TEST(Curves, RayFromInsideATubeMeetsItsWallFacingOut) {
   }
 }
 
+// A hit's point lies on the tube to within the rounding of its own coordinates, however far
+// the ray came from (rebuilt from the centre line and the radius at the hit's u, not as origin
+// + distance · direction, which from 10^4 units was off by up to 10^-3, and shadow rays started
+// inside the fibre). On a tapered tube the surface is the spheres' envelope, 1/cos of the
+// cone's angle above the radius at the point's own x.
+TEST(Curves, HitPointsLieOnTheTubeHoweverFarTheRayCameFrom) {
+  for (const CurveType type : {CurveType::Linear, CurveType::Cubic}) {
+    for (const bool tapered : {false, true}) {
+      SCOPED_TRACE(std::string(type == CurveType::Linear ? "linear" : "cubic") +
+                   (tapered ? ", tapered" : ""));
+      CurvesData curves =
+          type == CurveType::Linear
+              ? oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, {{-2, 0, 0}, {2, 0, 0}},
+                         0.1f)
+              : oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 0.1f);
+      // Varying widths 0.1 → 0.3: radius 0.1 + 0.025 x along the axis.
+      const float slope = tapered ? 0.025f : 0;
+      auto radiusAt = [&](float x) { return tapered ? 0.1f + slope * x : 0.05f; };
+      if (tapered) {
+        curves.widths = {0.1f, 0.3f};
+        curves.widthsInterpolation = Interpolation::Varying;
+      }
+      CurvesScene s(std::move(curves));
+      const float secant = 1 / std::sqrt(1 - slope * slope);
+      for (int i = 0; i < 9; ++i)
+        for (const float across : {-0.7f, 0.0f, 0.4f}) {
+          const float x = float(i) / 4 - 1;
+          const Vec3f target{x, 0, across * radiusAt(x)};
+          const Vec3f origin = target + Vec3f{3000.0f * x + 500, 9000, 2000.0f * across - 1300};
+          const std::optional<SurfaceHit> hit = s.surface(rayFrom(origin, target - origin));
+          ASSERT_TRUE(hit) << x << ", " << across;
+          const Vec3f& p = hit->position;
+          const float fromSurface = std::sqrt(p.y * p.y + p.z * p.z) - radiusAt(p.x) * secant;
+          EXPECT_LT(std::abs(fromSurface), 0.05f * s.scene.rayEpsilon(p)) << x << ", " << across;
+        }
+    }
+  }
+}
+
 TEST(Curves, NoCurvesRenderNothing) {
   CurvesScene s{CurvesData{}};
   EXPECT_FALSE(s.hits(downAt(0, 0)));

@@ -27,11 +27,11 @@ struct SurfaceGeometry {
   /// BSDFs need; zero for surfaces.
   Vec3f fibreDirection{0.0f};
   /// The point in object space, rebuilt from the primitive where the kind can (a triangle's
-  /// corners weighed by the barycentrics, a sphere's centre and radius), so that its rounding
-  /// follows the point's coordinates and not the ray's length: a ray from far away would
-  /// otherwise place it on either side of the surface by more than the spawn offset (shadow
-  /// acne under a telephoto camera). Unset where the kind cannot (curves, discs): the hit is
-  /// then the ray's origin plus its distance along it.
+  /// corners weighed by the barycentrics; a sphere's or a tube's centre and radius along Ng),
+  /// so that its rounding follows the point's coordinates and not the ray's length: a ray from
+  /// far away would otherwise place it on either side of the surface by more than the spawn
+  /// offset (shadow acne under a telephoto camera). Unset where the kind cannot (discs,
+  /// ribbons): the hit is then the ray's origin plus its distance along it.
   std::optional<Vec3f> objectPosition;
 };
 
