@@ -157,6 +157,13 @@ void CurvesShape::positionControls(const Segment& segment, float time, Vec3f con
       controls);
 }
 
+void CurvesShape::radiusControls(const Segment& segment, float controls[4]) const {
+  bezierControls(
+      segment, curves_.widthsInterpolation, [&](uint32_t i) { return curves_.widths[i]; },
+      controls);
+  for (int i = 0; i < 4; ++i) controls[i] = std::max(controls[i] / 2, 0.0f);
+}
+
 RTCGeometry CurvesShape::newEmbreeGeometry(RTCDevice device) const {
   if (segmentCurve_.empty()) return nullptr;
   return roundLinear() ? newRoundLinearGeometry(device) : newBezierGeometry(device);
@@ -270,15 +277,12 @@ RTCGeometry CurvesShape::newBezierGeometry(RTCDevice device) const {
       Vec3f centre[4];
       bezierControls(
           segment, Interpolation::Vertex, [&](uint32_t i) { return positions[i]; }, centre);
-      float widths[4];
-      bezierControls(
-          segment, curves_.widthsInterpolation, [&](uint32_t i) { return curves_.widths[i]; },
-          widths);
+      float radii[4];
+      radiusControls(segment, radii);
       float* out = vertices + 16 * size_t(primitive);
       for (int i = 0; i < 4; ++i) {
         out[4 * i] = centre[i].x, out[4 * i + 1] = centre[i].y, out[4 * i + 2] = centre[i].z;
-        // Embree wants radii >= 0 along the curve: Catmull-Rom's overshoot may reach below.
-        out[4 * i + 3] = std::max(widths[i] / 2, 0.0f);
+        out[4 * i + 3] = radii[i];
       }
       if (ribbons)
         bezierControls(
@@ -320,13 +324,10 @@ SurfaceGeometry CurvesShape::surfaceAt(uint32_t segment, float u, float v, float
   surface.fibreDirection = normalize(objectToWorld.applyToVector(bezierDerivative(controls, u)));
   if (surface.closed && length(geometricNormal) > 0) {
     // On a tube Embree's Ng points from the centre line at u to the hit.
-    float widths[4];
-    bezierControls(
-        segmentAt(segment), curves_.widthsInterpolation,
-        [&](uint32_t i) { return curves_.widths[i]; }, widths);
-    for (float& width : widths) width = std::max(width, 0.0f);  // as Embree was given them
+    float radii[4];
+    radiusControls(segmentAt(segment), radii);
     surface.objectPosition =
-        surface.point.corners[0] + normalize(geometricNormal) * (evaluateBezier(widths, u) / 2);
+        surface.point.corners[0] + normalize(geometricNormal) * evaluateBezier(radii, u);
   }
   return surface;
 }

@@ -64,6 +64,9 @@ class CurvesShape final : public Shape {
                       T controls[4]) const;
   /// The centre line's Bézier control points over `segment` at normalised shutter time `time`.
   void positionControls(const Segment& segment, float time, Vec3f controls[4]) const;
+  /// The tube's radius Bézier controls over `segment`, as Embree is given them: half the
+  /// widths' controls, at least 0 (Catmull-Rom's overshoot may reach below).
+  void radiusControls(const Segment& segment, float controls[4]) const;
   /// Primvar `primvar` at (segment, u): writes its width of floats.
   void primvarValue(const Primvar& primvar, const Segment& segment, float u, float* out) const;
   bool roundLinear() const { return !rules_.cubic && curves_.normals.empty(); }
