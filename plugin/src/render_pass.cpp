@@ -225,14 +225,18 @@ float RenderPass::constantDomeShare(const penumbra::Camera& camera,
   return constantDomeShareUsed();
 }
 
+int RenderPass::firstSurfaceCountUsed(int setting, int BranchingPilot::Choice::* count) const {
+  return setting > 0 ? setting : firstSurfaceSamples_ ? (*firstSurfaceSamples_).*count : 1;
+}
+
 int RenderPass::indirectSamplesUsed() const {
-  const int setting = delegate_.settings().indirectSamples;
-  return setting > 0 ? setting : firstSurfaceSamples_ ? firstSurfaceSamples_->indirectSamples : 1;
+  return firstSurfaceCountUsed(delegate_.settings().indirectSamples,
+                               &BranchingPilot::Choice::indirectSamples);
 }
 
 int RenderPass::lightSamplesUsed() const {
-  const int setting = delegate_.settings().lightSamples;
-  return setting > 0 ? setting : firstSurfaceSamples_ ? firstSurfaceSamples_->lightSamples : 1;
+  return firstSurfaceCountUsed(delegate_.settings().lightSamples,
+                               &BranchingPilot::Choice::lightSamples);
 }
 
 BranchingPilot::Choice RenderPass::firstSurfaceSamples(

@@ -45,22 +45,25 @@ BranchingPilot::Choice BranchingPilot::choose(Choice choice) const {
   const auto product = [&](int branches, int estimates) {
     return (variance(branches, estimates) + floor) * cost(branches, estimates);
   };
+  const auto forEachCount = [&](auto&& visit) {
+    for (int branches = fewestBranches; branches <= mostBranches; ++branches)
+      for (int estimates = fewestEstimates; estimates <= mostEstimates; ++estimates)
+        visit(branches, estimates);
+  };
   double least = product(fewestBranches, fewestEstimates);
-  for (int branches = fewestBranches; branches <= mostBranches; ++branches)
-    for (int estimates = fewestEstimates; estimates <= mostEstimates; ++estimates)
-      least = std::min(least, product(branches, estimates));
+  forEachCount(
+      [&](int branches, int estimates) { least = std::min(least, product(branches, estimates)); });
   // The cheapest within the tolerance; of equally cheap ones, the fewest counts.
   std::optional<Choice> chosen;
-  for (int branches = fewestBranches; branches <= mostBranches; ++branches)
-    for (int estimates = fewestEstimates; estimates <= mostEstimates; ++estimates) {
-      if (product(branches, estimates) > least * (1 + kTolerance)) continue;
-      const double price = cost(branches, estimates);
-      const double chosenPrice = chosen ? cost(chosen->indirectSamples, chosen->lightSamples) : 0;
-      if (!chosen || price < chosenPrice ||
-          (price == chosenPrice &&
-           branches + estimates < chosen->indirectSamples + chosen->lightSamples))
-        chosen = Choice{branches, estimates};
-    }
+  forEachCount([&](int branches, int estimates) {
+    if (product(branches, estimates) > least * (1 + kTolerance)) return;
+    const double price = cost(branches, estimates);
+    const double chosenPrice = chosen ? cost(chosen->indirectSamples, chosen->lightSamples) : 0;
+    if (!chosen || price < chosenPrice ||
+        (price == chosenPrice &&
+         branches + estimates < chosen->indirectSamples + chosen->lightSamples))
+      chosen = Choice{branches, estimates};
+  });
   return *chosen;
 }
 

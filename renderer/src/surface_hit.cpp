@@ -55,9 +55,9 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
       point.shadingNormal = hit.shadingNormal;
       footprintOnSurface(ray.direction, hit.normal, cone.radiusAt(hit.distance), &point.dpdx,
                          &point.dpdy);
-      hit.ownMaterial() =
-          evaluateMaterial(*material, materials.textures(), point, &hit.shadingNormal);
-      applyOpacityThreshold(hit.ownMaterial());  // the table's constants have it applied
+      // The table's constants have the opacity threshold applied; evaluated ones need it.
+      applyOpacityThreshold(hit.setMaterial(
+          evaluateMaterial(*material, materials.textures(), point, &hit.shadingNormal)));
     }
     // A fibre's tangent is its direction (its corners, all one point, span no surface).
     if (anisotropic)
@@ -65,7 +65,7 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
                                                        : surfaceTangent(point, objectToWorld);
     if (hit.material().thinWalled) hit.closed = !*hit.material().thinWalled;
   } else {
-    MaterialParams& fallback = hit.ownMaterial() = fallbackSurface();
+    MaterialParams& fallback = hit.setMaterial(fallbackSurface());
     float value[4];
     int width = 0;
     // Built once: looked up on every hit of a mesh without a material.

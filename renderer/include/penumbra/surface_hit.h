@@ -4,6 +4,7 @@
 #pragma once
 
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "penumbra/camera.h"
@@ -15,7 +16,7 @@ namespace penumbra {
 
 /// A ray's first intersection with a surface, shaded.
 struct SurfaceHit {
-  /// With parameters of its own, MaterialParams' defaults until set (ownMaterial()).
+  /// With parameters of its own, MaterialParams' defaults until set (setMaterial()).
   SurfaceHit() : evaluated_(std::in_place) {}
   /// With a material that does not vary: its parameters are read where they lie, in the scene's
   /// material table (`constants` must outlive the hit), not copied (some 300 bytes, at every hit).
@@ -24,10 +25,10 @@ struct SurfaceHit {
   /// The bound material's parameters evaluated here (textures, primvar readers, normal map), or
   /// fallbackSurface() with displayColor and displayOpacity for meshes without one.
   const MaterialParams& material() const { return evaluated_ ? *evaluated_ : *constants_; }
-  /// This hit's own parameters, to change: a copy of the material's constants on first use.
-  MaterialParams& ownMaterial() {
-    if (!evaluated_) evaluated_.emplace(*constants_);
-    return *evaluated_;
+  /// Gives the hit parameters of its own (evaluated here), in place of the material's
+  /// constants; returns them, to adjust.
+  MaterialParams& setMaterial(MaterialParams params) {
+    return evaluated_.emplace(std::move(params));
   }
 
   float distance = 0;

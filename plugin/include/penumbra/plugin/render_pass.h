@@ -150,6 +150,9 @@ class RenderPass {
   /// `renderSettings` (with their dome share), once per render (penumbra/branching.h).
   penumbra::BranchingPilot::Choice firstSurfaceSamples(
       const penumbra::Camera& camera, const penumbra::RenderSettings& renderSettings);
+  /// A first-surface count in use: `setting` where it is set (> 0), else the pilot's choice of
+  /// `count`, 1 before the pilot has run.
+  int firstSurfaceCountUsed(int setting, int penumbra::BranchingPilot::Choice::* count) const;
   /// What a sample of this pass is rendered with (guiding aside): the settings' threads and
   /// integrator, with the dome share, the branches and the light estimates the pilots chose.
   penumbra::RenderSettings pilotedSettings(const penumbra::Camera& camera);
