@@ -85,6 +85,8 @@ SurfaceGeometry PointsShape::surfaceAt(uint32_t point, float u, float v, float t
   if (surface.closed && length(geometricNormal) > 0)
     surface.objectPosition =
         surface.point.corners[0] + normalize(geometricNormal) * (points_.widths[point] / 2);
+  else if (!surface.closed)
+    surface.objectPlanePoint = surface.point.corners[0];  // a disc lies in its centre's plane
   return surface;
 }
 

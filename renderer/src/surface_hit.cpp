@@ -29,7 +29,12 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
   SurfaceGeometry surface = found.shape->surfaceAt(found.primitive, found.u, found.v, ray.time,
                                                    found.geometricNormal, objectToWorld);
   SurfacePoint& point = surface.point;
-  if (surface.objectPosition) hit.position = objectToWorld.applyToPoint(*surface.objectPosition);
+  if (surface.objectPosition) {
+    hit.position = objectToWorld.applyToPoint(*surface.objectPosition);
+  } else if (surface.objectPlanePoint) {
+    const Vec3f onPlane = objectToWorld.applyToPoint(*surface.objectPlanePoint);
+    hit.position = hit.position - surface.normal * dot(hit.position - onPlane, surface.normal);
+  }
   hit.normal = surface.normal;
   hit.shadingNormal = surface.shadingNormal;
   hit.closed = surface.closed;

@@ -231,6 +231,37 @@ TEST(Curves, HitPointsLieOnTheTubeHoweverFarTheRayCameFrom) {
   }
 }
 
+TEST(Curves, HitPointsLieOnTheRibbonHoweverFarTheRayCameFrom) {
+  // Straight ribbons along x, 1 wide, facing a tilted normal: they lie in the plane through the
+  // x axis across that normal. Embree gives the hit's distance along the ray, not its point;
+  // from 10^4 units away that put hits either side of the ribbon by more than the spawn offset
+  // (shadow acne). They are moved onto the plane the ribbon's centre line lies in at u.
+  const Vec3f normal = normalize(Vec3f{0, 1, 0.3f});
+  const Vec3f across = cross(Vec3f{1, 0, 0}, normal);
+  for (const CurveType type : {CurveType::Linear, CurveType::Cubic}) {
+    SCOPED_TRACE(type == CurveType::Linear ? "linear" : "cubic");
+    CurvesData curves =
+        type == CurveType::Linear
+            ? oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, {{-2, 0, 0}, {2, 0, 0}}, 1)
+            : oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 1);
+    curves.normals = {normal};
+    curves.normalsInterpolation = Interpolation::Constant;
+    CurvesScene s(std::move(curves));
+    for (int i = 0; i < 9; ++i)
+      for (const float offset : {-0.4f, 0.0f, 0.3f}) {
+        const float x = float(i) / 4 - 1;
+        const Vec3f target = Vec3f{x, 0, 0} + across * offset;
+        const Vec3f origin = target + Vec3f{3000.0f * x + 500, 9000, 2000.0f * offset - 1300};
+        const std::optional<SurfaceHit> hit = s.surface(rayFrom(origin, target - origin));
+        ASSERT_TRUE(hit) << x << ", " << offset;
+        const Vec3f& p = hit->position;
+        EXPECT_LT(std::abs(dot(p, normal)), 0.05f * s.scene.rayEpsilon(p)) << x << ", " << offset;
+        // Where it was met, to the precision of a distance of 10^4 along the ray (10^-3).
+        EXPECT_NEAR(dot(p, across), offset, 1e-2f) << x << ", " << offset;
+      }
+  }
+}
+
 TEST(Curves, NoCurvesRenderNothing) {
   CurvesScene s{CurvesData{}};
   EXPECT_FALSE(s.hits(downAt(0, 0)));

@@ -215,3 +215,35 @@ TEST(Geometry, HitPointsLieOnASphereHoweverFarTheRayCameFrom) {
   }
   EXPECT_EQ(hits, 81);
 }
+
+TEST(Geometry, HitPointsLieOnADiscHoweverFarTheRayCameFrom) {
+  // A tilted disc: Embree gives no point of it, only its distance along the ray, which from
+  // 10^4 units away put hits up to 10^-3 either side of it (then the shadow rays of a third of
+  // them started behind it). They are moved onto its plane.
+  const Device device;
+  Scene scene(device);
+  PointsData disc;
+  const Vec3f centre{0.3f, 0.6f, -0.2f};
+  const Vec3f normal = normalize(Vec3f{-0.2f, 1, 0.3f});
+  disc.positions = {centre};
+  disc.widths = {2};
+  disc.normals = {normal};
+  const Geometry::MeshId id = scene.geometry().addMesh();
+  scene.geometry().setPointsGeometry(id, std::move(disc));
+  scene.geometry().setMeshInstance(id, Transform(), MaterialTable::kNoMaterial, true);
+  scene.commit();
+
+  const Vec3f across = normalize(cross(normal, Vec3f{0, 0, 1}));
+  const Vec3f along = cross(across, normal);
+  int hits = 0;
+  for (const Ray& ray : raysFromAfar(
+           [&](float x, float z) { return centre + across * (0.65f * x) + along * (0.65f * z); })) {
+    const std::optional<SurfaceHit> hit = intersectSurface(scene, ray, RayKind::Camera);
+    ASSERT_TRUE(hit);
+    ++hits;
+    EXPECT_LT(std::abs(dot(hit->position - centre, normal)),
+              0.05f * scene.rayEpsilon(hit->position));
+    EXPECT_LT(length(hit->position - centre), 0.95f);  // moved onto the plane, not across it
+  }
+  EXPECT_EQ(hits, 81);
+}

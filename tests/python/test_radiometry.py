@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from pxr import Gf, UsdLux
+from pxr import Gf, UsdGeom, UsdLux
 
 import penumbra
 from stages import add_camera, add_distant_light, add_quad, new_stage
@@ -76,16 +76,14 @@ def test_light_exposure_and_normalize():
     assert mean_radiance(stage) == pytest.approx(4 * base / area, rel=0.01)
 
 
-@pytest.mark.parametrize("distance", [0.5, 1e4], ids=["near", "from 10^4 units"])
-def test_a_sunlit_plane_seen_from_afar(distance: float):
-    """A telephoto camera 10^4 units away sees the same radiance as one 0.5 away: the hit points
-    of its rays lie on the plane, not up to 10^-3 either side of it (before, shadow rays started
-    below the plane at a third of the pixels: 0.31 instead of 0.48)."""
-    stage = new_stage()
-    add_quad(stage, "/World/plane", half_size=20.0, color=(ALBEDO,) * 3, facing="y")
-    # Looking down at 50° onto the origin, with the same ±0.01-unit footprint from either
-    # distance; the clipping range reaches the plane. Straight down, Embree's distances to an
-    # axis-aligned plane come out exact and would show nothing.
+SUN_IRRADIANCE = 3.0
+
+
+def add_telephoto_view_under_a_sun(stage, distance: float) -> None:
+    """A camera looking down at 50° onto the origin from ``distance``, with the same ±0.01-unit
+    footprint from any distance (the clipping range reaching the origin), and a sun shining
+    straight down. Straight down, Embree's distances to an axis-aligned plane come out exact and
+    would show nothing."""
     elevation = math.radians(50.0)
     camera = add_camera(
         stage,
@@ -95,10 +93,56 @@ def test_a_sunlit_plane_seen_from_afar(distance: float):
         aperture=(2.0, 2.0),
     )
     camera.CreateClippingRangeAttr(Gf.Vec2f(0.01, 2 * distance))
-    irradiance = 3.0
-    sun = add_distant_light(stage, intensity=irradiance)
-    sun.AddRotateXOp().Set(-90.0)  # shines along −Y, onto the plane
-    assert mean_radiance(stage) == pytest.approx(ALBEDO / math.pi * irradiance, rel=0.01)
+    sun = add_distant_light(stage, intensity=SUN_IRRADIANCE)
+    sun.AddRotateXOp().Set(-90.0)  # shines along −Y
+
+
+@pytest.mark.parametrize("distance", [0.5, 1e4], ids=["near", "from 10^4 units"])
+def test_a_sunlit_plane_seen_from_afar(distance: float):
+    """A telephoto camera 10^4 units away sees the same radiance as one 0.5 away: the hit points
+    of its rays lie on the plane, not up to 10^-3 either side of it (before, shadow rays started
+    below the plane at a third of the pixels: 0.31 instead of 0.48)."""
+    stage = new_stage()
+    add_quad(stage, "/World/plane", half_size=20.0, color=(ALBEDO,) * 3, facing="y")
+    add_telephoto_view_under_a_sun(stage, distance)
+    assert mean_radiance(stage) == pytest.approx(ALBEDO / math.pi * SUN_IRRADIANCE, rel=0.01)
+
+
+def add_facing_up_ribbons(stage) -> None:
+    """80 straight ribbons 0.05 wide side by side along z, facing +Y: a square of y = 0."""
+    ribbons = UsdGeom.BasisCurves.Define(stage, "/World/ribbons")
+    ribbons.CreateTypeAttr(UsdGeom.Tokens.linear)
+    xs = (np.arange(80) - 39.5) * 0.05
+    ribbons.CreatePointsAttr([Gf.Vec3f(float(x), 0, z) for x in xs for z in (-2.0, 2.0)])
+    ribbons.CreateCurveVertexCountsAttr([2] * len(xs))
+    ribbons.CreateWidthsAttr([0.05])
+    ribbons.SetWidthsInterpolation(UsdGeom.Tokens.constant)
+    ribbons.CreateNormalsAttr([Gf.Vec3f(0, 1, 0)])
+    ribbons.SetNormalsInterpolation(UsdGeom.Tokens.constant)
+    ribbons.CreateDisplayColorAttr([Gf.Vec3f(ALBEDO, ALBEDO, ALBEDO)])
+
+
+def add_facing_up_discs(stage) -> None:
+    """A 60 × 60 grid of overlapping discs 0.08 across, 0.05 apart, facing +Y: y = 0 covered."""
+    discs = UsdGeom.Points.Define(stage, "/World/discs")
+    grid = (np.arange(60) - 29.5) * 0.05
+    discs.CreatePointsAttr([Gf.Vec3f(float(x), 0, float(z)) for x in grid for z in grid])
+    discs.CreateWidthsAttr([0.08] * grid.size**2)
+    discs.CreateNormalsAttr([Gf.Vec3f(0, 1, 0)] * grid.size**2)
+    discs.CreateDisplayColorAttr([Gf.Vec3f(ALBEDO, ALBEDO, ALBEDO)])
+
+
+@pytest.mark.parametrize("distance", [0.5, 1e4], ids=["near", "from 10^4 units"])
+@pytest.mark.parametrize("add_surface", [add_facing_up_ribbons, add_facing_up_discs],
+                         ids=["ribbons", "discs"])
+def test_sunlit_ribbons_and_discs_seen_from_afar(add_surface, distance: float):
+    """Ribbons and discs, whose hit points Embree gives only as a distance along the ray, are
+    lit as a plane is from any distance: the point is moved onto the surface's tangent plane
+    (before, from 10^4 units: 0.34 for ribbons, 0.38 for discs, against 0.48)."""
+    stage = new_stage()
+    add_surface(stage)
+    add_telephoto_view_under_a_sun(stage, distance)
+    assert mean_radiance(stage) == pytest.approx(ALBEDO / math.pi * SUN_IRRADIANCE, rel=0.01)
 
 
 @pytest.mark.parametrize("moving", [False, True], ids=["still", "moving camera"])

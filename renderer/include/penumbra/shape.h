@@ -30,9 +30,15 @@ struct SurfaceGeometry {
   /// corners weighed by the barycentrics; a sphere's or a tube's centre and radius along Ng),
   /// so that its rounding follows the point's coordinates and not the ray's length: a ray from
   /// far away would otherwise place it on either side of the surface by more than the spawn
-  /// offset (shadow acne under a telephoto camera). Unset where the kind cannot (discs,
-  /// ribbons): the hit is then the ray's origin plus its distance along it.
+  /// offset (shadow acne under a telephoto camera). Unset where the kind cannot: the hit is
+  /// then the ray's origin plus its distance along it, moved onto objectPlanePoint's plane.
   std::optional<Vec3f> objectPosition;
+  /// Where the kind knows a point of the plane tangent to the surface at the hit but not the
+  /// hit itself (a disc's centre; a ribbon's centre line at u, which lies in the ribbon's
+  /// tangent plane at every v): the ray's point is moved onto that plane along `normal`,
+  /// which removes its error across the surface (the one that causes acne) and keeps the
+  /// small one along it, in object space.
+  std::optional<Vec3f> objectPlanePoint;
 };
 
 /// The geometry of one object, in object space, immutable once built.
