@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <string>
 
 #include "penumbra/embree.h"
 #include "penumbra/motion.h"
@@ -97,6 +98,36 @@ CurvesShape::CurvesShape(CurvesData curves) : curves_(std::move(curves)), rules_
   for (size_t curve = 0; curve < count; ++curve)
     std::fill(segmentCurve_.begin() + curveFirstSegment_[curve],
               segmentCurve_.begin() + curveFirstSegment_[curve + 1], uint32_t(curve));
+  requireRibbonsAcrossTheirNormals();
+}
+
+void CurvesShape::requireRibbonsAcrossTheirNormals() const {
+  if (curves_.normals.empty()) return;
+  for (uint32_t primitive = 0; primitive < segmentCurve_.size(); ++primitive) {
+    const Segment segment = segmentAt(primitive);
+    Vec3f normals[4];
+    normalControls(segment, normals);
+    for (size_t step = 0; step <= curves_.positionMotion.size(); ++step) {
+      const std::vector<Vec3f>& positions =
+          step == 0 ? curves_.positions : curves_.positionMotion[step - 1];
+      Vec3f centre[4];
+      bezierControls(
+          segment, Interpolation::Vertex, [&](uint32_t i) { return positions[i]; }, centre);
+      // A Bézier curve leaves its first control towards the second and reaches its last from
+      // the third; its normal there is the first or last normal control.
+      const Vec3f directions[2] = {centre[1] - centre[0], centre[3] - centre[2]};
+      const Vec3f ends[2] = {normals[0], normals[3]};
+      for (int end = 0; end < 2; ++end) {
+        const float along = length(directions[end]), size = length(ends[end]);
+        if (along > 0 && !(length(cross(ends[end], directions[end])) > 1e-6f * along * size))
+          throw std::invalid_argument(
+              "normals: a ribbon faces along its curve at the " +
+              std::string(end == 0 ? "start" : "end") + " of segment " +
+              std::to_string(segment.index) + " of curve " + std::to_string(segment.curve) +
+              " (its normal is parallel to the curve there), so it has no width direction");
+      }
+    }
+  }
 }
 
 CurvesShape::Segment CurvesShape::segmentAt(uint32_t segment) const {
@@ -162,6 +193,12 @@ void CurvesShape::radiusControls(const Segment& segment, float controls[4]) cons
       segment, curves_.widthsInterpolation, [&](uint32_t i) { return curves_.widths[i]; },
       controls);
   for (int i = 0; i < 4; ++i) controls[i] = std::max(controls[i] / 2, 0.0f);
+}
+
+void CurvesShape::normalControls(const Segment& segment, Vec3f controls[4]) const {
+  bezierControls(
+      segment, curves_.normalsInterpolation, [&](uint32_t i) { return curves_.normals[i]; },
+      controls);
 }
 
 RTCGeometry CurvesShape::newEmbreeGeometry(RTCDevice device) const {
@@ -284,10 +321,7 @@ RTCGeometry CurvesShape::newBezierGeometry(RTCDevice device) const {
         out[4 * i] = centre[i].x, out[4 * i + 1] = centre[i].y, out[4 * i + 2] = centre[i].z;
         out[4 * i + 3] = radii[i];
       }
-      if (ribbons)
-        bezierControls(
-            segment, curves_.normalsInterpolation, [&](uint32_t i) { return curves_.normals[i]; },
-            normals + 4 * size_t(primitive));
+      if (ribbons) normalControls(segment, normals + 4 * size_t(primitive));
     }
   }
   if (!allocated) {

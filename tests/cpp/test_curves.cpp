@@ -467,6 +467,43 @@ TEST(Curves, RibbonsFaceTheirNormalsWithTheirFullWidth) {
   EXPECT_FALSE(t.hits(rayFrom({1.9f, 0.55f, 5}, {0, 0, -1})));
 }
 
+TEST(Curves, RibbonsFacingAlongTheirCurveAreRejectedNamingTheSegment) {
+  // Embree turns a ribbon across normal × direction; a normal along the curve leaves it no
+  // width direction, and the segment would vanish without a word.
+  const auto problemOfShape = [](CurvesData curves) -> std::string {
+    const Device device;
+    Scene scene(device);
+    const Geometry::MeshId id = scene.geometry().addMesh();
+    try {
+      scene.geometry().setCurvesGeometry(id, std::move(curves));
+    } catch (const std::invalid_argument& error) {
+      return error.what();
+    }
+    return {};
+  };
+  CurvesData straight = oneCurve(CurveType::Linear, CurveBasis::Bezier, CurveWrap::Nonperiodic,
+                                 {{-2, 0, 0}, {2, 0, 0}}, 1);
+  straight.normals = {{-3, 0, 0}};
+  straight.normalsInterpolation = Interpolation::Constant;
+  EXPECT_NE(problemOfShape(straight).find("normals: a ribbon faces along its curve at the start "
+                                          "of segment 0 of curve 0"),
+            std::string::npos);
+  straight.normals = {{1, 1e-3f, 0}};  // nearly along it: a width direction all the same
+  EXPECT_EQ(problemOfShape(straight), "");
+  // A cubic ribbon whose normals turn to lie along it by its end.
+  CurvesData turning =
+      oneCurve(CurveType::Cubic, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 1);
+  turning.normals = {{0, 1, 0}, {0, 1, 0}, {1, 0, 0}, {1, 0, 0}};
+  turning.normalsInterpolation = Interpolation::Vertex;
+  EXPECT_NE(problemOfShape(turning).find("at the end of segment 0 of curve 0"), std::string::npos);
+  // Facing up at the shutter's open, standing up along its normal at its close.
+  straight.normals = {{0, 1, 0}};
+  straight.positionMotion = {{{0, -2, 0}, {0, 2, 0}}};
+  EXPECT_NE(problemOfShape(straight).find("segment 0 of curve 0"), std::string::npos);
+  straight.positionMotion = {{{-2, 1, 0}, {2, 1, 0}}};
+  EXPECT_EQ(problemOfShape(straight), "");
+}
+
 TEST(Curves, RibbonWidthsAndNormalsFollowTheirInterpolation) {
   // Two straight cubic ribbons (z = 0 and z = 3), widths varying from 1 to 2 along each, the
   // first facing +y, the second +z (uniform normals).

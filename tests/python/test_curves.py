@@ -354,6 +354,12 @@ def _short_normals(hair):
     hair.CreateNormalsAttr([Gf.Vec3f(0, 0, 1)] * 3)
 
 
+def _normals_along_the_curve(hair):
+    """Ribbons facing along their own curve (the points run along x): no width direction."""
+    hair.CreateNormalsAttr([Gf.Vec3f(1, 0, 0)])
+    hair.SetNormalsInterpolation(UsdGeom.Tokens.constant)
+
+
 def _unknown_basis(hair):
     hair.GetTypeAttr().Set(UsdGeom.Tokens.cubic)  # linear curves have no basis
     hair.GetBasisAttr().Set("hermite")
@@ -367,6 +373,7 @@ def _unknown_basis(hair):
         (_nan_width, "widths"),
         (_too_few_for_cubic, "vert"),
         (_short_normals, "normals"),
+        (_normals_along_the_curve, "normals"),
         (_unknown_basis, "basis"),
     ],
     ids=lambda v: getattr(v, "__name__", v),

@@ -28,7 +28,8 @@ namespace penumbra {
 /// of their arrays and Embree's BVH (measured).
 class CurvesShape final : public Shape {
  public:
-  /// `curves` must be valid (validateCurves).
+  /// `curves` must be valid (validateCurves). Throws std::invalid_argument where a ribbon's
+  /// normal lies along the curve at a segment's end (see requireRibbonsAcrossTheirNormals).
   explicit CurvesShape(CurvesData curves);
 
   RTCGeometry newEmbreeGeometry(RTCDevice device) const override;
@@ -67,6 +68,13 @@ class CurvesShape final : public Shape {
   /// The tube's radius Bézier controls over `segment`, as Embree is given them: half the
   /// widths' controls, at least 0 (Catmull-Rom's overshoot may reach below).
   void radiusControls(const Segment& segment, float controls[4]) const;
+  /// The ribbon's normal Bézier controls over `segment`, as Embree is given them.
+  void normalControls(const Segment& segment, Vec3f controls[4]) const;
+  /// Throws std::invalid_argument naming the curve and segment where a ribbon's normal at one
+  /// of a segment's ends lies along the curve there (at any motion step): Embree turns a ribbon
+  /// across normal × direction, which is then no direction, and the segment would vanish
+  /// without a word. Segments whose direction at an end is zero are left to Embree.
+  void requireRibbonsAcrossTheirNormals() const;
   /// Primvar `primvar` at (segment, u): writes its width of floats.
   void primvarValue(const Primvar& primvar, const Segment& segment, float u, float* out) const;
   bool roundLinear() const { return !rules_.cubic && curves_.normals.empty(); }
