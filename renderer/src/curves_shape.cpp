@@ -124,7 +124,8 @@ void CurvesShape::requireRibbonsAcrossTheirNormals() const {
               "normals: a ribbon faces along its curve at the " +
               std::string(end == 0 ? "start" : "end") + " of segment " +
               std::to_string(segment.index) + " of curve " + std::to_string(segment.curve) +
-              " (its normal is parallel to the curve there), so it has no width direction");
+              " (its normal there is zero or parallel to the curve), so it has no width "
+              "direction");
       }
     }
   }

@@ -223,6 +223,12 @@ bool Geometry::invertible(const Placement& placement) {
     const Transform inverse = step.inverse();
     for (const double value : inverse.m)
       if (!(std::abs(value) <= double(std::numeric_limits<float>::max()))) return false;
+    // The rays Embree carries into the object must stay within its 1.8e18 (it asserts so):
+    // a scale of 1e-18 along one axis took a unit direction there. kMaxInverseScale keeps
+    // directions far inside that, and origins within 1e6 of the object too.
+    for (int row = 0; row < 3; ++row)
+      for (int column = 0; column < 3; ++column)
+        if (!(std::abs(inverse.at(row, column)) <= kMaxInverseScale)) return false;
   }
   return true;
 }

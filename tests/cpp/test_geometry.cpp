@@ -140,9 +140,15 @@ TEST(Geometry, PlacementsScaledFlatAreNotPlaced) {
   geometry.setMeshGeometry(id, redSquare());
   // Scale 0 along Z: the square becomes a segment, and the transform has no inverse.
   const double flat[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+  // Scale 1e-18 along X: an inverse, but one that sends a ray meeting the sliver's bounds
+  // beyond Embree's range (which aborted the process).
+  const double nearlyFlat[16] = {1e-18, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   geometry.setMeshInstance(id, Transform::fromRowMajor(flat), MaterialTable::kNoMaterial, true);
   const Geometry::InstancerId copies = geometry.addInstancer();
-  geometry.setInstances(copies, id, {translation(10, 0, 0), Transform::fromRowMajor(flat)}, true);
+  geometry.setInstances(
+      copies, id,
+      {translation(10, 0, 0), Transform::fromRowMajor(flat), Transform::fromRowMajor(nearlyFlat)},
+      true);
   scene.commit();
 
   // Not placed (Embree would abort on the non-finite rays its inverse gives), and nothing to
@@ -150,6 +156,7 @@ TEST(Geometry, PlacementsScaledFlatAreNotPlaced) {
   EXPECT_FALSE(geometry.beyondReach(id));
   EXPECT_EQ(geometry.copiesBeyondReach(copies), 0u);
   EXPECT_FALSE(geometry.intersect(downAt(0.5f, 0), RayKind::Camera));
+  EXPECT_FALSE(geometry.intersect(downAt(0, 0.5f), RayKind::Camera));  // through the sliver
   // The scene's extent is the other copy's alone.
   EXPECT_FLOAT_EQ(geometry.extent(), 2);
   const std::optional<GeometryHit> hit = geometry.intersect(downAt(10.5f, 0), RayKind::Camera);

@@ -92,6 +92,18 @@ def test_an_object_scaled_flat_renders_as_nothing(
     assert images[0].max() > 0
 
 
+def test_a_scale_too_near_0_to_invert_is_treated_as_0(tmp_path: Path, capsys) -> None:
+    """The quad (flat in z) scaled by 1e-20 along z: single precision cannot carry rays through
+    that inverse (Embree's checks aborted the whole render on the first ray to meet it), so it
+    is not placed, as a scale of 0 is not (docs/design.md), and the render goes on."""
+    case = Case("", 0, "", mesh="float3 xformOp:scale = (1, 1, 1e-20)\n" + SCALE_ONLY, extra=BALL)
+    out = tmp_path / "out.exr"
+    assert main([str(write_case(case, tmp_path)), str(out), *SMALL]) == 0
+    image = np.asarray(_core.read_image(str(out))[0])
+    assert image[..., 3].max() == 1  # the ball
+    assert "Traceback" not in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     "content",
     [b"#usda 1.0\n(\x00\xff{{{ def def", b'#usda 1.0\ndef Xform "a\xac" {}\n'],  # 2nd: fuzzer

@@ -320,9 +320,13 @@ class Geometry {
   bool withinReach(const Placement& placement) const;
   /// Whether every step of the placement's transform has an inverse in single precision. One
   /// that has none (a scale of 0 on some axis: the object is flat, or a point, and shows
-  /// nothing) is not placed, silently: Embree would trace rays with non-finite coordinates
-  /// through it (its debug builds abort on them).
+  /// nothing), or whose inverse scales by more than kMaxInverseScale (a scale below about
+  /// 1e-12 on some axis, as flat to single precision), is not placed, silently: Embree would
+  /// trace rays with coordinates beyond its range through it (and abort on them: Debian's
+  /// build checks).
   static bool invertible(const Placement& placement);
+  /// The largest entry of a placement's inverse linear part that invertible() accepts.
+  static constexpr double kMaxInverseScale = 1e12;
   /// Installs the hit filters the mesh's sidedness and cut-outs call for and commits its BVH
   /// again; Embree then wants the instances placing it committed again (updateAllPlacements),
   /// and the top-level BVH rebuilt.
