@@ -74,6 +74,15 @@ std::vector<Vec3f> straightBezier(float z = 0) {
   return {{-2, 0, z}, {-2.0f / 3, 0, z}, {2.0f / 3, 0, z}, {2, 0, z}};
 }
 
+/// A straight curve of constant width from (-2, 0, 0) to (2, 0, 0): linear, or one cubic Bézier
+/// segment (straightBezier()).
+CurvesData straightCurve(CurveType type, float width) {
+  return oneCurve(
+      type, CurveBasis::Bezier, CurveWrap::Nonperiodic,
+      type == CurveType::Linear ? std::vector<Vec3f>{{-2, 0, 0}, {2, 0, 0}} : straightBezier(),
+      width);
+}
+
 /// Expects a round tube of radius `radius` whose centre line, drawn in the xy-plane, passes
 /// through `centre` along `tangent`: seen along -z it is hit at distance 10 - radius straight on,
 /// within 0.95 radius of the centre line across it, and missed at 1.05 radius.
@@ -177,10 +186,7 @@ TEST(Curves, RoundLinearTubeIsHitAtItsRadiusAndSeamlessAtJoints) {
 TEST(Curves, RayFromInsideATubeMeetsItsWallFacingOut) {
   for (const CurveType type : {CurveType::Linear, CurveType::Cubic}) {
     SCOPED_TRACE(type == CurveType::Linear ? "linear" : "cubic");
-    CurvesScene s(
-        type == CurveType::Linear
-            ? oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, {{-2, 0, 0}, {2, 0, 0}}, 1)
-            : oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 1));
+    CurvesScene s(straightCurve(type, 1));
     for (const Vec3f& direction : {Vec3f(0, 1, 0), Vec3f(0, -0.6f, 0.8f)}) {
       const std::optional<SurfaceHit> hit =
           intersectSurface(s.scene, rayFrom({0.5f, 0, 0}, direction), RayKind::Secondary);
@@ -202,11 +208,7 @@ TEST(Curves, HitPointsLieOnTheTubeHoweverFarTheRayCameFrom) {
     for (const bool tapered : {false, true}) {
       SCOPED_TRACE(std::string(type == CurveType::Linear ? "linear" : "cubic") +
                    (tapered ? ", tapered" : ""));
-      CurvesData curves =
-          type == CurveType::Linear
-              ? oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, {{-2, 0, 0}, {2, 0, 0}},
-                         0.1f)
-              : oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 0.1f);
+      CurvesData curves = straightCurve(type, 0.1f);
       // Varying widths 0.1 → 0.3: radius 0.1 + 0.025 x along the axis.
       const float slope = tapered ? 0.025f : 0;
       auto radiusAt = [&](float x) { return tapered ? 0.1f + slope * x : 0.05f; };
@@ -240,10 +242,7 @@ TEST(Curves, HitPointsLieOnTheRibbonHoweverFarTheRayCameFrom) {
   const Vec3f across = cross(Vec3f{1, 0, 0}, normal);
   for (const CurveType type : {CurveType::Linear, CurveType::Cubic}) {
     SCOPED_TRACE(type == CurveType::Linear ? "linear" : "cubic");
-    CurvesData curves =
-        type == CurveType::Linear
-            ? oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, {{-2, 0, 0}, {2, 0, 0}}, 1)
-            : oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 1);
+    CurvesData curves = straightCurve(type, 1);
     curves.normals = {normal};
     curves.normalsInterpolation = Interpolation::Constant;
     CurvesScene s(std::move(curves));
@@ -680,10 +679,7 @@ TEST(Curves, VertexAndVaryingDataFollowBSplineSegments) {
 TEST(Curves, MovingCurvesAreWhereTheShutterTimeSays) {
   for (const CurveType type : {CurveType::Linear, CurveType::Cubic}) {
     SCOPED_TRACE(type == CurveType::Linear ? "linear" : "cubic");
-    CurvesData curves =
-        type == CurveType::Linear
-            ? oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, {{-2, 0, 0}, {2, 0, 0}}, 1)
-            : oneCurve(type, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 1);
+    CurvesData curves = straightCurve(type, 1);
     std::vector<Vec3f> later = curves.positions;
     for (Vec3f& p : later) p.z += 4;
     curves.positionMotion = {later};
