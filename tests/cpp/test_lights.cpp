@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "penumbra/color.h"
+#include "penumbra/integrator.h"
 #include "penumbra/light.h"
 #include "penumbra/sampler.h"
 #include "transforms.h"
@@ -89,6 +90,25 @@ LightParams params(LightType type, const Transform& transform) {
 }
 
 }  // namespace
+
+TEST(Lights, PowerHeuristicHoldsWhereTheDensitiesSquaresLeaveFloatsRange) {
+  // As it was, for densities whose squares float holds: f² / (f² + g²).
+  EXPECT_EQ(powerHeuristic(2, 1), 0.8f);
+  EXPECT_EQ(powerHeuristic(1, 2), 0.2f);
+  EXPECT_EQ(powerHeuristic(0, 0), 0.0f);
+  EXPECT_EQ(powerHeuristic(0, 3), 0.0f);
+  EXPECT_EQ(powerHeuristic(3, 0), 1.0f);
+  // A sphere light of radius 1e-12 four units away is sampled with density 5e24: its square
+  // was infinite and the weight NaN (half the image). From the densities' ratio instead:
+  EXPECT_EQ(powerHeuristic(5e24f, 1), 1.0f);
+  EXPECT_GE(powerHeuristic(1, 5e24f), 0.0f);
+  EXPECT_LT(powerHeuristic(1, 5e24f), 1e-30f);
+  EXPECT_NEAR(powerHeuristic(3e20f, 1e20f), 0.9f, 1e-6f);
+  EXPECT_NEAR(powerHeuristic(1e20f, 3e20f), 0.1f, 1e-6f);
+  // and densities so small their squares vanish (a vast light): 0 before, whatever the ratio.
+  EXPECT_NEAR(powerHeuristic(3e-25f, 1e-25f), 0.9f, 1e-6f);
+  EXPECT_NEAR(powerHeuristic(1e-25f, 3e-25f), 0.1f, 1e-6f);
+}
 
 TEST(Lights, SamplingDensitiesIntegrateToOne) {
   const Vec3f point{0.3f, 0, -0.2f};

@@ -40,6 +40,22 @@ def test_sphere_light_irradiance():
     assert mean_radiance(stage) == pytest.approx(ALBEDO / math.pi * irradiance, rel=0.02)
 
 
+@pytest.mark.parametrize("radius", [1e-4, 1e-12], ids=["1e-4", "1e-12"])
+def test_a_normalized_sphere_light_far_smaller_than_its_distance(radius: float):
+    """A normalized sphere light lights as a point of radiant intensity I/4 (its radiance
+    I / (4 π r²) over its disc π r²) however small it is: at radius 1e-12 its sampling density
+    (3e24) squared overflowed float in the MIS weight, and half the image was NaN."""
+    stage = plane_stage()
+    height, intensity = 2.0, 1.0
+    light = UsdLux.SphereLight.Define(stage, "/World/bulb")
+    light.CreateRadiusAttr(radius)
+    light.CreateIntensityAttr(intensity)
+    light.CreateNormalizeAttr(True)
+    light.AddTranslateOp().Set(Gf.Vec3d(0, height, 0))
+    irradiance = intensity / 4 / height**2
+    assert mean_radiance(stage) == pytest.approx(ALBEDO / math.pi * irradiance, rel=0.01)
+
+
 def _corner_form_factor(a: float, b: float) -> float:
     """Form factor from a point to a parallel a×b rectangle (in units of the distance) having a
     corner above the point."""

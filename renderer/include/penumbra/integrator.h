@@ -4,6 +4,7 @@
 // heuristic).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "penumbra/aov.h"
@@ -129,7 +130,17 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
 /// Power heuristic (β = 2) weight of a strategy with density `pdf` against `otherPdf`.
 inline float powerHeuristic(float pdf, float otherPdf) {
   const float a = pdf * pdf, b = otherPdf * otherPdf;
-  return a + b > 0 ? a / (a + b) : 0.0f;
+  if (std::isfinite(a + b) && (a + b > 0 || !(pdf > 0 || otherPdf > 0)))
+    return a + b > 0 ? a / (a + b) : 0.0f;
+  // The squares leave float's range: a light far smaller than its distance has a density
+  // beyond 1.8e19 (whose square was infinite, and the weight NaN), a vast one below 1e-19.
+  // The same weight from the ratio of the two densities, the larger one dividing.
+  if (pdf >= otherPdf) {
+    const float ratio = otherPdf / pdf;
+    return 1 / (1 + ratio * ratio);
+  }
+  const float ratio = pdf / otherPdf;
+  return ratio * ratio / (1 + ratio * ratio);
 }
 
 }  // namespace penumbra
