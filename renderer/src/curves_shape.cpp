@@ -363,7 +363,7 @@ SurfaceGeometry CurvesShape::surfaceAt(uint32_t segment, float u, float v, float
     radiusControls(segmentAt(segment), radii);
     surface.objectPosition =
         surface.point.corners[0] + normalize(geometricNormal) * evaluateBezier(radii, u);
-  } else if (!surface.closed) {
+  } else if (!surface.closed && length(geometricNormal) > 0) {
     // Embree's ribbon runs across from one edge curve to the other, which lie either side of
     // the centre line by the same offset; its Ng is across both directions at (u, v), so the
     // centre line at u lies in the tangent plane there.

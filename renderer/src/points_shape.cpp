@@ -82,11 +82,13 @@ SurfaceGeometry PointsShape::surfaceAt(uint32_t point, float u, float v, float t
   surface.normal = normalize(objectToWorld.applyToNormal(geometricNormal));
   surface.shadingNormal = surface.normal;
   surface.closed = points_.normals.empty();
-  if (surface.closed && length(geometricNormal) > 0)
-    surface.objectPosition =
-        surface.point.corners[0] + normalize(geometricNormal) * (points_.widths[point] / 2);
-  else if (!surface.closed)
-    surface.objectPlanePoint = surface.point.corners[0];  // a disc lies in its centre's plane
+  if (length(geometricNormal) > 0) {
+    if (surface.closed)
+      surface.objectPosition =
+          surface.point.corners[0] + normalize(geometricNormal) * (points_.widths[point] / 2);
+    else
+      surface.objectPlanePoint = surface.point.corners[0];  // a disc lies in its centre's plane
+  }
   return surface;
 }
 
