@@ -108,11 +108,8 @@ void CurvesShape::requireRibbonsAcrossTheirNormals() const {
     Vec3f normals[4];
     normalControls(segment, normals);
     for (size_t step = 0; step <= curves_.positionMotion.size(); ++step) {
-      const std::vector<Vec3f>& positions =
-          step == 0 ? curves_.positions : curves_.positionMotion[step - 1];
       Vec3f centre[4];
-      bezierControls(
-          segment, Interpolation::Vertex, [&](uint32_t i) { return positions[i]; }, centre);
+      centreControlsAtStep(segment, step, centre);
       // A Bézier curve leaves its first control towards the second and reaches its last from
       // the third; its normal there is the first or last normal control.
       const Vec3f directions[2] = {centre[1] - centre[0], centre[3] - centre[2]};
@@ -189,6 +186,17 @@ void CurvesShape::positionControls(const Segment& segment, float time, Vec3f con
       controls);
 }
 
+const std::vector<Vec3f>& CurvesShape::positionsAtStep(size_t step) const {
+  return step == 0 ? curves_.positions : curves_.positionMotion[step - 1];
+}
+
+void CurvesShape::centreControlsAtStep(const Segment& segment, size_t step,
+                                       Vec3f controls[4]) const {
+  const std::vector<Vec3f>& positions = positionsAtStep(step);
+  bezierControls(
+      segment, Interpolation::Vertex, [&](uint32_t i) { return positions[i]; }, controls);
+}
+
 void CurvesShape::radiusControls(const Segment& segment, float controls[4]) const {
   bezierControls(
       segment, curves_.widthsInterpolation, [&](uint32_t i) { return curves_.widths[i]; },
@@ -237,8 +245,7 @@ RTCGeometry CurvesShape::newRoundLinearGeometry(RTCDevice device) const {
     }
   };
   for (unsigned step = 0; step < stepCount; ++step) {
-    const std::vector<Vec3f>& positions =
-        step == 0 ? curves_.positions : curves_.positionMotion[step - 1];
+    const std::vector<Vec3f>& positions = positionsAtStep(step);
     auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
         geometry, RTC_BUFFER_TYPE_VERTEX, step, RTC_FORMAT_FLOAT4, 4 * sizeof(float), vertexCount));
     if (!vertices) {
@@ -296,8 +303,6 @@ RTCGeometry CurvesShape::newBezierGeometry(RTCDevice device) const {
     for (size_t segment = 0; segment < segmentCount; ++segment)
       indices[segment] = uint32_t(4 * segment);
   for (unsigned step = 0; step < stepCount; ++step) {
-    const std::vector<Vec3f>& positions =
-        step == 0 ? curves_.positions : curves_.positionMotion[step - 1];
     auto* vertices = static_cast<float*>(
         rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, step, RTC_FORMAT_FLOAT4,
                                 4 * sizeof(float), 4 * segmentCount));
@@ -313,8 +318,7 @@ RTCGeometry CurvesShape::newBezierGeometry(RTCDevice device) const {
     for (uint32_t primitive = 0; primitive < segmentCount; ++primitive) {
       const Segment segment = segmentAt(primitive);
       Vec3f centre[4];
-      bezierControls(
-          segment, Interpolation::Vertex, [&](uint32_t i) { return positions[i]; }, centre);
+      centreControlsAtStep(segment, step, centre);
       float radii[4];
       radiusControls(segment, radii);
       float* out = vertices + 16 * size_t(primitive);

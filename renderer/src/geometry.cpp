@@ -220,15 +220,17 @@ bool Geometry::invertible(const Placement& placement) {
     // Embree inverts each instance transform in single precision for every ray.
     if (!(std::abs(step.linearDeterminant()) >= double(std::numeric_limits<float>::min())))
       return false;
+    // Every entry a float; and the rays Embree carries into the object must stay within its
+    // 1.8e18 (it asserts so): a scale of 1e-18 along one axis took a unit direction there.
+    // kMaxInverseScale on the linear part keeps directions far inside that, and origins within
+    // 1e6 of the object too.
     const Transform inverse = step.inverse();
-    for (const double value : inverse.m)
-      if (!(std::abs(value) <= double(std::numeric_limits<float>::max()))) return false;
-    // The rays Embree carries into the object must stay within its 1.8e18 (it asserts so):
-    // a scale of 1e-18 along one axis took a unit direction there. kMaxInverseScale keeps
-    // directions far inside that, and origins within 1e6 of the object too.
-    for (int row = 0; row < 3; ++row)
-      for (int column = 0; column < 3; ++column)
-        if (!(std::abs(inverse.at(row, column)) <= kMaxInverseScale)) return false;
+    for (int row = 0; row < 4; ++row)
+      for (int column = 0; column < 4; ++column) {
+        const double bound =
+            row < 3 && column < 3 ? kMaxInverseScale : double(std::numeric_limits<float>::max());
+        if (!(std::abs(inverse.at(row, column)) <= bound)) return false;
+      }
   }
   return true;
 }

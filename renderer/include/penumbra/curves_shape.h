@@ -65,6 +65,11 @@ class CurvesShape final : public Shape {
                       T controls[4]) const;
   /// The centre line's Bézier control points over `segment` at normalised shutter time `time`.
   void positionControls(const Segment& segment, float time, Vec3f controls[4]) const;
+  /// The authored positions at motion step `step` (0: `positions`).
+  const std::vector<Vec3f>& positionsAtStep(size_t step) const;
+  /// The centre line's Bézier control points over `segment` at motion step `step`, as Embree
+  /// is given them.
+  void centreControlsAtStep(const Segment& segment, size_t step, Vec3f controls[4]) const;
   /// The tube's radius Bézier controls over `segment`, as Embree is given them: half the
   /// widths' controls, at least 0 (Catmull-Rom's overshoot may reach below).
   void radiusControls(const Segment& segment, float controls[4]) const;
