@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "penumbra/color.h"
 #include "penumbra/integrator.h"
 #include "penumbra/light.h"
@@ -98,6 +100,7 @@ TEST(Lights, PowerHeuristicHoldsWhereTheDensitiesSquaresLeaveFloatsRange) {
   EXPECT_EQ(powerHeuristic(0, 0), 0.0f);
   EXPECT_EQ(powerHeuristic(0, 3), 0.0f);
   EXPECT_EQ(powerHeuristic(3, 0), 1.0f);
+  EXPECT_EQ(powerHeuristic(std::numeric_limits<float>::quiet_NaN(), 1), 0.0f);
   // A sphere light of radius 1e-12 four units away is sampled with density 5e24: its square
   // was infinite and the weight NaN (half the image). From the densities' ratio instead:
   EXPECT_EQ(powerHeuristic(5e24f, 1), 1.0f);

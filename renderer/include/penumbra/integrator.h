@@ -129,9 +129,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
 
 /// Power heuristic (β = 2) weight of a strategy with density `pdf` against `otherPdf`.
 inline float powerHeuristic(float pdf, float otherPdf) {
-  const float a = pdf * pdf, b = otherPdf * otherPdf;
-  if (std::isfinite(a + b) && (a + b > 0 || !(pdf > 0 || otherPdf > 0)))
-    return a + b > 0 ? a / (a + b) : 0.0f;
+  const float a = pdf * pdf, b = otherPdf * otherPdf, sum = a + b;
+  if (sum > 0 && std::isfinite(sum)) return a / sum;
+  // Neither density positive, or one not a number: no weight.
+  if (!(pdf > 0 || otherPdf > 0) || std::isnan(sum)) return 0.0f;
   // The squares leave float's range: a light far smaller than its distance has a density
   // beyond 1.8e19 (whose square was infinite, and the weight NaN), a vast one below 1e-19.
   // The same weight from the ratio of the two densities, the larger one dividing.
