@@ -523,6 +523,24 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
       if (ior_ == 1) {  // an index-matched interface: light passes unchanged
         return delta(-wo, Vec3f(weight), p.dielectric, BsdfLobe::Transmission);
       }
+      if (choiceIor_ > 0) {  // dispersion (disperse()): smooth, and wo is outside (eta = ior)
+        const auto reflectanceOf = [&](float ior) { return dielectricReflectance(wo.z, ior, ior); };
+        const Vec3f reflectance(reflectanceOf(channelIors_.x), reflectanceOf(channelIors_.y),
+                                reflectanceOf(channelIors_.z));
+        const float reflected = reflectanceOf(choiceIor_);
+        if (uLobe < reflected) {
+          return delta(mirror, reflectance * weight, p.dielectric * reflected, BsdfLobe::Specular);
+        }
+        const Vec3f transmittance = Vec3f(1.0f) - reflectance;
+        if (dielectricKind_ == DielectricKind::ThinSheet) {
+          return delta(-wo, transmittance * weight, p.dielectric * (1 - reflected),
+                       BsdfLobe::Transmission);
+        }
+        result.heroOnly = true;
+        const Vec3f refracted = *refract(wo, Vec3f(0, 0, 1), ior_);  // ior_ > 1: no TIR
+        return delta(refracted, Vec3f(weight * transmittance.x / (ior_ * ior_), 0, 0),
+                     p.dielectric * (1 - reflected), BsdfLobe::Transmission);
+      }
       if (dielectricAlpha_ == 0) {
         const float reflectance = dielectricReflectance(wo.z, eta);
         if (uLobe < reflectance) {

@@ -9,9 +9,25 @@
 namespace penumbra {
 
 float PreviewSurfaceBsdf::dielectricReflectance(float cosTheta, float eta) const {
+  return dielectricReflectance(cosTheta, eta, ior_);
+}
+
+float PreviewSurfaceBsdf::dielectricReflectance(float cosTheta, float eta, float sheetIor) const {
   return dielectricKind_ == DielectricKind::ThinSheet
-             ? thinSlabReflectance(fresnelDielectric(cosTheta, ior_))
+             ? thinSlabReflectance(fresnelDielectric(cosTheta, sheetIor))
              : fresnelDielectric(cosTheta, eta);
+}
+
+bool PreviewSurfaceBsdf::disperse(const Vec3f& woWorld, const Vec3f& channelIors, float choiceIor) {
+  const bool fromOutside =
+      dielectricKind_ == DielectricKind::ThinSheet || dot(woWorld, frame_.n) > 0;
+  const bool aboveOne = channelIors.x > 1 && channelIors.y > 1 && channelIors.z > 1 &&
+                        choiceIor > 1 && std::isfinite(maxComponent(channelIors)) &&
+                        std::isfinite(choiceIor);
+  if (!(opacity_ == 0 && dielectricAlpha_ == 0 && fromOutside && aboveOne)) return false;
+  channelIors_ = channelIors;
+  choiceIor_ = choiceIor;
+  return true;
 }
 
 // Rough dielectric (Walter et al. 2007). Reflection: h = normalize(wo + wi). Refraction through a

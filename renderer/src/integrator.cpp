@@ -243,6 +243,11 @@ class SurfaceBsdf {
   bool hasTransmission() const {
     return std::visit([](const auto& b) { return b.hasTransmission(); }, bsdf_);
   }
+  /// PreviewSurfaceBsdf::disperse; hair does not disperse.
+  bool disperse(const Vec3f& wo, const Vec3f& channelIors, float choiceIor) {
+    PreviewSurfaceBsdf* preview = std::get_if<PreviewSurfaceBsdf>(&bsdf_);
+    return preview && preview->disperse(wo, channelIors, choiceIor);
+  }
 
  private:
   std::variant<PreviewSurfaceBsdf, HairBsdf> bsdf_;
@@ -956,17 +961,27 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       ++result.vertices;
       const Vec3f wo = -ray.direction;
       const MaterialParams& material = hit->material();
-      float ior = material.ior;
-      if (spectrum.spectral && !material.hair && material.abbeNumber > 0 && material.opacity < 1) {
-        // A dispersive interface sends each wavelength its own way: only the hero's path goes on.
-        spectrum.wavelengths.keepHeroOnly();
-        throughput = {throughput.x, 0, 0};
-        ior = dispersiveIor(ior, material.abbeNumber, spectrum.wavelengths.hero());
-      }
+      const bool dispersive =
+          spectrum.spectral && !material.hair && material.abbeNumber > 0 && material.opacity < 1;
+      const float ior =
+          dispersive ? dispersiveIor(material.ior, material.abbeNumber, spectrum.wavelengths.hero())
+                     : material.ior;
       const Vec3f facingNormal =
           dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
-      const SurfaceBsdf surfaceBsdf = makeBsdf(*hit, scene.materials(), spectrum, ior,
-                                               filteredAlpha(settings.glossyFilter, minRayPdf));
+      SurfaceBsdf surfaceBsdf = makeBsdf(*hit, scene.materials(), spectrum, ior,
+                                         filteredAlpha(settings.glossyFilter, minRayPdf));
+      if (dispersive && !spectrum.wavelengths.heroOnly()) {
+        // A dispersive interface sends each wavelength its own way when it refracts: there only
+        // the hero's path goes on. Where the BSDF cannot tell refraction apart before sampling,
+        // that holds from here on.
+        const Vec3f& lambda = spectrum.wavelengths.lambda;
+        const Vec3f channelIors(ior, dispersiveIor(material.ior, material.abbeNumber, lambda.y),
+                                dispersiveIor(material.ior, material.abbeNumber, lambda.z));
+        if (!surfaceBsdf.disperse(wo, channelIors, material.ior)) {
+          spectrum.wavelengths.keepHeroOnly();
+          throughput = {throughput.x, 0, 0};
+        }
+      }
       const bool guided = (settings.guidingField || training) && guidable(*hit, surfaceBsdf);
       const GuidedBsdf bsdf(surfaceBsdf,
                             guided && settings.guidingField
@@ -1001,6 +1016,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
             scattered->transmitted)
           return false;
         throughput *= scattered->weight;
+        if (scattered->heroOnly) spectrum.wavelengths.keepHeroOnly();
         if (training && guided && !scattered->isDelta)
           trainer.addVertex(hit->position, facingNormal, *scattered, throughput, bounce);
         // Where the path goes on from: here, or where a subsurface random walk left the solid.

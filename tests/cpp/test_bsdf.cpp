@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <utility>
 #include <vector>
@@ -722,6 +723,73 @@ TEST(BsdfDispersion, CauchyFitThroughTheAbbeNumber) {
   EXPECT_GT(dispersiveIor(nd, vd, 400), dispersiveIor(nd, vd, 700));  // normal dispersion
   for (float wavelength : {380.0f, 486.1f, 587.6f, 780.0f}) {
     EXPECT_EQ(dispersiveIor(nd, 0, wavelength), nd);
+  }
+}
+
+/// Unpolarised Fresnel reflectance from outside an interface of index n at cos θ (n > 1).
+double fresnelFromOutside(double cosTheta, double n) {
+  const double cosT = std::sqrt(1 - (1 - cosTheta * cosTheta) / (n * n));
+  const double perpendicular = (cosTheta - n * cosT) / (cosTheta + n * cosT);
+  const double parallel = (n * cosTheta - cosT) / (n * cosTheta + cosT);
+  return 0.5 * (perpendicular * perpendicular + parallel * parallel);
+}
+
+TEST(BsdfDispersion, ReflectionKeepsEveryWavelengthAndRefractionOnlyTheHeros) {
+  // Abbe number 2: the channels' indices (the hero's first) far enough apart that their Fresnel
+  // factors differ by far more than the tolerance.
+  const float nd = 1.6f;
+  const Vec3f iors(dispersiveIor(nd, 2, 450), dispersiveIor(nd, 2, 650), dispersiveIor(nd, 2, 550));
+  MaterialParams m = glass(0);
+  m.ior = nd;
+  for (const DielectricKind kind : {DielectricKind::Solid, DielectricKind::ThinSheet}) {
+    const bool sheet = kind == DielectricKind::ThinSheet;
+    for (float cosTheta : {0.15f, 0.6f, 1.0f}) {
+      const Vec3f wo = directionAt(cosTheta);
+      PreviewSurfaceBsdf bsdf(m, kNormal, iors.x, kind, kTangent);
+      ASSERT_TRUE(bsdf.disperse(wo, iors, nd));
+      // The same material whose channels' indices are the other way round: its reflect/refract
+      // choice must be the same, as it may not depend on the wavelengths.
+      PreviewSurfaceBsdf swapped(m, kNormal, iors.z, kind, kTangent);
+      ASSERT_TRUE(swapped.disperse(wo, {iors.z, iors.y, iors.x}, nd));
+      std::array<double, 3> reflected{}, transmitted{};
+      const int n = 1 << 14;
+      for (int i = 0; i < n; ++i) {
+        const float uLobe = (float(i) + 0.5f) / float(n);
+        const std::optional<BsdfSample> s = bsdf.sample(wo, uLobe, {0.5f, 0.5f});
+        const std::optional<BsdfSample> t = swapped.sample(wo, uLobe, {0.5f, 0.5f});
+        ASSERT_TRUE(s && t);
+        ASSERT_EQ(s->transmitted, t->transmitted) << "u " << uLobe;
+        ASSERT_TRUE(s->isDelta);
+        EXPECT_EQ(s->heroOnly, s->transmitted && !sheet);
+        for (int c = 0; c < 3; ++c)
+          (s->transmitted ? transmitted : reflected)[size_t(c)] += s->weight[c] / double(n);
+        if (s->transmitted && !sheet) {  // Snell's law at the hero's index
+          const Vec3f sideways = s->direction - kNormal * dot(s->direction, kNormal);
+          EXPECT_NEAR(length(sideways) * iors.x, std::sqrt(1 - cosTheta * cosTheta), 1e-5f);
+        }
+      }
+      for (int c = 0; c < 3; ++c) {
+        const double f = fresnelFromOutside(cosTheta, iors[c]);
+        const double r = sheet ? 2 * f / (1 + f) : f;  // a thin slab's, all bounces inside
+        EXPECT_NEAR(reflected[size_t(c)], r, 1e-3)
+            << "kind " << sheet << " cos " << cosTheta << " c " << c;
+        const double expected = sheet ? 1 - r : c == 0 ? (1 - r) / (iors.x * iors.x) : 0.0;
+        EXPECT_NEAR(transmitted[size_t(c)], expected, 1e-3)
+            << "kind " << sheet << " cos " << cosTheta << " c " << c;
+      }
+    }
+  }
+  // Elsewhere the BSDF cannot tell refraction apart when it is chosen: the path keeps the hero.
+  const Vec3f wo = directionAt(0.6f);
+  PreviewSurfaceBsdf solid(m, kNormal, iors.x);
+  EXPECT_FALSE(solid.disperse(-wo, iors, nd));  // from inside: total internal reflection
+  EXPECT_FALSE(solid.disperse(wo, {iors.x, 0.9f, iors.z}, nd));
+  EXPECT_FALSE(solid.disperse(wo, iors, std::nanf("")));
+  MaterialParams rough = glass(0.3f), translucent = m;
+  translucent.opacity = 0.5f;
+  for (const MaterialParams& other : {rough, translucent}) {
+    PreviewSurfaceBsdf bsdf(other, kNormal, iors.x);
+    EXPECT_FALSE(bsdf.disperse(wo, iors, nd));
   }
 }
 

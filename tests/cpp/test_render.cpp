@@ -815,6 +815,67 @@ TEST(Render, BranchesThroughDispersiveGlassEachKeepTheirOwnWavelengths) {
     EXPECT_NEAR(meanChannel(image, channel), 1.0, 0.02) << "channel " << channel;
 }
 
+TEST(Render, ADispersiveSheetKeepsEveryWavelength) {
+  // A dispersive thin sheet (an open quad of smooth glass) under a white dome, seen from above:
+  // every wavelength sees the dome (radiance 1) whether the sheet reflects or transmits it, so
+  // every pixel's value is 1. Neither direction depends on the wavelength, so the paths keep all
+  // three of theirs; a trace of opacity makes the BSDF more than a smooth interface, which keeps
+  // the hero alone from the sheet on, and its single wavelength's colour is far noisier.
+  const auto renderWith = [](float opacity) {
+    RenderDelegate delegate;
+    delegate.insertSprim("material", "/glass");
+    delegate.material("/glass").setParam("opacity", opacity);
+    delegate.material("/glass").setParam("roughness", 0.0f);
+    delegate.material("/glass").setParam("penumbra:abbeNumber", 20.0f);
+    addFloor(delegate, "/sheet", 50);
+    delegate.mesh("/sheet").setMaterialId("/glass");
+    delegate.insertSprim("domeLight", "/sky");
+    addCamera(delegate, facingDown(0, 5, 0));
+    return render(delegate, 24, 24, 8);
+  };
+  const auto errorFromWhite = [](const std::vector<float>& image) {
+    double sum = 0;
+    for (size_t i = 0; i < image.size(); i += 4)
+      for (size_t c = 0; c < 3; ++c) sum += std::pow(image[i + c] - 1.0, 2);
+    return std::sqrt(sum / double(image.size() / 4 * 3));
+  };
+  const std::vector<float> sheet = renderWith(0);
+  for (int channel = 0; channel < 3; ++channel)
+    EXPECT_NEAR(meanChannel(sheet, channel), 1.0, 0.01) << "channel " << channel;
+  const double error = errorFromWhite(sheet), heroAlone = errorFromWhite(renderWith(0.001f));
+  RecordProperty("rmsError",
+                 std::to_string(error) + " (hero alone " + std::to_string(heroAlone) + ")");
+  EXPECT_LT(error, 0.6 * heroAlone);
+}
+
+TEST(Render, AGlowSeenThroughDispersiveGlassKeepsItsBrightness) {
+  // A white glowing black ball inside a glass ball, seen from above against black. Refraction into
+  // the glass keeps the hero wavelength alone as it is chosen: the glow, found before the path
+  // meets the glass again, counts the hero alone too, not a third of it beside two dark channels.
+  // Against the same glass without dispersion (rendered in RGB), per channel.
+  const auto renderWith = [](float abbeNumber) {
+    RenderDelegate delegate;
+    addSphere(delegate, "/ball", 1);
+    delegate.insertSprim("material", "/glass");
+    delegate.material("/glass").setParam("opacity", 0.0f);
+    delegate.material("/glass").setParam("roughness", 0.0f);
+    delegate.material("/glass").setParam("penumbra:abbeNumber", abbeNumber);
+    delegate.mesh("/ball").setMaterialId("/glass");
+    addSphere(delegate, "/glow", 0.5f);
+    delegate.insertSprim("material", "/white");
+    delegate.material("/white").setParam("emissiveColor", Vec3f(1.0f));
+    delegate.mesh("/glow").setMaterialId("/white");
+    delegate.settings().set("maxTransmissionDepth", 1);
+    addCamera(delegate, facingDown(0, 5, 0), 2.5f);
+    return render(delegate, 24, 24, 64);
+  };
+  const std::vector<float> dispersive = renderWith(40), plain = renderWith(0);
+  EXPECT_GT(meanChannel(plain, 0), 0.1);
+  for (int channel = 0; channel < 3; ++channel)
+    EXPECT_NEAR(meanChannel(dispersive, channel) / meanChannel(plain, channel), 1.0, 0.03)
+        << "channel " << channel;
+}
+
 TEST(Render, IndirectSamplesAreBitIdenticalForAnyThreadCountAndSplit) {
   const auto renderWith = [](int threads, std::vector<int> passes) {
     RenderDelegate delegate;

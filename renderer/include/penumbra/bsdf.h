@@ -102,6 +102,10 @@ struct BsdfSample {
   BsdfLobe lobe = BsdfLobe::Diffuse;
   bool isDelta = false;
   bool transmitted = false;  // wi is on the other side of the shading normal than wo
+  /// The direction is the hero wavelength's alone (refraction into a dispersive solid,
+  /// PreviewSurfaceBsdf::disperse): the other channels' weight is 0, and the path's secondary
+  /// wavelengths end here (SampledWavelengths::keepHeroOnly).
+  bool heroOnly = false;
 };
 
 /// A BSDF's value and density for one pair of directions (evaluateWithPdf).
@@ -162,6 +166,18 @@ class PreviewSurfaceBsdf {
   /// result does not depend on which lobe produced the direction. Empty when nothing scatters.
   std::optional<BsdfSample> sample(const Vec3f& wo, float uLobe, Vec2f u) const;
 
+  /// Dispersion, for paths that carry three wavelengths (channel i at wavelength i, the hero
+  /// first): gives each channel its index of refraction (`channelIors.x` the hero's, the
+  /// constructor's `ior`), so that sample() reflects every channel with its own Fresnel factor,
+  /// and a thin sheet transmits every channel, since these directions do not depend on the
+  /// wavelength; only refraction into a solid is the hero's alone (BsdfSample::heroOnly).
+  /// `choiceIor` (the material's own) sets the reflect/refract choice, which must not depend on
+  /// the wavelengths: it decides whether the secondary wavelengths end, and so how the light the
+  /// path gathered before is counted. Only where that choice is all there is to sample: the
+  /// whole material is a smooth dielectric (opacity 0) seen from outside or a thin sheet, and
+  /// every index is above 1 (no total internal reflection). Returns false, changing nothing,
+  /// elsewhere: the path must keep its hero alone from here on.
+  bool disperse(const Vec3f& wo, const Vec3f& channelIors, float choiceIor);
   /// Every lobe with non-zero weight is a delta: light sampling cannot hit any of them.
   bool isPurelySpecular() const;
   bool hasTransmission() const { return opacity_ < 1; }
@@ -219,6 +235,8 @@ class PreviewSurfaceBsdf {
   float pdfDielectric(const Vec3f& wo, const Vec3f& wi, float eta) const;
   /// Fresnel reflectance of the dielectric (of the whole slab for a thin sheet).
   float dielectricReflectance(float cosTheta, float eta) const;
+  /// The same for a solid of relative index `eta` or a thin sheet of index `sheetIor`.
+  float dielectricReflectance(float cosTheta, float eta, float sheetIor) const;
 
   Frame frame_;
   float opacity_;
@@ -248,6 +266,10 @@ class PreviewSurfaceBsdf {
   float ior_;
   float dielectricAlpha_;
   DielectricKind dielectricKind_;
+  // Dispersion (disperse()): each channel's index and the one that sets the reflect/refract
+  // choice; 0: none.
+  Vec3f channelIors_{0.0f};
+  float choiceIor_ = 0;
   // 1 − E_avg of the rough specular layer (0 when it is a mirror or loses nothing).
   float specularAverageLoss_ = 0;
   // outgoing() for the last wo asked (zero: none yet): one vertex asks for its wo several times
