@@ -523,38 +523,32 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
       if (ior_ == 1) {  // an index-matched interface: light passes unchanged
         return delta(-wo, Vec3f(weight), p.dielectric, BsdfLobe::Transmission);
       }
-      if (choiceIor_ > 0) {  // dispersion (disperse()): smooth, and wo is outside (eta = ior)
+      if (dielectricAlpha_ == 0) {
+        // Under dispersion (disperse()) each channel reflects by its own index's Fresnel factor
+        // and the choice takes choiceIor_; wo is then outside a solid, so eta is ior_, the hero's.
+        const bool dispersed = choiceIor_ > 0;
         const auto reflectanceOf = [&](float ior) { return dielectricReflectance(wo.z, ior, ior); };
-        const Vec3f reflectance(reflectanceOf(channelIors_.x), reflectanceOf(channelIors_.y),
-                                reflectanceOf(channelIors_.z));
-        const float reflected = reflectanceOf(choiceIor_);
+        const float reflected =
+            dispersed ? reflectanceOf(choiceIor_) : dielectricReflectance(wo.z, eta);
+        const Vec3f reflectance =
+            dispersed ? Vec3f(reflectanceOf(channelIors_.x), reflectanceOf(channelIors_.y),
+                              reflectanceOf(channelIors_.z))
+                      : Vec3f(reflected);
         if (uLobe < reflected) {
           return delta(mirror, reflectance * weight, p.dielectric * reflected, BsdfLobe::Specular);
         }
         const Vec3f transmittance = Vec3f(1.0f) - reflectance;
+        const float transmitted = 1 - reflected;
         if (dielectricKind_ == DielectricKind::ThinSheet) {
-          return delta(-wo, transmittance * weight, p.dielectric * (1 - reflected),
+          return delta(-wo, transmittance * weight, p.dielectric * transmitted,
                        BsdfLobe::Transmission);
         }
-        result.heroOnly = true;
-        const Vec3f refracted = *refract(wo, Vec3f(0, 0, 1), ior_);  // ior_ > 1: no TIR
-        return delta(refracted, Vec3f(weight * transmittance.x / (ior_ * ior_), 0, 0),
-                     p.dielectric * (1 - reflected), BsdfLobe::Transmission);
-      }
-      if (dielectricAlpha_ == 0) {
-        const float reflectance = dielectricReflectance(wo.z, eta);
-        if (uLobe < reflectance) {
-          return delta(mirror, Vec3f(weight * reflectance), p.dielectric * reflectance,
-                       BsdfLobe::Specular);
-        }
-        const float transmittance = 1 - reflectance;
-        if (dielectricKind_ == DielectricKind::ThinSheet) {
-          return delta(-wo, Vec3f(weight * transmittance), p.dielectric * transmittance,
-                       BsdfLobe::Transmission);
-        }
+        // Refraction bends each wavelength its own way: under dispersion the hero's alone.
+        result.heroOnly = dispersed;
         const Vec3f refracted = *refract(wo, Vec3f(0, 0, 1), eta);  // reflectance < 1: no TIR
-        return delta(refracted, Vec3f(weight * transmittance / (eta * eta)),
-                     p.dielectric * transmittance, BsdfLobe::Transmission);
+        const float heroWeight = weight * transmittance.x / (eta * eta);
+        return delta(refracted, dispersed ? Vec3f(heroWeight, 0, 0) : Vec3f(heroWeight),
+                     p.dielectric * transmitted, BsdfLobe::Transmission);
       }
       const Vec3f h = sampleGgxVisibleNormal(wo, dielectricAlpha_, u);
       const float reflectance = dielectricReflectance(dot(wo, h), eta);
