@@ -138,7 +138,6 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   if (settings.adaptiveThreshold > 0) checkCropMargin(end);
   const penumbra::Camera camera(cameraPrim.params(), imageWidth_, imageHeight_);
   RenderSettings renderSettings = pilotedSettings(camera);
-  const int branches = renderSettings.integrator.indirectSamples;
   const int trainingSamples = settings.guidingTrainingSamples;
   const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {
@@ -150,9 +149,6 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
     // are the whole image's (else prepareGuiding traces them for the whole image).
     const bool training = trainingSamples > 0 && samplesDone_ < trainingSamples;
     if (training) stop = std::min(stop, trainingSamples);
-    // Training samples do not branch, whether this pass records them or not (a crop's are
-    // traced again over the whole image): so a crop's pixels are the whole image's.
-    renderSettings.integrator.indirectSamples = training ? 1 : branches;
     const bool recordHere = training && guidingRecordedThrough_ == samplesDone_ &&
                             film_.region() == PixelRect{0, 0, imageWidth_, imageHeight_} &&
                             film_.activePixels() == filmPixels;

@@ -711,20 +711,21 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         lightsSeenDirectly(scene, camera, filter, *settings.lightImages, sampler, x, y, sampleIndex,
                            settings.seed, lensSample, shutterTime, spectrum, &result.rays);
   const bool training = settings.guidingRecorder != nullptr;
+  // The trainer follows one path: the camera sample's own, or its first branch where it
+  // branches (an unbranched path of its own random numbers).
   GuidingTrainer trainer;
   // Every light the sample gathers goes through here, so that training sees it too.
   const auto addLight = [&](const Vec3f& light) {
     result.radiance += light;
-    if (training) trainer.addLight(light);
+    if (training && path.branch == 0) trainer.addLight(light);
   };
   cone = camera.pixelCone();
   const std::vector<Light>& lights = scene.lights().all();
   const bool hasVolumes = !scene.volumes().empty();
   if (hasVolumes) volumeRandom.emplace(settings.seed, uint32_t(x), uint32_t(y), sampleIndex, 0);
   const MediumSpectrum mediumSpectrum{spectrum.spectral ? &spectrum.wavelengths : nullptr};
-  // Branching at the first surface; never while recording for guiding, whose trainer follows
-  // one path (the render pass does not branch training samples at all, recorded or not).
-  const int branches = training ? 1 : std::clamp(settings.indirectSamples, 1, kMaxIndirectSamples);
+  // Branching at the first surface.
+  const int branches = std::clamp(settings.indirectSamples, 1, kMaxIndirectSamples);
   std::vector<PathState> waitingBranches;  // empty unless the path branches: no allocation
   const int lightEstimates = std::clamp(settings.lightSamples, 1, kMaxLightSamples);
   // What a share of 1 for the constant domes at the first surface would have changed, where
@@ -1017,7 +1018,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           return false;
         throughput *= scattered->weight;
         if (scattered->heroOnly) spectrum.wavelengths.keepHeroOnly();
-        if (training && guided && !scattered->isDelta)
+        if (training && guided && !scattered->isDelta && path.branch == 0)
           trainer.addVertex(hit->position, facingNormal, *scattered, throughput, bounce);
         // Where the path goes on from: here, or where a subsurface random walk left the solid.
         BsdfSample next = *scattered;

@@ -187,8 +187,10 @@ Transform facingUp(double x, double y, double z) {
 
 /// A grey room lit only through what its floor reflects: a panel shining down on the floor
 /// under a low ceiling that hides it from the camera, which looks up at the ceiling from
-/// below. The ceiling's light is all indirect, from one bright patch of floor.
-void indirectlyLitRoom(RenderDelegate& delegate, int trainingSamples) {
+/// below. The ceiling's light is all indirect, from one bright patch of floor. `branches`: the
+/// paths each camera sample branches into at its first surface (1: the guided and unguided
+/// samples compared are one path each).
+void indirectlyLitRoom(RenderDelegate& delegate, int trainingSamples, int branches = 1) {
   addFloor(delegate, "/floor", 4);
   delegate.mesh("/floor").setDisplayColor({Vec3f(0.8f)}, Interpolation::Constant);
   // The ceiling faces down (its square turned over) at y = 1.
@@ -203,9 +205,7 @@ void indirectlyLitRoom(RenderDelegate& delegate, int trainingSamples) {
   delegate.light("/panel").setTransform(facingDown(2.5, 0.9, 0));
   addCamera(delegate, facingUp(-1.5, 0.05, 0), 1);
   delegate.settings().set("guidingTrainingSamples", trainingSamples);
-  // Unbranched: training samples never branch, and the guided and unguided samples compared
-  // are then one path each.
-  delegate.settings().set("indirectSamples", 1);
+  delegate.settings().set("indirectSamples", branches);
 }
 
 constexpr int kRoomSize = 24;
@@ -213,9 +213,9 @@ constexpr int kRoomSize = 24;
 /// The room's colour (RGBA) at `samples` per pixel with `seed`, in passes of `passes`
 /// samples, on `threads` threads.
 std::vector<float> renderRoom(int trainingSamples, int samples, int seed, int threads = 0,
-                              int passes = 0) {
+                              int passes = 0, int branches = 1) {
   RenderDelegate delegate;
-  indirectlyLitRoom(delegate, trainingSamples);
+  indirectlyLitRoom(delegate, trainingSamples, branches);
   delegate.settings().set("seed", seed);
   delegate.settings().set("threads", threads);
   RenderPass pass(delegate, "/cam", kRoomSize, kRoomSize);
@@ -247,8 +247,10 @@ TEST(Guiding, GuidedRendersAreUnbiasedAndLessNoisyWhereLightIsIndirect) {
 }
 
 TEST(Guiding, TrainingSamplesAreUnguidedAndGuidedImagesAreDeterministic) {
-  // Up to the training budget a render is the unguided one; past it, it differs.
+  // Up to the training budget a render is the unguided one, branching as it does; past it, it
+  // differs.
   EXPECT_EQ(renderRoom(4, 4, 1), renderRoom(0, 4, 1));
+  EXPECT_EQ(renderRoom(4, 4, 1, 0, 0, 3), renderRoom(0, 4, 1, 0, 0, 3));
   const std::vector<float> guided = renderRoom(4, 12, 1, 1);
   EXPECT_NE(guided, renderRoom(0, 12, 1, 1));
   // Any thread count, any split into passes: the same field, the same pixels.
@@ -257,21 +259,24 @@ TEST(Guiding, TrainingSamplesAreUnguidedAndGuidedImagesAreDeterministic) {
 }
 
 TEST(Guiding, CropsRenderTheWholeImagesPixels) {
-  // A farm's band trains on the whole image (traced again for it), so its pixels are the
-  // whole image's.
-  const std::vector<float> whole = renderRoom(4, 12, 1);
-  RenderDelegate delegate;
-  indirectlyLitRoom(delegate, 4);
-  delegate.settings().set("seed", 1);
-  const PixelRect band{0, 8, kRoomSize, 6};
-  RenderPass pass(delegate, "/cam", kRoomSize, kRoomSize, band);
-  pass.execute(12);
-  const std::vector<float> cropped = pass.aov("color");
-  for (int y = 0; y < band.height; ++y)
-    for (int x = 0; x < band.width; ++x)
-      for (int c = 0; c < 4; ++c)
-        ASSERT_EQ(cropped[size_t((y * band.width + x) * 4 + c)],
-                  whole[size_t(((band.y + y) * kRoomSize + x) * 4 + c)]);
+  // A farm's band trains on the whole image (traced again for it, branching as the whole
+  // image's training samples do), so its pixels are the whole image's.
+  for (const int branches : {1, 3}) {
+    SCOPED_TRACE(branches);
+    const std::vector<float> whole = renderRoom(4, 12, 1, 0, 0, branches);
+    RenderDelegate delegate;
+    indirectlyLitRoom(delegate, 4, branches);
+    delegate.settings().set("seed", 1);
+    const PixelRect band{0, 8, kRoomSize, 6};
+    RenderPass pass(delegate, "/cam", kRoomSize, kRoomSize, band);
+    pass.execute(12);
+    const std::vector<float> cropped = pass.aov("color");
+    for (int y = 0; y < band.height; ++y)
+      for (int x = 0; x < band.width; ++x)
+        for (int c = 0; c < 4; ++c)
+          ASSERT_EQ(cropped[size_t((y * band.width + x) * 4 + c)],
+                    whole[size_t(((band.y + y) * kRoomSize + x) * 4 + c)]);
+  }
 }
 
 TEST(Guiding, SavedStatesResumeToTheSamePixels) {

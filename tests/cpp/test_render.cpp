@@ -893,8 +893,8 @@ TEST(Render, IndirectSamplesAreBitIdenticalForAnyThreadCountAndSplit) {
   occludedPanelScene(delegate);
   delegate.settings().set("indirectSamples", 1);
   EXPECT_NE(one, render(delegate, 48, 40, 8));  // the branches are not the unbranched path
-  // With path guiding, whose training samples do not branch: a crop traces them again over the
-  // whole image without recording them into its film, and its pixels are still the image's.
+  // With path guiding: a crop traces the training samples again over the whole image, branching
+  // as they do, without recording them into its film, and its pixels are still the image's.
   delegate.settings().set("indirectSamples", 2);
   delegate.settings().set("guidingTrainingSamples", 4);
   RenderPass whole(delegate, "/cam", 48, 40);
