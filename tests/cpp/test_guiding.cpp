@@ -250,7 +250,8 @@ TEST(Guiding, TrainingSamplesAreUnguidedAndGuidedImagesAreDeterministic) {
   // Up to the training budget a render is the unguided one, branching as it does; past it, it
   // differs.
   EXPECT_EQ(renderRoom(4, 4, 1), renderRoom(0, 4, 1));
-  EXPECT_EQ(renderRoom(4, 4, 1, 0, 0, 3), renderRoom(0, 4, 1, 0, 0, 3));
+  EXPECT_EQ(renderRoom(4, 4, 1, /*threads=*/0, /*passes=*/0, /*branches=*/3),
+            renderRoom(0, 4, 1, /*threads=*/0, /*passes=*/0, /*branches=*/3));
   const std::vector<float> guided = renderRoom(4, 12, 1, 1);
   EXPECT_NE(guided, renderRoom(0, 12, 1, 1));
   // Any thread count, any split into passes: the same field, the same pixels.
@@ -263,7 +264,7 @@ TEST(Guiding, CropsRenderTheWholeImagesPixels) {
   // image's training samples do), so its pixels are the whole image's.
   for (const int branches : {1, 3}) {
     SCOPED_TRACE(branches);
-    const std::vector<float> whole = renderRoom(4, 12, 1, 0, 0, branches);
+    const std::vector<float> whole = renderRoom(4, 12, 1, /*threads=*/0, /*passes=*/0, branches);
     RenderDelegate delegate;
     indirectlyLitRoom(delegate, 4, branches);
     delegate.settings().set("seed", 1);
