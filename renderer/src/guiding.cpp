@@ -327,7 +327,7 @@ GuidingField GuidingField::build(std::vector<GuidingRecord> records, const Setti
 }
 
 const DirectionalDistribution* GuidingField::at(const Vec3f& position, const Vec3f& normal) const {
-  if (nodes_.empty()) return nullptr;
+  if (!guides()) return nullptr;  // no descent where no cell guides (open scenes)
   const Node* node = &nodes_[orientationOf(normal)];
   while (node->axis != kLeaf)
     node = &nodes_[node->index + (coordinate(position, node->axis) < node->split ? 0 : 1)];

@@ -166,10 +166,12 @@ TEST(Guiding, CellsGuideOnlyWhereTheGuideWouldHaveCutTheirVariance) {
   // Light from everywhere: cosine sampling is already the best a Lambertian floor can do.
   const GuidingField uniform = GuidingField::build(floorRecords(4000, 1));
   EXPECT_EQ(uniform.at(here, kUp), nullptr);
+  EXPECT_FALSE(uniform.guides());
   // Light from a small bright patch: the guide finds it far more often than the BSDF.
   const GuidingField concentrated = GuidingField::build(floorRecords(4000, 1000));
   const DirectionalDistribution* guide = concentrated.at(here, kUp);
   ASSERT_NE(guide, nullptr);
+  EXPECT_TRUE(concentrated.guides());
   EXPECT_GE(guide->guideProbability(), 0.5f);
   EXPECT_LT(guide->guideProbability(), 1.0f);
   // One bright record alone shapes the distribution towards itself, but is not counted as

@@ -122,6 +122,8 @@ class GuidingField {
   /// The distribution of the cell holding `position` on a surface facing `normal`, or nullptr
   /// where the field does not guide.
   const DirectionalDistribution* at(const Vec3f& position, const Vec3f& normal) const;
+  /// Whether any cell guides (where none does, at() answers without descending the cells).
+  bool guides() const { return !distributions_.empty(); }
 
  private:
   struct Node {
