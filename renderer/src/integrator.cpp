@@ -636,6 +636,17 @@ void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
 
 /// What a path carries from vertex to vertex. Copied where it branches at its first surface
 /// (IntegratorSettings::indirectSamples): each branch then goes on with random numbers of its own.
+/// Where a camera ray first meets a smooth dispersive solid, each of its paths goes on as this
+/// many copies, copy k refracting with wavelength k as its hero: refraction there keeps one
+/// wavelength, and a lone hero would leave the colours of what is seen through the solid to
+/// chance from sample to sample (coloured speckles).
+constexpr int kWavelengthCopies = 3;
+
+/// `v` with channel k first: the channels of the path's wavelengths as copy k orders them.
+Vec3f heroFirst(const Vec3f& v, int k) {
+  return k == 0 ? v : k == 1 ? Vec3f(v.y, v.z, v.x) : Vec3f(v.z, v.x, v.y);
+}
+
 struct PathState {
   explicit PathState(const SampleStream& stream) : sampler(stream) {}
 
@@ -677,7 +688,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                 FirstHitSample* firstHitRecord) {
   PathState path(SampleStream(settings.seed, uint32_t(x), uint32_t(y), sampleIndex));
   // The loop below reads and writes the path through these names; a branch that waits its turn
-  // (at most kMaxIndirectSamples - 1 of them) is copied into `path` when it begins.
+  // (fewer than kMaxIndirectSamples · kWavelengthCopies) is copied into `path` when it begins.
   SampleStream& sampler = path.sampler;
   PathSpectrum& spectrum = path.spectrum;
   Ray& ray = path.ray;
@@ -740,9 +751,13 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   Vec3f branchesRgb{0.0f};
   // Each branch's estimate goes into branchesRgb through here; with two branches, their
   // difference is kept too (CameraSample::branchDifference).
-  const auto addBranch = [&](const Vec3f& estimate, int branch) {
+  // Paths that go on from the first surface: branches, times kWavelengthCopies at a smooth
+  // dispersive solid; path p is copy p % copies of branch p / copies.
+  int copies = 1;
+  const auto addBranch = [&](const Vec3f& estimate, int pathIndex) {
     branchesRgb += estimate;
-    if (branches == 2) result.branchDifference += branch == 0 ? estimate : -estimate;
+    if (branches == 2)
+      result.branchDifference += (pathIndex / copies == 0 ? estimate : -estimate) / float(copies);
   };
   const auto toRgb = [&](const Vec3f& radiance) {
     return spectrum.spectral ? spectralToRgb(radiance, spectrum.wavelengths) : radiance;
@@ -971,18 +986,22 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
       SurfaceBsdf surfaceBsdf = makeBsdf(*hit, scene.materials(), spectrum, ior,
                                          filteredAlpha(settings.glossyFilter, minRayPdf));
+      std::optional<Vec3f> channelIors;  // each wavelength's index, where the BSDF disperses
       if (dispersive && !spectrum.wavelengths.heroOnly()) {
         // A dispersive interface sends each wavelength its own way when it refracts: there only
         // the hero's path goes on. Where the BSDF cannot tell refraction apart before sampling,
         // that holds from here on.
         const Vec3f& lambda = spectrum.wavelengths.lambda;
-        const Vec3f channelIors(ior, dispersiveIor(material.ior, material.abbeNumber, lambda.y),
-                                dispersiveIor(material.ior, material.abbeNumber, lambda.z));
-        if (!surfaceBsdf.disperse(wo, channelIors, material.ior)) {
+        const Vec3f iors(ior, dispersiveIor(material.ior, material.abbeNumber, lambda.y),
+                         dispersiveIor(material.ior, material.abbeNumber, lambda.z));
+        if (surfaceBsdf.disperse(wo, iors, material.ior)) {
+          channelIors = iors;
+        } else {
           spectrum.wavelengths.keepHeroOnly();
           throughput = {throughput.x, 0, 0};
         }
       }
+      if (bounce == 0) copies = channelIors && !measuringDomes ? kWavelengthCopies : 1;
       const bool guided = (settings.guidingField || training) && guidable(*hit, surfaceBsdf);
       const GuidedBsdf bsdf(surfaceBsdf,
                             guided && settings.guidingField
@@ -1090,29 +1109,45 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         ray = spawnRay(scene, exit ? exit->hit : *hit, next.direction, kInfinity, ray.time);
         return true;
       };
-      if (bounce == 0 && branches > 1) {
-        // Each branch scatters from here on its own; the first goes on now, the others wait.
+      const int paths = bounce == 0 ? branches * copies : 1;
+      if (paths > 1) {
+        // Each path scatters from here on its own; the first goes on now, the others wait.
         const PathState atSurface = path;
-        waitingBranches.reserve(size_t(branches - 1));
+        waitingBranches.reserve(size_t(paths - 1));
         radianceBeforeBranching = result.radiance;
         result.raysBeforeBranching = result.rays;
         result.verticesBeforeBranching = result.vertices;
         result.radiance = Vec3f(0.0f);
-        for (int branch = branches - 1; branch > 0; --branch) {
+        // Path p as copy p % copies of its branch: the branch's random numbers, and the
+        // wavelengths, throughput and BSDF with the copy's wavelength as the hero.
+        const auto begin = [&](int p) {
           path = atSurface;
-          path.branchOff(branch, branches, settings.seed, x, y, sampleIndex);
+          path.branchOff(p / copies, branches, settings.seed, x, y, sampleIndex);
+          path.branch = p;
+          const int copy = p % copies;
+          if (copies == 1) return;
+          SampledWavelengths& wavelengths = spectrum.wavelengths;
+          wavelengths = {heroFirst(wavelengths.lambda, copy), heroFirst(wavelengths.pdf, copy)};
+          throughput = heroFirst(throughput, copy);
+          const Vec3f iors = heroFirst(*channelIors, copy);
+          surfaceBsdf = makeBsdf(*hit, scene.materials(), spectrum, iors.x,
+                                 filteredAlpha(settings.glossyFilter, minRayPdf));
+          surfaceBsdf.disperse(wo, iors, material.ior);
+        };
+        for (int p = paths - 1; p > 0; --p) {
+          begin(p);
           if (scatter())
             waitingBranches.push_back(path);
-          else
-            addBranch(toRgb(*radianceBeforeBranching), branch);  // it ends here
+          else  // it ends here
+            addBranch(toRgb(heroFirst(*radianceBeforeBranching, p % copies)), p);
         }
-        path = atSurface;
-        path.branchOff(0, branches, settings.seed, x, y, sampleIndex);
+        begin(0);
       }
       if (!scatter()) break;
     }
     if (radianceBeforeBranching) {
-      addBranch(toRgb(*radianceBeforeBranching + result.radiance), path.branch);
+      addBranch(toRgb(heroFirst(*radianceBeforeBranching, path.branch % copies) + result.radiance),
+                path.branch);
       result.radiance = Vec3f(0.0f);
     }
     if (waitingBranches.empty()) break;
@@ -1125,8 +1160,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     result.raysBeforeBranching = result.rays;
     result.verticesBeforeBranching = result.vertices;
   }
-  result.radiance =
-      radianceBeforeBranching ? branchesRgb * (1.0f / float(branches)) : toRgb(result.radiance);
+  result.radiance = radianceBeforeBranching ? branchesRgb * (1.0f / float(branches * copies))
+                                            : toRgb(result.radiance);
   return result;
 }
 

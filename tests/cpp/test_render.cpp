@@ -848,6 +848,43 @@ TEST(Render, ADispersiveSheetKeepsEveryWavelength) {
   EXPECT_LT(error, 0.6 * heroAlone);
 }
 
+TEST(Render, ASmoothDispersiveSolidSeenDirectlyRefractsEveryWavelength) {
+  // A smooth dispersive glass ball under a white dome, seen from above: refraction into it keeps
+  // one wavelength per path, and each camera ray that meets it goes on as one copy per
+  // wavelength, so that what is seen through it is as white from sample to sample as the dome.
+  // A trace of opacity makes the BSDF more than a smooth interface: the hero alone goes on from
+  // the ball, and its colour is far noisier. The means are those of glass without dispersion.
+  const auto renderWith = [](float abbeNumber, float opacity) {
+    RenderDelegate delegate;
+    addSphere(delegate, "/ball", 1);
+    delegate.insertSprim("material", "/glass");
+    delegate.material("/glass").setParam("opacity", opacity);
+    delegate.material("/glass").setParam("roughness", 0.0f);
+    delegate.material("/glass").setParam("penumbra:abbeNumber", abbeNumber);
+    delegate.mesh("/ball").setMaterialId("/glass");
+    delegate.insertSprim("domeLight", "/sky");
+    delegate.settings().set("indirectSamples", 1);
+    addCamera(delegate, facingDown(0, 5, 0), 2.5f);
+    return render(delegate, 24, 24, 32);
+  };
+  const auto rmsFromMean = [](const std::vector<float>& image) {
+    double sum = 0;
+    for (size_t c = 0; c < 3; ++c) {
+      const double mean = meanChannel(image, int(c));
+      for (size_t i = 0; i < image.size(); i += 4) sum += std::pow(image[i + c] - mean, 2);
+    }
+    return std::sqrt(sum / double(image.size() / 4 * 3));
+  };
+  const std::vector<float> dispersive = renderWith(20, 0), plain = renderWith(0, 0);
+  for (int channel = 0; channel < 3; ++channel)
+    EXPECT_NEAR(meanChannel(dispersive, channel) / meanChannel(plain, channel), 1.0, 0.02)
+        << "channel " << channel;
+  const double error = rmsFromMean(dispersive), heroAlone = rmsFromMean(renderWith(20, 0.001f));
+  RecordProperty("rmsFromMean",
+                 std::to_string(error) + " (hero alone " + std::to_string(heroAlone) + ")");
+  EXPECT_LT(error, 0.6 * heroAlone);
+}
+
 TEST(Render, AGlowSeenThroughDispersiveGlassKeepsItsBrightness) {
   // A white glowing black ball inside a glass ball, seen from above against black. Refraction into
   // the glass keeps the hero wavelength alone as it is chosen: the glow, found before the path

@@ -53,8 +53,9 @@ struct IntegratorSettings {
   /// Paths that go on from each camera ray's first surface (branched path tracing, as Cook et
   /// al. 1984 trace several rays from a hit): the light found beyond it is the mean of this many
   /// independent continuations, while the camera ray, the surface's shading and its direct light
-  /// are paid for once. 1: no branching; clamped to [1, kMaxIndirectSamples]. Unbiased. Ignored
-  /// (1) where `guidingRecorder` is set.
+  /// are paid for once. 1: no branching; clamped to [1, kMaxIndirectSamples]. Unbiased. Where
+  /// the first surface is a smooth dispersive solid, each of them goes on as one copy per
+  /// wavelength (each refracting with its own as the hero), with or without branching.
   int indirectSamples = 1;
   /// Next-event estimates at each camera ray's first surface, averaged (as Cook et al. 1984
   /// send several shadow rays to an area light): where the choice of light and the point on it
