@@ -634,8 +634,6 @@ void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
   record->instancePrimvars = hit->instancePrimvars;
 }
 
-/// What a path carries from vertex to vertex. Copied where it branches at its first surface
-/// (IntegratorSettings::indirectSamples): each branch then goes on with random numbers of its own.
 /// Where a camera ray first meets a smooth dispersive solid, each of its paths goes on as this
 /// many copies, copy k refracting with wavelength k as its hero: refraction there keeps one
 /// wavelength, and a lone hero would leave the colours of what is seen through the solid to
@@ -647,6 +645,8 @@ Vec3f heroFirst(const Vec3f& v, int k) {
   return k == 0 ? v : k == 1 ? Vec3f(v.y, v.z, v.x) : Vec3f(v.z, v.x, v.y);
 }
 
+/// What a path carries from vertex to vertex. Copied where it branches at its first surface
+/// (IntegratorSettings::indirectSamples): each branch then goes on with random numbers of its own.
 struct PathState {
   explicit PathState(const SampleStream& stream) : sampler(stream) {}
 
@@ -749,10 +749,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // wavelength, so each branch is turned into RGB with its own wavelengths.
   std::optional<Vec3f> radianceBeforeBranching;
   Vec3f branchesRgb{0.0f};
-  // Each branch's estimate goes into branchesRgb through here; with two branches, their
-  // difference is kept too (CameraSample::branchDifference).
-  // Paths that go on from the first surface: branches, times kWavelengthCopies at a smooth
-  // dispersive solid; path p is copy p % copies of branch p / copies.
+  // The paths that go on from the first surface are the branches, each as kWavelengthCopies
+  // copies at a smooth dispersive solid (1 elsewhere): path p is copy p % copies of branch
+  // p / copies. Each path's estimate goes into branchesRgb through here; with two branches,
+  // their difference is kept too (CameraSample::branchDifference).
   int copies = 1;
   const auto addBranch = [&](const Vec3f& estimate, int pathIndex) {
     branchesRgb += estimate;
@@ -1001,7 +1001,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           throughput = {throughput.x, 0, 0};
         }
       }
-      if (bounce == 0) copies = channelIors && !measuringDomes ? kWavelengthCopies : 1;
+      // A thin sheet lets every wavelength through alike: copies there would only repeat its
+      // path. (The dome pilot's measurements keep one path.)
+      if (bounce == 0)
+        copies = channelIors && hit->closed && !measuringDomes ? kWavelengthCopies : 1;
       const bool guided = (settings.guidingField || training) && guidable(*hit, surfaceBsdf);
       const GuidedBsdf bsdf(surfaceBsdf,
                             guided && settings.guidingField
