@@ -654,7 +654,9 @@ struct PathState {
   /// Added to the purposes of the path's random streams (volumes, subsurface walks): a branch's
   /// differ from every other branch's and from an unbranched path's.
   uint32_t streamPurposeOffset = 0;
-  int branch = 0;  // which branch of its camera sample this path is (0 where it does not branch)
+  /// Which of its camera sample's paths this is: copy pathIndex % copies of branch
+  /// pathIndex / copies (0 where the sample does not branch).
+  int pathIndex = 0;
   PathSpectrum spectrum;
   Ray ray;
   RayCone cone;
@@ -672,7 +674,6 @@ struct PathState {
   /// `sampleIndex`: its dimensions from here on take sample index sampleIndex · branches +
   /// index, so that a pixel's branches together are as well stratified as its camera samples.
   void branchOff(int index, int branches, uint32_t seed, int x, int y, uint32_t sampleIndex) {
-    branch = index;
     sampler = sampler.atSample(sampleIndex * uint32_t(branches) + uint32_t(index));
     streamPurposeOffset = uint32_t(index + 1) << 24;  // above every vertex's purpose
     if (volumeRandom)
@@ -728,7 +729,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // Every light the sample gathers goes through here, so that training sees it too.
   const auto addLight = [&](const Vec3f& light) {
     result.radiance += light;
-    if (training && path.branch == 0) trainer.addLight(light);
+    if (training && path.pathIndex == 0) trainer.addLight(light);
   };
   cone = camera.pixelCone();
   const std::vector<Light>& lights = scene.lights().all();
@@ -1040,7 +1041,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           return false;
         throughput *= scattered->weight;
         if (scattered->heroOnly) spectrum.wavelengths.keepHeroOnly();
-        if (training && guided && !scattered->isDelta && path.branch == 0)
+        if (training && guided && !scattered->isDelta && path.pathIndex == 0)
           trainer.addVertex(hit->position, facingNormal, *scattered, throughput, bounce);
         // Where the path goes on from: here, or where a subsurface random walk left the solid.
         BsdfSample next = *scattered;
@@ -1122,16 +1123,23 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         result.verticesBeforeBranching = result.vertices;
         result.radiance = Vec3f(0.0f);
         // Path p as copy p % copies of its branch: the branch's random numbers, and the
-        // wavelengths, throughput and BSDF with the copy's wavelength as the hero.
+        // wavelengths, throughput and BSDF with the copy's wavelength as the hero (copy 0's is
+        // the BSDF set up above, kept while the others are set up in its place).
+        const std::optional<SurfaceBsdf> heroBsdf =
+            copies > 1 ? std::optional<SurfaceBsdf>(surfaceBsdf) : std::nullopt;
         const auto begin = [&](int p) {
           path = atSurface;
           path.branchOff(p / copies, branches, settings.seed, x, y, sampleIndex);
-          path.branch = p;
+          path.pathIndex = p;
           const int copy = p % copies;
           if (copies == 1) return;
           SampledWavelengths& wavelengths = spectrum.wavelengths;
           wavelengths = {heroFirst(wavelengths.lambda, copy), heroFirst(wavelengths.pdf, copy)};
           throughput = heroFirst(throughput, copy);
+          if (copy == 0) {
+            surfaceBsdf = *heroBsdf;
+            return;
+          }
           const Vec3f iors = heroFirst(*channelIors, copy);
           surfaceBsdf = makeBsdf(*hit, scene.materials(), spectrum, iors.x,
                                  filteredAlpha(settings.glossyFilter, minRayPdf));
@@ -1149,8 +1157,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (!scatter()) break;
     }
     if (radianceBeforeBranching) {
-      addBranch(toRgb(heroFirst(*radianceBeforeBranching, path.branch % copies) + result.radiance),
-                path.branch);
+      addBranch(
+          toRgb(heroFirst(*radianceBeforeBranching, path.pathIndex % copies) + result.radiance),
+          path.pathIndex);
       result.radiance = Vec3f(0.0f);
     }
     if (waitingBranches.empty()) break;
