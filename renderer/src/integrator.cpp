@@ -669,6 +669,9 @@ struct PathState {
   // Volumes: their decisions take as many random numbers as the medium asks, from a stream of
   // their own so that the sampler's dimensions stay aligned with the path's vertices.
   std::optional<RandomStream> volumeRandom;
+  /// What a path that waits its turn found as it left the first surface (the exit of a
+  /// subsurface walk is lit there), added to what it finds when it goes on.
+  Vec3f radianceBeforeWaiting{0.0f};
 
   /// Turns the path at its first surface into branch `index` of `branches` of camera sample
   /// `sampleIndex`: its dimensions from here on take sample index sampleIndex · branches +
@@ -1147,10 +1150,15 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         };
         for (int p = paths - 1; p > 0; --p) {
           begin(p);
-          if (scatter())
+          const bool goesOn = scatter();
+          // What it found as it left is its own, not the light of the path that goes on now.
+          const Vec3f found = std::exchange(result.radiance, Vec3f(0.0f));
+          if (goesOn) {
+            path.radianceBeforeWaiting = found;
             waitingBranches.push_back(path);
-          else  // it ends here
-            addBranch(toRgb(heroFirst(*radianceBeforeBranching, p % copies)), p);
+          } else {  // it ends here
+            addBranch(toRgb(heroFirst(*radianceBeforeBranching, p % copies) + found), p);
+          }
         }
         begin(0);
       }
@@ -1165,6 +1173,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
     if (waitingBranches.empty()) break;
     path = waitingBranches.back();
     waitingBranches.pop_back();
+    result.radiance = path.radianceBeforeWaiting;
   }
   if (training) trainer.record(*settings.guidingRecorder, x, y, sampleIndex);
   if (measuringDomes) result.domeSamplingShift = toRgb(domeSamplingShift);

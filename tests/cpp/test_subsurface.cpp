@@ -341,10 +341,8 @@ struct SubsurfaceSphere {
   }
 };
 
-/// The mean radiance of the left (x < 0) and right halves of the sphere, lit from the right
-/// (+x) by a distant light, seen from z = 6.
-std::pair<double, double> halvesLitFromTheRight(float radius) {
-  SubsurfaceSphere s(radius);
+/// Lights the sphere from the right (+x) by a distant light, and commits its scene.
+void lightFromTheRight(SubsurfaceSphere& s) {
   LightParams sun;
   sun.type = LightType::Distant;
   const double towardsMinusX[16] = {0, 0, -1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1};
@@ -354,10 +352,22 @@ std::pair<double, double> halvesLitFromTheRight(float radius) {
   lights.emplace_back(sun);
   s.scene.lights().setLights(std::move(lights));
   s.scene.commit();
+}
+
+/// A camera `size` pixels square on the z axis at z = 6, looking at the sphere.
+Camera cameraInFront(int size) {
   CameraParams lens;
   lens.cameraToWorld = test::translation(0, 0, 6);
+  return Camera(lens, size, size);
+}
+
+/// The mean radiance of the left (x < 0) and right halves of the sphere, lit from the right
+/// (+x) by a distant light, seen from z = 6.
+std::pair<double, double> halvesLitFromTheRight(float radius) {
+  SubsurfaceSphere s(radius);
+  lightFromTheRight(s);
   const int size = 24;
-  const Camera camera(lens, size, size);
+  const Camera camera = cameraInFront(size);
   const PixelFilter filter;
   IntegratorSettings settings;
   settings.maxPathDepth = settings.maxDiffuseDepth = 8;
@@ -398,6 +408,32 @@ TEST(Subsurface, LongerMeanFreePathsCarryLightIntoTheShadow) {
   EXPECT_LT(shortShare, 0.05);
   EXPECT_GT(longShare, 4 * shortShare);
   EXPECT_GT(longShare, 0.1);
+}
+
+TEST(Subsurface, EachBranchKeepsTheLightItsWalkFindsAtItsExit) {
+  // Paths that branch at the sphere each walk through it and are lit at their own exits. Cut
+  // after the walk, that light is all a branch finds: the difference of a sample's two
+  // branches (which the branching pilot takes for the noise beyond the first surface) then
+  // averages 0. Credited to the wrong branch, it would average twice the sample's radiance.
+  SubsurfaceSphere s(0.5f);
+  lightFromTheRight(s);
+  const int size = 24;
+  const Camera camera = cameraInFront(size);
+  const PixelFilter filter;
+  IntegratorSettings settings;
+  settings.indirectSamples = 2;
+  settings.maxPathDepth = 1;
+  double radiance = 0, difference = 0;
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x)
+      for (uint32_t i = 0; i < 32; ++i) {
+        const CameraSample sample = renderCameraSample(s.scene, camera, filter, x, y, i, settings);
+        radiance += luminance(sample.radiance);
+        difference += luminance(sample.branchDifference);
+      }
+  ASSERT_GT(radiance, 0);
+  RecordProperty("differenceOverRadiance", std::to_string(difference / radiance));
+  EXPECT_LT(std::abs(difference), 0.1 * radiance);
 }
 
 TEST(Subsurface, AbsorbingGlassFollowsBeerLambertEndToEnd) {
