@@ -853,8 +853,9 @@ TEST(Render, ASmoothDispersiveSolidSeenDirectlyRefractsEveryWavelength) {
   // one wavelength per path, and each camera ray that meets it goes on as one copy per
   // wavelength, so that what is seen through it is as white from sample to sample as the dome.
   // A trace of opacity makes the BSDF more than a smooth interface: the hero alone goes on from
-  // the ball, and its colour is far noisier. The means are those of glass without dispersion.
-  const auto renderWith = [](float abbeNumber, float opacity) {
+  // the ball, and its colour is far noisier. The means are those of glass without dispersion,
+  // with two branches too (six paths then share the sample's weight).
+  const auto renderWith = [](float abbeNumber, float opacity, int branches = 1) {
     RenderDelegate delegate;
     addSphere(delegate, "/ball", 1);
     delegate.insertSprim("material", "/glass");
@@ -863,7 +864,7 @@ TEST(Render, ASmoothDispersiveSolidSeenDirectlyRefractsEveryWavelength) {
     delegate.material("/glass").setParam("penumbra:abbeNumber", abbeNumber);
     delegate.mesh("/ball").setMaterialId("/glass");
     delegate.insertSprim("domeLight", "/sky");
-    delegate.settings().set("indirectSamples", 1);
+    delegate.settings().set("indirectSamples", branches);
     addCamera(delegate, facingDown(0, 5, 0), 2.5f);
     return render(delegate, 24, 24, 32);
   };
@@ -875,10 +876,14 @@ TEST(Render, ASmoothDispersiveSolidSeenDirectlyRefractsEveryWavelength) {
     }
     return std::sqrt(sum / double(image.size() / 4 * 3));
   };
-  const std::vector<float> dispersive = renderWith(20, 0), plain = renderWith(0, 0);
-  for (int channel = 0; channel < 3; ++channel)
+  const std::vector<float> dispersive = renderWith(20, 0), plain = renderWith(0, 0),
+                           twoBranches = renderWith(20, 0, 2);
+  for (int channel = 0; channel < 3; ++channel) {
     EXPECT_NEAR(meanChannel(dispersive, channel) / meanChannel(plain, channel), 1.0, 0.02)
         << "channel " << channel;
+    EXPECT_NEAR(meanChannel(twoBranches, channel) / meanChannel(plain, channel), 1.0, 0.02)
+        << "channel " << channel << ", two branches";
+  }
   const double error = rmsFromMean(dispersive), heroAlone = rmsFromMean(renderWith(20, 0.001f));
   RecordProperty("rmsFromMean",
                  std::to_string(error) + " (hero alone " + std::to_string(heroAlone) + ")");
