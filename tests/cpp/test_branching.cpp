@@ -145,6 +145,52 @@ TEST(Branching, ASampleKeepsItsBranchesDifferenceAndTheWorkBeforeTheSplit) {
   EXPECT_GT(differing, 300);  // of 484: the branches' bounces find other light
 }
 
+TEST(Branching, TheDifferenceOfBranchesOfWavelengthCopiesIsThatOfTheirMeans) {
+  // A smooth glass ball over a grey floor under a white dome, seen from above: each of a
+  // sample's two branches goes on from the ball, where the glass is dispersive as three
+  // wavelength copies, and the difference the pilot reads is that of the two branches' means.
+  // It averages 0, and it is about as large as without dispersion (one path per branch);
+  // counted per copy instead of per branch it would be three times as large.
+  struct Differences {
+    double radiance = 0, difference = 0, absoluteDifference = 0;
+  };
+  const auto differencesWith = [](float abbeNumber) {
+    RenderDelegate delegate;
+    penumbra::test::addFloor(delegate, "/floor", 20, -1);
+    delegate.mesh("/floor").setDisplayColor({Vec3f(0.3f)}, Interpolation::Constant);
+    penumbra::test::addSphere(delegate, "/ball", 1);
+    delegate.insertSprim("material", "/glass");
+    delegate.material("/glass").setParam("opacity", 0.0f);
+    delegate.material("/glass").setParam("roughness", 0.0f);
+    delegate.material("/glass").setParam("penumbra:abbeNumber", abbeNumber);
+    delegate.mesh("/ball").setMaterialId("/glass");
+    delegate.insertSprim("domeLight", "/sky");
+    addCamera(delegate, facingDown(0, 5, 0), 2.5f);
+    const penumbra::Camera camera = syncedCamera(delegate, kSize);
+    const PixelFilter filter;
+    IntegratorSettings twoBranches;
+    twoBranches.indirectSamples = 2;
+    Differences sums;
+    for (int y = 0; y < kSize; ++y)
+      for (int x = 0; x < kSize; ++x)
+        for (uint32_t s = 0; s < 8; ++s) {
+          const CameraSample sample =
+              renderCameraSample(delegate.scene(), camera, filter, x, y, s, twoBranches);
+          sums.radiance += luminance(sample.radiance);
+          sums.difference += luminance(sample.branchDifference);
+          sums.absoluteDifference += std::abs(luminance(sample.branchDifference));
+        }
+    return sums;
+  };
+  const Differences dispersive = differencesWith(20), plain = differencesWith(0);
+  ASSERT_GT(plain.absoluteDifference, 0.05 * plain.radiance);
+  EXPECT_LT(std::abs(dispersive.difference), 0.05 * dispersive.radiance);
+  const double ratio = dispersive.absoluteDifference / plain.absoluteDifference;
+  RecordProperty("absoluteDifferenceDispersiveOverPlain", std::to_string(ratio));
+  EXPECT_GT(ratio, 0.7);
+  EXPECT_LT(ratio, 1.4);
+}
+
 TEST(Branching, PilotBranchesWhereTheNoiseLiesBeyondTheFirstSurface) {
   RenderDelegate delegate;
   floorLitByCeiling(delegate);
