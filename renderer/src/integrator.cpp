@@ -753,18 +753,22 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // wavelength, so each branch is turned into RGB with its own wavelengths.
   std::optional<Vec3f> radianceBeforeBranching;
   Vec3f branchesRgb{0.0f};
-  // The paths that go on from the first surface are the branches, each as kWavelengthCopies
-  // copies at a smooth dispersive solid (1 elsewhere): path p is copy p % copies of branch
-  // p / copies. Each path's estimate goes into branchesRgb through here; with two branches,
-  // their difference is kept too (CameraSample::branchDifference).
-  int copies = 1;
-  const auto addBranch = [&](const Vec3f& estimate, int pathIndex) {
-    branchesRgb += estimate;
-    if (branches == 2)
-      result.branchDifference += (pathIndex / copies == 0 ? estimate : -estimate) / float(copies);
-  };
   const auto toRgb = [&](const Vec3f& radiance) {
     return spectrum.spectral ? spectralToRgb(radiance, spectrum.wavelengths) : radiance;
+  };
+  // The paths that go on from the first surface are the branches, each as kWavelengthCopies
+  // copies at a smooth dispersive solid (1 elsewhere): path p is copy p % copies of branch
+  // p / copies. Each path's estimate, the light found before the split (in its copy's order)
+  // plus `found` after it, goes into branchesRgb through here; with two branches, their
+  // difference is kept too (CameraSample::branchDifference).
+  int copies = 1;
+  const auto endPath = [&](const Vec3f& found) {
+    const int copy = path.pathIndex % copies;
+    const Vec3f estimate = toRgb(heroFirst(*radianceBeforeBranching, copy) + found);
+    branchesRgb += estimate;
+    if (branches == 2)
+      result.branchDifference +=
+          (path.pathIndex / copies == 0 ? estimate : -estimate) / float(copies);
   };
   // The share of light that a shadow ray towards `tFar` carries through the volumes.
   // `linkSlot`: the light's (its shadow link may let the ray pass some volumes).
@@ -1157,7 +1161,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
             path.radianceBeforeWaiting = found;
             waitingBranches.push_back(path);
           } else {  // it ends here
-            addBranch(toRgb(heroFirst(*radianceBeforeBranching, p % copies) + found), p);
+            endPath(found);
           }
         }
         begin(0);
@@ -1165,9 +1169,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (!scatter()) break;
     }
     if (radianceBeforeBranching) {
-      addBranch(
-          toRgb(heroFirst(*radianceBeforeBranching, path.pathIndex % copies) + result.radiance),
-          path.pathIndex);
+      endPath(result.radiance);
       result.radiance = Vec3f(0.0f);
     }
     if (waitingBranches.empty()) break;
