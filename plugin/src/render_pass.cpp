@@ -111,6 +111,7 @@ void RenderPass::reset() {
   guidingRecordedThrough_ = 0;
   constantDomeShare_.reset();
   firstSurfaceSamples_.reset();
+  regionBranches_.reset();
 }
 
 void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
@@ -221,29 +222,26 @@ float RenderPass::constantDomeShare(const penumbra::Camera& camera,
   return constantDomeShareUsed();
 }
 
-int RenderPass::firstSurfaceCountUsed(int setting, int BranchingPilot::Choice::* count) const {
-  return setting > 0 ? setting : firstSurfaceSamples_ ? (*firstSurfaceSamples_).*count : 1;
-}
-
-int RenderPass::indirectSamplesUsed() const {
-  return firstSurfaceCountUsed(delegate_.settings().indirectSamples,
-                               &BranchingPilot::Choice::indirectSamples);
+double RenderPass::indirectSamplesUsed() const {
+  const int setting = delegate_.settings().indirectSamples;
+  if (setting > 0) return setting;
+  return regionBranches_ ? regionBranches_->mean(imageWidth_, imageHeight_) : 1.0;
 }
 
 int RenderPass::lightSamplesUsed() const {
-  return firstSurfaceCountUsed(delegate_.settings().lightSamples,
-                               &BranchingPilot::Choice::lightSamples);
+  const int setting = delegate_.settings().lightSamples;
+  return setting > 0 ? setting : firstSurfaceSamples_ ? firstSurfaceSamples_->lightSamples : 1;
 }
 
-BranchingPilot::Choice RenderPass::firstSurfaceSamples(
-    const penumbra::Camera& camera, const penumbra::RenderSettings& renderSettings) {
+void RenderPass::chooseFirstSurfaceSamples(const penumbra::Camera& camera,
+                                           const penumbra::RenderSettings& renderSettings) {
   const RenderSettingsMap& settings = delegate_.settings();
+  if ((settings.indirectSamples != 0 && settings.lightSamples != 0) || firstSurfaceSamples_) return;
   // Over the whole image, so that a crop or a band chooses as the whole image does.
-  if ((settings.indirectSamples == 0 || settings.lightSamples == 0) && !firstSurfaceSamples_)
-    firstSurfaceSamples_ =
-        runBranchingPilot(delegate_.scene(), camera, imageWidth_, imageHeight_, renderSettings)
-            .choose({settings.indirectSamples, settings.lightSamples});
-  return {indirectSamplesUsed(), lightSamplesUsed()};
+  const BranchingPilot pilot =
+      runBranchingPilot(delegate_.scene(), camera, imageWidth_, imageHeight_, renderSettings);
+  firstSurfaceSamples_ = pilot.choose({settings.indirectSamples, settings.lightSamples});
+  if (settings.indirectSamples == 0) regionBranches_ = pilot.chooseRegions(*firstSurfaceSamples_);
 }
 
 RenderSettings RenderPass::pilotedSettings(const penumbra::Camera& camera) {
@@ -252,9 +250,11 @@ RenderSettings RenderPass::pilotedSettings(const penumbra::Camera& camera) {
   renderSettings.integrator = integratorSettings();
   renderSettings.integrator.firstSurfaceConstantDomeShare =
       constantDomeShare(camera, renderSettings);
-  const BranchingPilot::Choice firstSurface = firstSurfaceSamples(camera, renderSettings);
-  renderSettings.integrator.indirectSamples = firstSurface.indirectSamples;
-  renderSettings.integrator.lightSamples = firstSurface.lightSamples;
+  chooseFirstSurfaceSamples(camera, renderSettings);
+  const RenderSettingsMap& settings = delegate_.settings();
+  renderSettings.integrator.indirectSamples = std::max(settings.indirectSamples, 1);
+  renderSettings.integrator.regionBranches = regionBranches();
+  renderSettings.integrator.lightSamples = lightSamplesUsed();
   return renderSettings;
 }
 

@@ -172,8 +172,8 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
                              "choice (docs/dome-sampling.md)")
       .def_property_readonly("indirect_samples", &RenderPass::indirectSamplesUsed,
                              "The paths that go on from each camera ray's first surface: the "
-                             "indirect_samples setting's, or (0) the pilot's choice "
-                             "(docs/branching.md)")
+                             "indirect_samples setting's, or (0) the mean over the image's "
+                             "pixels of the pilot's counts per region (docs/branching.md)")
       .def_property_readonly("light_samples", &RenderPass::lightSamplesUsed,
                              "The estimates of the direct light at each camera ray's first "
                              "surface: the light_samples setting's, or (0) the pilot's choice "

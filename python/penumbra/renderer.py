@@ -370,7 +370,7 @@ class Renderer:
                 "samplesDone": render_pass.samples_done,
                 "rays": render_pass.rays_traced,
                 "constantDomeShare": render_pass.constant_dome_share,
-                "indirectSamplesUsed": render_pass.indirect_samples,
+                "indirectSamplesUsed": round(render_pass.indirect_samples, 3),
                 "lightSamplesUsed": render_pass.light_samples,
                 "renderTimeSeconds": round(elapsed, 3),
                 "version": _core.version(),

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -65,6 +67,108 @@ BranchingPilot::Choice BranchingPilot::choose(Choice choice) const {
       chosen = Choice{branches, estimates};
   });
   return *chosen;
+}
+
+FirstSurfaceBranches BranchingPilot::chooseRegions(Choice choice) const {
+  FirstSurfaceBranches regions;
+  regions.regionSize = std::max(1, gridStride * kRegionCells);
+  regions.columns = std::max(1, (gridColumns + kRegionCells - 1) / kRegionCells);
+  regions.rows = std::max(1, (gridRows + kRegionCells - 1) / kRegionCells);
+  const size_t count = size_t(regions.columns) * size_t(regions.rows);
+  regions.counts.assign(count, uint8_t(choice.indirectSamples));
+  if (pixels == 0 || cells.size() != size_t(gridColumns) * size_t(gridRows)) return regions;
+  // Calls visit(cell, region) for each cell of the grid, in the grid's order.
+  const auto forEachCell = [&](auto&& visit) {
+    for (int row = 0; row < gridRows; ++row)
+      for (int column = 0; column < gridColumns; ++column)
+        visit(cells[size_t(row) * size_t(gridColumns) + size_t(column)],
+              size_t(row / kRegionCells) * size_t(regions.columns) + size_t(column / kRegionCells));
+  };
+  // Each region's terms: the sums over its cells.
+  std::vector<Cell> sums(count);
+  std::vector<double> cellCounts(count, 0.0);
+  forEachCell([&](const Cell& cell, size_t region) {
+    Cell& sum = sums[region];
+    sum.varianceFirst += cell.varianceFirst;
+    sum.varianceLight += cell.varianceLight;
+    sum.varianceBeyond += cell.varianceBeyond;
+    sum.costFirst += cell.costFirst;
+    sum.costLight += cell.costLight;
+    sum.costBeyond += cell.costBeyond;
+    cellCounts[region] += 1;
+  });
+  // A region's V_beyond comes from a few pixels' samples, where rare bright paths beyond the
+  // split (caustics) make it noisy. Its V_beyond per work beyond is taken as the image's plus
+  // the share of its own's difference from it that the regions' spread leaves to the noise of
+  // its own (empirical Bayes: the noise from the spread of its cells' values, the regions'
+  // spread from that of their values less their mean noise). Where nothing lies beyond (the
+  // sky), V_beyond stays 0: one branch, which costs nothing there.
+  const auto perWork = [](const Cell& cell) { return cell.varianceBeyond / cell.costBeyond; };
+  const double imagePerWork = costBeyond > 0 ? varianceBeyond / costBeyond : 0.0;
+  std::vector<double> noise(count, 0.0);  // the variance of a region's value, about its own
+  forEachCell([&](const Cell& cell, size_t region) {
+    if (cell.costBeyond <= 0 || sums[region].costBeyond <= 0) return;
+    const double deviation = perWork(cell) - perWork(sums[region]);
+    noise[region] += deviation * deviation;
+  });
+  double spread = 0, meanNoise = 0, regionsBeyond = 0;
+  for (size_t r = 0; r < count; ++r) {
+    if (sums[r].costBeyond <= 0) continue;
+    const double n = cellCounts[r];
+    noise[r] = n > 1 ? noise[r] / ((n - 1) * n) : 0.0;
+    const double deviation = perWork(sums[r]) - imagePerWork;
+    spread += deviation * deviation;
+    meanNoise += noise[r];
+    regionsBeyond += 1;
+  }
+  const double regionSpread =
+      regionsBeyond > 0 ? std::max((spread - meanNoise) / regionsBeyond, 0.0) : 0.0;
+  for (size_t r = 0; r < count; ++r) {
+    Cell& sum = sums[r];
+    if (sum.costBeyond <= 0) continue;
+    const double total = regionSpread + noise[r];
+    const double trust = total > 0 ? regionSpread / total : 1.0;
+    sum.varianceBeyond = (imagePerWork + trust * (perWork(sum) - imagePerWork)) * sum.costBeyond;
+  }
+  const int estimates = choice.lightSamples;
+  // The image's variance times cost with `counts`. V_first, summed over regions whose own may
+  // come out below 0, is kept at 0 or more as a whole, as the image's is.
+  const auto product = [&](const std::vector<uint8_t>& counts) {
+    double first = 0, rest = 0, work = 0;
+    for (size_t r = 0; r < count; ++r) {
+      const Cell& sum = sums[r];
+      first += sum.varianceFirst;
+      rest += sum.varianceLight / estimates + sum.varianceBeyond / counts[r];
+      work += sum.costFirst + estimates * sum.costLight + counts[r] * sum.costBeyond;
+    }
+    return (std::max(first, 0.0) + rest + kNoiseFloor * double(pixels)) * work;
+  };
+  // The counts of least product: there each region's count minimises its own
+  // V_beyond / N + μ · N · C_beyond for one μ (the image's variance over its cost), tried in
+  // steps of 2^(1/6) over 20 octaves around the one-branch image's.
+  const double typicalMu = (variance(1, estimates) + kNoiseFloor * double(pixels)) /
+                           std::max(cost(1, estimates), std::numeric_limits<double>::min());
+  std::vector<uint8_t> trial(count), best;
+  double least = std::numeric_limits<double>::infinity();
+  for (int step = -60; step <= 60; ++step) {
+    const double mu = typicalMu * std::exp2(double(step) / 6);
+    for (size_t r = 0; r < count; ++r) {
+      const Cell& sum = sums[r];
+      int branches = 1;
+      for (int more = 2; more <= kMaxBranches; ++more)
+        if (sum.varianceBeyond / more + mu * more * sum.costBeyond <
+            sum.varianceBeyond / branches + mu * branches * sum.costBeyond)
+          branches = more;
+      trial[r] = uint8_t(branches);
+    }
+    const double value = product(trial);
+    if (value < least) {
+      least = value;
+      best = trial;
+    }
+  }
+  if (least < (1 - kRegionMargin) * product(regions.counts)) regions.counts = best;
+  return regions;
 }
 
 BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int width, int height,
@@ -141,12 +245,23 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
     pilot.costFirst += pixel.workFirst;
     pilot.costLight += pixel.workBothLightEstimates;
     pilot.costBeyond += pixel.workBeyondBothBranches;
+    BranchingPilot::Cell& cell = pilot.cells.emplace_back();
+    cell.varianceFirst = pixel.varianceFirstAndHalfLight - pixel.varianceLight / 2;
+    cell.varianceLight = pixel.varianceLight;
+    cell.varianceBeyond = pixel.varianceBeyond;
+    cell.costFirst = pixel.workFirst;
+    cell.costLight = pixel.workBothLightEstimates / 2;
+    cell.costBeyond = pixel.workBeyondBothBranches / 2;
   }
   pilot.costLight /= 2;
   pilot.costBeyond /= 2;
   // Estimated from products of differences, V_first may come out below 0 where it is small.
   pilot.varianceFirst = std::max(varianceFirstAndHalfLight - pilot.varianceLight / 2, 0.0);
   pilot.pixels = uint32_t(grid.size());
+  const PilotGridShape shape = pilotGridShape(width, height, maxPixels);
+  pilot.gridStride = shape.stride;
+  pilot.gridColumns = shape.columns;
+  pilot.gridRows = shape.rows;
   return pilot;
 }
 

@@ -740,7 +740,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   if (hasVolumes) volumeRandom.emplace(settings.seed, uint32_t(x), uint32_t(y), sampleIndex, 0);
   const MediumSpectrum mediumSpectrum{spectrum.spectral ? &spectrum.wavelengths : nullptr};
   // Branching at the first surface.
-  const int branches = std::clamp(settings.indirectSamples, 1, kMaxIndirectSamples);
+  const int branches = std::clamp(
+      settings.regionBranches ? settings.regionBranches->at(x, y) : settings.indirectSamples, 1,
+      kMaxIndirectSamples);
   std::vector<PathState> waitingBranches;  // empty unless the path branches: no allocation
   const int lightEstimates = std::clamp(settings.lightSamples, 1, kMaxLightSamples);
   // What a share of 1 for the constant domes at the first surface would have changed, where

@@ -33,6 +33,7 @@ inline IntegratorSettings pilotIntegrator(const IntegratorSettings& render, uint
   settings.guidingRecorder = nullptr;
   settings.lightImages = nullptr;
   settings.rayLog = nullptr;
+  settings.regionBranches = nullptr;
   return settings;
 }
 
@@ -50,6 +51,17 @@ inline double relativeCovariance(const Vec3f& a1, const Vec3f& a2, const Vec3f& 
   return sum;
 }
 
+/// The pilot grid over a `width` x `height` image with at most about `maxPixels` pixels: one
+/// pixel (at its centre) per square cell `stride` pixels across, at least every other pixel.
+struct PilotGridShape {
+  int stride, columns, rows;
+};
+inline PilotGridShape pilotGridShape(int width, int height, uint32_t maxPixels) {
+  const double pixels = double(width) * double(height);
+  const int stride = std::max(2, int(std::ceil(std::sqrt(pixels / double(maxPixels)))));
+  return {stride, (width + stride - 1) / stride, (height + stride - 1) / stride};
+}
+
 /// Calls `tracePixel(x, y)` at each pixel of a grid over a `width` x `height` image (at least
 /// every other pixel along each axis, at most about `maxPixels` of them), on `threads` threads
 /// (0: all cores), and returns what it returned in the grid's order (row by row), so that sums
@@ -57,9 +69,7 @@ inline double relativeCovariance(const Vec3f& a1, const Vec3f& a2, const Vec3f& 
 template <class PixelResult, class TracePixel>
 std::vector<PixelResult> tracePilotGrid(int width, int height, uint32_t maxPixels, int threads,
                                         const TracePixel& tracePixel) {
-  const double pixels = double(width) * double(height);
-  const int stride = std::max(2, int(std::ceil(std::sqrt(pixels / double(maxPixels)))));
-  const int columns = (width + stride - 1) / stride, rows = (height + stride - 1) / stride;
+  const auto [stride, columns, rows] = pilotGridShape(width, height, maxPixels);
   std::vector<PixelResult> grid(size_t(columns) * size_t(rows));
   onThreads(threads, [&] {
     tbb::parallel_for(0, rows, [&](int row) {

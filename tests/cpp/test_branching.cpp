@@ -1,9 +1,10 @@
 // Branching and light estimates at the first surface chosen per render (branching.h): what a
 // sample records for the pilot, the pilot's choice where the noise lies beyond the first surface,
-// where it is the choice of light and where it is the pixel's own, the same for any crop and
-// thread count.
+// where it is the choice of light and where it is the pixel's own, its branches per region of the
+// image, the same for any crop and thread count.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -90,21 +91,60 @@ void floorUnderManyBulbs(RenderDelegate& delegate) {
   delegate.settings().set("maxPathDepth", 1);
 }
 
-/// Noise (the red channel's squared difference between two seeds' images of 32 samples) times
-/// the rays the two traced, with the settings `set` (key, value) on the delegate's.
-double noiseTimesRays(RenderDelegate& delegate,
-                      const std::vector<std::pair<std::string, double>>& set) {
-  for (const auto& [key, value] : set) delegate.settings().set(key, value);
+/// floorLitByCeiling with a glowing dark quad (a lamp's shade) at height 1 over the view's half
+/// x > 0: there the pixels' own light is bright and what their paths find beyond the first
+/// surface is dim, while the floor's light is all found beyond it.
+void floorLitByCeilingBesideAGlow(RenderDelegate& delegate) {
+  floorLitByCeiling(delegate);
+  penumbra::test::addFloor(delegate, "/glow", 10, 1);
+  delegate.mesh("/glow").setTransform(translation(10, 0, 0));
+  delegate.insertSprim("material", "/glowing");
+  delegate.material("/glowing").setParam("emissiveColor", Vec3f(4.0f));
+  delegate.material("/glowing").setParam("diffuseColor", Vec3f(0.05f));
+  delegate.mesh("/glow").setMaterialId("/glowing");
+}
+
+/// Two seeds' images of 32 samples with the settings `set` (key, value) on the delegate's, and
+/// the rays the two traced.
+struct TwoSeeds {
   std::vector<float> images[2];
   uint64_t rays = 0;
+};
+TwoSeeds renderTwoSeeds(RenderDelegate& delegate,
+                        const std::vector<std::pair<std::string, double>>& set) {
+  for (const auto& [key, value] : set) delegate.settings().set(key, value);
+  TwoSeeds rendered;
   for (int seed = 0; seed < 2; ++seed) {
     delegate.settings().set("seed", seed);
     RenderPass pass(delegate, "/cam", kSize, kSize);
     pass.execute(32);
-    images[seed] = pass.aov("color");
-    rays += pass.raysTraced();
+    rendered.images[seed] = pass.aov("color");
+    rendered.rays += pass.raysTraced();
   }
-  return redSquaredDifference(images[0], images[1]) * double(rays);
+  return rendered;
+}
+
+/// Noise (the red channel's squared difference between two seeds' images) times the rays the
+/// two traced, with the settings `set`.
+double noiseTimesRays(RenderDelegate& delegate,
+                      const std::vector<std::pair<std::string, double>>& set) {
+  const TwoSeeds rendered = renderTwoSeeds(delegate, set);
+  return redSquaredDifference(rendered.images[0], rendered.images[1]) * double(rendered.rays);
+}
+
+/// The same noise relative to the pixels' value (over their mean's square + 0.01, as the pilot
+/// weighs it), times the rays.
+double relativeNoiseTimesRays(RenderDelegate& delegate,
+                              const std::vector<std::pair<std::string, double>>& set) {
+  const TwoSeeds rendered = renderTwoSeeds(delegate, set);
+  const std::vector<float>&a = rendered.images[0], &b = rendered.images[1];
+  double noise = 0;
+  for (size_t i = 0; i < a.size(); i += 4) {
+    const double mean = 0.5 * (double(a[i]) + double(b[i]));
+    const double difference = double(a[i]) - double(b[i]);
+    noise += difference * difference / (mean * mean + 0.01);
+  }
+  return noise / double(a.size() / 4) * double(rendered.rays);
 }
 
 }  // namespace
@@ -199,9 +239,10 @@ TEST(Branching, PilotBranchesWhereTheNoiseLiesBeyondTheFirstSurface) {
   EXPECT_GT(pilot.varianceBeyond, 4 * pilot.varianceFirst);
   RenderPass chosen(delegate, "/cam", kSize, kSize);
   chosen.execute(1);
-  const int branches = chosen.indirectSamplesUsed();
+  const int branches = pilot.choose({0, 0}).indirectSamples;
   EXPECT_GE(branches, 2);
-  EXPECT_EQ(branches, pilot.choose({0, 0}).indirectSamples);
+  // On a floor alike everywhere, the counts per region stay near the image's.
+  EXPECT_NEAR(chosen.indirectSamplesUsed(), branches, 0.5);
   // It pays: less noise for the rays traced than without branching (one light estimate each).
   EXPECT_LT(noiseTimesRays(delegate, {{"indirectSamples", branches}, {"lightSamples", 1}}),
             0.85 * noiseTimesRays(delegate, {{"indirectSamples", 1}, {"lightSamples", 1}}));
@@ -325,21 +366,31 @@ TEST(Branching, PilotDoesNotBranchWhereTheNoiseIsThePixelsOwn) {
 }
 
 TEST(Branching, PilotChoosesTheSameForAnyThreadCountAndCrop) {
-  const auto renderWith = [](int threads, PixelRect crop) {
+  // Counts that differ across the image: the floor's and the shade's.
+  std::vector<uint8_t> wholeCounts;
+  const auto renderWith = [&](int threads, PixelRect crop) {
     RenderDelegate delegate;
-    floorLitByCeiling(delegate);
+    floorLitByCeilingBesideAGlow(delegate);
     delegate.settings().set("threads", threads);
     RenderPass pass(delegate, "/cam", kSize, kSize, crop);
     pass.execute(4);
     EXPECT_GT(pass.indirectSamplesUsed(), 1);
+    if (!pass.regionBranches()) {
+      ADD_FAILURE() << "one count for the whole image";
+      return pass.aov("color");
+    }
+    if (wholeCounts.empty()) wholeCounts = pass.regionBranches()->counts;
+    EXPECT_EQ(pass.regionBranches()->counts, wholeCounts);
     return pass.aov("color");
   };
   const std::vector<float> whole = renderWith(1, {0, 0, kSize, kSize});
+  EXPECT_NE(*std::min_element(wholeCounts.begin(), wholeCounts.end()),
+            *std::max_element(wholeCounts.begin(), wholeCounts.end()));
   EXPECT_EQ(renderWith(2, {0, 0, kSize, kSize}), whole);
   const PixelRect band{0, 11, kSize, 7};
   EXPECT_EQ(renderWith(2, band), cropOf(whole, kSize, 4, band));
   RenderDelegate delegate;
-  floorLitByCeiling(delegate);
+  floorLitByCeilingBesideAGlow(delegate);
   EXPECT_EQ(pilotOf(delegate, 1).varianceFirst, pilotOf(delegate, 2).varianceFirst);
   EXPECT_EQ(pilotOf(delegate, 1).varianceBeyond, pilotOf(delegate, 2).varianceBeyond);
   EXPECT_EQ(pilotOf(delegate, 1).varianceLight, pilotOf(delegate, 2).varianceLight);
@@ -366,4 +417,79 @@ TEST(Branching, TheSettingChoosesOrLeavesTheChoiceToThePilot) {
   }
   EXPECT_THROW(delegate.settings().set("lightSamples", -1), std::invalid_argument);
   EXPECT_THROW(delegate.settings().set("lightSamples", 17), std::invalid_argument);
+}
+
+TEST(Branching, PilotBranchesPerRegionWhereTheNoiseBeyondLies) {
+  RenderDelegate delegate;
+  floorLitByCeilingBesideAGlow(delegate);
+  RenderPass pass(delegate, "/cam", kSize, kSize);
+  pass.setAovs({"color", "depth"});
+  EXPECT_EQ(pass.regionBranches(), nullptr);  // nothing rendered yet
+  pass.execute(1);
+  ASSERT_NE(pass.regionBranches(), nullptr);
+  const FirstSurfaceBranches& regions = *pass.regionBranches();
+  // Each region's count against what its pixels see, told by their depth: the glow's 1, the
+  // floor's 2.
+  const std::vector<float> depth = pass.aov("depth");
+  int floorRegions = 0, glowRegions = 0;
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      const bool onFloor = depth[size_t(y * kSize + x)] > 1.5f;
+      const int count = regions.at(x, y);
+      if (x % regions.regionSize || y % regions.regionSize) continue;  // once per region
+      // Regions wholly on one side: the glow's edge crosses none at this size.
+      if (onFloor) {
+        ++floorRegions;
+        EXPECT_GE(count, 2) << "floor region at " << x << ", " << y;
+      } else {
+        ++glowRegions;
+        EXPECT_EQ(count, 1) << "glow region at " << x << ", " << y;
+      }
+    }
+  EXPECT_GT(floorRegions, 0);
+  EXPECT_GT(glowRegions, 0);
+  EXPECT_EQ(pass.indirectSamplesUsed(), regions.mean(kSize, kSize));
+  EXPECT_GT(pass.indirectSamplesUsed(), 1);
+  EXPECT_LT(pass.indirectSamplesUsed(), 4);
+  // It pays: less relative noise for the rays traced than the pilot's one count for the image.
+  const int imageCount = pilotOf(delegate).choose({0, 0}).indirectSamples;
+  EXPECT_GE(imageCount, 2);
+  const double perRegion = relativeNoiseTimesRays(delegate, {{"indirectSamples", 0}});
+  const double perImage = relativeNoiseTimesRays(delegate, {{"indirectSamples", imageCount}});
+  RecordProperty("perRegionOverPerImage", std::to_string(perRegion / perImage));
+  EXPECT_LT(perRegion, 0.85 * perImage);
+}
+
+TEST(Branching, EachPixelBranchesAsItsRegionSays) {
+  RenderDelegate delegate;
+  floorLitByCeiling(delegate);
+  const penumbra::Camera camera = syncedCamera(delegate, kSize);
+  // Two regions side by side: one path in the left one, three in the right one.
+  FirstSurfaceBranches regions;
+  regions.regionSize = kSize / 2;
+  regions.columns = 2;
+  regions.rows = 1;
+  regions.counts = {1, 3};
+  IntegratorSettings settings;
+  settings.indirectSamples = 2;  // what the regions replace
+  settings.regionBranches = &regions;
+  const PixelFilter filter;
+  uint32_t raysAfterSplit[2] = {0, 0}, raysBeforeSplit[2] = {0, 0};
+  for (int side = 0; side < 2; ++side)
+    for (uint32_t index = 0; index < 16; ++index) {
+      const CameraSample sample = renderCameraSample(delegate.scene(), camera, filter,
+                                                     side * kSize / 2 + 5, 7, index, settings);
+      raysAfterSplit[side] += sample.rays - sample.raysBeforeBranching;
+      raysBeforeSplit[side] += sample.raysBeforeBranching;
+    }
+  // Unbranched, every ray counts as before the split; three branches trace about three paths.
+  EXPECT_EQ(raysAfterSplit[0], 0u);
+  EXPECT_GT(raysAfterSplit[1], 2 * raysBeforeSplit[1]);
+  EXPECT_EQ(regions.mean(kSize, kSize), 2.0);
+  // The last column and row take the rest of the image: three columns of 12 pixels over 32.
+  regions.regionSize = 12;
+  regions.columns = 3;
+  regions.counts = {1, 1, 4};
+  EXPECT_EQ(regions.at(31, 31), 4);
+  EXPECT_DOUBLE_EQ(regions.mean(kSize, kSize), (24.0 + 4 * 8.0) / 32);
 }

@@ -1,6 +1,7 @@
 """The ``indirect_samples`` option's default (docs/branching.md): a pilot chooses how many paths
-go on from each camera ray's first surface, more where the noise lies beyond it, one where it is
-the pixel's own; the count used is in the image metadata."""
+go on from each camera ray's first surface, per region of the image, more where the noise lies
+beyond it, one where it is the pixel's own; the count used (the mean over the image) is in the
+image metadata."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import pytest
 from pxr import Gf, UsdLux
 
 import penumbra
-from stages import add_camera, add_quad, lit_quad_stage, new_stage
+from stages import add_camera, add_preview_material, add_quad, bind, lit_quad_stage, new_stage
 
 
 def floor_lit_by_ceiling():
@@ -56,6 +57,27 @@ def test_the_pilots_choice_converges_to_the_unbranched_image():
     single = np.asarray(render(stage, samples=64, indirect_samples=1).get("color"))[..., :3].mean()
     assert chosen > 0.01
     assert chosen == pytest.approx(single, rel=0.01)
+
+
+def floor_lit_by_ceiling_beside_a_shade():
+    """floor_lit_by_ceiling with a lamp's shade over the view's half x > 0: a dark quad glowing
+    brightly, whose pixels are their own light, while the floor's is all found beyond it."""
+    stage = floor_lit_by_ceiling()
+    shade = add_quad(stage, "/shade", center=(10.0, 0.0, 1.0), half_size=10.0)
+    bind(shade, add_preview_material(stage, "/Looks/shade", diffuseColor=(0.05, 0.05, 0.05),
+                                     emissiveColor=(4.0, 4.0, 4.0)))
+    return stage
+
+
+def test_the_pilot_branches_per_region_of_the_image():
+    stage = floor_lit_by_ceiling_beside_a_shade()
+    image = render(stage)
+    # Several branches over the floor, one over the shade: their mean over the image.
+    assert 1.5 < image.metadata["indirectSamplesUsed"] < 3.5
+    color = np.asarray(render(stage, samples=64).get("color"))[..., :3]
+    single = np.asarray(render(stage, samples=64, indirect_samples=1).get("color"))[..., :3]
+    for half in (slice(0, 16), slice(16, 32)):  # each converges to the unbranched image
+        assert color[:, half].mean() == pytest.approx(single[:, half].mean(), rel=0.01)
 
 
 def floor_under_many_bulbs():

@@ -1,6 +1,7 @@
 // How many paths go on from each camera ray's first surface (IntegratorSettings::indirectSamples)
 // and how many light estimates are made there (IntegratorSettings::lightSamples), where the
-// render leaves the counts to Penumbra: chosen once per render, from a pilot (docs/branching.md).
+// render leaves the counts to Penumbra: chosen once per render, from a pilot, the branches per
+// region of the image (docs/branching.md).
 //
 // A camera sample's variance is that of what it finds up to and at its first surface but its
 // direct light there (where in the pixel, on the lens and in the shutter it looks, the surface's
@@ -32,6 +33,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "penumbra/camera.h"
 #include "penumbra/render.h"
@@ -58,6 +60,16 @@ struct BranchingPilot {
   double costLight = 0;   // of one light estimate at the first surface
   double costBeyond = 0;  // beyond the first surface, per branch
   uint32_t pixels = 0;    // 0: no pilot was needed (camera rays only see)
+
+  /// The same terms per cell of the pilot's grid, each of one grid pixel's samples (row by row;
+  /// `gridColumns` x `gridRows` cells, `gridStride` image pixels across): for branch counts
+  /// that differ across the image (chooseRegions). V_first of a cell may be below 0.
+  struct Cell {
+    double varianceFirst = 0, varianceLight = 0, varianceBeyond = 0;
+    double costFirst = 0, costLight = 0, costBeyond = 0;
+  };
+  std::vector<Cell> cells;
+  int gridStride = 0, gridColumns = 0, gridRows = 0;
 
   /// What shading a scattering vertex costs, in rays: about one on the benchmark scenes, where
   /// a sample's time per part follows rays + vertices (docs/branching.md).
@@ -89,6 +101,21 @@ struct BranchingPilot {
   /// variance from it up: where every term is below it (a lone quad under a sun), the relative
   /// decrease of a negligible V_light would otherwise buy the most estimates.
   static constexpr double kNoiseFloor = 1e-4;
+
+  /// Branches per region of the image, each region kRegionCells x kRegionCells cells of the
+  /// grid, for `choice`'s light estimates: the counts of 1 to kMaxBranches per region whose
+  /// image-wide variance times cost is least, where that is less than `choice`'s one count
+  /// everywhere gives by more than kRegionMargin (else that count everywhere). Where the noise
+  /// beyond the first surface differs across the image (a glass object, a lamp's shade, the
+  /// sky), a count per region gives less variance for the work (docs/branching.md).
+  FirstSurfaceBranches chooseRegions(Choice choice) const;
+  /// Cells of the grid across a region: 2, a region holding 4 of the pilot's pixels (32 samples).
+  /// 4 gave about the same variance times time on the benchmark scenes, 2 more on glass.
+  static constexpr int kRegionCells = 2;
+  /// The least share of variance times cost that counts per region must save, by the pilot's
+  /// measure, to be used: choosing the least of many noisy estimates flatters it, and on dof,
+  /// predicted at 0.96 of the one count's, they measured 1.02 (docs/branching.md).
+  static constexpr double kRegionMargin = 0.05;
 };
 
 /// Runs the pilot for a `width` x `height` image of `camera` rendered with `settings` (its

@@ -4,8 +4,10 @@
 // heuristic).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "penumbra/aov.h"
 #include "penumbra/camera.h"
@@ -29,6 +31,36 @@ class RayLog;
 constexpr int kMaxIndirectSamples = 16;
 /// The most next-event estimates at a camera ray's first surface (IntegratorSettings).
 constexpr int kMaxLightSamples = 16;
+
+/// How many paths go on from the first surface of each pixel's camera samples: one count per
+/// square region of the image, `regionSize` pixels across (the last row and column may be
+/// narrower), chosen by the branching pilot (branching.h).
+struct FirstSurfaceBranches {
+  int regionSize = 1;
+  int columns = 0, rows = 0;
+  std::vector<uint8_t> counts;  // row by row
+
+  /// The count at image pixel (x, y).
+  int at(int x, int y) const {
+    const int column = std::min(x / regionSize, columns - 1);
+    const int row = std::min(y / regionSize, rows - 1);
+    return counts[size_t(row) * size_t(columns) + size_t(column)];
+  }
+  /// The mean count over the pixels of a `width` x `height` image.
+  double mean(int width, int height) const {
+    // The pixels of column or row i of regions (the last one takes the rest, as at() does).
+    const auto span = [&](int i, int last, int size) {
+      return std::max(0,
+                      (i == last ? size : std::min(size, (i + 1) * regionSize)) - i * regionSize);
+    };
+    double sum = 0;
+    for (int row = 0; row < rows; ++row)
+      for (int column = 0; column < columns; ++column)
+        sum += double(counts[size_t(row) * size_t(columns) + size_t(column)]) *
+               double(span(column, columns - 1, width)) * double(span(row, rows - 1, height));
+    return width > 0 && height > 0 ? sum / (double(width) * double(height)) : 1.0;
+  }
+};
 
 struct IntegratorSettings {
   uint32_t seed = 0;
@@ -57,6 +89,9 @@ struct IntegratorSettings {
   /// the first surface is a smooth dispersive solid, each of them goes on as one copy per
   /// wavelength (each refracting with its own as the hero), with or without branching.
   int indirectSamples = 1;
+  /// Where set, the paths that go on from the first surface per region of the image, instead
+  /// of `indirectSamples` (not owned).
+  const FirstSurfaceBranches* regionBranches = nullptr;
   /// Next-event estimates at each camera ray's first surface, averaged (as Cook et al. 1984
   /// send several shadow rays to an area light): where the choice of light and the point on it
   /// are most of the noise (many lights, soft shadows), more of them cost only their shadow rays.

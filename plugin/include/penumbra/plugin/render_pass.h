@@ -78,9 +78,14 @@ class RenderPass {
   /// such dome).
   float constantDomeShareUsed() const;
   /// The paths that go on from each camera ray's first surface (docs/branching.md): the
-  /// indirectSamples setting's, or (0) the pilot's choice (1 before the pass has rendered
-  /// samples).
-  int indirectSamplesUsed() const;
+  /// indirectSamples setting's, or (0) the mean over the image's pixels of the pilot's counts
+  /// per region (1 before the pass has rendered samples).
+  double indirectSamplesUsed() const;
+  /// The pilot's counts per region (indirectSamples 0), once the pass has rendered samples;
+  /// null where the setting sets one count.
+  const penumbra::FirstSurfaceBranches* regionBranches() const {
+    return regionBranches_ ? &*regionBranches_ : nullptr;
+  }
   /// The light estimates at each camera ray's first surface (docs/branching.md): the
   /// lightSamples setting's, or (0) the pilot's choice (1 before the pass has rendered samples).
   int lightSamplesUsed() const;
@@ -145,14 +150,12 @@ class RenderPass {
   /// pilot chose, once per render (penumbra/dome_sampling.h).
   float constantDomeShare(const penumbra::Camera& camera,
                           const penumbra::RenderSettings& renderSettings);
-  /// The paths that go on from each camera ray's first surface and the light estimates there:
-  /// as the indirectSamples and lightSamples settings say, or (0) as the pilot chose for
-  /// `renderSettings` (with their dome share), once per render (penumbra/branching.h).
-  penumbra::BranchingPilot::Choice firstSurfaceSamples(
-      const penumbra::Camera& camera, const penumbra::RenderSettings& renderSettings);
-  /// A first-surface count in use: `setting` where it is set (> 0), else the pilot's choice of
-  /// `count`, 1 before the pilot has run.
-  int firstSurfaceCountUsed(int setting, int penumbra::BranchingPilot::Choice::* count) const;
+  /// Runs the branching pilot for `renderSettings` (with their dome share) once per render
+  /// where the indirectSamples or lightSamples setting leaves its count to it (0), and keeps
+  /// its choice (penumbra/branching.h).
+  void chooseFirstSurfaceSamples(const penumbra::Camera& camera,
+                                 const penumbra::RenderSettings& renderSettings);
+
   /// What a sample of this pass is rendered with (guiding aside): the settings' threads and
   /// integrator, with the dome share, the branches and the light estimates the pilots chose.
   penumbra::RenderSettings pilotedSettings(const penumbra::Camera& camera);
@@ -174,8 +177,10 @@ class RenderPass {
   GuidingRecorder guidingRecorder_;
   int guidingRecordedThrough_ = 0;
   std::optional<float> constantDomeShare_;  // the dome pilot's choice, once made
-  // The branching pilot's choice, once made.
+  // The branching pilot's choice, once made: its one count of each kind, and its branches per
+  // region where the indirectSamples setting leaves them to it.
   std::optional<penumbra::BranchingPilot::Choice> firstSurfaceSamples_;
+  std::optional<penumbra::FirstSurfaceBranches> regionBranches_;
 };
 
 }  // namespace penumbra::plugin
