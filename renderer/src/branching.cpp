@@ -75,7 +75,7 @@ FirstSurfaceBranches BranchingPilot::chooseRegions(Choice choice) const {
   regions.columns = std::max(1, (gridColumns + kRegionCells - 1) / kRegionCells);
   regions.rows = std::max(1, (gridRows + kRegionCells - 1) / kRegionCells);
   const size_t count = size_t(regions.columns) * size_t(regions.rows);
-  regions.counts.assign(count, uint8_t(choice.indirectSamples));
+  regions.counts.assign(count, uint8_t(std::clamp(choice.indirectSamples, 1, kMaxIndirectSamples)));
   if (pixels == 0 || cells.size() != size_t(gridColumns) * size_t(gridRows)) return regions;
   // Calls visit(cell, region) for each cell of the grid, in the grid's order.
   const auto forEachCell = [&](auto&& visit) {
@@ -86,7 +86,6 @@ FirstSurfaceBranches BranchingPilot::chooseRegions(Choice choice) const {
   };
   // Each region's terms: the sums over its cells.
   std::vector<Cell> sums(count);
-  std::vector<double> cellCounts(count, 0.0);
   forEachCell([&](const Cell& cell, size_t region) {
     Cell& sum = sums[region];
     sum.varianceFirst += cell.varianceFirst;
@@ -95,7 +94,6 @@ FirstSurfaceBranches BranchingPilot::chooseRegions(Choice choice) const {
     sum.costFirst += cell.costFirst;
     sum.costLight += cell.costLight;
     sum.costBeyond += cell.costBeyond;
-    cellCounts[region] += 1;
   });
   // A region's V_beyond comes from a few pixels' samples, where rare bright paths beyond the
   // split (caustics) make it noisy. Its V_beyond per work beyond is taken as the image's plus
@@ -105,32 +103,43 @@ FirstSurfaceBranches BranchingPilot::chooseRegions(Choice choice) const {
   // sky), V_beyond stays 0: one branch, which costs nothing there.
   const auto perWork = [](const Cell& cell) { return cell.varianceBeyond / cell.costBeyond; };
   const double imagePerWork = costBeyond > 0 ? varianceBeyond / costBeyond : 0.0;
-  std::vector<double> noise(count, 0.0);  // the variance of a region's value, about its own
+  // Of each region, the cells with work beyond and their squared deviations from its value.
+  std::vector<double> measured(count, 0.0), squares(count, 0.0);
   forEachCell([&](const Cell& cell, size_t region) {
-    if (cell.costBeyond <= 0 || sums[region].costBeyond <= 0) return;
+    if (cell.costBeyond <= 0) return;
     const double deviation = perWork(cell) - perWork(sums[region]);
-    noise[region] += deviation * deviation;
+    squares[region] += deviation * deviation;
+    measured[region] += 1;
   });
+  // One cell's variance about its region's value, pooled over the regions of several cells:
+  // for a region with one (at a horizon, or in the odd last row or column of the grid).
+  double pooledSquares = 0, degrees = 0;
+  for (size_t r = 0; r < count; ++r)
+    if (measured[r] > 1) {
+      pooledSquares += squares[r];
+      degrees += measured[r] - 1;
+    }
+  const double cellVariance = degrees > 0 ? pooledSquares / degrees : 0.0;
+  std::vector<double> noise(count, 0.0);  // the variance of a region's value
   double spread = 0, meanNoise = 0, regionsBeyond = 0;
   for (size_t r = 0; r < count; ++r) {
-    if (sums[r].costBeyond <= 0) continue;
-    const double n = cellCounts[r];
-    noise[r] = n > 1 ? noise[r] / ((n - 1) * n) : 0.0;
+    if (measured[r] == 0) continue;
+    noise[r] = (measured[r] > 1 ? squares[r] / (measured[r] - 1) : cellVariance) / measured[r];
     const double deviation = perWork(sums[r]) - imagePerWork;
     spread += deviation * deviation;
     meanNoise += noise[r];
     regionsBeyond += 1;
   }
+  // The regions' spread beyond their noise: 0 where they differ no more than it.
   const double regionSpread =
       regionsBeyond > 0 ? std::max((spread - meanNoise) / regionsBeyond, 0.0) : 0.0;
   for (size_t r = 0; r < count; ++r) {
     Cell& sum = sums[r];
-    if (sum.costBeyond <= 0) continue;
-    const double total = regionSpread + noise[r];
-    const double trust = total > 0 ? regionSpread / total : 1.0;
+    if (measured[r] == 0) continue;
+    const double trust = regionSpread > 0 ? regionSpread / (regionSpread + noise[r]) : 0.0;
     sum.varianceBeyond = (imagePerWork + trust * (perWork(sum) - imagePerWork)) * sum.costBeyond;
   }
-  const int estimates = choice.lightSamples;
+  const int estimates = std::max(choice.lightSamples, 1);
   // The image's variance times cost with `counts`. V_first, summed over regions whose own may
   // come out below 0, is kept at 0 or more as a whole, as the image's is.
   const auto product = [&](const std::vector<uint8_t>& counts) {

@@ -448,7 +448,10 @@ TEST(Branching, PilotBranchesPerRegionWhereTheNoiseBeyondLies) {
     }
   EXPECT_GT(floorRegions, 0);
   EXPECT_GT(glowRegions, 0);
-  EXPECT_EQ(pass.indirectSamplesUsed(), regions.mean(kSize, kSize));
+  double sum = 0;  // the mean count over the pixels, as the pass reports it
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) sum += regions.at(x, y);
+  EXPECT_DOUBLE_EQ(pass.indirectSamplesUsed(), sum / (kSize * kSize));
   EXPECT_GT(pass.indirectSamplesUsed(), 1);
   EXPECT_LT(pass.indirectSamplesUsed(), 4);
   // It pays: less relative noise for the rays traced than the pilot's one count for the image.
@@ -486,10 +489,24 @@ TEST(Branching, EachPixelBranchesAsItsRegionSays) {
   EXPECT_EQ(raysAfterSplit[0], 0u);
   EXPECT_GT(raysAfterSplit[1], 2 * raysBeforeSplit[1]);
   EXPECT_EQ(regions.mean(kSize, kSize), 2.0);
-  // The last column and row take the rest of the image: three columns of 12 pixels over 32.
+}
+
+TEST(Branching, RegionsCoverTheImageRowByRowTheLastTakingTheRest) {
+  // Regions 12 pixels across over a 30 x 20 image: columns of 12, 12 and 6 pixels, rows of 12
+  // and 8.
+  FirstSurfaceBranches regions;
   regions.regionSize = 12;
   regions.columns = 3;
-  regions.counts = {1, 1, 4};
-  EXPECT_EQ(regions.at(31, 31), 4);
-  EXPECT_DOUBLE_EQ(regions.mean(kSize, kSize), (24.0 + 4 * 8.0) / 32);
+  regions.rows = 2;
+  regions.counts = {1, 2, 3, 4, 5, 6};
+  EXPECT_EQ(regions.at(0, 0), 1);
+  EXPECT_EQ(regions.at(23, 11), 2);
+  EXPECT_EQ(regions.at(29, 0), 3);
+  EXPECT_EQ(regions.at(0, 12), 4);
+  EXPECT_EQ(regions.at(29, 19), 6);
+  // Pixels past the last region's size (a region map of a smaller grid) take the last's count.
+  EXPECT_EQ(regions.at(40, 30), 6);
+  const double areas = 1 * 144 + 2 * 144 + 3 * 72 + 4 * 96 + 5 * 96 + 6 * 48;
+  EXPECT_DOUBLE_EQ(regions.mean(30, 20), areas / 600);
+  EXPECT_EQ(FirstSurfaceBranches().at(3, 4), 1);  // no regions: one path
 }

@@ -40,8 +40,9 @@ struct FirstSurfaceBranches {
   int columns = 0, rows = 0;
   std::vector<uint8_t> counts;  // row by row
 
-  /// The count at image pixel (x, y).
+  /// The count at image pixel (x, y); 1 where there are no regions.
   int at(int x, int y) const {
+    if (counts.empty()) return 1;
     const int column = std::min(x / regionSize, columns - 1);
     const int row = std::min(y / regionSize, rows - 1);
     return counts[size_t(row) * size_t(columns) + size_t(column)];
