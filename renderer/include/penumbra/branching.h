@@ -110,7 +110,8 @@ struct BranchingPilot {
   /// sky), a count per region gives less variance for the work (docs/branching.md).
   FirstSurfaceBranches chooseRegions(Choice choice) const;
   /// Cells of the grid across a region: 2, a region holding 4 of the pilot's pixels (32 samples).
-  /// 4 gave about the same variance times time on the benchmark scenes, 2 more on glass.
+  /// With 4, the benchmark scenes measured about the same variance times time, and glass less
+  /// of a gain (docs/performance-log.md).
   static constexpr int kRegionCells = 2;
   /// The least share of variance times cost that counts per region must save, by the pilot's
   /// measure, to be used: choosing the least of many noisy estimates flatters it, and on dof,

@@ -155,7 +155,6 @@ class RenderPass {
   /// its choice (penumbra/branching.h).
   void chooseFirstSurfaceSamples(const penumbra::Camera& camera,
                                  const penumbra::RenderSettings& renderSettings);
-
   /// What a sample of this pass is rendered with (guiding aside): the settings' threads and
   /// integrator, with the dome share, the branches and the light estimates the pilots chose.
   penumbra::RenderSettings pilotedSettings(const penumbra::Camera& camera);
