@@ -198,8 +198,9 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
   const PixelFilter filter;
   const uint32_t maxPixels = uint32_t(
       std::clamp(double(width) * double(height) / kPilotPixelShare, 1.0, double(kPilotPixels)));
+  const PilotGridShape shape = pilotGridShape(width, height, maxPixels);
   const std::vector<BranchingPilotPixel> grid = tracePilotGrid<BranchingPilotPixel>(
-      width, height, maxPixels, settings.threads, [&](int x, int y) {
+      shape, width, height, settings.threads, [&](int x, int y) {
         std::array<CameraSample, 2 * kPilotSamples> samples;
         // Per replica, the mean of its samples' branch 0 and of their branch 1.
         Vec3f branchMeans[2][2] = {{Vec3f(0.0f), Vec3f(0.0f)}, {Vec3f(0.0f), Vec3f(0.0f)}};
@@ -267,7 +268,6 @@ BranchingPilot runBranchingPilot(const Scene& scene, const Camera& camera, int w
   // Estimated from products of differences, V_first may come out below 0 where it is small.
   pilot.varianceFirst = std::max(varianceFirstAndHalfLight - pilot.varianceLight / 2, 0.0);
   pilot.pixels = uint32_t(grid.size());
-  const PilotGridShape shape = pilotGridShape(width, height, maxPixels);
   pilot.gridStride = shape.stride;
   pilot.gridColumns = shape.columns;
   pilot.gridRows = shape.rows;

@@ -51,7 +51,8 @@ DomeSamplingPilot runDomeSamplingPilot(const Scene& scene, const Camera& camera,
   integrator.indirectSamples = 1;
   const PixelFilter filter;
   const std::vector<DomePilotPixel> grid = tracePilotGrid<DomePilotPixel>(
-      width, height, kPilotPixels, settings.threads, [&](int x, int y) {
+      pilotGridShape(width, height, kPilotPixels), width, height, settings.threads,
+      [&](int x, int y) {
         const CameraSample a = renderCameraSample(scene, camera, filter, x, y, 0, integrator);
         const CameraSample b = renderCameraSample(scene, camera, filter, x, y, 1, integrator);
         // The pixel's value, from the estimates of both ends (a share of 0 and of 1).

@@ -62,14 +62,13 @@ inline PilotGridShape pilotGridShape(int width, int height, uint32_t maxPixels) 
   return {stride, (width + stride - 1) / stride, (height + stride - 1) / stride};
 }
 
-/// Calls `tracePixel(x, y)` at each pixel of a grid over a `width` x `height` image (at least
-/// every other pixel along each axis, at most about `maxPixels` of them), on `threads` threads
-/// (0: all cores), and returns what it returned in the grid's order (row by row), so that sums
-/// over it do not depend on the threads.
+/// Calls `tracePixel(x, y)` at each pixel of the grid `shape` over a `width` x `height` image
+/// (pilotGridShape), on `threads` threads (0: all cores), and returns what it returned in the
+/// grid's order (row by row), so that sums over it do not depend on the threads.
 template <class PixelResult, class TracePixel>
-std::vector<PixelResult> tracePilotGrid(int width, int height, uint32_t maxPixels, int threads,
-                                        const TracePixel& tracePixel) {
-  const auto [stride, columns, rows] = pilotGridShape(width, height, maxPixels);
+std::vector<PixelResult> tracePilotGrid(const PilotGridShape& shape, int width, int height,
+                                        int threads, const TracePixel& tracePixel) {
+  const auto [stride, columns, rows] = shape;
   std::vector<PixelResult> grid(size_t(columns) * size_t(rows));
   onThreads(threads, [&] {
     tbb::parallel_for(0, rows, [&](int row) {

@@ -434,9 +434,9 @@ TEST(Branching, PilotBranchesPerRegionWhereTheNoiseBeyondLies) {
   int floorRegions = 0, glowRegions = 0;
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
+      if (x % regions.regionSize || y % regions.regionSize) continue;  // once per region
       const bool onFloor = depth[size_t(y * kSize + x)] > 1.5f;
       const int count = regions.at(x, y);
-      if (x % regions.regionSize || y % regions.regionSize) continue;  // once per region
       // Regions wholly on one side: the glow's edge crosses none at this size.
       if (onFloor) {
         ++floorRegions;
