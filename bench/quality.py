@@ -336,7 +336,13 @@ def shared_scene_row(
 def shared_scenes_table(args: argparse.Namespace) -> None:
     cycles = cycles_numbers(CYCLES / "README.md", args.cycles_json)
     cycles_denoised = cycles_denoised_seconds(args.cycles_json)
-    source = f"measured here ({args.cycles_json})" if args.cycles_json else "the shared README"
+    source = (
+        f"measured here ({args.cycles_json})"
+        if args.cycles_json
+        else "the shared README, measured on another machine and day (Cycles' own seconds have "
+        "moved by up to 3 × between sittings here: time it beside this run with "
+        "bench/cycles_scenes.py --json and pass --cycles-json for ratios that compare)"
+    )
     print(f"Cycles' numbers: {source}.\n")
     clamp = f"indirect clamp {args.indirect_clamp:g}" if args.indirect_clamp else "no clamp"
     if args.glossy_filter:
