@@ -137,6 +137,37 @@ std::optional<PointImage> Camera::pointImage(const Vec3f& point, const Moment& m
   return image;
 }
 
+std::optional<Camera::RayFamily> Camera::rayFamily(Vec2f lensSample, float time) const {
+  if (params_.projection != Projection::Perspective) return std::nullopt;
+  // generateRay's camera-space direction before normalising: the film position over the focal
+  // length and -1, through a lens scaled by the focus distance, less the lens point.
+  const double focalLength = focalLengthAt(time);
+  const double scale = thinLens_ ? double(focusDistanceAt(time)) : 1.0;
+  double lensX = 0, lensY = 0;
+  if (thinLens_) {
+    const Vec2f lens = concentricSampleDisk(lensSample);
+    const double radius = lensRadiusAt(time);
+    lensX = radius * lens.x;
+    lensY = radius * lens.y;
+  }
+  const Transform toWorld = params_.cameraToWorld.at(time);
+  const auto toWorldVector = [&](double x, double y, double z) {
+    return std::array<double, 3>{
+        x * toWorld.at(0, 0) + y * toWorld.at(1, 0) + z * toWorld.at(2, 0),
+        x * toWorld.at(0, 1) + y * toWorld.at(1, 1) + z * toWorld.at(2, 1),
+        x * toWorld.at(0, 2) + y * toWorld.at(1, 2) + z * toWorld.at(2, 2)};
+  };
+  RayFamily family;
+  family.origin = toWorldVector(lensX, lensY, 0);
+  for (int axis = 0; axis < 3; ++axis) family.origin[size_t(axis)] += toWorld.at(3, axis);
+  family.direction = toWorldVector(
+      scale * (params_.horizontalApertureOffset - 0.5 * filmWidth_) / focalLength - lensX,
+      scale * (params_.verticalApertureOffset + 0.5 * filmHeight_) / focalLength - lensY, -scale);
+  family.perImageX = toWorldVector(scale * filmWidth_ / (double(width_) * focalLength), 0, 0);
+  family.perImageY = toWorldVector(0, -scale * filmHeight_ / (double(height_) * focalLength), 0);
+  return family;
+}
+
 Vec3f Camera::viewAxisAt(float time) const {
   return normalize(params_.cameraToWorld.at(time).applyToVector({0, 0, -1}));
 }

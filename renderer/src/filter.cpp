@@ -52,11 +52,16 @@ float PixelFilter::cdf1D(float x) const {
   return std::min((float(knot) + within) / kInverseSize, 1.0f);
 }
 
+PixelFilter::CoordinateWithin PixelFilter::sampleCoordinateWithin(float lower, float upper,
+                                                                  float u) const {
+  const float low = cdf1D(lower), high = cdf1D(upper);
+  return {sample1D(low + u * (high - low)), std::max(0.0f, high - low)};
+}
+
 PixelFilter::OffsetWithin PixelFilter::sampleOffsetWithin(Vec2f lower, Vec2f upper, Vec2f u) const {
-  const float x0 = cdf1D(lower.x), x1 = cdf1D(upper.x);
-  const float y0 = cdf1D(lower.y), y1 = cdf1D(upper.y);
-  return {{sample1D(x0 + u.x * (x1 - x0)), sample1D(y0 + u.y * (y1 - y0))},
-          std::max(0.0f, x1 - x0) * std::max(0.0f, y1 - y0)};
+  const CoordinateWithin x = sampleCoordinateWithin(lower.x, upper.x, u.x);
+  const CoordinateWithin y = sampleCoordinateWithin(lower.y, upper.y, u.y);
+  return {{x.offset, y.offset}, x.share * y.share};
 }
 
 }  // namespace penumbra

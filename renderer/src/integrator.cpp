@@ -557,9 +557,10 @@ constexpr uint32_t kLightImageStream = 0xffffffffu;
 /// The emission that pixel (x, y)'s camera sample (lens sample `lensSample`, shutter time
 /// `time`) sees directly of the lights `images` integrates over their image (light_images.h).
 /// For each light near the pixel: a filter offset drawn as the camera ray's are but only within
-/// the box around the light's image as the sample's lens point sees it, and the emission the
-/// camera ray through it sees there, weighted by the share of the filter in that box. Adds the
-/// rays it traces to `rays`.
+/// the box around the light's image as the sample's lens point sees it (for a sphere, disk or
+/// rect light, within the span of its image in the drawn row), and the emission the camera ray
+/// through it sees there, weighted by the share of the filter in that box (or row and span). Adds
+/// the rays it traces to `rays`.
 Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                          const LightImages& images, const SampleStream& sampler, int x, int y,
                          uint32_t sampleIndex, uint32_t seed, Vec2f lensSample, float time,
@@ -573,16 +574,35 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
   const ImageBox filterReach = ImageBox{centre, centre}.widened(filter.radius());
   const std::vector<Light>& lights = scene.lights().all();
   std::optional<RandomStream> volumeRandom;
+  std::optional<Camera::RayFamily> family;  // made for the first light with an outline
   for (const uint32_t* position = begin; position != end; ++position) {
     const LightImages::Integrated& image = images.integrated()[*position];
     const std::optional<ImageBox> box = images.integratedBox(image, centre, lens, moment);
     if (!box) continue;
     const ImageBox region = box->intersected(filterReach);
     if (region.empty()) continue;
-    const PixelFilter::OffsetWithin drawn =
-        filter.sampleOffsetWithin({region.lower.x - centre.x, region.lower.y - centre.y},
-                                  {region.upper.x - centre.x, region.upper.y - centre.y},
-                                  sampler.draw2D(kLightImageDimensions + image.lightIndex));
+    const Vec2f lower{region.lower.x - centre.x, region.lower.y - centre.y};
+    const Vec2f upper{region.upper.x - centre.x, region.upper.y - centre.y};
+    const Vec2f u = sampler.draw2D(kLightImageDimensions + image.lightIndex);
+    const std::optional<Light::Outline> outline = lights[image.lightIndex].outline();
+    if (outline && !family) family = camera.rayFamily(lensSample, time);
+    PixelFilter::OffsetWithin drawn;
+    if (outline && family) {
+      // The offset is drawn in the light's image's span of the drawn row, so that every draw
+      // whose row crosses the image sees the light (unless something hides it), not only those
+      // that happen to land on it.
+      const PixelFilter::CoordinateWithin drawnY =
+          filter.sampleCoordinateWithin(lower.y, upper.y, u.y);
+      const std::optional<std::pair<double, double>> span =
+          imageRowSpan(*family, *outline, double(centre.y + drawnY.offset), image.margin);
+      if (!span) continue;
+      const PixelFilter::CoordinateWithin drawnX = filter.sampleCoordinateWithin(
+          float(std::max(double(lower.x), span->first - double(centre.x))),
+          float(std::min(double(upper.x), span->second - double(centre.x))), u.x);
+      drawn = {{drawnX.offset, drawnY.offset}, drawnX.share * drawnY.share};
+    } else {
+      drawn = filter.sampleOffsetWithin(lower, upper, u);
+    }
     if (!(drawn.share > 0)) continue;
     const Ray ray =
         camera.generateRay(centre.x + drawn.offset.x, centre.y + drawn.offset.y, lensSample, time);

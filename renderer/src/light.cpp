@@ -300,6 +300,20 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
   return result;
 }
 
+std::optional<Light::Outline> Light::outline() const {
+  if (isDelta()) return std::nullopt;
+  switch (params_.type) {
+    case LightType::Sphere:
+      return Outline{LightType::Sphere, center_, Vec3f(0.0f), Vec3f(0.0f), radius_};
+    case LightType::Rect:  // its edges are whole sides
+      return Outline{LightType::Rect, center_, edgeU_ * 0.5f, edgeV_ * 0.5f, 0};
+    case LightType::Disk:  // its edges are semi-axes
+      return Outline{LightType::Disk, center_, edgeU_, edgeV_, 0};
+    default:
+      return std::nullopt;
+  }
+}
+
 std::optional<float> Light::intersectSphere(const Vec3f& origin, const Vec3f& direction) const {
   const Vec3f toOrigin = origin - center_;
   const float b = dot(toOrigin, direction);

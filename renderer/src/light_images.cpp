@@ -1,6 +1,7 @@
 #include "penumbra/light_images.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iterator>
 #include <optional>
@@ -58,6 +59,110 @@ ImageBox boxThroughLens(const PointImage (&corners)[8], Vec2f lens, float margin
 
 }  // namespace
 
+std::optional<std::pair<double, double>> imageRowSpan(const Camera::RayFamily& family,
+                                                      const Light::Outline& outline, double y,
+                                                      double margin) {
+  using Vector = std::array<double, 3>;
+  const auto dot = [](const Vector& a, const Vector& b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  };
+  const auto cross = [](const Vector& a, const Vector& b) {
+    return Vector{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+  };
+  const auto vector = [](const Vec3f& v) { return Vector{v.x, v.y, v.z}; };
+  const std::pair<double, double> wholeRow{-kInfinity, kInfinity};
+  // The outline is grown by a thousandth of its size, so that rays that graze it by rounding
+  // fall inside.
+  constexpr double kGrowth = 1.001;
+  // The row's ray directions d(x) = row + x · along, x the image position.
+  const Vector& along = family.perImageX;
+  Vector row;
+  for (size_t axis = 0; axis < 3; ++axis)
+    row[axis] = family.direction[axis] + y * family.perImageY[axis];
+  // From the light's centre to the camera's.
+  const Vector toOrigin{family.origin[0] - outline.centre.x, family.origin[1] - outline.centre.y,
+                        family.origin[2] - outline.centre.z};
+  // Where the quadratic a x² + 2 b x + c is at least 0: between its roots when a < 0, the
+  // whole row when the set is not bounded.
+  const auto between = [&](double a, double b,
+                           double c) -> std::optional<std::pair<double, double>> {
+    if (!(a < 0)) return wholeRow;
+    // About the vertex -b / a, so that the roots do not cancel.
+    const double middle = -b / a;
+    const double discriminant = b * b - a * c;
+    if (!(discriminant >= 0)) return std::nullopt;
+    const double halfWidth = std::sqrt(discriminant) / -a;
+    return std::pair<double, double>{middle - halfWidth, middle + halfWidth};
+  };
+  std::optional<std::pair<double, double>> span;
+  if (outline.type == LightType::Sphere) {
+    // A ray from o along d meets the sphere (centre c, radius r, w = c - o) where the distance
+    // of c from its line is at most r: (w·d)² - (|w|² - r²)|d|² >= 0.
+    const Vector w{-toOrigin[0], -toOrigin[1], -toOrigin[2]};
+    const double radius = double(outline.radius) * kGrowth;
+    const double outside = dot(w, w) - radius * radius;
+    if (!(outside > 0)) return wholeRow;
+    const auto form = [&](const Vector& p, const Vector& q) {
+      return dot(w, p) * dot(w, q) - outside * dot(p, q);
+    };
+    span = between(form(along, along), form(along, row), form(row, row));
+  } else {
+    // A ray from o along d meets the light's plane (through its centre, normal n = U × V) at
+    // t = -(n·e) / (n·d), e = o - centre, at a = (e + t d)·Û and b likewise (Û = U / |U|²,
+    // Light::Outline's coordinates), so (n·d) a = d·α with α = (e·Û) n - (n·e) Û, and
+    // (n·d) b = d·β. With s = σ n·d, σ the sign that makes t > 0 where s > 0, the rect is
+    // |d·α|, |d·β| <= s, the disk (d·α)² + (d·β)² <= s²; each term is linear in x.
+    const Vector u = vector(outline.axisU), v = vector(outline.axisV);
+    const Vector n = cross(u, v);
+    const double facing = dot(n, toOrigin);
+    if (!(dot(u, u) > 0) || !(dot(v, v) > 0) || facing == 0) return wholeRow;  // edge on
+    Vector uHat, vHat;
+    for (size_t axis = 0; axis < 3; ++axis) {
+      uHat[axis] = u[axis] / dot(u, u);
+      vHat[axis] = v[axis] / dot(v, v);
+    }
+    const double sigma = facing < 0 ? 1.0 : -1.0;
+    struct Linear {
+      double at0, slope;  // the value at x = 0 and per unit of x
+    };
+    const auto linear = [&](const Vector& coefficients) {
+      return Linear{dot(coefficients, row), dot(coefficients, along)};
+    };
+    Vector alpha, beta, sVector;
+    for (size_t axis = 0; axis < 3; ++axis) {
+      alpha[axis] = dot(toOrigin, uHat) * n[axis] - facing * uHat[axis];
+      beta[axis] = dot(toOrigin, vHat) * n[axis] - facing * vHat[axis];
+      sVector[axis] = sigma * n[axis];
+    }
+    const Linear a = linear(alpha), b = linear(beta), s = linear(sVector);
+    if (outline.type == LightType::Rect) {
+      std::pair<double, double> interval = wholeRow;
+      // Keeps the part of the interval where p + q x >= 0.
+      const auto keep = [&](double p, double q) {
+        if (q > 0)
+          interval.first = std::max(interval.first, -p / q);
+        else if (q < 0)
+          interval.second = std::min(interval.second, -p / q);
+        else if (!(p >= 0))
+          interval = {kInfinity, -kInfinity};
+      };
+      for (const Linear& side : {a, b}) {
+        keep(kGrowth * s.at0 - side.at0, kGrowth * s.slope - side.slope);
+        keep(kGrowth * s.at0 + side.at0, kGrowth * s.slope + side.slope);
+      }
+      if (!(interval.first <= interval.second)) return std::nullopt;
+      span = interval;
+    } else {
+      const double growth2 = kGrowth * kGrowth;
+      span = between(growth2 * s.slope * s.slope - a.slope * a.slope - b.slope * b.slope,
+                     growth2 * s.at0 * s.slope - a.at0 * a.slope - b.at0 * b.slope,
+                     growth2 * s.at0 * s.at0 - a.at0 * a.at0 - b.at0 * b.at0);
+    }
+  }
+  if (!span) return std::nullopt;
+  return std::pair<double, double>{span->first - margin, span->second + margin};
+}
+
 LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera, float filterRadius)
     : camera_(camera.isStatic() ? nullptr : &camera), integratesLight_(lights.size(), false) {
   const int width = camera.imageWidth(), height = camera.imageHeight();
@@ -102,7 +207,7 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
       streak.include(box.upper);
       if (moment == 0) std::copy(std::begin(corners), std::end(corners), entry.corners);
     }
-    if (!seen || side > kMaxImageSide) continue;
+    if (!seen || side > (light.outline() ? kMaxOutlinedImageSide : kMaxImageSide)) continue;
     if (streak.upper.x - streak.lower.x > kMaxStreakSide ||
         streak.upper.y - streak.lower.y > kMaxStreakSide)
       continue;

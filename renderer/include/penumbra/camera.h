@@ -2,6 +2,7 @@
 // and apertures in tenths of a scene unit, distances in scene units, looking down -Z with +Y up.
 #pragma once
 
+#include <array>
 #include <optional>
 #include <vector>
 
@@ -90,6 +91,15 @@ class Camera {
   /// not between the clipping planes (or not in front of the lens). Camera rays at that moment
   /// through that image position and lens point pass through `point`.
   std::optional<PointImage> pointImage(const Vec3f& point, const Moment& moment) const;
+  /// The camera rays through lens point `lensSample` (a uniform sample, as generateRay's) at
+  /// normalised shutter time `time`, as one family over image positions: the ray through (x, y)
+  /// leaves `origin` along `direction + x · perImageX + y · perImageY` (world space, not of unit
+  /// length), as generateRay makes it up to rounding. None for orthographic cameras, whose rays
+  /// share a direction rather than an origin.
+  struct RayFamily {
+    std::array<double, 3> origin, direction, perImageX, perImageY;
+  };
+  std::optional<RayFamily> rayFamily(Vec2f lensSample, float time) const;
   int imageWidth() const { return width_; }
   int imageHeight() const { return height_; }
 

@@ -26,6 +26,13 @@ class PixelFilter {
     float share;
   };
   OffsetWithin sampleOffsetWithin(Vec2f lower, Vec2f upper, Vec2f u) const;
+  /// sampleOffsetWithin along one axis: an offset within [lower, upper] and the share of the
+  /// filter's weight along that axis that lies there (the 2D share is the product of the axes').
+  struct CoordinateWithin {
+    float offset;
+    float share;
+  };
+  CoordinateWithin sampleCoordinateWithin(float lower, float upper, float u) const;
   float radius() const { return radius_; }
   /// The filter's 1D profile (unnormalised), exposed for tests.
   float evaluate1D(float x) const;

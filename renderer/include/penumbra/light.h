@@ -205,6 +205,18 @@ class Light {
   float cosHalfAngle() const { return cosHalfAngle_; }
   /// The emitted radiance averaged over the texture, if any.
   Vec3f meanRadiance() const;
+  /// The surface a sphere, rect or disk light emits from (world space), for finding its image:
+  /// the sphere of `radius` about `centre`, or the points p of the plane through `centre` along
+  /// axisU and axisV with |a|, |b| <= 1 (rect) or a² + b² <= 1 (disk), a = (p - centre)·axisU /
+  /// |axisU|² and b likewise (as intersect() tells them: for perpendicular axes, the points
+  /// centre + a · axisU + b · axisV).
+  struct Outline {
+    LightType type;
+    Vec3f centre, axisU, axisV;
+    float radius;
+  };
+  /// None for cylinder, mesh, point-like and infinite lights.
+  std::optional<Outline> outline() const;
 
  private:
   /// The mean of meanRadiance()'s channels (never negative): what lights are weighed by when one
