@@ -558,9 +558,9 @@ constexpr uint32_t kLightImageStream = 0xffffffffu;
 /// `time`) sees directly of the lights `images` integrates over their image (light_images.h).
 /// For each light near the pixel: a filter offset drawn as the camera ray's are but only within
 /// the box around the light's image as the sample's lens point sees it (for a sphere, disk or
-/// rect light, within the span of its image in the drawn row), and the emission the camera ray
-/// through it sees there, weighted by the share of the filter in that box (or row and span). Adds
-/// the rays it traces to `rays`.
+/// rect light, in a row that crosses its image and within the image's span of that row), and
+/// the emission the camera ray through it sees there, weighted by the share of the filter in
+/// that box (or in those rows and that span). Adds the rays it traces to `rays`.
 Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                          const LightImages& images, const SampleStream& sampler, int x, int y,
                          uint32_t sampleIndex, uint32_t seed, Vec2f lensSample, float time,
@@ -588,17 +588,20 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
     if (outline && !family) family = camera.rayFamily(lensSample, time);
     PixelFilter::OffsetWithin drawn;
     if (outline && family) {
-      // The offset is drawn in the light's image's span of the drawn row, so that every draw
-      // whose row crosses the image sees the light (unless something hides it), not only those
-      // that happen to land on it.
+      // The offset is drawn in a row that crosses the light's image within the region, then in
+      // the image's span of that row, so that every draw sees the light (unless something hides
+      // it), not only those that happen to land on it.
+      const OutlineImage outlineImage(*family, *outline, centre, image.margin);
+      const std::optional<OutlineImage::Span> rows = outlineImage.rowsWithin(lower.x, upper.x);
+      if (!rows) continue;
       const PixelFilter::CoordinateWithin drawnY =
-          filter.sampleCoordinateWithin(lower.y, upper.y, u.y);
-      const std::optional<std::pair<double, double>> span =
-          imageRowSpan(*family, *outline, double(centre.y + drawnY.offset), image.margin);
+          filter.sampleCoordinateWithin(float(std::max(double(lower.y), rows->first)),
+                                        float(std::min(double(upper.y), rows->second)), u.y);
+      const std::optional<OutlineImage::Span> span = outlineImage.row(drawnY.offset);
       if (!span) continue;
-      const PixelFilter::CoordinateWithin drawnX = filter.sampleCoordinateWithin(
-          float(std::max(double(lower.x), span->first - double(centre.x))),
-          float(std::min(double(upper.x), span->second - double(centre.x))), u.x);
+      const PixelFilter::CoordinateWithin drawnX =
+          filter.sampleCoordinateWithin(float(std::max(double(lower.x), span->first)),
+                                        float(std::min(double(upper.x), span->second)), u.x);
       drawn = {{drawnX.offset, drawnY.offset}, drawnX.share * drawnY.share};
     } else {
       drawn = filter.sampleOffsetWithin(lower, upper, u);

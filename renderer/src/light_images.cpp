@@ -57,110 +57,176 @@ ImageBox boxThroughLens(const PointImage (&corners)[8], Vec2f lens, float margin
   return box.widened(margin);
 }
 
+using Vector = std::array<double, 3>;
+
+double dot(const Vector& a, const Vector& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+Vector cross(const Vector& a, const Vector& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+/// Where a t² + 2 b t + c >= 0: between its roots when a < 0 (none where it has none), all of
+/// the line (±infinity) otherwise.
+std::optional<OutlineImage::Span> nonNegative(double a, double b, double c) {
+  if (!(a < 0)) return OutlineImage::Span{-kInfinity, kInfinity};
+  // About the vertex -b / a, so that the roots do not cancel.
+  const double discriminant = b * b - a * c;
+  if (!(discriminant >= 0)) return std::nullopt;
+  const double middle = -b / a, halfWidth = std::sqrt(discriminant) / -a;
+  return OutlineImage::Span{middle - halfWidth, middle + halfWidth};
+}
+
 }  // namespace
 
-std::optional<std::pair<double, double>> imageRowSpan(const Camera::RayFamily& family,
-                                                      const Light::Outline& outline, double y,
-                                                      double margin) {
-  using Vector = std::array<double, 3>;
-  const auto dot = [](const Vector& a, const Vector& b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-  };
-  const auto cross = [](const Vector& a, const Vector& b) {
-    return Vector{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-  };
-  const auto vector = [](const Vec3f& v) { return Vector{v.x, v.y, v.z}; };
-  const std::pair<double, double> wholeRow{-kInfinity, kInfinity};
+OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline& outline,
+                           Vec2f origin, double margin)
+    : margin_(margin) {
   // The outline is grown by a thousandth of its size, so that rays that graze it by rounding
   // fall inside.
   constexpr double kGrowth = 1.001;
-  // The row's ray directions d(x) = row + x · along, x the image position.
-  const Vector& along = family.perImageX;
-  Vector row;
+  // Ray directions d(x, y) = d0 + x · dx + y · dy, (x, y) relative to the origin.
+  const Vector& dx = family.perImageX;
+  const Vector& dy = family.perImageY;
+  Vector d0;
   for (size_t axis = 0; axis < 3; ++axis)
-    row[axis] = family.direction[axis] + y * family.perImageY[axis];
+    d0[axis] = family.direction[axis] + double(origin.x) * dx[axis] + double(origin.y) * dy[axis];
   // From the light's centre to the camera's.
-  const Vector toOrigin{family.origin[0] - outline.centre.x, family.origin[1] - outline.centre.y,
-                        family.origin[2] - outline.centre.z};
-  // Where the quadratic a x² + 2 b x + c is at least 0: between its roots when a < 0, the
-  // whole row when the set is not bounded.
-  const auto between = [&](double a, double b,
-                           double c) -> std::optional<std::pair<double, double>> {
-    if (!(a < 0)) return wholeRow;
-    // About the vertex -b / a, so that the roots do not cancel.
-    const double middle = -b / a;
-    const double discriminant = b * b - a * c;
-    if (!(discriminant >= 0)) return std::nullopt;
-    const double halfWidth = std::sqrt(discriminant) / -a;
-    return std::pair<double, double>{middle - halfWidth, middle + halfWidth};
+  const Vector e{family.origin[0] - outline.centre.x, family.origin[1] - outline.centre.y,
+                 family.origin[2] - outline.centre.z};
+  // A symmetric bilinear form of directions, f(d, d) >= 0 where rays meet the light, as the
+  // conic of the image positions.
+  const auto setEllipse = [&](auto&& form) {
+    xx_ = form(dx, dx);
+    xy_ = form(dx, dy);
+    yy_ = form(dy, dy);
+    x_ = form(dx, d0);
+    y_ = form(dy, d0);
+    c_ = form(d0, d0);
+    // An ellipse when the form is negative definite in (x, y); else not bounded.
+    if (xx_ < 0 && xx_ * yy_ - xy_ * xy_ > 0) shape_ = Shape::Ellipse;
   };
-  std::optional<std::pair<double, double>> span;
   if (outline.type == LightType::Sphere) {
-    // A ray from o along d meets the sphere (centre c, radius r, w = c - o) where the distance
-    // of c from its line is at most r: (w·d)² - (|w|² - r²)|d|² >= 0.
-    const Vector w{-toOrigin[0], -toOrigin[1], -toOrigin[2]};
+    // A ray from the camera along d meets the sphere (centre c, radius r, w = c - o) where the
+    // distance of c from its line is at most r: (w·d)² - (|w|² - r²)|d|² >= 0.
+    const Vector w{-e[0], -e[1], -e[2]};
     const double radius = double(outline.radius) * kGrowth;
     const double outside = dot(w, w) - radius * radius;
-    if (!(outside > 0)) return wholeRow;
-    const auto form = [&](const Vector& p, const Vector& q) {
+    if (!(outside > 0)) return;
+    setEllipse([&](const Vector& p, const Vector& q) {
       return dot(w, p) * dot(w, q) - outside * dot(p, q);
-    };
-    span = between(form(along, along), form(along, row), form(row, row));
+    });
+    return;
+  }
+  // A ray meets the light's plane (through its centre, normal n = U × V) at t = -(n·e) / (n·d)
+  // at a = (e + t d)·Û and b likewise (Û = U / |U|², Light::Outline's coordinates), so
+  // (n·d) a = d·α with α = (e·Û) n - (n·e) Û, and (n·d) b = d·β. With s = σ n, σ the sign that
+  // makes t > 0 where d·s > 0 (times the growth), the rect is |d·α|, |d·β| <= d·s, the disk
+  // (d·α)² + (d·β)² <= (d·s)².
+  const Vector u{outline.axisU.x, outline.axisU.y, outline.axisU.z};
+  const Vector v{outline.axisV.x, outline.axisV.y, outline.axisV.z};
+  const Vector n = cross(u, v);
+  const double facing = dot(n, e);
+  if (!(dot(u, u) > 0) || !(dot(v, v) > 0) || facing == 0) return;  // seen edge on
+  const double sigma = facing < 0 ? kGrowth : -kGrowth;
+  Vector alpha, beta, side;
+  for (size_t axis = 0; axis < 3; ++axis) {
+    const double uHat = u[axis] / dot(u, u), vHat = v[axis] / dot(v, v);
+    alpha[axis] = dot(e, u) / dot(u, u) * n[axis] - facing * uHat;
+    beta[axis] = dot(e, v) / dot(v, v) * n[axis] - facing * vHat;
+    side[axis] = sigma * n[axis];
+  }
+  if (outline.type == LightType::Disk) {
+    setEllipse([&](const Vector& p, const Vector& q) {
+      return dot(side, p) * dot(side, q) - dot(alpha, p) * dot(alpha, q) -
+             dot(beta, p) * dot(beta, q);
+    });
+    return;
+  }
+  // The rect's sides d·s - d·α >= 0, d·s + d·α >= 0, and the same with β.
+  const auto linear = [&](const Vector& form) {
+    return Linear{dot(form, d0), dot(form, dx), dot(form, dy)};
+  };
+  int index = 0;
+  for (const Vector* axis : {&alpha, &beta})
+    for (const double sign : {-1.0, 1.0}) {
+      Vector form;
+      for (size_t k = 0; k < 3; ++k) form[k] = side[k] + sign * (*axis)[k];
+      sides_[size_t(index++)] = linear(form);
+    }
+  shape_ = Shape::Quadrilateral;
+}
+
+std::optional<OutlineImage::Span> OutlineImage::line(bool alongX, double at) const {
+  std::optional<Span> span;
+  if (shape_ == Shape::Unbounded) {
+    span = Span{-kInfinity, kInfinity};
+  } else if (shape_ == Shape::Ellipse) {
+    // The conic with one coordinate fixed: a quadratic in the other.
+    span = alongX ? nonNegative(xx_, xy_ * at + x_, (yy_ * at + 2 * y_) * at + c_)
+                  : nonNegative(yy_, xy_ * at + y_, (xx_ * at + 2 * x_) * at + c_);
   } else {
-    // A ray from o along d meets the light's plane (through its centre, normal n = U × V) at
-    // t = -(n·e) / (n·d), e = o - centre, at a = (e + t d)·Û and b likewise (Û = U / |U|²,
-    // Light::Outline's coordinates), so (n·d) a = d·α with α = (e·Û) n - (n·e) Û, and
-    // (n·d) b = d·β. With s = σ n·d, σ the sign that makes t > 0 where s > 0, the rect is
-    // |d·α|, |d·β| <= s, the disk (d·α)² + (d·β)² <= s²; each term is linear in x.
-    const Vector u = vector(outline.axisU), v = vector(outline.axisV);
-    const Vector n = cross(u, v);
-    const double facing = dot(n, toOrigin);
-    if (!(dot(u, u) > 0) || !(dot(v, v) > 0) || facing == 0) return wholeRow;  // edge on
-    Vector uHat, vHat;
-    for (size_t axis = 0; axis < 3; ++axis) {
-      uHat[axis] = u[axis] / dot(u, u);
-      vHat[axis] = v[axis] / dot(v, v);
+    Span interval{-kInfinity, kInfinity};
+    for (const Linear& side : sides_) {
+      // p + q t >= 0 along the line.
+      const double p = side.p + (alongX ? side.py : side.px) * at;
+      const double q = alongX ? side.px : side.py;
+      if (q > 0)
+        interval.first = std::max(interval.first, -p / q);
+      else if (q < 0)
+        interval.second = std::min(interval.second, -p / q);
+      else if (!(p >= 0))
+        return std::nullopt;
     }
-    const double sigma = facing < 0 ? 1.0 : -1.0;
-    struct Linear {
-      double at0, slope;  // the value at x = 0 and per unit of x
-    };
-    const auto linear = [&](const Vector& coefficients) {
-      return Linear{dot(coefficients, row), dot(coefficients, along)};
-    };
-    Vector alpha, beta, sVector;
-    for (size_t axis = 0; axis < 3; ++axis) {
-      alpha[axis] = dot(toOrigin, uHat) * n[axis] - facing * uHat[axis];
-      beta[axis] = dot(toOrigin, vHat) * n[axis] - facing * vHat[axis];
-      sVector[axis] = sigma * n[axis];
-    }
-    const Linear a = linear(alpha), b = linear(beta), s = linear(sVector);
-    if (outline.type == LightType::Rect) {
-      std::pair<double, double> interval = wholeRow;
-      // Keeps the part of the interval where p + q x >= 0.
-      const auto keep = [&](double p, double q) {
-        if (q > 0)
-          interval.first = std::max(interval.first, -p / q);
-        else if (q < 0)
-          interval.second = std::min(interval.second, -p / q);
-        else if (!(p >= 0))
-          interval = {kInfinity, -kInfinity};
-      };
-      for (const Linear& side : {a, b}) {
-        keep(kGrowth * s.at0 - side.at0, kGrowth * s.slope - side.slope);
-        keep(kGrowth * s.at0 + side.at0, kGrowth * s.slope + side.slope);
-      }
-      if (!(interval.first <= interval.second)) return std::nullopt;
-      span = interval;
-    } else {
-      const double growth2 = kGrowth * kGrowth;
-      span = between(growth2 * s.slope * s.slope - a.slope * a.slope - b.slope * b.slope,
-                     growth2 * s.at0 * s.slope - a.at0 * a.slope - b.at0 * b.slope,
-                     growth2 * s.at0 * s.at0 - a.at0 * a.at0 - b.at0 * b.at0);
-    }
+    if (!(interval.first <= interval.second)) return std::nullopt;
+    span = interval;
   }
   if (!span) return std::nullopt;
-  return std::pair<double, double>{span->first - margin, span->second + margin};
+  return Span{span->first - margin_, span->second + margin_};
+}
+
+std::optional<OutlineImage::Span> OutlineImage::row(double y) const {
+  return line(true, y);
+}
+
+std::optional<OutlineImage::Span> OutlineImage::rowsWithin(double x0, double x1) const {
+  if (shape_ == Shape::Unbounded) return Span{-kInfinity, kInfinity};
+  // The image is convex: within the strip its highest and lowest points lie on the strip's
+  // edges or are the image's own highest and lowest points (an ellipse's two, or corners).
+  // The strip is widened by the margin, as rows' spans are.
+  x0 -= margin_;
+  x1 += margin_;
+  Span rows{kInfinity, -kInfinity};
+  const auto include = [&](double low, double high) {
+    rows = {std::min(rows.first, low), std::max(rows.second, high)};
+  };
+  for (const double x : {x0, x1})
+    if (const std::optional<Span> column = line(false, x)) include(column->first, column->second);
+  if (shape_ == Shape::Ellipse) {
+    // The rows where the row's quadratic has a root: b(y)² - a c(y) >= 0, itself a quadratic.
+    const std::optional<Span> extent =
+        nonNegative(xy_ * xy_ - xx_ * yy_, xy_ * x_ - xx_ * y_, x_ * x_ - xx_ * c_);
+    if (extent)
+      for (const double y : {extent->first, extent->second}) {
+        const double x = -(xy_ * y + x_) / xx_;  // where the row's chord closes
+        if (x >= x0 && x <= x1) include(y - margin_, y + margin_);
+      }
+  } else {
+    // The corners, where a side of each pair meets a side of the other.
+    for (int first = 0; first < 2; ++first)
+      for (int second = 2; second < 4; ++second) {
+        const Linear& a = sides_[size_t(first)];
+        const Linear& b = sides_[size_t(second)];
+        const double determinant = a.px * b.py - a.py * b.px;
+        const double x = (a.py * b.p - a.p * b.py) / determinant;
+        const double y = (a.p * b.px - a.px * b.p) / determinant;
+        if (!std::isfinite(x) || !std::isfinite(y)) return Span{-kInfinity, kInfinity};
+        if (x >= x0 && x <= x1) include(y - margin_, y + margin_);
+      }
+  }
+  if (!(rows.first <= rows.second)) return std::nullopt;
+  return rows;
 }
 
 LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera, float filterRadius)

@@ -5,16 +5,17 @@
 // draws a filter offset as camera rays do, but only within the box around the light's image (as
 // the sample's lens point sees it), and weighs what the camera ray through it sees of the light
 // by the share of the filter in that box. The image of a sphere, disk or rect light is an
-// ellipse or a quadrilateral: there the offset is drawn in a row of the box first and then
-// within the image's span of that row, weighted by the filter's shares of both, so that every
-// draw whose row crosses the image lands on the light (imageRowSpan); a cylinder light's draws
-// may land beside it in its box. Camera rays then pass through these lights without
-// adding their emission, so each light's directly seen emission is counted once, by one
-// estimator or the other; both converge to the same image (in chromatic media, where the
-// camera ray's free flight is only approximate, this estimate is the exact one).
+// ellipse or a quadrilateral (OutlineImage): there the offset is drawn in a row that crosses the
+// image within the box, then within the image's span of that row, weighted by the filter's
+// shares of both, so that every draw lands on the light; a cylinder light's draws may land beside
+// it in its box. Camera rays then pass through these lights without adding their emission, so
+// each light's directly seen emission is counted once, by one estimator or the other; both
+// converge to the same image (in chromatic media, where the camera ray's free flight is only
+// approximate, this estimate is the exact one).
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <utility>
@@ -43,15 +44,38 @@ struct ImageBox {
   }
 };
 
-/// The span of image positions x (pixels) in row `y` whose rays of `family` may meet the
-/// light of `outline`: an interval holding every such position (the light's image, or through
-/// a lens what one lens point sees of it, is an ellipse for a sphere or disk and a
-/// quadrilateral for a rect), widened by `margin` pixels for rounding; none where the row
-/// misses the image. The whole row (±infinity) where the image is not bounded (a camera inside
-/// a sphere, in a disk's plane, or seeing it across the horizon).
-std::optional<std::pair<double, double>> imageRowSpan(const Camera::RayFamily& family,
-                                                      const Light::Outline& outline, double y,
-                                                      double margin);
+/// The image of a sphere, disk or rect light (Light::outline) through one lens point at one
+/// moment (Camera::RayFamily): an ellipse for a sphere or disk, a quadrilateral for a rect, in
+/// image positions (pixels) relative to `origin`. Its spans hold every position whose ray meets
+/// the light, widened by `margin` pixels for rounding. Where the image is not bounded (a camera
+/// inside a sphere, in a disk's or rect's plane, or seeing it across its horizon), they are
+/// whole rows and columns.
+class OutlineImage {
+ public:
+  using Span = std::pair<double, double>;
+  OutlineImage(const Camera::RayFamily& family, const Light::Outline& outline, Vec2f origin,
+               double margin);
+  /// The positions x of row y whose rays may meet the light; none where the row misses it.
+  std::optional<Span> row(double y) const;
+  /// The rows y whose span reaches columns [x0, x1]; none where that strip misses the image.
+  std::optional<Span> rowsWithin(double x0, double x1) const;
+
+ private:
+  /// p + px x + py y.
+  struct Linear {
+    double p, px, py;
+  };
+  /// The positions along one axis where a quadratic or the quadrilateral's sides allow it,
+  /// the other axis's coordinate fixed at `at` (`alongX`: a row).
+  std::optional<Span> line(bool alongX, double at) const;
+
+  enum class Shape { Unbounded, Ellipse, Quadrilateral } shape_ = Shape::Unbounded;
+  // Ellipse: xx x² + 2 xy x y + yy y² + 2 x x + 2 y y + c >= 0.
+  double xx_ = 0, xy_ = 0, yy_ = 0, x_ = 0, y_ = 0, c_ = 0;
+  // Quadrilateral: its sides' forms >= 0, two pairs of opposite sides.
+  std::array<Linear, 4> sides_{};
+  double margin_;
+};
 
 class LightImages {
  public:
@@ -63,7 +87,7 @@ class LightImages {
   /// as lights grow (2.1 times less variance than camera rays at 5 pixels across) while the
   /// cost, a ray per sample of every pixel they cover, grows.
   static constexpr float kMaxImageSide = 8;
-  /// Rect, disk and sphere lights, whose draws land on them (imageRowSpan), gain as much at
+  /// Rect, disk and sphere lights, whose draws land on them (OutlineImage), gain as much at
   /// their edges whatever their size (a sphere 5 pixels across: 6 times less variance): they
   /// are integrated up to this side, past which the pixels inside, which camera rays already
   /// see whole, would pay for most of their rays.
