@@ -381,9 +381,10 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
             print(f"| {name} | failed: {error} |", flush=True)
 
 
-# Where the many-light scene's lights hang, and the rRMSE its time is measured to: in view, sub-pixel
-# emitters seen by the camera dominate the noise (bench/camera_noise.py); above the view, light
-# selection and shadows do, and the target is the 1 %.
+# Where the many-light scene's lights hang, and the rRMSE its time is measured to: in view, the
+# camera sees the emitters, a few pixels across (bench/camera_noise.py measures how much of the
+# noise is theirs); above the view, light selection and shadows make the noise, and the target is
+# the 1 %.
 MANY_LIGHT_PLACEMENTS = (("in view", False, TARGET_RRMSE), ("above the view", True, 0.01))
 # Ten lights in view reached 5 % near 3 spp, below a ladder starting at 4: rungs at 1 and 2 spp made
 # that a crossing, not an extrapolation. Since their draws land on the lights they see (README,
