@@ -574,7 +574,10 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
   const ImageBox filterReach = ImageBox{centre, centre}.widened(filter.radius());
   const std::vector<Light>& lights = scene.lights().all();
   std::optional<RandomStream> volumeRandom;
-  std::optional<Camera::RayFamily> family;  // made for the first light with an outline
+  // The camera's rays at the sample's lens point and moment: made for the first light with an
+  // outline (none for an orthographic camera).
+  std::optional<Camera::RayFamily> family;
+  bool familyMade = false;
   for (const uint32_t* position = begin; position != end; ++position) {
     const LightImages::Integrated& image = images.integrated()[*position];
     const std::optional<ImageBox> box = images.integratedBox(image, centre, lens, moment);
@@ -585,7 +588,10 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
     const Vec2f upper{region.upper.x - centre.x, region.upper.y - centre.y};
     const Vec2f u = sampler.draw2D(kLightImageDimensions + image.lightIndex);
     const std::optional<Light::Outline> outline = lights[image.lightIndex].outline();
-    if (outline && !family) family = camera.rayFamily(lensSample, time);
+    if (outline && !familyMade) {
+      family = camera.rayFamily(lensSample, time);
+      familyMade = true;
+    }
     PixelFilter::OffsetWithin drawn;
     if (outline && family) {
       // The offset is drawn in a row that crosses the light's image within the region, then in

@@ -91,6 +91,13 @@ Light::Light(const LightParams& params) : params_(params) {
       throw std::invalid_argument("the light has zero area (check width/height/radius and scale)");
     normal_ = normalize(normal_);
     orthogonalEdges_ = std::fabs(dot(edgeU_, edgeV_)) <= 1e-5f * length(edgeU_) * length(edgeV_);
+    if (!orthogonalEdges_) {
+      // A shear: the coordinates of centre + a · edgeU + b · edgeV are its offset's products
+      // with the dual axes, not its projections on the edges.
+      const Vec3f across = cross(edgeU_, edgeV_);
+      dualU_ = cross(edgeV_, across) / dot(across, across);
+      dualV_ = cross(across, edgeU_) / dot(across, across);
+    }
     if (params.type == LightType::Rect && orthogonalEdges_)
       rectangle_ =
           SphericalRectangle::Rectangle(center_ - (edgeU_ + edgeV_) * 0.5f, edgeU_, edgeV_);
@@ -138,10 +145,16 @@ Vec3f Light::shaping(const Vec3f& emitted) const {
   return factor;
 }
 
-Vec2f Light::rectUV(const Vec3f& point) const {
+Vec2f Light::edgeCoordinates(const Vec3f& point) const {
   const Vec3f offset = point - center_;
-  return {dot(offset, edgeU_) / dot(edgeU_, edgeU_) + 0.5f,
-          0.5f - dot(offset, edgeV_) / dot(edgeV_, edgeV_)};
+  if (orthogonalEdges_)
+    return {dot(offset, edgeU_) / dot(edgeU_, edgeU_), dot(offset, edgeV_) / dot(edgeV_, edgeV_)};
+  return {dot(offset, dualU_), dot(offset, dualV_)};
+}
+
+Vec2f Light::rectUV(const Vec3f& point) const {
+  const Vec2f along = edgeCoordinates(point);
+  return {along.x + 0.5f, 0.5f - along.y};
 }
 
 Vec2f Light::domeUV(const Vec3f& direction, float* sinPolar) const {
@@ -388,9 +401,7 @@ std::optional<LightHit> Light::intersect(const Vec3f& origin, const Vec3f& direc
   const float t = dot(center_ - origin, normal_) / facing;
   if (!(t > 0) || t >= tMax) return std::nullopt;
   const Vec3f point = origin + direction * t;
-  const Vec3f offset = point - center_;
-  const float a = dot(offset, edgeU_) / dot(edgeU_, edgeU_);
-  const float b = dot(offset, edgeV_) / dot(edgeV_, edgeV_);
+  const auto [a, b] = edgeCoordinates(point);
   const bool inside = params_.type == LightType::Rect
                           ? (std::fabs(a) <= 0.5f && std::fabs(b) <= 0.5f)
                           : (a * a + b * b <= 1);

@@ -31,6 +31,12 @@ bool seenEmitting(const LightBounds& bounds, const Camera& camera) {
   return dot(camera.centre(0) - bounds.centroid(), bounds.axis) > 0;
 }
 
+/// Whether the draws for `light` land on it (OutlineImage): a sphere, disk or rect light seen
+/// through a perspective camera (whose rays share an origin: Camera::rayFamily).
+bool landsOnLight(const Light& light, const Camera& camera) {
+  return light.outline() && camera.params().projection == Projection::Perspective;
+}
+
 /// The images of the corners of the box [lower, upper] at `moment`; false when one has none
 /// (outside the clipping planes) or it is not finite.
 bool cornerImages(const Camera& camera, const Camera::Moment& moment, const Vec3f& lower,
@@ -105,7 +111,15 @@ OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline
     y_ = form(dy, d0);
     c_ = form(d0, d0);
     // An ellipse when the form is negative definite in (x, y); else not bounded.
-    if (xx_ < 0 && xx_ * yy_ - xy_ * xy_ > 0) shape_ = Shape::Ellipse;
+    if (!(xx_ < 0 && xx_ * yy_ - xy_ * xy_ > 0)) return;
+    shape_ = Shape::Ellipse;
+    // Its rows: where the row's quadratic has a root, b(y)² - a c(y) >= 0, itself a quadratic.
+    const std::optional<Span> rows =
+        nonNegative(xy_ * xy_ - xx_ * yy_, xy_ * x_ - xx_ * y_, x_ * x_ - xx_ * c_);
+    if (rows) {
+      top_ = rows->first;
+      bottom_ = rows->second;
+    }
   };
   if (outline.type == LightType::Sphere) {
     // A ray from the camera along d meets the sphere (centre c, radius r, w = c - o) where the
@@ -119,22 +133,23 @@ OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline
     });
     return;
   }
-  // A ray meets the light's plane (through its centre, normal n = U × V) at t = -(n·e) / (n·d)
-  // at a = (e + t d)·Û and b likewise (Û = U / |U|², Light::Outline's coordinates), so
-  // (n·d) a = d·α with α = (e·Û) n - (n·e) Û, and (n·d) b = d·β. With s = σ n, σ the sign that
-  // makes t > 0 where d·s > 0 (times the growth), the rect is |d·α|, |d·β| <= d·s, the disk
-  // (d·α)² + (d·β)² <= (d·s)².
+  // A ray meets the light's plane (through its centre, normal n = U × V) at t = -(n·e) / (n·d),
+  // at the point centre + a U + b V with a = (e + t d)·U* and b likewise (U*, V*: the plane's
+  // dual axes, U*·U = 1, U*·V = 0), so (n·d) a = d·α with α = (e·U*) n - (n·e) U*, and (n·d) b =
+  // d·β. With s = σ n, σ the sign that makes t > 0 where d·s > 0 (times the growth), the rect is
+  // |d·α|, |d·β| <= d·s, the disk (d·α)² + (d·β)² <= (d·s)².
   const Vector u{outline.axisU.x, outline.axisU.y, outline.axisU.z};
   const Vector v{outline.axisV.x, outline.axisV.y, outline.axisV.z};
   const Vector n = cross(u, v);
+  const double n2 = dot(n, n);
   const double facing = dot(n, e);
-  if (!(dot(u, u) > 0) || !(dot(v, v) > 0) || facing == 0) return;  // seen edge on
+  if (!(n2 > 0) || facing == 0) return;                   // degenerate, or seen edge on
+  const Vector uDual = cross(v, n), vDual = cross(n, u);  // times |n|²
   const double sigma = facing < 0 ? kGrowth : -kGrowth;
   Vector alpha, beta, side;
   for (size_t axis = 0; axis < 3; ++axis) {
-    const double uHat = u[axis] / dot(u, u), vHat = v[axis] / dot(v, v);
-    alpha[axis] = dot(e, u) / dot(u, u) * n[axis] - facing * uHat;
-    beta[axis] = dot(e, v) / dot(v, v) * n[axis] - facing * vHat;
+    alpha[axis] = (dot(e, uDual) * n[axis] - facing * uDual[axis]) / n2;
+    beta[axis] = (dot(e, vDual) * n[axis] - facing * vDual[axis]) / n2;
     side[axis] = sigma * n[axis];
   }
   if (outline.type == LightType::Disk) {
@@ -154,6 +169,20 @@ OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline
       Vector form;
       for (size_t k = 0; k < 3; ++k) form[k] = side[k] + sign * (*axis)[k];
       sides_[size_t(index++)] = linear(form);
+    }
+  // The corners, where a side of each pair meets a side of the other.
+  top_ = kInfinity;
+  bottom_ = -kInfinity;
+  for (int first = 0; first < 2; ++first)
+    for (int second = 2; second < 4; ++second) {
+      const Linear& a = sides_[size_t(first)];
+      const Linear& b = sides_[size_t(second)];
+      const double determinant = a.px * b.py - a.py * b.px;
+      Vec2d& corner = corners_[size_t(first * 2 + second - 2)];
+      corner = {(a.py * b.p - a.p * b.py) / determinant, (a.p * b.px - a.px * b.p) / determinant};
+      if (!std::isfinite(corner.x) || !std::isfinite(corner.y)) return;  // not bounded
+      top_ = std::min(top_, corner.y);
+      bottom_ = std::max(bottom_, corner.y);
     }
   shape_ = Shape::Quadrilateral;
 }
@@ -182,19 +211,30 @@ std::optional<OutlineImage::Span> OutlineImage::line(bool alongX, double at) con
     if (!(interval.first <= interval.second)) return std::nullopt;
     span = interval;
   }
-  if (!span) return std::nullopt;
-  return Span{span->first - margin_, span->second + margin_};
+  return span;
 }
 
 std::optional<OutlineImage::Span> OutlineImage::row(double y) const {
-  return line(true, y);
+  if (shape_ == Shape::Unbounded) return Span{-kInfinity, kInfinity};
+  // Rounding may let a ray meet the light up to the margin beyond its outline, across rows as
+  // along them: the row's span is the union of those within the margin above and below it,
+  // widened by the margin (the image is convex: the union's ends lie at the band's edges, or at
+  // the image's leftmost or rightmost point, which the three rows miss by about the margin's
+  // square over the image's size).
+  if (!(y >= top_ - margin_ && y <= bottom_ + margin_)) return std::nullopt;
+  Span span{kInfinity, -kInfinity};
+  for (const double at : {y - margin_, y, y + margin_})
+    if (const std::optional<Span> crossing = line(true, std::clamp(at, top_, bottom_)))
+      span = {std::min(span.first, crossing->first), std::max(span.second, crossing->second)};
+  if (!(span.first <= span.second)) return std::nullopt;
+  return Span{span.first - margin_, span.second + margin_};
 }
 
 std::optional<OutlineImage::Span> OutlineImage::rowsWithin(double x0, double x1) const {
   if (shape_ == Shape::Unbounded) return Span{-kInfinity, kInfinity};
   // The image is convex: within the strip its highest and lowest points lie on the strip's
   // edges or are the image's own highest and lowest points (an ellipse's two, or corners).
-  // The strip is widened by the margin, as rows' spans are.
+  // The strip and the rows are widened by the margin, as rows' spans are.
   x0 -= margin_;
   x1 += margin_;
   Span rows{kInfinity, -kInfinity};
@@ -204,29 +244,17 @@ std::optional<OutlineImage::Span> OutlineImage::rowsWithin(double x0, double x1)
   for (const double x : {x0, x1})
     if (const std::optional<Span> column = line(false, x)) include(column->first, column->second);
   if (shape_ == Shape::Ellipse) {
-    // The rows where the row's quadratic has a root: b(y)² - a c(y) >= 0, itself a quadratic.
-    const std::optional<Span> extent =
-        nonNegative(xy_ * xy_ - xx_ * yy_, xy_ * x_ - xx_ * y_, x_ * x_ - xx_ * c_);
-    if (extent)
-      for (const double y : {extent->first, extent->second}) {
-        const double x = -(xy_ * y + x_) / xx_;  // where the row's chord closes
-        if (x >= x0 && x <= x1) include(y - margin_, y + margin_);
-      }
+    for (const double y : {top_, bottom_}) {
+      if (!std::isfinite(y)) continue;         // the ellipse has no rows
+      const double x = -(xy_ * y + x_) / xx_;  // where the row's chord closes
+      if (x >= x0 && x <= x1) include(y, y);
+    }
   } else {
-    // The corners, where a side of each pair meets a side of the other.
-    for (int first = 0; first < 2; ++first)
-      for (int second = 2; second < 4; ++second) {
-        const Linear& a = sides_[size_t(first)];
-        const Linear& b = sides_[size_t(second)];
-        const double determinant = a.px * b.py - a.py * b.px;
-        const double x = (a.py * b.p - a.p * b.py) / determinant;
-        const double y = (a.p * b.px - a.px * b.p) / determinant;
-        if (!std::isfinite(x) || !std::isfinite(y)) return Span{-kInfinity, kInfinity};
-        if (x >= x0 && x <= x1) include(y - margin_, y + margin_);
-      }
+    for (const Vec2d& corner : corners_)
+      if (corner.x >= x0 && corner.x <= x1) include(corner.y, corner.y);
   }
   if (!(rows.first <= rows.second)) return std::nullopt;
-  return rows;
+  return Span{rows.first - margin_, rows.second + margin_};
 }
 
 LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera, float filterRadius)
@@ -273,7 +301,8 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
       streak.include(box.upper);
       if (moment == 0) std::copy(std::begin(corners), std::end(corners), entry.corners);
     }
-    if (!seen || side > (light.outline() ? kMaxOutlinedImageSide : kMaxImageSide)) continue;
+    if (!seen || side > (landsOnLight(light, camera) ? kMaxOutlinedImageSide : kMaxImageSide))
+      continue;
     if (streak.upper.x - streak.lower.x > kMaxStreakSide ||
         streak.upper.y - streak.lower.y > kMaxStreakSide)
       continue;

@@ -140,7 +140,15 @@ TEST(Lights, SamplingDensitiesIntegrateToOne) {
 TEST(Lights, SampledDirectionsAgreeWithIntersection) {
   LightParams rect = params(LightType::Rect, facingDown(0, 2, 0));
   LightParams sphere = params(LightType::Sphere, translation(1, 2, -1));
-  for (const LightParams& p : {rect, sphere}) {
+  // Sheared by their transform (local X += 0.6 Y, then facing down): a parallelogram and an
+  // ellipse whose axes are not perpendicular, which intersection must bound as sampling does.
+  const double shearedDown[16] = {1, 0, 0, 0, 0.6, 0, -1, 0, 0, 1, 0, 0, 0.2, 2, 0.1, 1};
+  LightParams shearedRect = params(LightType::Rect, Transform::fromRowMajor(shearedDown));
+  shearedRect.width = 1.5f;
+  LightParams shearedDisk = params(LightType::Disk, Transform::fromRowMajor(shearedDown));
+  shearedDisk.radius = 0.6f;
+  for (const LightParams& p : {rect, sphere, shearedRect, shearedDisk}) {
+    SCOPED_TRACE(int(p.type));
     const Light light(p);
     for (uint32_t i = 0; i < 64; ++i) {
       const auto sample = light.sample({0, 0, 0}, sample2D(i));

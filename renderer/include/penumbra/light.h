@@ -206,10 +206,8 @@ class Light {
   /// The emitted radiance averaged over the texture, if any.
   Vec3f meanRadiance() const;
   /// The surface a sphere, rect or disk light emits from (world space), for finding its image:
-  /// the sphere of `radius` about `centre`, or the points p of the plane through `centre` along
-  /// axisU and axisV with |a|, |b| <= 1 (rect) or a² + b² <= 1 (disk), a = (p - centre)·axisU /
-  /// |axisU|² and b likewise (as intersect() tells them: for perpendicular axes, the points
-  /// centre + a · axisU + b · axisV).
+  /// the sphere of `radius` about `centre`, or the points centre + a · axisU + b · axisV with
+  /// |a|, |b| <= 1 (rect) or a² + b² <= 1 (disk).
   struct Outline {
     LightType type;
     Vec3f centre, axisU, axisV;
@@ -238,6 +236,8 @@ class Light {
                                          Vec3f* normal) const;
   /// ShapingAPI factor for light leaving the light in world direction `emitted`.
   Vec3f shaping(const Vec3f& emitted) const;
+  /// Rect and disk: (a, b) of a point centre + a · edgeU + b · edgeV of the light's plane.
+  Vec2f edgeCoordinates(const Vec3f& point) const;
   /// Rect texture coordinates of a point in the light's plane.
   Vec2f rectUV(const Vec3f& point) const;
   /// Dome: lat-long coordinates of a world direction and back.
@@ -259,7 +259,8 @@ class Light {
   float conePdf_ = 0;
   Vec3f axis_;  // shaping axis: the light's -Z in world space
   bool shaped_ = false;
-  bool orthogonalEdges_ = false;             // rect: not sheared by its transform
+  bool orthogonalEdges_ = false;  // rect, disk: not sheared by its transform
+  Vec3f dualU_, dualV_;  // sheared rect, disk: edgeCoordinates' dual axes of edgeU_, edgeV_
   SphericalRectangle::Rectangle rectangle_;  // rect with orthogonalEdges_: for sphericalRect
   float coneCosOuter_ = -1, coneCosInner_ = -1;
   Transform worldToLight_;

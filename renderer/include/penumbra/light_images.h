@@ -47,7 +47,8 @@ struct ImageBox {
 /// The image of a sphere, disk or rect light (Light::outline) through one lens point at one
 /// moment (Camera::RayFamily): an ellipse for a sphere or disk, a quadrilateral for a rect, in
 /// image positions (pixels) relative to `origin`. Its spans hold every position whose ray meets
-/// the light, widened by `margin` pixels for rounding. Where the image is not bounded (a camera
+/// the light, and every position within `margin` pixels of one (rounding may let its ray meet
+/// the light too), across rows as along them. Where the image is not bounded (a camera
 /// inside a sphere, in a disk's or rect's plane, or seeing it across its horizon), they are
 /// whole rows and columns.
 class OutlineImage {
@@ -65,15 +66,21 @@ class OutlineImage {
   struct Linear {
     double p, px, py;
   };
-  /// The positions along one axis where a quadratic or the quadrilateral's sides allow it,
-  /// the other axis's coordinate fixed at `at` (`alongX`: a row).
+  struct Vec2d {
+    double x, y;
+  };
+  /// The positions along one axis where the ellipse's quadratic or the quadrilateral's sides
+  /// allow them, the other axis's coordinate fixed at `at` (`alongX`: a row), not widened.
   std::optional<Span> line(bool alongX, double at) const;
 
   enum class Shape { Unbounded, Ellipse, Quadrilateral } shape_ = Shape::Unbounded;
   // Ellipse: xx x² + 2 xy x y + yy y² + 2 x x + 2 y y + c >= 0.
   double xx_ = 0, xy_ = 0, yy_ = 0, x_ = 0, y_ = 0, c_ = 0;
-  // Quadrilateral: its sides' forms >= 0, two pairs of opposite sides.
+  // Quadrilateral: its sides' forms >= 0, two pairs of opposite sides, and its corners.
   std::array<Linear, 4> sides_{};
+  std::array<Vec2d, 4> corners_{};
+  // The rows it spans, not widened (empty, top_ > bottom_, for an ellipse with no rows).
+  double top_ = kInfinity, bottom_ = -kInfinity;
   double margin_;
 };
 
@@ -87,10 +94,10 @@ class LightImages {
   /// as lights grow (2.1 times less variance than camera rays at 5 pixels across) while the
   /// cost, a ray per sample of every pixel they cover, grows.
   static constexpr float kMaxImageSide = 8;
-  /// Rect, disk and sphere lights, whose draws land on them (OutlineImage), gain as much at
-  /// their edges whatever their size (a sphere 5 pixels across: 6 times less variance): they
-  /// are integrated up to this side, past which the pixels inside, which camera rays already
-  /// see whole, would pay for most of their rays.
+  /// Rect, disk and sphere lights seen through a perspective camera, whose draws land on them
+  /// (OutlineImage), gain as much at their edges whatever their size (a sphere 5 pixels
+  /// across: 7.3 times less variance): they are integrated up to this side, past which the
+  /// pixels inside, which camera rays already see whole, would pay for most of their rays.
   static constexpr float kMaxOutlinedImageSide = 32;
   static constexpr float kMaxStreakSide = 4 * kMaxImageSide;
   /// Pixels per side of the cells that list the lights near them.
