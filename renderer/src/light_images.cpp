@@ -73,14 +73,17 @@ Vector cross(const Vector& a, const Vector& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 
-/// Where a t² + 2 b t + c >= 0: between its roots when a < 0 (none where it has none), all of
-/// the line (±infinity) otherwise.
-std::optional<OutlineImage::Span> nonNegative(double a, double b, double c) {
+/// Where a t² + 2 b t + c >= 0: between its roots when a < 0 (none where it has none, but its
+/// vertex where it is known to have some: `hasRoots`, rounding aside), all of the line
+/// (±infinity) otherwise.
+std::optional<OutlineImage::Span> nonNegative(double a, double b, double c, bool hasRoots) {
   if (!(a < 0)) return OutlineImage::Span{-kInfinity, kInfinity};
   // About the vertex -b / a, so that the roots do not cancel.
+  const double middle = -b / a;
   const double discriminant = b * b - a * c;
-  if (!(discriminant >= 0)) return std::nullopt;
-  const double middle = -b / a, halfWidth = std::sqrt(discriminant) / -a;
+  if (!(discriminant >= 0))
+    return hasRoots ? std::optional(OutlineImage::Span{middle, middle}) : std::nullopt;
+  const double halfWidth = std::sqrt(discriminant) / -a;
   return OutlineImage::Span{middle - halfWidth, middle + halfWidth};
 }
 
@@ -115,7 +118,7 @@ OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline
     shape_ = Shape::Ellipse;
     // Its rows: where the row's quadratic has a root, b(y)² - a c(y) >= 0, itself a quadratic.
     const std::optional<Span> rows =
-        nonNegative(xy_ * xy_ - xx_ * yy_, xy_ * x_ - xx_ * y_, x_ * x_ - xx_ * c_);
+        nonNegative(xy_ * xy_ - xx_ * yy_, xy_ * x_ - xx_ * y_, x_ * x_ - xx_ * c_, false);
     if (rows) {
       top_ = rows->first;
       bottom_ = rows->second;
@@ -187,31 +190,30 @@ OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline
   shape_ = Shape::Quadrilateral;
 }
 
-std::optional<OutlineImage::Span> OutlineImage::line(bool alongX, double at) const {
-  std::optional<Span> span;
-  if (shape_ == Shape::Unbounded) {
-    span = Span{-kInfinity, kInfinity};
-  } else if (shape_ == Shape::Ellipse) {
+std::optional<OutlineImage::Span> OutlineImage::line(bool alongX, double at, bool crosses) const {
+  if (shape_ == Shape::Unbounded) return Span{-kInfinity, kInfinity};
+  if (shape_ == Shape::Ellipse) {
     // The conic with one coordinate fixed: a quadratic in the other.
-    span = alongX ? nonNegative(xx_, xy_ * at + x_, (yy_ * at + 2 * y_) * at + c_)
-                  : nonNegative(yy_, xy_ * at + y_, (xx_ * at + 2 * x_) * at + c_);
-  } else {
-    Span interval{-kInfinity, kInfinity};
-    for (const Linear& side : sides_) {
-      // p + q t >= 0 along the line.
-      const double p = side.p + (alongX ? side.py : side.px) * at;
-      const double q = alongX ? side.px : side.py;
-      if (q > 0)
-        interval.first = std::max(interval.first, -p / q);
-      else if (q < 0)
-        interval.second = std::min(interval.second, -p / q);
-      else if (!(p >= 0))
-        return std::nullopt;
-    }
-    if (!(interval.first <= interval.second)) return std::nullopt;
-    span = interval;
+    return alongX ? nonNegative(xx_, xy_ * at + x_, (yy_ * at + 2 * y_) * at + c_, crosses)
+                  : nonNegative(yy_, xy_ * at + y_, (xx_ * at + 2 * x_) * at + c_, crosses);
   }
-  return span;
+  Span interval{-kInfinity, kInfinity};
+  for (const Linear& side : sides_) {
+    // p + q t >= 0 along the line.
+    const double p = side.p + (alongX ? side.py : side.px) * at;
+    const double q = alongX ? side.px : side.py;
+    if (q > 0)
+      interval.first = std::max(interval.first, -p / q);
+    else if (q < 0)
+      interval.second = std::min(interval.second, -p / q);
+    else if (!(p >= 0) && !crosses)
+      return std::nullopt;
+  }
+  if (interval.first <= interval.second) return interval;
+  // Through a corner, rounding may leave the sides' bounds crossed.
+  if (!crosses) return std::nullopt;
+  const double corner = 0.5 * (interval.first + interval.second);
+  return Span{corner, corner};
 }
 
 std::optional<OutlineImage::Span> OutlineImage::row(double y) const {
@@ -224,7 +226,7 @@ std::optional<OutlineImage::Span> OutlineImage::row(double y) const {
   if (!(y >= top_ - margin_ && y <= bottom_ + margin_)) return std::nullopt;
   Span span{kInfinity, -kInfinity};
   for (const double at : {y - margin_, y, y + margin_})
-    if (const std::optional<Span> crossing = line(true, std::clamp(at, top_, bottom_)))
+    if (const std::optional<Span> crossing = line(true, std::clamp(at, top_, bottom_), true))
       span = {std::min(span.first, crossing->first), std::max(span.second, crossing->second)};
   if (!(span.first <= span.second)) return std::nullopt;
   return Span{span.first - margin_, span.second + margin_};
@@ -242,7 +244,8 @@ std::optional<OutlineImage::Span> OutlineImage::rowsWithin(double x0, double x1)
     rows = {std::min(rows.first, low), std::max(rows.second, high)};
   };
   for (const double x : {x0, x1})
-    if (const std::optional<Span> column = line(false, x)) include(column->first, column->second);
+    if (const std::optional<Span> column = line(false, x, false))
+      include(column->first, column->second);
   if (shape_ == Shape::Ellipse) {
     for (const double y : {top_, bottom_}) {
       if (!std::isfinite(y)) continue;         // the ellipse has no rows

@@ -71,7 +71,9 @@ class OutlineImage {
   };
   /// The positions along one axis where the ellipse's quadratic or the quadrilateral's sides
   /// allow them, the other axis's coordinate fixed at `at` (`alongX`: a row), not widened.
-  std::optional<Span> line(bool alongX, double at) const;
+  /// `crosses`: the line is known to cross the image (between its extremes), so that where
+  /// rounding leaves it none, it gets the point where it touches.
+  std::optional<Span> line(bool alongX, double at, bool crosses) const;
 
   enum class Shape { Unbounded, Ellipse, Quadrilateral } shape_ = Shape::Unbounded;
   // Ellipse: xx x² + 2 xy x y + yy y² + 2 x x + 2 y y + c >= 0.
