@@ -276,6 +276,68 @@ TEST(LightImages, ALightsOutlineImageHoldsEveryRayThatMeetsItAndLittleElse) {
   EXPECT_FALSE(Camera(orthographic, kImageSize, kImageSize).rayFamily(lensSample, 0).has_value());
 }
 
+TEST(LightImages, ATinyLightFarFromTheOriginLosesNoRayToRounding) {
+  // A 4K camera 100 units from the origin, turned, and a sphere light 0.02 pixels across 40
+  // units ahead: the rays that rounding lets meet it at its image's top and bottom rows, where
+  // the rows' quadratics barely have roots, lie in the spans drawn.
+  const double yaw = 30 * kPi / 180, pitch = 20 * kPi / 180;
+  const double rowMajor[16] = {std::cos(yaw),
+                               std::sin(yaw) * std::sin(pitch),
+                               -std::sin(yaw) * std::cos(pitch),
+                               0,
+                               0,
+                               std::cos(pitch),
+                               std::sin(pitch),
+                               0,
+                               std::sin(yaw),
+                               -std::cos(yaw) * std::sin(pitch),
+                               std::cos(yaw) * std::cos(pitch),
+                               0,
+                               100,
+                               50,
+                               -33,
+                               1};
+  const Transform cameraToWorld = Transform::fromRowMajor(rowMajor);
+  CameraParams params;
+  params.cameraToWorld = MotionTransform(std::vector<Transform>{cameraToWorld});
+  const Camera camera(params, 3840, 2160);
+  const Vec3f centre = cameraToWorld.applyToPoint({0.931f, -0.417f, -40});
+  const std::vector<Light> lights = lightsOf({sphereLight(centre, 5e-5f)});
+  const LightImages images(lights, camera, PixelFilter().radius());
+  ASSERT_FALSE(images.integrated().empty());
+  const LightImages::Integrated& integrated = images.integrated()[0];
+  const Vec2f lensSample{0.5f, 0.5f};
+  const std::optional<Camera::RayFamily> family = camera.rayFamily(lensSample, 0);
+  ASSERT_TRUE(family.has_value());
+  const std::optional<PointImage> image = camera.pointImage(centre, camera.momentAt(0));
+  ASSERT_TRUE(image.has_value());
+  const Vec2f origin{std::floor(image->position.x) + 0.5f, std::floor(image->position.y) + 0.5f};
+  const OutlineImage outline(*family, *lights[0].outline(), origin, integrated.margin);
+  const std::optional<OutlineImage::Span> rows = outline.rowsWithin(-10, 10);
+  ASSERT_TRUE(rows.has_value());
+  // Rows within a tenth of the image's height of its top and bottom (the rows' span without
+  // the margin), each scanned across.
+  const double top = rows->first + integrated.margin, bottom = rows->second - integrated.margin;
+  const double height = bottom - top;
+  ASSERT_GT(height, 0);
+  int hits = 0, lost = 0;
+  for (int step = 0; step <= 400; ++step) {
+    const double within = 0.1 * height * step / 400;
+    for (const double y : {top + within, bottom - within}) {
+      const std::optional<OutlineImage::Span> span = outline.row(y);
+      for (int column = 0; column <= 400; ++column) {
+        const double x = -0.2 + 0.4 * column / 400;
+        const Ray ray = camera.generateRay(origin.x + float(x), origin.y + float(y), lensSample);
+        if (!lights[0].intersect(ray.origin, ray.direction, ray.tFar)) continue;
+        ++hits;
+        if (!span || x < span->first || x > span->second) ++lost;
+      }
+    }
+  }
+  EXPECT_GT(hits, 100);
+  EXPECT_EQ(lost, 0) << "of " << hits;
+}
+
 struct PixelStatistics {
   std::vector<double> mean, variance;  // per pixel of the window, of one sample's luminance
   double sum = 0;                      // of the means
