@@ -574,10 +574,9 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
   const ImageBox filterReach = ImageBox{centre, centre}.widened(filter.radius());
   const std::vector<Light>& lights = scene.lights().all();
   std::optional<RandomStream> volumeRandom;
-  // The camera's rays at the sample's lens point and moment: made for the first light with an
-  // outline (none for an orthographic camera).
+  // The camera's rays at the sample's lens point and moment (a perspective camera's: lights
+  // have an outline only there), made for the first light with one.
   std::optional<Camera::RayFamily> family;
-  bool familyMade = false;
   for (const uint32_t* position = begin; position != end; ++position) {
     const LightImages::Integrated& image = images.integrated()[*position];
     const std::optional<ImageBox> box = images.integratedBox(image, centre, lens, moment);
@@ -587,17 +586,13 @@ Vec3f lightsSeenDirectly(const Scene& scene, const Camera& camera, const PixelFi
     const Vec2f lower{region.lower.x - centre.x, region.lower.y - centre.y};
     const Vec2f upper{region.upper.x - centre.x, region.upper.y - centre.y};
     const Vec2f u = sampler.draw2D(kLightImageDimensions + image.lightIndex);
-    const std::optional<Light::Outline> outline = lights[image.lightIndex].outline();
-    if (outline && !familyMade) {
-      family = camera.rayFamily(lensSample, time);
-      familyMade = true;
-    }
+    if (image.outline && !family) family = camera.rayFamily(lensSample, time);
     PixelFilter::OffsetWithin drawn;
-    if (outline && family) {
+    if (image.outline && family) {
       // The offset is drawn in a row that crosses the light's image within the region, then in
       // the image's span of that row, so that every draw sees the light (unless something hides
       // it), not only those that happen to land on it.
-      const OutlineImage outlineImage(*family, *outline, centre, image.margin);
+      const OutlineImage outlineImage(*family, *image.outline, centre, image.margin);
       const std::optional<OutlineImage::Span> rows = outlineImage.rowsWithin(lower.x, upper.x);
       if (!rows) continue;
       const PixelFilter::CoordinateWithin drawnY =

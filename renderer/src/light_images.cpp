@@ -31,12 +31,6 @@ bool seenEmitting(const LightBounds& bounds, const Camera& camera) {
   return dot(camera.centre(0) - bounds.centroid(), bounds.axis) > 0;
 }
 
-/// Whether the draws for `light` land on it (OutlineImage): a sphere, disk or rect light seen
-/// through a perspective camera (whose rays share an origin: Camera::rayFamily).
-bool landsOnLight(const Light& light, const Camera& camera) {
-  return light.outline() && camera.params().projection == Projection::Perspective;
-}
-
 /// The images of the corners of the box [lower, upper] at `moment`; false when one has none
 /// (outside the clipping planes) or it is not finite.
 bool cornerImages(const Camera& camera, const Camera::Moment& moment, const Vec3f& lower,
@@ -119,10 +113,11 @@ OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline
     // Its rows: where the row's quadratic has a root, b(y)² - a c(y) >= 0, itself a quadratic.
     const std::optional<Span> rows =
         nonNegative(xy_ * xy_ - xx_ * yy_, xy_ * x_ - xx_ * y_, x_ * x_ - xx_ * c_, false);
-    if (rows) {
-      top_ = rows->first;
-      bottom_ = rows->second;
-    }
+    if (!rows) return;
+    top_ = rows->first;
+    bottom_ = rows->second;
+    for (const double y : {top_, bottom_})
+      extremes_[size_t(extremeCount_++)] = {-(xy_ * y + x_) / xx_, y};  // where its chord closes
   };
   if (outline.type == LightType::Sphere) {
     // A ray from the camera along d meets the sphere (centre c, radius r, w = c - o) where the
@@ -181,9 +176,10 @@ OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline
       const Linear& a = sides_[size_t(first)];
       const Linear& b = sides_[size_t(second)];
       const double determinant = a.px * b.py - a.py * b.px;
-      Vec2d& corner = corners_[size_t(first * 2 + second - 2)];
-      corner = {(a.py * b.p - a.p * b.py) / determinant, (a.p * b.px - a.px * b.p) / determinant};
+      const Vec2d corner{(a.py * b.p - a.p * b.py) / determinant,
+                         (a.p * b.px - a.px * b.p) / determinant};
       if (!std::isfinite(corner.x) || !std::isfinite(corner.y)) return;  // not bounded
+      extremes_[size_t(extremeCount_++)] = corner;
       top_ = std::min(top_, corner.y);
       bottom_ = std::max(bottom_, corner.y);
     }
@@ -246,15 +242,9 @@ std::optional<OutlineImage::Span> OutlineImage::rowsWithin(double x0, double x1)
   for (const double x : {x0, x1})
     if (const std::optional<Span> column = line(false, x, false))
       include(column->first, column->second);
-  if (shape_ == Shape::Ellipse) {
-    for (const double y : {top_, bottom_}) {
-      if (!std::isfinite(y)) continue;         // the ellipse has no rows
-      const double x = -(xy_ * y + x_) / xx_;  // where the row's chord closes
-      if (x >= x0 && x <= x1) include(y, y);
-    }
-  } else {
-    for (const Vec2d& corner : corners_)
-      if (corner.x >= x0 && corner.x <= x1) include(corner.y, corner.y);
+  for (int index = 0; index < extremeCount_; ++index) {
+    const Vec2d& extreme = extremes_[size_t(index)];
+    if (extreme.x >= x0 && extreme.x <= x1) include(extreme.y, extreme.y);
   }
   if (!(rows.first <= rows.second)) return std::nullopt;
   return Span{rows.first - margin_, rows.second + margin_};
@@ -282,7 +272,10 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
     if (!light.cameraVisible() || !light.isAreaLight()) continue;
     const LightBounds bounds = light.bounds();
     if (!seenEmitting(bounds, camera)) continue;
-    Integrated entry{index, bounds.lower, bounds.upper, {}, {}, 0};  // corners, reach, margin
+    Integrated entry{index, bounds.lower, bounds.upper, {}, {}, 0, {}};  // corners, reach, ...
+    // The draws land on the light where its image is an outline: a sphere, disk or rect seen
+    // through a perspective camera, whose rays share an origin (Camera::rayFamily).
+    if (camera.params().projection == Projection::Perspective) entry.outline = light.outline();
     // Its image's box over the whole lens at each moment: each must be small; together they
     // are the streak whose pixels list it.
     ImageBox streak;
@@ -304,8 +297,7 @@ LightImages::LightImages(const std::vector<Light>& lights, const Camera& camera,
       streak.include(box.upper);
       if (moment == 0) std::copy(std::begin(corners), std::end(corners), entry.corners);
     }
-    if (!seen || side > (landsOnLight(light, camera) ? kMaxOutlinedImageSide : kMaxImageSide))
-      continue;
+    if (!seen || side > (entry.outline ? kMaxOutlinedImageSide : kMaxImageSide)) continue;
     if (streak.upper.x - streak.lower.x > kMaxStreakSide ||
         streak.upper.y - streak.lower.y > kMaxStreakSide)
       continue;

@@ -78,9 +78,12 @@ class OutlineImage {
   enum class Shape { Unbounded, Ellipse, Quadrilateral } shape_ = Shape::Unbounded;
   // Ellipse: xx x² + 2 xy x y + yy y² + 2 x x + 2 y y + c >= 0.
   double xx_ = 0, xy_ = 0, yy_ = 0, x_ = 0, y_ = 0, c_ = 0;
-  // Quadrilateral: its sides' forms >= 0, two pairs of opposite sides, and its corners.
+  // Quadrilateral: its sides' forms >= 0, two pairs of opposite sides.
   std::array<Linear, 4> sides_{};
-  std::array<Vec2d, 4> corners_{};
+  // The points where the image reaches highest and lowest: an ellipse's two, a quadrilateral's
+  // four corners.
+  std::array<Vec2d, 4> extremes_{};
+  int extremeCount_ = 0;
   // The rows it spans, not widened (empty, top_ > bottom_, for an ellipse with no rows).
   double top_ = kInfinity, bottom_ = -kInfinity;
   double margin_;
@@ -134,6 +137,9 @@ class LightImages {
     PointImage corners[8];
     ImageBox reach;
     float margin;  // pixels the boxes are widened by, for rounding
+    /// A sphere, disk or rect light seen through a perspective camera: its outline, whose image
+    /// (OutlineImage) the draws land on; none: they are drawn in the box.
+    std::optional<Light::Outline> outline;
 
     /// Whether samples of the pixel with centre `centre` may see its image.
     bool reaches(Vec2f centre) const {
