@@ -152,10 +152,9 @@ std::optional<Camera::RayFamily> Camera::rayFamily(Vec2f lensSample, float time)
   }
   const Transform toWorld = params_.cameraToWorld.at(time);
   const auto toWorldVector = [&](double x, double y, double z) {
-    return std::array<double, 3>{
-        x * toWorld.at(0, 0) + y * toWorld.at(1, 0) + z * toWorld.at(2, 0),
-        x * toWorld.at(0, 1) + y * toWorld.at(1, 1) + z * toWorld.at(2, 1),
-        x * toWorld.at(0, 2) + y * toWorld.at(1, 2) + z * toWorld.at(2, 2)};
+    return Vec3d{x * toWorld.at(0, 0) + y * toWorld.at(1, 0) + z * toWorld.at(2, 0),
+                 x * toWorld.at(0, 1) + y * toWorld.at(1, 1) + z * toWorld.at(2, 1),
+                 x * toWorld.at(0, 2) + y * toWorld.at(1, 2) + z * toWorld.at(2, 2)};
   };
   RayFamily family;
   family.origin = toWorldVector(lensX, lensY, 0);

@@ -57,16 +57,6 @@ ImageBox boxThroughLens(const PointImage (&corners)[8], Vec2f lens, float margin
   return box.widened(margin);
 }
 
-using Vector = std::array<double, 3>;
-
-double dot(const Vector& a, const Vector& b) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-Vector cross(const Vector& a, const Vector& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-
 /// Where a t² + 2 b t + c >= 0: between its roots when a < 0 (none where it has none, but its
 /// vertex where it is known to have some: `hasRoots`, rounding aside), all of the line
 /// (±infinity) otherwise.
@@ -90,14 +80,14 @@ OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline
   // fall inside.
   constexpr double kGrowth = 1.001;
   // Ray directions d(x, y) = d0 + x · dx + y · dy, (x, y) relative to the origin.
-  const Vector& dx = family.perImageX;
-  const Vector& dy = family.perImageY;
-  Vector d0;
+  const Vec3d& dx = family.perImageX;
+  const Vec3d& dy = family.perImageY;
+  Vec3d d0;
   for (size_t axis = 0; axis < 3; ++axis)
     d0[axis] = family.direction[axis] + double(origin.x) * dx[axis] + double(origin.y) * dy[axis];
   // From the light's centre to the camera's.
-  const Vector e{family.origin[0] - outline.centre.x, family.origin[1] - outline.centre.y,
-                 family.origin[2] - outline.centre.z};
+  const Vec3d e{family.origin[0] - outline.centre.x, family.origin[1] - outline.centre.y,
+                family.origin[2] - outline.centre.z};
   // A symmetric bilinear form of directions, f(d, d) >= 0 where rays meet the light, as the
   // conic of the image positions.
   const auto setEllipse = [&](auto&& form) {
@@ -122,11 +112,11 @@ OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline
   if (outline.type == LightType::Sphere) {
     // A ray from the camera along d meets the sphere (centre c, radius r, w = c - o) where the
     // distance of c from its line is at most r: (w·d)² - (|w|² - r²)|d|² >= 0.
-    const Vector w{-e[0], -e[1], -e[2]};
+    const Vec3d w{-e[0], -e[1], -e[2]};
     const double radius = double(outline.radius) * kGrowth;
     const double outside = dot(w, w) - radius * radius;
     if (!(outside > 0)) return;
-    setEllipse([&](const Vector& p, const Vector& q) {
+    setEllipse([&](const Vec3d& p, const Vec3d& q) {
       return dot(w, p) * dot(w, q) - outside * dot(p, q);
     });
     return;
@@ -136,35 +126,35 @@ OutlineImage::OutlineImage(const Camera::RayFamily& family, const Light::Outline
   // dual axes, U*·U = 1, U*·V = 0), so (n·d) a = d·α with α = (e·U*) n - (n·e) U*, and (n·d) b =
   // d·β. With s = σ n, σ the sign that makes t > 0 where d·s > 0 (times the growth), the rect is
   // |d·α|, |d·β| <= d·s, the disk (d·α)² + (d·β)² <= (d·s)².
-  const Vector u{outline.axisU.x, outline.axisU.y, outline.axisU.z};
-  const Vector v{outline.axisV.x, outline.axisV.y, outline.axisV.z};
-  const Vector n = cross(u, v);
+  const Vec3d u{outline.axisU.x, outline.axisU.y, outline.axisU.z};
+  const Vec3d v{outline.axisV.x, outline.axisV.y, outline.axisV.z};
+  const Vec3d n = cross(u, v);
   const double n2 = dot(n, n);
   const double facing = dot(n, e);
-  if (!(n2 > 0) || facing == 0) return;                   // degenerate, or seen edge on
-  const Vector uDual = cross(v, n), vDual = cross(n, u);  // times |n|²
+  if (!(n2 > 0) || facing == 0) return;                  // degenerate, or seen edge on
+  const Vec3d uDual = cross(v, n), vDual = cross(n, u);  // times |n|²
   const double sigma = facing < 0 ? kGrowth : -kGrowth;
-  Vector alpha, beta, side;
+  Vec3d alpha, beta, side;
   for (size_t axis = 0; axis < 3; ++axis) {
     alpha[axis] = (dot(e, uDual) * n[axis] - facing * uDual[axis]) / n2;
     beta[axis] = (dot(e, vDual) * n[axis] - facing * vDual[axis]) / n2;
     side[axis] = sigma * n[axis];
   }
   if (outline.type == LightType::Disk) {
-    setEllipse([&](const Vector& p, const Vector& q) {
+    setEllipse([&](const Vec3d& p, const Vec3d& q) {
       return dot(side, p) * dot(side, q) - dot(alpha, p) * dot(alpha, q) -
              dot(beta, p) * dot(beta, q);
     });
     return;
   }
   // The rect's sides d·s - d·α >= 0, d·s + d·α >= 0, and the same with β.
-  const auto linear = [&](const Vector& form) {
+  const auto linear = [&](const Vec3d& form) {
     return Linear{dot(form, d0), dot(form, dx), dot(form, dy)};
   };
   int index = 0;
-  for (const Vector* axis : {&alpha, &beta})
+  for (const Vec3d* axis : {&alpha, &beta})
     for (const double sign : {-1.0, 1.0}) {
-      Vector form;
+      Vec3d form;
       for (size_t k = 0; k < 3; ++k) form[k] = side[k] + sign * (*axis)[k];
       sides_[size_t(index++)] = linear(form);
     }

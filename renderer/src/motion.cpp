@@ -5,11 +5,7 @@
 namespace penumbra {
 namespace {
 
-using Column = std::array<double, 3>;
-
-double dot3(const Column& a, const Column& b) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
+using Column = Vec3d;
 
 Quaternion quaternionFromRotation(const Column& c0, const Column& c1, const Column& c2) {
   // Rotation matrix R with columns c0, c1, c2: R[i][j] = cj[i]. Shepperd's method (stable).
@@ -35,9 +31,8 @@ Quaternion quaternionFromRotation(const Column& c0, const Column& c1, const Colu
 /// Any unit vector orthogonal to `v` (for degenerate, zero-scale axes).
 Column orthogonalTo(const Column& v) {
   const Column axis = std::fabs(v[0]) < 0.9 ? Column{1, 0, 0} : Column{0, 1, 0};
-  Column u = {axis[1] * v[2] - axis[2] * v[1], axis[2] * v[0] - axis[0] * v[2],
-              axis[0] * v[1] - axis[1] * v[0]};
-  const double n = std::sqrt(dot3(u, u));
+  const Column u = cross(axis, v);
+  const double n = std::sqrt(dot(u, u));
   return {u[0] / n, u[1] / n, u[2] / n};
 }
 
@@ -72,10 +67,10 @@ TransformDecomposition decompose(const Transform& m) {
   for (int j = 0; j < 3; ++j) {
     Column v = a[j];
     for (int i = 0; i < j; ++i) {
-      u[i][j] = dot3(q[i], a[j]);
+      u[i][j] = dot(q[i], a[j]);
       for (int k = 0; k < 3; ++k) v[k] -= u[i][j] * q[i][k];
     }
-    u[j][j] = std::sqrt(dot3(v, v));
+    u[j][j] = std::sqrt(dot(v, v));
     if (u[j][j] > 1e-300) {
       q[j] = {v[0] / u[j][j], v[1] / u[j][j], v[2] / u[j][j]};
     } else if (j == 0) {
@@ -88,10 +83,7 @@ TransformDecomposition decompose(const Transform& m) {
     }
   }
   // Keep Q a proper rotation: a mirror goes into the last scale.
-  const Column cross01 = {q[0][1] * q[1][2] - q[0][2] * q[1][1],
-                          q[0][2] * q[1][0] - q[0][0] * q[1][2],
-                          q[0][0] * q[1][1] - q[0][1] * q[1][0]};
-  if (dot3(cross01, q[2]) < 0) {
+  if (dot(cross(q[0], q[1]), q[2]) < 0) {
     q[2] = {-q[2][0], -q[2][1], -q[2][2]};
     u[2][2] = -u[2][2];
   }

@@ -12,7 +12,6 @@
 namespace penumbra {
 namespace {
 
-using Vec3d = std::array<double, 3>;
 using Mat3d = std::array<Vec3d, 3>;  // row-major
 
 constexpr double kRange = double(kLambdaMax) - double(kLambdaMin);

@@ -2,7 +2,6 @@
 // and apertures in tenths of a scene unit, distances in scene units, looking down -Z with +Y up.
 #pragma once
 
-#include <array>
 #include <optional>
 #include <vector>
 
@@ -97,7 +96,7 @@ class Camera {
   /// length), as generateRay makes it up to rounding. None for orthographic cameras, whose rays
   /// share a direction rather than an origin.
   struct RayFamily {
-    std::array<double, 3> origin, direction, perImageX, perImageY;
+    Vec3d origin, direction, perImageX, perImageY;
   };
   std::optional<RayFamily> rayFamily(Vec2f lensSample, float time) const;
   int imageWidth() const { return width_; }

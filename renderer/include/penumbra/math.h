@@ -73,6 +73,15 @@ inline Vec3f cross(const Vec3f& a, const Vec3f& b) {
 inline float length(const Vec3f& a) {
   return std::sqrt(dot(a, a));
 }
+/// A vector in double precision, for the few computations float would lose (rotations taken
+/// apart, the outlines of lights' images, colour matrices).
+using Vec3d = std::array<double, 3>;
+inline double dot(const Vec3d& a, const Vec3d& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+inline Vec3d cross(const Vec3d& a, const Vec3d& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
 inline Vec3f normalize(const Vec3f& a) {
   return a / length(a);
 }
