@@ -83,7 +83,8 @@ void LightClusters::set(int lane, const LightBounds& bounds) {
     omnidirectional_ = omnidirectional_ && (!(power_[k] > 0) || cosThetaO_[k] <= -1);
 }
 
-std::array<float, LightClusters::kLanes> LightClusters::importance(const Receiver& receiver) const {
+inline std::array<float, LightClusters::kLanes> LightClusters::evaluate(
+    const Receiver& receiver) const {
   static_assert(kLanes == 4, "one Float4 holds the lanes");
   const Float4 halfDiagonal2 = load(halfDiagonal2_), power = load(power_);
   const Float4 offsetX = receiver.position.x - load(centerX_);
@@ -127,6 +128,15 @@ std::array<float, LightClusters::kLanes> LightClusters::importance(const Receive
   const Mask4 dark = ~(power > 0) | ~(offset2 > 0) | (cosEmission <= load(cosThetaE_));
   const Float4 lit = select(dark, broadcast(0), max(broadcast(0), result));
   return {lit[0], lit[1], lit[2], lit[3]};
+}
+
+std::array<float, LightClusters::kLanes> LightClusters::importance(const Receiver& receiver) const {
+  return evaluate(receiver);
+}
+
+void LightClusters::importances(const LightClusters* const* clusters, size_t count,
+                                const Receiver& receiver, std::array<float, kLanes>* out) {
+  for (size_t i = 0; i < count; ++i) out[i] = clusters[i]->evaluate(receiver);
 }
 
 LightBounds unite(const LightBounds& a, const LightBounds& b) {

@@ -264,10 +264,9 @@ float LightSampler::infiniteTotal(const Receiver& receiver) const {
   return total;
 }
 
-LightSampler::ChildWeights LightSampler::weighChildren(const Node& parent,
-                                                       const Receiver& receiver) const {
+LightSampler::ChildWeights LightSampler::weigh(const std::array<float, kBranching>& importance) {
   ChildWeights weights;
-  weights.importance = parent.childClusters.importance(receiver);
+  weights.importance = importance;
   for (int child = 0; child < kBranching; ++child) {
     weights.before[child] = weights.total;
     weights.total += weights.importance[child];
@@ -309,14 +308,21 @@ void LightSampler::chooseLocal(const Receiver& receiver, const Sample4D& u,
   } else {
     walks[count++] = Walk{0, numbers[0]};
   }
-  for (bool stepped = true; stepped;) {
-    stepped = false;
-    for (size_t i = 0; i < count; ++i) {
-      Walk& walk = walks[i];
-      if (walk.lost || nodes_[walk.node].leaf) continue;
-      stepped = true;
-      const Node& parent = nodes_[walk.node];
-      const ChildWeights weights = weighChildren(parent, receiver);
+  // Each step takes every walk one level down, its nodes weighed in one call.
+  for (;;) {
+    const LightClusters* weighed[kMaxLocalChoices];
+    size_t stepping[kMaxLocalChoices], steps = 0;
+    for (size_t i = 0; i < count; ++i)
+      if (!walks[i].lost && !nodes_[walks[i].node].leaf) {
+        weighed[steps] = &nodes_[walks[i].node].childClusters;
+        stepping[steps++] = i;
+      }
+    if (steps == 0) break;
+    std::array<float, kBranching> importances[kMaxLocalChoices];
+    LightClusters::importances(weighed, steps, receiver, importances);
+    for (size_t step = 0; step < steps; ++step) {
+      Walk& walk = walks[stepping[step]];
+      const ChildWeights weights = weigh(importances[step]);
       if (!(weights.total > 0 && weights.total < kInfinity)) {  // none reach it, or overflow
         walk.lost = true;
         continue;
@@ -330,7 +336,7 @@ void LightSampler::chooseLocal(const Receiver& receiver, const Sample4D& u,
       while (!(weights.importance[child] > 0)) --child;
       walk.u = std::min((x - weights.before[child]) / weights.importance[child], 0x1.fffffep-1f);
       walk.probability *= weights.importance[child] / weights.total;
-      walk.node = parent.children[child];
+      walk.node = nodes_[walk.node].children[child];
     }
   }
   uint32_t slot = uint32_t(kInfiniteLightsSampledEach);
@@ -367,7 +373,7 @@ float LightSampler::probability(const Receiver& receiver, size_t index) const {
         if (!(parent.childClusters.importance(receiver)[branch] > 0)) return 0;
         continue;
       }
-      const ChildWeights weights = weighChildren(parent, receiver);
+      const ChildWeights weights = weigh(parent.childClusters.importance(receiver));
       if (!(weights.total > 0 && weights.total < kInfinity) || !(weights.importance[branch] > 0))
         return 0;
       probability *= weights.importance[branch] / weights.total;

@@ -124,6 +124,11 @@ class LightClusters {
   /// For each lane, an upper-bound estimate of the irradiance its lights give the receiver (0
   /// only where they cannot light it at all, and in empty lanes).
   std::array<float, kLanes> importance(const Receiver& receiver) const;
+  /// importance() of clusters[0], ..., clusters[count - 1] at one receiver, into `out`: the
+  /// walks of a light tree weigh their nodes one level at a time, and evaluated in one call,
+  /// without a call each, the processor overlaps their chains of square roots and divisions.
+  static void importances(const LightClusters* const* clusters, size_t count,
+                          const Receiver& receiver, std::array<float, kLanes>* out);
 
  private:
   // Lane-wise, as the bounds give them: the box's centre and the squared radius of its bounding
@@ -134,6 +139,9 @@ class LightClusters {
   alignas(16) float cosThetaO_[kLanes] = {1, 1, 1, 1}, sinThetaO_[kLanes] = {};
   alignas(16) float cosThetaE_[kLanes] = {};
   bool omnidirectional_ = true;  // every lane with power emits every way (thetaO = π)
+
+  /// importance()'s arithmetic, inlined into importance() and importances().
+  std::array<float, kLanes> evaluate(const Receiver& receiver) const;
 };
 
 /// A light sample as seen from a shading point.

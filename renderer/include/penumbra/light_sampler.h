@@ -132,7 +132,8 @@ class LightSampler {
   /// into every child where the receiver lies within the root's bounding sphere, and goes on
   /// from each child (or from the root) with one choice per level. Those walks are stepped
   /// together, level by level, so that their independent chains of square roots and divisions
-  /// can overlap; each step weighs a node's children at once (LightClusters' lanes). `u`: as
+  /// can overlap: each step weighs the nodes the walks stand on in one call
+  /// (LightClusters::importances), each node's children at once in SIMD lanes. `u`: as
   /// forEachChoice()'s.
   void chooseLocal(const Receiver& receiver, const Sample4D& u, LocalChoices& local) const;
   /// Whether the receiver lies within `node`'s bounding sphere, where the walk goes down every
@@ -143,8 +144,8 @@ class LightSampler {
   std::pair<uint32_t, LightBounds> build(std::vector<uint32_t>& lights, size_t begin, size_t end,
                                          const std::vector<LightBounds>& bounds,
                                          const std::vector<Vec3f>& chromaticities, LeafPath path);
-  /// The importances of `parent`'s children at the receiver, and their running sums.
-  ChildWeights weighChildren(const Node& parent, const Receiver& receiver) const;
+  /// A node's children's importances at a receiver, and their running sums.
+  static ChildWeights weigh(const std::array<float, kBranching>& importance);
   /// Estimated irradiance of infinite light `i` (of infinite_) at the receiver; never 0.
   float infiniteWeight(size_t i, const Receiver& receiver) const;
   float infiniteTotal(const Receiver& receiver) const;
