@@ -374,6 +374,33 @@ TEST(LightClusters, EachLaneIsWeighedAsIfAlone) {
   }
 }
 
+TEST(LightClusters, ClustersWeighedInOneCallAreWeighedAsIfAlone) {
+  // The tree's walks weigh the nodes of one level in one call; each must get, to the bit, what
+  // importance() gives it alone (probability() weighs nodes one at a time, and multiple
+  // importance sampling needs the two to agree).
+  const std::vector<Light> lights = scatteredLights(40);
+  std::vector<LightClusters> clusters(lights.size() / 4);
+  for (size_t i = 0; i < lights.size(); ++i)
+    clusters[i / 4].set(int(i % 4),
+                        i % 3 ? lights[i].bounds() : unite(lights[i].bounds(), lights[0].bounds()));
+  std::vector<const LightClusters*> pointers;
+  for (const LightClusters& cluster : clusters) pointers.push_back(&cluster);
+  const Receiver receivers[] = {{{-9, 0, -9}, {0, 1, 0}}, {{2, 5, 1}, {0, 0, 0}}};
+  size_t lit = 0;
+  for (const Receiver& receiver : receivers) {
+    std::vector<std::array<float, LightClusters::kLanes>> together(clusters.size());
+    LightClusters::importances(pointers.data(), pointers.size(), receiver, together.data());
+    for (size_t c = 0; c < clusters.size(); ++c) {
+      const std::array<float, LightClusters::kLanes> alone = clusters[c].importance(receiver);
+      for (size_t lane = 0; lane < alone.size(); ++lane) {
+        EXPECT_EQ(together[c][lane], alone[lane]) << "cluster " << c << ", lane " << lane;
+        lit += alone[lane] > 0;
+      }
+    }
+  }
+  EXPECT_GT(lit, lights.size());  // most lanes weigh something: not 0 against 0
+}
+
 TEST(LightSampler, SaysWhetherItsChoicesDependOnTheRandomNumbers) {
   // The integrator draws the choice's numbers only where this says they matter: where it does
   // not, every number must visit the same lights with the same probabilities.
