@@ -124,9 +124,9 @@ class LightClusters {
   /// For each lane, an upper-bound estimate of the irradiance its lights give the receiver (0
   /// only where they cannot light it at all, and in empty lanes).
   std::array<float, kLanes> importance(const Receiver& receiver) const;
-  /// importance() of clusters[0], ..., clusters[count - 1] at one receiver, into `out`: the
-  /// walks of a light tree weigh their nodes one level at a time, and evaluated in one call,
-  /// without a call each, the processor overlaps their chains of square roots and divisions.
+  /// importance() of clusters[0], ..., clusters[count - 1] at one receiver, into `out`. A light
+  /// tree's walks weigh the nodes they stand on one level at a time: evaluated in one call
+  /// rather than a call each, their chains of square roots and divisions overlap.
   static void importances(const LightClusters* const* clusters, size_t count,
                           const Receiver& receiver, std::array<float, kLanes>* out);
 
