@@ -30,6 +30,7 @@ import argparse
 import json
 import math
 import re
+import subprocess
 import sys
 import tempfile
 import time
@@ -337,7 +338,9 @@ def shared_scenes_table(args: argparse.Namespace) -> None:
     cycles = cycles_numbers(CYCLES / "README.md", args.cycles_json)
     cycles_denoised = cycles_denoised_seconds(args.cycles_json)
     source = (
-        f"measured here ({args.cycles_json})"
+        "measured here, in this run (bench/cycles_scenes.py above)"
+        if args.cycles_python
+        else f"measured here ({args.cycles_json})"
         if args.cycles_json
         else "the shared README, measured on another machine and day (Cycles' own seconds have "
         "moved by up to 3 × between sittings here: time it beside this run with "
@@ -555,6 +558,9 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--cycles-json", type=Path,
                         help="Cycles' numbers measured on this machine by "
                         "bench/cycles_scenes.py --json, instead of ../shared/cycles/README.md's")
+    parser.add_argument("--cycles-python", type=Path,
+                        help="a Python with bpy (bench/cycles_scenes.py's docstring): time "
+                        "Cycles on the same scenes first, in this run, and compare with that")
     parser.add_argument("--converged-cache", type=Path,
                         help="a folder for converged images: one rendered with the same settings "
                         "is read from it instead of rendered again (so a long reference can be "
@@ -575,6 +581,8 @@ def parse_args() -> argparse.Namespace:
         parser.error("--spp needs at least two ascending sample counts")
     if args.ray_cost_rounds < 1:
         parser.error("--ray-cost-rounds needs at least one round")
+    if args.cycles_python and args.cycles_json:
+        parser.error("--cycles-python measures Cycles itself: give it or --cycles-json, not both")
     args.seeds = tuple(args.seeds)
     args.render_options = {"guiding_training_samples": args.guiding_training_samples,
                            "indirect_samples": args.indirect_samples,
@@ -583,10 +591,33 @@ def parse_args() -> argparse.Namespace:
     return args
 
 
+def time_cycles(python: Path, scenes: Sequence[str], json_path: Path) -> None:
+    """Cycles' time to 5 % on `scenes`, by bench/cycles_scenes.py under `python` (which has
+    bpy), written to `json_path`; its tables go to stdout before Penumbra's, so that both
+    renderers are timed in one sitting (seconds move with the machine between sittings)."""
+    script = Path(__file__).resolve().parent / "cycles_scenes.py"
+    command = [str(python), str(script), "--scenes", *scenes, "--json", str(json_path)]
+    print(f"Cycles first: `{' '.join(command[1:])}` under {python}.\n", flush=True)
+    try:
+        subprocess.run(command, check=True)
+    except (OSError, subprocess.CalledProcessError) as error:
+        sys.exit(f"quality.py: Cycles could not be timed with {python}: {error}")
+    print(flush=True)
+
+
 def main() -> None:
     args = parse_args()
     print_provenance()
     shared = SCENES.is_dir()
+    with tempfile.TemporaryDirectory(prefix="quality-") as directory:
+        if shared and args.cycles_python:
+            args.cycles_json = Path(directory) / "cycles.json"
+            time_cycles(args.cycles_python, args.scenes, args.cycles_json)
+        tables(args, shared)
+
+
+def tables(args: argparse.Namespace, shared: bool) -> None:
+    """The benchmark's tables, in order; the shared scenes' only where they are found."""
     if shared:
         shared_scenes_table(args)
     if not args.skip_many_lights:
