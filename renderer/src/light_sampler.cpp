@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <tuple>
 
 namespace penumbra {
 namespace {
@@ -188,8 +189,13 @@ LightSampler::LightSampler(const std::vector<Light>& lights) : paths_(lights.siz
           std::isfinite(chromaticity.z))
         chromaticities[i] = chromaticity;
     }
-    nodes_.reserve(2 * local.size() - 1);
-    build(local, 0, local.size(), bounds, chromaticities, {0, 0});
+    if (local.size() == 1) {
+      loneLight_ = local[0];
+      paths_[local[0]] = {0, 0};
+    } else {
+      nodes_.reserve(local.size() - 1);  // every node has two children or more
+      build(local, 0, local.size(), bounds, chromaticities, {0, 0});
+    }
   }
 }
 
@@ -200,12 +206,6 @@ std::pair<uint32_t, LightBounds> LightSampler::build(std::vector<uint32_t>& ligh
                                                      LeafPath path) {
   const uint32_t index = uint32_t(nodes_.size());
   nodes_.emplace_back();
-  if (end - begin == 1) {
-    nodes_[index].leaf = true;
-    nodes_[index].light = lights[begin];
-    paths_[lights[begin]] = path;
-    return {index, bounds[lights[begin]]};
-  }
   // Two levels of a binary build: the list cut in two, and each part of several lights cut
   // again, give the node's (up to four) children. A node at depth d is at binary depth 2d, and
   // binary depths stay within 64 (kMaxSearchDepth searched levels, then at most 32 halvings of
@@ -226,10 +226,20 @@ std::pair<uint32_t, LightBounds> LightSampler::build(std::vector<uint32_t>& ligh
   LightBounds all;
   for (int child = 0; child < groups; ++child) {
     const LeafPath childPath{path.branches | (uint64_t(child) << (2 * path.depth)), path.depth + 1};
-    const auto [childIndex, childBounds] =
-        build(lights, cuts[child], cuts[child + 1], bounds, chromaticities, childPath);
+    const bool isLight = cuts[child + 1] - cuts[child] == 1;
+    uint32_t childIndex = 0;
+    LightBounds childBounds;
+    if (isLight) {
+      childIndex = lights[cuts[child]];
+      childBounds = bounds[childIndex];
+      paths_[childIndex] = childPath;
+    } else {
+      std::tie(childIndex, childBounds) =
+          build(lights, cuts[child], cuts[child + 1], bounds, chromaticities, childPath);
+    }
     Node& node = nodes_[index];
     node.children[child] = childIndex;
+    node.childLights |= uint8_t(uint8_t(isLight) << child);
     node.childClusters.set(child, childBounds);
     all = unite(all, childBounds);
   }
@@ -275,7 +285,6 @@ LightSampler::ChildWeights LightSampler::weigh(const std::array<float, kBranchin
 }
 
 bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
-  if (node.leaf) return false;
   const Vec3f offset = receiver.position - node.center;
   return dot(offset, offset) < node.halfDiagonal2;
 }
@@ -283,15 +292,20 @@ bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
 void LightSampler::chooseLocal(const Receiver& receiver, const Sample4D& u,
                                LocalChoices& local) const {
   local.count = 0;
+  if (loneLight_) {
+    local.choices[local.count++] = Choice{*loneLight_, 1.0f, uint32_t(kInfiniteLightsSampledEach)};
+    return;
+  }
   if (nodes_.empty()) return;
   // The root's own importance is not asked first: a lone light's sample says itself where it
   // gives nothing (most scenes have one), and among several the walk finds no child reaching.
   // The nodes the walk splits into, each reached with probability 1.
   struct Walk {
-    uint32_t node = 0;
+    uint32_t node = 0;  // or, where it has arrived, the light's index
     float u = 0;
     float probability = 1;
-    bool lost = false;  // none of the node's children's lights reach the receiver
+    bool arrived = false;  // at a light
+    bool lost = false;     // none of the node's children's lights reach the receiver
   };
   static_assert(kMaxLocalChoices == 4, "one number of the 4D draw per walk");
   const float numbers[kMaxLocalChoices] = {u.y, u.z, u.w, u.x};
@@ -302,7 +316,8 @@ void LightSampler::chooseLocal(const Receiver& receiver, const Sample4D& u,
     const std::array<float, kBranching> importance = root.childClusters.importance(receiver);
     for (int child = 0; child < kBranching; ++child)
       if (importance[child] > 0) {
-        walks[count] = Walk{root.children[child], numbers[count]};
+        walks[count] =
+            Walk{root.children[child], numbers[count], 1, bool((root.childLights >> child) & 1u)};
         ++count;
       }
   } else {
@@ -313,7 +328,7 @@ void LightSampler::chooseLocal(const Receiver& receiver, const Sample4D& u,
     const LightClusters* weighed[kMaxLocalChoices];
     size_t stepping[kMaxLocalChoices], steps = 0;
     for (size_t i = 0; i < count; ++i)
-      if (!walks[i].lost && !nodes_[walks[i].node].leaf) {
+      if (!walks[i].lost && !walks[i].arrived) {
         weighed[steps] = &nodes_[walks[i].node].childClusters;
         stepping[steps++] = i;
       }
@@ -336,14 +351,15 @@ void LightSampler::chooseLocal(const Receiver& receiver, const Sample4D& u,
       while (!(weights.importance[child] > 0)) --child;
       walk.u = std::min((x - weights.before[child]) / weights.importance[child], 0x1.fffffep-1f);
       walk.probability *= weights.importance[child] / weights.total;
-      walk.node = nodes_[walk.node].children[child];
+      const Node& parent = nodes_[walk.node];
+      walk.node = parent.children[child];
+      walk.arrived = (parent.childLights >> child) & 1u;
     }
   }
   uint32_t slot = uint32_t(kInfiniteLightsSampledEach);
   for (size_t i = 0; i < count; ++i)
     if (!walks[i].lost)
-      local.choices[local.count++] =
-          Choice{nodes_[walks[i].node].light, walks[i].probability, slot++};
+      local.choices[local.count++] = Choice{walks[i].node, walks[i].probability, slot++};
 }
 
 std::optional<LightSampler::Choice> LightSampler::sampleInfinite(const Receiver& receiver,

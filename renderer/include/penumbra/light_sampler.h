@@ -90,7 +90,7 @@ class LightSampler {
   /// Whether forEachChoice() reads its random numbers at all: with at most
   /// kInfiniteLightsSampledEach infinite lights and one local light, every choice is certain.
   bool choosesAtRandom() const {
-    return infinite_.size() > kInfiniteLightsSampledEach || nodes_.size() > 1;
+    return infinite_.size() > kInfiniteLightsSampledEach || !nodes_.empty();
   }
   /// The probability that forEachChoice() visits light `index` at the receiver.
   float probability(const Receiver& receiver, size_t index) const;
@@ -101,13 +101,15 @@ class LightSampler {
   int treeDepth() const;
 
  private:
+  /// An interior node of the tree. Its children are nodes or lights: the lights are not
+  /// nodes, so that a walk reads no node for the light it ends on, and the nodes of a tree of
+  /// n lights are about n / 3.
   struct Node {
-    LightClusters childClusters;         // interior nodes: a lane per child, the rest empty
-    uint32_t children[kBranching] = {};  // interior nodes
-    uint32_t light = 0;                  // leaves: the light's index
-    bool leaf = false;
-    Vec3f center;             // of the bounding box of the node's lights
-    float halfDiagonal2 = 0;  // squared radius of the box's bounding sphere
+    LightClusters childClusters;         // a lane per child, the rest empty
+    uint32_t children[kBranching] = {};  // child k: a light's index if bit k of childLights
+    uint8_t childLights = 0;             // is set, else a node's
+    Vec3f center;                        // of the bounding box of the node's lights
+    float halfDiagonal2 = 0;             // squared radius of the box's bounding sphere
   };
   /// Where a local light's leaf is: the child taken at each level, from the root.
   struct LeafPath {
@@ -139,8 +141,9 @@ class LightSampler {
   /// Whether the receiver lies within `node`'s bounding sphere, where the walk goes down every
   /// child of the root.
   bool splits(const Node& node, const Receiver& receiver) const;
-  /// Builds the subtree of lights[begin, end) whose root is reached by `path`; returns its index
-  /// and the bounds of its lights. `chromaticities`: each light's radiance over its luminance.
+  /// Builds the subtree of lights[begin, end) (at least two) whose root is reached by `path`;
+  /// returns its index and the bounds of its lights. `chromaticities`: each light's radiance
+  /// over its luminance.
   std::pair<uint32_t, LightBounds> build(std::vector<uint32_t>& lights, size_t begin, size_t end,
                                          const std::vector<LightBounds>& bounds,
                                          const std::vector<Vec3f>& chromaticities, LeafPath path);
@@ -158,8 +161,9 @@ class LightSampler {
     float sinHalfAngle = 0;
   };
 
-  std::vector<Node> nodes_;      // nodes_[0] is the root, when there are local lights
-  std::vector<LeafPath> paths_;  // by light index
+  std::vector<Node> nodes_;            // nodes_[0] is the root, when there are several local lights
+  std::optional<uint32_t> loneLight_;  // the local light, when there is one
+  std::vector<LeafPath> paths_;        // by light index
   std::vector<InfiniteLight> infinite_;
 };
 
