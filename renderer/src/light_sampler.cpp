@@ -292,11 +292,7 @@ bool LightSampler::splits(const Node& node, const Receiver& receiver) const {
 void LightSampler::chooseLocal(const Receiver& receiver, const Sample4D& u,
                                LocalChoices& local) const {
   local.count = 0;
-  if (loneLight_) {
-    local.choices[local.count++] = Choice{*loneLight_, 1.0f, uint32_t(kInfiniteLightsSampledEach)};
-    return;
-  }
-  if (nodes_.empty()) return;
+  if (nodes_.empty() && !loneLight_) return;
   // The root's own importance is not asked first: a lone light's sample says itself where it
   // gives nothing (most scenes have one), and among several the walk finds no child reaching.
   // The nodes the walk splits into, each reached with probability 1.
@@ -311,8 +307,9 @@ void LightSampler::chooseLocal(const Receiver& receiver, const Sample4D& u,
   const float numbers[kMaxLocalChoices] = {u.y, u.z, u.w, u.x};
   Walk walks[kMaxLocalChoices];
   size_t count = 0;
-  const Node& root = nodes_[0];
-  if (splits(root, receiver)) {
+  if (loneLight_) {
+    walks[count++] = Walk{*loneLight_, numbers[0], 1, true};
+  } else if (const Node& root = nodes_[0]; splits(root, receiver)) {
     const std::array<float, kBranching> importance = root.childClusters.importance(receiver);
     for (int child = 0; child < kBranching; ++child)
       if (importance[child] > 0) {
