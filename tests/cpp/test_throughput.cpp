@@ -42,23 +42,19 @@ void ballUnderLamp(RenderDelegate& delegate) {
 
 /// The integrator settings a pass renders ballUnderLamp with at `size` pixels square (the
 /// delegate's indirectSamples and lightSamples, other render settings at their defaults): the sky
-/// at the first surfaces, the branches and the light estimates as the pass's pilots choose. Where
-/// the branches are left to the pilot, its counts per region go into `regions`, which must
-/// outlive the settings.
+/// at the first surfaces, the branches and the light estimates as the pass's pilots choose, and
+/// the pass's branch counts per region where it has them (`pass` must outlive the settings).
 IntegratorSettings passIntegrator(const RenderDelegate& delegate, const penumbra::Camera& camera,
-                                  int size, FirstSurfaceBranches* regions) {
+                                  int size, const RenderPass& pass) {
   RenderSettings settings;
   settings.integrator.firstSurfaceConstantDomeShare =
       runDomeSamplingPilot(delegate.scene(), camera, size, size, settings).firstSurfaceShare();
-  const BranchingPilot pilot = runBranchingPilot(delegate.scene(), camera, size, size, settings);
   const BranchingPilot::Choice firstSurface =
-      pilot.choose({delegate.settings().indirectSamples, delegate.settings().lightSamples});
+      runBranchingPilot(delegate.scene(), camera, size, size, settings)
+          .choose({delegate.settings().indirectSamples, delegate.settings().lightSamples});
   settings.integrator.indirectSamples = firstSurface.indirectSamples;
   settings.integrator.lightSamples = firstSurface.lightSamples;
-  if (delegate.settings().indirectSamples == 0) {
-    *regions = pilot.chooseRegions(firstSurface);
-    settings.integrator.regionBranches = regions;
-  }
+  settings.integrator.regionBranches = pass.regionBranches();
   return settings.integrator;
 }
 
@@ -112,8 +108,7 @@ TEST(RawThroughput, TimesEmbreeOnTheRaysOneSamplePerPixelTraces) {
   RenderPass pass(delegate, "/cam", kSize, kSize);
   const RawRayThroughput raw = pass.measureRawThroughput();
   const penumbra::Camera camera(delegate.camera("/cam").params(), kSize, kSize);
-  FirstSurfaceBranches regions;
-  const IntegratorSettings branched = passIntegrator(delegate, camera, kSize, &regions);
+  const IntegratorSettings branched = passIntegrator(delegate, camera, kSize, pass);
   EXPECT_EQ(branched.indirectSamples, 3);
   // The ball, lit by the lamp, hides the sky from the floor: the pilot leaves the sky to BSDF
   // rays there, one shadow ray fewer than IntegratorSettings' default.
@@ -146,8 +141,7 @@ TEST(RawThroughput, LargeImagesLogTheRaysOfEveryKthPixelEachWay) {
   RenderPass pass(delegate, "/cam", kLarge, kLarge);
   const RawRayThroughput raw = pass.measureRawThroughput();
   const penumbra::Camera camera(delegate.camera("/cam").params(), kLarge, kLarge);
-  FirstSurfaceBranches regions;
-  const IntegratorSettings settings = passIntegrator(delegate, camera, kLarge, &regions);
+  const IntegratorSettings settings = passIntegrator(delegate, camera, kLarge, pass);
   uint64_t everySecond = 0;
   for (int y = 0; y < kLarge; y += 2)
     for (int x = 0; x < kLarge; x += 2)
