@@ -266,7 +266,8 @@ def converged_image(stage: Usd.Stage, name: str, args: argparse.Namespace) -> np
            f"_guiding{args.guiding_training_samples}"
            + (f"_branches{args.indirect_samples}" if args.indirect_samples else "")
            + (f"_lights{args.light_samples}" if args.light_samples else "")
-           + (f"_dome{args.dome_sampling}" if args.dome_sampling != "auto" else ""))
+           + (f"_dome{args.dome_sampling}" if args.dome_sampling != "auto" else "")
+           + (f"_caustics{args.caustics}" if args.caustics != "path" else ""))
     if cache is not None and (cache / f"{key}.npy").is_file():
         rendered_at = json.loads((cache / f"{key}.json").read_text())["commit"]
         progress(f"{name}: converged image read from {cache / key}.npy (commit {rendered_at})")
@@ -555,6 +556,9 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--dome-sampling", choices=("auto", "mis", "bsdf"), default="auto",
                         help="how a constant dome is found at the first surface "
                         "(docs/dome-sampling.md; auto, the default, chooses per render)")
+    parser.add_argument("--caustics", choices=("path", "light"), default="path",
+                        help="how caustics through smooth glass and metal are found "
+                        "(docs/caustics.md; path, the default, leaves them to the path tracer)")
     parser.add_argument("--cycles-json", type=Path,
                         help="Cycles' numbers measured on this machine by "
                         "bench/cycles_scenes.py --json, instead of ../shared/cycles/README.md's")
@@ -587,7 +591,8 @@ def parse_args() -> argparse.Namespace:
     args.render_options = {"guiding_training_samples": args.guiding_training_samples,
                            "indirect_samples": args.indirect_samples,
                            "light_samples": args.light_samples,
-                           "dome_sampling": args.dome_sampling}
+                           "dome_sampling": args.dome_sampling,
+                           "caustics": args.caustics}
     return args
 
 

@@ -138,7 +138,14 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   const int end = samplesDone_ + samples;
   if (settings.adaptiveThreshold > 0) checkCropMargin(end);
   const penumbra::Camera camera(cameraPrim.params(), imageWidth_, imageHeight_);
-  RenderSettings renderSettings = pilotedSettings(camera);
+  const PixelFilter filter;  // renderSamples' own
+  std::optional<CausticTracer> caustics;
+  if (settings.caustics == 1) {
+    caustics.emplace(delegate_.scene(), camera, filter, integratorSettings());
+    if (!caustics->active()) caustics.reset();
+  }
+  RenderSettings renderSettings =
+      pilotedSettings(camera, caustics ? &caustics->takeover() : nullptr);
   const int trainingSamples = settings.guidingTrainingSamples;
   const size_t filmPixels = size_t(film_.width()) * size_t(film_.height());
   while (samplesDone_ < end && film_.activePixels() > 0) {
@@ -159,6 +166,11 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
     renderSettings.integrator.guidingField = guidingField_ ? &*guidingField_ : nullptr;
     if (!renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_),
                        uint32_t(stop - samplesDone_), renderSettings, cancel)) {
+      reset();
+      throw RenderCancelled();
+    }
+    if (caustics && !caustics->trace(uint32_t(samplesDone_), uint32_t(stop - samplesDone_), film_,
+                                     settings.threads, cancel)) {
       reset();
       throw RenderCancelled();
     }
@@ -244,10 +256,12 @@ void RenderPass::chooseFirstSurfaceSamples(const penumbra::Camera& camera,
   if (settings.indirectSamples == 0) regionBranches_ = pilot.chooseRegions(*firstSurfaceSamples_);
 }
 
-RenderSettings RenderPass::pilotedSettings(const penumbra::Camera& camera) {
+RenderSettings RenderPass::pilotedSettings(const penumbra::Camera& camera,
+                                           const penumbra::CausticTakeover* caustics) {
   RenderSettings renderSettings;
   renderSettings.threads = delegate_.settings().threads;
   renderSettings.integrator = integratorSettings();
+  renderSettings.integrator.caustics = caustics;
   renderSettings.integrator.firstSurfaceConstantDomeShare =
       constantDomeShare(camera, renderSettings);
   chooseFirstSurfaceSamples(camera, renderSettings);

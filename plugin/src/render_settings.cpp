@@ -114,6 +114,12 @@ std::vector<RenderOption> buildRenderOptions() {
                                "blur sharp reflection and refraction lobes met after rougher "
                                "bounces, as Cycles' filter glossy (Cycles' default: 1): caustics "
                                "converge sooner, biased"));
+  options.push_back(levelOption(
+      "caustics", &Settings::caustics, {"path", "light"},
+      "how light that passes smooth glass or metal onto the surfaces camera rays meet is found: "
+      "path leaves it to the path tracer, which finds a lamp through glass only by chance "
+      "(fireflies); light also traces paths from the lamps through the glass and metal and "
+      "joins them to the camera (docs/caustics.md). Unbiased either way"));
   RenderOption& indirectSamples = options.emplace_back(integerOption(
       "indirectSamples", &Settings::indirectSamples, 0, 0, "N",
       "paths that go on from each camera ray's first surface (branched path tracing): its "

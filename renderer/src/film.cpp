@@ -89,6 +89,8 @@ const Film::Slot* Film::slot(const AovRequest& aov) const {
 
 void Film::clear() {
   pixels_.assign(size_t(region_.width) * size_t(region_.height), Pixel{});
+  splats_.clear();
+  lightPaths_ = 0;
   active_.assign(pixels_.size(), 1);
   activePixels_ = pixels_.size();
   if (wantsCryptomatte_) cryptomatte_.reset(pixels_.size());
@@ -188,15 +190,28 @@ void Film::addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sam
   ++pixel.samples;
 }
 
+void Film::addSplat(int x, int y, const Vec3f& light) {
+  const int column = x - region_.x, row = y - region_.y;
+  if (column < 0 || row < 0 || column >= region_.width || row >= region_.height) return;
+  if (splats_.empty()) splats_.assign(pixels_.size() * 3, 0.0);
+  double* sum = splats_.data() + 3 * (size_t(row) * size_t(region_.width) + size_t(column));
+  sum[0] += light.x;
+  sum[1] += light.y;
+  sum[2] += light.z;
+}
+
 std::vector<float> Film::resolveColor() const {
   std::vector<float> rgba(pixels_.size() * 4, 0.0f);
+  const bool traced = !splats_.empty() && lightPaths_ > 0;
+  const double perPath = traced ? 1.0 / double(lightPaths_) : 0.0;
   for (size_t i = 0; i < pixels_.size(); ++i) {
     const Pixel& pixel = pixels_[i];
     if (pixel.samples == 0) continue;
     const double scale = 1.0 / pixel.samples;
-    rgba[4 * i] = float(pixel.red * scale);
-    rgba[4 * i + 1] = float(pixel.green * scale);
-    rgba[4 * i + 2] = float(pixel.blue * scale);
+    const double* splat = traced ? splats_.data() + 3 * i : nullptr;
+    rgba[4 * i] = float(pixel.red * scale + (splat ? splat[0] * perPath : 0.0));
+    rgba[4 * i + 1] = float(pixel.green * scale + (splat ? splat[1] * perPath : 0.0));
+    rgba[4 * i + 2] = float(pixel.blue * scale + (splat ? splat[2] * perPath : 0.0));
     rgba[4 * i + 3] = float(pixel.alpha * scale);
   }
   return rgba;

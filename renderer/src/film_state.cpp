@@ -9,7 +9,7 @@ namespace penumbra {
 namespace {
 
 constexpr char kFilmTag[5] = "FILM";
-constexpr uint32_t kFilmVersion = 1;
+constexpr uint32_t kFilmVersion = 2;  // 2: light-traced sums
 
 }  // namespace
 
@@ -36,6 +36,9 @@ void Film::saveState(std::vector<uint8_t>& out) const {
   }
   writer.putArray(sums_);
   writer.putArray(nearest_);
+  writer.put(lightPaths_);
+  writer.put(uint64_t(splats_.size()));
+  writer.putArray(splats_);
   writer.putArray(active_);
   writer.endBlock(block);
   if (wantsCryptomatte_) cryptomatte_.saveState(out);
@@ -66,6 +69,10 @@ void Film::loadState(const uint8_t*& cursor, const uint8_t* end) {
   }
   std::vector<double> sums = reader.getArray<double>(sums_.size());
   std::vector<float> nearest = reader.getArray<float>(nearest_.size());
+  const auto lightPaths = reader.get<uint64_t>();
+  const auto splatCount = reader.get<uint64_t>();
+  if (splatCount != 0 && splatCount != pixels_.size() * 3) reader.fail("is of another size");
+  std::vector<double> splats = reader.getArray<double>(size_t(splatCount));
   std::vector<uint8_t> active = reader.getArray<uint8_t>(active_.size());
   reader.endBlock();
   CryptomatteCoverage cryptomatte;  // replaces cryptomatte_ only once all of it is read
@@ -77,6 +84,8 @@ void Film::loadState(const uint8_t*& cursor, const uint8_t* end) {
   sums_ = std::move(sums);
   nearest_ = std::move(nearest);
   active_ = std::move(active);
+  lightPaths_ = lightPaths;
+  splats_ = std::move(splats);
   if (wantsCryptomatte_) cryptomatte_ = std::move(cryptomatte);
   activePixels_ = size_t(std::count(active_.begin(), active_.end(), uint8_t(1)));
 }

@@ -52,6 +52,14 @@ float PixelFilter::cdf1D(float x) const {
   return std::min((float(knot) + within) / kInverseSize, 1.0f);
 }
 
+float PixelFilter::density1D(float x) const {
+  if (!(x > inverseCdf_.front()) || !(x < inverseCdf_.back())) return 0;
+  const size_t knot =
+      size_t(std::upper_bound(inverseCdf_.begin(), inverseCdf_.end(), x) - inverseCdf_.begin()) - 1;
+  const float width = inverseCdf_[knot + 1] - inverseCdf_[knot];
+  return width > 0 ? 1 / (width * kInverseSize) : 0.0f;
+}
+
 PixelFilter::CoordinateWithin PixelFilter::sampleCoordinateWithin(float lower, float upper,
                                                                   float u) const {
   const float low = cdf1D(lower), high = cdf1D(upper);

@@ -204,6 +204,28 @@ Geometry::Box Geometry::worldBounds(const Placement& placement, bool enabled) co
   return box;
 }
 
+std::pair<Vec3f, Vec3f> Geometry::boundsWhere(
+    const std::function<bool(int materialIndex)>& select) const {
+  Box box;
+  for (const std::unique_ptr<MeshRecord>& mesh : meshes_) {
+    if (!mesh || !renderable(*mesh) || !select(mesh->materialIndex)) continue;
+    if (mesh->own) box.extend(worldBounds(*mesh->own, mesh->ownEnabled));
+    for (const InstancerId id : mesh->instancers) box.extend(instancer(id).bounds);
+  }
+  return {box.lower, box.upper};
+}
+
+bool Geometry::hidesFromRays() const {
+  const auto hides = [](const PassVisibility& pass) {
+    return !pass.shadow || !pass.diffuse || !pass.glossy || !pass.transmission;
+  };
+  for (const std::unique_ptr<MeshRecord>& mesh : meshes_)
+    if (mesh && renderable(*mesh) && mesh->ownEnabled && hides(mesh->pass)) return true;
+  for (const std::unique_ptr<InstancerRecord>& copies : instancers_)
+    if (copies && copies->visible && !copies->copies.empty() && hides(copies->pass)) return true;
+  return false;
+}
+
 bool Geometry::withinReach(const Placement& placement) const {
   const Box box = worldBounds(placement, true);
   if (box.lower.x > box.upper.x) return true;  // empty: nothing to place

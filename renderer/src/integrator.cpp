@@ -6,6 +6,7 @@
 #include <variant>
 
 #include "penumbra/bsdf.h"
+#include "penumbra/caustics.h"
 #include "penumbra/guiding.h"
 #include "penumbra/hair_bsdf.h"
 #include "penumbra/light_images.h"
@@ -98,11 +99,13 @@ struct CameraSampleView {
 /// Camera rays find the emission of the lights that `cameraSample` integrates over their image
 /// all the same (for depth and alpha) but do not add it. Where the origin gave the constant
 /// domes a share of 0 and `domeSamplingShift` is given, what a share of 1 would have taken from
-/// this ray's light is subtracted there.
+/// this ray's light is subtracted there. The lights `leftToLightTracing` takes add nothing
+/// (where the ray is on a path it takes).
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
                       const ScatteringRecord& origin, DirectLighting mode,
                       const PathSpectrum& spectrum, const CameraSampleView& cameraSample,
-                      float* nearestLight, bool* sawLight, Vec3f* domeSamplingShift) {
+                      float* nearestLight, bool* sawLight, Vec3f* domeSamplingShift,
+                      const CausticTakeover* leftToLightTracing) {
   const std::vector<Light>& lights = scene.lights().all();
   Vec3f total{0.0f};
   float nearest = kInfinity;
@@ -115,6 +118,7 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     nearest = std::min(nearest, hit.distance);
     *sawLight = true;
     if (!origin.fromSurface && cameraSample.integrates(index)) return;
+    if (leftToLightTracing && leftToLightTracing->takesLight(index)) return;
     const float weight = bsdfStrategyWeight(scene, origin, index, hit.pdf, mode);
     // Camera rays see lights as they are; reflected light is scaled by the lobe's multiplier.
     const float multiplier = !origin.fromSurface ? 1.0f
@@ -696,6 +700,9 @@ struct PathState {
   /// What a path that waits its turn found as it left the first surface (the exit of a
   /// subsurface walk is lit there), added to what it finds when it goes on.
   Vec3f radianceBeforeWaiting{0.0f};
+  /// Casters met since a first surface that receives caustics (IntegratorSettings::caustics);
+  /// -1 once anything else was met, or where the first surface does not receive them.
+  int castersSinceFirstSurface = -1;
 
   /// Turns the path at its first surface into branch `index` of `branches` of camera sample
   /// `sampleIndex`: its dimensions from here on take sample index sampleIndex · branches +
@@ -760,6 +767,11 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   };
   cone = camera.pixelCone();
   const std::vector<Light>& lights = scene.lights().all();
+  // Whether the path is one whose light from the lights taken the light tracer adds.
+  const auto causticPath = [&] {
+    return settings.caustics && path.castersSinceFirstSurface >= 1 &&
+           path.castersSinceFirstSurface <= settings.caustics->maxCasters();
+  };
   const bool hasVolumes = !scene.volumes().empty();
   if (hasVolumes) volumeRandom.emplace(settings.seed, uint32_t(x), uint32_t(y), sampleIndex, 0);
   const MediumSpectrum mediumSpectrum{spectrum.spectral ? &spectrum.wavelengths : nullptr};
@@ -833,6 +845,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       // linked lights alone, with the same choice probabilities (unbiased, as BSDF-sampled
       // hits on it add nothing either).
       if (scene.geometry().linking().lightExcluded(linkingClass, light.linkSlot())) return;
+      if (causticPath() && settings.caustics->takesLight(choice.index)) return;
       const bool shared = constantDomeShare < 1 && light.isConstantDome();
       const bool unsampled = shared && constantDomeShare == 0;
       if (unsampled && !measuringDomes) return;
@@ -932,7 +945,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                                     : ray.tFar,
                                             !hit && passed, scattering, settings.directLighting,
                                             spectrum, cameraSample, &nearestLight, &sawLight,
-                                            measuringDomes ? &escapedDomeShift : nullptr),
+                                            measuringDomes ? &escapedDomeShift : nullptr,
+                                            causticPath() ? settings.caustics : nullptr),
                         bounce, settings.indirectClamp));
       if (measuringDomes)
         domeSamplingShift += (passed ? throughput : throughputBeforeFlight) * escapedDomeShift;
@@ -963,6 +977,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
             volumeBounces >= settings.maxVolumeDepth)
           break;
         ++result.vertices;
+        path.castersSinceFirstSurface = -1;
         const HenyeyGreenstein phase(mediumPoint.anisotropy);
         const Receiver receiver{mediumPoint.position, Vec3f()};
         estimateDirectLight(MediumVertex{phase, ray.direction, mediumPoint.position, ray.time},
@@ -1011,6 +1026,15 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       ++result.vertices;
       const Vec3f wo = -ray.direction;
       const MaterialParams& material = hit->material();
+      if (settings.caustics) {
+        int& casters = path.castersSinceFirstSurface;
+        if (bounce == 0)
+          casters = !settings.caustics->isCaster(hit->materialIndex) && receivesCaustics(material)
+                        ? 0
+                        : -1;
+        else if (casters >= 0)
+          casters = settings.caustics->isCaster(hit->materialIndex) ? casters + 1 : -1;
+      }
       const bool dispersive =
           spectrum.spectral && !material.hair && material.abbeNumber > 0 && material.opacity < 1;
       const float ior =

@@ -327,6 +327,27 @@ std::optional<Light::Outline> Light::outline() const {
   }
 }
 
+bool Light::emitsUniformly() const {
+  const bool shape = params_.type == LightType::Sphere || params_.type == LightType::Rect ||
+                     params_.type == LightType::Disk;
+  return shape && !isDelta() && !params_.texture && !shaped_;
+}
+
+Light::SurfacePoint Light::sampleSurface(Vec2f u) const {
+  switch (params_.type) {
+    case LightType::Sphere: {
+      const Vec3f normal = sampleUniformSphere(u);
+      return {center_ + normal * radius_, normal};
+    }
+    case LightType::Rect:
+      return {center_ + edgeU_ * (u.x - 0.5f) + edgeV_ * (u.y - 0.5f), normal_};
+    default: {  // a disk: its edges are semi-axes
+      const Vec2f d = concentricSampleDisk(u);
+      return {center_ + edgeU_ * d.x + edgeV_ * d.y, normal_};
+    }
+  }
+}
+
 std::optional<float> Light::intersectSphere(const Vec3f& origin, const Vec3f& direction) const {
   const Vec3f toOrigin = origin - center_;
   const float b = dot(toOrigin, direction);

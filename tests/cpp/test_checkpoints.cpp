@@ -53,6 +53,18 @@ void addSamples(Film& film, uint32_t first, uint32_t count) {
         for (uint32_t index = first; index < first + count; ++index) addSampleOf(film, x, y, index);
 }
 
+/// Light-traced splats of light paths [first, first + count) (caustics.h), some of them on
+/// image pixels outside the film's region.
+void addSplats(Film& film, uint32_t first, uint32_t count) {
+  for (uint32_t path = first; path < first + count; ++path) {
+    const PixelRect& region = film.region();
+    film.addSplat(region.x - 1 + int(path * 7 % uint32_t(region.width + 2)),
+                  region.y - 1 + int(path * 3 % uint32_t(region.height + 2)),
+                  Vec3f(0.1f * float(path % 5), 0.3f, 0.01f * float(path)));
+  }
+  film.addLightPaths(count);
+}
+
 std::vector<std::vector<float>> resolveAll(const Film& film) {
   std::vector<std::vector<float>> images = {film.resolveColor(), film.resolveDepth()};
   for (const AovRequest& aov : kAovs)
@@ -68,6 +80,7 @@ TEST(Checkpoints, AFilmLoadedFromAStateGoesOnBitIdentically) {
   const PixelRect region{3, 2, 7, 5};
   Film original(region, kAovs);
   addSamples(original, 0, 8);
+  addSplats(original, 0, 40);
   original.updateConvergence(0.05f);  // some pixels stop: the active set is state too
   ASSERT_GT(original.activePixels(), 0u);
   ASSERT_LT(original.activePixels(), size_t(7 * 5));
@@ -81,9 +94,11 @@ TEST(Checkpoints, AFilmLoadedFromAStateGoesOnBitIdentically) {
   EXPECT_EQ(resolveAll(loaded), resolveAll(original));
   for (Film* film : {&original, &loaded}) {
     addSamples(*film, 8, 8);
+    addSplats(*film, 40, 40);
     film->updateConvergence(0.2f);
   }
   EXPECT_EQ(resolveAll(loaded), resolveAll(original));
+  EXPECT_EQ(loaded.lightPaths(), 80u);
   EXPECT_EQ(loaded.activePixels(), original.activePixels());
   EXPECT_EQ(loaded.raysTraced(), original.raysTraced());
 }

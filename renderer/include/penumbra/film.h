@@ -54,6 +54,14 @@ class Film {
   void addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
                  const FirstHitSample* firstHit = nullptr);
 
+  /// Light tracing (caustics.h): adds `light` to the light-traced sum of image pixel (x, y);
+  /// pixels outside the film's region are ignored. A pixel's colour is the mean of its samples
+  /// plus its light-traced sum over the light paths counted (addLightPaths).
+  void addSplat(int x, int y, const Vec3f& light);
+  /// Counts `paths` more light paths traced for the whole image.
+  void addLightPaths(uint64_t paths) { lightPaths_ += paths; }
+  uint64_t lightPaths() const { return lightPaths_; }
+
   /// Floats per pixel of an AOV (4 for primvars, whatever their width; 0 for Cryptomatte AOVs,
   /// which resolveCryptomatte serves).
   static int channels(AovKind kind);
@@ -146,6 +154,8 @@ class Film {
   std::vector<float> nearest_;
   std::vector<uint8_t> active_;
   size_t activePixels_ = 0;
+  std::vector<double> splats_;  // light-traced RGB sums per pixel; empty until the first splat
+  uint64_t lightPaths_ = 0;
   bool wantsCryptomatte_ = false;
   CryptomatteCoverage cryptomatte_;  // empty unless wantsCryptomatte_
 };

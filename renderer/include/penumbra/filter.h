@@ -34,6 +34,10 @@ class PixelFilter {
   };
   CoordinateWithin sampleCoordinateWithin(float lower, float upper, float u) const;
   float radius() const { return radius_; }
+  /// The density (per pixel) with which sampleOffset draws offset `x` along one axis: the
+  /// filter as camera samples weigh the image, for splatting light-traced paths alike
+  /// (caustics.h). Piecewise constant between the inverse CDF's knots; 0 beyond the radius.
+  float density1D(float x) const;
   /// The filter's 1D profile (unnormalised), exposed for tests.
   float evaluate1D(float x) const;
 

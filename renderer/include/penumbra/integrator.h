@@ -20,6 +20,7 @@ namespace penumbra {
 /// single strategies exist to check it (all three converge to the same result).
 enum class DirectLighting { MultipleImportance, LightSamplingOnly, BsdfSamplingOnly };
 
+class CausticTakeover;
 class GuidingField;
 class GuidingRecorder;
 class LightImages;
@@ -119,6 +120,9 @@ struct IntegratorSettings {
   /// also finds what a share of 1 would have changed, with the same random numbers
   /// (CameraSample::domeSamplingShift).
   bool measureConstantDomeSampling = false;
+  /// Where set, the light of the lights it takes on paths from the first surface through its
+  /// casters is left out: a light tracer adds it (caustics.h); not owned.
+  const CausticTakeover* caustics = nullptr;
   /// Where set, the rays a sample counts in CameraSample::rays for its path (the path's rays and
   /// their shadow rays; not those towards lights seen directly, `lightImages`) are logged there
   /// as they are traced; not owned. For timing Embree alone on them.

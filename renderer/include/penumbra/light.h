@@ -223,6 +223,16 @@ class Light {
   };
   /// None for cylinder, mesh, point-like and infinite lights.
   std::optional<Outline> outline() const;
+  /// Whether a sphere, rect or disk light (not point-like) emits radiance() from every point of
+  /// its surface in every direction of its emitting side: no texture, no shaping. Light tracing
+  /// (caustics.h) starts paths on such lights only.
+  bool emitsUniformly() const;
+  /// A point of the emitting surface of a light that emitsUniformly(), uniform by area (density
+  /// 1 / area()), with the unit normal of its emitting side there.
+  struct SurfacePoint {
+    Vec3f position, normal;
+  };
+  SurfacePoint sampleSurface(Vec2f u) const;
 
  private:
   /// The mean of meanRadiance()'s channels (never negative): what lights are weighed by when one

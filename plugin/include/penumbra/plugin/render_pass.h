@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "penumbra/branching.h"
+#include "penumbra/caustics.h"
 #include "penumbra/film.h"
 #include "penumbra/guiding.h"
 #include "penumbra/plugin/render_delegate.h"
@@ -156,8 +157,10 @@ class RenderPass {
   void chooseFirstSurfaceSamples(const penumbra::Camera& camera,
                                  const penumbra::RenderSettings& renderSettings);
   /// What a sample of this pass is rendered with (guiding aside): the settings' threads and
-  /// integrator, with the dome share, the branches and the light estimates the pilots chose.
-  penumbra::RenderSettings pilotedSettings(const penumbra::Camera& camera);
+  /// integrator, with the dome share, the branches and the light estimates the pilots chose,
+  /// leaving out what `caustics` takes (the pilots too, as the samples will).
+  penumbra::RenderSettings pilotedSettings(const penumbra::Camera& camera,
+                                           const penumbra::CausticTakeover* caustics = nullptr);
 
   RenderDelegate& delegate_;
   PrimId cameraId_;

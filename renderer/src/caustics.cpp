@@ -1,0 +1,264 @@
+#include "penumbra/caustics.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "on_threads.h"
+#include "penumbra/bsdf.h"
+#include "penumbra/film.h"
+#include "penumbra/random_stream.h"
+#include "penumbra/surface_hit.h"
+#include "penumbra/warp.h"
+
+namespace penumbra {
+namespace {
+
+/// The light tracer's random streams: RandomStream's "pixel" is the path's index within its
+/// sample index and this tag, which no image's row reaches.
+constexpr uint32_t kLightPathTag = 0xCA057105u;
+/// Light paths traced (and their splats kept) at once, per thread's share of a sample index.
+constexpr uint32_t kPathsPerBlock = 4096;
+
+/// Scale of radiance across a refraction from the side of `from` to that of `to` (unit
+/// directions away from the surface) at a solid of index `ior` whose front is outside: the
+/// factor by which a radiance BSDF sampled from `from` differs from the adjoint one the light
+/// tracer needs, (η_to / η_from)².
+float adjointRefractionScale(const Vec3f& from, const Vec3f& normal, float ior) {
+  const float ratio = dot(from, normal) > 0 ? ior : 1 / ior;
+  return ratio * ratio;
+}
+
+/// A ray leaving `hit` towards `direction`, offset off the surface on that side.
+Ray leave(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, float time) {
+  Ray ray;
+  const float side = dot(direction, hit.normal) >= 0 ? 1.0f : -1.0f;
+  ray.origin = hit.position + hit.normal * (side * scene.rayEpsilon(hit.position));
+  ray.direction = direction;
+  ray.time = time;
+  return ray;
+}
+
+PreviewSurfaceBsdf bsdfAt(const SurfaceHit& hit) {
+  const MaterialParams& material = hit.material();
+  return PreviewSurfaceBsdf(material, hit.shadingNormal, material.ior,
+                            hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet,
+                            hit.tangent);
+}
+
+}  // namespace
+
+bool castsCaustics(const MaterialParams& material) {
+  if (material.hair || material.subsurface > 0 || material.sheen > 0) return false;
+  const auto smooth = [](float roughness) { return roughness <= kCausticMaxRoughness; };
+  if (material.clearcoat > 0 && !smooth(material.clearcoatRoughness)) return false;
+  if (!smooth(material.roughness)) return false;
+  const bool metal = !material.useSpecularWorkflow && material.metallic >= 1;
+  const float transmissionRoughness =
+      material.transmissionRoughness >= 0 ? material.transmissionRoughness : material.roughness;
+  const bool clearGlass =
+      material.opacity <= 0 && !(material.transmissionDepth > 0) && smooth(transmissionRoughness);
+  return metal || clearGlass;
+}
+
+bool receivesCaustics(const MaterialParams& material) {
+  return !castsCaustics(material) && !material.hair && !(material.subsurface > 0);
+}
+
+CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const PixelFilter& filter,
+                             const IntegratorSettings& settings)
+    : scene_(scene), camera_(camera), filter_(filter), seed_(settings.seed) {
+  // No depth limit may cut a path taken: a path with k casters scatters k times before its
+  // last caster (the first surface once, the casters but the last one each once).
+  const int maxCasters = std::min({settings.maxPathDepth, settings.maxDiffuseDepth,
+                                   settings.maxGlossyDepth, settings.maxTransmissionDepth}) -
+                         1;
+  // Its rays see what Secondary rays see: every shown object.
+  const bool matched =
+      !scene.materials().spectral() && scene.volumes().empty() &&
+      !scene.geometry().hidesFromRays() && camera.params().projection == Projection::Perspective &&
+      !(settings.indirectClamp > 0) && !(settings.glossyFilter > 0) &&
+      settings.directLighting == DirectLighting::MultipleImportance && maxCasters >= 1;
+  if (!matched) return;
+  const MaterialTable& materials = scene.materials();
+  std::vector<uint8_t> casters(materials.materialCount(), 0);
+  for (size_t index = 0; index < casters.size(); ++index)
+    casters[index] = castsCaustics(materials.shadedConstants(int(index)));
+  const auto [lower, upper] =
+      scene.geometry().boundsWhere([&](int index) { return index >= 0 && casters[size_t(index)]; });
+  if (!(lower.x <= upper.x)) return;  // no caster shows
+  castersCentre_ = (lower + upper) * 0.5f;
+  castersRadius_ = 0.5f * length(upper - lower) * 1.001f + scene.rayEpsilon(upper);
+  if (!std::isfinite(castersRadius_)) return;
+
+  const std::vector<Light>& all = scene.lights().all();
+  std::vector<uint8_t> taken(all.size(), 0);
+  float total = 0;
+  for (size_t index = 0; index < all.size(); ++index) {
+    const Light& light = all[index];
+    // Linked lights would need each caster's links; lights that cast no shadows, a shadow ray
+    // the light tracer does not trace.
+    if (!light.emitsUniformly() || light.linkSlot() >= 0 || !light.castsShadows()) continue;
+    const float power = light.bounds().power;
+    if (!(power > 0) || !std::isfinite(power)) continue;
+    taken[index] = 1;
+    lightIndices_.push_back(uint32_t(index));
+    total += power;
+    lightCdf_.push_back(total);
+  }
+  if (lightIndices_.empty()) return;
+  for (float& step : lightCdf_) step /= total;
+  lightCdf_.back() = 1;
+  takeover_ = CausticTakeover(std::move(casters), std::move(taken), maxCasters);
+  const double pixels = double(camera.imageWidth()) * double(camera.imageHeight());
+  pathsPerSample_ = uint32_t(std::clamp(std::ceil(pixels * kPathsPerPixel), 1.0, 1e9));
+}
+
+bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film, int threads,
+                          const std::atomic<bool>* cancel) const {
+  if (!active()) return true;
+  const uint32_t blocks = (pathsPerSample_ + kPathsPerBlock - 1) / kPathsPerBlock;
+  std::vector<std::vector<Splat>> splats(blocks);
+  for (uint32_t sample = firstSample; sample < firstSample + sampleCount; ++sample) {
+    if (cancel && cancel->load(std::memory_order_relaxed)) return false;
+    onThreads(threads, [&] {
+      tbb::parallel_for(uint32_t(0), blocks, [&](uint32_t block) {
+        std::vector<Splat>& out = splats[block];
+        out.clear();
+        const uint32_t end = std::min(pathsPerSample_, (block + 1) * kPathsPerBlock);
+        for (uint32_t path = block * kPathsPerBlock; path < end; ++path)
+          tracePath(sample, path, out);
+      });
+    });
+    // In path order, whatever thread traced them.
+    for (const std::vector<Splat>& block : splats)
+      for (const Splat& splat : block) film.addSplat(splat.x, splat.y, splat.light);
+    film.addLightPaths(pathsPerSample_);
+  }
+  return true;
+}
+
+void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats) const {
+  RandomStream random(seed_, path, kLightPathTag, sample, 0);
+  // The light, a point on it and a direction towards the casters' bounding sphere.
+  const float choice = random.next();
+  const size_t slot =
+      size_t(std::lower_bound(lightCdf_.begin(), lightCdf_.end(), choice) - lightCdf_.begin());
+  const size_t taken = std::min(slot, lightCdf_.size() - 1);
+  const float choiceProbability = lightCdf_[taken] - (taken > 0 ? lightCdf_[taken - 1] : 0.0f);
+  const Light& light = scene_.lights().all()[lightIndices_[taken]];
+  const Light::SurfacePoint start = light.sampleSurface(random.next2D());
+  const Vec3f toCasters = castersCentre_ - start.position;
+  const float distance2 = dot(toCasters, toCasters);
+  const float radius2 = castersRadius_ * castersRadius_;
+  const Vec2f directionSample = random.next2D();
+  Vec3f direction;
+  float directionPdf = 0;
+  if (distance2 > radius2) {
+    // 1 − cos of the cone's half angle, sin² / (1 + cos) for precision with small cones.
+    const float sin2 = radius2 / distance2;
+    const float oneMinusCos = sin2 / (1 + std::sqrt(std::max(0.0f, 1 - sin2)));
+    direction = Frame(toCasters / std::sqrt(distance2))
+                    .toWorld(sampleUniformCone(directionSample, oneMinusCos));
+    directionPdf = uniformConePdf(oneMinusCos);
+  } else {  // among the casters: they may lie every way
+    const Vec3f local = sampleCosineHemisphere(directionSample);
+    direction = Frame(start.normal).toWorld(local);
+    directionPdf = cosineHemispherePdf(local.z);
+  }
+  const float cosLight = dot(direction, start.normal);
+  if (!(cosLight > 0) || !(directionPdf > 0)) return;
+  const float time = random.next();
+  // β: the light's radiance times the geometry so far, over the densities (area measure at the
+  // path's last vertex).
+  Vec3f beta = light.radiance() * (light.specularMultiplier() * cosLight * light.area() /
+                                   (choiceProbability * directionPdf));
+  Ray ray;
+  ray.origin = start.position + start.normal * scene_.rayEpsilon(start.position);
+  ray.direction = direction;
+  ray.time = time;
+  for (int casters = 0;; ++casters) {
+    const std::optional<SurfaceHit> hit = intersectSurface(scene_, ray, RayKind::Secondary);
+    if (!hit) return;
+    const Vec3f towardsLight = -ray.direction;
+    if (takeover_.isCaster(hit->materialIndex)) {
+      if (casters == takeover_.maxCasters()) return;
+      const PreviewSurfaceBsdf bsdf = bsdfAt(*hit);
+      const float lobeChoice = random.next();
+      const std::optional<BsdfSample> scattered =
+          bsdf.sample(towardsLight, lobeChoice, random.next2D());
+      if (!scattered || isBlack(scattered->weight)) return;
+      const Vec3f& next = scattered->direction;
+      if ((dot(next, hit->normal) * dot(towardsLight, hit->normal) < 0) != scattered->transmitted)
+        return;
+      // The radiance BSDF sampled from the light's side is the adjoint of the one the path
+      // tracer evaluates from the camera's; with shading normals, each cosine is the
+      // geometric one the measure has (Veach 1997, §5.3).
+      const float shadingFactor =
+          std::abs(dot(towardsLight, hit->shadingNormal)) * std::abs(dot(next, hit->normal)) /
+          (std::abs(dot(towardsLight, hit->normal)) * std::abs(dot(next, hit->shadingNormal)));
+      if (!std::isfinite(shadingFactor)) return;
+      beta *= scattered->weight * shadingFactor;
+      if (scattered->transmitted && hit->closed)
+        beta *= adjointRefractionScale(towardsLight, hit->normal, hit->material().ior);
+      ray = leave(scene_, *hit, next, time);
+      continue;
+    }
+    if (casters == 0) return;
+    // The receiving surface, joined to a point of the lens.
+    const Camera::Moment moment = camera_.momentAt(time);
+    const std::optional<PointImage> image = camera_.pointImage(hit->position, moment);
+    if (!image) return;
+    const Vec2f lensSample = random.next2D();
+    const Vec2f lensPoint = concentricSampleDisk(lensSample);
+    const Vec2f at{image->position.x + image->perLensUnit.x * lensPoint.x,
+                   image->position.y + image->perLensUnit.y * lensPoint.y};
+    const float reach = filter_.radius();
+    const int width = camera_.imageWidth(), height = camera_.imageHeight();
+    if (!(at.x > -reach && at.x < float(width) + reach && at.y > -reach &&
+          at.y < float(height) + reach))
+      return;
+    // The camera ray through that image position and lens point must see this very point first,
+    // and it is shaded as that camera ray shades it (textures filtered over its footprint).
+    const Ray cameraRay = camera_.generateRay(at.x, at.y, lensSample, time);
+    const float pointDistance = length(hit->position - cameraRay.origin);
+    const std::optional<SurfaceHit> seen =
+        intersectSurface(scene_, cameraRay, RayKind::Camera, camera_.pixelCone());
+    if (!seen || seen->matte || seen->meshId != hit->meshId || seen->instance != hit->instance ||
+        std::abs(seen->distance - pointDistance) > 1e-3f * pointDistance + 1e-4f ||
+        takeover_.isCaster(seen->materialIndex) || !receivesCaustics(seen->material()))
+      return;
+    const Vec3f towardsCamera = -cameraRay.direction;
+    // The path tracer's estimate there: f(towards camera, towards light) |n_s · towards light|.
+    const Vec3f f = bsdfAt(*seen).evaluate(towardsCamera, towardsLight);
+    const float cosArrival = std::abs(dot(towardsLight, seen->normal));
+    if (isBlack(f) || !(cosArrival > 0)) return;
+    // Image area (pixels) per solid angle at the lens point: 1 / (s² cos³θ), s² the solid angle
+    // of a pixel on the axis (the film at unit distance).
+    const float cosAxis = -camera_.toCameraSpace(cameraRay.direction, time).z;
+    const float pixelWidth = camera_.filmWidth() / (moment.focalLength * float(width));
+    const float pixelHeight = camera_.filmHeight() / (moment.focalLength * float(height));
+    const float imagePerSolidAngle = 1 / (pixelWidth * pixelHeight * cosAxis * cosAxis * cosAxis);
+    const Vec3f arriving = beta * f *
+                           (std::abs(dot(towardsCamera, seen->normal)) /
+                            (cosArrival * pointDistance * pointDistance) * imagePerSolidAngle);
+    if (!std::isfinite(arriving.x + arriving.y + arriving.z) || !(cosAxis > 0)) return;
+    // Shared among the pixels whose filter reaches it, as camera samples draw their offsets.
+    const int left = std::max(0, int(std::floor(at.x - reach)));
+    const int right = std::min(width - 1, int(std::floor(at.x + reach)));
+    const int top = std::max(0, int(std::floor(at.y - reach)));
+    const int bottom = std::min(height - 1, int(std::floor(at.y + reach)));
+    for (int y = top; y <= bottom; ++y) {
+      const float weightY = filter_.density1D(at.y - (float(y) + 0.5f));
+      if (!(weightY > 0)) continue;
+      for (int x = left; x <= right; ++x) {
+        const float weight = weightY * filter_.density1D(at.x - (float(x) + 0.5f));
+        if (weight > 0) splats.push_back({x, y, arriving * weight});
+      }
+    }
+    return;
+  }
+}
+
+}  // namespace penumbra

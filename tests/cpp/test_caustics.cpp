@@ -1,0 +1,248 @@
+// Caustics by light tracing (penumbra/caustics.h): what the light tracer adds is what the path
+// tracer leaves out, deterministically, and only where it can match the path tracer.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "penumbra/caustics.h"
+#include "penumbra/film.h"
+#include "penumbra/filter.h"
+#include "penumbra/plugin/render_delegate.h"
+#include "penumbra/plugin/render_pass.h"
+#include "penumbra/render.h"
+#include "scene_builders.h"
+#include "transforms.h"
+
+using namespace penumbra;
+using namespace penumbra::plugin;
+using penumbra::test::addCamera;
+using penumbra::test::addFloor;
+using penumbra::test::addSphere;
+using penumbra::test::facingDown;
+using penumbra::test::translation;
+
+namespace {
+
+constexpr int kSize = 24;
+
+/// A grey floor under a glass ball, lit from the side by a sphere light, seen from above where
+/// the ball focuses the light onto the floor (the ball itself at the image's edge). With
+/// `metalBeyondTheLamp`, a metal ball on the lamp's far side: the casters' bounding sphere then
+/// holds the lamp.
+void glassBallScene(RenderDelegate& delegate, float roughness = 0.1f,
+                    bool metalBeyondTheLamp = false) {
+  addFloor(delegate, "/floor", 20);
+  delegate.mesh("/floor").setDisplayColor({Vec3f(0.5f)}, Interpolation::Constant);
+  addSphere(delegate, "/ball", 0.5f);
+  delegate.mesh("/ball").setTransform(translation(0, 1, 0));
+  delegate.insertSprim("material", "/glass");
+  delegate.material("/glass").setParam("opacity", 0.0f);
+  delegate.material("/glass").setParam("ior", 1.5f);
+  delegate.material("/glass").setParam("roughness", roughness);
+  delegate.mesh("/ball").setMaterialId("/glass");
+  delegate.insertSprim("sphereLight", "/bulb");
+  delegate.light("/bulb").setParam("radius", 0.3f);
+  delegate.light("/bulb").setParam("intensity", 20.0f);
+  delegate.light("/bulb").setTransform(translation(-1.5, 2.5, 0));
+  addCamera(delegate, facingDown(0.9, 4, 0), 2);
+  if (!metalBeyondTheLamp) return;
+  addSphere(delegate, "/metalBall", 0.5f);
+  delegate.mesh("/metalBall").setTransform(translation(-3, 2.5, 0));
+  delegate.insertSprim("material", "/metal");
+  delegate.material("/metal").setParam("metallic", 1.0f);
+  delegate.material("/metal").setParam("roughness", 0.2f);
+  delegate.mesh("/metalBall").setMaterialId("/metal");
+}
+
+std::vector<float> render(RenderDelegate& delegate, const char* caustics, int samples,
+                          int threads = 0, int width = kSize) {
+  delegate.settings().set("caustics", caustics[0] == 'l' ? 1 : 0);
+  delegate.settings().set("threads", threads);
+  RenderPass pass(delegate, "/cam", width, width);
+  pass.execute(samples);
+  return pass.aov("color");
+}
+
+/// Mean of channel 0 over the pixels of rows and columns [from, to).
+double meanOver(const std::vector<float>& rgba, int from, int to, int width = kSize) {
+  double sum = 0;
+  for (int y = from; y < to; ++y)
+    for (int x = from; x < to; ++x) sum += rgba[size_t(4 * (y * width + x))];
+  return sum / double((to - from) * (to - from));
+}
+
+}  // namespace
+
+TEST(Caustics, CastersAreSmoothGlassAndMetalAlone) {
+  MaterialParams glass;
+  glass.opacity = 0;
+  glass.roughness = 0.1f;
+  EXPECT_TRUE(castsCaustics(glass));
+  EXPECT_FALSE(receivesCaustics(glass));
+  MaterialParams frosted = glass;
+  frosted.roughness = 0.5f;
+  EXPECT_FALSE(castsCaustics(frosted));
+  MaterialParams tinted = glass;
+  tinted.transmissionDepth = 1;  // absorbs inside
+  EXPECT_FALSE(castsCaustics(tinted));
+  MaterialParams metal;
+  metal.metallic = 1;
+  metal.roughness = 0.2f;
+  EXPECT_TRUE(castsCaustics(metal));
+  MaterialParams coated = metal;
+  coated.clearcoat = 1;
+  coated.clearcoatRoughness = 0.6f;
+  EXPECT_FALSE(castsCaustics(coated));
+  MaterialParams plastic;
+  plastic.roughness = 0.1f;
+  EXPECT_FALSE(castsCaustics(plastic));
+  EXPECT_TRUE(receivesCaustics(plastic));
+  MaterialParams hair = metal;
+  hair.hair = true;
+  EXPECT_FALSE(castsCaustics(hair));
+  EXPECT_FALSE(receivesCaustics(hair));
+}
+
+TEST(Caustics, AFilmAddsItsLightTracedSumsOverTheLightPaths) {
+  Film film(PixelRect{1, 1, 2, 2});
+  CameraSample sample;
+  sample.radiance = Vec3f(1.0f);
+  sample.alpha = 1;
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 2; ++x) film.addSample(x, y, 0, sample);
+  film.addSplat(1, 1, Vec3f(4, 2, 0));  // the film's pixel (0, 0)
+  film.addSplat(2, 2, Vec3f(0, 0, 8));  // its pixel (1, 1)
+  film.addSplat(0, 0, Vec3f(100.0f));   // outside its region
+  film.addLightPaths(4);
+  const std::vector<float> rgba = film.resolveColor();
+  EXPECT_EQ(std::vector<float>(rgba.begin(), rgba.begin() + 4),
+            (std::vector<float>{2, 1.5f, 1, 1}));
+  EXPECT_EQ(std::vector<float>(rgba.begin() + 4, rgba.begin() + 8),
+            (std::vector<float>{1, 1, 1, 1}));
+  EXPECT_EQ(std::vector<float>(rgba.begin() + 12, rgba.end()), (std::vector<float>{1, 1, 3, 1}));
+  film.clear();
+  EXPECT_EQ(film.lightPaths(), 0u);
+}
+
+TEST(Caustics, FilterDensityIsWhatCameraSamplesDraw) {
+  const PixelFilter filter;
+  // It integrates to one over the radius...
+  double total = 0;
+  const int steps = 20000;
+  const double step = 2.0 * filter.radius() / steps;
+  for (int i = 0; i < steps; ++i)
+    total += filter.density1D(float(-filter.radius() + (i + 0.5) * step)) * step;
+  EXPECT_NEAR(total, 1.0, 1e-3);
+  EXPECT_EQ(filter.density1D(filter.radius() + 0.01f), 0.0f);
+  // ... and the share of sampled offsets in a bin is its integral there.
+  const int draws = 200000;
+  int inBin = 0;
+  for (int i = 0; i < draws; ++i) {
+    const float offset = filter.sampleOffset({(float(i) + 0.5f) / draws, 0.5f}).x;
+    inBin += offset > 0.2f && offset < 0.4f;
+  }
+  double binMass = 0;
+  for (int i = 0; i < 1000; ++i)
+    binMass += filter.density1D(0.2f + (float(i) + 0.5f) * 2e-4f) * 2e-4;
+  EXPECT_NEAR(double(inBin) / draws, binMass, 2e-3);
+}
+
+namespace {
+
+/// Image means, of the middle (the caustic) and of the whole, of a path-traced render and of one
+/// split between the path tracer and many more light paths than its samples (light paths cost a
+/// ray or two: the light tracer's own noise is then far below the tests' tolerances).
+struct SplitMeans {
+  double causticPath, causticLight, allPath, allLight;
+  double causticLeftOut;  // what the path tracer found there in the split render
+};
+
+SplitMeans splitMeans(RenderDelegate& delegate, uint32_t lightSamples) {
+  const penumbra::Camera camera = test::syncedCamera(delegate, kSize);
+  const Scene& scene = delegate.scene();
+  RenderSettings settings;
+  Film pathTraced(kSize, kSize);
+  EXPECT_TRUE(renderSamples(scene, camera, pathTraced, 0, 2048, settings));
+  const PixelFilter filter;
+  const CausticTracer tracer(scene, camera, filter, settings.integrator);
+  EXPECT_TRUE(tracer.active());
+  settings.integrator.caustics = &tracer.takeover();
+  Film split(kSize, kSize);
+  EXPECT_TRUE(renderSamples(scene, camera, split, 0, 1024, settings));
+  const std::vector<float> leftOut = split.resolveColor();
+  EXPECT_TRUE(tracer.trace(0, lightSamples, split, 0));
+  const std::vector<float> path = pathTraced.resolveColor(), light = split.resolveColor();
+  return {meanOver(path, 8, 16), meanOver(light, 8, 16), meanOver(path, 0, kSize),
+          meanOver(light, 0, kSize), meanOver(leftOut, 8, 16)};
+}
+
+}  // namespace
+
+TEST(Caustics, LightTracingAddsWhatThePathTracerLeavesOut) {
+  RenderDelegate delegate;
+  glassBallScene(delegate);
+  const SplitMeans means = splitMeans(delegate, 32768);
+  // The caustic: the middle of the image, about three times the image's mean, most of which is
+  // the light tracer's.
+  ASSERT_GT(means.causticPath, 2.5 * means.allPath);
+  EXPECT_LT(means.causticLeftOut, 0.5 * means.causticPath);
+  // Tolerances: six seeds gave 0.978-1.017 and 0.993-1.004 (the path tracer's caustic is the
+  // noisier estimate).
+  EXPECT_NEAR(means.causticLight / means.causticPath, 1.0, 0.04);
+  EXPECT_NEAR(means.allLight / means.allPath, 1.0, 0.015);
+}
+
+TEST(Caustics, LampsAmongTheCastersLightEveryWay) {
+  RenderDelegate delegate;
+  glassBallScene(delegate, 0.1f, true);
+  const SplitMeans means = splitMeans(delegate, 32768);
+  ASSERT_GT(means.causticPath, 2.5 * means.allPath);
+  EXPECT_NEAR(means.causticLight / means.causticPath, 1.0, 0.04);
+  EXPECT_NEAR(means.allLight / means.allPath, 1.0, 0.015);
+}
+
+TEST(Caustics, LightTracedImagesAreBitIdenticalForAnyThreadCountAndSplit) {
+  const auto renderWith = [](int threads, std::vector<int> passes) {
+    RenderDelegate delegate;
+    glassBallScene(delegate);
+    delegate.settings().set("caustics", 1);
+    delegate.settings().set("threads", threads);
+    RenderPass pass(delegate, "/cam", 20, 16);
+    for (int samples : passes) pass.execute(samples);
+    return pass.aov("color");
+  };
+  const std::vector<float> one = renderWith(1, {8});
+  EXPECT_EQ(one, renderWith(2, {8}));
+  EXPECT_EQ(one, renderWith(2, {2, 4, 2}));
+  RenderDelegate delegate;
+  glassBallScene(delegate);
+  EXPECT_NE(one, [&] {
+    RenderPass pass(delegate, "/cam", 20, 16);
+    pass.execute(8);
+    return pass.aov("color");
+  }());
+}
+
+TEST(Caustics, WhatLightTracingCannotMatchIsLeftToThePathTracer) {
+  // Clamping changes the path tracer's caustics; rough glass is no caster. Either way the light
+  // tracer takes nothing, and the image is the path tracer's, bit for bit.
+  RenderDelegate delegate;
+  glassBallScene(delegate);
+  delegate.settings().set("indirectClamp", 10);
+  EXPECT_EQ(render(delegate, "light", 4), render(delegate, "path", 4));
+  RenderDelegate frosted;
+  glassBallScene(frosted, 0.6f);
+  EXPECT_EQ(render(frosted, "light", 4), render(frosted, "path", 4));
+  // The light tracer's rays would see the ball, which diffuse rays pass.
+  RenderDelegate hidden;
+  glassBallScene(hidden);
+  PassVisibility noDiffuse;
+  noDiffuse.diffuse = false;
+  hidden.mesh("/ball").setPassVisibility(noDiffuse);
+  EXPECT_EQ(render(hidden, "light", 4), render(hidden, "path", 4));
+  // Where it takes the lamp, it changes the image.
+  RenderDelegate taken;
+  glassBallScene(taken);
+  EXPECT_NE(render(taken, "light", 4), render(taken, "path", 4));
+}

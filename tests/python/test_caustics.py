@@ -1,0 +1,96 @@
+"""Caustics by light tracing (docs/caustics.md) from the front ends: the ``caustics`` option
+reaches the renderer, changes the noise and not the image, and light-traced images stay
+bit-identical across threads, regions, farm bands and checkpoints."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, UsdLux
+
+import penumbra
+from penumbra import _core
+from penumbra.cli import main
+from stages import add_camera, add_preview_material, add_quad, add_sphere_mesh, bind, new_stage
+
+LIGHT = dict(width=32, samples=8, caustics="light")
+
+
+@pytest.fixture(scope="module")
+def glass_ball(tmp_path_factory):
+    """A grey floor under a smooth glass ball lit from the side by a small sphere light, seen
+    from above where the ball focuses that light onto the floor; as a file, for the CLI."""
+    path = tmp_path_factory.mktemp("caustics") / "glass_ball.usda"
+    stage = new_stage(path)
+    add_camera(stage, translate=(0.9, 4.0, 0.0), rotate_x=-90.0, focal_length=2.0,
+               aperture=(1.0, 1.0))
+    add_quad(stage, "/World/floor", half_size=20.0, color=(0.5, 0.5, 0.5), facing="y")
+    ball = add_sphere_mesh(stage, "/World/ball", center=(0.0, 1.0, 0.0), radius=0.5, rings=24,
+                           sectors=48)
+    bind(ball, add_preview_material(stage, "/World/glass", opacity=0.0, ior=1.5, roughness=0.1))
+    bulb = UsdLux.SphereLight.Define(stage, "/World/bulb")
+    bulb.CreateRadiusAttr(0.3)
+    bulb.CreateIntensityAttr(20.0)
+    bulb.AddTranslateOp().Set(Gf.Vec3d(-1.5, 2.5, 0.0))
+    stage.GetRootLayer().Save()
+    return path
+
+
+def test_light_tracing_changes_the_noise_not_the_image(glass_ball):
+    renderer = penumbra.Renderer(glass_ball)
+    path = renderer.render(width=32, samples=1024)["color"][..., :3]
+    light = renderer.render(width=32, samples=1024, caustics="light")["color"][..., :3]
+    assert not np.array_equal(path, light)
+    assert light.mean() == pytest.approx(path.mean(), rel=0.02)
+    # The caustic (the middle of the image) is most of the image's light.
+    middle = (slice(11, 21), slice(11, 21))
+    assert path[middle].mean() > 2 * path.mean()
+    assert light[middle].mean() == pytest.approx(path[middle].mean(), rel=0.05)
+
+
+def test_light_traced_images_are_bit_identical_across_threads_and_regions(glass_ball):
+    renderer = penumbra.Renderer(glass_ball)
+    whole = renderer.render(**LIGHT)["color"]
+    assert np.array_equal(whole, renderer.render(**LIGHT, threads=1)["color"])
+    part = renderer.render(**LIGHT, region=(3, 10, 20, 9))["color"]
+    assert np.array_equal(part, whole[10:19, 3:23])
+
+
+def test_farm_bands_of_a_light_traced_frame_are_bit_identical_to_a_local_render(
+        glass_ball, tmp_path, capsys):
+    flags = ["-w", "32", "-spp", "8", "--caustics", "light"]
+    local, farm = tmp_path / "local.exr", tmp_path / "farm.exr"
+    assert main([str(glass_ball), str(local), *flags, "-q"]) == 0
+    assert main([str(glass_ball), str(farm), *flags, "--workers", "2"]) == 0
+    assert "tiles on 2 workers" in capsys.readouterr().out
+    assert np.array_equal(_core.read_image(str(farm))[0], _core.read_image(str(local))[0])
+
+
+class Interrupted(Exception):
+    pass
+
+
+def test_a_light_traced_render_resumes_from_its_checkpoint_bit_identically(
+        glass_ball, tmp_path, caplog):
+    caplog.set_level("INFO", logger="penumbra")
+    renderer = penumbra.Renderer(glass_ball)
+    kwargs = dict(LIGHT, samples=32, threads=1)
+    expected = renderer.render(**kwargs)["color"]
+    output = tmp_path / "out.exr"
+    passes = []
+
+    def interrupt(_done: int, _total: int) -> None:
+        passes.append(1)
+        if len(passes) > 2:
+            raise Interrupted
+
+    with pytest.raises(Interrupted):
+        renderer.render(**kwargs, checkpoint=penumbra.Checkpoint(output, 0), progress=interrupt)
+    resumed = renderer.render(**kwargs, checkpoint=penumbra.Checkpoint(output, resume=True))
+    assert "resuming from" in caplog.text
+    assert np.array_equal(resumed["color"], expected)
+
+
+def test_an_unknown_caustics_level_is_refused(glass_ball):
+    with pytest.raises(ValueError, match="caustics"):
+        penumbra.Renderer(glass_ball).render(width=8, samples=1, caustics="photons")
