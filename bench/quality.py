@@ -267,7 +267,7 @@ def converged_image(stage: Usd.Stage, name: str, args: argparse.Namespace) -> np
            + (f"_branches{args.indirect_samples}" if args.indirect_samples else "")
            + (f"_lights{args.light_samples}" if args.light_samples else "")
            + (f"_dome{args.dome_sampling}" if args.dome_sampling != "auto" else "")
-           + (f"_caustics{args.caustics}" if args.caustics != "path" else ""))
+           + (f"_caustics{args.caustics}" if args.caustics != "light" else ""))
     if cache is not None and (cache / f"{key}.npy").is_file():
         rendered_at = json.loads((cache / f"{key}.json").read_text())["commit"]
         progress(f"{name}: converged image read from {cache / key}.npy (commit {rendered_at})")
@@ -556,9 +556,10 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--dome-sampling", choices=("auto", "mis", "bsdf"), default="auto",
                         help="how a constant dome is found at the first surface "
                         "(docs/dome-sampling.md; auto, the default, chooses per render)")
-    parser.add_argument("--caustics", choices=("path", "light"), default="path",
+    parser.add_argument("--caustics", choices=("path", "light"), default="light",
                         help="how caustics through smooth glass and metal are found "
-                        "(docs/caustics.md; path, the default, leaves them to the path tracer)")
+                        "(docs/caustics.md; light, the default, traces them from the lamps too; "
+                        "path leaves them to the path tracer)")
     parser.add_argument("--cycles-json", type=Path,
                         help="Cycles' numbers measured on this machine by "
                         "bench/cycles_scenes.py --json, instead of ../shared/cycles/README.md's")

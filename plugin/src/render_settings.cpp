@@ -114,12 +114,14 @@ std::vector<RenderOption> buildRenderOptions() {
                                "blur sharp reflection and refraction lobes met after rougher "
                                "bounces, as Cycles' filter glossy (Cycles' default: 1): caustics "
                                "converge sooner, biased"));
-  options.push_back(levelOption(
+  RenderOption& caustics = options.emplace_back(levelOption(
       "caustics", &Settings::caustics, {"path", "light"},
       "how light that passes smooth glass or metal onto the surfaces camera rays meet is found: "
-      "path leaves it to the path tracer, which finds a lamp through glass only by chance "
-      "(fireflies); light also traces paths from the lamps through the glass and metal and "
-      "joins them to the camera (docs/caustics.md). Unbiased either way"));
+      "light also traces paths from the lamps through the glass and metal and joins them to "
+      "the camera; path leaves it to the path tracer, which finds a lamp through glass only by "
+      "chance (fireflies; Penumbra's images before 2026-12-06). Unbiased either way "
+      "(docs/caustics.md)"));
+  caustics.defaultValue = caustics.frontEndDefault = 1;
   RenderOption& indirectSamples = options.emplace_back(integerOption(
       "indirectSamples", &Settings::indirectSamples, 0, 0, "N",
       "paths that go on from each camera ray's first surface (branched path tracing): its "

@@ -166,6 +166,9 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
       .def_property_readonly("mean_samples", &RenderPass::meanSamples)
       .def_property_readonly("samples_taken", &RenderPass::samplesTaken)
       .def_property_readonly("rays_traced", &RenderPass::raysTraced)
+      .def_property_readonly("light_paths_traced", &RenderPass::lightPathsTraced,
+                             "Light paths traced for caustics so far (docs/caustics.md): 0 "
+                             "where the light tracer took nothing")
       .def_property_readonly("constant_dome_share", &RenderPass::constantDomeShareUsed,
                              "The share of an untextured dome's light the shadow ray takes at "
                              "the first surfaces: the dome_sampling setting's, or the pilot's "

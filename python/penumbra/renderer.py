@@ -369,6 +369,7 @@ class Renderer:
                 "samplesTaken": render_pass.samples_taken,
                 "samplesDone": render_pass.samples_done,
                 "rays": render_pass.rays_traced,
+                "lightPaths": render_pass.light_paths_traced,
                 "constantDomeShare": render_pass.constant_dome_share,
                 "indirectSamplesUsed": round(render_pass.indirect_samples, 3),
                 "lightSamplesUsed": render_pass.light_samples,

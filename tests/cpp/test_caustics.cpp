@@ -217,6 +217,7 @@ TEST(Caustics, LightTracedImagesAreBitIdenticalForAnyThreadCountAndSplit) {
   EXPECT_EQ(one, renderWith(2, {2, 4, 2}));
   RenderDelegate delegate;
   glassBallScene(delegate);
+  delegate.settings().set("caustics", 0);
   EXPECT_NE(one, [&] {
     RenderPass pass(delegate, "/cam", 20, 16);
     pass.execute(8);

@@ -38,9 +38,11 @@ def glass_ball(tmp_path_factory):
 
 def test_light_tracing_changes_the_noise_not_the_image(glass_ball):
     renderer = penumbra.Renderer(glass_ball)
-    path = renderer.render(width=32, samples=1024)["color"][..., :3]
+    path = renderer.render(width=32, samples=1024, caustics="path")["color"][..., :3]
     light = renderer.render(width=32, samples=1024, caustics="light")["color"][..., :3]
     assert not np.array_equal(path, light)
+    assert renderer.render(width=32, samples=2, caustics="light").metadata["lightPaths"] == 206
+    assert renderer.render(width=32, samples=2, caustics="path").metadata["lightPaths"] == 0
     assert light.mean() == pytest.approx(path.mean(), rel=0.02)
     # The caustic (the middle of the image) is most of the image's light.
     middle = (slice(11, 21), slice(11, 21))

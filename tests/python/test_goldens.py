@@ -35,26 +35,39 @@ def test_showcase_with_the_dome_pilot(golden):
 
 
 def test_cornell_box(golden):
-    # One path per camera sample: the estimator this golden was made with, which
-    # `indirect_samples=1` keeps bit for bit.
+    # One path per camera sample and the path tracer alone: the estimator this golden was made
+    # with, which `indirect_samples=1` and `caustics="path"` keep bit for bit.
+    image = penumbra.render(
+        str(EXAMPLES / "cornell.usda"), width=96, samples=8, threads=1, indirect_samples=1,
+        caustics="path",
+    )
+    golden.check(image, "cornell", fail=0.02, failpercent=0.0)
+
+
+def test_cornell_box_with_light_traced_caustics(golden):
+    # The default: the metal box's caustics on the floor and walls are light-traced
+    # (docs/caustics.md); one path per camera sample, as the golden above.
     image = penumbra.render(
         str(EXAMPLES / "cornell.usda"), width=96, samples=8, threads=1, indirect_samples=1
     )
-    golden.check(image, "cornell", fail=0.02, failpercent=0.0)
+    assert image.metadata["caustics"] == "light"
+    golden.check(image, "cornell_caustics", fail=0.02, failpercent=0.0)
 
 
 def test_cornell_box_with_the_branching_pilot(golden):
     # The default: its pilot branches about three ways at the first surface, the room's light
     # being nearly all indirect (fewer in the regions where less of it lies beyond: 2.824 on
     # average), and estimates the direct light there twice (docs/branching.md).
-    chosen = penumbra.render(str(EXAMPLES / "cornell.usda"), width=96, samples=1, threads=1)
+    chosen = penumbra.render(
+        str(EXAMPLES / "cornell.usda"), width=96, samples=1, threads=1, caustics="path"
+    )
     assert chosen.metadata["indirectSamplesUsed"] == 2.824
     assert chosen.metadata["lightSamplesUsed"] == 2
     # The golden is the image of three branches and one estimate, the pilot's choice before it
     # counted the shading of vertices in a sample's cost (set here, so that it stays that image).
     image = penumbra.render(
         str(EXAMPLES / "cornell.usda"), width=96, samples=8, threads=1, indirect_samples=3,
-        light_samples=1,
+        light_samples=1, caustics="path",
     )
     golden.check(image, "cornell_branching_pilot", fail=0.02, failpercent=0.0)
 

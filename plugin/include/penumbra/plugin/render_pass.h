@@ -73,6 +73,9 @@ class RenderPass {
   uint64_t samplesTaken() const { return film_.samplesTaken(crop_); }
   /// Rays traced through the scene's BVH for the samples accumulated so far.
   uint64_t raysTraced() const { return film_.raysTraced(crop_); }
+  /// Light paths traced for caustics (penumbra/caustics.h) so far: 0 where the light tracer
+  /// took nothing.
+  uint64_t lightPathsTraced() const { return film_.lightPaths(); }
   /// The share of its MIS weight next-event estimation keeps for untextured domes at the first
   /// surfaces (docs/dome-sampling.md): the domeSampling setting's (mis 1, bsdf 0), or the
   /// pilot's choice (auto; 1 before the pass has rendered samples, and where the scene has no

@@ -29,7 +29,7 @@ struct RenderSettingsMap {
   int adaptiveMinSamples;
   float indirectClamp;
   float glossyFilter;
-  int caustics;                // 0: the path tracer alone; 1: light tracing too (caustics.h)
+  int caustics;                // 1 (default): light tracing too (caustics.h); 0: path tracer alone
   int indirectSamples;         // paths that go on from each camera ray's first surface; 0: auto
   int lightSamples;            // next-event estimates at each camera ray's first surface
   int guidingTrainingSamples;  // samples per pixel that train path guiding; 0: no guiding
