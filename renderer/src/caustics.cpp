@@ -95,12 +95,27 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
   const std::vector<Light>& all = scene.lights().all();
   std::vector<uint8_t> taken(all.size(), 0);
   float total = 0;
+  const float radius2 = castersRadius_ * castersRadius_;
   for (size_t index = 0; index < all.size(); ++index) {
     const Light& light = all[index];
     // Linked lights would need each caster's links; lights that cast no shadows, a shadow ray
     // the light tracer does not trace.
-    if (!light.emitsUniformly() || light.linkSlot() >= 0 || !light.castsShadows()) continue;
-    const float power = light.bounds().power;
+    const bool distant = light.type() == LightType::Distant;
+    if (!(light.emitsUniformly() || distant) || light.linkSlot() >= 0 || !light.castsShadows())
+      continue;
+    // Chosen by about what reaches the casters' sphere: a distant light's irradiance over its
+    // cross-section, a local one's power times the solid angle the sphere subtends there.
+    float power = 0;
+    if (distant) {
+      power = light.irradiance() * kPi * radius2;
+    } else {
+      const LightBounds bounds = light.bounds();
+      const Vec3f toCasters = castersCentre_ - bounds.centroid();
+      const float distance2 = dot(toCasters, toCasters);
+      const float solidAngle =
+          distance2 > radius2 ? 2 * kPi * (1 - std::sqrt(1 - radius2 / distance2)) : 4 * kPi;
+      power = bounds.power * std::max(solidAngle, 1e-6f);
+    }
     if (!(power > 0) || !std::isfinite(power)) continue;
     taken[index] = 1;
     lightIndices_.push_back(uint32_t(index));
@@ -139,15 +154,9 @@ bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film
   return true;
 }
 
-void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats) const {
-  RandomStream random(seed_, path, kLightPathTag, sample, 0);
-  // The light, a point on it and a direction towards the casters' bounding sphere.
-  const float choice = random.next();
-  const size_t slot =
-      size_t(std::lower_bound(lightCdf_.begin(), lightCdf_.end(), choice) - lightCdf_.begin());
-  const size_t taken = std::min(slot, lightCdf_.size() - 1);
-  const float choiceProbability = lightCdf_[taken] - (taken > 0 ? lightCdf_[taken - 1] : 0.0f);
-  const Light& light = scene_.lights().all()[lightIndices_[taken]];
+std::optional<CausticTracer::LightPathStart> CausticTracer::startOnSurface(
+    const Light& light, RandomStream& random) const {
+  // A point on the light and a direction towards the casters' bounding sphere.
   const Light::SurfacePoint start = light.sampleSurface(random.next2D());
   const Vec3f toCasters = castersCentre_ - start.position;
   const float distance2 = dot(toCasters, toCasters);
@@ -168,16 +177,49 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
     directionPdf = cosineHemispherePdf(local.z);
   }
   const float cosLight = dot(direction, start.normal);
-  if (!(cosLight > 0) || !(directionPdf > 0)) return;
-  const float time = random.next();
-  // β: the light's radiance times the geometry so far, over the densities (area measure at the
-  // path's last vertex).
-  Vec3f beta = light.radiance() * (light.specularMultiplier() * cosLight * light.area() /
-                                   (choiceProbability * directionPdf));
+  if (!(cosLight > 0) || !(directionPdf > 0)) return std::nullopt;
   Ray ray;
   ray.origin = start.position + start.normal * scene_.rayEpsilon(start.position);
   ray.direction = direction;
-  ray.time = time;
+  return LightPathStart{ray, light.radiance() * (cosLight * light.area() / directionPdf)};
+}
+
+std::optional<CausticTracer::LightPathStart> CausticTracer::startFromAfar(
+    const Light& light, RandomStream& random) const {
+  // A direction as next-event estimation draws it, then a point of the disk across the
+  // casters' bounding sphere perpendicular to it; the ray starts beyond everything, so that what
+  // shades the casters from the light still does.
+  const std::optional<LightSample> sample = light.sample(castersCentre_, random.next2D());
+  if (!sample || !(sample->pdf > 0)) return std::nullopt;
+  const Vec2f onDisk = concentricSampleDisk(random.next2D());
+  const Frame frame(-sample->direction);
+  const float away = length(castersCentre_) + 2 * scene_.geometry().extent() + castersRadius_;
+  Ray ray;
+  ray.origin = castersCentre_ + frame.toWorld({onDisk.x, onDisk.y, 0}) * castersRadius_ +
+               sample->direction * away;
+  ray.direction = -sample->direction;
+  const float diskArea = kPi * castersRadius_ * castersRadius_;
+  return LightPathStart{ray, sample->radiance * (diskArea / sample->pdf)};
+}
+
+void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats) const {
+  RandomStream random(seed_, path, kLightPathTag, sample, 0);
+  const float choice = random.next();
+  const size_t slot =
+      size_t(std::lower_bound(lightCdf_.begin(), lightCdf_.end(), choice) - lightCdf_.begin());
+  const size_t taken = std::min(slot, lightCdf_.size() - 1);
+  const float choiceProbability = lightCdf_[taken] - (taken > 0 ? lightCdf_[taken - 1] : 0.0f);
+  const Light& light = scene_.lights().all()[lightIndices_[taken]];
+  const std::optional<LightPathStart> start = light.type() == LightType::Distant
+                                                  ? startFromAfar(light, random)
+                                                  : startOnSurface(light, random);
+  if (!start) return;
+  Ray ray = start->ray;
+  ray.time = random.next();
+  const float time = ray.time;
+  // β: the light's radiance times the geometry so far, over the densities (area measure at the
+  // path's last vertex).
+  Vec3f beta = start->beta * (light.specularMultiplier() / choiceProbability);
   for (int casters = 0;; ++casters) {
     const std::optional<SurfaceHit> hit = intersectSurface(scene_, ray, RayKind::Secondary);
     if (!hit) return;

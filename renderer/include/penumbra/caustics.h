@@ -13,12 +13,14 @@
 
 #include <atomic>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "penumbra/camera.h"
 #include "penumbra/filter.h"
 #include "penumbra/integrator.h"
 #include "penumbra/material.h"
+#include "penumbra/random_stream.h"
 #include "penumbra/scene.h"
 
 namespace penumbra {
@@ -102,6 +104,16 @@ class CausticTracer {
     int x, y;
     Vec3f light;
   };
+  /// Where a light path leaves its light, and β there: the radiance times the geometry over
+  /// the densities (area measure), before the light's choice.
+  struct LightPathStart {
+    Ray ray;
+    Vec3f beta;
+  };
+  /// From a sphere, rect or disk light: a point on it, a direction towards the casters.
+  std::optional<LightPathStart> startOnSurface(const Light& light, RandomStream& random) const;
+  /// From a distant light: a direction from it, a point of the casters' cross-section.
+  std::optional<LightPathStart> startFromAfar(const Light& light, RandomStream& random) const;
   /// Traces light path `path` of sample index `sample`, appending its splats.
   void tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats) const;
 
