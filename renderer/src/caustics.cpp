@@ -30,16 +30,6 @@ float adjointRefractionScale(const Vec3f& from, const Vec3f& normal, float ior) 
   return ratio * ratio;
 }
 
-/// A ray leaving `hit` towards `direction`, offset off the surface on that side.
-Ray leave(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, float time) {
-  Ray ray;
-  const float side = dot(direction, hit.normal) >= 0 ? 1.0f : -1.0f;
-  ray.origin = hit.position + hit.normal * (side * scene.rayEpsilon(hit.position));
-  ray.direction = direction;
-  ray.time = time;
-  return ray;
-}
-
 PreviewSurfaceBsdf bsdfAt(const SurfaceHit& hit) {
   const MaterialParams& material = hit.material();
   return PreviewSurfaceBsdf(material, hit.shadingNormal, material.ior,
@@ -244,7 +234,7 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
       beta *= scattered->weight * shadingFactor;
       if (scattered->transmitted && hit->closed)
         beta *= adjointRefractionScale(towardsLight, hit->normal, hit->material().ior);
-      ray = leave(scene_, *hit, next, time);
+      ray = spawnRay(scene_, *hit, next, kInfinity, time);
       continue;
     }
     if (casters == 0) return;

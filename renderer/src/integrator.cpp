@@ -151,34 +151,6 @@ Vec3f clampIndirect(const Vec3f& contribution, int interactions, float clamp) {
   return largest > clamp ? contribution * (clamp / largest) : contribution;
 }
 
-/// Spawns a ray from a surface point towards `direction`, offset off the surface on that side.
-/// A fibre scattering by the hair BSDF into itself is passed through: that BSDF accounts for the
-/// whole passage through the fibre (Chiang et al.'s TT and TRT lobes), so the ray starts where
-/// it leaves the fibre's far wall (the object's first hit from inside), instead of scattering
-/// there a second time (or, for a shadow ray, being blocked by it).
-Ray spawnRay(const Scene& scene, const SurfaceHit& hit, const Vec3f& direction, float tFar,
-             float time) {
-  const float side = dot(direction, hit.normal) >= 0 ? 1.0f : -1.0f;
-  Ray ray;
-  ray.origin = hit.position + hit.normal * (side * scene.rayEpsilon(hit.position));
-  ray.direction = direction;
-  ray.tNear = 0;
-  ray.tFar = tFar;
-  ray.time = time;
-  const bool intoFibre =
-      side < 0 && hit.material().hair && hit.closed && length(hit.fibreDirection) > 0;
-  if (!intoFibre) return ray;
-  const std::optional<GeometryHit> wall = scene.geometry().intersect(ray, RayKind::Secondary);
-  if (!wall || wall->meshId != hit.meshId || wall->instance != hit.instance) return ray;
-  const Vec3f outward =
-      normalize(wall->objectToWorld->at(time).applyToNormal(wall->geometricNormal));
-  if (dot(outward, direction) <= 0) return ray;  // not the wall from inside
-  const Vec3f exit = ray.origin + direction * wall->distance;
-  ray.origin = exit + outward * scene.rayEpsilon(exit);
-  ray.tFar = tFar - wall->distance;
-  return ray;
-}
-
 /// The GGX α below which the glossy filter (IntegratorSettings::glossyFilter) does not let lobes
 /// go, after bounces whose smallest direction density was `minRayPdf`; 0 where it does not act.
 float filteredAlpha(float glossyFilter, float minRayPdf) {

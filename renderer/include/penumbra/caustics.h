@@ -88,8 +88,6 @@ class CausticTracer {
   bool active() const { return !lightCdf_.empty(); }
   /// For IntegratorSettings::caustics (valid while this tracer lives).
   const CausticTakeover& takeover() const { return takeover_; }
-  /// Light paths per sample index.
-  uint32_t pathsPerSample() const { return pathsPerSample_; }
 
   /// Traces the light paths of sample indices [firstSample, firstSample + sampleCount) and adds
   /// them to `film` (its region of the image), on `threads` threads (0: all cores). The film
