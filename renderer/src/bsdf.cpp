@@ -579,4 +579,35 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
   return result;
 }
 
+std::optional<BsdfSample> PreviewSurfaceBsdf::sampleAboveDiffuse(const Vec3f& woWorld, float uLobe,
+                                                                 Vec2f u) const {
+  Vec3f wo = frame_.toLocal(woWorld);
+  if (wo.z < 0) wo.z = -wo.z;
+  if (!(wo.z > 0)) return std::nullopt;
+  const Outgoing& forWo = outgoing(wo);
+  const LobeProbabilities& p = forWo.probabilities;
+  // Those lobes come first in sample()'s order: [0, above) of its lobe choice picks among them
+  // alone, in proportion to their probabilities.
+  const float above = p.coat + p.specular + p.multipleScattering;
+  if (!(above > 0)) return std::nullopt;
+  std::optional<BsdfSample> result =
+      sample(woWorld, std::min(uLobe * above, std::nextafter(above, 0.0f)), u);
+  if (!result || result->lobe == BsdfLobe::Diffuse) return std::nullopt;
+  if (result->isDelta) {
+    result->weight *= above;
+    result->pdf /= above;
+    return result;
+  }
+  OrientedPair pair = orient(frame_, woWorld, result->direction);
+  Outgoing withoutDiffuse = forWo;
+  withoutDiffuse.probabilities.diffuse = 0;
+  const Reflection reflected = reflection(pair.wo, pair.wi);
+  Vec3f diffusePart;
+  const Vec3f value = evaluateOpaque(pair.wo, pair.wi, forWo, reflected, &diffusePart);
+  result->pdf = pdfOpaque(pair.wo, pair.wi, withoutDiffuse, reflected) / above;
+  if (!(result->pdf > 0)) return std::nullopt;
+  result->weight = componentMax(value - diffusePart, Vec3f(0.0f)) / result->pdf;
+  return result;
+}
+
 }  // namespace penumbra

@@ -52,6 +52,16 @@ bool castsCaustics(const MaterialParams& material) {
   return metal || clearGlass;
 }
 
+CasterKind casterKind(const MaterialParams& material) {
+  if (castsCaustics(material)) return CasterKind::Whole;
+  const auto smooth = [](float roughness) { return roughness <= kCausticMaxRoughness; };
+  const bool smoothAboveDiffuse = smooth(material.roughness) &&
+                                  !(material.clearcoat > 0 && !smooth(material.clearcoatRoughness));
+  const bool plain = !material.hair && !(material.subsurface > 0) && !(material.sheen > 0);
+  return plain && material.opacity >= 1 && smoothAboveDiffuse ? CasterKind::AboveDiffuse
+                                                              : CasterKind::None;
+}
+
 bool receivesCaustics(const MaterialParams& material) {
   return !castsCaustics(material) && !material.hair && !(material.subsurface > 0);
 }
@@ -72,20 +82,43 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
       settings.directLighting == DirectLighting::MultipleImportance && maxCasters >= 1;
   if (!matched) return;
   const MaterialTable& materials = scene.materials();
-  std::vector<uint8_t> casters(materials.materialCount(), 0);
+  std::vector<CasterKind> casters(materials.materialCount(), CasterKind::None);
   for (size_t index = 0; index < casters.size(); ++index)
-    casters[index] = castsCaustics(materials.shadedConstants(int(index)));
-  const auto [lower, upper] =
-      scene.geometry().boundsWhere([&](int index) { return index >= 0 && casters[size_t(index)]; });
-  if (!(lower.x <= upper.x)) return;  // no caster shows
-  castersCentre_ = (lower + upper) * 0.5f;
-  castersRadius_ = 0.5f * length(upper - lower) * 1.001f + scene.rayEpsilon(upper);
-  if (!std::isfinite(castersRadius_)) return;
+    casters[index] = casterKind(materials.shadedConstants(int(index)));
+  // Light paths aim at a sphere around each caster, or around each kind's where there are many.
+  struct Object {
+    CasterKind kind;
+    Vec3f lower, upper;
+  };
+  std::vector<Object> objects;
+  scene.geometry().forEachObjectBounds([&](int index, const Vec3f& lower, const Vec3f& upper) {
+    const CasterKind kind = index >= 0 ? casters[size_t(index)] : CasterKind::None;
+    if (kind != CasterKind::None) objects.push_back({kind, lower, upper});
+  });
+  if (objects.size() > kMaxTargets) {
+    std::vector<Object> kinds;
+    for (const CasterKind kind : {CasterKind::Whole, CasterKind::AboveDiffuse}) {
+      Object all{kind, Vec3f(kInfinity), Vec3f(-kInfinity)};
+      for (const Object& object : objects) {
+        if (object.kind != kind) continue;
+        all.lower = componentMin(all.lower, object.lower);
+        all.upper = componentMax(all.upper, object.upper);
+      }
+      if (all.lower.x <= all.upper.x) kinds.push_back(all);
+    }
+    objects = std::move(kinds);
+  }
+  for (const Object& object : objects) {
+    const float radius =
+        0.5f * length(object.upper - object.lower) * 1.001f + scene.rayEpsilon(object.upper);
+    if (std::isfinite(radius))
+      targets_.push_back({(object.lower + object.upper) * 0.5f, radius, object.kind});
+  }
+  if (targets_.empty()) return;  // no caster shows
 
   const std::vector<Light>& all = scene.lights().all();
-  std::vector<uint8_t> taken(all.size(), 0);
+  std::vector<CausticTakeover::LightTaken> taken(all.size(), CausticTakeover::LightTaken::No);
   float total = 0;
-  const float radius2 = castersRadius_ * castersRadius_;
   for (size_t index = 0; index < all.size(); ++index) {
     const Light& light = all[index];
     // Linked lights would need each caster's links; lights that cast no shadows, a shadow ray
@@ -93,28 +126,43 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
     const bool distant = light.type() == LightType::Distant;
     if (!(light.emitsUniformly() || distant) || light.linkSlot() >= 0 || !light.castsShadows())
       continue;
-    // Chosen by about what reaches the casters' sphere: a distant light's irradiance over its
-    // cross-section, a local one's power times the solid angle the sphere subtends there.
-    float power = 0;
-    if (distant) {
-      power = light.irradiance() * kPi * radius2;
-    } else {
-      const LightBounds bounds = light.bounds();
-      const Vec3f toCasters = castersCentre_ - bounds.centroid();
-      const float distance2 = dot(toCasters, toCasters);
-      const float solidAngle =
-          distance2 > radius2 ? 2 * kPi * (1 - std::sqrt(1 - radius2 / distance2)) : 4 * kPi;
-      power = bounds.power * std::max(solidAngle, 1e-6f);
+    // AboveDiffuse casters take the light of those whose lobes' multipliers agree (LightTaken).
+    const bool pastEveryCaster = light.diffuseMultiplier() == light.specularMultiplier();
+    const size_t first = starts_.size();
+    for (size_t target = 0; target < targets_.size(); ++target) {
+      const Target& aim = targets_[target];
+      if (aim.kind == CasterKind::AboveDiffuse && !pastEveryCaster) continue;
+      // Chosen by about what reaches the target: a distant light's irradiance over its
+      // cross-section, a local one's power times the solid angle the target subtends there.
+      const float radius2 = aim.radius * aim.radius;
+      float power = 0;
+      if (distant) {
+        power = light.irradiance() * kPi * radius2;
+      } else {
+        const LightBounds bounds = light.bounds();
+        const Vec3f toTarget = aim.centre - bounds.centroid();
+        const float distance2 = dot(toTarget, toTarget);
+        const float solidAngle =
+            distance2 > radius2 ? 2 * kPi * (1 - std::sqrt(1 - radius2 / distance2)) : 4 * kPi;
+        power = bounds.power * std::max(solidAngle, 1e-6f);
+      }
+      if (aim.kind == CasterKind::AboveDiffuse) power *= kAboveDiffuseShare;
+      if (!(power > 0) || !std::isfinite(power)) continue;
+      starts_.push_back({uint32_t(index), uint32_t(target), 0, 0});
+      total += power;
+      startCdf_.push_back(total);
     }
-    if (!(power > 0) || !std::isfinite(power)) continue;
-    taken[index] = 1;
-    lightIndices_.push_back(uint32_t(index));
-    total += power;
-    lightCdf_.push_back(total);
+    if (starts_.size() == first) continue;
+    for (size_t start = first; start < starts_.size(); ++start) {
+      starts_[start].lightsFirst = uint32_t(first);
+      starts_[start].lightsEnd = uint32_t(starts_.size());
+    }
+    taken[index] = pastEveryCaster ? CausticTakeover::LightTaken::PastEveryCaster
+                                   : CausticTakeover::LightTaken::PastWholeCasters;
   }
-  if (lightIndices_.empty()) return;
-  for (float& step : lightCdf_) step /= total;
-  lightCdf_.back() = 1;
+  if (starts_.empty()) return;
+  for (float& step : startCdf_) step /= total;
+  startCdf_.back() = 1;
   takeover_ = CausticTakeover(std::move(casters), std::move(taken), maxCasters);
   const double pixels = double(camera.imageWidth()) * double(camera.imageHeight());
   pathsPerSample_ = uint32_t(std::clamp(std::ceil(pixels * kPathsPerPixel), 1.0, 1e9));
@@ -145,64 +193,110 @@ bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film
 }
 
 std::optional<CausticTracer::LightPathStart> CausticTracer::startOnSurface(
-    const Light& light, RandomStream& random) const {
-  // A point on the light and a direction towards the casters' bounding sphere.
+    const Light& light, size_t startIndex, RandomStream& random) const {
+  // A point on the light and a direction towards the target's sphere.
   const Light::SurfacePoint start = light.sampleSurface(random.next2D());
-  const Vec3f toCasters = castersCentre_ - start.position;
-  const float distance2 = dot(toCasters, toCasters);
-  const float radius2 = castersRadius_ * castersRadius_;
+  const Target& aim = targets_[starts_[startIndex].target];
   const Vec2f directionSample = random.next2D();
   Vec3f direction;
   float directionPdf = 0;
-  if (distance2 > radius2) {
-    // 1 − cos of the cone's half angle, sin² / (1 + cos) for precision with small cones.
-    const float sin2 = radius2 / distance2;
-    const float oneMinusCos = sin2 / (1 + std::sqrt(std::max(0.0f, 1 - sin2)));
-    direction = Frame(toCasters / std::sqrt(distance2))
-                    .toWorld(sampleUniformCone(directionSample, oneMinusCos));
-    directionPdf = uniformConePdf(oneMinusCos);
-  } else {  // among the casters: they may lie every way
+  if (const std::optional<float> oneMinusCos = coneTowards(aim, start.position)) {
+    const Vec3f toTarget = aim.centre - start.position;
+    direction = Frame(toTarget / std::sqrt(dot(toTarget, toTarget)))
+                    .toWorld(sampleUniformCone(directionSample, *oneMinusCos));
+    directionPdf = uniformConePdf(*oneMinusCos);
+  } else {  // within the target: it may lie every way
     const Vec3f local = sampleCosineHemisphere(directionSample);
     direction = Frame(start.normal).toWorld(local);
     directionPdf = cosineHemispherePdf(local.z);
   }
   const float cosLight = dot(direction, start.normal);
   if (!(cosLight > 0) || !(directionPdf > 0)) return std::nullopt;
+  // The density with which the light's other targets give the same direction too, each
+  // relative to this one's choice.
+  const float chosen = startProbability(startIndex);
+  float density = 0;
+  for (size_t other = starts_[startIndex].lightsFirst; other < starts_[startIndex].lightsEnd;
+       ++other) {
+    const float share = startProbability(other) / chosen;
+    if (other == startIndex) {
+      density += share * directionPdf;
+      continue;
+    }
+    const Target& also = targets_[starts_[other].target];
+    if (const std::optional<float> oneMinusCos = coneTowards(also, start.position)) {
+      const Vec3f toCentre = normalize(also.centre - start.position);
+      if (1 - dot(direction, toCentre) <= *oneMinusCos)
+        density += share * uniformConePdf(*oneMinusCos);
+    } else {
+      density += share * cosineHemispherePdf(cosLight);
+    }
+  }
   Ray ray;
   ray.origin = start.position + start.normal * scene_.rayEpsilon(start.position);
   ray.direction = direction;
-  return LightPathStart{ray, light.radiance() * (cosLight * light.area() / directionPdf)};
+  return LightPathStart{ray, light.radiance() * (cosLight * light.area() / density)};
 }
 
 std::optional<CausticTracer::LightPathStart> CausticTracer::startFromAfar(
-    const Light& light, RandomStream& random) const {
+    const Light& light, size_t startIndex, RandomStream& random) const {
   // A direction as next-event estimation draws it, then a point of the disk across the
-  // casters' bounding sphere perpendicular to it; the ray starts beyond everything, so that what
-  // shades the casters from the light still does.
-  const std::optional<LightSample> sample = light.sample(castersCentre_, random.next2D());
+  // target's sphere perpendicular to it; the ray starts beyond everything, so that what shades
+  // the casters from the light still does.
+  const Target& aim = targets_[starts_[startIndex].target];
+  const std::optional<LightSample> sample = light.sample(aim.centre, random.next2D());
   if (!sample || !(sample->pdf > 0)) return std::nullopt;
   const Vec2f onDisk = concentricSampleDisk(random.next2D());
   const Frame frame(-sample->direction);
-  const float away = length(castersCentre_) + 2 * scene_.geometry().extent() + castersRadius_;
+  const Vec3f across = aim.centre + frame.toWorld({onDisk.x, onDisk.y, 0}) * aim.radius;
+  // The density of that line across the light's other targets' disks too, each relative to
+  // this one's (its choice over its disk's area).
+  const float chosen = startProbability(startIndex);
+  float density = 0;
+  for (size_t other = starts_[startIndex].lightsFirst; other < starts_[startIndex].lightsEnd;
+       ++other) {
+    const Target& also = targets_[starts_[other].target];
+    const Vec3f fromLine = also.centre - across;
+    const Vec3f offLine = fromLine - sample->direction * dot(fromLine, sample->direction);
+    if (other == startIndex || dot(offLine, offLine) <= also.radius * also.radius) {
+      const float areas = (aim.radius * aim.radius) / (also.radius * also.radius);
+      density += startProbability(other) / chosen * areas;
+    }
+  }
+  const float away = length(aim.centre) + 2 * scene_.geometry().extent() + aim.radius;
   Ray ray;
-  ray.origin = castersCentre_ + frame.toWorld({onDisk.x, onDisk.y, 0}) * castersRadius_ +
-               sample->direction * away;
+  ray.origin = across + sample->direction * away;
   ray.direction = -sample->direction;
-  const float diskArea = kPi * castersRadius_ * castersRadius_;
-  return LightPathStart{ray, sample->radiance * (diskArea / sample->pdf)};
+  const float diskArea = kPi * aim.radius * aim.radius;
+  return LightPathStart{ray, sample->radiance * (diskArea / density / sample->pdf)};
+}
+
+std::optional<float> CausticTracer::coneTowards(const Target& target, const Vec3f& from) {
+  const Vec3f toCentre = target.centre - from;
+  const float distance2 = dot(toCentre, toCentre);
+  const float radius2 = target.radius * target.radius;
+  if (!(distance2 > radius2)) return std::nullopt;
+  // 1 − cos of the cone's half angle, sin² / (1 + cos) for precision with small cones.
+  const float sin2 = radius2 / distance2;
+  return sin2 / (1 + std::sqrt(std::max(0.0f, 1 - sin2)));
+}
+
+float CausticTracer::startProbability(size_t index) const {
+  return startCdf_[index] - (index > 0 ? startCdf_[index - 1] : 0.0f);
 }
 
 void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats) const {
   RandomStream random(seed_, path, kLightPathTag, sample, 0);
   const float choice = random.next();
   const size_t slot =
-      size_t(std::lower_bound(lightCdf_.begin(), lightCdf_.end(), choice) - lightCdf_.begin());
-  const size_t taken = std::min(slot, lightCdf_.size() - 1);
-  const float choiceProbability = lightCdf_[taken] - (taken > 0 ? lightCdf_[taken - 1] : 0.0f);
-  const Light& light = scene_.lights().all()[lightIndices_[taken]];
+      size_t(std::lower_bound(startCdf_.begin(), startCdf_.end(), choice) - startCdf_.begin());
+  const size_t startIndex = std::min(slot, startCdf_.size() - 1);
+  const float choiceProbability = startProbability(startIndex);
+  const uint32_t lightIndex = starts_[startIndex].light;
+  const Light& light = scene_.lights().all()[lightIndex];
   const std::optional<LightPathStart> start = light.type() == LightType::Distant
-                                                  ? startFromAfar(light, random)
-                                                  : startOnSurface(light, random);
+                                                  ? startFromAfar(light, startIndex, random)
+                                                  : startOnSurface(light, startIndex, random);
   if (!start) return;
   Ray ray = start->ray;
   ray.time = random.next();
@@ -214,12 +308,17 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
     const std::optional<SurfaceHit> hit = intersectSurface(scene_, ray, RayKind::Secondary);
     if (!hit) return;
     const Vec3f towardsLight = -ray.direction;
-    if (takeover_.isCaster(hit->materialIndex)) {
+    // An AboveDiffuse caster only as the light's first: further on, it receives.
+    const CasterKind kind = takeover_.casterKind(hit->materialIndex);
+    const bool aboveDiffuse = kind == CasterKind::AboveDiffuse && casters == 0;
+    if (kind == CasterKind::Whole || aboveDiffuse) {
       if (casters == takeover_.maxCasters()) return;
+      if (aboveDiffuse && !takeover_.takesLightAboveDiffuse(lightIndex)) return;
       const PreviewSurfaceBsdf bsdf = bsdfAt(*hit);
       const float lobeChoice = random.next();
       const std::optional<BsdfSample> scattered =
-          bsdf.sample(towardsLight, lobeChoice, random.next2D());
+          aboveDiffuse ? bsdf.sampleAboveDiffuse(towardsLight, lobeChoice, random.next2D())
+                       : bsdf.sample(towardsLight, lobeChoice, random.next2D());
       if (!scattered || isBlack(scattered->weight)) return;
       const Vec3f& next = scattered->direction;
       if ((dot(next, hit->normal) * dot(towardsLight, hit->normal) < 0) != scattered->transmitted)

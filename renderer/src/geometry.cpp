@@ -204,15 +204,16 @@ Geometry::Box Geometry::worldBounds(const Placement& placement, bool enabled) co
   return box;
 }
 
-std::pair<Vec3f, Vec3f> Geometry::boundsWhere(
-    const std::function<bool(int materialIndex)>& select) const {
-  Box box;
+void Geometry::forEachObjectBounds(const std::function<void(int materialIndex, const Vec3f& lower,
+                                                            const Vec3f& upper)>& visit) const {
   for (const std::unique_ptr<MeshRecord>& mesh : meshes_) {
-    if (!mesh || !renderable(*mesh) || !select(mesh->materialIndex)) continue;
-    if (mesh->own) box.extend(worldBounds(*mesh->own, mesh->ownEnabled));
-    for (const InstancerId id : mesh->instancers) box.extend(instancer(id).bounds);
+    if (!mesh || !renderable(*mesh)) continue;
+    const auto visitBox = [&](const Box& box) {
+      if (box.lower.x <= box.upper.x) visit(mesh->materialIndex, box.lower, box.upper);
+    };
+    if (mesh->own) visitBox(worldBounds(*mesh->own, mesh->ownEnabled));
+    for (const InstancerId id : mesh->instancers) visitBox(instancer(id).bounds);
   }
-  return {box.lower, box.upper};
 }
 
 bool Geometry::hidesFromRays() const {

@@ -99,13 +99,19 @@ struct CameraSampleView {
 /// Camera rays find the emission of the lights that `cameraSample` integrates over their image
 /// all the same (for depth and alpha) but do not add it. Where the origin gave the constant
 /// domes a share of 0 and `domeSamplingShift` is given, what a share of 1 would have taken from
-/// this ray's light is subtracted there. The lights `leftToLightTracing` takes add nothing
-/// (where the ray is on a path it takes).
+/// this ray's light is subtracted there. Of the lights the light tracer takes, on a path it
+/// takes (`leftToLightTracing`), nothing is added, or the share `kept` past an AboveDiffuse
+/// caster.
+struct LeftToLightTracing {
+  const CausticTakeover& takeover;
+  bool pastAboveDiffuse;
+  Vec3f kept;
+};
 Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escaped,
                       const ScatteringRecord& origin, DirectLighting mode,
                       const PathSpectrum& spectrum, const CameraSampleView& cameraSample,
                       float* nearestLight, bool* sawLight, Vec3f* domeSamplingShift,
-                      const CausticTakeover* leftToLightTracing) {
+                      const LeftToLightTracing* leftToLightTracing) {
   const std::vector<Light>& lights = scene.lights().all();
   Vec3f total{0.0f};
   float nearest = kInfinity;
@@ -118,7 +124,12 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     nearest = std::min(nearest, hit.distance);
     *sawLight = true;
     if (!origin.fromSurface && cameraSample.integrates(index)) return;
-    if (leftToLightTracing && leftToLightTracing->takesLight(index)) return;
+    const bool sharedWithLightTracing = leftToLightTracing &&
+                                        leftToLightTracing->pastAboveDiffuse &&
+                                        leftToLightTracing->takeover.takesLightAboveDiffuse(index);
+    if (leftToLightTracing && !leftToLightTracing->pastAboveDiffuse &&
+        leftToLightTracing->takeover.takesLight(index))
+      return;
     const float weight = bsdfStrategyWeight(scene, origin, index, hit.pdf, mode);
     // Camera rays see lights as they are; reflected light is scaled by the lobe's multiplier.
     const float multiplier = !origin.fromSurface ? 1.0f
@@ -130,7 +141,8 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
       if (domeSamplingShift) *domeSamplingShift += emitted * (weight - 1);
       return;
     }
-    total += spectrum.emission(hit.radiance) * (weight * multiplier);
+    const Vec3f emitted = spectrum.emission(hit.radiance) * (weight * multiplier);
+    total += sharedWithLightTracing ? emitted * leftToLightTracing->kept : emitted;
   };
   scene.lights().forEachLightHit(ray, tMax, add);
   if (escaped)
@@ -675,6 +687,11 @@ struct PathState {
   /// Casters met since a first surface that receives caustics (IntegratorSettings::caustics);
   /// -1 once anything else was met, or where the first surface does not receive them.
   int castersSinceFirstSurface = -1;
+  /// The last of them is an AboveDiffuse caster (CasterKind), the last such a path may have.
+  bool pastAboveDiffuse = false;
+  /// There, the share of the light along the ray it scattered that the path tracer keeps: the
+  /// diffuse layer's part of the BSDF's value, per channel.
+  Vec3f keptAboveDiffuse{0.0f};
 
   /// Turns the path at its first surface into branch `index` of `branches` of camera sample
   /// `sampleIndex`: its dimensions from here on take sample index sampleIndex · branches +
@@ -817,7 +834,13 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       // linked lights alone, with the same choice probabilities (unbiased, as BSDF-sampled
       // hits on it add nothing either).
       if (scene.geometry().linking().lightExcluded(linkingClass, light.linkSlot())) return;
-      if (causticPath() && settings.caustics->takesLight(choice.index)) return;
+      // Past an AboveDiffuse caster, the path tracer keeps the diffuse layer's part of the
+      // light the light tracer takes; past a Whole one, nothing.
+      const bool pastAboveDiffuse = path.pastAboveDiffuse;
+      const bool taken = causticPath() &&
+                         (pastAboveDiffuse ? settings.caustics->takesLightAboveDiffuse(choice.index)
+                                           : settings.caustics->takesLight(choice.index));
+      if (taken && !pastAboveDiffuse) return;
       const bool shared = constantDomeShare < 1 && light.isConstantDome();
       const bool unsampled = shared && constantDomeShare == 0;
       if (unsampled && !measuringDomes) return;
@@ -857,8 +880,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const float weight = weighed ? powerHeuristic(float(estimates) * lightPdf, evaluated.pdf) *
                                          (shared && !unsampled ? constantDomeShare : 1.0f)
                                    : 1.0f;
-      const Vec3f response =
-          diffusePart * light.diffuseMultiplier() + (f - diffusePart) * light.specularMultiplier();
+      const Vec3f response = taken ? diffusePart * light.diffuseMultiplier()
+                                   : diffusePart * light.diffuseMultiplier() +
+                                         (f - diffusePart) * light.specularMultiplier();
       const Vec3f contribution =
           clampIndirect(throughput * transmittance * response *
                             spectrum.emission(sample->radiance) * (weight / lightPdf),
@@ -909,6 +933,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       // Light met by this ray has `bounce` interactions behind it, plus its emission. Lights in
       // front of a collision in a medium take the path's weight from before the flight (exact
       // for grey media, whose tracking leaves the weight as it is).
+      const std::optional<LeftToLightTracing> leftToLightTracing =
+          causticPath() ? std::optional<LeftToLightTracing>(
+                              {*settings.caustics, path.pastAboveDiffuse, path.keptAboveDiffuse})
+                        : std::nullopt;
       addLight(
           clampIndirect((passed ? throughput : throughputBeforeFlight) *
                             emittedAlongRay(scene, ray,
@@ -918,7 +946,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                                             !hit && passed, scattering, settings.directLighting,
                                             spectrum, cameraSample, &nearestLight, &sawLight,
                                             measuringDomes ? &escapedDomeShift : nullptr,
-                                            causticPath() ? settings.caustics : nullptr),
+                                            leftToLightTracing ? &*leftToLightTracing : nullptr),
                         bounce, settings.indirectClamp));
       if (measuringDomes)
         domeSamplingShift += (passed ? throughput : throughputBeforeFlight) * escapedDomeShift;
@@ -1000,12 +1028,16 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const MaterialParams& material = hit->material();
       if (settings.caustics) {
         int& casters = path.castersSinceFirstSurface;
-        if (bounce == 0)
-          casters = !settings.caustics->isCaster(hit->materialIndex) && receivesCaustics(material)
-                        ? 0
-                        : -1;
-        else if (casters >= 0)
-          casters = settings.caustics->isCaster(hit->materialIndex) ? casters + 1 : -1;
+        const CasterKind kind = settings.caustics->casterKind(hit->materialIndex);
+        if (bounce == 0) {
+          casters = kind != CasterKind::Whole && receivesCaustics(material) ? 0 : -1;
+          path.pastAboveDiffuse = false;
+        } else if (casters >= 0) {
+          // An AboveDiffuse caster ends the casters a path takes.
+          const bool more = !path.pastAboveDiffuse && kind != CasterKind::None;
+          casters = more ? casters + 1 : -1;
+          path.pastAboveDiffuse = more && kind == CasterKind::AboveDiffuse;
+        }
       }
       const bool dispersive =
           spectrum.spectral && !material.hair && material.abbeNumber > 0 && material.opacity < 1;
@@ -1068,6 +1100,18 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         if ((dot(scattered->direction, hit->normal) * dot(wo, hit->normal) < 0) !=
             scattered->transmitted)
           return false;
+        if (causticPath() && path.pastAboveDiffuse) {
+          // The light tracer takes the rest of what lights the path finds along this ray.
+          Vec3f diffusePart{0.0f};
+          const Vec3f f = scattered->isDelta
+                              ? Vec3f(0.0f)
+                              : bsdf.evaluate(wo, scattered->direction, &diffusePart);
+          const auto share = [](float part, float whole) {
+            return whole > 0 ? part / whole : 0.0f;
+          };
+          path.keptAboveDiffuse = {share(diffusePart.x, f.x), share(diffusePart.y, f.y),
+                                   share(diffusePart.z, f.z)};
+        }
         throughput *= scattered->weight;
         if (scattered->heroOnly) spectrum.wavelengths.keepHeroOnly();
         if (training && guided && !scattered->isDelta && path.pathIndex == 0)

@@ -378,6 +378,53 @@ TEST(BsdfSample, WeightIsEvaluateOverPdf) {
   EXPECT_GT(checked, 1000);
 }
 
+// The light tracer takes the light of a plastic's layers above its diffuse one
+// (caustics.h): sampled alone, they must integrate to what the whole BSDF's samples give for
+// evaluate() less its diffuse part. Rough and mirror-like specular layers, with a clearcoat.
+TEST(BsdfSample, AboveDiffuseIntegratesTheLayersOverTheDiffuseOne) {
+  MaterialParams m;
+  m.diffuseColor = Vec3f(0.8f, 0.2f, 0.1f);
+  m.clearcoat = 0.5f;
+  m.clearcoatRoughness = 0.1f;
+  for (float roughness : {0.3f, 0.0f}) {
+    m.roughness = roughness;
+    const PreviewSurfaceBsdf bsdf = makeBsdf(m);
+    for (float cosTheta : {0.9f, 0.4f, -0.6f}) {
+      const Vec3f wo = directionAt(cosTheta);
+      constexpr uint32_t kSamples = 1 << 18;
+      std::array<double, 3> above{}, reference{};
+      for (uint32_t i = 0; i < kSamples; ++i) {
+        SampleStream stream(3, 3, 3, i);
+        const float uLobe = stream.next1D();
+        const Vec2f u = stream.next2D();
+        if (const std::optional<BsdfSample> s = bsdf.sampleAboveDiffuse(wo, uLobe, u)) {
+          ASSERT_GT(s->pdf, 0);
+          ASSERT_NE(s->lobe, BsdfLobe::Diffuse);
+          ASSERT_FALSE(s->transmitted);
+          if (!s->isDelta) {  // its weight is the part above the diffuse layer over its density
+            Vec3f diffusePart;
+            const Vec3f f = bsdf.evaluate(wo, s->direction, &diffusePart);
+            for (int c = 0; c < 3; ++c)
+              ASSERT_NEAR(s->weight[c] * s->pdf, f[c] - diffusePart[c], 1e-4f * f[c] + 1e-7f);
+          }
+          for (int c = 0; c < 3; ++c) above[size_t(c)] += s->weight[c];
+        }
+        if (const std::optional<BsdfSample> s = bsdf.sample(wo, uLobe, u)) {
+          Vec3f diffusePart;
+          const Vec3f f = s->isDelta ? Vec3f(0.0f) : bsdf.evaluate(wo, s->direction, &diffusePart);
+          for (int c = 0; c < 3; ++c)
+            reference[size_t(c)] += s->isDelta ? s->weight[c] : (f[c] - diffusePart[c]) / s->pdf;
+        }
+      }
+      for (size_t c = 0; c < 3; ++c) {
+        EXPECT_GT(reference[c], 0.02 * kSamples);  // what lies above: Fresnel's share at least
+        EXPECT_NEAR(above[c] / reference[c], 1.0, 0.01)
+            << "roughness " << roughness << ", cos θo " << cosTheta << ", channel " << c;
+      }
+    }
+  }
+}
+
 // The integrator takes both from one call where it needs both: they must be the very same bits.
 TEST(BsdfEvaluate, WithPdfIsEvaluateAndPdfBitForBit) {
   const MaterialParams layered = layeredMaterial();

@@ -165,6 +165,13 @@ class PreviewSurfaceBsdf {
   /// Non-delta samples are weighted against the whole BSDF (weight = evaluate / pdf), so the
   /// result does not depend on which lobe produced the direction. Empty when nothing scatters.
   std::optional<BsdfSample> sample(const Vec3f& wo, float uLobe, Vec2f u) const;
+  /// sample() among the lobes above the diffuse layer alone (clearcoat, and the specular layer's
+  /// single and multiple scattering), chosen in the same proportions: `weight` is what
+  /// evaluate() gives less its diffusePart, over `pdf`, the density of this sampling (for a
+  /// delta lobe, its probability here). For the light tracer, which takes that part of a
+  /// material's light (caustics.h). Only for opaque materials without sheen or subsurface
+  /// scattering; empty where those lobes scatter nothing.
+  std::optional<BsdfSample> sampleAboveDiffuse(const Vec3f& wo, float uLobe, Vec2f u) const;
 
   /// Dispersion, for paths that carry three wavelengths (channel i at wavelength i, the hero
   /// first): gives each channel its index of refraction (`channelIors.x` the hero's, the

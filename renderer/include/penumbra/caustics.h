@@ -6,9 +6,11 @@
 // LightPathIntegrator).
 //
 // The two share the work exactly: the path tracer leaves out the light of the lamps this tracer
-// takes (CausticTakeover::takesLight) on paths whose first surface receives (receives()) and
-// whose later vertices, one to maxCasters() of them, are all casters; the light tracer adds
-// exactly those paths. Together they are unbiased.
+// takes (CausticTakeover::takesLight) on paths whose first surface receives (receivesCaustics)
+// and whose later vertices, one to maxCasters() of them, are all casters; the light tracer adds
+// exactly those paths. Where the last of them (the lamp's side) is a caster above a diffuse
+// layer (CasterKind::AboveDiffuse: smooth plastic), the path tracer keeps that layer's part and
+// the light tracer adds the rest. Together they are unbiased.
 #pragma once
 
 #include <atomic>
@@ -39,6 +41,18 @@ constexpr float kCausticMaxRoughness = 0.4f;
 /// narrow.
 bool castsCaustics(const MaterialParams& material);
 
+/// How a material takes part in the light tracer's paths.
+enum class CasterKind : uint8_t {
+  None,
+  /// castsCaustics: every lobe is narrow, and light passes one to maxCasters() such surfaces.
+  Whole,
+  /// Opaque and no caster, but its layers above the diffuse one (specular, clearcoat) are
+  /// smooth, as on plastic or lacquer: the light tracer takes their light where they are the
+  /// first surface its path meets; the diffuse layer's light stays with the path tracer.
+  AboveDiffuse,
+};
+CasterKind casterKind(const MaterialParams& material);
+
 /// Whether a surface can receive caustics from the light tracer: it is no caster, no hair fibre
 /// and has no subsurface scattering (its BSDF is evaluated between any two directions).
 bool receivesCaustics(const MaterialParams& material);
@@ -47,24 +61,44 @@ bool receivesCaustics(const MaterialParams& material);
 class CausticTakeover {
  public:
   CausticTakeover() = default;
-  CausticTakeover(std::vector<uint8_t> casterMaterials, std::vector<uint8_t> lights, int maxCasters)
+  /// How each light `index` (LightSet::all()) is taken.
+  enum class LightTaken : uint8_t {
+    No,
+    /// Through Whole casters alone.
+    PastWholeCasters,
+    /// Through AboveDiffuse casters too: its diffuse and specular multipliers are equal (the
+    /// path tracer weighs light it samples by the lobe it sampled, which the two tracers'
+    /// shares of an AboveDiffuse surface do not follow).
+    PastEveryCaster,
+  };
+  CausticTakeover(std::vector<CasterKind> casterMaterials, std::vector<LightTaken> lights,
+                  int maxCasters)
       : casterMaterials_(std::move(casterMaterials)),
         lights_(std::move(lights)),
         maxCasters_(maxCasters) {}
 
-  /// Whether material `index` (MaterialTable's; kNoMaterial for none) is a caster.
-  bool isCaster(int index) const {
-    return index >= 0 && size_t(index) < casterMaterials_.size() && casterMaterials_[size_t(index)];
+  /// How material `index` (MaterialTable's; kNoMaterial for none) casts.
+  CasterKind casterKind(int index) const {
+    return index >= 0 && size_t(index) < casterMaterials_.size() ? casterMaterials_[size_t(index)]
+                                                                 : CasterKind::None;
   }
+  /// Whether material `index` is a Whole caster.
+  bool isCaster(int index) const { return casterKind(index) == CasterKind::Whole; }
   /// Whether the light tracer starts paths on light `index` (LightSet::all()).
-  bool takesLight(size_t index) const { return index < lights_.size() && lights_[index]; }
+  bool takesLight(size_t index) const {
+    return index < lights_.size() && lights_[index] != LightTaken::No;
+  }
+  /// Whether it takes that light's part above the diffuse layer of AboveDiffuse casters too.
+  bool takesLightAboveDiffuse(size_t index) const {
+    return index < lights_.size() && lights_[index] == LightTaken::PastEveryCaster;
+  }
   /// The most casters between a light and the receiving surface on the paths taken: paths with
   /// more stay with the path tracer. Small enough that no depth limit cuts a path taken.
   int maxCasters() const { return maxCasters_; }
 
  private:
-  std::vector<uint8_t> casterMaterials_;  // by material index: 1 for a caster
-  std::vector<uint8_t> lights_;           // by light index: 1 where taken
+  std::vector<CasterKind> casterMaterials_;  // by material index
+  std::vector<LightTaken> lights_;           // by light index
   int maxCasters_ = 0;
 };
 
@@ -76,6 +110,13 @@ class CausticTracer {
   /// traces N · kPathsPerPixel · width · height of them. On the benchmark's glass ball their
   /// noise was already below the path tracer's at 0.05 (docs/caustics.md): more cost time.
   static constexpr float kPathsPerPixel = 0.1f;
+  /// Light paths aim at a sphere around each caster up to this many casters; beyond, at one
+  /// around each kind's.
+  static constexpr size_t kMaxTargets = 16;
+  /// What the power that reaches an AboveDiffuse caster counts for in choosing where light
+  /// paths aim, against a Whole caster's: about the share of light its smooth layers reflect
+  /// (docs/caustics.md).
+  static constexpr float kAboveDiffuseShare = 0.1f;
 
   /// Prepares to trace `scene` (committed) as seen by `camera` with `filter`. It takes nothing
   /// (active() is false) unless there are casters and lights it can start from, and not for
@@ -85,7 +126,7 @@ class CausticTracer {
   CausticTracer(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                 const IntegratorSettings& settings);
 
-  bool active() const { return !lightCdf_.empty(); }
+  bool active() const { return !startCdf_.empty(); }
   /// For IntegratorSettings::caustics (valid while this tracer lives).
   const CausticTakeover& takeover() const { return takeover_; }
 
@@ -108,10 +149,28 @@ class CausticTracer {
     Ray ray;
     Vec3f beta;
   };
-  /// From a sphere, rect or disk light: a point on it, a direction towards the casters.
-  std::optional<LightPathStart> startOnSurface(const Light& light, RandomStream& random) const;
-  /// From a distant light: a direction from it, a point of the casters' cross-section.
-  std::optional<LightPathStart> startFromAfar(const Light& light, RandomStream& random) const;
+  /// A sphere around casters that light paths aim at.
+  struct Target {
+    Vec3f centre;
+    float radius;
+    CasterKind kind;
+  };
+  /// A light and a target it aims at, chosen together by about the power that reaches the
+  /// target (startCdf_). A light's are consecutive: [lightsFirst, lightsEnd).
+  struct Start {
+    uint32_t light, target;
+    uint32_t lightsFirst, lightsEnd;
+  };
+  /// From a sphere, rect or disk light: a point on it, a direction towards start `startIndex`'s
+  /// target.
+  std::optional<LightPathStart> startOnSurface(const Light& light, size_t startIndex,
+                                               RandomStream& random) const;
+  /// From a distant light: a direction from it, a point of the target's cross-section.
+  std::optional<LightPathStart> startFromAfar(const Light& light, size_t startIndex,
+                                              RandomStream& random) const;
+  /// 1 − cos of the half angle of the cone from `from` around `target`; empty within it.
+  static std::optional<float> coneTowards(const Target& target, const Vec3f& from);
+  float startProbability(size_t index) const;
   /// Traces light path `path` of sample index `sample`, appending its splats.
   void tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats) const;
 
@@ -121,10 +180,9 @@ class CausticTracer {
   uint32_t seed_ = 0;
   CausticTakeover takeover_;
   uint32_t pathsPerSample_ = 0;
-  Vec3f castersCentre_{0.0f};
-  float castersRadius_ = 0;
-  std::vector<uint32_t> lightIndices_;  // the lights taken
-  std::vector<float> lightCdf_;         // choosing among them by power, ascending to 1
+  std::vector<Target> targets_;
+  std::vector<Start> starts_;
+  std::vector<float> startCdf_;  // choosing among starts_, ascending to 1
 };
 
 }  // namespace penumbra

@@ -225,10 +225,11 @@ class Geometry {
   bool occluded(const Ray& ray, int linkSlot = -1) const;
   /// The widest value of primvar `name` on any mesh or instancer (0: none has it).
   int primvarWidth(const PrimvarName& name) const;
-  /// The world box (lower, upper) around every shown placement, over the shutter, of the
-  /// objects whose material index satisfies `select`: their own placements and their
-  /// instancers' copies. Empty (lower > upper) where there are none.
-  std::pair<Vec3f, Vec3f> boundsWhere(const std::function<bool(int materialIndex)>& select) const;
+  /// Calls `visit` with the material index and the world box (lower, upper), over the shutter,
+  /// of each shown mesh's own placement and of each instancer's copies of it, in the meshes'
+  /// order.
+  void forEachObjectBounds(const std::function<void(int materialIndex, const Vec3f& lower,
+                                                    const Vec3f& upper)>& visit) const;
   /// Whether a shown object is hidden from some rays leaving surfaces or from shadow rays (its
   /// PassVisibility's ray visibility).
   bool hidesFromRays() const;
