@@ -116,9 +116,9 @@ std::vector<RenderOption> buildRenderOptions() {
                                "converge sooner, biased"));
   RenderOption& caustics = options.emplace_back(levelOption(
       "caustics", &Settings::caustics, {"path", "light"},
-      "how light that passes smooth glass or metal onto the surfaces camera rays meet is found: "
-      "light also traces paths from the lamps through the glass and metal and joins them to "
-      "the camera; path leaves it to the path tracer, which finds a lamp through glass only by "
+      "how light that passes smooth glass or metal, or that smooth plastic reflects, onto the "
+      "surfaces camera rays meet is found: light also traces paths from the lamps through the "
+      "glass, metal and plastic and joins them to the camera; path leaves it to the path tracer, which finds a lamp through glass only by "
       "chance (fireflies; Penumbra's images before 2026-12-06). Unbiased either way "
       "(docs/caustics.md)"));
   caustics.defaultValue = caustics.frontEndDefault = 1;
