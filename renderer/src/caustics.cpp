@@ -57,9 +57,12 @@ CasterKind casterKind(const MaterialParams& material) {
   const auto smooth = [](float roughness) { return roughness <= kCausticMaxRoughness; };
   const bool smoothAboveDiffuse = smooth(material.roughness) &&
                                   !(material.clearcoat > 0 && !smooth(material.clearcoatRoughness));
-  const bool plain = !material.hair && !(material.subsurface > 0) && !(material.sheen > 0);
-  return plain && material.opacity >= 1 && smoothAboveDiffuse ? CasterKind::AboveDiffuse
-                                                              : CasterKind::None;
+  return smoothAboveDiffuse && splitsAboveDiffuse(material) ? CasterKind::AboveDiffuse
+                                                            : CasterKind::None;
+}
+
+bool splitsAboveDiffuse(const MaterialParams& atHit) {
+  return !atHit.hair && !(atHit.subsurface > 0) && !(atHit.sheen > 0) && atHit.opacity >= 1;
 }
 
 bool receivesCaustics(const MaterialParams& material) {
@@ -309,7 +312,7 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
     if (!hit) return;
     const Vec3f towardsLight = -ray.direction;
     // An AboveDiffuse caster only as the light's first: further on, it receives.
-    const CasterKind kind = takeover_.casterKind(hit->materialIndex);
+    const CasterKind kind = takeover_.casterKindAt(hit->materialIndex, hit->material());
     const bool aboveDiffuse = kind == CasterKind::AboveDiffuse && casters == 0;
     if (kind == CasterKind::Whole || aboveDiffuse) {
       if (casters == takeover_.maxCasters()) return;

@@ -1028,7 +1028,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const MaterialParams& material = hit->material();
       if (settings.caustics) {
         int& casters = path.castersSinceFirstSurface;
-        const CasterKind kind = settings.caustics->casterKind(hit->materialIndex);
+        const CasterKind kind = settings.caustics->casterKindAt(hit->materialIndex, material);
         if (bounce == 0) {
           casters = kind != CasterKind::Whole && receivesCaustics(material) ? 0 : -1;
           path.pastAboveDiffuse = false;

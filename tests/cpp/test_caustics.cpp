@@ -133,6 +133,14 @@ TEST(Caustics, CastersAreSmoothGlassMetalAndPlastic) {
   for (const MaterialParams& other :
        {frosted, coated, hair, roughPlastic, velvet, translucent, roughCoat})
     EXPECT_EQ(casterKind(other), CasterKind::None);
+  // Textures may give a plastic's hit a sheen or translucency its constants lack: that hit is
+  // then no caster, for both tracers alike.
+  const CausticTakeover takeover({CasterKind::AboveDiffuse, CasterKind::Whole}, {}, 3);
+  EXPECT_EQ(takeover.casterKindAt(0, plastic), CasterKind::AboveDiffuse);
+  EXPECT_EQ(takeover.casterKindAt(0, velvet), CasterKind::None);
+  EXPECT_EQ(takeover.casterKindAt(0, translucent), CasterKind::None);
+  EXPECT_EQ(takeover.casterKindAt(1, velvet), CasterKind::Whole);
+  EXPECT_EQ(takeover.casterKindAt(2, plastic), CasterKind::None);  // no such material
 }
 
 TEST(Caustics, AFilmAddsItsLightTracedSumsOverTheLightPaths) {

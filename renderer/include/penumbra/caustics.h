@@ -53,6 +53,11 @@ enum class CasterKind : uint8_t {
 };
 CasterKind casterKind(const MaterialParams& material);
 
+/// Whether the BSDF at a hit splits at its diffuse layer as the two tracers share an
+/// AboveDiffuse caster's light: opaque there, without sheen, subsurface scattering or hair.
+/// Textures may give a hit what its material's constants, which casterKind reads, lack.
+bool splitsAboveDiffuse(const MaterialParams& atHit);
+
 /// Whether a surface can receive caustics from the light tracer: it is no caster, no hair fibre
 /// and has no subsurface scattering (its BSDF is evaluated between any two directions).
 bool receivesCaustics(const MaterialParams& material);
@@ -81,6 +86,13 @@ class CausticTakeover {
   CasterKind casterKind(int index) const {
     return index >= 0 && size_t(index) < casterMaterials_.size() ? casterMaterials_[size_t(index)]
                                                                  : CasterKind::None;
+  }
+  /// How a hit of material `index` whose (textured) parameters are `atHit` casts: as its
+  /// material, but no AboveDiffuse caster where its BSDF there does not split
+  /// (splitsAboveDiffuse). Both tracers classify their hits by it.
+  CasterKind casterKindAt(int index, const MaterialParams& atHit) const {
+    const CasterKind kind = casterKind(index);
+    return kind == CasterKind::AboveDiffuse && !splitsAboveDiffuse(atHit) ? CasterKind::None : kind;
   }
   /// Whether material `index` is a Whole caster.
   bool isCaster(int index) const { return casterKind(index) == CasterKind::Whole; }
