@@ -598,7 +598,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sampleAboveDiffuse(const Vec3f& wo
     result->pdf /= above;
     return result;
   }
-  OrientedPair pair = orient(frame_, woWorld, result->direction);
+  const OrientedPair pair = orient(frame_, woWorld, result->direction);
   Outgoing withoutDiffuse = forWo;
   withoutDiffuse.probabilities.diffuse = 0;
   const Reflection reflected = reflection(pair.wo, pair.wi);
