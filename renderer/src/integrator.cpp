@@ -124,12 +124,9 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     nearest = std::min(nearest, hit.distance);
     *sawLight = true;
     if (!origin.fromSurface && cameraSample.integrates(index)) return;
-    const bool sharedWithLightTracing = leftToLightTracing &&
-                                        leftToLightTracing->pastAboveDiffuse &&
-                                        leftToLightTracing->takeover.takesLightAboveDiffuse(index);
-    if (leftToLightTracing && !leftToLightTracing->pastAboveDiffuse &&
-        leftToLightTracing->takeover.takesLight(index))
-      return;
+    const bool taken = leftToLightTracing && leftToLightTracing->takeover.takesLightPast(
+                                                 index, leftToLightTracing->pastAboveDiffuse);
+    if (taken && !leftToLightTracing->pastAboveDiffuse) return;
     const float weight = bsdfStrategyWeight(scene, origin, index, hit.pdf, mode);
     // Camera rays see lights as they are; reflected light is scaled by the lobe's multiplier.
     const float multiplier = !origin.fromSurface ? 1.0f
@@ -142,7 +139,7 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
       return;
     }
     const Vec3f emitted = spectrum.emission(hit.radiance) * (weight * multiplier);
-    total += sharedWithLightTracing ? emitted * leftToLightTracing->kept : emitted;
+    total += taken ? emitted * leftToLightTracing->kept : emitted;
   };
   scene.lights().forEachLightHit(ray, tMax, add);
   if (escaped)
@@ -836,11 +833,9 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (scene.geometry().linking().lightExcluded(linkingClass, light.linkSlot())) return;
       // Past an AboveDiffuse caster, the path tracer keeps the diffuse layer's part of the
       // light the light tracer takes; past a Whole one, nothing.
-      const bool pastAboveDiffuse = path.pastAboveDiffuse;
-      const bool taken = causticPath() &&
-                         (pastAboveDiffuse ? settings.caustics->takesLightAboveDiffuse(choice.index)
-                                           : settings.caustics->takesLight(choice.index));
-      if (taken && !pastAboveDiffuse) return;
+      const bool taken =
+          causticPath() && settings.caustics->takesLightPast(choice.index, path.pastAboveDiffuse);
+      if (taken && !path.pastAboveDiffuse) return;
       const bool shared = constantDomeShare < 1 && light.isConstantDome();
       const bool unsampled = shared && constantDomeShare == 0;
       if (unsampled && !measuringDomes) return;

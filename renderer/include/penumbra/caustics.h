@@ -104,6 +104,11 @@ class CausticTakeover {
   bool takesLightAboveDiffuse(size_t index) const {
     return index < lights_.size() && lights_[index] == LightTaken::PastEveryCaster;
   }
+  /// Whether it takes light `index` on a path it takes whose last caster is AboveDiffuse or not:
+  /// all of it past a Whole caster, the part above the diffuse layer past an AboveDiffuse one.
+  bool takesLightPast(size_t index, bool pastAboveDiffuse) const {
+    return pastAboveDiffuse ? takesLightAboveDiffuse(index) : takesLight(index);
+  }
   /// The most casters between a light and the receiving surface on the paths taken: paths with
   /// more stay with the path tracer. Small enough that no depth limit cuts a path taken.
   int maxCasters() const { return maxCasters_; }
