@@ -118,7 +118,8 @@ std::vector<RenderOption> buildRenderOptions() {
       "caustics", &Settings::caustics, {"path", "light"},
       "how light that passes smooth glass or metal, or that smooth plastic reflects, onto the "
       "surfaces camera rays meet is found: light also traces paths from the lamps through the "
-      "glass, metal and plastic and joins them to the camera; path leaves it to the path tracer, which finds a lamp through glass only by "
+      "glass, metal and plastic and joins them to the camera; path leaves it to the path tracer, "
+      "which finds a lamp through glass only by "
       "chance (fireflies; Penumbra's images before 2026-12-06). Unbiased either way "
       "(docs/caustics.md)"));
   caustics.defaultValue = caustics.frontEndDefault = 1;
