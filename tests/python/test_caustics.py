@@ -9,8 +9,7 @@ import pytest
 from pxr import Gf, UsdLux
 
 import penumbra
-from penumbra import _core
-from penumbra.cli import main
+from farm_bands import assert_farm_bands_match_local
 from stages import add_camera, add_preview_material, add_quad, add_sphere_mesh, bind, new_stage
 
 LIGHT = dict(width=32, samples=8, caustics="light")
@@ -61,11 +60,7 @@ def test_light_traced_images_are_bit_identical_across_threads_and_regions(glass_
 def test_farm_bands_of_a_light_traced_frame_are_bit_identical_to_a_local_render(
         glass_ball, tmp_path, capsys):
     flags = ["-w", "32", "-spp", "8", "--caustics", "light"]
-    local, farm = tmp_path / "local.exr", tmp_path / "farm.exr"
-    assert main([str(glass_ball), str(local), *flags, "-q"]) == 0
-    assert main([str(glass_ball), str(farm), *flags, "--workers", "2"]) == 0
-    assert "tiles on 2 workers" in capsys.readouterr().out
-    assert np.array_equal(_core.read_image(str(farm))[0], _core.read_image(str(local))[0])
+    assert_farm_bands_match_local(glass_ball, flags, tmp_path, capsys)
 
 
 class Interrupted(Exception):

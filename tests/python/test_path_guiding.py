@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 import penumbra
-from penumbra import _core
-from penumbra.cli import main
+from farm_bands import assert_farm_bands_match_local
 from stages import CORNELL
 
 GUIDED = dict(width=64, samples=16, guiding_training_samples=4)
@@ -33,11 +32,7 @@ def test_a_region_of_a_guided_render_is_the_whole_images_pixels():
 
 def test_farm_bands_of_a_guided_frame_are_bit_identical_to_a_local_render(tmp_path, capsys):
     flags = ["-w", "64", "-spp", "12", "--guidingTrainingSamples", "4"]
-    local, farm = tmp_path / "local.exr", tmp_path / "farm.exr"
-    assert main([str(CORNELL), str(local), *flags, "-q"]) == 0
-    assert main([str(CORNELL), str(farm), *flags, "--workers", "2"]) == 0
-    assert "tiles on 2 workers" in capsys.readouterr().out
-    assert np.array_equal(_core.read_image(str(farm))[0], _core.read_image(str(local))[0])
+    assert_farm_bands_match_local(CORNELL, flags, tmp_path, capsys)
 
 
 def test_a_negative_training_budget_is_refused():
