@@ -557,7 +557,8 @@ def parse_args() -> argparse.Namespace:
                         help="how a constant dome is found at the first surface "
                         "(docs/dome-sampling.md; auto, the default, chooses per render)")
     parser.add_argument("--caustics", choices=("path", "light"), default="light",
-                        help="how caustics through smooth glass and metal are found "
+                        help="how caustics through smooth glass and metal, or off smooth "
+                        "plastic, are found "
                         "(docs/caustics.md; light, the default, traces them from the lamps too; "
                         "path leaves them to the path tracer)")
     parser.add_argument("--cycles-json", type=Path,
