@@ -5,6 +5,7 @@
 #include <utility>
 #include <variant>
 
+#include "path_spectrum.h"
 #include "penumbra/bsdf.h"
 #include "penumbra/caustics.h"
 #include "penumbra/guiding.h"
@@ -22,20 +23,6 @@
 
 namespace penumbra {
 namespace {
-
-/// What the path's three colour channels mean: RGB, or (in scenes with dispersion) three
-/// wavelengths, with RGB inputs upsampled to smooth spectra (Jakob & Hanika 2019).
-struct PathSpectrum {
-  bool spectral = false;
-  SampledWavelengths wavelengths;
-
-  Vec3f emission(const Vec3f& rgb) const {
-    return spectral ? RgbSpectrum::unbounded(rgb).at(wavelengths.lambda) : rgb;
-  }
-  Vec3f reflectance(const Vec3f& rgb) const {
-    return spectral ? RgbSpectrum::reflectance(rgb).at(wavelengths.lambda) : rgb;
-  }
-};
 
 /// How the ray being traced was produced, for weighting the emission it finds.
 struct ScatteringRecord {
@@ -272,14 +259,8 @@ SurfaceBsdf makePreviewSurfaceBsdf(const SurfaceHit& hit, const MaterialTable& m
     return SurfaceBsdf(kPreviewSurface, authored, hit.shadingNormal, ior, dielectricKind,
                        hit.tangent, minRoughness);
   }
-  MaterialParams material = authored;
-  material.specularColor = spectrum.reflectance(material.specularColor);
-  material.diffuseColor = spectrum.reflectance(material.diffuseColor);
-  if (material.sheen > 0) material.sheenColor = spectrum.reflectance(material.sheenColor);
-  if (material.clearcoat > 0)
-    material.clearcoatColor = spectrum.reflectance(material.clearcoatColor);
-  return SurfaceBsdf(kPreviewSurface, material, hit.shadingNormal, ior, dielectricKind, hit.tangent,
-                     minRoughness);
+  return SurfaceBsdf(kPreviewSurface, spectrum.surfaceColours(authored), hit.shadingNormal, ior,
+                     dielectricKind, hit.tangent, minRoughness);
 }
 
 /// `ior`: the material's, or its value at the hero wavelength under dispersion; `minAlpha`: the
@@ -1034,11 +1015,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           path.pastAboveDiffuse = more && kind == CasterKind::AboveDiffuse;
         }
       }
-      const bool dispersive =
-          spectrum.spectral && !material.hair && material.abbeNumber > 0 && material.opacity < 1;
-      const float ior =
-          dispersive ? dispersiveIor(material.ior, material.abbeNumber, spectrum.wavelengths.hero())
-                     : material.ior;
+      const bool dispersive = spectrum.disperses(material);
+      const float ior = spectrum.ior(material);
       const Vec3f facingNormal =
           dot(wo, hit->shadingNormal) >= 0 ? hit->shadingNormal : -hit->shadingNormal;
       SurfaceBsdf surfaceBsdf = makeBsdf(*hit, scene.materials(), spectrum, ior,
@@ -1048,9 +1026,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         // A dispersive interface sends each wavelength its own way when it refracts: there only
         // the hero's path goes on. Where the BSDF cannot tell refraction apart before sampling,
         // that holds from here on.
-        const Vec3f& lambda = spectrum.wavelengths.lambda;
-        const Vec3f iors(ior, dispersiveIor(material.ior, material.abbeNumber, lambda.y),
-                         dispersiveIor(material.ior, material.abbeNumber, lambda.z));
+        const Vec3f iors = spectrum.channelIors(material);
         if (surfaceBsdf.disperse(wo, iors, material.ior)) {
           channelIors = iors;
         } else {
