@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "on_threads.h"
+#include "path_spectrum.h"
 #include "penumbra/bsdf.h"
 #include "penumbra/film.h"
 #include "penumbra/random_stream.h"
@@ -30,11 +31,23 @@ float adjointRefractionScale(const Vec3f& from, const Vec3f& normal, float ior) 
   return ratio * ratio;
 }
 
-PreviewSurfaceBsdf bsdfAt(const SurfaceHit& hit) {
+/// The BSDF at a hit at the path's wavelengths, as the path tracer sets it up. `wo`: the
+/// direction the BSDF is sampled from or evaluated towards, as the path tracer's would be. Where
+/// the material disperses and cannot give each wavelength its own index for that direction
+/// (PreviewSurfaceBsdf::disperse), the path keeps its hero wavelength alone (and `beta` its
+/// hero's channel), as the path tracer's does.
+PreviewSurfaceBsdf bsdfAt(const SurfaceHit& hit, const Vec3f& wo, PathSpectrum& spectrum,
+                          Vec3f& beta) {
   const MaterialParams& material = hit.material();
-  return PreviewSurfaceBsdf(material, hit.shadingNormal, material.ior,
-                            hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet,
-                            hit.tangent);
+  PreviewSurfaceBsdf bsdf(
+      spectrum.surfaceColours(material), hit.shadingNormal, spectrum.ior(material),
+      hit.closed ? DielectricKind::Solid : DielectricKind::ThinSheet, hit.tangent);
+  if (spectrum.disperses(material) && !spectrum.wavelengths.heroOnly() &&
+      !bsdf.disperse(wo, spectrum.channelIors(material), material.ior)) {
+    spectrum.wavelengths.keepHeroOnly();
+    beta = {beta.x, 0, 0};
+  }
+  return bsdf;
 }
 
 }  // namespace
@@ -78,11 +91,11 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
                                    settings.maxGlossyDepth, settings.maxTransmissionDepth}) -
                          1;
   // Its rays see what Secondary rays see: every shown object.
-  const bool matched =
-      !scene.materials().spectral() && scene.volumes().empty() &&
-      !scene.geometry().hidesFromRays() && camera.params().projection == Projection::Perspective &&
-      !(settings.indirectClamp > 0) && !(settings.glossyFilter > 0) &&
-      settings.directLighting == DirectLighting::MultipleImportance && maxCasters >= 1;
+  const bool matched = scene.volumes().empty() && !scene.geometry().hidesFromRays() &&
+                       camera.params().projection == Projection::Perspective &&
+                       !(settings.indirectClamp > 0) && !(settings.glossyFilter > 0) &&
+                       settings.directLighting == DirectLighting::MultipleImportance &&
+                       maxCasters >= 1;
   if (!matched) return;
   const MaterialTable& materials = scene.materials();
   std::vector<CasterKind> casters(materials.materialCount(), CasterKind::None);
@@ -127,7 +140,8 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
     // Linked lights would need each caster's links; lights that cast no shadows, a shadow ray
     // the light tracer does not trace.
     const bool distant = light.type() == LightType::Distant;
-    if (!(light.emitsUniformly() || distant) || light.linkSlot() >= 0 || !light.castsShadows())
+    if (!(light.emitsAlikeEverywhere() || distant) || light.linkSlot() >= 0 ||
+        !light.castsShadows())
       continue;
     // AboveDiffuse casters take the light of those whose lobes' multipliers agree (LightTaken).
     const bool pastEveryCaster = light.diffuseMultiplier() == light.specularMultiplier();
@@ -238,7 +252,7 @@ std::optional<CausticTracer::LightPathStart> CausticTracer::startOnSurface(
   Ray ray;
   ray.origin = start.position + start.normal * scene_.rayEpsilon(start.position);
   ray.direction = direction;
-  return LightPathStart{ray, light.radiance() * (cosLight * light.area() / density)};
+  return LightPathStart{ray, light.radianceLeaving(direction), cosLight * light.area() / density};
 }
 
 std::optional<CausticTracer::LightPathStart> CausticTracer::startFromAfar(
@@ -271,7 +285,7 @@ std::optional<CausticTracer::LightPathStart> CausticTracer::startFromAfar(
   ray.origin = across + sample->direction * away;
   ray.direction = -sample->direction;
   const float diskArea = kPi * aim.radius * aim.radius;
-  return LightPathStart{ray, sample->radiance * (diskArea / density / sample->pdf)};
+  return LightPathStart{ray, sample->radiance, diskArea / density / sample->pdf};
 }
 
 std::optional<float> CausticTracer::coneTowards(const Target& target, const Vec3f& from) {
@@ -304,9 +318,15 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
   Ray ray = start->ray;
   ray.time = random.next();
   const float time = ray.time;
+  PathSpectrum spectrum;
+  if (scene_.materials().spectral()) {
+    spectrum.spectral = true;
+    spectrum.wavelengths = sampleWavelengths(random.next());
+  }
   // β: the light's radiance times the geometry so far, over the densities (area measure at the
   // path's last vertex).
-  Vec3f beta = start->beta * (light.specularMultiplier() / choiceProbability);
+  Vec3f beta = spectrum.emission(start->radiance) * start->weight *
+               (light.specularMultiplier() / choiceProbability);
   for (int casters = 0;; ++casters) {
     const std::optional<SurfaceHit> hit = intersectSurface(scene_, ray, RayKind::Secondary);
     if (!hit) return;
@@ -317,7 +337,7 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
     if (kind == CasterKind::Whole || aboveDiffuse) {
       if (casters == takeover_.maxCasters()) return;
       if (aboveDiffuse && !takeover_.takesLightAboveDiffuse(lightIndex)) return;
-      const PreviewSurfaceBsdf bsdf = bsdfAt(*hit);
+      const PreviewSurfaceBsdf bsdf = bsdfAt(*hit, towardsLight, spectrum, beta);
       const float lobeChoice = random.next();
       const std::optional<BsdfSample> scattered =
           aboveDiffuse ? bsdf.sampleAboveDiffuse(towardsLight, lobeChoice, random.next2D())
@@ -334,8 +354,9 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
           (std::abs(dot(towardsLight, hit->normal)) * std::abs(dot(next, hit->shadingNormal)));
       if (!std::isfinite(shadingFactor)) return;
       beta *= scattered->weight * shadingFactor;
+      if (scattered->heroOnly) spectrum.wavelengths.keepHeroOnly();
       if (scattered->transmitted && hit->closed)
-        beta *= adjointRefractionScale(towardsLight, hit->normal, hit->material().ior);
+        beta *= adjointRefractionScale(towardsLight, hit->normal, spectrum.ior(hit->material()));
       ray = spawnRay(scene_, *hit, next, kInfinity, time);
       continue;
     }
@@ -365,7 +386,8 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
       return;
     const Vec3f towardsCamera = -cameraRay.direction;
     // The path tracer's estimate there: f(towards camera, towards light) |n_s · towards light|.
-    const Vec3f f = bsdfAt(*seen).evaluate(towardsCamera, towardsLight);
+    const Vec3f f =
+        bsdfAt(*seen, towardsCamera, spectrum, beta).evaluate(towardsCamera, towardsLight);
     const float cosArrival = std::abs(dot(towardsLight, seen->normal));
     if (isBlack(f) || !(cosArrival > 0)) return;
     // Image area (pixels) per solid angle at the lens point: 1 / (s² cos³θ), s² the solid angle
@@ -374,9 +396,11 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
     const float pixelWidth = camera_.filmWidth() / (moment.focalLength * float(width));
     const float pixelHeight = camera_.filmHeight() / (moment.focalLength * float(height));
     const float imagePerSolidAngle = 1 / (pixelWidth * pixelHeight * cosAxis * cosAxis * cosAxis);
-    const Vec3f arriving = beta * f *
-                           (std::abs(dot(towardsCamera, seen->normal)) /
-                            (cosArrival * pointDistance * pointDistance) * imagePerSolidAngle);
+    const Vec3f carried = beta * f *
+                          (std::abs(dot(towardsCamera, seen->normal)) /
+                           (cosArrival * pointDistance * pointDistance) * imagePerSolidAngle);
+    const Vec3f arriving =
+        spectrum.spectral ? spectralToRgb(carried, spectrum.wavelengths) : carried;
     if (!std::isfinite(arriving.x + arriving.y + arriving.z) || !(cosAxis > 0)) return;
     // Shared among the pixels whose filter reaches it, as camera samples draw their offsets.
     const int left = std::max(0, int(std::floor(at.x - reach)));

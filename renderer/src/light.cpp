@@ -327,10 +327,10 @@ std::optional<Light::Outline> Light::outline() const {
   }
 }
 
-bool Light::emitsUniformly() const {
+bool Light::emitsAlikeEverywhere() const {
   const bool shape = params_.type == LightType::Sphere || params_.type == LightType::Rect ||
                      params_.type == LightType::Disk;
-  return shape && !isDelta() && !params_.texture && !shaped_;
+  return shape && !isDelta() && !params_.texture;
 }
 
 Light::SurfacePoint Light::sampleSurface(Vec2f u) const {

@@ -15,23 +15,36 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def test_showcase_materials_and_lights(golden):
-    # The sky sampled at the first surface as every light (docs/dome-sampling.md): the
-    # estimator this golden was made with, which `mis` keeps bit for bit.
+    # The sky sampled at the first surface as every light (docs/dome-sampling.md) and the path
+    # tracer alone: the estimator this golden was made with, which `mis` and `caustics="path"`
+    # keep bit for bit.
     image = penumbra.render(
-        str(EXAMPLES / "showcase.usda"), width=96, samples=8, threads=2, dome_sampling="mis"
+        str(EXAMPLES / "showcase.usda"), width=96, samples=8, threads=2, dome_sampling="mis",
+        caustics="path",
     )
     golden.check(image, "showcase", fail=0.02, failpercent=0.0)
 
 
 def test_showcase_with_the_dome_pilot(golden):
-    # The defaults: the dome's pilot leaves the sky to the BSDF ray at the first surface here,
-    # and at this size, where the pixels' own noise is most of it, the branching pilot keeps one
-    # path per sample (docs/branching.md).
-    image = penumbra.render(str(EXAMPLES / "showcase.usda"), width=96, samples=8, threads=2)
+    # The dome's pilot leaves the sky to the BSDF ray at the first surface here, and at this
+    # size, where the pixels' own noise is most of it, the branching pilot keeps one path per
+    # sample (docs/branching.md); the path tracer alone, as when this golden was made.
+    image = penumbra.render(
+        str(EXAMPLES / "showcase.usda"), width=96, samples=8, threads=2, caustics="path"
+    )
     assert image.metadata["constantDomeShare"] == 0.0
     assert image.metadata["indirectSamplesUsed"] == 1
     assert image.metadata["lightSamplesUsed"] == 1
     golden.check(image, "showcase_dome_pilot", fail=0.02, failpercent=0.0)
+
+
+def test_showcase_with_light_traced_caustics(golden):
+    # The defaults: the lamps' light through the flint and frosted glass balls onto the floor is
+    # light-traced in every wavelength, the shaped RectLight's too (docs/caustics.md).
+    image = penumbra.render(str(EXAMPLES / "showcase.usda"), width=96, samples=8, threads=2)
+    assert image.metadata["caustics"] == "light"
+    assert image.metadata["lightPaths"] > 0
+    golden.check(image, "showcase_caustics", fail=0.02, failpercent=0.0)
 
 
 def test_cornell_box(golden):

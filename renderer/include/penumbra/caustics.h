@@ -137,9 +137,9 @@ class CausticTracer {
 
   /// Prepares to trace `scene` (committed) as seen by `camera` with `filter`. It takes nothing
   /// (active() is false) unless there are casters and lights it can start from, and not for
-  /// renders that it could not match: spectral scenes (dispersion), volumes, objects hidden
-  /// from some rays (ray visibility), an orthographic camera, Cycles-like clamping or glossy
-  /// filtering (which change the path tracer's caustics).
+  /// renders that it could not match: volumes, objects hidden from some rays (ray visibility), an
+  /// orthographic camera, Cycles-like clamping or glossy filtering (which change the path tracer's
+  /// caustics).
   CausticTracer(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                 const IntegratorSettings& settings);
 
@@ -160,11 +160,12 @@ class CausticTracer {
     int x, y;
     Vec3f light;
   };
-  /// Where a light path leaves its light, and β there: the radiance times the geometry over
-  /// the densities (area measure), before the light's choice.
+  /// Where a light path leaves its light, and β there: the radiance (RGB, along the ray) times
+  /// `weight`, the geometry over the densities (area measure), before the light's choice.
   struct LightPathStart {
     Ray ray;
-    Vec3f beta;
+    Vec3f radiance;
+    float weight;
   };
   /// A sphere around casters that light paths aim at.
   struct Target {

@@ -223,12 +223,14 @@ class Light {
   };
   /// None for cylinder, mesh, point-like and infinite lights.
   std::optional<Outline> outline() const;
-  /// Whether a sphere, rect or disk light (not point-like) emits radiance() from every point of
-  /// its surface in every direction of its emitting side: no texture, no shaping. Light tracing
-  /// (caustics.h) starts paths on such lights only.
-  bool emitsUniformly() const;
-  /// A point of the emitting surface of a light that emitsUniformly(), uniform by area (density
-  /// 1 / area()), with the unit normal of its emitting side there.
+  /// Whether a sphere, rect or disk light (not point-like) emits the same radiance from every
+  /// point of its surface: no texture. Light tracing (caustics.h) starts paths on such lights.
+  bool emitsAlikeEverywhere() const;
+  /// What such a light emits in world direction `emitted` (from its emitting side): radiance()
+  /// shaped (ShapingAPI).
+  Vec3f radianceLeaving(const Vec3f& emitted) const { return radiance_ * shaping(emitted); }
+  /// A point of the emitting surface of a light that emitsAlikeEverywhere(), uniform by area
+  /// (density 1 / area()), with the unit normal of its emitting side there.
   struct SurfacePoint {
     Vec3f position, normal;
   };
