@@ -140,8 +140,7 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
     // Linked lights would need each caster's links; lights that cast no shadows, a shadow ray
     // the light tracer does not trace.
     const bool distant = light.type() == LightType::Distant;
-    if (!(light.emitsAlikeEverywhere() || distant) || light.linkSlot() >= 0 ||
-        !light.castsShadows())
+    if (!(light.emitsFromSurface() || distant) || light.linkSlot() >= 0 || !light.castsShadows())
       continue;
     // AboveDiffuse casters take the light of those whose lobes' multipliers agree (LightTaken).
     const bool pastEveryCaster = light.diffuseMultiplier() == light.specularMultiplier();
@@ -211,8 +210,10 @@ bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film
 
 std::optional<CausticTracer::LightPathStart> CausticTracer::startOnSurface(
     const Light& light, size_t startIndex, RandomStream& random) const {
-  // A point on the light and a direction towards the target's sphere.
-  const Light::SurfacePoint start = light.sampleSurface(random.next2D());
+  // A point on the light (by area, or by its texture) and a direction towards the target's sphere.
+  const std::optional<Light::SurfacePoint> point = light.sampleSurface(random.next2D());
+  if (!point) return std::nullopt;
+  const Light::SurfacePoint& start = *point;
   const Target& aim = targets_[starts_[startIndex].target];
   const Vec2f directionSample = random.next2D();
   Vec3f direction;
@@ -252,7 +253,8 @@ std::optional<CausticTracer::LightPathStart> CausticTracer::startOnSurface(
   Ray ray;
   ray.origin = start.position + start.normal * scene_.rayEpsilon(start.position);
   ray.direction = direction;
-  return LightPathStart{ray, light.radianceLeaving(direction), cosLight * light.area() / density};
+  return LightPathStart{ray, light.radianceLeaving(start.texture, direction),
+                        cosLight * start.areaOverDensity / density};
 }
 
 std::optional<CausticTracer::LightPathStart> CausticTracer::startFromAfar(

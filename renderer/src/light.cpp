@@ -327,23 +327,32 @@ std::optional<Light::Outline> Light::outline() const {
   }
 }
 
-bool Light::emitsAlikeEverywhere() const {
+bool Light::emitsFromSurface() const {
   const bool shape = params_.type == LightType::Sphere || params_.type == LightType::Rect ||
                      params_.type == LightType::Disk;
-  return shape && !isDelta() && !params_.texture;
+  return shape && !isDelta();
 }
 
-Light::SurfacePoint Light::sampleSurface(Vec2f u) const {
+std::optional<Light::SurfacePoint> Light::sampleSurface(Vec2f u) const {
+  const Vec3f untextured(1.0f);
   switch (params_.type) {
     case LightType::Sphere: {
       const Vec3f normal = sampleUniformSphere(u);
-      return {center_ + normal * radius_, normal};
+      return SurfacePoint{center_ + normal * radius_, normal, untextured, area_};
     }
-    case LightType::Rect:
-      return {center_ + edgeU_ * (u.x - 0.5f) + edgeV_ * (u.y - 0.5f), normal_};
+    case LightType::Rect: {
+      if (!params_.texture)
+        return SurfacePoint{center_ + edgeU_ * (u.x - 0.5f) + edgeV_ * (u.y - 0.5f), normal_,
+                            untextured, area_};
+      float density = 0;
+      const Vec2f uv = params_.texture->distribution().sample(u, &density);
+      if (!(density > 0)) return std::nullopt;
+      return SurfacePoint{center_ + edgeU_ * (uv.x - 0.5f) + edgeV_ * (0.5f - uv.y), normal_,
+                          params_.texture->lookup(uv), area_ / density};
+    }
     default: {  // a disk: its edges are semi-axes
       const Vec2f d = concentricSampleDisk(u);
-      return {center_ + edgeU_ * d.x + edgeV_ * d.y, normal_};
+      return SurfacePoint{center_ + edgeU_ * d.x + edgeV_ * d.y, normal_, untextured, area_};
     }
   }
 }

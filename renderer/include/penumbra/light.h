@@ -223,18 +223,25 @@ class Light {
   };
   /// None for cylinder, mesh, point-like and infinite lights.
   std::optional<Outline> outline() const;
-  /// Whether a sphere, rect or disk light (not point-like) emits the same radiance from every
-  /// point of its surface: no texture. Light tracing (caustics.h) starts paths on such lights.
-  bool emitsAlikeEverywhere() const;
-  /// What such a light emits in world direction `emitted` (from its emitting side): radiance()
-  /// shaped (ShapingAPI).
-  Vec3f radianceLeaving(const Vec3f& emitted) const { return radiance_ * shaping(emitted); }
-  /// A point of the emitting surface of a light that emitsAlikeEverywhere(), uniform by area
-  /// (density 1 / area()), with the unit normal of its emitting side there.
+  /// Whether the light is a sphere, rect or disk light (not point-like): sampleSurface draws
+  /// the points it emits from. Light tracing (caustics.h) starts paths on such lights.
+  bool emitsFromSurface() const;
+  /// A point of the emitting surface of a light that emitsFromSurface(), with the unit normal of
+  /// its emitting side there: uniform by area, or, on a textured rect, by the texture's
+  /// distribution (as sample() draws it).
   struct SurfacePoint {
     Vec3f position, normal;
+    /// The texture's value there (1 without one): the radiance's factor at this point.
+    Vec3f texture;
+    /// The inverse of the density by area it was drawn with: area() where uniform.
+    float areaOverDensity;
   };
-  SurfacePoint sampleSurface(Vec2f u) const;
+  std::optional<SurfacePoint> sampleSurface(Vec2f u) const;
+  /// What the light emits from a point with `texture` (SurfacePoint) in world direction
+  /// `emitted` (from its emitting side): radiance() textured and shaped (ShapingAPI).
+  Vec3f radianceLeaving(const Vec3f& texture, const Vec3f& emitted) const {
+    return radiance_ * texture * shaping(emitted);
+  }
 
  private:
   /// The mean of meanRadiance()'s channels (never negative): what lights are weighed by when one
