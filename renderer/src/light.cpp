@@ -309,7 +309,7 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
   const Vec3f toLight = lightPoint - point;
   result.distance = length(toLight);
   result.direction = toLight / result.distance;
-  result.radiance = radiance_ * texture * shaping(-result.direction);
+  result.radiance = radianceLeaving(texture, -result.direction);
   return result;
 }
 
@@ -444,7 +444,7 @@ std::optional<LightHit> Light::intersect(const Vec3f& origin, const Vec3f& direc
     areaDensity = params_.texture->distribution().density(uv) / area_;
   }
   hit.distance = t;
-  hit.radiance = radiance_ * texture * shaping(-direction);
+  hit.radiance = radianceLeaving(texture, -direction);
   const std::optional<SphericalRectangle> seen =
       params_.type == LightType::Rect ? sphericalRect(origin) : std::nullopt;
   hit.pdf = seen ? float(1 / seen->solidAngle())
