@@ -34,6 +34,9 @@ PixelRect cropWithMargin(int width, int height, const PixelRect& crop, int margi
   return {left, top, right - left, bottom - top};
 }
 
+/// Sample indices whose photons (caustic_photons.h) are held at once.
+constexpr int kPhotonSamplesAtOnce = 8;
+
 constexpr char kPassTag[5] = "PASS";
 constexpr uint32_t kPassVersion = 1;
 
@@ -140,10 +143,14 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   const penumbra::Camera camera(cameraPrim.params(), imageWidth_, imageHeight_);
   const PixelFilter filter;  // renderSamples' own
   std::optional<CausticTracer> caustics;
-  if (settings.caustics == 1) {
+  if (settings.caustics >= 1) {
     caustics.emplace(delegate_.scene(), camera, filter, integratorSettings());
     if (!caustics->active()) caustics.reset();
   }
+  // Photons are traced before the samples that gather them, a few sample indices at a time
+  // (each index's own: they hold a few bytes per pixel each).
+  std::optional<CausticPhotons> photons;
+  if (caustics && settings.caustics == 2) photons = caustics->makePhotons();
   RenderSettings renderSettings =
       pilotedSettings(camera, caustics ? &caustics->takeover() : nullptr);
   const int trainingSamples = settings.guidingTrainingSamples;
@@ -164,15 +171,28 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
       prepareGuiding(camera, renderSettings, cancel);
     renderSettings.integrator.guidingRecorder = recordHere ? &guidingRecorder_ : nullptr;
     renderSettings.integrator.guidingField = guidingField_ ? &*guidingField_ : nullptr;
-    if (!renderSamples(delegate_.scene(), camera, film_, uint32_t(samplesDone_),
-                       uint32_t(stop - samplesDone_), renderSettings, cancel)) {
-      reset();
-      throw RenderCancelled();
-    }
-    if (caustics && !caustics->trace(uint32_t(samplesDone_), uint32_t(stop - samplesDone_), film_,
-                                     settings.threads, cancel)) {
-      reset();
-      throw RenderCancelled();
+    for (int first = samplesDone_; first < stop;) {
+      const int last = photons ? std::min(stop, first + kPhotonSamplesAtOnce) : stop;
+      if (photons && !caustics->trace(uint32_t(first), uint32_t(last - first), film_,
+                                      settings.threads, cancel, &*photons)) {
+        reset();
+        throw RenderCancelled();
+      }
+      renderSettings.integrator.causticPhotons = photons ? &*photons : nullptr;
+      const bool rendered = renderSamples(delegate_.scene(), camera, film_, uint32_t(first),
+                                          uint32_t(last - first), renderSettings, cancel);
+      renderSettings.integrator.causticPhotons = nullptr;  // they hold these indices alone
+      if (!rendered) {
+        reset();
+        throw RenderCancelled();
+      }
+      if (caustics && !photons &&
+          !caustics->trace(uint32_t(first), uint32_t(last - first), film_, settings.threads,
+                           cancel)) {
+        reset();
+        throw RenderCancelled();
+      }
+      first = last;
     }
     if (recordHere) guidingRecordedThrough_ = stop;
     samplesDone_ = stop;

@@ -115,13 +115,15 @@ std::vector<RenderOption> buildRenderOptions() {
                                "bounces, as Cycles' filter glossy (Cycles' default: 1): caustics "
                                "converge sooner, biased"));
   RenderOption& caustics = options.emplace_back(levelOption(
-      "caustics", &Settings::caustics, {"path", "light"},
+      "caustics", &Settings::caustics, {"path", "light", "photons"},
       "how light that passes smooth glass or metal, or that smooth plastic reflects, onto the "
       "surfaces camera rays meet is found: light also traces paths from the lamps through the "
       "glass, metal and plastic and joins them to the camera; path leaves it to the path tracer, "
       "which finds a lamp through glass only by "
-      "chance (fireflies; Penumbra's images before 2026-12-06). Unbiased either way "
-      "(docs/caustics.md)"));
+      "chance (fireflies; Penumbra's images before 2026-12-06); both unbiased. photons is light, "
+      "and where the camera sees a surface only through glass or metal, the light paths' "
+      "arrivals near the point seen are summed: biased (a blur that shrinks as samples grow), "
+      "consistent (docs/caustics.md)"));
   caustics.defaultValue = caustics.frontEndDefault = 1;
   RenderOption& indirectSamples = options.emplace_back(integerOption(
       "indirectSamples", &Settings::indirectSamples, 0, 0, "N",

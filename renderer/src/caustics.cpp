@@ -185,27 +185,52 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
 }
 
 bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film, int threads,
-                          const std::atomic<bool>* cancel) const {
+                          const std::atomic<bool>* cancel, CausticPhotons* photons) const {
   if (!active()) return true;
   const uint32_t blocks = (pathsPerSample_ + kPathsPerBlock - 1) / kPathsPerBlock;
   std::vector<std::vector<Splat>> splats(blocks);
+  std::vector<std::vector<Photon>> arrivals(photons ? blocks : 0);
+  std::vector<PhotonGrid> grids;
   for (uint32_t sample = firstSample; sample < firstSample + sampleCount; ++sample) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
     onThreads(threads, [&] {
       tbb::parallel_for(uint32_t(0), blocks, [&](uint32_t block) {
         std::vector<Splat>& out = splats[block];
         out.clear();
+        std::vector<Photon>* kept = photons ? &arrivals[block] : nullptr;
+        if (kept) kept->clear();
         const uint32_t end = std::min(pathsPerSample_, (block + 1) * kPathsPerBlock);
         for (uint32_t path = block * kPathsPerBlock; path < end; ++path)
-          tracePath(sample, path, out);
+          tracePath(sample, path, out, kept);
       });
     });
     // In path order, whatever thread traced them.
     for (const std::vector<Splat>& block : splats)
       for (const Splat& splat : block) film.addSplat(splat.x, splat.y, splat.light);
     film.addLightPaths(pathsPerSample_);
+    if (!photons) continue;
+    std::vector<Photon> inOrder;
+    for (const std::vector<Photon>& block : arrivals)
+      inOrder.insert(inOrder.end(), block.begin(), block.end());
+    grids.push_back(gridOf(sample, std::move(inOrder)));
   }
+  if (photons) photons->hold(firstSample, std::move(grids));
   return true;
+}
+
+PhotonGrid CausticTracer::gridOf(uint32_t sample, std::vector<Photon> photons) const {
+  // Lookups' radius is proportional to the camera ray's footprint at the receiver, which grows
+  // with its distance: the cells take the photons' mean distance from the camera's centre.
+  const Vec3f centre = camera_
+                           .generateRay(0.5f * float(camera_.imageWidth()),
+                                        0.5f * float(camera_.imageHeight()), {0.5f, 0.5f}, 0.5f)
+                           .origin;
+  double distance = 0;
+  for (const Photon& photon : photons) distance += double(length(photon.position - centre));
+  const float meanDistance = photons.empty() ? 1.0f : float(distance / double(photons.size()));
+  const float footprint = camera_.pixelCone().radiusAt(meanDistance);
+  const float cellSize = 2 * CausticPhotons::radius(sample, footprint);
+  return PhotonGrid(std::move(photons), cellSize);
 }
 
 std::optional<CausticTracer::LightPathStart> CausticTracer::startOnSurface(
@@ -304,7 +329,8 @@ float CausticTracer::startProbability(size_t index) const {
   return startCdf_[index] - (index > 0 ? startCdf_[index - 1] : 0.0f);
 }
 
-void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats) const {
+void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats,
+                              std::vector<Photon>* photons) const {
   RandomStream random(seed_, path, kLightPathTag, sample, 0);
   const float choice = random.next();
   const size_t slot =
@@ -363,6 +389,12 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
       continue;
     }
     if (casters == 0) return;
+    if (photons && receivesCaustics(hit->material())) {
+      const Vec3f power = beta * (1 / std::abs(dot(towardsLight, hit->normal)));
+      const Vec3f rgb = spectrum.spectral ? spectralToRgb(power, spectrum.wavelengths) : power;
+      if (std::isfinite(rgb.x + rgb.y + rgb.z))
+        photons->push_back({hit->position, hit->normal, towardsLight, rgb, casters});
+    }
     // The receiving surface, joined to a point of the lens.
     const Camera::Moment moment = camera_.momentAt(time);
     const std::optional<PointImage> image = camera_.pointImage(hit->position, moment);

@@ -7,6 +7,7 @@
 
 #include "path_spectrum.h"
 #include "penumbra/bsdf.h"
+#include "penumbra/caustic_photons.h"
 #include "penumbra/caustics.h"
 #include "penumbra/guiding.h"
 #include "penumbra/hair_bsdf.h"
@@ -662,14 +663,22 @@ struct PathState {
   /// What a path that waits its turn found as it left the first surface (the exit of a
   /// subsurface walk is lit there), added to what it finds when it goes on.
   Vec3f radianceBeforeWaiting{0.0f};
-  /// Casters met since a first surface that receives caustics (IntegratorSettings::caustics);
-  /// -1 once anything else was met, or where the first surface does not receive them.
+  /// Casters met since a first surface that receives caustics (IntegratorSettings::caustics),
+  /// or since the first receiving surface the camera sees through casters alone where photons
+  /// are gathered (kThroughCasters until then); -1 once anything else was met, or where that
+  /// surface does not receive them.
   int castersSinceFirstSurface = -1;
+  /// The most casters on the paths from that surface whose lights' light the light tracer adds:
+  /// those no depth limit cuts from there.
+  int castersTaken = 0;
   /// The last of them is an AboveDiffuse caster (CasterKind), the last such a path may have.
   bool pastAboveDiffuse = false;
   /// There, the share of the light along the ray it scattered that the path tracer keeps: the
   /// diffuse layer's part of the BSDF's value, per channel.
   Vec3f keptAboveDiffuse{0.0f};
+
+  /// castersSinceFirstSurface while the camera's path has met casters alone.
+  static constexpr int kThroughCasters = -2;
 
   /// Turns the path at its first surface into branch `index` of `branches` of camera sample
   /// `sampleIndex`: its dimensions from here on take sample index sampleIndex · branches +
@@ -737,7 +746,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
   // Whether the path is one whose light from the lights taken the light tracer adds.
   const auto causticPath = [&] {
     return settings.caustics && path.castersSinceFirstSurface >= 1 &&
-           path.castersSinceFirstSurface <= settings.caustics->maxCasters();
+           path.castersSinceFirstSurface <= path.castersTaken;
   };
   const bool hasVolumes = !scene.volumes().empty();
   if (hasVolumes) volumeRandom.emplace(settings.seed, uint32_t(x), uint32_t(y), sampleIndex, 0);
@@ -1006,8 +1015,23 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         int& casters = path.castersSinceFirstSurface;
         const CasterKind kind = settings.caustics->casterKindAt(hit->materialIndex, material);
         if (bounce == 0) {
-          casters = kind != CasterKind::Whole && receivesCaustics(material) ? 0 : -1;
+          const bool throughCasters = kind == CasterKind::Whole && settings.causticPhotons;
+          casters = kind != CasterKind::Whole && receivesCaustics(material) ? 0
+                    : throughCasters                                        ? path.kThroughCasters
+                                                                            : -1;
+          path.castersTaken = settings.caustics->maxCasters();
           path.pastAboveDiffuse = false;
+        } else if (casters == path.kThroughCasters) {
+          if (kind != CasterKind::Whole) {
+            // The casters after this surface, and the light past them, fit in what each depth
+            // limit leaves (as maxCasters does at a first surface).
+            path.castersTaken = std::min({settings.caustics->maxCasters(),
+                                          settings.maxDiffuseDepth - diffuseBounces - 1,
+                                          settings.maxGlossyDepth - glossyBounces - 1,
+                                          settings.maxTransmissionDepth - transmissionBounces - 1,
+                                          settings.maxPathDepth - bounce - 1});
+            casters = receivesCaustics(material) && path.castersTaken >= 1 ? 0 : -1;
+          }
         } else if (casters >= 0) {
           // An AboveDiffuse caster ends the casters a path takes.
           const bool more = !path.pastAboveDiffuse && kind != CasterKind::None;
@@ -1055,6 +1079,22 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       estimateDirectLight(surfaceVertex(scene, *hit, bsdf, wo, ray.time), receiver,
                           !surfaceBsdf.isPurelySpecular(), bounce + 1, hit->linkingClass,
                           constantDomeShare, lightEstimatesHere, bounce == 0);
+      if (bounce > 0 && path.castersSinceFirstSurface == 0) {
+        // A receiver seen through casters: the light of the paths from here that the path
+        // tracer leaves out, from the photons of this sample index around the hit.
+        const float radius = CausticPhotons::radius(sampleIndex, cone.radiusAt(hit->distance));
+        Vec3f gathered{0.0f};
+        settings.causticPhotons->at(sampleIndex)
+            .forEachWithin(hit->position, radius, [&](const Photon& photon) {
+              // The same surface: not one beside it round an edge.
+              if (photon.casters > path.castersTaken ||
+                  std::abs(dot(photon.normal, hit->normal)) < 0.5f)
+                return;
+              gathered += surfaceBsdf.evaluate(wo, photon.towardsLight, nullptr) *
+                          spectrum.emission(photon.power);
+            });
+        addLight(throughput * gathered * settings.causticPhotons->perPhoton(radius));
+      }
 
       // BSDF sampling continues the path (false: it ends here). Inlined at both calls: called,
       // it reached the path's state through its captures and cost 1 % more per sample.

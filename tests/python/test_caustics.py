@@ -1,6 +1,7 @@
-"""Caustics by light tracing (docs/caustics.md) from the front ends: the ``caustics`` option
-reaches the renderer, changes the noise and not the image, and light-traced images stay
-bit-identical across threads, regions, farm bands and checkpoints."""
+"""Caustics by light tracing and photons (docs/caustics.md) from the front ends: the
+``caustics`` option reaches the renderer, changes the noise and not the image, and light-traced
+images (with photons or not) stay bit-identical across threads, regions, farm bands and
+checkpoints."""
 
 from __future__ import annotations
 
@@ -13,6 +14,8 @@ from farm_bands import assert_farm_bands_match_local
 from stages import add_camera, add_preview_material, add_quad, add_sphere_mesh, bind, new_stage
 
 LIGHT = dict(width=32, samples=8, caustics="light")
+# Both of the light tracer's modes: photons gather the floor seen through the ball.
+TRACED = ("light", "photons")
 
 
 @pytest.fixture(scope="module")
@@ -49,17 +52,33 @@ def test_light_tracing_changes_the_noise_not_the_image(glass_ball):
     assert light[middle].mean() == pytest.approx(path[middle].mean(), rel=0.05)
 
 
-def test_light_traced_images_are_bit_identical_across_threads_and_regions(glass_ball):
+def test_photons_gather_what_the_camera_sees_through_the_ball(glass_ball):
     renderer = penumbra.Renderer(glass_ball)
-    whole = renderer.render(**LIGHT)["color"]
-    assert np.array_equal(whole, renderer.render(**LIGHT, threads=1)["color"])
-    part = renderer.render(**LIGHT, region=(3, 10, 20, 9))["color"]
+    light = renderer.render(width=32, samples=1024, caustics="light")
+    photons = renderer.render(width=32, samples=1024, caustics="photons")
+    assert photons.metadata["caustics"] == "photons"
+    assert photons.metadata["lightPaths"] == light.metadata["lightPaths"]
+    # Only where the camera sees the floor through the ball (the image's left edge) do they
+    # differ, and there by the noise alone.
+    differs = np.any(photons["color"] != light["color"], axis=2)
+    assert differs[:, :8].any() and not differs[:, 16:].any()
+    assert photons["color"].mean() == pytest.approx(light["color"].mean(), rel=0.02)
+
+
+@pytest.mark.parametrize("caustics", TRACED)
+def test_light_traced_images_are_bit_identical_across_threads_and_regions(glass_ball, caustics):
+    renderer = penumbra.Renderer(glass_ball)
+    options = dict(LIGHT, caustics=caustics)
+    whole = renderer.render(**options)["color"]
+    assert np.array_equal(whole, renderer.render(**options, threads=1)["color"])
+    part = renderer.render(**options, region=(3, 10, 20, 9))["color"]
     assert np.array_equal(part, whole[10:19, 3:23])
 
 
+@pytest.mark.parametrize("caustics", TRACED)
 def test_farm_bands_of_a_light_traced_frame_are_bit_identical_to_a_local_render(
-        glass_ball, tmp_path, capsys):
-    flags = ["-w", "32", "-spp", "8", "--caustics", "light"]
+        glass_ball, tmp_path, capsys, caustics):
+    flags = ["-w", "32", "-spp", "8", "--caustics", caustics]
     assert_farm_bands_match_local(glass_ball, flags, tmp_path, capsys)
 
 
@@ -67,11 +86,12 @@ class Interrupted(Exception):
     pass
 
 
+@pytest.mark.parametrize("caustics", TRACED)
 def test_a_light_traced_render_resumes_from_its_checkpoint_bit_identically(
-        glass_ball, tmp_path, caplog):
+        glass_ball, tmp_path, caplog, caustics):
     caplog.set_level("INFO", logger="penumbra")
     renderer = penumbra.Renderer(glass_ball)
-    kwargs = dict(LIGHT, samples=32, threads=1)
+    kwargs = dict(LIGHT, samples=32, threads=1, caustics=caustics)
     expected = renderer.render(**kwargs)["color"]
     output = tmp_path / "out.exr"
     passes = []
@@ -90,4 +110,4 @@ def test_a_light_traced_render_resumes_from_its_checkpoint_bit_identically(
 
 def test_an_unknown_caustics_level_is_refused(glass_ball):
     with pytest.raises(ValueError, match="caustics"):
-        penumbra.Renderer(glass_ball).render(width=8, samples=1, caustics="photons")
+        penumbra.Renderer(glass_ball).render(width=8, samples=1, caustics="bidirectional")

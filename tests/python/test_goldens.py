@@ -47,6 +47,20 @@ def test_showcase_with_light_traced_caustics(golden):
     golden.check(image, "showcase_caustics", fail=0.02, failpercent=0.0)
 
 
+def test_showcase_with_photons_seen_through_glass(golden):
+    # As the README's image: where the camera sees the floor through the flint and frosted balls,
+    # the light paths' photons are gathered (docs/caustics.md). Elsewhere it is the defaults'
+    # image, bit for bit.
+    image = penumbra.render(
+        str(EXAMPLES / "showcase.usda"), width=96, samples=8, threads=2, caustics="photons"
+    )
+    assert image.metadata["caustics"] == "photons"
+    default = penumbra.render(str(EXAMPLES / "showcase.usda"), width=96, samples=8, threads=2)
+    differs = (image["color"] != default["color"]).any(axis=2)
+    assert 0 < differs.mean() < 0.25
+    golden.check(image, "showcase_photons", fail=0.02, failpercent=0.0)
+
+
 def test_cornell_box(golden):
     # One path per camera sample and the path tracer alone: the estimator this golden was made
     # with, which `indirect_samples=1` and `caustics="path"` keep bit for bit.

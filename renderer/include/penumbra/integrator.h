@@ -20,6 +20,7 @@ namespace penumbra {
 /// single strategies exist to check it (all three converge to the same result).
 enum class DirectLighting { MultipleImportance, LightSamplingOnly, BsdfSamplingOnly };
 
+class CausticPhotons;
 class CausticTakeover;
 class GuidingField;
 class GuidingRecorder;
@@ -123,6 +124,10 @@ struct IntegratorSettings {
   /// Where set, the light of the lights it takes on paths from the first surface through its
   /// casters is left out: a light tracer adds it (caustics.h); not owned.
   const CausticTakeover* caustics = nullptr;
+  /// With `caustics`: where set, paths that reach a receiving surface through casters alone
+  /// gather the light tracer's photons of their sample index there, and the path tracer leaves
+  /// out what they stand for, as on the surfaces the camera sees (caustic_photons.h); not owned.
+  const CausticPhotons* causticPhotons = nullptr;
   /// Where set, the rays a sample counts in CameraSample::rays for its path (the path's rays and
   /// their shadow rays; not those towards lights seen directly, `lightImages`) are logged there
   /// as they are traced; not owned. For timing Embree alone on them.

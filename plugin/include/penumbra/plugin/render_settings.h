@@ -29,7 +29,8 @@ struct RenderSettingsMap {
   int adaptiveMinSamples;
   float indirectClamp;
   float glossyFilter;
-  int caustics;                // 1 (default): light tracing too (caustics.h); 0: path tracer alone
+  int caustics;                // 1 (default): light tracing too (caustics.h); 0: path tracer alone;
+                               // 2: light tracing and photons (caustic_photons.h)
   int indirectSamples;         // paths that go on from each camera ray's first surface; 0: auto
   int lightSamples;            // next-event estimates at each camera ray's first surface
   int guidingTrainingSamples;  // samples per pixel that train path guiding; 0: no guiding
