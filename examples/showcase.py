@@ -101,10 +101,12 @@ def main() -> None:
                         help="render examples/images/showcase.png")
     args = parser.parse_args()
     write_stage()
-    # Denoised: the raw 256 spp still shows grain in the two glass balls, caustics through
-    # glass that path tracing finds rarely (the README says so under the image).
+    # Photons gather the caustics seen through the flint ball (docs/caustics.md). Denoised: the
+    # raw 256 spp still shows grain in the frosted ball, light that scatters inside rough glass
+    # on its way to the lamps (the README says so under the image).
     record(HERE / "showcase.usda", HERE / "images" / "showcase.png", 640, 256,
-           ["--enableDomeLightVisibility", "--denoise"], args.render, "examples/showcase.usda")
+           ["--enableDomeLightVisibility", "--caustics", "photons", "--denoise"], args.render,
+           "examples/showcase.usda")
 
 
 def write_stage() -> None:
