@@ -189,6 +189,7 @@ bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film
   if (!active()) return true;
   const uint32_t blocks = (pathsPerSample_ + kPathsPerBlock - 1) / kPathsPerBlock;
   std::vector<std::vector<Splat>> splats(blocks);
+  std::vector<uint32_t> rays(pathsPerSample_);  // by path
   std::vector<std::vector<Photon>> arrivals(photons ? blocks : 0);
   std::vector<PhotonGrid> grids;
   for (uint32_t sample = firstSample; sample < firstSample + sampleCount; ++sample) {
@@ -201,13 +202,21 @@ bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film
         if (kept) kept->clear();
         const uint32_t end = std::min(pathsPerSample_, (block + 1) * kPathsPerBlock);
         for (uint32_t path = block * kPathsPerBlock; path < end; ++path)
-          tracePath(sample, path, out, kept);
+          rays[path] = tracePath(sample, path, out, kept);
       });
     });
     // In path order, whatever thread traced them.
     for (const std::vector<Splat>& block : splats)
       for (const Splat& splat : block) film.addSplat(splat.x, splat.y, splat.light);
     film.addLightPaths(pathsPerSample_);
+    // Each path's rays are counted at a pixel of its own, so that the image's regions (farm
+    // bands) share them out exactly.
+    const uint64_t pixels = uint64_t(camera_.imageWidth()) * uint64_t(camera_.imageHeight());
+    for (uint32_t path = 0; path < pathsPerSample_; ++path) {
+      const uint64_t pixel = uint64_t(path) * pixels / pathsPerSample_;
+      film.addRays(int(pixel % uint64_t(camera_.imageWidth())),
+                   int(pixel / uint64_t(camera_.imageWidth())), rays[path]);
+    }
     if (!photons) continue;
     std::vector<Photon> inOrder;
     for (const std::vector<Photon>& block : arrivals)
@@ -329,8 +338,9 @@ float CausticTracer::startProbability(size_t index) const {
   return startCdf_[index] - (index > 0 ? startCdf_[index - 1] : 0.0f);
 }
 
-void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats,
-                              std::vector<Photon>* photons) const {
+uint32_t CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats,
+                                  std::vector<Photon>* photons) const {
+  uint32_t rays = 0;
   RandomStream random(seed_, path, kLightPathTag, sample, 0);
   const float choice = random.next();
   const size_t slot =
@@ -342,7 +352,7 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
   const std::optional<LightPathStart> start = light.type() == LightType::Distant
                                                   ? startFromAfar(light, startIndex, random)
                                                   : startOnSurface(light, startIndex, random);
-  if (!start) return;
+  if (!start) return rays;
   Ray ray = start->ray;
   ray.time = random.next();
   const float time = ray.time;
@@ -356,31 +366,32 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
   Vec3f beta = spectrum.emission(start->radiance) * start->weight *
                (light.specularMultiplier() / choiceProbability);
   for (int casters = 0;; ++casters) {
+    ++rays;
     const std::optional<SurfaceHit> hit = intersectSurface(scene_, ray, RayKind::Secondary);
-    if (!hit) return;
+    if (!hit) return rays;
     const Vec3f towardsLight = -ray.direction;
     // An AboveDiffuse caster only as the light's first: further on, it receives.
     const CasterKind kind = takeover_.casterKindAt(hit->materialIndex, hit->material());
     const bool aboveDiffuse = kind == CasterKind::AboveDiffuse && casters == 0;
     if (kind == CasterKind::Whole || aboveDiffuse) {
-      if (casters == takeover_.maxCasters()) return;
-      if (aboveDiffuse && !takeover_.takesLightAboveDiffuse(lightIndex)) return;
+      if (casters == takeover_.maxCasters()) return rays;
+      if (aboveDiffuse && !takeover_.takesLightAboveDiffuse(lightIndex)) return rays;
       const PreviewSurfaceBsdf bsdf = bsdfAt(*hit, towardsLight, spectrum, beta);
       const float lobeChoice = random.next();
       const std::optional<BsdfSample> scattered =
           aboveDiffuse ? bsdf.sampleAboveDiffuse(towardsLight, lobeChoice, random.next2D())
                        : bsdf.sample(towardsLight, lobeChoice, random.next2D());
-      if (!scattered || isBlack(scattered->weight)) return;
+      if (!scattered || isBlack(scattered->weight)) return rays;
       const Vec3f& next = scattered->direction;
       if ((dot(next, hit->normal) * dot(towardsLight, hit->normal) < 0) != scattered->transmitted)
-        return;
+        return rays;
       // The radiance BSDF sampled from the light's side is the adjoint of the one the path
       // tracer evaluates from the camera's; with shading normals, each cosine is the
       // geometric one the measure has (Veach 1997, §5.3).
       const float shadingFactor =
           std::abs(dot(towardsLight, hit->shadingNormal)) * std::abs(dot(next, hit->normal)) /
           (std::abs(dot(towardsLight, hit->normal)) * std::abs(dot(next, hit->shadingNormal)));
-      if (!std::isfinite(shadingFactor)) return;
+      if (!std::isfinite(shadingFactor)) return rays;
       beta *= scattered->weight * shadingFactor;
       if (scattered->heroOnly) spectrum.wavelengths.keepHeroOnly();
       if (scattered->transmitted && hit->closed)
@@ -388,7 +399,7 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
       ray = spawnRay(scene_, *hit, next, kInfinity, time);
       continue;
     }
-    if (casters == 0) return;
+    if (casters == 0) return rays;
     if (photons && receivesCaustics(hit->material())) {
       const Vec3f power = beta * (1 / std::abs(dot(towardsLight, hit->normal)));
       const Vec3f rgb = spectrum.spectral ? spectralToRgb(power, spectrum.wavelengths) : power;
@@ -398,7 +409,7 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
     // The receiving surface, joined to a point of the lens.
     const Camera::Moment moment = camera_.momentAt(time);
     const std::optional<PointImage> image = camera_.pointImage(hit->position, moment);
-    if (!image) return;
+    if (!image) return rays;
     const Vec2f lensSample = random.next2D();
     const Vec2f lensPoint = concentricSampleDisk(lensSample);
     const Vec2f at{image->position.x + image->perLensUnit.x * lensPoint.x,
@@ -407,23 +418,24 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
     const int width = camera_.imageWidth(), height = camera_.imageHeight();
     if (!(at.x > -reach && at.x < float(width) + reach && at.y > -reach &&
           at.y < float(height) + reach))
-      return;
+      return rays;
     // The camera ray through that image position and lens point must see this very point first,
     // and it is shaded as that camera ray shades it (textures filtered over its footprint).
     const Ray cameraRay = camera_.generateRay(at.x, at.y, lensSample, time);
     const float pointDistance = length(hit->position - cameraRay.origin);
+    ++rays;
     const std::optional<SurfaceHit> seen =
         intersectSurface(scene_, cameraRay, RayKind::Camera, camera_.pixelCone());
     if (!seen || seen->matte || seen->meshId != hit->meshId || seen->instance != hit->instance ||
         std::abs(seen->distance - pointDistance) > 1e-3f * pointDistance + 1e-4f ||
         takeover_.isCaster(seen->materialIndex) || !receivesCaustics(seen->material()))
-      return;
+      return rays;
     const Vec3f towardsCamera = -cameraRay.direction;
     // The path tracer's estimate there: f(towards camera, towards light) |n_s · towards light|.
     const Vec3f f =
         bsdfAt(*seen, towardsCamera, spectrum, beta).evaluate(towardsCamera, towardsLight);
     const float cosArrival = std::abs(dot(towardsLight, seen->normal));
-    if (isBlack(f) || !(cosArrival > 0)) return;
+    if (isBlack(f) || !(cosArrival > 0)) return rays;
     // Image area (pixels) per solid angle at the lens point: 1 / (s² cos³θ), s² the solid angle
     // of a pixel on the axis (the film at unit distance).
     const float cosAxis = -camera_.toCameraSpace(cameraRay.direction, time).z;
@@ -435,7 +447,7 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
                            (cosArrival * pointDistance * pointDistance) * imagePerSolidAngle);
     const Vec3f arriving =
         spectrum.spectral ? spectralToRgb(carried, spectrum.wavelengths) : carried;
-    if (!std::isfinite(arriving.x + arriving.y + arriving.z) || !(cosAxis > 0)) return;
+    if (!std::isfinite(arriving.x + arriving.y + arriving.z) || !(cosAxis > 0)) return rays;
     // Shared among the pixels whose filter reaches it, as camera samples draw their offsets.
     const int left = std::max(0, int(std::floor(at.x - reach)));
     const int right = std::min(width - 1, int(std::floor(at.x + reach)));
@@ -449,7 +461,7 @@ void CausticTracer::tracePath(uint32_t sample, uint32_t path, std::vector<Splat>
         if (weight > 0) splats.push_back({x, y, arriving * weight});
       }
     }
-    return;
+    return rays;
   }
 }
 

@@ -200,6 +200,12 @@ void Film::addSplat(int x, int y, const Vec3f& light) {
   sum[2] += light.z;
 }
 
+void Film::addRays(int x, int y, uint64_t rays) {
+  const int column = x - region_.x, row = y - region_.y;
+  if (column < 0 || row < 0 || column >= region_.width || row >= region_.height) return;
+  pixels_[size_t(row) * size_t(region_.width) + size_t(column)].rays += rays;
+}
+
 std::vector<float> Film::resolveColor() const {
   std::vector<float> rgba(pixels_.size() * 4, 0.0f);
   const bool traced = !splats_.empty() && lightPaths_ > 0;

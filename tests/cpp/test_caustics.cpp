@@ -543,3 +543,28 @@ TEST(CausticPhotons, RadiusShrinksAsProgressivePhotonMappingAsks) {
   });
   EXPECT_EQ(within, 51);
 }
+
+TEST(Caustics, LightPathsRaysCountOnceAcrossTheImagesRegions) {
+  RenderDelegate delegate;
+  glassBallScene(delegate);
+  const penumbra::Camera camera = test::syncedCamera(delegate, kSize);
+  const PixelFilter filter;
+  const RenderSettings settings;
+  const CausticTracer tracer(delegate.scene(), camera, filter, settings.integrator);
+  Film whole(kSize, kSize);
+  ASSERT_TRUE(tracer.trace(0, 4, whole, 0));
+  // 58 light paths a sample index; those that leave the bulb (most: a point drawn on its far
+  // side sees no ball) trace a ray to their first hit, at most one more to each caster, and one
+  // back from the camera.
+  const uint64_t paths = whole.lightPaths();
+  ASSERT_EQ(paths, 4u * 58u);
+  EXPECT_GE(whole.raysTraced(), paths / 2);
+  EXPECT_LE(whole.raysTraced(), paths * uint64_t(tracer.takeover().maxCasters() + 2));
+  // A farm band counts the rays of the light paths that are its own: the bands add up to the
+  // whole image's count.
+  Film top(PixelRect{0, 0, kSize, 7}), bottom(PixelRect{0, 7, kSize, kSize - 7});
+  ASSERT_TRUE(tracer.trace(0, 4, top, 0));
+  ASSERT_TRUE(tracer.trace(0, 4, bottom, 0));
+  EXPECT_GT(top.raysTraced(), 0u);
+  EXPECT_EQ(top.raysTraced() + bottom.raysTraced(), whole.raysTraced());
+}

@@ -151,10 +151,11 @@ class CausticTracer {
   /// Traces the light paths of sample indices [firstSample, firstSample + sampleCount) and adds
   /// them to `film` (its region of the image), on `threads` threads (0: all cores). The film
   /// receives the same sums in the same order whatever the thread count or how a render's sample
-  /// indices are split into calls. Where `photons` is given (made by makePhotons), it then holds
-  /// those sample indices' arrivals on receivers (caustic_photons.h), each index's in path
-  /// order. Returns false (the film then holds part of them and must be cleared) once `cancel`
-  /// is set.
+  /// indices are split into calls; each light path's rays count at a pixel of its own
+  /// (Film::addRays), so that regions of the image share them out. Where `photons` is given (made
+  /// by makePhotons), it then holds those sample indices' arrivals on receivers
+  /// (caustic_photons.h), each index's in path order. Returns false (the film then holds part of
+  /// them and must be cleared) once `cancel` is set.
   bool trace(uint32_t firstSample, uint32_t sampleCount, Film& film, int threads,
              const std::atomic<bool>* cancel = nullptr, CausticPhotons* photons = nullptr) const;
   /// An empty holder of photons for trace(), normalised by this tracer's paths per sample.
@@ -195,9 +196,9 @@ class CausticTracer {
   static std::optional<float> coneTowards(const Target& target, const Vec3f& from);
   float startProbability(size_t index) const;
   /// Traces light path `path` of sample index `sample`, appending its splats, and its arrival on
-  /// a receiver to `photons` where given.
-  void tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats,
-                 std::vector<Photon>* photons) const;
+  /// a receiver to `photons` where given; returns the rays it traced.
+  uint32_t tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats,
+                     std::vector<Photon>* photons) const;
   /// The grid of sample index `sample`'s photons, its cells about twice the lookups' radius.
   PhotonGrid gridOf(uint32_t sample, std::vector<Photon> photons) const;
 

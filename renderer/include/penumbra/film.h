@@ -60,6 +60,9 @@ class Film {
   void addSplat(int x, int y, const Vec3f& light);
   /// Counts `paths` more light paths traced for the whole image.
   void addLightPaths(uint64_t paths) { lightPaths_ += paths; }
+  /// Counts `rays` more rays traced (by light paths) at image pixel (x, y), in raysTraced();
+  /// pixels outside the film's region are ignored.
+  void addRays(int x, int y, uint64_t rays);
   uint64_t lightPaths() const { return lightPaths_; }
 
   /// Floats per pixel of an AOV (4 for primvars, whatever their width; 0 for Cryptomatte AOVs,
@@ -106,7 +109,8 @@ class Film {
   /// Samples taken by the pixels of `within` (image coordinates; default: the whole film),
   /// which must lie in the film.
   uint64_t samplesTaken(const std::optional<PixelRect>& within = std::nullopt) const;
-  /// Rays traced for the samples of the pixels of `within` (as samplesTaken).
+  /// Rays traced for the samples of the pixels of `within` (as samplesTaken), and the light
+  /// paths' counted there (addRays).
   uint64_t raysTraced(const std::optional<PixelRect>& within = std::nullopt) const;
 
   /// Appends the film's exact accumulators (sums, counts, active pixels) to `out` as a "FILM"
