@@ -1,7 +1,7 @@
 #include "penumbra/caustic_photons.h"
 
+#include <algorithm>
 #include <cmath>
-#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -43,22 +43,45 @@ size_t PhotonGrid::bucketOf(const Cell& cell) const {
   return size_t(hash & (bucketEnds_.size() - 1));
 }
 
-void CausticPhotons::hold(uint32_t first, std::vector<PhotonGrid> grids) {
-  first_ = first;
-  grids_ = std::move(grids);
+namespace {
+
+/// r_i² / r_{i−1}² of sample index i ≥ 1.
+double squaredRadiusStep(uint32_t index) {
+  return (double(index) + CausticPhotons::kAlpha) / (double(index) + 1);
 }
 
-const PhotonGrid& CausticPhotons::at(uint32_t sampleIndex) const {
-  if (sampleIndex < first_ || sampleIndex - first_ >= grids_.size())
+}  // namespace
+
+void CausticPhotons::hold(uint32_t first, std::vector<Arrivals> arrivals) {
+  first_ = first;
+  held_.clear();
+  for (size_t k = 0; k < arrivals.size(); ++k) {
+    const float scale = float(std::sqrt(squaredRadiusScale(first + uint32_t(k))));
+    // Cells about twice the radius of a lookup where the photons lie.
+    const float cellSize = 2 * kFootprints * arrivals[k].footprint * scale;
+    held_.push_back({PhotonGrid(std::move(arrivals[k].photons), cellSize), scale});
+  }
+}
+
+const CausticPhotons::Held& CausticPhotons::held(uint32_t sampleIndex) const {
+  if (sampleIndex < first_ || sampleIndex - first_ >= held_.size())
     throw std::out_of_range("no photons held for sample index " + std::to_string(sampleIndex));
-  return grids_[sampleIndex - first_];
+  return held_[sampleIndex - first_];
+}
+
+double CausticPhotons::squaredRadiusScale(uint32_t index) {
+  if (index < productIndex_) {
+    productIndex_ = 0;
+    product_ = 1;
+  }
+  for (; productIndex_ < index; ++productIndex_) product_ *= squaredRadiusStep(productIndex_ + 1);
+  return product_;
 }
 
 double CausticPhotons::radiusScale(uint32_t sampleIndex) {
-  // Π_{j=1}^{i} (j + α) / (j + 1) = Γ(i + 1 + α) / (Γ(1 + α) Γ(i + 2)).
-  const double i = double(sampleIndex);
-  return std::sqrt(
-      std::exp(std::lgamma(i + 1 + kAlpha) - std::lgamma(1 + kAlpha) - std::lgamma(i + 2)));
+  double product = 1;
+  for (uint32_t index = 1; index <= sampleIndex; ++index) product *= squaredRadiusStep(index);
+  return std::sqrt(product);
 }
 
 }  // namespace penumbra

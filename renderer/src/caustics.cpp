@@ -191,7 +191,7 @@ bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film
   std::vector<std::vector<Splat>> splats(blocks);
   std::vector<uint32_t> rays(pathsPerSample_);  // by path
   std::vector<std::vector<Photon>> arrivals(photons ? blocks : 0);
-  std::vector<PhotonGrid> grids;
+  std::vector<CausticPhotons::Arrivals> held;
   for (uint32_t sample = firstSample; sample < firstSample + sampleCount; ++sample) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
     onThreads(threads, [&] {
@@ -218,18 +218,19 @@ bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film
                    int(pixel / uint64_t(camera_.imageWidth())), rays[path]);
     }
     if (!photons) continue;
-    std::vector<Photon> inOrder;
+    CausticPhotons::Arrivals inOrder;
     for (const std::vector<Photon>& block : arrivals)
-      inOrder.insert(inOrder.end(), block.begin(), block.end());
-    grids.push_back(gridOf(sample, std::move(inOrder)));
+      inOrder.photons.insert(inOrder.photons.end(), block.begin(), block.end());
+    inOrder.footprint = meanFootprint(inOrder.photons);
+    held.push_back(std::move(inOrder));
   }
-  if (photons) photons->hold(firstSample, std::move(grids));
+  if (photons) photons->hold(firstSample, std::move(held));
   return true;
 }
 
-PhotonGrid CausticTracer::gridOf(uint32_t sample, std::vector<Photon> photons) const {
-  // Lookups' radius is proportional to the camera ray's footprint at the receiver, which grows
-  // with its distance: the cells take the photons' mean distance from the camera's centre.
+float CausticTracer::meanFootprint(const std::vector<Photon>& photons) const {
+  // A camera ray's footprint grows with its distance: at the photons' mean distance from the
+  // camera's centre.
   const Vec3f centre = camera_
                            .generateRay(0.5f * float(camera_.imageWidth()),
                                         0.5f * float(camera_.imageHeight()), {0.5f, 0.5f}, 0.5f)
@@ -237,9 +238,7 @@ PhotonGrid CausticTracer::gridOf(uint32_t sample, std::vector<Photon> photons) c
   double distance = 0;
   for (const Photon& photon : photons) distance += double(length(photon.position - centre));
   const float meanDistance = photons.empty() ? 1.0f : float(distance / double(photons.size()));
-  const float footprint = camera_.pixelCone().radiusAt(meanDistance);
-  const float cellSize = 2 * CausticPhotons::radius(sample, footprint);
-  return PhotonGrid(std::move(photons), cellSize);
+  return camera_.pixelCone().radiusAt(meanDistance);
 }
 
 std::optional<CausticTracer::LightPathStart> CausticTracer::startOnSurface(

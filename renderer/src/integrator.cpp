@@ -1082,7 +1082,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (bounce > 0 && path.castersSinceFirstSurface == 0) {
         // A receiver seen through casters: the light of the paths from here that the path
         // tracer leaves out, from the photons of this sample index around the hit.
-        const float radius = CausticPhotons::radius(sampleIndex, cone.radiusAt(hit->distance));
+        const float radius =
+            settings.causticPhotons->radius(sampleIndex, cone.radiusAt(hit->distance));
         Vec3f gathered{0.0f};
         settings.causticPhotons->at(sampleIndex)
             .forEachWithin(hit->position, radius, [&](const Photon& photon) {

@@ -2,13 +2,14 @@
 // joins a light path's last vertex to the camera, which fails where the camera sees that
 // surface only through smooth glass or metal: the join would have to refract or reflect on its
 // way to the lens. There the path tracer would find the caustic only by chance (the lamp's light
-// through the casters, seen through casters again). With CausticMode::Photons, where a camera
-// path reaches a receiving surface through casters alone, the light tracer's arrivals on
-// receivers (photons) near that point are summed instead (Jensen 1996; radius shrinking with the
-// sample index as progressive photon mapping's, Knaus and Zwicker 2011), and the path tracer
-// leaves those paths' light out exactly as it does for the surfaces the camera sees directly.
-// The estimate is biased by the blur of its radius and consistent: the radius goes to zero as
-// the samples grow, slowly enough that the noise does too.
+// through the casters, seen through casters again). With caustics=photons
+// (IntegratorSettings::causticPhotons), where a camera path reaches a receiving surface through
+// casters alone, the light tracer's arrivals on receivers (photons) near that point are summed
+// instead (Jensen 1996; radius shrinking with the sample index as progressive photon mapping's,
+// Knaus and Zwicker 2011), and the path tracer leaves those paths' light out exactly as it does
+// for the surfaces the camera sees directly. The estimate is biased by the blur of its radius
+// and consistent: the radius goes to zero as the samples grow, slowly enough that the noise
+// does too.
 #pragma once
 
 #include <cstdint>
@@ -36,8 +37,6 @@ class PhotonGrid {
   /// `cellSize`: about twice the radius lookups use.
   PhotonGrid(std::vector<Photon> photons, float cellSize);
 
-  bool empty() const { return photons_.empty(); }
-  size_t size() const { return photons_.size(); }
   /// Calls visit(photon) for each photon within `radius` of `centre`, in a fixed order.
   template <typename Visit>
   void forEachWithin(const Vec3f& centre, float radius, Visit&& visit) const;
@@ -71,26 +70,44 @@ class CausticPhotons {
 
   explicit CausticPhotons(uint32_t pathsPerSample = 1) : pathsPerSample_(pathsPerSample) {}
 
-  /// Replaces the photons held by those of sample indices [first, first + grids.size()).
-  void hold(uint32_t first, std::vector<PhotonGrid> grids);
-  /// Sample index `sampleIndex`'s photons; throws std::out_of_range for an index not held.
-  const PhotonGrid& at(uint32_t sampleIndex) const;
-  /// The lookup radius at sample index `sampleIndex` where a camera ray's footprint is
-  /// `footprint`.
-  static float radius(uint32_t sampleIndex, float footprint) {
-    return kFootprints * footprint * float(radiusScale(sampleIndex));
+  /// A sample index's photons, in path order, and the camera-ray footprint typical of where
+  /// they lie (for the grid's cells).
+  struct Arrivals {
+    std::vector<Photon> photons;
+    float footprint = 1;
+  };
+  /// Replaces the photons held by those of sample indices [first, first + arrivals.size()).
+  void hold(uint32_t first, std::vector<Arrivals> arrivals);
+  /// Sample index `sampleIndex`'s photons, within the radius (radius) that a camera ray whose
+  /// footprint at the receiver is `footprint` gathers them; throws std::out_of_range for an
+  /// index not held.
+  const PhotonGrid& at(uint32_t sampleIndex) const { return held(sampleIndex).grid; }
+  float radius(uint32_t sampleIndex, float footprint) const {
+    return kFootprints * footprint * held(sampleIndex).radiusScale;
   }
   /// What each photon's power is multiplied by within `radius`: 1 / (light paths · πr²).
   float perPhoton(float radius) const {
     return 1 / (float(pathsPerSample_) * kPi * radius * radius);
   }
-  /// r_i / r_0 of sample index i: sqrt(Π_{j=1}^{i} (j + α) / (j + 1)).
+  /// r_i / r_0 of sample index i, sqrt(Π_{j=1}^{i} (j + α) / (j + 1)): a product of exactly
+  /// rounded operations, the same on every machine.
   static double radiusScale(uint32_t sampleIndex);
 
  private:
+  struct Held {
+    PhotonGrid grid;
+    float radiusScale;
+  };
+  const Held& held(uint32_t sampleIndex) const;
+  /// r_i² / r_0² of sample index `index`, continuing the product from the last index asked
+  /// (sample indices are held in ascending order, so a render computes each factor once).
+  double squaredRadiusScale(uint32_t index);
+
   uint32_t pathsPerSample_;
   uint32_t first_ = 0;
-  std::vector<PhotonGrid> grids_;
+  std::vector<Held> held_;
+  uint32_t productIndex_ = 0;  // squaredRadiusScale's last index and value
+  double product_ = 1;
 };
 
 template <typename Visit>

@@ -199,8 +199,8 @@ class CausticTracer {
   /// a receiver to `photons` where given; returns the rays it traced.
   uint32_t tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats,
                      std::vector<Photon>* photons) const;
-  /// The grid of sample index `sample`'s photons, its cells about twice the lookups' radius.
-  PhotonGrid gridOf(uint32_t sample, std::vector<Photon> photons) const;
+  /// The footprint of a camera ray (RayCone radius) where `photons` lie, on average.
+  float meanFootprint(const std::vector<Photon>& photons) const;
 
   const Scene& scene_;
   const Camera& camera_;
