@@ -78,6 +78,14 @@ bool splitsAboveDiffuse(const MaterialParams& atHit) {
   return !atHit.hair && !(atHit.subsurface > 0) && !(atHit.sheen > 0) && atHit.opacity >= 1;
 }
 
+int castersWithinDepthLimits(const IntegratorSettings& settings, int diffuseBounces,
+                             int glossyBounces, int transmissionBounces, int bounce) {
+  return std::min({settings.maxPathDepth - bounce, settings.maxDiffuseDepth - diffuseBounces,
+                   settings.maxGlossyDepth - glossyBounces,
+                   settings.maxTransmissionDepth - transmissionBounces}) -
+         1;
+}
+
 bool receivesCaustics(const MaterialParams& material) {
   return !castsCaustics(material) && !material.hair && !(material.subsurface > 0);
 }
@@ -85,11 +93,8 @@ bool receivesCaustics(const MaterialParams& material) {
 CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const PixelFilter& filter,
                              const IntegratorSettings& settings)
     : scene_(scene), camera_(camera), filter_(filter), seed_(settings.seed) {
-  // No depth limit may cut a path taken: a path with k casters scatters k times before its
-  // last caster (the first surface once, the casters but the last one each once).
-  const int maxCasters = std::min({settings.maxPathDepth, settings.maxDiffuseDepth,
-                                   settings.maxGlossyDepth, settings.maxTransmissionDepth}) -
-                         1;
+  // No depth limit may cut a path taken from a first surface.
+  const int maxCasters = castersWithinDepthLimits(settings, 0, 0, 0, 0);
   // Its rays see what Secondary rays see: every shown object.
   const bool matched = scene.volumes().empty() && !scene.geometry().hidesFromRays() &&
                        camera.params().projection == Projection::Perspective &&
@@ -192,6 +197,12 @@ bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film
   std::vector<uint32_t> rays(pathsPerSample_);  // by path
   std::vector<std::vector<Photon>> arrivals(photons ? blocks : 0);
   std::vector<CausticPhotons::Arrivals> held;
+  // Where camera rays start (for the photons' footprints).
+  const Vec3f cameraCentre =
+      camera_
+          .generateRay(0.5f * float(camera_.imageWidth()), 0.5f * float(camera_.imageHeight()),
+                       {0.5f, 0.5f}, 0.5f)
+          .origin;
   for (uint32_t sample = firstSample; sample < firstSample + sampleCount; ++sample) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
     onThreads(threads, [&] {
@@ -221,20 +232,15 @@ bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film
     CausticPhotons::Arrivals inOrder;
     for (const std::vector<Photon>& block : arrivals)
       inOrder.photons.insert(inOrder.photons.end(), block.begin(), block.end());
-    inOrder.footprint = meanFootprint(inOrder.photons);
+    inOrder.footprint = meanFootprint(inOrder.photons, cameraCentre);
     held.push_back(std::move(inOrder));
   }
   if (photons) photons->hold(firstSample, std::move(held));
   return true;
 }
 
-float CausticTracer::meanFootprint(const std::vector<Photon>& photons) const {
-  // A camera ray's footprint grows with its distance: at the photons' mean distance from the
-  // camera's centre.
-  const Vec3f centre = camera_
-                           .generateRay(0.5f * float(camera_.imageWidth()),
-                                        0.5f * float(camera_.imageHeight()), {0.5f, 0.5f}, 0.5f)
-                           .origin;
+float CausticTracer::meanFootprint(const std::vector<Photon>& photons, const Vec3f& centre) const {
+  // A camera ray's footprint grows with its distance: at the photons' mean distance.
   double distance = 0;
   for (const Photon& photon : photons) distance += double(length(photon.position - centre));
   const float meanDistance = photons.empty() ? 1.0f : float(distance / double(photons.size()));

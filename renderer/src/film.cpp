@@ -190,20 +190,25 @@ void Film::addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sam
   ++pixel.samples;
 }
 
-void Film::addSplat(int x, int y, const Vec3f& light) {
+std::optional<size_t> Film::indexOfImagePixel(int x, int y) const {
   const int column = x - region_.x, row = y - region_.y;
-  if (column < 0 || row < 0 || column >= region_.width || row >= region_.height) return;
+  if (column < 0 || row < 0 || column >= region_.width || row >= region_.height)
+    return std::nullopt;
+  return size_t(row) * size_t(region_.width) + size_t(column);
+}
+
+void Film::addSplat(int x, int y, const Vec3f& light) {
+  const std::optional<size_t> index = indexOfImagePixel(x, y);
+  if (!index) return;
   if (splats_.empty()) splats_.assign(pixels_.size() * 3, 0.0);
-  double* sum = splats_.data() + 3 * (size_t(row) * size_t(region_.width) + size_t(column));
+  double* sum = splats_.data() + 3 * *index;
   sum[0] += light.x;
   sum[1] += light.y;
   sum[2] += light.z;
 }
 
 void Film::addRays(int x, int y, uint64_t rays) {
-  const int column = x - region_.x, row = y - region_.y;
-  if (column < 0 || row < 0 || column >= region_.width || row >= region_.height) return;
-  pixels_[size_t(row) * size_t(region_.width) + size_t(column)].rays += rays;
+  if (const std::optional<size_t> index = indexOfImagePixel(x, y)) pixels_[*index].rays += rays;
 }
 
 std::vector<float> Film::resolveColor() const {

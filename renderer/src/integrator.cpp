@@ -1025,11 +1025,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           if (kind != CasterKind::Whole) {
             // The casters after this surface, and the light past them, fit in what each depth
             // limit leaves (as maxCasters does at a first surface).
-            path.castersTaken = std::min({settings.caustics->maxCasters(),
-                                          settings.maxDiffuseDepth - diffuseBounces - 1,
-                                          settings.maxGlossyDepth - glossyBounces - 1,
-                                          settings.maxTransmissionDepth - transmissionBounces - 1,
-                                          settings.maxPathDepth - bounce - 1});
+            path.castersTaken =
+                std::min(settings.caustics->maxCasters(),
+                         castersWithinDepthLimits(settings, diffuseBounces, glossyBounces,
+                                                  transmissionBounces, bounce));
             casters = receivesCaustics(material) && path.castersTaken >= 1 ? 0 : -1;
           }
         } else if (casters >= 0) {

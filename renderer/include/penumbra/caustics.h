@@ -59,6 +59,13 @@ CasterKind casterKind(const MaterialParams& material);
 /// Textures may give a hit what its material's constants, which casterKind reads, lack.
 bool splitsAboveDiffuse(const MaterialParams& atHit);
 
+/// The most casters between a surface and a lamp that no depth limit of `settings` cuts, the
+/// path having made the given bounces of each kind (and `bounce` in all) before that surface: a
+/// path with k casters scatters k times before its last caster (at the surface once, at the
+/// casters but the last one each once), and once more there towards the lamp.
+int castersWithinDepthLimits(const IntegratorSettings& settings, int diffuseBounces,
+                             int glossyBounces, int transmissionBounces, int bounce);
+
 /// Whether a surface can receive caustics from the light tracer: it is no caster, no hair fibre
 /// and has no subsurface scattering (its BSDF is evaluated between any two directions).
 bool receivesCaustics(const MaterialParams& material);
@@ -199,8 +206,9 @@ class CausticTracer {
   /// a receiver to `photons` where given; returns the rays it traced.
   uint32_t tracePath(uint32_t sample, uint32_t path, std::vector<Splat>& splats,
                      std::vector<Photon>* photons) const;
-  /// The footprint of a camera ray (RayCone radius) where `photons` lie, on average.
-  float meanFootprint(const std::vector<Photon>& photons) const;
+  /// The footprint of a camera ray (RayCone radius) where `photons` lie, on average, for camera
+  /// rays from `centre`.
+  float meanFootprint(const std::vector<Photon>& photons, const Vec3f& centre) const;
 
   const Scene& scene_;
   const Camera& camera_;

@@ -141,6 +141,8 @@ class Film {
     size_t offset;
   };
   const Slot* slot(const AovRequest& aov) const;
+  /// The index in pixels_ of image pixel (x, y); empty outside the film's region.
+  std::optional<size_t> indexOfImagePixel(int x, int y) const;
   /// Adds a sample's first hit to the AOVs of pixel `index`.
   void addFirstHit(size_t index, const CameraSample& sample, const FirstHitSample& firstHit);
   /// Calls `visit(pixel)` for each pixel of `within` (image coordinates) or of the whole film.
