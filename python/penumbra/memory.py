@@ -12,10 +12,11 @@ from .errors import SceneError
 DEFAULT_BUDGET_FRACTION = 0.8
 """Without ``--maxMemory``, a render may use this fraction of the machine's physical memory."""
 
-FILM_BYTES_PER_PIXEL = 160
-"""Bytes per pixel of a render pass's film (65: sums in double precision, depth, sample count,
-activity) plus the resolved AOVs and the copies made on their way to the image writer (the
-issue measured about 112 at the render's peak; writing adds one more copy)."""
+FILM_BYTES_PER_PIXEL = 184
+"""Bytes per pixel of a render pass's film (73: sums in double precision, depth, sample and ray
+counts, activity; 64 more where light paths add caustics: their sums and counts) plus the
+resolved AOVs and the copies made on their way to the image writer (about 47 at the render's
+peak, as measured when the film was 65; writing adds one more copy)."""
 
 AOV_BYTES_PER_PIXEL = 64
 """Bytes per pixel that each AOV beyond colour adds: up to four channels, each summed in double

@@ -218,8 +218,8 @@ bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film
     });
     // In path order, whatever thread traced them.
     for (const std::vector<Splat>& block : splats)
-      for (const Splat& splat : block) film.addSplat(splat.x, splat.y, splat.light);
-    film.addLightPaths(pathsPerSample_);
+      for (const Splat& splat : block) film.addSplat(splat.x, splat.y, sample, splat.light);
+    film.addLightPaths(pathsPerSample_, sample);
     // Each path's rays are counted at a pixel of its own, so that the image's regions (farm
     // bands) share them out exactly.
     const uint64_t pixels = uint64_t(camera_.imageWidth()) * uint64_t(camera_.imageHeight());

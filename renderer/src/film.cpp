@@ -1,6 +1,7 @@
 #include "penumbra/film.h"
 
 #include <algorithm>
+#include <array>
 #include <stdexcept>
 #include <string>
 
@@ -89,7 +90,7 @@ const Film::Slot* Film::slot(const AovRequest& aov) const {
 
 void Film::clear() {
   pixels_.assign(size_t(region_.width) * size_t(region_.height), Pixel{});
-  splats_.clear();
+  lightTraced_.clear();
   lightPaths_ = 0;
   active_.assign(pixels_.size(), 1);
   activePixels_ = pixels_.size();
@@ -197,55 +198,88 @@ std::optional<size_t> Film::indexOfImagePixel(int x, int y) const {
   return size_t(row) * size_t(region_.width) + size_t(column);
 }
 
-void Film::addSplat(int x, int y, const Vec3f& light) {
+void Film::addSplat(int x, int y, uint32_t sampleIndex, const Vec3f& light) {
   const std::optional<size_t> index = indexOfImagePixel(x, y);
-  if (!index) return;
-  if (splats_.empty()) splats_.assign(pixels_.size() * 3, 0.0);
-  double* sum = splats_.data() + 3 * *index;
-  sum[0] += light.x;
-  sum[1] += light.y;
-  sum[2] += light.z;
+  if (!index || !active_[*index]) return;
+  if (lightTraced_.empty()) lightTraced_.resize(pixels_.size());
+  LightTraced& sums = lightTraced_[*index];
+  sums.red += light.x;
+  sums.green += light.y;
+  sums.blue += light.z;
+  if (sampleIndex % 2 != 0) return;
+  sums.evenRed += light.x;
+  sums.evenGreen += light.y;
+  sums.evenBlue += light.z;
+}
+
+void Film::addLightPaths(uint64_t paths, uint32_t sampleIndex) {
+  lightPaths_ += paths;
+  if (lightTraced_.empty()) lightTraced_.resize(pixels_.size());
+  const bool even = sampleIndex % 2 == 0;
+  for (size_t i = 0; i < pixels_.size(); ++i) {
+    if (!active_[i]) continue;
+    lightTraced_[i].paths += paths;
+    if (even) lightTraced_[i].evenPaths += paths;
+  }
 }
 
 void Film::addRays(int x, int y, uint64_t rays) {
-  if (const std::optional<size_t> index = indexOfImagePixel(x, y)) pixels_[*index].rays += rays;
+  const std::optional<size_t> index = indexOfImagePixel(x, y);
+  if (index && active_[*index]) pixels_[*index].rays += rays;
 }
 
 std::vector<float> Film::resolveColor() const {
   std::vector<float> rgba(pixels_.size() * 4, 0.0f);
-  const bool traced = !splats_.empty() && lightPaths_ > 0;
-  const double perPath = traced ? 1.0 / double(lightPaths_) : 0.0;
   for (size_t i = 0; i < pixels_.size(); ++i) {
     const Pixel& pixel = pixels_[i];
     if (pixel.samples == 0) continue;
     const double scale = 1.0 / pixel.samples;
-    const double* splat = traced ? splats_.data() + 3 * i : nullptr;
-    rgba[4 * i] = float(pixel.red * scale + (splat ? splat[0] * perPath : 0.0));
-    rgba[4 * i + 1] = float(pixel.green * scale + (splat ? splat[1] * perPath : 0.0));
-    rgba[4 * i + 2] = float(pixel.blue * scale + (splat ? splat[2] * perPath : 0.0));
+    const LightTraced* light =
+        !lightTraced_.empty() && lightTraced_[i].paths > 0 ? &lightTraced_[i] : nullptr;
+    const double perPath = light ? 1.0 / double(light->paths) : 0.0;
+    rgba[4 * i] = float(pixel.red * scale + (light ? light->red * perPath : 0.0));
+    rgba[4 * i + 1] = float(pixel.green * scale + (light ? light->green * perPath : 0.0));
+    rgba[4 * i + 2] = float(pixel.blue * scale + (light ? light->blue * perPath : 0.0));
     rgba[4 * i + 3] = float(pixel.alpha * scale);
   }
   return rgba;
 }
 
-double Film::sampleRelativeVariance(const Pixel& pixel) {
+double Film::sampleRelativeVariance(size_t index) const {
+  const Pixel& pixel = pixels_[index];
   if (pixel.samples < 2) return kInfinity;
   const double half = 0.5 * pixel.samples;
-  double sum = 0;
-  for (const auto& [all, even] :
-       {std::pair{pixel.red, pixel.evenRed}, std::pair{pixel.green, pixel.evenGreen},
-        std::pair{pixel.blue, pixel.evenBlue}}) {
-    const double mean = all / pixel.samples;
+  // The light-traced part's halves: light paths of even and of odd sample indices.
+  const LightTraced* light = !lightTraced_.empty() && lightTraced_[index].evenPaths > 0 &&
+                                     lightTraced_[index].paths > lightTraced_[index].evenPaths
+                                 ? &lightTraced_[index]
+                                 : nullptr;
+  double sampled = 0, lightTraced = 0;
+  for (const auto& [all, even, lightAll, lightEven] :
+       {std::array{pixel.red, pixel.evenRed, light ? light->red : 0, light ? light->evenRed : 0},
+        std::array{pixel.green, pixel.evenGreen, light ? light->green : 0,
+                   light ? light->evenGreen : 0},
+        std::array{pixel.blue, pixel.evenBlue, light ? light->blue : 0,
+                   light ? light->evenBlue : 0}}) {
+    double mean = all / pixel.samples;
     const double halfDifference = 0.5 * (even - (all - even)) / half;
-    sum += halfDifference * halfDifference / (mean * mean + 0.01);
+    double lightHalfDifference = 0;
+    if (light) {
+      const double oddPaths = double(light->paths - light->evenPaths);
+      mean += lightAll / double(light->paths);
+      lightHalfDifference =
+          0.5 * (lightEven / double(light->evenPaths) - (lightAll - lightEven) / oddPaths);
+    }
+    sampled += halfDifference * halfDifference / (mean * mean + 0.01);
+    lightTraced += lightHalfDifference * lightHalfDifference / (mean * mean + 0.01);
   }
-  return sum / 3 * pixel.samples;  // e² of the mean, times n
+  // e² of the mean times n; the light-traced part's halves are of the same n sample indices.
+  return sampled / 3 * pixel.samples + lightTraced / 3 * pixel.samples;
 }
 
 void Film::updateConvergence(float threshold) {
   std::vector<double> sampleVariance(pixels_.size());
-  for (size_t i = 0; i < pixels_.size(); ++i)
-    sampleVariance[i] = sampleRelativeVariance(pixels_[i]);
+  for (size_t i = 0; i < pixels_.size(); ++i) sampleVariance[i] = sampleRelativeVariance(i);
   const double squaredThreshold = double(threshold) * double(threshold);
   const int width = region_.width, height = region_.height;
   for (int y = 0; y < height; ++y)

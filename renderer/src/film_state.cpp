@@ -9,7 +9,7 @@ namespace penumbra {
 namespace {
 
 constexpr char kFilmTag[5] = "FILM";
-constexpr uint32_t kFilmVersion = 2;  // 2: light-traced sums
+constexpr uint32_t kFilmVersion = 3;  // 2: light-traced sums; 3: per pixel, with their even halves
 
 }  // namespace
 
@@ -37,8 +37,14 @@ void Film::saveState(std::vector<uint8_t>& out) const {
   writer.putArray(sums_);
   writer.putArray(nearest_);
   writer.put(lightPaths_);
-  writer.put(uint64_t(splats_.size()));
-  writer.putArray(splats_);
+  writer.put(uint64_t(lightTraced_.size()));
+  for (const LightTraced& light : lightTraced_) {
+    for (double sum :
+         {light.red, light.green, light.blue, light.evenRed, light.evenGreen, light.evenBlue})
+      writer.put(sum);
+    writer.put(light.paths);
+    writer.put(light.evenPaths);
+  }
   writer.putArray(active_);
   writer.endBlock(block);
   if (wantsCryptomatte_) cryptomatte_.saveState(out);
@@ -70,9 +76,19 @@ void Film::loadState(const uint8_t*& cursor, const uint8_t* end) {
   std::vector<double> sums = reader.getArray<double>(sums_.size());
   std::vector<float> nearest = reader.getArray<float>(nearest_.size());
   const auto lightPaths = reader.get<uint64_t>();
-  const auto splatCount = reader.get<uint64_t>();
-  if (splatCount != 0 && splatCount != pixels_.size() * 3) reader.fail("is of another size");
-  std::vector<double> splats = reader.getArray<double>(size_t(splatCount));
+  const auto lightTracedCount = reader.get<uint64_t>();
+  if (lightTracedCount != 0 && lightTracedCount != pixels_.size())
+    reader.fail("is of another size");
+  std::vector<LightTraced> lightTraced(static_cast<size_t>(lightTracedCount));
+  for (LightTraced& light : lightTraced) {
+    for (double* sum :
+         {&light.red, &light.green, &light.blue, &light.evenRed, &light.evenGreen, &light.evenBlue})
+      *sum = reader.get<double>();
+    light.paths = reader.get<uint64_t>();
+    light.evenPaths = reader.get<uint64_t>();
+    if (light.evenPaths > light.paths)
+      reader.fail("counts more light paths of even sample indices than light paths");
+  }
   std::vector<uint8_t> active = reader.getArray<uint8_t>(active_.size());
   reader.endBlock();
   CryptomatteCoverage cryptomatte;  // replaces cryptomatte_ only once all of it is read
@@ -85,7 +101,7 @@ void Film::loadState(const uint8_t*& cursor, const uint8_t* end) {
   nearest_ = std::move(nearest);
   active_ = std::move(active);
   lightPaths_ = lightPaths;
-  splats_ = std::move(splats);
+  lightTraced_ = std::move(lightTraced);
   if (wantsCryptomatte_) cryptomatte_ = std::move(cryptomatte);
   activePixels_ = size_t(std::count(active_.begin(), active_.end(), uint8_t(1)));
 }

@@ -53,16 +53,16 @@ void addSamples(Film& film, uint32_t first, uint32_t count) {
         for (uint32_t index = first; index < first + count; ++index) addSampleOf(film, x, y, index);
 }
 
-/// Light-traced splats of light paths [first, first + count) (caustics.h), some of them on
-/// image pixels outside the film's region.
+/// Light-traced splats of light paths [first, first + count) (caustics.h), each path of a
+/// sample index of its own, some of them on image pixels outside the film's region.
 void addSplats(Film& film, uint32_t first, uint32_t count) {
   for (uint32_t path = first; path < first + count; ++path) {
     const PixelRect& region = film.region();
     film.addSplat(region.x - 1 + int(path * 7 % uint32_t(region.width + 2)),
-                  region.y - 1 + int(path * 3 % uint32_t(region.height + 2)),
+                  region.y - 1 + int(path * 3 % uint32_t(region.height + 2)), path,
                   Vec3f(0.1f * float(path % 5), 0.3f, 0.01f * float(path)));
+    film.addLightPaths(1, path);
   }
-  film.addLightPaths(count);
 }
 
 std::vector<std::vector<float>> resolveAll(const Film& film) {

@@ -82,6 +82,38 @@ def test_farm_bands_of_a_light_traced_frame_are_bit_identical_to_a_local_render(
     assert_farm_bands_match_local(glass_ball, flags, tmp_path, capsys)
 
 
+@pytest.fixture(scope="module")
+def mirrored_strip(tmp_path_factory):
+    """The glass ball's scene under a metal ceiling, seen by a camera four times as tall as
+    wide: the ceiling's light paths land all over the floor, and adaptive sampling stops the
+    strip's ends long before the caustic in its middle."""
+    path = tmp_path_factory.mktemp("caustics") / "mirrored_strip.usda"
+    stage = new_stage(path)
+    add_camera(stage, translate=(0.9, 4.0, 0.0), rotate_x=-90.0, focal_length=2.0,
+               aperture=(1.0, 4.0))
+    add_quad(stage, "/World/floor", half_size=20.0, color=(0.5, 0.5, 0.5), facing="y")
+    ceiling = add_quad(stage, "/World/ceiling", center=(0.0, 5.0, 0.0), half_size=6.0,
+                       facing="y")
+    bind(ceiling, add_preview_material(stage, "/World/metal", metallic=1.0, roughness=0.2))
+    ball = add_sphere_mesh(stage, "/World/ball", center=(0.0, 1.0, 0.0), radius=0.5, rings=24,
+                           sectors=48)
+    bind(ball, add_preview_material(stage, "/World/glass", opacity=0.0, ior=1.5, roughness=0.1))
+    bulb = UsdLux.SphereLight.Define(stage, "/World/bulb")
+    bulb.CreateRadiusAttr(0.3)
+    bulb.CreateIntensityAttr(20.0)
+    bulb.AddTranslateOp().Set(Gf.Vec3d(-1.5, 2.5, 0.0))
+    stage.GetRootLayer().Save()
+    return path
+
+
+def test_adaptive_farm_bands_of_a_light_traced_frame_are_bit_identical_to_a_local_render(
+        mirrored_strip, tmp_path, capsys):
+    # Bands at the strip's ends stop before the whole frame does: a pixel takes the light paths
+    # of its own sample indices alone, so they resolve as the whole frame does.
+    flags = ["-w", "24", "-spp", "256", "--adaptiveThreshold", "0.3", "--adaptiveMinSamples", "4"]
+    assert_farm_bands_match_local(mirrored_strip, flags, tmp_path, capsys)
+
+
 class Interrupted(Exception):
     pass
 

@@ -54,14 +54,23 @@ class Film {
   void addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
                  const FirstHitSample* firstHit = nullptr);
 
-  /// Light tracing (caustics.h): adds `light` to the light-traced sum of image pixel (x, y);
-  /// pixels outside the film's region are ignored. A pixel's colour is the mean of its samples
-  /// plus its light-traced sum over the light paths counted (addLightPaths).
-  void addSplat(int x, int y, const Vec3f& light);
-  /// Counts `paths` more light paths traced for the whole image.
-  void addLightPaths(uint64_t paths) { lightPaths_ += paths; }
+  /// Light tracing (caustics.h): adds `light`, carried by a light path of sample index
+  /// `sampleIndex`, to the light-traced sum of image pixel (x, y). A pixel's colour is the mean
+  /// of its samples plus its light-traced sum over the light paths counted for it
+  /// (addLightPaths), both of the sample indices it took: an active pixel takes the light paths
+  /// of the indices its samples are added for, a stopped one (adaptive sampling) no more. So a
+  /// pixel's value depends on its own samples alone, as without light paths, and a crop or farm
+  /// band whose pixels all stop early resolves as the whole image does. Pixels outside the
+  /// film's region, and stopped ones, are ignored.
+  void addSplat(int x, int y, uint32_t sampleIndex, const Vec3f& light);
+  /// Counts the `paths` light paths of sample index `sampleIndex`, traced for the whole image,
+  /// for every active pixel (the indices of the splats added since the last such call).
+  void addLightPaths(uint64_t paths, uint32_t sampleIndex);
   /// Counts `rays` more rays traced (by light paths) at image pixel (x, y), in raysTraced();
-  /// pixels outside the film's region are ignored.
+  /// pixels outside the film's region, and stopped ones, are ignored: as its light, a pixel
+  /// counts the rays of the light paths of its own sample indices, so that farm bands that stop
+  /// early add up to the whole image's count (which leaves out the rays of the light paths
+  /// traced after their pixel stopped).
   void addRays(int x, int y, uint64_t rays);
   uint64_t lightPaths() const { return lightPaths_; }
 
@@ -92,6 +101,9 @@ class Film {
   /// it estimates the standard error of the full mean), relative to its value as rRMSE weighs it
   /// (|x − ref| / sqrt(ref² + 0.01)); its n samples give the spread of one sample, σ = e·√n,
   /// averaged in squares over its 3×3 neighbourhood so that one lucky estimate does not stop it.
+  /// Where light paths add to the pixel, their part's error is measured alike (light paths of
+  /// even against odd sample indices) and its spread adds to σ²: where the light tracer finds a
+  /// caustic that the path tracer leaves out, the caustic's noise keeps the pixel active.
   /// The pixel stops once n ≥ √kThresholdSamples·σ/threshold, i.e. once e < threshold·
   /// √(n/kThresholdSamples): samples go in proportion to σ, which makes the image's mean squared
   /// relative error the least for the samples spent (stopping at e < threshold instead, n ∝ σ²,
@@ -130,9 +142,15 @@ class Film {
     uint32_t samples = 0;
     uint64_t rays = 0;
   };
-  /// The relative variance of one of a pixel's samples, e²·n (see updateConvergence); infinite
-  /// below two samples.
-  static double sampleRelativeVariance(const Pixel& pixel);
+  /// A pixel's light-traced sums (addSplat) and the light paths counted for it (addLightPaths),
+  /// of all its sample indices and of the even ones.
+  struct LightTraced {
+    double red = 0, green = 0, blue = 0, evenRed = 0, evenGreen = 0, evenBlue = 0;
+    uint64_t paths = 0, evenPaths = 0;
+  };
+  /// The relative variance of one of pixel `index`'s samples, e²·n, its light-traced part's
+  /// included (see updateConvergence); infinite below two samples.
+  double sampleRelativeVariance(size_t index) const;
   /// The sample count at which updateConvergence's threshold is the pixel's relative error.
   static constexpr double kThresholdSamples = 16;
   /// Where an AOV's per-pixel data starts: in sums_ (filtered AOVs, variance) or in nearest_.
@@ -160,8 +178,8 @@ class Film {
   std::vector<float> nearest_;
   std::vector<uint8_t> active_;
   size_t activePixels_ = 0;
-  std::vector<double> splats_;  // light-traced RGB sums per pixel; empty until the first splat
-  uint64_t lightPaths_ = 0;
+  std::vector<LightTraced> lightTraced_;  // per pixel; empty until light paths are counted
+  uint64_t lightPaths_ = 0;               // traced for the image, whichever pixels took them
   bool wantsCryptomatte_ = false;
   CryptomatteCoverage cryptomatte_;  // empty unless wantsCryptomatte_
 };
