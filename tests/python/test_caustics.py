@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Gf, UsdLux
+from pxr import Gf, Usd, UsdLux
 
 import penumbra
 from farm_bands import assert_farm_bands_match_local
@@ -18,14 +18,8 @@ LIGHT = dict(width=32, samples=8, caustics="light")
 TRACED = ("light", "photons")
 
 
-@pytest.fixture(scope="module")
-def glass_ball(tmp_path_factory):
-    """A grey floor under a smooth glass ball lit from the side by a small sphere light, seen
-    from above where the ball focuses that light onto the floor; as a file, for the CLI."""
-    path = tmp_path_factory.mktemp("caustics") / "glass_ball.usda"
-    stage = new_stage(path)
-    add_camera(stage, translate=(0.9, 4.0, 0.0), rotate_x=-90.0, focal_length=2.0,
-               aperture=(1.0, 1.0))
+def add_ball_and_bulb(stage: Usd.Stage) -> None:
+    """A smooth glass ball on a grey floor, lit from the side by a small sphere light."""
     add_quad(stage, "/World/floor", half_size=20.0, color=(0.5, 0.5, 0.5), facing="y")
     ball = add_sphere_mesh(stage, "/World/ball", center=(0.0, 1.0, 0.0), radius=0.5, rings=24,
                            sectors=48)
@@ -34,6 +28,17 @@ def glass_ball(tmp_path_factory):
     bulb.CreateRadiusAttr(0.3)
     bulb.CreateIntensityAttr(20.0)
     bulb.AddTranslateOp().Set(Gf.Vec3d(-1.5, 2.5, 0.0))
+
+
+@pytest.fixture(scope="module")
+def glass_ball(tmp_path_factory):
+    """A grey floor under a smooth glass ball lit from the side by a small sphere light, seen
+    from above where the ball focuses that light onto the floor; as a file, for the CLI."""
+    path = tmp_path_factory.mktemp("caustics") / "glass_ball.usda"
+    stage = new_stage(path)
+    add_camera(stage, translate=(0.9, 4.0, 0.0), rotate_x=-90.0, focal_length=2.0,
+               aperture=(1.0, 1.0))
+    add_ball_and_bulb(stage)
     stage.GetRootLayer().Save()
     return path
 
@@ -91,17 +96,10 @@ def mirrored_strip(tmp_path_factory):
     stage = new_stage(path)
     add_camera(stage, translate=(0.9, 4.0, 0.0), rotate_x=-90.0, focal_length=2.0,
                aperture=(1.0, 4.0))
-    add_quad(stage, "/World/floor", half_size=20.0, color=(0.5, 0.5, 0.5), facing="y")
     ceiling = add_quad(stage, "/World/ceiling", center=(0.0, 5.0, 0.0), half_size=6.0,
                        facing="y")
     bind(ceiling, add_preview_material(stage, "/World/metal", metallic=1.0, roughness=0.2))
-    ball = add_sphere_mesh(stage, "/World/ball", center=(0.0, 1.0, 0.0), radius=0.5, rings=24,
-                           sectors=48)
-    bind(ball, add_preview_material(stage, "/World/glass", opacity=0.0, ior=1.5, roughness=0.1))
-    bulb = UsdLux.SphereLight.Define(stage, "/World/bulb")
-    bulb.CreateRadiusAttr(0.3)
-    bulb.CreateIntensityAttr(20.0)
-    bulb.AddTranslateOp().Set(Gf.Vec3d(-1.5, 2.5, 0.0))
+    add_ball_and_bulb(stage)
     stage.GetRootLayer().Save()
     return path
 
