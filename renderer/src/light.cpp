@@ -329,7 +329,7 @@ std::optional<Light::Outline> Light::outline() const {
 
 bool Light::emitsFromSurface() const {
   const bool shape = params_.type == LightType::Sphere || params_.type == LightType::Rect ||
-                     params_.type == LightType::Disk;
+                     params_.type == LightType::Disk || params_.type == LightType::Cylinder;
   return shape && !isDelta();
 }
 
@@ -349,6 +349,12 @@ std::optional<Light::SurfacePoint> Light::sampleSurface(Vec2f u) const {
       if (!(density > 0)) return std::nullopt;
       return SurfacePoint{center_ + edgeU_ * (uv.x - 0.5f) + edgeV_ * (0.5f - uv.y), normal_,
                           params_.texture->lookup(uv), area_ / density};
+    }
+    case LightType::Cylinder: {  // its side (the caps emit nothing): u.x along the axis
+      const float phi = 2 * kPi * u.y;
+      const Vec3f normal = edgeV_ * std::cos(phi) + normal_ * std::sin(phi);
+      return SurfacePoint{center_ + edgeU_ * (u.x - 0.5f) + normal * radius_, normal, untextured,
+                          area_};
     }
     default: {  // a disk: its edges are semi-axes
       const Vec2f d = concentricSampleDisk(u);

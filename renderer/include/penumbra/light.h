@@ -223,8 +223,9 @@ class Light {
   };
   /// None for cylinder, mesh, point-like and infinite lights.
   std::optional<Outline> outline() const;
-  /// Whether the light is a sphere, rect or disk light (not point-like): sampleSurface draws
-  /// the points it emits from. Light tracing (caustics.h) starts paths on such lights.
+  /// Whether the light is a sphere, rect, disk or cylinder light (not point-like):
+  /// sampleSurface draws the points it emits from. Light tracing (caustics.h) starts paths on
+  /// such lights.
   bool emitsFromSurface() const;
   /// A point of the emitting surface of a light that emitsFromSurface(), with the unit normal of
   /// its emitting side there: uniform by area, or, on a textured rect, by the texture's
