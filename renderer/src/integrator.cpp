@@ -1004,8 +1004,12 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
             weight *= scattering.diffuse ? lights[index].diffuseMultiplier()
                                          : lights[index].specularMultiplier();
         }
-        addLight(clampIndirect(throughput * spectrum.emission(hit->emission) * weight, bounce,
-                               settings.indirectClamp));
+        Vec3f kept(1.0f);  // as emittedAlongRay leaves the light tracer's lights
+        if (hit->lightIndex >= 0 && causticPath() &&
+            settings.caustics->takesLightPast(size_t(hit->lightIndex), path.pastAboveDiffuse))
+          kept = path.pastAboveDiffuse ? path.keptAboveDiffuse : Vec3f(0.0f);
+        addLight(clampIndirect(throughput * spectrum.emission(hit->emission) * weight * kept,
+                               bounce, settings.indirectClamp));
       }
       if (bounce >= settings.maxPathDepth || lastVertex) break;
       ++result.vertices;

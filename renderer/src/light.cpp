@@ -329,7 +329,8 @@ std::optional<Light::Outline> Light::outline() const {
 
 bool Light::emitsFromSurface() const {
   const bool shape = params_.type == LightType::Sphere || params_.type == LightType::Rect ||
-                     params_.type == LightType::Disk || params_.type == LightType::Cylinder;
+                     params_.type == LightType::Disk || params_.type == LightType::Cylinder ||
+                     params_.type == LightType::Mesh;
   return shape && !isDelta();
 }
 
@@ -349,6 +350,15 @@ std::optional<Light::SurfacePoint> Light::sampleSurface(Vec2f u) const {
       if (!(density > 0)) return std::nullopt;
       return SurfacePoint{center_ + edgeU_ * (uv.x - 0.5f) + edgeV_ * (0.5f - uv.y), normal_,
                           params_.texture->lookup(uv), area_ / density};
+    }
+    case LightType::Mesh: {  // a triangle by its area, then a point of it: uniform by area
+      float within = 0;
+      const size_t triangle = triangleChoice_->sampleIndex(u.x, &within);
+      const Vec3f* corner = &(*params_.meshTriangles)[3 * triangle];
+      const Vec3f weights = sampleUniformTriangle({within, u.y});
+      return SurfacePoint{corner[0] * weights.x + corner[1] * weights.y + corner[2] * weights.z,
+                          normalize(cross(corner[1] - corner[0], corner[2] - corner[0])),
+                          untextured, area_};
     }
     case LightType::Cylinder: {  // its side (the caps emit nothing): u.x along the axis
       const float phi = 2 * kPi * u.y;

@@ -334,6 +334,29 @@ TEST(Caustics, CylinderLampsAreLightTracedFromTheirSide) {
   expectTheSameImage(means);
 }
 
+TEST(Caustics, MeshLightsAreLightTracedFromTheirFront) {
+  // A glowing panel facing down in the bulb's place: light paths start on its triangles,
+  // uniformly by area, and the path tracer leaves the light its rays meet there, as that of
+  // next-event estimation, to them.
+  RenderDelegate delegate;
+  glassBallScene(delegate);
+  delegate.removePrim("/bulb");
+  delegate.insertRprim("mesh", "/panel");
+  Mesh& panel = delegate.mesh("/panel");
+  panel.setPoints(
+      {{-1.8f, 2.5f, -0.3f}, {-1.2f, 2.5f, -0.3f}, {-1.2f, 2.5f, 0.3f}, {-1.8f, 2.5f, 0.3f}});
+  panel.setTopology({4}, {0, 1, 2, 3}, false, "none");  // counter-clockwise from below
+  panel.setLight(true, {{"intensity", 60.0f}});
+  panel.setVisible(true);
+  const SplitMeans means = splitMeans(delegate, 32768);
+  ASSERT_GT(means.causticPath, 2 * means.allPath);
+  EXPECT_LT(means.causticLeftOut, 0.5 * means.causticPath);
+  // Seven seeds gave 0.982-1.015 and 0.988-1.006; against 32,768 path-traced samples, two
+  // seeds gave 0.989 and 1.001, 0.995 and 1.001. With the path tracer adding the light its rays
+  // meet on the panel all the same, 1.97 and 1.45.
+  expectTheSameImage(means);
+}
+
 using CausticsOfTexturedLamps = penumbra::test::ScratchDirectoryTest;
 
 TEST_F(CausticsOfTexturedLamps, StartLightPathsByTheirTexture) {

@@ -223,7 +223,7 @@ class Light {
   };
   /// None for cylinder, mesh, point-like and infinite lights.
   std::optional<Outline> outline() const;
-  /// Whether the light is a sphere, rect, disk or cylinder light (not point-like):
+  /// Whether the light is a sphere, rect, disk, cylinder or mesh light (not point-like):
   /// sampleSurface draws the points it emits from. Light tracing (caustics.h) starts paths on
   /// such lights.
   bool emitsFromSurface() const;
