@@ -233,12 +233,9 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
       break;
     }
     case LightType::Mesh: {
-      float within = 0;
-      const size_t triangle = triangleChoice_->sampleIndex(u.x, &within);
-      const Vec3f* corner = &(*params_.meshTriangles)[3 * triangle];
-      const Vec3f weights = sampleUniformTriangle({within, u.y});
-      lightPoint = corner[0] * weights.x + corner[1] * weights.y + corner[2] * weights.z;
-      lightNormal = normalize(cross(corner[1] - corner[0], corner[2] - corner[0]));
+      const SurfacePoint drawn = meshPoint(u);
+      lightPoint = drawn.position;
+      lightNormal = drawn.normal;
       break;
     }
     case LightType::Sphere: {
@@ -334,6 +331,16 @@ bool Light::emitsFromSurface() const {
   return shape && !isDelta();
 }
 
+Light::SurfacePoint Light::meshPoint(Vec2f u) const {
+  float within = 0;
+  const size_t triangle = triangleChoice_->sampleIndex(u.x, &within);
+  const Vec3f* corner = &(*params_.meshTriangles)[3 * triangle];
+  const Vec3f weights = sampleUniformTriangle({within, u.y});
+  return SurfacePoint{corner[0] * weights.x + corner[1] * weights.y + corner[2] * weights.z,
+                      normalize(cross(corner[1] - corner[0], corner[2] - corner[0])), Vec3f(1.0f),
+                      area_};
+}
+
 std::optional<Light::SurfacePoint> Light::sampleSurface(Vec2f u) const {
   const Vec3f untextured(1.0f);
   switch (params_.type) {
@@ -351,15 +358,8 @@ std::optional<Light::SurfacePoint> Light::sampleSurface(Vec2f u) const {
       return SurfacePoint{center_ + edgeU_ * (uv.x - 0.5f) + edgeV_ * (0.5f - uv.y), normal_,
                           params_.texture->lookup(uv), area_ / density};
     }
-    case LightType::Mesh: {  // a triangle by its area, then a point of it: uniform by area
-      float within = 0;
-      const size_t triangle = triangleChoice_->sampleIndex(u.x, &within);
-      const Vec3f* corner = &(*params_.meshTriangles)[3 * triangle];
-      const Vec3f weights = sampleUniformTriangle({within, u.y});
-      return SurfacePoint{corner[0] * weights.x + corner[1] * weights.y + corner[2] * weights.z,
-                          normalize(cross(corner[1] - corner[0], corner[2] - corner[0])),
-                          untextured, area_};
-    }
+    case LightType::Mesh:
+      return meshPoint(u);
     case LightType::Cylinder: {  // its side (the caps emit nothing): u.x along the axis
       const float phi = 2 * kPi * u.y;
       const Vec3f normal = edgeV_ * std::cos(phi) + normal_ * std::sin(phi);

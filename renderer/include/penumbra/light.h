@@ -249,6 +249,8 @@ class Light {
   /// is chosen, so that each channel's noise counts alike (pbrt-v4 averages over wavelengths;
   /// luminance would sample blue lights too rarely for their share of the blue channel).
   float meanRadianceGrey() const;
+  /// A mesh light's point: a triangle by its area, then a point of it (uniform by area).
+  SurfacePoint meshPoint(Vec2f u) const;
   /// Rect lights are sampled uniformly in the solid angle they subtend where that is at least
   /// this (steradians), and by area elsewhere.
   static constexpr double kMinSphericalSolidAngle = 1e-4;
