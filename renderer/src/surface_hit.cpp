@@ -83,8 +83,8 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
   const LightSet& lights = scene.lights();
   if (const int lightIndex = lights.meshLight(found.meshId); lightIndex >= 0) {
     hit.lightIndex = lightIndex;
-    if (dot(ray.direction, hit.normal) < 0)
-      hit.emission = lights.all()[size_t(lightIndex)].radiance();
+    if (dot(ray.direction, hit.normal) < 0)  // shaped as next-event estimation sees it
+      hit.emission = lights.all()[size_t(lightIndex)].radianceLeaving(Vec3f(1.0f), -ray.direction);
   }
   return shaded;
 }
