@@ -173,6 +173,7 @@ CASES = [
     Case("light input of an unknown type", 0, "/light: inputs:exposure has a value of type UnregisteredValue", light="floa1 inputs:exposure = 1"),
     Case("light input of the wrong type", 0, "/light: inputs:color has a value of type str", light='string inputs:color = "red"'),
     Case("mesh light input of an unknown type", 0, "/panel: inputs:intensity has a value of type UnregisteredValue", extra='def Mesh "panel" (\n    prepend apiSchemas = ["MeshLightAPI"]\n)\n{\n    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n    point3f[] points = [(-1, -1, 2), (1, -1, 2), (1, 1, 2), (-1, 1, 2)]\n    floa1 inputs:intensity = 5\n}'),
+    Case("negative mesh light intensity", 0, "/panel: negative emission", extra='def Mesh "panel" (\n    prepend apiSchemas = ["MeshLightAPI"]\n)\n{\n    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n    point3f[] points = [(-1, -1, 2), (1, -1, 2), (1, 1, 2), (-1, 1, 2)]\n    float inputs:intensity = -5\n}'),
     Case("NaN light colour", 0, "/light", light="color3f inputs:color = (nan, 1, 1)"),
     Case("light zero scale", 0, "/light", light='float3 xformOp:scale = (0, 0, 0)\nuniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]'),
     Case(

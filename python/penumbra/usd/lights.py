@@ -87,7 +87,7 @@ def sync_mesh_light(
     light_api = UsdLux.LightAPI(prim)
     params = {name: reader.get(_getter(light_api, name)) for name in _COMMON_INPUTS}
     _skip_wrong_kinds(prim, prim_id, params, warn)
-    params["color"] = as_floats(params["color"])
+    _skip_wrong_emission(prim_id, params, warn)
     core.set_mesh_light(prim_id, True, **params)
 
 
@@ -143,6 +143,15 @@ def sync_light(
         shadow = UsdLux.ShadowAPI(prim)
         params.update({name: reader.get(_getter(shadow, name)) for name in _SHADOW_INPUTS})
     _skip_wrong_kinds(prim, path, params, warn)
+    _skip_wrong_emission(path, params, warn)
+    params["texture:file"] = _texture_path(prim, schema, reader, warn)
+    params["cameraVisible"] = dome_light_visibility or sprim_type != "domeLight"
+    core.set_light(path, **params)
+
+
+def _skip_wrong_emission(path: str, params: dict, warn: Callable[[str], None]) -> None:
+    """Send ``params``' colours as floats, and skip the light (intensity 0) with a warning where
+    they would give negative or non-finite radiance."""
     for name in _COLOR_INPUTS:
         if name in params:
             params[name] = as_floats(params[name])
@@ -150,9 +159,6 @@ def sync_light(
     if problem:
         warn(f"{path}: {problem}; the light is skipped (intensity 0)")
         params["intensity"] = 0.0
-    params["texture:file"] = _texture_path(prim, schema, reader, warn)
-    params["cameraVisible"] = dome_light_visibility or sprim_type != "domeLight"
-    core.set_light(path, **params)
 
 
 def _emission_problem(params: dict) -> str | None:
