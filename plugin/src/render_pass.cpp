@@ -173,25 +173,17 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
     renderSettings.integrator.guidingField = guidingField_ ? &*guidingField_ : nullptr;
     for (int first = samplesDone_; first < stop;) {
       const int last = photons ? std::min(stop, first + kPhotonSamplesAtOnce) : stop;
-      if (photons && !caustics->trace(uint32_t(first), uint32_t(last - first), film_,
-                                      settings.threads, cancel, &*photons)) {
-        reset();
-        throw RenderCancelled();
-      }
+      if (photons)
+        dropIfCancelled(caustics->trace(uint32_t(first), uint32_t(last - first), film_,
+                                        settings.threads, cancel, &*photons));
       renderSettings.integrator.causticPhotons = photons ? &*photons : nullptr;
       const bool rendered = renderSamples(delegate_.scene(), camera, film_, uint32_t(first),
                                           uint32_t(last - first), renderSettings, cancel);
       renderSettings.integrator.causticPhotons = nullptr;  // they hold these indices alone
-      if (!rendered) {
-        reset();
-        throw RenderCancelled();
-      }
-      if (caustics && !photons &&
-          !caustics->trace(uint32_t(first), uint32_t(last - first), film_, settings.threads,
-                           cancel)) {
-        reset();
-        throw RenderCancelled();
-      }
+      dropIfCancelled(rendered);
+      if (caustics && !photons)
+        dropIfCancelled(caustics->trace(uint32_t(first), uint32_t(last - first), film_,
+                                        settings.threads, cancel));
       first = last;
     }
     if (recordHere) guidingRecordedThrough_ = stop;
@@ -211,6 +203,12 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
   }
 }
 
+void RenderPass::dropIfCancelled(bool finished) {
+  if (finished) return;
+  reset();
+  throw RenderCancelled();
+}
+
 void RenderPass::prepareGuiding(const penumbra::Camera& camera,
                                 const penumbra::RenderSettings& renderSettings,
                                 const std::atomic<bool>* cancel) {
@@ -221,12 +219,9 @@ void RenderPass::prepareGuiding(const penumbra::Camera& camera,
     penumbra::RenderSettings tracing = renderSettings;
     tracing.integrator.guidingField = nullptr;
     tracing.integrator.guidingRecorder = &guidingRecorder_;
-    if (!traceSamples(delegate_.scene(), camera, imageWidth_, imageHeight_,
-                      uint32_t(guidingRecordedThrough_),
-                      uint32_t(trainingSamples - guidingRecordedThrough_), tracing, cancel)) {
-      reset();
-      throw RenderCancelled();
-    }
+    dropIfCancelled(traceSamples(
+        delegate_.scene(), camera, imageWidth_, imageHeight_, uint32_t(guidingRecordedThrough_),
+        uint32_t(trainingSamples - guidingRecordedThrough_), tracing, cancel));
     guidingRecordedThrough_ = trainingSamples;
   }
   guidingField_ = GuidingField::build(guidingRecorder_.take());

@@ -132,6 +132,9 @@ class RenderPass {
   void setAovBindings(std::map<std::string, PrimId> bindings);
 
  private:
+  /// Where a step of execute() did not finish (`cancel` was set), drops the pass's samples (as
+  /// reset()) and throws RenderCancelled.
+  void dropIfCancelled(bool finished);
   /// The first sample count after `samplesDone` at which adaptive sampling tests pixels.
   static int nextConvergenceTest(int samplesDone, int minSamples);
   /// Throws std::invalid_argument if the crop's margin is too narrow for adaptive sampling to
