@@ -78,10 +78,4 @@ double CausticPhotons::squaredRadiusScale(uint32_t index) {
   return product_;
 }
 
-double CausticPhotons::radiusScale(uint32_t sampleIndex) {
-  double product = 1;
-  for (uint32_t index = 1; index <= sampleIndex; ++index) product *= squaredRadiusStep(index);
-  return std::sqrt(product);
-}
-
 }  // namespace penumbra

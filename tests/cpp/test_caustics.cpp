@@ -560,12 +560,25 @@ TEST(CausticPhotons, ImagesAreBitIdenticalForAnyThreadCountAndSplit) {
 }
 
 TEST(CausticPhotons, RadiusShrinksAsProgressivePhotonMappingAsks) {
-  // r_i² / r_{i-1}² = (i + α) / (i + 1), α = 2/3.
-  EXPECT_DOUBLE_EQ(CausticPhotons::radiusScale(0), 1.0);
+  // r_i² / r_{i-1}² = (i + α) / (i + 1), α = 2/3: the product of those steps, in index order...
+  const auto radiusScale = [](uint32_t sampleIndex) {
+    double product = 1;
+    for (uint32_t index = 1; index <= sampleIndex; ++index)
+      product *= (index + CausticPhotons::kAlpha) / (index + 1.0);
+    return std::sqrt(product);
+  };
+  EXPECT_DOUBLE_EQ(radiusScale(0), 1.0);
   for (const uint32_t i : {1u, 2u, 10u, 1000u}) {
-    const double ratio = std::pow(CausticPhotons::radiusScale(i), 2) /
-                         std::pow(CausticPhotons::radiusScale(i - 1), 2);
+    const double ratio = std::pow(radiusScale(i), 2) / std::pow(radiusScale(i - 1), 2);
     EXPECT_NEAR(ratio, (i + 2.0 / 3.0) / (i + 1.0), 1e-9) << i;
+  }
+  // ...is what the photons held for each index are gathered within, bit for bit, also when the
+  // indices held start over (a new pass).
+  CausticPhotons held;
+  for (const uint32_t first : {0u, 990u, 4u}) {
+    held.hold(first, std::vector<CausticPhotons::Arrivals>(11));
+    for (uint32_t i = first; i < first + 11; ++i)
+      EXPECT_EQ(held.radius(i, 1.0f), CausticPhotons::kFootprints * float(radiusScale(i))) << i;
   }
   // A photon counts once however the cells around it share buckets, and none beyond the
   // radius does.

@@ -89,9 +89,6 @@ class CausticPhotons {
   float perPhoton(float radius) const {
     return 1 / (float(pathsPerSample_) * kPi * radius * radius);
   }
-  /// r_i / r_0 of sample index i, sqrt(Π_{j=1}^{i} (j + α) / (j + 1)): a product of exactly
-  /// rounded operations, the same on every machine.
-  static double radiusScale(uint32_t sampleIndex);
 
  private:
   struct Held {
@@ -99,8 +96,9 @@ class CausticPhotons {
     float radiusScale;
   };
   const Held& held(uint32_t sampleIndex) const;
-  /// r_i² / r_0² of sample index `index`, continuing the product from the last index asked
-  /// (sample indices are held in ascending order, so a render computes each factor once).
+  /// r_i² / r_0² of sample index `index`, Π_{j=1}^{i} (j + α) / (j + 1): a product of exactly
+  /// rounded operations, the same on every machine, continued from the last index asked (sample
+  /// indices are held in ascending order, so a render computes each factor once).
   double squaredRadiusScale(uint32_t index);
 
   uint32_t pathsPerSample_;
