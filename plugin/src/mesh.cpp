@@ -145,6 +145,7 @@ void Mesh::syncLight(SyncContext& context) {
   }
   light_->setVisible(corners != nullptr);
   light_->setMeshTriangles(std::move(corners));
+  light_->setTransform(transform());  // the light's frame: ShapingAPI shapes about its -Z
   light_->setLinkSlot(lightLinkSlot_);
   light_->syncDirty(context);
 }

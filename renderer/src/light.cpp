@@ -1,6 +1,7 @@
 #include "penumbra/light.h"
 
 #include <stdexcept>
+#include <string>
 
 #include "penumbra/color.h"
 #include "penumbra/warp.h"
@@ -127,6 +128,11 @@ Light::Light(const LightParams& params) : params_(params) {
   coneCosOuter_ = std::cos(coneAngle);
   coneCosInner_ = std::cos(coneAngle * (1 - std::clamp(params.coneSoftness, 0.0f, 1.0f)));
   shaped_ = !isInfinite() && (params.coneAngle < 90 || params.focus > 0);
+  // A transform that scales -Z to nothing (a card flattened along Z) leaves no axis to emit along.
+  if ((shaped_ || params.type == LightType::Distant) && !isFinite(axis_))
+    throw std::invalid_argument(
+        "the light's transform collapses its -Z axis, along which it " +
+        std::string(params.type == LightType::Distant ? "shines" : "is shaped (ShapingAPI)"));
 }
 
 bool Light::isDelta() const {

@@ -240,6 +240,22 @@ TEST(Lights, DegenerateLightsAreRejected) {
   EXPECT_THROW(Light{sphere}, std::invalid_argument);
 }
 
+TEST(Lights, ATransformThatCollapsesTheEmissionAxisIsRejectedWhereTheLightNeedsIt) {
+  const double flatZ[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+  // A mesh light's frame is its mesh's transform; its triangles are in world space already.
+  LightParams card = params(LightType::Mesh, Transform::fromRowMajor(flatZ));
+  card.meshTriangles = std::make_shared<const std::vector<Vec3f>>(
+      std::vector<Vec3f>{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+  EXPECT_NO_THROW(Light{card});  // unshaped: no axis needed
+  card.coneAngle = 30;
+  EXPECT_THROW(Light{card}, std::invalid_argument);
+  card.coneAngle = 90;
+  card.focus = 2;
+  EXPECT_THROW(Light{card}, std::invalid_argument);
+  const LightParams sun = params(LightType::Distant, Transform::fromRowMajor(flatZ));
+  EXPECT_THROW(Light{sun}, std::invalid_argument);
+}
+
 TEST(Color, BlackbodyIsNormalisedAndOrdered) {
   for (float kelvin : {2000.0f, 4000.0f, 6500.0f, 9000.0f})
     EXPECT_NEAR(luminance(blackbodyColor(kelvin)), 1.0f, 1e-4f);

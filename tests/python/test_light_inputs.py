@@ -35,7 +35,8 @@ def _table_inputs(sprim_type: str | None) -> dict[str, _core.LightInput]:
     """The table's inputs of a light of ``sprim_type`` with every applied schema (a mesh light's
     when ``None``)."""
     if sprim_type is None:
-        return {i.name: i for i in _core.light_inputs() if i.origin == "LightAPI"}
+        return {i.name: i for i in _core.light_inputs()
+                if i.origin in ("LightAPI", "ShapingAPI", "ShadowAPI")}
     return {
         i.name: i
         for i in _core.light_inputs()
@@ -63,6 +64,10 @@ def test_the_inputs_read_are_the_tables():
             assert isinstance(value, _SENT_TYPES[table[name].kind]), (path, name)
     mesh = UsdGeom.Mesh.Define(stage, "/emitter").GetPrim()
     UsdLux.MeshLightAPI.Apply(mesh)
+    lights.sync_mesh_light(core, mesh, "/emitter", reader, warn=lambda message: None)
+    assert list(core.sent["/emitter"]) == list(lights._COMMON_INPUTS)  # no schema applied
+    UsdLux.ShapingAPI.Apply(mesh)
+    UsdLux.ShadowAPI.Apply(mesh)
     lights.sync_mesh_light(core, mesh, "/emitter", reader, warn=lambda message: None)
     assert list(core.sent["/emitter"]) == list(_table_inputs(None))
 

@@ -80,12 +80,15 @@ def sync_mesh_light(
     core, prim: Usd.Prim, prim_id: str, reader: SampleReader, warn: Callable[[str], None]
 ) -> None:
     """Make mesh ``prim`` (delegate prim ``prim_id``) an emitter sampled as a light when it has
-    UsdLuxMeshLightAPI applied, or not."""
+    UsdLuxMeshLightAPI applied, or not; shaped and shadowed by the ShapingAPI and ShadowAPI
+    applied to it, as the other lights are (about the mesh's frame: the delegate's mesh gives
+    its light its transform)."""
     if not prim.HasAPI(UsdLux.MeshLightAPI):
         core.set_mesh_light(prim_id, False)
         return
     light_api = UsdLux.LightAPI(prim)
     params = {name: reader.get(_getter(light_api, name)) for name in _COMMON_INPUTS}
+    params.update(_applied_schema_inputs(prim, reader))
     _skip_wrong_kinds(prim, prim_id, params, warn)
     _skip_wrong_emission(prim_id, params, warn)
     core.set_mesh_light(prim_id, True, **params)
@@ -136,17 +139,25 @@ def sync_light(
     light_api = UsdLux.LightAPI(prim)
     params = {name: reader.get(_getter(light_api, name)) for name in _COMMON_INPUTS}
     params.update({name: reader.get(_getter(schema, name)) for name in shape_inputs})
+    params.update(_applied_schema_inputs(prim, reader))
+    _skip_wrong_kinds(prim, path, params, warn)
+    _skip_wrong_emission(path, params, warn)
+    params["texture:file"] = _texture_path(prim, schema, reader, warn)
+    params["cameraVisible"] = dome_light_visibility or sprim_type != "domeLight"
+    core.set_light(path, **params)
+
+
+def _applied_schema_inputs(prim: Usd.Prim, reader: SampleReader) -> dict:
+    """The inputs of the schemas applied to light ``prim`` that shape its emission
+    (UsdLuxShapingAPI) or its shadows (UsdLuxShadowAPI); none where neither is applied."""
+    params = {}
     if prim.HasAPI(UsdLux.ShapingAPI):
         shaping = UsdLux.ShapingAPI(prim)
         params.update({name: reader.get(_getter(shaping, name)) for name in _SHAPING_INPUTS})
     if prim.HasAPI(UsdLux.ShadowAPI):
         shadow = UsdLux.ShadowAPI(prim)
         params.update({name: reader.get(_getter(shadow, name)) for name in _SHADOW_INPUTS})
-    _skip_wrong_kinds(prim, path, params, warn)
-    _skip_wrong_emission(path, params, warn)
-    params["texture:file"] = _texture_path(prim, schema, reader, warn)
-    params["cameraVisible"] = dome_light_visibility or sprim_type != "domeLight"
-    core.set_light(path, **params)
+    return params
 
 
 def _skip_wrong_emission(path: str, params: dict, warn: Callable[[str], None]) -> None:

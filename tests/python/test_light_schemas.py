@@ -1,0 +1,131 @@
+"""UsdLux's applied light schemas read from USD: ShapingAPI and ShadowAPI on UsdLuxMeshLightAPI
+meshes as on the other lights, about the mesh's own frame."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Gf, Usd, UsdGeom, UsdLux
+
+import penumbra
+from stages import add_camera, add_quad, new_stage
+
+LAMP_HALF_SIZE = 0.1
+LAMP_HEIGHT = 1.0
+# Tilted 45° about Y, the lamp's -Z axis meets the floor at x = -1; a 15° cone lights the floor
+# from x = -tan 60° to -tan 30° (about -1.73 to -0.58) along y = 0.
+TILT_DEGREES = 45.0
+CONE_DEGREES = 15.0
+RENDER = dict(camera="/cam", width=32, samples=64, seed=3)
+
+
+def floor_stage() -> Usd.Stage:
+    """A grey floor in the z = 0 plane, [-2, 2]² of it seen straight down from z = 5."""
+    stage = new_stage()
+    add_camera(stage)
+    add_quad(stage, "/World/floor", half_size=2.0, color=(0.5, 0.5, 0.5))
+    return stage
+
+
+def place_lamp(prim: Usd.Prim, tilt_degrees: float) -> None:
+    """The lamp's frame: LAMP_HEIGHT above the origin, its -Z axis tilted about Y."""
+    lamp = UsdGeom.Xformable(prim)
+    lamp.AddTranslateOp().Set(Gf.Vec3d(0, 0, LAMP_HEIGHT))
+    lamp.AddRotateYOp().Set(tilt_degrees)
+
+
+def add_mesh_lamp(stage: Usd.Stage, tilt_degrees: float = 0.0) -> Usd.Prim:
+    """A square UsdLuxMeshLightAPI card in its XY plane whose front faces its -Z, as a rect light
+    of the same size emits."""
+    s = LAMP_HALF_SIZE
+    mesh = UsdGeom.Mesh.Define(stage, "/World/lamp")
+    mesh.CreatePointsAttr([Gf.Vec3f(-s, -s, 0), Gf.Vec3f(-s, s, 0), Gf.Vec3f(s, s, 0),
+                           Gf.Vec3f(s, -s, 0)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    mesh.CreateDoubleSidedAttr(False)
+    place_lamp(mesh.GetPrim(), tilt_degrees)
+    UsdLux.MeshLightAPI.Apply(mesh.GetPrim())
+    UsdLux.LightAPI(mesh.GetPrim()).CreateIntensityAttr(200.0)
+    return mesh.GetPrim()
+
+
+def add_rect_lamp(stage: Usd.Stage, tilt_degrees: float) -> Usd.Prim:
+    """The rect light the mesh lamp's card is: same size, frame and radiance."""
+    light = UsdLux.RectLight.Define(stage, "/World/lamp")
+    light.CreateWidthAttr(2 * LAMP_HALF_SIZE)
+    light.CreateHeightAttr(2 * LAMP_HALF_SIZE)
+    light.CreateIntensityAttr(200.0)
+    place_lamp(light.GetPrim(), tilt_degrees)
+    return light.GetPrim()
+
+
+def shape(prim: Usd.Prim) -> None:
+    shaping = UsdLux.ShapingAPI.Apply(prim)
+    shaping.CreateShapingConeAngleAttr(CONE_DEGREES)
+    shaping.CreateShapingConeSoftnessAttr(0.0)
+
+
+def floor_at(image, x: float, y: float = 0.0) -> float:
+    """The mean radiance of the 2 × 2 pixels around floor point (x, y)."""
+    rgb = image["color"][..., :3]
+    height, width = rgb.shape[:2]
+    column = int((x + 2) / 4 * width)
+    row = int((2 - y) / 4 * height)
+    return float(rgb[row - 1:row + 1, column - 1:column + 1].mean())
+
+
+def test_a_mesh_lights_cone_is_shaped_about_its_meshs_own_minus_z():
+    mesh_stage, rect_stage = floor_stage(), floor_stage()
+    shape(add_mesh_lamp(mesh_stage, TILT_DEGREES))
+    shape(add_rect_lamp(rect_stage, TILT_DEGREES))
+    mesh_lit = penumbra.Renderer(mesh_stage).render(**RENDER)
+    rect_lit = penumbra.Renderer(rect_stage).render(**RENDER)
+    spot = floor_at(rect_lit, -1.0)
+    assert spot > 0.05
+    # Below the lamp (45° off its axis) and on the far side the cone lights nothing; an
+    # unshaped lamp, or one shaped about the world's -Z, would light both.
+    for x in (0.0, 1.0):
+        assert floor_at(mesh_lit, x) < 0.02 * spot, x
+        assert floor_at(rect_lit, x) < 0.02 * spot, x
+    # Where the cone falls, the card lights the floor as the rect light it matches does.
+    for x in (-1.5, -1.0, -0.75):
+        assert abs(floor_at(mesh_lit, x) / floor_at(rect_lit, x) - 1) < 0.1, x
+
+
+def test_an_unshaped_mesh_light_lights_the_whole_floor():
+    stage = floor_stage()
+    add_mesh_lamp(stage, TILT_DEGREES)
+    image = penumbra.Renderer(stage).render(**RENDER)
+    assert floor_at(image, 0.0) > 0.3 * floor_at(image, -1.0) > 0
+
+
+def test_shadow_api_turns_a_mesh_lights_shadows_off():
+    stage = floor_stage()
+    lamp = add_mesh_lamp(stage)
+    open_sky = penumbra.Renderer(stage).render(**RENDER)
+    # A card between the lamp and the floor, facing the floor: camera rays from above do not
+    # see its back (single-sided), shadow rays do.
+    blocker = add_quad(stage, "/World/blocker", center=(0, 0, 0.5), half_size=0.5)
+    blocker.GetOrientationAttr().Set(UsdGeom.Tokens.leftHanded)
+    shadowed = penumbra.Renderer(stage).render(**RENDER)
+    UsdLux.ShadowAPI.Apply(lamp).CreateShadowEnableAttr(False)
+    unshadowed = penumbra.Renderer(stage).render(**RENDER)
+    below = floor_at(open_sky, 0.0)
+    assert below > 0.05
+    assert floor_at(shadowed, 0.0) < 0.02 * below
+    assert abs(floor_at(unshadowed, 0.0) / below - 1) < 0.1
+    np.testing.assert_allclose(floor_at(unshadowed, 1.8), floor_at(open_sky, 1.8), rtol=0.1)
+
+
+def test_turning_a_shaped_mesh_light_turns_its_cone_in_a_live_render():
+    stage = floor_stage()
+    lamp = add_mesh_lamp(stage, TILT_DEGREES)
+    shape(lamp)
+    renderer = penumbra.Renderer(stage)
+    before = renderer.render(**RENDER)
+    assert floor_at(before, -1.0) > 50 * floor_at(before, 1.0)
+    lamp.GetAttribute("xformOp:rotateY").Set(-TILT_DEGREES)
+    after = renderer.render(**RENDER)
+    assert floor_at(after, 1.0) > 50 * floor_at(after, -1.0)
+    np.testing.assert_array_equal(after["color"], penumbra.Renderer(stage).render(**RENDER)["color"])
