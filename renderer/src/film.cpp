@@ -245,30 +245,37 @@ std::vector<float> Film::resolveColor() const {
   return rgba;
 }
 
+std::optional<Film::LightTracedHalves> Film::lightTracedHalves(size_t index) const {
+  if (lightTraced_.empty()) return std::nullopt;
+  const LightTraced& light = lightTraced_[index];
+  if (!(light.evenPaths > 0 && light.paths > light.evenPaths)) return std::nullopt;
+  const double paths = double(light.paths), evenPaths = double(light.evenPaths),
+               oddPaths = double(light.paths - light.evenPaths);
+  const std::array<double, 3> all{light.red, light.green, light.blue},
+      even{light.evenRed, light.evenGreen, light.evenBlue};
+  LightTracedHalves halves;
+  for (size_t c = 0; c < 3; ++c) {
+    halves.mean[c] = all[c] / paths;
+    halves.halfDifference[c] = 0.5 * (even[c] / evenPaths - (all[c] - even[c]) / oddPaths);
+  }
+  return halves;
+}
+
 double Film::sampleRelativeVariance(size_t index) const {
   const Pixel& pixel = pixels_[index];
   if (pixel.samples < 2) return kInfinity;
   const double half = 0.5 * pixel.samples;
-  // The light-traced part's halves: light paths of even and of odd sample indices.
-  const LightTraced* light = !lightTraced_.empty() && lightTraced_[index].evenPaths > 0 &&
-                                     lightTraced_[index].paths > lightTraced_[index].evenPaths
-                                 ? &lightTraced_[index]
-                                 : nullptr;
+  const std::optional<LightTracedHalves> light = lightTracedHalves(index);
+  const std::array<double, 3> all{pixel.red, pixel.green, pixel.blue},
+      even{pixel.evenRed, pixel.evenGreen, pixel.evenBlue};
   double sampled = 0, lightTraced = 0;
-  for (const auto& [all, even, lightAll, lightEven] :
-       {std::array{pixel.red, pixel.evenRed, light ? light->red : 0, light ? light->evenRed : 0},
-        std::array{pixel.green, pixel.evenGreen, light ? light->green : 0,
-                   light ? light->evenGreen : 0},
-        std::array{pixel.blue, pixel.evenBlue, light ? light->blue : 0,
-                   light ? light->evenBlue : 0}}) {
-    double mean = all / pixel.samples;
-    const double halfDifference = 0.5 * (even - (all - even)) / half;
+  for (size_t c = 0; c < 3; ++c) {
+    double mean = all[c] / pixel.samples;
+    const double halfDifference = 0.5 * (even[c] - (all[c] - even[c])) / half;
     double lightHalfDifference = 0;
     if (light) {
-      const double oddPaths = double(light->paths - light->evenPaths);
-      mean += lightAll / double(light->paths);
-      lightHalfDifference =
-          0.5 * (lightEven / double(light->evenPaths) - (lightAll - lightEven) / oddPaths);
+      mean += light->mean[c];
+      lightHalfDifference = light->halfDifference[c];
     }
     sampled += halfDifference * halfDifference / (mean * mean + 0.01);
     lightTraced += lightHalfDifference * lightHalfDifference / (mean * mean + 0.01);
@@ -365,11 +372,16 @@ std::vector<float> Film::resolve(const AovRequest& aov) const {
     const double* sums = sums_.data() + i * sumStride_ + found->offset;
     const double n = pixel.samples;
     if (aov.kind == AovKind::Variance) {
-      // The variance of the pixel's mean: the samples' unbiased variance over their count.
+      // The variance of the pixel's mean: the samples' unbiased variance over their count,
+      // plus its light-traced part's, estimated from its two halves (one degree of freedom).
       if (pixel.samples < 2) continue;
       const double means[3] = {pixel.red / n, pixel.green / n, pixel.blue / n};
-      for (size_t c = 0; c < 3; ++c)
-        out[c] = float(std::max(0.0, (sums[c] - n * means[c] * means[c]) / (n - 1)) / n);
+      const std::optional<LightTracedHalves> light = lightTracedHalves(i);
+      for (size_t c = 0; c < 3; ++c) {
+        double variance = std::max(0.0, (sums[c] - n * means[c] * means[c]) / (n - 1)) / n;
+        if (light) variance += light->halfDifference[c] * light->halfDifference[c];
+        out[c] = float(variance);
+      }
       continue;
     }
     for (size_t c = 0; c < channelCount; ++c) out[c] = float(sums[c] / n);

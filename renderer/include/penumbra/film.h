@@ -2,6 +2,7 @@
 // so the sums, and hence the image, do not depend on how pixels are spread over threads.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -148,6 +149,13 @@ class Film {
     double red = 0, green = 0, blue = 0, evenRed = 0, evenGreen = 0, evenBlue = 0;
     uint64_t paths = 0, evenPaths = 0;
   };
+  /// Pixel `index`'s light-traced part: its mean per channel, and half the difference between
+  /// its means over the light paths of even and of odd sample indices, whose square estimates
+  /// the variance of that mean; none until both halves have light paths.
+  struct LightTracedHalves {
+    std::array<double, 3> mean, halfDifference;
+  };
+  std::optional<LightTracedHalves> lightTracedHalves(size_t index) const;
   /// The relative variance of one of pixel `index`'s samples, e²·n, its light-traced part's
   /// included (see updateConvergence); infinite below two samples.
   double sampleRelativeVariance(size_t index) const;
