@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 #include "penumbra/plugin/instancer.h"
 
@@ -139,6 +140,11 @@ void Mesh::syncLight(SyncContext& context) {
       corners->reserve(polygons.triangles.size());
       for (const uint32_t point : polygons.triangles)
         corners->push_back(toWorld.applyToPoint(polygons.points[point]));
+      // A mirroring transform keeps the surface's front where it was (its normals transform by
+      // sign(det) · cofactor, as the geometry's do), but reverses its corners' winding.
+      if (toWorld.linearDeterminant() < 0)
+        for (size_t first = 0; first + 2 < corners->size(); first += 3)
+          std::swap((*corners)[first + 1], (*corners)[first + 2]);
     } catch (const std::invalid_argument&) {
       // The mesh itself is skipped with a warning (above).
     }

@@ -81,10 +81,13 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
   }
   hit.emission = hit.material().emissiveColor;
   const LightSet& lights = scene.lights();
-  if (const int lightIndex = lights.meshLight(found.meshId); lightIndex >= 0) {
+  // A mesh light emits from its front alone; its back glows (or not) by its material, as any
+  // surface: no light's multipliers, weights or takeover apply there.
+  if (const int lightIndex = lights.meshLight(found.meshId);
+      lightIndex >= 0 && dot(ray.direction, hit.normal) < 0) {
     hit.lightIndex = lightIndex;
-    if (dot(ray.direction, hit.normal) < 0)  // shaped as next-event estimation sees it
-      hit.emission = lights.all()[size_t(lightIndex)].radianceLeaving(Vec3f(1.0f), -ray.direction);
+    // Shaped as next-event estimation sees it.
+    hit.emission = lights.all()[size_t(lightIndex)].radianceLeaving(Vec3f(1.0f), -ray.direction);
   }
   return shaded;
 }

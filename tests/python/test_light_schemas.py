@@ -1,13 +1,15 @@
-"""UsdLux's applied light schemas read from USD: ShapingAPI and ShadowAPI on UsdLuxMeshLightAPI
-meshes as on the other lights, about the mesh's own frame."""
+"""Mesh lights (UsdLuxMeshLightAPI) read from USD: shaped and shadowed by UsdLux's applied
+schemas (ShapingAPI, ShadowAPI) as the other lights are, about the mesh's own frame; emitting
+from the front their geometry shows, mirrored or not."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from pxr import Gf, Usd, UsdGeom, UsdLux
 
 import penumbra
-from stages import add_camera, add_quad, new_stage
+from stages import add_camera, add_preview_material, add_quad, bind, new_stage
 
 LAMP_HALF_SIZE = 0.1
 LAMP_HEIGHT = 1.0
@@ -129,3 +131,43 @@ def test_turning_a_shaped_mesh_light_turns_its_cone_in_a_live_render():
     after = renderer.render(**RENDER)
     assert floor_at(after, 1.0) > 50 * floor_at(after, -1.0)
     np.testing.assert_array_equal(after["color"], penumbra.Renderer(stage).render(**RENDER)["color"])
+
+
+@pytest.mark.parametrize("direct_lighting", ["mis", "light", "bsdf"])
+def test_a_mirrored_mesh_light_emits_from_the_front_its_geometry_shows(direct_lighting: str):
+    """A card modelled facing +Z and mirrored through its XY plane (scale z = -1) faces the
+    floor, as the same card modelled facing -Z does, to every strategy: the light's samples
+    must not leave from its back (its corners' winding reverses under the mirror)."""
+    images = []
+    for mirrored in (False, True):
+        stage = floor_stage()
+        lamp = add_mesh_lamp(stage)
+        if mirrored:
+            points = UsdGeom.Mesh(lamp).GetPointsAttr()
+            points.Set([points.Get()[i] for i in (0, 3, 2, 1)])  # facing +Z
+            UsdGeom.Xformable(lamp).AddScaleOp().Set(Gf.Vec3f(1, 1, -1))
+        images.append(penumbra.Renderer(stage).render(direct_lighting=direct_lighting,
+                                                      **RENDER))
+    plain, mirror = images
+    for x in (0.0, 1.0):
+        assert floor_at(plain, x) > 0.01
+        assert abs(floor_at(mirror, x) / floor_at(plain, x) - 1) < 0.1, x
+
+
+def test_a_mesh_lights_back_glows_by_its_material_alone():
+    """A mesh light emits from its front; its back glows by its material's emissiveColor, which
+    is no light's: the light's diffuse multiplier does not dim it (nor does the light tracer
+    take it over)."""
+    images = {}
+    for multiplier in (1.0, 0.0):
+        stage = floor_stage()
+        lamp = add_mesh_lamp(stage, tilt_degrees=180.0)  # its front faces up, its back the floor
+        UsdLux.LightAPI(lamp).CreateDiffuseAttr(multiplier)
+        bind(UsdGeom.Mesh(lamp), add_preview_material(stage, "/World/glow",
+                                                      emissiveColor=(40.0, 40.0, 40.0),
+                                                      diffuseColor=(0.0, 0.0, 0.0)))
+        images[multiplier] = penumbra.Renderer(stage).render(**RENDER)
+    for x in (0.0, 1.0):
+        glow = floor_at(images[1.0], x)
+        assert glow > 0.01
+        assert abs(floor_at(images[0.0], x) / glow - 1) < 0.1, x
