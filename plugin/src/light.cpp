@@ -53,8 +53,10 @@ void Light::loadTexture(SyncContext& context) {
                                        params_.type == LightType::Dome);
 }
 
-void Light::setMeshTriangles(std::shared_ptr<const std::vector<Vec3f>> triangles) {
+void Light::setMeshTriangles(std::shared_ptr<const std::vector<Vec3f>> triangles,
+                             std::shared_ptr<const MovingMeshLight> motion) {
   params_.meshTriangles = std::move(triangles);
+  params_.meshMotion = std::move(motion);
   markDirty(DirtyParams);
 }
 

@@ -132,25 +132,33 @@ void Mesh::syncLight(SyncContext& context) {
     return;
   }
   std::shared_ptr<std::vector<Vec3f>> corners;
+  std::shared_ptr<MovingMeshLight> moving;
   if (visible()) {
     try {
-      const TriangleMesh polygons = triangulate(data_);
-      const Transform& toWorld = transform().first();
+      TriangleMesh polygons = triangulate(data_);
+      const MotionTransform& motion = transform();
+      // A mirroring transform keeps the surface's front where it was (its normals transform by
+      // sign(det) · cofactor, as the geometry's do), but reverses its corners' winding.
+      if (motion.first().linearDeterminant() < 0)
+        for (size_t first = 0; first + 2 < polygons.triangles.size(); first += 3)
+          std::swap(polygons.triangles[first + 1], polygons.triangles[first + 2]);
       corners = std::make_shared<std::vector<Vec3f>>();
       corners->reserve(polygons.triangles.size());
       for (const uint32_t point : polygons.triangles)
-        corners->push_back(toWorld.applyToPoint(polygons.points[point]));
-      // A mirroring transform keeps the surface's front where it was (its normals transform by
-      // sign(det) · cofactor, as the geometry's do), but reverses its corners' winding.
-      if (toWorld.linearDeterminant() < 0)
-        for (size_t first = 0; first + 2 < corners->size(); first += 3)
-          std::swap((*corners)[first + 1], (*corners)[first + 2]);
+        corners->push_back(motion.first().applyToPoint(polygons.points[point]));
+      if (motion.isAnimated() || !polygons.pointMotion.empty()) {
+        moving = std::make_shared<MovingMeshLight>();
+        moving->triangles.points = std::move(polygons.points);
+        moving->triangles.pointMotion = std::move(polygons.pointMotion);
+        moving->triangles.triangles = std::move(polygons.triangles);
+        moving->objectToWorld = motion;
+      }
     } catch (const std::invalid_argument&) {
       // The mesh itself is skipped with a warning (above).
     }
   }
   light_->setVisible(corners != nullptr);
-  light_->setMeshTriangles(std::move(corners));
+  light_->setMeshTriangles(std::move(corners), std::move(moving));
   light_->setTransform(transform());  // the light's frame: ShapingAPI shapes about its -Z
   light_->setLinkSlot(lightLinkSlot_);
   light_->syncDirty(context);

@@ -143,9 +143,11 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
   for (size_t index = 0; index < all.size(); ++index) {
     const Light& light = all[index];
     // Linked lights would need each caster's links; lights that cast no shadows, a shadow ray
-    // the light tracer does not trace.
+    // the light tracer does not trace; moving mesh lights, a start where they are at the path's
+    // time, drawn after its start.
     const bool distant = light.type() == LightType::Distant;
-    if (!(light.emitsFromSurface() || distant) || light.linkSlot() >= 0 || !light.castsShadows())
+    if (!(light.emitsFromSurface() || distant) || light.linkSlot() >= 0 || !light.castsShadows() ||
+        light.moves())
       continue;
     // AboveDiffuse casters take the light of those whose lobes' multipliers agree (LightTaken).
     const bool pastEveryCaster = light.diffuseMultiplier() == light.specularMultiplier();

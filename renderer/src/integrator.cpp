@@ -831,7 +831,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (unsampled && !measuringDomes) return;
       const Vec2f lightSample = lightStream.draw2D(firstLightDimension + choice.slot);
       const std::optional<LightSample> sample =
-          light.sample(receiver.position, lightSample, receiver.normal);
+          light.sample(receiver.position, lightSample, receiver.normal, vertex.time);
       // Multiple importance sampling weighs the light's density against the vertex's: that is
       // found with f, with which it shares most of its work.
       const bool weighed = sample && !sample->isDelta &&
@@ -862,7 +862,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         }
       }
       const float lightPdf = choice.probability * sample->pdf;
-      const float weight = weighed ? powerHeuristic(float(estimates) * lightPdf, evaluated.pdf) *
+      const float weighingPdf = choice.probability * sample->pdfForWeights();
+      const float weight = weighed ? powerHeuristic(float(estimates) * weighingPdf, evaluated.pdf) *
                                          (shared && !unsampled ? constantDomeShare : 1.0f)
                                    : 1.0f;
       const Vec3f response = taken ? diffusePart * light.diffuseMultiplier()

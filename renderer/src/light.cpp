@@ -80,6 +80,25 @@ Light::Light(const LightParams& params) : params_(params) {
         meshLower_ = componentMin(meshLower_, corner);
         meshUpper_ = componentMax(meshUpper_, corner);
       }
+      if (params.meshMotion && params.meshMotion->triangles.triangles.size() != corners.size())
+        throw std::invalid_argument("the moving mesh light's triangles are not its own");
+      if (params.meshMotion) {
+        // The light tree's box: where the triangles pass over the shutter, looked at often
+        // enough for its importance (it needs no strict bound).
+        const MovingMeshLight& moving = *params.meshMotion;
+        constexpr int kMoments = 8;
+        for (int moment = 1; moment <= kMoments; ++moment) {
+          const float time = float(moment) / kMoments;
+          const Transform at = moving.objectToWorld.at(time);
+          for (uint32_t triangle = 0; 3 * size_t(triangle) < moving.triangles.triangles.size();
+               ++triangle)
+            for (int k = 0; k < 3; ++k) {
+              const Vec3f corner = at.applyToPoint(moving.triangles.cornerAt(triangle, k, time));
+              meshLower_ = componentMin(meshLower_, corner);
+              meshUpper_ = componentMax(meshUpper_, corner);
+            }
+        }
+      }
       triangleChoice_.emplace(std::move(areas));
       break;
     }
@@ -197,7 +216,8 @@ float Light::solidAnglePdfFromArea(const Vec3f& point, const Vec3f& lightPoint,
   return cosLight > 0 ? areaDensity * distance2 / cosLight : 0.0f;
 }
 
-std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3f& normal) const {
+std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3f& normal,
+                                         float time) const {
   LightSample result;
   Vec3f lightPoint, lightNormal;
   float areaDensity = 1 / area_;
@@ -239,9 +259,15 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
       break;
     }
     case LightType::Mesh: {
-      const SurfacePoint drawn = meshPoint(u);
+      const SurfacePoint drawn = meshPoint(u, time);
       lightPoint = drawn.position;
       lightNormal = drawn.normal;
+      if (params_.meshMotion) {
+        if (!(drawn.areaOverDensity > 0)) return std::nullopt;  // collapsed at this time
+        areaDensity = 1 / drawn.areaOverDensity;
+        result.weighingPdf = meshPdf(point, lightPoint, lightNormal);
+        if (!(result.weighingPdf > 0)) return std::nullopt;
+      }
       break;
     }
     case LightType::Sphere: {
@@ -337,11 +363,25 @@ bool Light::emitsFromSurface() const {
   return shape && !isDelta();
 }
 
-Light::SurfacePoint Light::meshPoint(Vec2f u) const {
+Light::SurfacePoint Light::meshPoint(Vec2f u, float time) const {
   float within = 0;
   const size_t triangle = triangleChoice_->sampleIndex(u.x, &within);
-  const Vec3f* corner = &(*params_.meshTriangles)[3 * triangle];
   const Vec3f weights = sampleUniformTriangle({within, u.y});
+  if (params_.meshMotion) {
+    // The triangle where the traced geometry has it at `time`. It moves as a whole, so a point
+    // uniform by area at shutter open is uniform by area now; its density by area now is the
+    // triangle's probability over its area now.
+    const MovingMeshLight& moving = *params_.meshMotion;
+    const Transform toWorld = moving.objectToWorld.at(time);
+    Vec3f corner[3];
+    for (int k = 0; k < 3; ++k)
+      corner[k] = toWorld.applyToPoint(moving.triangles.cornerAt(uint32_t(triangle), k, time));
+    const Vec3f across = cross(corner[1] - corner[0], corner[2] - corner[0]);
+    return SurfacePoint{corner[0] * weights.x + corner[1] * weights.y + corner[2] * weights.z,
+                        normalize(across), Vec3f(1.0f),
+                        0.5f * length(across) / triangleChoice_->probability(triangle)};
+  }
+  const Vec3f* corner = &(*params_.meshTriangles)[3 * triangle];
   return SurfacePoint{corner[0] * weights.x + corner[1] * weights.y + corner[2] * weights.z,
                       normalize(cross(corner[1] - corner[0], corner[2] - corner[0])), Vec3f(1.0f),
                       area_};
@@ -365,7 +405,7 @@ std::optional<Light::SurfacePoint> Light::sampleSurface(Vec2f u) const {
                           params_.texture->lookup(uv), area_ / density};
     }
     case LightType::Mesh:
-      return meshPoint(u);
+      return meshPoint(u, 0);
     case LightType::Cylinder: {  // its side (the caps emit nothing): u.x along the axis
       const float phi = 2 * kPi * u.y;
       const Vec3f normal = edgeV_ * std::cos(phi) + normal_ * std::sin(phi);

@@ -290,6 +290,54 @@ TEST(Lights, SampledIrradianceMatchesAnIndependentEstimateForEveryShape) {
   }
 }
 
+TEST(Lights, AMovingMeshLightIsSampledWhereItsMeshIsAtTheSamplesTime) {
+  // A square facing down, moving and growing over the shutter: sampled at mid-shutter, it lights
+  // a point below as the same square standing where it then is (its area there is 2.25 times
+  // that at shutter open, by which it chose its triangles: the density must be its own).
+  const double grown[16] = {2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0.5, 1, 0, 1};
+  auto moving = std::make_shared<MovingMeshLight>();
+  moving->triangles.points = {
+      {-0.5f, 0, -0.5f}, {0.5f, 0, -0.5f}, {0.5f, 0, 0.5f}, {-0.5f, 0, 0.5f}};
+  moving->triangles.triangles = {0, 1, 2, 0, 2, 3};  // counter-clockwise seen from below
+  moving->objectToWorld = MotionTransform({translation(0, 1, 0), Transform::fromRowMajor(grown)});
+  const auto cornersAt = [&](float time) {
+    auto corners = std::make_shared<std::vector<Vec3f>>();
+    const Transform at = moving->objectToWorld.at(time);
+    for (const uint32_t point : moving->triangles.triangles)
+      corners->push_back(at.applyToPoint(moving->triangles.points[point]));
+    return corners;
+  };
+  LightParams movingParams = params(LightType::Mesh, Transform());
+  movingParams.meshTriangles = cornersAt(0);
+  movingParams.meshMotion = moving;
+  LightParams standing = params(LightType::Mesh, Transform());
+  standing.meshTriangles = cornersAt(0.5f);
+  const Light light(movingParams), still(standing);
+  const Vec3f receiver(0.3f, 0, 0.1f), up(0, 1, 0);
+  const int n = 1 << 16;
+  double movingSum = 0, stillSum = 0;
+  for (int i = 0; i < n; ++i) {
+    const Vec2f u = sample2D(uint32_t(i));
+    if (const auto sample = light.sample(receiver, u, up, 0.5f)) {
+      EXPECT_NEAR(sample->pdfForWeights() / sample->pdf, 2.25, 1e-3);  // hits weigh by 1/area(0)
+      movingSum += sample->radiance.x * std::max(0.0f, dot(sample->direction, up)) / sample->pdf;
+    }
+    if (const auto sample = still.sample(receiver, u, up))
+      stillSum += sample->radiance.x * std::max(0.0f, dot(sample->direction, up)) / sample->pdf;
+  }
+  ASSERT_GT(stillSum, 0);
+  EXPECT_NEAR(movingSum / stillSum, 1.0, 0.01);
+  // At shutter open it is where meshTriangles has it.
+  LightParams opening = params(LightType::Mesh, Transform());
+  opening.meshTriangles = movingParams.meshTriangles;
+  const auto atOpen = light.sample(receiver, {0.3f, 0.6f}, up, 0),
+             expected = Light(opening).sample(receiver, {0.3f, 0.6f}, up);
+  ASSERT_TRUE(atOpen && expected);
+  EXPECT_NEAR(atOpen->distance, expected->distance, 1e-5f);
+  EXPECT_NEAR(dot(atOpen->direction, expected->direction), 1.0f, 1e-6f);
+  EXPECT_NEAR(atOpen->pdf / expected->pdf, 1.0f, 1e-5f);
+}
+
 TEST(Lights, DomeTexturesFollowOpenEXRLatLongOrientation) {
   LightParams p = params(LightType::Dome, Transform());
   p.texture = skyTexture();

@@ -171,3 +171,49 @@ def test_a_mesh_lights_back_glows_by_its_material_alone():
         glow = floor_at(images[1.0], x)
         assert glow > 0.01
         assert abs(floor_at(images[0.0], x) / glow - 1) < 0.1, x
+
+
+def sweeping_lamp_stage(how: str, position: float | None = None) -> Usd.Stage:
+    """The floor under a mesh lamp facing down 0.4 above it, swept from x = -1 to 1 over the
+    shutter by its transform (``how="transform"``) or its points (``"points"``); or standing
+    still at x = ``position``."""
+    stage = floor_stage()
+    camera = UsdGeom.Camera(stage.GetPrimAtPath("/cam"))
+    camera.CreateShutterOpenAttr(0.0)
+    camera.CreateShutterCloseAttr(1.0)
+    lamp = add_mesh_lamp(stage)
+    mesh = UsdGeom.Mesh(lamp)
+    mesh.GetPrim().GetAttribute("xformOp:translate").Set(Gf.Vec3d(0, 0, 0.4))
+    if position is not None:
+        UsdGeom.Xformable(lamp).AddTranslateOp(opSuffix="sweep").Set(Gf.Vec3d(position, 0, 0))
+        return stage
+    if how == "transform":
+        sweep = UsdGeom.Xformable(lamp).AddTranslateOp(opSuffix="sweep")
+        sweep.Set(Gf.Vec3d(-1, 0, 0), 1.0)
+        sweep.Set(Gf.Vec3d(1, 0, 0), 2.0)
+    else:
+        points = mesh.GetPointsAttr()
+        still = points.Get()
+        for time, offset in ((1.0, -1.0), (2.0, 1.0)):
+            points.Set([Gf.Vec3f(p[0] + offset, p[1], p[2]) for p in still], time)
+    return stage
+
+
+@pytest.mark.parametrize("how", ["transform", "points"])
+def test_a_moving_mesh_light_lights_the_floor_from_where_it_is_at_each_time(how: str):
+    """Over the shutter the lamp's light sweeps the floor: the motion-blurred image is the mean
+    of the lamp standing at the moments of its sweep, next-event estimation included (it drew
+    the lamp where it stood at shutter open: a pool of light at x = -1 alone)."""
+    render = dict(camera="/cam", width=32, samples=64, seed=3, time=1.0)
+    swept = penumbra.Renderer(sweeping_lamp_stage(how)).render(**render)["color"][..., 0]
+    moments = 16
+    standing = np.mean([
+        penumbra.Renderer(sweeping_lamp_stage(how, -1 + 2 * (k + 0.5) / moments))
+        .render(**render)["color"][..., 0]
+        for k in range(moments)
+    ], axis=0)
+    band = slice(12, 20)  # the rows about y = 0, under the lamp's path
+    for columns in (slice(0, 8), slice(8, 16), slice(16, 24), slice(24, 32)):
+        expected = standing[band, columns].mean()
+        assert expected > 0.1
+        assert abs(swept[band, columns].mean() / expected - 1) < 0.05, columns

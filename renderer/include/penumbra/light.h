@@ -17,6 +17,8 @@
 
 #include "penumbra/distribution.h"
 #include "penumbra/math.h"
+#include "penumbra/mesh.h"
+#include "penumbra/motion.h"
 #include "penumbra/texture.h"
 #include "penumbra/warp.h"
 
@@ -56,6 +58,14 @@ class LightTexture {
   Vec3f average_;
 };
 
+/// A moving mesh light's triangles in object space, in meshTriangles' order (points, point
+/// motion and 3 point indices per triangle), and its object-to-world motion: a triangle's
+/// corners at a time are where the traced geometry has them then.
+struct MovingMeshLight {
+  TriangleMesh triangles;
+  MotionTransform objectToWorld;
+};
+
 struct LightParams {
   LightType type = LightType::Sphere;
   Transform lightToWorld;
@@ -82,6 +92,9 @@ struct LightParams {
   /// UsdLuxMeshLightAPI: the emitting triangles in world space (3 points each), front side
   /// counter-clockwise. The mesh itself is traced as geometry; the light samples its surface.
   std::shared_ptr<const std::vector<Vec3f>> meshTriangles;
+  /// A mesh light whose mesh moves over the shutter: where its triangles are at each time
+  /// (meshTriangles then holds them at shutter open).
+  std::shared_ptr<const MovingMeshLight> meshMotion;
   /// Its slot in the linking table (linking.h); -1: it lights and shadows everything.
   int linkSlot = -1;
 };
@@ -150,7 +163,13 @@ struct LightSample {
   float distance = 0;  // to the sampled point; infinity for distant and dome lights
   Vec3f radiance;      // arriving along -direction (for delta lights: irradiance / pdf scale)
   float pdf = 0;       // solid-angle density; for delta lights 1 with isDelta set
+  /// Where it is not `pdf` (0 elsewhere): the density multiple importance sampling weighs the
+  /// sample by, that of rays meeting the light there. A moving mesh light's hits are weighed by
+  /// Light::meshPdf, which knows its triangles' areas at shutter open alone.
+  float weighingPdf = 0;
   bool isDelta = false;
+
+  float pdfForWeights() const { return weighingPdf > 0 ? weighingPdf : pdf; }
 };
 
 /// Where a ray meets a light's emitting surface.
@@ -179,6 +198,8 @@ class Light {
   bool isAreaLight() const {
     return !isInfinite() && !isDelta() && params_.type != LightType::Mesh;
   }
+  /// A mesh light whose mesh moves over the shutter (LightParams::meshMotion).
+  bool moves() const { return params_.meshMotion != nullptr; }
   bool castsShadows() const { return params_.shadowEnable; }
   /// False for lights camera rays do not see (they still light the scene).
   bool cameraVisible() const { return params_.cameraVisible; }
@@ -189,14 +210,18 @@ class Light {
 
   /// A direction towards the light from `point`. An untextured dome is sampled cosine-weighted
   /// about the receiving surface's unit `normal` (uniformly over the sphere for a zero normal).
-  std::optional<LightSample> sample(const Vec3f& point, Vec2f u, const Vec3f& normal = {}) const;
+  /// A moving mesh light is where it is at normalised shutter time `time`; the other lights
+  /// stay where they are at shutter open.
+  std::optional<LightSample> sample(const Vec3f& point, Vec2f u, const Vec3f& normal = {},
+                                    float time = 0) const;
   /// First intersection of a ray with a finite light's emitting surface closer than tMax.
   std::optional<LightHit> intersect(const Vec3f& origin, const Vec3f& direction, float tMax) const;
   /// Radiance and pdf for a ray that escaped the scene in `direction` (infinite lights), leaving
   /// a surface with `normal` (as for sample()).
   std::optional<LightHit> escaped(const Vec3f& direction, const Vec3f& normal = {}) const;
   /// Mesh lights: the solid-angle density sample() has for a point of the mesh seen from
-  /// `origin` (the integrator weighs emission found by BSDF rays with it).
+  /// `origin` (the integrator weighs emission found by BSDF rays with it); for a moving one, by
+  /// its area at shutter open (LightSample::weighingPdf).
   float meshPdf(const Vec3f& origin, const Vec3f& point, const Vec3f& normal) const;
 
   /// The emitted radiance before texture and shaping, after all other UsdLux factors.
@@ -237,6 +262,7 @@ class Light {
     /// The inverse of the density by area it was drawn with: area() where uniform.
     float areaOverDensity;
   };
+  /// A moving mesh light's at shutter open (light tracing leaves those to the path tracer).
   std::optional<SurfacePoint> sampleSurface(Vec2f u) const;
   /// What the light emits from a point with `texture` (SurfacePoint) in world direction
   /// `emitted` (from its emitting side): radiance() textured and shaped (ShapingAPI).
@@ -249,8 +275,9 @@ class Light {
   /// is chosen, so that each channel's noise counts alike (pbrt-v4 averages over wavelengths;
   /// luminance would sample blue lights too rarely for their share of the blue channel).
   float meanRadianceGrey() const;
-  /// A mesh light's point: a triangle by its area, then a point of it (uniform by area).
-  SurfacePoint meshPoint(Vec2f u) const;
+  /// A mesh light's point at normalised shutter time `time`: a triangle by its area (at
+  /// shutter open), then a point of it, uniform by area.
+  SurfacePoint meshPoint(Vec2f u, float time) const;
   /// Rect lights are sampled uniformly in the solid angle they subtend where that is at least
   /// this (steradians), and by area elsewhere.
   static constexpr double kMinSphericalSolidAngle = 1e-4;

@@ -25,11 +25,14 @@ class Light : public Prim {
   /// Throws std::invalid_argument for an unknown name or a value of the wrong type.
   void setParam(const std::string& name, const ParamValue& value);
   /// Lights keep their transform at the start of the shutter (motion blur of lights is not
-  /// supported yet): only the first sample is used.
+  /// supported yet): only the first sample is used. Mesh lights move with their mesh
+  /// (setMeshTriangles); this is their frame for ShapingAPI.
   void setTransform(const MotionTransform& lightToWorld) override;
   void setVisible(bool visible) override;
-  /// A mesh light's emitting triangles in world space (3 points each), set by its mesh's sync.
-  void setMeshTriangles(std::shared_ptr<const std::vector<Vec3f>> triangles);
+  /// A mesh light's emitting triangles in world space (3 points each) at shutter open, and
+  /// where they are over the shutter if its mesh moves (null if not), set by its mesh's sync.
+  void setMeshTriangles(std::shared_ptr<const std::vector<Vec3f>> triangles,
+                        std::shared_ptr<const MovingMeshLight> motion);
   /// Its light and shadow linking slot (LinkingTable; -1: it lights and shadows everything).
   void setLinkSlot(int slot) {
     params_.linkSlot = slot;
