@@ -852,7 +852,16 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       }
       Vec3f transmittance{1.0f};
       if (light.castsShadows()) {
-        const Ray shadow = vertex.shadowRay(sample->direction, tFar);
+        Ray shadow = vertex.shadowRay(sample->direction, tFar);
+        if (std::isfinite(sample->distance)) {
+          // It leaves from a point moved off the surface, which brings the light's point nearer
+          // along its way: it stops short of that point by the point's own rounding margin, not
+          // past it, where the light's own mesh, or a ceiling a lamp hangs under, would block it
+          // (far from the origin the move outgrew the relative margin above).
+          const Vec3f lightPoint = receiver.position + sample->direction * sample->distance;
+          shadow.tFar = std::min(shadow.tFar, dot(lightPoint - shadow.origin, sample->direction) -
+                                                  scene.rayEpsilon(lightPoint));
+        }
         if (settings.rayLog)
           settings.rayLog->add({shadow, RayKind::Secondary, true, light.linkSlot()});
         if (scene.geometry().occluded(shadow, light.linkSlot())) return;

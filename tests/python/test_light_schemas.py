@@ -217,3 +217,34 @@ def test_a_moving_mesh_light_lights_the_floor_from_where_it_is_at_each_time(how:
         expected = standing[band, columns].mean()
         assert expected > 0.1
         assert abs(swept[band, columns].mean() / expected - 1) < 0.05, columns
+
+
+@pytest.mark.parametrize("lamp", ["mesh light", "rect light under a ceiling"])
+def test_a_lamp_far_from_the_origin_lights_the_floor_to_every_strategy(lamp: str):
+    """Twenty units from the origin, a shadow ray's start, moved off the floor by its rounding
+    margin there, brought the lamp's point nearer than the ray's length: it ran on past the
+    lamp into the lamp's own mesh, or into the ceiling 1e-4 above a rect light, and next-event
+    estimation found the floor in shadow (1.8e-5 against 0.036 found by BSDF rays)."""
+    stage = new_stage()
+    world = UsdGeom.Xform.Define(stage, "/World")
+    world.AddTranslateOp().Set(Gf.Vec3d(20, 0, 0))
+    add_camera(stage, translate=(20, 0, 5))
+    add_quad(stage, "/World/floor", half_size=2.0, color=(0.5, 0.5, 0.5))
+    if lamp == "mesh light":
+        panel = add_mesh_lamp(stage)
+        UsdGeom.Mesh(panel).GetPointsAttr().Set(
+            [Gf.Vec3f(x, y, 0) for x, y in ((-0.5, -0.5), (-0.5, 0.5), (0.5, 0.5), (0.5, -0.5))])
+    else:
+        light = UsdLux.RectLight.Define(stage, "/World/lamp")
+        light.CreateIntensityAttr(5.0)
+        light.AddTranslateOp().Set(Gf.Vec3d(0, 0, 1))
+        ceiling = add_quad(stage, "/World/ceiling", center=(0, 0, 1.0001), half_size=2.0)
+        ceiling.GetOrientationAttr().Set(UsdGeom.Tokens.leftHanded)  # facing the floor
+    below = {
+        strategy: floor_at(penumbra.Renderer(stage).render(direct_lighting=strategy, **RENDER),
+                           0.0)
+        for strategy in ("bsdf", "light", "mis")
+    }
+    assert below["bsdf"] > 0.01
+    for strategy in ("light", "mis"):
+        assert abs(below[strategy] / below["bsdf"] - 1) < 0.1, (strategy, below)
