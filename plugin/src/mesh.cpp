@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "penumbra/mesh_shape.h"
 #include "penumbra/plugin/instancer.h"
 
 namespace penumbra::plugin {
@@ -131,30 +132,32 @@ void Mesh::syncLight(SyncContext& context) {
     context.lights.synced(id(), std::nullopt, context.scene, handle());
     return;
   }
+  // It emits from the triangles the mesh is traced as (a subdivision surface's limit surface,
+  // not its cage): next-event estimation draws the points rays meet.
+  const auto* traced =
+      visible() ? dynamic_cast<const MeshShape*>(context.scene.geometry().shape(handle()))
+                : nullptr;
   std::shared_ptr<std::vector<Vec3f>> corners;
   std::shared_ptr<MovingMeshLight> moving;
-  if (visible()) {
-    try {
-      TriangleMesh polygons = triangulate(data_);
-      const MotionTransform& motion = transform();
-      // A mirroring transform keeps the surface's front where it was (its normals transform by
-      // sign(det) · cofactor, as the geometry's do), but reverses its corners' winding.
-      if (motion.first().linearDeterminant() < 0)
-        for (size_t first = 0; first + 2 < polygons.triangles.size(); first += 3)
-          std::swap(polygons.triangles[first + 1], polygons.triangles[first + 2]);
-      corners = std::make_shared<std::vector<Vec3f>>();
-      corners->reserve(polygons.triangles.size());
-      for (const uint32_t point : polygons.triangles)
-        corners->push_back(motion.first().applyToPoint(polygons.points[point]));
-      if (motion.isAnimated() || !polygons.pointMotion.empty()) {
-        moving = std::make_shared<MovingMeshLight>();
-        moving->triangles.points = std::move(polygons.points);
-        moving->triangles.pointMotion = std::move(polygons.pointMotion);
-        moving->triangles.triangles = std::move(polygons.triangles);
-        moving->objectToWorld = motion;
-      }
-    } catch (const std::invalid_argument&) {
-      // The mesh itself is skipped with a warning (above).
+  if (traced && !traced->triangles().triangles.empty()) {
+    const TriangleMesh& surface = traced->triangles();
+    const MotionTransform& motion = transform();
+    std::vector<uint32_t> triangles = surface.triangles;
+    // A mirroring transform keeps the surface's front where it was (its normals transform by
+    // sign(det) · cofactor, as the geometry's do), but reverses its corners' winding.
+    if (motion.first().linearDeterminant() < 0)
+      for (size_t first = 0; first + 2 < triangles.size(); first += 3)
+        std::swap(triangles[first + 1], triangles[first + 2]);
+    corners = std::make_shared<std::vector<Vec3f>>();
+    corners->reserve(triangles.size());
+    for (const uint32_t point : triangles)
+      corners->push_back(motion.first().applyToPoint(surface.points[point]));
+    if (motion.isAnimated() || !surface.pointMotion.empty()) {
+      moving = std::make_shared<MovingMeshLight>();
+      moving->triangles.points = surface.points;
+      moving->triangles.pointMotion = surface.pointMotion;
+      moving->triangles.triangles = std::move(triangles);
+      moving->objectToWorld = motion;
     }
   }
   light_->setVisible(corners != nullptr);

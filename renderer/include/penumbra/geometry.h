@@ -133,6 +133,8 @@ class Geometry {
   void setCurvesGeometry(MeshId id, CurvesData curves);
   /// Drops the mesh's geometry (it stays registered but renders nothing).
   void clearMeshGeometry(MeshId id);
+  /// What object `id` is traced as (setMeshGeometry's and the like's); null before any.
+  const Shape* shape(MeshId id) const { return record(id).shape.get(); }
   /// Places the mesh; an animated transform gives Embree multi-segment instance motion.
   void setMeshInstance(MeshId id, const MotionTransform& objectToWorld, int materialIndex,
                        bool visible);

@@ -14,6 +14,7 @@ class MeshShape final : public Shape {
   RTCGeometry newEmbreeGeometry(RTCDevice device) const override;
   bool tracesAs(const Shape& other) const override;
   bool doubleSided() const override { return mesh_.doubleSided; }
+  const TriangleMesh& triangles() const { return mesh_; }
   SurfacePoint pointAt(uint32_t triangle, float u, float v, float time) const override;
   SurfaceGeometry surfaceAt(uint32_t triangle, float u, float v, float time,
                             const Vec3f& geometricNormal,

@@ -76,9 +76,10 @@ class Mesh : public PlacedRprim {
 
   /// The triangles to render: its polygons, or its diced limit surface.
   TriangleMesh triangles(SyncContext& context);
-  /// Gives its light the polygons it emits from (the cage of a subdivision surface) in world
-  /// space at shutter open, or hides it (the mesh is hidden or invalid), and syncs it; without
-  /// a light, the mesh leaves the light list if it was there.
+  /// Gives its light the triangles it emits from, those the mesh is traced as (a subdivision
+  /// surface's limit surface), in world space at shutter open and, if it moves, over the
+  /// shutter; or hides it (the mesh is hidden or invalid), and syncs it; without a light, the
+  /// mesh leaves the light list if it was there.
   void syncLight(SyncContext& context);
 
   MeshData data_;
