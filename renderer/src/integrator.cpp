@@ -29,7 +29,9 @@ namespace {
 struct ScatteringRecord {
   float pdf = 0;  // solid-angle density of a non-delta BSDF sample; 0: no MIS
   bool fromSurface = false;
-  bool diffuse = false;       // which light multiplier (diffuse or specular) applies
+  /// Per channel, the share of the BSDF's value in the ray's direction that its diffuse lobe
+  /// holds: what a light's diffuse multiplier scales (the specular one, the rest).
+  Vec3f diffuseShare{0.0f};
   Receiver receiver;          // the surface it left, as next-event estimation saw it there
   uint32_t linkingClass = 0;  // the surface's placement's (linking.h): the lights it receives
   /// The share of its MIS weight next-event estimation kept for the constant domes at the
@@ -39,6 +41,21 @@ struct ScatteringRecord {
   /// weighs that many light samples against this ray (the power heuristic with sample counts).
   float lightEstimates = 1;
 };
+
+/// `part` over `whole`, channel by channel (0 where `whole` is not positive).
+Vec3f shareOf(const Vec3f& part, const Vec3f& whole) {
+  const auto share = [](float p, float w) { return w > 0 ? p / w : 0.0f; };
+  return {share(part.x, whole.x), share(part.y, whole.y), share(part.z, whole.z)};
+}
+
+/// What light `light`'s diffuse and specular multipliers make of the light `origin`'s ray
+/// brings back from it: camera rays see lights as they are.
+Vec3f lobeMultiplier(const Light& light, const ScatteringRecord& origin) {
+  if (!origin.fromSurface) return Vec3f(1.0f);
+  const float diffuse = light.diffuseMultiplier(), specular = light.specularMultiplier();
+  if (diffuse == specular) return Vec3f(diffuse);
+  return origin.diffuseShare * diffuse + (Vec3f(1.0f) - origin.diffuseShare) * specular;
+}
 
 /// Whether light `index` lights what `origin`'s ray left (light linking). Camera rays see every
 /// light; a surface or medium excluded from a light's light link gets nothing from it, by light
@@ -116,17 +133,14 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
                                                  index, leftToLightTracing->pastAboveDiffuse);
     if (taken && !leftToLightTracing->pastAboveDiffuse) return;
     const float weight = bsdfStrategyWeight(scene, origin, index, hit.pdf, mode);
-    // Camera rays see lights as they are; reflected light is scaled by the lobe's multiplier.
-    const float multiplier = !origin.fromSurface ? 1.0f
-                             : origin.diffuse    ? light.diffuseMultiplier()
-                                                 : light.specularMultiplier();
+    const Vec3f multiplier = lobeMultiplier(light, origin);
     if (origin.constantDomeShare < 1 && light.isConstantDome()) {
       const Vec3f emitted = spectrum.emission(hit.radiance) * multiplier;
       total += emitted * (1 - origin.constantDomeShare * (1 - weight));
       if (domeSamplingShift) *domeSamplingShift += emitted * (weight - 1);
       return;
     }
-    const Vec3f emitted = spectrum.emission(hit.radiance) * (weight * multiplier);
+    const Vec3f emitted = spectrum.emission(hit.radiance) * (multiplier * weight);
     total += taken ? emitted * leftToLightTracing->kept : emitted;
   };
   scene.lights().forEachLightHit(ray, tMax, add);
@@ -982,7 +996,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         const Vec3f direction = phase.sample(ray.direction, {phaseSample.y, phaseSample.z});
         const float pdf = phase.evaluate(ray.direction, direction);
         minRayPdf = std::min(minRayPdf, pdf);
-        scattering = {pdf, true, true, receiver, mediumPoint.linkingClass};
+        scattering = {pdf, true, Vec3f(1.0f), receiver, mediumPoint.linkingClass};
         rayKind = RayKind::Diffuse;  // as the lights' diffuse multiplier takes it
         lastVertex = ++volumeBounces >= settings.maxVolumeDepth;
         if (bounce >= 3 && maxComponent(throughput) < 1) {
@@ -1002,6 +1016,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       if (!isBlack(hit->emission)) {
         // A mesh light's surface: weigh against sampling that light, as for the other lights.
         float weight = 1;
+        Vec3f lobes(1.0f);  // where the light's multipliers differ (else within `weight`)
         if (hit->lightIndex >= 0) {
           const size_t index = size_t(hit->lightIndex);
           weight = lightReaches(scene, scattering, index)
@@ -1010,16 +1025,19 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
                              lights[index].meshPdf(ray.origin, hit->position, hit->normal),
                              settings.directLighting)
                        : 0.0f;
-          if (scattering.fromSurface)
-            weight *= scattering.diffuse ? lights[index].diffuseMultiplier()
-                                         : lights[index].specularMultiplier();
+          const Vec3f multiplier = lobeMultiplier(lights[index], scattering);
+          if (multiplier.x == multiplier.y && multiplier.y == multiplier.z)
+            weight *= multiplier.x;
+          else
+            lobes = multiplier;
         }
         Vec3f kept(1.0f);  // as emittedAlongRay leaves the light tracer's lights
         if (hit->lightIndex >= 0 && causticPath() &&
             settings.caustics->takesLightPast(size_t(hit->lightIndex), path.pastAboveDiffuse))
           kept = path.pastAboveDiffuse ? path.keptAboveDiffuse : Vec3f(0.0f);
-        addLight(clampIndirect(throughput * spectrum.emission(hit->emission) * weight * kept,
-                               bounce, settings.indirectClamp));
+        addLight(
+            clampIndirect(throughput * spectrum.emission(hit->emission) * weight * kept * lobes,
+                          bounce, settings.indirectClamp));
       }
       if (bounce >= settings.maxPathDepth || lastVertex) break;
       ++result.vertices;
@@ -1131,11 +1149,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           const Vec3f f = scattered->isDelta
                               ? Vec3f(0.0f)
                               : bsdf.evaluate(wo, scattered->direction, &diffusePart);
-          const auto share = [](float part, float whole) {
-            return whole > 0 ? part / whole : 0.0f;
-          };
-          path.keptAboveDiffuse = {share(diffusePart.x, f.x), share(diffusePart.y, f.y),
-                                   share(diffusePart.z, f.z)};
+          path.keptAboveDiffuse = shareOf(diffusePart, f);
         }
         throughput *= scattered->weight;
         if (scattered->heroOnly) spectrum.wavelengths.keepHeroOnly();
@@ -1176,11 +1190,19 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         if (!next.isDelta) minRayPdf = std::min(minRayPdf, next.pdf);
         scattering = {next.isDelta ? 0.0f : next.pdf,
                       true,
-                      next.lobe == BsdfLobe::Diffuse,
+                      Vec3f(next.lobe == BsdfLobe::Diffuse ? 1.0f : 0.0f),
                       nextReceiver,
                       exit ? exit->hit.linkingClass : hit->linkingClass,
                       exit ? 1.0f : constantDomeShare,
                       exit ? 1.0f : float(lightEstimatesHere)};
+        if (scene.lights().lobeMultipliersDiffer() && !next.isDelta && !exit) {
+          // Some light's diffuse and specular multipliers differ: each scales its lobes' share
+          // of the BSDF's value in this direction, as next-event estimation's do, not the whole
+          // of it by the lobe this ray was drawn from.
+          Vec3f diffusePart{0.0f};
+          const Vec3f f = bsdf.evaluate(wo, next.direction, &diffusePart);
+          scattering.diffuseShare = shareOf(diffusePart, f);
+        }
         // A subsurface walk counts as one diffuse bounce.
         const bool diffuseLobe =
             scattered->lobe == BsdfLobe::Diffuse || scattered->lobe == BsdfLobe::Subsurface;

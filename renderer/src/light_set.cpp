@@ -43,8 +43,12 @@ void LightSet::commit() {
   if (!changed_) return;
   lightSampler_ = LightSampler(lights_);
   infiniteLights_.clear();
-  for (size_t i = 0; i < lights_.size(); ++i)
+  lobeMultipliersDiffer_ = false;
+  for (size_t i = 0; i < lights_.size(); ++i) {
     if (lights_[i].isInfinite()) infiniteLights_.push_back(uint32_t(i));
+    if (lights_[i].diffuseMultiplier() != lights_[i].specularMultiplier())
+      lobeMultipliersDiffer_ = true;
+  }
   buildLightScene();
   changed_ = false;
 }

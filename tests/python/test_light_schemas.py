@@ -273,3 +273,35 @@ def test_a_subdivided_mesh_light_is_drawn_on_the_surface_rays_meet():
     assert around["bsdf"] > 0.01
     for strategy in ("light", "mis"):
         assert abs(around[strategy] / around["bsdf"] - 1) < 0.1, (strategy, around)
+
+
+@pytest.mark.parametrize("diffuse, specular", [(0.0, 1.0), (1.0, 0.0), (0.3, 2.0)])
+def test_a_lights_diffuse_and_specular_multipliers_scale_its_lobes_to_every_strategy(
+    diffuse: float, specular: float
+):
+    """UsdLux's inputs:diffuse and inputs:specular scale the light a surface's diffuse and
+    specular lobes reflect. A BSDF ray carries the whole BSDF's value, whichever lobe it was
+    drawn from: it must scale each lobe's share of it, as next-event estimation does (it
+    scaled all of it by the drawn lobe's multiplier: 26 % dark with diffuse 0 under a dome,
+    36 % under a rect light)."""
+    stage = floor_stage()
+    floor = UsdGeom.Mesh(stage.GetPrimAtPath("/World/floor"))
+    bind(floor, add_preview_material(stage, "/World/rough", diffuseColor=(0.5, 0.5, 0.5),
+                                     roughness=0.6, specularColor=(0.3, 0.3, 0.3),
+                                     useSpecularWorkflow=1))
+    light = UsdLux.RectLight.Define(stage, "/World/lamp")
+    light.CreateWidthAttr(2.0)
+    light.CreateHeightAttr(2.0)
+    light.CreateIntensityAttr(5.0)
+    light.CreateDiffuseAttr(diffuse)
+    light.CreateSpecularAttr(specular)
+    light.AddTranslateOp().Set(Gf.Vec3d(0, 0, 2))
+    render = dict(RENDER, samples=256, max_path_depth=1)
+    means = {
+        strategy: float(penumbra.Renderer(stage).render(direct_lighting=strategy, **render)
+                        ["color"][..., :3].mean())
+        for strategy in ("bsdf", "light", "mis")
+    }
+    assert means["light"] > 0.005
+    for strategy in ("bsdf", "mis"):
+        assert abs(means[strategy] / means["light"] - 1) < 0.03, (strategy, means)

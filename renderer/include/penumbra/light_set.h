@@ -43,6 +43,8 @@ class LightSet {
   const LightSampler& lightSampler() const { return lightSampler_; }
   /// Indices of the dome and distant lights, which rays that escape the scene meet.
   const std::vector<uint32_t>& infiniteLights() const { return infiniteLights_; }
+  /// Whether some light's diffuse and specular multipliers differ (as of commit()).
+  bool lobeMultipliersDiffer() const { return lobeMultipliersDiffer_; }
 
   /// Makes mesh `mesh` (Geometry::MeshId) the emitting surface of light `lightIndex` (a
   /// LightType::Mesh light), or not (-1): its front side then shows the light's radiance.
@@ -95,6 +97,7 @@ class LightSet {
   std::vector<Light> lights_;
   LightSampler lightSampler_;
   std::vector<uint32_t> infiniteLights_;
+  bool lobeMultipliersDiffer_ = false;
   RTCScene lightScene_ = nullptr;
   std::vector<uint32_t> areaLights_;  // light index of each primitive of lightScene_ (or of the
                                       // one area light, which has no lightScene_)
