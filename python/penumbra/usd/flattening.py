@@ -18,6 +18,9 @@ orientations, scales, the prototype root's own transform), masked by ``invisible
 extrapolates ``velocities``/``accelerations`` only from time-sampled positions and
 ``angularVelocities`` only from time-sampled orientations; for default-valued ones Penumbra
 moves and spins each copy itself (units per second, degrees per second: docs/design.md §3).
+Copies with a NaN or infinity in their transform are skipped with one warning per instancer
+(or per prim whose xformOps hold it); a scale of 0 hides its copies as it hides a mesh
+(transforms are composed downwards, never inverted).
 
 Per-instance primvars travel with the copies (:attr:`Leaf.primvars`, one row per copy): a point
 instancer's vertex/varying primvars and the constant primvars of instances and instancers, which
@@ -153,16 +156,33 @@ class Flattener:
         """(K, 4, 4) local-to-world transforms of ``prim`` on the grid."""
         return np.stack([np.asarray(self.caches.world(prim, t)) for t in self.times(segments)])
 
-    def relative(self, prim: Usd.Prim, root: Usd.Prim, segments: int) -> np.ndarray:
+    def relative(self, prim: Usd.Prim, root: Usd.Prim, segments: int) -> np.ndarray | None:
         """(K, 4, 4) transforms of ``prim`` relative to ``root`` (whose own transform is
-        excluded); K = 1 unless something between them moves."""
+        excluded; relative to the pseudo-root or a USD prototype: world); K = 1 unless
+        something between them moves. ``None``, with a warning, when not finite."""
         moving = segments and any(
             UsdGeom.Xformable(p).TransformMightBeTimeVarying() for p in _up_to(prim, root)
         )
-        matrices = self.world(prim, segments if moving else 0)
-        if root.IsPseudoRoot() or root.IsPrototype():  # world = relative to the prototype
+        # Composed from the transforms below root, not as world(prim) · world(root)⁻¹: a scale
+        # of 0 (a common way to hide things) has no inverse.
+        matrices = np.stack(
+            [
+                np.asarray(self.caches.at(t).ComputeRelativeTransform(prim, root)[0])
+                for t in self.times(segments if moving else 0)
+            ]
+        )
+        if np.isfinite(matrices).all():
             return matrices
-        return matrices @ np.linalg.inv(self.world(root, segments if moving else 0))
+        self.warn_not_finite(prim)
+        return None
+
+    def warn_not_finite(self, prim: Usd.Prim) -> None:
+        """Warn that the transform of ``prim`` is not finite, so that what it places is skipped
+        (the delegate would drop it without a word)."""
+        self.warn(
+            f"{user_facing_path(prim)}: the world transform is not finite (a NaN or infinity in "
+            "an xformOp); the prim is not rendered"
+        )
 
     # Motion needs
 
@@ -241,12 +261,9 @@ class Flattener:
         stop = root.GetParent()
         for prim, kind in self._walk(root):
             if kind == "mesh":
-                yield Leaf(
-                    prim,
-                    prim.GetPath(),
-                    _authored_purpose(prim, stop),
-                    self.relative(prim, root, segments)[None],
-                )
+                transforms = self.relative(prim, root, segments)
+                if transforms is not None:
+                    yield Leaf(prim, prim.GetPath(), _authored_purpose(prim, stop), transforms[None])
             elif kind == "instance":
                 yield from self._instance_leaves(prim, root, segments)
             elif kind == "point instancer":
@@ -255,6 +272,8 @@ class Flattener:
     def _instance_leaves(self, instance: Usd.Prim, root: Usd.Prim, segments: int) -> Iterator[Leaf]:
         prototype = instance.GetPrototype()
         placement = self.relative(instance, root, segments)
+        if placement is None:
+            return
         purpose = _authored_purpose(instance, root.GetParent())
         reader = SampleReader(self.shutter.frame)
         inherited = inherited_primvars(instance, reader, self.warn)
@@ -277,6 +296,8 @@ class Flattener:
         if not copies:
             return
         placement = self.relative(prim, root, segments)
+        if placement is None:
+            return
         for prototype, transforms, primvars, inherited in copies:
             between = list(_up_to(prototype.GetParent(), prim))
             if any(_invisible(p, self) for p in between):
@@ -349,6 +370,11 @@ class Flattener:
             local = self._default_valued_motion(instancer, local, times)
         mask = instancer.ComputeMaskAtTime(frame)
         keep = np.asarray(mask, dtype=bool) if mask else np.ones(len(indices), dtype=bool)
+        # The delegate would drop copies with a NaN or infinity without a word.
+        bad = keep & ~np.isfinite(local).all(axis=(1, 2, 3))
+        if bad.any():
+            self._warn_not_finite(instancer, bad, times)
+            keep &= ~bad
         primvars, inherited = self._instance_primvars(instancer, len(indices))
         copies = []
         for index, prototype_path in enumerate(prototypes):
@@ -362,6 +388,35 @@ class Flattener:
                 per_copy = {name: v[chosen] for name, v in primvars.items()}
                 copies.append((root, local[chosen], per_copy, inherited))
         return copies
+
+    def _warn_not_finite(
+        self, instancer: UsdGeom.PointInstancer, bad: np.ndarray, times: list[Usd.TimeCode]
+    ) -> None:
+        """One warning for the ``bad`` (N,) copies of ``instancer``, naming the instance
+        attributes with a NaN or infinity for any of them at the frame or the grid's times."""
+        names = []
+        for attr in (
+            instancer.GetPositionsAttr(),
+            instancer.GetOrientationsAttr(),
+            instancer.GetOrientationsfAttr(),
+            instancer.GetScalesAttr(),
+            instancer.GetVelocitiesAttr(),
+            instancer.GetAccelerationsAttr(),
+            instancer.GetAngularVelocitiesAttr(),
+        ):
+            for time in (self.shutter.frame, *times):
+                values = np.asarray(attr.Get(time) or [])
+                if values.dtype.kind != "f" or values.shape[:1] != bad.shape:
+                    continue  # unauthored, or of a type usd-core does not read either
+                if (bad & ~np.isfinite(values.reshape(len(bad), -1)).all(axis=1)).any():
+                    names.append(attr.GetName())
+                    break
+        # Otherwise the prototype root's own transform, which usd-core includes in each copy.
+        where = ", ".join(names) or "the prototypes' xformOps"
+        self.warn(
+            f"{user_facing_path(instancer.GetPrim())}: a NaN or infinity in {where} for "
+            f"{int(bad.sum())} of {len(bad)} instances; those instances are skipped"
+        )
 
     def _instance_primvars(
         self, instancer: UsdGeom.PointInstancer, count: int

@@ -165,10 +165,13 @@ class NativeInstancing:
             world = np.stack(
                 [_held(flattener.world(i, segments if own else 0), segments if moving else 0) for i, own, _ in instances]
             )  # (N, K, 4, 4)
+            finite = np.isfinite(world).all(axis=(1, 2, 3))
+            for n in np.flatnonzero(~finite):
+                flattener.warn_not_finite(instances[n][0])
             for leaf in flattener.expand(prototype, segments):
                 kept = [
                     n for n, (_, _, purpose) in enumerate(instances)
-                    if (leaf.purpose or purpose) in self.purposes
+                    if finite[n] and (leaf.purpose or purpose) in self.purposes
                 ]
                 if not kept:
                     continue
