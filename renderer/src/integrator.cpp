@@ -65,11 +65,19 @@ bool lightReaches(const Scene& scene, const ScatteringRecord& origin, size_t ind
                                     origin.linkingClass, scene.lights().all()[index].linkSlot());
 }
 
+/// Whether light `index`'s shadow link leaves something out. Its shadow rays pass through what
+/// BSDF rays stop at: where next-event estimation can draw its light, it takes all of it.
+bool passesExcludedShadows(const Scene& scene, size_t index) {
+  return scene.geometry().linking().shadowLinked(scene.lights().all()[index].linkSlot());
+}
+
 /// MIS weight of a BSDF-sampled ray that met light `index` (`lightPdf`: the density of sampling
 /// that point of the light once chosen).
 float bsdfStrategyWeight(const Scene& scene, const ScatteringRecord& origin, size_t index,
                          float lightPdf, DirectLighting mode) {
   if (origin.pdf <= 0) return 1;  // camera rays and delta lobes: light sampling cannot find these
+  if (mode == DirectLighting::MultipleImportance && passesExcludedShadows(scene, index))
+    mode = DirectLighting::LightSamplingOnly;
   switch (mode) {
     case DirectLighting::MultipleImportance:
       return powerHeuristic(
@@ -134,7 +142,8 @@ Vec3f emittedAlongRay(const Scene& scene, const Ray& ray, float tMax, bool escap
     if (taken && !leftToLightTracing->pastAboveDiffuse) return;
     const float weight = bsdfStrategyWeight(scene, origin, index, hit.pdf, mode);
     const Vec3f multiplier = lobeMultiplier(light, origin);
-    if (origin.constantDomeShare < 1 && light.isConstantDome()) {
+    if (origin.constantDomeShare < 1 && light.isConstantDome() &&
+        !passesExcludedShadows(scene, index)) {
       const Vec3f emitted = spectrum.emission(hit.radiance) * multiplier;
       total += emitted * (1 - origin.constantDomeShare * (1 - weight));
       if (domeSamplingShift) *domeSamplingShift += emitted * (weight - 1);
@@ -840,7 +849,8 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
       const bool taken =
           causticPath() && settings.caustics->takesLightPast(choice.index, path.pastAboveDiffuse);
       if (taken && !path.pastAboveDiffuse) return;
-      const bool shared = constantDomeShare < 1 && light.isConstantDome();
+      const bool throughExcluded = passesExcludedShadows(scene, choice.index);
+      const bool shared = constantDomeShare < 1 && light.isConstantDome() && !throughExcluded;
       const bool unsampled = shared && constantDomeShare == 0;
       if (unsampled && !measuringDomes) return;
       const Vec2f lightSample = lightStream.draw2D(firstLightDimension + choice.slot);
@@ -848,7 +858,7 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
           light.sample(receiver.position, lightSample, receiver.normal, vertex.time);
       // Multiple importance sampling weighs the light's density against the vertex's: that is
       // found with f, with which it shares most of its work.
-      const bool weighed = sample && !sample->isDelta &&
+      const bool weighed = sample && !sample->isDelta && !throughExcluded &&
                            settings.directLighting != DirectLighting::LightSamplingOnly;
       Vec3f diffusePart;
       const BsdfEvaluation evaluated =

@@ -19,7 +19,15 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, Vt
 import penumbra
 from penumbra.errors import PenumbraWarning
 
-from stages import add_camera, add_distant_light, add_instance, add_quad, new_stage
+from stages import (
+    add_camera,
+    add_distant_light,
+    add_instance,
+    add_preview_material,
+    add_quad,
+    bind,
+    new_stage,
+)
 
 SIZE = 64
 QUAD = 0.3  # half size
@@ -267,3 +275,29 @@ def test_points_are_linked_like_meshes():
     assert_only_changed(linked, reference, region((0, -1.6), 0.25))
     inside = inner((0, -1.6), 0.1)
     assert linked[inside, 0].mean() < 0.6 * reference[inside, 0].mean()
+
+
+def test_light_through_a_blocker_its_shadow_link_excludes_is_the_same_to_every_strategy():
+    """BSDF rays stop at a blocker the light's shadow rays pass through: where next-event
+    estimation can draw the light, it takes all of it (MIS gave the glossy floor under the
+    blocker 5 % less than light sampling did: what BSDF rays were weighed by was lost)."""
+    stage = new_stage()
+    add_camera(stage)
+    floor = add_quad(stage, "/World/floor", half_size=2.0)
+    bind(floor, add_preview_material(stage, "/World/glossy", diffuseColor=(0.5, 0.5, 0.5),
+                                     roughness=0.2))
+    blocker = add_quad(stage, "/World/blocker", center=(0, 0, 0.5), half_size=1.0)
+    blocker.GetOrientationAttr().Set(UsdGeom.Tokens.leftHanded)  # unseen from above
+    light = UsdLux.RectLight.Define(stage, "/key")
+    light.CreateWidthAttr(3.0)
+    light.CreateHeightAttr(3.0)
+    light.CreateIntensityAttr(3.0)
+    light.AddTranslateOp().Set(Gf.Vec3d(0, 0, 1))
+    exclude(stage, "/key", "shadowLink", ["/World/blocker"])
+    under = {}
+    for strategy in ("light", "mis"):
+        image = penumbra.Renderer(stage).render(camera="/cam", width=32, samples=64, seed=1,
+                                                max_path_depth=1, direct_lighting=strategy)
+        under[strategy] = float(image["color"][12:20, 12:20, :3].mean())
+    assert under["light"] > 0.05
+    assert under["mis"] == pytest.approx(under["light"], rel=0.02)
