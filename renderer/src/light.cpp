@@ -48,16 +48,22 @@ Light::Light(const LightParams& params) : params_(params) {
       radius_ = params.radius * float(std::cbrt(std::fabs(toWorld.linearDeterminant())));
       area_ = 4 * kPi * radius_ * radius_;
       break;
-    case LightType::Cylinder:
-      // The axis keeps its length; the cross-section stays circular (mean of the two scales).
+    case LightType::Cylinder: {
+      // The axis keeps its length; the cross-section stays circular (mean of the two scales),
+      // square to the axis: under a shear, the local Y and Z lean along it.
       edgeU_ = toWorld.applyToVector({params.length, 0, 0});
       edgeV_ = toWorld.applyToVector({0, params.radius, 0});
       normal_ = toWorld.applyToVector({0, 0, params.radius});
+      const Vec3f axis = normalize(edgeU_);
+      for (Vec3f* across : {&edgeV_, &normal_})
+        if (std::fabs(dot(*across, axis)) > 1e-5f * length(*across))
+          *across = *across - axis * dot(*across, axis);
       radius_ = 0.5f * (length(edgeV_) + length(normal_));
       edgeV_ = normalize(edgeV_);
       normal_ = normalize(cross(edgeU_, edgeV_));  // completes the cross-section frame
       area_ = 2 * kPi * radius_ * length(edgeU_);
       break;
+    }
     case LightType::Distant: {
       const double halfAngle = std::clamp(0.5 * params.angle * M_PI / 180, 0.0, M_PI);
       cosHalfAngle_ = float(std::cos(halfAngle));

@@ -281,7 +281,11 @@ TEST(Lights, SampledIrradianceMatchesAnIndependentEstimateForEveryShape) {
   shaped.coneAngle = 30;
   shaped.coneSoftness = 0.5f;
   shaped.focus = 2;
-  for (const LightParams& p : {cylinder, texturedDome, texturedRect, shaped}) {
+  // Sheared along its axis: the cross-section's local Y leans along it.
+  const double shear[16] = {1, 0.5, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0.3, 1.2, 0, 1};
+  LightParams sheared = cylinder;
+  sheared.lightToWorld = Transform::fromRowMajor(shear);
+  for (const LightParams& p : {cylinder, sheared, texturedDome, texturedRect, shaped}) {
     const Light light(p);
     const double expected = irradianceByUniformDirections(light, {0, 0, 0}, {0, 1, 0});
     ASSERT_GT(expected, 0) << "light type " << int(p.type);
