@@ -13,8 +13,8 @@ from collections.abc import Callable
 from pxr import Usd, UsdLux
 
 from .. import _core
-from .sampling import SampleReader
-from .values import as_asset_path, as_floats, is_color_value, is_number_value
+from .sampling import SampleReader, schema_fallback
+from .values import as_asset_path, as_floats, is_color_value, is_finite_float32, is_number_value
 
 
 def _inputs(origin: str, sprim_type: str | None = None) -> tuple[str, ...]:
@@ -47,6 +47,24 @@ _COLOR_INPUTS = tuple(
 )
 _KINDS = {light_input.name: light_input.kind for light_input in _core.light_inputs()}
 
+MAX_EMISSION = 1e20
+"""The most a light may emit before normalisation, color * intensity * 2^exposure: 6e10 times
+the sun's luminance (1.6e9 nits), yet 3e18 below single precision's largest number, so that
+the path tracer's products of it (throughputs, 1/pdf, sums over samples) stay finite (3e38 gave
+inf pixels)."""
+
+# The ranges of the inputs UsdLux bounds: sizes are lengths; a distant light's angle is the
+# angular diameter of its disc in degrees, 360 (the whole sky) at most, where the delegate's
+# cone stops; exposure is a power of two, which alone must not pass MAX_EMISSION.
+_RANGES = {
+    "width": (0.0, math.inf),
+    "height": (0.0, math.inf),
+    "radius": (0.0, math.inf),
+    "length": (0.0, math.inf),
+    "angle": (0.0, 360.0),
+    "exposure": (-math.inf, math.log2(MAX_EMISSION)),
+}
+
 
 def _has_kind(value, kind: str) -> bool:
     """Whether an input's value can be sent as an input of ``kind`` ("float", "bool",
@@ -60,20 +78,87 @@ def _has_kind(value, kind: str) -> bool:
     return True
 
 
-def _skip_wrong_kinds(
-    prim: Usd.Prim, path: str, params: dict, warn: Callable[[str], None]
-) -> None:
-    """Replace each input in ``params`` whose value is not of its kind (an attribute authored
-    with a wrong or unknown type) by the schema's fallback, with a warning naming it, and then
-    skip the light: intensity 0."""
-    wrong = [name for name, value in params.items()
-             if value is not None and not _has_kind(value, _KINDS[name])]
-    for name in wrong:
-        warn(f"{path}: inputs:{name} has a value of type {type(params[name]).__name__}, not "
-             f"{_KINDS[name]}; the light is skipped (intensity 0)")
-        params[name] = prim.GetPrimDefinition().GetAttributeFallbackValue(f"inputs:{name}")
-    if wrong:
+def _input_problem(name: str, attribute: str, value) -> str | None:
+    """Why the render delegate cannot take ``value`` for input ``name`` (USD attribute
+    ``attribute``): of another kind, not finite in single precision or out of its range; or
+    ``None``."""
+    kind = _KINDS[name]
+    if not _has_kind(value, kind):
+        return f"{attribute} has a value of type {type(value).__name__}, not {kind}"
+    numbers = as_floats(value) if kind == "color" else (value,) if kind == "float" else ()
+    if not all(is_finite_float32(x) for x in numbers):
+        return f"{attribute} is not finite in single precision ({value})"
+    if name not in _RANGES:
+        return None
+    low, high = _RANGES[name]
+    if low <= value <= high:
+        return None
+    if high == math.inf:
+        return f"{attribute} must be at least {low:g}, not {value:g}"
+    if low == -math.inf:
+        return f"{attribute} must be at most {high:.4g}, not {value:g}"
+    return f"{attribute} must be in [{low:g}, {high:g}], not {value:g}"
+
+
+def _read_inputs(
+    path: str,
+    attributes: dict[str, Usd.Attribute],
+    reader: SampleReader,
+    warn: Callable[[str], None],
+) -> dict:
+    """The values of the light inputs ``attributes`` (by input name) at the reader's time, as
+    the render delegate takes them (colours as tuples of floats); a value blocked there reads
+    as the schema's fallback, as USD means. A value the delegate cannot take is replaced by the
+    fallback, and the light skipped (intensity 0) with one warning naming it and each such
+    input; so is a light whose emission would be negative or above :data:`MAX_EMISSION`."""
+    params = {}
+    problems = []
+    for name, attribute in attributes.items():
+        value = reader.get_or_fallback(attribute)
+        problem = _input_problem(name, attribute.GetName(), value)
+        if problem is not None:
+            problems.append(problem)
+            value = schema_fallback(attribute)
+        params[name] = as_floats(value) if name in _COLOR_INPUTS else value
+    problem = _emission_problem(params)
+    if problem is not None:
+        problems.append(problem)
+    if problems:
+        warn(f"{path}: {'; '.join(problems)}; the light is skipped (intensity 0)")
         params["intensity"] = 0.0
+    return params
+
+
+def _emission_problem(params: dict) -> str | None:
+    """Why a light's (valid) inputs would give negative or too bright emission, or ``None``."""
+    color, intensity = params["color"], params["intensity"]
+    if intensity < 0 or min(color) < 0:
+        return f"negative emission (intensity {intensity:g}, color {color})"
+    emission = max(color) * intensity * 2.0 ** params["exposure"]
+    if emission > MAX_EMISSION:
+        return (
+            f"inputs:color * inputs:intensity * 2^inputs:exposure is {emission:g}, above "
+            f"{MAX_EMISSION:g}"
+        )
+    return None
+
+
+def _input_attributes(
+    prim: Usd.Prim, schema=None, shape_inputs: tuple[str, ...] = ()
+) -> dict[str, Usd.Attribute]:
+    """The attributes of light ``prim``'s inputs by input name, in the table's order:
+    UsdLuxLightAPI's, ``shape_inputs`` of its light ``schema``, then those of the
+    UsdLuxShapingAPI (its emission's shape) and UsdLuxShadowAPI applied to it, if they are."""
+    light_api = UsdLux.LightAPI(prim)
+    attributes = {name: _getter(light_api, name) for name in _COMMON_INPUTS}
+    attributes.update({name: _getter(schema, name) for name in shape_inputs})
+    if prim.HasAPI(UsdLux.ShapingAPI):
+        shaping = UsdLux.ShapingAPI(prim)
+        attributes.update({name: _getter(shaping, name) for name in _SHAPING_INPUTS})
+    if prim.HasAPI(UsdLux.ShadowAPI):
+        shadow = UsdLux.ShadowAPI(prim)
+        attributes.update({name: _getter(shadow, name) for name in _SHADOW_INPUTS})
+    return attributes
 
 
 def sync_mesh_light(
@@ -86,11 +171,7 @@ def sync_mesh_light(
     if not prim.HasAPI(UsdLux.MeshLightAPI):
         core.set_mesh_light(prim_id, False)
         return
-    light_api = UsdLux.LightAPI(prim)
-    params = {name: reader.get(_getter(light_api, name)) for name in _COMMON_INPUTS}
-    params.update(_applied_schema_inputs(prim, reader))
-    _skip_wrong_kinds(prim, prim_id, params, warn)
-    _skip_wrong_emission(prim_id, params, warn)
+    params = _read_inputs(prim_id, _input_attributes(prim), reader, warn)
     core.set_mesh_light(prim_id, True, **params)
 
 
@@ -136,51 +217,10 @@ def sync_light(
     sprim_type = light_type(prim)
     _, schema_class, shape_inputs = next(entry for entry in _LIGHTS if entry[0] == sprim_type)
     schema = schema_class(prim)
-    light_api = UsdLux.LightAPI(prim)
-    params = {name: reader.get(_getter(light_api, name)) for name in _COMMON_INPUTS}
-    params.update({name: reader.get(_getter(schema, name)) for name in shape_inputs})
-    params.update(_applied_schema_inputs(prim, reader))
-    _skip_wrong_kinds(prim, path, params, warn)
-    _skip_wrong_emission(path, params, warn)
+    params = _read_inputs(path, _input_attributes(prim, schema, shape_inputs), reader, warn)
     params["texture:file"] = _texture_path(prim, schema, reader, warn)
     params["cameraVisible"] = dome_light_visibility or sprim_type != "domeLight"
     core.set_light(path, **params)
-
-
-def _applied_schema_inputs(prim: Usd.Prim, reader: SampleReader) -> dict:
-    """The inputs of the schemas applied to light ``prim`` that shape its emission
-    (UsdLuxShapingAPI) or its shadows (UsdLuxShadowAPI); none where neither is applied."""
-    params = {}
-    if prim.HasAPI(UsdLux.ShapingAPI):
-        shaping = UsdLux.ShapingAPI(prim)
-        params.update({name: reader.get(_getter(shaping, name)) for name in _SHAPING_INPUTS})
-    if prim.HasAPI(UsdLux.ShadowAPI):
-        shadow = UsdLux.ShadowAPI(prim)
-        params.update({name: reader.get(_getter(shadow, name)) for name in _SHADOW_INPUTS})
-    return params
-
-
-def _skip_wrong_emission(path: str, params: dict, warn: Callable[[str], None]) -> None:
-    """Send ``params``' colours as floats, and skip the light (intensity 0) with a warning where
-    they would give negative or non-finite radiance."""
-    for name in _COLOR_INPUTS:
-        if name in params:
-            params[name] = as_floats(params[name])
-    problem = _emission_problem(params)
-    if problem:
-        warn(f"{path}: {problem}; the light is skipped (intensity 0)")
-        params["intensity"] = 0.0
-
-
-def _emission_problem(params: dict) -> str | None:
-    """Why a light's inputs would give negative or non-finite radiance, or ``None``."""
-    for name, value in params.items():
-        numbers = value if isinstance(value, tuple) else (value,)
-        if any(isinstance(x, float) and not math.isfinite(x) for x in numbers):
-            return f"inputs:{name} is not finite ({value})"
-    if params["intensity"] < 0 or min(params["color"]) < 0:
-        return f"negative emission (intensity {params['intensity']:g}, color {params['color']})"
-    return None
 
 
 def _texture_path(prim: Usd.Prim, schema, reader: SampleReader, warn: Callable[[str], None]) -> str:

@@ -68,6 +68,20 @@ class Shutter:
         return [Usd.TimeCode(start + length * k / segments) for k in range(segments + 1)]
 
 
+def schema_fallback(attr: Usd.Attribute) -> Any:
+    """The fallback value the schemas of ``attr``'s prim (its type's and its applied API
+    schemas') give ``attr``, or ``None``."""
+    return attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
+
+
+def value_at(attr: Usd.Attribute, time: Usd.TimeCode) -> Any:
+    """The value of ``attr`` at ``time``; where a value block (a ``None`` time sample, "no
+    opinion") holds, ``Get`` answers ``None``, and this the schema's fallback, as for an
+    attribute left unauthored."""
+    value = attr.Get(time)
+    return schema_fallback(attr) if value is None else value
+
+
 def changes_within(attr: Usd.Attribute, interval: Gf.Interval) -> bool:
     """Whether the value of ``attr`` is interpolated between different time samples somewhere
     in ``interval`` (values are held before the first and after the last sample)."""
@@ -117,6 +131,12 @@ class SampleReader:
         if self.note_variability and attr.ValueMightBeTimeVarying():
             self.varying = True
         return attr.Get(self.time)
+
+    def get_or_fallback(self, attr: Usd.Attribute) -> Any:
+        """:meth:`get`, a value blocked at the reader's time read as the schema's fallback (see
+        :func:`value_at`)."""
+        value = self.get(attr)
+        return schema_fallback(attr) if value is None else value
 
     def flattened_primvar(self, primvar: UsdGeom.Primvar) -> Any:
         """The de-indexed value of ``primvar`` at the reader's time (``None`` if it has none)."""

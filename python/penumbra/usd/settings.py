@@ -23,7 +23,9 @@ from .. import render_options
 from ..errors import SceneError, warn
 from .framing import FRAMING_CAMERA_PATH, framing_camera
 from .render_pass import find_render_pass
+from .sampling import value_at
 from .stage import stage_name
+from .values import is_number_value
 
 logger = logging.getLogger("penumbra")
 
@@ -57,6 +59,11 @@ CONFORM_POLICIES = (
 )
 
 
+PIXEL_ASPECT_RATIO_RANGE = (1e-2, 1e2)
+"""Anamorphic pixels are at most 2 wide; beyond 100 either way the film the render delegate
+fits to the image could pass the camera's bounds (camera.py; 1e-30 aborted the render)."""
+
+
 def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSettings | None:
     """Read the render settings prim at ``path``, or the one named by the stage metadata.
 
@@ -80,9 +87,14 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
         width, height = resolution_attr.Get()
         if width > 0 and height > 0:
             resolution = (int(width), int(height))
-    pixel_aspect_ratio = float(settings.GetPixelAspectRatioAttr().Get())
-    if not pixel_aspect_ratio > 0 or not np.isfinite(pixel_aspect_ratio):
-        raise SceneError(f"{path}: pixelAspectRatio must be positive, not {pixel_aspect_ratio}")
+    pixel_aspect_ratio = value_at(settings.GetPixelAspectRatioAttr(), Usd.TimeCode.Default())
+    low, high = PIXEL_ASPECT_RATIO_RANGE
+    if not is_number_value(pixel_aspect_ratio):
+        raise SceneError(f"{path}: pixelAspectRatio must be a number, not {pixel_aspect_ratio!r}")
+    if not low <= pixel_aspect_ratio <= high:
+        raise SceneError(
+            f"{path}: pixelAspectRatio must be in [{low:g}, {high:g}], not {pixel_aspect_ratio:g}"
+        )
     policy = str(settings.GetAspectRatioConformPolicyAttr().Get())
     if policy not in CONFORM_POLICIES:
         raise SceneError(
@@ -99,7 +111,7 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
         disable_motion_blur=bool(settings.GetDisableMotionBlurAttr().Get())
         or bool(settings.GetInstantaneousShutterAttr().Get()),
         disable_depth_of_field=bool(settings.GetDisableDepthOfFieldAttr().Get()),
-        pixel_aspect_ratio=pixel_aspect_ratio,
+        pixel_aspect_ratio=float(pixel_aspect_ratio),
         aspect_ratio_conform_policy=policy,
         data_window_ndc=(x_min, y_min, x_max, y_max),
         options=_authored_options(settings.GetPrim()),
@@ -277,8 +289,8 @@ def image_size(
         resolution_width, resolution_height = settings.resolution
         return width, max(1, width * resolution_height // resolution_width)
     geom = UsdGeom.Camera(camera)
-    horizontal = geom.GetHorizontalApertureAttr().Get(time)
-    vertical = geom.GetVerticalApertureAttr().Get(time)
+    horizontal = value_at(geom.GetHorizontalApertureAttr(), time)
+    vertical = value_at(geom.GetVerticalApertureAttr(), time)
     if not horizontal or horizontal <= 0 or not vertical or vertical <= 0:
         raise SceneError(
             f"{camera.GetPath()}: camera apertures must be positive "
@@ -362,8 +374,8 @@ def film_window(
         return FilmWindow(width, height)
     geom = UsdGeom.Camera(camera)
     aperture = (
-        float(geom.GetHorizontalApertureAttr().Get(time)),
-        float(geom.GetVerticalApertureAttr().Get(time)),
+        float(value_at(geom.GetHorizontalApertureAttr(), time)),
+        float(value_at(geom.GetVerticalApertureAttr(), time)),
     )
     if not (aperture[0] > 0 and aperture[1] > 0):
         raise SceneError(f"{camera.GetPath()}: camera apertures must be positive {aperture}")

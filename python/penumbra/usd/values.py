@@ -16,6 +16,15 @@ _NUMBER_TYPES = (float, int)
 _VECTOR3_TYPES = (Gf.Vec3f, Gf.Vec3d, Gf.Vec3h)
 
 
+FLOAT32_MAX = 3.4028234663852886e38
+"""The largest finite single-precision number: the render delegate takes numbers as such."""
+
+
+def is_finite_float32(x: float) -> bool:
+    """Whether the number ``x`` stays finite in single precision (NaN does not)."""
+    return abs(x) <= FLOAT32_MAX
+
+
 def is_number_value(value: Any) -> bool:
     """Whether an attribute's value is a number (a float, double, half or integer), not a bool."""
     if type(value) in _NUMBER_TYPES:
