@@ -79,8 +79,7 @@ void Material::setParam(const std::string& name, const ParamValue& value) {
             params_.*member = parsed;
           } else if constexpr (std::is_same_v<Member, Vec3f MaterialParams::*>) {
             const Vec3f parsed = paramAsColor(name, value);
-            if (input->mustBeFinite &&
-                !(std::isfinite(parsed.x) && std::isfinite(parsed.y) && std::isfinite(parsed.z)))
+            if (input->mustBeFinite && !isFinite(parsed))
               throw std::invalid_argument(name + " must be finite");
             params_.*member = parsed;
           } else if constexpr (std::is_same_v<Member, bool MaterialParams::*> ||

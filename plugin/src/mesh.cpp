@@ -218,8 +218,11 @@ TriangleMesh Mesh::triangles(SyncContext& context) {
     result.closed = isClosedSurface(cage.points, cage.faceVertexCounts, cage.faceVertexIndices);
     return result;
   } catch (const std::invalid_argument& error) {
+    // A cage that cannot be rendered either (bad indices, points that are not finite) throws
+    // here: the mesh is then skipped with that one warning, not also told it renders its cage.
+    TriangleMesh polygons = triangulate(cage);
     context.warn(id() + ": cannot subdivide (" + error.what() + "); rendering the control cage");
-    return triangulate(cage);
+    return polygons;
   }
 }
 

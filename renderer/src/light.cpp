@@ -15,10 +15,6 @@ float oneMinusCosFromSin2(float sin2) {
   return sin2 / (1 + std::sqrt(std::max(0.0f, 1 - sin2)));
 }
 
-bool isFinite(const Vec3f& v) {
-  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
-}
-
 float smoothstep(float edge0, float edge1, float x) {
   if (edge1 <= edge0) return x >= edge0 ? 1.0f : 0.0f;
   const float t = std::clamp((x - edge0) / (edge1 - edge0), 0.0f, 1.0f);

@@ -21,7 +21,7 @@ const std::vector<MaterialInputInfo>& materialInputs() {
       {"diffuseColor", Kind::Vector, Origin::PreviewSurface, &Params::diffuseColor,
        MaterialInput::DiffuseColor, false},
       {"emissiveColor", Kind::Vector, Origin::PreviewSurface, &Params::emissiveColor,
-       MaterialInput::EmissiveColor, false},
+       MaterialInput::EmissiveColor, true},
       {"specularColor", Kind::Vector, Origin::PreviewSurface, &Params::specularColor,
        MaterialInput::SpecularColor, false},
       {"metallic", Kind::Float, Origin::PreviewSurface, &Params::metallic, MaterialInput::Metallic,

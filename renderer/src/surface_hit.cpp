@@ -80,6 +80,9 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
     if (primvarAt(point, displayOpacity, value, &width)) fallback.opacity = value[0];
   }
   hit.emission = hit.material().emissiveColor;
+  // A network's value (a texture scaled by NaN, a primvar holding one) is read as the BSDF
+  // reads its inputs: NaN as nothing, rather than a NaN pixel.
+  if (!isFinite(hit.emission)) hit.emission = Vec3f(0.0f);
   const LightSet& lights = scene.lights();
   // A mesh light emits from its front alone; its back glows (or not) by its material, as any
   // surface: no light's multipliers, weights or takeover apply there.

@@ -16,10 +16,6 @@ float exponentialStep(float majorant, float u) {
   return -std::log1p(-u) / majorant;
 }
 
-bool finite(const Vec3f& v) {
-  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
-}
-
 /// The mean of the components as (x + y + z) · (1/3), which rounds differently from average():
 /// the volume estimators' images were made with it.
 float sumTimesOneThird(const Vec3f& v) {
@@ -44,7 +40,8 @@ class MergedMajorants {
                                           : placed.worldToObject;
       const Vec3f origin = worldToObject.applyToPoint(ray.origin);
       const Vec3f direction = worldToObject.applyToVector(ray.direction);
-      if (!finite(origin) || !finite(direction)) continue;  // a degenerate placement at this time
+      if (!isFinite(origin) || !isFinite(direction))
+        continue;  // a degenerate placement at this time
       Track track{placed.volume.get(),
                   placed.linkingClass,
                   origin,

@@ -3,6 +3,7 @@ no traceback, no partial output; plus malformed files and outputs."""
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import subprocess
@@ -14,6 +15,7 @@ from pathlib import Path
 import pytest
 
 import numpy as np
+from pxr import Gf, Sdf, UsdGeom
 
 from malformed_corpus import CASES, SCALE_ONLY, Case, write_case
 import penumbra.renderer
@@ -21,6 +23,8 @@ from penumbra import _core, _interrupts
 from penumbra.usd.camera import camera_problem
 from processes import default_sigint
 from penumbra.cli import main
+from penumbra.errors import PenumbraWarning
+from stages import add_preview_material, add_primvar_emission_material, bind, lit_quad_stage
 
 SMALL = ("-w", "64", "-spp", "4", "-q")
 
@@ -319,3 +323,42 @@ def test_fuzz_harness_leaves_no_scratch_directory(failing: bool, tmp_path: Path)
     )
     assert (result.returncode != 0) == failing, result.stderr[-2000:]
     assert list(scratch.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "mesh",
+    [
+        "int[] faceVertexIndices = [0, 1, 2, 9]",
+        "point3f[] points = [(nan, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]",
+    ],
+)
+def test_a_subdivision_surface_whose_cage_is_malformed_is_reported_once(
+    mesh: str, tmp_path: Path, capsys
+) -> None:
+    # USD's default scheme is catmullClark: the subdivision failed first, and its warning said
+    # the cage would render, before the cage failed with a second warning that skipped it.
+    stage = write_case(Case("malformed cage", 0, "/quad", mesh=mesh), tmp_path)
+    assert main([str(stage), str(tmp_path / "out.png"), *SMALL]) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if "/quad" in line]
+    assert len(warnings) == 1, warnings
+    assert "the mesh is skipped" in warnings[0]
+
+
+def test_an_emission_that_is_not_finite_renders_no_nan() -> None:
+    # emissiveColor is added to the image as it is: a NaN constant or a NaN a network reads
+    # (here a primvar) made NaN pixels without a word.
+    constant = lit_quad_stage()
+    quad = UsdGeom.Mesh(constant.GetPrimAtPath("/World/quad"))
+    bind(quad, add_preview_material(constant, "/World/glow", emissiveColor=(math.nan, 1.0, 1.0)))
+    with pytest.warns(PenumbraWarning, match="/World/glow: emissiveColor must be finite"):
+        image = penumbra.Renderer(constant).render(camera="/cam", width=16, samples=4)
+    assert np.isfinite(image["color"]).all()
+
+    read = lit_quad_stage()
+    quad = UsdGeom.Mesh(read.GetPrimAtPath("/World/quad"))
+    UsdGeom.PrimvarsAPI(quad).CreatePrimvar(
+        "glow", Sdf.ValueTypeNames.Float3, UsdGeom.Tokens.constant
+    ).Set(Gf.Vec3f(math.nan, 1, 1))
+    bind(quad, add_primvar_emission_material(read, "/World/glow", "glow"))
+    image = penumbra.Renderer(read).render(camera="/cam", width=16, samples=4)
+    assert np.isfinite(image["color"]).all()

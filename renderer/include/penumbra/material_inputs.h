@@ -50,8 +50,9 @@ struct MaterialInputInfo {
   std::optional<MaterialInput> connectable;
   /// Whether a non-finite value is refused. The sheen, coat colour, anisotropy and hair inputs
   /// must be finite (the BSDFs clamp them to their ranges), as must the subsurface and
-  /// transmission depth/colour inputs (subsurfaceMedium and transmissionAbsorption clamp them);
-  /// the others are taken as given (the BSDF reads NaN as 0).
+  /// transmission depth/colour inputs (subsurfaceMedium and transmissionAbsorption clamp them)
+  /// and emissiveColor (added to the image as it is); the others are taken as given (the BSDF
+  /// reads NaN as 0).
   bool mustBeFinite;
 };
 

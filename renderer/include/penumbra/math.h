@@ -101,6 +101,9 @@ inline Vec3f componentMax(const Vec3f& a, const Vec3f& b) {
 inline bool isBlack(const Vec3f& a) {
   return a.x == 0 && a.y == 0 && a.z == 0;
 }
+inline bool isFinite(const Vec3f& a) {
+  return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
+}
 /// The mean of the three components.
 inline float average(const Vec3f& v) {
   return (v.x + v.y + v.z) / 3;
