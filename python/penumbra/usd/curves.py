@@ -23,7 +23,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .curve_conversions import BasisCurves, hermite_to_bezier, nurbs_to_basis
-from .mesh import as_vec3_array, display_color, gprim_primvars
+from .mesh import as_int32_array, as_vec3_array, display_color, gprim_primvars
 from .motion import point_samples
 from .sampling import SampleReader
 
@@ -36,6 +36,7 @@ CURVE_BASES = ("bezier", "bspline", "catmullRom")
 CURVE_WRAPS = ("nonperiodic", "periodic", "pinned")
 
 _NO_VECTORS = np.zeros((0, 3), dtype=np.float32)
+_NO_COUNTS = np.zeros(0, dtype=np.int32)
 
 
 def sync_curves_data(
@@ -48,7 +49,14 @@ def sync_curves_data(
     positions = as_vec3_array(reader.get(gprim.GetPointsAttr()))
     if positions is None or len(positions) == 0:
         return False
-    counts = np.asarray(reader.get(gprim.GetCurveVertexCountsAttr()) or [], dtype=np.int32)
+    authored = reader.get(gprim.GetCurveVertexCountsAttr())
+    counts = _NO_COUNTS if authored is None else as_int32_array(authored)
+    if counts is None:  # larger integers would wrap into plausible small counts
+        warn(
+            f"{path}: curveVertexCounts ({type(authored).__name__}) is not an array of 32-bit "
+            "integers; skipped"
+        )
+        return False
     if (counts < 0).any():
         warn(f"{path}: curveVertexCounts has negative counts; skipped")
         return False
@@ -70,7 +78,7 @@ def sync_curves_data(
     if normals is None:
         return False
     colors, color_interpolation = curves.remap(
-        *display_color(prim, reader), "primvars:displayColor", warn, path
+        *display_color(prim, reader, warn, path), "primvars:displayColor", warn, path
     )
     primvars = {}
     for name, (values, interpolation) in gprim_primvars(

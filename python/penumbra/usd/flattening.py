@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdVol, Vt
 
-from .mesh import numeric_primvar, reads_as_mesh
+from .mesh import as_vec3_array, numeric_primvar, reads_as_mesh
 from .motion import ACCELERATION_SEGMENTS, XformCaches, transform_samples
 from .sampling import SampleReader, Shutter, changes_within, transform_might_vary
 
@@ -238,7 +238,7 @@ class Flattener:
         if accelerations or spins:
             segments = max(segments, min(ACCELERATION_SEGMENTS, self.shutter.max_segments))
         if spins:  # keep each step's turn unambiguous for slerp
-            rate = float(np.linalg.norm(np.asarray(spins, dtype=np.float64), axis=1).max())
+            rate = _fastest_spin(spins)
             swept = rate * interval.size / self.stage.GetTimeCodesPerSecond()
             segments = max(segments, min(math.ceil(swept / _MAX_STEP_SPIN), self.shutter.max_segments))
         return segments
@@ -472,16 +472,24 @@ class Flattener:
 
     def _per_copy(self, instancer: UsdGeom.PointInstancer, attr: Usd.Attribute, count: int) -> np.ndarray | None:
         """(N, 3) values of ``attr`` at the frame; ``None`` (with a warning if authored with
-        the wrong count) unless there is one per copy."""
+        another type than 3-vectors or the wrong count) unless there is one per copy."""
         value = attr.Get(self.shutter.frame)
-        if value is not None and len(value) == count:
-            return np.asarray(value, dtype=np.float64).reshape(-1, 3)
-        if value:
+        if value is None or np.size(value) == 0:
+            return None
+        vectors = as_vec3_array(value)
+        if vectors is None:
             self.warn(
-                f"{instancer.GetPath()}: {attr.GetName()} has {len(value)} values for "
-                f"{count} instances; ignored"
+                f"{user_facing_path(instancer.GetPrim())}: {attr.GetName()} has type "
+                f"{type(value).__name__}, not 3-vectors; ignored"
             )
-        return None
+            return None
+        if len(vectors) != count:
+            self.warn(
+                f"{user_facing_path(instancer.GetPrim())}: {attr.GetName()} has "
+                f"{len(vectors)} values for {count} instances; ignored"
+            )
+            return None
+        return vectors.astype(np.float64)
 
     # Walking a subtree
 
@@ -511,15 +519,33 @@ class Flattener:
                 yield prim, "instance"
 
 
+def _fastest_spin(spins) -> float:
+    """The fastest rate (degrees per second) among angularVelocities ``spins``: 0 when they are
+    not 3-vectors (the copies are placed without them, after a warning); rates that are not
+    finite are left out (their copies are skipped, after a warning)."""
+    vectors = as_vec3_array(spins)
+    if vectors is None:
+        return 0.0
+    rates = np.linalg.norm(vectors.astype(np.float64), axis=1)
+    rates = rates[np.isfinite(rates)]
+    return float(rates.max()) if len(rates) else 0.0
+
+
 def spin_matrices(angular_velocities: np.ndarray, seconds: np.ndarray) -> np.ndarray:
     """(N, K, 3, 3) rotations (row-vector convention, as Gf) by ``angular_velocities`` (N, 3),
-    degrees per second about their own direction, over each of ``seconds`` (K,)."""
-    rate = np.linalg.norm(angular_velocities, axis=1)
-    axis = np.divide(
-        angular_velocities, rate[:, None], out=np.zeros_like(angular_velocities), where=rate[:, None] > 0
-    )
-    angle = np.radians(rate[:, None] * seconds[None, :])  # (N, K)
-    cos, sin = np.cos(angle)[..., None, None], np.sin(angle)[..., None, None]
+    degrees per second about their own direction, over each of ``seconds`` (K,); NaN for a
+    spin that is not finite."""
+    # An infinite rate gives NaN quietly: the caller skips such copies with its own warning.
+    with np.errstate(invalid="ignore"):
+        rate = np.linalg.norm(angular_velocities, axis=1)
+        axis = np.divide(
+            angular_velocities,
+            rate[:, None],
+            out=np.zeros_like(angular_velocities),
+            where=rate[:, None] > 0,
+        )
+        angle = np.radians(rate[:, None] * seconds[None, :])  # (N, K)
+        cos, sin = np.cos(angle)[..., None, None], np.sin(angle)[..., None, None]
     x, y, z = axis[:, 0], axis[:, 1], axis[:, 2]
     zero = np.zeros_like(x)
     # Rodrigues for row vectors: v·R = v cosθ + (k × v) sinθ + k (k·v)(1 − cosθ).

@@ -23,6 +23,7 @@ from .core_batch import CoreBatch
 from .lights import sync_mesh_light
 from .motion import point_samples
 from .sampling import SampleReader, changes_within
+from .values import is_number_value, is_vector3_value
 
 
 class Authored(NamedTuple):  # a tuple: built per mesh, faster than a dataclass
@@ -111,7 +112,7 @@ def sync_mesh_data(
         warn=warn,
     )
     if scheme != UsdGeom.Tokens.none:
-        _sync_subdivision_tags(core, path, attributes)
+        _sync_subdivision_tags(core, path, attributes, warn)
     return True
 
 
@@ -148,8 +149,9 @@ def push_plain_meshes(
 ) -> list[bool]:
     """Queue in ``batch`` the plain meshes ``prims`` (authored property names ``names``,
     delegate ids ``ids``; see :func:`is_plain`) at ``time`` as :func:`sync_mesh_data` would
-    send them, and say for each whether it was: not when its topology needs the general path's
-    checks and warnings or when it has UsdLuxMeshLightAPI."""
+    send them, and say for each whether it was: not when its topology, displayColor or
+    subdivision tags need the general path's checks and warnings or when it has
+    UsdLuxMeshLightAPI."""
     tokens = UsdGeom.Tokens
 
     def column(name: str) -> list:
@@ -160,8 +162,8 @@ def push_plain_meshes(
         ]
 
     points = [as_vec3_array(prim.GetAttribute("points").Get(time)) for prim in prims]
-    counts = [_as_int_array(prim.GetAttribute("faceVertexCounts").Get(time)) for prim in prims]
-    indices = [_as_int_array(prim.GetAttribute("faceVertexIndices").Get(time)) for prim in prims]
+    counts = [as_int32_array(prim.GetAttribute("faceVertexCounts").Get(time)) for prim in prims]
+    indices = [as_int32_array(prim.GetAttribute("faceVertexIndices").Get(time)) for prim in prims]
     lights = [prim.HasAPI(UsdLux.MeshLightAPI) for prim in prims]
     schemes = column(tokens.subdivisionScheme)
     orientations = column(tokens.orientation)
@@ -174,6 +176,12 @@ def push_plain_meshes(
     pushed = []
     for n, path in enumerate(ids):
         mesh_points, mesh_counts, mesh_indices = points[n], counts[n], indices[n]
+        mesh_colors = _color_array(colors[n])
+        scheme = str(schemes[n] or tokens.catmullClark)
+        tags, tag_problem = None, None
+        if scheme != tokens.none:
+            attributes = _Attributes(prims[n], SampleReader(time), Authored(names[n], ()))
+            tags, tag_problem = _subdivision_tags(attributes)
         usable = (
             mesh_points is not None
             and mesh_counts is not None
@@ -182,16 +190,15 @@ def push_plain_meshes(
             and len(mesh_counts) > 0
             and len(mesh_indices) > 0
             and not lights[n]
+            and mesh_colors is not None
+            and tag_problem is None
         )
         pushed.append(usable)
         if not usable:
             continue
-        mesh_colors, interpolation = _color_array(colors[n]), tokens.constant
-        if mesh_colors is None:
-            mesh_colors = _NO_VECTORS
-        else:  # what UsdGeomPrimvar::GetInterpolation reads, without making a primvar
+        interpolation = tokens.constant
+        if len(mesh_colors):  # what UsdGeomPrimvar::GetInterpolation reads, without a primvar
             interpolation = str(color_attributes[n].GetMetadata(_INTERPOLATION) or interpolation)
-        scheme = str(schemes[n] or tokens.catmullClark)
         batch.add_mesh(
             MeshRecord(
                 path,
@@ -209,9 +216,8 @@ def push_plain_meshes(
             )
         )
         batch.set_mesh_light(path, False)
-        if scheme != tokens.none:
-            attributes = _Attributes(prims[n], SampleReader(time), Authored(names[n], ()))
-            _sync_subdivision_tags(batch, path, attributes)
+        if tags is not None:
+            batch.set_mesh_subdivision_tags(path, **tags)
     return pushed
 
 
@@ -287,8 +293,8 @@ def push_mesh(
     the reader of the prim's attributes the caller already made from them; ``colors``: the
     displayColor (values, interpolation) when the caller mapped it to generated topology."""
     if primvars is None:
-        primvars = gprim_primvars(prim, reader, None, path, constant_only=True, authored=authored)
-    colors, interpolation = colors or display_color(prim, reader, authored)
+        primvars = gprim_primvars(prim, reader, warn, path, constant_only=True, authored=authored)
+    colors, interpolation = colors or display_color(prim, reader, warn, path, authored)
     if attributes is None:
         attributes = _Attributes(prim, reader, authored)
     core.set_mesh(
@@ -375,7 +381,7 @@ def _sync_nurbs_patch(
     samples = point_samples(UsdGeom.NurbsPatch(prim), generated.control, reader, warn, path)
     if samples.ndim == 3:
         points = np.stack([generated.points_for(sample) for sample in samples])
-    colors = display_color(prim, reader, authored)
+    colors = display_color(prim, reader, warn, path, authored)
     if colors[1] != UsdGeom.Tokens.constant and len(colors[0]):
         warn(f"{path}: primvars:displayColor is {colors[1]}; a NurbsPatch takes only constant")
         colors = _NO_VECTORS, UsdGeom.Tokens.constant
@@ -428,7 +434,7 @@ def _sync_tet_mesh(
         if per_face is not None:
             primvars[name] = per_face
     colors = _per_boundary_face(
-        *display_color(prim, reader, authored), surface, warn, path, "displayColor"
+        *display_color(prim, reader, warn, path, authored), surface, warn, path, "displayColor"
     )
     push_mesh(
         core,
@@ -479,6 +485,7 @@ def _per_boundary_face(
 
 _FLOAT32 = np.dtype(np.float32)
 _INT32 = np.dtype(np.int32)
+_INT32_RANGE = np.iinfo(np.int32)
 
 
 def as_vec3_array(value) -> np.ndarray | None:
@@ -492,14 +499,19 @@ def as_vec3_array(value) -> np.ndarray | None:
     return array.astype(np.float32) if array.dtype.kind == "f" else None
 
 
-def _as_int_array(value) -> np.ndarray | None:
-    """``value`` as an int32 array if it is an array of integers, else ``None``."""
+def as_int32_array(value) -> np.ndarray | None:
+    """``value`` as an int32 array if it is an array of integers that int32 holds, else
+    ``None`` (an int64 array's larger values would wrap into plausible small ones)."""
     array = np.asarray(value)
     if array.ndim != 1:
         return None
     if array.dtype == _INT32:
         return array
-    return array.astype(np.int32) if array.dtype.kind in "iu" else None
+    if array.dtype.kind not in "iu" or (
+        len(array) and (array.min() < _INT32_RANGE.min or array.max() > _INT32_RANGE.max)
+    ):
+        return None
+    return array.astype(np.int32)
 
 
 def _int32(values) -> np.ndarray:
@@ -511,8 +523,8 @@ def _int32(values) -> np.ndarray:
 
 _TOPOLOGY = (
     ("points", as_vec3_array),
-    ("faceVertexCounts", _as_int_array),
-    ("faceVertexIndices", _as_int_array),
+    ("faceVertexCounts", as_int32_array),
+    ("faceVertexIndices", as_int32_array),
 )
 
 
@@ -564,7 +576,7 @@ _DEDICATED_PRIMVARS = frozenset({"displayColor", "normals"})
 def gprim_primvars(
     prim: Usd.Prim,
     reader: SampleReader,
-    warn: Callable[[str], None] | None,
+    warn: Callable[[str], None],
     path: str,
     constant_only: bool = False,
     authored: Authored | None = None,
@@ -572,10 +584,11 @@ def gprim_primvars(
 ) -> dict[str, tuple[np.ndarray, str]]:
     """The numeric primvars of ``prim`` (own, and constant ones inherited from ancestors) that
     materials may read, flattened, as float32 (N,) or (N, width) arrays with their interpolation.
-    Non-numeric primvars and widths above 4 are left out (with a warning when ``warn`` is given);
-    ``constant_only`` keeps just constant ones (for generated topology, which authored
-    per-element data cannot match). ``authored``: as for :func:`sync_mesh_data`. ``dedicated``:
-    more primvars that the caller reads itself (as displayColor and normals always are)."""
+    Non-numeric primvars and widths above 4 are left out (with a warning for those that could
+    never be read, and for a displayOpacity that is not numbers); ``constant_only`` keeps just
+    constant ones (for generated topology, which authored per-element data cannot match).
+    ``authored``: as for :func:`sync_mesh_data`. ``dedicated``: more primvars that the caller
+    reads itself (as displayColor and normals always are)."""
     result: dict[str, tuple[np.ndarray, str]] = {}
     if authored is None:
         primvars = UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance()
@@ -592,9 +605,17 @@ def gprim_primvars(
         if constant_only and interpolation != UsdGeom.Tokens.constant:
             continue
         if not UsdGeom.Primvar.IsValidInterpolation(interpolation):
-            if warn:
-                warn(f"{path}: primvars:{name} has unknown interpolation {interpolation!r}; skipped")
+            warn(f"{path}: primvars:{name} has unknown interpolation {interpolation!r}; skipped")
             continue
+        if name == "displayOpacity" and primvar.HasValue():
+            # The delegate reads an opacity from an element's first number: a colour's red.
+            opacity = reader.flattened_primvar(primvar)
+            if not (is_number_value(opacity) or _as_float_array(opacity) is not None):
+                warn(
+                    f"{path}: primvars:displayOpacity has type {_value_type(opacity)}, not "
+                    "numbers; ignored"
+                )
+                continue
         values = numeric_primvar(primvar, reader, warn, path)
         if values is not None:
             result[name] = (values, interpolation)
@@ -661,10 +682,15 @@ _INTERPOLATION = UsdGeom.Tokens.interpolation
 
 
 def display_color(
-    prim: Usd.Prim, reader: SampleReader, authored: Authored | None = None
+    prim: Usd.Prim,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    path: str,
+    authored: Authored | None = None,
 ) -> tuple[np.ndarray, str]:
     """The flattened displayColor of ``prim`` (own or inherited constant primvar) and its
-    interpolation; no values when none is authored (the delegate then uses its grey fallback)."""
+    interpolation; no values (the delegate then uses its grey fallback) when none is authored,
+    or, after a warning naming ``path`` and the primvar, when it is not 3-vectors."""
     attribute = _DISPLAY_COLOR
     if authored is None:
         primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(attribute)
@@ -672,55 +698,122 @@ def display_color(
         attr = prim.GetAttribute(attribute)
         primvar = UsdGeom.Primvar(attr)
         if _DISPLAY_COLOR_INDICES not in authored.names:  # not indexed: flat as it is
-            return _colors(reader.get(attr), primvar)
+            return _colors(reader.get(attr), primvar, prim, warn, path)
     else:
         inherited = [
             p for p in authored.inherited_primvars if p.GetPrimvarName() == "displayColor"
         ]
         primvar = inherited[0] if inherited else None
     if primvar and primvar.HasValue():
-        return _colors(reader.flattened_primvar(primvar), primvar)
-    return _colors(None, primvar)
+        return _colors(reader.flattened_primvar(primvar), primvar, prim, warn, path)
+    return _NO_VECTORS, UsdGeom.Tokens.constant
 
 
-def _colors(values, primvar: UsdGeom.Primvar | None) -> tuple[np.ndarray, str]:
-    """Flat displayColor ``values`` of ``primvar`` as float32 (N, 3) and their interpolation;
-    none (the delegate's grey fallback) when there are no values."""
+def _colors(
+    values,
+    primvar: UsdGeom.Primvar,
+    prim: Usd.Prim,
+    warn: Callable[[str], None],
+    path: str,
+) -> tuple[np.ndarray, str]:
+    """Flat displayColor ``values`` of ``primvar`` (of ``prim`` or inherited by it) as float32
+    (N, 3) and their interpolation; none (the delegate's grey fallback) when there are no
+    values, or after a warning when they are not 3-vectors (reshaping other numbers into
+    colours would paint garbage)."""
     colors = _color_array(values)
     if colors is None:
+        owner = primvar.GetAttr().GetPrim()
+        where = "" if owner == prim else f" (inherited from {owner.GetPath()})"
+        warn(
+            f"{path}: primvars:displayColor{where} has type {_value_type(values)}, not "
+            "3-vectors; ignored, the fallback colour is used"
+        )
+        colors = _NO_VECTORS
+    if len(colors) == 0:
         return _NO_VECTORS, UsdGeom.Tokens.constant
     return colors, str(primvar.GetInterpolation())
 
 
 def _color_array(values) -> np.ndarray | None:
-    """Flat displayColor ``values`` as float32 (N, 3); ``None`` when there are none."""
-    if values is None or len(values) == 0:
-        return None
-    colors = np.asarray(values)
-    if colors.dtype != _FLOAT32:
-        colors = colors.astype(np.float32)
-    return colors.reshape(-1, 3)
+    """Flat displayColor ``values`` as float32 (N, 3): none for no values, one row for a single
+    3-vector (a color3f authored without brackets); ``None`` when they are not 3-vectors."""
+    if values is None:
+        return _NO_VECTORS
+    if is_vector3_value(values):
+        values = [values]
+    colors = as_vec3_array(values)
+    if colors is None and np.size(values) == 0:  # an empty array of any type: nothing authored
+        return _NO_VECTORS
+    return colors
 
 
-def _sync_subdivision_tags(core, path: str, attributes: _Attributes) -> None:
-    """Push the subdivision tags (boundary rules, creases, corners, holes) of a subdivided mesh."""
+def _as_float_array(value) -> np.ndarray | None:
+    """``value`` as a float32 array if it is an array of numbers, else ``None``."""
+    array = np.asarray(value)
+    return array.astype(np.float32) if array.ndim == 1 and array.dtype.kind in "iuf" else None
 
-    def array(name: str, dtype) -> np.ndarray:
-        value = attributes.get(name)
-        return np.asarray(value if value is not None else [], dtype=dtype)
 
+# Subdivision tags in groups whose arrays only make sense together (the delegate checks their
+# counts and ranges): a group with an attribute of another type is left out whole.
+_TAG_GROUPS = (
+    ("holes", (("hole_indices", UsdGeom.Tokens.holeIndices, as_int32_array, "int[]"),)),
+    (
+        "corners",
+        (
+            ("corner_indices", UsdGeom.Tokens.cornerIndices, as_int32_array, "int[]"),
+            ("corner_sharpnesses", UsdGeom.Tokens.cornerSharpnesses, _as_float_array, "float[]"),
+        ),
+    ),
+    (
+        "creases",
+        (
+            ("crease_indices", UsdGeom.Tokens.creaseIndices, as_int32_array, "int[]"),
+            ("crease_lengths", UsdGeom.Tokens.creaseLengths, as_int32_array, "int[]"),
+            ("crease_sharpnesses", UsdGeom.Tokens.creaseSharpnesses, _as_float_array, "float[]"),
+        ),
+    ),
+)
+
+
+def _subdivision_tags(attributes: _Attributes) -> tuple[dict[str, Any], str | None]:
+    """The subdivision tags (boundary rules, creases, corners, holes) of a subdivided mesh as
+    ``set_mesh_subdivision_tags`` takes them, and what is wrong with them (``None``: nothing):
+    tag attributes of another type than the schema's, whose groups are left out."""
     tokens = UsdGeom.Tokens
-    core.set_mesh_subdivision_tags(
-        path,
-        interpolate_boundary=str(attributes.get(tokens.interpolateBoundary)),
-        face_varying_linear_interpolation=str(
+    tags: dict[str, Any] = {
+        "interpolate_boundary": str(attributes.get(tokens.interpolateBoundary)),
+        "face_varying_linear_interpolation": str(
             attributes.get(tokens.faceVaryingLinearInterpolation)
         ),
-        triangle_subdivision_rule=str(attributes.get(tokens.triangleSubdivisionRule)),
-        hole_indices=array(tokens.holeIndices, np.int32),
-        corner_indices=array(tokens.cornerIndices, np.int32),
-        corner_sharpnesses=array(tokens.cornerSharpnesses, np.float32),
-        crease_indices=array(tokens.creaseIndices, np.int32),
-        crease_lengths=array(tokens.creaseLengths, np.int32),
-        crease_sharpnesses=array(tokens.creaseSharpnesses, np.float32),
-    )
+        "triangle_subdivision_rule": str(attributes.get(tokens.triangleSubdivisionRule)),
+    }
+    problems, dropped = [], []
+    for group, members in _TAG_GROUPS:
+        arrays, wrong = {}, []
+        for keyword, name, convert, expected in members:
+            value = attributes.get(name)
+            if value is None:
+                continue  # the delegate's default: none
+            array = convert(value)
+            if array is None:
+                wrong.append(f"{name} has type {_value_type(value)}, not {expected}")
+            arrays[keyword] = array
+        if wrong:
+            problems.extend(wrong)
+            dropped.append(group)
+        else:
+            tags.update(arrays)
+    if not problems:
+        return tags, None
+    return tags, f"{'; '.join(problems)}; the mesh's {' and '.join(dropped)} are ignored"
+
+
+def _sync_subdivision_tags(
+    core, path: str, attributes: _Attributes, warn: Callable[[str], None]
+) -> None:
+    """Push the subdivision tags of a subdivided mesh, after a warning naming the attributes
+    of a group left out."""
+    tags, problem = _subdivision_tags(attributes)
+    if problem:
+        warn(f"{path}: {problem}")
+    core.set_mesh_subdivision_tags(path, **tags)

@@ -38,7 +38,7 @@ def sync_points_data(
         return False
     if reader.shutter.blurred or points.GetVelocitiesAttr().HasAuthoredValue():
         positions = point_samples(points, positions, reader, warn, path)
-    colors, color_interpolation = display_color(prim, reader)
+    colors, color_interpolation = display_color(prim, reader, warn, path)
     core.set_points(
         path,
         positions=positions,

@@ -25,7 +25,7 @@ from .framing import FRAMING_CAMERA_PATH, framing_camera
 from .render_pass import find_render_pass
 from .sampling import value_at
 from .stage import stage_name
-from .values import is_number_value
+from .values import as_floats, is_number_value
 
 logger = logging.getLogger("penumbra")
 
@@ -84,9 +84,10 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
     resolution_attr = settings.GetResolutionAttr()
     resolution = None
     if resolution_attr.HasAuthoredValue():
-        width, height = resolution_attr.Get()
+        # Whole pixels first: a float2 of fractions would otherwise be a resolution of 0.
+        width, height = (int(v) for v in _finite_numbers(path, resolution_attr, 2))
         if width > 0 and height > 0:
-            resolution = (int(width), int(height))
+            resolution = (width, height)
     pixel_aspect_ratio = value_at(settings.GetPixelAspectRatioAttr(), Usd.TimeCode.Default())
     low, high = PIXEL_ASPECT_RATIO_RANGE
     if not is_number_value(pixel_aspect_ratio):
@@ -101,7 +102,7 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
             f"{path}: unknown aspectRatioConformPolicy {policy!r} "
             f"(expected one of {', '.join(CONFORM_POLICIES)})"
         )
-    x_min, y_min, x_max, y_max = (float(v) for v in settings.GetDataWindowNDCAttr().Get())
+    x_min, y_min, x_max, y_max = _finite_numbers(path, settings.GetDataWindowNDCAttr(), 4)
     if not (x_min < x_max and y_min < y_max):
         raise SceneError(f"{path}: dataWindowNDC {(x_min, y_min, x_max, y_max)} is empty")
     return RenderSettings(
@@ -116,6 +117,22 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
         data_window_ndc=(x_min, y_min, x_max, y_max),
         options=_authored_options(settings.GetPrim()),
     )
+
+
+def _finite_numbers(path: str, attr: Usd.Attribute, count: int) -> tuple[float, ...]:
+    """The value of render settings ``path``'s ``attr`` as ``count`` finite numbers;
+    :class:`SceneError` naming the attribute when it is anything else (a wrong or unknown type
+    in the file, or an infinity that no image size or window could follow)."""
+    value = attr.Get()
+    numbers = (
+        not isinstance(value, (str, bytes))
+        and hasattr(value, "__len__")
+        and len(value) == count
+        and all(is_number_value(v) and math.isfinite(v) for v in value)
+    )
+    if not numbers:
+        raise SceneError(f"{path}: {attr.GetName()} must be {count} finite numbers, not {value!r}")
+    return as_floats(value)
 
 
 def _authored_options(prim: Usd.Prim) -> dict[str, render_options.OptionValue]:

@@ -32,6 +32,12 @@ def is_number_value(value: Any) -> bool:
     return isinstance(value, Real) and not isinstance(value, bool)
 
 
+def is_vector3_value(value: Any) -> bool:
+    """Whether an attribute's value is one Gf 3-vector (a color3f, float3, vector3d…), not an
+    array nor another sequence of three numbers."""
+    return type(value) in _VECTOR3_TYPES
+
+
 def is_color_value(value: Any) -> bool:
     """Whether an attribute's value is three numbers (a color3f, float3, vector3f…)."""
     if type(value) in _VECTOR3_TYPES:
