@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
+import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
+import penumbra
 from penumbra.usd import implicit
 
 SCENES = Path(__file__).resolve().parents[1] / "assets"
@@ -185,3 +188,20 @@ def add_emissive_sphere(stage: Usd.Stage, path: str, center, radius: float) -> U
     mesh = add_sphere_mesh(stage, path, center, radius)
     bind(mesh, UsdShade.Material(stage.GetPrimAtPath("/Looks/glow")))
     return mesh
+
+
+def render_with_warnings(stage: Usd.Stage, width: int) -> tuple[np.ndarray, list[str]]:
+    """The colour image of ``stage`` through ``/cam`` (``width`` pixels wide, 4 spp, seed 1)
+    and the Penumbra warnings rendering it gave."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        image = penumbra.Renderer(stage).render(camera="/cam", width=width, samples=4, seed=1)
+    messages = [str(w.message) for w in caught if issubclass(w.category, penumbra.PenumbraWarning)]
+    return np.asarray(image["color"]), messages
+
+
+def covers(image: np.ndarray, x: float, y: float) -> bool:
+    """Whether something is seen at point (x, y) of the z = 0 plane in an image through the
+    camera of :func:`add_camera` (which sees [-2, 2]²)."""
+    height, width = image.shape[:2]
+    return image[int((2 - y) / 4 * height), int((x + 2) / 4 * width), 3] == 1

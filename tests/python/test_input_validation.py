@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -16,18 +15,13 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 
 import penumbra
 from malformed_corpus import Case, write_case
-from stages import add_camera, add_quad, new_stage
+from stages import add_camera, add_quad, new_stage, render_with_warnings
 
 RENDER = dict(camera="/cam", width=16, samples=4, seed=1)
 
 
 def render(stage: Usd.Stage) -> tuple[np.ndarray, list[str]]:
-    """The colour image of ``stage`` and the warnings the render gave."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        image = np.asarray(penumbra.Renderer(stage).render(**RENDER)["color"])
-    ours = [w for w in caught if issubclass(w.category, penumbra.PenumbraWarning)]
-    return image, [str(w.message) for w in ours]
+    return render_with_warnings(stage, RENDER["width"])
 
 
 def lit_stage() -> Usd.Stage:

@@ -7,7 +7,6 @@ The camera of :func:`stages.add_camera` sees the square [-2, 2]² of the z = 0 p
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -15,24 +14,22 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 import penumbra
-from stages import add_camera, add_distant_light, add_instance, add_quad, new_stage
+from stages import (
+    add_camera,
+    add_distant_light,
+    add_instance,
+    add_quad,
+    covers,
+    new_stage,
+    render_with_warnings,
+)
 
 NAN, INF = math.nan, math.inf
 WIDTH = 40
 
 
 def render(stage: Usd.Stage) -> tuple[np.ndarray, list[str]]:
-    """The colour image of ``stage`` and the Penumbra warnings rendering it gave."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        image = penumbra.Renderer(stage).render(camera="/cam", width=WIDTH, samples=4, seed=1)
-    messages = [str(w.message) for w in caught if issubclass(w.category, penumbra.PenumbraWarning)]
-    return np.asarray(image["color"]), messages
-
-
-def covers(image: np.ndarray, x: float, y: float) -> bool:
-    """Whether something is seen at plane point (x, y)."""
-    return image[int((2 - y) / 4 * WIDTH), int((x + 2) / 4 * WIDTH), 3] == 1
+    return render_with_warnings(stage, WIDTH)
 
 
 def scene() -> Usd.Stage:
