@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <map>
+#include <set>
+#include <string>
 #include <tuple>
 #include <type_traits>
 #include <variant>
@@ -23,15 +25,16 @@ Value parseToken(const std::map<std::string, Value>& tokens, const std::string& 
                               known + ")");
 }
 
-/// Opens `node`'s file for `material` (a warning when it cannot be) and appends its reader to
-/// `result`'s textures; returns its index.
+/// Opens `node`'s file for `material` (a warning when it cannot be, once per file in
+/// `unreadable`: a texture node may drive several inputs) and appends its reader to `result`'s
+/// textures; returns its index.
 int openTexture(const Material& material, const TextureNode& node, SyncContext& context,
-                penumbra::Material* result) {
+                penumbra::Material* result, std::set<std::string>* unreadable) {
   TextureReader reader = node.reader;
   std::string error;
   reader.texture = context.scene.materials().textures().open(node.file, node.colorSpace, &error);
   ++context.counters.materialTextureOpens;
-  if (reader.texture == TextureSystem::kInvalid)
+  if (reader.texture == TextureSystem::kInvalid && unreadable->insert(node.file).second)
     context.warn(material.id() + ": " + error + "; its fallback value is used");
   result->textures.push_back(std::move(reader));
   return int(result->textures.size() - 1);
@@ -138,6 +141,7 @@ void Material::resetParams() {
 void Material::sync(SyncContext& context, uint32_t) {
   penumbra::Material result;
   result.constants = params_;
+  std::set<std::string> unreadable;
   for (const auto& [input, source] : connections_) {
     InputConnection connection;
     connection.input = input;
@@ -146,13 +150,14 @@ void Material::sync(SyncContext& context, uint32_t) {
       for (const ProgramNode& node : source.program) {
         program.nodes.push_back(node.node);
         if (node.texture)
-          program.nodes.back().texture = openTexture(*this, *node.texture, context, &result);
+          program.nodes.back().texture =
+              openTexture(*this, *node.texture, context, &result, &unreadable);
       }
       connection.program = int(result.programs.size());
       connection.channelCount = isVectorInput(input) ? 3 : 1;
       result.programs.push_back(std::move(program));
     } else if (source.texture) {
-      connection.texture = openTexture(*this, *source.texture, context, &result);
+      connection.texture = openTexture(*this, *source.texture, context, &result, &unreadable);
       std::tie(connection.firstChannel, connection.channelCount) =
           parseTextureOutput(source.output);
     } else {

@@ -8,6 +8,7 @@ reflection, so each pixel is the emission the network computes there (filtered o
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -239,6 +240,21 @@ def test_missing_texture_warns_and_uses_the_fallback(tmp_path):
     with pytest.warns(penumbra.PenumbraWarning, match="nowhere.png"):
         image = render(stage)
     np.testing.assert_allclose(at(image, 0, 0), (0.2, 0.4, 0.6), atol=0.01)
+
+
+def test_a_missing_texture_driving_two_inputs_warns_once(tmp_path):
+    stage, _ = textured_stage(tmp_path / "nowhere.png")
+    surface = UsdShade.Shader.Get(stage, "/World/Looks/textured/Surface")
+    texture = UsdShade.Shader.Get(stage, "/World/Looks/textured/Texture")
+    texture.CreateOutput("r", Sdf.ValueTypeNames.Float)
+    surface.CreateInput("roughness", Sdf.ValueTypeNames.Float).ConnectToSource(
+        texture.ConnectableAPI(), "r"
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        render(stage)
+    messages = [str(w.message) for w in caught if "nowhere.png" in str(w.message)]
+    assert len(messages) == 1, messages
 
 
 def test_textured_opacity_cuts_out_per_hit(tmp_path):
