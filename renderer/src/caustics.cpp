@@ -139,6 +139,7 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
 
   const std::vector<Light>& all = scene.lights().all();
   std::vector<CausticTakeover::LightTaken> taken(all.size(), CausticTakeover::LightTaken::No);
+  std::vector<float> powers;  // by start
   float total = 0;
   for (size_t index = 0; index < all.size(); ++index) {
     const Light& light = all[index];
@@ -172,6 +173,7 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
       if (aim.kind == CasterKind::AboveDiffuse) power *= kAboveDiffuseShare;
       if (!(power > 0) || !std::isfinite(power)) continue;
       starts_.push_back({uint32_t(index), uint32_t(target), 0, 0});
+      powers.push_back(power);
       total += power;
       startCdf_.push_back(total);
     }
@@ -183,12 +185,50 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, const Pix
     taken[index] = pastEveryCaster ? CausticTakeover::LightTaken::PastEveryCaster
                                    : CausticTakeover::LightTaken::PastWholeCasters;
   }
+  leaveDimLampsToThePathTracer(powers, total, taken);
   if (starts_.empty()) return;
   for (float& step : startCdf_) step /= total;
   startCdf_.back() = 1;
   takeover_ = CausticTakeover(std::move(casters), std::move(taken), maxCasters);
   const double pixels = double(camera.imageWidth()) * double(camera.imageHeight());
   pathsPerSample_ = uint32_t(std::clamp(std::ceil(pixels * kPathsPerPixel), 1.0, 1e9));
+}
+
+void CausticTracer::leaveDimLampsToThePathTracer(const std::vector<float>& powers, float& total,
+                                                 std::vector<CausticTakeover::LightTaken>& taken) {
+  // A start is chosen by a float in [0, 1): one whose share is near its resolution (2^-24)
+  // would be chosen with a probability off the one its paths are weighed by, or never, while
+  // the path tracer left its lamp's caustics out. Such lamps stay with the path tracer.
+  const auto dim = [&](const Start& start) {
+    float lamp = 0;
+    for (uint32_t k = start.lightsFirst; k < start.lightsEnd; ++k) lamp += powers[k];
+    return lamp < kMinLampShare * total;
+  };
+  if (std::none_of(starts_.begin(), starts_.end(), dim)) return;  // as built, bit for bit
+  std::vector<Start> kept;
+  std::vector<float> keptCdf;
+  float keptTotal = 0;
+  for (size_t start = 0; start < starts_.size(); ++start) {
+    if (dim(starts_[start])) {
+      taken[starts_[start].light] = CausticTakeover::LightTaken::No;
+      continue;
+    }
+    kept.push_back(starts_[start]);
+    keptTotal += powers[start];
+    keptCdf.push_back(keptTotal);
+  }
+  for (size_t start = 0; start < kept.size(); ++start) {  // each lamp's range, renumbered
+    size_t end = start;
+    while (end < kept.size() && kept[end].light == kept[start].light) ++end;
+    for (size_t k = start; k < end; ++k) {
+      kept[k].lightsFirst = uint32_t(start);
+      kept[k].lightsEnd = uint32_t(end);
+    }
+    start = end - 1;
+  }
+  starts_ = std::move(kept);
+  startCdf_ = std::move(keptCdf);
+  total = keptTotal;
 }
 
 bool CausticTracer::trace(uint32_t firstSample, uint32_t sampleCount, Film& film, int threads,

@@ -265,6 +265,31 @@ TEST(Caustics, SunlightThroughTheBallIsLightTracedToo) {
   for (size_t i = 0; i < roofed.size(); i += 4) ASSERT_EQ(roofed[i], 0.0f) << i / 4;
 }
 
+TEST(Caustics, LampsTooDimForTheLightPathsChoiceStayWithThePathTracer) {
+  // Beside a sun 10^5 times as bright, the bulb's share of the light paths (about 6e-6) is
+  // near the resolution of the float that chooses a start: chosen with a probability off the
+  // one its paths are weighed by, or never, its caustic would be lost (the path tracer leaves
+  // the caustics of the lamps light tracing takes).
+  RenderDelegate delegate;
+  glassBallScene(delegate);
+  addSun(delegate, -45);
+  const auto takes = [&](LightType type) {
+    const penumbra::Camera camera = test::syncedCamera(delegate, kSize);
+    const PixelFilter filter;
+    const CausticTracer tracer(delegate.scene(), camera, filter, RenderSettings().integrator);
+    const std::vector<penumbra::Light>& lights = delegate.scene().lights().all();
+    for (size_t index = 0; index < lights.size(); ++index)
+      if (lights[index].type() == type) return tracer.takeover().takesLight(index);
+    ADD_FAILURE() << "no light of type " << int(type);
+    return false;
+  };
+  EXPECT_TRUE(takes(LightType::Sphere));
+  EXPECT_TRUE(takes(LightType::Distant));
+  delegate.light("/sun").setParam("intensity", 2e5f);
+  EXPECT_FALSE(takes(LightType::Sphere));
+  EXPECT_TRUE(takes(LightType::Distant));
+}
+
 TEST(Caustics, PlasticsSmoothLayerIsLightTracedAndItsDiffuseOnePathTraced) {
   // A red plastic ball in a sun level with the floor (its centre 2 degrees below the horizon,
   // so that it lights the floor little): on the floor beside the ball, the sunlight its smooth

@@ -217,6 +217,13 @@ class CausticTracer {
   CausticTakeover takeover_;
   uint32_t pathsPerSample_ = 0;
   std::vector<Target> targets_;
+  /// The least share of the light paths a lamp may have (its starts' powers over `total`):
+  /// the float choice of a start resolves it to within 0.1 %.
+  static constexpr float kMinLampShare = 0x1p-14f;
+  /// Drops the starts of lamps below kMinLampShare (not taken over), and `total` with them.
+  void leaveDimLampsToThePathTracer(const std::vector<float>& powers, float& total,
+                                    std::vector<CausticTakeover::LightTaken>& taken);
+
   std::vector<Start> starts_;
   std::vector<float> startCdf_;  // choosing among starts_, ascending to 1
 };
