@@ -65,6 +65,11 @@ def render_products(
     return written
 
 
+# AOVs whose values are ids that half floats cannot hold: Cryptomatte's (uint32 bits read as
+# float32) and the integer ids (exact in half only up to 2048).
+_EXACT_AOVS = frozenset((*cryptomatte.LAYERS, "primId", "instanceId", "elementId"))
+
+
 def _write_product(product: RenderProduct, image: Image, path: str) -> None:
     """The product's vars from ``image`` in one file: the first colour var as the unlayered R,
     G, B, A, every other var as channels named after its prim."""
@@ -78,7 +83,10 @@ def _write_product(product: RenderProduct, image: Image, path: str) -> None:
             continue
         layers[layer] = image[var.aov]
         sources[layer] = var.aov
-        if var.half:
+        if var.half and var.aov in _EXACT_AOVS:
+            warn(f"{var.path}: {var.aov} needs 32-bit floats (half floats would change its "
+                 "ids); written as float")
+        elif var.half:
             half.append(layer)
     try:
         check_output_format(path)

@@ -354,3 +354,38 @@ def test_per_product_motion_blur_and_depth_of_field_switches(tmp_path):
         shutter = float(metadata["penumbra:shutterOpen"]), float(metadata["penumbra:shutterClose"])
         assert (shutter[0] == shutter[1]) == (name == "pinhole"), (name, shutter)
     assert grey["lens"] > 3 * grey["pinhole"], grey
+
+
+def test_ids_asked_for_in_half_floats_are_written_in_32_bits(tmp_path, capsys):
+    # Cryptomatte's ids are uint32 bits read as float32, and primId counts past 2048: half
+    # floats turned them into zeros, infinities and denormals no manifest entry matched.
+    stage = new_stage(tmp_path / "scene.usda")
+    add_camera(stage)
+    add_distant_light(stage)
+    add_quad(stage, "/World/plane", half_size=3.0, color=PLANE_COLOR)
+    variables = []
+    for name, source, data_type in (("color", "color", "color4f"),
+                                    ("objects", "CryptoObject", "half4"),
+                                    ("primId", "primId", "half")):
+        render_var = UsdRender.Var.Define(stage, f"/Render/Vars/{name}")
+        render_var.CreateSourceNameAttr(source)
+        render_var.CreateDataTypeAttr(data_type)
+        variables.append(render_var.GetPath())
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateResolutionAttr(Gf.Vec2i(16, 16))
+    settings.CreateCameraRel().SetTargets(["/cam"])
+    product = UsdRender.Product.Define(stage, "/Render/Products/ids")
+    product.CreateProductNameAttr("ids.exr")
+    product.CreateOrderedVarsRel().SetTargets(variables)
+    settings.CreateProductsRel().SetTargets([product.GetPath()])
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    stage.GetRootLayer().Save()
+    assert main([str(tmp_path / "scene.usda"), str(tmp_path / "out.exr"), "-spp", "2", "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "/Render/Vars/objects: CryptoObject needs 32-bit floats" in err
+    assert "/Render/Vars/primId: primId needs 32-bit floats" in err
+    header = subprocess.run(
+        ["iinfo", "-v", str(tmp_path / "ids.exr")], capture_output=True, text=True
+    ).stdout
+    # iinfo names a channel's type where the file mixes them: here every channel is float.
+    assert "objects00.R" in header and "primId" in header and "(half)" not in header, header
