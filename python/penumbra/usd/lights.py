@@ -55,7 +55,11 @@ inf pixels)."""
 
 # The ranges of the inputs UsdLux bounds: sizes are lengths; a distant light's angle is the
 # angular diameter of its disc in degrees, 360 (the whole sky) at most, where the delegate's
-# cone stops; exposure is a power of two, which alone must not pass MAX_EMISSION.
+# cone stops; exposure is a power of two, which alone must not pass MAX_EMISSION. The diffuse
+# and specular multipliers scale light, which a negative one would make negative. A cone angle
+# limits the angle off the light's axis, which lies in [0, 180] degrees. Not here: a cone
+# softness outside [0, 1] and a negative focus, which UsdLux defines (clamped; ignored) and the
+# delegate applies so.
 _RANGES = {
     "width": (0.0, math.inf),
     "height": (0.0, math.inf),
@@ -63,6 +67,9 @@ _RANGES = {
     "length": (0.0, math.inf),
     "angle": (0.0, 360.0),
     "exposure": (-math.inf, math.log2(MAX_EMISSION)),
+    "diffuse": (0.0, math.inf),
+    "specular": (0.0, math.inf),
+    "shaping:cone:angle": (0.0, 180.0),
 }
 
 
@@ -130,10 +137,16 @@ def _read_inputs(
 
 
 def _emission_problem(params: dict) -> str | None:
-    """Why a light's (valid) inputs would give negative or too bright emission, or ``None``."""
+    """Why a light's (valid) inputs would give negative, undefined or too bright emission, or
+    ``None``."""
     color, intensity = params["color"], params["intensity"]
     if intensity < 0 or min(color) < 0:
         return f"negative emission (intensity {intensity:g}, color {color})"
+    # A temperature in kelvin is positive; UsdLux's valid range, [1000, 10000], is where the
+    # delegate clamps others. Unused when not enabled, so not refused then.
+    temperature = params["colorTemperature"]
+    if params["enableColorTemperature"] and not temperature > 0:
+        return f"inputs:colorTemperature must be above 0 K, not {temperature:g}"
     emission = max(color) * intensity * 2.0 ** params["exposure"]
     if emission > MAX_EMISSION:
         return (

@@ -19,7 +19,7 @@ from pxr import Usd, UsdRender
 
 from ..errors import SceneError, warn
 from ..frames import frame_path
-from .settings import CONFORM_POLICIES, RenderSettings
+from .settings import CONFORM_POLICIES, RenderSettings, read_pixel_aspect_ratio
 
 AOV_NAMES = (
     "color",
@@ -175,9 +175,7 @@ def _overridden(product: UsdRender.Product, settings: RenderSettings) -> RenderS
         changes["resolution"] = (int(width), int(height))
     aspect = product.GetPixelAspectRatioAttr()
     if aspect.HasAuthoredValue():
-        if not aspect.Get() > 0:
-            raise SceneError(f"{product.GetPath()}: pixelAspectRatio must be positive")
-        changes["pixel_aspect_ratio"] = float(aspect.Get())
+        changes["pixel_aspect_ratio"] = read_pixel_aspect_ratio(aspect)
     policy = product.GetAspectRatioConformPolicyAttr()
     if policy.HasAuthoredValue():
         if str(policy.Get()) not in CONFORM_POLICIES:

@@ -64,6 +64,18 @@ PIXEL_ASPECT_RATIO_RANGE = (1e-2, 1e2)
 fits to the image could pass the camera's bounds (camera.py; 1e-30 aborted the render)."""
 
 
+def read_pixel_aspect_ratio(attr: Usd.Attribute) -> float:
+    """The pixelAspectRatio of a RenderSettings or RenderProduct prim (``attr``); raises
+    :class:`SceneError` naming the prim when it is not a number in PIXEL_ASPECT_RATIO_RANGE."""
+    ratio = value_at(attr, Usd.TimeCode.Default())
+    path, (low, high) = attr.GetPrim().GetPath(), PIXEL_ASPECT_RATIO_RANGE
+    if not is_number_value(ratio):
+        raise SceneError(f"{path}: pixelAspectRatio must be a number, not {ratio!r}")
+    if not low <= ratio <= high:
+        raise SceneError(f"{path}: pixelAspectRatio must be in [{low:g}, {high:g}], not {ratio:g}")
+    return float(ratio)
+
+
 def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSettings | None:
     """Read the render settings prim at ``path``, or the one named by the stage metadata.
 
@@ -88,14 +100,7 @@ def read_render_settings(stage: Usd.Stage, path: str | None = None) -> RenderSet
         width, height = (int(v) for v in _finite_numbers(path, resolution_attr, 2))
         if width > 0 and height > 0:
             resolution = (width, height)
-    pixel_aspect_ratio = value_at(settings.GetPixelAspectRatioAttr(), Usd.TimeCode.Default())
-    low, high = PIXEL_ASPECT_RATIO_RANGE
-    if not is_number_value(pixel_aspect_ratio):
-        raise SceneError(f"{path}: pixelAspectRatio must be a number, not {pixel_aspect_ratio!r}")
-    if not low <= pixel_aspect_ratio <= high:
-        raise SceneError(
-            f"{path}: pixelAspectRatio must be in [{low:g}, {high:g}], not {pixel_aspect_ratio:g}"
-        )
+    pixel_aspect_ratio = read_pixel_aspect_ratio(settings.GetPixelAspectRatioAttr())
     policy = str(settings.GetAspectRatioConformPolicyAttr().Get())
     if policy not in CONFORM_POLICIES:
         raise SceneError(

@@ -11,9 +11,9 @@ first the volume has feeds the slot. The fields' own transforms are not applied:
 placed by its file's transform and the Volume's.
 
 Bad data never stops a render: a volume without fields, a field whose prim is not an
-OpenVDBAsset, whose file is missing or whose data type does not fit its slot each warn once
-naming the volume, the field and the file; the slot is then dropped, or the volume skipped when
-it is the density's. Grids that cannot be read are warned of by the render delegate as it reads
+OpenVDBAsset, whose file is missing, whose fieldIndex is not an int in [0, 2^31 - 1] or whose
+data type does not fit its slot each warn once naming the volume, the field and the file; the
+slot is then dropped, or the volume skipped when it is the density's. Grids that cannot be read are warned of by the render delegate as it reads
 them (at its sync, through its cache of fields).
 """
 
@@ -25,6 +25,9 @@ from pxr import Sdf, Usd, UsdVol
 
 from .sampling import SampleReader
 from .volume_shading import VolumeShading, read_volume_shading
+
+INT32_MAX = 2**31 - 1
+"""The largest fieldIndex: the render delegate takes it as a 32-bit int."""
 
 SCALAR_SLOTS = ("density", "temperature")
 """The slots that take scalar grids (the others take a scalar or a colour)."""
@@ -120,9 +123,16 @@ def _field_request(
         return None
     grid = reader.get(asset.GetFieldNameAttr()) or name
     index = reader.get(asset.GetFieldIndexAttr())
-    index = 0 if index is None else int(index)
-    if index < 0:
-        warn(f"{where}: fieldIndex {index} is negative; {outcome} (file {file.resolvedPath})")
+    index = 0 if index is None else index  # unauthored or blocked: the first of the name
+    # The render delegate takes the index as a C++ int: an int of another width (int64, uint)
+    # outside its range would not convert, a float or a string is no index.
+    if type(index) is not int:
+        warn(f"{where}: fieldIndex {index!r} is a {type(index).__name__}, not an int; {outcome} "
+             f"(file {file.resolvedPath})")
+        return None
+    if not 0 <= index <= INT32_MAX:
+        warn(f"{where}: fieldIndex {index} is outside [0, {INT32_MAX}]; {outcome} "
+             f"(file {file.resolvedPath})")
         return None
     data_type = reader.get(asset.GetFieldDataTypeAttr())
     if slot in SCALAR_SLOTS and data_type in _VECTOR_TYPES:
