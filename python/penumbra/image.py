@@ -86,7 +86,7 @@ METADATA_PREFIX = "penumbra:"
 """Files name Penumbra's metadata ``penumbra:<key>``; the camera matrices keep OIIO's standard
 names (:data:`OIIO_METADATA`), and keys already in a namespace (standard attributes such as
 ``Exif:ImageUniqueID``) keep theirs."""
-OIIO_METADATA = ("worldtocamera", "worldtoscreen")
+OIIO_METADATA = ("worldtocamera", "worldtoscreen", "PixelAspectRatio")
 """Metadata written under OIIO's standard names rather than with :data:`METADATA_PREFIX`."""
 
 

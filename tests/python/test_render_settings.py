@@ -4,6 +4,8 @@ schema (UsdRenderSettingsBase) by hand."""
 
 from __future__ import annotations
 
+import subprocess
+
 import numpy as np
 import pytest
 from pxr import Gf, UsdGeom, UsdRender
@@ -108,6 +110,18 @@ def test_the_image_covers_the_conformed_aperture(resolution, policy, pixel_aspec
     area, column, row = quad_on_image(image)
     assert area == pytest.approx(expected[0], rel=0.03)
     assert (column, row) == pytest.approx(expected[1:], abs=0.25)
+
+
+def test_an_exr_says_its_pixels_aspect_ratio(tmp_path):
+    # Rendered with pixels twice as wide as high, the file said 1: a compositor showed the image
+    # squeezed.
+    stage = settings_stage((64, 32), pixel_aspect_ratio=2.0)
+    image = penumbra.render(stage, render_settings="/Render/Settings", samples=1,
+                            default_light="none")
+    image.write(tmp_path / "wide.exr")
+    header = subprocess.run(["iinfo", "-v", str(tmp_path / "wide.exr")], capture_output=True,
+                            text=True).stdout
+    assert "PixelAspectRatio: 2" in header, header
 
 
 @pytest.mark.parametrize(

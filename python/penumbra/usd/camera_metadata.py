@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pxr import Gf, Usd, UsdGeom
 
+from .sampling import value_at
 from .settings import conform_aperture
 
 
@@ -18,8 +19,9 @@ def camera_metadata(
 ) -> dict[str, object]:
     """``worldtocamera`` (world to USD camera space, which looks down −Z) and ``worldtoscreen``
     (on to the [−1, 1] screen window of the aperture fitted to a ``width`` × ``height`` image by
-    ``policy``), as 4x4 row-major tuples in OIIO's row-vector convention (Gf's), and the
-    camera's fStop, focusDistance and shutter."""
+    ``policy``), as 4x4 row-major tuples in OIIO's row-vector convention (Gf's), the pixels'
+    width over their height (``PixelAspectRatio``, OpenEXR's: a compositor shows anamorphic
+    pixels by it), and the camera's fStop, focusDistance and shutter."""
     geom = UsdGeom.Camera(camera)
     gf_camera = geom.GetCamera(time)
     (aperture_width, aperture_height), _ = conform_aperture(
@@ -36,8 +38,11 @@ def camera_metadata(
     return {
         "worldtocamera": _row_major(world_to_camera),
         "worldtoscreen": _row_major(world_to_screen),
-        "fStop": float(geom.GetFStopAttr().Get(time)),
-        "focusDistance": float(geom.GetFocusDistanceAttr().Get(time)),
+        "PixelAspectRatio": float(pixel_aspect_ratio),
+        # Read as the camera was (camera_problem passed them): a value blocked at ``time``
+        # is the fallback, where Get answers None.
+        "fStop": float(value_at(geom.GetFStopAttr(), time)),
+        "focusDistance": float(value_at(geom.GetFocusDistanceAttr(), time)),
     }
 
 
