@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <type_traits>
 
 namespace penumbra {
@@ -48,8 +49,14 @@ struct Repairs {
 
 /// The value the renderer keeps: non-finite and negative components read as 0 (fields are
 /// densities, temperatures, colours and emission, none of which may be negative).
+/// Whether a voxel's value stays finite as the float the renderer holds (a double beyond
+/// FLT_MAX would become infinite).
+bool finiteAsFloat(double value) {
+  return std::fabs(value) <= double(std::numeric_limits<float>::max());
+}
+
 float repaired(double value, uint64_t voxels, Repairs& repairs) {
-  if (!std::isfinite(value)) {
+  if (!finiteAsFloat(value)) {
     repairs.nonFinite += voxels;
     return 0;
   }
@@ -64,9 +71,9 @@ openvdb::Vec3s repaired(const openvdb::math::Vec3<T>& value, uint64_t voxels, Re
   openvdb::Vec3s result;
   bool nonFinite = false, negative = false;
   for (int c = 0; c < 3; ++c) {
-    nonFinite = nonFinite || !std::isfinite(value[c]);
+    nonFinite = nonFinite || !finiteAsFloat(value[c]);
     negative = negative || value[c] < 0;
-    result[c] = std::isfinite(value[c]) && value[c] > 0 ? float(value[c]) : 0.0f;
+    result[c] = finiteAsFloat(value[c]) && value[c] > 0 ? float(value[c]) : 0.0f;
   }
   if (nonFinite) repairs.nonFinite += voxels;
   if (negative) repairs.negative += voxels;

@@ -174,7 +174,14 @@ Volume::Volume(VolumeData data) : data_(std::move(data)) {
           majorant = std::max(majorant, emissionMajorant);
         }
         // A margin over float rounding of the coefficients' arithmetic.
-        majorants_[size_t((z * cells_[1] + y) * cells_[0] + x)] = majorant * 1.0001f;
+        majorant *= 1.0001f;
+        // Free flights subtract majorants: an infinite one would make NaN of every pixel.
+        if (!std::isfinite(majorant))
+          throw std::invalid_argument(
+              "its density times its extinction is beyond single precision (" +
+              std::to_string(m.density) + " × a density of up to " +
+              std::to_string(maxOver(data_.density, cell)) + ")");
+        majorants_[size_t((z * cells_[1] + y) * cells_[0] + x)] = majorant;
       }
 }
 

@@ -320,6 +320,18 @@ TEST_F(VdbFieldTest, NonFiniteAndNegativeVoxelsReadAsZeroAndAreCounted) {
   EXPECT_FLOAT_EQ(read.field->maxIn(read.field->objectBounds()), 1.0f);
 }
 
+TEST_F(VdbFieldTest, DoublesBeyondSinglePrecisionAreNonFiniteVoxels) {
+  // Held as floats, they became infinities the free flights made NaN pixels of.
+  auto doubles = openvdb::DoubleGrid::create(0.0);
+  doubles->setName("density");
+  doubles->tree().setValue(openvdb::Coord(0, 0, 0), 1e300);
+  doubles->tree().setValue(openvdb::Coord(1, 0, 0), 2.0);
+  const VdbFieldRead read = readVdbField(writeRaw("huge.vdb", {doubles}), "density");
+  EXPECT_EQ(read.nonFiniteVoxels, 1u);
+  EXPECT_EQ(sampleScalar(*read.field, Vec3f(0, 0, 0)), 0.0f);
+  EXPECT_FLOAT_EQ(sampleScalar(*read.field, Vec3f(1, 0, 0)), 2.0f);
+}
+
 TEST_F(VdbFieldTest, MemoryGrowsWithActiveVoxelsNotWithTheBoundingBox) {
   auto sparseGrid = [&](const openvdb::Coord& second) {
     auto grid = openvdb::FloatGrid::create(0.0f);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <utility>
@@ -177,6 +178,16 @@ TEST(Volumes, AbsorbingSlabPassesBeerLambert) {
       EXPECT_NEAR(meanRadiance(scene, IntegratorSettings(), 8, 128), expected, tolerance)
           << "sigma " << sigma << ", thickness " << thickness;
     }
+}
+
+TEST(Volumes, ADensityBeyondSinglePrecisionIsRefused) {
+  // Its majorant was infinite, and free flights subtract majorants: every pixel behind it NaN.
+  const Device device;
+  Scene scene(device);
+  EXPECT_THROW(scene.volumes().setData(scene.volumes().add(),
+                                       whiteScatteringSlab(std::numeric_limits<float>::max())),
+               std::invalid_argument);
+  EXPECT_NO_THROW(scene.volumes().setData(scene.volumes().add(), whiteScatteringSlab(1e6f)));
 }
 
 TEST(Volumes, OverlappingVolumesAddTheirCoefficients) {
