@@ -8,7 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
-from pxr import Gf, UsdGeom
+from pxr import Gf, Sdf, UsdGeom
 
 import penumbra
 from penumbra import _core
@@ -82,6 +82,17 @@ def test_a_sphere_point_covers_its_predicted_diameter():
 def test_unauthored_widths_are_one_unit():
     image = penumbra.render(points_stage([(0, 0, 0)]), **FAST)
     assert abs(coverage(image).any(axis=0).sum() - predicted_diameter(1.0)) <= 1
+
+
+def test_primvars_widths_set_the_diameters_over_the_widths_attribute():
+    # As UsdImaging reads them (exporters write pscale there): they were ignored, and the
+    # points drawn one unit wide.
+    stage = points_stage([(0, 0, 0)], widths=[2.0])
+    UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/World/dots")).CreatePrimvar(
+        "widths", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex
+    ).Set([0.5])
+    image = penumbra.render(stage, **FAST)
+    assert abs(coverage(image).any(axis=0).sum() - predicted_diameter(0.5)) <= 1
 
 
 def test_discs_face_their_normals():

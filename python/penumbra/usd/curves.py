@@ -25,7 +25,7 @@ from pxr import Usd, UsdGeom
 from .curve_conversions import BasisCurves, hermite_to_bezier, nurbs_to_basis
 from .mesh import as_int32_array, as_vec3_array, display_color, gprim_primvars
 from .motion import point_samples
-from .sampling import SampleReader
+from .sampling import SampleReader, primvar_over_attribute
 
 DEFAULT_WIDTH = 1.0
 """The width of curves whose widths are not authored (Hydra's Storm uses it too)."""
@@ -146,21 +146,6 @@ def _token(
     return None
 
 
-def _primvar_over_attribute(
-    gprim: UsdGeom.Curves, reader: SampleReader, token: str, attribute: Usd.Attribute,
-    interpolation: str,
-) -> tuple[str, Any, str]:
-    """``primvars:<token>`` (flattened) where it is authored, else the schema's ``attribute``
-    with ``interpolation``: the name to report, the values (``None``: neither is authored) and
-    their interpolation."""
-    primvar = UsdGeom.PrimvarsAPI(gprim).GetPrimvar(token)
-    if primvar and primvar.HasAuthoredValue():
-        values = reader.flattened_primvar(primvar)
-        return f"primvars:{token}", values, str(primvar.GetInterpolation())
-    values = reader.get(attribute) if attribute.HasAuthoredValue() else None
-    return token, values, str(interpolation)
-
-
 def _widths(
     gprim: UsdGeom.Curves,
     reader: SampleReader,
@@ -171,7 +156,7 @@ def _widths(
     """The widths (primvars:widths over widths) as float32 (M,) with their interpolation, as
     the converted curves take them; ``None`` (after a warning naming the prim and ``widths``)
     when one is not finite or not positive, or they cannot be converted."""
-    name, values, interpolation = _primvar_over_attribute(
+    name, values, interpolation = primvar_over_attribute(
         gprim, reader, UsdGeom.Tokens.widths, gprim.GetWidthsAttr(),
         gprim.GetWidthsInterpolation(),
     )
@@ -198,7 +183,7 @@ def _normals(
     """The normals ribbons face (primvars:normals over normals), float32 (M, 3), with their
     interpolation; none (round tubes) when neither is authored; ``None`` (after a warning) when
     they cannot be converted with the curves."""
-    name, values, interpolation = _primvar_over_attribute(
+    name, values, interpolation = primvar_over_attribute(
         gprim, reader, UsdGeom.Tokens.normals, gprim.GetNormalsAttr(),
         gprim.GetNormalsInterpolation(),
     )

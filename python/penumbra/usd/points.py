@@ -15,7 +15,7 @@ from pxr import Usd, UsdGeom
 
 from .mesh import as_vec3_array, display_color, gprim_primvars
 from .motion import point_samples
-from .sampling import SampleReader
+from .sampling import SampleReader, primvar_over_attribute
 
 DEFAULT_WIDTH = 1.0
 """The diameter of points whose widths are not authored (Hydra's Storm uses it too)."""
@@ -66,21 +66,24 @@ def _widths(
     warn: Callable[[str], None],
     path: str,
 ) -> np.ndarray | None:
-    """One diameter per point as float32 (N,); ``None`` (after a warning naming the prim and
-    ``widths``) when their count fits neither constant nor per-point interpolation, or one is
-    not finite or not positive."""
-    values = reader.get(points.GetWidthsAttr())
+    """One diameter per point (primvars:widths over widths) as float32 (N,); ``None`` (after a
+    warning naming the prim and the attribute) when their count fits neither constant nor
+    per-point interpolation, or one is not finite or not positive."""
+    name, values, interpolation = primvar_over_attribute(
+        points, reader, UsdGeom.Tokens.widths, points.GetWidthsAttr(),
+        points.GetWidthsInterpolation(),
+    )
     if values is None or len(values) == 0:
         return np.full(count, DEFAULT_WIDTH, dtype=np.float32)
     widths = np.asarray(values, dtype=np.float32).reshape(-1)
-    constant = points.GetWidthsInterpolation() == UsdGeom.Tokens.constant
+    constant = interpolation == UsdGeom.Tokens.constant
     if len(widths) == 1 and (constant or count != 1):
         widths = np.full(count, widths[0], dtype=np.float32)
     if len(widths) != count:
-        warn(f"{path}: widths has {len(widths)} values for {count} points; skipped")
+        warn(f"{path}: {name} has {len(widths)} values for {count} points; skipped")
         return None
     if not (np.isfinite(widths) & (widths > 0)).all():
-        warn(f"{path}: widths must be finite and greater than 0; skipped")
+        warn(f"{path}: {name} must be finite and greater than 0; skipped")
         return None
     return widths
 
@@ -95,12 +98,11 @@ def _normals(
     """The normals the points' discs face (primvars:normals over normals), float32 (N, 3);
     none (spheres) when neither is authored, or (after a warning) when their count fits
     neither one per point nor a constant."""
-    primvar = UsdGeom.PrimvarsAPI(points).GetPrimvar(UsdGeom.Tokens.normals)
-    if primvar and primvar.HasAuthoredValue():
-        values = reader.flattened_primvar(primvar)
-    elif points.GetNormalsAttr().HasAuthoredValue():
-        values = reader.get(points.GetNormalsAttr())
-    else:
+    name, values, _ = primvar_over_attribute(
+        points, reader, UsdGeom.Tokens.normals, points.GetNormalsAttr(),
+        points.GetNormalsInterpolation(),
+    )
+    if values is None:
         return _NO_NORMALS
     normals = as_vec3_array(values)
     if normals is None or len(normals) == 0:
@@ -108,6 +110,6 @@ def _normals(
     if len(normals) == 1 and count != 1:
         normals = np.repeat(normals, count, axis=0)
     if len(normals) != count:
-        warn(f"{path}: normals has {len(normals)} values for {count} points; rendered as spheres")
+        warn(f"{path}: {name} has {len(normals)} values for {count} points; rendered as spheres")
         return _NO_NORMALS
     return np.ascontiguousarray(normals)

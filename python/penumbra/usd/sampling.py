@@ -165,3 +165,18 @@ def visibility_might_vary(prim: Usd.Prim) -> bool:
             return True
         prim = prim.GetParent()
     return False
+
+
+def primvar_over_attribute(
+    gprim: UsdGeom.Gprim, reader: SampleReader, token: str, attribute: Usd.Attribute,
+    interpolation: str,
+) -> tuple[str, Any, str]:
+    """``primvars:<token>`` (flattened) where it is authored, else the schema's ``attribute``
+    with ``interpolation``, as UsdImaging reads widths and normals: the name to report, the
+    values (``None``: neither is authored) and their interpolation."""
+    primvar = UsdGeom.PrimvarsAPI(gprim).GetPrimvar(token)
+    if primvar and primvar.HasAuthoredValue():
+        values = reader.flattened_primvar(primvar)
+        return f"primvars:{token}", values, str(primvar.GetInterpolation())
+    values = reader.get(attribute) if attribute.HasAuthoredValue() else None
+    return token, values, str(interpolation)
