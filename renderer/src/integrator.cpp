@@ -888,8 +888,10 @@ CameraSample renderCameraSample(const Scene& scene, const Camera& camera, const 
         }
         if (settings.rayLog)
           settings.rayLog->add({shadow, RayKind::Secondary, true, light.linkSlot()});
-        if (scene.geometry().occluded(shadow, light.linkSlot())) return;
-        if (hasVolumes) {
+        // A light's point within those margins is too near for anything to lie between (a
+        // negative length would read as blocked).
+        if (shadow.tFar > 0 && scene.geometry().occluded(shadow, light.linkSlot())) return;
+        if (hasVolumes && shadow.tFar > 0) {
           transmittance = volumeTransmittance(shadow, shadow.tFar, light.linkSlot());
           if (isBlack(transmittance)) return;
         }
