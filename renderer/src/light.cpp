@@ -82,12 +82,12 @@ Light::Light(const LightParams& params) : params_(params) {
         meshLower_ = componentMin(meshLower_, corner);
         meshUpper_ = componentMax(meshUpper_, corner);
       }
-      if (params.meshMotion && params.meshMotion->triangles.triangles.size() != corners.size())
-        throw std::invalid_argument("the moving mesh light's triangles are not its own");
       if (params.meshMotion) {
+        const MovingMeshLight& moving = *params.meshMotion;
+        if (moving.triangles.triangles.size() != corners.size())
+          throw std::invalid_argument("the moving mesh light's triangles are not its own");
         // The light tree's box: where the triangles pass over the shutter, looked at often
         // enough for its importance (it needs no strict bound).
-        const MovingMeshLight& moving = *params.meshMotion;
         constexpr int kMoments = 8;
         for (int moment = 1; moment <= kMoments; ++moment) {
           const float time = float(moment) / kMoments;
@@ -369,24 +369,22 @@ Light::SurfacePoint Light::meshPoint(Vec2f u, float time) const {
   float within = 0;
   const size_t triangle = triangleChoice_->sampleIndex(u.x, &within);
   const Vec3f weights = sampleUniformTriangle({within, u.y});
-  if (params_.meshMotion) {
-    // The triangle where the traced geometry has it at `time`. It moves as a whole, so a point
-    // uniform by area at shutter open is uniform by area now; its density by area now is the
-    // triangle's probability over its area now.
+  Vec3f corner[3];
+  if (params_.meshMotion) {  // where the traced geometry has the triangle at `time`
     const MovingMeshLight& moving = *params_.meshMotion;
     const Transform toWorld = moving.objectToWorld.at(time);
-    Vec3f corner[3];
     for (int k = 0; k < 3; ++k)
       corner[k] = toWorld.applyToPoint(moving.triangles.cornerAt(uint32_t(triangle), k, time));
-    const Vec3f across = cross(corner[1] - corner[0], corner[2] - corner[0]);
-    return SurfacePoint{corner[0] * weights.x + corner[1] * weights.y + corner[2] * weights.z,
-                        normalize(across), Vec3f(1.0f),
-                        0.5f * length(across) / triangleChoice_->probability(triangle)};
+  } else {
+    for (int k = 0; k < 3; ++k) corner[k] = (*params_.meshTriangles)[3 * triangle + size_t(k)];
   }
-  const Vec3f* corner = &(*params_.meshTriangles)[3 * triangle];
+  const Vec3f across = cross(corner[1] - corner[0], corner[2] - corner[0]);
+  // A moving triangle moves as a whole, so a point uniform by area at shutter open is uniform
+  // by area now; its density by area now is the triangle's probability over its area now.
+  const float areaOverDensity =
+      params_.meshMotion ? 0.5f * length(across) / triangleChoice_->probability(triangle) : area_;
   return SurfacePoint{corner[0] * weights.x + corner[1] * weights.y + corner[2] * weights.z,
-                      normalize(cross(corner[1] - corner[0], corner[2] - corner[0])), Vec3f(1.0f),
-                      area_};
+                      normalize(across), Vec3f(1.0f), areaOverDensity};
 }
 
 std::optional<Light::SurfacePoint> Light::sampleSurface(Vec2f u) const {
