@@ -59,6 +59,20 @@ BLOCKED = [
 ]
 
 
+def block_at_frame(attr: Usd.Attribute, earlier) -> None:
+    """``{0: earlier, 1: None}``: a value before the frame, then no opinion at it."""
+    attr.Set(earlier, 0)
+    attr.Set(Sdf.ValueBlock(), 1)
+
+
+def assert_renders_as(stage: Usd.Stage, expected_stage: Usd.Stage) -> None:
+    """``stage`` renders bit for bit as ``expected_stage``, without a warning."""
+    expected, _ = render(expected_stage)
+    image, messages = render(stage)
+    assert messages == []
+    assert np.array_equal(image, expected)
+
+
 @pytest.mark.parametrize(
     ("add_light", "name", "type_name", "earlier"),
     BLOCKED,
@@ -71,25 +85,16 @@ def test_a_value_blocked_at_the_frame_reads_as_the_schemas_fallback(
     (it raised a TypeError, or the render delegate refused None)."""
     expected_stage, blocked_stage = lit_stage(), lit_stage()
     add_light(expected_stage)
-    attr = add_light(blocked_stage).CreateAttribute(name, type_name)
-    attr.Set(earlier, 0)
-    attr.Set(Sdf.ValueBlock(), 1)
-    expected, _ = render(expected_stage)
-    image, messages = render(blocked_stage)
-    assert messages == []
-    assert np.array_equal(image, expected)
+    block_at_frame(add_light(blocked_stage).CreateAttribute(name, type_name), earlier)
+    assert_renders_as(blocked_stage, expected_stage)
 
 
 def test_a_blocked_shutter_open_reads_as_its_fallback() -> None:
     """shutter:open ``{0: -0.25, 1: None}`` is the fallback 0 at frame 1 (float(None) raised)."""
     expected_stage, blocked_stage = lit_stage(), lit_stage()
-    attr = UsdGeom.Camera(blocked_stage.GetPrimAtPath("/cam")).CreateShutterOpenAttr()
-    attr.Set(-0.25, 0)
-    attr.Set(Sdf.ValueBlock(), 1)
-    expected, _ = render(expected_stage)
-    image, messages = render(blocked_stage)
-    assert messages == []
-    assert np.array_equal(image, expected)
+    camera = UsdGeom.Camera(blocked_stage.GetPrimAtPath("/cam"))
+    block_at_frame(camera.CreateShutterOpenAttr(), -0.25)
+    assert_renders_as(blocked_stage, expected_stage)
 
 
 def test_a_focal_length_blocked_inside_the_shutter_renders() -> None:
