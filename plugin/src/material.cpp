@@ -25,14 +25,35 @@ Value parseToken(const std::map<std::string, Value>& tokens, const std::string& 
                               known + ")");
 }
 
+/// The files whose alpha channel `connections` read as opacity: a texture's "a" output, or a
+/// program's swizzle of a texture's fourth channel. Every input of the material reads these
+/// files' colour filtered as coverage (TextureAlpha::Coverage).
+std::set<std::string> coverageFiles(
+    const std::vector<std::pair<MaterialInput, InputSource>>& connections) {
+  std::set<std::string> files;
+  for (const auto& [input, source] : connections) {
+    if (input != MaterialInput::Opacity) continue;
+    if (source.texture && source.output == "a") files.insert(source.texture->file);
+    for (const ProgramNode& node : source.program) {
+      if (node.node.op != ExpressionOp::Swizzle || node.node.channels[0] != 3) continue;
+      const ProgramNode& operand = source.program.at(node.node.operands[0]);
+      if (operand.texture) files.insert(operand.texture->file);
+    }
+  }
+  return files;
+}
+
 /// Opens `node`'s file for `material` (a warning when it cannot be, once per file in
 /// `unreadable`: a texture node may drive several inputs) and appends its reader to `result`'s
 /// textures; returns its index.
-int openTexture(const Material& material, const TextureNode& node, SyncContext& context,
+int openTexture(const Material& material, const TextureNode& node,
+                const std::set<std::string>& coverage, SyncContext& context,
                 penumbra::Material* result, std::set<std::string>* unreadable) {
   TextureReader reader = node.reader;
   std::string error;
-  reader.texture = context.scene.materials().textures().open(node.file, node.colorSpace, &error);
+  reader.texture = context.scene.materials().textures().open(
+      node.file, node.colorSpace, &error,
+      coverage.count(node.file) ? TextureAlpha::Coverage : TextureAlpha::Data);
   ++context.counters.materialTextureOpens;
   if (reader.texture == TextureSystem::kInvalid && unreadable->insert(node.file).second)
     context.warn(material.id() + ": " + error + "; its fallback value is used");
@@ -142,6 +163,7 @@ void Material::sync(SyncContext& context, uint32_t) {
   penumbra::Material result;
   result.constants = params_;
   std::set<std::string> unreadable;
+  const std::set<std::string> coverage = coverageFiles(connections_);
   for (const auto& [input, source] : connections_) {
     InputConnection connection;
     connection.input = input;
@@ -151,13 +173,14 @@ void Material::sync(SyncContext& context, uint32_t) {
         program.nodes.push_back(node.node);
         if (node.texture)
           program.nodes.back().texture =
-              openTexture(*this, *node.texture, context, &result, &unreadable);
+              openTexture(*this, *node.texture, coverage, context, &result, &unreadable);
       }
       connection.program = int(result.programs.size());
       connection.channelCount = isVectorInput(input) ? 3 : 1;
       result.programs.push_back(std::move(program));
     } else if (source.texture) {
-      connection.texture = openTexture(*this, *source.texture, context, &result, &unreadable);
+      connection.texture =
+          openTexture(*this, *source.texture, coverage, context, &result, &unreadable);
       std::tie(connection.firstChannel, connection.channelCount) =
           parseTextureOutput(source.output);
     } else {

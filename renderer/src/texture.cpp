@@ -10,8 +10,11 @@
 // so that lookups take no more memory than the bounded cache (setCacheSize), and converted to
 // scene_linear before any filtering (texture_color.h).
 //
-// Alpha: values come back as stored in the file. PNG colour is not premultiplied by alpha (the
-// ImageCache's "unassociatedalpha"), so a cut-out's diffuse colour is not darkened at its edges.
+// Alpha: values come back as stored in the file (PNG colour not premultiplied by alpha: the
+// ImageCache's "unassociatedalpha"), except for textures whose alpha is coverage
+// (TextureAlpha::Coverage): their colour is stored premultiplied, so that filtering weighs each
+// texel's colour by its alpha, and each lookup divides by the filtered alpha. A cut-out's edge
+// then keeps the colour of its covered texels instead of fading to the transparent ones'.
 //
 // UDIM: tiles 1001–1100 are found when the texture is opened (each one converted on its own by
 // the colour-space rule); tile = 1001 + floor(s) + 10 floor(t) in USD st, and the lookup inside
@@ -71,6 +74,16 @@ Wrap toOiio(TextureWrap wrap) {
   return Wrap::WrapBlack;
 }
 
+// Colour from a filtered texel of a tile whose colour is stored premultiplied by its alpha (the
+// last of 2 or 4 channels); where alpha is 0 there is no colour to recover, and it stays as
+// stored.
+void divideByCoverage(const TextureTile& tile, float* value) {
+  if (!tile.coverageAlpha) return;
+  const int alpha = tile.channels - 1;
+  if (!(value[alpha] > 0.0f)) return;
+  for (int c = 0; c < alpha; ++c) value[c] /= value[alpha];
+}
+
 // rgb from a texel of `channels` values, by USD's channel rules.
 Vec3f toRgb(const float* value, int channels) {
   return channels >= 3 ? Vec3f(value[0], value[1], value[2]) : Vec3f(value[0]);
@@ -90,7 +103,7 @@ struct TextureSystem::Impl {
   OIIO::TextureSystem* oiio;
   detail::TextureFiles files;
   std::vector<Texture> textures;
-  std::map<std::tuple<std::string, SourceColorSpace, std::string>, Handle> handles;
+  std::map<std::tuple<std::string, SourceColorSpace, std::string, TextureAlpha>, Handle> handles;
   // Each thread's OIIO per-thread record for this system, made here and destroyed with it. OIIO
   // 2.4 keeps the ones it makes itself (get_perthread_info()) per thread under the address of
   // the cache: a thread pool's thread that looked textures up in a destroyed system would find
@@ -127,10 +140,11 @@ TextureSystem::TextureSystem(const std::string& ocioConfig)
 TextureSystem::~TextureSystem() = default;
 
 TextureSystem::Handle TextureSystem::open(const std::string& path,
-                                          const TextureColorSpace& colorSpace, std::string* error) {
+                                          const TextureColorSpace& colorSpace, std::string* error,
+                                          TextureAlpha alpha) {
   std::string ignored;
   if (!error) error = &ignored;
-  const auto key = std::make_tuple(path, colorSpace.source, colorSpace.name);
+  const auto key = std::make_tuple(path, colorSpace.source, colorSpace.name, alpha);
   if (auto found = impl_->handles.find(key); found != impl_->handles.end()) return found->second;
 
   Texture texture;
@@ -142,7 +156,7 @@ TextureSystem::Handle TextureSystem::open(const std::string& path,
       std::error_code code;
       if (!fs::exists(file, code)) continue;
       TextureFile opened;
-      if (!impl_->files.open(file, colorSpace, impl_->threadInfo(), &opened, error))
+      if (!impl_->files.open(file, colorSpace, alpha, impl_->threadInfo(), &opened, error))
         return kInvalid;
       texture.tiles[i] = opened.tile;
       texture.channels = std::max(texture.channels, opened.tile.channels);
@@ -154,7 +168,8 @@ TextureSystem::Handle TextureSystem::open(const std::string& path,
     }
   } else {
     TextureFile opened;
-    if (!impl_->files.open(path, colorSpace, impl_->threadInfo(), &opened, error)) return kInvalid;
+    if (!impl_->files.open(path, colorSpace, alpha, impl_->threadInfo(), &opened, error))
+      return kInvalid;
     texture.single = opened.tile;
     texture.channels = opened.tile.channels;
     texture.metadataS = opened.metadataS;
@@ -223,8 +238,10 @@ bool TextureSystem::readLevel(Handle handle, size_t maxTexels, int* width, int* 
                                OIIO::TypeFloat, values.data()))
     return false;
   rgb->resize(size_t(spec.width) * size_t(spec.height));
-  for (size_t i = 0; i < rgb->size(); ++i)
+  for (size_t i = 0; i < rgb->size(); ++i) {
+    divideByCoverage(texture.single, &values[i * size_t(channels)]);
     (*rgb)[i] = toRgb(&values[i * size_t(channels)], channels);
+  }
   *width = spec.width;
   *height = spec.height;
   return true;
@@ -243,6 +260,7 @@ Vec3f TextureSystem::texel(Handle handle, Vec2f uv) const {
   if (!oiio->get_texels(tile.handle, impl_->threadInfo(), options, 0, x, x + 1, y, y + 1, 0, 1, 0,
                         tile.channels, OIIO::TypeFloat, value))
     return Vec3f(0.0f);
+  divideByCoverage(tile, value);
   return toRgb(value, tile.channels);
 }
 
@@ -280,6 +298,7 @@ bool TextureSystem::lookup(Handle handle, TextureWrap wrapS, TextureWrap wrapT,
   if (!oiio->texture(tile->handle, impl_->threadInfo(), options, s, 1.0f - t, dsdx, dtdx, dsdy,
                      dtdy, tile->channels, value))
     return false;
+  divideByCoverage(*tile, value);
   switch (tile->channels) {
     case 1:
       rgba[0] = rgba[1] = rgba[2] = value[0];

@@ -156,7 +156,8 @@ bool TextureFiles::makeDirectory(std::string* error) {
 }
 
 bool TextureFiles::prepare(const std::string& file, const OIIO::ImageSpec& fileSpec,
-                           const std::string& source, std::string* texture, std::string* error) {
+                           const std::string& source, bool premultiply, std::string* texture,
+                           std::string* error) {
   OCIO::ConstCPUProcessorRcPtr toScene;
   if (!source.empty() && !colors_.processor(source, &toScene, error)) {
     *error = file + ": " + *error;
@@ -178,8 +179,17 @@ bool TextureFiles::prepare(const std::string& file, const OIIO::ImageSpec& fileS
                     base == OIIO::TypeDesc::HALF;  // half keeps 8-bit data exactly enough
   const std::string name = "texture-" + std::to_string(preparedCount_++);
   const std::string output = (directory_ / (name + ".exr")).string();
-  if (!writeMipmappedTexture(*input, output, half ? OIIO::TypeHalf : OIIO::TypeFloat,
-                             toScene ? colors_.decoder(fileSpec, toScene) : RowTransform{},
+  RowTransform transform = toScene ? colors_.decoder(fileSpec, toScene) : RowTransform{};
+  if (premultiply)
+    transform = [decode = std::move(transform)](float* row, int width, int channels) {
+      if (decode) decode(row, width, channels);  // colour is converted before it is weighted
+      const int alpha = channels - 1;            // 2 channels: grey, alpha; 4: RGB, alpha
+      for (int x = 0; x < width; ++x) {
+        float* texel = row + size_t(x) * size_t(channels);
+        for (int c = 0; c < alpha; ++c) texel[c] *= texel[alpha];
+      }
+    };
+  if (!writeMipmappedTexture(*input, output, half ? OIIO::TypeHalf : OIIO::TypeFloat, transform,
                              (directory_ / (name + ".spool")).string(), error)) {
     *error = file + ": cannot prepare the texture " + output + ": " + trimmed(*error);
     return false;
@@ -189,8 +199,8 @@ bool TextureFiles::prepare(const std::string& file, const OIIO::ImageSpec& fileS
 }
 
 bool TextureFiles::open(const std::string& file, const TextureColorSpace& colorSpace,
-                        OIIO::TextureSystem::Perthread* threadInfo, TextureFile* result,
-                        std::string* error) {
+                        TextureAlpha alpha, OIIO::TextureSystem::Perthread* threadInfo,
+                        TextureFile* result, std::string* error) {
   std::error_code code;
   if (!fs::exists(file, code)) {
     *error = file + ": no such file";
@@ -200,7 +210,10 @@ bool TextureFiles::open(const std::string& file, const TextureColorSpace& colorS
   std::string format;
   bool mipmapped = false;
   {
-    auto input = OIIO::ImageInput::open(file);
+    // As lookups read it: PNG or TIFF colour not multiplied by alpha, which the spec then says.
+    OIIO::ImageSpec readConfig;
+    readConfig.attribute("oiio:UnassociatedAlpha", 1);
+    auto input = OIIO::ImageInput::open(file, &readConfig);
     if (!input) {
       *error = file + ": cannot read the image: " + trimmed(OIIO::geterror());
       return false;
@@ -228,7 +241,12 @@ bool TextureFiles::open(const std::string& file, const TextureColorSpace& colorS
     *error = file + ": " + *error;
     return false;
   }
-  const auto key = std::make_pair(file, source);
+  // USD's channel rules: alpha is the second of two channels, the fourth of four.
+  const bool coverage =
+      alpha == TextureAlpha::Coverage && (spec.nchannels == 2 || spec.nchannels >= 4);
+  // Files whose colour is premultiplied already (OpenEXR's convention) are filtered as they are.
+  const bool premultiply = coverage && spec.get_int_attribute("oiio:UnassociatedAlpha") != 0;
+  const auto key = std::make_tuple(file, source, coverage);
   if (auto found = files_.find(key); found != files_.end()) {
     *result = found->second;
     return true;
@@ -236,11 +254,13 @@ bool TextureFiles::open(const std::string& file, const TextureColorSpace& colorS
   TextureFile opened;
   metadataWraps(spec, &opened.metadataS, &opened.metadataT);
   // Files that are tiled and MIP-mapped already (e.g. by maketx) are read as they are, unless
-  // they must be converted; every other file is prepared once, since OIIO's on-the-fly tiling
-  // and MIP-mapping ("autotile", "automip") keeps whole images in its cache.
+  // they must be converted or premultiplied; every other file is prepared once, since OIIO's
+  // on-the-fly tiling and MIP-mapping ("autotile", "automip") keeps whole images in its cache.
   std::string texture = file;
   const bool ready = spec.tile_width > 0 && mipmapped && spec.nchannels <= 4;
-  if ((!source.empty() || !ready) && !prepare(file, spec, source, &texture, error)) return false;
+  if ((!source.empty() || !ready || premultiply) &&
+      !prepare(file, spec, source, premultiply, &texture, error))
+    return false;
   opened.tile.handle = oiio_->get_texture_handle(OIIO::ustring(texture), threadInfo);
   opened.tile.path = texture;
   OIIO::ImageSpec textureSpec;
@@ -254,6 +274,7 @@ bool TextureFiles::open(const std::string& file, const TextureColorSpace& colorS
   opened.tile.y = textureSpec.y;
   opened.tile.width = textureSpec.width;
   opened.tile.height = textureSpec.height;
+  opened.tile.coverageAlpha = coverage;
   files_.emplace(key, opened);
   *result = opened;
   return true;

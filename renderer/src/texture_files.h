@@ -15,7 +15,7 @@
 #include <filesystem>
 #include <map>
 #include <string>
-#include <utility>
+#include <tuple>
 
 #include "penumbra/texture.h"
 #include "texture_color.h"
@@ -28,6 +28,9 @@ struct TextureTile {
   std::string path;  // the file OIIO reads (the prepared copy, if any)
   int channels = 0;
   int x = 0, y = 0, width = 0, height = 0;  // level 0's data window
+  // Alpha is coverage (TextureAlpha::Coverage) and the file has it: colour is stored multiplied
+  // by alpha, and what reads it divides by alpha after filtering.
+  bool coverageAlpha = false;
 };
 
 /// A file ready for lookups, with the wrap modes its metadata names (for wrap useMetadata).
@@ -49,21 +52,22 @@ class TextureFiles {
 
   /// Prepares one image file for lookups (shared between handles that read it the same way).
   /// False with *error naming the file and what is wrong.
-  bool open(const std::string& file, const TextureColorSpace& colorSpace,
+  bool open(const std::string& file, const TextureColorSpace& colorSpace, TextureAlpha alpha,
             OIIO::TextureSystem::Perthread* threadInfo, TextureFile* result, std::string* error);
 
  private:
   bool makeDirectory(std::string* error);
   /// Writes `file` as a tiled, MIP-mapped OpenEXR texture (converted from colour space `source`
-  /// to scene-linear first, unless `source` is empty), streaming it so that memory does not grow
-  /// with its height; *texture is its path.
+  /// to scene-linear first, unless `source` is empty; then colour multiplied by alpha if
+  /// `premultiply`), streaming it so that memory does not grow with its height; *texture is its
+  /// path.
   bool prepare(const std::string& file, const OIIO::ImageSpec& fileSpec, const std::string& source,
-               std::string* texture, std::string* error);
+               bool premultiply, std::string* texture, std::string* error);
 
   OIIO::TextureSystem* oiio_;
   TextureColorConversions colors_;
-  // (file, the colour space it is converted from; empty: none)
-  std::map<std::pair<std::string, std::string>, TextureFile> files_;
+  // (file, the colour space it is converted from (empty: none), coverage alpha)
+  std::map<std::tuple<std::string, std::string, bool>, TextureFile> files_;
   std::filesystem::path directory_;  // prepared textures; created on first need
   int preparedCount_ = 0;
 };

@@ -330,6 +330,48 @@ TEST_F(Texture, ChannelsFollowUsdRules) {
               "sRGB grey + alpha");
 }
 
+// A cut-out's edge: an opaque texel beside a transparent black one. Read as coverage, colour is
+// filtered weighted by alpha, so halfway between them it is the opaque texel's colour at alpha
+// one half (read as data: half that colour), magnified and minified, whether the file stores
+// colour premultiplied (OpenEXR) or not (PNG, premultiplied when it is prepared).
+TEST_F(Texture, CoverageAlphaFiltersColourWeightedByAlpha) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const std::vector<float> edge = {0.8f, 0.4f, 0.2f, 1.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+  const std::string png = write("edge.png", 2, 1, 4, OIIO::TypeUInt8, edge);
+  const std::string exr = write("edge.exr", 2, 1, 4, OIIO::TypeFloat, edge);
+  const std::string greyAlpha = write("edge-ya.png", 2, 1, 2, OIIO::TypeUInt8, {0.8f, 1, 0, 0});
+  for (const std::string& file : {png, exr}) {
+    const auto data = textures.open(file, SourceColorSpace::Raw, &error);
+    const auto coverage =
+        textures.open(file, SourceColorSpace::Raw, &error, TextureAlpha::Coverage);
+    ASSERT_NE(coverage, TextureSystem::kInvalid) << error;
+    EXPECT_NE(data, coverage) << file;
+    for (const float width : {1e-4f, 4.0f}) {  // between the texels' centres; the 1x1 level
+      expectColor(lookup(textures, data, 0.5f, 0.5f, TextureWrap::Clamp, TextureWrap::Clamp, width),
+                  {0.4f, 0.2f, 0.1f, 0.5f}, 2e-3f, "data");
+      expectColor(
+          lookup(textures, coverage, 0.5f, 0.5f, TextureWrap::Clamp, TextureWrap::Clamp, width),
+          {0.8f, 0.4f, 0.2f, 0.5f}, 2e-3f, "coverage");
+    }
+    // Where only the transparent texel is seen there is no colour: it stays black.
+    expectColor(lookup(textures, coverage, 0.9f, 0.5f), {0, 0, 0, 0}, 1e-6f, "transparent");
+  }
+  const auto ya = textures.open(greyAlpha, SourceColorSpace::Raw, &error, TextureAlpha::Coverage);
+  ASSERT_NE(ya, TextureSystem::kInvalid) << error;
+  expectColor(lookup(textures, ya, 0.5f, 0.5f), {0.8f, 0.8f, 0.8f, 0.5f}, 2e-3f, "grey + alpha");
+  // sRGB colour is decoded before it is weighted: 188/255 at the edge, not its weighted code.
+  const std::string srgb =
+      write("edge-srgb.png", 2, 1, 4, OIIO::TypeUInt8, {188.0f / 255, 0, 0, 1, 0, 0, 0, 0});
+  const auto decoded = textures.open(srgb, SourceColorSpace::SRGB, &error, TextureAlpha::Coverage);
+  ASSERT_NE(decoded, TextureSystem::kInvalid) << error;
+  EXPECT_NEAR(lookup(textures, decoded, 0.5f, 0.5f).r, kLinear188, 2e-3f);
+  // Without alpha, coverage changes nothing.
+  const std::string opaque = constant("opaque.exr", 3, OIIO::TypeFloat, {0.3f, 0.2f, 0.1f});
+  const auto plain = textures.open(opaque, SourceColorSpace::Raw, &error, TextureAlpha::Coverage);
+  expectColor(lookup(textures, plain, 0.5f, 0.5f), {0.3f, 0.2f, 0.1f, 1.0f}, 1e-6f, "no alpha");
+}
+
 TEST_F(Texture, UdimTilesAreChosenByStAndMissingTilesHaveNoTexel) {
   TextureSystem textures(kBundledConfig);
   std::string error;

@@ -278,6 +278,53 @@ def test_textured_opacity_cuts_out_per_hit(tmp_path):
     np.testing.assert_allclose(at(image, 0.5, 0), (0.0, 0.0, 4.0), atol=0.01)
 
 
+def cut_out_stage(file: Path, connect_alpha: bool = True):
+    """A quad whose emission reads ``file``'s colour (scaled to red 3, blue 0) and, if
+    ``connect_alpha``, whose opacity reads its alpha, cut out at 0.5: where it is cut out, the
+    white dome behind shows blue."""
+    stage, tex = textured_stage(file, texture={"scale": (3.0, 3.0, 0.0, 1.0)})
+    if connect_alpha:
+        surface = UsdShade.Shader.Get(stage, "/World/Looks/textured/Surface")
+        surface.CreateInput("opacity", Sdf.ValueTypeNames.Float).ConnectToSource(
+            tex.CreateOutput("a", Sdf.ValueTypeNames.Float)
+        )
+        surface.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(0.5)
+    return stage
+
+
+@pytest.mark.parametrize("extension", ["png", "exr"])
+def test_cut_out_edges_keep_the_colour_of_their_opaque_texels(tmp_path, extension):
+    # White opaque columns between transparent black ones (as painted cut-outs often are). A
+    # pixel shows the surface's red emission, 3 where white, over the share of it the cut-out
+    # covers, and the dome (red 1, blue 1) over the rest: red = 3 (1 - blue) + blue, so the
+    # surface's colour is (red - blue) / (1 - blue). The colour filtered across an edge is
+    # weighed by alpha, so it is 3 everywhere; filtered as stored, the black texels pulled it
+    # down to 1.9 at the edges (magnified, 4 texels across) and to 2 everywhere (minified, 2
+    # of 3 columns opaque).
+    magnified = np.zeros((4, 4, 4), dtype=np.float32)
+    magnified[:, ::2] = 1.0
+    minified = np.zeros((256, 256, 4), dtype=np.float32)
+    minified[:, np.arange(256) % 3 != 2] = 1.0
+    for name, rgba in (("magnified", magnified), ("minified", minified)):
+        stage = cut_out_stage(write_texture(tmp_path / f"{name}.{extension}", rgba))
+        inner = render(stage, samples=64)[4:-4, 4:-4, :3].reshape(-1, 3)
+        red, blue = inner[:, 0], inner[:, 2]
+        covered = blue < 0.8
+        assert covered.mean() > 0.3, name
+        colour = (red[covered] - blue[covered]) / (1 - blue[covered])
+        np.testing.assert_allclose(colour, 3.0, rtol=2e-3, err_msg=name)
+
+
+def test_colour_is_read_as_stored_where_alpha_is_not_opacity(tmp_path):
+    # Colour painted under alpha 0 (a texture whose alpha is a mask for something else, or not
+    # used): with no opacity reading the alpha, colour comes back as stored.
+    rgba = np.zeros((4, 4, 4), dtype=np.float32)
+    rgba[..., :3] = 1.0
+    rgba[:, ::2, 3] = 1.0
+    image = render(cut_out_stage(write_texture(tmp_path / "bleed.png", rgba), connect_alpha=False))
+    np.testing.assert_allclose(image[4:-4, 4:-4, 0], 3.0, rtol=2e-3)
+
+
 def test_primvar_readers_drive_any_input():
     # UsdPrimvarReader_float3 of a per-face "tint", and UsdPrimvarReader_float of a constant
     # "glow" scaling... read as emission on two faces.

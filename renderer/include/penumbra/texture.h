@@ -20,6 +20,13 @@ enum class TextureWrap { Black, Clamp, Repeat, Mirror, UseMetadata };
 /// UsdUVTexture sourceColorSpace.
 enum class SourceColorSpace { Auto, Raw, SRGB };
 
+/// What a texture's alpha channel (the second of two channels, the fourth of four) is to the
+/// materials that read it. Coverage: a material's opacity reads it, so colour is filtered weighted
+/// by alpha (stored premultiplied, divided by the filtered alpha after each lookup): a cut-out's
+/// edge then shows the colour of its covered texels, not that colour mixed with the transparent
+/// texels' (often black). Data: values are filtered as stored (packed channels, masks).
+enum class TextureAlpha { Data, Coverage };
+
 /// How a texture's values are encoded: UsdUVTexture's sourceColorSpace, or a colour space of the
 /// OCIO config by name (MaterialX's `colorspace`, USD's `colorSpace` metadata), which overrides
 /// it. Named colour spaces are found as findTextureColorSpace finds them.
@@ -59,8 +66,8 @@ struct TextureFootprint {
 };
 
 /// The textures of one scene. Values come back as stored in the file (colour not multiplied by
-/// alpha), colour converted from the texture's colour space to the OCIO config's scene_linear
-/// role.
+/// alpha; for TextureAlpha::Coverage, colour filtered by alpha and not multiplied by it), colour
+/// converted from the texture's colour space to the OCIO config's scene_linear role.
 class TextureSystem {
  public:
   using Handle = int;
@@ -75,12 +82,13 @@ class TextureSystem {
   TextureSystem(const TextureSystem&) = delete;
   TextureSystem& operator=(const TextureSystem&) = delete;
 
-  /// Opens `path` (may contain the token <UDIM>) for lookups. Same (path, colorSpace) → same
-  /// handle; a file read in two colour spaces is two textures. On failure (missing/unreadable
+  /// Opens `path` (may contain the token <UDIM>) for lookups. Same (path, colorSpace, alpha) →
+  /// same handle; a file read in two colour spaces is two textures. On failure (missing/unreadable
   /// file, UDIM pattern with no tiles, no sRGB or no such named colour space in the config)
   /// returns kInvalid and sets *error to a message naming the file and what is wrong. Called
   /// from one thread at a time (scene sync), never concurrently with lookup().
-  Handle open(const std::string& path, const TextureColorSpace& colorSpace, std::string* error);
+  Handle open(const std::string& path, const TextureColorSpace& colorSpace, std::string* error,
+              TextureAlpha alpha = TextureAlpha::Data);
 
   /// Channels in the file (1–4); 0 for an invalid handle.
   int channels(Handle handle) const;
