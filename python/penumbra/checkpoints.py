@@ -58,7 +58,10 @@ class Checkpoint:
     from the state file when it was saved by the same render (same ``key``); else render from
     scratch (a corrupt state file is reported with a warning naming it). ``key``: what
     identifies the render (``penumbra-record`` gives its frame key); by default a hash of the
-    render's arguments, options and stage file. ``color_mode``: as :meth:`Image.write`'s.
+    render's arguments and options, Penumbra's version and the layers the stage composes (the
+    text of anonymous or edited layers; the identifier, size and modification time of saved
+    ones), so that a stage edited in memory or on disk renders from scratch. ``color_mode``: as
+    :meth:`Image.write`'s.
     """
 
     path: str

@@ -11,7 +11,7 @@ import time as clock
 from collections.abc import Callable, Iterable
 
 import numpy as np
-from pxr import Sdf, Usd
+from pxr import Ar, Sdf, Usd
 
 from . import _core, _interrupts, cryptomatte
 from .checkpoints import (
@@ -544,14 +544,37 @@ class Renderer:
 
 
 def _render_key(stage: Usd.Stage, *fields: object) -> str:
-    """A hash of a render's arguments (``fields``), the stage's files and Penumbra's version:
-    a checkpoint saved under the same key continues the same render."""
+    """A hash of a render's arguments (``fields``), the layers the stage composes and Penumbra's
+    version: a checkpoint saved under the same key continues the same render. An anonymous
+    layer, or one with unsaved edits, counts by its text; a saved one by its identifier and its
+    file's size and modification time (not read: it may be a huge crate file). So a stage
+    edited in memory or on disk between two renders gets another key, and the second render
+    starts from scratch instead of adding its samples to the other scene's."""
     with _interrupts.deferred():
-        layers = [stage.GetRootLayer().identifier]
-        if stage.GetSessionLayer() is not None:
-            layers.append(stage.GetSessionLayer().ExportToString())
+        layers = sorted(
+            _layer_entry(layer, stage.GetRootLayer(), stage.GetSessionLayer())
+            for layer in stage.GetUsedLayers()
+        )
     text = json.dumps([layers, _core.version(), fields], sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def _layer_entry(layer: Sdf.Layer, root: Sdf.Layer, session: Sdf.Layer | None) -> list[str]:
+    """``[role, identifier, fingerprint]`` of one of a stage's layers for :func:`_render_key`.
+    An anonymous root or session layer is named by its role alone (its identifier holds an
+    address: the same in-memory scene built again has the same key); other anonymous layers
+    keep their identifier, which the layers using them name."""
+    role = "root" if layer == root else "session" if layer == session else ""
+    identifier = "" if role and layer.anonymous else layer.identifier
+    if layer.anonymous or layer.dirty:
+        return [role, identifier, hashlib.sha256(layer.ExportToString().encode()).hexdigest()]
+    # A layer in a package (``shot.usdz[geo.usdc]``) changes with the package file.
+    path = Ar.SplitPackageRelativePathOuter(layer.realPath)[0] if layer.realPath else ""
+    try:
+        status = os.stat(path) if path else None
+    except OSError:
+        status = None
+    return [role, identifier, f"{status.st_size}:{status.st_mtime_ns}" if status else ""]
 
 
 def _resume(render_pass: _core.RenderPass, checkpoint: Checkpoint, key: str) -> float:

@@ -13,10 +13,13 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pxr import Sdf, Usd
 
 import penumbra
 from penumbra import _core
@@ -25,7 +28,7 @@ from penumbra.cli import main
 from penumbra.cli_arguments import build_parser
 from penumbra.cli_record import render_job
 from penumbra.jobs import START_TIME
-from stages import CORNELL, lit_quad_stage
+from stages import CORNELL, lit_quad_stage, new_stage
 
 PENUMBRA_RECORD = [sys.executable, "-m", "penumbra.cli"]
 # 16 passes of 2 samples (Renderer.render's steps) on one thread.
@@ -273,6 +276,96 @@ def test_the_python_api_checkpoints_and_resumes_bit_identically(tmp_path, caplog
     assert np.array_equal(written[..., :4], expected["color"])
     assert "penumbra:partial" not in metadata
     assert not state_path(path).exists()
+
+
+SMALL = dict(width=32, samples=32, threads=1)  # 16 passes of 2 samples
+
+
+def interrupted_at_a_checkpoint(render: Callable[..., penumbra.Image], path: Path) -> None:
+    """``render(checkpoint=..., progress=...)`` with a checkpoint at ``path`` after every pass,
+    stopped after 3 passes: its state holds 6 samples."""
+    with pytest.raises(Interrupted):
+        render(checkpoint=penumbra.Checkpoint(path, 0), progress=interrupt_after(3))
+    assert read_state(str(state_path(path))).samples_done == 6
+
+
+def set_intensity(stage: Usd.Stage, layer: Sdf.Layer, intensity: float) -> None:
+    """Author lit_quad_stage's light's intensity in ``layer``, without saving it."""
+    with Usd.EditContext(stage, layer):
+        stage.GetPrimAtPath("/sun").GetAttribute("inputs:intensity").Set(intensity)
+
+
+@pytest.mark.parametrize("edited", ["in-memory root layer", "file sublayer, unsaved"])
+def test_a_stage_edited_in_memory_renders_from_scratch(tmp_path, caplog, edited):
+    """The default key hashes the text of every anonymous or dirty layer the stage uses: the
+    edited scene does not continue the samples of the one before (which it would mix in)."""
+    caplog.set_level("INFO", logger="penumbra")
+    if edited == "in-memory root layer":
+        stage = lit_quad_stage()
+        layer = stage.GetRootLayer()
+    else:
+        lit_quad_stage(tmp_path / "scene.usda").Save()
+        shot = new_stage(tmp_path / "shot.usda")
+        shot.GetRootLayer().subLayerPaths.append("scene.usda")
+        shot.Save()
+        stage = Usd.Stage.Open(str(tmp_path / "shot.usda"))
+        layer = Sdf.Layer.Find(str(tmp_path / "scene.usda"))
+    renderer = penumbra.Renderer(stage)
+    output = tmp_path / "out.exr"
+    interrupted_at_a_checkpoint(partial(renderer.render, **SMALL), output)
+    before = renderer.render(**SMALL)
+    set_intensity(stage, layer, 1.5)
+    assert layer.dirty
+    resumed = renderer.render(**SMALL, checkpoint=penumbra.Checkpoint(output, resume=True))
+    fresh = penumbra.Renderer(stage).render(**SMALL)
+    assert not np.array_equal(fresh["color"], before["color"])
+    assert np.array_equal(resumed["color"], fresh["color"])
+    assert "saved by another render" in caplog.text and "resuming" not in caplog.text
+
+
+def test_the_same_in_memory_scene_built_again_resumes(tmp_path, caplog):
+    """Anonymous root and session layers count by their text, not their identifiers (which hold
+    an address): a script that builds the same stage again goes on from its checkpoint."""
+    caplog.set_level("INFO", logger="penumbra")
+    output = tmp_path / "out.exr"
+    first, again = lit_quad_stage(), lit_quad_stage()  # both alive: other addresses
+    expected = penumbra.render(first, **SMALL)
+    interrupted_at_a_checkpoint(partial(penumbra.render, first, **SMALL), output)
+    assert again.GetRootLayer().identifier != first.GetRootLayer().identifier
+    resumed = penumbra.render(again, **SMALL, checkpoint=penumbra.Checkpoint(output, resume=True))
+    assert "resuming from 6 samples" in caplog.text
+    assert np.array_equal(resumed["color"], expected["color"])
+
+
+def test_a_stage_file_resumes_until_it_is_edited_on_disk(tmp_path, caplog):
+    """A saved layer counts by its identifier and its file's size and modification time."""
+    caplog.set_level("INFO", logger="penumbra")
+    scene, output = tmp_path / "scene.usda", tmp_path / "out.exr"
+    lit_quad_stage(scene).Save()
+    resume = penumbra.Checkpoint(output, resume=True)
+    expected = penumbra.render(scene, **SMALL)
+    interrupted_at_a_checkpoint(partial(penumbra.render, scene, **SMALL), output)
+    # Opened again, unchanged: the render goes on from its checkpoint.
+    resumed = penumbra.render(scene, **SMALL, checkpoint=resume)
+    assert "resuming from 6 samples" in caplog.text
+    assert np.array_equal(resumed["color"], expected["color"])
+
+    interrupted_at_a_checkpoint(partial(penumbra.render, scene, **SMALL), output)
+    caplog.clear()
+    # Edited on disk, the file keeps its size; its modification time is a second later, as an
+    # edit's would be on a file system that keeps coarse times.
+    text = scene.read_text()
+    edited = text.replace("inputs:intensity = 3\n", "inputs:intensity = 5\n")
+    assert edited != text and len(edited) == len(text)
+    modified = scene.stat().st_mtime_ns
+    scene.write_text(edited)
+    os.utime(scene, ns=(modified + 10**9, modified + 10**9))
+    assert Sdf.Layer.Find(str(scene)) is None  # nothing holds the layer: opening reads the file
+    resumed = penumbra.render(scene, **SMALL, checkpoint=resume)
+    fresh = penumbra.render(scene, **SMALL)
+    assert not np.array_equal(fresh["color"], expected["color"])
+    assert np.array_equal(resumed["color"], fresh["color"])
+    assert "saved by another render" in caplog.text and "resuming" not in caplog.text
 
 
 def test_the_python_api_time_limit_and_its_validation(tmp_path):
