@@ -19,29 +19,30 @@ Vec3f lerp(const Vec3f& a, const Vec3f& b, float t) {
   return a * (1 - t) + b * t;
 }
 
-/// A specular layer: GGX (or a mirror when alpha = 0) with Schlick's Fresnel from f0 to 1 and a
-/// Kulla–Conty multiple-scattering term scaled by `multipleScattering`.
+/// A specular layer: GGX (or a mirror when alpha = 0) with Schlick's Fresnel from f0 to f90 and
+/// a Kulla–Conty multiple-scattering term scaled by `multipleScattering`.
 struct SpecularLayer {
   GgxAlpha alpha;
   Vec3f f0;
   Vec3f multipleScattering;
+  Vec3f f90{1.0f};
 
   /// Directional albedo E(w): everything the layer reflects for light from local direction w
   /// (only w.z matters to isotropic lobes).
   Vec3f albedo(const Vec3f& w) const {
-    if (alpha.x == 0) return schlickFresnel(f0, w.z);
+    if (alpha.x == 0) return schlickFresnel(f0, w.z, f90);
     return albedo(ggxDirectionalAlbedo(w, alpha));
   }
   /// The same for a rough layer, from the table's entry for w and α.
   Vec3f albedo(const GgxAlbedoTable::Albedo& e) const {
-    return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
+    return f0 * e.scale + f90 * e.bias + multipleScattering * (1 - e.scale - e.bias);
   }
   /// Hemispherical average (1/π) ∫ E(w) cos θ dw, given ggxAverageAlbedo(alpha) (looked up
   /// once per BSDF).
   Vec3f averageAlbedo(const GgxAlbedoTable::Albedo& lobeAverage) const {
-    if (alpha.x == 0) return schlickAverage(f0);
+    if (alpha.x == 0) return schlickAverage(f0, f90);
     const GgxAlbedoTable::Albedo& e = lobeAverage;
-    return f0 * e.scale + Vec3f(e.bias) + multipleScattering * (1 - e.scale - e.bias);
+    return f0 * e.scale + f90 * e.bias + multipleScattering * (1 - e.scale - e.bias);
   }
 };
 
@@ -50,9 +51,10 @@ struct SpecularLayer {
 /// the light that bounces more than once between microfacets, each bounce attenuated by the
 /// average Fresnel reflectance.
 /// `averageAlbedo`: E_avg of the white lobe (0 for a delta lobe, which has no such term).
-Vec3f multipleScatteringScale(const Vec3f& f0, float averageAlbedo) {
+Vec3f multipleScatteringScale(const Vec3f& f0, float averageAlbedo,
+                              const Vec3f& f90 = Vec3f(1.0f)) {
   if (averageAlbedo == 0) return Vec3f(0.0f);
-  const Vec3f fresnel = schlickAverage(f0);
+  const Vec3f fresnel = schlickAverage(f0, f90);
   const auto scale = [&](float f) { return f * f * averageAlbedo / (1 - f * (1 - averageAlbedo)); };
   return {scale(fresnel.x), scale(fresnel.y), scale(fresnel.z)};
 }
@@ -128,20 +130,35 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
     specularAverageLoss_ = std::max(0.0f, 1 - lobeAverage.scale - lobeAverage.bias);
   }
   const Vec3f albedo = clamp01(material.diffuseColor);
+  // A specular weight below 1 scales the dielectric lobe whole, its grazing reflection too (F90),
+  // as MaterialX's weights do; at 1 the arithmetic is the unweighted one, bit for bit.
+  const float specularWeight = clamp01(material.specularWeight);
+  const bool weighted = specularWeight < 1;
   if (material.useSpecularWorkflow) {
     specularF0_ = clamp01(material.specularColor);
-    multipleScatteringScale_ = multipleScatteringScale(specularF0_, averageAlbedo);
+    if (weighted) {
+      specularF0_ = specularF0_ * specularWeight;
+      specularF90_ = Vec3f(specularWeight);
+    }
+    multipleScatteringScale_ = multipleScatteringScale(specularF0_, averageAlbedo, specularF90_);
     diffuseReflectance_ = albedo;
     diffuseCoverF0_ = specularF0_;
+    diffuseCoverF90_ = specularF90_;
     diffuseCoverMultipleScattering_ = multipleScatteringScale_;
   } else {
     // A linear mix of a dielectric (weight 1 − metallic) and a conductor of reflectance
     // diffuseColor. Both specular lobes share α, so their sum is one lobe with the mixed F0.
     const float metallic = clamp01(material.metallic);
-    const Vec3f dielectricF0(square((1 - ior_) / (1 + ior_)));
+    Vec3f dielectricF0(square((1 - ior_) / (1 + ior_)));
+    if (weighted) {
+      dielectricF0 = dielectricF0 * specularWeight;
+      diffuseCoverF90_ = Vec3f(specularWeight);
+      specularF90_ = lerp(diffuseCoverF90_, Vec3f(1.0f), metallic);
+    }
     specularF0_ = lerp(dielectricF0, albedo, metallic);
     diffuseCoverF0_ = dielectricF0;
-    diffuseCoverMultipleScattering_ = multipleScatteringScale(dielectricF0, averageAlbedo);
+    diffuseCoverMultipleScattering_ =
+        multipleScatteringScale(dielectricF0, averageAlbedo, diffuseCoverF90_);
     // Without metal the conductor's term would add exactly 0: it is not computed then.
     multipleScatteringScale_ = metallic > 0
                                    ? diffuseCoverMultipleScattering_ * (1 - metallic) +
@@ -165,9 +182,9 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
           lerp(diffuseReflectance_, subsurfaceColor * dielectricShare, subsurface);
     }
   }
-  const Vec3f coverAverage =
-      SpecularLayer{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_}.averageAlbedo(
-          lobeAverage);
+  const Vec3f coverAverage = SpecularLayer{specularAlpha_, diffuseCoverF0_,
+                                           diffuseCoverMultipleScattering_, diffuseCoverF90_}
+                                 .averageAlbedo(lobeAverage);
   const auto normalization = [](float average) {
     return average < 1 - 1e-4f ? kInvPi / (1 - average) : 0.0f;
   };
@@ -220,7 +237,8 @@ inline const PreviewSurfaceBsdf::Outgoing& PreviewSurfaceBsdf::outgoing(const Ve
 PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(const Vec3f& wo) const {
   const float cosThetaO = wo.z;
   Outgoing outgoing;
-  const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_};
+  const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_,
+                            diffuseCoverF90_};
   GgxAlbedoTable::Albedo e;  // of the rough specular layer for wo
   if (specularAlpha_.x == 0) {
     outgoing.underSpecular = Vec3f(1.0f) - cover.albedo(wo);
@@ -249,9 +267,10 @@ PreviewSurfaceBsdf::Outgoing PreviewSurfaceBsdf::computeOutgoing(const Vec3f& wo
     const float below = underSheen * coat;
     p.coat = underSheen * (1 - coat);
     if (specularAlpha_.x == 0) {
-      p.specular = below * luminance(tintUnderCoat(schlickFresnel(specularF0_, cosThetaO)));
+      p.specular =
+          below * luminance(tintUnderCoat(schlickFresnel(specularF0_, cosThetaO, specularF90_)));
     } else {
-      p.specular = below * luminance(tintUnderCoat(specularF0_ * e.scale + Vec3f(e.bias)));
+      p.specular = below * luminance(tintUnderCoat(specularF0_ * e.scale + specularF90_ * e.bias));
       p.multipleScattering =
           below * luminance(tintUnderCoat(multipleScatteringScale_)) * outgoing.specularLoss;
     }
@@ -293,10 +312,11 @@ inline Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi
                                                 const Outgoing& forWo, const Reflection& reflected,
                                                 Vec3f* diffusePart) const {
   const Vec3f& h = reflected.h;
-  const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_};
+  const SpecularLayer cover{specularAlpha_, diffuseCoverF0_, diffuseCoverMultipleScattering_,
+                            diffuseCoverF90_};
   Vec3f base(0.0f), underSpecularForWi(1.0f);
   if (specularAlpha_.x > 0) {
-    base += schlickFresnel(specularF0_, dot(wo, h)) *
+    base += schlickFresnel(specularF0_, dot(wo, h), specularF90_) *
             ggxReflectionWithoutFresnel(wo, wi, reflected.specularDensity, specularAlpha_,
                                         forWo.specularLambda);
     // The diffuse layer's cover is the specular layer, with its own F0: one table entry each.
@@ -485,7 +505,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
       if (specularAlpha_.x == 0) {
         const float coat = forWo.coatTransmittance;
         return delta(mirror,
-                     tintUnderCoat(schlickFresnel(specularF0_, wo.z)) *
+                     tintUnderCoat(schlickFresnel(specularF0_, wo.z, specularF90_)) *
                          (opacity_ * coat * coat * forWo.sheenTransmittance),
                      p.specular, BsdfLobe::Specular);
       }

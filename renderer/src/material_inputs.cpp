@@ -99,6 +99,8 @@ const std::vector<MaterialInputInfo>& materialInputs() {
        &Params::transmissionColor, std::nullopt, true},
       {"penumbra:clearcoatColor", Kind::Vector, Origin::Extension, &Params::clearcoatColor,
        MaterialInput::ClearcoatColor, true},
+      {"penumbra:specularWeight", Kind::Float, Origin::Extension, &Params::specularWeight,
+       std::nullopt, true},
       {"penumbra:sheen", Kind::Float, Origin::Extension, &Params::sheen, MaterialInput::Sheen,
        true},
       {"penumbra:sheenColor", Kind::Vector, Origin::Extension, &Params::sheenColor,

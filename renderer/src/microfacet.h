@@ -29,17 +29,18 @@ inline float square(float v) {
 
 // --- Fresnel reflectance; reflection and refraction of directions ---
 
-/// Schlick's Fresnel approximation from F0 at normal incidence to F90 = 1 at grazing.
+/// Schlick's Fresnel approximation from F0 at normal incidence to F90 (1 unless a specular
+/// weight scales the whole lobe) at grazing.
 inline float schlickWeight(float cosTheta) {
   const float m = clamp01(1 - cosTheta);
   return (m * m) * (m * m) * m;
 }
-inline Vec3f schlickFresnel(const Vec3f& f0, float cosTheta) {
-  return f0 + (Vec3f(1.0f) - f0) * schlickWeight(cosTheta);
+inline Vec3f schlickFresnel(const Vec3f& f0, float cosTheta, const Vec3f& f90 = Vec3f(1.0f)) {
+  return f0 + (f90 - f0) * schlickWeight(cosTheta);
 }
 /// Hemispherical average 2∫F(μ)μ dμ of Schlick's Fresnel: 2∫(1 − μ)^5 μ dμ = 1/21.
-inline Vec3f schlickAverage(const Vec3f& f0) {
-  return f0 + (Vec3f(1.0f) - f0) * (1.0f / 21.0f);
+inline Vec3f schlickAverage(const Vec3f& f0, const Vec3f& f90 = Vec3f(1.0f)) {
+  return f0 + (f90 - f0) * (1.0f / 21.0f);
 }
 
 /// Exact Fresnel reflectance of unpolarised light meeting an interface at cos θ = cosThetaI from

@@ -359,9 +359,14 @@ def test_mix_of_a_value_with_itself_or_by_0_or_1_needs_no_folding():
          {"transmission": 0.75, "thin_walled": True, "transmission_dispersion": 30.0},
          {"opacity": 0.25, "opacityThreshold": 0.0, "penumbra:thinWalled": 1,
           "penumbra:abbeNumber": 30.0}),
-        # A tinted dielectric specular goes through the specular workflow: F0(1.5) = 0.04.
+        # The specular weight scales the lobe whole; a tinted dielectric specular goes through
+        # the specular workflow: F0(1.5) = 0.04 times the colour.
         ("ND_standard_surface_surfaceshader", {"specular": 0.5},
-         {"useSpecularWorkflow": 1, "specularColor": (0.02, 0.02, 0.02)}),
+         {"penumbra:specularWeight": 0.5}),
+        ("ND_open_pbr_surface_surfaceshader",
+         {"specular_weight": 0.25, "specular_color": (1.0, 0.5, 0.5)},
+         {"penumbra:specularWeight": 0.25, "useSpecularWorkflow": 1,
+          "specularColor": (0.04, 0.02, 0.02)}),
         ("ND_open_pbr_surface_surfaceshader", {"emission_luminance": 4.0,
                                                "emission_color": (1.0, 0.5, 0.25)},
          {"emissiveColor": (4.0, 2.0, 1.0)}),
@@ -503,6 +508,30 @@ def test_sheen_and_fuzz_light_a_coloured_rim_at_grazing_angles(node_def, base, s
     assert rim[0] > rim_plain[0] + 0.15  # brighter …
     assert rim[0] > 2 * rim[1] and rim[1] == pytest.approx(rim[2], abs=0.01)  # … and red
     assert abs(centre[0] - centre_plain[0]) < 0.5 * (rim[0] - rim_plain[0])
+
+
+@pytest.mark.parametrize("node_def, weight_name", [
+    ("ND_standard_surface_surfaceshader", "specular"),
+    ("ND_open_pbr_surface_surfaceshader", "specular_weight"),
+])
+def test_the_specular_weight_scales_the_reflection_at_grazing_angles_too(node_def, weight_name):
+    # Under a white dome a 0.18-grey sphere whose specular weight is 0 is a Lambertian 0.18 out
+    # to its silhouette (it read 0.247 at the rim when the weight scaled F0 alone); at weight
+    # 0.5 its rim reflects about half the extra of weight 1's. A white base stays white (1)
+    # at any weight: what the specular lobe does not reflect, the diffuse layer does.
+    rims = {}
+    for weight in (0.0, 0.5, 1.0):
+        rim, centre = _zones(sheen_sphere_image(node_def, base_color=(0.18, 0.18, 0.18),
+                                                **{weight_name: weight}))
+        rims[weight] = rim.mean()
+        if weight == 0.0:
+            np.testing.assert_allclose(rim, 0.18, atol=0.004)
+            np.testing.assert_allclose(centre, 0.18, atol=0.004)
+        white_rim, white_centre = _zones(sheen_sphere_image(node_def, base_color=(1.0, 1.0, 1.0),
+                                                            **{weight_name: weight}))
+        np.testing.assert_allclose([white_rim.mean(), white_centre.mean()], 1.0, atol=0.01)
+    assert rims[1.0] > rims[0.0] + 0.04
+    assert (rims[0.5] - rims[0.0]) / (rims[1.0] - rims[0.0]) == pytest.approx(0.5, abs=0.1)
 
 
 def test_sheen_parameters_reach_the_delegate_and_a_metal_has_no_standard_surface_sheen():

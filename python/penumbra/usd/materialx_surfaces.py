@@ -110,7 +110,8 @@ class Mapping:
         self.params: dict[str, Any] = {}
 
     def map(self, *, base: mv.Value | None, metalness: mv.Value | None,
-            roughness: mv.Value | None, ior: mv.Value | None, specular_tint: mv.Value | None,
+            roughness: mv.Value | None, ior: mv.Value | None,
+            specular_weight: mv.Value | None, specular_color: mv.Value | None,
             coat: mv.Value | None, coat_roughness: mv.Value | None,
             coat_color: mv.Value | None, transmission: mv.Value | None,
             transmission_roughness: float | None,
@@ -127,21 +128,7 @@ class Mapping:
             values["penumbra:clearcoatColor"] = coat_color
         if sheen[0] is not None and sheen[0] != mv.Constant((0.0,)):
             values.update(zip(SHEEN_PARAMS, sheen))
-        tint = specular_tint.values if isinstance(specular_tint, mv.Constant) else None
-        if tint is not None and any(abs(t - 1.0) > 1e-6 for t in tint):
-            if (
-                isinstance(metalness, mv.Constant) and metalness.values[0] == 0.0
-                and isinstance(ior, mv.Constant)
-            ):
-                # A tinted dielectric specular: the specular workflow carries F0 directly.
-                f0 = _dielectric_f0(ior.values[0])
-                self.params["useSpecularWorkflow"] = 1
-                values["specularColor"] = mv.Constant(tuple(f0 * t for t in mv.resize(
-                    specular_tint, 3).values))  # type: ignore[union-attr]
-            else:
-                self.surface.unsupported.append("specular tint on metals")
-        elif specular_tint is not None and tint is None:
-            self.surface.unsupported.append("varying specular weight or colour")
+        self.specular(specular_weight, specular_color, metalness, ior)
         transmits = not (isinstance(transmission, mv.Constant) and transmission.values[0] == 0)
         cut_out = opacity is not None and not (
             isinstance(opacity, mv.Constant) and all(v == 1.0 for v in opacity.values)
@@ -166,6 +153,32 @@ class Mapping:
         # UsdPreviewSurface does: an open mesh cannot be a solid's boundary.
         if isinstance(thin_walled, mv.Constant) and thin_walled.values[0]:
             self.params["penumbra:thinWalled"] = 1
+
+    def specular(self, weight: mv.Value | None, color: mv.Value | None,
+                 metalness: mv.Value | None, ior: mv.Value | None) -> None:
+        """The dielectric specular lobe's weight (it scales the lobe whole, grazing reflection
+        included) and colour (a tint of F0 alone, through the specular workflow's specularColor:
+        dielectrics with a constant IOR only)."""
+        if isinstance(weight, mv.Constant) and weight.values[0] != 1.0:
+            if weight.values[0] > 1.0:
+                self.surface.unsupported.append("specular weight above 1 (1 is used)")
+            self.params["penumbra:specularWeight"] = min(max(weight.values[0], 0.0), 1.0)
+        tint = color.values if isinstance(color, mv.Constant) else None
+        if tint is not None and any(abs(t - 1.0) > 1e-6 for t in tint):
+            if (
+                isinstance(metalness, mv.Constant) and metalness.values[0] == 0.0
+                and isinstance(ior, mv.Constant)
+            ):
+                # A tinted dielectric specular: the specular workflow carries F0 directly.
+                f0 = _dielectric_f0(ior.values[0])
+                self.params["useSpecularWorkflow"] = 1
+                self.values["specularColor"] = mv.Constant(tuple(f0 * t for t in mv.resize(
+                    color, 3).values))  # type: ignore[union-attr]
+            else:
+                self.surface.unsupported.append("specular tint on metals")
+        elif (color is not None and tint is None) or (
+                weight is not None and not isinstance(weight, mv.Constant)):
+            self.surface.unsupported.append("varying specular weight or colour")
 
     def anisotropy(self, model: str, specular: mv.Value | None, coat: mv.Value | None,
                    rotation: mv.Value | None) -> None:
@@ -208,8 +221,7 @@ def _map_standard_surface(s: Surface, mapping: Mapping) -> None:
     mapping.map(
         base=base, metalness=s("metalness"), roughness=s("specular_roughness"),
         ior=s("specular_IOR"),
-        specular_tint=s.combine(mv.multiply, ("specular", s("specular")),
-                                ("specular_color", s("specular_color")), keep=1),
+        specular_weight=s("specular"), specular_color=s("specular_color"),
         coat=s("coat"), coat_roughness=s("coat_roughness"), coat_color=s("coat_color"),
         transmission=s("transmission"),
         transmission_roughness=roughness[0] + extra[0] if roughness and extra else None,
@@ -263,8 +275,7 @@ def _map_open_pbr(s: Surface, mapping: Mapping) -> None:
     mapping.map(
         base=base, metalness=s("base_metalness"), roughness=s("specular_roughness"),
         ior=s("specular_ior"),
-        specular_tint=s.combine(mv.multiply, ("specular_weight", s("specular_weight")),
-                                ("specular_color", s("specular_color")), keep=1),
+        specular_weight=s("specular_weight"), specular_color=s("specular_color"),
         coat=s("coat_weight"), coat_roughness=s("coat_roughness"),
         coat_color=s("coat_color"), transmission=s("transmission_weight"),
         transmission_roughness=roughness[0] if roughness else None,

@@ -258,11 +258,13 @@ class PreviewSurfaceBsdf {
   // Specular layer.
   GgxAlpha specularAlpha_;
   Vec3f specularF0_;
+  Vec3f specularF90_{1.0f};  // below 1 with a specular weight (MaterialParams::specularWeight)
   Vec3f multipleScatteringScale_;  // Kulla–Conty F_ms (F_avg² E_avg / (1 − F_avg (1 − E_avg)))
   // Diffuse layer and the specular layer it lies under (the dielectric one in the metallic
   // workflow, whose contribution the metallic mix then weights by 1 − metallic).
   Vec3f diffuseReflectance_;
   Vec3f diffuseCoverF0_;
+  Vec3f diffuseCoverF90_{1.0f};
   Vec3f diffuseCoverMultipleScattering_;
   Vec3f diffuseNormalization_;  // 1 / (π (1 − E_avg)) of that cover, 0 where nothing gets through
   // The diffuse layer's share entering a solid (× (1 − metallic) in the metallic workflow; 0:

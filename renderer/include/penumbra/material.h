@@ -31,6 +31,10 @@ struct MaterialParams {
   Vec3f emissiveColor{0.0f};
   Vec3f specularColor{0.0f};
   bool useSpecularWorkflow = false;
+  /// inputs:penumbra:specularWeight (MaterialX's `specular` / `specular_weight`): scales the
+  /// dielectric specular lobe whole, its reflection at grazing angles (F90) too, and what it
+  /// takes from the diffuse layer under it. 1: UsdPreviewSurface's lobe.
+  float specularWeight = 1;
   float metallic = 0;
   float roughness = 0.5f;
   float clearcoat = 0;
