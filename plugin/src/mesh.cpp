@@ -215,7 +215,8 @@ TriangleMesh Mesh::triangles(SyncContext& context) {
     for (const std::vector<Vec3f>& step : cage.pointMotion)
       result.pointMotion.push_back(limit.tessellate(step, rates).points);
     result.doubleSided = cage.doubleSided;
-    result.closed = isClosedSurface(cage.points, cage.faceVertexCounts, cage.faceVertexIndices);
+    result.closed = isClosedSurface(cage.points, cage.faceVertexCounts, cage.faceVertexIndices,
+                                    tags_.holeIndices);
     return result;
   } catch (const std::invalid_argument& error) {
     // A cage that cannot be rendered either (bad indices, points that are not finite) throws

@@ -149,8 +149,14 @@ std::vector<int> weldPoints(const std::vector<Vec3f>& points, float tolerance) {
 }
 
 bool isClosedSurface(const std::vector<Vec3f>& points, const std::vector<int>& faceVertexCounts,
-                     const std::vector<int>& faceVertexIndices) {
-  if (everyEdgeIsSharedEvenly(faceVertexCounts, faceVertexIndices, {})) return true;
+                     const std::vector<int>& faceVertexIndices, const std::vector<int>& holes) {
+  std::vector<bool> surface;  // empty: every face has one
+  if (!holes.empty()) {
+    surface.assign(faceVertexCounts.size(), true);
+    for (const int hole : holes)
+      if (hole >= 0 && size_t(hole) < surface.size()) surface[size_t(hole)] = false;
+  }
+  if (everyEdgeIsSharedEvenly(faceVertexCounts, faceVertexIndices, surface)) return true;
   if (points.empty()) return false;
   Vec3f lower = points[0], upper = points[0];
   for (const Vec3f& p : points) {
@@ -177,7 +183,8 @@ bool isClosedSurface(const std::vector<Vec3f>& points, const std::vector<int>& f
       areaVector = areaVector + cross(a - origin, b - origin);
       longestEdge = std::max(longestEdge, length(b - a));
     }
-    keep[face] = length(areaVector) > 2 * tolerance * longestEdge;
+    keep[face] =
+        (surface.empty() || surface[face]) && length(areaVector) > 2 * tolerance * longestEdge;
     start += size_t(count);
   }
   return everyEdgeIsSharedEvenly(faceVertexCounts, welded, keep);

@@ -149,6 +149,23 @@ TEST(Mesh, ACubeMissingAFaceIsOpen) {
   EXPECT_FALSE(closed(quadAndPentagon()));
 }
 
+TEST(Mesh, ASubdivisionCubeWithAHoleIsOpen) {
+  // holeIndices take a face's surface away: the limit surface has an opening there, with the
+  // split vertices welded or not.
+  MeshData cube = splitCube();
+  EXPECT_FALSE(isClosedSurface(cube.points, cube.faceVertexCounts, cube.faceVertexIndices, {5}));
+  std::vector<int> shared(cube.faceVertexIndices.size());
+  for (size_t i = 0; i < shared.size(); ++i) {  // the same cube with its 8 corners shared
+    const Vec3f& p = cube.points[size_t(cube.faceVertexIndices[i])];
+    int first = 0;
+    while (length(cube.points[size_t(first)] - p) > 0) ++first;
+    shared[i] = first;
+  }
+  EXPECT_TRUE(isClosedSurface(cube.points, cube.faceVertexCounts, shared));
+  EXPECT_FALSE(isClosedSurface(cube.points, cube.faceVertexCounts, shared, {2}));
+  EXPECT_TRUE(isClosedSurface(cube.points, cube.faceVertexCounts, shared, {-1, 6}));  // no face
+}
+
 TEST(Mesh, ZeroAreaFacesAreIgnored) {
   MeshData cube = splitCube();
   // A triangle collapsed onto the cube's edge (0,0,0)-(1,0,0) (collinear corners, one of them

@@ -43,3 +43,47 @@ def test_complexity_dices_finer_but_renders_the_same_surface(tmp_path):
     assert np.abs(low[hit] - high[hit]).max() < 0.02 * float(np.median(low[hit]))
     with pytest.raises(ValueError, match="complexity must be one of"):
         renderer.render(width=16, samples=1, complexity="extreme")
+
+
+def glass_cube(hole: bool, thin_walled: bool | None = None) -> np.ndarray:
+    """A Catmull-Clark cube of clear glass over a grey floor under a sun, its top face a hole if
+    ``hole``; ``thin_walled`` sets inputs:penumbra:thinWalled."""
+    from pxr import Gf, Sdf, UsdLux, UsdShade
+
+    from stages import add_camera, add_quad, bind, new_stage
+
+    stage = new_stage()
+    add_camera(stage, translate=(0.0, 0.0, 6.0))
+    sun = UsdLux.DistantLight.Define(stage, "/sun")
+    sun.CreateIntensityAttr(3.0)
+    sun.AddRotateXOp().Set(-30.0)
+    add_quad(stage, "/floor", center=(0.0, 0.0, -1.5), half_size=3.0, color=(0.8, 0.8, 0.8))
+    corners = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
+    cube = UsdGeom.Mesh.Define(stage, "/cube")
+    cube.CreatePointsAttr([Gf.Vec3f(*c) for c in corners])
+    cube.CreateFaceVertexCountsAttr([4] * 6)
+    cube.CreateFaceVertexIndicesAttr(
+        [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 1, 3, 7, 5, 0, 4, 6, 2]
+    )
+    if hole:
+        cube.CreateHoleIndicesAttr([1])  # the face towards the camera (+z)
+    cube.CreateDoubleSidedAttr(True)
+    material = UsdShade.Material.Define(stage, "/glass")
+    shader = UsdShade.Shader.Define(stage, "/glass/surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(0.0)
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.0)
+    if thin_walled is not None:
+        shader.CreateInput("penumbra:thinWalled", Sdf.ValueTypeNames.Bool).Set(thin_walled)
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    bind(cube, material)
+    return penumbra.render(stage, camera="/cam", width=32, samples=16, seed=1)["color"]
+
+
+def test_a_subdivision_surface_with_a_hole_is_an_open_sheet_not_a_solid():
+    # A hole opens the limit surface: clear glass around it is a thin sheet, as if
+    # inputs:penumbra:thinWalled were 1. It was classed by its cage, closed, and refracted as
+    # a solid block of glass (rms 36 from the sheet in the reviewer's scene).
+    with_hole = glass_cube(hole=True)
+    np.testing.assert_array_equal(with_hole, glass_cube(hole=True, thin_walled=True))
+    assert not np.array_equal(with_hole, glass_cube(hole=True, thin_walled=False))

@@ -140,8 +140,10 @@ std::vector<int> weldPoints(const std::vector<Vec3f>& points, float tolerance);
 /// (exactly two for a manifold surface), by its indices or, failing that, once points within
 /// kWeldTolerance of the mesh's size are welded (split vertices at UV seams, hard edges or
 /// poles) and faces of zero area (thinner than that tolerance) are ignored.
+/// `holes`: faces that have no surface (a subdivision surface's holeIndices), left out; indices
+/// out of range are ignored.
 bool isClosedSurface(const std::vector<Vec3f>& points, const std::vector<int>& faceVertexCounts,
-                     const std::vector<int>& faceVertexIndices);
+                     const std::vector<int>& faceVertexIndices, const std::vector<int>& holes = {});
 
 /// Validates and triangulates. Throws std::invalid_argument with a message saying what is wrong
 /// (counts that do not add up, indices out of range, primvar sizes, non-finite points).
