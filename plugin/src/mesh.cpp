@@ -39,8 +39,21 @@ void Mesh::setSubdivisionTags(SubdivisionTags tags) {
   markDirty(DirtyTopology);
 }
 
-const LimitSurfaceTessellator* Mesh::tessellator(SubdivisionScheme scheme) {
-  if (!tessellator_) tessellator_ = std::make_unique<LimitSurfaceTessellator>(data_, scheme, tags_);
+const LimitSurfaceTessellator* Mesh::tessellator(SubdivisionScheme scheme, SyncContext& context) {
+  if (tessellator_) return tessellator_.get();
+  std::vector<std::string> dropped;
+  const SubdivisionTags usable = usableSubdivisionTags(data_, tags_, &dropped);
+  // Built before warning: a cage that cannot be subdivided at all says so instead.
+  tessellator_ = std::make_unique<LimitSurfaceTessellator>(data_, scheme, usable);
+  if (!dropped.empty()) {
+    constexpr size_t kNamed = 4;
+    std::string list;
+    for (size_t i = 0; i < dropped.size() && i < kNamed; ++i) list += (i ? "; " : "") + dropped[i];
+    if (dropped.size() > kNamed)
+      list += "; and " + std::to_string(dropped.size() - kNamed) + " more";
+    context.warn(id() + ": subdivision tags that do not fit the mesh are left out (" + list +
+                 "); the rest of the surface is subdivided");
+  }
   return tessellator_.get();
 }
 
@@ -173,7 +186,7 @@ TriangleMesh Mesh::triangles(SyncContext& context) {
   const MeshData& cage = data_;
   ++context.counters.subdivisionDicings;
   try {
-    const LimitSurfaceTessellator& limit = *tessellator(*scheme);
+    const LimitSurfaceTessellator& limit = *tessellator(*scheme, context);
     // Dice each base face finely enough that its facets stay within a fraction of a pixel of
     // the limit surface at its distance from the camera (halved per complexity level).
     const CameraParams& camera = context.dicing.camera;

@@ -19,13 +19,134 @@ std::optional<SubdivisionScheme> parseSubdivisionScheme(const std::string& token
                               "\" is not one of catmullClark, loop, bilinear, none");
 }
 
-namespace detail {
-
 namespace {
 
 std::string elementName(const char* array, size_t index) {
   return std::string(array) + "[" + std::to_string(index) + "]";
 }
+
+uint64_t edgeKey(int a, int b) {
+  return (uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b));
+}
+
+/// The cage's edges (faces whose vertex indices are in range), as edgeKey gives them.
+std::unordered_set<uint64_t> cageEdges(const MeshData& cage) {
+  std::unordered_set<uint64_t> edges;
+  size_t faceStart = 0;
+  for (const int count : cage.faceVertexCounts) {
+    if (count <= 0 || faceStart + size_t(count) > cage.faceVertexIndices.size()) break;
+    for (int k = 0; k < count; ++k)
+      edges.insert(edgeKey(cage.faceVertexIndices[faceStart + size_t(k)],
+                           cage.faceVertexIndices[faceStart + size_t((k + 1) % count)]));
+    faceStart += size_t(count);
+  }
+  return edges;
+}
+
+}  // namespace
+
+SubdivisionTags usableSubdivisionTags(const MeshData& cage, const SubdivisionTags& tags,
+                                      std::vector<std::string>* dropped) {
+  SubdivisionTags usable = tags;
+  const size_t faceCount = cage.faceVertexCounts.size(), pointCount = cage.points.size();
+  const auto isPoint = [&](int index) { return index >= 0 && size_t(index) < pointCount; };
+
+  usable.holeIndices.clear();
+  for (size_t i = 0; i < tags.holeIndices.size(); ++i) {
+    const int face = tags.holeIndices[i];
+    if (face >= 0 && size_t(face) < faceCount)
+      usable.holeIndices.push_back(face);
+    else
+      dropped->push_back(elementName("holeIndices", i) + " = " + std::to_string(face) +
+                         " is out of range for " + std::to_string(faceCount) + " faces");
+  }
+
+  usable.cornerIndices.clear();
+  usable.cornerSharpnesses.clear();
+  if (tags.cornerSharpnesses.size() != tags.cornerIndices.size()) {
+    if (!tags.cornerIndices.empty() || !tags.cornerSharpnesses.empty())
+      dropped->push_back("every corner (" + std::to_string(tags.cornerSharpnesses.size()) +
+                         " cornerSharpnesses for " + std::to_string(tags.cornerIndices.size()) +
+                         " cornerIndices)");
+  } else {
+    for (size_t i = 0; i < tags.cornerIndices.size(); ++i) {
+      if (isPoint(tags.cornerIndices[i]) && std::isfinite(tags.cornerSharpnesses[i])) {
+        usable.cornerIndices.push_back(tags.cornerIndices[i]);
+        usable.cornerSharpnesses.push_back(tags.cornerSharpnesses[i]);
+      } else {
+        dropped->push_back(
+            isPoint(tags.cornerIndices[i])
+                ? elementName("cornerSharpnesses", i) + " is not finite"
+                : elementName("cornerIndices", i) + " = " + std::to_string(tags.cornerIndices[i]) +
+                      " is out of range for " + std::to_string(pointCount) + " points");
+      }
+    }
+  }
+
+  usable.creaseIndices.clear();
+  usable.creaseLengths.clear();
+  usable.creaseSharpnesses.clear();
+  size_t vertexTotal = 0, edgeTotal = 0;
+  bool lengthsValid = true;
+  for (const int length : tags.creaseLengths) {
+    lengthsValid = lengthsValid && length >= 2;
+    vertexTotal += size_t(std::max(length, 0));
+    edgeTotal += size_t(std::max(length - 1, 0));
+  }
+  const bool perCrease = tags.creaseSharpnesses.size() == tags.creaseLengths.size();
+  const bool perEdge = tags.creaseSharpnesses.size() == edgeTotal;
+  if (!lengthsValid || vertexTotal != tags.creaseIndices.size() || !(perCrease || perEdge)) {
+    if (!tags.creaseIndices.empty() || !tags.creaseLengths.empty())
+      dropped->push_back(
+          "every crease (creaseLengths, creaseIndices and creaseSharpnesses do "
+          "not describe the same creases)");
+    return usable;
+  }
+  // With one sharpness per edge, a chain keeps its own edges' values.
+  const std::unordered_set<uint64_t> edges = cageEdges(cage);
+  size_t chainStart = 0, edgeStart = 0;
+  for (size_t chain = 0; chain < tags.creaseLengths.size(); ++chain) {
+    const size_t length = size_t(tags.creaseLengths[chain]);
+    std::string problem;  // empty: the chain fits
+    if (!perEdge && !std::isfinite(tags.creaseSharpnesses[chain]))
+      problem = elementName("creaseSharpnesses", chain) + " is not finite";
+    for (size_t i = chainStart; problem.empty() && i < chainStart + length; ++i) {
+      const int a = tags.creaseIndices[i];
+      if (!isPoint(a)) {
+        problem = elementName("creaseIndices", i) + " = " + std::to_string(a) +
+                  " is out of range for " + std::to_string(pointCount) + " points";
+      } else if (i + 1 < chainStart + length) {
+        const int b = tags.creaseIndices[i + 1];
+        const size_t edge = edgeStart + (i - chainStart);
+        if (isPoint(b) && !edges.count(edgeKey(a, b)))
+          problem = "(" + std::to_string(a) + ", " + std::to_string(b) + ") is not an edge";
+        else if (perEdge && !std::isfinite(tags.creaseSharpnesses[edge]))
+          problem = elementName("creaseSharpnesses", edge) + " is not finite";
+      }
+    }
+    if (problem.empty()) {
+      usable.creaseLengths.push_back(int(length));
+      usable.creaseIndices.insert(usable.creaseIndices.end(),
+                                  tags.creaseIndices.begin() + long(chainStart),
+                                  tags.creaseIndices.begin() + long(chainStart + length));
+      if (perEdge)
+        usable.creaseSharpnesses.insert(
+            usable.creaseSharpnesses.end(), tags.creaseSharpnesses.begin() + long(edgeStart),
+            tags.creaseSharpnesses.begin() + long(edgeStart + length - 1));
+      else
+        usable.creaseSharpnesses.push_back(tags.creaseSharpnesses[chain]);
+    } else {
+      dropped->push_back("crease " + std::to_string(chain) + ": " + problem);
+    }
+    chainStart += length;
+    edgeStart += length - 1;
+  }
+  return usable;
+}
+
+namespace detail {
+
+namespace {
 
 Sdc::Options::VtxBoundaryInterpolation parseInterpolateBoundary(const std::string& token) {
   if (token == "none") return Sdc::Options::VTX_BOUNDARY_NONE;
@@ -100,10 +221,6 @@ void checkSharpness(const char* array, size_t position, float sharpness) {
     throw std::invalid_argument(elementName(array, position) + " is not finite");
 }
 
-uint64_t edgeKey(int a, int b) {
-  return (uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b));
-}
-
 }  // namespace
 
 void validateCage(const MeshData& cage, SubdivisionScheme scheme, const SubdivisionTags& tags) {
@@ -166,14 +283,7 @@ void validateCage(const MeshData& cage, SubdivisionScheme scheme, const Subdivis
   for (size_t i = 0; i < tags.creaseSharpnesses.size(); ++i)
     checkSharpness("creaseSharpnesses", i, tags.creaseSharpnesses[i]);
   if (!tags.creaseIndices.empty()) {
-    std::unordered_set<uint64_t> edges;
-    size_t faceStart = 0;
-    for (int count : cage.faceVertexCounts) {
-      for (int k = 0; k < count; ++k)
-        edges.insert(edgeKey(cage.faceVertexIndices[faceStart + size_t(k)],
-                             cage.faceVertexIndices[faceStart + size_t((k + 1) % count)]));
-      faceStart += size_t(count);
-    }
+    const std::unordered_set<uint64_t> edges = cageEdges(cage);
     size_t chainStart = 0;
     for (int length : tags.creaseLengths) {
       for (size_t i = chainStart; i < chainStart + size_t(length); ++i)

@@ -689,5 +689,56 @@ TEST(Subdivision, InvalidInputIsRejectedWithTheProblemNamed) {
   expectInvalid([&] { tessellator.tessellate({{0, 0, 0}}, {1}); }, "points has 1 entries");
 }
 
+TEST(Subdivision, TagsThatDoNotFitTheCageAreLeftOutOneByOne) {
+  // As Hydra's refiner factory: each stale tag is dropped with its reason, the rest is kept.
+  SubdivisionTags tags;
+  tags.holeIndices = {2, 6, -1};
+  tags.cornerIndices = {1, 8, 3};
+  tags.cornerSharpnesses = {2, 10, NAN};
+  tags.creaseIndices = {4, 5, 0, 5, 2, 9};  // an edge; not an edge; a vertex out of range
+  tags.creaseLengths = {2, 2, 2};
+  tags.creaseSharpnesses = {2, 3, 4};
+  std::vector<std::string> dropped;
+  const SubdivisionTags usable = usableSubdivisionTags(cube(), tags, &dropped);
+  EXPECT_EQ(usable.holeIndices, std::vector<int>{2});
+  EXPECT_EQ(usable.cornerIndices, std::vector<int>{1});
+  EXPECT_EQ(usable.cornerSharpnesses, std::vector<float>{2});
+  EXPECT_EQ(usable.creaseIndices, (std::vector<int>{4, 5}));
+  EXPECT_EQ(usable.creaseLengths, std::vector<int>{2});
+  EXPECT_EQ(usable.creaseSharpnesses, std::vector<float>{2});
+  const std::vector<std::string> expected = {
+      "holeIndices[1] = 6 is out of range for 6 faces",
+      "holeIndices[2] = -1 is out of range for 6 faces",
+      "cornerIndices[1] = 8 is out of range for 8 points",
+      "cornerSharpnesses[2] is not finite",
+      "crease 1: (0, 5) is not an edge",
+      "crease 2: creaseIndices[5] = 9 is out of range for 8 points"};
+  EXPECT_EQ(dropped, expected);
+  EXPECT_NO_THROW(LimitSurfaceTessellator(cube(), SubdivisionScheme::CatmullClark, usable));
+
+  // One sharpness per edge: a kept chain keeps its own edges' values.
+  tags = {};
+  tags.creaseIndices = {0, 5, 4, 5, 6};
+  tags.creaseLengths = {2, 3};
+  tags.creaseSharpnesses = {1, 2, 3};
+  dropped.clear();
+  EXPECT_EQ(usableSubdivisionTags(cube(), tags, &dropped).creaseSharpnesses,
+            (std::vector<float>{2, 3}));
+  // Counts that do not describe the creases: every crease goes, with one reason.
+  tags.creaseLengths = {2, 2};
+  dropped.clear();
+  EXPECT_TRUE(usableSubdivisionTags(cube(), tags, &dropped).creaseIndices.empty());
+  ASSERT_EQ(dropped.size(), 1u);
+  EXPECT_NE(dropped[0].find("every crease"), std::string::npos);
+  // Valid tags come back as they are, with nothing said.
+  dropped.clear();
+  tags = {};
+  tags.creaseIndices = {4, 5};
+  tags.creaseLengths = {2};
+  tags.creaseSharpnesses = {10};
+  EXPECT_EQ(usableSubdivisionTags(cube(), tags, &dropped).creaseIndices, tags.creaseIndices);
+  EXPECT_TRUE(dropped.empty());
+}
+
 }  // namespace
 }  // namespace penumbra

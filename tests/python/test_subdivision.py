@@ -87,3 +87,39 @@ def test_a_subdivision_surface_with_a_hole_is_an_open_sheet_not_a_solid():
     with_hole = glass_cube(hole=True)
     np.testing.assert_array_equal(with_hole, glass_cube(hole=True, thin_walled=True))
     assert not np.array_equal(with_hole, glass_cube(hole=True, thin_walled=False))
+
+
+def test_tags_that_do_not_fit_the_mesh_are_left_out_one_by_one():
+    # A stale crease (its vertices no longer share an edge) and a hole index past the last face,
+    # as topology edits leave them: Hydra's refiner warns and skips each; the limit surface was
+    # dropped for the cage (centre depth 1.0 instead of 0.84). Now the surface is the one
+    # without those tags, and one warning names them.
+    from pxr import Gf
+
+    from stages import add_camera, new_stage, render_with_warnings
+
+    def cube_stage(stale_tags: bool) -> Usd.Stage:
+        stage = new_stage()
+        add_camera(stage)
+        cube = UsdGeom.Mesh.Define(stage, "/cube")
+        corners = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
+        cube.CreatePointsAttr([Gf.Vec3f(*c) for c in corners])
+        cube.CreateFaceVertexCountsAttr([4] * 6)
+        cube.CreateFaceVertexIndicesAttr(
+            [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 1, 3, 7, 5, 0, 4, 6, 2]
+        )
+        if stale_tags:
+            cube.CreateCreaseIndicesAttr([0, 7])
+            cube.CreateCreaseLengthsAttr([2])
+            cube.CreateCreaseSharpnessesAttr([10.0])
+            cube.CreateHoleIndicesAttr([6])
+        return stage
+
+    clean, clean_warnings = render_with_warnings(cube_stage(stale_tags=False), width=32)
+    image, messages = render_with_warnings(cube_stage(stale_tags=True), width=32)
+    assert clean_warnings == []
+    np.testing.assert_array_equal(image, clean)
+    assert len(messages) == 1, messages
+    assert "/cube: subdivision tags that do not fit the mesh are left out" in messages[0]
+    assert "holeIndices[0] = 6 is out of range for 6 faces" in messages[0]
+    assert "crease 0: (0, 7) is not an edge" in messages[0]

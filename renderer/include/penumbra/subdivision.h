@@ -34,6 +34,15 @@ struct SubdivisionTags {
   std::vector<float> creaseSharpnesses;
 };
 
+/// The tags of `tags` that fit `cage`, as Hydra's refiner factory keeps them: a hole or corner
+/// out of range, a corner or crease whose sharpness is not finite, and a crease chain with a
+/// vertex out of range or a pair of vertices that is not an edge of the cage are left out (every
+/// crease when creaseLengths and creaseSharpnesses do not describe creaseIndices; every corner
+/// when cornerSharpnesses are not one per corner). *dropped gets one phrase for each thing left
+/// out, naming the attribute and the entry. The cage's own topology is not checked here.
+SubdivisionTags usableSubdivisionTags(const MeshData& cage, const SubdivisionTags& tags,
+                                      std::vector<std::string>* dropped);
+
 /// Parses a UsdGeomMesh subdivisionScheme token: "catmullClark", "loop", "bilinear"; "none"
 /// (a plain polygon mesh) gives nullopt. Throws std::invalid_argument for any other token.
 std::optional<SubdivisionScheme> parseSubdivisionScheme(const std::string& token);

@@ -65,7 +65,8 @@ class Mesh : public PlacedRprim {
   const SubdivisionTags& subdivisionTags() const { return tags_; }
   /// The tessellator of the current topology (built on first use, dropped when topology or tags
   /// change); null for meshes that are not subdivided.
-  const LimitSurfaceTessellator* tessellator(SubdivisionScheme scheme);
+  /// Tags that do not fit the cage are left out with one warning (usableSubdivisionTags).
+  const LimitSurfaceTessellator* tessellator(SubdivisionScheme scheme, SyncContext& context);
   /// Bytes its next sync will allocate (penumbra::estimatedBuildBytes).
   size_t estimatedSyncBytes() const;
 
