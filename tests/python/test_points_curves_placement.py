@@ -132,8 +132,10 @@ def test_unauthored_widths_are_framed(kind):
     if kind == "points":
         UsdGeom.Points.Define(stage, "/World/dot").CreatePointsAttr([Gf.Vec3f(0, 0, 0)])
     else:
+        # Lying across the view: usdrecord's framing fits the horizontal field of view, so a
+        # scene taller than the film's 1.37:1 would be cut at the top and bottom.
         hair = UsdGeom.BasisCurves.Define(stage, "/World/hair")
-        hair.CreatePointsAttr([Gf.Vec3f(0, -1, 0), Gf.Vec3f(0, 1, 0)])
+        hair.CreatePointsAttr([Gf.Vec3f(-1, 0, 0), Gf.Vec3f(1, 0, 0)])
         hair.CreateCurveVertexCountsAttr([2])
         hair.CreateTypeAttr(UsdGeom.Tokens.linear)
     image = penumbra.render(stage, width=32, samples=4, dome_light_visibility=False)

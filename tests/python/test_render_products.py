@@ -356,6 +356,37 @@ def test_per_product_motion_blur_and_depth_of_field_switches(tmp_path):
     assert grey["lens"] > 3 * grey["pinhole"], grey
 
 
+def test_pixel_aspect_ratio_metadata_is_the_rendered_one(tmp_path):
+    """A product conforming by adjustPixelAspectRatio renders a 36 x 24 aperture on a square
+    image with pixels 1.5 as wide as high (aperture aspect over image aspect, UsdRender's rule);
+    its file said the settings' 1, and a compositor showed it squashed. The settings' own
+    policy (expandAperture) keeps square pixels in the other product."""
+    stage = new_stage(tmp_path / "scene.usda")
+    add_camera(stage, aperture=(36.0, 24.0))
+    add_quad(stage, "/plane", half_size=3.0, color=PLANE_COLOR)
+    color = UsdRender.Var.Define(stage, "/Render/Vars/color")
+    color.CreateSourceNameAttr("color")
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets(["/cam"])
+    settings.CreateResolutionAttr(Gf.Vec2i(12, 12))
+    products = []
+    for name in ("adjusted", "expanded"):
+        product = UsdRender.Product.Define(stage, f"/Render/Products/{name}")
+        product.CreateProductNameAttr(f"{name}.exr")
+        product.CreateOrderedVarsRel().SetTargets([color.GetPath()])
+        products.append(product)
+    products[0].CreateAspectRatioConformPolicyAttr(UsdRender.Tokens.adjustPixelAspectRatio)
+    settings.CreateProductsRel().SetTargets([product.GetPath() for product in products])
+    stage.GetRootLayer().Save()
+    argv = [str(tmp_path / "scene.usda"), str(tmp_path / "out.exr"), "-spp", "1", "-q"]
+    assert main([*argv, "-rs", "/Render/Settings"]) == 0
+    ratios = {
+        name: _core.read_image(str(tmp_path / f"{name}.exr"))[2]["PixelAspectRatio"]
+        for name in ("adjusted", "expanded")
+    }
+    assert ratios == {"adjusted": pytest.approx(1.5), "expanded": pytest.approx(1.0)}
+
+
 def test_ids_asked_for_in_half_floats_are_written_in_32_bits(tmp_path, capsys):
     # Cryptomatte's ids are uint32 bits read as float32, and primId counts past 2048: half
     # floats turned them into zeros, infinities and denormals no manifest entry matched.

@@ -112,10 +112,18 @@ def test_the_image_covers_the_conformed_aperture(resolution, policy, pixel_aspec
     assert (column, row) == pytest.approx(expected[1:], abs=0.25)
 
 
-def test_an_exr_says_its_pixels_aspect_ratio(tmp_path):
+@pytest.mark.parametrize(
+    "settings",
+    [
+        dict(resolution=(64, 32), pixel_aspect_ratio=2.0),
+        # The aperture's aspect (2) over the image's (1); the authored ratio (1) is ignored.
+        dict(resolution=(32, 32), policy="adjustPixelAspectRatio"),
+    ],
+)
+def test_an_exr_says_its_pixels_aspect_ratio(tmp_path, settings):
     # Rendered with pixels twice as wide as high, the file said 1: a compositor showed the image
     # squeezed.
-    stage = settings_stage((64, 32), pixel_aspect_ratio=2.0)
+    stage = settings_stage(**settings)
     image = penumbra.render(stage, render_settings="/Render/Settings", samples=1,
                             default_light="none")
     image.write(tmp_path / "wide.exr")

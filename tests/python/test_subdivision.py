@@ -39,8 +39,17 @@ def test_complexity_dices_finer_but_renders_the_same_surface(tmp_path):
     high = renderer.render(width=64, samples=4, complexity="veryhigh", aovs=("depth",))["depth"]
     hit = np.isfinite(low) & np.isfinite(high)
     assert hit.mean() > 0.05
-    # The limit surface is the same: depths agree to well under a pixel's footprint.
-    assert np.abs(low[hit] - high[hit]).max() < 0.02 * float(np.median(low[hit]))
+    # The limit surface is the same: depths agree to well under a pixel's footprint, in pixels
+    # whose neighbours are all on the surface (a silhouette pixel's depth is whichever of the
+    # surface and what lies behind its samples met, which the dicing moves).
+    padded = np.pad(hit[..., 0], 1)
+    inside = np.ones_like(hit[..., 0])
+    for dy in (0, 1, 2):
+        for dx in (0, 1, 2):
+            inside &= padded[dy : dy + hit.shape[0], dx : dx + hit.shape[1]]
+    assert inside.mean() > 0.05
+    depth_low, depth_high = low[..., 0][inside], high[..., 0][inside]
+    assert np.abs(depth_low - depth_high).max() < 0.02 * float(np.median(depth_low))
     with pytest.raises(ValueError, match="complexity must be one of"):
         renderer.render(width=16, samples=1, complexity="extreme")
 

@@ -5,17 +5,18 @@ ergonomics."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, UsdRender
+from pxr import Gf, Sdf, UsdGeom, UsdRender, UsdShade
 
 import penumbra
 from penumbra import _core
 from penumbra.cli import main
 from penumbra.usd.settings import usdrecord_height
-from stages import add_camera, add_quad, lit_quad_stage
+from stages import add_camera, add_quad, bind, emitter_stage, lit_quad_stage
 
 TINY = ["-w", "8", "-spp", "1"]
 
@@ -194,6 +195,43 @@ def test_image_height_truncates_like_usdrecord(tmp_path):
     stage.Save()
     assert main([str(path), str(tmp_path / "o.exr"), "-w", "160", "-spp", "1", "-cam", "/wide"]) == 0
     assert _core.read_image(str(tmp_path / "o.exr"))[0].shape[:2] == (106, 160)
+
+
+# usdrecord's camera for a stage without one (UsdAppUtilsFrameRecorder's
+# _ComputeCameraToFrameStage) looks at the bounds' front face from r / tan(h) in front of it,
+# r the half-diagonal of the bounds across the image plane and h half GfCamera's horizontal
+# field of view (tan h = 20.955 / 2 / 50): a face w x v spans w / 2r of the image's width and
+# v / 2r of it high. Closer than the near clipping distance (1), it backs off by that.
+TAN_HALF_FOV = 20.955 / 2 / 50
+
+
+@pytest.mark.parametrize(
+    "up_axis, half_size, face",
+    [
+        ("Y", (1.0, 1.0, 1.0), (1 / math.sqrt(2), 1 / math.sqrt(2))),  # the fitted sphere: 45%
+        # 2 wide, 1 high and 4 deep: Z up, the camera looks along +Y at the face the XZ plane's.
+        ("Z", (1.0, 2.0, 0.5), (1 / math.hypot(1, 0.5), 0.5 / math.hypot(1, 0.5))),
+        # 0.2 across: r / tan h + 0.1 < 1, so the front face is at 0.1 √2 / tan h + 1.
+        ("Y", (0.1, 0.1, 0.1), (0.1 / (0.1 * math.sqrt(2) + TAN_HALF_FOV),) * 2),
+    ],
+)
+def test_a_stage_without_a_camera_is_framed_as_usdrecord_frames_it(up_axis, half_size, face):
+    stage = emitter_stage()
+    UsdGeom.SetStageUpAxis(stage, up_axis)
+    box = UsdGeom.Cube.Define(stage, "/box")
+    box.CreateExtentAttr([(-1, -1, -1), (1, 1, 1)])
+    box.AddScaleOp().Set(Gf.Vec3f(*half_size))
+    bind(box, UsdShade.Material(stage.GetPrimAtPath("/Looks/glow")))
+    # 400 x 292 is a little narrower than the film (20.955 x 15.2908): its width is kept.
+    width, height = 400, 292
+    image = penumbra.render(stage, width=width, height=height, samples=16, max_path_depth=0)
+    assert image.metadata["camera"] == "/PenumbraFramingCamera"
+    coverage = image["color"][..., :3].mean(axis=2).astype(np.float64)
+    # The face's width and height in pixels (the pixel filter keeps a row's and a column's sums).
+    measured = coverage[height // 2].sum(), coverage[:, width // 2].sum()
+    assert measured == pytest.approx((face[0] * width, face[1] * width), abs=0.5)
+    camera = UsdGeom.Camera(stage.GetPrimAtPath("/PenumbraFramingCamera"))
+    assert camera.GetClippingRangeAttr().Get() == Gf.Vec2f(1, 1000000)  # GfCamera's
 
 
 # ------------------------------------------------------------------------------------------

@@ -20,11 +20,14 @@ def camera_metadata(
     """``worldtocamera`` (world to USD camera space, which looks down −Z) and ``worldtoscreen``
     (on to the [−1, 1] screen window of the aperture fitted to a ``width`` × ``height`` image by
     ``policy``), as 4x4 row-major tuples in OIIO's row-vector convention (Gf's), the pixels'
-    width over their height (``PixelAspectRatio``, OpenEXR's: a compositor shows anamorphic
-    pixels by it), and the camera's fStop, focusDistance and shutter."""
+    width over their height as rendered (``PixelAspectRatio``, OpenEXR's: a compositor shows
+    anamorphic pixels by it; ``pixel_aspect_ratio`` unless ``policy`` adjusts it), and the
+    camera's fStop, focusDistance and shutter."""
     geom = UsdGeom.Camera(camera)
     gf_camera = geom.GetCamera(time)
-    (aperture_width, aperture_height), _ = conform_aperture(
+    # adjustPixelAspectRatio renders pixels of the aperture's aspect over the image's, not
+    # the settings' ratio: the file must say the one rendered.
+    (aperture_width, aperture_height), rendered_pixel_aspect_ratio = conform_aperture(
         policy,
         (width, height),
         pixel_aspect_ratio,
@@ -38,7 +41,7 @@ def camera_metadata(
     return {
         "worldtocamera": _row_major(world_to_camera),
         "worldtoscreen": _row_major(world_to_screen),
-        "PixelAspectRatio": float(pixel_aspect_ratio),
+        "PixelAspectRatio": float(rendered_pixel_aspect_ratio),
         # Read as the camera was (camera_problem passed them): a value blocked at ``time``
         # is the fallback, where Get answers None.
         "fStop": float(value_at(geom.GetFStopAttr(), time)),

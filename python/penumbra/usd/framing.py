@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
+import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom
 
 from . import curves, points
@@ -20,32 +21,44 @@ FRAMING_CAMERA_PATH = Sdf.Path("/PenumbraFramingCamera")
 
 
 def framing_camera(stage: Usd.Stage, time: Usd.TimeCode, purposes: Iterable[str]) -> Usd.Prim | None:
-    """A camera (in the session layer) that sees the stage's bounds whole, looking along the
-    stage's horizontal axis with its up axis up; ``None`` when there is nothing to frame."""
+    """A camera (in the session layer) placed as usdrecord places it
+    (``UsdAppUtilsFrameRecorder``'s ``_ComputeCameraToFrameStage``): GfCamera's default lens,
+    film and clipping range, looking along the stage's horizontal axis with its up axis up, back
+    from the bounds' centre by the distance at which half their diagonal across the image plane
+    fills half the horizontal field of view, plus half their depth; ``None`` when there is
+    nothing to frame."""
     cache = UsdGeom.BBoxCache(time, [UsdGeom.Tokens.default_, *purposes], useExtentsHint=True)
     bounds = cache.ComputeWorldBound(stage.GetPseudoRoot()).ComputeAlignedRange()
     for grown in _default_width_bounds(stage, cache, time):
         bounds.UnionWith(grown)
     if bounds.IsEmpty():
         return None
-    centre = bounds.GetMidpoint()
-    radius = max(bounds.GetSize().GetLength() / 2, 1e-6)
+    # The aligned range's midpoint is usdrecord's centroid of the world bound (an affine
+    # image of a box is centred on the image of its centre).
+    centre, size = bounds.GetMidpoint(), bounds.GetSize()
+    z_up = UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.z
+    across, up, depth = (size[0], size[2], size[1]) if z_up else (size[0], size[1], size[2])
+    gf_camera = Gf.Camera()
+    # Rounded to single precision where usdrecord stores floats (its arithmetic is in double),
+    # so that the placement is its own to the bit.
+    plane_radius = float(np.float32(math.sqrt((across / 2) ** 2 + (up / 2) ** 2)))
+    half_fov = float(np.float32(gf_camera.GetFieldOfView(Gf.Camera.FOVHorizontal) / 2))
+    distance = np.float32(plane_radius / math.tan(math.radians(half_fov)))
+    distance = np.float32(float(distance) + depth / 2)
+    near = np.float32(gf_camera.clippingRange.min)
+    if distance < near:  # usdrecord backs small scenes off so the near plane cannot cut them
+        distance = distance + near  # in float, as usdrecord's
+    if z_up:
+        transform = Gf.Matrix4d().SetRotate(Gf.Rotation(Gf.Vec3d(1, 0, 0), 90))
+        transform.SetTranslateOnly(centre - Gf.Vec3d(0, float(distance), 0))
+    else:
+        transform = Gf.Matrix4d().SetTranslate(centre + Gf.Vec3d(0, 0, float(distance)))
+    gf_camera.transform = transform
     with Usd.EditContext(stage, stage.GetSessionLayer()):
         camera = UsdGeom.Camera.Define(stage, FRAMING_CAMERA_PATH)
-        # The fallback 50 mm lens on the fallback 20.955 x 15.2908 mm film: fit the bounding
-        # sphere in the narrower (vertical) half angle.
-        focal = camera.GetFocalLengthAttr().Get()
-        half_angle = math.atan(camera.GetVerticalApertureAttr().Get() / 2 / focal)
-        distance = radius / math.sin(half_angle)
-        camera.CreateClippingRangeAttr(Gf.Vec2f(max(distance - 2 * radius, distance * 1e-3), distance + 2 * radius))
-        if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.z:
-            # Look along +Y with +Z up.
-            rotation = Gf.Matrix4d(1, 0, 0, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 1)
-            eye = centre - Gf.Vec3d(0, distance, 0)
-        else:
-            rotation = Gf.Matrix4d(1)
-            eye = centre + Gf.Vec3d(0, 0, distance)
-        camera.MakeMatrixXform().Set(rotation * Gf.Matrix4d().SetTranslate(eye))
+        # Every lens, film and clipping value authored from the GfCamera, not the schema's
+        # fallbacks (which match it today).
+        camera.SetFromCamera(gf_camera, Usd.TimeCode.Default())
     return camera.GetPrim()
 
 
