@@ -4,14 +4,26 @@ protoIndices, masked by invisibleIds, sharing one BVH per prototype mesh."""
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 from pxr import Gf, UsdGeom, Vt
 
 import penumbra
-from stages import add_camera, add_distant_light, add_preview_material, add_quad, bind, new_stage
+from measure import centroid, intensity
+from stages import (
+    add_camera,
+    add_distant_light,
+    add_emissive_sphere,
+    add_preview_material,
+    add_quad,
+    bind,
+    emitter_stage,
+    new_stage,
+)
 
 SMALL = dict(camera="/cam", width=40, samples=1)
+ORBIT = dict(camera="/cam", width=128, samples=16, max_path_depth=0)  # emitters on black
 
 
 def instancer_stage():
@@ -93,6 +105,54 @@ def test_copies_blur_along_their_velocities():
     assert color_at(blurred, 0.3, 1)[3] == 0
     sharp = renderer.render(**SMALL, disable_motion_blur=True)
     assert color_at(sharp, -0.5, 1)[3] == 0 and color_at(sharp, -1, 1)[3] == 1
+
+
+def orbit_stage(turns: dict[float, float], spin: float = 0.0, shutter_close: float = 0.0):
+    """One copy at (0, 0, -10) of an emissive ball (radius 0.25) 1 unit along +X of its
+    prototype's origin, turned about Z by ``orientationsf`` (float quaternions) keyed ``turns``
+    (degrees by time code) and spun by ``spin`` angularVelocities (degrees per second, 24 time
+    codes per second, keyed with the first turn); the camera at the origin sees the copy's
+    position at the image centre."""
+    stage = emitter_stage()
+    stage.SetEndTimeCode(2)
+    camera = add_camera(stage, translate=(0, 0, 0), focal_length=50.0, aperture=(36.0, 36.0))
+    camera.CreateShutterCloseAttr(shutter_close)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/orbit")
+    add_emissive_sphere(stage, "/orbit/Prototypes/ball", (1, 0, 0), 0.25)
+    instancer.CreatePrototypesRel().SetTargets(["/orbit/Prototypes/ball"])
+    instancer.CreateProtoIndicesAttr(Vt.IntArray([0]))
+    instancer.CreatePositionsAttr(Vt.Vec3fArray([(0, 0, -10)]))
+    orientations = instancer.CreateOrientationsfAttr()
+    for time, degrees in turns.items():
+        turn = Gf.Quatf(Gf.Rotation(Gf.Vec3d(0, 0, 1), degrees).GetQuat())
+        orientations.Set(Vt.QuatfArray([turn]), time)
+    if spin:
+        instancer.CreateAngularVelocitiesAttr().Set(Vt.Vec3fArray([(0, 0, spin)]), min(turns))
+    return stage
+
+
+def ball_angle(image) -> float:
+    """The direction of the light's centroid from the image centre (degrees from +X, counter-
+    clockwise): half the swept angle for a ball turning at a steady rate from 0."""
+    weights = intensity(image)
+    x, y = centroid(weights)
+    height, width = weights.shape
+    return math.degrees(math.atan2(height / 2 - y, x - width / 2))
+
+
+def test_keyed_orientationsf_turn_copies_within_and_across_frames():
+    renderer = penumbra.Renderer(orbit_stage({1.0: 0.0, 2.0: 90.0}, shutter_close=1.0))
+    # Frame 1 sweeps the quarter turn over its shutter [1, 2]; frame 2 holds the last key.
+    assert ball_angle(renderer.render(time=1.0, **ORBIT)) == pytest.approx(45, abs=2)
+    assert ball_angle(renderer.render(time=2.0, **ORBIT)) == pytest.approx(90, abs=2)
+
+
+def test_angular_velocities_spin_keyed_orientationsf_once():
+    # usd-core spins time-sampled orientationsf itself: 2160°/s at 24 time codes per second
+    # over the shutter [0, 0.5] sweeps 45°, not twice that.
+    stage = orbit_stage({1.0: 0.0}, spin=2160.0, shutter_close=0.5)
+    image = penumbra.Renderer(stage).render(time=1.0, **ORBIT)
+    assert ball_angle(image) == pytest.approx(22.5, abs=2)
 
 
 def test_id_aovs_tell_copies_apart():

@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, UsdGeom
+from pxr import Gf, Sdf, UsdGeom, UsdShade
 
 import penumbra
 from measure import centroid, intensity, streak_ends
 from penumbra import _core
 from penumbra.cli import main
-from stages import add_camera, add_emissive_sphere, emitter_stage
+from stages import add_camera, add_emissive_sphere, bind, emitter_stage
 
 WIDTH = 960
 FOCAL, FILM = 0.1, 0.036
@@ -77,9 +77,10 @@ def velocity_stage():
     return stage
 
 
-def assert_streak(image, start: float, end: float) -> None:
+def assert_streak(image, start: float, end: float, sharp: float = SHARP) -> None:
+    """A uniform streak from column ``start`` to ``end`` of a sphere ``sharp`` px in radius."""
     weights = intensity(image)
-    first, last = streak_ends(weights, SHARP)
+    first, last = streak_ends(weights, sharp)
     assert first == pytest.approx(start, abs=2) and last == pytest.approx(end, abs=2)
     columns = weights.sum(axis=0)
     inner = columns[round(start + 0.1 * (end - start)) : round(end - 0.1 * (end - start))]
@@ -106,6 +107,27 @@ def test_point_motion_matches_transform_motion(make_stage):
     streak = reference[reference > 0].mean()
     assert np.abs(moved - reference).mean() < 0.01 * streak
     assert streak_ends(moved, SHARP) == pytest.approx(streak_ends(reference, SHARP), abs=0.5)
+
+
+@pytest.mark.parametrize("born", [True, False])
+def test_velocities_win_over_interpolating_point_samples(born):
+    """UsdGeomPointBased: velocities sampled with the points, not the line between the points'
+    samples, move them over the shutter. A particle keyed at frames 1 and 2 whose velocities
+    carry it from START to END; ``born``: a second particle appears at frame 2 (above the film),
+    so the keys cannot be interpolated; else the frame-2 key is at 0, half way."""
+    stage = streak_stage()
+    particles = UsdGeom.Points.Define(stage, "/particles")
+    bind(particles, UsdShade.Material(stage.GetPrimAtPath("/Looks/glow")))
+    particles.CreateWidthsAttr([2 * RADIUS])
+    particles.SetWidthsInterpolation(UsdGeom.Tokens.constant)
+    speed = Gf.Vec3f((END - START) * stage.GetTimeCodesPerSecond(), 0, 0)
+    later = [Gf.Vec3f(END, 0, DEPTH), Gf.Vec3f(0, 1, DEPTH)] if born else [Gf.Vec3f(0, 0, DEPTH)]
+    for time, points in ((1.0, [Gf.Vec3f(START, 0, DEPTH)]), (2.0, later)):
+        particles.GetPointsAttr().Set(points, time)
+        particles.GetVelocitiesAttr().Set([speed] * len(points), time)
+    width = WIDTH // 2  # as many samples per column of the streak, a quarter of the rays
+    image = penumbra.Renderer(stage).render(**{**RENDER, "width": width})
+    assert_streak(image, column(START, width=width), column(END, width=width), SHARP / 2)
 
 
 def test_camera_motion_blurs_a_static_scene():

@@ -151,6 +151,33 @@ def test_velocities_and_accelerations_use_time_codes_per_second():
     np.testing.assert_array_equal(samples_of(mesh, Shutter(FRAME)), rest)  # no blur
 
 
+@pytest.mark.parametrize("in_step", [True, False])
+def test_keyed_points_move_by_velocities_sampled_with_them_as_usd_core_does(in_step):
+    """Points keyed within the shutter move by their velocities (and accelerations) when those
+    are sampled at the points' times, as usd-core's ComputePointsAtTimes has it; velocities
+    authored otherwise leave the keys interpolated, with a warning."""
+    stage = point_stage()
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/quad"))
+    rest = np.array(mesh.GetPointsAttr().Get())
+    up, fall = [Gf.Vec3f(0, 12, 0)] * 4, [Gf.Vec3f(0, 0, -24)] * 4  # units/s, units/s²
+    for time, dx in ((1.0, 0.0), (2.0, 1.0)):  # the keys: one unit along +X
+        mesh.GetPointsAttr().Set((rest + (dx, 0, 0)).tolist(), time)
+        mesh.CreateAccelerationsAttr().Set(fall, time)
+        if in_step:
+            mesh.CreateVelocitiesAttr().Set(up, time)
+    if not in_step:
+        mesh.CreateVelocitiesAttr(up)
+    warnings: list[str] = []
+    samples = samples_of(mesh, warnings=warnings)
+    usd = mesh.ComputePointsAtTimes(SHUTTER.times(len(samples) - 1), FRAME)
+    np.testing.assert_allclose(samples, np.asarray(usd), atol=1e-6)
+    # At shutter close (1/24 s after the key): ½ unit up, ½·24/24² below; or the next key.
+    moved = (0, 0.5, -0.5 / 24) if in_step else (1, 0, 0)
+    np.testing.assert_allclose(samples[-1] - rest, [moved] * 4, atol=1e-6)
+    ignored = "/quad: velocities are not sampled at the times of the points' samples; the points"
+    assert warnings == ([] if in_step else [f"{ignored} are interpolated instead"])
+
+
 def test_mismatched_velocities_are_ignored_with_a_warning():
     stage = point_stage()
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/quad"))

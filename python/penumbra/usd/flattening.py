@@ -16,8 +16,9 @@ of the subtree needs), so motion samples compose sample by sample.
 Point instancer copies come from usd-core (``ComputeInstanceTransformsAtTimes``: positions,
 orientations, scales, the prototype root's own transform), masked by ``invisibleIds``. usd-core
 extrapolates ``velocities``/``accelerations`` only from time-sampled positions and
-``angularVelocities`` only from time-sampled orientations; for default-valued ones Penumbra
-moves and spins each copy itself (units per second, degrees per second: docs/design.md §3).
+``angularVelocities`` only from time-sampled orientations (``orientationsf`` when it has values,
+as usd-core reads it); for default-valued ones Penumbra moves and spins each copy itself (units
+per second, degrees per second: docs/design.md §3).
 Copies with a NaN or infinity in their transform are skipped with one warning per instancer
 (or per prim whose xformOps hold it); a scale of 0 hides its copies as it hides a mesh
 (transforms are composed downwards, never inverted).
@@ -209,12 +210,12 @@ class Flattener:
 
     def point_instancer_segments(self, prim: Usd.Prim) -> int:
         """Uniform steps the copies of point instancer ``prim`` need (0: static): the authored
-        samples of positions, orientations and scales inside the shutter; velocities move
-        copies linearly, accelerations and angular velocities bend their paths."""
+        samples of positions, orientations (or orientationsf) and scales inside the shutter;
+        velocities move copies linearly, accelerations and angular velocities bend their paths."""
         instancer = UsdGeom.PointInstancer(prim)
         keyed = [
             instancer.GetPositionsAttr(),
-            instancer.GetOrientationsAttr(),
+            _orientations_attr(instancer),
             instancer.GetScalesAttr(),
         ]
         frame = self.shutter.frame
@@ -444,15 +445,15 @@ class Flattener:
     def _default_valued_motion(
         self, instancer: UsdGeom.PointInstancer, local: np.ndarray, times: list[Usd.TimeCode]
     ) -> np.ndarray:
-        """Copies moved by what usd-core leaves out: for default-valued orientations, a spin of
-        ``angularVelocities`` (degrees/s, about the copy's position, after its orientation, as
-        usd-core composes it); for default-valued positions, p + v·Δ + ½·a·Δ², with
-        Δ = (t − frame) / timeCodesPerSecond."""
+        """Copies moved by what usd-core leaves out: for default-valued orientations (of
+        :func:`_orientations_attr`), a spin of ``angularVelocities`` (degrees/s, about the copy's
+        position, after its orientation, as usd-core composes it); for default-valued positions,
+        p + v·Δ + ½·a·Δ², with Δ = (t − frame) / timeCodesPerSecond."""
         frame = self.shutter.frame.GetValue()
         seconds = np.array([t.GetValue() - frame for t in times]) / self.stage.GetTimeCodesPerSecond()
         count = len(local)
         local = local.copy()
-        if not instancer.GetOrientationsAttr().GetNumTimeSamples():
+        if not _orientations_attr(instancer).GetNumTimeSamples():
             spins = self._per_copy(instancer, instancer.GetAngularVelocitiesAttr(), count)
             if spins is not None:
                 positions = self._per_copy(instancer, instancer.GetPositionsAttr(), count)
@@ -517,6 +518,16 @@ class Flattener:
                 yield prim, "mesh"  # a leaf: meshes, points and curves are copied alike
             if prim.IsInstance():
                 yield prim, "instance"
+
+
+def _orientations_attr(instancer: UsdGeom.PointInstancer) -> Usd.Attribute:
+    """The orientations usd-core places copies by (UsdGeomPointInstancer::UsesOrientationsf):
+    ``orientationsf`` when it holds quaternions at the earliest time, else ``orientations``."""
+    precise = instancer.GetOrientationsfAttr()
+    value = precise.Get(Usd.TimeCode.EarliestTime())
+    if isinstance(value, Vt.QuatfArray) and len(value):
+        return precise
+    return instancer.GetOrientationsAttr()
 
 
 def _fastest_spin(spins) -> float:

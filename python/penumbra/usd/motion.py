@@ -9,9 +9,12 @@ Every array returned holds one sample (static) or K samples at the uniformly spa
   midpoint strays from that interpolation: an object turning about its own origin needs no
   extra samples, an object orbiting a pivot does (its origin would otherwise cut the chord),
   and a turn of 180° or more between two keys is sampled finely enough to keep its direction;
-* points: time-sampled ``points`` (constant topology) at the times that include their authored
-  samples; else ``velocities`` (units/s) and ``accelerations`` (units/s²) extrapolated from the
-  points' sample at or before the frame, Δ = (t − t0) / timeCodesPerSecond.
+* points: ``velocities`` (units/s) and ``accelerations`` (units/s²) extrapolated from the
+  points' sample at or before the frame, Δ = (t − t0) / timeCodesPerSecond; they replace the
+  interpolation of ``points`` samples inside the shutter (UsdGeomPointBased: the only blur for a
+  changing point count) where usd-core's ComputePointsAtTimes uses them, sampled in step with the
+  points, one per point. Else time-sampled ``points`` (constant topology) at the times that
+  include their authored samples.
 """
 
 from __future__ import annotations
@@ -133,16 +136,59 @@ def point_samples(
     topology changes within the shutter).
     ``velocities_might_be_authored`` False: the caller knows the mesh has no velocities."""
     shutter = reader.shutter
-    if shutter.blurred and changes_within(mesh.GetPointsAttr(), shutter.interval):
-        samples = _deformation(mesh, shutter, len(points), warn, path)
-    elif velocities_might_be_authored and mesh.GetVelocitiesAttr().HasAuthoredValue():
+    moves = velocities_might_be_authored and mesh.GetVelocitiesAttr().HasAuthoredValue()
+    if moves:
         reader.depends_on_shutter()  # extrapolated over the shutter from the frame's sample
-        samples = _velocity_motion(mesh, shutter, warn, path) if shutter.blurred else None
-    else:
-        samples = None
+    samples = None
+    if shutter.blurred:
+        samples = _point_motion(mesh, shutter, moves, len(points), warn, path)
     if samples is None or all(np.array_equal(s, samples[0]) for s in samples):
         return points
     return samples
+
+
+def _point_motion(
+    mesh: UsdGeom.PointBased,
+    shutter: Shutter,
+    moves: bool,
+    count: int,
+    warn: Callable[[str], None],
+    path: str,
+) -> np.ndarray | None:
+    """Velocity motion (``moves``: velocities are authored) or the points' samples; velocities
+    replace the interpolation of points keyed within the shutter where usd-core's
+    ComputePointsAtTimes uses them (UsdGeomPointBased); ``None`` when nothing moves."""
+    attr = mesh.GetPointsAttr()
+    if not changes_within(attr, shutter.interval):
+        return _velocity_motion(mesh, shutter, warn, path) if moves else None
+    if moves:
+        # usd-core pairs velocities with the points' samples only when sampled at their times.
+        if _in_step(attr, mesh.GetVelocitiesAttr(), shutter.frame):
+            samples = _velocity_motion(mesh, shutter, warn, path, keyed=True)
+            if samples is not None:
+                return samples
+        else:
+            warn(f"{path}: velocities are not sampled at the times of the points' samples; "
+                 "the points are interpolated instead")
+    return _deformation(mesh, shutter, count, warn, path)
+
+
+def _in_step(lead: Usd.Attribute, follower: Usd.Attribute, frame: Usd.TimeCode) -> bool:
+    """Whether ``follower`` is time-sampled where ``lead`` is about ``frame``, the condition on
+    which usd-core extrapolates ``lead`` by ``follower`` (UsdGeom's sampling utilities)."""
+    samples = _bracket(lead, frame)
+    return bool(samples) and samples == _bracket(follower, frame)
+
+
+def _bracket(attr: Usd.Attribute, frame: Usd.TimeCode) -> tuple[float, ...]:
+    """The sample of ``attr`` at or before ``frame`` (its first one if none is) and the samples
+    bracketing the moment after ``frame``, as usd-core compares them; () without samples."""
+    time = frame.GetValue()
+    at = attr.GetBracketingTimeSamples(time)
+    if not at:
+        return ()
+    after = attr.GetBracketingTimeSamples(time + Usd.TimeCode.SafeStep()) if at[0] == at[1] else at
+    return (at[0], *after)
 
 
 def _deformation(
@@ -177,10 +223,16 @@ def _topology(gprim: UsdGeom.PointBased) -> tuple[Usd.Attribute, ...]:
 
 
 def _velocity_motion(
-    mesh: UsdGeom.PointBased, shutter: Shutter, warn: Callable[[str], None], path: str
+    mesh: UsdGeom.PointBased,
+    shutter: Shutter,
+    warn: Callable[[str], None],
+    path: str,
+    keyed: bool = False,
 ) -> np.ndarray | None:
     """p(t) = p0 + v·Δ + ½·a·Δ² at the shutter's times, p0, v and a at the points' sample at
-    or before the frame; ``None`` when the velocities do not match the points."""
+    or before the frame; ``None`` when the velocities do not match the points. ``keyed`` (the
+    points change within the shutter): accelerations count only sampled in step with the
+    velocities, as usd-core has it."""
     attr = mesh.GetPointsAttr()
     bracket = attr.GetBracketingTimeSamples(shutter.frame.GetValue())
     t0 = Usd.TimeCode(bracket[0]) if bracket else shutter.frame
@@ -188,7 +240,9 @@ def _velocity_motion(
     velocities = _per_point(mesh.GetVelocitiesAttr(), t0, len(origin), warn, path)
     if velocities is None:
         return None
-    accelerations = _per_point(mesh.GetAccelerationsAttr(), t0, len(origin), warn, path)
+    accelerations = None
+    if not keyed or _in_step(mesh.GetVelocitiesAttr(), mesh.GetAccelerationsAttr(), shutter.frame):
+        accelerations = _per_point(mesh.GetAccelerationsAttr(), t0, len(origin), warn, path)
     segments = min(ACCELERATION_SEGMENTS if accelerations is not None else 1, shutter.max_segments)
     seconds_per_code = 1.0 / mesh.GetPrim().GetStage().GetTimeCodesPerSecond()
     samples = []
