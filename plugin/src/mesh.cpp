@@ -180,6 +180,93 @@ void Mesh::syncLight(SyncContext& context) {
   light_->syncDirty(context);
 }
 
+namespace {
+
+/// How closely diced facets follow a primvar that varies over the limit surface: this fraction
+/// of the primvar's range (halved per complexity level, as the positions' tolerance is).
+constexpr float kPrimvarTolerance = 1.0f / 64;
+
+/// The cage's vertex-interpolated data (primvars and displayColor) as points of up to three
+/// components each (a fourth is left out), with each one's tolerance: kPrimvarTolerance of its
+/// values' range. A face diced into facets across which such data varies non-linearly (a flat
+/// face carries no curvature, yet its colours are bicubic on the limit surface) shows the
+/// facets' linear interpolation instead.
+std::vector<std::pair<std::vector<Vec3f>, float>> vertexData(const MeshData& cage) {
+  std::vector<std::pair<std::vector<Vec3f>, float>> result;
+  const auto add = [&](std::vector<Vec3f> values) {
+    if (values.size() != cage.points.size()) return;  // the tessellator reports it
+    Vec3f lower = values[0], upper = values[0];
+    for (const Vec3f& value : values) {
+      lower = componentMin(lower, value);
+      upper = componentMax(upper, value);
+    }
+    const Vec3f range = upper - lower;
+    const float tolerance = kPrimvarTolerance * std::max({range.x, range.y, range.z});
+    if (tolerance > 0 && std::isfinite(tolerance))
+      result.emplace_back(std::move(values), tolerance);
+  };
+  if (cage.displayColorInterpolation == Interpolation::Vertex && !cage.displayColor.empty())
+    add(cage.displayColor);
+  for (const Primvar& primvar : cage.primvars) {
+    if (primvar.interpolation != Interpolation::Vertex || primvar.width < 1) continue;
+    const size_t width = size_t(primvar.width), count = primvar.values.size() / width;
+    std::vector<Vec3f> values(count);
+    for (size_t i = 0; i < count; ++i) {
+      float value[3] = {0, 0, 0};
+      for (size_t c = 0; c < std::min<size_t>(width, 3); ++c)
+        value[c] = primvar.values[i * width + c];
+      values[i] = Vec3f(value[0], value[1], value[2]);
+    }
+    add(std::move(values));
+  }
+  return result;
+}
+
+/// Segments per edge that keep the cage's face-varying data (primvars and displayColor, one
+/// value per face corner) within kPrimvarTolerance of its range where two triangles would
+/// interpolate it linearly across a quad: the bilinear twist |f0 - f1 + f2 - f3| of a quad's
+/// corners shrinks as 1/N² over N segments, and a triangle misses a quarter of it.
+std::vector<int> faceVaryingRates(const MeshData& cage, float fraction) {
+  std::vector<int> rates(cage.faceVertexCounts.size(), 1);
+  const size_t corners = cage.faceVertexIndices.size();
+  const auto add = [&](const float* values, size_t width) {
+    float lower = kInfinity, upper = -kInfinity;
+    for (size_t i = 0; i < corners * width; ++i) {
+      lower = std::min(lower, values[i]);
+      upper = std::max(upper, values[i]);
+    }
+    const float tolerance = fraction * kPrimvarTolerance * (upper - lower);
+    if (!(tolerance > 0) || !std::isfinite(tolerance)) return;
+    size_t start = 0;
+    for (size_t face = 0; face < rates.size(); ++face) {
+      const int count = cage.faceVertexCounts[face];
+      if (count == 4) {
+        float twist = 0;
+        for (size_t c = 0; c < width; ++c) {
+          const auto at = [&](size_t k) { return values[(start + k) * width + c]; };
+          twist = std::max(twist, std::abs(at(0) - at(1) + at(2) - at(3)));
+        }
+        rates[face] = std::max(rates[face], tessellationRateFor(twist, tolerance));
+      }
+      start += size_t(std::max(count, 0));
+    }
+  };
+  if (cage.displayColorInterpolation == Interpolation::FaceVarying && corners > 0 &&
+      cage.displayColor.size() == corners) {
+    std::vector<float> flat;
+    for (const Vec3f& colour : cage.displayColor)
+      flat.insert(flat.end(), {colour.x, colour.y, colour.z});
+    add(flat.data(), 3);
+  }
+  for (const Primvar& primvar : cage.primvars)
+    if (primvar.interpolation == Interpolation::FaceVarying && primvar.width >= 1 && corners > 0 &&
+        primvar.values.size() == corners * size_t(primvar.width))
+      add(primvar.values.data(), size_t(primvar.width));
+  return rates;
+}
+
+}  // namespace
+
 TriangleMesh Mesh::triangles(SyncContext& context) {
   const std::optional<SubdivisionScheme> scheme = parseSubdivisionScheme(subdivisionScheme_);
   if (!scheme) return triangulate(data_);
@@ -209,20 +296,41 @@ TriangleMesh Mesh::triangles(SyncContext& context) {
     std::vector<size_t> faceStarts;
     for (const int count : cage.faceVertexCounts)
       faceStarts.push_back(faceStart), faceStart += size_t(count);
+    std::vector<float> pixelsAcross(rates.size(), 0.0f);  // each face's longest edge, at open
     for (const std::vector<Vec3f>* points : samples) {
       const std::vector<float> bounds = limit.curvatureBounds(*points);
       for (size_t face = 0; face < rates.size() && face < cage.faceVertexCounts.size(); ++face) {
-        float nearest = kInfinity;
-        for (int k = 0; k < cage.faceVertexCounts[face]; ++k) {
-          const Vec3f p = objectToWorld.applyToPoint(
-              (*points)[size_t(cage.faceVertexIndices[faceStarts[face] + size_t(k)])]);
+        float nearest = kInfinity, longest = 0;
+        const int count = cage.faceVertexCounts[face];
+        for (int k = 0; k < count; ++k) {
+          const auto corner = [&](int j) {
+            return objectToWorld.applyToPoint(
+                (*points)[size_t(cage.faceVertexIndices[faceStarts[face] + size_t(j % count)])]);
+          };
+          const Vec3f p = corner(k);
           nearest = std::min(nearest, length(p - eye));
+          longest = std::max(longest, length(corner(k + 1) - p));
         }
         const float footprint =
             pixelAngle > 0 ? std::max(nearest, camera.nearClip) * pixelAngle : pixelWidth;
         rates[face] = std::max(rates[face],
                                tessellationRateFor(bounds[face] * stretch, fraction * footprint));
+        if (points == &cage.points) pixelsAcross[face] = longest / footprint;
       }
+    }
+    // Primvars vary over the limit surface as the positions do (a flat face carries no
+    // curvature, yet its colours are bicubic or bilinear there): its facets must follow them
+    // within a fraction of their range, though no finer than the face's pixels can show.
+    std::vector<int> dataRates = faceVaryingRates(cage, fraction);
+    for (const auto& [values, tolerance] : vertexData(cage)) {
+      const std::vector<float> bounds = limit.curvatureBounds(values);
+      for (size_t face = 0; face < dataRates.size() && face < bounds.size(); ++face)
+        dataRates[face] =
+            std::max(dataRates[face], tessellationRateFor(bounds[face], fraction * tolerance));
+    }
+    for (size_t face = 0; face < rates.size() && face < dataRates.size(); ++face) {
+      const int visible = int(std::min(std::ceil(pixelsAcross[face]), float(kMaxTessellationRate)));
+      rates[face] = std::max(rates[face], std::min(dataRates[face], std::max(visible, 1)));
     }
     TriangleMesh result = limit.tessellate(cage.points, rates);
     for (const std::vector<Vec3f>& step : cage.pointMotion)

@@ -132,3 +132,37 @@ def test_tags_that_do_not_fit_the_mesh_are_left_out_one_by_one():
     assert "/cube: subdivision tags that do not fit the mesh are left out" in messages[0]
     assert "holeIndices[0] = 6 is out of range for 6 faces" in messages[0]
     assert "crease 0: (0, 7) is not an edge" in messages[0]
+
+
+@pytest.mark.parametrize("interpolation", ["vertex", "faceVarying"])
+def test_a_flat_face_follows_its_colours_over_the_limit_surface(interpolation):
+    # One flat bilinear quad with red, green, blue and white corners: its colour is bilinear in
+    # the quad's parameters, the mean of the corners at the centre. A flat face has no curvature
+    # to dice for, and was diced into two triangles whose linear interpolation gave (0.49, 0.02,
+    # 0.49) at the centre.
+    from pxr import Gf, Vt
+
+    from stages import add_camera, new_stage
+
+    stage = new_stage()
+    add_camera(stage)
+    quad = UsdGeom.Mesh.Define(stage, "/quad")
+    quad.CreatePointsAttr([Gf.Vec3f(-1, -1, 0), Gf.Vec3f(1, -1, 0), Gf.Vec3f(1, 1, 0), Gf.Vec3f(-1, 1, 0)])
+    quad.CreateFaceVertexCountsAttr([4])
+    quad.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    quad.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.bilinear)
+    corners = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 1)], dtype=np.float32)
+    quad.CreateDisplayColorPrimvar(interpolation).Set(Vt.Vec3fArray.FromNumpy(corners))
+    image = penumbra.render(stage, camera="/cam", width=40, samples=1, aovs=("depth", "position", "albedo"))
+    u = (image["position"][..., 0] + 1) / 2
+    v = (image["position"][..., 1] + 1) / 2
+    expected = (
+        corners[0] * ((1 - u) * (1 - v))[..., None]
+        + corners[1] * (u * (1 - v))[..., None]
+        + corners[2] * (u * v)[..., None]
+        + corners[3] * ((1 - u) * v)[..., None]
+    )
+    hit = np.isfinite(image["depth"][..., 0])
+    inside = hit & (np.abs(image["position"][..., :2]) < 0.95).all(axis=-1)
+    assert inside.mean() > 0.1
+    assert np.abs(image["albedo"] - expected)[inside].max() < 0.02
