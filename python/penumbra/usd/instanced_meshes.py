@@ -20,6 +20,7 @@ from pxr import Sdf, Usd, UsdGeom
 from .flattening import Leaf, user_facing_path
 from .curves import sync_curves_data
 from .mesh import sync_mesh_data
+from .mesh_sync import warn_subset_bindings
 from .points import sync_points_data
 from .render_pass import HIDING_RAYS, SHOWN, PassVisibility, set_pass_visibility
 from .sampling import SampleReader, Shutter
@@ -126,11 +127,22 @@ class InstancedMeshes:
     """Hidden mesh + instancer rprims for groups of copies, updated by difference: a mesh is
     re-read only when new, edited or time-varying; copies are re-sent only when they moved."""
 
-    def __init__(self, core, warn: Callable[[str], None], materials: MaterialSource, prefix: str = ""):
+    def __init__(
+        self,
+        core,
+        warn: Callable[[str], None],
+        materials: MaterialSource,
+        prefix: str = "",
+        subset_warnings: bool = False,
+    ):
         self.core = core
         self.warn = warn
         self.materials = materials
         self.prefix = prefix
+        # Warn of GeomSubset bindings as MeshSync does for plain meshes: only for native
+        # instancing, whose meshes no plain sync sees and whose ``warn`` says a message once
+        # (a point instancer's prototype may also be synced plainly, and its ``warn`` repeats).
+        self.subset_warnings = subset_warnings
         self._pushed: dict[GroupKey, _Pushed] = {}
 
     @property
@@ -221,8 +233,11 @@ class InstancedMeshes:
         def warn(message: str) -> None:  # name the prim the user knows, not the hidden id
             self.warn(message.replace(pushed.mesh_id, name))
 
-        read = _READERS[_rprim_type(group.mesh)]
-        pushed.usable = read(self.core, group.mesh, reader, warn, pushed.mesh_id)
+        rprim_type = _rprim_type(group.mesh)
+        pushed.usable = _READERS[rprim_type](self.core, group.mesh, reader, warn, pushed.mesh_id)
+        # Every group of the mesh, and every re-read, gives one message: ``warn`` says it once.
+        if self.subset_warnings and pushed.usable and rprim_type == "mesh":
+            warn_subset_bindings(group.mesh, name, self.warn)
         pushed.varying = reader.varying
         self.core.set_visible(pushed.mesh_id, False)  # only its copies render
         if not pushed.usable:  # no copies of an unreadable mesh

@@ -30,6 +30,18 @@ def authored(inherited: InheritedState, prim: Usd.Prim, path: Sdf.Path) -> Autho
     return Authored(inherited.authored(prim, path), inherited.inherited_primvars(prim, path))
 
 
+def warn_subset_bindings(
+    prim: Usd.Prim, name: Sdf.Path | str, warn: Callable[[str], None]
+) -> None:
+    """Warn (naming the mesh ``name``, as users know it) that ``prim``'s GeomSubset bindings
+    are ignored; shared by plain and instanced meshes so that both say the same."""
+    if prim.GetChildrenNames() and has_subset_bindings(prim):  # subsets are children
+        warn(
+            f"{name}: per-face material bindings (GeomSubsets) are not supported yet; "
+            "the mesh's own binding is used"
+        )
+
+
 class MeshSync:
     """Meshes (and what is read as one, :func:`~penumbra.usd.mesh.reads_as_mesh`): their data,
     transforms over the shutter, visibility and material binding; those with UsdLuxMeshLightAPI
@@ -229,11 +241,7 @@ class MeshSync:
     ) -> None:
         """Bind mesh ``path`` to ``material_path``; ``new``: the mesh has just entered the
         delegate, unbound."""
-        if prim.GetChildrenNames() and has_subset_bindings(prim):  # subsets are children
-            self._warn(
-                f"{path}: per-face material bindings (GeomSubsets) are not supported yet; "
-                "the mesh's own binding is used"
-            )
+        warn_subset_bindings(prim, path, self._warn)
         material_id = self._materials.bind(path, record.material, material_path)
         record.material = str(material_path) if material_path is not None else ""
         if material_id or not new:

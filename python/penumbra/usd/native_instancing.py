@@ -66,7 +66,7 @@ class NativeInstancing:
         self.render_pass = render_pass
         self.linking = linking
         self.warn = warn
-        self.meshes = InstancedMeshes(core, warn, materials)
+        self.meshes = InstancedMeshes(core, warn, materials, subset_warnings=True)
         self.shutter: Shutter | None = None
         self._dirty = True
         self._varying = False
