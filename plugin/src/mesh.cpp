@@ -106,7 +106,8 @@ void Mesh::setNormals(std::vector<Vec3f> normals, Interpolation interpolation) {
 void Mesh::sync(SyncContext& context, uint32_t bits) {
   context.sceneChanged = true;
   Scene& scene = context.scene;
-  if (bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided)) {
+  const bool reshaped = bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided);
+  if (reshaped || ((bits & DirtyTransform) && needsFinerDicing(context))) {
     for (const std::string& problem : dropInvalidPrimvars())
       context.warn(id() + ": " + problem + "; materials reading it use their fallback");
     ++context.counters.meshGeometrySyncs;
@@ -267,6 +268,78 @@ std::vector<int> faceVaryingRates(const MeshData& cage, float fraction) {
 
 }  // namespace
 
+std::vector<int> Mesh::dicingRates(const LimitSurfaceTessellator& limit,
+                                   const SyncContext& context) const {
+  const MeshData& cage = data_;
+  // Dice each base face finely enough that its facets stay within a fraction of a pixel of
+  // the limit surface at its distance from the camera (halved per complexity level).
+  const CameraParams& camera = context.dicing.camera;
+  const Transform& objectToWorld = transform().first();
+  const Vec3f eye = camera.cameraToWorld.first().applyToPoint({0, 0, 0});
+  const float pixelAngle =
+      camera.projection == Projection::Perspective
+          ? camera.horizontalAperture / camera.focalLength / float(context.dicing.imageWidth)
+          : 0.0f;
+  const float pixelWidth = 0.1f * camera.horizontalAperture / float(context.dicing.imageWidth);
+  const float fraction = std::ldexp(1.0f, -context.complexity);
+  // World-space curvature bounds: the transform's largest stretch scales them.
+  const float stretch = std::max({length(objectToWorld.applyToVector({1, 0, 0})),
+                                  length(objectToWorld.applyToVector({0, 1, 0})),
+                                  length(objectToWorld.applyToVector({0, 0, 1}))});
+  std::vector<int> rates(limit.faceCount(), 1);
+  std::vector<const std::vector<Vec3f>*> samples = {&cage.points};
+  for (const std::vector<Vec3f>& step : cage.pointMotion) samples.push_back(&step);
+  size_t faceStart = 0;
+  std::vector<size_t> faceStarts;
+  for (const int count : cage.faceVertexCounts)
+    faceStarts.push_back(faceStart), faceStart += size_t(count);
+  std::vector<float> pixelsAcross(rates.size(), 0.0f);  // each face's longest edge, at open
+  for (const std::vector<Vec3f>* points : samples) {
+    const std::vector<float> bounds = limit.curvatureBounds(*points);
+    for (size_t face = 0; face < rates.size() && face < cage.faceVertexCounts.size(); ++face) {
+      float nearest = kInfinity, longest = 0;
+      const int count = cage.faceVertexCounts[face];
+      for (int k = 0; k < count; ++k) {
+        const auto corner = [&](int j) {
+          return objectToWorld.applyToPoint(
+              (*points)[size_t(cage.faceVertexIndices[faceStarts[face] + size_t(j % count)])]);
+        };
+        const Vec3f p = corner(k);
+        nearest = std::min(nearest, length(p - eye));
+        longest = std::max(longest, length(corner(k + 1) - p));
+      }
+      const float footprint =
+          pixelAngle > 0 ? std::max(nearest, camera.nearClip) * pixelAngle : pixelWidth;
+      rates[face] =
+          std::max(rates[face], tessellationRateFor(bounds[face] * stretch, fraction * footprint));
+      if (points == &cage.points) pixelsAcross[face] = longest / footprint;
+    }
+  }
+  // Primvars vary over the limit surface as the positions do (a flat face carries no
+  // curvature, yet its colours are bicubic or bilinear there): its facets must follow them
+  // within a fraction of their range, though no finer than the face's pixels can show.
+  std::vector<int> dataRates = faceVaryingRates(cage, fraction);
+  for (const auto& [values, tolerance] : vertexData(cage)) {
+    const std::vector<float> bounds = limit.curvatureBounds(values);
+    for (size_t face = 0; face < dataRates.size() && face < bounds.size(); ++face)
+      dataRates[face] =
+          std::max(dataRates[face], tessellationRateFor(bounds[face], fraction * tolerance));
+  }
+  for (size_t face = 0; face < rates.size() && face < dataRates.size(); ++face) {
+    const int visible = int(std::min(std::ceil(pixelsAcross[face]), float(kMaxTessellationRate)));
+    rates[face] = std::max(rates[face], std::min(dataRates[face], std::max(visible, 1)));
+  }
+  return rates;
+}
+
+bool Mesh::needsFinerDicing(const SyncContext& context) const {
+  if (!tessellator_ || dicedRates_.empty()) return false;
+  const std::vector<int> rates = dicingRates(*tessellator_, context);
+  for (size_t face = 0; face < rates.size() && face < dicedRates_.size(); ++face)
+    if (rates[face] > dicedRates_[face]) return true;
+  return false;
+}
+
 TriangleMesh Mesh::triangles(SyncContext& context) {
   const std::optional<SubdivisionScheme> scheme = parseSubdivisionScheme(subdivisionScheme_);
   if (!scheme) return triangulate(data_);
@@ -274,70 +347,14 @@ TriangleMesh Mesh::triangles(SyncContext& context) {
   ++context.counters.subdivisionDicings;
   try {
     const LimitSurfaceTessellator& limit = *tessellator(*scheme, context);
-    // Dice each base face finely enough that its facets stay within a fraction of a pixel of
-    // the limit surface at its distance from the camera (halved per complexity level).
-    const CameraParams& camera = context.dicing.camera;
-    const Transform& objectToWorld = transform().first();
-    const Vec3f eye = camera.cameraToWorld.first().applyToPoint({0, 0, 0});
-    const float pixelAngle =
-        camera.projection == Projection::Perspective
-            ? camera.horizontalAperture / camera.focalLength / float(context.dicing.imageWidth)
-            : 0.0f;
-    const float pixelWidth = 0.1f * camera.horizontalAperture / float(context.dicing.imageWidth);
-    const float fraction = std::ldexp(1.0f, -context.complexity);
-    // World-space curvature bounds: the transform's largest stretch scales them.
-    const float stretch = std::max({length(objectToWorld.applyToVector({1, 0, 0})),
-                                    length(objectToWorld.applyToVector({0, 1, 0})),
-                                    length(objectToWorld.applyToVector({0, 0, 1}))});
-    std::vector<int> rates(limit.faceCount(), 1);
-    std::vector<const std::vector<Vec3f>*> samples = {&cage.points};
-    for (const std::vector<Vec3f>& step : cage.pointMotion) samples.push_back(&step);
-    size_t faceStart = 0;
-    std::vector<size_t> faceStarts;
-    for (const int count : cage.faceVertexCounts)
-      faceStarts.push_back(faceStart), faceStart += size_t(count);
-    std::vector<float> pixelsAcross(rates.size(), 0.0f);  // each face's longest edge, at open
-    for (const std::vector<Vec3f>* points : samples) {
-      const std::vector<float> bounds = limit.curvatureBounds(*points);
-      for (size_t face = 0; face < rates.size() && face < cage.faceVertexCounts.size(); ++face) {
-        float nearest = kInfinity, longest = 0;
-        const int count = cage.faceVertexCounts[face];
-        for (int k = 0; k < count; ++k) {
-          const auto corner = [&](int j) {
-            return objectToWorld.applyToPoint(
-                (*points)[size_t(cage.faceVertexIndices[faceStarts[face] + size_t(j % count)])]);
-          };
-          const Vec3f p = corner(k);
-          nearest = std::min(nearest, length(p - eye));
-          longest = std::max(longest, length(corner(k + 1) - p));
-        }
-        const float footprint =
-            pixelAngle > 0 ? std::max(nearest, camera.nearClip) * pixelAngle : pixelWidth;
-        rates[face] = std::max(rates[face],
-                               tessellationRateFor(bounds[face] * stretch, fraction * footprint));
-        if (points == &cage.points) pixelsAcross[face] = longest / footprint;
-      }
-    }
-    // Primvars vary over the limit surface as the positions do (a flat face carries no
-    // curvature, yet its colours are bicubic or bilinear there): its facets must follow them
-    // within a fraction of their range, though no finer than the face's pixels can show.
-    std::vector<int> dataRates = faceVaryingRates(cage, fraction);
-    for (const auto& [values, tolerance] : vertexData(cage)) {
-      const std::vector<float> bounds = limit.curvatureBounds(values);
-      for (size_t face = 0; face < dataRates.size() && face < bounds.size(); ++face)
-        dataRates[face] =
-            std::max(dataRates[face], tessellationRateFor(bounds[face], fraction * tolerance));
-    }
-    for (size_t face = 0; face < rates.size() && face < dataRates.size(); ++face) {
-      const int visible = int(std::min(std::ceil(pixelsAcross[face]), float(kMaxTessellationRate)));
-      rates[face] = std::max(rates[face], std::min(dataRates[face], std::max(visible, 1)));
-    }
+    std::vector<int> rates = dicingRates(limit, context);
     TriangleMesh result = limit.tessellate(cage.points, rates);
     for (const std::vector<Vec3f>& step : cage.pointMotion)
       result.pointMotion.push_back(limit.tessellate(step, rates).points);
     result.doubleSided = cage.doubleSided;
     result.closed = isClosedSurface(cage.points, cage.faceVertexCounts, cage.faceVertexIndices,
                                     tags_.holeIndices);
+    dicedRates_ = std::move(rates);
     return result;
   } catch (const std::invalid_argument& error) {
     // A cage that cannot be rendered either (bad indices, points that are not finite) throws

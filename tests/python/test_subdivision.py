@@ -166,3 +166,38 @@ def test_a_flat_face_follows_its_colours_over_the_limit_surface(interpolation):
     inside = hit & (np.abs(image["position"][..., :2]) < 0.95).all(axis=-1)
     assert inside.mean() > 0.1
     assert np.abs(image["albedo"] - expected)[inside].max() < 0.02
+
+
+def test_a_subdivision_surface_scaled_up_between_frames_is_diced_again():
+    # Rendered at frame 1 small and at frame 2 sixty times larger by its parent's transform (as
+    # penumbra-record renders a frame range with one Renderer): frame 2 must be diced for its
+    # size, as a fresh render of frame 2 is. It kept frame 1's facets (up to 9.7 px off the
+    # limit surface where a fresh render is within 0.7 px).
+    from pxr import Gf
+
+    from stages import add_camera, new_stage
+
+    stage = new_stage()
+    stage.SetEndTimeCode(2)
+    add_camera(stage, translate=(0.0, 0.0, 400.0), focal_length=25.0, aperture=(10.0, 10.0))
+    parent = UsdGeom.Xform.Define(stage, "/blob")
+    scale = parent.AddScaleOp()
+    scale.Set(Gf.Vec3f(1, 1, 1), 1)
+    scale.Set(Gf.Vec3f(60, 60, 60), 2)
+    cube = UsdGeom.Mesh.Define(stage, "/blob/cube")
+    corners = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
+    cube.CreatePointsAttr([Gf.Vec3f(*c) for c in corners])
+    cube.CreateFaceVertexCountsAttr([4] * 6)
+    cube.CreateFaceVertexIndicesAttr(
+        [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 1, 3, 7, 5, 0, 4, 6, 2]
+    )
+
+    def frame_2(renderer: penumbra.Renderer) -> np.ndarray:
+        return renderer.render(camera="/cam", time=2, width=48, samples=4, aovs=("depth",))["depth"]
+
+    renderer = penumbra.Renderer(stage)
+    renderer.render(camera="/cam", time=1, width=48, samples=1)
+    after_frame_1 = frame_2(renderer)
+    fresh = frame_2(penumbra.Renderer(stage))
+    assert np.isfinite(fresh).mean() > 0.2
+    np.testing.assert_array_equal(after_frame_1, fresh)

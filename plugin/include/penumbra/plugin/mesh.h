@@ -77,6 +77,12 @@ class Mesh : public PlacedRprim {
 
   /// The triangles to render: its polygons, or its diced limit surface.
   TriangleMesh triangles(SyncContext& context);
+  /// Segments per edge of each base face for its placement now (see triangles()).
+  std::vector<int> dicingRates(const LimitSurfaceTessellator& limit,
+                               const SyncContext& context) const;
+  /// Whether the limit surface, diced where it was, needs finer facets where it is now (moved
+  /// nearer the camera, scaled up): a transform alone then dices it again.
+  bool needsFinerDicing(const SyncContext& context) const;
   /// Gives its light the triangles it emits from, those the mesh is traced as (a subdivision
   /// surface's limit surface), in world space at shutter open and, if it moves, over the
   /// shutter; or hides it (the mesh is hidden or invalid), and syncs it; without a light, the
@@ -87,6 +93,7 @@ class Mesh : public PlacedRprim {
   std::string subdivisionScheme_ = "none";
   SubdivisionTags tags_;
   std::unique_ptr<LimitSurfaceTessellator> tessellator_;
+  std::vector<int> dicedRates_;  // the rates the limit surface was last diced at
   std::unique_ptr<Light> light_;
   int lightLinkSlot_ = -1;
   std::set<PrimId> instancers_;
