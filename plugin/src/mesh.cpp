@@ -274,7 +274,6 @@ std::vector<int> Mesh::dicingRates(const LimitSurfaceTessellator& limit,
   // Dice each base face finely enough that its facets stay within a fraction of a pixel of
   // the limit surface at its distance from the camera (halved per complexity level).
   const CameraParams& camera = context.dicing.camera;
-  const Transform& objectToWorld = transform().first();
   const Vec3f eye = camera.cameraToWorld.first().applyToPoint({0, 0, 0});
   const float pixelAngle =
       camera.projection == Projection::Perspective
@@ -282,10 +281,9 @@ std::vector<int> Mesh::dicingRates(const LimitSurfaceTessellator& limit,
           : 0.0f;
   const float pixelWidth = 0.1f * camera.horizontalAperture / float(context.dicing.imageWidth);
   const float fraction = std::ldexp(1.0f, -context.complexity);
-  // World-space curvature bounds: the transform's largest stretch scales them.
-  const float stretch = std::max({length(objectToWorld.applyToVector({1, 0, 0})),
-                                  length(objectToWorld.applyToVector({0, 1, 0})),
-                                  length(objectToWorld.applyToVector({0, 0, 1}))});
+  // Its own placement and its copies' most demanding ones: each face is diced for the finest.
+  std::vector<Transform> placements = {transform().first()};
+  placements.insert(placements.end(), copyPlacements_.begin(), copyPlacements_.end());
   std::vector<int> rates(limit.faceCount(), 1);
   std::vector<const std::vector<Vec3f>*> samples = {&cage.points};
   for (const std::vector<Vec3f>& step : cage.pointMotion) samples.push_back(&step);
@@ -296,23 +294,30 @@ std::vector<int> Mesh::dicingRates(const LimitSurfaceTessellator& limit,
   std::vector<float> pixelsAcross(rates.size(), 0.0f);  // each face's longest edge, at open
   for (const std::vector<Vec3f>* points : samples) {
     const std::vector<float> bounds = limit.curvatureBounds(*points);
-    for (size_t face = 0; face < rates.size() && face < cage.faceVertexCounts.size(); ++face) {
-      float nearest = kInfinity, longest = 0;
-      const int count = cage.faceVertexCounts[face];
-      for (int k = 0; k < count; ++k) {
-        const auto corner = [&](int j) {
-          return objectToWorld.applyToPoint(
-              (*points)[size_t(cage.faceVertexIndices[faceStarts[face] + size_t(j % count)])]);
-        };
-        const Vec3f p = corner(k);
-        nearest = std::min(nearest, length(p - eye));
-        longest = std::max(longest, length(corner(k + 1) - p));
+    for (const Transform& objectToWorld : placements) {
+      // World-space curvature bounds: the transform's largest stretch scales them.
+      const float stretch = std::max({length(objectToWorld.applyToVector({1, 0, 0})),
+                                      length(objectToWorld.applyToVector({0, 1, 0})),
+                                      length(objectToWorld.applyToVector({0, 0, 1}))});
+      for (size_t face = 0; face < rates.size() && face < cage.faceVertexCounts.size(); ++face) {
+        float nearest = kInfinity, longest = 0;
+        const int count = cage.faceVertexCounts[face];
+        for (int k = 0; k < count; ++k) {
+          const auto corner = [&](int j) {
+            return objectToWorld.applyToPoint(
+                (*points)[size_t(cage.faceVertexIndices[faceStarts[face] + size_t(j % count)])]);
+          };
+          const Vec3f p = corner(k);
+          nearest = std::min(nearest, length(p - eye));
+          longest = std::max(longest, length(corner(k + 1) - p));
+        }
+        const float footprint =
+            pixelAngle > 0 ? std::max(nearest, camera.nearClip) * pixelAngle : pixelWidth;
+        rates[face] = std::max(rates[face],
+                               tessellationRateFor(bounds[face] * stretch, fraction * footprint));
+        if (points == &cage.points)
+          pixelsAcross[face] = std::max(pixelsAcross[face], longest / footprint);
       }
-      const float footprint =
-          pixelAngle > 0 ? std::max(nearest, camera.nearClip) * pixelAngle : pixelWidth;
-      rates[face] =
-          std::max(rates[face], tessellationRateFor(bounds[face] * stretch, fraction * footprint));
-      if (points == &cage.points) pixelsAcross[face] = longest / footprint;
     }
   }
   // Primvars vary over the limit surface as the positions do (a flat face carries no
@@ -330,6 +335,44 @@ std::vector<int> Mesh::dicingRates(const LimitSurfaceTessellator& limit,
     rates[face] = std::max(rates[face], std::min(dataRates[face], std::max(visible, 1)));
   }
   return rates;
+}
+
+void Mesh::setCopyPlacements(const std::vector<const std::vector<MotionTransform>*>& copies,
+                             const SyncContext& context) {
+  std::vector<Transform> demanding;
+  if (subdivisionScheme_ != "none" && !data_.points.empty()) {
+    // The cage's bounding sphere, and each copy's distance from the dicing camera over its
+    // size: the smallest ratios see the cage largest.
+    Vec3f lower = data_.points[0], upper = data_.points[0];
+    for (const Vec3f& p : data_.points) {
+      lower = componentMin(lower, p);
+      upper = componentMax(upper, p);
+    }
+    const Vec3f centre = (lower + upper) * 0.5f;
+    const float radius = length(upper - lower) * 0.5f;
+    const Vec3f eye = context.dicing.camera.cameraToWorld.first().applyToPoint({0, 0, 0});
+    std::vector<std::pair<float, const Transform*>> ranked;
+    for (const std::vector<MotionTransform>* transforms : copies)
+      for (const MotionTransform& copy : *transforms) {
+        const Transform& placed = copy.first();
+        const float stretch = std::max({length(placed.applyToVector({1, 0, 0})),
+                                        length(placed.applyToVector({0, 1, 0})),
+                                        length(placed.applyToVector({0, 0, 1}))});
+        if (!(stretch > 0) || !std::isfinite(stretch)) continue;
+        const float distance = length(placed.applyToPoint(centre) - eye) - stretch * radius;
+        ranked.emplace_back(distance / stretch, &placed);
+      }
+    const size_t kept = std::min(ranked.size(), kDicingCopies);
+    std::partial_sort(ranked.begin(), ranked.begin() + long(kept), ranked.end(),
+                      [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (size_t i = 0; i < kept; ++i) demanding.push_back(*ranked[i].second);
+  }
+  if (demanding.size() == copyPlacements_.size() &&
+      std::equal(demanding.begin(), demanding.end(), copyPlacements_.begin(),
+                 [](const Transform& a, const Transform& b) { return a.m == b.m; }))
+    return;
+  copyPlacements_ = std::move(demanding);
+  markDirty(DirtyTransform);  // re-diced if they need finer facets (needsFinerDicing)
 }
 
 bool Mesh::needsFinerDicing(const SyncContext& context) const {

@@ -1,6 +1,7 @@
 #include "penumbra/plugin/render_delegate.h"
 
 #include <algorithm>
+#include <map>
 #include <stdexcept>
 #include <utility>
 
@@ -263,10 +264,24 @@ size_t RenderDelegate::estimatedSyncBytes() const {
   return bytes;
 }
 
+void RenderDelegate::placeCopiesForDicing() {
+  std::map<PrimId, std::vector<const std::vector<MotionTransform>*>> copies;
+  instancers_.forEach([&](const Instancer& instancer) {
+    if (instancer.visible()) copies[instancer.prototype()].push_back(&instancer.transforms());
+  });
+  meshes_.forEach([&](Mesh& mesh) {
+    if (mesh.subdivisionScheme() == "none") return;
+    const auto found = copies.find(mesh.id());
+    mesh.setCopyPlacements(found == copies.end() ? decltype(copies)::mapped_type{} : found->second,
+                           context_);
+  });
+}
+
 bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
   scene_->materials().textures().setCacheSize(size_t(settings_.textureCacheMB) << 20);
   // A new dicing context or complexity re-dices every subdivision surface.
   const DicingContext dicing = dicingContext(view);
+  const bool dicingMoved = dicedFor_ != dicing;
   if (dicedFor_ != dicing || dicedComplexity_ != settings_.complexity) {
     if (dicedFor_)
       meshes_.forEach([](Mesh& mesh) {
@@ -277,6 +292,7 @@ bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
   }
   context_.dicing = dicing;
   context_.complexity = settings_.complexity;
+  if (dicingMoved || !instancers_.dirty().empty()) placeCopiesForDicing();
   // Sprims before rprims, as in Hydra: meshes place themselves with their material's index.
   // Each dirty material builds its own entry of the scene's list; meshes bound to one keep its
   // index and follow it there (Scene::setMaterial).

@@ -201,3 +201,38 @@ def test_a_subdivision_surface_scaled_up_between_frames_is_diced_again():
     fresh = frame_2(penumbra.Renderer(stage))
     assert np.isfinite(fresh).mean() > 0.2
     np.testing.assert_array_equal(after_frame_1, fresh)
+
+
+def test_a_native_instance_of_a_subdivision_surface_is_diced_for_its_copy():
+    # A prototype's own mesh sits where its copies' space has its origin: an instance scaled 100
+    # times and seen close was diced for the small prototype (a hexagonal blob, up to 9.7 px off
+    # its limit surface). It must render as the same surface placed as a plain prim does.
+    from pxr import Gf, Sdf
+
+    from stages import add_camera, new_stage
+
+    def blob_stage(instanceable: bool) -> Usd.Stage:
+        stage = new_stage()
+        add_camera(stage, translate=(0.0, 0.0, 400.0), focal_length=25.0, aperture=(10.0, 10.0))
+        prototype = stage.CreateClassPrim("/Prototype")
+        cube = UsdGeom.Mesh.Define(stage, "/Prototype/cube")
+        corners = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
+        cube.CreatePointsAttr([Gf.Vec3f(*c) for c in corners])
+        cube.CreateFaceVertexCountsAttr([4] * 6)
+        cube.CreateFaceVertexIndicesAttr(
+            [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 1, 3, 7, 5, 0, 4, 6, 2]
+        )
+        copy = UsdGeom.Xform.Define(stage, "/World/copy")
+        copy.AddScaleOp().Set(Gf.Vec3f(60, 60, 60))
+        copy.GetPrim().GetReferences().AddInternalReference(prototype.GetPath())
+        copy.GetPrim().SetInstanceable(instanceable)
+        return stage
+
+    def depth(stage: Usd.Stage) -> np.ndarray:
+        return penumbra.render(stage, camera="/cam", width=48, samples=4, aovs=("depth",))["depth"]
+
+    plain, copy = depth(blob_stage(False)), depth(blob_stage(True))
+    hit = np.isfinite(plain)
+    assert hit.mean() > 0.2
+    np.testing.assert_array_equal(np.isfinite(copy), hit)
+    np.testing.assert_allclose(copy[hit], plain[hit], rtol=1e-4)

@@ -70,6 +70,14 @@ class Mesh : public PlacedRprim {
   /// Bytes its next sync will allocate (penumbra::estimatedBuildBytes).
   size_t estimatedSyncBytes() const;
 
+  /// Where its instancers place copies of it (each instancer's prototype-to-world transforms):
+  /// a subdivision surface keeps the kDicingCopies placements that see its cage largest from
+  /// the dicing camera and is diced for them as well as for its own placement (a hidden
+  /// prototype sits wherever its copies' space has its origin). Marks it dirty when they change.
+  void setCopyPlacements(const std::vector<const std::vector<MotionTransform>*>& copies,
+                         const SyncContext& context);
+  static constexpr size_t kDicingCopies = 16;
+
  private:
   /// The dirty bits on which a mesh light's sync builds its light again.
   static constexpr uint32_t kLightDirtyBits =
@@ -93,7 +101,8 @@ class Mesh : public PlacedRprim {
   std::string subdivisionScheme_ = "none";
   SubdivisionTags tags_;
   std::unique_ptr<LimitSurfaceTessellator> tessellator_;
-  std::vector<int> dicedRates_;  // the rates the limit surface was last diced at
+  std::vector<int> dicedRates_;            // the rates the limit surface was last diced at
+  std::vector<Transform> copyPlacements_;  // setCopyPlacements
   std::unique_ptr<Light> light_;
   int lightLinkSlot_ = -1;
   std::set<PrimId> instancers_;

@@ -144,6 +144,9 @@ class RenderDelegate {
   /// the last sync (they render with it now, or with their displayColor); the dirty ones place
   /// themselves.
   void placeUsersOfNewAndRemovedMaterials();
+  /// Gives each subdivided prototype mesh its instancers' copies (Mesh::setCopyPlacements)
+  /// before meshes sync, so that it is diced for them.
+  void placeCopiesForDicing();
   /// Calls `visit(instancer)` for each instancer copying `prototype`.
   template <typename Visit>
   void forEachInstancerOf(const PrimId& prototype, Visit visit);
