@@ -20,8 +20,8 @@ void bindImages(py::module_& m) {
       "write_image",
       [](const std::string& path, const FloatArray& channels, const std::vector<std::string>& names,
          const py::dict& metadata, const std::string& colorMode, const std::string& ocioConfig,
-         const std::string& display, const std::string& view,
-         const std::vector<bool>& halfChannels) {
+         const std::string& display, const std::string& view, const std::vector<bool>& halfChannels,
+         const std::optional<std::array<int, 4>>& dataWindow) {
         if (channels.ndim() != 3 || channels.shape(2) != py::ssize_t(names.size()))
           throw std::invalid_argument(
               path + ": pixels must have shape (H, W, C) with one name per channel");
@@ -32,6 +32,15 @@ void bindImages(py::module_& m) {
         image.pixels.assign(channels.data(), channels.data() + channels.size());
         image.metadata = toMetadata(metadata);
         image.halfChannels.assign(halfChannels.begin(), halfChannels.end());
+        if (dataWindow) {
+          const auto [x, y, displayWidth, displayHeight] = *dataWindow;
+          if (displayWidth <= 0 || displayHeight <= 0)
+            throw std::invalid_argument(path + ": the data window's frame must have a size");
+          image.x = x;
+          image.y = y;
+          image.displayWidth = displayWidth;
+          image.displayHeight = displayHeight;
+        }
         DisplaySettings settings{toColorCorrection(colorMode), ocioConfig, display, view};
         py::gil_scoped_release release;
         penumbra::writeImage(path, image, settings);
@@ -39,7 +48,7 @@ void bindImages(py::module_& m) {
       py::arg("path"), py::arg("channels"), py::arg("channel_names"),
       py::arg("metadata") = py::dict(), py::arg("color_mode") = "disabled",
       py::arg("ocio_config") = "", py::arg("display") = "", py::arg("view") = "",
-      py::arg("half_channels") = std::vector<bool>());
+      py::arg("half_channels") = std::vector<bool>(), py::arg("data_window") = std::nullopt);
 
   m.def(
       "display_pixels",

@@ -87,6 +87,10 @@ METADATA_PREFIX = "penumbra:"
 names (:data:`OIIO_METADATA`), and keys already in a namespace (standard attributes such as
 ``Exif:ImageUniqueID``) keep theirs."""
 OIIO_METADATA = ("worldtocamera", "worldtoscreen", "PixelAspectRatio")
+DATA_WINDOW = "dataWindow"
+"""The metadata key of an image cut from a larger frame (render settings' ``dataWindowNDC``):
+``[x, y, frame width, frame height]``, its top-left pixel in the frame and the frame's size;
+:meth:`Image.write` makes them an EXR's data and display windows."""
 """Metadata written under OIIO's standard names rather than with :data:`METADATA_PREFIX`."""
 
 
@@ -182,10 +186,12 @@ class Image(Mapping[str, np.ndarray]):
         ``.exr`` holds every AOV as float channels (see :func:`channel_names`; the AOVs named
         in ``half`` as half floats) and the metadata as ``penumbra:*`` attributes (the camera
         matrices under OIIO's names, :data:`OIIO_METADATA`; keys with a namespace as they
-        are). Other formats hold the ``color`` AOV converted to display
-        values: ``color_mode`` ``"openColorIO"`` (default) uses ``ocio_config``, else ``$OCIO``,
-        else Penumbra's bundled config (sRGB display, "Standard" view unless ``display``/
-        ``view`` say otherwise); ``"sRGB"`` applies the sRGB transfer function;
+        are); an image cut from a larger frame (metadata ``dataWindow``: x, y, frame width and
+        height) keeps the frame as the EXR's display window and its place as the data window.
+        Other formats hold the ``color`` AOV converted to display values: ``color_mode``
+        ``"openColorIO"`` (default) uses ``ocio_config``, else ``$OCIO``, else Penumbra's
+        bundled config (sRGB display, "Standard" view unless ``display``/``view`` say
+        otherwise); ``"sRGB"`` applies the sRGB transfer function;
         ``"disabled"`` writes the linear values. The transform applies to un-premultiplied
         colour; TIFF stores it premultiplied again, PNG as it is (unassociated alpha). An
         extension not in :data:`OUTPUT_FORMATS` raises ``ValueError``, a missing or read-only
@@ -216,16 +222,23 @@ class Image(Mapping[str, np.ndarray]):
         config = ""
         if color_mode == "openColorIO":
             config = ocio_config_path(ocio_config)
+        # A crop of a frame (dataWindowNDC): an EXR keeps the frame as its display window.
+        data_window = self.metadata.get(DATA_WINDOW) if path.lower().endswith(".exr") else None
         _core.write_image(
             path,
             np.ascontiguousarray(np.concatenate(arrays, axis=2)),
             names,
-            {_attribute_name(key): value for key, value in self.metadata.items()},
+            {
+                _attribute_name(key): value
+                for key, value in self.metadata.items()
+                if key != DATA_WINDOW  # the file's data and display windows say it
+            },
             color_mode=color_mode,
             ocio_config=config,
             display=display,
             view=view,
             half_channels=half_channels,
+            data_window=tuple(data_window) if data_window is not None else None,
         )
 
     def display(

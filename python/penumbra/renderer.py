@@ -25,7 +25,13 @@ from .checkpoints import (
 )
 from .errors import SceneError, warn
 from .denoise import GUIDE_AOVS, NOISY_COLOR, denoise_color
-from .image import Image, check_output_directory, check_output_format, ocio_config_path
+from .image import (
+    DATA_WINDOW,
+    Image,
+    check_output_directory,
+    check_output_format,
+    ocio_config_path,
+)
 from . import render_options
 from .memory import (
     MIN_TEXTURE_CACHE,
@@ -384,6 +390,8 @@ class Renderer:
                 **lens_metadata,
             }
             metadata.update(crypto_metadata)
+            if (data_window := _data_window(window)) is not None:
+                metadata[DATA_WINDOW] = data_window
             if "primId" in aovs:
                 manifest = self.delegate.prim_id_manifest()
                 metadata["primIds"] = json.dumps({str(key): path for key, path in manifest.items()})
@@ -603,6 +611,20 @@ def _resume(render_pass: _core.RenderPass, checkpoint: Checkpoint, key: str) -> 
         return 0.0
     logger.info("%s: resuming from %d samples", path, render_pass.samples_done)
     return saved.render_seconds
+
+
+def _data_window(window: FilmWindow) -> list[int] | None:
+    """``[x, y, frame width, frame height]``: where the image rendered through ``window`` lies in
+    the frame its render settings' ``dataWindowNDC`` cut it from, for an EXR's data and display
+    windows; None when it is the whole frame. (A ``region`` is a part of that image, as farm
+    bands are: bands merged give it back whole.)"""
+    if window.frame is None or (window.x, window.y, window.width, window.height) == (
+        0,
+        0,
+        *window.frame,
+    ):
+        return None
+    return [window.x, window.y, *window.frame]
 
 
 def _check_region(

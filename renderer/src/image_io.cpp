@@ -178,6 +178,13 @@ void writeImage(const std::string& path, const ImageData& image, const DisplaySe
       spec.attribute(key, std::get<float>(value));
   }
   if (linear) spec.attribute("compression", "zip");
+  if (linear && image.displayWidth > 0 && image.displayHeight > 0) {
+    spec.x = image.x;
+    spec.y = image.y;
+    spec.full_x = spec.full_y = 0;
+    spec.full_width = image.displayWidth;
+    spec.full_height = image.displayHeight;
+  }
   // Already un-premultiplied: OIIO must not divide by alpha again (after quantizing).
   if (unassociated) spec.attribute("oiio:UnassociatedAlpha", 1);
 

@@ -11,6 +11,7 @@ import pytest
 from pxr import Gf, UsdGeom, UsdRender
 
 import penumbra
+from penumbra import _core
 from penumbra.errors import SceneError
 from penumbra.usd.settings import conform_aperture
 
@@ -151,6 +152,34 @@ def test_the_data_window_crops_or_overscans(data_window, size, first_pixel):
     expected = expected_quad((-2, 2, -2, 2), (100, 100), first_pixel)
     assert area == pytest.approx(expected[0], rel=0.03)
     assert (column, row) == pytest.approx(expected[1:], abs=0.25)
+
+
+@pytest.mark.parametrize(
+    "data_window, expected",
+    [
+        ((0.5, 0.5, 1.0, 1.0), "pixel data origin: x=50, y=0"),  # the top-right quarter
+        ((-0.1, -0.1, 1.1, 1.1), "pixel data origin: x=-10, y=-10"),  # overscan
+    ],
+)
+def test_an_exr_of_a_crop_keeps_its_frame_as_display_window(tmp_path, data_window, expected):
+    # As husk writes a dataWindowNDC crop: the data window is the crop's pixels, the display
+    # window the whole frame, so compositors place it (the file was a standalone 50 x 50 image
+    # whose camera matrices described the 100 x 100 frame). PNG holds the crop alone.
+    stage = settings_stage((100, 100), data_window=data_window)
+    image = penumbra.render(stage, render_settings="/Render/Settings", samples=1,
+                            default_light="none")
+    image.write(tmp_path / "crop.exr")
+    header = subprocess.run(["iinfo", "-v", str(tmp_path / "crop.exr")], capture_output=True,
+                            text=True).stdout
+    assert expected in header and "full/display size: 100 x 100" in header, header
+    assert "full/display origin: 0, 0" in header, header
+    assert "dataWindow" not in header  # said by the windows, not by an attribute as well
+    image.write(tmp_path / "crop.png")
+    width, height, _, _ = _core.read_image_header(str(tmp_path / "crop.png"))
+    assert (width, height) == image["color"].shape[1::-1]
+    whole = penumbra.render(settings_stage((100, 100)), render_settings="/Render/Settings",
+                            samples=1, default_light="none")
+    assert "dataWindow" not in whole.metadata
 
 
 def test_a_width_scales_the_resolution_and_keeps_the_window():

@@ -347,6 +347,13 @@ class FilmWindow:
     vertical_shift: float = 0.0
     pixel_aspect_ratio: float = 1.0
     """Width over height of one pixel on the film."""
+    x: int = 0
+    y: int = 0
+    """The image's top-left pixel in the frame (columns from the left, rows from the top; below
+    0 or past the frame for overscan)."""
+    frame: tuple[int, int] | None = None
+    """(width, height) of the frame the image is cut from by ``dataWindowNDC``; None: the image
+    is the whole frame."""
 
 
 def conform_aperture(
@@ -428,4 +435,7 @@ def film_window(
         horizontal_shift=horizontal * ((left + right) / 2 - 0.5),
         vertical_shift=vertical * ((bottom + top) / 2 - 0.5),
         pixel_aspect_ratio=pixel_aspect_ratio,
+        x=first_column,
+        y=first_row,
+        frame=(width, height),
     )

@@ -35,6 +35,11 @@ struct ImageData {
   /// Per channel, non-zero to store it as half floats (EXR only); empty: all float.
   std::vector<uint8_t> halfChannels;
   Metadata metadata;
+  /// A crop of a larger frame (OpenEXR's data and display windows; other formats hold the crop
+  /// alone): the crop's top-left pixel in the frame, which may lie outside it (overscan), and
+  /// the frame's size. 0 × 0: the image is the whole frame.
+  int x = 0, y = 0;
+  int displayWidth = 0, displayHeight = 0;
 };
 
 /// Applies `display`'s transform to the first three channels of interleaved pixels, in place
