@@ -1,9 +1,9 @@
 #include "penumbra/plugin/volume.h"
 
-#include <filesystem>
 #include <stdexcept>
 #include <string>
-#include <system_error>
+
+#include "penumbra/vdb_field.h"
 
 namespace penumbra::plugin {
 namespace {
@@ -115,9 +115,7 @@ size_t Volume::estimatedSyncBytes(const VolumeFieldCache& cache) const {
   for (const Slot& slot : kSlots) {
     const std::optional<FieldRequest>& request = fields_.*slot.request;
     if (!request || cache.holds(*request)) continue;
-    std::error_code error;
-    const uintmax_t size = std::filesystem::file_size(request->path, error);
-    if (!error) bytes += 2 * size_t(size);
+    bytes += size_t(estimatedVdbFieldBytes(request->path, request->gridName, request->index));
   }
   return bytes;
 }

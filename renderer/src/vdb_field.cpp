@@ -309,6 +309,26 @@ std::vector<std::string> gridsNamed(const openvdb::io::File& file, const std::st
 
 }  // namespace
 
+uint64_t estimatedVdbFieldBytes(const std::string& path, const std::string& gridName, int index) {
+  openvdb::initialize();
+  std::error_code error;
+  const uintmax_t fileBytes = std::filesystem::file_size(path, error);
+  if (error) return 0;
+  try {
+    openvdb::io::File file(path);
+    file.open(false);
+    const std::vector<std::string> names = gridsNamed(file, gridName);
+    if (index < 0 || size_t(index) >= names.size()) return 0;
+    const openvdb::GridBase::ConstPtr grid = file.readGridMetadata(names[size_t(index)]);
+    const auto memory =
+        grid->getMetadata<openvdb::Int64Metadata>(openvdb::GridBase::META_FILE_MEM_BYTES);
+    if (memory && memory->value() > 0) return 2 * uint64_t(memory->value());
+  } catch (const std::exception&) {
+    return 0;
+  }
+  return 2 * uint64_t(fileBytes);
+}
+
 VdbFieldRead readVdbField(const std::string& path, const std::string& gridName, int index) {
   openvdb::initialize();
   const std::string what = describe(path, gridName, index);

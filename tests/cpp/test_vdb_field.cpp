@@ -402,4 +402,19 @@ TEST_F(VdbFieldTest, WritingIsAtomicAndRefusesMismatchedGrids) {
   EXPECT_THROW(denseVdbField(2, 2, 1, 1, kCube, {}), std::invalid_argument);
 }
 
+TEST_F(VdbFieldTest, TheReadEstimateCoversWhatAConstantGridHolds) {
+  // A dense 64³ block of one value compresses to a small file but holds every voxel once read:
+  // the estimate comes from the grid's size in memory (OpenVDB's metadata), not the file's.
+  const int n = 64;
+  const std::string file = writeOne(
+      "constant.vdb", {"density", n, n, n, 1, std::vector<float>(size_t(n * n * n), 0.5f), {}});
+  const uint64_t estimate = estimatedVdbFieldBytes(file, "density");
+  const size_t held = readVdbField(file, "density").field->memoryBytes();
+  EXPECT_GE(estimate, uint64_t(held));
+  EXPECT_LE(estimate, uint64_t(4 * held));
+  EXPECT_GT(estimate, 2 * std::filesystem::file_size(file));
+  EXPECT_EQ(estimatedVdbFieldBytes(file, "temperature"), 0u);  // no such grid
+  EXPECT_EQ(estimatedVdbFieldBytes(path("absent.vdb"), "density"), 0u);
+}
+
 }  // namespace

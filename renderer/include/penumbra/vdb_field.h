@@ -38,6 +38,13 @@ struct VdbFieldRead {
 /// VolumeFieldError.
 VdbFieldRead readVdbField(const std::string& path, const std::string& gridName, int index = 0);
 
+/// Bytes reading that grid (readVdbField) takes at its peak, from the metadata OpenVDB writes
+/// with each grid (its size in memory when it was written: the grid read, and the float field
+/// made from it beside it), without reading its voxels; twice the file's size when the file
+/// has no such metadata; 0 when the file or grid cannot be read (readVdbField then says why).
+uint64_t estimatedVdbFieldBytes(const std::string& path, const std::string& gridName,
+                                int index = 0);
+
 /// A dense block of nx × ny × nz voxels (x fastest, then y, then z; `components` floats each,
 /// 1 or 3), voxel (i, j, k)'s centre at indexToObject applied to (i, j, k), held sparse like a
 /// file's grid (zero voxels are inactive). For tests, examples and procedural fields. Throws

@@ -45,8 +45,9 @@ class Volume : public Prim {
   void sync(SyncContext& context, uint32_t dirtyBits) override;
   /// Removes it from the scene.
   void finalize(SyncContext& context) override;
-  /// Bytes its next sync will allocate: for each grid not held by the cache, twice its file's
-  /// size (the OpenVDB grid read and its sparse copy), an estimate made before reading.
+  /// Bytes its next sync will allocate: for each grid not held by the cache, twice its size in
+  /// memory as the file's metadata gives it (the OpenVDB grid read and its sparse copy;
+  /// estimatedVdbFieldBytes), an estimate made before reading the voxels.
   size_t estimatedSyncBytes(const VolumeFieldCache& cache) const;
 
   VolumeSet::VolumeId handle() const { return handle_; }
