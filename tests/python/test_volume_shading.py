@@ -1,7 +1,7 @@
 """Volume materials → the renderer's volume material (docs/volume-materials.md): the default
 without a material, MaterialX ``volume`` nodes authored in the stage and in a referenced
-``.mtlx`` document, Penumbra's principled volume shader, and one warning for each input that
-is approximated or invalid."""
+``.mtlx`` document, Penumbra's principled volume shader, one warning for each input that is
+approximated or invalid, and keyed inputs read at the frame."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import pytest
 from pxr import Sdf, Usd, UsdShade, UsdVol
 
 from penumbra.usd.mtlx_documents import compose_materialx_documents
+from penumbra.usd.sampling import SampleReader
 from penumbra.usd.volume_shading import VolumeShading, read_volume_shading
 
 T = Sdf.ValueTypeNames
@@ -59,10 +60,21 @@ def bind_volume(stage: Usd.Stage, vdf: UsdShade.Shader | None = None,
         volume.GetOutput("out"))
 
 
-def read(stage: Usd.Stage, material: str | None = MATERIAL) -> tuple[VolumeShading, list[str]]:
+def read(stage: Usd.Stage, material: str | None = MATERIAL,
+         reader: SampleReader | None = None) -> tuple[VolumeShading, list[str]]:
+    """The volume's shading and warnings, read by ``reader`` (default: at the Default time)."""
     said: list[str] = []
     prim = stage.GetPrimAtPath(material) if material else None
-    return read_volume_shading(stage.GetPrimAtPath(VOLUME), prim, said.append), said
+    reader = reader or SampleReader(Usd.TimeCode.Default())
+    return read_volume_shading(stage.GetPrimAtPath(VOLUME), prim, reader, said.append), said
+
+
+def key(shader: UsdShade.Shader, name: str, samples: dict[float, Any]) -> None:
+    """Input ``name`` of ``shader`` keyed with ``samples`` (time → value) and no default."""
+    attr = shader.GetInput(name).GetAttr()
+    attr.Clear()
+    for time, value in samples.items():
+        attr.Set(value, time)
 
 
 def assert_one_warning(said: list[str], *names: str) -> None:
@@ -229,7 +241,8 @@ def test_a_volume_material_from_a_referenced_mtlx_document(tmp_path: Path):
     said: list[str] = []
     compose_materialx_documents(stage, said.append)
     material = stage.GetPrimAtPath("/Looks/Mtlx/Materials/Smoke")
-    shading = read_volume_shading(volume, material, said.append)
+    shading = read_volume_shading(volume, material, SampleReader(Usd.TimeCode.Default()),
+                                  said.append)
     assert said == []
     assert close(shading.scattering, (0.9, 0.8, 0.7))
     assert close(shading.absorption, (0.05, 0.05, 0.05))
@@ -391,10 +404,11 @@ def test_an_input_of_the_wrong_type_takes_its_default():
 
 
 # Penumbra's principled volume.
-def principled(stage: Usd.Stage, **inputs: Any) -> None:
+def principled(stage: Usd.Stage, **inputs: Any) -> UsdShade.Shader:
     shader = node(stage, "principled", "penumbra:PrincipledVolume", **inputs)
     UsdShade.Material.Get(stage, MATERIAL).CreateOutput("volume", T.Token).ConnectToSource(
         shader.GetOutput("out"))
+    return shader
 
 
 def test_principled_volume_defaults_are_cycles_defaults():
@@ -450,3 +464,60 @@ def test_principled_volume_inputs_connected_to_nodes_keep_their_default():
     shading, said = read(stage)
     assert shading.scattering == (0.5, 0.5, 0.5)
     assert_one_warning(said, f"{MATERIAL}/principled", "inputs:color", f"{MATERIAL}/tint")
+
+
+# Animated inputs: read at the reader's time (the frame rendered), and noted as varying so that
+# the volume is read again at the next frame.
+def test_keyed_principled_inputs_are_read_at_the_frame_and_vary():
+    stage, _ = volume_stage()
+    shader = principled(stage, density=number(1.0), emissionStrength=number(0.0),
+                        color=color(0.5, 0.5, 0.5), anisotropy=number(0.0),
+                        temperature=number(1000.0))
+    key(shader, "density", {1: 0.1, 2: 2.0})  # time samples only: no default to fall back on
+    key(shader, "emissionStrength", {1: 1.0, 2: 4.0})
+    key(shader, "color", {1: (0.2, 0.4, 0.6), 2: (0.6, 0.4, 0.2)})
+    key(shader, "anisotropy", {1: -0.5, 2: 0.5})
+    key(shader, "temperature", {1: 1200.0, 2: 1800.0})
+    for time, density, strength, scattering, g, kelvin in (
+        (1, 0.1, 1.0, (0.2, 0.4, 0.6), -0.5, 1200.0),
+        (2, 2.0, 4.0, (0.6, 0.4, 0.2), 0.5, 1800.0),
+        (1.5, 1.05, 2.5, (0.4, 0.4, 0.4), 0.0, 1500.0),  # interpolated between the keys
+    ):
+        reader = SampleReader(Usd.TimeCode(time))
+        shading, said = read(stage, reader=reader)
+        assert said == []
+        assert math.isclose(shading.density, density, rel_tol=1e-6)
+        assert close(shading.emission, (strength,) * 3)
+        assert close(shading.scattering, scattering)
+        assert math.isclose(shading.anisotropy, g, abs_tol=1e-7)
+        assert math.isclose(shading.temperature, kelvin, rel_tol=1e-6)
+        assert reader.varying
+
+
+def test_keyed_materialx_volume_inputs_are_read_at_the_frame_and_vary():
+    stage, _ = volume_stage()
+    vdf = node(stage, "vdf", "ND_anisotropic_vdf", absorption=color(0.0, 0.0, 0.0),
+               anisotropy=number(0.0))
+    edf = node(stage, "edf", "ND_uniform_edf", color=color(0.0, 0.0, 0.0))
+    bind_volume(stage, vdf, edf)
+    key(vdf, "absorption", {1: (0.1, 0.1, 0.1), 2: (0.3, 0.2, 0.1)})
+    key(vdf, "anisotropy", {1: 0.25, 2: -0.25})
+    key(edf, "color", {1: (1.0, 2.0, 3.0), 2: (3.0, 2.0, 1.0)})
+    for time, absorption, g, emission in ((1, (0.1, 0.1, 0.1), 0.25, (1.0, 2.0, 3.0)),
+                                          (2, (0.3, 0.2, 0.1), -0.25, (3.0, 2.0, 1.0))):
+        reader = SampleReader(Usd.TimeCode(time))
+        shading, said = read(stage, reader=reader)
+        assert said == []
+        assert close(shading.absorption, absorption)
+        assert math.isclose(shading.anisotropy, g, rel_tol=1e-6)
+        assert close(shading.emission, emission)
+        assert reader.varying
+
+
+def test_a_material_of_constants_does_not_vary():
+    stage, _ = volume_stage()
+    principled(stage, density=number(2.0), emissionStrength=number(1.0))
+    reader = SampleReader(Usd.TimeCode(1))
+    shading, said = read(stage, reader=reader)
+    assert said == [] and shading.density == 2.0
+    assert not reader.varying

@@ -56,20 +56,21 @@ class VolumeShading:
 
 
 def read_volume_shading(
-    volume: Usd.Prim, material: Usd.Prim | None, warn: Callable[[str], None],
-    time: Usd.TimeCode = Usd.TimeCode.Default(),
+    volume: Usd.Prim, material: Usd.Prim | None, reader: SampleReader,
+    warn: Callable[[str], None],
 ) -> VolumeShading:
-    """The shading of ``volume`` with ``material`` bound (``None``: the default) at ``time``.
-    What a material asks for that the renderer cannot do is approximated by the closest
-    mapping, with one warning naming the volume, the material and the node and input; a
-    material without a volume shader Penumbra reads gives the default, with one warning."""
+    """The shading of ``volume`` with ``material`` bound (``None``: the default), its inputs
+    read at ``reader``'s time; ``reader.varying`` becomes true when one of them might vary, so
+    that the volume is read again at another frame. What a material asks for that the renderer
+    cannot do is approximated by the closest mapping, with one warning naming the volume, the
+    material and the node and input; a material without a volume shader Penumbra reads gives
+    the default, with one warning."""
     if material is None:
         return default_shading(volume)
     report = VolumeWarnings(volume.GetPath(), warn)
     if not material.IsA(UsdShade.Material):
         report(f"{material.GetPath()} is not a Material; the default volume is used")
         return default_shading(volume)
-    reader = SampleReader(time)
     shaders = [UsdShade.Material(material).ComputeVolumeSource(context)[0]
                for context in (RENDER_CONTEXT, UsdShade.Tokens.universalRenderContext)]
     shaders = [shader for shader in shaders if shader]

@@ -5,10 +5,10 @@ to an ``OpenVDBAsset`` prim: its ``filePath`` (an asset path resolved against th
 authors it; time-sampled paths are read at the frame), ``fieldName`` (the grid's name in the
 file; unauthored: NAME), ``fieldIndex`` (which grid of that name, default 0) and
 ``fieldDataType`` (a vector type on a scalar slot is refused). The volume's shading
-(:func:`~.volume_shading.read_volume_shading`) gives its material and, for each of the
-renderer's four field slots (density, color, temperature, emission), the candidate NAMEs: the
-first the volume has feeds the slot. The fields' own transforms are not applied: a grid is
-placed by its file's transform and the Volume's.
+(:func:`~.volume_shading.read_volume_shading`, its inputs read at the frame too) gives its
+material and, for each of the renderer's four field slots (density, color, temperature,
+emission), the candidate NAMEs: the first the volume has feeds the slot. The fields' own
+transforms are not applied: a grid is placed by its file's transform and the Volume's.
 
 Bad data never stops a render: a volume without fields, a field whose prim is not an
 OpenVDBAsset, whose file is missing, whose fieldIndex is not an int in [0, 2^31 - 1] or whose
@@ -75,7 +75,9 @@ def sync_volume_data(
             "prims); skipped"
         )
         return False
-    shading = read_volume_shading(prim, material, warn)
+    # The volume's reader: the material is read at the frame, and a keyed input marks the
+    # volume's data as varying, so that it is read again at the next frame.
+    shading = read_volume_shading(prim, material, reader, warn)
     fields: dict[str, tuple[str, str, int]] = {}
     for slot, names in candidate_fields(shading).items():
         name = next((n for n in names if n in field_paths), None)
