@@ -190,6 +190,17 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
   };
   diffuseNormalization_ = {normalization(coverAverage.x), normalization(coverAverage.y),
                            normalization(coverAverage.z)};
+  if (clearcoat_ > 0) {
+    // The coat takes its transmittance from light going in and from light coming out; the
+    // diffuse layer gives back, on average, what the coat lets down to it (as the specular cover
+    // above does), so that a white base under a coat stays white.
+    const GgxAlbedoTable::Albedo coatLobe =
+        coatAlpha_.x > 0 ? ggxAverageAlbedo(coatAlpha_) : GgxAlbedoTable::Albedo{};
+    const float coatAverage =
+        clearcoat_ *
+        SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.averageAlbedo(coatLobe).x;
+    diffuseNormalization_ = diffuseNormalization_ * (1 / (1 - coatAverage));
+  }
 }
 
 PreviewSurfaceBsdf::PreviewSurfaceBsdf(const PreviewSurfaceBsdf& isotropic, const Vec3f& normal)
