@@ -15,6 +15,7 @@ from .image import COLOR_MODES, check_output_format
 from .memory import DEFAULT_BUDGET_FRACTION, MIN_TEXTURE_CACHE, parse_size
 from .renderer import DEFAULT_WIDTH
 from .trace import TRACE_FORMATS
+from .usd.products import HOUDINI_FRAME
 from .usd.stage import RESOLVERS
 
 PROG = "penumbra-record"
@@ -390,17 +391,31 @@ def check_usage(args: argparse.Namespace) -> list[FrameRange]:
                 f"{args.outputImagePath} holds a frame placeholder, so --frames is needed"
             )
         return frames
-    if not placeholder:
-        raise UsageError(
-            f'with --frames, {args.outputImagePath} needs a frame placeholder such as "####"'
-        )
+    check_frame_placeholder(args.outputImagePath, args.frames)
+    return frames
+
+
+def check_frame_placeholder(path: str, frames: str, *, product: str | None = None) -> None:
+    """``UsageError`` unless ``path`` tells apart the frames of ``frames`` (a ``--frames``
+    value): one ``#`` placeholder with the decimals their strides need. ``product``: the
+    RenderProduct whose productName ``path`` is (named in messages); a ``$F`` placeholder,
+    which writes any decimals, may then stand in for the ``#`` run."""
+    prefix = f"{product}: productName " if product else ""
+    try:
+        placeholder = find_placeholder(path)
+    except ValueError as error:
+        raise UsageError(f"{prefix}{error}") from None
+    if placeholder is None:
+        if product and HOUDINI_FRAME.search(path):
+            return
+        raise UsageError(f'{prefix}{path} needs a frame placeholder such as "####" with --frames')
     decimals = len(placeholder.partition(".")[2])
-    needed = frame_spec_precision(args.frames)
+    needed = frame_spec_precision(frames)
     if decimals < needed:
         raise UsageError(
-            f"the frames need {needed} decimals but placeholder {placeholder} has {decimals}"
+            f"{prefix}{path}: the frames need {needed} decimals but placeholder {placeholder} "
+            f"has {decimals}"
         )
-    return frames
 
 
 def _aov_list(text: str, denoise: bool) -> list[str]:

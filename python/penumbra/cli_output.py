@@ -23,6 +23,8 @@ class Progress:
         self.started = time.perf_counter()
         self.interactive = sys.stderr.isatty() if interactive is None else interactive
         self.quarters_reported = 0
+        self.line_open = False
+        """Whether the terminal's progress line awaits its end."""
 
     def __call__(self, done: int, total: int) -> None:
         elapsed = time.perf_counter() - self.started
@@ -30,12 +32,42 @@ class Progress:
         if self.interactive:
             if 0 < done < total:
                 line += f", about {elapsed * (total - done) / done:.0f} s left"
-            end = "\n" if done >= total else ""
+            self.line_open = done < total
+            end = "" if self.line_open else "\n"
             sys.stderr.write(f"\r\033[K{line}{end}")
         elif 4 * done // total > self.quarters_reported:
             self.quarters_reported = 4 * done // total
             sys.stderr.write(f"{line}\n")
         sys.stderr.flush()
+
+    def end(self) -> None:
+        """Call when the render has finished: ends the terminal's line if the render stopped
+        short of its last sample (``--timeLimit``), so that what follows starts a line."""
+        if self.line_open:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+            self.line_open = False
+
+
+class RendersProgress:
+    """The progress of a frame rendered in several renders (render products in several
+    groups): a :class:`Progress` per render, labelled with its products, since each counts its
+    own samples."""
+
+    def __init__(self, label: str, interactive: bool | None = None) -> None:
+        self.label = label
+        self.interactive = interactive
+        self.current: Progress | None = None
+
+    def __call__(self, products: str) -> Progress:
+        """The progress callback of the render of ``products``; the one before has ended."""
+        self.end()
+        self.current = Progress(f"{self.label} ({products})", self.interactive)
+        return self.current
+
+    def end(self) -> None:
+        if self.current is not None:
+            self.current.end()
 
 
 def peak_memory_bytes() -> int:

@@ -7,14 +7,22 @@ import argparse
 import itertools
 import logging
 import os
+import sys
 from collections.abc import Iterator
 
 from pxr import Usd
 
 from . import render_options
-from .cli_arguments import EXIT_OK, RENDERER_NAME
+from .cli_arguments import (
+    EXIT_OK,
+    EXIT_USAGE,
+    PROG,
+    RENDERER_NAME,
+    UsageError,
+    check_frame_placeholder,
+)
 from .checkpoints import Checkpoint
-from .cli_output import Progress, frame_summary
+from .cli_output import Progress, RendersProgress, frame_summary
 from .frames import FrameRange, frame_path, iter_frames
 from .image import Image, check_output_directory
 from .jobs import (
@@ -30,6 +38,7 @@ from .jobs import (
 )
 from .errors import warn
 from .trace import Tracer
+from .usd.products import ProductPlan
 
 
 def render_job(args: argparse.Namespace, first_frame: FrameTime) -> RenderJob:
@@ -73,15 +82,25 @@ def _frames(args: argparse.Namespace, frames: list[FrameRange]) -> tuple[Iterato
     return iter([START_TIME]), 1
 
 
+def _check_product_names(plan: ProductPlan, frames: str) -> None:
+    """``UsageError`` unless every productName tells the frames of ``frames`` apart, as the
+    output path must (else a product is overwritten frame after frame)."""
+    for product in plan.products:
+        check_frame_placeholder(product.name, frames, product=product.path)
+
+
 def record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) -> int:
     say = (lambda _text: None) if args.quiet else print
-    check_output_directory(args.outputImagePath)
     times, count = _frames(args, frames)
     first_frame = next(times)
-    job = render_job(args, first_frame)
 
     def output_path(frame: FrameTime) -> str:
-        return frame_path(args.outputImagePath, frame) if frames else args.outputImagePath
+        path = frame_path(args.outputImagePath, frame) if frames else args.outputImagePath
+        check_output_directory(path)  # each frame's: a placeholder may name a directory
+        return path
+
+    output_path(first_frame)  # before the stage is read
+    job = render_job(args, first_frame)
 
     if args.scheduler or args.workers:
         from .farm import record_on_farm  # Dask takes a second to import: farm renders only
@@ -104,6 +123,12 @@ def record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) -
             )
         return EXIT_OK
     with JobRenderer(job, tracer) as session:
+        if frames and session.products is not None:
+            try:
+                _check_product_names(session.products, args.frames)
+            except UsageError as error:
+                sys.stderr.write(f"{PROG}: error: {error}\n")
+                return EXIT_USAGE
         say(f"Camera: {session.camera}")
         say(f"Renderer plugin: {RENDERER_NAME}")
         checkpoints = args.checkpoint is not None or args.resume
@@ -118,23 +143,28 @@ def record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) -
                 say(f"Skipped time code {label}: {output} is complete")
                 continue
             say(f"Recording time code: {label}")
-            progress = None if args.quiet else Progress(f"time code {label}")
             products: list[tuple[str, Image]] = []
             with tracer.span(f"time code {label}"):
                 if session.products is not None:
+                    progress = None if args.quiet else RendersProgress(f"time code {label}")
                     # The output image holds the first product's render (all its AOVs in EXR).
                     products = session.render_products(
                         frame, os.path.dirname(os.path.abspath(output)), progress
                     )
                     image = products[0][1]
                     image.metadata[RENDER_KEY] = job.frame_key(frame)
-                elif checkpoints:  # the render writes the image and its checkpoints
-                    checkpoint = Checkpoint(
-                        output, args.checkpoint, resume=args.resume, color_mode=job.color_mode
+                else:
+                    progress = None if args.quiet else Progress(f"time code {label}")
+                    checkpoint = (  # the render then writes the image and its checkpoints
+                        Checkpoint(
+                            output, args.checkpoint, resume=args.resume, color_mode=job.color_mode
+                        )
+                        if checkpoints
+                        else None
                     )
                     image = session.render(frame, progress=progress, checkpoint=checkpoint)
-                else:
-                    image = session.render(frame, progress=progress)
+                if progress is not None:
+                    progress.end()
                 if not checkpoints:
                     with tracer.span("write image", file=output):
                         image.write(output, color_mode=job.color_mode)

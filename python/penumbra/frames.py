@@ -18,7 +18,6 @@ _NUMBER = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)"
 _FRAME_SPEC = re.compile(
     rf"\s*(?P<start>{_NUMBER})\s*(?::\s*(?P<end>{_NUMBER})\s*(?:x\s*(?P<stride>{_NUMBER})\s*)?)?"
 )
-_EPSILON = 1e-9
 
 
 @dataclass(frozen=True)
@@ -35,7 +34,8 @@ class FrameRange:
 
 def _parse_one(spec: str) -> FrameRange:
     """One FRAMESPEC, with UsdUtils.TimeCodeRange's semantics (a reversed range counts down;
-    the stride's sign must match the direction)."""
+    the stride's sign must match the direction; the same frames, floating-point rounding
+    included)."""
     match = _FRAME_SPEC.fullmatch(spec)
     if not match:
         raise ValueError(f"invalid FRAMESPEC {spec.strip()!r}")
@@ -50,7 +50,8 @@ def _parse_one(spec: str) -> FrameRange:
         )
     if not all(math.isfinite(value) for value in (start, end, stride)):
         raise ValueError(f"invalid FRAMESPEC {spec.strip()!r}: frames must be finite")
-    return FrameRange(start, stride, math.floor((end - start) / stride + _EPSILON) + 1)
+    # TimeCodeRange's iterator's count, to the bit: 0:0.7x0.1 stops at 0.6, as usdrecord does.
+    return FrameRange(start, stride, math.floor((end - start + stride) / stride))
 
 
 def parse_frame_spec(spec: str) -> list[FrameRange]:

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pxr import Usd
 
 from . import _core, _interrupts, render_options
-from .checkpoints import PARTIAL, RENDER_KEY, Checkpoint
+from .checkpoints import PARTIAL, RENDER_KEY, STATE_SUFFIX, Checkpoint
 from .errors import SceneError, warn
 from .image import Image
 from .products import render_products
@@ -26,6 +26,7 @@ from .renderer import DEFAULT_WIDTH, Renderer
 from .trace import Tracer
 from .usd import DEFAULT_PURPOSES, open_stage, read_render_settings, render_pass_settings
 from .usd import resolve_camera
+from .usd.framing import FRAMING_CAMERA_PATH, framing_camera
 from .usd.products import read_products
 
 FrameTime = float | str
@@ -36,8 +37,10 @@ START_TIME = "start"
 
 
 # Settings that change how a frame is computed but not a bit of its pixels (besides the render
-# options that say so).
-_NOT_IN_KEY = ("max_memory", "texture_cache")
+# options that say so). camera_time: a named or stage camera does not depend on it and a framing
+# camera is placed again at each frame, so a range's first frame decides no pixel (`-f 3:4
+# --resume` skips what `-f 1:4` rendered).
+_NOT_IN_KEY = ("max_memory", "texture_cache", "camera_time")
 _URI_SCHEME = re.compile(r"[A-Za-z][A-Za-z0-9+.-]+:")
 
 
@@ -60,7 +63,8 @@ class RenderJob:
     camera: str | None = None
     """``--camera`` as given: resolved on the stage (at :attr:`camera_time`)."""
     camera_time: FrameTime = START_TIME
-    """The frame at which the camera is looked up: the first one rendered."""
+    """The frame at which the camera is looked up: the first one rendered (not in the key: a
+    camera framing the stage is placed again at each frame, as usdrecord places it)."""
     render_settings_path: str | None = None
     render_pass_path: str | None = None
     color_mode: str = "sRGB"
@@ -119,7 +123,10 @@ def frame_label(frame: FrameTime) -> str:
 
 def output_is_complete(path: str, key: str) -> bool:
     """Whether ``path`` holds the frame whose key is ``key`` (read from its header only); a
-    missing, unreadable or different file is not, nor a checkpoint of it (``partial``)."""
+    missing, unreadable or different file is not, nor a checkpoint of it: one with a state file
+    beside it (PNG, TIFF and JPEG drop ``partial`` but keep the key) or marked ``partial``."""
+    if os.path.exists(path + STATE_SUFFIX):  # removed only once the frame is finished
+        return False
     try:
         metadata = _core.read_image_header(path)[3]
     except RuntimeError:
@@ -162,8 +169,18 @@ class JobRenderer:
                 stage, job.camera, settings, time_code(stage, job.camera_time), purposes
             )
             self.camera = str(camera.GetPath())
+            self._purposes = purposes
             self.renderer = Renderer(stage, purposes=purposes, render_pass=job.render_pass_path)
         self.renderer.tracer = tracer
+
+    def _frame_camera(self, frame: FrameTime) -> str:
+        """The camera of ``frame``: a camera framing the stage is placed again at each frame
+        (as usdrecord's FrameRecorder does), so that moving geometry stays in view."""
+        if self.camera == str(FRAMING_CAMERA_PATH):
+            stage = self.renderer.stage
+            with _interrupts.deferred():  # USD's bindings would lose a signal (_interrupts.py)
+                framing_camera(stage, time_code(stage, frame), self._purposes)
+        return self.camera
 
     def close(self) -> None:
         self.renderer.close()
@@ -175,7 +192,8 @@ class JobRenderer:
         self.close()
 
     def image_size(self, frame: FrameTime) -> tuple[int, int]:
-        """The size of ``frame``'s image (apertures and render settings may be animated)."""
+        """The size of ``frame``'s image (apertures and render settings may be animated; a
+        framing camera's are fixed, wherever it is placed)."""
         return self.renderer.image_size(
             self.camera,
             time_code(self.renderer.stage, frame),
@@ -183,7 +201,7 @@ class JobRenderer:
             render_settings=self.render_settings,
         )
 
-    def _options(self, progress: Callable[[int, int], None] | None) -> dict:
+    def _options(self) -> dict:
         """The render() arguments every frame shares."""
         job = self.job
         return dict(
@@ -192,7 +210,6 @@ class JobRenderer:
             disable_depth_of_field=job.disable_depth_of_field,
             dome_light_visibility=job.dome_light_visibility,
             default_light="none" if job.disable_camera_light else "camera",
-            progress=progress,
             max_memory=job.max_memory,
             texture_cache=job.texture_cache,
             denoise=job.denoise,
@@ -216,7 +233,7 @@ class JobRenderer:
                 "(not with --scheduler or --workers) in this version"
             )
         image = self.renderer.render(
-            camera=self.camera,
+            camera=self._frame_camera(frame),
             time=time_code(self.renderer.stage, frame),
             width=self.job.width or DEFAULT_WIDTH,
             aovs=self.job.aovs,
@@ -227,7 +244,8 @@ class JobRenderer:
                 if checkpoint is None
                 else dataclasses.replace(checkpoint, key=self.job.frame_key(frame))
             ),
-            **self._options(progress),
+            progress=progress,
+            **self._options(),
         )
         image.metadata[RENDER_KEY] = self.job.frame_key(frame)
         return image
@@ -236,10 +254,11 @@ class JobRenderer:
         self,
         frame: FrameTime,
         directory: str,
-        progress: Callable[[int, int], None] | None = None,
+        progress: Callable[[str], Callable[[int, int], None]] | None = None,
     ) -> list[tuple[str, Image]]:
         """Render and write (atomically) every render product of ``frame``, with paths relative
-        to ``directory``; returns each product's path and image."""
+        to ``directory``; returns each product's path and image. ``progress``: as
+        :func:`penumbra.products.render_products`' ``progress_for``."""
         assert self.products is not None
         return render_products(
             self.renderer,
@@ -248,5 +267,6 @@ class JobRenderer:
             directory,
             camera=self.job.camera,
             width=self.job.width,
-            **self._options(progress),
+            progress_for=progress,
+            **self._options(),
         )

@@ -26,6 +26,7 @@ def render_products(
     width: int | None = None,
     denoise: bool = False,
     on_render: Callable[[Image], None] | None = None,
+    progress_for: Callable[[str], Callable[[int, int], None]] | None = None,
     **render_options,
 ) -> list[tuple[str, Image]]:
     """Render every product of ``plan`` at ``time_code`` and write it (atomically) to its
@@ -34,6 +35,8 @@ def render_products(
     overrides the products'; ``width`` scales each product's resolution (None: as authored).
     ``denoise`` denoises the colour vars; a var whose sourceName is ``noisyColor`` keeps the
     colour as rendered. Returns each product's path and image; ``on_render`` sees each render.
+    ``progress_for`` makes each render's progress callback (``progress``) from the paths of
+    the products it renders: each render counts its own samples.
     """
     frame = None if time_code.IsDefault() else time_code.GetValue()
     groups: dict[tuple, list[RenderProduct]] = {}
@@ -47,6 +50,9 @@ def render_products(
         if NOISY_COLOR in aovs and not denoise:
             aovs.remove(NOISY_COLOR)
             warn(f"{products[0].path}: a {NOISY_COLOR} var needs --denoise; skipped")
+        options = dict(render_options)
+        if progress_for is not None:
+            options["progress"] = progress_for(", ".join(product.path for product in products))
         image = renderer.render(
             camera=group_camera,
             time=time_code,
@@ -54,7 +60,7 @@ def render_products(
             render_settings=settings,
             aovs=aovs,
             denoise=denoise,
-            **render_options,
+            **options,
         )
         if on_render is not None:
             on_render(image)

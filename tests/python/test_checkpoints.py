@@ -22,7 +22,7 @@ import pytest
 from pxr import Sdf, Usd
 
 import penumbra
-from penumbra import _core
+from penumbra import _core, cli_record
 from penumbra.checkpoints import STATE_SUFFIX, read_state, write_state
 from penumbra.cli import main
 from penumbra.cli_arguments import build_parser
@@ -413,3 +413,36 @@ def test_the_frame_key_holds_the_time_limit_not_the_checkpoint_interval(tmp_path
 
     assert key("--checkpoint", "60") == key()
     assert key("--timeLimit", "60") != key()
+
+
+@pytest.mark.parametrize("extension", ["png", "tif", "jpg"])
+def test_a_partly_rendered_frame_in_any_format_is_resumed_not_skipped(
+    tmp_path, monkeypatch, capfd, extension
+):
+    """PNG, TIFF and JPEG keep the checkpoint image's key but drop ``penumbra:partial``: the
+    state file beside the image says the frame is unfinished."""
+    output = tmp_path / f"out.{extension}"
+    flags = ["-w", "32", "-spp", "32", "--threads", "1", "--checkpoint", "0"]
+    monkeypatch.setattr(cli_record, "Progress", lambda _label: interrupt_after(2))
+    assert main([str(CORNELL), str(output), *flags]) != 0
+    monkeypatch.undo()
+    assert state_path(output).exists()
+    metadata = read(output)[1]
+    assert "Exif:ImageUniqueID" in metadata and "penumbra:partial" not in metadata
+    capfd.readouterr()
+    assert main([str(CORNELL), str(output), *flags, "--resume"]) == 0
+    out, err = capfd.readouterr()
+    assert "is complete" not in out and "resuming from 4 samples" in err
+    assert not state_path(output).exists()
+
+
+def test_resume_keys_do_not_depend_on_the_first_frame_of_the_range(tmp_path, capsys):
+    output = tmp_path / "frame.#.exr"
+    flags = ["-w", "8", "-spp", "1"]
+    animated = str(CORNELL.parent / "cornell_animated.usda")
+    assert main([animated, str(output), *flags, "-f", "1:3"]) == 0
+    capsys.readouterr()
+    assert main([animated, str(output), *flags, "-f", "2:3", "--resume"]) == 0
+    out = capsys.readouterr().out
+    assert "Skipped time code 2" in out and "Skipped time code 3" in out
+    assert "Recording" not in out

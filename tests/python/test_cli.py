@@ -5,14 +5,17 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import UsdGeom
+from pxr import Gf, UsdGeom, UsdUtils
 
-from penumbra import _core
+from penumbra import _core, cli_record
 from penumbra.cli import main
+from penumbra.cli_output import Progress
+from penumbra.frames import iter_frames, parse_frame_spec
 from stages import CORNELL, add_quad, lit_quad_stage, new_stage
 
 SMALL = ["-w", "32", "-spp", "4", "-cam", "/cam"]
@@ -88,6 +91,27 @@ def test_frames_substitution(tmp_path):
     assert written == ["out.001.exr", "out.003.exr", "out.010.exr"]
     _, _, metadata = _core.read_image(str(tmp_path / "out.010.exr"))
     assert float(metadata["penumbra:timeCode"]) == 10.0
+
+
+@pytest.mark.parametrize(
+    "spec", ["0:0.7x0.1", "0.1:0.3x0.1", "1:2x0.1", "10:9.7x-0.1", "1:10x3", "3:1", "1:2x0.5"]
+)
+def test_frame_specs_give_usd_cores_time_codes(spec):
+    """UsdUtils.TimeCodeRange's frames, floating-point rounding included (no tolerance)."""
+    expected = [code.GetValue() for code in UsdUtils.TimeCodeRange.CreateFromFrameSpec(spec)]
+    assert list(iter_frames(parse_frame_spec(spec))) == expected
+
+
+def test_a_placeholder_may_name_the_directory(tmp_path, capsys):
+    """As usdrecord's: each frame's directory is checked, the first before the stage is read."""
+    stage_path = tmp_path / "quad.usda"
+    lit_quad_stage(stage_path).Save()
+    for shot in ("s_01", "s_02"):
+        (tmp_path / shot).mkdir()
+    assert main([str(stage_path), str(tmp_path / "s_##" / "o.exr"), *SMALL, "-f", "1:2"]) == 0
+    assert (tmp_path / "s_01" / "o.exr").exists() and (tmp_path / "s_02" / "o.exr").exists()
+    assert main([str(stage_path), str(tmp_path / "s_##" / "o.exr"), *SMALL, "-f", "2:3"]) == 1
+    assert f"directory {tmp_path / 's_03'} does not exist" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(
@@ -172,6 +196,26 @@ def test_stage_without_camera_or_lights_is_framed_and_lit(tmp_path, capsys):
     assert "PenumbraFramingCamera" not in no_camera.read_text()
 
 
+def test_a_framing_camera_is_placed_at_each_frame(tmp_path):
+    """As usdrecord places it: a cube that moves away from where frame 1 framed it is in view at
+    frame 10, as when frame 10 is rendered alone."""
+    stage_path = tmp_path / "moving.usda"
+    stage = new_stage(stage_path)
+    translate = UsdGeom.Cube.Define(stage, "/cube").AddTranslateOp()
+    translate.Set(Gf.Vec3d(0, 0, 0), 1)
+    translate.Set(Gf.Vec3d(5, 0, 0), 10)
+    stage.Save()
+    size = ["-w", "32", "-spp", "1"]
+    assert main([str(stage_path), str(tmp_path / "range.#.exr"), *size, "-f", "1,10"]) == 0
+    assert main([str(stage_path), str(tmp_path / "alone.#.exr"), *size, "-f", "10"]) == 0
+
+    def alpha(name: str) -> np.ndarray:
+        return _core.read_image(str(tmp_path / name))[0][..., 3]
+
+    assert np.count_nonzero(alpha("alone.10.exr")) > 50
+    np.testing.assert_array_equal(alpha("range.10.exr"), alpha("alone.10.exr"))
+
+
 def test_camera_by_name_and_main_cam(tmp_path):
     stage_path = tmp_path / "quad.usda"
     stage = lit_quad_stage(stage_path)
@@ -214,6 +258,18 @@ def test_console_script_progress(tmp_path):
     assert result.returncode == 0, result.stderr
     assert "8/8 samples" in result.stderr
     assert out.exists()
+
+
+def test_a_frame_stopped_by_its_time_limit_ends_the_progress_line(tmp_path, capsys, monkeypatch):
+    """On a terminal the progress line is rewritten in place: a frame that ends before all its
+    samples (--timeLimit) still ends the line before the summary."""
+    monkeypatch.setattr(cli_record, "Progress", partial(Progress, interactive=True))
+    stage_path = tmp_path / "quad.usda"
+    lit_quad_stage(stage_path).Save()
+    flags = [*SMALL[:2], "-spp", "64", *SMALL[4:], "--timeLimit", "0"]
+    assert main([str(stage_path), str(tmp_path / "o.exr"), *flags]) == 0
+    err = capsys.readouterr().err
+    assert "4/64 samples" in err and err.endswith("\n")
 
 
 def test_adaptive_sampling_and_clamp_flags(tmp_path, capsys):

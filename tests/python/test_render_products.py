@@ -233,6 +233,47 @@ def test_product_without_a_name_is_an_error(tmp_path, capsys):
 
 
 @pytest.mark.parametrize(
+    "name, frames, message",
+    [
+        ("data.exr", "1:2", 'productName data.exr needs a frame placeholder such as "####"'),
+        ("data.####.exr", "1:2x0.5", "productName data.####.exr: the frames need 1 decimals"),
+        ("data.#.$F.#.exr", "1", "productName data.#.$F.#.exr holds 2 frame placeholders"),
+    ],
+)
+def test_product_names_must_tell_the_frames_apart(tmp_path, capsys, name, frames, message):
+    """As the output path must: a usage error before anything is rendered, not a product
+    overwritten frame after frame."""
+    stage = products_stage(tmp_path / "scene.usda")
+    stage.GetPrimAtPath("/Render/Products/data").GetAttribute("productName").Set(name)
+    stage.GetRootLayer().Save()
+    output = str(tmp_path / "out.####.#.exr")
+    assert main([str(tmp_path / "scene.usda"), output, "-spp", "1", "-f", frames]) == 2
+    assert f"error: /Render/Products/data: {message}" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.usda"]
+
+
+def test_a_houdini_placeholder_tells_fractional_frames_apart(tmp_path):
+    """``$F`` writes a fractional frame's decimals: no ``#`` run is needed."""
+    stage = products_stage(tmp_path / "scene.usda")
+    stage.GetPrimAtPath("/Render/Products/data").GetAttribute("productName").Set("data.$F4.exr")
+    stage.GetRootLayer().Save()
+    output = str(tmp_path / "out.####.#.exr")
+    argv = [str(tmp_path / "scene.usda"), output, "-w", "8", "-spp", "1", "-q", "-f", "1:1.5x0.5"]
+    assert main(argv) == 0
+    assert (tmp_path / "data.0001.exr").exists() and (tmp_path / "data.01.5.exr").exists()
+
+
+def test_each_render_of_a_frame_reports_its_own_progress(tmp_path, capsys):
+    """Products in two groups (other resolutions) render apart, each with its own progress."""
+    products_stage(tmp_path / "scene.usda")
+    output = str(tmp_path / "out.####.exr")
+    assert main([str(tmp_path / "scene.usda"), output, "-spp", "4", "-f", "1"]) == 0
+    done = [line for line in capsys.readouterr().err.splitlines() if "4/4 samples" in line]
+    assert len(done) == 2, done
+    assert "/Render/Products/beauty" in done[0] and "/Render/Products/data" in done[1]
+
+
+@pytest.mark.parametrize(
     "output, flags, message",
     [
         ("out.exr", ["--aov", "normal,bogus"], "--aov bogus: unknown AOV"),

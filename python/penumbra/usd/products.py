@@ -242,7 +242,8 @@ def _warn_unsupported(prim: Usd.Prim, kind: str) -> None:
             warn(f"{prim.GetPath()}: {name} is not supported; ignored")
 
 
-_HOUDINI_FRAME = re.compile(r"\$F(\d*)")
+HOUDINI_FRAME = re.compile(r"\$F(\d*)")
+"""A productName's ``$F`` or ``$F4`` frame placeholder."""
 
 
 def product_path(name: str, frame: float | None) -> str:
@@ -256,4 +257,4 @@ def product_path(name: str, frame: float | None) -> str:
         width = int(match.group(1) or 1)
         return f"{int(frame):0{width}d}" if float(frame).is_integer() else f"{frame:0{width}g}"
 
-    return frame_path(_HOUDINI_FRAME.sub(houdini, name), frame)
+    return frame_path(HOUDINI_FRAME.sub(houdini, name), frame)
