@@ -196,12 +196,9 @@ std::vector<std::pair<std::vector<Vec3f>, float>> vertexData(const MeshData& cag
   std::vector<std::pair<std::vector<Vec3f>, float>> result;
   const auto add = [&](std::vector<Vec3f> values) {
     if (values.size() != cage.points.size()) return;  // the tessellator reports it
-    Vec3f lower = values[0], upper = values[0];
-    for (const Vec3f& value : values) {
-      lower = componentMin(lower, value);
-      upper = componentMax(upper, value);
-    }
-    const Vec3f range = upper - lower;
+    Bounds3f bounds;
+    for (const Vec3f& value : values) bounds.extend(value);
+    const Vec3f range = bounds.upper - bounds.lower;
     const float tolerance = kPrimvarTolerance * std::max({range.x, range.y, range.z});
     if (tolerance > 0 && std::isfinite(tolerance))
       result.emplace_back(std::move(values), tolerance);
@@ -343,13 +340,10 @@ void Mesh::setCopyPlacements(const std::vector<const std::vector<MotionTransform
   if (subdivisionScheme_ != "none" && !data_.points.empty()) {
     // The cage's bounding sphere, and each copy's distance from the dicing camera over its
     // size: the smallest ratios see the cage largest.
-    Vec3f lower = data_.points[0], upper = data_.points[0];
-    for (const Vec3f& p : data_.points) {
-      lower = componentMin(lower, p);
-      upper = componentMax(upper, p);
-    }
-    const Vec3f centre = (lower + upper) * 0.5f;
-    const float radius = length(upper - lower) * 0.5f;
+    Bounds3f bounds;
+    for (const Vec3f& p : data_.points) bounds.extend(p);
+    const Vec3f centre = (bounds.lower + bounds.upper) * 0.5f;
+    const float radius = length(bounds.upper - bounds.lower) * 0.5f;
     const Vec3f eye = context.dicing.camera.cameraToWorld.first().applyToPoint({0, 0, 0});
     std::vector<std::pair<float, const Transform*>> ranked;
     for (const std::vector<MotionTransform>* transforms : copies)

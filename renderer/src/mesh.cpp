@@ -158,12 +158,9 @@ bool isClosedSurface(const std::vector<Vec3f>& points, const std::vector<int>& f
   }
   if (everyEdgeIsSharedEvenly(faceVertexCounts, faceVertexIndices, surface)) return true;
   if (points.empty()) return false;
-  Vec3f lower = points[0], upper = points[0];
-  for (const Vec3f& p : points) {
-    lower = componentMin(lower, p);
-    upper = componentMax(upper, p);
-  }
-  const Vec3f size = upper - lower;
+  Bounds3f bounds;
+  for (const Vec3f& p : points) bounds.extend(p);
+  const Vec3f size = bounds.upper - bounds.lower;
   const float tolerance = kWeldTolerance * std::max({size.x, size.y, size.z});
   const std::vector<int> representative = weldPoints(points, tolerance);
   std::vector<int> welded(faceVertexIndices.size());

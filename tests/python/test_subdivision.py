@@ -7,12 +7,25 @@ import warnings
 
 import numpy as np
 import pytest
-from pxr import Usd, UsdGeom
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
 import penumbra
-from stages import SCENES
+from stages import SCENES, add_camera, add_quad, bind, new_stage, render_with_warnings
 
 USD_WG_SUBDIVISION = SCENES / "usd-wg" / "full_assets" / "SubdivisionSurfaces"
+
+
+def add_cube_cage(stage: Usd.Stage, path: str) -> UsdGeom.Mesh:
+    """A subdivision mesh (USD's default scheme, catmullClark) on the cage of the cube
+    [-1, 1]³, its quads facing out."""
+    cube = UsdGeom.Mesh.Define(stage, path)
+    corners = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
+    cube.CreatePointsAttr([Gf.Vec3f(*c) for c in corners])
+    cube.CreateFaceVertexCountsAttr([4] * 6)
+    cube.CreateFaceVertexIndicesAttr(
+        [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 1, 3, 7, 5, 0, 4, 6, 2]
+    )
+    return cube
 
 
 @pytest.mark.parametrize(
@@ -57,23 +70,13 @@ def test_complexity_dices_finer_but_renders_the_same_surface(tmp_path):
 def glass_cube(hole: bool, thin_walled: bool | None = None) -> np.ndarray:
     """A Catmull-Clark cube of clear glass over a grey floor under a sun, its top face a hole if
     ``hole``; ``thin_walled`` sets inputs:penumbra:thinWalled."""
-    from pxr import Gf, Sdf, UsdLux, UsdShade
-
-    from stages import add_camera, add_quad, bind, new_stage
-
     stage = new_stage()
     add_camera(stage, translate=(0.0, 0.0, 6.0))
     sun = UsdLux.DistantLight.Define(stage, "/sun")
     sun.CreateIntensityAttr(3.0)
     sun.AddRotateXOp().Set(-30.0)
     add_quad(stage, "/floor", center=(0.0, 0.0, -1.5), half_size=3.0, color=(0.8, 0.8, 0.8))
-    corners = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
-    cube = UsdGeom.Mesh.Define(stage, "/cube")
-    cube.CreatePointsAttr([Gf.Vec3f(*c) for c in corners])
-    cube.CreateFaceVertexCountsAttr([4] * 6)
-    cube.CreateFaceVertexIndicesAttr(
-        [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 1, 3, 7, 5, 0, 4, 6, 2]
-    )
+    cube = add_cube_cage(stage, "/cube")
     if hole:
         cube.CreateHoleIndicesAttr([1])  # the face towards the camera (+z)
     cube.CreateDoubleSidedAttr(True)
@@ -103,20 +106,10 @@ def test_tags_that_do_not_fit_the_mesh_are_left_out_one_by_one():
     # as topology edits leave them: Hydra's refiner warns and skips each; the limit surface was
     # dropped for the cage (centre depth 1.0 instead of 0.84). Now the surface is the one
     # without those tags, and one warning names them.
-    from pxr import Gf
-
-    from stages import add_camera, new_stage, render_with_warnings
-
     def cube_stage(stale_tags: bool) -> Usd.Stage:
         stage = new_stage()
         add_camera(stage)
-        cube = UsdGeom.Mesh.Define(stage, "/cube")
-        corners = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
-        cube.CreatePointsAttr([Gf.Vec3f(*c) for c in corners])
-        cube.CreateFaceVertexCountsAttr([4] * 6)
-        cube.CreateFaceVertexIndicesAttr(
-            [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 1, 3, 7, 5, 0, 4, 6, 2]
-        )
+        cube = add_cube_cage(stage, "/cube")
         if stale_tags:
             cube.CreateCreaseIndicesAttr([0, 7])
             cube.CreateCreaseLengthsAttr([2])
@@ -140,10 +133,6 @@ def test_a_flat_face_follows_its_colours_over_the_limit_surface(interpolation):
     # the quad's parameters, the mean of the corners at the centre. A flat face has no curvature
     # to dice for, and was diced into two triangles whose linear interpolation gave (0.49, 0.02,
     # 0.49) at the centre.
-    from pxr import Gf, Vt
-
-    from stages import add_camera, new_stage
-
     stage = new_stage()
     add_camera(stage)
     quad = UsdGeom.Mesh.Define(stage, "/quad")
@@ -173,10 +162,6 @@ def test_a_subdivision_surface_scaled_up_between_frames_is_diced_again():
     # penumbra-record renders a frame range with one Renderer): frame 2 must be diced for its
     # size, as a fresh render of frame 2 is. It kept frame 1's facets (up to 9.7 px off the
     # limit surface where a fresh render is within 0.7 px).
-    from pxr import Gf
-
-    from stages import add_camera, new_stage
-
     stage = new_stage()
     stage.SetEndTimeCode(2)
     add_camera(stage, translate=(0.0, 0.0, 400.0), focal_length=25.0, aperture=(10.0, 10.0))
@@ -184,13 +169,7 @@ def test_a_subdivision_surface_scaled_up_between_frames_is_diced_again():
     scale = parent.AddScaleOp()
     scale.Set(Gf.Vec3f(1, 1, 1), 1)
     scale.Set(Gf.Vec3f(60, 60, 60), 2)
-    cube = UsdGeom.Mesh.Define(stage, "/blob/cube")
-    corners = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
-    cube.CreatePointsAttr([Gf.Vec3f(*c) for c in corners])
-    cube.CreateFaceVertexCountsAttr([4] * 6)
-    cube.CreateFaceVertexIndicesAttr(
-        [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 1, 3, 7, 5, 0, 4, 6, 2]
-    )
+    cube = add_cube_cage(stage, "/blob/cube")
 
     def frame_2(renderer: penumbra.Renderer) -> np.ndarray:
         return renderer.render(camera="/cam", time=2, width=48, samples=4, aovs=("depth",))["depth"]
@@ -207,21 +186,11 @@ def test_a_native_instance_of_a_subdivision_surface_is_diced_for_its_copy():
     # A prototype's own mesh sits where its copies' space has its origin: an instance scaled 100
     # times and seen close was diced for the small prototype (a hexagonal blob, up to 9.7 px off
     # its limit surface). It must render as the same surface placed as a plain prim does.
-    from pxr import Gf, Sdf
-
-    from stages import add_camera, new_stage
-
     def blob_stage(instanceable: bool) -> Usd.Stage:
         stage = new_stage()
         add_camera(stage, translate=(0.0, 0.0, 400.0), focal_length=25.0, aperture=(10.0, 10.0))
         prototype = stage.CreateClassPrim("/Prototype")
-        cube = UsdGeom.Mesh.Define(stage, "/Prototype/cube")
-        corners = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
-        cube.CreatePointsAttr([Gf.Vec3f(*c) for c in corners])
-        cube.CreateFaceVertexCountsAttr([4] * 6)
-        cube.CreateFaceVertexIndicesAttr(
-            [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 1, 3, 7, 5, 0, 4, 6, 2]
-        )
+        cube = add_cube_cage(stage, "/Prototype/cube")
         copy = UsdGeom.Xform.Define(stage, "/World/copy")
         copy.AddScaleOp().Set(Gf.Vec3f(60, 60, 60))
         copy.GetPrim().GetReferences().AddInternalReference(prototype.GetPath())

@@ -139,6 +139,31 @@ struct Frame {
   Vec3f toLocal(const Vec3f& v) const { return {dot(v, s), dot(v, t), dot(v, n)}; }
 };
 
+/// An axis-aligned box; empty (lower above upper) until a point extends it.
+struct Bounds3f {
+  Vec3f lower{kInfinity, kInfinity, kInfinity};
+  Vec3f upper{-kInfinity, -kInfinity, -kInfinity};
+
+  bool empty() const { return lower.x > upper.x || lower.y > upper.y || lower.z > upper.z; }
+  void extend(const Vec3f& point) {
+    lower = componentMin(lower, point);
+    upper = componentMax(upper, point);
+  }
+  void extend(const Bounds3f& other) {
+    lower = componentMin(lower, other.lower);
+    upper = componentMax(upper, other.upper);
+  }
+  bool contains(const Vec3f& p) const {
+    return p.x >= lower.x && p.x <= upper.x && p.y >= lower.y && p.y <= upper.y && p.z >= lower.z &&
+           p.z <= upper.z;
+  }
+};
+
+/// The common part of two boxes (empty when they do not meet).
+inline Bounds3f intersection(const Bounds3f& a, const Bounds3f& b) {
+  return {componentMax(a.lower, b.lower), componentMin(a.upper, b.upper)};
+}
+
 /// Affine transform in USD's row-vector convention: p' = p · M, translation in the last row.
 /// Stored as the 4x4 row-major matrix USD gives (Gf.Matrix4d).
 struct Transform {
