@@ -6,8 +6,9 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
-from pxr import Gf, UsdGeom, Vt
+from pxr import Gf, Sdf, UsdGeom, UsdLux, Vt
 
 import penumbra
 from measure import centroid, intensity
@@ -18,8 +19,10 @@ from stages import (
     add_preview_material,
     add_quad,
     bind,
+    covers,
     emitter_stage,
     new_stage,
+    render_with_warnings,
 )
 
 SMALL = dict(camera="/cam", width=40, samples=1)
@@ -171,3 +174,97 @@ def test_id_aovs_tell_copies_apart():
     assert [path.rsplit("/", 1)[-1] for path, _ in copies] == ["red", "blue", "blue", "red"]
     assert len(set(copies)) == 4 and all(copy >= 0 for _, copy in copies)
     assert ids_at(0, 0) == (None, -1)  # nothing there
+
+
+def hidden_prototypes_stage(how: str):
+    """Copies at (±1, 0.5) of a quad prototype in a group ``Protos`` (under the instancer, or
+    outside it, translated to (0, -1) where it would show itself), which ``how`` hides in place:
+    "invisible", "outside invisible", "outside class"; "" for a visible group in the instancer."""
+    stage = new_stage()
+    add_camera(stage)
+    add_distant_light(stage)
+    group = "/World/Protos" if how.startswith("outside") else "/World/copies/Protos"
+    UsdGeom.Xform.Define(stage, group).AddTranslateOp().Set(Gf.Vec3d(0, -1, 0))
+    UsdGeom.Xform.Define(stage, f"{group}/tile")
+    add_quad(stage, f"{group}/tile/quad", half_size=0.4)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/World/copies")
+    instancer.CreatePrototypesRel().SetTargets([f"{group}/tile"])
+    instancer.CreatePositionsAttr(Vt.Vec3fArray([(-1, 0.5, 0), (1, 0.5, 0)]))
+    instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    if how.endswith("invisible"):
+        UsdGeom.Imageable(stage.GetPrimAtPath(group)).MakeInvisible()
+    elif how.endswith("class"):
+        stage.GetPrimAtPath(group).SetSpecifier(Sdf.SpecifierClass)
+    return stage
+
+
+@pytest.mark.parametrize("how", ["invisible", "outside invisible", "outside class"])
+def test_prototypes_hidden_in_place_still_have_their_copies(how: str):
+    """As in UsdImaging, a copy's visibility counts from its prototype root down (and the
+    instancer's), and prototypes may be abstract: an invisible or ``class`` group above the
+    prototypes hides them in place, not their copies."""
+    image, messages = render_with_warnings(hidden_prototypes_stage(how), 40)
+    expected, _ = render_with_warnings(hidden_prototypes_stage(""), 40)
+    assert messages == []
+    assert covers(expected, -1, 0.5) and covers(expected, 1, 0.5) and not covers(expected, 0, -1)
+    assert np.array_equal(image, expected)
+
+
+def sliding_prototype_stage(instanced: bool):
+    """Two copies, at (-1.5, ±1), of a quad whose prototype root slides 1 unit along +X over
+    the shutter [1, 2] (a keyed translate): by a point instancer, or as plain prims."""
+    stage = new_stage()
+    stage.SetEndTimeCode(2)
+    add_camera(stage).CreateShutterCloseAttr(1.0)
+    add_distant_light(stage)
+    positions = [(-1.5, 1, 0), (-1.5, -1, 0)]
+    roots = ["/World/copies/Protos/tile"] if instanced else [f"/World/c{n}/tile" for n in range(2)]
+    for n, root in enumerate(roots):
+        if not instanced:
+            place = UsdGeom.Xform.Define(stage, f"/World/c{n}")
+            place.AddTranslateOp().Set(Gf.Vec3d(*positions[n]))
+        slide = UsdGeom.Xform.Define(stage, root).AddTranslateOp()
+        slide.Set(Gf.Vec3d(0, 0, 0), 1.0)
+        slide.Set(Gf.Vec3d(1, 0, 0), 2.0)
+        add_quad(stage, f"{root}/quad", half_size=0.25)
+    if instanced:
+        instancer = UsdGeom.PointInstancer.Define(stage, "/World/copies")
+        instancer.CreatePrototypesRel().SetTargets(roots)
+        instancer.CreatePositionsAttr(Vt.Vec3fArray(positions))
+        instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    return stage
+
+
+def test_copies_blur_with_their_prototype_roots_motion():
+    """The prototype root's own transform is part of each copy (UsdGeomPointInstancer): when
+    it moves over the shutter, the copies blur as the same prims placed by hand."""
+    image, messages = render_with_warnings(sliding_prototype_stage(instanced=True), 40)
+    expected, _ = render_with_warnings(sliding_prototype_stage(instanced=False), 40)
+    assert messages == []
+    # Each quad sweeps from x = -1.5 to x = -0.5: partly covered along the way.
+    for y in (1, -1):
+        assert 0 < expected[int((2 - y) * 10), int((-1 + 2) * 10), 3] < 1
+    assert np.allclose(image, expected, atol=1e-4)
+
+
+def test_lights_in_prototypes_warn_and_keep_the_default_light_off():
+    """Point instancers do not instance lights yet: one warning per instancer names them, and
+    the stage still counts as lit by its own lights (no default light in their place)."""
+    stage = new_stage()
+    add_camera(stage)
+    UsdGeom.Xform.Define(stage, "/World/lamps/Protos/lamp")
+    add_quad(stage, "/World/lamps/Protos/lamp/shade", half_size=0.4)
+    UsdLux.SphereLight.Define(stage, "/World/lamps/Protos/lamp/bulb").AddTranslateOp().Set(
+        Gf.Vec3d(0, 0, 1)
+    )
+    instancer = UsdGeom.PointInstancer.Define(stage, "/World/lamps")
+    instancer.CreatePrototypesRel().SetTargets(["/World/lamps/Protos/lamp"])
+    instancer.CreatePositionsAttr(Vt.Vec3fArray([(-1, 0.5, 0), (1, 0.5, 0)]))
+    instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    image, messages = render_with_warnings(stage, 40)
+    assert messages == [
+        "/World/lamps: lights in point-instancer prototypes are not rendered yet; 1 skipped "
+        "(first: /World/lamps/Protos/lamp/bulb)"
+    ]
+    assert covers(image, -1, 0.5) and covers(image, 1, 0.5)
+    assert image[..., :3].max() == 0  # unlit: neither the bulbs nor a default light

@@ -42,11 +42,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdVol, Vt
 
+from .lights import light_type
 from .mesh import as_vec3_array, numeric_primvar, reads_as_mesh
 from .motion import ACCELERATION_SEGMENTS, XformCaches, transform_samples
 from .sampling import SampleReader, Shutter, changes_within, transform_might_vary
 
 _MAX_STEP_SPIN = 90.0  # degrees a spinning copy may turn between two motion samples
+# UsdImaging's traversal of point-instancer prototypes: the default one with abstract prims.
+_PROTOTYPE_PREDICATE = Usd.PrimIsActive & Usd.PrimIsDefined & Usd.PrimIsLoaded
 
 
 # --------------------------------------------------------------------------------------------
@@ -134,7 +137,9 @@ class Flattener:
         self.caches = XformCaches()
         self.varying = False
         self.roots: set[Sdf.Path] = set()  # every subtree expanded (for change tracking)
+        self.lights: set[Sdf.Path] = set()  # lights in point-instancer prototypes, not rendered
         self._segments: dict[Sdf.Path, int] = {}
+        self._lights_below: dict[Sdf.Path, set[Sdf.Path]] = {}  # noted by content_segments
         self._leaves: dict[tuple[Sdf.Path, int], list[Leaf]] = {}
 
     # Times and transforms
@@ -188,18 +193,23 @@ class Flattener:
     # Motion needs
 
     def content_segments(self, root: Usd.Prim) -> int:
-        """Uniform steps the moving transforms below ``root`` need (0: all static)."""
+        """Uniform steps the moving transforms below ``root`` need (0: all static); notes on
+        the way the lights below it, in native instances too (see :meth:`lights_below`)."""
         path = root.GetPath()
         if path not in self._segments:
             self._segments[path] = 0  # guards against cycles of prototypes
+            self._lights_below[path] = lights = set()
             limit = self.shutter.max_segments
             total = 0
             for prim, kind in self._walk(root):
                 if prim != root and UsdGeom.Xformable(prim):
                     total = combine_segments(total, self.motion_segments(prim), limit)
-                if kind == "instance":
+                if kind == "light":
+                    lights.add(user_facing_path(prim))
+                elif kind == "instance":
                     nested = self.content_segments(prim.GetPrototype())
                     total = combine_segments(total, nested, limit)
+                    lights |= self._lights_below[prim.GetPrototype().GetPath()]
                 elif kind == "point instancer":
                     total = combine_segments(total, self.point_instancer_segments(prim), limit)
                     for prototype in prototype_roots(prim):
@@ -208,10 +218,21 @@ class Flattener:
             self._segments[path] = total
         return self._segments[path]
 
+    def lights_below(self, root: Usd.Prim) -> set[Sdf.Path]:
+        """The visible UsdLux lights below ``root`` (included), in native instances there too,
+        by :func:`user_facing_path`; not those of point instancers there (theirs)."""
+        self.content_segments(root)
+        return self._lights_below[root.GetPath()]
+
     def point_instancer_segments(self, prim: Usd.Prim) -> int:
         """Uniform steps the copies of point instancer ``prim`` need (0: static): the authored
         samples of positions, orientations (or orientationsf) and scales inside the shutter;
-        velocities move copies linearly, accelerations and angular velocities bend their paths."""
+        velocities move copies linearly, accelerations and angular velocities bend their paths;
+        and the motion of the prototype roots, whose own transforms are part of each copy."""
+        limit = self.shutter.max_segments
+        roots = 0  # their world motion: a finer grid than their own transforms need, never coarser
+        for prototype in prototype_roots(prim):
+            roots = combine_segments(roots, self.motion_segments(prototype), limit)
         instancer = UsdGeom.PointInstancer(prim)
         keyed = [
             instancer.GetPositionsAttr(),
@@ -232,17 +253,17 @@ class Flattener:
         interval = self.shutter.interval
         moving = any(changes_within(attr, interval) for attr in keyed)
         if not (moving or velocities or accelerations or spins):
-            return 0
+            return roots
         segments = self.shutter.segments(
             t for attr in keyed for t in attr.GetTimeSamplesInInterval(interval)
         )
         if accelerations or spins:
-            segments = max(segments, min(ACCELERATION_SEGMENTS, self.shutter.max_segments))
+            segments = max(segments, min(ACCELERATION_SEGMENTS, limit))
         if spins:  # keep each step's turn unambiguous for slerp
             rate = _fastest_spin(spins)
             swept = rate * interval.size / self.stage.GetTimeCodesPerSecond()
-            segments = max(segments, min(math.ceil(swept / _MAX_STEP_SPIN), self.shutter.max_segments))
-        return segments
+            segments = max(segments, min(math.ceil(swept / _MAX_STEP_SPIN), limit))
+        return combine_segments(segments, roots, limit)
 
     # Expansion
 
@@ -299,10 +320,19 @@ class Flattener:
         placement = self.relative(prim, root, segments)
         if placement is None:
             return
+        # Copies carry no lights yet (a light sprim per copy would need ids and link slots of
+        # their own); say so rather than drop them silently.
+        dropped = sorted(set().union(*(self.lights_below(prototype) for prototype, *_ in copies)))
+        if dropped:
+            self.lights.update(dropped)
+            self.warn(
+                f"{user_facing_path(prim)}: lights in point-instancer prototypes are not rendered "
+                f"yet; {len(dropped)} skipped (first: {dropped[0]})"
+            )
+        # Visibility counts from each prototype root down (the walk) and the instancer's own,
+        # as in UsdImaging: prims above a prototype root are often made invisible just to keep
+        # the prototypes from rendering where they are defined.
         for prototype, transforms, primvars, inherited in copies:
-            between = list(_up_to(prototype.GetParent(), prim))
-            if any(_invisible(p, self) for p in between):
-                continue
             purpose = _authored_purpose(prototype.GetParent(), root.GetParent())
             for leaf in self.expand(prototype, segments):
                 # Each copy's k-th sample pairs with the mesh's and the instancer's k-th.
@@ -496,9 +526,14 @@ class Flattener:
 
     def _walk(self, root: Usd.Prim) -> Iterator[tuple[Usd.Prim, str]]:
         """``(prim, kind)`` below ``root`` (included) that instancing renders: "mesh",
-        "instance" (an instanceable prim), "point instancer"; invisible subtrees skipped, volumes
-        skipped with a warning."""
-        walk = iter(Usd.PrimRange(root, Usd.PrimDefaultPredicate))
+        "instance" (an instanceable prim), "point instancer"; and "light" (UsdLux lights, which
+        native instances render as instance proxies, point instancers not yet); invisible
+        subtrees skipped, volumes skipped with a warning. The walk of a point-instancer
+        prototype admits abstract prims, as UsdImaging's does (prototypes are often kept under
+        a ``class`` so that they do not render in place); native prototypes' walk, and the
+        stage's own traversal, do not."""
+        predicate = Usd.PrimDefaultPredicate if root.IsPrototype() else _PROTOTYPE_PREDICATE
+        walk = iter(Usd.PrimRange(root, predicate))
         for prim in walk:
             if _invisible(prim, self):
                 walk.PruneChildren()
@@ -516,6 +551,8 @@ class Flattener:
                 continue
             if reads_as_mesh(prim) or prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.Curves):
                 yield prim, "mesh"  # a leaf: meshes, points and curves are copied alike
+            elif light_type(prim) is not None:
+                yield prim, "light"
             if prim.IsInstance():
                 yield prim, "instance"
 

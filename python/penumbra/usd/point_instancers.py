@@ -30,6 +30,7 @@ class _Instancer:
     roots: set[Sdf.Path] = field(default_factory=set)  # edits below these re-flatten it
     varying: bool = False
     dirty: bool = True
+    lights: bool = False  # its prototypes hold lights (not rendered yet, see Flattener.lights)
 
 
 class PointInstancerDelegate:
@@ -97,6 +98,11 @@ class PointInstancerDelegate:
             if record.dirty or (time_changed and record.varying):
                 self._sync(self.stage.GetPrimAtPath(path), record, stale, time_changed)
 
+    def has_lights(self) -> bool:
+        """Whether the prototypes of a visible point instancer hold lights: not rendered yet,
+        they still make the stage one with lights of its own (no default light)."""
+        return any(record.lights for record in self._instancers.values())
+
     def copies(self) -> Iterator[tuple[str, Sdf.Path | None, list[str]]]:
         """``(instancer id, bound material, Cryptomatte object names)`` of every instancer rprim
         placing copies (see :meth:`InstancedMeshes.copies`)."""
@@ -123,6 +129,7 @@ class PointInstancerDelegate:
         materials = {material for _, material, _ in groups if material is not None}
         record.roots = {prim.GetPath(), *flattener.roots, *materials}
         record.varying = flattener.varying or record.meshes.varying
+        record.lights = bool(flattener.lights)
         record.dirty = False
 
     def _groups(self, prim: Usd.Prim, flattener: Flattener) -> dict[GroupKey, Group]:

@@ -148,9 +148,10 @@ class SceneDelegate:
             self._update(shutter, depth_of_field, dome_light_visibility, film_windows)
 
     def has_lights(self) -> bool:
-        """Whether the synced stage has lights of its own (UsdLux lights or meshes with
-        UsdLuxMeshLightAPI), known without looking at its prims again."""
-        return bool(self._emitters)
+        """Whether the synced stage has lights of its own (UsdLux lights, in point-instancer
+        prototypes too, or meshes with UsdLuxMeshLightAPI), known without looking at its prims
+        again."""
+        return bool(self._emitters) or self._point_instancers.has_lights()
 
     def prim_kind(self, path: str) -> str | None:
         """The delegate prim type tracked at ``path`` (``None`` if untracked)."""
