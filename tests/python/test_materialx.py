@@ -576,3 +576,44 @@ def test_the_delegate_takes_sheen_and_coat_colour_inputs_and_rejects_non_finite_
                         ("penumbra:sheenColor", (1.0, float("nan"), 0.0))):
         with pytest.raises(ValueError, match=f"/m: {name} must be finite"):
             delegate.set_material("/m", {name: value})
+
+
+def _matches_a_reopened_stage(stage: Usd.Stage, renderer: penumbra.Renderer) -> np.ndarray:
+    """The live renderer's image, checked equal to a renderer's on the stage opened anew from
+    its root layer (which composes its .mtlx arcs from scratch)."""
+    view = dict(camera="/cam", width=16, samples=16, seed=3)
+    image = renderer.render(**view)["color"]
+    reopened = penumbra.Renderer(Usd.Stage.Open(stage.GetRootLayer())).render(**view)["color"]
+    np.testing.assert_array_equal(image, reopened)
+    return image
+
+
+def test_a_mtlx_reference_retargeted_within_its_document_renders_as_a_reopened_stage(tmp_path):
+    # The composition errors of the arc name the file and the introducing prim, not the
+    # target: the same before and after the retarget.
+    stage = open_stage(mtlx_reference_stage(tmp_path, "M_terracotta"))
+    renderer = penumbra.Renderer(stage)
+    before = _matches_a_reopened_stage(stage, renderer)
+    looks = stage.GetPrimAtPath("/World/Looks").GetReferences()
+    looks.ClearReferences()
+    looks.AddReference(str(MATERIALX_ASSETS / "materials.mtlx"), "/MaterialX/Materials")
+    UsdShade.MaterialBindingAPI(stage.GetPrimAtPath("/World/quad")).GetDirectBindingRel(
+    ).SetTargets([Sdf.Path("/World/Looks/M_gold")])
+    after = _matches_a_reopened_stage(stage, renderer)
+    assert stage.GetPrimAtPath("/World/Looks/M_gold").IsA(UsdShade.Material)
+    assert not np.array_equal(before, after)
+
+
+def test_an_instance_added_to_a_mtlx_referencing_asset_renders_as_a_reopened_stage(tmp_path):
+    from test_mtlx_instances import instanced_scene  # it imports this module
+
+    stage = open_stage(instanced_scene(tmp_path))
+    renderer = penumbra.Renderer(stage)
+    before = _matches_a_reopened_stage(stage, renderer)
+    added = UsdGeom.Xform.Define(stage, "/World/C")  # its prototype lacks the others' patch
+    added.AddTranslateOp().Set((0.0, 1.2, 0.0))
+    added.GetPrim().GetReferences().AddReference(str(tmp_path / "asset.usda"))
+    added.GetPrim().SetInstanceable(True)
+    after = _matches_a_reopened_stage(stage, renderer)
+    assert bound_material(stage.GetPrimAtPath("/World/C/quad")) is not None
+    assert not np.array_equal(before, after)

@@ -11,7 +11,7 @@ import warnings
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 import penumbra
 from stages import add_camera, add_preview_material, add_quad, bind, lit_quad_stage
@@ -313,3 +313,46 @@ def test_moving_a_mesh_among_thousands_rebuilds_no_top_level_bvh():
     assert renderer.delegate.sync_statistics()["topLevelBvhPrimitives"] - built > 1200
     fresh = penumbra.Renderer(stage).render(**large)
     np.testing.assert_array_equal(folded["color"], fresh["color"])
+
+
+def collection_bound_stage(owner: str):
+    """edit_stage with /World binding blue to the members of collection ``coll`` of
+    ``owner``: those of its collection ``inner``, which includes /World/painted."""
+    stage = edit_stage()
+    blue = add_preview_material(stage, "/World/Looks/blue", diffuseColor=(0.1, 0.1, 0.8))
+    prim = stage.GetPrimAtPath(owner) or stage.DefinePrim(owner, "Scope")
+    inner = Usd.CollectionAPI.Apply(prim, "inner")
+    inner.CreateIncludesRel().AddTarget("/World/painted")
+    collection = Usd.CollectionAPI.Apply(prim, "coll")
+    collection.CreateIncludesRel().AddTarget(inner.GetCollectionPath())
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World")).Bind(collection, blue, "b")
+    return stage
+
+
+def _explicit_blob(collection):  # explicitOnly: /World/blob, not its descendants
+    collection.GetIncludesRel().SetTargets(["/World/blob"])
+    collection.CreateExpansionRuleAttr(Usd.Tokens.explicitOnly)
+
+
+COLLECTION_EDITS = {
+    "include added": lambda coll, inner: coll.GetIncludesRel().AddTarget("/World/blob"),
+    "includes cleared": lambda coll, inner: coll.GetIncludesRel().ClearTargets(True),
+    "expansion rule": lambda coll, inner: _explicit_blob(coll),
+    "included collection": lambda coll, inner: inner.GetIncludesRel().AddTarget("/World/blob"),
+    # The owner prim resyncs (and with /Collections, nothing the binding reaches).
+    "API removed": lambda coll, inner: coll.GetPrim().RemoveAPI(Usd.CollectionAPI, "coll"),
+}
+
+
+@pytest.mark.parametrize("owner", ["/World", "/Collections"])
+@pytest.mark.parametrize("kind", COLLECTION_EDITS)
+def test_editing_the_collection_of_a_collection_binding_rebinds_its_members(kind, owner):
+    # The binding itself is not edited: its members are.
+    stage = collection_bound_stage(owner)
+    renderer = penumbra.Renderer(stage)
+    before = renderer.render(**FAST)
+    prim = stage.GetPrimAtPath(owner)
+    COLLECTION_EDITS[kind](Usd.CollectionAPI(prim, "coll"), Usd.CollectionAPI(prim, "inner"))
+    edited = renderer.render(**FAST)
+    np.testing.assert_array_equal(edited["color"], penumbra.Renderer(stage).render(**FAST)["color"])
+    assert not np.array_equal(edited["color"], before["color"])  # the edit shows

@@ -78,6 +78,19 @@ def _prototype_arcs(
     return found
 
 
+def _composed_arcs(stage: Usd.Stage) -> list[str]:
+    """The arcs to MaterialX documents the stage has now, as tab-separated prim, file, target:
+    what the added layer is authored from (not their layer offsets: the internal references
+    carry none, and translations hold no time samples). usd-core reports each as a composition
+    error at the prim whose index it fails in (inside a prototype, at its source instance's
+    prim), so the prim stacks of those prims alone hold them all, without a traversal. The
+    errors' messages are no key: they name the file and the introducing prim, not the target."""
+    sites = {e.rootSite.path for e in stage.GetCompositionErrors() if ".mtlx" in str(e)}
+    return sorted(f"{path}\t{file}\t{target}"
+                  for path in sites if (prim := stage.GetPrimAtPath(path))
+                  for file, target in _prim_arcs(prim))
+
+
 def _added_layer(stage: Usd.Stage) -> Sdf.Layer | None:
     """The session sublayer this module added to ``stage``, if any."""
     for path in stage.GetSessionLayer().subLayerPaths:
@@ -92,16 +105,16 @@ def compose_materialx_documents(stage: Usd.Stage, warn: Callable[[str], None]) -
     docstring). Returns the paths of the documents translated or reported unreadable, so that
     the composition errors of their original arcs are not reported again.
 
-    Cheap to call again (the renderer does, before each sync): unless the stage's composition
-    errors naming ``.mtlx`` files have changed since the last call — a variant selection that
-    swaps documents, say — it does nothing. Otherwise the internal references are authored
-    anew for the arcs the stage has now (documents already translated are kept), in one
-    change to the added layer."""
-    errors = sorted({str(e) for e in stage.GetCompositionErrors() if ".mtlx" in str(e)})
+    Cheap to call again (the renderer does, before each sync): unless the stage's arcs to
+    ``.mtlx`` documents have changed since the last call — a variant selection that swaps
+    documents, a reference retargeted to another prim of its document, say — it does
+    nothing. Otherwise the internal references are authored anew for the arcs the stage has
+    now (documents already translated are kept), in one change to the added layer."""
+    arcs = _composed_arcs(stage)
     layer = _added_layer(stage)
-    data = dict(layer.customLayerData[_DATA_KEY]) if layer else {"documents": {}, "errors": []}
+    data = dict(layer.customLayerData[_DATA_KEY]) if layer else {"documents": {}, "arcs": []}
     documents: dict[str, str] = dict(data["documents"])  # file → translation root, "" if none
-    if list(data["errors"]) == errors:
+    if list(data["arcs"]) == arcs:
         return set(documents)
     fresh = Sdf.Layer.CreateAnonymous("materialx.usda")
     if layer and layer.GetPrimAtPath(HIDDEN_ROOT):
@@ -143,7 +156,7 @@ def compose_materialx_documents(stage: Usd.Stage, warn: Callable[[str], None]) -
         if scratch.GetPrimAtPath(patch):
             for instance in instances:
                 scratch.OverridePrim(instance).GetReferences().AddInternalReference(patch)
-    fresh.customLayerData = {_DATA_KEY: {"documents": documents, "errors": errors}}
+    fresh.customLayerData = {_DATA_KEY: {"documents": documents, "arcs": arcs}}
     if layer:
         layer.TransferContent(fresh)
     else:

@@ -3,7 +3,8 @@
 Stage edits arrive as ``Usd.Notice.ObjectsChanged`` and are queued until the next update; then
 an edit inside a prototype reaches the corresponding paths in its instances, an ancestor's
 transform or visibility edit reaches its whole subtree, a shader edit its materials, and a
-structural change re-populates the changed subtree (:meth:`ChangeTracker.resync`).
+structural change re-populates the changed subtree (:meth:`ChangeTracker.resync`), and an edit
+of a collection (its properties, or its prim resynced) the bindings made through collections.
 """
 
 from __future__ import annotations
@@ -121,6 +122,7 @@ class ChangeTracker:
         # Prims found by the traversals of this update, for its flush (no second look-up), with
         # the inherited state of the meshes among them.
         self._found: dict[Sdf.Path, tuple[Usd.Prim, Inherited | None]] = {}
+        self._collection_binders = _CollectionBinders(stage)
         self._listener = Tf.Notice.Register(
             Usd.Notice.ObjectsChanged, self._on_objects_changed, stage
         )
@@ -204,6 +206,12 @@ class ChangeTracker:
             self.resync(root)
         for path in sorted(changed):
             self._on_changed(path)
+        # As Linking re-reads every link on any collection edit: membership may also follow a
+        # collection that one includes or names in its expression, so every binding made
+        # through a collection is resolved again.
+        if any(p.IsPropertyPath() and p.name.startswith("collection:") for p in changed):
+            for binder in self._collection_binders.binders():
+                self._mark_subtree(binder, Dirty.BINDING)
 
     def _on_changed(self, path: Sdf.Path) -> None:
         """Mark what an edit of ``path`` (a property, or a prim's metadata) affects."""
@@ -219,6 +227,7 @@ class ChangeTracker:
             self._mark_subtree(prim_path, Dirty.VISIBILITY)
         elif name.startswith("material:binding"):
             self._mark_subtree(prim_path, Dirty.BINDING)
+            self._collection_binders.rescan(prim_path, subtree=False)
         elif name in RAY_VISIBILITY_ATTRIBUTES:
             self._mark_subtree(prim_path, Dirty.VISIBILITY)
         elif name.startswith("primvars:") and prim_path not in self.prims:
@@ -266,11 +275,65 @@ class ChangeTracker:
                 self._dirty[path] = aspects(kind)
         for user in self._materials.note_resynced(root):
             self.mark(user, Dirty.BINDING)
+        if root != Sdf.Path.absoluteRootPath:  # else every binding is resolved again anyway
+            # A collection owned in the subtree may have changed (or gone) with it.
+            for binder, collections in self._collection_binders.binders().items():
+                if not binder.HasPrefix(root) and any(c.HasPrefix(root) for c in collections):
+                    self._mark_subtree(binder, Dirty.BINDING)
+        self._collection_binders.rescan(root, subtree=True)
 
     def _remove(self, path: Sdf.Path) -> None:
         record = self.prims.pop(path)
         self._dirty.pop(path, None)
         self._removed.append((path, record))
+
+
+class _CollectionBinders:
+    """The prims that author collection-based material bindings, with the collections these
+    name: such a binding binds the collection's members at or below its prim, so a collection
+    edit must resolve again the bindings of the tracked prims below them. Found by one traversal
+    when first asked for (populating the stage resolves every binding without them), then kept
+    up to date as bindings are edited and subtrees resynced."""
+
+    _NAMESPACE = "material:binding:collection"  # of every purpose's collection bindings
+
+    def __init__(self, stage: Usd.Stage):
+        self._stage = stage
+        self._found: dict[Sdf.Path, frozenset[Sdf.Path]] | None = None
+
+    def binders(self) -> dict[Sdf.Path, frozenset[Sdf.Path]]:
+        """Binding prim → the collections (property paths) its collection bindings name."""
+        if self._found is None:
+            self._found = {}
+            self._scan(Sdf.Path.absoluteRootPath, subtree=True)
+        return self._found
+
+    def rescan(self, path: Sdf.Path, subtree: bool) -> None:
+        """Read the bindings of the prim at ``path`` (and its descendants if ``subtree``) again."""
+        if self._found is None:
+            return  # read when first asked for
+        if subtree and path == Sdf.Path.absoluteRootPath:
+            self._found = None  # likewise
+            return
+        for stale in [p for p in self._found if p.HasPrefix(path)] if subtree else [path]:
+            self._found.pop(stale, None)
+        self._scan(path, subtree)
+
+    def _scan(self, path: Sdf.Path, subtree: bool) -> None:
+        prim = self._stage.GetPrimAtPath(path)
+        # Tracked meshes are never inside instances: bindings there cannot reach them.
+        if not prim or prim.IsInstanceProxy():
+            return
+        for prim in Usd.PrimRange(prim) if subtree else (prim,):
+            collections = frozenset(
+                target
+                for rel in prim.GetAuthoredPropertiesInNamespace(self._NAMESPACE)
+                if isinstance(rel, Usd.Relationship)
+                for target in rel.GetTargets()
+                if target.IsPropertyPath()
+            )
+            if collections:
+                self._found[prim.GetPath()] = collections
 
 
 def _is_xform_property(name: str) -> bool:
