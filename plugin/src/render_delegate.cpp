@@ -279,6 +279,15 @@ void RenderDelegate::placeCopiesForDicing() {
 
 bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
   scene_->materials().textures().setCacheSize(size_t(settings_.textureCacheMB) << 20);
+  // Texture files repainted since they were read are read again (a lookdev loop: paint, render);
+  // lights build their sampling from theirs at sync.
+  std::vector<std::string> unreadable;
+  if (scene_->materials().textures().reloadChangedFiles(&unreadable) > 0) {
+    context_.sceneChanged = true;
+    lights_.forEach([](Light& light) { light.markDirty(DirtyParams); });
+  }
+  for (const std::string& error : unreadable)
+    context_.warn(error + "; the textures reading it give their fallback values");
   // A new dicing context or complexity re-dices every subdivision surface.
   const DicingContext dicing = dicingContext(view);
   const bool dicingMoved = dicedFor_ != dicing;

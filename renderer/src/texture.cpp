@@ -32,6 +32,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 #include <tuple>
 #include <vector>
 
@@ -89,12 +90,30 @@ Vec3f toRgb(const float* value, int channels) {
   return channels >= 3 ? Vec3f(value[0], value[1], value[2]) : Vec3f(value[0]);
 }
 
+// What identifies a version of a file on disk: a repainted texture changes one or the other.
+struct FileStamp {
+  uintmax_t size = 0;
+  fs::file_time_type modified{};
+  bool operator==(const FileStamp& other) const {
+    return size == other.size && modified == other.modified;
+  }
+};
+
+FileStamp stampOf(const std::string& file) {
+  std::error_code error;
+  FileStamp stamp;
+  stamp.size = fs::file_size(file, error);
+  if (!error) stamp.modified = fs::last_write_time(file, error);
+  return error ? FileStamp{} : stamp;
+}
+
 struct Texture {
   bool udim = false;
   int channels = 0;
   Wrap metadataS = Wrap::WrapBlack, metadataT = Wrap::WrapBlack;
   TextureTile single;
   std::array<TextureTile, kUdimTiles> tiles{};
+  std::vector<std::pair<std::string, FileStamp>> files;  // each file read, as it was then
 };
 
 }  // namespace
@@ -103,6 +122,13 @@ struct TextureSystem::Impl {
   OIIO::TextureSystem* oiio;
   detail::TextureFiles files;
   std::vector<Texture> textures;
+  // How each texture was opened, in the order of `textures`: to read it again when it changes.
+  struct OpenedAs {
+    std::string path;
+    TextureColorSpace colorSpace;
+    TextureAlpha alpha;
+  };
+  std::vector<OpenedAs> openedAs;
   std::map<std::tuple<std::string, SourceColorSpace, std::string, TextureAlpha>, Handle> handles;
   // Each thread's OIIO per-thread record for this system, made here and destroyed with it. OIIO
   // 2.4 keeps the ones it makes itself (get_perthread_info()) per thread under the address of
@@ -124,6 +150,40 @@ struct TextureSystem::Impl {
     // Tears the private ImageCache down too, so each scene's cache and its tiles end with the
     // scene. Closes the files before `files` removes them.
     OIIO::TextureSystem::destroy(oiio, /*teardown_imagecache=*/true);
+  }
+
+  /// Opens the file(s) of `path` into *texture (see TextureSystem::open).
+  bool read(const std::string& path, const TextureColorSpace& colorSpace, TextureAlpha alpha,
+            Texture* result, std::string* error) {
+    Texture& texture = *result;
+    if (path.find(kUdimToken) != std::string::npos) {
+      texture.udim = true;
+      int tiles = 0;
+      for (int i = 0; i < kUdimTiles; ++i) {
+        const std::string file = replaceAll(path, kUdimToken, std::to_string(kUdimFirst + i));
+        std::error_code code;
+        if (!fs::exists(file, code)) continue;
+        TextureFile opened;
+        if (!files.open(file, colorSpace, alpha, threadInfo(), &opened, error)) return false;
+        texture.tiles[i] = opened.tile;
+        texture.files.emplace_back(file, stampOf(file));
+        texture.channels = std::max(texture.channels, opened.tile.channels);
+        ++tiles;
+      }
+      if (tiles == 0) {
+        *error = path + ": no UDIM tiles (looked for 1001 to 1100)";
+        return false;
+      }
+    } else {
+      TextureFile opened;
+      if (!files.open(path, colorSpace, alpha, threadInfo(), &opened, error)) return false;
+      texture.single = opened.tile;
+      texture.files.emplace_back(path, stampOf(path));
+      texture.channels = opened.tile.channels;
+      texture.metadataS = opened.metadataS;
+      texture.metadataT = opened.metadataT;
+    }
+    return true;
   }
 
   /// The calling thread's per-thread record (OIIO still does its housekeeping on it).
@@ -148,37 +208,39 @@ TextureSystem::Handle TextureSystem::open(const std::string& path,
   if (auto found = impl_->handles.find(key); found != impl_->handles.end()) return found->second;
 
   Texture texture;
-  if (path.find(kUdimToken) != std::string::npos) {
-    texture.udim = true;
-    int tiles = 0;
-    for (int i = 0; i < kUdimTiles; ++i) {
-      const std::string file = replaceAll(path, kUdimToken, std::to_string(kUdimFirst + i));
-      std::error_code code;
-      if (!fs::exists(file, code)) continue;
-      TextureFile opened;
-      if (!impl_->files.open(file, colorSpace, alpha, impl_->threadInfo(), &opened, error))
-        return kInvalid;
-      texture.tiles[i] = opened.tile;
-      texture.channels = std::max(texture.channels, opened.tile.channels);
-      ++tiles;
-    }
-    if (tiles == 0) {
-      *error = path + ": no UDIM tiles (looked for 1001 to 1100)";
-      return kInvalid;
-    }
-  } else {
-    TextureFile opened;
-    if (!impl_->files.open(path, colorSpace, alpha, impl_->threadInfo(), &opened, error))
-      return kInvalid;
-    texture.single = opened.tile;
-    texture.channels = opened.tile.channels;
-    texture.metadataS = opened.metadataS;
-    texture.metadataT = opened.metadataT;
-  }
+  if (!impl_->read(path, colorSpace, alpha, &texture, error)) return kInvalid;
   const Handle handle = Handle(impl_->textures.size());
   impl_->textures.push_back(texture);
+  impl_->openedAs.push_back({path, colorSpace, alpha});
   impl_->handles.emplace(key, handle);
   return handle;
+}
+
+size_t TextureSystem::reloadChangedFiles(std::vector<std::string>* errors) {
+  std::set<std::string> changed;
+  for (const Texture& texture : impl_->textures)
+    for (const auto& [file, stamp] : texture.files)
+      if (!(stampOf(file) == stamp)) changed.insert(file);
+  if (changed.empty()) return 0;
+  for (const std::string& file : changed) impl_->files.forget(file);
+  size_t reloaded = 0;
+  for (size_t index = 0; index < impl_->textures.size(); ++index) {
+    Texture& texture = impl_->textures[index];
+    if (std::none_of(texture.files.begin(), texture.files.end(),
+                     [&](const auto& file) { return changed.count(file.first) > 0; }))
+      continue;
+    const Impl::OpenedAs& as = impl_->openedAs[index];
+    Texture fresh;
+    std::string error;
+    if (!impl_->read(as.path, as.colorSpace, as.alpha, &fresh, &error)) {
+      errors->push_back(error);
+      fresh = Texture{};  // no texel; read again when the files change again
+      for (const auto& [file, stamp] : texture.files) fresh.files.emplace_back(file, stampOf(file));
+    }
+    texture = std::move(fresh);
+    ++reloaded;
+  }
+  return reloaded;
 }
 
 int TextureSystem::channels(Handle handle) const {
@@ -210,7 +272,7 @@ bool TextureSystem::readLevel(Handle handle, size_t maxTexels, int* width, int* 
                               std::vector<Vec3f>* rgb) const {
   if (handle < 0 || size_t(handle) >= impl_->textures.size()) return false;
   const Texture& texture = impl_->textures[size_t(handle)];
-  if (texture.udim) return false;
+  if (texture.udim || !texture.single.handle) return false;
   // The MIP levels' specs come from the cache, with a per-thread record of its own for this
   // call (see Impl::threadInfos).
   OIIO::ImageCache* cache = impl_->oiio->imagecache();
@@ -252,6 +314,7 @@ Vec3f TextureSystem::texel(Handle handle, Vec2f uv) const {
   const Texture& texture = impl_->textures[size_t(handle)];
   if (texture.udim) return Vec3f(0.0f);
   const TextureTile& tile = texture.single;
+  if (!tile.handle) return Vec3f(0.0f);
   const int x = tile.x + std::clamp(int(uv.x * float(tile.width)), 0, tile.width - 1);
   const int y = tile.y + std::clamp(int(uv.y * float(tile.height)), 0, tile.height - 1);
   float value[4] = {0, 0, 0, 0};
@@ -286,6 +349,7 @@ bool TextureSystem::lookup(Handle handle, TextureWrap wrapS, TextureWrap wrapT,
     t -= tileT;
     options.swrap = options.twrap = Wrap::WrapClamp;  // no bleeding across tile borders
   } else {
+    if (!tile->handle) return false;  // a file that could not be read again
     options.swrap = wrapS == TextureWrap::UseMetadata ? texture.metadataS : toOiio(wrapS);
     options.twrap = wrapT == TextureWrap::UseMetadata ? texture.metadataT : toOiio(wrapT);
   }

@@ -137,6 +137,17 @@ TextureFiles::~TextureFiles() {
   }
 }
 
+void TextureFiles::forget(const std::string& file) {
+  for (auto entry = files_.begin(); entry != files_.end();) {
+    if (std::get<0>(entry->first) == file) {
+      oiio_->invalidate(OIIO::ustring(entry->second.tile.path));
+      entry = files_.erase(entry);
+    } else {
+      ++entry;
+    }
+  }
+}
+
 bool TextureFiles::makeDirectory(std::string* error) {
   if (!directory_.empty()) return true;
   std::error_code code;

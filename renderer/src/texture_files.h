@@ -54,6 +54,9 @@ class TextureFiles {
   /// False with *error naming the file and what is wrong.
   bool open(const std::string& file, const TextureColorSpace& colorSpace, TextureAlpha alpha,
             OIIO::TextureSystem::Perthread* threadInfo, TextureFile* result, std::string* error);
+  /// Drops what was read of `file` (its prepared copies and OIIO's cached tiles), so that the
+  /// next open() reads it anew.
+  void forget(const std::string& file);
 
  private:
   bool makeDirectory(std::string* error);

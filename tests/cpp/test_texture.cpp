@@ -4,6 +4,7 @@
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <cstdlib>
@@ -370,6 +371,34 @@ TEST_F(Texture, CoverageAlphaFiltersColourWeightedByAlpha) {
   const std::string opaque = constant("opaque.exr", 3, OIIO::TypeFloat, {0.3f, 0.2f, 0.1f});
   const auto plain = textures.open(opaque, SourceColorSpace::Raw, &error, TextureAlpha::Coverage);
   expectColor(lookup(textures, plain, 0.5f, 0.5f), {0.3f, 0.2f, 0.1f, 1.0f}, 1e-6f, "no alpha");
+}
+
+// A texture repainted between two renders is read again, under the same handle; one removed
+// gives no texel (its fallback) and names its file.
+TEST_F(Texture, RepaintedFilesAreReadAgain) {
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const std::string file = constant("paint.png", 3, OIIO::TypeUInt8, {0.2f, 0.2f, 0.2f});
+  const auto handle = textures.open(file, SourceColorSpace::Raw, &error);
+  ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+  std::vector<std::string> errors;
+  EXPECT_EQ(textures.reloadChangedFiles(&errors), 0u);  // nothing changed
+  EXPECT_NEAR(lookup(textures, handle, 0.5f, 0.5f).r, 0.2f, 2e-3f);
+  constant("paint.png", 3, OIIO::TypeUInt8, {0.8f, 0.8f, 0.8f});
+  // A later time than the first write's, whatever the file system's clock resolution.
+  fs::last_write_time(file, fs::last_write_time(file) + std::chrono::seconds(2));
+  EXPECT_EQ(textures.reloadChangedFiles(&errors), 1u);
+  EXPECT_TRUE(errors.empty());
+  EXPECT_NEAR(lookup(textures, handle, 0.5f, 0.5f).r, 0.8f, 2e-3f);
+  EXPECT_EQ(textures.open(file, SourceColorSpace::Raw, &error), handle);
+  fs::remove(file);
+  EXPECT_EQ(textures.reloadChangedFiles(&errors), 1u);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].find(file), std::string::npos) << errors[0];
+  float rgba[4];
+  EXPECT_FALSE(
+      textures.lookup(handle, TextureWrap::Clamp, TextureWrap::Clamp, at(0.5f, 0.5f, 1e-4f), rgba));
+  EXPECT_EQ(textures.reloadChangedFiles(&errors), 0u);  // not retried until it changes again
 }
 
 TEST_F(Texture, UdimTilesAreChosenByStAndMissingTilesHaveNoTexel) {

@@ -8,6 +8,7 @@ reflection, so each pixel is the emission the network computes there (filtered o
 from __future__ import annotations
 
 import math
+import os
 import warnings
 from pathlib import Path
 
@@ -323,6 +324,23 @@ def test_colour_is_read_as_stored_where_alpha_is_not_opacity(tmp_path):
     rgba[:, ::2, 3] = 1.0
     image = render(cut_out_stage(write_texture(tmp_path / "bleed.png", rgba), connect_alpha=False))
     np.testing.assert_allclose(image[4:-4, 4:-4, 0], 3.0, rtol=2e-3)
+
+
+def test_a_repainted_texture_is_read_again_by_the_next_render(tmp_path):
+    # The lookdev loop: paint, render, paint again, render with the same Renderer. The second
+    # render kept the first file's texels (0.2 where 0.8 was painted) until a new Renderer.
+    path = write_texture(tmp_path / "paint.png", np.full((8, 8, 3), 0.2, np.float32))
+    stage, _ = textured_stage(path, texture={"sourceColorSpace": "raw"})
+    renderer = penumbra.Renderer(stage)
+    first = renderer.render(camera="/cam", width=16, samples=1)["color"]
+    write_texture(path, np.full((8, 8, 3), 0.8, np.float32))
+    stamp = path.stat()
+    os.utime(path, ns=(stamp.st_atime_ns, stamp.st_mtime_ns + 2_000_000_000))  # any clock
+    second = renderer.render(camera="/cam", width=16, samples=1)["color"]
+    np.testing.assert_allclose(at(first, 0, 0), 0.2, atol=3e-3)
+    np.testing.assert_allclose(at(second, 0, 0), 0.8, atol=3e-3)
+    fresh = penumbra.Renderer(stage).render(camera="/cam", width=16, samples=1)["color"]
+    np.testing.assert_array_equal(second, fresh)
 
 
 def test_primvar_readers_drive_any_input():

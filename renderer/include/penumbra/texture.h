@@ -93,6 +93,13 @@ class TextureSystem {
   /// Channels in the file (1–4); 0 for an invalid handle.
   int channels(Handle handle) const;
 
+  /// Reads again the textures whose files changed on disk (size or modification time) since
+  /// they were opened — a texture repainted between two renders — keeping their handles.
+  /// Returns how many textures were read again; one that cannot be read any more gives no
+  /// texel (lookups then fail, so its fallback is used) and a message in *errors naming the
+  /// file. Called from one thread at a time (scene sync), never concurrently with lookup().
+  size_t reloadChangedFiles(std::vector<std::string>* errors);
+
   /// Bounds the memory of the tile cache shared by every texture (at least 16 MiB). Whatever
   /// the textures' resolution, lookups then hold about this much texture data. Called between
   /// renders, never concurrently with lookup().
