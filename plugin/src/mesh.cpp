@@ -183,6 +183,13 @@ void Mesh::syncLight(SyncContext& context) {
 
 namespace {
 
+/// The most `transform` lengthens a vector: what it scales a surface's curvature by, at most.
+float largestStretch(const Transform& transform) {
+  return std::max({length(transform.applyToVector({1, 0, 0})),
+                   length(transform.applyToVector({0, 1, 0})),
+                   length(transform.applyToVector({0, 0, 1}))});
+}
+
 /// How closely diced facets follow a primvar that varies over the limit surface: this fraction
 /// of the primvar's range (halved per complexity level, as the positions' tolerance is).
 constexpr float kPrimvarTolerance = 1.0f / 64;
@@ -293,9 +300,7 @@ std::vector<int> Mesh::dicingRates(const LimitSurfaceTessellator& limit,
     const std::vector<float> bounds = limit.curvatureBounds(*points);
     for (const Transform& objectToWorld : placements) {
       // World-space curvature bounds: the transform's largest stretch scales them.
-      const float stretch = std::max({length(objectToWorld.applyToVector({1, 0, 0})),
-                                      length(objectToWorld.applyToVector({0, 1, 0})),
-                                      length(objectToWorld.applyToVector({0, 0, 1}))});
+      const float stretch = largestStretch(objectToWorld);
       for (size_t face = 0; face < rates.size() && face < cage.faceVertexCounts.size(); ++face) {
         float nearest = kInfinity, longest = 0;
         const int count = cage.faceVertexCounts[face];
@@ -349,9 +354,7 @@ void Mesh::setCopyPlacements(const std::vector<const std::vector<MotionTransform
     for (const std::vector<MotionTransform>* transforms : copies)
       for (const MotionTransform& copy : *transforms) {
         const Transform& placed = copy.first();
-        const float stretch = std::max({length(placed.applyToVector({1, 0, 0})),
-                                        length(placed.applyToVector({0, 1, 0})),
-                                        length(placed.applyToVector({0, 0, 1}))});
+        const float stretch = largestStretch(placed);
         if (!(stretch > 0) || !std::isfinite(stretch)) continue;
         const float distance = length(placed.applyToPoint(centre) - eye) - stretch * radius;
         ranked.emplace_back(distance / stretch, &placed);
