@@ -1,18 +1,13 @@
 #include "penumbra/plugin/volume_field_cache.h"
 
-#include <filesystem>
-#include <system_error>
+#include "penumbra/file_stamp.h"
 
 namespace penumbra::plugin {
 
 std::optional<VolumeFieldCache::Key> VolumeFieldCache::keyOf(const FieldRequest& request) {
-  std::error_code error;
-  const uintmax_t size = std::filesystem::file_size(request.path, error);
-  if (error) return std::nullopt;
-  const auto modified = std::filesystem::last_write_time(request.path, error);
-  if (error) return std::nullopt;
-  return Key{request.path, request.gridName, request.index, size,
-             int64_t(modified.time_since_epoch().count())};
+  const std::optional<FileStamp> stamp = fileStamp(request.path);
+  if (!stamp) return std::nullopt;
+  return Key{request.path, request.gridName, request.index, stamp->size, stamp->modified};
 }
 
 bool VolumeFieldCache::holds(const FieldRequest& request) const {

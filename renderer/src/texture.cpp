@@ -32,10 +32,12 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <tuple>
 #include <vector>
 
+#include "penumbra/file_stamp.h"
 #include "texture_files.h"
 
 namespace fs = std::filesystem;
@@ -90,30 +92,13 @@ Vec3f toRgb(const float* value, int channels) {
   return channels >= 3 ? Vec3f(value[0], value[1], value[2]) : Vec3f(value[0]);
 }
 
-// What identifies a version of a file on disk: a repainted texture changes one or the other.
-struct FileStamp {
-  uintmax_t size = 0;
-  fs::file_time_type modified{};
-  bool operator==(const FileStamp& other) const {
-    return size == other.size && modified == other.modified;
-  }
-};
-
-FileStamp stampOf(const std::string& file) {
-  std::error_code error;
-  FileStamp stamp;
-  stamp.size = fs::file_size(file, error);
-  if (!error) stamp.modified = fs::last_write_time(file, error);
-  return error ? FileStamp{} : stamp;
-}
-
 struct Texture {
   bool udim = false;
   int channels = 0;
   Wrap metadataS = Wrap::WrapBlack, metadataT = Wrap::WrapBlack;
   TextureTile single;
   std::array<TextureTile, kUdimTiles> tiles{};
-  std::vector<std::pair<std::string, FileStamp>> files;  // each file read, as it was then
+  std::vector<std::pair<std::string, std::optional<FileStamp>>> files;  // as each was read
 };
 
 }  // namespace
@@ -166,7 +151,7 @@ struct TextureSystem::Impl {
         TextureFile opened;
         if (!files.open(file, colorSpace, alpha, threadInfo(), &opened, error)) return false;
         texture.tiles[i] = opened.tile;
-        texture.files.emplace_back(file, stampOf(file));
+        texture.files.emplace_back(file, fileStamp(file));
         texture.channels = std::max(texture.channels, opened.tile.channels);
         ++tiles;
       }
@@ -178,7 +163,7 @@ struct TextureSystem::Impl {
       TextureFile opened;
       if (!files.open(path, colorSpace, alpha, threadInfo(), &opened, error)) return false;
       texture.single = opened.tile;
-      texture.files.emplace_back(path, stampOf(path));
+      texture.files.emplace_back(path, fileStamp(path));
       texture.channels = opened.tile.channels;
       texture.metadataS = opened.metadataS;
       texture.metadataT = opened.metadataT;
@@ -220,7 +205,7 @@ size_t TextureSystem::reloadChangedFiles(std::vector<std::string>* errors) {
   std::set<std::string> changed;
   for (const Texture& texture : impl_->textures)
     for (const auto& [file, stamp] : texture.files)
-      if (!(stampOf(file) == stamp)) changed.insert(file);
+      if (fileStamp(file) != stamp) changed.insert(file);
   if (changed.empty()) return 0;
   for (const std::string& file : changed) impl_->files.forget(file);
   size_t reloaded = 0;
@@ -235,7 +220,8 @@ size_t TextureSystem::reloadChangedFiles(std::vector<std::string>* errors) {
     if (!impl_->read(as.path, as.colorSpace, as.alpha, &fresh, &error)) {
       errors->push_back(error);
       fresh = Texture{};  // no texel; read again when the files change again
-      for (const auto& [file, stamp] : texture.files) fresh.files.emplace_back(file, stampOf(file));
+      for (const auto& [file, stamp] : texture.files)
+        fresh.files.emplace_back(file, fileStamp(file));
     }
     texture = std::move(fresh);
     ++reloaded;

@@ -1,0 +1,32 @@
+// What changes when a file is written again: its size and modification time. Texture and volume
+// caches compare stamps to read again what was repainted or re-cached between two renders.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace penumbra {
+
+struct FileStamp {
+  uintmax_t size = 0;
+  int64_t modified = 0;  // the file clock's ticks
+
+  bool operator==(const FileStamp& other) const {
+    return size == other.size && modified == other.modified;
+  }
+  bool operator!=(const FileStamp& other) const { return !(*this == other); }
+};
+
+/// `file`'s stamp now; none when it cannot be looked at.
+inline std::optional<FileStamp> fileStamp(const std::string& file) {
+  std::error_code error;
+  const uintmax_t size = std::filesystem::file_size(file, error);
+  if (error) return std::nullopt;
+  const auto modified = std::filesystem::last_write_time(file, error);
+  if (error) return std::nullopt;
+  return FileStamp{size, int64_t(modified.time_since_epoch().count())};
+}
+
+}  // namespace penumbra
