@@ -258,8 +258,9 @@ size_t RenderDelegate::estimatedSyncBytes() const {
     if (points.visible()) bytes += estimatedPointsBytes(points.data());
   }
   for (const PrimId& id : curves_.dirty()) bytes += curves_.find(id)->estimatedSyncBytes();
-  for (const PrimId& id : volumes_.dirty())
-    bytes += volumes_.find(id)->estimatedSyncBytes(context_.volumeFields);
+  // Every volume: one whose files were written again reads them at the next sync.
+  volumes_.forEach(
+      [&](const Volume& volume) { bytes += volume.estimatedSyncBytes(context_.volumeFields); });
   for (const PrimId& id : instancers_.dirty()) bytes += instancers_.find(id)->estimatedSyncBytes();
   return bytes;
 }
@@ -288,6 +289,10 @@ bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
   }
   for (const std::string& error : unreadable)
     context_.warn(error + "; the textures reading it give their fallback values");
+  // So are OpenVDB files written again (a simulation cached again under the same name).
+  volumes_.forEach([](Volume& volume) {
+    if (volume.fieldFilesChanged()) volume.markDirty(DirtyParams);
+  });
   // A new dicing context or complexity re-dices every subdivision surface.
   const DicingContext dicing = dicingContext(view);
   const bool dicingMoved = dicedFor_ != dicing;

@@ -56,12 +56,14 @@ void Volume::setLinkingClass(uint32_t linkingClass) {
   markDirty(DirtyVisibility);
 }
 
-std::optional<VolumeData> Volume::readData(SyncContext& context) const {
+std::optional<VolumeData> Volume::readData(SyncContext& context) {
   VolumeData data;
   data.material = material_;
+  readStamps_.clear();
   for (const Slot& slot : kSlots) {
     const std::optional<FieldRequest>& request = fields_.*slot.request;
     if (!request) continue;
+    readStamps_.emplace_back(request->path, fileStamp(request->path));
     const char* outcome = slot.required ? "; the volume is skipped" : "; the slot is dropped";
     try {
       VolumeFieldCache::Lookup found = context.volumeFields.get(*request);
@@ -109,8 +111,14 @@ void Volume::finalize(SyncContext& context) {
   context.scene.volumes().remove(handle_);
 }
 
+bool Volume::fieldFilesChanged() const {
+  for (const auto& [file, stamp] : readStamps_)
+    if (fileStamp(file) != stamp) return true;
+  return false;
+}
+
 size_t Volume::estimatedSyncBytes(const VolumeFieldCache& cache) const {
-  if (!(dirtyBits() & DirtyParams)) return 0;
+  if (!(dirtyBits() & DirtyParams) && !fieldFilesChanged()) return 0;
   size_t bytes = 0;
   for (const Slot& slot : kSlots) {
     const std::optional<FieldRequest>& request = fields_.*slot.request;

@@ -295,6 +295,26 @@ def test_field_prim_edits_re_read_the_volume(tmp_path):
     assert brightness(color, 0.5, 0.5) < 0.5
 
 
+def test_a_vdb_file_written_again_is_read_again_by_the_next_render(tmp_path):
+    # A simulation cached again under the same name, rendered by the same Renderer with no
+    # edit of the stage: as a fresh Renderer renders it, its grid read once more, and only once.
+    stage = cube_stage(tmp_path)
+    renderer, _ = new_renderer(stage)
+    dense, _ = render(renderer)
+    assert brightness(dense, 0.5, 0.5) < 0.1
+    write_cube(tmp_path / "cube.vdb", value=0.2)
+    thin, messages = render(renderer)
+    assert messages == []
+    assert renderer.delegate.sync_statistics()["volumeFieldReads"] == 2
+    fresh, _ = render(new_renderer(stage)[0])
+    np.testing.assert_array_equal(thin, fresh)
+    assert brightness(thin, 0.5, 0.5) > 0.5
+    syncs = renderer.delegate.sync_count("/World/smoke")
+    render(renderer)
+    assert renderer.delegate.sync_count("/World/smoke") == syncs
+    assert renderer.delegate.sync_statistics()["volumeFieldReads"] == 2
+
+
 def test_volumes_in_native_instances_are_skipped_with_a_warning(tmp_path):
     stage = new_stage()
     add_camera(stage)

@@ -7,7 +7,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
+#include "penumbra/file_stamp.h"
 #include "penumbra/plugin/prim.h"
 #include "penumbra/plugin/sync_context.h"
 #include "penumbra/plugin/volume_field_cache.h"
@@ -49,6 +53,10 @@ class Volume : public Prim {
   /// memory as the file's metadata gives it (the OpenVDB grid read and its sparse copy;
   /// estimatedVdbFieldBytes), an estimate made before reading the voxels.
   size_t estimatedSyncBytes(const VolumeFieldCache& cache) const;
+  /// Whether a file its fields were last read from has been written since (size or modification
+  /// time), or has appeared or gone: the render delegate then syncs its fields again, as it
+  /// reads repainted textures again.
+  bool fieldFilesChanged() const;
 
   VolumeSet::VolumeId handle() const { return handle_; }
   const VolumeFieldRequests& fields() const { return fields_; }
@@ -58,10 +66,12 @@ class Volume : public Prim {
 
  private:
   /// The volume's data from its fields; none when it cannot render (warned).
-  std::optional<VolumeData> readData(SyncContext& context) const;
+  std::optional<VolumeData> readData(SyncContext& context);
 
   VolumeSet::VolumeId handle_;
   VolumeFieldRequests fields_;
+  // Each file the last read of the fields looked at, and its stamp then (none: unreadable).
+  std::vector<std::pair<std::string, std::optional<FileStamp>>> readStamps_;
   VolumeMaterial material_;
   MotionTransform objectToWorld_;
   bool visible_ = true;
