@@ -107,13 +107,15 @@ void Mesh::sync(SyncContext& context, uint32_t bits) {
   context.sceneChanged = true;
   Scene& scene = context.scene;
   const bool reshaped = bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided);
-  if (reshaped || ((bits & DirtyTransform) && needsFinerDicing(context))) {
+  std::optional<std::vector<int>> finerRates;
+  if (!reshaped && (bits & DirtyTransform)) finerRates = finerDicingRates(context);
+  if (reshaped || finerRates) {
     for (const std::string& problem : dropInvalidPrimvars())
       context.warn(id() + ": " + problem + "; materials reading it use their fallback");
     ++context.counters.meshGeometrySyncs;
     try {
       const auto started = std::chrono::steady_clock::now();
-      TriangleMesh surface = triangles(context);
+      TriangleMesh surface = triangles(context, std::move(finerRates));
       context.counters.tessellationSeconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       scene.geometry().setMeshGeometry(handle(), std::move(surface));
@@ -369,32 +371,32 @@ void Mesh::setCopyPlacements(const std::vector<const std::vector<MotionTransform
                  [](const Transform& a, const Transform& b) { return a.m == b.m; }))
     return;
   copyPlacements_ = std::move(demanding);
-  markDirty(DirtyTransform);  // re-diced if they need finer facets (needsFinerDicing)
+  markDirty(DirtyTransform);  // re-diced if they need finer facets (finerDicingRates)
 }
 
-bool Mesh::needsFinerDicing(const SyncContext& context) const {
-  if (!tessellator_ || dicedRates_.empty()) return false;
-  const std::vector<int> rates = dicingRates(*tessellator_, context);
+std::optional<std::vector<int>> Mesh::finerDicingRates(const SyncContext& context) const {
+  if (!tessellator_ || dicedRates_.empty()) return std::nullopt;
+  std::vector<int> rates = dicingRates(*tessellator_, context);
   for (size_t face = 0; face < rates.size() && face < dicedRates_.size(); ++face)
-    if (rates[face] > dicedRates_[face]) return true;
-  return false;
+    if (rates[face] > dicedRates_[face]) return rates;
+  return std::nullopt;
 }
 
-TriangleMesh Mesh::triangles(SyncContext& context) {
+TriangleMesh Mesh::triangles(SyncContext& context, std::optional<std::vector<int>> rates) {
   const std::optional<SubdivisionScheme> scheme = parseSubdivisionScheme(subdivisionScheme_);
   if (!scheme) return triangulate(data_);
   const MeshData& cage = data_;
   ++context.counters.subdivisionDicings;
   try {
     const LimitSurfaceTessellator& limit = *tessellator(*scheme, context);
-    std::vector<int> rates = dicingRates(limit, context);
-    TriangleMesh result = limit.tessellate(cage.points, rates);
+    if (!rates) rates = dicingRates(limit, context);
+    TriangleMesh result = limit.tessellate(cage.points, *rates);
     for (const std::vector<Vec3f>& step : cage.pointMotion)
-      result.pointMotion.push_back(limit.tessellate(step, rates).points);
+      result.pointMotion.push_back(limit.tessellate(step, *rates).points);
     result.doubleSided = cage.doubleSided;
     result.closed = isClosedSurface(cage.points, cage.faceVertexCounts, cage.faceVertexIndices,
                                     tags_.holeIndices);
-    dicedRates_ = std::move(rates);
+    dicedRates_ = std::move(*rates);
     return result;
   } catch (const std::invalid_argument& error) {
     // A cage that cannot be rendered either (bad indices, points that are not finite) throws

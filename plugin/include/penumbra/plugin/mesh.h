@@ -83,14 +83,15 @@ class Mesh : public PlacedRprim {
   static constexpr uint32_t kLightDirtyBits =
       DirtyTopology | DirtyPoints | DirtyTransform | DirtyVisibility | DirtyParams;
 
-  /// The triangles to render: its polygons, or its diced limit surface.
-  TriangleMesh triangles(SyncContext& context);
+  /// The triangles to render: its polygons, or its limit surface diced at `rates` (computed
+  /// here when none are given).
+  TriangleMesh triangles(SyncContext& context, std::optional<std::vector<int>> rates = {});
   /// Segments per edge of each base face for its placement now (see triangles()).
   std::vector<int> dicingRates(const LimitSurfaceTessellator& limit,
                                const SyncContext& context) const;
-  /// Whether the limit surface, diced where it was, needs finer facets where it is now (moved
-  /// nearer the camera, scaled up): a transform alone then dices it again.
-  bool needsFinerDicing(const SyncContext& context) const;
+  /// The rates of its placement now when the limit surface, diced where it was, needs finer
+  /// facets there (moved nearer the camera, scaled up): a transform alone then dices it again.
+  std::optional<std::vector<int>> finerDicingRates(const SyncContext& context) const;
   /// Gives its light the triangles it emits from, those the mesh is traced as (a subdivision
   /// surface's limit surface), in world space at shutter open and, if it moves, over the
   /// shutter; or hides it (the mesh is hidden or invalid), and syncs it; without a light, the
