@@ -53,7 +53,7 @@ LightTexture::LightTexture(int width, int height, std::vector<Vec3f> texels, boo
 std::shared_ptr<const LightTexture> LightTexture::load(std::shared_ptr<TextureSystem> textures,
                                                        const std::string& path, bool latLong) {
   std::string error;
-  const TextureSystem::Handle handle = textures->open(path, SourceColorSpace::Raw, &error);
+  const TextureSystem::Handle handle = textures->open(path, SourceColorSpace::Auto, &error);
   if (handle == TextureSystem::kInvalid) throw std::runtime_error(error);
   int width = 0, height = 0;
   std::vector<Vec3f> level;

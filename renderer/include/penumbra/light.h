@@ -32,7 +32,8 @@ class LightTexture {
   /// Texels in memory. `latLong`: a dome's lat-long map, whose rows are weighted by sin(polar
   /// angle) for sampling.
   LightTexture(int width, int height, std::vector<Vec3f> texels, bool latLong);
-  /// Opens `path` in `textures` (values as stored: no colour-space conversion). The sampling
+  /// Opens `path` in `textures`, decoded as UsdUVTexture's `auto` decodes (8-bit files without
+  /// colour metadata are sRGB, as Storm reads a dome's PNG; floats are linear). The sampling
   /// distribution and the average come from the finest MIP level of at most
   /// kDistributionTexels texels; a texture larger than that is looked up through the texture
   /// cache, a smaller one kept in memory, so memory does not grow with the resolution. Throws
