@@ -36,6 +36,13 @@ bool storesUnassociatedAlpha(const std::string& path) {
          extension == ".webp" || extension == ".gif";
 }
 
+/// Formats that keep no alpha: their pixels are the image over black, in linear light.
+bool dropsAlpha(const std::string& path) {
+  const std::string extension = lowerExtension(path);
+  return extension == ".jpg" || extension == ".jpeg" || extension == ".jpe" ||
+         extension == ".jfif";
+}
+
 /// Divides (premultiplied = false) or multiplies the colour channels (the first three, those
 /// the display transform converts) of pixels with alpha in (0, 1) by their alpha; pixels of
 /// alpha 0 or 1 are left as they are.
@@ -144,15 +151,17 @@ void writeImage(const std::string& path, const ImageData& image, const DisplaySe
   const auto alphaChannel = std::find(names.begin(), names.end(), "A");
   const int alpha = alphaChannel == names.end() ? -1 : int(alphaChannel - names.begin());
   const bool unassociated = !linear && alpha >= 0 && storesUnassociatedAlpha(path);
+  // The display transform applies to colour, not to colour premultiplied by coverage; unless
+  // the format drops alpha, whose pixels show the premultiplied colour (the image over black).
+  const bool coverageKept = alpha >= 0 && !dropsAlpha(path);
   if (!linear) {
-    // The display transform applies to colour, not to colour premultiplied by coverage.
-    if (alpha >= 0) setPremultiplied(pixels, channels, alpha, false);
+    if (coverageKept) setPremultiplied(pixels, channels, alpha, false);
     try {
       applyDisplayTransform(pixels, image.width, image.height, channels, display);
     } catch (const std::exception& error) {
       throw std::runtime_error(path + ": " + error.what());
     }
-    if (alpha >= 0 && !unassociated) setPremultiplied(pixels, channels, alpha, true);
+    if (coverageKept && !unassociated) setPremultiplied(pixels, channels, alpha, true);
   }
   OIIO::ImageSpec spec(image.width, image.height, channels,
                        linear ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);

@@ -1,5 +1,6 @@
 """Display output (issue 11, item 4): the display transform applies to un-premultiplied colour;
-PNG stores that (unassociated alpha), TIFF stores it premultiplied again."""
+PNG stores that (unassociated alpha), TIFF stores it premultiplied again; JPEG, which keeps no
+alpha, the image over black."""
 
 from __future__ import annotations
 
@@ -85,6 +86,18 @@ def test_tiff_holds_the_display_value_premultiplied_again(tmp_path):
     for x, alpha in enumerate((1.0, 0.5, 0.1)):
         assert pixels[0, x, 0] == pytest.approx(srgb(0.5) * alpha, abs=1.5 / 255)
         assert pixels[0, x, 3] == pytest.approx(alpha, abs=1 / 255)
+
+
+@pytest.mark.parametrize("mode", ["sRGB", "openColorIO"])
+def test_jpeg_holds_the_image_over_black_in_linear_light(tmp_path, mode):
+    # JPEG keeps no alpha: its pixels are the premultiplied colour's display values (the image
+    # over black, as usdrecord writes it), not the unpremultiplied colour's scaled by alpha.
+    color = np.zeros((8, 8, 4), dtype=np.float32)
+    color[...] = (0.25, 0.25, 0.25, 0.5)
+    out = tmp_path / "half.jpg"
+    penumbra.Image({"color": color}, {}).write(out, color_mode=mode)
+    pixels = _core.read_image(str(out))[0]
+    assert pixels[..., 0].mean() == pytest.approx(srgb(0.25), abs=2 / 255)
 
 
 def test_outputs_are_checked_before_anything_is_written(tmp_path):
