@@ -39,8 +39,7 @@ bool storesUnassociatedAlpha(const std::string& path) {
 /// Formats that keep no alpha: their pixels are the image over black, in linear light.
 bool dropsAlpha(const std::string& path) {
   const std::string extension = lowerExtension(path);
-  return extension == ".jpg" || extension == ".jpeg" || extension == ".jpe" ||
-         extension == ".jfif";
+  return extension == ".jpg" || extension == ".jpeg" || extension == ".jpe" || extension == ".jfif";
 }
 
 /// Divides (premultiplied = false) or multiplies the colour channels (the first three, those
