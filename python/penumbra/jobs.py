@@ -257,7 +257,8 @@ class JobRenderer:
         progress: Callable[[str], Callable[[int, int], None]] | None = None,
     ) -> list[tuple[str, Image]]:
         """Render and write (atomically) every render product of ``frame``, with paths relative
-        to ``directory``; returns each product's path and image. ``progress``: as
+        to ``directory`` (PNG, JPEG and TIFF ones through the job's ``color_mode``, as the
+        output image); returns each product's path and image. ``progress``: as
         :func:`penumbra.products.render_products`' ``progress_for``."""
         assert self.products is not None
         return render_products(
@@ -267,6 +268,7 @@ class JobRenderer:
             directory,
             camera=self.job.camera,
             width=self.job.width,
+            color_mode=self.job.color_mode,
             progress_for=progress,
             **self._options(),
         )

@@ -11,7 +11,7 @@ from pxr import Usd
 from . import cryptomatte
 from .denoise import NOISY_COLOR
 from .errors import SceneError, warn
-from .image import Image, check_output_directory, check_output_format
+from .image import COLOR_MODES, Image, check_output_directory, check_output_format
 from .renderer import Renderer
 from .usd.products import ProductPlan, RenderProduct, product_path
 
@@ -25,6 +25,7 @@ def render_products(
     camera: str | None = None,
     width: int | None = None,
     denoise: bool = False,
+    color_mode: str = "openColorIO",
     on_render: Callable[[Image], None] | None = None,
     progress_for: Callable[[str], Callable[[int, int], None]] | None = None,
     **render_options,
@@ -34,10 +35,15 @@ def render_products(
     camera and settings are rendered once with all their vars. ``camera`` (a command line's)
     overrides the products'; ``width`` scales each product's resolution (None: as authored).
     ``denoise`` denoises the colour vars; a var whose sourceName is ``noisyColor`` keeps the
-    colour as rendered. Returns each product's path and image; ``on_render`` sees each render.
-    ``progress_for`` makes each render's progress callback (``progress``) from the paths of
-    the products it renders: each render counts its own samples.
+    colour as rendered. ``color_mode``: the display transform of products written as PNG, JPEG
+    or TIFF, as :meth:`penumbra.Image.write`'s (``"openColorIO"``, ``"sRGB"`` or
+    ``"disabled"``; another raises ``ValueError`` before anything renders); EXR products hold
+    scene-linear values whatever it is. Returns each product's path and image; ``on_render``
+    sees each render. ``progress_for`` makes each render's progress callback (``progress``)
+    from the paths of the products it renders: each render counts its own samples.
     """
+    if color_mode not in COLOR_MODES:
+        raise ValueError(f"color_mode must be one of {COLOR_MODES}, not {color_mode!r}")
     frame = None if time_code.IsDefault() else time_code.GetValue()
     groups: dict[tuple, list[RenderProduct]] = {}
     for product in plan.products:
@@ -66,7 +72,7 @@ def render_products(
             on_render(image)
         for product in products:
             path = os.path.join(directory, product_path(product.name, frame))
-            _write_product(product, image, path)
+            _write_product(product, image, path, color_mode)
             written.append((path, image))
     return written
 
@@ -76,9 +82,10 @@ def render_products(
 _EXACT_AOVS = frozenset((*cryptomatte.LAYERS, "primId", "instanceId", "elementId"))
 
 
-def _write_product(product: RenderProduct, image: Image, path: str) -> None:
+def _write_product(product: RenderProduct, image: Image, path: str, color_mode: str) -> None:
     """The product's vars from ``image`` in one file: the first colour var as the unlayered R,
-    G, B, A, every other var as channels named after its prim."""
+    G, B, A, every other var as channels named after its prim; a display format's colour
+    through ``color_mode`` (:meth:`penumbra.Image.write`)."""
     layers, sources, half = {}, {}, []
     for var in product.vars:
         if var.aov not in image:
@@ -101,4 +108,4 @@ def _write_product(product: RenderProduct, image: Image, path: str) -> None:
     except (ValueError, OSError) as error:
         raise SceneError(f"{product.path}: productName: {error}") from None
     metadata = {**cryptomatte.renamed(image.metadata, sources), "renderProduct": product.path}
-    Image(layers, metadata, sources=sources).write(path, half=half)
+    Image(layers, metadata, sources=sources).write(path, color_mode, half=half)

@@ -8,13 +8,15 @@ import subprocess
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, UsdGeom, UsdRender
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdRender
 
-from penumbra import _core
+from penumbra import Renderer, _core
 from penumbra.cli import main
-from penumbra.usd.products import product_path
+from penumbra.products import render_products
+from penumbra.usd import read_render_settings
+from penumbra.usd.products import product_path, read_products
 
-from stages import add_camera, add_distant_light, add_quad, new_stage
+from stages import add_camera, add_distant_light, add_preview_material, add_quad, bind, new_stage
 
 CAMERA_Z = 5.0  # the camera at (0, 0, 5) looks down -Z and sees [-2, 2]² of the z = 0 plane
 SPHERE_CENTER = np.array([0.0, 0.0, 1.0])
@@ -461,3 +463,100 @@ def test_ids_asked_for_in_half_floats_are_written_in_32_bits(tmp_path, capsys):
     ).stdout
     # iinfo names a channel's type where the file mixes them: here every channel is float.
     assert "objects00.R" in header and "primId" in header and "(half)" not in header, header
+
+
+EMISSION = 0.18  # scene-linear; its 8-bit encodings below
+QUARTER_POWER_OCIO = """ocio_profile_version: 2.1
+roles:
+  default: linear
+  scene_linear: linear
+displays:
+  test:
+    - !<View> {name: Quarter power, colorspace: quarter power}
+colorspaces:
+  - !<ColorSpace> {name: linear, isdata: false}
+  - !<ColorSpace>
+    name: quarter power
+    isdata: false
+    from_scene_reference: !<ExponentTransform> {value: [4, 4, 4, 1], direction: inverse}
+"""
+"""An $OCIO config whose display (the first, with its first view) encodes x as x^(1/4), so that
+openColorIO tells itself apart from the sRGB transfer function, which the bundled config's is."""
+ENCODED = {
+    "disabled": round(EMISSION * 255),  # 46
+    "sRGB": round((1.055 * EMISSION ** (1 / 2.4) - 0.055) * 255),  # 118
+    "openColorIO": round(EMISSION ** 0.25 * 255),  # 166, through QUARTER_POWER_OCIO
+}
+
+
+@pytest.fixture
+def quarter_power_ocio(tmp_path, monkeypatch):
+    (tmp_path / "config.ocio").write_text(QUARTER_POWER_OCIO)
+    monkeypatch.setenv("OCIO", str(tmp_path / "config.ocio"))
+
+
+def emission_products_stage(path):
+    """A quad emitting :data:`EMISSION` (black otherwise) filling the view, with a PNG product
+    of its colour var."""
+    stage = new_stage(path)
+    add_camera(stage)
+    quad = add_quad(stage, "/World/quad", half_size=3.0)
+    bind(quad, add_preview_material(
+        stage, "/Looks/glow", diffuseColor=(0.0, 0.0, 0.0), specularColor=(0.0, 0.0, 0.0),
+        useSpecularWorkflow=1, emissiveColor=(EMISSION,) * 3,
+    ))
+    color = UsdRender.Var.Define(stage, "/Render/Vars/color")
+    color.CreateSourceNameAttr("color")
+    color.CreateDataTypeAttr("color4f")
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateResolutionAttr(Gf.Vec2i(8, 8))
+    settings.CreateCameraRel().SetTargets(["/cam"])
+    product = UsdRender.Product.Define(stage, "/Render/Products/beauty")
+    product.CreateProductNameAttr("beauty.png")
+    product.CreateOrderedVarsRel().SetTargets([color.GetPath()])
+    settings.CreateProductsRel().SetTargets([product.GetPath()])
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    stage.GetRootLayer().Save()
+    return stage
+
+
+def encoded(path) -> list[int]:
+    """The 8-bit R, G, B, A of a PNG's centre pixel."""
+    pixels = _core.read_image(str(path))[0]
+    return [round(float(value) * 255) for value in pixels[4, 4]]
+
+
+@pytest.mark.parametrize("mode", ["disabled", "sRGB", "openColorIO"])
+def test_png_products_honour_the_color_correction_mode(tmp_path, quarter_power_ocio, mode):
+    # A .png product always went through the OCIO transform (Image.write's default): 118 with
+    # the bundled config, not the 46 of `-color disabled`'s output beside it.
+    expected = ENCODED[mode]
+    emission_products_stage(tmp_path / "scene.usda")
+    argv = [str(tmp_path / "scene.usda"), str(tmp_path / "out.png"), "-spp", "1", "-q"]
+    assert main([*argv, "--disableCameraLight", "-color", mode]) == 0
+    assert encoded(tmp_path / "out.png") == [expected] * 3 + [255]
+    assert encoded(tmp_path / "beauty.png") == [expected] * 3 + [255]
+
+
+def test_render_products_takes_the_color_mode_of_image_write(tmp_path, quarter_power_ocio):
+    """Python: ``color_mode`` as :meth:`penumbra.Image.write`'s, openColorIO by default,
+    checked before anything renders."""
+    stage = emission_products_stage(tmp_path / "scene.usda")
+    plan = read_products(stage, read_render_settings(stage))
+    values = {}
+    with Renderer(stage) as renderer:
+        for mode in (None, "disabled", "sRGB", "openColorIO"):
+            keywords = {} if mode is None else {"color_mode": mode}
+            render_products(
+                renderer, plan, Usd.TimeCode(1), str(tmp_path),
+                samples=1, default_light="none", **keywords,
+            )
+            values[mode] = encoded(tmp_path / "beauty.png")[0]
+    assert values == {None: ENCODED["openColorIO"], **ENCODED}
+    renders = []
+    with Renderer(stage) as renderer, pytest.raises(ValueError, match="color_mode must be"):
+        render_products(
+            renderer, plan, Usd.TimeCode(1), str(tmp_path), samples=1, default_light="none",
+            on_render=renders.append, color_mode="ACES",
+        )
+    assert renders == []
