@@ -145,10 +145,12 @@ Light::Light(const LightParams& params) : params_(params) {
     conePdf_ = uniformConePdf(oneMinusCosHalfAngle_);
   }
   if (params.type == LightType::Dome) worldToLight_ = toWorld.inverse();
-  const float coneAngle = std::clamp(params.coneAngle, 0.0f, 180.0f) * kPi / 180;
-  coneCosOuter_ = std::cos(coneAngle);
-  coneCosInner_ = std::cos(coneAngle * (1 - std::clamp(params.coneSoftness, 0.0f, 1.0f)));
-  shaped_ = !isInfinite() && (params.coneAngle < 90 || params.focus > 0);
+  // UsdLux's cone: the softness is the share of the cone's angle over which emission fades.
+  coneCutoff_ = std::clamp(params.coneAngle, 0.0f, 180.0f) * kPi / 180;
+  coneSmoothStart_ = coneCutoff_ * (1 - std::clamp(params.coneSoftness, 0.0f, 1.0f));
+  coneCosCutoff_ = std::cos(coneCutoff_);
+  coneCosSmoothStart_ = std::cos(coneSmoothStart_);
+  shaped_ = !isInfinite() && (params.coneAngle < 180 || params.focus > 0);
   // A transform that scales -Z to nothing (a card flattened along Z) leaves no axis to emit along.
   if ((shaped_ || params.type == LightType::Distant) && !isFinite(axis_))
     throw std::invalid_argument(
@@ -164,9 +166,15 @@ bool Light::isDelta() const {
 Vec3f Light::shaping(const Vec3f& emitted) const {
   if (!shaped_) return Vec3f(1.0f);
   const float cosine = dot(emitted, axis_);
-  Vec3f factor(smoothstep(coneCosOuter_, coneCosInner_, cosine));
+  float cone = 1;
+  if (cosine < coneCosCutoff_)
+    cone = 0;
+  else if (cosine < coneCosSmoothStart_)
+    cone = 1 - smoothstep(coneSmoothStart_, coneCutoff_, std::acos(std::min(cosine, 1.0f)));
+  Vec3f factor(cone);
   if (params_.focus > 0) {
-    const float focused = std::pow(std::max(0.0f, cosine), params_.focus);
+    // |cos|: a sphere's or cylinder's emission behind its axis is focused as in front.
+    const float focused = std::pow(std::abs(cosine), params_.focus);
     factor *= params_.focusTint + (Vec3f(1.0f) - params_.focusTint) * focused;
   }
   return factor;

@@ -82,7 +82,7 @@ struct LightParams {
   float angle = 0.53f;            // distant: angular diameter in degrees
   bool treatAsPoint = false;      // sphere: emit from the centre as a point
   // ShapingAPI, around the light's -Z axis.
-  float coneAngle = 90;  // degrees off the axis; >= 90 means no cone
+  float coneAngle = 180;  // degrees off the axis; 180 or more means no cone
   float coneSoftness = 0;
   float focus = 0;                              // off-axis emission falls off as cos^focus ...
   Vec3f focusTint{0.0f};                        // ... towards this tint
@@ -320,7 +320,10 @@ class Light {
   bool orthogonalEdges_ = false;  // rect, disk: not sheared by its transform
   Vec3f dualU_, dualV_;  // sheared rect, disk: edgeCoordinates' dual axes of edgeU_, edgeV_
   SphericalRectangle::Rectangle rectangle_;  // rect with orthogonalEdges_: for sphericalRect
-  float coneCosOuter_ = -1, coneCosInner_ = -1;
+  // ShapingAPI's cone: full emission up to smoothStart off the axis, none past cutoff, a
+  // smoothstep over the angle between (radians, and their cosines).
+  float coneSmoothStart_ = kPi, coneCutoff_ = kPi;
+  float coneCosSmoothStart_ = -1, coneCosCutoff_ = -1;
   Transform worldToLight_;
   std::optional<Distribution1D> triangleChoice_;  // mesh lights: triangles by area
   // Mesh lights: the box of their triangles, found once (the light tree asks for it whenever
