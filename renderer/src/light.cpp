@@ -128,9 +128,11 @@ Light::Light(const LightParams& params) : params_(params) {
     throw std::invalid_argument("the light has zero radius or length");
   if (params.normalize) {
     if (params.type == LightType::Distant) {
-      // Normalised distant lights give `intensity` as the irradiance on a facing surface; the
-      // cone's projected solid angle is π sin²(h) = π (1 - cos h)(1 + cos h).
-      if (!isDelta()) emission = emission / (kPi * oneMinusCosHalfAngle_ * (1 + cosHalfAngle_));
+      // Normalised distant lights give `intensity` as the irradiance on a facing surface: the
+      // cone's solid angle projected as UsdLux does it, by |cos|: π sin²(h), where
+      // sin²(h) = (1 - cos h)(1 + cos h), and past 90° the back's share too, π (2 - sin²(h)).
+      const float sin2 = oneMinusCosHalfAngle_ * (1 + cosHalfAngle_);
+      if (!isDelta()) emission = emission / (kPi * (cosHalfAngle_ >= 0 ? sin2 : 2 - sin2));
     } else if (params.type != LightType::Dome) {
       emission = emission / area_;
     }
@@ -604,8 +606,11 @@ LightBounds Light::bounds() const {
 float Light::irradiance() const {
   const float radianceGrey = meanRadianceGrey();
   if (params_.type == LightType::Dome) return kPi * radianceGrey;
-  if (params_.type == LightType::Distant && !isDelta())
-    return radianceGrey * kPi * oneMinusCosHalfAngle_ * (1 + cosHalfAngle_);
+  if (params_.type == LightType::Distant && !isDelta()) {
+    // A cone wider than the hemisphere lights a facing surface with its front half alone.
+    const float sin2 = oneMinusCosHalfAngle_ * (1 + cosHalfAngle_);
+    return radianceGrey * kPi * (cosHalfAngle_ >= 0 ? sin2 : 1);
+  }
   return radianceGrey;
 }
 

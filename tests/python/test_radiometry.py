@@ -92,6 +92,23 @@ def test_light_exposure_and_normalize():
     assert mean_radiance(stage) == pytest.approx(4 * base / area, rel=0.01)
 
 
+@pytest.mark.parametrize("angle", [30.0, 180.0, 270.0, 359.0])
+def test_a_normalized_distant_light_of_any_angle(angle: float):
+    """UsdLux divides a normalized DistantLight by its cone's solid angle projected by |cos|:
+    π sin²(h) up to h = 90°, π (2 − sin²(h)) past it; a facing plane sees the front half."""
+    stage = plane_stage()
+    light = UsdLux.DistantLight.Define(stage, "/World/sky")
+    light.CreateAngleAttr(angle)
+    light.CreateNormalizeAttr(True)
+    light.CreateIntensityAttr(2.0)
+    light.AddRotateXOp().Set(-90.0)  # shines along −Y, onto the plane
+    half = math.radians(angle / 2)
+    sin2 = math.sin(half) ** 2
+    radiance = 2.0 / (math.pi * (sin2 if half <= math.pi / 2 else 2 - sin2))
+    irradiance = radiance * math.pi * (sin2 if half <= math.pi / 2 else 1.0)
+    assert mean_radiance(stage) == pytest.approx(ALBEDO / math.pi * irradiance, rel=0.02)
+
+
 SUN_IRRADIANCE = 3.0
 
 
