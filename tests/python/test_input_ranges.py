@@ -51,7 +51,6 @@ OUT_OF_RANGE = [
     ("inputs:diffuse", -1.0, "inputs:diffuse must be at least 0, not -1"),
     ("inputs:specular", -1.0, "inputs:specular must be at least 0, not -1"),
     ("inputs:shaping:cone:angle", -10.0, "inputs:shaping:cone:angle must be in [0, 180], not -10"),
-    ("inputs:shaping:cone:angle", 200.0, "inputs:shaping:cone:angle must be in [0, 180], not 200"),
     ("inputs:colorTemperature", -100.0, "inputs:colorTemperature must be above 0 K, not -100"),
 ]
 

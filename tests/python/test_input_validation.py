@@ -161,7 +161,6 @@ OUT_OF_RANGE = [
     ("CylinderLight", "inputs:length", Sdf.ValueTypeNames.Float, -1.0, "inputs:length"),
     ("RectLight", "inputs:width", Sdf.ValueTypeNames.Float, -1.0, "inputs:width"),
     ("DistantLight", "inputs:angle", Sdf.ValueTypeNames.Float, -5.0, "inputs:angle"),
-    ("DistantLight", "inputs:angle", Sdf.ValueTypeNames.Float, 400.0, "inputs:angle"),
     ("MeshLightAPI", "inputs:intensity", Sdf.ValueTypeNames.Float, 3e38, "inputs:intensity"),
 ]
 

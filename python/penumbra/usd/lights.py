@@ -1,7 +1,9 @@
 """UsdLux lights → the render delegate's light sprims.
 
 Every input the delegate knows is sent, authored or not, so that its schema fallback is used
-(``Get`` returns the fallback of an unauthored UsdLux input).
+(``Get`` returns the fallback of an unauthored UsdLux input). Inputs authored to change the
+light that the delegate does not render (IES profiles, shadow colour, distance and falloff,
+light filters) are named in one warning per light.
 """
 
 from __future__ import annotations
@@ -10,7 +12,8 @@ import math
 
 from collections.abc import Callable
 
-from pxr import Usd, UsdLux
+import numpy as np
+from pxr import Gf, Usd, UsdGeom, UsdLux
 
 from .. import _core
 from .sampling import SampleReader, schema_fallback
@@ -31,12 +34,19 @@ def _inputs(origin: str, sprim_type: str | None = None) -> tuple[str, ...]:
 
 
 # Sprim type, schema class and the shape inputs of each supported light, as the render
-# delegate's tables give them.
+# delegate's tables give them; and UsdLux's DomeLight_1, a DomeLight with a poleAxis (the same
+# inputs, texture and format), which the delegate renders as a domeLight.
 _LIGHTS: tuple[tuple[str, type, tuple[str, ...]], ...] = tuple(
     (light.sprim_type, getattr(UsdLux, light.schema), _inputs("light schema", light.sprim_type))
     for light in _core.light_types()
-)
+) + (("domeLight", UsdLux.DomeLight_1, _inputs("light schema", "domeLight")),)
 """The delegate's sprim types for lights."""
+
+_DOME_SCHEMAS = (UsdLux.DomeLight, UsdLux.DomeLight_1)
+
+_POLE_Z = np.asarray(Gf.Matrix4d().SetRotate(Gf.Rotation(Gf.Vec3d(1, 0, 0), 90.0)))
+"""Turns the light's +Y, the pole of the delegate's dome texture, to +Z, and the texture's
+centre (latitude and longitude 0, +Z) to -Y: a DomeLight_1's orientation when its pole is Z."""
 
 _COMMON_INPUTS = _inputs("LightAPI")
 # Inputs of the applied schemas that shape the emission or cast shadows.
@@ -71,6 +81,19 @@ _RANGES = {
     "specular": (0.0, math.inf),
     "shaping:cone:angle": (0.0, 180.0),
 }
+
+# The angles UsdLux clips to the top of their range rather than refusing beyond it: a distant
+# light wider than the whole sky is the whole sky (the schema clips its angle), and a cone of
+# 180 degrees or more, which no direction lies outside, is no cone.
+_CLIPPED = ("angle", "shaping:cone:angle")
+
+
+def _clipped(name: str, value):
+    """``value`` of input ``name``, a finite angle above the top of its range clipped to it
+    (other values as they are, for :func:`_input_problem` to judge)."""
+    if name in _CLIPPED and is_number_value(value) and is_finite_float32(value):
+        return min(value, _RANGES[name][1])
+    return value
 
 
 def _has_kind(value, kind: str) -> bool:
@@ -121,7 +144,7 @@ def _read_inputs(
     params = {}
     problems = []
     for name, attribute in attributes.items():
-        value = reader.get_or_fallback(attribute)
+        value = _clipped(name, reader.get_or_fallback(attribute))
         problem = _input_problem(name, attribute.GetName(), value)
         if problem is not None:
             problems.append(problem)
@@ -185,15 +208,64 @@ def sync_mesh_light(
         core.set_mesh_light(prim_id, False)
         return
     params = _read_inputs(prim_id, _input_attributes(prim), reader, warn)
+    _report_ignored_inputs(prim_id, prim, params.get("shadow:enable", True), reader, warn)
     core.set_mesh_light(prim_id, True, **params)
+
+
+def _ignored_inputs(prim: Usd.Prim, shadows: bool, reader: SampleReader) -> list[str]:
+    """The names of the UsdLux inputs of light ``prim`` that are authored to change its light
+    but that Penumbra does not render: light filters, an IES profile, and (when it casts
+    shadows) a shadow colour other than black, a finite shadow distance (UsdLux's -1, or any
+    negative one, is none) and a shadow falloff (none at 0 or less)."""
+    ignored = []
+    filters = UsdLux.LightAPI(prim).GetFiltersRel()
+    if filters.HasAuthoredTargets() and filters.GetTargets():
+        ignored.append(filters.GetName())
+    if prim.HasAPI(UsdLux.ShapingAPI):
+        ies = UsdLux.ShapingAPI(prim).GetShapingIesFileAttr()
+        profile = as_asset_path(reader.get(ies))
+        if profile is not None and profile.path:
+            ignored.append(ies.GetName())
+    if shadows and prim.HasAPI(UsdLux.ShadowAPI):
+        shadow = UsdLux.ShadowAPI(prim)
+        color = shadow.GetShadowColorAttr()
+        value = reader.get(color)
+        if is_color_value(value) and any(component != 0 for component in as_floats(value)):
+            ignored.append(color.GetName())
+        distance = shadow.GetShadowDistanceAttr()
+        value = reader.get(distance)
+        if is_number_value(value) and 0 <= value < math.inf:
+            ignored.append(distance.GetName())
+        falloff = shadow.GetShadowFalloffAttr()
+        value = reader.get(falloff)
+        if is_number_value(value) and value > 0:
+            ignored.append(falloff.GetName())
+    return ignored
+
+
+def _report_ignored_inputs(
+    path: str, prim: Usd.Prim, shadows: bool, reader: SampleReader, warn: Callable[[str], None]
+) -> None:
+    """One warning naming the inputs of light ``prim`` (delegate prim ``path``) that
+    :func:`_ignored_inputs` finds: the light renders without them, which is not what was asked."""
+    ignored = _ignored_inputs(prim, shadows, reader)
+    if ignored:
+        verb = "is" if len(ignored) == 1 else "are"
+        warn(f"{path}: {', '.join(ignored)} {verb} not supported yet; ignored")
+
+
+def _light_entry(prim: Usd.Prim) -> tuple[str, type, tuple[str, ...]] | None:
+    """The entry of :data:`_LIGHTS` whose schema ``prim`` is, or ``None``."""
+    for entry in _LIGHTS:
+        if prim.IsA(entry[1]):
+            return entry
+    return None
 
 
 def light_type(prim: Usd.Prim) -> str | None:
     """The delegate's sprim type for a supported UsdLux light, else ``None``."""
-    for sprim_type, schema, _ in _LIGHTS:
-        if prim.IsA(schema):
-            return sprim_type
-    return None
+    entry = _light_entry(prim)
+    return entry[0] if entry is not None else None
 
 
 def is_light(prim: Usd.Prim) -> bool:
@@ -227,13 +299,49 @@ def sync_light(
     Without ``dome_light_visibility`` a dome light is not seen by camera rays (usdrecord's
     default: the dome lights the scene, the background stays transparent)."""
     path = str(prim.GetPath())
-    sprim_type = light_type(prim)
-    _, schema_class, shape_inputs = next(entry for entry in _LIGHTS if entry[0] == sprim_type)
+    sprim_type, schema_class, shape_inputs = _light_entry(prim)
     schema = schema_class(prim)
     params = _read_inputs(path, _input_attributes(prim, schema, shape_inputs), reader, warn)
+    _report_ignored_inputs(path, prim, params.get("shadow:enable", True), reader, warn)
     params["texture:file"] = _texture_path(prim, schema, reader, warn)
+    if params["texture:file"] and isinstance(schema, UsdLux.DomeLight_1):
+        _check_pole_axis(prim, schema, warn)
     params["cameraVisible"] = dome_light_visibility or sprim_type != "domeLight"
     core.set_light(path, **params)
+
+
+def pole_axis(prim: Usd.Prim) -> str:
+    """The axis a dome light's texture has its top pole on, "Y" or "Z": a DomeLight_1's
+    ``poleAxis``, whose fallback "scene" (and a token UsdLux does not know) means the stage's up
+    axis; "Y" for every other light (a DomeLight's texture is Y-up, as OpenEXR's latlong
+    maps)."""
+    if not prim.IsA(UsdLux.DomeLight_1):
+        return "Y"
+    axis = UsdLux.DomeLight_1(prim).GetPoleAxisAttr().Get()
+    if axis not in ("Y", "Z"):
+        axis = UsdGeom.GetStageUpAxis(prim.GetStage())
+    return "Z" if axis == "Z" else "Y"
+
+
+def light_transform(prim: Usd.Prim, matrices: np.ndarray) -> np.ndarray:
+    """The transform the delegate should place light ``prim`` by, from its local-to-world
+    ``matrices`` ((4, 4) or (K, 4, 4), as :func:`~.motion.transform_samples` gives them): those
+    of a dome whose :func:`pole_axis` is Z after the turn of its texture's pole from the light's
+    +Y to +Z (UsdLux turns the dome alone, before its transform, and not its children; row
+    vectors, so the turn is the left factor)."""
+    if pole_axis(prim) != "Z":
+        return matrices
+    return np.matmul(_POLE_Z, matrices)
+
+
+def _check_pole_axis(
+    prim: Usd.Prim, schema: UsdLux.DomeLight_1, warn: Callable[[str], None]
+) -> None:
+    """Warn of a textured DomeLight_1's ``poleAxis`` that UsdLux does not know (read as
+    "scene")."""
+    axis = schema.GetPoleAxisAttr().Get()
+    if axis not in ("scene", "Y", "Z"):
+        warn(f"{prim.GetPath()}: poleAxis {axis!r} is not scene, Y or Z; read as scene")
 
 
 def _texture_path(prim: Usd.Prim, schema, reader: SampleReader, warn: Callable[[str], None]) -> str:
@@ -249,7 +357,7 @@ def _texture_path(prim: Usd.Prim, schema, reader: SampleReader, warn: Callable[[
              "not an asset path; the light has no texture")
     if texture is None or not texture.path:
         return ""
-    if isinstance(schema, UsdLux.DomeLight):
+    if isinstance(schema, _DOME_SCHEMAS):
         layout = reader.get(schema.GetTextureFormatAttr())
         if layout not in (None, UsdLux.Tokens.automatic, UsdLux.Tokens.latlong):
             warn(f"{prim.GetPath()}: texture:format {layout!r} is not supported yet; read as latlong")

@@ -12,7 +12,7 @@ from .color_spaces import texture_color_space
 from .material_data import CONNECTABLE, INPUTS, PREVIEW_SURFACE_INPUTS, MaterialData, texture_file
 from .materialx import read_materialx_material, surface_shader
 from .sampling import SampleReader
-from .values import as_floats
+from .values import as_floats, is_number_value
 
 PREVIEW_SURFACE = "UsdPreviewSurface"
 
@@ -69,6 +69,7 @@ _VECTOR_INPUTS = frozenset(i.name for i in PREVIEW_SURFACE_INPUTS if i.kind == "
 # defaults for the others).
 _TEXTURE_TOKENS = ("wrapS", "wrapT", "sourceColorSpace")
 _TEXTURE_VECTORS = ("scale", "bias", "fallback")
+_PRIMVARS = "primvars:"  # the namespace of primvar attributes, not part of a primvar's name
 
 
 class _Network:
@@ -144,10 +145,12 @@ class _Network:
         return None
 
     def primvar_reader(self, shader: UsdShade.Shader) -> dict[str, Any]:
-        """A UsdPrimvarReader_*'s primvar name and fallback (padded to 3 values)."""
+        """A UsdPrimvarReader_*'s primvar name and fallback (padded to 3 values). A varname
+        written as the attribute's name, ``primvars:displayColor``, names the primvar
+        ``displayColor``, as hdPrman reads it."""
         varname = self.value(shader, "varname")
         fallback = self.value(shader, "fallback")
-        result: dict[str, Any] = {"primvar": str(varname or "")}
+        result: dict[str, Any] = {"primvar": str(varname or "").removeprefix(_PRIMVARS)}
         if fallback is not None:
             if isinstance(fallback, (int, float)):
                 result["fallback"] = float(fallback)
@@ -251,6 +254,39 @@ def push_material(core, material_id: str, data: MaterialData, warn: Callable[[st
         core.set_material(material_id, {k: v for k, v in params.items() if not isinstance(v, dict)})
 
 
+def _displaces(shader: UsdShade.Shader, network: _Network) -> bool:
+    """Whether UsdPreviewSurface ``shader``'s ``inputs:displacement`` would move the surface:
+    connected to a shader's output, or a value (authored, or reached through interface inputs)
+    other than the schema's 0."""
+    displacement = shader.GetInput("displacement")
+    if not displacement:
+        return False
+    if displacement.HasConnectedSource():
+        value = network.value(shader, "displacement")
+        if value is None:  # driven by a shader network
+            return True
+    else:
+        value = network.reader.get(displacement.GetAttr())
+    return is_number_value(value) and value != 0
+
+
+def _check_displacement(material: Usd.Prim, surface: UsdShade.Shader, network: _Network) -> None:
+    """Warn once when the material asks for displacement, which Penumbra does not render: on its
+    surface shader or the UsdPreviewSurface its ``outputs:displacement`` names."""
+    shaders = [surface]
+    source, _, _ = UsdShade.Material(material).ComputeDisplacementSource()
+    if source and source.GetPrim() != surface.GetPrim() and source.GetShaderId() == PREVIEW_SURFACE:
+        network.data.sources.add(source.GetPath())
+        shaders.append(source)
+    for shader in shaders:
+        if _displaces(shader, network):
+            network.warn(
+                f"{material.GetPath()}: {shader.GetPath()}.inputs:displacement: displacement is "
+                "not supported yet; the surface renders undisplaced"
+            )
+            return
+
+
 def read_material(
     prim: Usd.Prim, reader: SampleReader, warn: Callable[[str], None]
 ) -> MaterialData | None:
@@ -284,6 +320,7 @@ def read_material(
     # Edits anywhere in the material (its shaders, node graphs, interface inputs) re-read it.
     data = MaterialData(sources={p.GetPath() for p in Usd.PrimRange(prim)} | {shader.GetPath()})
     network = _Network(reader, data, warn, path)
+    _check_displacement(prim, shader, network)
     defaults = _schema_defaults()
     for name in (*INPUTS, "normal"):
         value = None

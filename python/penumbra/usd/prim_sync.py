@@ -12,12 +12,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
-from pxr import Sdf, Usd
+import numpy as np
+from pxr import Sdf, Usd, UsdLux
 
 from .camera import sync_camera
 from .core_batch import CoreBatch
 from .inherited import InheritedState
-from .lights import sync_light
+from .lights import light_transform, sync_light
 from .motion import XformCaches, transform_samples
 from .render_pass import RenderPassCollections
 from .sampling import SampleReader, Shutter
@@ -72,6 +73,10 @@ class OneByOneSync:
         """Push the prim's data; ``False`` when it is unusable."""
         raise NotImplementedError
 
+    def _placement(self, prim: Usd.Prim, matrices: np.ndarray) -> np.ndarray:
+        """The transform samples the delegate places ``prim`` by: its local-to-world ones."""
+        return matrices
+
     def _sync_prim(
         self,
         path: Sdf.Path,
@@ -94,7 +99,9 @@ class OneByOneSync:
                 return
             record.varying = set_flag(record.varying, Dirty.DATA, reader.varying)
         if bits & Dirty.TRANSFORM:
-            batch.set_transform(path_str, transform_samples(prim, shutter, xform_caches))
+            batch.set_transform(
+                path_str, self._placement(prim, transform_samples(prim, shutter, xform_caches))
+            )
             record.varying &= ~Dirty.TRANSFORM
             record.unknown |= Dirty.TRANSFORM
         if bits & Dirty.VISIBILITY:
@@ -140,3 +147,22 @@ class LightSync(OneByOneSync):
         sync_light(self.core, prim, reader, self._warn, settings.dome_light_visibility)
         self._emitters.add(path)
         return True
+
+    def _sync_prim(
+        self,
+        path: Sdf.Path,
+        path_str: str,
+        prim: Usd.Prim,
+        record: TrackedPrim,
+        bits: int,
+        settings: SyncSettings,
+        xform_caches: XformCaches,
+        batch: CoreBatch,
+    ) -> None:
+        # A DomeLight_1's poleAxis (its data) turns its texture: the transform goes with it.
+        if bits & Dirty.DATA and prim.IsA(UsdLux.DomeLight_1):
+            bits |= Dirty.TRANSFORM
+        super()._sync_prim(path, path_str, prim, record, bits, settings, xform_caches, batch)
+
+    def _placement(self, prim: Usd.Prim, matrices: np.ndarray) -> np.ndarray:
+        return light_transform(prim, matrices)
