@@ -1,7 +1,8 @@
 """UsdGeomBasisCurves (and NurbsCurves and HermiteCurves) from USD to pixels: round tubes as wide
 as their widths predict, centre lines where each basis puts them, pinned curves reaching their
 end points, ribbons facing their normals, motion blur over the shutter, a white furnace, a
-curves-only stage framed by default, per-curve displayColor, NURBS and Hermite curves where
+curves-only stage framed by default, per-curve displayColor, a single value of any
+interpolation as the whole prim's, NURBS (restricted to their ranges) and Hermite curves where
 their curves lie, bad data warned of and skipped, and edits rendering as fresh renders."""
 
 from __future__ import annotations
@@ -128,6 +129,44 @@ def test_a_round_linear_curve_is_as_wide_as_its_width_predicts():
 def test_unauthored_widths_are_one_unit():
     covered = coverage(penumbra.render(curves_stage([(-3, 0, 0), (3, 0, 0)]), **FAST))
     assert abs(covered[:, 32].sum() - PIXELS_PER_UNIT) <= 1
+
+
+def _hermite_with_one_width(stage):
+    hermite = UsdGeom.HermiteCurves.Define(stage, PATH)
+    hermite.CreatePointsAttr([Gf.Vec3f(-3, 0, 0), Gf.Vec3f(0, 0, 0), Gf.Vec3f(3, 0, 0)])
+    hermite.CreateTangentsAttr([Gf.Vec3f(3, 0, 0)] * 3)
+    hermite.CreateCurveVertexCountsAttr([3])
+    return hermite
+
+
+@pytest.mark.parametrize("hermite", [False, True], ids=["basis", "hermite"])
+@pytest.mark.parametrize("interpolation", [None, "vertex", "varying", "uniform"])
+def test_a_single_width_of_any_interpolation_is_the_whole_prims(interpolation, hermite):
+    # `widths = [0.5]` without metadata is vertex by the schema's fallback; Storm draws it as
+    # the width of every curve, where the prim was skipped for not having one per vertex.
+    stage = curves_stage([(-3, 0, 0), (0, 0, 0), (3, 0, 0)])
+    if hermite:
+        stage.RemovePrim(PATH)
+        curves = _hermite_with_one_width(stage)
+    else:
+        curves = UsdGeom.BasisCurves(stage.GetPrimAtPath(PATH))
+    curves.CreateWidthsAttr([0.5])
+    if interpolation:
+        curves.SetWidthsInterpolation(interpolation)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        covered = coverage(penumbra.render(stage, **FAST))
+    for column in (8, 32, 56):
+        assert abs(covered[:, column].sum() - 0.5 * PIXELS_PER_UNIT) <= 1
+
+
+def test_a_single_normal_without_metadata_faces_the_whole_ribbon():
+    stage = curves_stage([(-3, 0, 0), (0, 0, 0), (3, 0, 0)], widths=[0.5])
+    UsdGeom.BasisCurves(stage.GetPrimAtPath(PATH)).CreateNormalsAttr([Gf.Vec3f(0, 0, 1)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        covered = coverage(penumbra.render(stage, **FAST))
+    assert abs(covered[:, 16:48].sum(axis=0).mean() - 0.5 * PIXELS_PER_UNIT) <= 1
 
 
 ZIGZAG = [(-1.8, -0.9, 0), (-1.0, 0.6, 0), (-0.2, -0.5, 0), (0.6, 1.0, 0), (1.4, -0.2, 0),
@@ -260,6 +299,34 @@ def test_display_color_per_curve_shows():
     assert above[1] > 0.05 and above[1] > 5 * above[0]
 
 
+@pytest.mark.parametrize("interpolation", ["uniform", "vertex", "varying"])
+def test_one_display_color_or_primvar_value_of_any_interpolation_colours_every_curve(
+    interpolation,
+):
+    def two_curves():
+        stage = curves_stage([(-3, -1, 0), (3, -1, 0), (-3, 1, 0), (3, 1, 0)], counts=[2, 2],
+                             widths=[0.5], colors=[(1, 0, 0)], color_interpolation=interpolation)
+        return stage, UsdGeom.BasisCurves(stage.GetPrimAtPath(PATH))
+
+    stage, _ = two_curves()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        color = penumbra.render(stage, **FAST)["color"]
+    for row in (32 + 16, 32 - 16):
+        assert color[row, 32, 0] > 0.05 and color[row, 32, 0] > 5 * color[row, 32, 1]
+
+    stage, hair = two_curves()
+    UsdGeom.PrimvarsAPI(hair).CreatePrimvar(
+        "tint", Sdf.ValueTypeNames.Color3fArray, interpolation
+    ).Set([Gf.Vec3f(1, 0.5, 0)])
+    bind(hair, add_primvar_emission_material(stage, "/World/Looks/tinted", "tint"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        color = penumbra.render(stage, **{**FAST, "samples": 16})["color"]
+    for row in (32 + 16, 32 - 16):
+        np.testing.assert_allclose(color[row, 32, :3], (1, 0.5, 0), atol=0.01)
+
+
 def _nurbs(stage, points, order, knots, weights=None, widths=(0.12,)):
     nurbs = UsdGeom.NurbsCurves.Define(stage, "/World/nurbs")
     nurbs.CreatePointsAttr([Gf.Vec3f(*p) for p in points])
@@ -287,6 +354,21 @@ def test_uniform_cubic_nurbs_render_as_the_b_spline_of_their_points():
     reference = penumbra.render(b_spline, **FAST)
     assert coverage(reference).sum() > 50
     np.testing.assert_array_equal(alpha(image), alpha(reference))
+
+
+def test_nurbs_ranges_restrict_them_to_that_part_of_their_curve():
+    points = [(-1.8 + 0.72 * i, 0.6 * (-1) ** i, 0) for i in range(6)]
+    stage = _camera_only_stage()
+    _nurbs(stage, points, 4, list(range(10))).CreateRangesAttr([Gf.Vec2d(4, 5)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        image = penumbra.render(stage, **{**FAST, "samples": 16})
+    # Knots 4 to 5 are the uniform B-spline's middle segment, from (P1 + 4 P2 + P3) / 6 to
+    # (P2 + 4 P3 + P4) / 6: x from −0.36 to 0.36 (the whole curve reaches ±1.08).
+    x = np.array(points)[:, 0]
+    start, end = (x[1] + 4 * x[2] + x[3]) / 6, (x[2] + 4 * x[3] + x[4]) / 6
+    covered = np.flatnonzero(alpha(image).sum(axis=0) > 0.3)
+    assert abs(column_x(covered[0]) - start) < 0.1 and abs(column_x(covered[-1]) - end) < 0.1
 
 
 def test_clamped_nurbs_reach_their_end_points_on_their_curve():
@@ -506,6 +588,9 @@ def test_a_groom_is_checked_against_the_memory_budget_before_it_is_built():
         ("knots", [0, 1, 2, 3, 2, 5, 6, 7], "knots must not decrease"),
         ("knots", [0, 1, 2, 3, 4, 5, 6, float("nan")], "knots must be finite"),
         ("pointWeights", [1.0, 0.0, 1.0, 1.0], "pointWeights must be positive"),
+        ("ranges", [Gf.Vec2d(3.6, 3.4)], "ranges must give"),
+        ("ranges", [Gf.Vec2d(4.5, 5.0)], "ranges must give"),  # past the domain [3, 4]
+        ("ranges", [Gf.Vec2d(3.0, 4.0)] * 2, "ranges must give"),
     ],
 )
 def test_bad_nurbs_are_warned_of_naming_the_attribute_and_skipped(attribute, value, problem):

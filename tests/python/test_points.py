@@ -1,6 +1,7 @@
 """UsdGeomPoints from USD to pixels: spheres of their widths (discs facing their normals),
-framed by the default camera and lit by the default light, per-point displayColor, bad widths
-warned of and skipped, and a point's edit rendering as a fresh render of the edited stage."""
+framed by the default camera and lit by the default light, per-point displayColor, uniform data
+as one value for the whole prim, bad widths warned of and skipped, and a point's edit rendering
+as a fresh render of the edited stage."""
 
 from __future__ import annotations
 
@@ -12,7 +13,13 @@ from pxr import Gf, Sdf, UsdGeom
 
 import penumbra
 from penumbra import _core
-from stages import add_camera, add_preview_material, bind, new_stage
+from stages import (
+    add_camera,
+    add_preview_material,
+    add_primvar_emission_material,
+    bind,
+    new_stage,
+)
 
 WIDTH = 64
 FOCAL = 50.0
@@ -23,7 +30,10 @@ DISTANCE = 10.0
 FAST = dict(camera="/cam", width=WIDTH, samples=8, dome_light_visibility=False)
 
 
-def points_stage(positions, widths=None, normals=None, colors=None):
+def points_stage(
+    positions, widths=None, normals=None, colors=None, widths_interpolation=None,
+    color_interpolation=UsdGeom.Tokens.vertex,
+):
     """A camera at z = DISTANCE looking down −Z at points ``/World/dots``; no lights (the
     default light)."""
     stage = new_stage()
@@ -34,10 +44,12 @@ def points_stage(positions, widths=None, normals=None, colors=None):
     dots.CreatePointsAttr([Gf.Vec3f(*p) for p in positions])
     if widths is not None:
         dots.CreateWidthsAttr(widths)
+        if widths_interpolation:
+            dots.SetWidthsInterpolation(widths_interpolation)
     if normals is not None:
         dots.CreateNormalsAttr([Gf.Vec3f(*n) for n in normals])
     if colors is not None:
-        color = dots.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex)
+        color = dots.CreateDisplayColorPrimvar(color_interpolation)
         color.Set([Gf.Vec3f(*c) for c in colors])
     return stage
 
@@ -119,9 +131,77 @@ def test_display_color_per_point_shows():
     assert right[1] > 0.05 and right[1] > 5 * right[0]
 
 
+THREE = [(-1.5, 0, 0), (0, 0, 0), (1.5, 0, 0)]
+
+
+def test_uniform_display_color_and_primvars_are_one_value_for_all_the_points():
+    # A Points prim is one element: uniform data has one value for it (hdPrman's count), which
+    # had been read as one per point and the prim skipped for lacking the others.
+    stage = points_stage(THREE, widths=[1.0], colors=[(1, 0, 0)],
+                         color_interpolation=UsdGeom.Tokens.uniform)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        color = penumbra.render(stage, **FAST)["color"]
+    for x, _, _ in THREE:
+        seen = color[WIDTH // 2, WIDTH // 2 + int(to_pixels(x)), :3]
+        assert seen[0] > 0.05 and seen[0] > 5 * seen[1]
+
+    stage = points_stage(THREE, widths=[1.0])
+    dots = UsdGeom.Points(stage.GetPrimAtPath("/World/dots"))
+    UsdGeom.PrimvarsAPI(dots).CreatePrimvar(
+        "tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.uniform
+    ).Set([Gf.Vec3f(1, 0.5, 0)])
+    bind(dots, add_primvar_emission_material(stage, "/World/Looks/tinted", "tint"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        color = penumbra.render(stage, **{**FAST, "samples": 16})["color"]
+    for x, _, _ in THREE:
+        np.testing.assert_allclose(color[WIDTH // 2, WIDTH // 2 + int(to_pixels(x)), :3],
+                                   (1, 0.5, 0), atol=0.01)
+
+
+def test_per_point_data_authored_uniform_is_read_per_point():
+    # Exporters write per-point data as uniform too; one value per point can only mean that.
+    stage = points_stage(THREE, widths=[0.5, 1.0, 0.5], widths_interpolation="uniform",
+                         colors=[(1, 0, 0)] * 3, color_interpolation=UsdGeom.Tokens.uniform)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        image = penumbra.render(stage, **FAST)
+    row = coverage(image)[WIDTH // 2]
+    expected = predicted_diameter(0.5) * 2 + predicted_diameter(1.0)
+    assert abs(row.sum() - expected) <= 3
+    seen = image["color"][WIDTH // 2, WIDTH // 2, :3]
+    assert seen[0] > 0.05 and seen[0] > 5 * seen[1]
+
+
+def test_colours_and_primvars_that_fit_neither_are_dropped_and_the_points_render():
+    # As a mesh's: the warning names the authored interpolation (varying had been named vertex),
+    # and the points render with the fallbacks (they had been skipped).
+    stage = points_stage(THREE, widths=[1.0], colors=[(1, 0, 0)] * 2,
+                         color_interpolation=UsdGeom.Tokens.varying)
+    dots = UsdGeom.Points(stage.GetPrimAtPath("/World/dots"))
+    UsdGeom.PrimvarsAPI(dots).CreatePrimvar(
+        "tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.vertex
+    ).Set([Gf.Vec3f(1, 0.5, 0)] * 2)
+    with pytest.warns(penumbra.PenumbraWarning) as record:
+        renderer = penumbra.Renderer(stage)
+        image = renderer.render(**FAST)
+    messages = [str(w.message) for w in record if str(w.message).startswith("/World/dots: ")]
+    assert messages == [
+        "/World/dots: primvars:displayColor (varying) has 2 values, expected 1 or 3 (one per "
+        "point); the fallback colour is used",
+        "/World/dots: primvars:tint (vertex) has 2 values, expected 1 or 3 (one per point); "
+        "materials reading it use their fallback",
+    ]
+    assert renderer.delegate.has_prim("/World/dots")
+    seen = image["color"][WIDTH // 2, WIDTH // 2, :3]
+    assert coverage(image).any() and seen[1] == pytest.approx(seen[0], rel=1e-3)  # grey
+
+
 @pytest.mark.parametrize(
     "widths, problem",
-    [([1.0, 1.0], "widths has 2 values for 3 points"), ([1.0, 0.0, 1.0], "widths must be")],
+    [([1.0, 1.0], "widths (vertex) has 2 values, expected 1 or 3 (one per point)"),
+     ([1.0, 0.0, 1.0], "widths must be")],
 )
 def test_bad_widths_warn_naming_the_prim_and_skip_it(widths, problem):
     stage = points_stage([(0, 0, 0), (1, 0, 0), (2, 0, 0)], widths=widths)
@@ -217,15 +297,15 @@ def test_points_take_transform_visibility_and_material():
     assert not coverage(penumbra.render(stage, **FAST)).any()
 
 
-def test_data_the_renderer_rejects_is_warned_of_once_and_skipped():
-    # Three colours for two points: the renderer's validation rejects them (the plugin warns).
+def test_colours_that_fit_neither_are_warned_of_once():
+    # Three colours for two points: dropped with one warning, not again at the next render.
     stage = points_stage([(0, 0, 0), (1, 0, 0)], widths=[1.0, 1.0], colors=[(1, 0, 0)] * 3)
     with pytest.warns(penumbra.PenumbraWarning) as record:
         renderer = penumbra.Renderer(stage)
         image = renderer.render(**FAST)
     messages = [str(w.message) for w in record if str(w.message).startswith("/World/dots: ")]
-    assert len(messages) == 1 and messages[0].endswith("; skipped"), messages
-    assert not coverage(image).any()
+    assert len(messages) == 1 and messages[0].endswith("; the fallback colour is used"), messages
+    assert coverage(image).any()
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         renderer.render(**FAST)  # nothing changed: no warning again
@@ -254,3 +334,13 @@ def test_points_prims_take_the_per_prim_setters():
         delegate.set_points("/dots", np.zeros((2, 2), np.float32), np.ones(2, np.float32))
     with pytest.raises(KeyError):
         delegate.set_points("/nothing", positions, np.ones(2, np.float32))
+
+
+def test_per_point_normals_authored_uniform_face_their_discs():
+    stage = points_stage(THREE, widths=[1.0], normals=[(1, 0, 0)] * 3)  # discs edge on
+    UsdGeom.Points(stage.GetPrimAtPath("/World/dots")).SetNormalsInterpolation("uniform")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        image = penumbra.render(stage, **FAST)
+    # Edge on: a sliver each, where spheres would cover their diameter.
+    assert coverage(image)[WIDTH // 2].sum() < predicted_diameter(1.0)

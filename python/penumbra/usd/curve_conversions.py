@@ -11,12 +11,16 @@
   ("pinned") knot vectors; rational or higher-order curves are refined into pinned Catmull-Rom
   curves through ``REFINED_SAMPLES_PER_SPAN`` points per span, evaluated by de Boor's
   recurrence with the weights. Vertex data goes through the same linear map as the points.
-  ``ranges`` is not read: curves span their whole knot domain.
+  ``ranges`` restricts a curve to part of its knot domain: its spans are clipped to it (the
+  Bézier points of a clipped span are fitted through points of the clipped span, which is what
+  splitting it by de Casteljau's algorithm gives), so a restricted curve is converted by spans
+  even where its order and knots would have let it pass as a B-spline or linear curve.
 
   Curves of the same order and vertex count whose knot vectors are the same relative to their
   domains (a groom's strands share one) share one map, computed once from the first of them
   and applied to all of them at once: a million strands cost no Python loop per strand. Curves
-  whose knots are shifted or scaled copies of another's get its map (the same up to rounding).
+  whose knots (and ranges) are shifted or scaled copies of another's get its map (the same up
+  to rounding).
 """
 
 from __future__ import annotations
@@ -67,8 +71,12 @@ class BasisCurves:
     ) -> tuple[np.ndarray | None, str]:
         """Primvar ``values`` of the source prim with ``interpolation``, as these curves take
         them; ``(None, interpolation)`` after a warning naming the prim, the attribute and the
-        ``consequence`` when they cannot be carried over."""
-        if values is None or (self.vertex_map is None and not self.vertex_as_varying):
+        ``consequence`` when they cannot be carried over. One value of any interpolation is
+        constant (see :func:`_one_value_is_constant`)."""
+        if values is None:
+            return values, interpolation
+        interpolation = _one_value_is_constant(values, interpolation)
+        if self.vertex_map is None and not self.vertex_as_varying:
             return values, interpolation
         if interpolation in (UsdGeom.Tokens.constant, UsdGeom.Tokens.uniform):
             return values, interpolation
@@ -78,16 +86,23 @@ class BasisCurves:
         if interpolation == UsdGeom.Tokens.vertex and len(values) == expected:
             mapped = self.vertex_map.apply(values.reshape(len(values), -1))
             return mapped.reshape((-1,) + values.shape[1:]), interpolation
-        found = f"{len(values)} value{'' if len(values) == 1 else 's'}"
         if interpolation == UsdGeom.Tokens.vertex:
-            problem = f"has {found}, expected {expected} (one per point)"
+            problem = f"has {len(values)} values, expected {expected} (one per point)"
         else:
             problem = (
-                f"has {found}; {self.source} data is read as constant, uniform or vertex "
-                "(one value per point) only"
+                f"has {len(values)} values; {self.source} data is read as constant, uniform or "
+                "vertex (one value per point) only"
             )
         warn(f"{path}: {attribute} ({interpolation}) {problem}; {consequence}")
         return None, interpolation
+
+
+def _one_value_is_constant(values: np.ndarray, interpolation: str) -> str:
+    """``interpolation`` of ``values``, constant when there is a single value: ``widths = [w]``
+    without interpolation metadata is vertex by the schema's fallback, and Hydra's Storm (like
+    the Points reader) reads a single value of any interpolation as the whole prim's, where the
+    count it does not match would skip the prim."""
+    return UsdGeom.Tokens.constant if len(values) == 1 else interpolation
 
 
 def hermite_to_bezier(
@@ -137,7 +152,8 @@ def nurbs_to_basis(
     path: str,
 ) -> BasisCurves | None:
     """NurbsCurves as BasisCurves (see the module's description); ``None`` after a warning
-    naming the attribute when ``order``, ``knots`` or ``pointWeights`` do not fit the points."""
+    naming the attribute when ``order``, ``knots``, ``pointWeights`` or ``ranges`` do not fit
+    the points."""
     orders = np.asarray(reader.get(curves.GetOrderAttr()) or [], dtype=np.int64).reshape(-1)
     knots = np.asarray(reader.get(curves.GetKnotsAttr()) or [], dtype=np.float64).reshape(-1)
     weights_value = reader.get(curves.GetPointWeightsAttr())
@@ -166,20 +182,26 @@ def nurbs_to_basis(
     if decreasing.any():
         warn(f"{path}: knots must not decrease within a curve; skipped")
         return None
+    domains = layout.domains(knots)
+    ranges = _ranges(curves, reader, domains, warn, path)
+    if ranges is None:
+        return None
+    whole = (ranges == domains).all()  # else clipped spans, whatever the order and knots
     rational = len(weights) > 0 and _per_curve(
         weights, layout.vertex_starts, lambda w_max, w_min: w_max - w_min > 1e-12 * w_max
     ).any()
-    if not rational and (orders == 2).all():
+    if not rational and whole and (orders == 2).all():
         return BasisCurves("linear", "bezier", "nonperiodic", counts, positions)
-    if not rational and (orders == 4).all() and _uniform(knots, layout).all():
+    if not rational and whole and (orders == 4).all() and _uniform(knots, layout).all():
         return BasisCurves("cubic", "bspline", "nonperiodic", counts, positions)
     if not rational and (orders <= 4).all():
         convert, curve_basis, wrap, weights = _BezierSpans, "bezier", "nonperiodic", None
     else:  # every curve weighted as soon as pointWeights are authored, as a single one may be
         convert, curve_basis, wrap = _RefinedSpans, "catmullRom", "pinned"
         weights = weights if len(weights) else None
-    classes = [(members, kind_of, convert(rows, order)) for members, kind_of, rows, order
-               in _classes_of_curves(knots, layout)]
+    classes = [(members, kind_of, convert(rows, kind_ranges, order))
+               for members, kind_of, rows, kind_ranges, order
+               in _classes_of_curves(knots, ranges, layout)]
     if any((conversion.rows_per_curve == 0).any() for _, _, conversion in classes):
         warn(f"{path}: knots leave a curve without a span of positive length; skipped")
         return None
@@ -197,6 +219,40 @@ class _Layout:
         self.counts, self.orders = counts, orders
         self.vertex_starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         self.knot_starts = np.concatenate([[0], np.cumsum(counts + orders)[:-1]])
+
+    def domains(self, knots: np.ndarray) -> np.ndarray:
+        """Each curve's knot domain, [knots[order − 1], knots[count]], float64 (C, 2)."""
+        return np.stack(
+            [knots[self.knot_starts + self.orders - 1], knots[self.knot_starts + self.counts]], 1
+        )
+
+
+def _ranges(
+    curves: UsdGeom.NurbsCurves,
+    reader: SampleReader,
+    domains: np.ndarray,
+    warn: Callable[[str], None],
+    path: str,
+) -> np.ndarray | None:
+    """Each curve's parametric range, float64 (C, 2): its ``ranges`` clipped to its knot domain
+    ``domains`` (beyond it the curve is not defined: its basis functions no longer sum to 1),
+    its whole domain where ``ranges`` is not authored (or empty); ``None`` after a warning when
+    there is not one range per curve, or one leaves its curve no part of its domain."""
+    value = reader.get(curves.GetRangesAttr())
+    ranges = np.asarray(value if value is not None else [], dtype=np.float64).reshape(-1, 2)
+    if len(ranges) == 0:
+        return domains
+    if len(ranges) == len(domains):
+        ranges = np.stack(
+            [np.maximum(ranges[:, 0], domains[:, 0]), np.minimum(ranges[:, 1], domains[:, 1])], 1
+        )
+        if (ranges[:, 0] < ranges[:, 1]).all():  # NaN fails too
+            return ranges
+    warn(
+        f"{path}: ranges must give each of the {len(domains)} curves a minimum below its "
+        "maximum, overlapping its knot domain; skipped"
+    )
+    return None
 
 
 def _per_curve(
@@ -216,29 +272,31 @@ def _uniform(knots: np.ndarray, layout: _Layout) -> np.ndarray:
 
 
 def _classes_of_curves(
-    knots: np.ndarray, layout: _Layout
-) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, int]]:
-    """The curves by order and vertex count, each class with its kinds of knot vector: those
-    the same relative to their domain (a groom's strands share one) share one conversion. Each
-    class: its curves, the kind of each, the knots of the first curve of each kind (one row a
-    kind), from which the kind's conversion is computed, and the order."""
+    knots: np.ndarray, ranges: np.ndarray, layout: _Layout
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]]:
+    """The curves by order and vertex count, each class with its kinds of knot vector and
+    range: those the same relative to their domain (a groom's strands share one) share one
+    conversion. Each class: its curves, the kind of each, the knots and the range of the first
+    curve of each kind (one row a kind), from which the kind's conversion is computed, and the
+    order."""
     counts, orders = layout.counts, layout.orders
     shape_of = np.unique(orders * (counts.max() + 1) + counts, return_inverse=True)[1]
     classes = []
     for members in _indices_by_label(shape_of.reshape(-1)):
         order, count = int(orders[members[0]]), int(counts[members[0]])
         rows = knots[layout.knot_starts[members, None] + np.arange(count + order)]
-        if (rows == rows[0]).all():  # a groom's strands
+        spans = ranges[members]
+        if (rows == rows[0]).all() and (spans == spans[0]).all():  # a groom's strands
             kind_of = np.zeros(len(members), dtype=np.int64)
         else:
             low, high = rows[:, order - 1 : order], rows[:, count : count + 1]
             with np.errstate(divide="ignore", invalid="ignore"):
-                relative = np.nan_to_num((rows - low) / (high - low), nan=-1.0)
+                relative = np.nan_to_num((np.hstack([rows, spans]) - low) / (high - low), nan=-1.0)
             # Knot multiplicities too: rounding must not merge a tiny span with a repeated knot.
             key = np.concatenate([relative, np.diff(rows, axis=1) > 0], 1)
             kind_of = np.unique(key, axis=0, return_inverse=True)[1].reshape(-1)
         firsts = np.array([kind[0] for kind in _indices_by_label(kind_of)])
-        classes.append((members, kind_of, rows[firsts], order))
+        classes.append((members, kind_of, rows[firsts], spans[firsts], order))
     return classes
 
 
@@ -249,15 +307,19 @@ def _indices_by_label(labels: np.ndarray) -> list[np.ndarray]:
 
 class _Conversion:
     """Linear maps from the control points of curves of one order and vertex count, one curve
-    of each knot vector in ``knots`` (a row each), to the vertices they convert to: vertex r is
-    Σ_k ``values[r, k]`` · (control point ``first[r] + k`` of curve ``curve[r]``): the ``order``
-    points whose basis functions are not zero where it is taken. Rows are curve by curve."""
+    of each knot vector in ``knots`` (a row each) restricted to its range in ``ranges`` (a row
+    each), to the vertices they convert to: vertex r is Σ_k ``values[r, k]`` · (control point
+    ``first[r] + k`` of curve ``curve[r]``): the ``order`` points whose basis functions are not
+    zero where it is taken. Rows are curve by curve."""
 
-    def __init__(self, knots: np.ndarray, order: int):
+    def __init__(self, knots: np.ndarray, ranges: np.ndarray, order: int):
         kinds, length = knots.shape
         count = length - order
-        positive = knots[:, order : count + 1] > knots[:, order - 1 : count]
-        curve, span = np.nonzero(positive)  # the spans of positive length, curve by curve
+        # The spans clipped to their curve's range (a whole domain leaves them as they are).
+        starts = np.maximum(knots[:, order - 1 : count], ranges[:, :1])
+        ends = np.minimum(knots[:, order : count + 1], ranges[:, 1:])
+        curve, span = np.nonzero(ends > starts)  # those of positive length, curve by curve
+        self._starts, self._ends = starts[curve, span], ends[curve, span]
         # All the knot vectors in a row: each span's recurrence reads its own curve's knots only.
         self._flat = Direction(kinds * length - order, order - 1, knots.reshape(-1), 0.0, 0.0)
         self._spans = span + order - 1 + curve * length
@@ -282,8 +344,8 @@ class _BezierSpans(_Conversion):
     sharing their end point: each span's polynomial through its points at 0, 1/3, 2/3 and 1."""
 
     def _rows(self):
-        knots, spans, curve = self._flat.knots, self._spans, self._span_curve
-        a, b = knots[spans, None], knots[spans + 1, None]
+        spans, curve = self._spans, self._span_curve
+        a, b = self._starts[:, None], self._ends[:, None]
         values, first = self._basis(
             (a + (b - a) * np.linspace(0, 1, 4)).reshape(-1), np.repeat(spans, 4),
             np.repeat(curve, 4),
@@ -299,16 +361,17 @@ class _RefinedSpans(_Conversion):
     weights: ``REFINED_SAMPLES_PER_SPAN`` per span and each curve's end."""
 
     def _rows(self):
-        knots, spans, curve = self._flat.knots, self._spans, self._span_curve
+        spans, curve = self._spans, self._span_curve
         fractions = np.arange(REFINED_SAMPLES_PER_SPAN) / REFINED_SAMPLES_PER_SPAN
-        params = knots[spans, None] + (knots[spans + 1, None] - knots[spans, None]) * fractions
+        starts, ends = self._starts[:, None], self._ends[:, None]
+        params = starts + (ends - starts) * fractions
         last = np.flatnonzero(np.append(curve[1:] != curve[:-1], True))  # each curve's last span
         order = np.argsort(  # each curve's end after its last span's samples
             np.append(np.arange(params.size), last * REFINED_SAMPLES_PER_SPAN + 7.5), kind="stable"
         )
         all_curves = np.append(np.repeat(curve, REFINED_SAMPLES_PER_SPAN), curve[last])[order]
         values, first = self._basis(
-            np.append(params.reshape(-1), knots[spans[last] + 1])[order],
+            np.append(params.reshape(-1), self._ends[last])[order],
             np.append(np.repeat(spans, REFINED_SAMPLES_PER_SPAN), spans[last])[order],
             all_curves,
         )

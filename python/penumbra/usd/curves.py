@@ -5,8 +5,10 @@ BasisCurves go as they are: type, basis, wrap, curveVertexCounts, positions over
 (:func:`~.motion.point_samples`: deformation, velocities and accelerations), widths (diameters
 of round tubes, or ribbon widths; unauthored: 1.0 constant, as Hydra's Storm draws them, since
 the schema has no fallback), normals (ribbons facing them; none: round tubes), displayColor and
-the other numeric primvars (displayOpacity among them), each with its interpolation. NurbsCurves
-and HermiteCurves are converted to BasisCurves first (:mod:`.curve_conversions`).
+the other numeric primvars (displayOpacity among them), each with its interpolation; a single
+value is the whole prim's whatever its interpolation (``widths = [w]`` without metadata is vertex),
+as Hydra's Storm reads it. NurbsCurves and HermiteCurves are converted to BasisCurves first
+(:mod:`.curve_conversions`).
 
 Every array is read in bulk (Vt arrays through numpy's buffer protocol) and passed flat: a groom
 of a million strands costs no Python loop per strand. What the renderer's validation rejects

@@ -3,7 +3,11 @@
 Positions (sampled over the shutter as mesh points are, :func:`~.motion.point_samples`), widths
 (diameters; constant or one per point; unauthored: 1.0, as Hydra's Storm draws them, since the
 schema has no fallback), normals (discs facing them; none: spheres), displayColor and the other
-numeric primvars. Uniform and varying interpolation mean one value per point here, as vertex.
+numeric primvars. A single value of any interpolation is the whole prim's (uniform means one
+value for the prim, which is one element, as hdPrman reads it; Hydra's Storm reads one vertex
+value so too); one value per point is per point whatever the interpolation says. Counts that fit
+neither are warned of naming the authored interpolation: widths then skip the prim, normals
+leave spheres, and a colour or primvar is dropped (its fallback used), as a mesh's is.
 """
 
 from __future__ import annotations
@@ -33,30 +37,93 @@ def sync_points_data(
     positions = as_vec3_array(reader.get(points.GetPointsAttr()))
     if positions is None or len(positions) == 0:
         return False
-    widths = _widths(points, reader, len(positions), warn, path)
+    count = len(positions)
+    widths = _widths(points, reader, count, warn, path)
     if widths is None:
         return False
+    # Colours and primvars that fit neither the prim nor its points are dropped, as a mesh's
+    # are: the points still render, with the fallbacks.
+    colors, color_interpolation = display_color(prim, reader, warn, path)
+    if len(colors):  # none: the delegate's fallback colour
+        color_interpolation = _per_point(
+            colors, color_interpolation, count, "primvars:displayColor", warn, path,
+            "the fallback colour is used",
+        )
+        if color_interpolation is None:
+            colors, color_interpolation = colors[:0], UsdGeom.Tokens.constant
+    primvars = {}
+    for name, (values, interpolation) in gprim_primvars(prim, reader, warn, path).items():
+        taken = _per_point(
+            values, interpolation, count, f"primvars:{name}", warn, path,
+            "materials reading it use their fallback",
+        )
+        if taken is not None:
+            primvars[name] = (values, taken)
     if reader.shutter.blurred or points.GetVelocitiesAttr().HasAuthoredValue():
         positions = point_samples(points, positions, reader, warn, path)
-    colors, color_interpolation = display_color(prim, reader, warn, path)
     core.set_points(
         path,
         positions=positions,
         widths=widths,
-        normals=_normals(points, reader, len(positions), warn, path),
+        normals=_normals(points, reader, count, warn, path),
         display_color=colors,
-        display_color_interpolation=_per_point(color_interpolation),
-        primvars={
-            name: (values, _per_point(interpolation))
-            for name, (values, interpolation) in gprim_primvars(prim, reader, warn, path).items()
-        },
+        display_color_interpolation=color_interpolation,
+        primvars=primvars,
     )
     return True
 
 
-def _per_point(interpolation: str) -> str:
-    """A primvar interpolation as points take it: constant, or one value per point."""
-    return "constant" if interpolation == UsdGeom.Tokens.constant else "vertex"
+def _per_point(
+    values: np.ndarray,
+    interpolation: str,
+    count: int,
+    attribute: str,
+    warn: Callable[[str], None],
+    path: str,
+    consequence: str = "skipped",
+) -> str | None:
+    """The interpolation with which the delegate takes ``values`` (authored with
+    ``interpolation``) on ``count`` points: constant for a single value (of any
+    interpolation: uniform is one value for the whole prim, which is one element) and for
+    constant arrays (the delegate judges those), else vertex for one value per point (whatever
+    the interpolation says: exporters write per-point data as uniform too, and it can only
+    mean that); ``None`` after a warning naming the prim, ``attribute``, its authored
+    interpolation and the ``consequence`` when their count fits neither."""
+    if len(values) == 1 or interpolation == UsdGeom.Tokens.constant:
+        return UsdGeom.Tokens.constant
+    if len(values) == count:
+        return UsdGeom.Tokens.vertex
+    warn(f"{path}: {attribute} ({interpolation}) has {len(values)} values, expected 1 or "
+         f"{count} (one per point); {consequence}")
+    return None
+
+
+def _one_per_point(
+    values: np.ndarray,
+    interpolation: str,
+    count: int,
+    attribute: str,
+    warn: Callable[[str], None],
+    path: str,
+    consequence: str,
+) -> np.ndarray | None:
+    """Widths or normals ``values`` as one per point (a single value repeated); ``None`` after
+    a warning (see :func:`_per_point`) when their count fits neither. One per point labelled
+    constant is read as one per point: a width or a normal is one number or vector, so the
+    array cannot be the prim's single value."""
+    if interpolation == UsdGeom.Tokens.constant and len(values) == count:
+        return values
+    taken = _per_point(values, interpolation, count, attribute, warn, path, consequence)
+    if taken is None:
+        return None
+    if len(values) == 1:
+        return np.repeat(values, count, axis=0)
+    if taken == UsdGeom.Tokens.vertex:
+        return values
+    # A constant array of neither count.
+    warn(f"{path}: {attribute} ({interpolation}) has {len(values)} values, expected 1 or "
+         f"{count} (one per point); {consequence}")
+    return None
 
 
 def _widths(
@@ -67,8 +134,8 @@ def _widths(
     path: str,
 ) -> np.ndarray | None:
     """One diameter per point (primvars:widths over widths) as float32 (N,); ``None`` (after a
-    warning naming the prim and the attribute) when their count fits neither constant nor
-    per-point interpolation, or one is not finite or not positive."""
+    warning naming the prim and the attribute) when their count fits neither one value for the
+    prim nor one per point (see :func:`_per_point`), or one is not finite or not positive."""
     name, values, interpolation = primvar_over_attribute(
         points, reader, UsdGeom.Tokens.widths, points.GetWidthsAttr(),
         points.GetWidthsInterpolation(),
@@ -76,11 +143,8 @@ def _widths(
     if values is None or len(values) == 0:
         return np.full(count, DEFAULT_WIDTH, dtype=np.float32)
     widths = np.asarray(values, dtype=np.float32).reshape(-1)
-    constant = interpolation == UsdGeom.Tokens.constant
-    if len(widths) == 1 and (constant or count != 1):
-        widths = np.full(count, widths[0], dtype=np.float32)
-    if len(widths) != count:
-        warn(f"{path}: {name} has {len(widths)} values for {count} points; skipped")
+    widths = _one_per_point(widths, interpolation, count, name, warn, path, "skipped")
+    if widths is None:
         return None
     if not (np.isfinite(widths) & (widths > 0)).all():
         warn(f"{path}: {name} must be finite and greater than 0; skipped")
@@ -97,8 +161,8 @@ def _normals(
 ) -> np.ndarray:
     """The normals the points' discs face (primvars:normals over normals), float32 (N, 3);
     none (spheres) when neither is authored, or (after a warning) when their count fits
-    neither one per point nor a constant."""
-    name, values, _ = primvar_over_attribute(
+    neither one value for the prim nor one per point (see :func:`_per_point`)."""
+    name, values, interpolation = primvar_over_attribute(
         points, reader, UsdGeom.Tokens.normals, points.GetNormalsAttr(),
         points.GetNormalsInterpolation(),
     )
@@ -107,9 +171,7 @@ def _normals(
     normals = as_vec3_array(values)
     if normals is None or len(normals) == 0:
         return _NO_NORMALS
-    if len(normals) == 1 and count != 1:
-        normals = np.repeat(normals, count, axis=0)
-    if len(normals) != count:
-        warn(f"{path}: {name} has {len(normals)} values for {count} points; rendered as spheres")
-        return _NO_NORMALS
-    return np.ascontiguousarray(normals)
+    normals = _one_per_point(
+        normals, interpolation, count, name, warn, path, "rendered as spheres"
+    )
+    return _NO_NORMALS if normals is None else np.ascontiguousarray(normals)
