@@ -70,6 +70,8 @@ void Curves::setPrimvars(std::vector<Primvar> primvars) {
 void Curves::sync(SyncContext& context, uint32_t bits) {
   context.sceneChanged = true;
   if (bits & (DirtyTopology | DirtyPoints | DirtyPrimvar)) {
+    for (const std::string& problem : dropMismatchedCurveData(data_))
+      context.warn(id() + ": " + problem);
     try {
       context.scene.geometry().setCurvesGeometry(handle(), data_);
     } catch (const std::invalid_argument& error) {

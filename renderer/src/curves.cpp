@@ -90,7 +90,11 @@ uint32_t CurveSegmentRules::varyingValues(uint32_t vertices) const {
   return segments(vertices) + (wrap == CurveWrap::Periodic ? 0 : 1);
 }
 
-void validateCurves(const CurvesData& curves) {
+namespace {
+
+/// The counts of `curves`' elements, after checking its topology and positions (throws
+/// std::invalid_argument naming what is wrong).
+ElementCounts validatedElementCounts(const CurvesData& curves) {
   const CurveSegmentRules rules(curves);
   ElementCounts counts;
   counts.curves = curves.curveVertexCounts.size();
@@ -115,11 +119,32 @@ void validateCurves(const CurvesData& curves) {
                                 " are supported");
   requireFinite(curves.positions, "positions");
   requireMotionSteps(curves.positionMotion, vertices, "positions at motion step");
+  return counts;
+}
+
+/// Throws unless `primvar`'s width and count fit `counts`.
+void requirePrimvarFits(const Primvar& primvar, const ElementCounts& counts) {
+  const std::string name = "primvar " + primvar.name.str();
+  if (primvar.width < 1 || primvar.width > 4)
+    throw std::invalid_argument(name + " has width " + std::to_string(primvar.width) +
+                                "; 1 to 4 are supported");
+  if (primvar.values.size() % size_t(primvar.width) != 0)
+    throw std::invalid_argument(name + " has " + std::to_string(primvar.values.size()) +
+                                " floats, not a multiple of its width " +
+                                std::to_string(primvar.width));
+  requireCount(name + " of width " + std::to_string(primvar.width), primvar.interpolation,
+               primvar.values.size() / size_t(primvar.width), counts);
+}
+
+}  // namespace
+
+void validateCurves(const CurvesData& curves) {
+  const ElementCounts counts = validatedElementCounts(curves);
   requireCount("widths", curves.widthsInterpolation, curves.widths.size(), counts);
   for (size_t i = 0; i < curves.widths.size(); ++i)
-    if (!std::isfinite(curves.widths[i]) || curves.widths[i] <= 0)
+    if (!std::isfinite(curves.widths[i]) || curves.widths[i] < 0)
       throw std::invalid_argument("widths[" + std::to_string(i) + "] = " +
-                                  std::to_string(curves.widths[i]) + " is not a finite width > 0");
+                                  std::to_string(curves.widths[i]) + " is not a finite width >= 0");
   if (!curves.normals.empty()) {
     requireCount("normals", curves.normalsInterpolation, curves.normals.size(), counts);
     requireFinite(curves.normals, "normals");
@@ -130,18 +155,36 @@ void validateCurves(const CurvesData& curves) {
   if (!curves.displayColor.empty())
     requireCount("displayColor", curves.displayColorInterpolation, curves.displayColor.size(),
                  counts);
-  for (const Primvar& primvar : curves.primvars) {
-    const std::string name = "primvar " + primvar.name.str();
-    if (primvar.width < 1 || primvar.width > 4)
-      throw std::invalid_argument(name + " has width " + std::to_string(primvar.width) +
-                                  "; 1 to 4 are supported");
-    if (primvar.values.size() % size_t(primvar.width) != 0)
-      throw std::invalid_argument(name + " has " + std::to_string(primvar.values.size()) +
-                                  " floats, not a multiple of its width " +
-                                  std::to_string(primvar.width));
-    requireCount(name + " of width " + std::to_string(primvar.width), primvar.interpolation,
-                 primvar.values.size() / size_t(primvar.width), counts);
+  for (const Primvar& primvar : curves.primvars) requirePrimvarFits(primvar, counts);
+}
+
+std::vector<std::string> dropMismatchedCurveData(CurvesData& curves) {
+  std::vector<std::string> dropped;
+  ElementCounts counts;
+  try {
+    counts = validatedElementCounts(curves);
+  } catch (const std::invalid_argument&) {
+    return dropped;  // validateCurves refuses the whole prim, and says why
   }
+  if (!curves.displayColor.empty()) {
+    try {
+      requireCount("displayColor", curves.displayColorInterpolation, curves.displayColor.size(),
+                   counts);
+    } catch (const std::invalid_argument& error) {
+      dropped.push_back(std::string(error.what()) + "; the fallback colour is used");
+      curves.displayColor.clear();
+    }
+  }
+  for (auto primvar = curves.primvars.begin(); primvar != curves.primvars.end();) {
+    try {
+      requirePrimvarFits(*primvar, counts);
+      ++primvar;
+    } catch (const std::invalid_argument& error) {
+      dropped.push_back(std::string(error.what()) + "; materials reading it use their fallback");
+      primvar = curves.primvars.erase(primvar);
+    }
+  }
+  return dropped;
 }
 
 }  // namespace penumbra

@@ -32,9 +32,9 @@ void validatePoints(const PointsData& points) {
     throw std::invalid_argument("widths has " + std::to_string(points.widths.size()) +
                                 " values, expected " + std::to_string(count) + " (one per point)");
   for (size_t i = 0; i < count; ++i)
-    if (!std::isfinite(points.widths[i]) || points.widths[i] <= 0)
+    if (!std::isfinite(points.widths[i]) || points.widths[i] < 0)
       throw std::invalid_argument("widths[" + std::to_string(i) + "] = " +
-                                  std::to_string(points.widths[i]) + " is not a finite width > 0");
+                                  std::to_string(points.widths[i]) + " is not a finite width >= 0");
   if (!points.normals.empty()) {
     if (points.normals.size() != count)
       throw std::invalid_argument("normals has " + std::to_string(points.normals.size()) +

@@ -804,8 +804,10 @@ TEST(Curves, InvalidCurvesAreRejectedNamingTheArray) {
   EXPECT_NE(problemOf(c).find("widths (vertex) has 3 values, expected 4"), std::string::npos);
   c.widthsInterpolation = Interpolation::Varying;  // a segment's two ends
   EXPECT_NE(problemOf(c).find("widths (varying) has 3 values, expected 2"), std::string::npos);
-  c.widths = {1, 0};
-  EXPECT_NE(problemOf(c).find("widths[1] = 0"), std::string::npos);
+  c.widths = {1, 0};  // a strand tapering to its tip
+  EXPECT_EQ(problemOf(c), "");
+  c.widths = {1, -0.5f};
+  EXPECT_NE(problemOf(c).find("widths[1] = -0.5"), std::string::npos);
   c.widths = {-1, 1};
   EXPECT_NE(problemOf(c).find("widths[0]"), std::string::npos);
   c.widths = {1, std::numeric_limits<float>::infinity()};
@@ -848,6 +850,33 @@ TEST(Curves, InvalidCurvesAreRejectedNamingTheArray) {
   Scene scene(device);
   const Geometry::MeshId id = scene.geometry().addMesh();
   c = curves;
-  c.widths = {0};
+  c.widths = {-1};
   EXPECT_THROW(scene.geometry().setCurvesGeometry(id, c), std::invalid_argument);
+}
+
+TEST(Curves, MismatchedColoursAndPrimvarsAreDroppedNotTheCurves) {
+  const CurvesData curves =
+      oneCurve(CurveType::Cubic, CurveBasis::Bezier, CurveWrap::Nonperiodic, straightBezier(), 1);
+  CurvesData c = curves;
+  c.displayColor = {{1, 0, 0}, {0, 1, 0}};
+  c.displayColorInterpolation = Interpolation::Uniform;
+  c.primvars = {{"heat", {1, 2, 3}, 1, Interpolation::Varying},
+                {"tip", {1, 2}, 1, Interpolation::Varying}};
+  const std::vector<std::string> dropped = dropMismatchedCurveData(c);
+  ASSERT_EQ(dropped.size(), 2u);
+  EXPECT_EQ(dropped[0],
+            "displayColor (uniform) has 2 values, expected 1; the fallback colour is used");
+  EXPECT_EQ(dropped[1],
+            "primvar heat of width 1 (varying) has 3 values, expected 2; materials reading it use "
+            "their fallback");
+  EXPECT_TRUE(c.displayColor.empty());
+  ASSERT_EQ(c.primvars.size(), 1u);
+  EXPECT_EQ(c.primvars[0].name.str(), "tip");
+  EXPECT_EQ(problemOf(c), "");
+  // Curves refused whole keep their data: validateCurves says why.
+  c = curves;
+  c.curveVertexCounts = {5};
+  c.primvars = {{"heat", {1, 2, 3}, 1, Interpolation::Varying}};
+  EXPECT_TRUE(dropMismatchedCurveData(c).empty());
+  EXPECT_EQ(c.primvars.size(), 1u);
 }

@@ -126,6 +126,42 @@ def test_a_round_linear_curve_is_as_wide_as_its_width_predicts():
         assert abs(covered[:, column].sum() - expected) <= 1
 
 
+def test_a_strand_tapering_to_a_zero_width_tip_renders():
+    # Grooms taper to 0 (it skipped the prim): 8 px wide at x = -1.5, half that at the middle of
+    # the tapering half, nothing past the tip.
+    stage = curves_stage([(-3, 0, 0), (0, 0, 0), (3, 0, 0)], widths=[0.5, 0.5, 0.0])
+    UsdGeom.BasisCurves(stage.GetPrimAtPath(PATH)).SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        covered = coverage(penumbra.render(stage, **FAST))
+    assert abs(covered[:, column_x_of(-1.5)].sum() - 0.5 * PIXELS_PER_UNIT) <= 1
+    assert abs(covered[:, column_x_of(1.5)].sum() - 0.25 * PIXELS_PER_UNIT) <= 1
+    assert not covered[:, column_x_of(3.2):].any()
+
+
+def test_wrongly_sized_colours_and_primvars_are_dropped_and_the_curves_render():
+    # As a mesh's (they had skipped the prim): one warning each, naming what is used instead.
+    stage = curves_stage([(-3, 0, 0), (3, 0, 0), (-3, 1, 0), (3, 1, 0)], counts=[2, 2],
+                         widths=[0.5], colors=[(1, 0, 0)] * 3)
+    hair = UsdGeom.BasisCurves(stage.GetPrimAtPath(PATH))
+    UsdGeom.PrimvarsAPI(hair).CreatePrimvar(
+        "tint", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex
+    ).Set([1.0, 0.5, 0.25])
+    with pytest.warns(penumbra.PenumbraWarning) as record:
+        renderer = penumbra.Renderer(stage)
+        image = renderer.render(**FAST)
+    messages = [str(w.message) for w in record if str(w.message).startswith(f"{PATH}: ")]
+    assert messages == [
+        f"{PATH}: displayColor (uniform) has 3 values, expected 2; the fallback colour is used",
+        f"{PATH}: primvar tint of width 1 (vertex) has 3 values, expected 4; materials reading "
+        "it use their fallback",
+    ]
+    assert coverage(image)[:, 32].sum() > 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        renderer.render(**FAST)  # nothing changed: no warning again
+
+
 def test_unauthored_widths_are_one_unit():
     covered = coverage(penumbra.render(curves_stage([(-3, 0, 0), (3, 0, 0)]), **FAST))
     assert abs(covered[:, 32].sum() - PIXELS_PER_UNIT) <= 1
@@ -416,8 +452,8 @@ def _bad_count(hair):
     hair.GetCurveVertexCountsAttr().Set([3])
 
 
-def _zero_width(hair):
-    hair.GetWidthsAttr().Set([0.5, 0.0, 0.5, 0.5])
+def _negative_width(hair):
+    hair.GetWidthsAttr().Set([0.5, -0.5, 0.5, 0.5])
 
 
 def _nan_width(hair):
@@ -451,7 +487,7 @@ def _unknown_basis(hair):
     "spoil, attribute",
     [
         (_bad_count, "curveVertexCounts"),
-        (_zero_width, "widths"),
+        (_negative_width, "widths"),
         (_nan_width, "widths"),
         (_too_few_for_cubic, "vert"),
         (_short_normals, "normals"),

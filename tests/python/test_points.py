@@ -201,7 +201,7 @@ def test_colours_and_primvars_that_fit_neither_are_dropped_and_the_points_render
 @pytest.mark.parametrize(
     "widths, problem",
     [([1.0, 1.0], "widths (vertex) has 2 values, expected 1 or 3 (one per point)"),
-     ([1.0, 0.0, 1.0], "widths must be")],
+     ([1.0, -1.0, 1.0], "widths must be")],
 )
 def test_bad_widths_warn_naming_the_prim_and_skip_it(widths, problem):
     stage = points_stage([(0, 0, 0), (1, 0, 0), (2, 0, 0)], widths=widths)
@@ -212,6 +212,16 @@ def test_bad_widths_warn_naming_the_prim_and_skip_it(widths, problem):
     assert any(m.startswith("/World/dots: ") and problem in m for m in messages), messages
     assert not renderer.delegate.has_prim("/World/dots")
     assert not coverage(image).any()
+
+
+def test_points_of_zero_width_are_invisible_and_the_others_render():
+    # It skipped the whole prim.
+    stage = points_stage([(-1.5, 0, 0), (0, 0, 0), (1.5, 0, 0)], widths=[1.0, 0.0, 1.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        covered = coverage(penumbra.render(stage, **FAST))
+    assert abs(covered[WIDTH // 2].sum() - 2 * predicted_diameter(1.0)) <= 2
+    assert not covered[WIDTH // 2, WIDTH // 2]
 
 
 def test_nan_width_warns_and_skips():

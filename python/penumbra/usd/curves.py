@@ -157,7 +157,7 @@ def _widths(
 ) -> tuple[np.ndarray, str] | None:
     """The widths (primvars:widths over widths) as float32 (M,) with their interpolation, as
     the converted curves take them; ``None`` (after a warning naming the prim and ``widths``)
-    when one is not finite or not positive, or they cannot be converted."""
+    when one is negative or not finite, or they cannot be converted."""
     name, values, interpolation = primvar_over_attribute(
         gprim, reader, UsdGeom.Tokens.widths, gprim.GetWidthsAttr(),
         gprim.GetWidthsInterpolation(),
@@ -168,8 +168,8 @@ def _widths(
             return None
         return np.full(1, DEFAULT_WIDTH, dtype=np.float32), UsdGeom.Tokens.constant
     widths = np.asarray(values, dtype=np.float32).reshape(-1)
-    if not (np.isfinite(widths) & (widths > 0)).all():
-        warn(f"{path}: {name} must be finite and greater than 0; skipped")
+    if not (np.isfinite(widths) & (widths >= 0)).all():
+        warn(f"{path}: {name} must be finite and not negative; skipped")
         return None
     widths, interpolation = curves.remap(widths, interpolation, name, warn, path, "skipped")
     return None if widths is None else (widths, interpolation)

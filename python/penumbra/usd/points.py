@@ -135,7 +135,7 @@ def _widths(
 ) -> np.ndarray | None:
     """One diameter per point (primvars:widths over widths) as float32 (N,); ``None`` (after a
     warning naming the prim and the attribute) when their count fits neither one value for the
-    prim nor one per point (see :func:`_per_point`), or one is not finite or not positive."""
+    prim nor one per point (see :func:`_per_point`), or one is negative or not finite."""
     name, values, interpolation = primvar_over_attribute(
         points, reader, UsdGeom.Tokens.widths, points.GetWidthsAttr(),
         points.GetWidthsInterpolation(),
@@ -146,8 +146,8 @@ def _widths(
     widths = _one_per_point(widths, interpolation, count, name, warn, path, "skipped")
     if widths is None:
         return None
-    if not (np.isfinite(widths) & (widths > 0)).all():
-        warn(f"{path}: {name} must be finite and greater than 0; skipped")
+    if not (np.isfinite(widths) & (widths >= 0)).all():
+        warn(f"{path}: {name} must be finite and not negative; skipped")
         return None
     return widths
 

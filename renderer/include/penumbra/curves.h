@@ -73,9 +73,14 @@ struct CurveSegmentRules {
 
 /// Throws std::invalid_argument whose message names the array and what is wrong (counts that
 /// do not match the vertices or the schema's rule for their interpolation, a cubic curve with
-/// too few vertices for its basis and wrap, a width <= 0 or not finite, non-finite positions or
-/// normals, normals of zero length), so that the plugin can warn "<prim id>: <message>;
-/// skipped".
+/// too few vertices for its basis and wrap, a negative or non-finite width, non-finite
+/// positions or normals, normals of zero length), so that the plugin can warn "<prim id>:
+/// <message>; skipped". A width of 0 is a point (a strand tapering to its tip).
 void validateCurves(const CurvesData& curves);
+/// Removes from `curves` the displayColor and the primvars whose counts (or widths) do not fit
+/// its curves, as a mesh's are dropped: the curves still render, with their fallbacks. Returns
+/// a message for each, naming it and what is used instead. Curves whose topology or positions
+/// validateCurves refuses are left as they are.
+std::vector<std::string> dropMismatchedCurveData(CurvesData& curves);
 
 }  // namespace penumbra
