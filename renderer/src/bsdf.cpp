@@ -84,7 +84,17 @@ GgxAlpha lobeAlpha(float roughness, float anisotropy, AnisotropyModel model) {
   return {alongX, std::max(alongY, PreviewSurfaceBsdf::kDeltaAlpha)};
 }
 
-constexpr float kClearcoatF0 = 0.04f;  // ((1 − 1.5) / (1 + 1.5))², fixed by the spec
+/// Normal-incidence reflectance of a dielectric of index `ior` (in air).
+float fresnelAtNormalIncidence(float ior) {
+  return square((1 - ior) / (1 + ior));
+}
+
+/// The same for the clearcoat, in double: the common 1.5 gives 0.04f exactly, as before the
+/// coat followed its IOR.
+float coatReflectance(float ior) {
+  const double ratio = (1.0 - double(ior)) / (1.0 + double(ior));
+  return float(ratio * ratio);
+}
 
 }  // namespace
 
@@ -100,6 +110,7 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
       specularAlpha_(lobeAlpha(std::max(material.roughness, minRoughness), material.anisotropy,
                                material.anisotropyModel)),
       ior_(std::isfinite(ior) && ior > 0 ? ior : 1.0f),
+      coatF0_(coatReflectance(material.clearcoatIor >= 0 ? material.clearcoatIor : material.ior)),
       // transmissionRoughness < 0 follows roughness.
       dielectricAlpha_(microfacetAlpha(std::max(
           material.transmissionRoughness < 0 ? material.roughness : material.transmissionRoughness,
@@ -148,22 +159,25 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
   } else {
     // A linear mix of a dielectric (weight 1 − metallic) and a conductor of reflectance
     // diffuseColor. Both specular lobes share α, so their sum is one lobe with the mixed F0.
+    // The conductor's Fresnel runs from the albedo to F90: the albedo too for
+    // UsdPreviewSurface, white for MaterialX's conductors (MaterialParams::metalWhiteEdge).
     const float metallic = clamp01(material.metallic);
-    Vec3f dielectricF0(square((1 - ior_) / (1 + ior_)));
+    const Vec3f metalF90 = material.metalWhiteEdge ? Vec3f(1.0f) : albedo;
+    Vec3f dielectricF0(fresnelAtNormalIncidence(ior_));
     if (weighted) {
       dielectricF0 = dielectricF0 * specularWeight;
       diffuseCoverF90_ = Vec3f(specularWeight);
-      specularF90_ = lerp(diffuseCoverF90_, Vec3f(1.0f), metallic);
     }
+    specularF90_ = lerp(diffuseCoverF90_, metalF90, metallic);
     specularF0_ = lerp(dielectricF0, albedo, metallic);
     diffuseCoverF0_ = dielectricF0;
     diffuseCoverMultipleScattering_ =
         multipleScatteringScale(dielectricF0, averageAlbedo, diffuseCoverF90_);
     // Without metal the conductor's term would add exactly 0: it is not computed then.
-    multipleScatteringScale_ = metallic > 0
-                                   ? diffuseCoverMultipleScattering_ * (1 - metallic) +
-                                         multipleScatteringScale(albedo, averageAlbedo) * metallic
-                                   : diffuseCoverMultipleScattering_;
+    multipleScatteringScale_ =
+        metallic > 0 ? diffuseCoverMultipleScattering_ * (1 - metallic) +
+                           multipleScatteringScale(albedo, averageAlbedo, metalF90) * metallic
+                     : diffuseCoverMultipleScattering_;
     diffuseReflectance_ = albedo * (1 - metallic);
   }
   const float subsurface = clamp01(material.subsurface);
@@ -198,7 +212,7 @@ PreviewSurfaceBsdf::PreviewSurfaceBsdf(const MaterialParams& material, const Vec
         coatAlpha_.x > 0 ? ggxAverageAlbedo(coatAlpha_) : GgxAlbedoTable::Albedo{};
     const float coatAverage =
         clearcoat_ *
-        SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.averageAlbedo(coatLobe).x;
+        SpecularLayer{coatAlpha_, Vec3f(coatF0_), Vec3f(0.0f)}.averageAlbedo(coatLobe).x;
     diffuseNormalization_ = diffuseNormalization_ * (1 / (1 - coatAverage));
   }
 }
@@ -222,7 +236,7 @@ bool PreviewSurfaceBsdf::isPurelySpecular() const {
 // since another module could interpose it, so each would cost a call.
 inline float PreviewSurfaceBsdf::coatTransmittance(const Vec3f& w) const {
   if (clearcoat_ == 0) return 1;
-  return 1 - clearcoat_ * SpecularLayer{coatAlpha_, Vec3f(kClearcoatF0), Vec3f(0.0f)}.albedo(w).x;
+  return 1 - clearcoat_ * SpecularLayer{coatAlpha_, Vec3f(coatF0_), Vec3f(0.0f)}.albedo(w).x;
 }
 
 inline Vec3f PreviewSurfaceBsdf::tintUnderCoat(const Vec3f& value) const {
@@ -352,7 +366,7 @@ inline Vec3f PreviewSurfaceBsdf::evaluateOpaque(const Vec3f& wo, const Vec3f& wi
   Vec3f value = tintUnderCoat(base) * coat;
   if (clearcoat_ > 0 && coatAlpha_.x > 0) {
     value += Vec3f(
-        clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), dot(wo, h)).x *
+        clearcoat_ * schlickFresnel(Vec3f(coatF0_), dot(wo, h)).x *
         ggxReflectionWithoutFresnel(wo, wi, reflected.coatDensity, coatAlpha_, forWo.coatLambda));
   }
   if (sheen_ > 0) {
@@ -505,7 +519,7 @@ std::optional<BsdfSample> PreviewSurfaceBsdf::sample(const Vec3f& woWorld, float
     case 0:  // clearcoat
       if (coatAlpha_.x == 0) {
         return delta(mirror,
-                     Vec3f(opacity_ * clearcoat_ * schlickFresnel(Vec3f(kClearcoatF0), wo.z).x *
+                     Vec3f(opacity_ * clearcoat_ * schlickFresnel(Vec3f(coatF0_), wo.z).x *
                            forWo.sheenTransmittance),
                      p.coat, BsdfLobe::Specular);
       }

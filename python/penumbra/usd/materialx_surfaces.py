@@ -113,7 +113,8 @@ class Mapping:
             roughness: mv.Value | None, ior: mv.Value | None,
             specular_weight: mv.Value | None, specular_color: mv.Value | None,
             coat: mv.Value | None, coat_roughness: mv.Value | None,
-            coat_color: mv.Value | None, transmission: mv.Value | None,
+            coat_color: mv.Value | None, coat_ior: mv.Value | None,
+            transmission: mv.Value | None,
             transmission_roughness: float | None,
             abbe_number: float, thin_walled: mv.Value | None, emission: mv.Value | None,
             opacity: mv.Value | None, normal: mv.Value | None,
@@ -128,6 +129,17 @@ class Mapping:
             values["penumbra:clearcoatColor"] = coat_color
         if sheen[0] is not None and sheen[0] != mv.Constant((0.0,)):
             values.update(zip(SHEEN_PARAMS, sheen))
+        # Both models' conductors whiten towards grazing angles (F82 edge tint, white unless
+        # tinted), where UsdPreviewSurface's metals keep their albedo.
+        if metalness != mv.Constant((0.0,)):
+            self.params["penumbra:metalWhiteEdge"] = 1
+        # The coat has its own IOR (UsdPreviewSurface's coat takes the base's).
+        if coat != mv.Constant((0.0,)):
+            if isinstance(coat_ior, mv.Constant):
+                self.params["penumbra:clearcoatIor"] = max(coat_ior.values[0], 1.0)
+            else:
+                self.surface.unsupported.append("coat IOR driven by a network (1.5 is used)")
+                self.params["penumbra:clearcoatIor"] = 1.5
         self.specular(specular_weight, specular_color, metalness, ior)
         transmits = not (isinstance(transmission, mv.Constant) and transmission.values[0] == 0)
         cut_out = opacity is not None and not (
@@ -223,7 +235,7 @@ def _map_standard_surface(s: Surface, mapping: Mapping) -> None:
         ior=s("specular_IOR"),
         specular_weight=s("specular"), specular_color=s("specular_color"),
         coat=s("coat"), coat_roughness=s("coat_roughness"), coat_color=s("coat_color"),
-        transmission=s("transmission"),
+        coat_ior=s("coat_IOR"), transmission=s("transmission"),
         transmission_roughness=roughness[0] + extra[0] if roughness and extra else None,
         abbe_number=(s.constant("transmission_dispersion") or (0.0,))[0],
         thin_walled=s("thin_walled"),
@@ -236,7 +248,6 @@ def _map_standard_surface(s: Surface, mapping: Mapping) -> None:
     _transmission_absorption(s, mapping, "transmission")
     for name, neutral, weight in (
         ("diffuse_roughness", (0.0,), None),
-        ("coat_IOR", (1.5,), "coat"),
         ("transmission_scatter", (0.0,), "transmission"),
         ("thin_film_thickness", (0.0,), None),
     ):
@@ -277,7 +288,8 @@ def _map_open_pbr(s: Surface, mapping: Mapping) -> None:
         ior=s("specular_ior"),
         specular_weight=s("specular_weight"), specular_color=s("specular_color"),
         coat=s("coat_weight"), coat_roughness=s("coat_roughness"),
-        coat_color=s("coat_color"), transmission=s("transmission_weight"),
+        coat_color=s("coat_color"), coat_ior=s("coat_ior"),
+        transmission=s("transmission_weight"),
         transmission_roughness=roughness[0] if roughness else None,
         # OpenPBR: the effective Abbe number is the authored one divided by the scale.
         abbe_number=abbe / dispersion if dispersion > 0 and abbe > 0 else 0.0,
@@ -299,7 +311,6 @@ def _map_open_pbr(s: Surface, mapping: Mapping) -> None:
     _transmission_absorption(s, mapping, "transmission_weight")
     for name, neutral, weight, tolerance in (
         ("base_diffuse_roughness", (0.0,), None, 1e-6),
-        ("coat_ior", (1.5,), "coat_weight", 0.15),  # the BSDF's coat has ior 1.5
         ("transmission_scatter", (0.0,), "transmission_weight", 1e-6),
         ("thin_film_weight", (0.0,), None, 1e-6),
     ):

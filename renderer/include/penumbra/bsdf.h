@@ -273,6 +273,7 @@ class PreviewSurfaceBsdf {
   Vec3f subsurfaceColor_{0.0f};
   // Translucent part.
   float ior_;
+  float coatF0_;  // the clearcoat's normal-incidence reflectance, from its IOR
   float dielectricAlpha_;
   DielectricKind dielectricKind_;
   // Dispersion (disperse()): each channel's index and the one that sets the reflect/refract

@@ -60,6 +60,13 @@ struct MaterialParams {
   float opacity = 1;
   float opacityThreshold = 0;
   float ior = 1.5f;
+  /// inputs:penumbra:clearcoatIor: the coat's IOR; < 0: `ior`, as UsdPreviewSurface (2.4 on)
+  /// says ("including the clearcoat"); MaterialX surfaces give their coat's own.
+  float clearcoatIor = -1;
+  /// inputs:penumbra:metalWhiteEdge: whether a metal's reflection whitens towards grazing
+  /// angles (MaterialX's conductors, F90 = 1); false: its F90 is the albedo, as
+  /// UsdPreviewSurface says ("both F0 and edge F90 reflectivity will simply be the Albedo").
+  bool metalWhiteEdge = false;
   float transmissionRoughness = -1;  // inputs:penumbra:transmissionRoughness; < 0: roughness
   float abbeNumber = 0;              // inputs:penumbra:abbeNumber; 0: no dispersion
   /// inputs:penumbra:thinWalled: whether translucency is a thin sheet (true) or the boundary of
