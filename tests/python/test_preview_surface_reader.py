@@ -130,6 +130,21 @@ def test_displacement_of_zero_is_not_warned_of(how: str) -> None:
     assert messages == []
 
 
+@pytest.mark.parametrize("mode", ["presence", "transparent"])
+def test_opacity_mode_presence_is_named_once(mode: str) -> None:
+    # It was ignored without a word; "transparent", the fallback, is what Penumbra renders.
+    stage = displaced_stage(None)
+    surface = UsdShade.Shader.Get(stage, SURFACE)
+    surface.CreateInput("opacityMode", Sdf.ValueTypeNames.Token).Set(mode)
+    surface.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(0.5)
+    _, messages = render_with_warnings(stage, WIDTH)
+    expected = [
+        f"{SURFACE}: inputs:opacityMode 'presence' is not supported yet; opacity below 1 "
+        "renders as translucency ('transparent' as Penumbra reads it)"
+    ]
+    assert messages == (expected if mode == "presence" else [])
+
+
 def render_emission(stage: Usd.Stage) -> np.ndarray:
     """The colour of ``stage`` through ``/cam``, emission alone (no bounces)."""
     with warnings.catch_warnings(record=True) as caught:

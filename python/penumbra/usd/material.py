@@ -287,6 +287,17 @@ def _check_displacement(material: Usd.Prim, surface: UsdShade.Shader, network: _
             return
 
 
+def _check_opacity_mode(surface: UsdShade.Shader, network: _Network) -> None:
+    """Warn of ``opacityMode`` "presence" (opacity scaling the whole response, the rest passing
+    straight through), which Penumbra does not render: its opacity below 1 is translucency."""
+    mode = surface.GetInput("opacityMode")
+    if mode and network.value(surface, "opacityMode") == "presence":
+        network.warn(
+            f"{surface.GetPath()}: inputs:opacityMode 'presence' is not supported yet; opacity "
+            "below 1 renders as translucency ('transparent' as Penumbra reads it)"
+        )
+
+
 def read_material(
     prim: Usd.Prim, reader: SampleReader, warn: Callable[[str], None]
 ) -> MaterialData | None:
@@ -321,6 +332,7 @@ def read_material(
     data = MaterialData(sources={p.GetPath() for p in Usd.PrimRange(prim)} | {shader.GetPath()})
     network = _Network(reader, data, warn, path)
     _check_displacement(prim, shader, network)
+    _check_opacity_mode(shader, network)
     defaults = _schema_defaults()
     for name in (*INPUTS, "normal"):
         value = None
