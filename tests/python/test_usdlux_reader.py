@@ -298,3 +298,32 @@ def test_an_angle_beyond_usdlux_clip_renders_as_the_clipped_angle(
         images.append(image)
     assert np.array_equal(images[0], images[1])
     assert not np.array_equal(images[0], skipped_light_image(light_type))
+
+
+# Shapes the delegate approximates
+
+
+@pytest.mark.parametrize(
+    ("kind", "scale", "warned"),
+    [
+        ("SphereLight", (4.0, 1.0, 1.0), "a sphere of the scales' geometric mean radius"),
+        ("SphereLight", (2.0, 2.0, 2.0), None),
+        ("CylinderLight", (1.0, 2.0, 1.0), "a circular cylinder of the two scales' mean radius"),
+        ("CylinderLight", (3.0, 1.0, 1.0), None),  # along its axis: its length, exactly
+    ],
+)
+def test_an_unevenly_scaled_sphere_or_cylinder_light_is_named(kind, scale, warned) -> None:
+    # UsdLux scales the shape itself (an ellipsoid); the delegate keeps a sphere (the geometric
+    # mean radius), which was not said.
+    stage = plane_stage()
+    light = getattr(UsdLux, kind).Define(stage, "/World/L")
+    light.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 3.0))
+    light.AddScaleOp().Set(Gf.Vec3f(*scale))
+    _, messages = render(stage, samples=1)
+    if warned is None:
+        assert messages == []
+    else:
+        across = scale if kind == "SphereLight" else scale[1:]  # a cylinder's cross-section
+        shown = ", ".join(f"{v:g}" for v in across)
+        assert messages == [f"/World/L: scaled unevenly ({shown}); rendered as {warned}, not "
+                            f"{'an ellipsoid' if kind == 'SphereLight' else 'an elliptic one'}"]

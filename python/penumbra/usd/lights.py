@@ -334,6 +334,24 @@ def light_transform(prim: Usd.Prim, matrices: np.ndarray) -> np.ndarray:
     return np.matmul(_POLE_Z, matrices)
 
 
+def uneven_scale_problem(prim: Usd.Prim, matrix: np.ndarray) -> str | None:
+    """What the delegate approximates of a sphere or cylinder light placed by ``matrix`` (row
+    vectors) with a non-uniform scale: a sphere stays a sphere of the scales' geometric mean, a
+    cylinder's cross-section a circle of its two scales' mean (UsdLux scales the shape itself,
+    an ellipsoid or an elliptic cylinder, and normalises by its area); ``None`` otherwise."""
+    if prim.IsA(UsdLux.SphereLight) and not UsdLux.SphereLight(prim).GetTreatAsPointAttr().Get():
+        scales = np.linalg.norm(np.asarray(matrix)[:3, :3], axis=1)
+        shape = "a sphere of the scales' geometric mean radius, not an ellipsoid"
+    elif prim.IsA(UsdLux.CylinderLight):
+        scales = np.linalg.norm(np.asarray(matrix)[1:3, :3], axis=1)  # the cross-section's
+        shape = "a circular cylinder of the two scales' mean radius, not an elliptic one"
+    else:
+        return None
+    if not np.isfinite(scales).all() or scales.min() <= 0 or scales.max() <= 1.001 * scales.min():
+        return None
+    return f"{prim.GetPath()}: scaled unevenly ({', '.join(f'{v:g}' for v in scales)}); rendered as {shape}"
+
+
 def _check_pole_axis(
     prim: Usd.Prim, schema: UsdLux.DomeLight_1, warn: Callable[[str], None]
 ) -> None:

@@ -18,7 +18,7 @@ from pxr import Sdf, Usd, UsdLux
 from .camera import sync_camera
 from .core_batch import CoreBatch
 from .inherited import InheritedState
-from .lights import light_transform, sync_light
+from .lights import light_transform, sync_light, uneven_scale_problem
 from .motion import XformCaches, transform_samples
 from .render_pass import RenderPassCollections
 from .sampling import SampleReader, Shutter
@@ -165,4 +165,7 @@ class LightSync(OneByOneSync):
         super()._sync_prim(path, path_str, prim, record, bits, settings, xform_caches, batch)
 
     def _placement(self, prim: Usd.Prim, matrices: np.ndarray) -> np.ndarray:
+        first = matrices if np.ndim(matrices) == 2 else matrices[0]
+        if (problem := uneven_scale_problem(prim, first)) is not None:
+            self._warn(problem)
         return light_transform(prim, matrices)
