@@ -80,7 +80,7 @@ def _per_point(
     attribute: str,
     warn: Callable[[str], None],
     path: str,
-    consequence: str = "skipped",
+    consequence: str,
 ) -> str | None:
     """The interpolation with which the delegate takes ``values`` (authored with
     ``interpolation``) on ``count`` points: constant for a single value (of any
@@ -93,9 +93,15 @@ def _per_point(
         return UsdGeom.Tokens.constant
     if len(values) == count:
         return UsdGeom.Tokens.vertex
-    warn(f"{path}: {attribute} ({interpolation}) has {len(values)} values, expected 1 or "
-         f"{count} (one per point); {consequence}")
+    warn(_count_problem(path, attribute, interpolation, len(values), count, consequence))
     return None
+
+
+def _count_problem(
+    path: str, attribute: str, interpolation: str, values: int, count: int, consequence: str
+) -> str:
+    return (f"{path}: {attribute} ({interpolation}) has {values} values, expected 1 or {count} "
+            f"(one per point); {consequence}")
 
 
 def _one_per_point(
@@ -108,21 +114,14 @@ def _one_per_point(
     consequence: str,
 ) -> np.ndarray | None:
     """Widths or normals ``values`` as one per point (a single value repeated); ``None`` after
-    a warning (see :func:`_per_point`) when their count fits neither. One per point labelled
-    constant is read as one per point: a width or a normal is one number or vector, so the
-    array cannot be the prim's single value."""
-    if interpolation == UsdGeom.Tokens.constant and len(values) == count:
+    a warning (see :func:`_per_point`) when their count fits neither. One per point is read as
+    one per point whatever the interpolation says (constant too: a width or a normal is one
+    number or vector, so the array cannot be the prim's single value)."""
+    if len(values) == count:  # one per point, whatever the interpolation says
         return values
-    taken = _per_point(values, interpolation, count, attribute, warn, path, consequence)
-    if taken is None:
-        return None
     if len(values) == 1:
         return np.repeat(values, count, axis=0)
-    if taken == UsdGeom.Tokens.vertex:
-        return values
-    # A constant array of neither count.
-    warn(f"{path}: {attribute} ({interpolation}) has {len(values)} values, expected 1 or "
-         f"{count} (one per point); {consequence}")
+    warn(_count_problem(path, attribute, interpolation, len(values), count, consequence))
     return None
 
 
