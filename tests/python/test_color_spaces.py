@@ -228,3 +228,25 @@ def test_usd_uv_texture_with_an_unknown_colour_space_warns_by_material_and_node(
                             r"colour space 'no_such_space'"):
         colour = rendered(stage)
     np.testing.assert_allclose(colour, [CODE] * 3, atol=1e-3)
+
+
+def test_an_srgb_constant_takes_rec709_primaries_into_an_acescg_working_space(
+    tmp_path, monkeypatch
+):
+    # Under a studio config whose scene_linear is ACEScg, an sRGB-tagged constant is converted
+    # as an sRGB texture is (Rec.709 to AP1 primaries too); it took the transfer curve alone.
+    from penumbra.image import BUNDLED_OCIO_CONFIG
+    from penumbra.usd.color_spaces import constant_to_scene_linear
+
+    config = BUNDLED_OCIO_CONFIG.read_text().replace(
+        "  scene_linear: Linear Rec.709 (sRGB)\n", "  scene_linear: ACEScg\n"
+    )
+    assert "scene_linear: ACEScg" in config
+    (tmp_path / "aces.ocio").write_text(config)
+    monkeypatch.setenv("OCIO", str(tmp_path / "aces.ocio"))
+    reports = []
+    srgb_red = constant_to_scene_linear((1.0, 0.0, 0.0), "srgb_texture", reports.append)
+    linear_red = constant_to_scene_linear((1.0, 0.0, 0.0), "lin_rec709", reports.append)
+    assert reports == []
+    np.testing.assert_allclose(srgb_red, linear_red, atol=1e-4)
+    np.testing.assert_allclose(srgb_red, (0.6131, 0.0702, 0.0206), atol=1e-3)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, UsdGeom, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
 import penumbra
 from penumbra import _core
@@ -233,6 +233,24 @@ def test_udim_tiles(tmp_path):
     image = render(stage)
     np.testing.assert_allclose(at(image, -0.5, 0), RED, atol=0.02)  # s = 0.5: tile 1001
     np.testing.assert_allclose(at(image, 0.5, 0), GREEN, atol=0.02)  # s = 1.5: tile 1002
+
+
+@pytest.mark.parametrize("file", ["tex/paint.<UDIM>.png", "./tex/paint.<UDIM>.png"])
+def test_udim_paths_resolve_against_the_layer_that_authored_them(tmp_path, file):
+    # A search path (no "./") in a referenced layer found no tiles (the fallback), or the
+    # tiles of the working directory.
+    asset = tmp_path / "asset"
+    (asset / "tex").mkdir(parents=True)
+    write_texture(asset / "tex" / "paint.1001.png", np.tile(np.float32(RED), (8, 8, 1)))
+    stage, _ = textured_stage(file)
+    stage.GetRootLayer().Export(str(asset / "asset.usda"))
+    root = Usd.Stage.CreateInMemory()
+    for path in ("/World", "/cam"):
+        root.DefinePrim(path).GetReferences().AddReference(str(asset / "asset.usda"), path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        image = render(root)
+    np.testing.assert_allclose(at(image, 0, 0), RED, atol=0.02)
 
 
 def test_missing_texture_warns_and_uses_the_fallback(tmp_path):

@@ -15,12 +15,14 @@ from functools import lru_cache
 from pxr import Usd
 
 from .. import _core
-from ..image import ocio_config_path
+from ..image import BUNDLED_OCIO_CONFIG, ocio_config_path
 
 # sRGB-encoded Rec.709: UsdUVTexture's sourceColorSpace sRGB (the config's sRGB texture space).
 SRGB_NAMES = frozenset({"srgb_texture", "sRGB", "srgb_rec709", "srgb_rec709_scene"})
 # Data, and no colour space at all: values as they are.
 RAW_NAMES = frozenset({"", "raw", "data"})
+# The sRGB texture space's names in studio configs, as the renderer looks for it.
+_CONFIG_SRGB_NAMES = ("sRGB - Texture", "srgb_texture", "sRGB", "Utility - sRGB - Texture")
 
 
 def authored_color_space(*attrs: Usd.Attribute) -> str:
@@ -73,9 +75,12 @@ def constant_to_scene_linear(rgb: tuple[float, ...], name: str,
     reported and the values are used as they are."""
     if name in RAW_NAMES or len(rgb) < 3:
         return rgb
-    if name in SRGB_NAMES:
-        return tuple(_srgb_to_linear(c) for c in rgb[:3]) + tuple(rgb[3:])
     config = ocio_config_path()
+    if name in SRGB_NAMES:
+        if config == str(BUNDLED_OCIO_CONFIG):  # scene-linear Rec.709: the curve alone
+            return tuple(_srgb_to_linear(c) for c in rgb[:3]) + tuple(rgb[3:])
+        # Another scene_linear (ACEScg) takes Rec.709's primaries too, as textures do.
+        name = next((n for n in _CONFIG_SRGB_NAMES if _config_name(n, config)), name)
     space = _config_name(name, config)
     if not space:
         report(f"colour space {name!r} is not in the OCIO config {config}; the value is used as "

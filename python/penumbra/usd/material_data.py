@@ -52,5 +52,10 @@ def texture_file(file_input: UsdShade.Input | None, reader: SampleReader) -> str
         return asset.resolvedPath
     for spec in attr.GetPropertyStack(reader.time):
         if spec.HasDefaultValue() or spec.layer.ListTimeSamplesForPath(spec.path):
+            # A search path (no "./") is resolved against the layer by its tiles: the literal
+            # pattern is no file, which the layer's own anchoring would leave unresolved.
+            if UsdShade.UdimUtils.IsUdimIdentifier(asset.path):
+                if resolved := UsdShade.UdimUtils.ResolveUdimPath(asset.path, spec.layer):
+                    return resolved
             return spec.layer.ComputeAbsolutePath(asset.path)
     return asset.path  # unresolvable: the delegate reports it missing
