@@ -107,15 +107,15 @@ void Mesh::sync(SyncContext& context, uint32_t bits) {
   context.sceneChanged = true;
   Scene& scene = context.scene;
   const bool reshaped = bits & (DirtyTopology | DirtyPoints | DirtyPrimvar | DirtyDoubleSided);
-  std::optional<std::vector<int>> finerRates;
-  if (!reshaped && (bits & DirtyTransform)) finerRates = finerDicingRates(context);
-  if (reshaped || finerRates) {
+  std::optional<std::vector<int>> newRates;
+  if (!reshaped && (bits & DirtyTransform)) newRates = changedDicingRates(context);
+  if (reshaped || newRates) {
     for (const std::string& problem : dropInvalidPrimvars())
       context.warn(id() + ": " + problem + "; materials reading it use their fallback");
     ++context.counters.meshGeometrySyncs;
     try {
       const auto started = std::chrono::steady_clock::now();
-      TriangleMesh surface = triangles(context, std::move(finerRates));
+      TriangleMesh surface = triangles(context, std::move(newRates));
       context.counters.tessellationSeconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       scene.geometry().setMeshGeometry(handle(), std::move(surface));
@@ -371,15 +371,14 @@ void Mesh::setCopyPlacements(const std::vector<const std::vector<MotionTransform
                  [](const Transform& a, const Transform& b) { return a.m == b.m; }))
     return;
   copyPlacements_ = std::move(demanding);
-  markDirty(DirtyTransform);  // re-diced if they need finer facets (finerDicingRates)
+  markDirty(DirtyTransform);  // re-diced if its rates change (changedDicingRates)
 }
 
-std::optional<std::vector<int>> Mesh::finerDicingRates(const SyncContext& context) const {
+std::optional<std::vector<int>> Mesh::changedDicingRates(const SyncContext& context) const {
   if (!tessellator_ || dicedRates_.empty()) return std::nullopt;
   std::vector<int> rates = dicingRates(*tessellator_, context);
-  for (size_t face = 0; face < rates.size() && face < dicedRates_.size(); ++face)
-    if (rates[face] > dicedRates_[face]) return rates;
-  return std::nullopt;
+  if (rates == dicedRates_) return std::nullopt;
+  return rates;
 }
 
 TriangleMesh Mesh::triangles(SyncContext& context, std::optional<std::vector<int>> rates) {

@@ -239,15 +239,14 @@ void RenderDelegate::placeUsersOfNewAndRemovedMaterials() {
 }
 
 DicingContext RenderDelegate::dicingContext(const DicingContext& view) {
-  if (!firstView_) firstView_ = view;
-  if (dicingCamera_.empty()) return *firstView_;
+  if (dicingCamera_.empty()) return view;
   const Camera* camera = cameras_.find(dicingCamera_);
   if (!camera) {
     context_.warn("dicing camera " + dicingCamera_ +
-                  " is not a camera in the render index; the first render's camera is used");
-    return *firstView_;
+                  " is not a camera in the render index; the render's camera is used");
+    return view;
   }
-  return {camera->params(), firstView_->imageWidth};
+  return {camera->params(), view.imageWidth};
 }
 
 size_t RenderDelegate::estimatedSyncBytes() const {

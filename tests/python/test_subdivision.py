@@ -182,6 +182,25 @@ def test_a_subdivision_surface_scaled_up_between_frames_is_diced_again():
     np.testing.assert_array_equal(after_frame_1, fresh)
 
 
+def test_a_subdivision_surface_scaled_down_between_frames_is_diced_as_a_fresh_render_dices():
+    # Frame 1 (scaled 20) rendered after frame 2 (scaled 60) kept frame 2's finer facets, so
+    # that a frame range and a fresh process (a farm worker, a resumed sequence) differed.
+    stage = new_stage()
+    stage.SetEndTimeCode(2)
+    add_camera(stage, translate=(0.0, 0.0, 400.0), focal_length=25.0, aperture=(10.0, 10.0))
+    scale = UsdGeom.Xform.Define(stage, "/blob").AddScaleOp()
+    scale.Set(Gf.Vec3f(20, 20, 20), 1)
+    scale.Set(Gf.Vec3f(60, 60, 60), 2)
+    add_cube_cage(stage, "/blob/cube")
+
+    def frame_1(renderer: penumbra.Renderer) -> np.ndarray:
+        return renderer.render(camera="/cam", time=1, width=48, samples=4, aovs=("depth",))["depth"]
+
+    renderer = penumbra.Renderer(stage)
+    renderer.render(camera="/cam", time=2, width=48, samples=1)
+    np.testing.assert_array_equal(frame_1(renderer), frame_1(penumbra.Renderer(stage)))
+
+
 def test_a_native_instance_of_a_subdivision_surface_is_diced_for_its_copy():
     # A prototype's own mesh sits where its copies' space has its origin: an instance scaled 100
     # times and seen close was diced for the small prototype (a hexagonal blob, up to 9.7 px off

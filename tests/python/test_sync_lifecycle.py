@@ -116,16 +116,31 @@ def test_an_edit_syncs_only_what_it_must(kind):
     np.testing.assert_array_equal(edited["color"], fresh["color"])
 
 
-def test_moving_or_switching_the_view_camera_re_dices_nothing():
+def test_each_render_dices_for_its_own_camera_as_a_fresh_renderer_does():
+    # A frame's facets depend on that frame alone, so that farm workers, a resumed sequence and
+    # a fresh process dice it alike (the first render's camera and width had been kept: 416 of
+    # 544 pixels of a dolly's last frame differed between a farm and a local range).
     stage = edit_stage()
     add_camera(stage, "/side", translate=(2.0, 0.0, 5.0))
     renderer = penumbra.Renderer(stage)
     renderer.render(**FAST)
+    stage.GetPrimAtPath("/cam").GetAttribute("xformOp:translate").Set(Gf.Vec3d(0.5, 0.0, 2.0))
+    for options in (FAST, {**FAST, "camera": "/side", "width": 48}):
+        image = renderer.render(**options)
+        fresh = penumbra.Renderer(stage).render(**options)
+        np.testing.assert_array_equal(image["color"], fresh["color"])
+
+
+def test_a_pinned_dicing_camera_re_dices_nothing_when_the_view_moves_or_switches():
+    stage = edit_stage()
+    add_camera(stage, "/side", translate=(2.0, 0.0, 5.0))
+    renderer = penumbra.Renderer(stage)
+    renderer.render(**FAST, dicing_camera="/side")
     stats = renderer.delegate.sync_statistics()
     blob = renderer.delegate.sync_count("/World/blob")
     stage.GetPrimAtPath("/cam").GetAttribute("xformOp:translate").Set(Gf.Vec3d(0.5, 0.0, 2.0))
     renderer.render(**FAST)
-    renderer.render(**{**FAST, "camera": "/side", "width": 48})
+    renderer.render(**{**FAST, "camera": "/side"})
     assert renderer.delegate.sync_statistics() == stats
     assert renderer.delegate.sync_count("/World/blob") == blob
 

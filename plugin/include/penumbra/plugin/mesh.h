@@ -89,9 +89,10 @@ class Mesh : public PlacedRprim {
   /// Segments per edge of each base face for its placement now (see triangles()).
   std::vector<int> dicingRates(const LimitSurfaceTessellator& limit,
                                const SyncContext& context) const;
-  /// The rates of its placement now when the limit surface, diced where it was, needs finer
-  /// facets there (moved nearer the camera, scaled up): a transform alone then dices it again.
-  std::optional<std::vector<int>> finerDicingRates(const SyncContext& context) const;
+  /// The rates of its placement now when they differ from those the limit surface was diced
+  /// at (moved nearer or farther, scaled): a transform alone then dices it again, so that its
+  /// facets depend on its placement now, not on the placements it had before.
+  std::optional<std::vector<int>> changedDicingRates(const SyncContext& context) const;
   /// Gives its light the triangles it emits from, those the mesh is traced as (a subdivision
   /// surface's limit surface), in world space at shutter open and, if it moves, over the
   /// shutter; or hides it (the mesh is hidden or invalid), and syncs it; without a light, the

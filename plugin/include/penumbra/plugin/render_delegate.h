@@ -64,9 +64,10 @@ class RenderDelegate {
   RenderSettingsMap& settings() { return settings_; }
   const RenderSettingsMap& settings() const { return settings_; }
 
-  /// The camera subdivision surfaces are diced for, followed as it moves (re-dicing them).
-  /// Empty (the default): the camera and width of the first render, kept thereafter, so that
-  /// moving or switching the view camera re-dices nothing.
+  /// The camera subdivision surfaces are diced for, followed as it moves (re-dicing them),
+  /// at the rendered width. Empty (the default): each render's own camera and width, as
+  /// Cycles dices, so that a frame's facets depend on that frame alone (a farm's frames, a
+  /// resumed sequence and a fresh process dice alike); a view that moves re-dices.
   void setDicingCamera(PrimId cameraId);
   /// Light and shadow linking: the classes (class i + 1 is classes[i]) that placements name
   /// (PlacedRprim::setLinkingClass, Instancer::setLinkingClasses) over the lights' link slots
@@ -170,7 +171,6 @@ class RenderDelegate {
   SyncContext context_;
   RenderSettingsMap settings_;
   PrimId dicingCamera_;
-  std::optional<DicingContext> firstView_;  // the default dicing context
   std::optional<DicingContext> dicedFor_;
   int dicedComplexity_ = 0;
   uint64_t sceneVersion_ = 0;
