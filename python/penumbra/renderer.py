@@ -405,13 +405,18 @@ class Renderer:
                 for name, value in values.items()
                 if render_options.BY_KEYWORD[name].changes_pixels
             }
+            arguments = (motion_blur, depth_of_field, dome_light_visibility, default_light)
             key = checkpoint.key or _render_key(
                 self.stage,
                 (camera_id, time_code, window, crop, aovs, denoise, pixel_options),
-                (motion_blur, depth_of_field, dome_light_visibility, default_light, time_limit),
+                (*arguments, time_limit),
             )
+            # The render pass checks its options, size, crop and AOVs; these arguments, which
+            # change pixels too, go into the key it checks, so that an explicit key does not
+            # let a render with depth of field resume one without.
+            state_key = f"{key}:{hashlib.sha256(repr(arguments).encode()).hexdigest()[:16]}"
             if checkpoint.resume:
-                spent_before = _resume(render_pass, checkpoint, key)
+                spent_before = _resume(render_pass, checkpoint, key, state_key)
         step = max(1, math.ceil(samples / PROGRESS_STEPS))
         last_saved = clock.perf_counter()
         pass_seconds: float | None = None  # the last pass's: the next one's estimate
@@ -434,7 +439,9 @@ class Renderer:
                 if clock.perf_counter() - last_saved >= checkpoint.interval:
                     spent = spent_before + clock.perf_counter() - started
                     about = {"size": [width, height], "crop": crop, "aovs": sorted(accumulated)}
-                    self._save_checkpoint(render_pass, checkpoint, key, spent, about, make_image)
+                    self._save_checkpoint(
+                        render_pass, checkpoint, (key, state_key), spent, about, make_image
+                    )
                     last_saved = clock.perf_counter()
         image = make_image()
         if time_limit is not None:
@@ -451,25 +458,30 @@ class Renderer:
         self,
         render_pass: _core.RenderPass,
         checkpoint: Checkpoint,
-        key: str,
+        keys: tuple[str, str],
         spent: float,
         about: dict,
         make_image: Callable[[], Image],
     ) -> None:
-        """Write the image rendered so far (metadata ``partial`` 1), then the render pass's
-        state (``about`` the render: size, crop, AOVs): a state file always has its image."""
+        """Write the render pass's state (``about`` the render: size, crop, AOVs; ``keys``: the
+        render key and the render pass's state key, as :func:`_resume` takes them), then the
+        image rendered so far (metadata ``partial`` 1): an image with the frame's key never
+        stands without its state file until the frame is finished, so that a process killed
+        between the two writes leaves nothing ``--resume`` takes for finished (PNG, TIFF and
+        JPEG drop ``partial``; the state file is what says unfinished)."""
         with self.tracer.span("write checkpoint", file=checkpoint.path):
             image = make_image()
+            key, state_key = keys
             image.metadata.update({"partial": 1, RENDER_KEY: key})
-            image.write(checkpoint.path, color_mode=checkpoint.color_mode)
             write_state(
                 checkpoint.state_path,
                 key,
                 render_pass.samples_done,
                 spent,
                 about,
-                render_pass.save_state(key),
+                render_pass.save_state(state_key),
             )
+            image.write(checkpoint.path, color_mode=checkpoint.color_mode)
         logger.info("%s: checkpoint at %d samples", checkpoint.path, render_pass.samples_done)
 
     def image_size(
@@ -586,10 +598,13 @@ def _layer_entry(layer: Sdf.Layer, root: Sdf.Layer, session: Sdf.Layer | None) -
     return [role, identifier, f"{status.st_size}:{status.st_mtime_ns}" if status else ""]
 
 
-def _resume(render_pass: _core.RenderPass, checkpoint: Checkpoint, key: str) -> float:
+def _resume(
+    render_pass: _core.RenderPass, checkpoint: Checkpoint, key: str, state_key: str
+) -> float:
     """Load the state saved beside ``checkpoint``'s image into ``render_pass`` when it is the
-    same render's (``key``); returns the seconds spent on its samples (0 when it renders from
-    scratch). A corrupt or unusable state file is reported and ignored."""
+    same render's (``key``; the render pass checks ``state_key``, which holds the render's
+    arguments too); returns the seconds spent on its samples (0 when it renders from scratch).
+    A corrupt or unusable state file is reported and ignored."""
     path = checkpoint.state_path
     try:
         saved = read_state(path)
@@ -606,7 +621,7 @@ def _resume(render_pass: _core.RenderPass, checkpoint: Checkpoint, key: str) -> 
         )
         return 0.0
     try:
-        render_pass.load_state(saved.state, key)
+        render_pass.load_state(saved.state, state_key)
     except ValueError as error:
         warn(f"{path}: {error}; rendering from scratch")
         return 0.0

@@ -57,7 +57,10 @@ def killed_after_first_checkpoint(output: Path, flags: list[str]) -> int:
     )
     deadline = time.monotonic() + TIMEOUT
     try:
-        while not state.exists() and child.poll() is None and time.monotonic() < deadline:
+        # The state file is written first, then the image: both are there once the image is.
+        while not (state.exists() and output.exists()) and child.poll() is None and (
+            time.monotonic() < deadline
+        ):
             time.sleep(0.002)
         child.send_signal(signal.SIGKILL)
     finally:
@@ -289,6 +292,24 @@ def interrupted_at_a_checkpoint(render: Callable[..., penumbra.Image], path: Pat
     assert read_state(str(state_path(path))).samples_done == 6
 
 
+@pytest.mark.parametrize(
+    "changed", [dict(disable_depth_of_field=True), dict(dome_light_visibility=False)]
+)
+def test_an_explicit_key_does_not_resume_a_render_of_other_arguments(tmp_path, changed):
+    # The render pass checked its options, size, crop and AOVs only: a state saved with depth
+    # of field on (or the dome seen) resumed a render without it under the same explicit
+    # key, and the image mixed the two (colour up to 0.19 off).
+    renderer = penumbra.Renderer(lit_quad_stage())
+    path = tmp_path / "out.exr"
+    with pytest.raises(Interrupted):
+        renderer.render(**SMALL, checkpoint=penumbra.Checkpoint(path, 0, key="mine"),
+                        progress=interrupt_after(3))
+    resume = penumbra.Checkpoint(path, resume=True, key="mine")
+    with pytest.warns(penumbra.PenumbraWarning, match="rendering from scratch"):
+        resumed = renderer.render(**SMALL, **changed, checkpoint=resume)
+    assert np.array_equal(resumed["color"], renderer.render(**SMALL, **changed)["color"])
+
+
 def set_intensity(stage: Usd.Stage, layer: Sdf.Layer, intensity: float) -> None:
     """Author lit_quad_stage's light's intensity in ``layer``, without saving it."""
     with Usd.EditContext(stage, layer):
@@ -434,6 +455,43 @@ def test_a_partly_rendered_frame_in_any_format_is_resumed_not_skipped(
     out, err = capfd.readouterr()
     assert "is complete" not in out and "resuming from 4 samples" in err
     assert not state_path(output).exists()
+
+
+# A process that dies right after the first of a checkpoint's two writes (state, image).
+DIES_AFTER_ONE_WRITE = """
+import os, sys
+import penumbra.renderer as renderer
+from penumbra.cli import main
+
+def then_die(write):
+    def written_then_killed(*args, **kwargs):
+        write(*args, **kwargs)
+        os._exit(9)
+    return written_then_killed
+
+renderer.write_state = then_die(renderer.write_state)
+renderer.Image.write = then_die(renderer.Image.write)
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_render_killed_between_a_checkpoints_two_writes_is_not_taken_for_finished(
+    tmp_path, capfd
+):
+    # The image was written before its state: killed between the two, a PNG (which drops
+    # penumbra:partial) with the frame's key and no state file was skipped by --resume.
+    output = tmp_path / "out.png"
+    flags = ["-w", "32", "-spp", "32", "--threads", "1", "--checkpoint", "0"]
+    killed = subprocess.run(
+        [sys.executable, "-c", DIES_AFTER_ONE_WRITE, str(CORNELL), str(output), *flags],
+        capture_output=True, timeout=TIMEOUT,
+    )
+    assert killed.returncode == 9
+    capfd.readouterr()
+    assert main([str(CORNELL), str(output), *flags, "--resume"]) == 0
+    out, err = capfd.readouterr()
+    assert "is complete" not in out and "resuming from" in err
+    assert read(output)[1].get("penumbra:partial") is None and not state_path(output).exists()
 
 
 def test_resume_keys_do_not_depend_on_the_first_frame_of_the_range(tmp_path, capsys):

@@ -26,6 +26,7 @@ from distributed import Client
 
 import penumbra
 from penumbra import _core
+from penumbra.checkpoints import STATE_SUFFIX
 from penumbra.cli import main
 from penumbra.farm import Tile, band_rows, merge_tiles, tiles_per_frame
 from processes import default_sigint
@@ -222,6 +223,24 @@ def test_resume_after_an_interrupted_run_renders_only_what_is_missing(
     assert_identical(tmp_path, local_sequence)
 
 
+@pytest.mark.parametrize("where", ["farm", "local"])
+def test_a_complete_frame_removes_a_checkpoint_state_left_beside_it(
+    cluster, tmp_path, capsys, where
+):
+    # A killed --checkpoint render leaves a state file; a later render without checkpoints
+    # (on a farm, or here) wrote the frame but left the state, so --resume rendered it again
+    # at every run.
+    output = tmp_path / "out.1.exr"
+    Path(str(output) + STATE_SUFFIX).write_bytes(b"left by a killed render")
+    args = [str(ANIMATED), str(tmp_path / "out.#.exr"), "-f", "1", "-w", "32", "-spp", "2"]
+    farm = ["--scheduler", cluster.address] if where == "farm" else []
+    assert main([*args, *farm]) == 0
+    assert not Path(str(output) + STATE_SUFFIX).exists()
+    capsys.readouterr()
+    assert main([*args, *farm, "--resume"]) == 0
+    assert "Skipped time code 1" in capsys.readouterr().out
+
+
 def test_resume_on_this_machine_checks_the_settings_not_only_the_files(tmp_path, capsys):
     output = str(tmp_path / "out.#.png")
     flags = ["-f", "1:2", "-w", "32", "-spp", "2"]
@@ -368,14 +387,18 @@ def test_bands_cover_every_row_once_and_merge_back():
             width=3,
             height=10,
             aovs={"color": image[first:end]},
-            metadata={"samplesTaken": (end - first) * 3, "rays": 1, "renderTimeSeconds": 0.5},
+            # Adaptive sampling stops bands apart: band 3 ran the most passes (the first band
+            # had given the merged frame its own).
+            metadata={"samplesTaken": (end - first) * 3, "rays": 1, "renderTimeSeconds": 0.5,
+                      "samplesDone": 8 * (band + 1), "lightPaths": 100 * (band + 1)},
             camera="/cam",
             worker="tcp://127.0.0.1:1",
         )
-        for first, end in (band_rows(10, band, 4) for band in (2, 0, 3, 1))
+        for band, (first, end) in ((b, band_rows(10, b, 4)) for b in (2, 0, 3, 1))
     ]
     merged = merge_tiles(tiles)
     assert np.array_equal(merged["color"], image)
     assert merged.metadata["meanSamples"] == 1.0 and merged.metadata["rays"] == 4
+    assert merged.metadata["samplesDone"] == 32 and merged.metadata["lightPaths"] == 400
     with pytest.raises(ValueError, match="do not cover"):
         merge_tiles(tiles[:3])

@@ -44,8 +44,10 @@ def band_rows(height: int, band: int, bands: int) -> tuple[int, int]:
 def merge_tiles(tiles: list[Tile]) -> Image:
     """The frame the bands ``tiles`` cover (all of them, any order). Its metadata is the first
     band's, with the counts summed over the bands: ``samplesTaken``, ``rays``, ``meanSamples``
-    (as the whole image's) and ``renderTimeSeconds`` (the workers' time, not wall time); each
-    Cryptomatte manifest is the union of the bands'."""
+    (as the whole image's) and ``renderTimeSeconds`` (the workers' time, not wall time); the
+    passes the last band to stop ran, as the whole image ran them: ``samplesDone`` and
+    ``lightPaths`` (each band traces every light path of its passes; with adaptive sampling
+    bands stop apart); each Cryptomatte manifest is the union of the bands'."""
     rendered = sorted((tile for tile in tiles if tile.aovs), key=lambda tile: tile.first_row)
     if not rendered:
         raise ValueError("no tile holds pixels")
@@ -72,5 +74,8 @@ def merge_tiles(tiles: list[Tile]) -> Image:
             sum(float(tile.metadata["renderTimeSeconds"]) for tile in rendered), 3
         ),
     )
+    for longest in ("samplesDone", "lightPaths"):
+        if longest in metadata:
+            metadata[longest] = max(int(tile.metadata[longest]) for tile in rendered)
     metadata.update(cryptomatte.merge_manifests(tile.metadata for tile in rendered))
     return Image(aovs, metadata)
