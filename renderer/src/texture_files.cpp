@@ -110,9 +110,12 @@ bool autoIsSrgb(const OIIO::ImageSpec& spec, const std::string& format, const st
   ColorTag tag = colorTag(spec.get_string_attribute("oiio:ColorSpace"));
   // OIIO 2.4's PNG and JPEG readers say "sRGB" for every file, whatever it holds (16-bit and
   // grey-scale too): that is a default, not metadata. Only an sRGB chunk (PNG) or EXIF
-  // ColorSpace = 1 (JPEG) is.
-  if (tag == ColorTag::SRGB && format == "png" && !pngHasSrgbChunk(file)) tag = ColorTag::None;
-  if (tag == ColorTag::SRGB && format == "jpeg" && spec.get_int_attribute("Exif:ColorSpace") != 1)
+  // ColorSpace = 1 (JPEG) is. maketx copies that default into the .tx (TIFF) it makes of such
+  // a file, so an "sRGB" label elsewhere is no evidence either (a grey roughness map turned
+  // .tx was decoded as sRGB: 0.50 where 0.74); Storm goes by bits and channels alone.
+  if (tag == ColorTag::SRGB &&
+      !((format == "png" && pngHasSrgbChunk(file)) ||
+        (format == "jpeg" && spec.get_int_attribute("Exif:ColorSpace") == 1)))
     tag = ColorTag::None;
   const float gamma = spec.get_float_attribute("oiio:Gamma", 0.0f);  // PNG gAMA chunk
   if (tag == ColorTag::None && gamma > 0.0f) {

@@ -439,6 +439,21 @@ def test_file_formats(tmp_path, extension, srgb):
         np.testing.assert_allclose(at(rendered, *st_to_xy(s, t)), expected, atol=tolerance)
 
 
+@pytest.mark.parametrize("channels", [1, 3])
+def test_an_srgb_label_without_evidence_does_not_make_a_tx_srgb(tmp_path, channels):
+    # maketx copies OIIO's default "sRGB" label of a PNG into the .tx (TIFF) it makes: under
+    # "auto" a grey map then follows the bits and channels rule, as Storm reads it (it was
+    # decoded: 0.50 where 0.74); an 8-bit RGB one is sRGB by that rule anyway.
+    pixels = np.full((8, 8, channels), 188 / 255, np.float32)
+    names = ["Y"] if channels == 1 else ["R", "G", "B"]
+    file = tmp_path / "map.tx"
+    _core.write_image(str(tmp_path / "map.tif"), pixels, names, {"oiio:ColorSpace": "sRGB"})
+    os.rename(tmp_path / "map.tif", file)
+    stage, _ = textured_stage(file)
+    expected = 188 / 255 if channels == 1 else srgb_to_linear(188 / 255)
+    np.testing.assert_allclose(at(render(stage), 0, 0), (expected,) * 3, atol=0.005)
+
+
 @pytest.mark.parametrize(
     "texture, message",
     [
