@@ -253,6 +253,32 @@ def test_udim_paths_resolve_against_the_layer_that_authored_them(tmp_path, file)
     np.testing.assert_allclose(at(image, 0, 0), RED, atol=0.02)
 
 
+def test_textures_inside_a_usdz_package_are_read(tmp_path):
+    # OpenImageIO cannot open "asset.usdz[red.png]": it rendered the fallback, warning that the
+    # file did not exist. A dome's texture inside a package too.
+    from pxr import UsdLux, UsdUtils
+
+    def packaged(stage: Usd.Stage, name: str, *files: str) -> Usd.Stage:
+        stage.GetRootLayer().Export(str(tmp_path / f"{name}.usda"))
+        package = str(tmp_path / f"{name}.usdz")
+        assert UsdUtils.CreateNewUsdzPackage(str(tmp_path / f"{name}.usda"), package)
+        for file in files:
+            os.remove(tmp_path / file)
+        return Usd.Stage.Open(package)
+
+    write_texture(tmp_path / "red.png", np.tile(np.float32(RED), (8, 8, 1)))
+    write_texture(tmp_path / "sky.exr", np.full((4, 8, 3), 0.25, np.float32))
+    quad = packaged(textured_stage("./red.png")[0], "quad", "red.png")
+    sky = new_stage()
+    add_camera(sky)
+    UsdLux.DomeLight.Define(sky, "/sky").CreateTextureFileAttr(Sdf.AssetPath("./sky.exr"))
+    sky = packaged(sky, "sky", "sky.exr")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_allclose(at(render(quad), 0, 0), RED, atol=0.02)
+        np.testing.assert_allclose(render(sky)[..., :3], 0.25, atol=0.01)
+
+
 def test_missing_texture_warns_and_uses_the_fallback(tmp_path):
     missing = tmp_path / "nowhere.png"
     stage, _ = textured_stage(missing, texture={"fallback": (0.2, 0.4, 0.6, 1.0)})

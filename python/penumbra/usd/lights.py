@@ -16,6 +16,7 @@ import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdLux
 
 from .. import _core
+from .packaged_files import local_path
 from .sampling import SampleReader, schema_fallback
 from .values import as_asset_path, as_floats, is_color_value, is_finite_float32, is_number_value
 
@@ -379,4 +380,4 @@ def _texture_path(prim: Usd.Prim, schema, reader: SampleReader, warn: Callable[[
         layout = reader.get(schema.GetTextureFormatAttr())
         if layout not in (None, UsdLux.Tokens.automatic, UsdLux.Tokens.latlong):
             warn(f"{prim.GetPath()}: texture:format {layout!r} is not supported yet; read as latlong")
-    return texture.resolvedPath or texture.path
+    return local_path(texture.resolvedPath) or texture.path

@@ -9,6 +9,7 @@ from typing import Any
 from pxr import Sdf, UsdShade
 
 from .. import _core
+from .packaged_files import local_path
 from .sampling import SampleReader
 from .values import as_asset_path
 
@@ -40,7 +41,8 @@ CONNECTABLE = frozenset(i.name for i in PREVIEW_SURFACE_INPUTS if i.connectable)
 
 def texture_file(file_input: UsdShade.Input | None, reader: SampleReader) -> str:
     """The texture's path, resolved (``<UDIM>`` patterns anchored to the layer that authored
-    them, as USD's resolver leaves them alone); "" when no file is given."""
+    them, as USD's resolver leaves them alone; a file inside a USDZ package copied out,
+    :mod:`.packaged_files`); "" when no file is given."""
     if not file_input:
         return ""
     producers = file_input.GetValueProducingAttributes()
@@ -49,7 +51,7 @@ def texture_file(file_input: UsdShade.Input | None, reader: SampleReader) -> str
     if asset is None or not asset.path:
         return ""
     if asset.resolvedPath:
-        return asset.resolvedPath
+        return local_path(asset.resolvedPath)
     for spec in attr.GetPropertyStack(reader.time):
         if spec.HasDefaultValue() or spec.layer.ListTimeSamplesForPath(spec.path):
             # A search path (no "./") is resolved against the layer by its tiles: the literal
