@@ -55,8 +55,11 @@ int openTexture(const Material& material, const TextureNode& node,
       node.file, node.colorSpace, &error,
       coverage.count(node.file) ? TextureAlpha::Coverage : TextureAlpha::Data);
   ++context.counters.materialTextureOpens;
-  if (reader.texture == TextureSystem::kInvalid && unreadable->insert(node.file).second)
-    context.warn(material.id() + ": " + error + "; its fallback value is used");
+  if (!error.empty() && unreadable->insert(node.file).second)
+    context.warn(material.id() + ": " + error +
+                 (reader.texture == TextureSystem::kInvalid
+                      ? "; its fallback value is used"
+                      : "; those UDIM tiles give the fallback value"));
   result->textures.push_back(std::move(reader));
   return int(result->textures.size() - 1);
 }

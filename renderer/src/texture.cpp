@@ -144,19 +144,25 @@ struct TextureSystem::Impl {
     if (path.find(kUdimToken) != std::string::npos) {
       texture.udim = true;
       int tiles = 0;
+      std::string unreadable;  // one tile that cannot be read is left out, as a missing one is
       for (int i = 0; i < kUdimTiles; ++i) {
         const std::string file = replaceAll(path, kUdimToken, std::to_string(kUdimFirst + i));
         std::error_code code;
         if (!fs::exists(file, code)) continue;
         TextureFile opened;
-        if (!files.open(file, colorSpace, alpha, threadInfo(), &opened, error)) return false;
+        std::string tileError;
+        if (!files.open(file, colorSpace, alpha, threadInfo(), &opened, &tileError)) {
+          unreadable += (unreadable.empty() ? "" : "; ") + tileError;
+          continue;
+        }
         texture.tiles[i] = opened.tile;
         texture.files.emplace_back(file, fileStamp(file));
         texture.channels = std::max(texture.channels, opened.tile.channels);
         ++tiles;
       }
+      *error = unreadable;
       if (tiles == 0) {
-        *error = path + ": no UDIM tiles (looked for 1001 to 1100)";
+        if (unreadable.empty()) *error = path + ": no UDIM tiles (looked for 1001 to 1100)";
         return false;
       }
     } else {

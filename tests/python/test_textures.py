@@ -279,6 +279,25 @@ def test_textures_inside_a_usdz_package_are_read(tmp_path):
         np.testing.assert_allclose(render(sky)[..., :3], 0.25, atol=0.01)
 
 
+def test_an_unreadable_udim_tile_falls_back_alone(tmp_path):
+    # One truncated tile threw the whole set away (every tile the fallback).
+    write_texture(tmp_path / "paint.1001.png", np.tile(np.float32(RED), (8, 8, 1)))
+    write_texture(tmp_path / "paint.1003.png", np.tile(np.float32(BLUE), (8, 8, 1)))
+    good = write_texture(tmp_path / "good.png", np.tile(np.float32(GREEN), (8, 8, 1)))
+    (tmp_path / "paint.1002.png").write_bytes(good.read_bytes()[:60])
+    fallback = (0.2, 0.4, 0.6, 1.0)
+    stage, _ = textured_stage(tmp_path / "paint.<UDIM>.png", texture={"fallback": fallback})
+    st = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/World/quad")).GetPrimvar("st")
+    st.Set([Gf.Vec2f(0, 0), Gf.Vec2f(3, 0), Gf.Vec2f(3, 1), Gf.Vec2f(0, 1)])
+    with pytest.warns(penumbra.PenumbraWarning) as record:
+        image = render(stage, width=60)
+    messages = [str(w.message) for w in record if "paint.1002.png" in str(w.message)]
+    assert len(messages) == 1 and messages[0].endswith("those UDIM tiles give the fallback value")
+    third = 2 * 0.8 / 3  # the view, x in [-0.8, 0.8], holds s from 0.3 to 2.7
+    for x, expected in ((-0.8 + third / 2, RED), (0.0, fallback[:3]), (0.8 - third / 2, BLUE)):
+        np.testing.assert_allclose(at(image, x, 0), expected, atol=0.02)
+
+
 def test_missing_texture_warns_and_uses_the_fallback(tmp_path):
     missing = tmp_path / "nowhere.png"
     stage, _ = textured_stage(missing, texture={"fallback": (0.2, 0.4, 0.6, 1.0)})

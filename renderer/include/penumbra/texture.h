@@ -85,8 +85,10 @@ class TextureSystem {
   /// Opens `path` (may contain the token <UDIM>) for lookups. Same (path, colorSpace, alpha) →
   /// same handle; a file read in two colour spaces is two textures. On failure (missing/unreadable
   /// file, UDIM pattern with no tiles, no sRGB or no such named colour space in the config)
-  /// returns kInvalid and sets *error to a message naming the file and what is wrong. Called
-  /// from one thread at a time (scene sync), never concurrently with lookup().
+  /// returns kInvalid and sets *error to a message naming the file and what is wrong. A UDIM
+  /// set some of whose tiles cannot be read opens with the others: the handle is valid, *error
+  /// names the unreadable tiles (theirs give the fallback, as missing tiles do). Called from
+  /// one thread at a time (scene sync), never concurrently with lookup().
   Handle open(const std::string& path, const TextureColorSpace& colorSpace, std::string* error,
               TextureAlpha alpha = TextureAlpha::Data);
 
