@@ -218,6 +218,10 @@ bool TextureFiles::open(const std::string& file, const TextureColorSpace& colorS
   std::error_code code;
   if (!fs::exists(file, code)) {
     *error = file + ": no such file";
+    // Tile patterns of other tools, which USD does not define: say why nothing was found.
+    for (const char* token : {"<UVTILE>", "<uvtile>", "_MAPID_", "<U>", "<V>"})
+      if (file.find(token) != std::string::npos)
+        *error += std::string(" (the tile token ") + token + " is not supported: USD's is <UDIM>)";
     return false;
   }
   OIIO::ImageSpec spec;

@@ -298,6 +298,14 @@ def test_an_unreadable_udim_tile_falls_back_alone(tmp_path):
         np.testing.assert_allclose(at(image, x, 0), expected, atol=0.02)
 
 
+def test_tile_tokens_other_than_udim_are_named_when_nothing_is_found(tmp_path):
+    # Mari's <UVTILE> read as a file name: the warning said only "no such file".
+    stage, _ = textured_stage(tmp_path / "paint.<UVTILE>.png")
+    with pytest.warns(penumbra.PenumbraWarning,
+                      match=r"the tile token <UVTILE> is not supported: USD's is <UDIM>"):
+        render(stage)
+
+
 def test_missing_texture_warns_and_uses_the_fallback(tmp_path):
     missing = tmp_path / "nowhere.png"
     stage, _ = textured_stage(missing, texture={"fallback": (0.2, 0.4, 0.6, 1.0)})
