@@ -25,8 +25,10 @@ NOISY_COLOR = "noisyColor"
 def denoise_color(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """``color`` (H, W, 4: scene-linear RGB and alpha) with its RGB denoised by OIDN's ``RT``
     filter at high quality, in HDR mode, guided by ``albedo`` and world-space ``normal`` (H, W,
-    3) which are prefiltered by OIDN (they are averages of few samples too). Alpha is kept.
-    ``RuntimeError`` with the denoiser's message when it fails."""
+    3) which OIDN prefilters first (they are averages of few samples too). Alpha is kept, and so
+    are the pixels of alpha 0 (the filter would spread the objects' colour into the empty
+    background, a halo over any plate). ``RuntimeError`` with the denoiser's message when it
+    fails."""
     request = io.BytesIO()
     np.savez(
         request,
@@ -46,4 +48,6 @@ def denoise_color(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> 
         message = result.stderr.decode(errors="replace").strip().splitlines()
         raise RuntimeError(f"the denoiser failed: {message[-1] if message else result.returncode}")
     denoised = np.load(io.BytesIO(result.stdout))["rgb"]
+    empty = color[..., 3] == 0
+    denoised[empty] = color[..., :3][empty]
     return np.concatenate([denoised, color[..., 3:]], axis=2).astype(np.float32)

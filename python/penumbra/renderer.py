@@ -231,7 +231,8 @@ class Renderer:
         left, rows from the top, as :meth:`image_size` counts them) to render alone, e.g. a farm
         tile: the image returned holds those pixels, bit-identical to the same pixels of the
         whole image (with adaptive sampling, the pixels around them that its convergence tests
-        look at are rendered too and dropped). ``dicing_camera``: the camera (path or bare
+        look at are rendered too and dropped; with ``denoise`` the raw ``noisyColor`` is, the
+        denoised colour is not: the denoiser sees the region alone). ``dicing_camera``: the camera (path or bare
         name) subdivision surfaces are diced for, from this render on; they are re-diced when it
         moves (an interactive orbit of the view camera then re-dices nothing). By default they
         are diced for each render's own camera and width, so that a frame's facets depend on
