@@ -268,3 +268,36 @@ def test_lights_in_prototypes_warn_and_keep_the_default_light_off():
     ]
     assert covers(image, -1, 0.5) and covers(image, 1, 0.5)
     assert image[..., :3].max() == 0  # unlit: neither the bulbs nor a default light
+
+
+def test_an_ancestors_keyed_visibility_hides_the_copies_at_its_frames():
+    # Only the instancer's own visibility was followed over time: copies under a parent keyed
+    # invisible at frame 2 still rendered there (a fresh render and the CLI alike).
+    stage, _ = instancer_stage()
+    visibility = UsdGeom.Xform.Define(stage, "/World").CreateVisibilityAttr()
+    visibility.Set(UsdGeom.Tokens.inherited, 1)
+    visibility.Set(UsdGeom.Tokens.invisible, 2)
+    renderer = penumbra.Renderer(stage)
+    assert renderer.render(**SMALL, time=1)["color"][..., 3].sum() > 0
+    assert renderer.render(**SMALL, time=2)["color"][..., 3].sum() == 0
+    assert penumbra.Renderer(stage).render(**SMALL, time=2)["color"][..., 3].sum() == 0
+
+
+def test_editing_a_collection_that_binds_materials_recolours_the_copies():
+    # A collection-based binding's collection gaining the instancer left the copies in their
+    # old material until a new Renderer (a plain mesh was recoloured).
+    from pxr import Usd, UsdShade
+
+    stage, _ = instancer_stage()
+    green = add_preview_material(stage, "/World/Looks/green", diffuseColor=(0, 1, 0))
+    collection = Usd.CollectionAPI.Apply(stage.DefinePrim("/Sets"), "painted")
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World")).Bind(
+        collection, UsdShade.Material(green), "painted", UsdShade.Tokens.strongerThanDescendants
+    )
+    renderer = penumbra.Renderer(stage)
+    before = renderer.render(**SMALL)["color"]
+    collection.CreateIncludesRel().AddTarget("/World/copies")
+    live = renderer.render(**SMALL)["color"]
+    fresh = penumbra.Renderer(stage).render(**SMALL)["color"]
+    assert not np.array_equal(before, fresh)
+    np.testing.assert_array_equal(live, fresh)

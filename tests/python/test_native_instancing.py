@@ -436,3 +436,21 @@ def test_prim_ids_do_not_depend_on_how_usd_numbered_its_prototypes():
     for image in renders[1:]:
         np.testing.assert_array_equal(image["primId"], renders[0]["primId"])
         assert json.loads(image.metadata["primIds"]) == manifest
+
+
+def test_editing_a_collection_that_binds_materials_recolours_the_instances():
+    # A collection-based binding's collection gaining an instance left its copy in its old
+    # material until a new Renderer (a plain mesh was recoloured).
+    stage = ball_grid_stage()
+    green = add_preview_material(stage, "/Looks/green", diffuseColor=(0, 1, 0))
+    collection = Usd.CollectionAPI.Apply(stage.DefinePrim("/Sets"), "painted")
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World")).Bind(
+        collection, UsdShade.Material(green), "painted", UsdShade.Tokens.strongerThanDescendants
+    )
+    renderer = penumbra.Renderer(stage)
+    before = renderer.render(**SMALL)["color"]
+    collection.CreateIncludesRel().AddTarget("/World/ball_5")
+    live = renderer.render(**SMALL)["color"]
+    fresh = penumbra.Renderer(stage).render(**SMALL)["color"]
+    assert not np.array_equal(before, fresh)
+    np.testing.assert_array_equal(live, fresh)

@@ -87,8 +87,10 @@ class NativeInstancing:
                 self._stale.add(prim_path)
 
     def _affects_copies(self, path: Sdf.Path, prim_path: Sdf.Path) -> bool:
-        if not path.IsPropertyPath() or path.name.startswith("material:binding"):
-            return True  # prims added or removed, or a binding that may reach instances
+        if not path.IsPropertyPath() or path.name.startswith(("material:binding", "collection:")):
+            # Prims added or removed, a binding that may reach instances, or a collection a
+            # collection-based binding may name.
+            return True
         if prim_path in self._roots or prim_path in self._above:
             return True
         prefixes = prim_path.GetPrefixes()

@@ -20,7 +20,7 @@ from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, 
 from .linking import Linking
 from .material import bound_material
 from .render_pass import SHOWN, RenderPassCollections
-from .sampling import Shutter
+from .sampling import Shutter, visibility_might_vary
 
 @dataclass
 class _Instancer:
@@ -67,7 +67,10 @@ class PointInstancerDelegate:
         for path in [*resynced, *changed]:
             prim_path = path.GetPrimPath()
             self._stale.add(prim_path)
-            binding = path.IsPropertyPath() and path.name.startswith("material:binding")
+            # A binding, or a collection a collection-based binding may name.
+            binding = path.IsPropertyPath() and path.name.startswith(
+                ("material:binding", "collection:")
+            )
             for record in self._instancers.values():
                 if binding or any(
                     prim_path.HasPrefix(root) or root.HasPrefix(prim_path) for root in record.roots
@@ -135,7 +138,7 @@ class PointInstancerDelegate:
     def _groups(self, prim: Usd.Prim, flattener: Flattener) -> dict[GroupKey, Group]:
         imageable = UsdGeom.Imageable(prim)
         purpose = imageable.ComputePurpose()
-        if imageable.GetVisibilityAttr().ValueMightBeTimeVarying():
+        if visibility_might_vary(prim):  # its own or an ancestor's
             flattener.varying = True
         if imageable.ComputeVisibility(self.shutter.frame) == UsdGeom.Tokens.invisible:
             return {}
