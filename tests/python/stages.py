@@ -112,6 +112,31 @@ def bind(mesh: UsdGeom.Mesh, material: UsdShade.Material) -> None:
     UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
 
 
+def bind_through_a_collection(
+    stage: Usd.Stage, path: str, material: UsdShade.Material
+) -> Usd.CollectionAPI:
+    """An empty collection ``/Sets.collection:painted`` and, on prim ``path``, a
+    collection-based binding of ``material`` to what it will hold (stronger than descendants)."""
+    collection = Usd.CollectionAPI.Apply(stage.DefinePrim("/Sets"), "painted")
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath(path)).Bind(
+        collection, UsdShade.Material(material), "painted",
+        UsdShade.Tokens.strongerThanDescendants,
+    )
+    return collection
+
+
+def assert_live_edit_renders_as_fresh(stage: Usd.Stage, edit, **render) -> None:
+    """Render ``stage``, apply ``edit()``, render again with the same Renderer: the image
+    changed and equals a fresh Renderer's of the edited stage."""
+    renderer = penumbra.Renderer(stage)
+    before = renderer.render(**render)["color"]
+    edit()
+    live = renderer.render(**render)["color"]
+    fresh = penumbra.Renderer(stage).render(**render)["color"]
+    assert not np.array_equal(before, fresh)
+    np.testing.assert_array_equal(live, fresh)
+
+
 def add_primvar_emission_material(stage: Usd.Stage, path: str, primvar: str) -> UsdShade.Material:
     """A black, non-reflecting UsdPreviewSurface whose emissiveColor a UsdPrimvarReader_float3
     reads from the float3 primvar `primvar`: the image shows the primvar itself."""

@@ -18,7 +18,9 @@ from stages import (
     add_emissive_sphere,
     add_preview_material,
     add_quad,
+    assert_live_edit_renders_as_fresh,
     bind,
+    bind_through_a_collection,
     covers,
     emitter_stage,
     new_stage,
@@ -286,18 +288,9 @@ def test_an_ancestors_keyed_visibility_hides_the_copies_at_its_frames():
 def test_editing_a_collection_that_binds_materials_recolours_the_copies():
     # A collection-based binding's collection gaining the instancer left the copies in their
     # old material until a new Renderer (a plain mesh was recoloured).
-    from pxr import Usd, UsdShade
-
     stage, _ = instancer_stage()
     green = add_preview_material(stage, "/World/Looks/green", diffuseColor=(0, 1, 0))
-    collection = Usd.CollectionAPI.Apply(stage.DefinePrim("/Sets"), "painted")
-    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World")).Bind(
-        collection, UsdShade.Material(green), "painted", UsdShade.Tokens.strongerThanDescendants
+    collection = bind_through_a_collection(stage, "/World", green)
+    assert_live_edit_renders_as_fresh(
+        stage, lambda: collection.CreateIncludesRel().AddTarget("/World/copies"), **SMALL
     )
-    renderer = penumbra.Renderer(stage)
-    before = renderer.render(**SMALL)["color"]
-    collection.CreateIncludesRel().AddTarget("/World/copies")
-    live = renderer.render(**SMALL)["color"]
-    fresh = penumbra.Renderer(stage).render(**SMALL)["color"]
-    assert not np.array_equal(before, fresh)
-    np.testing.assert_array_equal(live, fresh)

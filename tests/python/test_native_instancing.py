@@ -17,11 +17,13 @@ import penumbra
 from penumbra.usd.flattening import spin_matrices
 from stages import (
     add_camera,
-    add_instance,
     add_distant_light,
+    add_instance,
     add_preview_material,
     add_quad,
     add_sphere_mesh,
+    assert_live_edit_renders_as_fresh,
+    bind_through_a_collection,
     new_stage,
     render_with_warnings,
 )
@@ -443,14 +445,7 @@ def test_editing_a_collection_that_binds_materials_recolours_the_instances():
     # material until a new Renderer (a plain mesh was recoloured).
     stage = ball_grid_stage()
     green = add_preview_material(stage, "/Looks/green", diffuseColor=(0, 1, 0))
-    collection = Usd.CollectionAPI.Apply(stage.DefinePrim("/Sets"), "painted")
-    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World")).Bind(
-        collection, UsdShade.Material(green), "painted", UsdShade.Tokens.strongerThanDescendants
+    collection = bind_through_a_collection(stage, "/World", green)
+    assert_live_edit_renders_as_fresh(
+        stage, lambda: collection.CreateIncludesRel().AddTarget("/World/ball_5"), **SMALL
     )
-    renderer = penumbra.Renderer(stage)
-    before = renderer.render(**SMALL)["color"]
-    collection.CreateIncludesRel().AddTarget("/World/ball_5")
-    live = renderer.render(**SMALL)["color"]
-    fresh = penumbra.Renderer(stage).render(**SMALL)["color"]
-    assert not np.array_equal(before, fresh)
-    np.testing.assert_array_equal(live, fresh)
