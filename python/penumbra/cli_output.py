@@ -16,7 +16,9 @@ from .image import Image
 class Progress:
     """Prints ``samples done / total``, the elapsed time and an estimate of the time left of a
     frame on stderr: updated in place on a terminal, else one line per quarter of the frame
-    (logs stay short)."""
+    (logs stay short). The estimate takes the pace of the samples rendered since the first
+    report, so that samples a resumed checkpoint brought (done before this process started)
+    and the scene's sync do not count as rendered at this pace."""
 
     def __init__(self, label: str, interactive: bool | None = None) -> None:
         self.label = label
@@ -25,13 +27,19 @@ class Progress:
         self.quarters_reported = 0
         self.line_open = False
         """Whether the terminal's progress line awaits its end."""
+        self.first_report: tuple[float, int] | None = None
+        """(seconds since the start, samples done) at the first report."""
 
     def __call__(self, done: int, total: int) -> None:
         elapsed = time.perf_counter() - self.started
         line = f"{self.label}: {done}/{total} samples, {elapsed:.1f} s"
+        if self.first_report is None:
+            self.first_report = (elapsed, done)
         if self.interactive:
-            if 0 < done < total:
-                line += f", about {elapsed * (total - done) / done:.0f} s left"
+            first_seconds, first_done = self.first_report
+            if first_done < done < total:
+                pace = (elapsed - first_seconds) / (done - first_done)
+                line += f", about {pace * (total - done):.0f} s left"
             self.line_open = done < total
             end = "" if self.line_open else "\n"
             sys.stderr.write(f"\r\033[K{line}{end}")

@@ -272,6 +272,17 @@ def test_a_frame_stopped_by_its_time_limit_ends_the_progress_line(tmp_path, caps
     assert "4/64 samples" in err and err.endswith("\n")
 
 
+def test_the_time_left_follows_the_pace_of_this_processs_samples(capsys, monkeypatch):
+    # A frame resumed at 48 of 64 samples, then 2 samples a second: 4 s left after 56, where the
+    # elapsed time over every sample done said 0 s (the resumed 48 counted at this pace).
+    clock = iter([0.0, 1.0, 3.0])
+    monkeypatch.setattr("penumbra.cli_output.time.perf_counter", lambda: next(clock))
+    progress = Progress("frame", interactive=True)
+    progress(52, 64)
+    progress(56, 64)
+    assert capsys.readouterr().err.endswith("frame: 56/64 samples, 3.0 s, about 4 s left")
+
+
 def test_adaptive_sampling_and_clamp_flags(tmp_path, capsys):
     """--adaptiveThreshold stops converged pixels (the summary gives the mean samples taken),
     --indirectClamp, --glossyFilter and --indirectSamples reach the render; out-of-range values
