@@ -77,6 +77,11 @@ class OneByOneSync:
         """The transform samples the delegate places ``prim`` by: its local-to-world ones."""
         return matrices
 
+    def _placement_reads_data(self, prim: Usd.Prim) -> bool:
+        """Whether :meth:`_placement` of ``prim`` depends on its data (an edit of the data
+        then sends the transform again)."""
+        return False
+
     def _sync_prim(
         self,
         path: Sdf.Path,
@@ -91,6 +96,8 @@ class OneByOneSync:
         """Read the aspects ``bits`` of the tracked prim at ``path`` (delegate id ``path_str``)
         and queue them in ``batch``."""
         shutter = settings.shutter if self.moving else Shutter(settings.time)
+        if bits & Dirty.DATA and self._placement_reads_data(prim):
+            bits |= Dirty.TRANSFORM
         if bits & Dirty.DATA:
             reader = SampleReader(settings.time, shutter)
             if not self._read(path, path_str, prim, reader, settings):
@@ -148,21 +155,8 @@ class LightSync(OneByOneSync):
         self._emitters.add(path)
         return True
 
-    def _sync_prim(
-        self,
-        path: Sdf.Path,
-        path_str: str,
-        prim: Usd.Prim,
-        record: TrackedPrim,
-        bits: int,
-        settings: SyncSettings,
-        xform_caches: XformCaches,
-        batch: CoreBatch,
-    ) -> None:
-        # A DomeLight_1's poleAxis (its data) turns its texture: the transform goes with it.
-        if bits & Dirty.DATA and prim.IsA(UsdLux.DomeLight_1):
-            bits |= Dirty.TRANSFORM
-        super()._sync_prim(path, path_str, prim, record, bits, settings, xform_caches, batch)
+    def _placement_reads_data(self, prim: Usd.Prim) -> bool:
+        return prim.IsA(UsdLux.DomeLight_1)  # its poleAxis turns its texture
 
     def _placement(self, prim: Usd.Prim, matrices: np.ndarray) -> np.ndarray:
         first = matrices if np.ndim(matrices) == 2 else matrices[0]
