@@ -77,7 +77,12 @@ class Checkpoint:
     @property
     def state_path(self) -> str:
         """The file holding the render pass's state beside the image."""
-        return self.path + STATE_SUFFIX
+        return state_file(self.path)
+
+
+def state_file(output: str) -> str:
+    """The checkpoint state file beside image ``output`` (there while its frame is unfinished)."""
+    return output + STATE_SUFFIX
 
 
 class CorruptCheckpoint(ValueError):

@@ -21,7 +21,7 @@ from .cli_arguments import (
     UsageError,
     check_frame_placeholder,
 )
-from .checkpoints import STATE_SUFFIX, Checkpoint, remove_state
+from .checkpoints import Checkpoint, remove_state, state_file
 from .cli_output import Progress, RendersProgress, frame_summary
 from .frames import FrameRange, frame_path, iter_frames
 from .image import Image, check_output_directory
@@ -169,7 +169,7 @@ def record(args: argparse.Namespace, frames: list[FrameRange], tracer: Tracer) -
                     with tracer.span("write image", file=output):
                         image.write(output, color_mode=job.color_mode)
                     # A checkpoint left by an earlier, killed render would mark it unfinished.
-                    remove_state(output + STATE_SUFFIX)
+                    remove_state(state_file(output))
             say(frame_summary(f"time code {label}", image))
             for path, _ in products:
                 say(f"Wrote {os.path.abspath(path)}")

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pxr import Usd
 
 from . import _core, _interrupts, render_options
-from .checkpoints import PARTIAL, RENDER_KEY, STATE_SUFFIX, Checkpoint
+from .checkpoints import PARTIAL, RENDER_KEY, Checkpoint, state_file
 from .errors import SceneError, warn
 from .image import Image
 from .products import render_products
@@ -125,7 +125,7 @@ def output_is_complete(path: str, key: str) -> bool:
     """Whether ``path`` holds the frame whose key is ``key`` (read from its header only); a
     missing, unreadable or different file is not, nor a checkpoint of it: one with a state file
     beside it (PNG, TIFF and JPEG drop ``partial`` but keep the key) or marked ``partial``."""
-    if os.path.exists(path + STATE_SUFFIX):  # removed only once the frame is finished
+    if os.path.exists(state_file(path)):  # removed only once the frame is finished
         return False
     try:
         metadata = _core.read_image_header(path)[3]

@@ -27,7 +27,7 @@ import dask.config
 from dask.utils import parse_timedelta
 from distributed import Client, Future, KilledWorker, LocalCluster, wait
 
-from ..checkpoints import STATE_SUFFIX, remove_state
+from ..checkpoints import remove_state, state_file
 from ..errors import warn
 from ..jobs import FrameTime, RenderJob, frame_label, output_is_complete
 from .tiles import Tile, merge_tiles
@@ -283,7 +283,7 @@ class _FarmRun:
         del self.frames[index]
         merge_tiles(tiles).write(output, color_mode=self.job.color_mode)
         # A checkpoint left by an earlier, killed local render would mark it unfinished.
-        remove_state(output + STATE_SUFFIX)
+        remove_state(state_file(output))
         self.summary.written.append(output)
         self.say(f"Wrote {os.path.abspath(output)}")
         if self.reporter:
