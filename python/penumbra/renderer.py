@@ -232,11 +232,11 @@ class Renderer:
         tile: the image returned holds those pixels, bit-identical to the same pixels of the
         whole image (with adaptive sampling, the pixels around them that its convergence tests
         look at are rendered too and dropped; with ``denoise`` the raw ``noisyColor`` is, the
-        denoised colour is not: the denoiser sees the region alone). ``dicing_camera``: the camera (path or bare
-        name) subdivision surfaces are diced for, from this render on; they are re-diced when it
-        moves (an interactive orbit of the view camera then re-dices nothing). By default they
-        are diced for each render's own camera and width, so that a frame's facets depend on
-        that frame alone.
+        denoised colour is not: the denoiser sees the region alone). ``dicing_camera``: the
+        camera (path or bare name) subdivision surfaces are diced for, from this render on;
+        they are re-diced when it moves (an interactive orbit of the view camera then re-dices
+        nothing). By default they are diced for each render's own camera and width, so that a
+        frame's facets depend on that frame alone.
         ``checkpoint``: a :class:`penumbra.Checkpoint` saying where (the image's path) and how
         often to save the frame rendered so far and the exact state to resume it from
         (``Checkpoint(path, interval=60, resume=True)``); with it, the finished image is also

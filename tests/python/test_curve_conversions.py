@@ -237,7 +237,8 @@ CASES = [
 ]
 EXPECTED_BASES = {
     "uniform order 4": "bspline", "order 2": "bezier", "rational": "catmullRom",
-    "weights authored but constant, higher order": "catmullRom", "rational with ranges": "catmullRom",
+    "weights authored but constant, higher order": "catmullRom",
+    "rational with ranges": "catmullRom",
 }
 
 

@@ -350,7 +350,8 @@ def uneven_scale_problem(prim: Usd.Prim, matrix: np.ndarray) -> str | None:
         return None
     if not np.isfinite(scales).all() or scales.min() <= 0 or scales.max() <= 1.001 * scales.min():
         return None
-    return f"{prim.GetPath()}: scaled unevenly ({', '.join(f'{v:g}' for v in scales)}); rendered as {shape}"
+    shown = ", ".join(f"{v:g}" for v in scales)
+    return f"{prim.GetPath()}: scaled unevenly ({shown}); rendered as {shape}"
 
 
 def _check_pole_axis(
