@@ -1,6 +1,8 @@
 #include "penumbra/plugin/placement.h"
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace penumbra::plugin {
 
@@ -33,6 +35,42 @@ void PlacedRprim::setMaterialId(PrimId materialId) {
   markDirty(DirtyMaterialId);
 }
 
+void PlacedRprim::setSubsetMaterials(std::vector<SubsetMaterial> subsets) {
+  for (const SubsetMaterial& subset : subsets)
+    for (const int face : subset.faces)
+      if (face < 0)
+        throw std::invalid_argument(id() + ": a material subset lists face " +
+                                    std::to_string(face));
+  subsetMaterials_ = std::move(subsets);
+  markDirty(DirtyMaterialId);
+}
+
+bool PlacedRprim::bindsAny(const std::set<PrimId>& materials) const {
+  if (materials.count(materialId_)) return true;
+  for (const SubsetMaterial& subset : subsetMaterials_)
+    if (materials.count(subset.material)) return true;
+  return false;
+}
+
+std::vector<int> PlacedRprim::faceMaterials(const SyncContext& context) const {
+  if (subsetMaterials_.empty()) return {};
+  const size_t faces = faceCount();
+  std::vector<int> materials;
+  for (const SubsetMaterial& subset : subsetMaterials_) {
+    const int index =
+        subset.material.empty()
+            ? MaterialTable::kNoMaterial
+            : context.materials.find(subset.material).value_or(MaterialTable::kNoMaterial);
+    for (const int face : subset.faces) {
+      if (size_t(face) >= faces) continue;
+      if (size_t(face) >= materials.size())
+        materials.resize(size_t(face) + 1, Geometry::kObjectMaterial);
+      if (materials[size_t(face)] == Geometry::kObjectMaterial) materials[size_t(face)] = index;
+    }
+  }
+  return materials;
+}
+
 void PlacedRprim::setTransform(const MotionTransform& objectToWorld) {
   objectToWorld_ = objectToWorld;
   markDirty(DirtyTransform);
@@ -55,9 +93,16 @@ void PlacedRprim::setLinkingClass(uint32_t linkingClass) {
 
 void PlacedRprim::syncPlacement(SyncContext& context, uint32_t bits) const {
   if (bits & kPlacementDirtyBits) {
-    if (!materialId_.empty() && !context.materials.find(materialId_) && (bits & DirtyMaterialId))
-      context.warn(id() + ": bound material " + materialId_ +
-                   " is not in the render index; displayColor is used");
+    if (bits & DirtyMaterialId) {
+      if (!materialId_.empty() && !context.materials.find(materialId_))
+        context.warn(id() + ": bound material " + materialId_ +
+                     " is not in the render index; displayColor is used");
+      for (const SubsetMaterial& subset : subsetMaterials_)
+        if (!subset.material.empty() && !context.materials.find(subset.material))
+          context.warn(id() + ": material " + subset.material +
+                       " bound to a subset of its faces is not in the render index; those faces "
+                       "use displayColor");
+    }
     if (bits & DirtyVisibility) {
       context.scene.geometry().setMeshPassVisibility(handle_, pass_);
       context.scene.geometry().setMeshLinkingClass(handle_, linkingClass_);
@@ -74,6 +119,7 @@ void PlacedRprim::place(SyncContext& context) const {
   int materialIndex = MaterialTable::kNoMaterial;
   if (!materialId_.empty())
     materialIndex = context.materials.find(materialId_).value_or(materialIndex);
+  context.scene.geometry().setMeshFaceMaterials(handle_, faceMaterials(context));
   context.scene.geometry().setMeshInstance(handle_, objectToWorld_, materialIndex, visible_);
 }
 

@@ -229,8 +229,7 @@ void RenderDelegate::placeUsersOfNewAndRemovedMaterials() {
   const std::set<PrimId> insertedOrRemoved = context_.materials.takeInsertedOrRemoved();
   if (insertedOrRemoved.empty()) return;
   const auto placeAgain = [&](const auto& user) {
-    if (!(user.dirtyBits() & PlacedRprim::kPlacementDirtyBits) &&
-        insertedOrRemoved.count(user.materialId()))
+    if (!(user.dirtyBits() & PlacedRprim::kPlacementDirtyBits) && user.bindsAny(insertedOrRemoved))
       user.place(context_);
   };
   meshes_.forEach(placeAgain);

@@ -312,6 +312,19 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
           },
           py::arg("ids"), py::arg("material_ids"), "set_mesh_material for many meshes or points.")
       .def(
+          "set_subset_materials",
+          [](RenderDelegate& self, const std::string& id,
+             const std::vector<std::pair<std::string, IntArray>>& subsets) {
+            std::vector<plugin::SubsetMaterial> bindings;
+            for (const auto& [material, faces] : subsets)
+              bindings.push_back({material, toIntVector(faces, "faces")});
+            self.mesh(id).setSubsetMaterials(std::move(bindings));
+          },
+          py::arg("id"), py::arg("subsets"),
+          "Per-face material bindings of mesh `id` (GeomSubsets): (material id, face indices) "
+          "pairs, the first subset binding a face where they overlap; an empty material id "
+          "shows displayColor on its faces.")
+      .def(
           "set_transform",
           [](RenderDelegate& self, const std::string& id, const DoubleArray& matrix) {
             setTransform(self, id, matrix);

@@ -209,7 +209,10 @@ void Geometry::forEachObjectBounds(const std::function<void(int materialIndex, c
   for (const std::unique_ptr<MeshRecord>& mesh : meshes_) {
     if (!mesh || !renderable(*mesh)) continue;
     const auto visitBox = [&](const Box& box) {
-      if (box.lower.x <= box.upper.x) visit(mesh->materialIndex, box.lower, box.upper);
+      if (box.lower.x > box.upper.x) return;
+      visit(mesh->materialIndex, box.lower, box.upper);
+      for (const int material : mesh->faceMaterialSet)
+        if (material != mesh->materialIndex) visit(material, box.lower, box.upper);
     };
     if (mesh->own) visitBox(worldBounds(*mesh->own, mesh->ownEnabled));
     for (const InstancerId id : mesh->instancers) visitBox(instancer(id).bounds);
@@ -314,16 +317,35 @@ const PassVisibility& Geometry::passOf(const Placement& placement) const {
   return placement.instancer ? placement.instancer->pass : meshes_[placement.mesh]->pass;
 }
 
+template <typename Predicate>
+bool Geometry::anyMaterialOf(const MeshRecord& mesh, Predicate cuts) const {
+  if (cuts(materials_.find(mesh.materialIndex))) return true;
+  for (const int material : mesh.faceMaterialSet)
+    if (cuts(materials_.find(material))) return true;
+  return false;
+}
+
+int Geometry::materialOf(const MeshRecord& mesh, uint32_t primitive) {
+  if (mesh.faceMaterials.empty()) return mesh.materialIndex;
+  const int face = mesh.shape->elementOf(primitive);
+  if (face < 0 || size_t(face) >= mesh.faceMaterials.size()) return mesh.materialIndex;
+  const int material = mesh.faceMaterials[size_t(face)];
+  return material == kObjectMaterial ? mesh.materialIndex : material;
+}
+
 bool Geometry::renderable(const MeshRecord& mesh) const {
   if (!mesh.bvh) return false;
-  const Material* material = materials_.find(mesh.materialIndex);
-  return !material || !cutsOutWhole(*material);
+  return anyMaterialOf(
+      mesh, [](const Material* material) { return !material || !cutsOutWhole(*material); });
 }
 
 bool Geometry::updateHitFilters(MeshRecord& mesh) {
   if (!mesh.geometry) return false;
-  const Material* material = materials_.find(mesh.materialIndex);
-  const bool cutouts = material && cutsOutPerHit(*material);
+  // With per-face materials, faces whose material cuts them out whole are cut out per hit.
+  const bool perFace = !mesh.faceMaterials.empty();
+  const bool cutouts = anyMaterialOf(mesh, [perFace](const Material* material) {
+    return material && (cutsOutPerHit(*material) || (perFace && cutsOutWhole(*material)));
+  });
   if (cutouts == mesh.cutoutFilter) return false;
   mesh.cutoutFilter = cutouts;
   applyHitFilters(mesh);
@@ -469,9 +491,26 @@ void Geometry::followMaterial(size_t index, MaterialTable::CutoutChange change) 
   if (!change.whole && !change.perHit) return;
   for (MeshId id = 0; id < meshes_.size(); ++id) {
     MeshRecord* mesh = meshes_[id].get();
-    if (!mesh || mesh->materialIndex != int(index)) continue;
+    if (!mesh || (mesh->materialIndex != int(index) &&
+                  !std::binary_search(mesh->faceMaterialSet.begin(), mesh->faceMaterialSet.end(),
+                                      int(index))))
+      continue;
     if (updateHitFilters(*mesh) || change.whole) updateAllPlacements(id);
   }
+}
+
+void Geometry::setMeshFaceMaterials(MeshId id, std::vector<int> faceMaterials) {
+  MeshRecord& mesh = record(id);
+  if (faceMaterials == mesh.faceMaterials) return;
+  const bool wasRenderable = renderable(mesh);
+  std::vector<int> set;
+  for (const int material : faceMaterials)
+    if (material != kObjectMaterial) set.push_back(material);
+  std::sort(set.begin(), set.end());
+  set.erase(std::unique(set.begin(), set.end()), set.end());
+  mesh.faceMaterials = std::move(faceMaterials);
+  mesh.faceMaterialSet = std::move(set);
+  if (updateHitFilters(mesh) || renderable(mesh) != wasRenderable) updateAllPlacements(id);
 }
 
 void Geometry::setMeshPassVisibility(MeshId id, PassVisibility pass) {

@@ -54,7 +54,6 @@ void Geometry::filterHits(const RTCFilterFunctionNArguments* args) {
   const auto* context = reinterpret_cast<const TraceContext*>(args->context);
   const auto* mesh = static_cast<const MeshRecord*>(args->geometryUserPtr);
   const MaterialTable& materials = context->geometry->materials_;
-  const Material* material = mesh->cutoutFilter ? materials.find(mesh->materialIndex) : nullptr;
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] != -1) continue;
     // Camera rays do not see the back faces of single-sided meshes. Embree's geometric normal
@@ -71,10 +70,13 @@ void Geometry::filterHits(const RTCFilterFunctionNArguments* args) {
         continue;
       }
     }
-    if (!material) continue;
-    SurfacePoint point = mesh->shape->pointAt(
-        RTCHitN_primID(args->hit, args->N, i), RTCHitN_u(args->hit, args->N, i),
-        RTCHitN_v(args->hit, args->N, i), RTCRayN_time(args->ray, args->N, i));
+    if (!mesh->cutoutFilter) continue;
+    const uint32_t primitive = RTCHitN_primID(args->hit, args->N, i);
+    const Material* material = materials.find(materialOf(*mesh, primitive));
+    if (!material || material->constants.opacityThreshold <= 0) continue;
+    SurfacePoint point =
+        mesh->shape->pointAt(primitive, RTCHitN_u(args->hit, args->N, i),
+                             RTCHitN_v(args->hit, args->N, i), RTCRayN_time(args->ray, args->N, i));
     const Placement& placement =
         *context->geometry
              ->placements_[context->placementId(RTCHitN_instID(args->hit, args->N, i, 0))];
@@ -155,7 +157,7 @@ std::optional<GeometryHit> Geometry::intersect(const Ray& ray, RayKind kind) con
   hit.geometricNormal = {rayHit.hit.Ng_x, rayHit.hit.Ng_y, rayHit.hit.Ng_z};
   hit.shape = mesh.shape.get();
   hit.objectToWorld = &placement.objectToWorld;
-  hit.materialIndex = mesh.materialIndex;
+  hit.materialIndex = materialOf(mesh, rayHit.hit.primID);
   hit.pass = passOf(placement);
   hit.instancePrimvars = copyPrimvars(placement);
   hit.linkingClass = placement.linkingClass;

@@ -254,3 +254,56 @@ TEST(Geometry, HitPointsLieOnADiscHoweverFarTheRayCameFrom) {
   }
   EXPECT_EQ(hits, 81);
 }
+
+TEST(Geometry, FaceMaterialsBindTheirFacesAndCutThemOutAlone) {
+  const Device device;
+  Scene scene(device);
+  Geometry& geometry = scene.geometry();
+  penumbra::Material plain;
+  penumbra::Material hole;
+  hole.constants.opacity = 0;
+  hole.constants.opacityThreshold = 0.5f;
+  scene.setMaterial(0, plain);
+  scene.setMaterial(1, plain);
+  // Two faces side by side: x < 0 is face 0, x > 0 face 1.
+  MeshData data;
+  data.points = {{-1, 0, -1}, {-1, 0, 1}, {0, 0, 1}, {0, 0, -1}, {1, 0, 1}, {1, 0, -1}};
+  data.faceVertexCounts = {4, 4};
+  data.faceVertexIndices = {0, 1, 2, 3, 3, 2, 4, 5};
+  const Geometry::MeshId id = geometry.addMesh();
+  geometry.setMeshGeometry(id, triangulate(data));
+  geometry.setMeshInstance(id, Transform(), 0, true);
+  geometry.setMeshFaceMaterials(id, {Geometry::kObjectMaterial, 1});
+  geometry.setInstances(geometry.addInstancer(), id, {translation(10, 0, 0)}, true);
+  scene.commit();
+  const auto materialAt = [&](float x) {
+    const std::optional<GeometryHit> hit = geometry.intersect(downAt(x, 0.5f), RayKind::Camera);
+    return hit ? hit->materialIndex : -100;
+  };
+  EXPECT_EQ(materialAt(-0.5f), 0);
+  EXPECT_EQ(materialAt(0.5f), 1);
+  EXPECT_EQ(materialAt(10.5f), 1);  // copies render so too
+
+  // The faces' material cutting out whole hides those faces alone, from every ray.
+  scene.setMaterial(1, hole);
+  scene.commit();
+  EXPECT_EQ(materialAt(-0.5f), 0);
+  EXPECT_EQ(materialAt(0.5f), -100);
+  EXPECT_EQ(materialAt(10.5f), -100);
+  Ray shadow = downAt(0.5f, 0.5f);
+  shadow.tFar = 10;
+  EXPECT_FALSE(geometry.occluded(shadow));
+  shadow.origin.x = -0.5f;
+  EXPECT_TRUE(geometry.occluded(shadow));
+
+  // The mesh's own material cutting out whole leaves the faces bound otherwise.
+  geometry.setMeshInstance(id, Transform(), 1, true);
+  geometry.setMeshFaceMaterials(id, {Geometry::kObjectMaterial, 0});
+  scene.commit();
+  EXPECT_EQ(materialAt(-0.5f), -100);
+  EXPECT_EQ(materialAt(0.5f), 0);
+  // Without face materials, the whole mesh goes.
+  geometry.setMeshFaceMaterials(id, {});
+  scene.commit();
+  EXPECT_EQ(materialAt(0.5f), -100);
+}

@@ -34,6 +34,7 @@ class CoreBatch:
         self._transforms: tuple[list[str], list[np.ndarray]] = ([], [])
         self._visible: tuple[list[str], list[bool]] = ([], [])
         self._materials: tuple[list[str], list[str]] = ([], [])
+        self._subset_materials: list[tuple[str, list[tuple[str, np.ndarray]]]] = []
         self._not_lights: list[str] = []  # meshes without UsdLuxMeshLightAPI: most of them
         self.mesh_lights: set[str] = set()
         """The meshes made lights (UsdLuxMeshLightAPI) through this batch."""
@@ -112,6 +113,10 @@ class CoreBatch:
         self._materials[0].append(path)
         self._materials[1].append(material_id)
 
+    def set_subset_materials(self, path: str, subsets: list[tuple[str, np.ndarray]]) -> None:
+        """Queue mesh ``path``'s per-face bindings: (material id, faces) for each subset."""
+        self._subset_materials.append((path, subsets))
+
     def send(self) -> None:
         """Send what was queued (mesh data first) and forget it."""
         if self._meshes:
@@ -128,6 +133,9 @@ class CoreBatch:
         if self._materials[0]:
             self.core.set_mesh_materials(*self._materials)
             self._materials = ([], [])
+        for path, subsets in self._subset_materials:
+            self.core.set_subset_materials(path, subsets)
+        self._subset_materials = []
 
     def _send_transforms(self) -> None:
         self._check_transforms(*self._transforms)

@@ -33,11 +33,6 @@ def bound_materials(prims: list[Usd.Prim]) -> list[Sdf.Path | None]:
     return [material.GetPath() if material else None for material in materials]
 
 
-def has_subset_bindings(prim: Usd.Prim) -> bool:
-    """Whether ``prim`` binds materials per face through GeomSubsets."""
-    return bool(UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets())
-
-
 @cache
 def _schema_defaults() -> dict[str, Any]:
     """UsdPreviewSurface's input defaults from the shader registry (empty if unregistered)."""

@@ -76,6 +76,14 @@ class MaterialRegistry:
                 self.acquire(new, user)
         return "" if new is None else self.material_id(new)
 
+    def use(self, user: Sdf.Path, old: set[Sdf.Path], new: set[Sdf.Path]) -> None:
+        """Move ``user`` from the materials ``old`` to ``new`` (a mesh's own and its subsets'),
+        acquiring those it starts to use before releasing those it no longer does."""
+        for material_path in sorted(new - old):
+            self.acquire(material_path, user)
+        for material_path in sorted(old - new):
+            self.release(material_path, user)
+
     def material_id(self, material_path: Sdf.Path) -> str:
         """The delegate id of the material, "" when it cannot be used."""
         material = self._materials.get(material_path)

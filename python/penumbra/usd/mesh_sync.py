@@ -14,7 +14,7 @@ from pxr import Sdf, Usd
 
 from .core_batch import CHUNK, CoreBatch
 from .inherited import InheritedState
-from .material import bound_materials, has_subset_bindings
+from .material import bound_materials
 from .material_registry import MaterialRegistry
 from .mesh import Authored, is_plain, push_plain_meshes, sync_mesh_data
 from .motion import XformCaches, transforms_samples
@@ -22,6 +22,7 @@ from .prim_sync import SyncSettings
 from .ray_visibility import ShownSender
 from .render_pass import RenderPassCollections
 from .sampling import SampleReader
+from .subset_bindings import SubsetBindings, material_subsets, read_subset_bindings
 from .tracking import Dirty, Flush, TrackedPrim, set_flag
 
 
@@ -34,10 +35,10 @@ def warn_subset_bindings(
     prim: Usd.Prim, name: Sdf.Path | str, warn: Callable[[str], None]
 ) -> None:
     """Warn (naming the mesh ``name``, as users know it) that ``prim``'s GeomSubset bindings
-    are ignored; shared by plain and instanced meshes so that both say the same."""
-    if prim.GetChildrenNames() and has_subset_bindings(prim):  # subsets are children
+    are ignored: those of instanced meshes, and of gprims other than meshes."""
+    if material_subsets(prim):
         warn(
-            f"{name}: per-face material bindings (GeomSubsets) are not supported yet; "
+            f"{name}: per-face material bindings (GeomSubsets) are not supported here yet; "
             "the mesh's own binding is used"
         )
 
@@ -96,7 +97,7 @@ class MeshSync:
         removed = self._sync_data(meshes, plain, general, known_authored, settings, batch)
         self._sync_transforms(meshes, removed, settings, xform_caches, batch)
         self._sync_visibilities(meshes, removed, batch)
-        self._sync_bindings(meshes, removed, batch)
+        self._sync_bindings(meshes, removed, settings, batch)
 
     def _sync_data(
         self,
@@ -172,9 +173,11 @@ class MeshSync:
             record = meshes.records[n]
             record.varying = set_flag(record.varying, Dirty.VISIBILITY, might_vary)
 
-    def _sync_bindings(self, meshes: Flush, removed: set[int], batch: CoreBatch) -> None:
-        """Queue the material bindings of ``meshes`` whose binding is dirty; a new mesh that is
-        unbound and has no subsets to warn about needs nothing sent."""
+    def _sync_bindings(
+        self, meshes: Flush, removed: set[int], settings: SyncSettings, batch: CoreBatch
+    ) -> None:
+        """Queue the material bindings of ``meshes`` whose binding is dirty, their subsets'
+        among them; a new mesh that is unbound and has no subsets needs nothing sent."""
         binding = [n for n in range(len(meshes.paths)) if meshes.bits[n] & Dirty.BINDING]
         bound: list[Sdf.Path | None] = [None] * len(meshes.paths)
         for n, material in zip(binding, self._bound_materials(meshes.subset(binding))):
@@ -185,8 +188,8 @@ class MeshSync:
             material, record, prim = bound[n], meshes.records[n], meshes.prims[n]
             new = meshes.new[n]
             if material is None and not record.material and new and not prim.GetChildrenNames():
-                continue  # unbound here and in the delegate, and no subsets to warn about
-            self._sync_binding(path, meshes.ids[n], record, prim, material, batch, new)
+                continue  # unbound here and in the delegate, and no subsets
+            self._sync_binding(path, meshes.ids[n], record, prim, material, settings, batch, new)
 
     def _bound_materials(self, meshes: Flush) -> list[Sdf.Path | None]:
         """The materials bound to ``meshes``, computed in one batch for those that may have
@@ -236,13 +239,27 @@ class MeshSync:
         record: TrackedPrim,
         prim: Usd.Prim,
         material_path: Sdf.Path | None,
+        settings: SyncSettings,
         batch: CoreBatch,
         new: bool,
     ) -> None:
-        """Bind mesh ``path`` to ``material_path``; ``new``: the mesh has just entered the
-        delegate, unbound."""
-        warn_subset_bindings(prim, path, self._warn)
-        material_id = self._materials.bind(path, record.material, material_path)
+        """Bind mesh ``path`` to ``material_path`` and its faces to its subsets' materials;
+        ``new``: the mesh has just entered the delegate, unbound."""
+        if prim.GetTypeName() == "Mesh":
+            subsets = read_subset_bindings(prim, settings.time, self._warn)
+        else:  # a gprim read as a mesh has no authored faces to bind
+            warn_subset_bindings(prim, path, self._warn)
+            subsets = SubsetBindings([])
+        record.varying = set_flag(record.varying, Dirty.BINDING, subsets.varying)
+        used = {material_path} | {binding.material for binding in subsets.bindings}
+        self._materials.use(path, record.materials(), used - {None})
         record.material = str(material_path) if material_path is not None else ""
+        record.subset_materials = tuple(str(binding.material) for binding in subsets.bindings)
+        material_id = "" if material_path is None else self._materials.material_id(material_path)
         if material_id or not new:
             batch.set_mesh_material(path_str, material_id)
+        if subsets.bindings or not new:
+            batch.set_subset_materials(
+                path_str,
+                [(self._materials.material_id(b.material), b.faces) for b in subsets.bindings],
+            )

@@ -290,8 +290,7 @@ class SceneDelegate:
             self._linking.forget(path)
             if record.in_core:
                 self.core.remove_prim(str(path))
-            if record.material:
-                self.materials.release(Sdf.Path(record.material), path)
+            self.materials.use(path, record.materials(), set())
 
     def _flush(self, settings: SyncSettings) -> None:
         """Insert the new tracked prims, have each kind's syncer read their dirty aspects, and

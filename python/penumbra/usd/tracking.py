@@ -63,6 +63,11 @@ class TrackedPrim:
     # Meshes whose data varies: attribute queries reused at each new time (dropped on edits).
     queries: dict[str, Usd.AttributeQuery] | None = None
     material: str = ""  # meshes and points: id of the bound material ("" = none)
+    subset_materials: tuple[str, ...] = ()  # meshes: those their GeomSubsets bind
+
+    def materials(self) -> set[Sdf.Path]:
+        """The materials it uses: its own and its subsets'."""
+        return {Sdf.Path(m) for m in (self.material, *self.subset_materials) if m}
 
 
 @dataclass
@@ -221,6 +226,7 @@ class ChangeTracker:
             self.resync(prim_path)
             return
         self._materials.note_edited(prim_path)
+        self._mark_subset_owner(prim_path)
         if _is_xform_property(name):
             self._mark_subtree(prim_path, Dirty.TRANSFORM)
         elif name == UsdGeom.Tokens.visibility:
@@ -243,6 +249,13 @@ class ChangeTracker:
             if edited and bits & Dirty.DATA:
                 record.queries = None
             self._dirty[path] = self._dirty.get(path, 0) | (bits & aspects(record.kind))
+
+    def _mark_subset_owner(self, path: Sdf.Path) -> None:
+        """An edit of an untracked child of a tracked mesh (a GeomSubset: its faces and binding
+        are part of the mesh's binding) resolves the mesh's binding again."""
+        owner = self.prims.get(path.GetParentPath())
+        if owner is not None and owner.kind == "mesh" and path not in self.prims:
+            self.mark(path.GetParentPath(), Dirty.BINDING)
 
     def _mark_subtree(self, root: Sdf.Path, bits: int) -> None:
         for path in self._tracked_under(root):
@@ -275,6 +288,8 @@ class ChangeTracker:
                 self._dirty[path] = aspects(kind)
         for user in self._materials.note_resynced(root):
             self.mark(user, Dirty.BINDING)
+        if root != Sdf.Path.absoluteRootPath:
+            self._mark_subset_owner(root)  # a subset added or removed
         if root != Sdf.Path.absoluteRootPath:  # else every binding is resolved again anyway
             # A collection owned in the subtree may have changed (or gone) with it.
             for binder, collections in self._collection_binders.binders().items():

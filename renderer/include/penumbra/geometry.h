@@ -140,6 +140,13 @@ class Geometry {
                        bool visible);
   /// How camera rays treat the mesh itself (not its instancers' copies).
   void setMeshPassVisibility(MeshId id, PassVisibility pass);
+  /// Per-face materials (UsdGeomSubset material bindings): the mesh's face f (its authored
+  /// face, Shape::elementOf) renders with `faceMaterials[f]`, a material index or
+  /// MaterialTable::kNoMaterial (displayColor); entries kObjectMaterial, faces past the end,
+  /// and every face when it is empty take the mesh's own material (setMeshInstance's). Its
+  /// instancers' copies render so too.
+  void setMeshFaceMaterials(MeshId id, std::vector<int> faceMaterials);
+  static constexpr int kObjectMaterial = -2;
 
   /// Farthest a shown placement may reach from the origin, in every coordinate: Embree wants
   /// ray origins within about 1.8e19 (it asserts so), and hits on geometry farther out would
@@ -277,6 +284,8 @@ class Geometry {
     bool cutoutFilter = false;       // `geometry` filters hits by textured opacity
     std::shared_ptr<const Shape> shape;
     int materialIndex = MaterialTable::kNoMaterial;
+    std::vector<int> faceMaterials;    // setMeshFaceMaterials
+    std::vector<int> faceMaterialSet;  // its entries but kObjectMaterial, sorted, once each
     bool visible = true;
     PassVisibility pass;
     std::unique_ptr<Placement> own;
@@ -356,12 +365,17 @@ class Geometry {
   static void skipPlacements(const RTCFilterFunctionNArguments* args);
   /// The pass visibility of a placement's owner: its instancer's, or its mesh's.
   const PassVisibility& passOf(const Placement& placement) const;
-  /// Whether copies of a mesh render: it has geometry and its material does not cut it out.
+  /// Whether copies of a mesh render: it has geometry and not all of its materials cut it out.
   bool renderable(const MeshRecord& mesh) const;
   /// Sets the mesh's hit filters: back-face culling for single-sided meshes, cut-outs where
-  /// opacity is textured and thresholded. Returns whether they changed (the mesh's placements
-  /// are then to be updated).
+  /// opacity is textured and thresholded, or where some faces' material cuts them out whole.
+  /// Returns whether they changed (the mesh's placements are then to be updated).
   bool updateHitFilters(MeshRecord& mesh);
+  /// Whether `cuts` holds for some material of the mesh (its own, and its faces').
+  template <typename Predicate>
+  bool anyMaterialOf(const MeshRecord& mesh, Predicate cuts) const;
+  /// The material of the mesh's `primitive` (its face's, or the mesh's own).
+  static int materialOf(const MeshRecord& mesh, uint32_t primitive);
   /// The per-copy primvars of `placement`, if it is a copy of an instancer that has some.
   static const std::vector<Primvar>* copyPrimvars(const Placement& placement);
   /// Embree hit filter (any hit, intersection and occlusion rays).

@@ -78,6 +78,9 @@ class Mesh : public PlacedRprim {
                          const SyncContext& context);
   static constexpr size_t kDicingCopies = 16;
 
+ protected:
+  size_t faceCount() const override { return data_.faceVertexCounts.size(); }
+
  private:
   /// The dirty bits on which a mesh light's sync builds its light again.
   static constexpr uint32_t kLightDirtyBits =

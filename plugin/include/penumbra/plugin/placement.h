@@ -4,6 +4,8 @@
 #pragma once
 
 #include <cstdint>
+#include <set>
+#include <vector>
 
 #include "penumbra/motion.h"
 #include "penumbra/plugin/prim.h"
@@ -14,6 +16,13 @@ namespace penumbra::plugin {
 
 /// Why a placement Geometry::beyondReach reports is not rendered (for warnings).
 extern const char* const kBeyondReach;
+
+/// A GeomSubset's material binding (UsdShadeMaterialBindingAPI on a subset of family
+/// "materialBind"): the material and the faces it binds.
+struct SubsetMaterial {
+  PrimId material;  // empty: none usable (the faces show displayColor)
+  std::vector<int> faces;
+};
 
 class PlacedRprim : public Prim {
  public:
@@ -29,6 +38,12 @@ class PlacedRprim : public Prim {
   void setPassVisibility(PassVisibility pass) override;
   /// Its light and shadow linking class (LinkingTable; 0: linked to every light).
   void setLinkingClass(uint32_t linkingClass);
+  /// Per-face material bindings, overriding its material on their faces; where subsets
+  /// overlap, the first binds the face. Faces not below faceCount() are left out. Throws
+  /// std::invalid_argument for a negative face.
+  void setSubsetMaterials(std::vector<SubsetMaterial> subsets);
+  /// Whether it binds one of `materials`, itself or through a subset.
+  bool bindsAny(const std::set<PrimId>& materials) const;
 
   /// Places its object with its transform, material and visibility (a material it is bound to
   /// changed or moved in the scene's list).
@@ -36,6 +51,7 @@ class PlacedRprim : public Prim {
 
   Geometry::MeshId handle() const { return handle_; }
   const PrimId& materialId() const { return materialId_; }
+  const std::vector<SubsetMaterial>& subsetMaterials() const { return subsetMaterials_; }
   const MotionTransform& transform() const { return objectToWorld_; }
   bool visible() const { return visible_; }
   PassVisibility passVisibility() const { return pass_; }
@@ -46,10 +62,17 @@ class PlacedRprim : public Prim {
   /// the render index, applies the pass visibility, and places the object (on
   /// kPlacementDirtyBits).
   void syncPlacement(SyncContext& context, uint32_t bits) const;
+  /// How many faces subsets may bind (none: this kind has no faces).
+  virtual size_t faceCount() const { return 0; }
 
  private:
+  /// The material of each face that subsets bind (Geometry::setMeshFaceMaterials), empty
+  /// without subsets.
+  std::vector<int> faceMaterials(const SyncContext& context) const;
+
   Geometry::MeshId handle_;
   PrimId materialId_;
+  std::vector<SubsetMaterial> subsetMaterials_;
   MotionTransform objectToWorld_;
   bool visible_ = true;
   PassVisibility pass_;

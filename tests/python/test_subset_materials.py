@@ -1,0 +1,202 @@
+"""Per-face material bindings: GeomSubsets of family "materialBind" bind materials of their own
+to the faces they list (UsdShade), on polygon meshes and subdivision surfaces, in fresh renders
+and through live edits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
+
+import penumbra
+from stages import (
+    add_camera,
+    add_preview_material,
+    assert_live_edit_renders_as_fresh,
+    bind,
+    emitter_stage,
+    pixel,
+    render_with_warnings,
+)
+
+BLUE, RED, GREEN, WHITE = (0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (1.0, 1.0, 1.0)
+# Where the camera sees each face of the 2 x 2 grid: faces 0 and 1 below, 2 and 3 above.
+FACE_CENTRES = ((0.25, 0.75), (0.75, 0.75), (0.25, 0.25), (0.75, 0.25))
+RENDER = dict(camera="/cam", width=64, samples=4, seed=1, max_path_depth=0)
+
+
+def emitter(stage, name: str, colour) -> UsdShade.Material:
+    """A black material emitting radiance ``colour``: with max_path_depth 0 the image is it."""
+    return add_preview_material(
+        stage, f"/Looks/{name}", diffuseColor=(0.0, 0.0, 0.0), emissiveColor=colour
+    )
+
+
+def grid_stage(scheme: str = "none"):
+    """A 2 x 2 grid of quads filling the view, bound to blue, on black."""
+    stage = emitter_stage()
+    add_camera(stage)
+    mesh = UsdGeom.Mesh.Define(stage, "/World/grid")
+    mesh.CreatePointsAttr([Gf.Vec3f(x, y, 0) for y in (-2, 0, 2) for x in (-2, 0, 2)])
+    mesh.CreateFaceVertexCountsAttr([4] * 4)
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 4, 3, 1, 2, 5, 4, 3, 4, 7, 6, 4, 5, 8, 7])
+    mesh.CreateSubdivisionSchemeAttr(scheme)
+    bind(mesh, emitter(stage, "blue", BLUE))
+    return stage, mesh
+
+
+def bind_subset(mesh: UsdGeom.Mesh, name: str, faces, material) -> UsdGeom.Subset:
+    subset = UsdShade.MaterialBindingAPI(mesh.GetPrim()).CreateMaterialBindSubset(
+        name, Vt.IntArray(faces)
+    )
+    UsdShade.MaterialBindingAPI.Apply(subset.GetPrim()).Bind(material)
+    return subset
+
+
+def face_colours(image) -> list[tuple[float, ...]]:
+    return [tuple(float(c) for c in pixel(image, u, v)) for u, v in FACE_CENTRES]
+
+
+@pytest.mark.parametrize("scheme", ["none", "catmullClark"])
+def test_subsets_bind_their_faces_and_the_rest_keep_the_mesh_material(scheme: str):
+    stage, mesh = grid_stage(scheme)
+    bind_subset(mesh, "a", [1], emitter(stage, "red", RED))
+    bind_subset(mesh, "b", [2, 3], emitter(stage, "green", GREEN))
+    image, warnings = render_with_warnings(stage, 64)
+    assert warnings == []
+    image = penumbra.Renderer(stage).render(**RENDER)
+    assert face_colours(image) == [BLUE, RED, GREEN, GREEN]
+
+
+def test_overlapping_subsets_give_a_face_to_the_first():
+    stage, mesh = grid_stage()
+    bind_subset(mesh, "a", [0, 3], emitter(stage, "red", RED))
+    bind_subset(mesh, "b", [3, 2], emitter(stage, "green", GREEN))
+    assert face_colours(penumbra.Renderer(stage).render(**RENDER)) == [RED, BLUE, GREEN, RED]
+
+
+def test_a_subset_without_a_binding_keeps_the_mesh_material():
+    stage, mesh = grid_stage()
+    UsdShade.MaterialBindingAPI(mesh.GetPrim()).CreateMaterialBindSubset("bare", Vt.IntArray([0]))
+    bind_subset(mesh, "a", [1], emitter(stage, "red", RED))
+    assert face_colours(penumbra.Renderer(stage).render(**RENDER)) == [BLUE, RED, BLUE, BLUE]
+
+
+def test_subsets_bind_faces_of_an_unbound_mesh():
+    stage, mesh = grid_stage()
+    UsdShade.MaterialBindingAPI(mesh.GetPrim()).UnbindAllBindings()
+    mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([Gf.Vec3f(0.5)])
+    bind_subset(mesh, "a", [1], emitter(stage, "red", RED))
+    colours = face_colours(penumbra.Renderer(stage).render(**RENDER))
+    assert colours[1] == RED
+    assert colours[0] == colours[2] == colours[3] == (0.0, 0.0, 0.0)  # grey, not emitting
+
+
+def test_a_subset_material_that_cuts_out_its_faces_leaves_the_others():
+    stage, mesh = grid_stage()
+    hole = add_preview_material(stage, "/Looks/hole", opacity=0.0, opacityThreshold=0.5)
+    bind_subset(mesh, "a", [1, 2], hole)
+    alpha = penumbra.Renderer(stage).render(**RENDER)["color"][..., 3]
+    seen = [float(alpha[int(v * 64), int(u * 64)]) for u, v in FACE_CENTRES]
+    assert seen == [1.0, 0.0, 0.0, 1.0]
+
+
+def test_faces_of_a_subset_show_where_the_mesh_material_cuts_the_rest_out():
+    stage, mesh = grid_stage()
+    bind(mesh, add_preview_material(stage, "/Looks/hole", opacity=0.0, opacityThreshold=0.5))
+    bind_subset(mesh, "a", [3], emitter(stage, "red", RED))
+    image = penumbra.Renderer(stage).render(**RENDER)
+    alpha = image["color"][..., 3]
+    assert [float(alpha[int(v * 64), int(u * 64)]) for u, v in FACE_CENTRES] == [0, 0, 0, 1]
+    assert face_colours(image)[3] == RED
+
+
+def test_indices_outside_the_faces_and_other_element_types_are_named_and_left_out():
+    stage, mesh = grid_stage()
+    bind_subset(mesh, "a", [1, 7, -1], emitter(stage, "red", RED))
+    points = bind_subset(mesh, "b", [2], emitter(stage, "green", GREEN))
+    points.GetElementTypeAttr().Set(UsdGeom.Tokens.point)
+    image, warnings = render_with_warnings(stage, 64)
+    assert len(warnings) == 2, warnings
+    assert any(
+        "/World/grid/a.indices" in w and "2 of 3 indices are not faces" in w for w in warnings
+    )
+    assert any("/World/grid/b" in w and "elementType 'point'" in w for w in warnings)
+    colours = face_colours(penumbra.Renderer(stage).render(**RENDER))
+    assert colours == [BLUE, RED, BLUE, BLUE]
+
+
+def test_a_subset_binding_through_a_collection_binds_its_faces():
+    stage, mesh = grid_stage()
+    subset = UsdShade.MaterialBindingAPI(mesh.GetPrim()).CreateMaterialBindSubset(
+        "a", Vt.IntArray([2])
+    )
+    collection = Sdf.Path("/World.collection:painted")
+    api = UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World"))
+    painted = Usd.CollectionAPI.Apply(stage.GetPrimAtPath("/World"), "painted")
+    painted.CreateIncludesRel().AddTarget(subset.GetPath())
+    # Stronger than descendants: else the mesh's own binding, nearer the subset, would win.
+    api.Bind(
+        painted, emitter(stage, "green", GREEN), "painted", UsdShade.Tokens.strongerThanDescendants
+    )
+    assert collection == painted.GetCollectionPath()
+    colours = face_colours(penumbra.Renderer(stage).render(**RENDER))
+    assert colours == [BLUE, BLUE, GREEN, BLUE]
+
+
+def remove_top_faces(mesh: UsdGeom.Mesh) -> None:
+    mesh.GetFaceVertexCountsAttr().Set([4, 4])
+    mesh.GetFaceVertexIndicesAttr().Set([0, 1, 4, 3, 1, 2, 5, 4])
+
+
+def edited_grid():
+    stage, mesh = grid_stage()
+    subset = bind_subset(mesh, "a", [1], emitter(stage, "red", RED))
+    emitter(stage, "green", GREEN)
+    return stage, mesh, subset
+
+
+@pytest.mark.parametrize(
+    "edit",
+    [
+        lambda stage, mesh, subset: subset.GetIndicesAttr().Set(Vt.IntArray([0, 3])),
+        lambda stage, mesh, subset: UsdShade.MaterialBindingAPI(subset.GetPrim()).Bind(
+            UsdShade.Material(stage.GetPrimAtPath("/Looks/green"))
+        ),
+        lambda stage, mesh, subset: stage.RemovePrim(subset.GetPath()),
+        lambda stage, mesh, subset: bind_subset(
+            mesh, "b", [2], UsdShade.Material(stage.GetPrimAtPath("/Looks/green"))
+        ),
+        lambda stage, mesh, subset: subset.GetElementTypeAttr().Set(UsdGeom.Tokens.point),
+        lambda stage, mesh, subset: stage.GetPrimAtPath("/Looks/red/Surface")
+        .GetAttribute("inputs:emissiveColor")
+        .Set(Gf.Vec3f(*WHITE)),
+        lambda stage, mesh, subset: remove_top_faces(mesh),
+    ],
+    ids=[
+        "indices",
+        "binding",
+        "subset removed",
+        "subset added",
+        "element type",
+        "material edited",
+        "faces removed",
+    ],
+)
+def test_live_edits_of_subsets_render_as_a_fresh_renderer(edit):
+    stage, mesh, subset = edited_grid()
+    assert_live_edit_renders_as_fresh(stage, lambda: edit(stage, mesh, subset), **RENDER)
+
+
+def test_animated_subset_indices_follow_the_frame():
+    stage, mesh, subset = edited_grid()
+    subset.GetIndicesAttr().Set(Vt.IntArray([1]), 1)
+    subset.GetIndicesAttr().Set(Vt.IntArray([2]), 2)
+    renderer = penumbra.Renderer(stage)
+    first = renderer.render(time=1.0, **RENDER)
+    second = renderer.render(time=2.0, **RENDER)
+    assert face_colours(first) == [BLUE, RED, BLUE, BLUE]
+    assert face_colours(second) == [BLUE, BLUE, RED, BLUE]
+    np.testing.assert_array_equal(
+        second["color"], penumbra.Renderer(stage).render(time=2.0, **RENDER)["color"]
+    )
