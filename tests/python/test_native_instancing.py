@@ -296,32 +296,6 @@ def test_unreadable_prototype_mesh_warns_with_its_instance_path():
         penumbra.Renderer(stage).render(**SMALL)
 
 
-SUBSETS_UNSUPPORTED = (
-    ": per-face material bindings (GeomSubsets) are not supported here yet; "
-    "the mesh's own binding is used"
-)
-
-
-@pytest.mark.parametrize("instanceable", [False, True])
-def test_subset_bindings_of_instanced_meshes_warn_once_per_mesh(instanceable: bool):
-    # Unsupported GeomSubset bindings warn for a prototype's mesh once, named by its first
-    # instance, however many instances (and material groups) share it; plain meshes render them.
-    stage = new_stage()
-    add_camera(stage)
-    add_distant_light(stage)
-    tile = add_quad(stage, "/Proto/tile", half_size=0.25)
-    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
-    red = add_preview_material(stage, "/Looks/red", diffuseColor=(1.0, 0.0, 0.0))
-    subset = UsdShade.MaterialBindingAPI(tile).CreateMaterialBindSubset("all", Vt.IntArray([0]))
-    UsdShade.MaterialBindingAPI.Apply(subset.GetPrim()).Bind(red)
-    for name, x in (("a", -1.0), ("b", 0.0), ("c", 1.0)):
-        add_instance(stage, f"/World/{name}", "/Proto", (x, 0.0, 0.0)).SetInstanceable(instanceable)
-    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/World/c")).Bind(red)  # two groups
-    _, messages = render_with_warnings(stage, WIDTH)
-    warned = ("a",) if instanceable else ()
-    assert messages == [f"/World/{name}/tile{SUBSETS_UNSUPPORTED}" for name in warned]
-
-
 def test_per_instance_primvars_colour_each_copy():
     """displayColor authored per instance colours the copies of one shared mesh: on a point
     instancer (vertex interpolation, one value per instance, invisibleIds masked alike) and on

@@ -32,20 +32,27 @@ def emitter(stage, name: str, colour) -> UsdShade.Material:
     )
 
 
+def add_grid(stage, path: str, half_size: float = 2.0, scheme: str = "none") -> UsdGeom.Mesh:
+    """A 2 x 2 grid of quads over [-half_size, half_size]² of the z = 0 plane."""
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    coordinates = (-half_size, 0, half_size)
+    mesh.CreatePointsAttr([Gf.Vec3f(x, y, 0) for y in coordinates for x in coordinates])
+    mesh.CreateFaceVertexCountsAttr([4] * 4)
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 4, 3, 1, 2, 5, 4, 3, 4, 7, 6, 4, 5, 8, 7])
+    mesh.CreateSubdivisionSchemeAttr(scheme)
+    return mesh
+
+
 def grid_stage(scheme: str = "none"):
     """A 2 x 2 grid of quads filling the view, bound to blue, on black."""
     stage = emitter_stage()
     add_camera(stage)
-    mesh = UsdGeom.Mesh.Define(stage, "/World/grid")
-    mesh.CreatePointsAttr([Gf.Vec3f(x, y, 0) for y in (-2, 0, 2) for x in (-2, 0, 2)])
-    mesh.CreateFaceVertexCountsAttr([4] * 4)
-    mesh.CreateFaceVertexIndicesAttr([0, 1, 4, 3, 1, 2, 5, 4, 3, 4, 7, 6, 4, 5, 8, 7])
-    mesh.CreateSubdivisionSchemeAttr(scheme)
+    mesh = add_grid(stage, "/World/grid", scheme=scheme)
     bind(mesh, emitter(stage, "blue", BLUE))
     return stage, mesh
 
 
-def bind_subset(mesh: UsdGeom.Mesh, name: str, faces, material) -> UsdGeom.Subset:
+def bind_subset(mesh: UsdGeom.Imageable, name: str, faces, material) -> UsdGeom.Subset:
     subset = UsdShade.MaterialBindingAPI(mesh.GetPrim()).CreateMaterialBindSubset(
         name, Vt.IntArray(faces)
     )
@@ -200,3 +207,98 @@ def test_animated_subset_indices_follow_the_frame():
     np.testing.assert_array_equal(
         second["color"], penumbra.Renderer(stage).render(time=2.0, **RENDER)["color"]
     )
+
+
+def instanced_grid_stage():
+    """A prototype grid (faces 0.5 wide, blue, its face 1 red and faces 2 and 3 green through
+    subsets), and two copies of it, centred at x = -1 and x = +1."""
+    stage = emitter_stage()
+    add_camera(stage)
+    mesh = add_grid(stage, "/Proto/grid", half_size=0.5)
+    bind(mesh, emitter(stage, "blue", BLUE))
+    bind_subset(mesh, "a", [1], emitter(stage, "red", RED))
+    bind_subset(mesh, "b", [2, 3], emitter(stage, "green", GREEN))
+    emitter(stage, "white", WHITE)
+    return stage, mesh
+
+
+def copy_face_colours(image, centre_x: float) -> list[tuple[float, ...]]:
+    """The colours of the faces of a grid copy centred at (centre_x, 0) (camera sees [-2, 2]²)."""
+    colour = image["color"]
+    size = colour.shape[0]
+    result = []
+    for dx, dy in ((-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)):
+        x, y = centre_x + dx, dy
+        result.append(tuple(float(c) for c in colour[int((2 - y) / 4 * size), int((x + 2) / 4 * size), :3]))
+    return result
+
+
+def test_native_instances_render_their_prototype_subsets_and_their_own_bindings():
+    stage, _ = instanced_grid_stage()
+    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
+    for name, x in (("left", -1.0), ("right", 1.0)):
+        instance = UsdGeom.Xform.Define(stage, f"/World/{name}")
+        instance.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+        instance.GetPrim().GetReferences().AddInternalReference("/Proto")
+        instance.GetPrim().SetInstanceable(True)
+    # The right copy's subset "a" is white: a collection-based binding on the instance root,
+    # stronger than the prototype's own, names its instance proxy.
+    right = stage.GetPrimAtPath("/World/right")
+    painted = Usd.CollectionAPI.Apply(right, "painted")
+    painted.CreateIncludesRel().AddTarget("/World/right/grid/a")
+    UsdShade.MaterialBindingAPI.Apply(right).Bind(
+        painted,
+        UsdShade.Material(stage.GetPrimAtPath("/Looks/white")),
+        "painted",
+        UsdShade.Tokens.strongerThanDescendants,
+    )
+    image, warnings = render_with_warnings(stage, 64)
+    assert warnings == []
+    image = penumbra.Renderer(stage).render(**RENDER)
+    assert copy_face_colours(image, -1.0) == [BLUE, RED, GREEN, GREEN]
+    assert copy_face_colours(image, 1.0) == [BLUE, WHITE, GREEN, GREEN]
+
+
+def test_point_instancer_copies_render_their_prototype_subsets():
+    stage, _ = instanced_grid_stage()
+    instancer = UsdGeom.PointInstancer.Define(stage, "/World/scatter")
+    stage.DefinePrim("/World/scatter/protos")
+    Sdf.CopySpec(stage.GetRootLayer(), "/Proto", stage.GetRootLayer(), "/World/scatter/protos/tile")
+    stage.RemovePrim("/Proto")
+    instancer.CreatePrototypesRel().SetTargets(["/World/scatter/protos/tile"])
+    instancer.CreatePositionsAttr(Vt.Vec3fArray([(-1, 0, 0), (1, 0, 0)]))
+    instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    image, warnings = render_with_warnings(stage, 64)
+    assert warnings == []
+    image = penumbra.Renderer(stage).render(**RENDER)
+    assert copy_face_colours(image, -1.0) == [BLUE, RED, GREEN, GREEN]
+    assert copy_face_colours(image, 1.0) == [BLUE, RED, GREEN, GREEN]
+
+
+def test_editing_a_prototype_subset_renders_instances_as_a_fresh_renderer():
+    stage, mesh = instanced_grid_stage()
+    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
+    for name, x in (("left", -1.0), ("right", 1.0)):
+        instance = UsdGeom.Xform.Define(stage, f"/World/{name}")
+        instance.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+        instance.GetPrim().GetReferences().AddInternalReference("/Proto")
+        instance.GetPrim().SetInstanceable(True)
+    subset = UsdGeom.Subset(stage.GetPrimAtPath("/Proto/grid/a"))
+    assert_live_edit_renders_as_fresh(
+        stage, lambda: subset.GetIndicesAttr().Set(Vt.IntArray([0])), **RENDER
+    )
+
+
+def test_subsets_of_a_gprim_other_than_a_mesh_are_named_and_left_out():
+    stage = emitter_stage()
+    add_camera(stage)
+    cube = UsdGeom.Cube.Define(stage, "/World/cube")
+    bind(cube, emitter(stage, "blue", BLUE))
+    bind_subset(cube, "a", [0], emitter(stage, "red", RED))
+    image, warnings = render_with_warnings(stage, 64)
+    assert warnings == [
+        "/World/cube: per-face material bindings (GeomSubsets) are read on Mesh prims only; "
+        "this Cube's own binding is used"
+    ]
+    image = penumbra.Renderer(stage).render(**RENDER)
+    assert tuple(float(c) for c in pixel(image, 0.5, 0.5)) == BLUE

@@ -1,7 +1,7 @@
 """Grouped copies of instanced meshes → hidden mesh rprims and instancer rprims.
 
 :class:`InstancedMeshes` pushes the copies :mod:`.flattening` found, grouped by mesh and bound
-material (:class:`Group`), to the delegate and, on later updates, only what changed (new or
+materials (the mesh's and its GeomSubsets', :class:`Group`), to the delegate and, on later updates, only what changed (new or
 edited meshes, changed transforms): every group is one hidden mesh rprim (its geometry read once,
 from the prim that holds it) and one instancer rprim naming it as its prototype, so that Embree
 shares the mesh's BVH among all copies.
@@ -20,10 +20,10 @@ from pxr import Sdf, Usd, UsdGeom
 from .flattening import Leaf, user_facing_path
 from .curves import sync_curves_data
 from .mesh import sync_mesh_data
-from .mesh_sync import warn_subset_bindings
 from .points import sync_points_data
 from .render_pass import HIDING_RAYS, SHOWN, PassVisibility, set_pass_visibility
 from .sampling import SampleReader, Shutter
+from .subset_bindings import bound_faces, read_subset_faces
 
 class MaterialSource(Protocol):
     """Where instanced meshes get their material sprims (reference-counted by user id)."""
@@ -39,10 +39,12 @@ class MaterialSource(Protocol):
 
 @dataclass
 class Group:
-    """All copies of one mesh rendered with one material."""
+    """All copies of one mesh rendered with one material (and one per material subset)."""
 
     mesh: Usd.Prim
     material: Sdf.Path | None
+    # The materials of the mesh's material subsets (subset_bindings.material_subsets' order).
+    subset_materials: tuple[Sdf.Path | None, ...] = ()
     transforms: list[np.ndarray] = field(default_factory=list)  # (N_i, K_i, 4, 4) each
     primvars: list[dict[str, np.ndarray]] = field(default_factory=list)  # N_i rows each
     names: list[str] = field(default_factory=list)  # each copy's Cryptomatte object name
@@ -82,8 +84,13 @@ class Group:
         )
 
 
-GroupKey = tuple[Sdf.Path, Sdf.Path | None, PassVisibility]
-"""(mesh, bound material, how the render pass shows the copies)."""
+GroupKey = tuple[Sdf.Path, Sdf.Path | None, PassVisibility, tuple[Sdf.Path | None, ...]]
+"""(mesh, bound material, how the render pass shows the copies, its subsets' materials)."""
+
+
+def materials_of(key: GroupKey) -> set[Sdf.Path]:
+    """The materials a group's copies use: the mesh's and its subsets'."""
+    return {key[1], *key[3]} - {None}
 
 
 def group_leaves(
@@ -95,15 +102,17 @@ def group_leaves(
     shown: PassVisibility = SHOWN,
     names: list[str] | None = None,
     linking: np.ndarray | None = None,
+    subset_materials: tuple[Sdf.Path | None, ...] = (),
 ) -> None:
     """Add ``transforms`` (copies of ``leaf``'s mesh bound to ``material``, with their per-copy
     ``primvars``, shown by the render pass as ``shown``, of linking classes ``linking``, None:
     linked to every light) to ``groups``. ``names``: each copy's Cryptomatte object name (by
-    default the path of the leaf's mesh, ``leaf.proxy``)."""
-    key = (leaf.mesh.GetPath(), material, shown)
+    default the path of the leaf's mesh, ``leaf.proxy``); ``subset_materials``: the materials
+    its material subsets bind."""
+    key = (leaf.mesh.GetPath(), material, shown, subset_materials)
     group = groups.get(key)
     if group is None:
-        group = groups[key] = Group(leaf.mesh, material)
+        group = groups[key] = Group(leaf.mesh, material, subset_materials)
     group.transforms.append(transforms)
     group.primvars.append(primvars)
     group.names += names if names is not None else [str(leaf.proxy)] * len(transforms)
@@ -116,6 +125,8 @@ class _Pushed:
     mesh_id: str
     instancer_id: str
     material_id: str | None = None  # None: not sent yet
+    subset_ids: tuple[str, ...] | None = None  # the subsets' material ids sent; None: not yet
+    subset_faces: list[np.ndarray | None] = field(default_factory=list)  # read_subset_faces
     digest: bytes | None = None  # of the copies' transforms last sent (None: not sent)
     linked: bool = False  # linking classes were sent for its copies
     varying: bool = False  # the mesh's data might change with time
@@ -133,16 +144,11 @@ class InstancedMeshes:
         warn: Callable[[str], None],
         materials: MaterialSource,
         prefix: str = "",
-        subset_warnings: bool = False,
     ):
         self.core = core
         self.warn = warn
         self.materials = materials
         self.prefix = prefix
-        # Warn of GeomSubset bindings as MeshSync does for plain meshes: only for native
-        # instancing, whose meshes no plain sync sees and whose ``warn`` says a message once
-        # (a point instancer's prototype may also be synced plainly, and its ``warn`` repeats).
-        self.subset_warnings = subset_warnings
         self._pushed: dict[GroupKey, _Pushed] = {}
 
     @property
@@ -158,7 +164,7 @@ class InstancedMeshes:
     def copies(self) -> Iterator[tuple[str, Sdf.Path | None, list[str]]]:
         """``(instancer id, bound material, Cryptomatte object name of each copy)`` of every
         instancer placing copies."""
-        for (_, material, _), pushed in self._pushed.items():
+        for (_, material, _, _), pushed in self._pushed.items():
             if pushed.usable and pushed.names:
                 yield pushed.instancer_id, material, pushed.names
 
@@ -182,7 +188,9 @@ class InstancedMeshes:
             pushed = self._pushed.get(key)
             if pushed is None:
                 pushed = self._pushed[key] = self._insert(key, ids[key], group, shutter)
-            elif (time_changed and pushed.varying) or any(key[0].HasPrefix(p) for p in stale):
+            elif (time_changed and pushed.varying) or any(
+                key[0].HasPrefix(p) or p.HasPrefix(key[0]) for p in stale  # its subsets too
+            ):
                 self._read_mesh(pushed, group, shutter)
             if not pushed.usable:
                 continue
@@ -190,6 +198,13 @@ class InstancedMeshes:
             if material_id != pushed.material_id:
                 self.core.set_mesh_material(pushed.mesh_id, material_id)
                 pushed.material_id = material_id
+            subsets = bound_faces(key[3], pushed.subset_faces)
+            subset_ids = tuple(self.materials.material_id(m) for m, _ in subsets)
+            if subset_ids != pushed.subset_ids:
+                self.core.set_subset_materials(
+                    pushed.mesh_id, [(i, f) for i, (_, f) in zip(subset_ids, subsets)]
+                )
+                pushed.subset_ids = subset_ids
             transforms = group.stacked()
             primvars = group.stacked_primvars()
             linking = group.stacked_linking()
@@ -211,13 +226,13 @@ class InstancedMeshes:
             self._remove(key)
 
     def _insert(self, key: GroupKey, name: str, group: Group, shutter: Shutter) -> _Pushed:
-        _, material, shown = key
+        shown = key[2]
         pushed = _Pushed(
             name=name,
             mesh_id=f"{self.prefix}/prototypes{name}",
             instancer_id=f"{self.prefix}/instances{name}",
         )
-        if material:
+        for material in sorted(materials_of(key)):
             self.materials.acquire(material, pushed.mesh_id)
         self.core.insert_rprim(_rprim_type(group.mesh), pushed.mesh_id)
         self.core.insert_rprim("instancer", pushed.instancer_id)
@@ -235,10 +250,10 @@ class InstancedMeshes:
 
         rprim_type = _rprim_type(group.mesh)
         pushed.usable = _READERS[rprim_type](self.core, group.mesh, reader, warn, pushed.mesh_id)
-        # Every group of the mesh, and every re-read, gives one message: ``warn`` says it once.
-        if self.subset_warnings and pushed.usable and rprim_type == "mesh":
-            warn_subset_bindings(group.mesh, name, self.warn)
-        pushed.varying = reader.varying
+        faces_vary = False
+        if group.subset_materials and pushed.usable:
+            pushed.subset_faces, faces_vary = read_subset_faces(group.mesh, shutter.frame, warn)
+        pushed.varying = reader.varying or faces_vary
         self.core.set_visible(pushed.mesh_id, False)  # only its copies render
         if not pushed.usable:  # no copies of an unreadable mesh
             self.core.set_instances(pushed.instancer_id, pushed.mesh_id, np.empty((0, 4, 4)))
@@ -246,13 +261,14 @@ class InstancedMeshes:
             pushed.digest = None
             pushed.names = []
         pushed.material_id = None  # re-sent with the mesh
+        pushed.subset_ids = None
 
     def _remove(self, key: GroupKey) -> None:
         pushed = self._pushed.pop(key)
         self.core.remove_prim(pushed.instancer_id)  # copies before their prototype
         self.core.remove_prim(pushed.mesh_id)
-        if key[1]:
-            self.materials.release(key[1], pushed.mesh_id)
+        for material in sorted(materials_of(key)):
+            self.materials.release(material, pushed.mesh_id)
 
 
 _READERS = {"mesh": sync_mesh_data, "points": sync_points_data, "basisCurves": sync_curves_data}
@@ -266,10 +282,17 @@ def _rprim_type(prim: Usd.Prim) -> str:
     return "basisCurves" if prim.IsA(UsdGeom.Curves) else "mesh"
 
 
-def _id_tail(mesh: Sdf.Path, material: Sdf.Path | None, shown: PassVisibility) -> str:
+def _id_tail(
+    mesh: Sdf.Path,
+    material: Sdf.Path | None,
+    shown: PassVisibility,
+    subset_materials: tuple[Sdf.Path | None, ...],
+) -> str:
     """What names a group's hidden mesh and instancer: the path of the ``mesh`` users know, and
     what sets the group apart."""
     suffix = f"/materials{material}" if material else ""
+    if subset_materials:  # "_" for a subset without one: material paths are absolute
+        suffix += "/subsetMaterials" + "".join(str(m) if m else "/_" for m in subset_materials)
     if shown != SHOWN:  # copies the render pass shows otherwise are an instancer of their own
         suffix += f"/pass{'' if shown.camera else '/cameraHidden'}{'/matte' if shown.matte else ''}"
         suffix += "".join(f"/{rays}Hidden" for rays in HIDING_RAYS if not getattr(shown, rays))

@@ -34,12 +34,12 @@ def authored(inherited: InheritedState, prim: Usd.Prim, path: Sdf.Path) -> Autho
 def warn_subset_bindings(
     prim: Usd.Prim, name: Sdf.Path | str, warn: Callable[[str], None]
 ) -> None:
-    """Warn (naming the mesh ``name``, as users know it) that ``prim``'s GeomSubset bindings
-    are ignored: those of instanced meshes, and of gprims other than meshes."""
+    """Warn (naming the prim ``name``, as users know it) that ``prim``'s GeomSubset bindings
+    are ignored: a gprim other than a mesh has no authored faces to bind."""
     if material_subsets(prim):
         warn(
-            f"{name}: per-face material bindings (GeomSubsets) are not supported here yet; "
-            "the mesh's own binding is used"
+            f"{name}: per-face material bindings (GeomSubsets) are read on Mesh prims only; "
+            f"this {prim.GetTypeName()}'s own binding is used"
         )
 
 

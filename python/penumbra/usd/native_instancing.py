@@ -43,6 +43,7 @@ from .inherited import InheritedState
 from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
 from .linking import Linking
 from .material import bound_materials
+from .subset_bindings import copies_subset_materials
 from .ray_visibility import PRIMVAR_NAMES, VISIBLE, authored_below
 from .render_pass import SHOWN, RenderPassCollections
 from .sampling import SampleReader, Shutter, visibility_might_vary
@@ -66,7 +67,7 @@ class NativeInstancing:
         self.render_pass = render_pass
         self.linking = linking
         self.warn = warn
-        self.meshes = InstancedMeshes(core, warn, materials, subset_warnings=True)
+        self.meshes = InstancedMeshes(core, warn, materials)
         self.shutter: Shutter | None = None
         self._dirty = True
         self._varying = False
@@ -161,6 +162,7 @@ class NativeInstancing:
 
         pending = []  # (leaf, transforms (N, M, K, 4, 4), instances kept)
         proxies: list[Usd.Prim] = []
+        meshes: list[Usd.Prim] = []  # each proxy's mesh in the prototype
         for prototype_path, instances in by_prototype.items():
             prototype = self.stage.GetPrimAtPath(prototype_path)
             moving = any(own for _, own, _ in instances)
@@ -185,7 +187,9 @@ class NativeInstancing:
                     )
                     for n in kept
                 )
+                meshes.extend([leaf.mesh] * len(kept))
         materials = bound_materials(proxies)
+        subsets = copies_subset_materials(meshes, proxies)
         reader = SampleReader(frame)
         inherited = {
             instance.GetPath(): inherited_primvars(instance, reader, self.warn)
@@ -203,6 +207,7 @@ class NativeInstancing:
         for leaf, transforms, kept_instances in pending:
             count = len(transforms)
             bound = materials[start : start + count]
+            bound_subsets = subsets[start : start + count]
             # Each copy's Cryptomatte object name: the instance proxy path of its mesh.
             names = [str(proxy.GetPath()) for proxy in proxies[start : start + count]]
             # Each copy's linking class, by its instance proxy's path.
@@ -224,8 +229,11 @@ class NativeInstancing:
                     rays = ray_visibility.ray_visibility(self.stage.GetPrimAtPath(path), path)
                 passed = SHOWN if self.render_pass is None else self.render_pass.visibility(path)
                 shown.append((replace(rays, **within) if within else rays).shown(passed))
-            for material, pass_shown in dict.fromkeys(zip(bound, shown)):
-                chosen = [n for n in range(count) if (bound[n], shown[n]) == (material, pass_shown)]
+            for binding in dict.fromkeys(zip(bound, bound_subsets, shown)):
+                material, subset_materials, pass_shown = binding
+                chosen = [
+                    n for n in range(count) if (bound[n], bound_subsets[n], shown[n]) == binding
+                ]
                 if not any(inherited[kept_instances[n]] for n in chosen):
                     selected = transforms[chosen]
                     primvars = nest_primvars({}, leaf.primvars, len(chosen), copies_per_instance)
@@ -238,6 +246,7 @@ class NativeInstancing:
                         pass_shown,
                         [names[n] for n in chosen for _ in range(copies_per_instance)],
                         _linking(np.repeat(linked[chosen], copies_per_instance)),
+                        subset_materials,
                     )
                     continue
                 # Each instance's own primvars reach its copies of the mesh (unless the mesh
@@ -258,6 +267,7 @@ class NativeInstancing:
                         pass_shown,
                         [names[n]] * copies_per_instance,
                         _linking(np.full(copies_per_instance, linked[n], np.uint32)),
+                        subset_materials,
                     )
         return groups
 

@@ -16,11 +16,19 @@ from pxr import Sdf, Usd, UsdGeom
 
 from .flattening import Flattener, prototype_roots, combine_segments
 from .inherited import InheritedState
-from .instanced_meshes import Group, GroupKey, InstancedMeshes, MaterialSource, group_leaves
+from .instanced_meshes import (
+    Group,
+    GroupKey,
+    InstancedMeshes,
+    MaterialSource,
+    group_leaves,
+    materials_of,
+)
 from .linking import Linking
 from .material import bound_material
 from .render_pass import SHOWN, RenderPassCollections
 from .sampling import Shutter, visibility_might_vary
+from .subset_bindings import copies_subset_materials
 
 @dataclass
 class _Instancer:
@@ -129,7 +137,7 @@ class PointInstancerDelegate:
         groups = self._groups(prim, flattener)
         record.meshes.update(groups, self.shutter, stale, time_changed)
         # A material edit may make it usable or not: the copies then change material.
-        materials = {material for _, material, _ in groups if material is not None}
+        materials = set().union(*map(materials_of, groups))
         record.roots = {prim.GetPath(), *flattener.roots, *materials}
         record.varying = flattener.varying or record.meshes.varying
         record.lights = bool(flattener.lights)
@@ -155,6 +163,7 @@ class PointInstancerDelegate:
             segments = combine_segments(segments, flattener.content_segments(prototype), limit)
         groups: dict[GroupKey, Group] = {}
         materials: dict[Sdf.Path, Sdf.Path | None] = {}
+        subsets: dict[Sdf.Path, tuple[Sdf.Path | None, ...]] = {}
         # Ray visibility: the instancer's and its ancestors', nearer in a prototype.
         inherited = InheritedState(self.warn)
         inherited.at(self.shutter.frame)
@@ -166,6 +175,7 @@ class PointInstancerDelegate:
             if leaf.proxy not in materials:
                 material = bound_material(proxy)
                 materials[leaf.proxy] = material.GetPath() if material else None
+                subsets[leaf.proxy] = copies_subset_materials([leaf.mesh], [proxy])[0]
             leaf_shown = inherited.ray_visibility(proxy, leaf.proxy).shown(shown)
             # Copies are linked as their prototype is, by its path (below the instancer's).
             linking = (
@@ -181,5 +191,6 @@ class PointInstancerDelegate:
                 leaf.primvars,
                 leaf_shown,
                 linking=linking,
+                subset_materials=subsets[leaf.proxy],
             )
         return groups

@@ -16,7 +16,6 @@ from .material import bound_materials
 class SubsetBinding:
     """A subset's material and the faces it binds (valid indices of the mesh's faces)."""
 
-    subset: Sdf.Path
     material: Sdf.Path
     faces: np.ndarray  # int32
 
@@ -38,28 +37,33 @@ def material_subsets(prim: Usd.Prim) -> list[UsdGeom.Subset]:
     return UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets()
 
 
-def read_subset_bindings(
+def subset_materials(subsets: list[Usd.Prim]) -> tuple[Sdf.Path | None, ...]:
+    """The materials bound to the prims of ``subsets`` (subsets, or their instance proxies), in
+    one batch; ``None`` where a subset resolves none (its faces keep the mesh's binding)."""
+    return tuple(bound_materials(subsets))
+
+
+def read_subset_faces(
     prim: Usd.Prim, time: Usd.TimeCode, warn: Callable[[str], None]
-) -> SubsetBindings:
-    """The subset bindings of mesh ``prim`` at ``time``. A subset that resolves no material
-    leaves its faces to the mesh's own binding; one of another element type than faces, and
-    indices outside the mesh's faces, are left out with a warning naming the subset."""
+) -> tuple[list[np.ndarray | None], bool]:
+    """The faces each material subset of mesh ``prim`` binds at ``time`` (as
+    :func:`material_subsets` orders them; ``None`` for a subset of another element type than
+    faces), and whether they might change with time. Such subsets, and indices outside the
+    mesh's faces, are left out with a warning naming the subset."""
     subsets = material_subsets(prim)
     if not subsets:
-        return SubsetBindings([])
+        return [], False
     face_count = len(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get(time) or ())
-    bindings: list[SubsetBinding] = []
+    faces: list[np.ndarray | None] = []
     varying = False
-    for subset, material in zip(subsets, bound_materials([s.GetPrim() for s in subsets])):
-        if material is None:
-            continue
-        where = subset.GetPath()
+    for subset in subsets:
         element_type = subset.GetElementTypeAttr().Get()
         if element_type != UsdGeom.Tokens.face:
             warn(
-                f"{where}: a material subset of elementType {element_type!r} is not supported "
-                "(only 'face'); its faces use the mesh's own material"
+                f"{subset.GetPath()}: a material subset of elementType {element_type!r} is not "
+                "supported (only 'face'); its faces use the mesh's own material"
             )
+            faces.append(None)
             continue
         attribute = subset.GetIndicesAttr()
         varying = varying or attribute.ValueMightBeTimeVarying()
@@ -71,5 +75,58 @@ def read_subset_bindings(
                 f"faces of the mesh (it has {face_count}); they are left out"
             )
             indices = indices[~outside]
-        bindings.append(SubsetBinding(where, material, indices.astype(np.int32)))
-    return SubsetBindings(bindings, varying)
+        faces.append(indices.astype(np.int32))
+    return faces, varying
+
+
+def bound_faces(
+    materials: tuple[Sdf.Path | None, ...], faces: list[np.ndarray | None]
+) -> list[tuple[Sdf.Path, np.ndarray]]:
+    """(material, faces) of each subset that binds both (its material resolved, its faces
+    read), in the subsets' order."""
+    return [
+        (material, indices)
+        for material, indices in zip(materials, faces)
+        if material is not None and indices is not None
+    ]
+
+
+def read_subset_bindings(
+    prim: Usd.Prim, time: Usd.TimeCode, warn: Callable[[str], None]
+) -> SubsetBindings:
+    """The subset bindings of mesh ``prim`` at ``time`` (see :func:`read_subset_faces`)."""
+    subsets = material_subsets(prim)
+    if not subsets:
+        return SubsetBindings([])
+    faces, varying = read_subset_faces(prim, time, warn)
+    materials = subset_materials([subset.GetPrim() for subset in subsets])
+    return SubsetBindings(
+        [SubsetBinding(material, indices) for material, indices in bound_faces(materials, faces)],
+        varying,
+    )
+
+
+def copies_subset_materials(
+    meshes: list[Usd.Prim], copies: list[Usd.Prim]
+) -> list[tuple[Sdf.Path | None, ...]]:
+    """For each copy of an instanced mesh (the mesh's prim, and the prim the copy is rendered as:
+    an instance proxy, or the mesh itself), the materials the mesh's material subsets bind,
+    resolved on the copy's own subset prims as its mesh's binding is on it; ``()`` for meshes
+    without such subsets. One batch for all copies."""
+    names: dict[Sdf.Path, list[str]] = {}
+    for mesh in meshes:
+        if mesh.GetPath() not in names:
+            names[mesh.GetPath()] = (
+                [subset.GetPrim().GetName() for subset in material_subsets(mesh)]
+                if mesh.GetTypeName() == "Mesh"
+                else []
+            )
+    subsets = [
+        copy.GetChild(name) for mesh, copy in zip(meshes, copies) for name in names[mesh.GetPath()]
+    ]
+    if not subsets:
+        return [()] * len(copies)
+    materials = iter(subset_materials(subsets))
+    return [
+        tuple(next(materials) for _ in names[mesh.GetPath()]) for mesh in meshes
+    ]
