@@ -64,8 +64,9 @@ std::vector<int> PlacedRprim::faceMaterials(const SyncContext& context) const {
     for (const int face : subset.faces) {
       if (size_t(face) >= faces) continue;
       if (size_t(face) >= materials.size())
-        materials.resize(size_t(face) + 1, Geometry::kObjectMaterial);
-      if (materials[size_t(face)] == Geometry::kObjectMaterial) materials[size_t(face)] = index;
+        materials.resize(size_t(face) + 1, MaterialTable::kObjectMaterial);
+      if (materials[size_t(face)] == MaterialTable::kObjectMaterial)
+        materials[size_t(face)] = index;
     }
   }
   return materials;

@@ -124,6 +124,17 @@ std::map<uint32_t, PrimId> RenderDelegate::primIdManifest() const {
   return manifest;
 }
 
+FaceMaterialHashes RenderDelegate::faceMaterialHashes(
+    const std::map<PrimId, std::string>& names) const {
+  FaceMaterialHashes hashes;
+  for (const auto& [id, name] : names) {
+    const std::optional<int> index =
+        id.empty() ? MaterialTable::kNoMaterial : context_.materials.find(id);
+    if (index) hashes[*index] = murmurHash3(name);
+  }
+  return hashes;
+}
+
 PlacementHashes RenderDelegate::placementHashes(
     const std::map<PrimId, std::vector<std::string>>& names) const {
   const auto placedRprim = [this](const PrimId& id) -> const PlacedRprim* {

@@ -349,11 +349,14 @@ std::vector<float> RenderPass::aov(const std::string& name) const {
 }
 
 std::vector<float> RenderPass::cryptomatte(
-    const std::map<PrimId, std::vector<std::string>>& names) const {
+    const std::map<PrimId, std::vector<std::string>>& names,
+    const std::map<PrimId, std::string>& faceMaterialNames) const {
   const int depth = delegate_.settings().cryptomatteDepth;
   const size_t channels = size_t(Film::cryptomatteChannels(depth));
-  return cropped(film_.resolveCryptomatte(delegate_.placementHashes(names), depth), channels,
-                 channels);
+  const FaceMaterialHashes faceMaterials = delegate_.faceMaterialHashes(faceMaterialNames);
+  return cropped(film_.resolveCryptomatte(delegate_.placementHashes(names), depth,
+                                          faceMaterialNames.empty() ? nullptr : &faceMaterials),
+                 channels, channels);
 }
 
 std::vector<float> RenderPass::cropped(const std::vector<float>& values, size_t stored,

@@ -166,7 +166,8 @@ void Film::addFirstHit(size_t index, const CameraSample& sample, const FirstHitS
     }
   }
   if (wantsCryptomatte_ && firstHit.hit)
-    cryptomatte_.add(index, placementKey(uint32_t(firstHit.primId), firstHit.instanceId));
+    cryptomatte_.add(index, placementKey(uint32_t(firstHit.primId), firstHit.instanceId),
+                     firstHit.faceMaterial);
 }
 
 void Film::addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
@@ -389,7 +390,8 @@ std::vector<float> Film::resolve(const AovRequest& aov) const {
   return values;
 }
 
-std::vector<float> Film::resolveCryptomatte(const PlacementHashes& hashes, int depth) const {
+std::vector<float> Film::resolveCryptomatte(const PlacementHashes& hashes, int depth,
+                                            const FaceMaterialHashes* faceMaterials) const {
   if (!wantsCryptomatte_)
     throw std::invalid_argument("the film does not accumulate a Cryptomatte AOV");
   if (depth < 1)
@@ -398,7 +400,8 @@ std::vector<float> Film::resolveCryptomatte(const PlacementHashes& hashes, int d
   const size_t stride = size_t(cryptomatteChannels(depth));
   std::vector<float> values(pixels_.size() * stride, 0.0f);
   for (size_t i = 0; i < pixels_.size(); ++i)
-    cryptomatte_.resolve(i, pixels_[i].samples, hashes, depth, values.data() + i * stride);
+    cryptomatte_.resolve(i, pixels_[i].samples, hashes, depth, values.data() + i * stride,
+                         faceMaterials);
   return values;
 }
 

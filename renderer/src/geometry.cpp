@@ -330,7 +330,7 @@ int Geometry::materialOf(const MeshRecord& mesh, uint32_t primitive) {
   const int face = mesh.shape->elementOf(primitive);
   if (face < 0 || size_t(face) >= mesh.faceMaterials.size()) return mesh.materialIndex;
   const int material = mesh.faceMaterials[size_t(face)];
-  return material == kObjectMaterial ? mesh.materialIndex : material;
+  return material == MaterialTable::kObjectMaterial ? mesh.materialIndex : material;
 }
 
 bool Geometry::renderable(const MeshRecord& mesh) const {
@@ -505,7 +505,7 @@ void Geometry::setMeshFaceMaterials(MeshId id, std::vector<int> faceMaterials) {
   const bool wasRenderable = renderable(mesh);
   std::vector<int> set;
   for (const int material : faceMaterials)
-    if (material != kObjectMaterial) set.push_back(material);
+    if (material != MaterialTable::kObjectMaterial) set.push_back(material);
   std::sort(set.begin(), set.end());
   set.erase(std::unique(set.begin(), set.end()), set.end());
   mesh.faceMaterials = std::move(faceMaterials);

@@ -158,6 +158,7 @@ std::optional<GeometryHit> Geometry::intersect(const Ray& ray, RayKind kind) con
   hit.shape = mesh.shape.get();
   hit.objectToWorld = &placement.objectToWorld;
   hit.materialIndex = materialOf(mesh, rayHit.hit.primID);
+  hit.faceMaterial = hit.materialIndex != mesh.materialIndex;
   hit.pass = passOf(placement);
   hit.instancePrimvars = copyPrimvars(placement);
   hit.linkingClass = placement.linkingClass;

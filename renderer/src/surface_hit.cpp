@@ -49,6 +49,7 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
   hit.v = point.v;
   hit.instancePrimvars = point.instancePrimvars;
   hit.materialIndex = found.materialIndex;
+  hit.faceMaterial = found.faceMaterial;
   if (material) {
     const bool anisotropic = material->mayBeAnisotropic();
     if (material->varies() || anisotropic) {

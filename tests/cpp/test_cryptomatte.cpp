@@ -78,6 +78,46 @@ TEST(Cryptomatte, RanksMergeEqualIdsAndSortByCoverageThenHash) {
   EXPECT_EQ(ranks[3].coverage, 1.0f / 8);
 }
 
+TEST(Cryptomatte, FacesWithAMaterialOfTheirOwnTakeItsNameInAMaterialLayer) {
+  CryptomatteCoverage coverage;
+  coverage.reset(1);
+  const PlacementKey mesh = placementKey(4, -1);
+  coverage.add(0, mesh);     // a face with the mesh's own material
+  coverage.add(0, mesh, 2);  // two on faces a subset binds to material 2
+  coverage.add(0, mesh, 2);
+  coverage.add(0, mesh, MaterialTable::kNoMaterial);  // one on faces bound to none
+  const PlacementHashes hashes = {{mesh, 70}};
+  float layer[6];
+  // An object layer: one placement, whatever the faces' materials.
+  coverage.resolve(0, 4, hashes, 3, layer);
+  EXPECT_EQ(layer[0], cryptomatteFloat(70));
+  EXPECT_EQ(layer[1], 1.0f);
+  EXPECT_EQ(layer[3], 0.0f);
+  // A material layer: each material's faces apart; one missing from the map is a miss.
+  const FaceMaterialHashes materials = {{2, 20}, {MaterialTable::kNoMaterial, 10}};
+  coverage.resolve(0, 4, hashes, 3, layer, &materials);
+  EXPECT_EQ(layer[0], cryptomatteFloat(20));
+  EXPECT_EQ(layer[1], 0.5f);
+  EXPECT_EQ(layer[2], cryptomatteFloat(10));  // 1 sample each: smaller hash first
+  EXPECT_EQ(layer[3], 0.25f);
+  EXPECT_EQ(layer[4], cryptomatteFloat(70));
+  EXPECT_EQ(layer[5], 0.25f);
+  const FaceMaterialHashes without = {{2, 20}};
+  coverage.resolve(0, 4, hashes, 3, layer, &without);
+  EXPECT_EQ(layer[1] + layer[3] + layer[5], 0.75f);
+  // The checkpoint keeps the faces' materials.
+  std::vector<uint8_t> state;
+  coverage.saveState(state);
+  CryptomatteCoverage loaded;
+  loaded.reset(1);
+  const uint8_t* cursor = state.data();
+  loaded.loadState(cursor, state.data() + state.size());
+  float again[6];
+  loaded.resolve(0, 4, hashes, 3, again, &materials);
+  coverage.resolve(0, 4, hashes, 3, layer, &materials);
+  EXPECT_EQ(0, std::memcmp(again, layer, sizeof layer));
+}
+
 TEST(Cryptomatte, CoverageCountsSamplesPerPlacementAndKeepsTheDeepestRanks) {
   CryptomatteCoverage coverage;
   coverage.reset(2);

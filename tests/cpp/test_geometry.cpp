@@ -273,7 +273,7 @@ TEST(Geometry, FaceMaterialsBindTheirFacesAndCutThemOutAlone) {
   const Geometry::MeshId id = geometry.addMesh();
   geometry.setMeshGeometry(id, triangulate(data));
   geometry.setMeshInstance(id, Transform(), 0, true);
-  geometry.setMeshFaceMaterials(id, {Geometry::kObjectMaterial, 1});
+  geometry.setMeshFaceMaterials(id, {MaterialTable::kObjectMaterial, 1});
   geometry.setInstances(geometry.addInstancer(), id, {translation(10, 0, 0)}, true);
   scene.commit();
   const auto materialAt = [&](float x) {
@@ -298,7 +298,7 @@ TEST(Geometry, FaceMaterialsBindTheirFacesAndCutThemOutAlone) {
 
   // The mesh's own material cutting out whole leaves the faces bound otherwise.
   geometry.setMeshInstance(id, Transform(), 1, true);
-  geometry.setMeshFaceMaterials(id, {Geometry::kObjectMaterial, 0});
+  geometry.setMeshFaceMaterials(id, {MaterialTable::kObjectMaterial, 0});
   scene.commit();
   EXPECT_EQ(materialAt(-0.5f), -100);
   EXPECT_EQ(materialAt(0.5f), 0);

@@ -345,3 +345,33 @@ def test_render_vars_name_their_layer(scene, tmp_path, capsys):
     stage.Export(str(path))
     assert main([str(path), str(tmp_path / "beauty.exr"), "-rs", "/Render/Settings", "-spp", "1", "-q"]) == 1
     assert "mattes.png: Cryptomatte AOVs (CryptoObject) are written to OpenEXR" in capsys.readouterr().err
+
+
+def test_faces_bound_by_subsets_take_their_material_name(tmp_path):
+    """A mesh of two faces (grey), its right face bound red by a GeomSubset: the material layer
+    names each half by its own material, the object layer names the whole mesh."""
+    stage = new_stage(tmp_path / "subsets.usda")
+    add_camera(stage)  # sees [-2, 2]² of the z = 0 plane
+    grey = add_preview_material(stage, "/World/Looks/Grey", diffuseColor=(0.5, 0.5, 0.5))
+    red = add_preview_material(stage, "/World/Looks/Red", diffuseColor=(0.8, 0.1, 0.1))
+    mesh = UsdGeom.Mesh.Define(stage, "/World/halves")
+    mesh.CreatePointsAttr([(-3, -3, 0), (0, -3, 0), (3, -3, 0), (-3, 3, 0), (0, 3, 0), (3, 3, 0)])
+    mesh.CreateFaceVertexCountsAttr([4, 4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 4, 3, 1, 2, 5, 4])
+    bind(mesh, grey)
+    subset = UsdShade.MaterialBindingAPI(mesh.GetPrim()).CreateMaterialBindSubset("right", [1])
+    UsdShade.MaterialBindingAPI.Apply(subset.GetPrim()).Bind(red)
+    stage.Save()
+    out = tmp_path / "subsets.exr"
+    command = [str(stage.GetRootLayer().realPath), str(out), "-w", "32", "-spp", "4", "-q"]
+    assert main([*command, "--aov", "CryptoObject,CryptoMaterial"]) == 0
+    materials, ranks = decode(out, "CryptoMaterial")
+    assert set(materials) == {"/World/Looks/Grey", "/World/Looks/Red"}
+    grey, red = (matte(materials, ranks, name) for name in ("/World/Looks/Grey", "/World/Looks/Red"))
+    # Away from the seam (the pixel filter reaches past a pixel) each half is one material.
+    assert (grey[:, :14] == 1).all() and (red[:, :14] == 0).all()
+    assert (red[:, 18:] == 1).all() and (grey[:, 18:] == 0).all()
+    np.testing.assert_array_equal(grey + red, np.ones((32, 32)))
+    objects, object_ranks = decode(out, "CryptoObject")
+    assert set(objects) == {"/World/halves"}
+    np.testing.assert_array_equal(matte(objects, object_ranks, "/World/halves"), np.ones((32, 32)))

@@ -4,8 +4,10 @@
 // The renderer knows placements (an object's own placement or one copy of an instancer), not
 // names: the film counts, per pixel, the samples whose camera ray first hit each placement, and
 // a resolve maps placements to the hashes of the names its caller gives them (placements that
-// share a name — a material, an asset — add up). Counts are integers, so the coverage does not
-// depend on the order threads add samples in.
+// share a name — a material, an asset — add up). Samples on faces that a per-face binding gives
+// a material of their own are counted apart, so that a material layer can name them by that
+// material. Counts are integers, so the coverage does not depend on the order threads add
+// samples in.
 #pragma once
 
 #include <cstdint>
@@ -13,6 +15,8 @@
 #include <unordered_map>
 #include <utility>
 #include <vector>
+
+#include "penumbra/material_table.h"
 
 namespace penumbra {
 
@@ -33,6 +37,9 @@ inline PlacementKey placementKey(uint32_t object, int copy) {
 }
 /// The Cryptomatte hash (of a name) of each placement.
 using PlacementHashes = std::unordered_map<PlacementKey, uint32_t>;
+/// The Cryptomatte hash (of a material's name) of each material index that per-face bindings
+/// give faces (MaterialTable::kNoMaterial among them: faces bound to none).
+using FaceMaterialHashes = std::unordered_map<int, uint32_t>;
 
 /// One rank of a pixel: an id (the hash's float) and the share of the pixel's samples with it.
 struct CryptomatteRank {
@@ -50,13 +57,16 @@ class CryptomatteCoverage {
   /// Forgets every sample and holds `pixels` pixels.
   void reset(size_t pixels);
   size_t pixels() const { return pixels_.size(); }
-  /// One more sample of `pixel` first hit `placement`.
-  void add(size_t pixel, PlacementKey placement);
+  /// One more sample of `pixel` first hit `placement`, on a face of material `faceMaterial`
+  /// by a per-face binding (FirstHitSample::faceMaterial; MaterialTable::kObjectMaterial: the
+  /// placement's own).
+  void add(size_t pixel, PlacementKey placement, int faceMaterial = MaterialTable::kObjectMaterial);
   /// `depth` ranks of `pixel` (of `samples` samples) as (id, coverage) pairs, 2 × depth
-  /// floats written to `out` (zeros past the last id). Placements missing from `hashes` count
-  /// as misses.
-  void resolve(size_t pixel, uint32_t samples, const PlacementHashes& hashes, int depth,
-               float* out) const;
+  /// floats written to `out` (zeros past the last id). Samples take their placement's hash,
+  /// those on faces of a material of their own its hash in `faceMaterials` when given (a
+  /// material layer); placements (and materials) missing from the maps count as misses.
+  void resolve(size_t pixel, uint32_t samples, const PlacementHashes& hashes, int depth, float* out,
+               const FaceMaterialHashes* faceMaterials = nullptr) const;
 
   /// Appends the counts to `out` (a checkpoint).
   void saveState(std::vector<uint8_t>& out) const;
@@ -67,6 +77,7 @@ class CryptomatteCoverage {
  private:
   struct Count {
     PlacementKey placement;
+    int32_t faceMaterial;
     uint32_t samples;
   };
   std::vector<std::vector<Count>> pixels_;

@@ -93,7 +93,8 @@ struct GeometryHit {
   Vec3f geometricNormal;   // Embree's Ng there: object space, unnormalised
   const Shape* shape = nullptr;
   const MotionTransform* objectToWorld = nullptr;  // the placement's
-  int materialIndex = MaterialTable::kNoMaterial;  // the object's
+  int materialIndex = MaterialTable::kNoMaterial;  // the face's (per-face bindings) or object's
+  bool faceMaterial = false;                       // materialIndex is a per-face binding's
   PassVisibility pass;                             // the placement owner's
   /// For copies of an instancer with per-copy primvars: those primvars (see SurfacePoint).
   const std::vector<Primvar>* instancePrimvars = nullptr;
@@ -142,11 +143,10 @@ class Geometry {
   void setMeshPassVisibility(MeshId id, PassVisibility pass);
   /// Per-face materials (UsdGeomSubset material bindings): the mesh's face f (its authored
   /// face, Shape::elementOf) renders with `faceMaterials[f]`, a material index or
-  /// MaterialTable::kNoMaterial (displayColor); entries kObjectMaterial, faces past the end,
-  /// and every face when it is empty take the mesh's own material (setMeshInstance's). Its
-  /// instancers' copies render so too.
+  /// MaterialTable::kNoMaterial (displayColor); entries MaterialTable::kObjectMaterial, faces
+  /// past the end, and every face when it is empty take the mesh's own material
+  /// (setMeshInstance's). Its instancers' copies render so too.
   void setMeshFaceMaterials(MeshId id, std::vector<int> faceMaterials);
-  static constexpr int kObjectMaterial = -2;
 
   /// Farthest a shown placement may reach from the origin, in every coordinate: Embree wants
   /// ray origins within about 1.8e19 (it asserts so), and hits on geometry farther out would
@@ -285,7 +285,7 @@ class Geometry {
     std::shared_ptr<const Shape> shape;
     int materialIndex = MaterialTable::kNoMaterial;
     std::vector<int> faceMaterials;    // setMeshFaceMaterials
-    std::vector<int> faceMaterialSet;  // its entries but kObjectMaterial, sorted, once each
+    std::vector<int> faceMaterialSet;  // its entries but the object's, sorted, once each
     bool visible = true;
     PassVisibility pass;
     std::unique_ptr<Placement> own;

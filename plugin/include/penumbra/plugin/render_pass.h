@@ -121,8 +121,12 @@ class RenderPass {
   /// setAovs) of the crop (or image), row-major from the top: per pixel the render settings'
   /// cryptomatteDepth ranks as (id, coverage) pairs, zero-padded to whole RGBA layers
   /// (aovChannels). `names`: the names of the placements for this layer
-  /// (RenderDelegate::placementHashes); a placement without one counts as a miss.
-  std::vector<float> cryptomatte(const std::map<PrimId, std::vector<std::string>>& names) const;
+  /// (RenderDelegate::placementHashes); a placement without one counts as a miss. A material
+  /// layer also names the materials per-face bindings give faces (`faceMaterialNames`:
+  /// material id → name, "" for faces bound to none; RenderDelegate::faceMaterialHashes): their
+  /// samples take those names, not their placement's.
+  std::vector<float> cryptomatte(const std::map<PrimId, std::vector<std::string>>& names,
+                                 const std::map<PrimId, std::string>& faceMaterialNames = {}) const;
   /// Floats per pixel of an AOV: 4 for color, 3 for vectors, a primvar's width as the scene's
   /// meshes have it (1 where none has it), 4 per two ranks of Cryptomatte AOVs, 1 otherwise.
   int aovChannels(const std::string& name) const;
