@@ -259,7 +259,8 @@ def test_native_instances_render_their_prototype_subsets_and_their_own_bindings(
     assert copy_face_colours(image, 1.0) == [BLUE, WHITE, GREEN, GREEN]
 
 
-def test_point_instancer_copies_render_their_prototype_subsets():
+def scattered_grid_stage():
+    """:func:`instanced_grid_stage`'s grid as the prototype of a point instancer's two copies."""
     stage, _ = instanced_grid_stage()
     instancer = UsdGeom.PointInstancer.Define(stage, "/World/scatter")
     stage.DefinePrim("/World/scatter/protos")
@@ -268,6 +269,11 @@ def test_point_instancer_copies_render_their_prototype_subsets():
     instancer.CreatePrototypesRel().SetTargets(["/World/scatter/protos/tile"])
     instancer.CreatePositionsAttr(Vt.Vec3fArray([(-1, 0, 0), (1, 0, 0)]))
     instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    return stage
+
+
+def test_point_instancer_copies_render_their_prototype_subsets():
+    stage = scattered_grid_stage()
     image, warnings = render_with_warnings(stage, 64)
     assert warnings == []
     image = penumbra.Renderer(stage).render(**RENDER)
@@ -302,3 +308,11 @@ def test_subsets_of_a_gprim_other_than_a_mesh_are_named_and_left_out():
     ]
     image = penumbra.Renderer(stage).render(**RENDER)
     assert tuple(float(c) for c in pixel(image, 0.5, 0.5)) == BLUE
+
+
+def test_editing_a_point_instancer_prototype_subset_renders_as_a_fresh_renderer():
+    stage = scattered_grid_stage()
+    subset = UsdGeom.Subset(stage.GetPrimAtPath("/World/scatter/protos/tile/grid/a"))
+    assert_live_edit_renders_as_fresh(
+        stage, lambda: subset.GetIndicesAttr().Set(Vt.IntArray([0])), **RENDER
+    )

@@ -125,8 +125,9 @@ class _Pushed:
     mesh_id: str
     instancer_id: str
     material_id: str | None = None  # None: not sent yet
-    subset_ids: tuple[str, ...] | None = None  # the subsets' material ids sent; None: not yet
+    subset_ids: tuple[str, ...] = ()  # the material ids of the subsets sent (none at first)
     subset_faces: list[np.ndarray | None] = field(default_factory=list)  # read_subset_faces
+    subset_faces_read: bool = False  # read since last sent
     digest: bytes | None = None  # of the copies' transforms last sent (None: not sent)
     linked: bool = False  # linking classes were sent for its copies
     varying: bool = False  # the mesh's data might change with time
@@ -200,11 +201,12 @@ class InstancedMeshes:
                 pushed.material_id = material_id
             subsets = bound_faces(key[3], pushed.subset_faces)
             subset_ids = tuple(self.materials.material_id(m) for m, _ in subsets)
-            if subset_ids != pushed.subset_ids:
+            if subset_ids != pushed.subset_ids or (subsets and pushed.subset_faces_read):
                 self.core.set_subset_materials(
                     pushed.mesh_id, [(i, f) for i, (_, f) in zip(subset_ids, subsets)]
                 )
                 pushed.subset_ids = subset_ids
+            pushed.subset_faces_read = False
             transforms = group.stacked()
             primvars = group.stacked_primvars()
             linking = group.stacked_linking()
@@ -253,6 +255,7 @@ class InstancedMeshes:
         faces_vary = False
         if group.subset_materials and pushed.usable:
             pushed.subset_faces, faces_vary = read_subset_faces(group.mesh, shutter.frame, warn)
+            pushed.subset_faces_read = True
         pushed.varying = reader.varying or faces_vary
         self.core.set_visible(pushed.mesh_id, False)  # only its copies render
         if not pushed.usable:  # no copies of an unreadable mesh
@@ -261,7 +264,6 @@ class InstancedMeshes:
             pushed.digest = None
             pushed.names = []
         pushed.material_id = None  # re-sent with the mesh
-        pushed.subset_ids = None
 
     def _remove(self, key: GroupKey) -> None:
         pushed = self._pushed.pop(key)
