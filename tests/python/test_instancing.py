@@ -249,29 +249,6 @@ def test_copies_blur_with_their_prototype_roots_motion():
     assert np.allclose(image, expected, atol=1e-4)
 
 
-def test_lights_in_prototypes_warn_and_keep_the_default_light_off():
-    """Point instancers do not instance lights yet: one warning per instancer names them, and
-    the stage still counts as lit by its own lights (no default light in their place)."""
-    stage = new_stage()
-    add_camera(stage)
-    UsdGeom.Xform.Define(stage, "/World/lamps/Protos/lamp")
-    add_quad(stage, "/World/lamps/Protos/lamp/shade", half_size=0.4)
-    UsdLux.SphereLight.Define(stage, "/World/lamps/Protos/lamp/bulb").AddTranslateOp().Set(
-        Gf.Vec3d(0, 0, 1)
-    )
-    instancer = UsdGeom.PointInstancer.Define(stage, "/World/lamps")
-    instancer.CreatePrototypesRel().SetTargets(["/World/lamps/Protos/lamp"])
-    instancer.CreatePositionsAttr(Vt.Vec3fArray([(-1, 0.5, 0), (1, 0.5, 0)]))
-    instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
-    image, messages = render_with_warnings(stage, 40)
-    assert messages == [
-        "/World/lamps: lights in point-instancer prototypes are not rendered yet; 1 skipped "
-        "(first: /World/lamps/Protos/lamp/bulb)"
-    ]
-    assert covers(image, -1, 0.5) and covers(image, 1, 0.5)
-    assert image[..., :3].max() == 0  # unlit: neither the bulbs nor a default light
-
-
 def test_an_ancestors_keyed_visibility_hides_the_copies_at_its_frames():
     # Only the instancer's own visibility was followed over time: copies under a parent keyed
     # invisible at frame 2 still rendered there (a fresh render and the CLI alike).

@@ -68,6 +68,14 @@ class Leaf:
     primvars: dict[str, np.ndarray] = field(default_factory=dict)
 
 
+@dataclass
+class LightCopies:
+    """Copies of one light in the prototypes of a point instancer."""
+
+    light: Usd.Prim  # the light (by its user-facing path: in a native instance, its proxy)
+    transforms: np.ndarray  # float64 (N, K, 4, 4): light-to-world, K = 1 or the grid's samples
+
+
 def nest_primvars(
     outer: dict[str, np.ndarray], inner: dict[str, np.ndarray], outer_count: int, inner_count: int
 ) -> dict[str, np.ndarray]:
@@ -137,7 +145,7 @@ class Flattener:
         self.caches = XformCaches()
         self.varying = False
         self.roots: set[Sdf.Path] = set()  # every subtree expanded (for change tracking)
-        self.lights: set[Sdf.Path] = set()  # lights in point-instancer prototypes, not rendered
+        self.lights: set[Sdf.Path] = set()  # lights in nested point-instancer prototypes, not rendered
         self._segments: dict[Sdf.Path, int] = {}
         self._lights_below: dict[Sdf.Path, set[Sdf.Path]] = {}  # noted by content_segments
         self._leaves: dict[tuple[Sdf.Path, int], list[Leaf]] = {}
@@ -311,24 +319,37 @@ class Flattener:
                 ),
             )
 
-    def point_instancer_leaves(self, prim: Usd.Prim, root: Usd.Prim, segments: int) -> Iterator[Leaf]:
+    def point_instancer_leaves(
+        self,
+        prim: Usd.Prim,
+        root: Usd.Prim,
+        segments: int,
+        light_copies: list[LightCopies] | None = None,
+    ) -> Iterator[Leaf]:
         """The meshes of the prototypes of point instancer ``prim`` (below ``root``), one leaf
-        per prototype mesh holding all its copies, relative to ``root``."""
+        per prototype mesh holding all its copies, relative to ``root``; the lights of its
+        prototypes are appended to ``light_copies`` (relative to ``root`` too), or, without it
+        (an instancer nested in another's prototype), left out with a warning."""
         copies = self.point_instancer_copies(prim, segments)
         if not copies:
             return
         placement = self.relative(prim, root, segments)
         if placement is None:
             return
-        # Copies carry no lights yet (a light sprim per copy would need ids and link slots of
-        # their own); say so rather than drop them silently.
-        dropped = sorted(set().union(*(self.lights_below(prototype) for prototype, *_ in copies)))
-        if dropped:
-            self.lights.update(dropped)
-            self.warn(
-                f"{user_facing_path(prim)}: lights in point-instancer prototypes are not rendered "
-                f"yet; {len(dropped)} skipped (first: {dropped[0]})"
-            )
+        if light_copies is not None:
+            light_copies += self._light_copies(copies, placement, segments)
+        else:
+            # Copies of copies carry no lights (a light per copy of a copy); say so rather
+            # than drop them silently.
+            lights = (self.lights_below(prototype) for prototype, *_ in copies)
+            dropped = sorted(set().union(*lights))
+            if dropped:
+                self.lights.update(dropped)
+                self.warn(
+                    f"{user_facing_path(prim)}: lights in the prototypes of a point instancer "
+                    "inside another's prototypes are not rendered yet; "
+                    f"{len(dropped)} skipped (first: {dropped[0]})"
+                )
         # Visibility counts from each prototype root down (the walk) and the instancer's own,
         # as in UsdImaging: prims above a prototype root are often made invisible just to keep
         # the prototypes from rendering where they are defined.
@@ -350,6 +371,33 @@ class Flattener:
                         inner,
                     ),
                 )
+
+    def _light_copies(self, copies, placement: np.ndarray, segments: int) -> list[LightCopies]:
+        """The copies of the lights in the prototypes of ``copies`` (as
+        :meth:`point_instancer_copies` gives them), placed by ``placement`` (the instancer's,
+        (K, 4, 4))."""
+        result = []
+        elsewhere = []  # lights of native instances whose first instance is not in the prototype
+        for prototype, transforms, _, _ in copies:
+            for path in sorted(self.lights_below(prototype)):
+                if not path.HasPrefix(prototype.GetPath()):
+                    elsewhere.append(path)
+                    continue
+                light = self.stage.GetPrimAtPath(path)
+                relative = self.relative(light, prototype, segments) if light else None
+                if relative is None:
+                    continue
+                # Each copy's k-th sample pairs with the light's and the instancer's k-th.
+                composed = relative[None] @ transforms
+                result.append(LightCopies(light, composed @ placement))
+        if elsewhere:
+            self.lights.update(elsewhere)
+            self.warn(
+                "lights of native instances that are first instanced outside a point instancer's "
+                f"prototypes are not rendered in its copies yet; {len(elsewhere)} skipped (first: "
+                f"{elsewhere[0]})"
+            )
+        return result
 
     def point_instancer_copies(
         self, prim: Usd.Prim, segments: int

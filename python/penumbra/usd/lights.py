@@ -299,6 +299,17 @@ def sync_light(
     """Push the inputs of light ``prim`` (of a type :func:`light_type` accepts) to ``core``.
     Without ``dome_light_visibility`` a dome light is not seen by camera rays (usdrecord's
     default: the dome lights the scene, the background stays transparent)."""
+    core.set_light(str(prim.GetPath()), **read_light(prim, reader, warn, dome_light_visibility))
+
+
+def read_light(
+    prim: Usd.Prim,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    dome_light_visibility: bool = True,
+) -> dict:
+    """The inputs of light ``prim`` as the delegate's ``set_light`` takes them (see
+    :func:`sync_light`); what cannot be used is named in warnings."""
     path = str(prim.GetPath())
     sprim_type, schema_class, shape_inputs = _light_entry(prim)
     schema = schema_class(prim)
@@ -308,7 +319,7 @@ def sync_light(
     if params["texture:file"] and isinstance(schema, UsdLux.DomeLight_1):
         _check_pole_axis(prim, schema, warn)
     params["cameraVisible"] = dome_light_visibility or sprim_type != "domeLight"
-    core.set_light(path, **params)
+    return params
 
 
 def pole_axis(prim: Usd.Prim) -> str:

@@ -4,7 +4,7 @@
 prototypes (those are flattened with their prototype, see :mod:`.native_instancing`); an edit
 under an instancer, its prototypes or the materials they use re-flattens that instancer
 (:mod:`.flattening`), and :mod:`.instanced_meshes` pushes what differs (meshes, points and
-curves alike).
+curves alike), :mod:`.instanced_lights` the lights of its prototypes, a light per copy.
 """
 
 from __future__ import annotations
@@ -14,8 +14,9 @@ from dataclasses import dataclass, field
 
 from pxr import Sdf, Usd, UsdGeom
 
-from .flattening import Flattener, prototype_roots, combine_segments
+from .flattening import Flattener, LightCopies, prototype_roots, combine_segments
 from .inherited import InheritedState
+from .instanced_lights import InstancedLights
 from .instanced_meshes import (
     Group,
     GroupKey,
@@ -35,10 +36,15 @@ class _Instancer:
     """What one point instancer put in the delegate, and what it depends on."""
 
     meshes: InstancedMeshes
+    lights: InstancedLights
     roots: set[Sdf.Path] = field(default_factory=set)  # edits below these re-flatten it
     varying: bool = False
     dirty: bool = True
-    lights: bool = False  # its prototypes hold lights (not rendered yet, see Flattener.lights)
+    dropped_lights: bool = False  # lights of nested instancers' prototypes (Flattener.lights)
+
+    def clear(self) -> None:
+        self.meshes.clear()
+        self.lights.clear()
 
 
 class PointInstancerDelegate:
@@ -99,7 +105,7 @@ class PointInstancerDelegate:
             self._structure_changed = False
             found = set(self._find())
             for path in [p for p in self._instancers if p not in found]:
-                self._instancers.pop(path).meshes.clear()
+                self._instancers.pop(path).clear()
             for path in found:
                 if path not in self._instancers:
                     self._instancers[path] = self._new_record(path)
@@ -110,9 +116,9 @@ class PointInstancerDelegate:
                 self._sync(self.stage.GetPrimAtPath(path), record, stale, time_changed)
 
     def has_lights(self) -> bool:
-        """Whether the prototypes of a visible point instancer hold lights: not rendered yet,
-        they still make the stage one with lights of its own (no default light)."""
-        return any(record.lights for record in self._instancers.values())
+        """Whether the prototypes of a visible point instancer hold lights: rendered or not,
+        they make the stage one with lights of its own (no default light)."""
+        return any(len(r.lights) or r.dropped_lights for r in self._instancers.values())
 
     def copies(self) -> Iterator[tuple[str, Sdf.Path | None, list[str]]]:
         """``(instancer id, bound material, Cryptomatte object names)`` of every instancer rprim
@@ -130,20 +136,29 @@ class PointInstancerDelegate:
                 yield prim.GetPath()
 
     def _new_record(self, path: Sdf.Path) -> _Instancer:
-        return _Instancer(InstancedMeshes(self.core, self.warn, self.materials, str(path)))
+        return _Instancer(
+            InstancedMeshes(self.core, self.warn, self.materials, str(path)),
+            InstancedLights(self.core, self.warn, str(path)),
+        )
 
     def _sync(self, prim: Usd.Prim, record: _Instancer, stale: set[Sdf.Path], time_changed: bool) -> None:
         flattener = Flattener(self.stage, self.shutter, self.warn)
-        groups = self._groups(prim, flattener)
+        lights: list[LightCopies] = []
+        groups = self._groups(prim, flattener, lights)
         record.meshes.update(groups, self.shutter, stale, time_changed)
+        record.lights.update(lights, self.shutter, stale, time_changed)
         # A material edit may make it usable or not: the copies then change material.
         materials = set().union(*map(materials_of, groups))
         record.roots = {prim.GetPath(), *flattener.roots, *materials}
-        record.varying = flattener.varying or record.meshes.varying
-        record.lights = bool(flattener.lights)
+        record.varying = flattener.varying or record.meshes.varying or record.lights.varying
+        record.dropped_lights = bool(flattener.lights)
         record.dirty = False
 
-    def _groups(self, prim: Usd.Prim, flattener: Flattener) -> dict[GroupKey, Group]:
+    def _groups(
+        self, prim: Usd.Prim, flattener: Flattener, lights: list[LightCopies]
+    ) -> dict[GroupKey, Group]:
+        """The copies of the meshes in ``prim``'s prototypes, grouped; the copies of their
+        lights are appended to ``lights``."""
         imageable = UsdGeom.Imageable(prim)
         purpose = imageable.ComputePurpose()
         if visibility_might_vary(prim):  # its own or an ancestor's
@@ -167,7 +182,9 @@ class PointInstancerDelegate:
         # Ray visibility: the instancer's and its ancestors', nearer in a prototype.
         inherited = InheritedState(self.warn)
         inherited.at(self.shutter.frame)
-        leaves = flattener.point_instancer_leaves(prim, self.stage.GetPseudoRoot(), segments)
+        leaves = flattener.point_instancer_leaves(
+            prim, self.stage.GetPseudoRoot(), segments, lights
+        )
         for leaf in leaves:
             if (leaf.purpose or purpose) not in self.purposes:
                 continue

@@ -1,0 +1,123 @@
+"""Lights in a point instancer's prototypes: every copy of a prototype holding a light is a
+light of its own, placed with the copy, as the same lamps placed by hand would be."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, UsdGeom, UsdLux, Vt
+
+import penumbra
+from stages import add_camera, add_quad, assert_live_edit_renders_as_fresh, new_stage, render_with_warnings
+
+RENDER = dict(camera="/cam", width=40, samples=16, seed=1)
+PLACES = ((-1.0, 0.5, 0.0), (1.0, -0.5, 0.0))
+
+
+def add_lamp(stage, path: str) -> UsdLux.SphereLight:
+    """A lamp: a small card with a bulb half a unit in front of it, facing the camera."""
+    UsdGeom.Xform.Define(stage, path)
+    add_quad(stage, f"{path}/shade", half_size=0.2)
+    bulb = UsdLux.SphereLight.Define(stage, f"{path}/bulb")
+    bulb.CreateRadiusAttr(0.1)
+    bulb.CreateIntensityAttr(30.0)
+    bulb.AddTranslateOp().Set(Gf.Vec3d(0, 0, 0.5))
+    return bulb
+
+
+def lamps_stage(instanced: bool):
+    """Two lamps in front of a wall: copies of a point instancer, or placed by hand."""
+    stage = new_stage()
+    add_camera(stage)
+    add_quad(stage, "/World/wall", center=(0.0, 0.0, -0.5), half_size=3.0)
+    if instanced:
+        add_lamp(stage, "/World/lamps/Protos/lamp")
+        instancer = UsdGeom.PointInstancer.Define(stage, "/World/lamps")
+        instancer.CreatePrototypesRel().SetTargets(["/World/lamps/Protos/lamp"])
+        instancer.CreatePositionsAttr(Vt.Vec3fArray(PLACES))
+        instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    else:
+        for n, place in enumerate(PLACES):
+            add_lamp(stage, f"/World/lamp{n}")
+            UsdGeom.Xform(stage.GetPrimAtPath(f"/World/lamp{n}")).AddTranslateOp().Set(
+                Gf.Vec3d(*place)
+            )
+    return stage
+
+
+def test_each_copy_of_a_prototype_light_lights_as_a_lamp_placed_by_hand():
+    image, messages = render_with_warnings(lamps_stage(instanced=True), 40)
+    assert messages == []
+    instanced = penumbra.Renderer(lamps_stage(instanced=True)).render(**RENDER)["color"]
+    by_hand = penumbra.Renderer(lamps_stage(instanced=False)).render(**RENDER)["color"]
+    assert instanced[..., :3].mean() > 0.05  # lit, and by its own lamps: no default light
+    np.testing.assert_allclose(instanced, by_hand, rtol=1e-5, atol=1e-5)
+
+
+def test_lights_of_a_stage_lit_only_by_copies_keep_the_default_light_off():
+    stage = lamps_stage(instanced=True)
+    stage.GetPrimAtPath("/World/lamps/Protos/lamp/bulb").GetAttribute("inputs:intensity").Set(0.0)
+    image = penumbra.Renderer(stage).render(**RENDER)["color"]
+    assert image[..., :3].max() == 0  # unlit: no default light in the copies' place
+
+
+def edit_intensity(stage):
+    stage.GetPrimAtPath("/World/lamps/Protos/lamp/bulb").GetAttribute("inputs:intensity").Set(90.0)
+
+
+def edit_positions(stage):
+    UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/lamps")).GetPositionsAttr().Set(
+        Vt.Vec3fArray([(0.0, 0.0, 0.0), (1.0, 1.0, 0.0)])
+    )
+
+
+def edit_copies(stage):
+    instancer = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/lamps"))
+    instancer.GetPositionsAttr().Set(Vt.Vec3fArray(PLACES[:1]))
+    instancer.GetProtoIndicesAttr().Set(Vt.IntArray([0]))
+
+
+def edit_bulb_place(stage):
+    UsdGeom.Xformable(stage.GetPrimAtPath("/World/lamps/Protos/lamp/bulb")).GetOrderedXformOps()[
+        0
+    ].Set(Gf.Vec3d(0.3, 0, 0.5))
+
+
+@pytest.mark.parametrize("edit", [edit_intensity, edit_positions, edit_copies, edit_bulb_place])
+def test_live_edits_of_instanced_lights_render_as_a_fresh_renderer(edit):
+    stage = lamps_stage(instanced=True)
+    assert_live_edit_renders_as_fresh(stage, lambda: edit(stage), **RENDER)
+
+
+def test_copies_of_a_linked_light_are_named_and_light_everything():
+    stage = lamps_stage(instanced=True)
+    bulb = UsdLux.LightAPI(stage.GetPrimAtPath("/World/lamps/Protos/lamp/bulb"))
+    bulb.GetLightLinkCollectionAPI().CreateExcludesRel().AddTarget("/World/wall")
+    image, messages = render_with_warnings(stage, 40)
+    assert messages == [
+        "/World/lamps/Protos/lamp/bulb: the light and shadow links of lights in point-instancer "
+        "prototypes are not supported yet; its copies light and shadow everything"
+    ]
+    assert image[..., :3].mean() > 0.05
+
+
+def test_lights_of_an_instancer_inside_another_prototype_are_named_and_skipped():
+    stage = new_stage()
+    add_camera(stage)
+    add_quad(stage, "/World/wall", center=(0.0, 0.0, -0.5), half_size=3.0)
+    add_lamp(stage, "/World/outer/Protos/group/inner/Protos/lamp")
+    inner = UsdGeom.PointInstancer.Define(stage, "/World/outer/Protos/group/inner")
+    inner.CreatePrototypesRel().SetTargets(["/World/outer/Protos/group/inner/Protos/lamp"])
+    inner.CreatePositionsAttr(Vt.Vec3fArray([(0.0, 0.0, 0.0)]))
+    inner.CreateProtoIndicesAttr(Vt.IntArray([0]))
+    outer = UsdGeom.PointInstancer.Define(stage, "/World/outer")
+    outer.CreatePrototypesRel().SetTargets(["/World/outer/Protos/group"])
+    outer.CreatePositionsAttr(Vt.Vec3fArray(PLACES))
+    outer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    image, messages = render_with_warnings(stage, 40)
+    assert messages == [
+        "/World/outer/Protos/group/inner: lights in the prototypes of a point instancer inside "
+        "another's prototypes are not rendered yet; 1 skipped (first: "
+        "/World/outer/Protos/group/inner/Protos/lamp/bulb)"
+    ]
+    assert image[..., :3].max() == 0  # the lamps' cards are there, unlit: no default light
