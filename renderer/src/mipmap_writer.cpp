@@ -199,7 +199,9 @@ bool writeMipmappedTexture(OIIO::ImageInput& input, const std::string& output,
     std::vector<float> band(rowValues * size_t(std::min(height, kTextureTileSize))), tileRows;
     for (int first = 0; first < height; first += kTextureTileSize) {
       const int last = std::min(height, first + kTextureTileSize);
-      if (!readRows(input, first, last, channels, &tileRows, band.data())) {
+      // Readers of truncated JPEG and TIFF files fill in what is missing and return true,
+      // with an error on record: the image is then as unreadable as a failed read.
+      if (!readRows(input, first, last, channels, &tileRows, band.data()) || input.has_error()) {
         *error = "cannot read the image: " + input.geterror();
         return false;
       }

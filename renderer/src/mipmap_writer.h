@@ -23,7 +23,8 @@ constexpr int kTextureTileSize = 64;
 /// as OpenEXR's ROUND_DOWN), each texel of a coarser level the area-weighted mean of the texels
 /// it covers. `format`: the stored pixel type (half or float). `spool`: a path for temporary
 /// level data, removed before returning. False with *error set (without the file names) on
-/// failure.
+/// failure: "cannot read the image: …" when `input` cannot be read (a truncated file among
+/// them), else what could not be written.
 bool writeMipmappedTexture(OIIO::ImageInput& input, const std::string& output,
                            OIIO::TypeDesc format, const RowTransform& transform,
                            const std::string& spool, std::string* error);

@@ -38,6 +38,11 @@ std::string trimmed(std::string text) {
   return text;
 }
 
+// The first line of `text`: OIIO's errors may repeat themselves a line per row or library.
+std::string firstLine(const std::string& text) {
+  return text.substr(0, text.find('\n'));
+}
+
 // A wrap mode named in file metadata, in USD's words or OIIO's ("periodic"); false if unknown.
 bool parseWrap(const std::string& name, Wrap* wrap) {
   const std::string mode = lower(trimmed(name));
@@ -205,7 +210,11 @@ bool TextureFiles::prepare(const std::string& file, const OIIO::ImageSpec& fileS
     };
   if (!writeMipmappedTexture(*input, output, half ? OIIO::TypeHalf : OIIO::TypeFloat, transform,
                              (directory_ / (name + ".spool")).string(), error)) {
-    *error = file + ": cannot prepare the texture " + output + ": " + trimmed(*error);
+    // A file that cannot be read is the user's to mend; one that cannot be written, ours.
+    const bool unreadable = error->rfind("cannot read the image", 0) == 0;
+    *error = file + ": " +
+             (unreadable ? firstLine(*error)
+                         : "cannot prepare the texture " + output + ": " + trimmed(*error));
     return false;
   }
   *texture = output;

@@ -541,3 +541,22 @@ def test_edits_through_a_node_graph_interface_re_render(tmp_path):
     np.testing.assert_allclose(at(renderer.render(camera="/cam", width=40, samples=4)["color"], 0, 0), RED, atol=0.01)
     file_input.Set(Sdf.AssetPath(str(blue)))
     np.testing.assert_allclose(at(renderer.render(camera="/cam", width=40, samples=4)["color"], 0, 0), BLUE, atol=0.01)
+
+
+@pytest.mark.parametrize("extension", ["png", "jpg", "tif", "exr"])
+def test_a_truncated_texture_is_named_and_gives_the_fallback(tmp_path, extension):
+    # JPEG and TIFF readers filled in the missing rows (grey, or garbage) without a word; the
+    # others named a temporary file of Penumbra's in the warning.
+    good = write_texture(tmp_path / f"good.{extension}", quadrants(256))
+    truncated = tmp_path / f"truncated.{extension}"
+    truncated.write_bytes(good.read_bytes()[: good.stat().st_size * 2 // 3])
+    fallback = (0.2, 0.4, 0.6, 1.0)
+    stage, _ = textured_stage(truncated, texture={"fallback": fallback})
+    with pytest.warns(penumbra.PenumbraWarning) as record:
+        image = render(stage)
+    messages = [str(w.message) for w in record if "truncated" in str(w.message)]
+    assert len(messages) == 1, messages
+    assert f"{truncated}: cannot read the image: " in messages[0]
+    assert "\n" not in messages[0] and "penumbra-textures" not in messages[0]
+    for x, y in ((-0.5, 0.5), (0.5, -0.5)):
+        np.testing.assert_allclose(at(image, x, y), fallback[:3], atol=0.01)
