@@ -233,6 +233,8 @@ RenderDelegate::SyncStatistics RenderDelegate::syncStatistics() const {
 }
 
 std::vector<std::string> RenderDelegate::takeWarnings() {
+  for (std::string& message : scene_->materials().textures().takeLookupFailures())
+    context_.warn(std::move(message));
   return std::exchange(context_.warnings, {});
 }
 

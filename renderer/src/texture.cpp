@@ -32,6 +32,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <tuple>
@@ -114,6 +115,14 @@ struct TextureSystem::Impl {
     TextureAlpha alpha;
   };
   std::vector<OpenedAs> openedAs;
+  // Textures whose lookups failed (a file broken past what opening it reads: a truncated tiled
+  // .tx), by handle: the first line of OIIO's first error, and whether it was reported yet.
+  struct LookupFailure {
+    std::string error;
+    bool reported = false;
+  };
+  mutable std::mutex failureMutex;
+  mutable std::map<Handle, LookupFailure> failures;
   std::map<std::tuple<std::string, SourceColorSpace, std::string, TextureAlpha>, Handle> handles;
   // Each thread's OIIO per-thread record for this system, made here and destroyed with it. OIIO
   // 2.4 keeps the ones it makes itself (get_perthread_info()) per thread under the address of
@@ -230,9 +239,23 @@ size_t TextureSystem::reloadChangedFiles(std::vector<std::string>* errors) {
         fresh.files.emplace_back(file, fileStamp(file));
     }
     texture = std::move(fresh);
+    const std::lock_guard<std::mutex> lock(impl_->failureMutex);
+    impl_->failures.erase(Handle(index));  // a file mended, or broken anew, is reported anew
     ++reloaded;
   }
   return reloaded;
+}
+
+std::vector<std::string> TextureSystem::takeLookupFailures() {
+  std::vector<std::string> messages;
+  const std::lock_guard<std::mutex> lock(impl_->failureMutex);
+  for (auto& [handle, failure] : impl_->failures) {
+    if (failure.reported) continue;
+    failure.reported = true;
+    messages.push_back(impl_->openedAs[size_t(handle)].path + ": the texture cannot be read (" +
+                       failure.error + "); its fallback value is used where it fails");
+  }
+  return messages;
 }
 
 int TextureSystem::channels(Handle handle) const {
@@ -352,8 +375,13 @@ bool TextureSystem::lookup(Handle handle, TextureWrap wrapS, TextureWrap wrapT,
   OIIO::TextureSystem* oiio = impl_->oiio;
   float value[4];
   if (!oiio->texture(tile->handle, impl_->threadInfo(), options, s, 1.0f - t, dsdx, dtdx, dsdy,
-                     dtdy, tile->channels, value))
+                     dtdy, tile->channels, value)) {
+    // Taken, not left to pile up in OIIO's per-thread error text, lookup after lookup.
+    const std::string error = oiio->geterror();
+    const std::lock_guard<std::mutex> lock(impl_->failureMutex);
+    impl_->failures.try_emplace(handle, Impl::LookupFailure{error.substr(0, error.find('\n'))});
     return false;
+  }
   divideByCoverage(*tile, value);
   switch (tile->channels) {
     case 1:

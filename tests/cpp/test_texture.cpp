@@ -889,3 +889,31 @@ TEST_F(Texture, LargeLightTexturesAreSampledFromAMipLevelAndLookedUpInFull) {
   const double expected = 0.25 + (4096.0 - 0.25) / 4 * rowSine / weights;
   EXPECT_NEAR(light->average().x, expected, 1e-4 * expected);
 }
+
+TEST_F(Texture, LookupsOfAFileBrokenPastItsHeaderFailAndAreReportedOnce) {
+  // A tiled, MIP-mapped file is read as it is, tile by tile as lookups need them: one cut short
+  // opens, and only its lookups find what is missing.
+  const std::string file = mipmapped("cut.exr");
+  const auto size = fs::file_size(file);
+  fs::resize_file(file, size / 2);
+  TextureSystem textures(kBundledConfig);
+  std::string error;
+  const auto handle = textures.open(file, SourceColorSpace::Raw, &error);
+  ASSERT_NE(handle, TextureSystem::kInvalid) << error;
+  EXPECT_TRUE(textures.takeLookupFailures().empty());
+  bool failed = false;
+  for (float s = 0.05f; s < 1; s += 0.1f)
+    for (float t = 0.05f; t < 1; t += 0.1f) {
+      float rgba[4];
+      failed = failed ||
+               !textures.lookup(handle, TextureWrap::Clamp, TextureWrap::Clamp, at(s, t), rgba);
+    }
+  ASSERT_TRUE(failed);
+  const std::vector<std::string> reported = textures.takeLookupFailures();
+  ASSERT_EQ(reported.size(), 1u);
+  EXPECT_EQ(reported[0].rfind(file + ": the texture cannot be read (", 0), 0u) << reported[0];
+  EXPECT_EQ(reported[0].find('\n'), std::string::npos) << reported[0];
+  float rgba[4];
+  textures.lookup(handle, TextureWrap::Clamp, TextureWrap::Clamp, at(0.95f, 0.05f), rgba);
+  EXPECT_TRUE(textures.takeLookupFailures().empty());  // once per file
+}

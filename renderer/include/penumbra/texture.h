@@ -102,6 +102,11 @@ class TextureSystem {
   /// file. Called from one thread at a time (scene sync), never concurrently with lookup().
   size_t reloadChangedFiles(std::vector<std::string>* errors);
 
+  /// A message naming each texture whose lookups failed since the last call and had not failed
+  /// before (until its file is read again): a file broken past what opening it reads, such as
+  /// a truncated tiled .tx, whose fallback value is then used. Thread-safe.
+  std::vector<std::string> takeLookupFailures();
+
   /// Bounds the memory of the tile cache shared by every texture (at least 16 MiB). Whatever
   /// the textures' resolution, lookups then hold about this much texture data. Called between
   /// renders, never concurrently with lookup().
