@@ -52,24 +52,24 @@ bool PlacedRprim::bindsAny(const std::set<PrimId>& materials) const {
   return false;
 }
 
-std::vector<int> PlacedRprim::faceMaterials(const SyncContext& context) const {
-  if (subsetMaterials_.empty()) return {};
+void PlacedRprim::bindFaces(SyncContext& context) const {
+  std::vector<uint32_t> faceSlots;
+  std::vector<int> slotMaterials;
   const size_t faces = faceCount();
-  std::vector<int> materials;
   for (const SubsetMaterial& subset : subsetMaterials_) {
-    const int index =
+    slotMaterials.push_back(
         subset.material.empty()
             ? MaterialTable::kNoMaterial
-            : context.materials.find(subset.material).value_or(MaterialTable::kNoMaterial);
+            : context.materials.find(subset.material).value_or(MaterialTable::kNoMaterial));
+    const uint32_t slot = uint32_t(slotMaterials.size());
     for (const int face : subset.faces) {
-      if (size_t(face) >= faces) continue;
-      if (size_t(face) >= materials.size())
-        materials.resize(size_t(face) + 1, MaterialTable::kObjectMaterial);
-      if (materials[size_t(face)] == MaterialTable::kObjectMaterial)
-        materials[size_t(face)] = index;
+      if (size_t(face) >= faces) continue;  // not a face (yet): the topology may gain it
+      if (size_t(face) >= faceSlots.size()) faceSlots.resize(size_t(face) + 1, 0);
+      if (faceSlots[size_t(face)] == 0) faceSlots[size_t(face)] = slot;
     }
   }
-  return materials;
+  context.scene.geometry().setMeshFaceMaterials(handle_, std::move(faceSlots),
+                                                std::move(slotMaterials));
 }
 
 void PlacedRprim::setTransform(const MotionTransform& objectToWorld) {
@@ -120,7 +120,7 @@ void PlacedRprim::place(SyncContext& context) const {
   int materialIndex = MaterialTable::kNoMaterial;
   if (!materialId_.empty())
     materialIndex = context.materials.find(materialId_).value_or(materialIndex);
-  context.scene.geometry().setMeshFaceMaterials(handle_, faceMaterials(context));
+  bindFaces(context);
   context.scene.geometry().setMeshInstance(handle_, objectToWorld_, materialIndex, visible_);
 }
 

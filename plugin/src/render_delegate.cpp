@@ -124,13 +124,19 @@ std::map<uint32_t, PrimId> RenderDelegate::primIdManifest() const {
   return manifest;
 }
 
-FaceMaterialHashes RenderDelegate::faceMaterialHashes(
-    const std::map<PrimId, std::string>& names) const {
-  FaceMaterialHashes hashes;
-  for (const auto& [id, name] : names) {
-    const std::optional<int> index =
-        id.empty() ? MaterialTable::kNoMaterial : context_.materials.find(id);
-    if (index) hashes[*index] = murmurHash3(name);
+SlotHashes RenderDelegate::slotHashes(
+    const std::map<PrimId, std::vector<std::string>>& names) const {
+  SlotHashes hashes;
+  for (const auto& [id, subsetNames] : names) {
+    const Mesh* mesh = meshes_.find(id);
+    if (!mesh)
+      throw std::invalid_argument(id + ": subset names are for meshes in the render index");
+    if (subsetNames.size() > mesh->subsetMaterials().size())
+      throw std::invalid_argument(id + ": " + std::to_string(subsetNames.size()) +
+                                  " subset names for " +
+                                  std::to_string(mesh->subsetMaterials().size()) + " subsets");
+    std::vector<uint32_t>& slots = hashes[mesh->handle()];
+    for (const std::string& name : subsetNames) slots.push_back(murmurHash3(name));
   }
   return hashes;
 }

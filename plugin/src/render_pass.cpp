@@ -350,12 +350,12 @@ std::vector<float> RenderPass::aov(const std::string& name) const {
 
 std::vector<float> RenderPass::cryptomatte(
     const std::map<PrimId, std::vector<std::string>>& names,
-    const std::map<PrimId, std::string>& faceMaterialNames) const {
+    const std::map<PrimId, std::vector<std::string>>& subsetNames) const {
   const int depth = delegate_.settings().cryptomatteDepth;
   const size_t channels = size_t(Film::cryptomatteChannels(depth));
-  const FaceMaterialHashes faceMaterials = delegate_.faceMaterialHashes(faceMaterialNames);
+  const SlotHashes slots = delegate_.slotHashes(subsetNames);
   return cropped(film_.resolveCryptomatte(delegate_.placementHashes(names), depth,
-                                          faceMaterialNames.empty() ? nullptr : &faceMaterials),
+                                          subsetNames.empty() ? nullptr : &slots),
                  channels, channels);
 }
 

@@ -219,19 +219,20 @@ void bindRender(py::module_& m, DelegateClass& delegate) {
       .def(
           "cryptomatte",
           [](const RenderPass& self, const std::map<std::string, std::vector<std::string>>& names,
-             const std::map<std::string, std::string>& faceMaterialNames) {
-            const std::vector<float> values = self.cryptomatte(names, faceMaterialNames);
+             const std::map<std::string, std::vector<std::string>>& subsetNames) {
+            const std::vector<float> values = self.cryptomatte(names, subsetNames);
             const int channels =
                 int(values.size() / (size_t(self.width()) * size_t(self.height())));
             py::array_t<float> result({self.height(), self.width(), channels});
             std::memcpy(result.mutable_data(), values.data(), values.size() * sizeof(float));
             return result;
           },
-          py::arg("names"), py::arg("face_material_names") = std::map<std::string, std::string>{},
+          py::arg("names"),
+          py::arg("subset_names") = std::map<std::string, std::vector<std::string>>{},
           "A Cryptomatte AOV (H, W, 4 per two ranks): (id, coverage) pairs by coverage, ids "
           "from `names` (delegate prim id -> its placement's name, or an instancer's copies'); "
-          "a material layer's `face_material_names` (material id -> name, \"\" for none) name "
-          "the faces per-face bindings give a material of their own.");
+          "a material layer's `subset_names` (mesh id -> the name of each of its subsets' "
+          "materials, in set_subset_materials' order) name the faces those subsets bind.");
   m.def(
       "murmur_hash3", [](const std::string& bytes) { return murmurHash3(bytes); }, py::arg("name"),
       "MurmurHash3_x86_32 (seed 0) of the UTF-8 bytes of a name.");

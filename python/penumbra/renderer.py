@@ -315,7 +315,7 @@ class Renderer:
             # What the images say of the stage, read once for the image and each checkpoint's.
             crypto_layers = [aov for aov in aovs if aov in cryptomatte.LAYERS]
             crypto_names = self._scene.cryptomatte_names(crypto_layers)
-            face_materials = self._scene.cryptomatte_face_materials()
+            subset_names = self._scene.cryptomatte_subset_names()
             lens_metadata = camera_metadata(
                 camera_prim,
                 time_code,
@@ -354,11 +354,11 @@ class Renderer:
             }
             crypto_metadata = {}
             for layer, names in crypto_names.items():
-                # The material layer names faces that per-face bindings give a material by it.
-                face_names = face_materials if layer == "CryptoMaterial" else {}
-                arrays[layer] = render_pass.cryptomatte(names, face_names)
+                # The material layer names the faces that subsets bind by their material.
+                subsets = subset_names if layer == "CryptoMaterial" else {}
+                arrays[layer] = render_pass.cryptomatte(names, subsets)
                 every_name = {name for placements in names.values() for name in placements}
-                every_name |= set(face_names.values())
+                every_name |= {name for materials in subsets.values() for name in materials}
                 crypto_metadata.update(
                     cryptomatte.metadata(layer, cryptomatte.manifest(arrays[layer], every_name))
                 )

@@ -15,9 +15,9 @@ uint32_t rotateLeft(uint32_t x, int r) {
 }
 
 constexpr char kCryptomatteTag[5] = "CRYP";
-constexpr uint32_t kCryptomatteVersion = 2;  // 2: counts per face material
-// placement, face material, samples
-constexpr size_t kCountBytes = sizeof(uint64_t) + sizeof(int32_t) + sizeof(uint32_t);
+constexpr uint32_t kCryptomatteVersion = 2;  // 2: counts per face slot
+// placement, face slot, samples
+constexpr size_t kCountBytes = sizeof(uint64_t) + sizeof(uint32_t) + sizeof(uint32_t);
 
 }  // namespace
 
@@ -89,26 +89,26 @@ void CryptomatteCoverage::reset(size_t pixels) {
   pixels_.assign(pixels, {});
 }
 
-void CryptomatteCoverage::add(size_t pixel, PlacementKey placement, int faceMaterial) {
+void CryptomatteCoverage::add(size_t pixel, PlacementKey placement, uint32_t faceSlot) {
   std::vector<Count>& counts = pixels_[pixel];
   for (Count& count : counts)
-    if (count.placement == placement && count.faceMaterial == faceMaterial) {
+    if (count.placement == placement && count.faceSlot == faceSlot) {
       ++count.samples;
       return;
     }
-  counts.push_back({placement, int32_t(faceMaterial), 1});
+  counts.push_back({placement, faceSlot, 1});
 }
 
 void CryptomatteCoverage::resolve(size_t pixel, uint32_t samples, const PlacementHashes& hashes,
-                                  int depth, float* out,
-                                  const FaceMaterialHashes* faceMaterials) const {
+                                  int depth, float* out, const SlotHashes* slots) const {
   std::fill(out, out + 2 * size_t(std::max(depth, 0)), 0.0f);
   if (samples == 0) return;
   std::vector<std::pair<uint32_t, uint32_t>> counts;
   for (const Count& count : pixels_[pixel]) {
-    if (faceMaterials && count.faceMaterial != MaterialTable::kObjectMaterial) {
-      const auto found = faceMaterials->find(count.faceMaterial);
-      if (found != faceMaterials->end()) counts.emplace_back(found->second, count.samples);
+    if (slots && count.faceSlot > 0) {
+      const auto found = slots->find(objectOf(count.placement));
+      if (found != slots->end() && count.faceSlot <= found->second.size())
+        counts.emplace_back(found->second[count.faceSlot - 1], count.samples);
       continue;
     }
     const auto found = hashes.find(count.placement);
@@ -129,7 +129,7 @@ void CryptomatteCoverage::saveState(std::vector<uint8_t>& out) const {
     writer.put(uint32_t(counts.size()));
     for (const Count& count : counts) {  // field by field: no padding bytes in the state
       writer.put(count.placement);
-      writer.put(count.faceMaterial);
+      writer.put(count.faceSlot);
       writer.put(count.samples);
     }
   }
@@ -148,7 +148,7 @@ void CryptomatteCoverage::loadState(const uint8_t*& cursor, const uint8_t* end) 
     counts.resize(size);
     for (Count& count : counts) {
       count.placement = reader.get<PlacementKey>();
-      count.faceMaterial = reader.get<int32_t>();
+      count.faceSlot = reader.get<uint32_t>();
       count.samples = reader.get<uint32_t>();
       if (count.samples == 0) reader.fail("has an empty count");
     }

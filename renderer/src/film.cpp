@@ -167,7 +167,7 @@ void Film::addFirstHit(size_t index, const CameraSample& sample, const FirstHitS
   }
   if (wantsCryptomatte_ && firstHit.hit)
     cryptomatte_.add(index, placementKey(uint32_t(firstHit.primId), firstHit.instanceId),
-                     firstHit.faceMaterial);
+                     firstHit.faceSlot);
 }
 
 void Film::addSample(int x, int y, uint32_t sampleIndex, const CameraSample& sample,
@@ -391,7 +391,7 @@ std::vector<float> Film::resolve(const AovRequest& aov) const {
 }
 
 std::vector<float> Film::resolveCryptomatte(const PlacementHashes& hashes, int depth,
-                                            const FaceMaterialHashes* faceMaterials) const {
+                                            const SlotHashes* slots) const {
   if (!wantsCryptomatte_)
     throw std::invalid_argument("the film does not accumulate a Cryptomatte AOV");
   if (depth < 1)
@@ -400,8 +400,7 @@ std::vector<float> Film::resolveCryptomatte(const PlacementHashes& hashes, int d
   const size_t stride = size_t(cryptomatteChannels(depth));
   std::vector<float> values(pixels_.size() * stride, 0.0f);
   for (size_t i = 0; i < pixels_.size(); ++i)
-    cryptomatte_.resolve(i, pixels_[i].samples, hashes, depth, values.data() + i * stride,
-                         faceMaterials);
+    cryptomatte_.resolve(i, pixels_[i].samples, hashes, depth, values.data() + i * stride, slots);
   return values;
 }
 

@@ -211,7 +211,7 @@ void Geometry::forEachObjectBounds(const std::function<void(int materialIndex, c
     const auto visitBox = [&](const Box& box) {
       if (box.lower.x > box.upper.x) return;
       visit(mesh->materialIndex, box.lower, box.upper);
-      for (const int material : mesh->faceMaterialSet)
+      for (const int material : mesh->slotMaterials)
         if (material != mesh->materialIndex) visit(material, box.lower, box.upper);
     };
     if (mesh->own) visitBox(worldBounds(*mesh->own, mesh->ownEnabled));
@@ -320,17 +320,19 @@ const PassVisibility& Geometry::passOf(const Placement& placement) const {
 template <typename Predicate>
 bool Geometry::anyMaterialOf(const MeshRecord& mesh, Predicate cuts) const {
   if (cuts(materials_.find(mesh.materialIndex))) return true;
-  for (const int material : mesh.faceMaterialSet)
+  for (const int material : mesh.slotMaterials)
     if (cuts(materials_.find(material))) return true;
   return false;
 }
 
-int Geometry::materialOf(const MeshRecord& mesh, uint32_t primitive) {
-  if (mesh.faceMaterials.empty()) return mesh.materialIndex;
+uint32_t Geometry::faceSlotOf(const MeshRecord& mesh, uint32_t primitive) {
+  if (mesh.faceSlots.empty()) return 0;
   const int face = mesh.shape->elementOf(primitive);
-  if (face < 0 || size_t(face) >= mesh.faceMaterials.size()) return mesh.materialIndex;
-  const int material = mesh.faceMaterials[size_t(face)];
-  return material == MaterialTable::kObjectMaterial ? mesh.materialIndex : material;
+  return face >= 0 && size_t(face) < mesh.faceSlots.size() ? mesh.faceSlots[size_t(face)] : 0;
+}
+
+int Geometry::materialOf(const MeshRecord& mesh, uint32_t faceSlot) {
+  return faceSlot == 0 ? mesh.materialIndex : mesh.slotMaterials[faceSlot - 1];
 }
 
 bool Geometry::renderable(const MeshRecord& mesh) const {
@@ -342,7 +344,7 @@ bool Geometry::renderable(const MeshRecord& mesh) const {
 bool Geometry::updateHitFilters(MeshRecord& mesh) {
   if (!mesh.geometry) return false;
   // With per-face materials, faces whose material cuts them out whole are cut out per hit.
-  const bool perFace = !mesh.faceMaterials.empty();
+  const bool perFace = !mesh.faceSlots.empty();
   const bool cutouts = anyMaterialOf(mesh, [perFace](const Material* material) {
     return material && (cutsOutPerHit(*material) || (perFace && cutsOutWhole(*material)));
   });
@@ -492,24 +494,25 @@ void Geometry::followMaterial(size_t index, MaterialTable::CutoutChange change) 
   for (MeshId id = 0; id < meshes_.size(); ++id) {
     MeshRecord* mesh = meshes_[id].get();
     if (!mesh || (mesh->materialIndex != int(index) &&
-                  !std::binary_search(mesh->faceMaterialSet.begin(), mesh->faceMaterialSet.end(),
-                                      int(index))))
+                  std::find(mesh->slotMaterials.begin(), mesh->slotMaterials.end(), int(index)) ==
+                      mesh->slotMaterials.end()))
       continue;
     if (updateHitFilters(*mesh) || change.whole) updateAllPlacements(id);
   }
 }
 
-void Geometry::setMeshFaceMaterials(MeshId id, std::vector<int> faceMaterials) {
+void Geometry::setMeshFaceMaterials(MeshId id, std::vector<uint32_t> faceSlots,
+                                    std::vector<int> slotMaterials) {
   MeshRecord& mesh = record(id);
-  if (faceMaterials == mesh.faceMaterials) return;
+  for (const uint32_t slot : faceSlots)
+    if (slot > slotMaterials.size())
+      throw std::invalid_argument("a face takes subset slot " + std::to_string(slot) + " of " +
+                                  std::to_string(slotMaterials.size()));
+  if (faceSlots.empty()) slotMaterials.clear();
+  if (faceSlots == mesh.faceSlots && slotMaterials == mesh.slotMaterials) return;
   const bool wasRenderable = renderable(mesh);
-  std::vector<int> set;
-  for (const int material : faceMaterials)
-    if (material != MaterialTable::kObjectMaterial) set.push_back(material);
-  std::sort(set.begin(), set.end());
-  set.erase(std::unique(set.begin(), set.end()), set.end());
-  mesh.faceMaterials = std::move(faceMaterials);
-  mesh.faceMaterialSet = std::move(set);
+  mesh.faceSlots = std::move(faceSlots);
+  mesh.slotMaterials = std::move(slotMaterials);
   if (updateHitFilters(mesh) || renderable(mesh) != wasRenderable) updateAllPlacements(id);
 }
 

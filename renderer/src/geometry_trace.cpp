@@ -72,7 +72,7 @@ void Geometry::filterHits(const RTCFilterFunctionNArguments* args) {
     }
     if (!mesh->cutoutFilter) continue;
     const uint32_t primitive = RTCHitN_primID(args->hit, args->N, i);
-    const Material* material = materials.find(materialOf(*mesh, primitive));
+    const Material* material = materials.find(materialOf(*mesh, faceSlotOf(*mesh, primitive)));
     if (!material || material->constants.opacityThreshold <= 0) continue;
     SurfacePoint point =
         mesh->shape->pointAt(primitive, RTCHitN_u(args->hit, args->N, i),
@@ -157,8 +157,8 @@ std::optional<GeometryHit> Geometry::intersect(const Ray& ray, RayKind kind) con
   hit.geometricNormal = {rayHit.hit.Ng_x, rayHit.hit.Ng_y, rayHit.hit.Ng_z};
   hit.shape = mesh.shape.get();
   hit.objectToWorld = &placement.objectToWorld;
-  hit.materialIndex = materialOf(mesh, rayHit.hit.primID);
-  hit.faceMaterial = hit.materialIndex != mesh.materialIndex;
+  hit.faceSlot = faceSlotOf(mesh, rayHit.hit.primID);
+  hit.materialIndex = materialOf(mesh, hit.faceSlot);
   hit.pass = passOf(placement);
   hit.instancePrimvars = copyPrimvars(placement);
   hit.linkingClass = placement.linkingClass;

@@ -641,7 +641,7 @@ void recordFirstHit(const Camera& camera, const Ray& ray, const SurfaceHit* hit,
   record->primId = int(hit->meshId);
   record->instanceId = hit->instance;
   record->elementId = hit->shape->elementOf(hit->primitive);
-  if (hit->faceMaterial) record->faceMaterial = hit->materialIndex;
+  record->faceSlot = hit->faceSlot;
   record->shape = hit->shape;
   record->primitive = hit->primitive;
   record->u = hit->u;

@@ -49,7 +49,7 @@ std::optional<SurfaceHit> shadeHit(const Scene& scene, const Ray& ray, RayKind k
   hit.v = point.v;
   hit.instancePrimvars = point.instancePrimvars;
   hit.materialIndex = found.materialIndex;
-  hit.faceMaterial = found.faceMaterial;
+  hit.faceSlot = found.faceSlot;
   if (material) {
     const bool anisotropic = material->mayBeAnisotropic();
     if (material->varies() || anisotropic) {

@@ -78,14 +78,14 @@ TEST(Cryptomatte, RanksMergeEqualIdsAndSortByCoverageThenHash) {
   EXPECT_EQ(ranks[3].coverage, 1.0f / 8);
 }
 
-TEST(Cryptomatte, FacesWithAMaterialOfTheirOwnTakeItsNameInAMaterialLayer) {
+TEST(Cryptomatte, FacesASubsetBindsTakeItsNameInAMaterialLayer) {
   CryptomatteCoverage coverage;
   coverage.reset(1);
   const PlacementKey mesh = placementKey(4, -1);
   coverage.add(0, mesh);     // a face with the mesh's own material
-  coverage.add(0, mesh, 2);  // two on faces a subset binds to material 2
+  coverage.add(0, mesh, 2);  // two on faces of the mesh's second subset
   coverage.add(0, mesh, 2);
-  coverage.add(0, mesh, MaterialTable::kNoMaterial);  // one on faces bound to none
+  coverage.add(0, mesh, 3);  // one on faces of its third
   const PlacementHashes hashes = {{mesh, 70}};
   float layer[6];
   // An object layer: one placement, whatever the faces' materials.
@@ -93,8 +93,8 @@ TEST(Cryptomatte, FacesWithAMaterialOfTheirOwnTakeItsNameInAMaterialLayer) {
   EXPECT_EQ(layer[0], cryptomatteFloat(70));
   EXPECT_EQ(layer[1], 1.0f);
   EXPECT_EQ(layer[3], 0.0f);
-  // A material layer: each material's faces apart; one missing from the map is a miss.
-  const FaceMaterialHashes materials = {{2, 20}, {MaterialTable::kNoMaterial, 10}};
+  // A material layer: each subset's faces apart; one missing from the map is a miss.
+  const SlotHashes materials = {{4, {50, 20, 10}}};
   coverage.resolve(0, 4, hashes, 3, layer, &materials);
   EXPECT_EQ(layer[0], cryptomatteFloat(20));
   EXPECT_EQ(layer[1], 0.5f);
@@ -102,7 +102,7 @@ TEST(Cryptomatte, FacesWithAMaterialOfTheirOwnTakeItsNameInAMaterialLayer) {
   EXPECT_EQ(layer[3], 0.25f);
   EXPECT_EQ(layer[4], cryptomatteFloat(70));
   EXPECT_EQ(layer[5], 0.25f);
-  const FaceMaterialHashes without = {{2, 20}};
+  const SlotHashes without = {{4, {50, 20}}};
   coverage.resolve(0, 4, hashes, 3, layer, &without);
   EXPECT_EQ(layer[1] + layer[3] + layer[5], 0.75f);
   // The checkpoint keeps the faces' materials.

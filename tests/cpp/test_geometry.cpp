@@ -273,7 +273,7 @@ TEST(Geometry, FaceMaterialsBindTheirFacesAndCutThemOutAlone) {
   const Geometry::MeshId id = geometry.addMesh();
   geometry.setMeshGeometry(id, triangulate(data));
   geometry.setMeshInstance(id, Transform(), 0, true);
-  geometry.setMeshFaceMaterials(id, {MaterialTable::kObjectMaterial, 1});
+  geometry.setMeshFaceMaterials(id, {0, 1}, {1});
   geometry.setInstances(geometry.addInstancer(), id, {translation(10, 0, 0)}, true);
   scene.commit();
   const auto materialAt = [&](float x) {
@@ -283,6 +283,9 @@ TEST(Geometry, FaceMaterialsBindTheirFacesAndCutThemOutAlone) {
   EXPECT_EQ(materialAt(-0.5f), 0);
   EXPECT_EQ(materialAt(0.5f), 1);
   EXPECT_EQ(materialAt(10.5f), 1);  // copies render so too
+  EXPECT_EQ(geometry.intersect(downAt(-0.5f, 0.5f), RayKind::Camera)->faceSlot, 0u);
+  EXPECT_EQ(geometry.intersect(downAt(10.5f, 0.5f), RayKind::Camera)->faceSlot, 1u);
+  EXPECT_THROW(geometry.setMeshFaceMaterials(id, {0, 2}, {1}), std::invalid_argument);
 
   // The faces' material cutting out whole hides those faces alone, from every ray.
   scene.setMaterial(1, hole);
@@ -298,12 +301,12 @@ TEST(Geometry, FaceMaterialsBindTheirFacesAndCutThemOutAlone) {
 
   // The mesh's own material cutting out whole leaves the faces bound otherwise.
   geometry.setMeshInstance(id, Transform(), 1, true);
-  geometry.setMeshFaceMaterials(id, {MaterialTable::kObjectMaterial, 0});
+  geometry.setMeshFaceMaterials(id, {0, 1}, {0});
   scene.commit();
   EXPECT_EQ(materialAt(-0.5f), -100);
   EXPECT_EQ(materialAt(0.5f), 0);
   // Without face materials, the whole mesh goes.
-  geometry.setMeshFaceMaterials(id, {});
+  geometry.setMeshFaceMaterials(id, {}, {});
   scene.commit();
   EXPECT_EQ(materialAt(0.5f), -100);
 }

@@ -375,3 +375,34 @@ def test_faces_bound_by_subsets_take_their_material_name(tmp_path):
     objects, object_ranks = decode(out, "CryptoObject")
     assert set(objects) == {"/World/halves"}
     np.testing.assert_array_equal(matte(objects, object_ranks, "/World/halves"), np.ones((32, 32)))
+
+
+@pytest.mark.parametrize("own", ["/World/Looks/Grey", "/World/Looks/BadA"])
+def test_faces_bound_to_a_material_penumbra_cannot_render_are_named_by_it(tmp_path, own):
+    # Faces whose subset material is not UsdPreviewSurface were named by the mesh's material,
+    # or "(no material)", where a mesh's own such binding is named by its path.
+    stage = new_stage(tmp_path / "unusable.usda")
+    add_camera(stage)
+    add_preview_material(stage, "/World/Looks/Grey", diffuseColor=(0.5, 0.5, 0.5))
+    for name in ("BadA", "BadB"):
+        material = UsdShade.Material.Define(stage, f"/World/Looks/{name}")
+        shader = UsdShade.Shader.Define(stage, f"/World/Looks/{name}/Surface")
+        shader.CreateIdAttr("ArnoldStandardSurface")
+        material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    mesh = UsdGeom.Mesh.Define(stage, "/World/halves")
+    mesh.CreatePointsAttr([(-3, -3, 0), (0, -3, 0), (3, -3, 0), (-3, 3, 0), (0, 3, 0), (3, 3, 0)])
+    mesh.CreateFaceVertexCountsAttr([4, 4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 4, 3, 1, 2, 5, 4])
+    bind(mesh, UsdShade.Material(stage.GetPrimAtPath(own)))
+    subset = UsdShade.MaterialBindingAPI(mesh.GetPrim()).CreateMaterialBindSubset("right", [1])
+    UsdShade.MaterialBindingAPI.Apply(subset.GetPrim()).Bind(
+        UsdShade.Material(stage.GetPrimAtPath("/World/Looks/BadB"))
+    )
+    stage.Save()
+    out = tmp_path / "unusable.exr"
+    command = [str(stage.GetRootLayer().realPath), str(out), "-w", "32", "-spp", "4", "-q"]
+    assert main([*command, "--aov", "CryptoMaterial"]) == 0
+    materials, ranks = decode(out, "CryptoMaterial")
+    assert set(materials) == {own, "/World/Looks/BadB"}
+    assert (matte(materials, ranks, own)[:, :14] == 1).all()
+    assert (matte(materials, ranks, "/World/Looks/BadB")[:, 18:] == 1).all()

@@ -124,9 +124,11 @@ def test_indices_outside_the_faces_and_other_element_types_are_named_and_left_ou
     points = bind_subset(mesh, "b", [2], emitter(stage, "green", GREEN))
     points.GetElementTypeAttr().Set(UsdGeom.Tokens.point)
     image, warnings = render_with_warnings(stage, 64)
-    assert len(warnings) == 2, warnings
+    assert len(warnings) == 3, warnings
+    assert any("/World/grid/a.indices: 1 of 3 indices are negative" in w for w in warnings)
     assert any(
-        "/World/grid/a.indices" in w and "2 of 3 indices are not faces" in w for w in warnings
+        "/World/grid/a.indices: 1 of 3 indices are not faces of the mesh (it has 4" in w
+        for w in warnings
     )
     assert any("/World/grid/b" in w and "elementType 'point'" in w for w in warnings)
     colours = face_colours(penumbra.Renderer(stage).render(**RENDER))
@@ -316,3 +318,51 @@ def test_editing_a_point_instancer_prototype_subset_renders_as_a_fresh_renderer(
     assert_live_edit_renders_as_fresh(
         stage, lambda: subset.GetIndicesAttr().Set(Vt.IntArray([0])), **RENDER
     )
+
+
+def test_indices_past_the_faces_bind_the_faces_the_mesh_gains_at_other_times():
+    # Indices past the faces at the first time read were dropped for good: a mesh that gained
+    # those faces later kept its own material there (live and CLI renders alike).
+    stage, mesh = grid_stage()
+    mesh.GetFaceVertexCountsAttr().Set([4, 4], 1)
+    mesh.GetFaceVertexIndicesAttr().Set([0, 1, 4, 3, 1, 2, 5, 4], 1)
+    mesh.GetFaceVertexCountsAttr().Set([4] * 4, 2)
+    mesh.GetFaceVertexIndicesAttr().Set([0, 1, 4, 3, 1, 2, 5, 4, 3, 4, 7, 6, 4, 5, 8, 7], 2)
+    bind_subset(mesh, "a", [1, 3], emitter(stage, "red", RED))
+    renderer = penumbra.Renderer(stage)
+    renderer.render(time=1.0, **RENDER)
+    live = renderer.render(time=2.0, **RENDER)
+    assert face_colours(live) == [BLUE, RED, BLUE, RED]
+    fresh = penumbra.Renderer(stage).render(time=2.0, **RENDER)
+    np.testing.assert_array_equal(live["color"], fresh["color"])
+
+
+def test_a_subset_material_an_instance_does_not_render_is_not_read():
+    stage, mesh = instanced_grid_stage()
+    UsdGeom.Subset(stage.GetPrimAtPath("/Proto/grid/a")).GetElementTypeAttr().Set(
+        UsdGeom.Tokens.point
+    )
+    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
+    instance = UsdGeom.Xform.Define(stage, "/World/copy")
+    instance.GetPrim().GetReferences().AddInternalReference("/Proto")
+    instance.GetPrim().SetInstanceable(True)
+    renderer = penumbra.Renderer(stage)
+    renderer.render(**RENDER)
+    assert renderer.delegate.has_prim("/Looks/green")
+    assert not renderer.delegate.has_prim("/Looks/red")  # subset "a" binds no face
+
+
+def test_subsets_of_an_instanced_gprim_other_than_a_mesh_are_named():
+    stage = emitter_stage()
+    add_camera(stage)
+    cube = UsdGeom.Cube.Define(stage, "/Proto/cube")
+    bind_subset(cube, "a", [0], emitter(stage, "red", RED))
+    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
+    instance = UsdGeom.Xform.Define(stage, "/World/copy")
+    instance.GetPrim().GetReferences().AddInternalReference("/Proto")
+    instance.GetPrim().SetInstanceable(True)
+    _, warnings = render_with_warnings(stage, 32)
+    assert warnings == [
+        "/World/copy/cube: per-face material bindings (GeomSubsets) are read on Mesh prims "
+        "only; this Cube's own binding is used"
+    ]

@@ -23,7 +23,7 @@ from .mesh import sync_mesh_data
 from .points import sync_points_data
 from .render_pass import HIDING_RAYS, SHOWN, PassVisibility, set_pass_visibility
 from .sampling import SampleReader, Shutter
-from .subset_bindings import bound_faces, read_subset_faces
+from .subset_bindings import bound_faces, read_subset_faces, warn_subset_bindings
 
 class MaterialSource(Protocol):
     """Where instanced meshes get their material sprims (reference-counted by user id)."""
@@ -126,6 +126,7 @@ class _Pushed:
     instancer_id: str
     material_id: str | None = None  # None: not sent yet
     subset_ids: tuple[str, ...] = ()  # the material ids of the subsets sent (none at first)
+    subset_names: list[str] = field(default_factory=list)  # their Cryptomatte material names
     subset_faces: list[np.ndarray | None] = field(default_factory=list)  # read_subset_faces
     subset_faces_read: bool = False  # read since last sent
     digest: bytes | None = None  # of the copies' transforms last sent (None: not sent)
@@ -161,6 +162,13 @@ class InstancedMeshes:
         for pushed in self._pushed.values():
             yield pushed.mesh_id
             yield pushed.instancer_id
+
+    def subset_names(self) -> Iterator[tuple[str, list[str]]]:
+        """``(mesh id, Cryptomatte material name of each subset sent)`` of every hidden mesh
+        with subset bindings."""
+        for pushed in self._pushed.values():
+            if pushed.usable and pushed.subset_names:
+                yield pushed.mesh_id, pushed.subset_names
 
     def copies(self) -> Iterator[tuple[str, Sdf.Path | None, list[str]]]:
         """``(instancer id, bound material, Cryptomatte object name of each copy)`` of every
@@ -206,6 +214,7 @@ class InstancedMeshes:
                     pushed.mesh_id, [(i, f) for i, (_, f) in zip(subset_ids, subsets)]
                 )
                 pushed.subset_ids = subset_ids
+                pushed.subset_names = [str(material) for material, _ in subsets]
             pushed.subset_faces_read = False
             transforms = group.stacked()
             primvars = group.stacked_primvars()
@@ -253,6 +262,8 @@ class InstancedMeshes:
         rprim_type = _rprim_type(group.mesh)
         pushed.usable = _READERS[rprim_type](self.core, group.mesh, reader, warn, pushed.mesh_id)
         faces_vary = False
+        if rprim_type == "mesh" and group.mesh.GetTypeName() != "Mesh":
+            warn_subset_bindings(group.mesh, name, self.warn)
         if group.subset_materials and pushed.usable:
             pushed.subset_faces, faces_vary = read_subset_faces(group.mesh, shutter.frame, warn)
             pushed.subset_faces_read = True

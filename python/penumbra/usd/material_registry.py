@@ -84,10 +84,6 @@ class MaterialRegistry:
         for material_path in sorted(old - new):
             self.release(material_path, user)
 
-    def usable(self) -> list[Sdf.Path]:
-        """The materials in the delegate (their ids are their paths)."""
-        return [path for path, material in self._materials.items() if material.in_core]
-
     def material_id(self, material_path: Sdf.Path) -> str:
         """The delegate id of the material, "" when it cannot be used."""
         material = self._materials.get(material_path)

@@ -22,25 +22,13 @@ from .prim_sync import SyncSettings
 from .ray_visibility import ShownSender
 from .render_pass import RenderPassCollections
 from .sampling import SampleReader
-from .subset_bindings import SubsetBindings, material_subsets, read_subset_bindings
+from .subset_bindings import SubsetBindings, read_subset_bindings, warn_subset_bindings
 from .tracking import Dirty, Flush, TrackedPrim, set_flag
 
 
 def authored(inherited: InheritedState, prim: Usd.Prim, path: Sdf.Path) -> Authored:
     """What ``prim`` (at ``path``) authors, and the constant primvars it inherits."""
     return Authored(inherited.authored(prim, path), inherited.inherited_primvars(prim, path))
-
-
-def warn_subset_bindings(
-    prim: Usd.Prim, name: Sdf.Path | str, warn: Callable[[str], None]
-) -> None:
-    """Warn (naming the prim ``name``, as users know it) that ``prim``'s GeomSubset bindings
-    are ignored: a gprim other than a mesh has no authored faces to bind."""
-    if material_subsets(prim):
-        warn(
-            f"{name}: per-face material bindings (GeomSubsets) are read on Mesh prims only; "
-            f"this {prim.GetTypeName()}'s own binding is used"
-        )
 
 
 class MeshSync:

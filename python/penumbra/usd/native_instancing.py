@@ -118,6 +118,10 @@ class NativeInstancing:
         placing copies (see :meth:`InstancedMeshes.copies`)."""
         return self.meshes.copies()
 
+    def subset_names(self) -> Iterator[tuple[str, list[str]]]:
+        """See :meth:`InstancedMeshes.subset_names`."""
+        return self.meshes.subset_names()
+
     def close(self) -> None:
         """Remove every prim this put into the delegate."""
         self.meshes.clear()

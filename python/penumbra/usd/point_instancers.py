@@ -126,6 +126,11 @@ class PointInstancerDelegate:
         for record in self._instancers.values():
             yield from record.meshes.copies()
 
+    def subset_names(self) -> Iterator[tuple[str, list[str]]]:
+        """See :meth:`InstancedMeshes.subset_names`."""
+        for record in self._instancers.values():
+            yield from record.meshes.subset_names()
+
     def _find(self) -> Iterator[Sdf.Path]:
         """Point instancers outside native prototypes and outside other instancers' prototypes
         (those are flattened into their outer instancer)."""

@@ -37,7 +37,7 @@ from pxr import Sdf, Usd, UsdGeom
 from ..errors import warn
 from .classification import CURVES, VOLUME, Classifier
 from .core_batch import CoreBatch
-from .cryptomatte_names import NO_MATERIAL, cryptomatte_names
+from .cryptomatte_names import cryptomatte_names
 from .curves_sync import CurvesSync
 from .inherited import InheritedState
 from .linking import Linking
@@ -174,12 +174,16 @@ class SceneDelegate:
         copies = [*self._native.copies(), *self._point_instancers.copies()]
         return cryptomatte_names(self.stage, rprims, copies, layers)
 
-    def cryptomatte_face_materials(self) -> dict[str, str]:
-        """The Cryptomatte material names of the materials per-face bindings give faces: every
-        material in the delegate by its id, and ``""`` (faces bound to none) as
-        :data:`~.cryptomatte_names.NO_MATERIAL`."""
-        names = {str(path): str(path) for path in self.materials.usable()}
-        names[""] = NO_MATERIAL
+    def cryptomatte_subset_names(self) -> dict[str, list[str]]:
+        """The Cryptomatte material name of each subset binding sent, by mesh id: the path of
+        its material (usable or not, as a mesh's own binding is named)."""
+        names = {
+            str(path): list(record.subset_materials)
+            for path, record in self._tracker.prims.items()
+            if record.subset_materials and record.in_core
+        }
+        names.update(self._native.subset_names())
+        names.update(self._point_instancers.subset_names())
         return names
 
     def take_prims_resynced(self) -> bool:

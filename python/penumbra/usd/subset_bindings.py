@@ -48,8 +48,9 @@ def read_subset_faces(
 ) -> tuple[list[np.ndarray | None], bool]:
     """The faces each material subset of mesh ``prim`` binds at ``time`` (as
     :func:`material_subsets` orders them; ``None`` for a subset of another element type than
-    faces), and whether they might change with time. Such subsets, and indices outside the
-    mesh's faces, are left out with a warning naming the subset."""
+    faces), and whether they might change with time. Such subsets, and negative indices, are
+    left out with a warning naming the subset; indices past the mesh's faces at ``time`` are
+    named too, and kept: they bind the faces the mesh may gain at other times."""
     subsets = material_subsets(prim)
     if not subsets:
         return [], False
@@ -68,14 +69,21 @@ def read_subset_faces(
         attribute = subset.GetIndicesAttr()
         varying = varying or attribute.ValueMightBeTimeVarying()
         indices = np.asarray(attribute.Get(time) or (), dtype=np.int64).reshape(-1)
-        outside = (indices < 0) | (indices >= face_count)
-        if outside.any():
+        negative = indices < 0
+        if negative.any():
             warn(
-                f"{attribute.GetPath()}: {int(outside.sum())} of {indices.size} indices are not "
-                f"faces of the mesh (it has {face_count}); they are left out"
+                f"{attribute.GetPath()}: {int(negative.sum())} of {indices.size} indices are "
+                "negative; they are left out"
             )
-            indices = indices[~outside]
-        faces.append(indices.astype(np.int32))
+        beyond = indices >= face_count
+        if beyond.any():
+            warn(
+                f"{attribute.GetPath()}: {int(beyond.sum())} of {indices.size} indices are not "
+                f"faces of the mesh (it has {face_count} at time {time}); they bind no face while "
+                "it has not"
+            )
+        kept = indices[~negative & (indices <= np.iinfo(np.int32).max)]
+        faces.append(kept.astype(np.int32))
     return faces, varying
 
 
@@ -113,20 +121,42 @@ def copies_subset_materials(
     an instance proxy, or the mesh itself), the materials the mesh's material subsets bind,
     resolved on the copy's own subset prims as its mesh's binding is on it; ``()`` for meshes
     without such subsets. One batch for all copies."""
-    names: dict[Sdf.Path, list[str]] = {}
+    # The subsets' names, None for those whose faces are not read (another element type).
+    names: dict[Sdf.Path, list[str | None]] = {}
     for mesh in meshes:
         if mesh.GetPath() not in names:
             names[mesh.GetPath()] = (
-                [subset.GetPrim().GetName() for subset in material_subsets(mesh)]
+                [
+                    subset.GetPrim().GetName()
+                    if subset.GetElementTypeAttr().Get() == UsdGeom.Tokens.face
+                    else None
+                    for subset in material_subsets(mesh)
+                ]
                 if mesh.GetTypeName() == "Mesh"
                 else []
             )
     subsets = [
-        copy.GetChild(name) for mesh, copy in zip(meshes, copies) for name in names[mesh.GetPath()]
+        copy.GetChild(name)
+        for mesh, copy in zip(meshes, copies)
+        for name in names[mesh.GetPath()]
+        if name is not None
     ]
     if not subsets:
-        return [()] * len(copies)
+        return [(None,) * len(names[mesh.GetPath()]) for mesh in meshes]
     materials = iter(subset_materials(subsets))
     return [
-        tuple(next(materials) for _ in names[mesh.GetPath()]) for mesh in meshes
+        tuple(None if name is None else next(materials) for name in names[mesh.GetPath()])
+        for mesh in meshes
     ]
+
+
+def warn_subset_bindings(
+    prim: Usd.Prim, name: Sdf.Path | str, warn: Callable[[str], None]
+) -> None:
+    """Warn (naming the prim ``name``, as users know it) that ``prim``'s GeomSubset bindings
+    are ignored: a gprim other than a mesh has no authored faces to bind."""
+    if material_subsets(prim):
+        warn(
+            f"{name}: per-face material bindings (GeomSubsets) are read on Mesh prims only; "
+            f"this {prim.GetTypeName()}'s own binding is used"
+        )

@@ -6,7 +6,6 @@
 #include <vector>
 
 #include "penumbra/material.h"
-#include "penumbra/material_table.h"
 #include "penumbra/math.h"
 #include "penumbra/mesh.h"
 
@@ -75,9 +74,9 @@ struct FirstHitSample {
   float z = kInfinity;         // along the view axis (same)
   Vec3f position, normal, cameraNormal, albedo;
   int primId = -1, instanceId = -1, elementId = -1;
-  /// The material of a per-face binding (Geometry::setMeshFaceMaterials) where the hit face
-  /// has one; MaterialTable::kObjectMaterial where it renders with its object's.
-  int faceMaterial = MaterialTable::kObjectMaterial;
+  /// The per-face binding slot of the face hit (Geometry::setMeshFaceMaterials; 0: it renders
+  /// with its object's material).
+  uint32_t faceSlot = 0;
   /// Where primvars are looked up (valid while the scene is alive and unchanged).
   const Shape* shape = nullptr;
   uint32_t primitive = 0;

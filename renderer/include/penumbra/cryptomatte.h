@@ -5,8 +5,8 @@
 // names: the film counts, per pixel, the samples whose camera ray first hit each placement, and
 // a resolve maps placements to the hashes of the names its caller gives them (placements that
 // share a name — a material, an asset — add up). Samples on faces that a per-face binding gives
-// a material of their own are counted apart, so that a material layer can name them by that
-// material. Counts are integers, so the coverage does not depend on the order threads add
+// a material of their own are counted apart by its slot, so that a material layer can name them
+// by that material. Counts are integers, so the coverage does not depend on the order threads add
 // samples in.
 #pragma once
 
@@ -15,8 +15,6 @@
 #include <unordered_map>
 #include <utility>
 #include <vector>
-
-#include "penumbra/material_table.h"
 
 namespace penumbra {
 
@@ -35,11 +33,15 @@ using PlacementKey = uint64_t;
 inline PlacementKey placementKey(uint32_t object, int copy) {
   return (uint64_t(object) << 32) | uint64_t(uint32_t(copy + 1));
 }
+/// The object a placement key names.
+inline uint32_t objectOf(PlacementKey placement) {
+  return uint32_t(placement >> 32);
+}
 /// The Cryptomatte hash (of a name) of each placement.
 using PlacementHashes = std::unordered_map<PlacementKey, uint32_t>;
-/// The Cryptomatte hash (of a material's name) of each material index that per-face bindings
-/// give faces (MaterialTable::kNoMaterial among them: faces bound to none).
-using FaceMaterialHashes = std::unordered_map<int, uint32_t>;
+/// For each object with per-face bindings (Geometry::setMeshFaceMaterials), the Cryptomatte hash
+/// of the name of each slot's material (slot k at k - 1).
+using SlotHashes = std::unordered_map<uint32_t, std::vector<uint32_t>>;
 
 /// One rank of a pixel: an id (the hash's float) and the share of the pixel's samples with it.
 struct CryptomatteRank {
@@ -57,16 +59,15 @@ class CryptomatteCoverage {
   /// Forgets every sample and holds `pixels` pixels.
   void reset(size_t pixels);
   size_t pixels() const { return pixels_.size(); }
-  /// One more sample of `pixel` first hit `placement`, on a face of material `faceMaterial`
-  /// by a per-face binding (FirstHitSample::faceMaterial; MaterialTable::kObjectMaterial: the
-  /// placement's own).
-  void add(size_t pixel, PlacementKey placement, int faceMaterial = MaterialTable::kObjectMaterial);
+  /// One more sample of `pixel` first hit `placement`, on a face of per-face binding slot
+  /// `faceSlot` (FirstHitSample::faceSlot; 0: the placement's own material).
+  void add(size_t pixel, PlacementKey placement, uint32_t faceSlot = 0);
   /// `depth` ranks of `pixel` (of `samples` samples) as (id, coverage) pairs, 2 × depth
   /// floats written to `out` (zeros past the last id). Samples take their placement's hash,
-  /// those on faces of a material of their own its hash in `faceMaterials` when given (a
-  /// material layer); placements (and materials) missing from the maps count as misses.
+  /// those on faces of a slot of their own the slot's hash in `slots` when given (a material
+  /// layer); placements (and slots) missing from the maps count as misses.
   void resolve(size_t pixel, uint32_t samples, const PlacementHashes& hashes, int depth, float* out,
-               const FaceMaterialHashes* faceMaterials = nullptr) const;
+               const SlotHashes* slots = nullptr) const;
 
   /// Appends the counts to `out` (a checkpoint).
   void saveState(std::vector<uint8_t>& out) const;
@@ -77,7 +78,7 @@ class CryptomatteCoverage {
  private:
   struct Count {
     PlacementKey placement;
-    int32_t faceMaterial;
+    uint32_t faceSlot;
     uint32_t samples;
   };
   std::vector<std::vector<Count>> pixels_;

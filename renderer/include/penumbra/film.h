@@ -91,12 +91,12 @@ class Film {
   std::vector<float> resolveDepth() const;
   /// The Cryptomatte ranks per pixel (film pixels, row-major from the top row): `depth` (id,
   /// coverage) pairs, zero-padded to a multiple of 4 floats (whole RGBA layers), ids the
-  /// `hashes` of the placements hit (a material layer's `faceMaterials`: the hashes of the
-  /// materials that per-face bindings give faces), coverage the share of the pixel's samples.
-  /// Throws std::invalid_argument unless the film accumulates a Cryptomatte AOV, or for
+  /// `hashes` of the placements hit (for a material layer, `slots`: those of the faces that
+  /// per-face bindings give a material of their own), coverage the share of the pixel's
+  /// samples. Throws std::invalid_argument unless the film accumulates a Cryptomatte AOV, or for
   /// depth < 1.
   std::vector<float> resolveCryptomatte(const PlacementHashes& hashes, int depth,
-                                        const FaceMaterialHashes* faceMaterials = nullptr) const;
+                                        const SlotHashes* slots = nullptr) const;
   /// Floats per pixel of a Cryptomatte AOV of `depth` ranks: whole RGBA layers of 2 ranks.
   static int cryptomatteChannels(int depth) { return 4 * ((depth + 1) / 2); }
 

@@ -94,8 +94,8 @@ struct GeometryHit {
   const Shape* shape = nullptr;
   const MotionTransform* objectToWorld = nullptr;  // the placement's
   int materialIndex = MaterialTable::kNoMaterial;  // the face's (per-face bindings) or object's
-  bool faceMaterial = false;                       // materialIndex is a per-face binding's
-  PassVisibility pass;                             // the placement owner's
+  uint32_t faceSlot = 0;  // the per-face binding (slot) the face takes; 0: the object's own
+  PassVisibility pass;    // the placement owner's
   /// For copies of an instancer with per-copy primvars: those primvars (see SurfacePoint).
   const std::vector<Primvar>* instancePrimvars = nullptr;
   uint32_t linkingClass = LinkingTable::kLinkedToAll;  // the placement's (linking.h)
@@ -141,12 +141,15 @@ class Geometry {
                        bool visible);
   /// How camera rays treat the mesh itself (not its instancers' copies).
   void setMeshPassVisibility(MeshId id, PassVisibility pass);
-  /// Per-face materials (UsdGeomSubset material bindings): the mesh's face f (its authored
-  /// face, Shape::elementOf) renders with `faceMaterials[f]`, a material index or
-  /// MaterialTable::kNoMaterial (displayColor); entries MaterialTable::kObjectMaterial, faces
-  /// past the end, and every face when it is empty take the mesh's own material
-  /// (setMeshInstance's). Its instancers' copies render so too.
-  void setMeshFaceMaterials(MeshId id, std::vector<int> faceMaterials);
+  /// Per-face materials (UsdGeomSubset material bindings): slot k ≥ 1 binds the material
+  /// `slotMaterials[k - 1]` (a material index, or MaterialTable::kNoMaterial: displayColor),
+  /// and the mesh's face f (its authored face, Shape::elementOf) takes slot `faceSlots[f]`; slot
+  /// 0, faces past the end, and every face when faceSlots is empty take the mesh's own
+  /// material (setMeshInstance's). Hits say their face's slot (GeometryHit::faceSlot), by which
+  /// Cryptomatte names them. Its instancers' copies render so too. Throws
+  /// std::invalid_argument for a slot past slotMaterials.
+  void setMeshFaceMaterials(MeshId id, std::vector<uint32_t> faceSlots,
+                            std::vector<int> slotMaterials);
 
   /// Farthest a shown placement may reach from the origin, in every coordinate: Embree wants
   /// ray origins within about 1.8e19 (it asserts so), and hits on geometry farther out would
@@ -284,8 +287,8 @@ class Geometry {
     bool cutoutFilter = false;       // `geometry` filters hits by textured opacity
     std::shared_ptr<const Shape> shape;
     int materialIndex = MaterialTable::kNoMaterial;
-    std::vector<int> faceMaterials;    // setMeshFaceMaterials
-    std::vector<int> faceMaterialSet;  // its entries but the object's, sorted, once each
+    std::vector<uint32_t> faceSlots;  // setMeshFaceMaterials
+    std::vector<int> slotMaterials;
     bool visible = true;
     PassVisibility pass;
     std::unique_ptr<Placement> own;
@@ -374,8 +377,10 @@ class Geometry {
   /// Whether `cuts` holds for some material of the mesh (its own, and its faces').
   template <typename Predicate>
   bool anyMaterialOf(const MeshRecord& mesh, Predicate cuts) const;
-  /// The material of the mesh's `primitive` (its face's, or the mesh's own).
-  static int materialOf(const MeshRecord& mesh, uint32_t primitive);
+  /// The per-face binding slot of the mesh's `primitive` (0: the mesh's own material).
+  static uint32_t faceSlotOf(const MeshRecord& mesh, uint32_t primitive);
+  /// The material of the mesh's faces of slot `faceSlot`.
+  static int materialOf(const MeshRecord& mesh, uint32_t faceSlot);
   /// The per-copy primvars of `placement`, if it is a copy of an instancer that has some.
   static const std::vector<Primvar>* copyPrimvars(const Placement& placement);
   /// Embree hit filter (any hit, intersection and occlusion rays).

@@ -25,8 +25,6 @@ class MaterialTable {
  public:
   /// Material index meaning "none bound": displayColor is the albedo.
   static constexpr int kNoMaterial = -1;
-  /// In per-face bindings (Geometry::setMeshFaceMaterials): the object's own material.
-  static constexpr int kObjectMaterial = -2;
 
   /// `colorConfig`: the OCIO config that linearises textures (empty: $OCIO).
   explicit MaterialTable(const std::string& colorConfig);

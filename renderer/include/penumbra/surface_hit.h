@@ -41,10 +41,10 @@ struct SurfaceHit {
   /// On a fibre (a curve): its unit direction (SurfaceGeometry::fibreDirection); else zero.
   Vec3f fibreDirection{0.0f};
   int materialIndex = MaterialTable::kNoMaterial;  // the bound material's, in scene.materials()
-  bool faceMaterial = false;  // materialIndex is a per-face binding's, not the object's
-  int lightIndex = -1;        // the mesh light (UsdLuxMeshLightAPI) whose emitting front this is
-  bool closed = false;        // a solid: the mesh bounds one, or its material is not thin-walled
-  bool matte = false;  // a holdout (PassVisibility::matte): only distance and position are set
+  uint32_t faceSlot = 0;  // the per-face binding the face takes (GeometryHit::faceSlot)
+  int lightIndex = -1;    // the mesh light (UsdLuxMeshLightAPI) whose emitting front this is
+  bool closed = false;    // a solid: the mesh bounds one, or its material is not thin-walled
+  bool matte = false;     // a holdout (PassVisibility::matte): only distance and position are set
   // Which surface this is, for AOVs and primvar lookups (as in SurfacePoint).
   uint32_t meshId = 0;
   int instance = -1;  // the instancer copy hit, -1: the object's own placement

@@ -66,9 +66,9 @@ class PlacedRprim : public Prim {
   virtual size_t faceCount() const { return 0; }
 
  private:
-  /// The material of each face that subsets bind (Geometry::setMeshFaceMaterials), empty
-  /// without subsets.
-  std::vector<int> faceMaterials(const SyncContext& context) const;
+  /// Gives the geometry its subsets' materials and the faces each binds, subset k being slot
+  /// k + 1 (Geometry::setMeshFaceMaterials).
+  void bindFaces(SyncContext& context) const;
 
   Geometry::MeshId handle_;
   PrimId materialId_;

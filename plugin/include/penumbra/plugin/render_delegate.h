@@ -134,9 +134,10 @@ class RenderDelegate {
   /// transforms (they name its prototype's copies). Throws std::invalid_argument for another
   /// id, or for as many names as an instancer does not have copies.
   PlacementHashes placementHashes(const std::map<PrimId, std::vector<std::string>>& names) const;
-  /// The hash of each name of `names` by the index of the material sprim it names (""
-  /// names MaterialTable::kNoMaterial); materials not in the render index are left out.
-  FaceMaterialHashes faceMaterialHashes(const std::map<PrimId, std::string>& names) const;
+  /// The hashes of `names` (mesh id → a name for each of its subsets, in setSubsetMaterials'
+  /// order) by the meshes' objects. Throws std::invalid_argument for an id that is no mesh in
+  /// the render index, or for more names than the mesh has subsets.
+  SlotHashes slotHashes(const std::map<PrimId, std::vector<std::string>>& names) const;
 
   /// Warnings raised since the last call, each naming its prim.
   std::vector<std::string> takeWarnings();

@@ -122,11 +122,12 @@ class RenderPass {
   /// cryptomatteDepth ranks as (id, coverage) pairs, zero-padded to whole RGBA layers
   /// (aovChannels). `names`: the names of the placements for this layer
   /// (RenderDelegate::placementHashes); a placement without one counts as a miss. A material
-  /// layer also names the materials per-face bindings give faces (`faceMaterialNames`:
-  /// material id → name, "" for faces bound to none; RenderDelegate::faceMaterialHashes): their
-  /// samples take those names, not their placement's.
-  std::vector<float> cryptomatte(const std::map<PrimId, std::vector<std::string>>& names,
-                                 const std::map<PrimId, std::string>& faceMaterialNames = {}) const;
+  /// layer also names the materials of meshes' subsets (`subsetNames`: mesh id → the name of
+  /// each of its subsets' materials, in setSubsetMaterials' order; RenderDelegate::slotHashes):
+  /// samples on the faces a subset binds take its name, not their placement's.
+  std::vector<float> cryptomatte(
+      const std::map<PrimId, std::vector<std::string>>& names,
+      const std::map<PrimId, std::vector<std::string>>& subsetNames = {}) const;
   /// Floats per pixel of an AOV: 4 for color, 3 for vectors, a primvar's width as the scene's
   /// meshes have it (1 where none has it), 4 per two ranks of Cryptomatte AOVs, 1 otherwise.
   int aovChannels(const std::string& name) const;
