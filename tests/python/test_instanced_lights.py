@@ -8,7 +8,14 @@ import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux, Vt
 
 import penumbra
-from stages import add_camera, add_quad, assert_live_edit_renders_as_fresh, new_stage, render_with_warnings
+from stages import (
+    add_camera,
+    add_instance,
+    add_quad,
+    assert_live_edit_renders_as_fresh,
+    new_stage,
+    render_with_warnings,
+)
 
 RENDER = dict(camera="/cam", width=40, samples=16, seed=1)
 PLACES = ((-1.0, 0.5, 0.0), (1.0, -0.5, 0.0))
@@ -83,7 +90,13 @@ def edit_bulb_place(stage):
     ].Set(Gf.Vec3d(0.3, 0, 0.5))
 
 
-@pytest.mark.parametrize("edit", [edit_intensity, edit_positions, edit_copies, edit_bulb_place])
+def edit_type(stage):
+    stage.GetPrimAtPath("/World/lamps/Protos/lamp/bulb").SetTypeName("DiskLight")
+
+
+@pytest.mark.parametrize(
+    "edit", [edit_intensity, edit_positions, edit_copies, edit_bulb_place, edit_type]
+)
 def test_live_edits_of_instanced_lights_render_as_a_fresh_renderer(edit):
     stage = lamps_stage(instanced=True)
     assert_live_edit_renders_as_fresh(stage, lambda: edit(stage), **RENDER)
@@ -121,3 +134,57 @@ def test_lights_of_an_instancer_inside_another_prototype_are_named_and_skipped()
         "/World/outer/Protos/group/inner/Protos/lamp/bulb)"
     ]
     assert image[..., :3].max() == 0  # the lamps' cards are there, unlit: no default light
+
+
+def test_lights_of_native_instances_in_a_prototype_light_each_copy():
+    # A prototype holding two native instances of one lamp: each copy had one bulb, silently.
+    def stage_of(instanced: bool):
+        stage = new_stage()
+        add_camera(stage)
+        add_quad(stage, "/World/wall", center=(0.0, 0.0, -0.5), half_size=3.0)
+        add_lamp(stage, "/Assets/lamp")
+        stage.GetPrimAtPath("/Assets").SetSpecifier(Sdf.SpecifierClass)
+        root = "/World/lamps/Protos/pair" if instanced else "/World/pair"
+        UsdGeom.Xform.Define(stage, root)
+        for name, x in (("a", -0.5), ("b", 0.5)):
+            add_instance(stage, f"{root}/{name}", "/Assets/lamp", (x, 0.0, 0.0))
+        if instanced:
+            instancer = UsdGeom.PointInstancer.Define(stage, "/World/lamps")
+            instancer.CreatePrototypesRel().SetTargets([root])
+            instancer.CreatePositionsAttr(Vt.Vec3fArray([(0.0, 0.5, 0.0)]))
+            instancer.CreateProtoIndicesAttr(Vt.IntArray([0]))
+        else:
+            UsdGeom.Xform(stage.GetPrimAtPath(root)).AddTranslateOp().Set(Gf.Vec3d(0, 0.5, 0))
+        return stage
+
+    instanced = penumbra.Renderer(stage_of(True)).render(**RENDER)["color"]
+    by_hand = penumbra.Renderer(stage_of(False)).render(**RENDER)["color"]
+    np.testing.assert_allclose(instanced, by_hand, rtol=1e-5, atol=1e-5)
+
+
+def test_copies_light_from_where_they_are_at_the_frame_as_lights_do():
+    # Copies moving over the shutter had their lights at shutter open; lights do not blur.
+    def stage_of(moving: bool):
+        stage = lamps_stage(instanced=True)
+        stage.RemovePrim("/World/lamps/Protos/lamp/shade")
+        camera = UsdGeom.Camera(stage.GetPrimAtPath("/cam"))
+        camera.CreateShutterOpenAttr(0.25)
+        camera.CreateShutterCloseAttr(0.75)
+        if moving:
+            instancer = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/lamps"))
+            instancer.CreateVelocitiesAttr(Vt.Vec3fArray([(24, 0, 0), (0, 24, 0)]))
+        return stage
+
+    moving = penumbra.Renderer(stage_of(True)).render(time=1.0, **RENDER)["color"]
+    still = penumbra.Renderer(stage_of(False)).render(time=1.0, **RENDER)["color"]
+    np.testing.assert_array_equal(moving, still)
+
+
+def test_dome_lights_in_prototypes_are_named_and_skipped():
+    stage = lamps_stage(instanced=True)
+    UsdLux.DomeLight.Define(stage, "/World/lamps/Protos/lamp/sky")
+    _, messages = render_with_warnings(stage, 40)
+    assert messages == [
+        "/World/lamps/Protos/lamp/sky: dome lights in point-instancer prototypes are not copied; "
+        "skipped"
+    ]

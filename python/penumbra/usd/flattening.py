@@ -70,10 +70,12 @@ class Leaf:
 
 @dataclass
 class LightCopies:
-    """Copies of one light in the prototypes of a point instancer."""
+    """Copies of one light in one prototype of a point instancer."""
 
-    light: Usd.Prim  # the light (by its user-facing path: in a native instance, its proxy)
-    transforms: np.ndarray  # float64 (N, K, 4, 4): light-to-world, K = 1 or the grid's samples
+    light: Usd.Prim  # the light's prim (in a native instance there, its prototype's)
+    path: Sdf.Path  # where it is in the prototype's namespace (through native instances)
+    prototype: int  # which of the instancer's prototypes with copies holds it
+    transforms: np.ndarray  # float64 (N, 1, 4, 4): light-to-world at the frame, per copy
 
 
 def nest_primvars(
@@ -337,7 +339,7 @@ class Flattener:
         if placement is None:
             return
         if light_copies is not None:
-            light_copies += self._light_copies(copies, placement, segments)
+            light_copies += self._light_copies(prim, root, copies, segments)
         else:
             # Copies of copies carry no lights (a light per copy of a copy); say so rather
             # than drop them silently.
@@ -372,32 +374,49 @@ class Flattener:
                     ),
                 )
 
-    def _light_copies(self, copies, placement: np.ndarray, segments: int) -> list[LightCopies]:
-        """The copies of the lights in the prototypes of ``copies`` (as
-        :meth:`point_instancer_copies` gives them), placed by ``placement`` (the instancer's,
-        (K, 4, 4))."""
+    def _light_copies(
+        self, prim: Usd.Prim, root: Usd.Prim, copies, segments: int
+    ) -> list[LightCopies]:
+        """The copies of the lights in the prototypes of point instancer ``prim`` (below
+        ``root``; ``copies`` as :meth:`point_instancer_copies` gives them on the grid of
+        ``segments``), each placed where its copy is at the frame, as lights are."""
+        if not any(self.lights_below(prototype) for prototype, *_ in copies):
+            return []
+        if segments:
+            copies = self.point_instancer_copies(prim, 0)
+        placement = self.relative(prim, root, 0)
+        if placement is None:
+            return []
         result = []
-        elsewhere = []  # lights of native instances whose first instance is not in the prototype
-        for prototype, transforms, _, _ in copies:
-            for path in sorted(self.lights_below(prototype)):
-                if not path.HasPrefix(prototype.GetPath()):
-                    elsewhere.append(path)
-                    continue
-                light = self.stage.GetPrimAtPath(path)
-                relative = self.relative(light, prototype, segments) if light else None
-                if relative is None:
-                    continue
-                # Each copy's k-th sample pairs with the light's and the instancer's k-th.
-                composed = relative[None] @ transforms
-                result.append(LightCopies(light, composed @ placement))
-        if elsewhere:
-            self.lights.update(elsewhere)
-            self.warn(
-                "lights of native instances that are first instanced outside a point instancer's "
-                f"prototypes are not rendered in its copies yet; {len(elsewhere)} skipped (first: "
-                f"{elsewhere[0]})"
-            )
+        for index, (prototype, transforms, _, _) in enumerate(copies):
+            for light, path, relative in self._lights_in(prototype):
+                result.append(LightCopies(light, path, index, relative @ transforms @ placement))
         return result
+
+    def _lights_in(
+        self, root: Usd.Prim
+    ) -> Iterator[tuple[Usd.Prim, Sdf.Path, np.ndarray]]:
+        """(light, its path in the namespace of ``root``, (1, 4, 4) light-to-root transform at
+        the frame) of each visible light below ``root`` (included), in native instances there
+        too, one for each instance (a native instance's lights are prims of its prototype)."""
+        predicate = Usd.PrimDefaultPredicate if root.IsPrototype() else _PROTOTYPE_PREDICATE
+        walk = iter(Usd.PrimRange(root, predicate))
+        for prim in walk:
+            if _invisible(prim, self) or prim.IsA(UsdGeom.PointInstancer):
+                walk.PruneChildren()  # a nested instancer's lights are warned of elsewhere
+                continue
+            if light_type(prim) is not None:
+                relative = self.relative(prim, root, 0)
+                if relative is not None:
+                    yield prim, prim.GetPath(), relative
+            if prim.IsInstance():
+                placement = self.relative(prim, root, 0)
+                if placement is None:
+                    continue
+                prototype = prim.GetPrototype()
+                for light, path, relative in self._lights_in(prototype):
+                    inside = path.ReplacePrefix(prototype.GetPath(), prim.GetPath())
+                    yield light, inside, relative @ placement
 
     def point_instancer_copies(
         self, prim: Usd.Prim, segments: int

@@ -2,8 +2,9 @@
 
 Every copy of a prototype's light is a light of its own in the delegate (the light list, its
 light tree and its sampling see each), read once from the prototype's light and placed where
-its copy is. Updates re-send a light's inputs only when it was edited (or varies with time) and
-a copy's transform only when it moved.
+its copy is at the frame (as lights are: they do not blur). Updates re-send a light's inputs
+only when it was edited (or varies with time) and a copy's transform only when it moved. Dome
+lights in prototypes are left out: a dome has no place to be copied to.
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ class InstancedLights:
         self.core = core
         self.warn = warn
         self.prefix = prefix
-        self._sent: dict[str, np.ndarray] = {}  # light id → the transforms sent
+        self._sent: dict[str, np.ndarray] = {}  # light id → the transform sent
+        self._types: dict[str, str] = {}  # light id → its sprim type
         self._varying: set[Sdf.Path] = set()  # prototype lights whose inputs might vary
 
     def __len__(self) -> int:
@@ -51,37 +53,49 @@ class InstancedLights:
         stale = list(stale)
         wanted: dict[str, tuple[LightCopies, int]] = {}
         for group in copies:
+            if light_type(group.light) == "domeLight":
+                self.warn(
+                    f"{group.light.GetPath()}: dome lights in point-instancer prototypes are not "
+                    "copied; skipped"
+                )
+                continue
             for copy in range(len(group.transforms)):
-                wanted[f"{self.prefix}/lights/{copy}{group.light.GetPath()}"] = (group, copy)
+                light_id = f"{self.prefix}/lights/{group.prototype}/{copy}{group.path}"
+                wanted[light_id] = (group, copy)
         for light_id in [i for i in self._sent if i not in wanted]:
-            self.core.remove_prim(light_id)
-            del self._sent[light_id]
+            self._remove(light_id)
         read: dict[Sdf.Path, dict] = {}  # each prototype light read once for all its copies
         for light_id, (group, copy) in wanted.items():
             light, path = group.light, group.light.GetPath()
-            new = light_id not in self._sent
-            if new:
-                self.core.insert_sprim(light_type(light), light_id)
+            sprim_type = light_type(light)
+            if self._types.get(light_id) != sprim_type:  # new, or of another type now
+                if light_id in self._types:
+                    self._remove(light_id)
+                self.core.insert_sprim(sprim_type, light_id)
+                self._types[light_id] = sprim_type
             if (
-                new
-                or any(path.HasPrefix(p) for p in stale)
+                light_id not in self._sent
+                or any(path.HasPrefix(p) or group.path.HasPrefix(p) for p in stale)
                 or (time_changed and path in self._varying)
             ):
                 if path not in read:
                     read[path] = self._read(light, shutter)
                 self.core.set_light(light_id, **read[path])
-            matrices = light_transform(light, group.transforms[copy])
-            matrices = matrices[0] if len(matrices) == 1 else matrices
+            matrix = light_transform(light, group.transforms[copy])[0]
             sent = self._sent.get(light_id)
-            if sent is None or sent.shape != matrices.shape or not np.array_equal(sent, matrices):
-                self.core.set_transform(light_id, np.ascontiguousarray(matrices))
-                self._sent[light_id] = matrices
+            if sent is None or not np.array_equal(sent, matrix):
+                self.core.set_transform(light_id, np.ascontiguousarray(matrix))
+                self._sent[light_id] = matrix
 
     def clear(self) -> None:
-        for light_id in self._sent:
-            self.core.remove_prim(light_id)
-        self._sent.clear()
+        for light_id in list(self._types):
+            self._remove(light_id)
         self._varying.clear()
+
+    def _remove(self, light_id: str) -> None:
+        self.core.remove_prim(light_id)
+        self._sent.pop(light_id, None)
+        self._types.pop(light_id, None)
 
     def _read(self, light: Usd.Prim, shutter: Shutter) -> dict:
         """The inputs of a prototype's light (its warnings said once for all its copies)."""
