@@ -192,9 +192,17 @@ void Material::sync(SyncContext& context, uint32_t) {
     }
     result.connections.push_back(std::move(connection));
   }
+  unreadableStamps_.clear();
+  for (const std::string& file : unreadable) unreadableStamps_.emplace_back(file, fileStamp(file));
   ++context.counters.materialBuilds;
   context.sceneChanged = true;
   context.scene.setMaterial(size_t(context.materials.at(id())), std::move(result));
+}
+
+bool Material::unreadableFilesChanged() const {
+  for (const auto& [file, stamp] : unreadableStamps_)
+    if (fileStamp(file) != stamp) return true;
+  return false;
 }
 
 void Material::finalize(SyncContext& context) {

@@ -306,6 +306,10 @@ bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
   }
   for (const std::string& error : unreadable)
     context_.warn(error + "; the textures reading it give their fallback values");
+  // Materials read again what they could not read before, once it changed.
+  materials_.forEach([](Material& material) {
+    if (material.unreadableFilesChanged()) material.markDirty(DirtyParams);
+  });
   // So are OpenVDB files written again (a simulation cached again under the same name).
   volumes_.forEach([](Volume& volume) {
     if (volume.fieldFilesChanged()) volume.markDirty(DirtyParams);

@@ -162,6 +162,7 @@ struct TextureSystem::Impl {
         std::string tileError;
         if (!files.open(file, colorSpace, alpha, threadInfo(), &opened, &tileError)) {
           unreadable += (unreadable.empty() ? "" : "; ") + tileError;
+          texture.files.emplace_back(file, fileStamp(file));  // read again once mended
           continue;
         }
         texture.tiles[i] = opened.tile;
@@ -248,12 +249,15 @@ size_t TextureSystem::reloadChangedFiles(std::vector<std::string>* errors) {
 
 std::vector<std::string> TextureSystem::takeLookupFailures() {
   std::vector<std::string> messages;
+  std::set<std::string> named;  // a file opened in two colour spaces is two textures: one message
   const std::lock_guard<std::mutex> lock(impl_->failureMutex);
   for (auto& [handle, failure] : impl_->failures) {
     if (failure.reported) continue;
     failure.reported = true;
-    messages.push_back(impl_->openedAs[size_t(handle)].path + ": the texture cannot be read (" +
-                       failure.error + "); its fallback value is used where it fails");
+    const std::string& path = impl_->openedAs[size_t(handle)].path;
+    if (named.insert(path).second)
+      messages.push_back(path + ": the texture cannot be read (" + failure.error +
+                         "); its fallback value is used where it fails");
   }
   return messages;
 }

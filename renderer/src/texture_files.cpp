@@ -190,7 +190,7 @@ bool TextureFiles::prepare(const std::string& file, const OIIO::ImageSpec& fileS
   readConfig.attribute("oiio:UnassociatedAlpha", 1);  // decode colour, not colour × alpha
   auto input = OIIO::ImageInput::open(file, &readConfig);
   if (!input) {
-    *error = file + ": cannot read the image: " + trimmed(OIIO::geterror());
+    *error = file + ": cannot read the image: " + firstLine(trimmed(OIIO::geterror()));
     return false;
   }
   const OIIO::TypeDesc::BASETYPE base = OIIO::TypeDesc::BASETYPE(fileSpec.format.basetype);
@@ -242,7 +242,7 @@ bool TextureFiles::open(const std::string& file, const TextureColorSpace& colorS
     readConfig.attribute("oiio:UnassociatedAlpha", 1);
     auto input = OIIO::ImageInput::open(file, &readConfig);
     if (!input) {
-      *error = file + ": cannot read the image: " + trimmed(OIIO::geterror());
+      *error = file + ": cannot read the image: " + firstLine(trimmed(OIIO::geterror()));
       return false;
     }
     spec = input->spec();
@@ -293,7 +293,7 @@ bool TextureFiles::open(const std::string& file, const TextureColorSpace& colorS
   OIIO::ImageSpec textureSpec;
   if (!opened.tile.handle || !oiio_->good(opened.tile.handle) ||
       !oiio_->get_imagespec(opened.tile.handle, threadInfo, 0, textureSpec)) {
-    *error = file + ": cannot open as a texture: " + trimmed(oiio_->geterror());
+    *error = file + ": cannot open as a texture: " + firstLine(trimmed(oiio_->geterror()));
     return false;
   }
   opened.tile.channels = std::min(textureSpec.nchannels, 4);

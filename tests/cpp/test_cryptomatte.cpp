@@ -37,6 +37,18 @@ void floorAndOccluder(RenderDelegate& delegate) {
   addCamera(delegate, facingDown(0, 5, 0), 1);  // sees x and z in [-2.5, 2.5]
 }
 
+/// `coverage` saved as a checkpoint (into `state`) and loaded into one of `pixels` pixels.
+CryptomatteCoverage reloaded(const CryptomatteCoverage& coverage, size_t pixels,
+                             std::vector<uint8_t>& state) {
+  coverage.saveState(state);
+  CryptomatteCoverage loaded;
+  loaded.reset(pixels);
+  const uint8_t* cursor = state.data();
+  loaded.loadState(cursor, state.data() + state.size());
+  EXPECT_EQ(cursor, state.data() + state.size());
+  return loaded;
+}
+
 const std::map<PrimId, std::vector<std::string>> kObjectNames = {{"/floor", {"floor"}},
                                                                  {"/occluder", {"occluder"}}};
 
@@ -105,15 +117,10 @@ TEST(Cryptomatte, FacesASubsetBindsTakeItsNameInAMaterialLayer) {
   const SlotHashes without = {{4, {50, 20}}};
   coverage.resolve(0, 4, hashes, 3, layer, &without);
   EXPECT_EQ(layer[1] + layer[3] + layer[5], 0.75f);
-  // The checkpoint keeps the faces' materials.
+  // The checkpoint keeps the faces' slots.
   std::vector<uint8_t> state;
-  coverage.saveState(state);
-  CryptomatteCoverage loaded;
-  loaded.reset(1);
-  const uint8_t* cursor = state.data();
-  loaded.loadState(cursor, state.data() + state.size());
   float again[6];
-  loaded.resolve(0, 4, hashes, 3, again, &materials);
+  reloaded(coverage, 1, state).resolve(0, 4, hashes, 3, again, &materials);
   coverage.resolve(0, 4, hashes, 3, layer, &materials);
   EXPECT_EQ(0, std::memcmp(again, layer, sizeof layer));
 }
@@ -137,16 +144,12 @@ TEST(Cryptomatte, CoverageCountsSamplesPerPlacementAndKeepsTheDeepestRanks) {
   for (const float value : two) EXPECT_EQ(value, 0.0f);
 
   std::vector<uint8_t> state;
-  coverage.saveState(state);
-  CryptomatteCoverage loaded;
-  loaded.reset(2);
-  const uint8_t* cursor = state.data();
-  loaded.loadState(cursor, state.data() + state.size());
-  EXPECT_EQ(cursor, state.data() + state.size());
+  CryptomatteCoverage loaded = reloaded(coverage, 2, state);
   float again[4];
   loaded.resolve(0, 8, hashes, 2, again);
   coverage.resolve(0, 8, hashes, 2, two);
   EXPECT_EQ(0, std::memcmp(again, two, sizeof two));
+  const uint8_t* cursor = state.data();
   for (const size_t cut : {size_t(0), size_t(9), state.size() - 1}) {
     cursor = state.data();
     EXPECT_THROW(loaded.loadState(cursor, state.data() + cut), std::invalid_argument) << cut;

@@ -11,6 +11,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 import penumbra
 from stages import (
     add_camera,
+    add_instance,
     add_preview_material,
     assert_live_edit_renders_as_fresh,
     bind,
@@ -224,6 +225,13 @@ def instanced_grid_stage():
     return stage, mesh
 
 
+def add_instances(stage, names_and_x=(("left", -1.0), ("right", 1.0))) -> None:
+    """Makes ``/Proto`` a class and places native instances of it at ``/World/<name>``."""
+    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
+    for name, x in names_and_x:
+        add_instance(stage, f"/World/{name}", "/Proto", (x, 0.0, 0.0))
+
+
 def copy_face_colours(image, centre_x: float) -> list[tuple[float, ...]]:
     """The colours of the faces of a grid copy centred at (centre_x, 0) (camera sees [-2, 2]²)."""
     colour = image["color"]
@@ -237,12 +245,7 @@ def copy_face_colours(image, centre_x: float) -> list[tuple[float, ...]]:
 
 def test_native_instances_render_their_prototype_subsets_and_their_own_bindings():
     stage, _ = instanced_grid_stage()
-    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
-    for name, x in (("left", -1.0), ("right", 1.0)):
-        instance = UsdGeom.Xform.Define(stage, f"/World/{name}")
-        instance.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
-        instance.GetPrim().GetReferences().AddInternalReference("/Proto")
-        instance.GetPrim().SetInstanceable(True)
+    add_instances(stage)
     # The right copy's subset "a" is white: a collection-based binding on the instance root,
     # stronger than the prototype's own, names its instance proxy.
     right = stage.GetPrimAtPath("/World/right")
@@ -285,12 +288,7 @@ def test_point_instancer_copies_render_their_prototype_subsets():
 
 def test_editing_a_prototype_subset_renders_instances_as_a_fresh_renderer():
     stage, mesh = instanced_grid_stage()
-    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
-    for name, x in (("left", -1.0), ("right", 1.0)):
-        instance = UsdGeom.Xform.Define(stage, f"/World/{name}")
-        instance.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
-        instance.GetPrim().GetReferences().AddInternalReference("/Proto")
-        instance.GetPrim().SetInstanceable(True)
+    add_instances(stage)
     subset = UsdGeom.Subset(stage.GetPrimAtPath("/Proto/grid/a"))
     assert_live_edit_renders_as_fresh(
         stage, lambda: subset.GetIndicesAttr().Set(Vt.IntArray([0])), **RENDER
@@ -342,10 +340,7 @@ def test_a_subset_material_an_instance_does_not_render_is_not_read():
     UsdGeom.Subset(stage.GetPrimAtPath("/Proto/grid/a")).GetElementTypeAttr().Set(
         UsdGeom.Tokens.point
     )
-    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
-    instance = UsdGeom.Xform.Define(stage, "/World/copy")
-    instance.GetPrim().GetReferences().AddInternalReference("/Proto")
-    instance.GetPrim().SetInstanceable(True)
+    add_instances(stage, [("copy", 0.0)])
     renderer = penumbra.Renderer(stage)
     renderer.render(**RENDER)
     assert renderer.delegate.has_prim("/Looks/green")
@@ -357,10 +352,7 @@ def test_subsets_of_an_instanced_gprim_other_than_a_mesh_are_named():
     add_camera(stage)
     cube = UsdGeom.Cube.Define(stage, "/Proto/cube")
     bind_subset(cube, "a", [0], emitter(stage, "red", RED))
-    stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
-    instance = UsdGeom.Xform.Define(stage, "/World/copy")
-    instance.GetPrim().GetReferences().AddInternalReference("/Proto")
-    instance.GetPrim().SetInstanceable(True)
+    add_instances(stage, [("copy", 0.0)])
     _, warnings = render_with_warnings(stage, 32)
     assert warnings == [
         "/World/copy/cube: per-face material bindings (GeomSubsets) are read on Mesh prims "

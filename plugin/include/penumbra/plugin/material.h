@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/file_stamp.h"
 #include "penumbra/material.h"
 #include "penumbra/plugin/prim.h"
 #include "penumbra/plugin/sync_context.h"
@@ -72,6 +73,10 @@ class Material : public Prim {
   /// their displayColor at the next sync.
   void finalize(SyncContext& context) override;
 
+  /// Whether a texture file it could not read at its last sync has changed (been written,
+  /// mended, or made) since: it then syncs again (a lookdev loop: fix the file, render).
+  bool unreadableFilesChanged() const;
+
   const MaterialParams& params() const { return params_; }
   /// The connected inputs, in the order they were connected.
   const std::vector<std::pair<MaterialInput, InputSource>>& connections() const {
@@ -81,6 +86,8 @@ class Material : public Prim {
  private:
   MaterialParams params_;
   std::vector<std::pair<MaterialInput, InputSource>> connections_;
+  // The texture files its last sync could not read, as they were then (none: missing).
+  std::vector<std::pair<std::string, std::optional<FileStamp>>> unreadableStamps_;
 };
 
 }  // namespace penumbra::plugin
