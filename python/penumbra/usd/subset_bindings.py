@@ -14,7 +14,8 @@ from .material import bound_materials
 
 @dataclass(frozen=True)
 class SubsetBinding:
-    """A subset's material and the faces it binds (valid indices of the mesh's faces)."""
+    """A subset's material and the faces it binds (indices not negative; those past the mesh's
+    faces bind nothing while it has not that many)."""
 
     material: Sdf.Path
     faces: np.ndarray  # int32
