@@ -43,9 +43,14 @@ void Light::setParam(const std::string& name, const ParamValue& value) {
   markDirty(DirtyParams);
 }
 
+bool Light::textureFileChanged() const {
+  return !loadedTextureFile_.empty() && fileStamp(loadedTextureFile_) != loadedStamp_;
+}
+
 void Light::loadTexture(SyncContext& context) {
-  if (textureFile_ == loadedTextureFile_) return;
+  if (textureFile_ == loadedTextureFile_ && !textureFileChanged()) return;
   loadedTextureFile_ = textureFile_;
+  loadedStamp_ = textureFile_.empty() ? std::nullopt : fileStamp(textureFile_);
   params_.texture.reset();
   if (textureFile_.empty()) return;
   ++context.counters.lightTextureLoads;

@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux
@@ -53,3 +55,26 @@ def test_light_textures_decode_as_auto_does(tmp_path, extension, kind):
     light.CreateTextureFileAttr(Sdf.AssetPath(str(file)))
     expected = srgb_decoded(ENCODED) if extension == "png" else ENCODED
     assert seen(stage) == pytest.approx(expected, rel=1e-3)
+
+
+@pytest.mark.parametrize("first", ["other", "broken", "missing"])
+def test_a_sky_repainted_between_renders_is_read_again(tmp_path, first):
+    # A DomeLight kept the image it had loaded first, whatever happened to its file since.
+    sky = tmp_path / "sky.exr"
+    if first != "missing":
+        write_texture(sky, np.full((4, 8, 3), 0.25, np.float32))
+    if first == "broken":
+        sky.write_bytes(sky.read_bytes()[:100])
+    stage = new_stage()
+    UsdLux.DomeLight.Define(stage, "/light").CreateTextureFileAttr(Sdf.AssetPath(str(sky)))
+    narrow_camera(stage, 0.0)
+    renderer = penumbra.Renderer(stage)
+    render = dict(camera="/cam", width=8, samples=4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", penumbra.PenumbraWarning)
+        before = renderer.render(**render)["color"]
+    write_texture(sky, np.full((8, 16, 3), 0.75, np.float32))  # another size: another stamp
+    after = renderer.render(**render)["color"]
+    assert float(np.asarray(after)[3:5, 3:5, :3].mean()) == pytest.approx(0.75, rel=1e-3)
+    np.testing.assert_array_equal(after, penumbra.Renderer(stage).render(**render)["color"])
+    assert not np.array_equal(before, after)

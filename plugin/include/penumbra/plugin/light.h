@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/file_stamp.h"
 #include "penumbra/light.h"
 #include "penumbra/motion.h"
 #include "penumbra/plugin/prim.h"
@@ -40,8 +41,9 @@ class Light : public Prim {
   }
 
   /// Builds its renderer light from what its dirty bits say changed (cf. HdLight::Sync):
-  /// texture:file is loaded only when the file changed (a warning names a file that cannot be
-  /// read: the light then renders untextured), and a light whose inputs are invalid is skipped
+  /// texture:file is loaded only when it names another file or the file changed on disk (a
+  /// warning names a file that cannot be read: the light then renders untextured), and a
+  /// light whose inputs are invalid is skipped
   /// with a warning, once per change. The renderer light goes to the scene's light list
   /// (SyncContext::lights), which the light joins or where it replaces its entry; a hidden or
   /// skipped light leaves the list.
@@ -51,6 +53,9 @@ class Light : public Prim {
 
   const LightParams& params() const { return params_; }
   bool visible() const { return visible_; }
+  /// Whether its texture file was written (or made) since it was loaded: the light is then to
+  /// sync again (a repainted sky between two renders).
+  bool textureFileChanged() const;
 
  private:
   /// Loads texture:file if it changed since the last call. Throws std::runtime_error naming the
@@ -60,6 +65,7 @@ class Light : public Prim {
   LightParams params_;
   bool visible_ = true;
   std::string textureFile_, loadedTextureFile_;
+  std::optional<FileStamp> loadedStamp_;  // the loaded file's, as it was then
   std::optional<Geometry::MeshId> emittingMesh_;
 };
 
