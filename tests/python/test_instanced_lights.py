@@ -188,3 +188,14 @@ def test_dome_lights_in_prototypes_are_named_and_skipped():
         "/World/lamps/Protos/lamp/sky: dome lights in point-instancer prototypes are not copied; "
         "skipped"
     ]
+
+
+def test_hiding_every_copy_keeps_the_default_light_off_as_hiding_the_lamps_does():
+    # With every copy hidden the default light came on; hidden lamps placed by hand keep it off.
+    stage = lamps_stage(instanced=True)
+    UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/lamps")).CreateInvisibleIdsAttr(
+        Vt.Int64Array([0, 1])
+    )
+    UsdGeom.Imageable(stage.GetPrimAtPath("/World/lamps")).MakeInvisible()
+    image = penumbra.Renderer(stage).render(**RENDER)["color"]
+    assert image[..., :3].max() == 0

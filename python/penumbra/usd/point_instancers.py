@@ -40,7 +40,9 @@ class _Instancer:
     roots: set[Sdf.Path] = field(default_factory=set)  # edits below these re-flatten it
     varying: bool = False
     dirty: bool = True
-    dropped_lights: bool = False  # lights of nested instancers' prototypes (Flattener.lights)
+    # Its prototypes hold lights, shown or not (rendered, or skipped: Flattener.lights): the
+    # stage then has lights of its own, as hidden lights placed by hand make it.
+    holds_lights: bool = False
 
     def clear(self) -> None:
         self.meshes.clear()
@@ -116,9 +118,10 @@ class PointInstancerDelegate:
                 self._sync(self.stage.GetPrimAtPath(path), record, stale, time_changed)
 
     def has_lights(self) -> bool:
-        """Whether the prototypes of a visible point instancer hold lights: rendered or not,
-        they make the stage one with lights of its own (no default light)."""
-        return any(len(r.lights) or r.dropped_lights for r in self._instancers.values())
+        """Whether the prototypes of a point instancer hold lights: shown or hidden, rendered
+        or skipped, they make the stage one with lights of its own (no default light), as
+        lights placed by hand do."""
+        return any(record.holds_lights for record in self._instancers.values())
 
     def copies(self) -> Iterator[tuple[str, Sdf.Path | None, list[str]]]:
         """``(instancer id, bound material, Cryptomatte object names)`` of every instancer rprim
@@ -156,7 +159,9 @@ class PointInstancerDelegate:
         materials = set().union(*map(materials_of, groups))
         record.roots = {prim.GetPath(), *flattener.roots, *materials}
         record.varying = flattener.varying or record.meshes.varying or record.lights.varying
-        record.dropped_lights = bool(flattener.lights)
+        record.holds_lights = bool(flattener.lights) or any(
+            flattener.lights_below(root) for root in prototype_roots(prim)
+        )
         record.dirty = False
 
     def _groups(
