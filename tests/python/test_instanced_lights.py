@@ -130,7 +130,8 @@ def test_lights_of_an_instancer_inside_another_prototype_are_named_and_skipped()
     image, messages = render_with_warnings(stage, 40)
     assert messages == [
         "/World/outer/Protos/group/inner: lights in the prototypes of a point instancer inside "
-        "another's prototypes are not rendered yet; 1 skipped (first: "
+        "a native instance or another instancer's prototypes are not rendered yet; 1 skipped "
+        "(first: "
         "/World/outer/Protos/group/inner/Protos/lamp/bulb)"
     ]
     assert image[..., :3].max() == 0  # the lamps' cards are there, unlit: no default light
@@ -198,4 +199,23 @@ def test_hiding_every_copy_keeps_the_default_light_off_as_hiding_the_lamps_does(
     )
     UsdGeom.Imageable(stage.GetPrimAtPath("/World/lamps")).MakeInvisible()
     image = penumbra.Renderer(stage).render(**RENDER)["color"]
+    assert image[..., :3].max() == 0
+
+
+def test_lights_of_a_point_instancer_in_a_native_instance_are_named_and_keep_the_default_off():
+    # They were skipped as if nested in another instancer, and the default light came on.
+    stage = new_stage()
+    add_camera(stage)
+    add_quad(stage, "/World/wall", center=(0.0, 0.0, -0.5), half_size=3.0)
+    add_lamp(stage, "/Set/lamps/Protos/lamp")
+    lamps = UsdGeom.PointInstancer.Define(stage, "/Set/lamps")
+    lamps.CreatePrototypesRel().SetTargets(["/Set/lamps/Protos/lamp"])
+    lamps.CreatePositionsAttr(Vt.Vec3fArray(PLACES))
+    lamps.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    stage.GetPrimAtPath("/Set").SetSpecifier(Sdf.SpecifierClass)
+    add_instance(stage, "/World/set", "/Set")
+    image, messages = render_with_warnings(stage, 40)
+    assert len(messages) == 1 and messages[0].startswith(
+        "/World/set/lamps: lights in the prototypes of a point instancer inside a native instance"
+    ), messages
     assert image[..., :3].max() == 0

@@ -349,8 +349,8 @@ class Flattener:
                 self.lights.update(dropped)
                 self.warn(
                     f"{user_facing_path(prim)}: lights in the prototypes of a point instancer "
-                    "inside another's prototypes are not rendered yet; "
-                    f"{len(dropped)} skipped (first: {dropped[0]})"
+                    "inside a native instance or another instancer's prototypes are not "
+                    f"rendered yet; {len(dropped)} skipped (first: {dropped[0]})"
                 )
         # Visibility counts from each prototype root down (the walk) and the instancer's own,
         # as in UsdImaging: prims above a prototype root are often made invisible just to keep

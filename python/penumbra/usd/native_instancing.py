@@ -71,6 +71,7 @@ class NativeInstancing:
         self.shutter: Shutter | None = None
         self._dirty = True
         self._varying = False
+        self._skipped_lights = False
         self._stale: set[Sdf.Path] = set()  # edited prims: meshes below them are read again
         self._roots: set[Sdf.Path] = set()  # top-level instances last flattened
         self._above: set[Sdf.Path] = set()  # their ancestors
@@ -111,7 +112,13 @@ class NativeInstancing:
         stale, self._stale = self._stale, set()
         self.meshes.update(groups, shutter, stale, time_changed)
         self._varying = flattener.varying or self.meshes.varying
+        self._skipped_lights = bool(flattener.lights)
         self._dirty = False
+
+    def has_lights(self) -> bool:
+        """Whether the point instancers in its prototypes hold lights (skipped, Flattener.lights):
+        they make the stage one with lights of its own (no default light)."""
+        return self._skipped_lights
 
     def copies(self) -> Iterator[tuple[str, Sdf.Path | None, list[str]]]:
         """``(instancer id, bound material, Cryptomatte object names)`` of every instancer rprim

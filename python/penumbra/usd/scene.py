@@ -151,7 +151,11 @@ class SceneDelegate:
         """Whether the synced stage has lights of its own (UsdLux lights, in point-instancer
         prototypes too, or meshes with UsdLuxMeshLightAPI), known without looking at its prims
         again."""
-        return bool(self._emitters) or self._point_instancers.has_lights()
+        return (
+            bool(self._emitters)
+            or self._point_instancers.has_lights()
+            or self._native.has_lights()
+        )
 
     def prim_kind(self, path: str) -> str | None:
         """The delegate prim type tracked at ``path`` (``None`` if untracked)."""
