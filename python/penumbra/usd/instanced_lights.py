@@ -32,9 +32,6 @@ class InstancedLights:
         self._types: dict[str, str] = {}  # light id → its sprim type
         self._varying: set[Sdf.Path] = set()  # prototype lights whose inputs might vary
 
-    def __len__(self) -> int:
-        return len(self._sent)
-
     @property
     def varying(self) -> bool:
         """Whether some light's inputs might change with time."""
@@ -62,7 +59,7 @@ class InstancedLights:
             for copy in range(len(group.transforms)):
                 light_id = f"{self.prefix}/lights/{group.prototype}/{copy}{group.path}"
                 wanted[light_id] = (group, copy)
-        for light_id in [i for i in self._sent if i not in wanted]:
+        for light_id in [i for i in self._types if i not in wanted]:
             self._remove(light_id)
         read: dict[Sdf.Path, dict] = {}  # each prototype light read once for all its copies
         for light_id, (group, copy) in wanted.items():
