@@ -367,7 +367,7 @@ def test_faces_bound_by_subsets_take_their_material_name(tmp_path):
     assert main([*command, "--aov", "CryptoObject,CryptoMaterial"]) == 0
     materials, ranks = decode(out, "CryptoMaterial")
     assert set(materials) == {"/World/Looks/Grey", "/World/Looks/Red"}
-    grey, red = (matte(materials, ranks, name) for name in ("/World/Looks/Grey", "/World/Looks/Red"))
+    grey, red = (matte(materials, ranks, f"/World/Looks/{name}") for name in ("Grey", "Red"))
     # Away from the seam (the pixel filter reaches past a pixel) each half is one material.
     assert (grey[:, :14] == 1).all() and (red[:, :14] == 0).all()
     assert (red[:, 18:] == 1).all() and (grey[:, 18:] == 0).all()

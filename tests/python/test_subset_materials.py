@@ -239,7 +239,8 @@ def copy_face_colours(image, centre_x: float) -> list[tuple[float, ...]]:
     result = []
     for dx, dy in ((-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)):
         x, y = centre_x + dx, dy
-        result.append(tuple(float(c) for c in colour[int((2 - y) / 4 * size), int((x + 2) / 4 * size), :3]))
+        row, column = int((2 - y) / 4 * size), int((x + 2) / 4 * size)
+        result.append(tuple(float(c) for c in colour[row, column, :3]))
     return result
 
 

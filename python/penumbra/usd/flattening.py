@@ -68,6 +68,10 @@ class Leaf:
     primvars: dict[str, np.ndarray] = field(default_factory=dict)
 
 
+PrototypeCopies = tuple[Usd.Prim, np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]
+"""A prototype root and its copies (see :meth:`Flattener.point_instancer_copies`)."""
+
+
 @dataclass
 class LightCopies:
     """Copies of one light in one prototype of a point instancer."""
@@ -147,7 +151,7 @@ class Flattener:
         self.caches = XformCaches()
         self.varying = False
         self.roots: set[Sdf.Path] = set()  # every subtree expanded (for change tracking)
-        self.lights: set[Sdf.Path] = set()  # lights in nested point-instancer prototypes, not rendered
+        self.lights: set[Sdf.Path] = set()  # lights of nested instancers' prototypes: skipped
         self._segments: dict[Sdf.Path, int] = {}
         self._lights_below: dict[Sdf.Path, set[Sdf.Path]] = {}  # noted by content_segments
         self._leaves: dict[tuple[Sdf.Path, int], list[Leaf]] = {}
@@ -331,7 +335,8 @@ class Flattener:
         """The meshes of the prototypes of point instancer ``prim`` (below ``root``), one leaf
         per prototype mesh holding all its copies, relative to ``root``; the lights of its
         prototypes are appended to ``light_copies`` (relative to ``root`` too), or, without it
-        (an instancer nested in another's prototype), left out with a warning."""
+        (an instancer inside a native instance or another instancer's prototype), left out with
+        a warning."""
         copies = self.point_instancer_copies(prim, segments)
         if not copies:
             return
@@ -375,7 +380,7 @@ class Flattener:
                 )
 
     def _light_copies(
-        self, prim: Usd.Prim, root: Usd.Prim, copies, segments: int
+        self, prim: Usd.Prim, root: Usd.Prim, copies: list[PrototypeCopies], segments: int
     ) -> list[LightCopies]:
         """The copies of the lights in the prototypes of point instancer ``prim`` (below
         ``root``; ``copies`` as :meth:`point_instancer_copies` gives them on the grid of
@@ -398,7 +403,8 @@ class Flattener:
     ) -> Iterator[tuple[Usd.Prim, Sdf.Path, np.ndarray]]:
         """(light, its path in the namespace of ``root``, (1, 4, 4) light-to-root transform at
         the frame) of each visible light below ``root`` (included), in native instances there
-        too, one for each instance (a native instance's lights are prims of its prototype)."""
+        too, one for each instance (a native instance's lights are prims of its prototype). A
+        walk of its own: :meth:`_walk` warns of volumes, which the walk for meshes has said."""
         predicate = Usd.PrimDefaultPredicate if root.IsPrototype() else _PROTOTYPE_PREDICATE
         walk = iter(Usd.PrimRange(root, predicate))
         for prim in walk:
@@ -418,9 +424,7 @@ class Flattener:
                     inside = path.ReplacePrefix(prototype.GetPath(), prim.GetPath())
                     yield light, inside, relative @ placement
 
-    def point_instancer_copies(
-        self, prim: Usd.Prim, segments: int
-    ) -> list[tuple[Usd.Prim, np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]]:
+    def point_instancer_copies(self, prim: Usd.Prim, segments: int) -> list[PrototypeCopies]:
         """(prototype root, (N, K, 4, 4) copy transforms relative to the instancer, per-copy
         primvars, inherited primvars) for each prototype with visible copies; K = 1 unless the
         copies move."""

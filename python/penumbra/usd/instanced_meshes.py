@@ -1,10 +1,10 @@
 """Grouped copies of instanced meshes → hidden mesh rprims and instancer rprims.
 
 :class:`InstancedMeshes` pushes the copies :mod:`.flattening` found, grouped by mesh and bound
-materials (the mesh's and its GeomSubsets', :class:`Group`), to the delegate and, on later updates, only what changed (new or
-edited meshes, changed transforms): every group is one hidden mesh rprim (its geometry read once,
-from the prim that holds it) and one instancer rprim naming it as its prototype, so that Embree
-shares the mesh's BVH among all copies.
+materials (the mesh's and its GeomSubsets', :class:`Group`), to the delegate and, on later
+updates, only what changed (new or edited meshes, changed transforms): every group is one hidden
+mesh rprim (its geometry read once, from the prim that holds it) and one instancer rprim naming
+it as its prototype, so that Embree shares the mesh's BVH among all copies.
 """
 
 from __future__ import annotations

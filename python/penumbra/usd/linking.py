@@ -49,7 +49,10 @@ def leaves_something_out(light: Usd.Prim) -> bool:
             query = collection.ComputeMembershipQuery()
         except Tf.ErrorException:
             continue
-        if not (query.UsesPathExpansionRuleMap() and query.GetAsPathExpansionRuleMap() == _EVERYTHING):
+        everything = query.UsesPathExpansionRuleMap() and (
+            query.GetAsPathExpansionRuleMap() == _EVERYTHING
+        )
+        if not everything:
             return True
     return False
 
