@@ -219,3 +219,16 @@ def test_lights_of_a_point_instancer_in_a_native_instance_are_named_and_keep_the
         "/World/set/lamps: lights in the prototypes of a point instancer inside a native instance"
     ), messages
     assert image[..., :3].max() == 0
+
+
+def test_copies_of_a_sphere_light_scaled_unevenly_are_named_once():
+    # A lamp placed by hand with an uneven scale is named in a warning; its copies were not.
+    stage = lamps_stage(instanced=True)
+    UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/lamps")).CreateScalesAttr(
+        Vt.Vec3fArray([(1, 2, 1), (1, 2, 1)])
+    )
+    _, messages = render_with_warnings(stage, 40)
+    assert messages == [
+        "/World/lamps/Protos/lamp/bulb: scaled unevenly (1, 2, 1); rendered as a sphere of the "
+        "scales' geometric mean radius, not an ellipsoid (in its copies by /World/lamps)"
+    ]

@@ -15,7 +15,7 @@ import numpy as np
 from pxr import Sdf, Usd
 
 from .flattening import LightCopies
-from .lights import light_transform, light_type, read_light
+from .lights import light_transform, light_type, read_light, uneven_scale_problem
 from .linking import leaves_something_out
 from .sampling import SampleReader, Shutter
 
@@ -62,6 +62,7 @@ class InstancedLights:
         for light_id in [i for i in self._types if i not in wanted]:
             self._remove(light_id)
         read: dict[Sdf.Path, dict] = {}  # each prototype light read once for all its copies
+        unevenly_scaled: set[Sdf.Path] = set()  # said once for all its copies
         for light_id, (group, copy) in wanted.items():
             light, path = group.light, group.light.GetPath()
             sprim_type = light_type(light)
@@ -83,6 +84,10 @@ class InstancedLights:
             if sent is None or not np.array_equal(sent, matrix):
                 self.core.set_transform(light_id, np.ascontiguousarray(matrix))
                 self._sent[light_id] = matrix
+                problem = uneven_scale_problem(light, matrix)
+                if problem is not None and path not in unevenly_scaled:
+                    unevenly_scaled.add(path)
+                    self.warn(f"{problem} (in its copies by {self.prefix})")
 
     def clear(self) -> None:
         for light_id in list(self._types):
