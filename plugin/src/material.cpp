@@ -200,9 +200,7 @@ void Material::sync(SyncContext& context, uint32_t) {
 }
 
 bool Material::unreadableFilesChanged() const {
-  for (const auto& [file, stamp] : unreadableStamps_)
-    if (fileStamp(file) != stamp) return true;
-  return false;
+  return anyChanged(unreadableStamps_);
 }
 
 void Material::finalize(SyncContext& context) {

@@ -112,9 +112,7 @@ void Volume::finalize(SyncContext& context) {
 }
 
 bool Volume::fieldFilesChanged() const {
-  for (const auto& [file, stamp] : readStamps_)
-    if (fileStamp(file) != stamp) return true;
-  return false;
+  return anyChanged(readStamps_);
 }
 
 size_t Volume::estimatedSyncBytes(const VolumeFieldCache& cache) const {

@@ -99,7 +99,7 @@ struct Texture {
   Wrap metadataS = Wrap::WrapBlack, metadataT = Wrap::WrapBlack;
   TextureTile single;
   std::array<TextureTile, kUdimTiles> tiles{};
-  std::vector<std::pair<std::string, std::optional<FileStamp>>> files;  // as each was read
+  StampedFiles files;  // as each was read
 };
 
 }  // namespace

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace penumbra {
 
@@ -27,6 +29,16 @@ inline std::optional<FileStamp> fileStamp(const std::string& file) {
   const auto modified = std::filesystem::last_write_time(file, error);
   if (error) return std::nullopt;
   return FileStamp{size, int64_t(modified.time_since_epoch().count())};
+}
+
+/// Files with the stamps they had when they were read (none: they could not be looked at).
+using StampedFiles = std::vector<std::pair<std::string, std::optional<FileStamp>>>;
+
+/// Whether one of `files` was written, removed or made since its stamp was taken.
+inline bool anyChanged(const StampedFiles& files) {
+  for (const auto& [file, stamp] : files)
+    if (fileStamp(file) != stamp) return true;
+  return false;
 }
 
 }  // namespace penumbra

@@ -87,7 +87,7 @@ class Material : public Prim {
   MaterialParams params_;
   std::vector<std::pair<MaterialInput, InputSource>> connections_;
   // The texture files its last sync could not read, as they were then (none: missing).
-  std::vector<std::pair<std::string, std::optional<FileStamp>>> unreadableStamps_;
+  StampedFiles unreadableStamps_;
 };
 
 }  // namespace penumbra::plugin

@@ -71,7 +71,7 @@ class Volume : public Prim {
   VolumeSet::VolumeId handle_;
   VolumeFieldRequests fields_;
   // Each file the last read of the fields looked at, and its stamp then (none: unreadable).
-  std::vector<std::pair<std::string, std::optional<FileStamp>>> readStamps_;
+  StampedFiles readStamps_;
   VolumeMaterial material_;
   MotionTransform objectToWorld_;
   bool visible_ = true;
