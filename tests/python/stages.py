@@ -82,6 +82,15 @@ def add_instance(stage: Usd.Stage, path: str, prototype: str, translate=(0.0, 0.
     return xform.GetPrim()
 
 
+def add_instancer(stage: Usd.Stage, path: str, prototype: str, positions) -> UsdGeom.PointInstancer:
+    """A point instancer placing copies of ``prototype`` (one prototype) at ``positions``."""
+    instancer = UsdGeom.PointInstancer.Define(stage, path)
+    instancer.CreatePrototypesRel().SetTargets([prototype])
+    instancer.CreatePositionsAttr(Vt.Vec3fArray(positions))
+    instancer.CreateProtoIndicesAttr(Vt.IntArray([0] * len(positions)))
+    return instancer
+
+
 def add_distant_light(stage: Usd.Stage, path: str = "/sun", intensity: float = 3.0):
     """A distant light shining along −Z (onto quads facing +Z); normalized, so that the
     irradiance of a surface facing it is ``intensity``."""

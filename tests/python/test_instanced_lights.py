@@ -11,6 +11,7 @@ import penumbra
 from stages import (
     add_camera,
     add_instance,
+    add_instancer,
     add_quad,
     assert_live_edit_renders_as_fresh,
     new_stage,
@@ -32,17 +33,20 @@ def add_lamp(stage, path: str) -> UsdLux.SphereLight:
     return bulb
 
 
-def lamps_stage(instanced: bool):
-    """Two lamps in front of a wall: copies of a point instancer, or placed by hand."""
+def wall_stage():
+    """A camera facing a wall half a unit behind the z = 0 plane, nothing lighting it."""
     stage = new_stage()
     add_camera(stage)
     add_quad(stage, "/World/wall", center=(0.0, 0.0, -0.5), half_size=3.0)
+    return stage
+
+
+def lamps_stage(instanced: bool):
+    """Two lamps in front of a wall: copies of a point instancer, or placed by hand."""
+    stage = wall_stage()
     if instanced:
         add_lamp(stage, "/World/lamps/Protos/lamp")
-        instancer = UsdGeom.PointInstancer.Define(stage, "/World/lamps")
-        instancer.CreatePrototypesRel().SetTargets(["/World/lamps/Protos/lamp"])
-        instancer.CreatePositionsAttr(Vt.Vec3fArray(PLACES))
-        instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+        add_instancer(stage, "/World/lamps", "/World/lamps/Protos/lamp", PLACES)
     else:
         for n, place in enumerate(PLACES):
             add_lamp(stage, f"/World/lamp{n}")
@@ -115,18 +119,11 @@ def test_copies_of_a_linked_light_are_named_and_light_everything():
 
 
 def test_lights_of_an_instancer_inside_another_prototype_are_named_and_skipped():
-    stage = new_stage()
-    add_camera(stage)
-    add_quad(stage, "/World/wall", center=(0.0, 0.0, -0.5), half_size=3.0)
+    stage = wall_stage()
     add_lamp(stage, "/World/outer/Protos/group/inner/Protos/lamp")
-    inner = UsdGeom.PointInstancer.Define(stage, "/World/outer/Protos/group/inner")
-    inner.CreatePrototypesRel().SetTargets(["/World/outer/Protos/group/inner/Protos/lamp"])
-    inner.CreatePositionsAttr(Vt.Vec3fArray([(0.0, 0.0, 0.0)]))
-    inner.CreateProtoIndicesAttr(Vt.IntArray([0]))
-    outer = UsdGeom.PointInstancer.Define(stage, "/World/outer")
-    outer.CreatePrototypesRel().SetTargets(["/World/outer/Protos/group"])
-    outer.CreatePositionsAttr(Vt.Vec3fArray(PLACES))
-    outer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    inner = "/World/outer/Protos/group/inner"
+    add_instancer(stage, inner, f"{inner}/Protos/lamp", [(0.0, 0.0, 0.0)])
+    add_instancer(stage, "/World/outer", "/World/outer/Protos/group", PLACES)
     image, messages = render_with_warnings(stage, 40)
     assert messages == [
         "/World/outer/Protos/group/inner: lights in the prototypes of a point instancer inside "
@@ -140,9 +137,7 @@ def test_lights_of_an_instancer_inside_another_prototype_are_named_and_skipped()
 def test_lights_of_native_instances_in_a_prototype_light_each_copy():
     # A prototype holding two native instances of one lamp: each copy had one bulb, silently.
     def stage_of(instanced: bool):
-        stage = new_stage()
-        add_camera(stage)
-        add_quad(stage, "/World/wall", center=(0.0, 0.0, -0.5), half_size=3.0)
+        stage = wall_stage()
         add_lamp(stage, "/Assets/lamp")
         stage.GetPrimAtPath("/Assets").SetSpecifier(Sdf.SpecifierClass)
         root = "/World/lamps/Protos/pair" if instanced else "/World/pair"
@@ -150,10 +145,7 @@ def test_lights_of_native_instances_in_a_prototype_light_each_copy():
         for name, x in (("a", -0.5), ("b", 0.5)):
             add_instance(stage, f"{root}/{name}", "/Assets/lamp", (x, 0.0, 0.0))
         if instanced:
-            instancer = UsdGeom.PointInstancer.Define(stage, "/World/lamps")
-            instancer.CreatePrototypesRel().SetTargets([root])
-            instancer.CreatePositionsAttr(Vt.Vec3fArray([(0.0, 0.5, 0.0)]))
-            instancer.CreateProtoIndicesAttr(Vt.IntArray([0]))
+            add_instancer(stage, "/World/lamps", root, [(0.0, 0.5, 0.0)])
         else:
             UsdGeom.Xform(stage.GetPrimAtPath(root)).AddTranslateOp().Set(Gf.Vec3d(0, 0.5, 0))
         return stage
@@ -204,14 +196,9 @@ def test_hiding_every_copy_keeps_the_default_light_off_as_hiding_the_lamps_does(
 
 def test_lights_of_a_point_instancer_in_a_native_instance_are_named_and_keep_the_default_off():
     # They were skipped as if nested in another instancer, and the default light came on.
-    stage = new_stage()
-    add_camera(stage)
-    add_quad(stage, "/World/wall", center=(0.0, 0.0, -0.5), half_size=3.0)
+    stage = wall_stage()
     add_lamp(stage, "/Set/lamps/Protos/lamp")
-    lamps = UsdGeom.PointInstancer.Define(stage, "/Set/lamps")
-    lamps.CreatePrototypesRel().SetTargets(["/Set/lamps/Protos/lamp"])
-    lamps.CreatePositionsAttr(Vt.Vec3fArray(PLACES))
-    lamps.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    add_instancer(stage, "/Set/lamps", "/Set/lamps/Protos/lamp", PLACES)
     stage.GetPrimAtPath("/Set").SetSpecifier(Sdf.SpecifierClass)
     add_instance(stage, "/World/set", "/Set")
     image, messages = render_with_warnings(stage, 40)

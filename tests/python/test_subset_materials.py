@@ -12,6 +12,7 @@ import penumbra
 from stages import (
     add_camera,
     add_instance,
+    add_instancer,
     add_preview_material,
     assert_live_edit_renders_as_fresh,
     bind,
@@ -268,13 +269,10 @@ def test_native_instances_render_their_prototype_subsets_and_their_own_bindings(
 def scattered_grid_stage():
     """:func:`instanced_grid_stage`'s grid as the prototype of a point instancer's two copies."""
     stage, _ = instanced_grid_stage()
-    instancer = UsdGeom.PointInstancer.Define(stage, "/World/scatter")
+    add_instancer(stage, "/World/scatter", "/World/scatter/protos/tile", [(-1, 0, 0), (1, 0, 0)])
     stage.DefinePrim("/World/scatter/protos")
     Sdf.CopySpec(stage.GetRootLayer(), "/Proto", stage.GetRootLayer(), "/World/scatter/protos/tile")
     stage.RemovePrim("/Proto")
-    instancer.CreatePrototypesRel().SetTargets(["/World/scatter/protos/tile"])
-    instancer.CreatePositionsAttr(Vt.Vec3fArray([(-1, 0, 0), (1, 0, 0)]))
-    instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
     return stage
 
 
