@@ -126,8 +126,8 @@ void Mesh::sync(SyncContext& context, uint32_t bits) {
   }
   syncPlacement(context, bits);
   // Subsets may bind faces the new topology has, or no longer has.
-  if ((bits & DirtyTopology) && !(bits & kPlacementDirtyBits) && !subsetMaterials().empty())
-    place(context);
+  if ((bits & DirtyTopology) && !(bits & DirtyMaterialId) && !subsetMaterials().empty())
+    bindFaces(context);
   if (bits & kLightDirtyBits) syncLight(context);
 }
 

@@ -103,12 +103,13 @@ void PlacedRprim::syncPlacement(SyncContext& context, uint32_t bits) const {
           context.warn(id() + ": material " + subset.material +
                        " bound to a subset of its faces is not in the render index; those faces "
                        "use displayColor");
+      bindFaces(context);
     }
     if (bits & DirtyVisibility) {
       context.scene.geometry().setMeshPassVisibility(handle_, pass_);
       context.scene.geometry().setMeshLinkingClass(handle_, linkingClass_);
     }
-    place(context);
+    placeObject(context);
   }
   // Moved or reshaped (the geometry placed it again as it changed) out of reach.
   if ((bits & (kPlacementDirtyBits | DirtyTopology | DirtyPoints)) &&
@@ -117,10 +118,14 @@ void PlacedRprim::syncPlacement(SyncContext& context, uint32_t bits) const {
 }
 
 void PlacedRprim::place(SyncContext& context) const {
+  bindFaces(context);
+  placeObject(context);
+}
+
+void PlacedRprim::placeObject(SyncContext& context) const {
   int materialIndex = MaterialTable::kNoMaterial;
   if (!materialId_.empty())
     materialIndex = context.materials.find(materialId_).value_or(materialIndex);
-  bindFaces(context);
   context.scene.geometry().setMeshInstance(handle_, objectToWorld_, materialIndex, visible_);
 }
 

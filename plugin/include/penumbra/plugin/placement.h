@@ -45,8 +45,8 @@ class PlacedRprim : public Prim {
   /// Whether it binds one of `materials`, itself or through a subset.
   bool bindsAny(const std::set<PrimId>& materials) const;
 
-  /// Places its object with its transform, material and visibility (a material it is bound to
-  /// changed or moved in the scene's list).
+  /// Binds its faces and places its object with its transform, material and visibility (a
+  /// material it or its subsets bind changed or moved in the scene's list).
   void place(SyncContext& context) const;
 
   Geometry::MeshId handle() const { return handle_; }
@@ -59,16 +59,18 @@ class PlacedRprim : public Prim {
 
  protected:
   /// What a sync does for the placement on `bits`: warns of a newly bound material missing from
-  /// the render index, applies the pass visibility, and places the object (on
-  /// kPlacementDirtyBits).
+  /// the render index and binds its faces (on DirtyMaterialId), applies the pass visibility,
+  /// and places the object (on kPlacementDirtyBits).
   void syncPlacement(SyncContext& context, uint32_t bits) const;
   /// How many faces subsets may bind (none: this kind has no faces).
   virtual size_t faceCount() const { return 0; }
+  /// Gives the geometry its subsets' materials and the faces each binds, subset k being slot
+  /// k + 1 (Geometry::setMeshFaceMaterials): after their materials or its faces changed.
+  void bindFaces(SyncContext& context) const;
 
  private:
-  /// Gives the geometry its subsets' materials and the faces each binds, subset k being slot
-  /// k + 1 (Geometry::setMeshFaceMaterials).
-  void bindFaces(SyncContext& context) const;
+  /// Places its object with its transform, material and visibility.
+  void placeObject(SyncContext& context) const;
 
   Geometry::MeshId handle_;
   PrimId materialId_;
