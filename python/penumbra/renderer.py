@@ -315,7 +315,9 @@ class Renderer:
             # What the images say of the stage, read once for the image and each checkpoint's.
             crypto_layers = [aov for aov in aovs if aov in cryptomatte.LAYERS]
             crypto_names = self._scene.cryptomatte_names(crypto_layers)
-            subset_names = self._scene.cryptomatte_subset_names()
+            subset_names = (  # a walk over every tracked prim: only for the layer that asks
+                self._scene.cryptomatte_subset_names() if "CryptoMaterial" in crypto_layers else {}
+            )
             lens_metadata = camera_metadata(
                 camera_prim,
                 time_code,
