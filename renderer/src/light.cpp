@@ -124,7 +124,11 @@ Light::Light(const LightParams& params) : params_(params) {
       rectangle_ =
           SphericalRectangle::Rectangle(center_ - (edgeU_ + edgeV_) * 0.5f, edgeU_, edgeV_);
   }
-  if ((params.type == LightType::Sphere || params.type == LightType::Cylinder) && !(area_ > 0))
+  // An authored radius of 0 is a point light (exporters write bulbs so); a sphere scaled to
+  // nothing is not one (animating the scale to 0 is how lights are put out).
+  pointOnly_ = params.type == LightType::Sphere && params.radius == 0;
+  if ((params.type == LightType::Sphere || params.type == LightType::Cylinder) && !(area_ > 0) &&
+      !pointOnly_)
     throw std::invalid_argument("the light has zero radius or length");
   if (params.normalize) {
     if (params.type == LightType::Distant) {
@@ -133,11 +137,17 @@ Light::Light(const LightParams& params) : params_(params) {
       // sin²(h) = (1 - cos h)(1 + cos h), and past 90° the back's share too, π (2 - sin²(h)).
       const float sin2 = oneMinusCosHalfAngle_ * (1 + cosHalfAngle_);
       if (!isDelta()) emission = emission / (kPi * (cosHalfAngle_ >= 0 ? sin2 : 2 - sin2));
-    } else if (params.type != LightType::Dome) {
+    } else if (params.type != LightType::Dome && !pointOnly_) {
       emission = emission / area_;
     }
   }
   radiance_ = emission;
+  // A point-like sphere's radiant intensity is L · π r², the sphere seen from afar. A radius of
+  // 0 takes that of a normalised sphere of any radius, E / 4 (Cycles' Hydra delegate gives the
+  // same): the limit of unnormalised spheres is darkness, which no exporter writing a bulb of
+  // radius 0 means.
+  if (isDelta() && params.type == LightType::Sphere)
+    pointProjectedArea_ = pointOnly_ ? 0.25f : kPi * radius_ * radius_;
   if (!isFinite(radiance_) || !isFinite(center_))
     throw std::invalid_argument("the light's parameters or transform are not finite");
   axis_ = normalize(toWorld.applyToVector({0, 0, -1}));
@@ -161,7 +171,7 @@ Light::Light(const LightParams& params) : params_(params) {
 }
 
 bool Light::isDelta() const {
-  return (params_.type == LightType::Sphere && params_.treatAsPoint) ||
+  return (params_.type == LightType::Sphere && (params_.treatAsPoint || pointOnly_)) ||
          (params_.type == LightType::Distant && !(oneMinusCosHalfAngle_ > 0));
 }
 
@@ -287,11 +297,10 @@ std::optional<LightSample> Light::sample(const Vec3f& point, Vec2f u, const Vec3
       const float distance2 = dot(toCenter, toCenter);
       const float distance = std::sqrt(distance2);
       result.direction = toCenter / distance;
-      if (params_.treatAsPoint) {
-        // Radiant intensity of the sphere seen from afar: L · π r².
+      if (isDelta()) {
         result.distance = distance;
         result.radiance =
-            radiance_ * shaping(-result.direction) * (kPi * radius_ * radius_ / distance2);
+            radiance_ * shaping(-result.direction) * (pointProjectedArea_ / distance2);
         result.pdf = 1;
         result.isDelta = true;
         return result;
@@ -582,7 +591,8 @@ LightBounds Light::bounds() const {
     case LightType::Sphere:
       include(center_ - Vec3f(radius_));
       include(center_ + Vec3f(radius_));
-      bounds.power = radianceGrey * kPi * radius_ * radius_;
+      bounds.power =
+          pointOnly_ ? radianceGrey * pointProjectedArea_ : radianceGrey * kPi * radius_ * radius_;
       break;
     case LightType::Cylinder:
       for (const float end : {-0.5f, 0.5f}) {

@@ -235,9 +235,33 @@ TEST(Lights, DegenerateLightsAreRejected) {
   LightParams p = params(LightType::Rect, Transform());
   p.width = 0;
   EXPECT_THROW(Light{p}, std::invalid_argument);
-  LightParams sphere = params(LightType::Sphere, Transform());
-  sphere.radius = 0;
+  // A sphere scaled to nothing (how an animation puts a light out) is no point light.
+  const double zero[16] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+  LightParams sphere = params(LightType::Sphere, Transform::fromRowMajor(zero));
+  sphere.radius = 1;
   EXPECT_THROW(Light{sphere}, std::invalid_argument);
+}
+
+TEST(Lights, ASphereOfRadiusZeroIsAPointLightOfANormalisedSpheresIntensity) {
+  LightParams p = params(LightType::Sphere, translation(1, 2, 0));
+  p.radius = 0;
+  p.intensity = 3;
+  const double d2 = 1 + 4;
+  // Radiant intensity E / 4 whether normalised or not, treatAsPoint or not: E = I cos θ / d².
+  const double expected = 0.75 * (2 / std::sqrt(d2)) / d2;
+  for (const bool normalize : {false, true})
+    for (const bool treatAsPoint : {false, true}) {
+      p.normalize = normalize;
+      p.treatAsPoint = treatAsPoint;
+      const Light light(p);
+      EXPECT_TRUE(light.isDelta());
+      EXPECT_FALSE(light.isAreaLight());
+      EXPECT_NEAR(estimateIrradiance(light, {0, 0, 0}, {0, 1, 0}) / expected, 1.0, 1e-5);
+    }
+  // The same as a normalised point-like sphere of any radius.
+  p.radius = 0.25f;
+  p.normalize = true;
+  EXPECT_NEAR(estimateIrradiance(Light(p), {0, 0, 0}, {0, 1, 0}) / expected, 1.0, 1e-5);
 }
 
 TEST(Lights, ATransformThatCollapsesTheEmissionAxisIsRejectedWhereTheLightNeedsIt) {

@@ -4,6 +4,7 @@ under an area light. Its outgoing radiance is albedo/π · E, E the irradiance f
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -54,6 +55,27 @@ def test_a_normalized_sphere_light_far_smaller_than_its_distance(radius: float):
     light.AddTranslateOp().Set(Gf.Vec3d(0, height, 0))
     irradiance = intensity / 4 / height**2
     assert mean_radiance(stage) == pytest.approx(ALBEDO / math.pi * irradiance, rel=0.01)
+
+
+@pytest.mark.parametrize("normalize", [False, True], ids=["unnormalized", "normalized"])
+@pytest.mark.parametrize("treat_as_point", [False, True], ids=["sphere", "treatAsPoint"])
+def test_a_sphere_light_of_radius_0_is_a_point_light(normalize: bool, treat_as_point: bool):
+    """Exporters write bulbs as SphereLights of radius 0 (with treatAsPoint or not): each lights
+    as the limit of a normalized sphere, radiant intensity I/4 (Cycles' Hydra delegate's too),
+    normalized or not. They were skipped with a warning: the scene rendered without them."""
+    stage = plane_stage()
+    height, intensity = 2.0, 3.0
+    light = UsdLux.SphereLight.Define(stage, "/World/bulb")
+    light.CreateRadiusAttr(0.0)
+    light.CreateIntensityAttr(intensity)
+    light.CreateNormalizeAttr(normalize)
+    light.CreateTreatAsPointAttr(treat_as_point)
+    light.AddTranslateOp().Set(Gf.Vec3d(0, height, 0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        radiance = mean_radiance(stage)
+    irradiance = intensity / 4 / height**2
+    assert radiance == pytest.approx(ALBEDO / math.pi * irradiance, rel=0.01)
 
 
 def _corner_form_factor(a: float, b: float) -> float:

@@ -80,7 +80,7 @@ struct LightParams {
   float radius = 0.5f;            // disk, sphere and cylinder
   float length = 1;               // cylinder, along local X
   float angle = 0.53f;            // distant: angular diameter in degrees
-  bool treatAsPoint = false;      // sphere: emit from the centre as a point
+  bool treatAsPoint = false;      // sphere: emit from the centre as a point (radius 0: always)
   // ShapingAPI, around the light's -Z axis.
   float coneAngle = 180;  // degrees off the axis; 180 or more means no cone
   float coneSoftness = 0;
@@ -309,6 +309,8 @@ class Light {
   Vec3f center_, edgeU_, edgeV_, normal_;
   float radius_ = 0;
   float area_ = 0;
+  bool pointOnly_ = false;          // sphere of radius 0: a point light whatever treatAsPoint says
+  float pointProjectedArea_ = 0;    // point-like sphere: radiant intensity over radiance_
   float cosHalfAngle_ = 1;          // distant light cone
   float oneMinusCosHalfAngle_ = 0;  // kept separately for precision at small angles
   // Distant lights that are not delta: the frame of the cone about the direction to the light
