@@ -23,6 +23,7 @@ from .core_batch import CoreBatch
 from .lights import sync_mesh_light
 from .motion import point_samples
 from .sampling import SampleReader, changes_within
+from .skinning import SkelCaches, might_be_skinned, skinned_normals, skinned_points, skinning_of
 from .values import is_number_value, is_vector3_value
 
 
@@ -53,11 +54,13 @@ def sync_mesh_data(
     warn: Callable[[str], None],
     prim_id: str | None = None,
     authored: Authored | None = None,
+    skel_caches: SkelCaches | None = None,
 ) -> bool:
     """Push the topology, points, sidedness and displayColor of ``prim`` (a prim that
     :func:`reads_as_mesh`) to ``core`` (as the delegate prim ``prim_id``, by default the prim's
-    path).
+    path); a skinned mesh posed (:mod:`.skinning`).
     ``authored``: what is known of the prim's opinions (without it every attribute is read).
+    ``skel_caches``: the UsdSkel caches of the caller's sync (without them, one for this mesh).
 
     Returns ``False`` (after a warning naming the prim) when the mesh has no points or no
     topology; nothing is pushed then. Index ranges are validated by the delegate at sync.
@@ -92,9 +95,22 @@ def sync_mesh_data(
 
     left_handed = get(UsdGeom.Tokens.orientation) == UsdGeom.Tokens.leftHanded
     scheme = str(get(UsdGeom.Tokens.subdivisionScheme) or UsdGeom.Tokens.catmullClark)
-    velocities = attributes.might_have(UsdGeom.Tokens.velocities)
-    if velocities or reader.shutter.blurred:  # else the points are those at the frame
-        points = point_samples(UsdGeom.Mesh(prim), points, reader, warn, path, velocities)
+    normals = _normals(prim, scheme, attributes, warn, path)
+    names, inherited = (authored.names, authored.inherited_primvars) if authored else (None, ())
+    skinning = None
+    if might_be_skinned(prim, names, inherited):
+        skinning = skinning_of(prim, skel_caches or SkelCaches(), warn, path)
+    if skinning is not None:
+        if len(normals[0]):
+            normals = (
+                skinned_normals(skinning, points, *normals, indices, counts, reader.time),
+                normals[1],
+            )
+        points = skinned_points(skinning, points, reader, warn, path)
+    else:
+        velocities = attributes.might_have(UsdGeom.Tokens.velocities)
+        if velocities or reader.shutter.blurred:  # else the points are those at the frame
+            points = point_samples(UsdGeom.Mesh(prim), points, reader, warn, path, velocities)
     push_mesh(
         core,
         prim,
@@ -103,7 +119,7 @@ def sync_mesh_data(
         counts=counts,
         indices=indices,
         points=points,
-        normals=_normals(prim, scheme, attributes, warn, path),
+        normals=normals,
         left_handed=left_handed,
         scheme=scheme,
         primvars=gprim_primvars(prim, reader, warn, path, authored=authored),
@@ -571,6 +587,7 @@ _NO_VECTORS.flags.writeable = False  # shared by every mesh without normals or d
 
 # Primvars the delegate receives through their own calls.
 _DEDICATED_PRIMVARS = frozenset({"displayColor", "normals"})
+_SKEL_PRIMVARS = "skel:"  # UsdSkel's namespace: skinning data (joint influences), not shading
 
 
 def gprim_primvars(
@@ -600,7 +617,7 @@ def gprim_primvars(
     for primvar in primvars:
         name = primvar.GetPrimvarName()
         interpolation = str(primvar.GetInterpolation())
-        if name in _DEDICATED_PRIMVARS or name in dedicated:
+        if name in _DEDICATED_PRIMVARS or name in dedicated or name.startswith(_SKEL_PRIMVARS):
             continue
         if constant_only and interpolation != UsdGeom.Tokens.constant:
             continue

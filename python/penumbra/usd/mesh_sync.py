@@ -22,6 +22,7 @@ from .prim_sync import SyncSettings
 from .ray_visibility import ShownSender
 from .render_pass import RenderPassCollections
 from .sampling import SampleReader
+from .skinning import SkelCaches
 from .subset_bindings import SubsetBindings, read_subset_bindings, warn_subset_bindings
 from .tracking import Dirty, Flush, TrackedPrim, set_flag
 
@@ -52,6 +53,7 @@ class MeshSync:
         self._materials = materials
         self._emitters = emitters
         self._shown = ShownSender(core, render_pass, inherited)
+        self._skel_caches = SkelCaches()  # of the sync under way
 
     def sync(
         self, meshes: Flush, settings: SyncSettings, xform_caches: XformCaches, batch: CoreBatch
@@ -59,6 +61,7 @@ class MeshSync:
         """Read the dirty aspects of tracked ``meshes`` (in the delegate: inserted by the
         flush) and queue them in ``batch``. A new mesh is visible and unbound in the delegate:
         those values are not sent again."""
+        self._skel_caches = SkelCaches()  # the skeletons may have changed since the last sync
         plain: list[int] = []
         general: list[int] = []
         known_authored: dict[int, Authored] = {}
@@ -206,7 +209,9 @@ class MeshSync:
         ``False`` when it is unusable, and then removed from the delegate."""
         queries = record.queries
         reader = SampleReader(settings.time, settings.shutter, queries is not None, queries)
-        if not sync_mesh_data(batch, prim, reader, self._warn, path_str, authored):
+        if not sync_mesh_data(
+            batch, prim, reader, self._warn, path_str, authored, self._skel_caches
+        ):
             self.core.remove_prim(path_str)
             record.in_core = False
             self._emitters.discard(path)

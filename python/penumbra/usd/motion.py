@@ -30,7 +30,7 @@ from .sampling import SampleReader, Shutter, changes_within, transform_might_var
 ACCELERATION_SEGMENTS = 4
 """Steps over the shutter for accelerated points (a parabola: 5 samples keep it within 1/64 of
 its sagitta); velocities alone move linearly and need one."""
-_ARC_TOLERANCE = 0.035  # midpoint deviation / step length: about 1 % of an orbit's radius
+ARC_TOLERANCE = 0.035  # midpoint deviation / step length: about 1 % of an orbit's radius
 _TURN_TOLERANCE = 0.01  # radians by which a step's midpoint may leave the shorter arc
 _MAX_STEP_TURN = math.radians(120)  # steps turning more are ambiguous for slerp: halved
 
@@ -67,7 +67,7 @@ def transform_samples(prim: Usd.Prim, shutter: Shutter, caches: XformCaches) -> 
 
     if not (shutter.blurred and transform_might_vary(prim)):
         return np.asarray(caches.world(prim, shutter.frame))  # float64: no conversion
-    segments = shutter.segments(_xform_sample_times(prim, shutter.interval))
+    segments = shutter.segments(xform_sample_times(prim, shutter.interval))
     matrices = world(segments)
     while 2 * segments <= shutter.max_segments:
         finer = world(2 * segments)
@@ -90,7 +90,7 @@ def transforms_samples(
     return [np.asarray(world(prim)) for prim in prims]
 
 
-def _xform_sample_times(prim: Usd.Prim, interval: Gf.Interval) -> set[float]:
+def xform_sample_times(prim: Usd.Prim, interval: Gf.Interval) -> set[float]:
     """The authored time samples inside ``interval`` of the xformOps that place ``prim``."""
     times: set[float] = set()
     while prim and not prim.IsPseudoRoot():
@@ -109,7 +109,7 @@ def _interpolates(start: Gf.Matrix4d, middle: Gf.Matrix4d, end: Gf.Matrix4d) -> 
     a, b, c = (m.ExtractTranslation() for m in (start, middle, end))
     chord = (c - a).GetLength()
     scale = 1.0 + a.GetLength() + c.GetLength()
-    if (b - (a + c) * 0.5).GetLength() > _ARC_TOLERANCE * chord + 1e-9 * scale:
+    if (b - (a + c) * 0.5).GetLength() > ARC_TOLERANCE * chord + 1e-9 * scale:
         return False
     qa, qb, qc = (m.ExtractRotationQuat() for m in (start, middle, end))
     turn = _angle(qa, qc)

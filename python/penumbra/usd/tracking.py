@@ -19,6 +19,7 @@ from .classification import Classifier
 from .inherited import Inherited
 from .material_registry import MaterialRegistry
 from .ray_visibility import ATTRIBUTES as RAY_VISIBILITY_ATTRIBUTES
+from .skinning import skel_root
 
 
 class Dirty:
@@ -227,6 +228,7 @@ class ChangeTracker:
             return
         self._materials.note_edited(prim_path)
         self._mark_subset_owner(prim_path)
+        self._mark_skinned_meshes(prim_path)
         if _is_xform_property(name):
             self._mark_subtree(prim_path, Dirty.TRANSFORM)
         elif name == UsdGeom.Tokens.visibility:
@@ -256,6 +258,19 @@ class ChangeTracker:
         owner = self.prims.get(path.GetParentPath())
         if owner is not None and owner.kind == "mesh" and path not in self.prims:
             self.mark(path.GetParentPath(), Dirty.BINDING)
+
+    def _mark_skinned_meshes(self, path: Sdf.Path) -> None:
+        """An edit under a SkelRoot (of a skeleton, its animation, a blend shape, a transform)
+        may pose the meshes below the root otherwise: their points are read again."""
+        prim = self.stage.GetPrimAtPath(path)
+        while not prim and path != Sdf.Path.absoluteRootPath:  # removed: its parent stays
+            path = path.GetParentPath()
+            prim = self.stage.GetPrimAtPath(path)
+        root = skel_root(prim)
+        if root is not None:
+            for mesh in self._tracked_under(root.GetPath()):
+                if self.prims[mesh].kind == "mesh":
+                    self.mark(mesh, Dirty.DATA)
 
     def _mark_subtree(self, root: Sdf.Path, bits: int) -> None:
         for path in self._tracked_under(root):
@@ -290,6 +305,7 @@ class ChangeTracker:
             self.mark(user, Dirty.BINDING)
         if root != Sdf.Path.absoluteRootPath:
             self._mark_subset_owner(root)  # a subset added or removed
+            self._mark_skinned_meshes(root)  # a skeleton, animation or blend shape
         if root != Sdf.Path.absoluteRootPath:  # else every binding is resolved again anyway
             # A collection owned in the subtree may have changed (or gone) with it.
             for binder, collections in self._collection_binders.binders().items():
