@@ -82,6 +82,28 @@ def arm_stage(rigid: bool = False, normals: bool = False, blend_shape: bool = Fa
     return stage
 
 
+def add_skinned_hair(stage: Usd.Stage) -> None:
+    """A strand of hair (BasisCurves) and a row of particles (Points) along the strip, the
+    strand blended like the strip, the particles carried by the elbow alone."""
+    strand = UsdGeom.BasisCurves.Define(stage, "/Root/Strand")
+    strand.CreateTypeAttr(UsdGeom.Tokens.linear)
+    strand.CreateCurveVertexCountsAttr([5])
+    strand.CreatePointsAttr([(0.5 * i, 0, 0.3) for i in range(5)])
+    strand.CreateWidthsAttr([0.1])
+    strand.SetWidthsInterpolation(UsdGeom.Tokens.constant)
+    binding = UsdSkel.BindingAPI.Apply(strand.GetPrim())
+    binding.CreateSkeletonRel().SetTargets(["/Root/Skel"])
+    binding.CreateJointIndicesPrimvar(False, 2).Set([0, 1] * 5)
+    binding.CreateJointWeightsPrimvar(False, 2).Set([1, 0, 1, 0, 0.5, 0.5, 0, 1, 0, 1])
+    particles = UsdGeom.Points.Define(stage, "/Root/Particles")
+    particles.CreatePointsAttr([(1.25 + 0.25 * i, 0, 0.3) for i in range(4)])
+    particles.CreateWidthsAttr([0.2] * 4)
+    binding = UsdSkel.BindingAPI.Apply(particles.GetPrim())
+    binding.CreateSkeletonRel().SetTargets(["/Root/Skel"])
+    binding.CreateJointIndicesPrimvar(True, 1).Set([1])
+    binding.CreateJointWeightsPrimvar(True, 1).Set([1.0])
+
+
 def baked(stage: Usd.Stage) -> Usd.Stage:
     """A copy of ``stage`` with its skinning baked by usd-core into points and transforms."""
     copy = Usd.Stage.CreateInMemory()
@@ -98,11 +120,15 @@ def render(stage: Usd.Stage, time: float, **options) -> np.ndarray:
 
 @pytest.mark.parametrize(
     "variant",
-    [{}, {"rigid": True}, {"normals": True}, {"blend_shape": True}],
-    ids=["blended", "rigid", "normals", "blend-shape"],
+    [{}, {"rigid": True}, {"normals": True}, {"blend_shape": True}, {"hair": True}],
+    ids=["blended", "rigid", "normals", "blend-shape", "curves-and-points"],
 )
 def test_a_skinned_mesh_renders_as_usdskel_bakes_it(variant):
+    hair = variant.pop("hair", False)
     stage = arm_stage(**variant)
+    if hair:
+        UsdGeom.Imageable(stage.GetPrimAtPath("/Root/Arm")).MakeInvisible()
+        add_skinned_hair(stage)
     reference = baked(stage)
     bent = render(stage, 2)
     np.testing.assert_allclose(bent, render(reference, 2), atol=2e-5)

@@ -27,6 +27,7 @@ from pxr import Usd, UsdGeom
 from .curve_conversions import BasisCurves, hermite_to_bezier, nurbs_to_basis
 from .mesh import as_int32_array, as_vec3_array, display_color, gprim_primvars
 from .motion import point_samples
+from .skinning import find_skinning, skinned_points
 from .sampling import SampleReader, primvar_over_attribute
 
 DEFAULT_WIDTH = 1.0
@@ -68,7 +69,10 @@ def sync_curves_data(
             "points; skipped"
         )
         return False
-    if reader.shutter.blurred or gprim.GetVelocitiesAttr().HasAuthoredValue():
+    skinning = find_skinning(prim, warn, path)
+    if skinning is not None:
+        positions = skinned_points(skinning, positions, reader, warn, path)
+    elif reader.shutter.blurred or gprim.GetVelocitiesAttr().HasAuthoredValue():
         positions = point_samples(gprim, positions, reader, warn, path)
     curves = _basis_curves(prim, counts, positions, reader, warn, path)
     if curves is None:

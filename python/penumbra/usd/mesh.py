@@ -23,7 +23,7 @@ from .core_batch import CoreBatch
 from .lights import sync_mesh_light
 from .motion import point_samples
 from .sampling import SampleReader, changes_within
-from .skinning import SkelCaches, might_be_skinned, skinned_normals, skinned_points, skinning_of
+from .skinning import SkelCaches, find_skinning, skinned_normals, skinned_points
 from .values import is_number_value, is_vector3_value
 
 
@@ -97,9 +97,7 @@ def sync_mesh_data(
     scheme = str(get(UsdGeom.Tokens.subdivisionScheme) or UsdGeom.Tokens.catmullClark)
     normals = _normals(prim, scheme, attributes, warn, path)
     names, inherited = (authored.names, authored.inherited_primvars) if authored else (None, ())
-    skinning = None
-    if might_be_skinned(prim, names, inherited):
-        skinning = skinning_of(prim, skel_caches or SkelCaches(), warn, path)
+    skinning = find_skinning(prim, warn, path, skel_caches, names, inherited)
     if skinning is not None:
         if len(normals[0]):
             normals = (

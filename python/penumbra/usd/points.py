@@ -19,6 +19,7 @@ from pxr import Usd, UsdGeom
 
 from .mesh import as_vec3_array, display_color, gprim_primvars
 from .motion import point_samples
+from .skinning import find_skinning, skinned_points
 from .sampling import SampleReader, primvar_over_attribute
 
 DEFAULT_WIDTH = 1.0
@@ -59,7 +60,10 @@ def sync_points_data(
         )
         if taken is not None:
             primvars[name] = (values, taken)
-    if reader.shutter.blurred or points.GetVelocitiesAttr().HasAuthoredValue():
+    skinning = find_skinning(prim, warn, path)
+    if skinning is not None:
+        positions = skinned_points(skinning, positions, reader, warn, path)
+    elif reader.shutter.blurred or points.GetVelocitiesAttr().HasAuthoredValue():
         positions = point_samples(points, positions, reader, warn, path)
     core.set_points(
         path,

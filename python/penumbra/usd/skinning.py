@@ -1,16 +1,17 @@
-"""UsdSkel: meshes deformed by a skeleton's animation and by blend shapes, posed as UsdSkel
-poses them (usdrecord and Storm through UsdSkelImaging, ``UsdSkel.BakeSkinning``).
+"""UsdSkel: meshes, curves and points deformed by a skeleton's animation and by blend shapes,
+posed as UsdSkel poses them (usdrecord and Storm through UsdSkelImaging, ``UsdSkel.BakeSkinning``).
 
-A mesh is skinned when it lies under a SkelRoot, is bound to a Skeleton (``skel:skeleton``, on
-it or an ancestor) and has joint influences. Its points are deformed by its blend shapes (the
-weights of the skeleton's SkelAnimation), then skinned in the skeleton's space by usd-core's own
-implementation (linear or dual-quaternion, rigid meshes included), then placed by the
-skeleton's local-to-world transform: a skinned mesh's own transform is ignored (UsdSkel's rule).
-The delegate places meshes by their own transform, so the points are sent in the mesh's space:
-skeleton space through the skeleton's and the inverse of the mesh's transform at each time.
-Authored shading normals are carried along by each point's skinning (its linear part, found by
-skinning three unit offsets). Over a shutter, the pose is sampled at the times that include
-every authored key of the animation, its skinning attributes and both transforms.
+A point-based prim is skinned when it lies under a SkelRoot, is bound to a Skeleton
+(``skel:skeleton``, on it or an ancestor) and has joint influences. Its points are deformed by
+its blend shapes (the weights of the skeleton's SkelAnimation), then skinned in the skeleton's
+space by usd-core's own implementation (linear or dual-quaternion, rigid bindings included),
+then placed by the skeleton's local-to-world transform: a skinned prim's own transform is
+ignored (UsdSkel's rule). The delegate places prims by their own transform, so the points are
+sent in the prim's space: skeleton space through the skeleton's and the inverse of the prim's
+transform at each time. A mesh's authored shading normals are carried along by each point's
+skinning (its linear part, found by skinning three unit offsets). Over a shutter, the pose is
+sampled at the times that include every authored key of the animation, its skinning attributes
+and both transforms, and finer while points stray from the chords between samples.
 """
 
 from __future__ import annotations
@@ -28,16 +29,25 @@ _INFLUENCES = "primvars:skel:jointIndices"
 _POPULATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
 
 
-def might_be_skinned(
-    prim: Usd.Prim, names: frozenset[str] | None, inherited: tuple[UsdGeom.Primvar, ...]
-) -> bool:
-    """Whether ``prim`` (authored property ``names``, ``None`` if unknown; inherited constant
-    primvars ``inherited``) has joint influences, of its own or inherited (a rigid binding)."""
+def find_skinning(
+    prim: Usd.Prim,
+    warn: Callable[[str], None],
+    path: str,
+    caches: SkelCaches | None = None,
+    names: frozenset[str] | None = None,
+    inherited: tuple[UsdGeom.Primvar, ...] = (),
+) -> Skinning | None:
+    """The skinning of point-based ``prim`` (authored property ``names``, ``None`` if unknown;
+    inherited constant primvars ``inherited``), or ``None`` when UsdSkel would not pose it: no
+    joint influences of its own or inherited (a rigid binding), outside a SkelRoot, or bound to
+    no usable Skeleton (warned). ``caches``: those of the caller's sync."""
     if names is None:
-        return prim.HasAPI(UsdSkel.BindingAPI) or any(
-            primvar.GetName() == _INFLUENCES for primvar in inherited
-        )
-    return _INFLUENCES in names or any(primvar.GetName() == _INFLUENCES for primvar in inherited)
+        influenced = prim.HasAPI(UsdSkel.BindingAPI)
+    else:
+        influenced = _INFLUENCES in names
+    if influenced or any(primvar.GetName() == _INFLUENCES for primvar in inherited):
+        return _skinning_of(prim, caches or SkelCaches(), warn, path)
+    return None
 
 
 def skel_root(prim: Usd.Prim) -> Usd.Prim | None:
@@ -51,7 +61,7 @@ def skel_root(prim: Usd.Prim) -> Usd.Prim | None:
 
 class SkelCaches:
     """The UsdSkel caches of the SkelRoots met in one sync, each populated once (populating
-    reads the joint influences of every mesh below the root)."""
+    reads the joint influences of every prim below the root)."""
 
     def __init__(self) -> None:
         self._caches: dict[str, UsdSkel.Cache] = {}
@@ -66,7 +76,7 @@ class SkelCaches:
 
 
 class Skinning:
-    """The skinning of one mesh: its queries, its skeleton and its SkelAnimation's."""
+    """The skinning of one prim: its queries, its skeleton and its SkelAnimation's."""
 
     def __init__(
         self, prim: Usd.Prim, query: UsdSkel.SkinningQuery, skeleton: UsdSkel.SkeletonQuery
@@ -89,7 +99,7 @@ class Skinning:
         )
 
     def key_times(self, interval: Gf.Interval) -> set[float]:
-        """The authored keys inside ``interval`` of what poses the mesh."""
+        """The authored keys inside ``interval`` of what poses the prim."""
         times = set(self.query.GetTimeSamplesInInterval(interval))
         if self.animation:
             times.update(self.animation.GetJointTransformTimeSamplesInInterval(interval))
@@ -99,14 +109,14 @@ class Skinning:
         times.update(xform_sample_times(self.prim, interval))
         return times
 
-    def to_mesh_space(self, time: Usd.TimeCode) -> np.ndarray | None:
-        """Skeleton space → the mesh's space at ``time`` (row vectors, float64 (4, 4)); ``None``
-        when the mesh's transform is singular."""
+    def to_prim_space(self, time: Usd.TimeCode) -> np.ndarray | None:
+        """Skeleton space → the prim's space at ``time`` (row vectors, float64 (4, 4)); ``None``
+        when the prim's transform is singular."""
         world = UsdGeom.XformCache(time)
-        mesh = world.GetLocalToWorldTransform(self.prim)
-        if abs(mesh.GetDeterminant()) < 1e-300:
+        own = world.GetLocalToWorldTransform(self.prim)
+        if abs(own.GetDeterminant()) < 1e-300:
             return None
-        return np.array(world.GetLocalToWorldTransform(self.skeleton.GetPrim()) * mesh.GetInverse())
+        return np.array(world.GetLocalToWorldTransform(self.skeleton.GetPrim()) * own.GetInverse())
 
     def skinned(self, rest: Vt.Vec3fArray, time: Usd.TimeCode) -> np.ndarray | None:
         """``rest`` deformed by the blend shapes and skinned at ``time``, in skeleton space:
@@ -147,14 +157,13 @@ class Skinning:
         return np.stack(rows, axis=1)
 
 
-def skinning_of(
+def _skinning_of(
     prim: Usd.Prim, caches: SkelCaches, warn: Callable[[str], None], path: str
 ) -> Skinning | None:
-    """The skinning of mesh ``prim`` (one that :func:`might_be_skinned`), or ``None`` when
-    UsdSkel would not skin it: outside a SkelRoot, or bound to no usable Skeleton (warned)."""
+    """The skinning of ``prim``, which has joint influences (see :func:`find_skinning`)."""
     if prim.IsInPrototype():
         warn(
-            f"{path}: a mesh with joint influences inside an instance's prototype is rendered "
+            f"{path}: a prim with joint influences inside an instance's prototype is rendered "
             "unskinned (skinning of instances is not supported)"
         )
         return None
@@ -180,7 +189,7 @@ def skinned_points(
     warn: Callable[[str], None],
     path: str,
 ) -> np.ndarray:
-    """The posed points of a skinned mesh in its own space: float32 (N, 3), or (K, N, 3) over
+    """The posed points of a skinned prim in its own space: float32 (N, 3), or (K, N, 3) over
     the reader's shutter when the pose changes within it; ``rest`` (with a warning) when
     usd-core cannot skin it."""
     shutter = reader.shutter
@@ -192,14 +201,14 @@ def skinned_points(
         samples = []
         for time in times:
             skinned = skinning.skinned(rest_array, time)
-            to_mesh = skinning.to_mesh_space(time)
-            if skinned is None or to_mesh is None:
-                problem = "its transform is singular" if to_mesh is None else (
+            to_prim = skinning.to_prim_space(time)
+            if skinned is None or to_prim is None:
+                problem = "its transform is singular" if to_prim is None else (
                     "its joint influences or blend shapes do not match its points or skeleton"
                 )
                 warn(f"{path}: cannot be skinned ({problem}); rendered in its bind pose")
                 return None
-            samples.append(skinned @ to_mesh[:3, :3] + to_mesh[3, :3])
+            samples.append(skinned @ to_prim[:3, :3] + to_prim[3, :3])
         return samples
 
     if not (shutter.blurred and skinning.might_vary()):
@@ -246,8 +255,8 @@ def skinned_normals(
     mesh's space: each by the inverse transpose of its point's deformation (a face's first
     point for uniform normals, point 0 for a constant one); unchanged where it cannot be."""
     parts = skinning.linear_parts(np.ascontiguousarray(rest, dtype=np.float32), time)
-    to_mesh = skinning.to_mesh_space(time)
-    if parts is None or to_mesh is None:
+    to_prim = skinning.to_prim_space(time)
+    if parts is None or to_prim is None:
         return normals
     if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
         owners = np.arange(len(normals))
@@ -261,7 +270,7 @@ def skinned_normals(
         len(owners) and (owners.min() < 0 or owners.max() >= len(parts))
     ):
         return normals  # the delegate names the mismatch
-    linear = parts[owners] @ to_mesh[:3, :3]
+    linear = parts[owners] @ to_prim[:3, :3]
     with np.errstate(all="ignore"):
         carried = np.einsum("nj,nkj->nk", normals, np.linalg.pinv(linear))
         lengths = np.linalg.norm(carried, axis=1, keepdims=True)

@@ -41,6 +41,7 @@ _ASPECTS = {
     "volume": Dirty.ALL,  # a volume's binding is part of its data
     "camera": Dirty.DATA | Dirty.TRANSFORM,
 }
+_POINT_BASED = frozenset({"mesh", "points", "basisCurves"})  # the kinds UsdSkel can pose
 _LIGHT_ASPECTS = Dirty.DATA | Dirty.TRANSFORM | Dirty.VISIBILITY
 
 
@@ -228,7 +229,7 @@ class ChangeTracker:
             return
         self._materials.note_edited(prim_path)
         self._mark_subset_owner(prim_path)
-        self._mark_skinned_meshes(prim_path)
+        self._mark_skinned_prims(prim_path)
         if _is_xform_property(name):
             self._mark_subtree(prim_path, Dirty.TRANSFORM)
         elif name == UsdGeom.Tokens.visibility:
@@ -259,18 +260,18 @@ class ChangeTracker:
         if owner is not None and owner.kind == "mesh" and path not in self.prims:
             self.mark(path.GetParentPath(), Dirty.BINDING)
 
-    def _mark_skinned_meshes(self, path: Sdf.Path) -> None:
+    def _mark_skinned_prims(self, path: Sdf.Path) -> None:
         """An edit under a SkelRoot (of a skeleton, its animation, a blend shape, a transform)
-        may pose the meshes below the root otherwise: their points are read again."""
+        may pose the meshes, curves and points below the root otherwise: they are read again."""
         prim = self.stage.GetPrimAtPath(path)
         while not prim and path != Sdf.Path.absoluteRootPath:  # removed: its parent stays
             path = path.GetParentPath()
             prim = self.stage.GetPrimAtPath(path)
         root = skel_root(prim)
         if root is not None:
-            for mesh in self._tracked_under(root.GetPath()):
-                if self.prims[mesh].kind == "mesh":
-                    self.mark(mesh, Dirty.DATA)
+            for tracked in self._tracked_under(root.GetPath()):
+                if self.prims[tracked].kind in _POINT_BASED:
+                    self.mark(tracked, Dirty.DATA)
 
     def _mark_subtree(self, root: Sdf.Path, bits: int) -> None:
         for path in self._tracked_under(root):
@@ -305,7 +306,7 @@ class ChangeTracker:
             self.mark(user, Dirty.BINDING)
         if root != Sdf.Path.absoluteRootPath:
             self._mark_subset_owner(root)  # a subset added or removed
-            self._mark_skinned_meshes(root)  # a skeleton, animation or blend shape
+            self._mark_skinned_prims(root)  # a skeleton, animation or blend shape
         if root != Sdf.Path.absoluteRootPath:  # else every binding is resolved again anyway
             # A collection owned in the subtree may have changed (or gone) with it.
             for binder, collections in self._collection_binders.binders().items():
