@@ -125,8 +125,9 @@ Light::Light(const LightParams& params) : params_(params) {
           SphericalRectangle::Rectangle(center_ - (edgeU_ + edgeV_) * 0.5f, edgeU_, edgeV_);
   }
   // An authored radius of 0 is a point light (exporters write bulbs so); a sphere scaled to
-  // nothing is not one (animating the scale to 0 is how lights are put out).
-  pointOnly_ = params.type == LightType::Sphere && params.radius == 0;
+  // nothing, whatever its radius, is not one (animating the scale to 0 puts lights out).
+  pointOnly_ = params.type == LightType::Sphere && params.radius == 0 &&
+               std::cbrt(std::fabs(toWorld.linearDeterminant())) > 0;
   if ((params.type == LightType::Sphere || params.type == LightType::Cylinder) && !(area_ > 0) &&
       !pointOnly_)
     throw std::invalid_argument("the light has zero radius or length");

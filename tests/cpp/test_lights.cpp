@@ -240,6 +240,8 @@ TEST(Lights, DegenerateLightsAreRejected) {
   LightParams sphere = params(LightType::Sphere, Transform::fromRowMajor(zero));
   sphere.radius = 1;
   EXPECT_THROW(Light{sphere}, std::invalid_argument);
+  sphere.radius = 0;  // a bulb too
+  EXPECT_THROW(Light{sphere}, std::invalid_argument);
 }
 
 TEST(Lights, ASphereOfRadiusZeroIsAPointLightOfANormalisedSpheresIntensity) {
