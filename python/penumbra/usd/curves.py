@@ -27,7 +27,7 @@ from pxr import Usd, UsdGeom
 from .curve_conversions import BasisCurves, hermite_to_bezier, nurbs_to_basis
 from .mesh import as_int32_array, as_vec3_array, display_color, gprim_primvars
 from .motion import point_samples
-from .skinning import find_skinning, skinned_points
+from .skinning import SkelCaches, find_skinning, skinned_points
 from .sampling import SampleReader, primvar_over_attribute
 
 DEFAULT_WIDTH = 1.0
@@ -43,11 +43,17 @@ _NO_COUNTS = np.zeros(0, dtype=np.int32)
 
 
 def sync_curves_data(
-    core, prim: Usd.Prim, reader: SampleReader, warn: Callable[[str], None], path: str
+    core,
+    prim: Usd.Prim,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    path: str,
+    skel_caches: SkelCaches | None = None,
 ) -> bool:
     """Push the data of curves ``prim`` (BasisCurves, NurbsCurves or HermiteCurves) as delegate
     prim ``path``; ``False`` when it cannot render: without points (silently: empty curves are
-    legitimate), or with unusable data (after one warning naming the prim and the attribute)."""
+    legitimate), or with unusable data (after one warning naming the prim and the attribute).
+    Skinned curves are posed (:mod:`.skinning`; ``skel_caches``: those of the caller's sync)."""
     gprim = UsdGeom.Curves(prim)
     positions = as_vec3_array(reader.get(gprim.GetPointsAttr()))
     if positions is None or len(positions) == 0:
@@ -69,7 +75,7 @@ def sync_curves_data(
             "points; skipped"
         )
         return False
-    skinning = find_skinning(prim, warn, path)
+    skinning = find_skinning(prim, warn, path, skel_caches)
     if skinning is not None:
         positions = skinned_points(skinning, positions, reader, warn, path)
     elif reader.shutter.blurred or gprim.GetVelocitiesAttr().HasAuthoredValue():

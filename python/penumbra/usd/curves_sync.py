@@ -20,4 +20,4 @@ class CurvesSync(PointsSync):
         self, path: Sdf.Path, path_str: str, prim: Usd.Prim, reader: SampleReader,
         settings: SyncSettings,
     ) -> bool:
-        return sync_curves_data(self.core, prim, reader, self._warn, path_str)
+        return sync_curves_data(self.core, prim, reader, self._warn, path_str, self._skel_caches)

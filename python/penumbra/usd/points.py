@@ -19,7 +19,7 @@ from pxr import Usd, UsdGeom
 
 from .mesh import as_vec3_array, display_color, gprim_primvars
 from .motion import point_samples
-from .skinning import find_skinning, skinned_points
+from .skinning import SkelCaches, find_skinning, skinned_points
 from .sampling import SampleReader, primvar_over_attribute
 
 DEFAULT_WIDTH = 1.0
@@ -29,11 +29,17 @@ _NO_NORMALS = np.zeros((0, 3), dtype=np.float32)
 
 
 def sync_points_data(
-    core, prim: Usd.Prim, reader: SampleReader, warn: Callable[[str], None], path: str
+    core,
+    prim: Usd.Prim,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    path: str,
+    skel_caches: SkelCaches | None = None,
 ) -> bool:
     """Push the data of Points ``prim`` as delegate prim ``path``; ``False`` when it cannot
     render: without points (silently: an empty Points is legitimate), or with unusable widths
-    (after one warning naming the prim and the attribute)."""
+    (after one warning naming the prim and the attribute). A skinned Points is posed
+    (:mod:`.skinning`; ``skel_caches``: those of the caller's sync)."""
     points = UsdGeom.Points(prim)
     positions = as_vec3_array(reader.get(points.GetPointsAttr()))
     if positions is None or len(positions) == 0:
@@ -60,7 +66,7 @@ def sync_points_data(
         )
         if taken is not None:
             primvars[name] = (values, taken)
-    skinning = find_skinning(prim, warn, path)
+    skinning = find_skinning(prim, warn, path, skel_caches)
     if skinning is not None:
         positions = skinned_points(skinning, positions, reader, warn, path)
     elif reader.shutter.blurred or points.GetVelocitiesAttr().HasAuthoredValue():

@@ -19,6 +19,7 @@ from .prim_sync import OneByOneSync, SyncSettings
 from .ray_visibility import ShownSender
 from .render_pass import RenderPassCollections
 from .sampling import SampleReader
+from .skinning import SkelCaches
 from .tracking import Dirty, Flush
 
 
@@ -39,10 +40,12 @@ class PointsSync(OneByOneSync):
         self._warn = warn
         self._materials = materials
         self._shown = ShownSender(core, render_pass, inherited)
+        self._skel_caches = SkelCaches()  # of the sync under way
 
     def sync(
         self, prims: Flush, settings: SyncSettings, xform_caches: XformCaches, batch: CoreBatch
     ) -> None:
+        self._skel_caches = SkelCaches()  # the skeletons may have changed since the last sync
         super().sync(prims, settings, xform_caches, batch)
         binding = [
             n
@@ -62,4 +65,4 @@ class PointsSync(OneByOneSync):
         self, path: Sdf.Path, path_str: str, prim: Usd.Prim, reader: SampleReader,
         settings: SyncSettings,
     ) -> bool:
-        return sync_points_data(self.core, prim, reader, self._warn, path_str)
+        return sync_points_data(self.core, prim, reader, self._warn, path_str, self._skel_caches)

@@ -21,11 +21,11 @@ from collections.abc import Callable
 import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdSkel, Vt
 
-from .motion import ARC_TOLERANCE
-from .motion import xform_sample_times
+from .motion import ARC_TOLERANCE, xform_sample_times
 from .sampling import SampleReader, transform_might_vary
 
 _INFLUENCES = "primvars:skel:jointIndices"
+_SHAPES = "skel:blendShapes"
 _POPULATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
 
 
@@ -37,17 +37,20 @@ def find_skinning(
     names: frozenset[str] | None = None,
     inherited: tuple[UsdGeom.Primvar, ...] = (),
 ) -> Skinning | None:
-    """The skinning of point-based ``prim`` (authored property ``names``, ``None`` if unknown;
-    inherited constant primvars ``inherited``), or ``None`` when UsdSkel would not pose it: no
-    joint influences of its own or inherited (a rigid binding), outside a SkelRoot, or bound to
-    no usable Skeleton (warned). ``caches``: those of the caller's sync."""
+    """The skinning of point-based ``prim`` (authored property ``names`` and inherited constant
+    primvars ``inherited``, when the caller knows them), or ``None`` when UsdSkel would not
+    pose it: no joint influences of its own or inherited (a rigid binding) and no blend shapes,
+    outside a SkelRoot, or bound to no usable Skeleton (warned). ``caches``: those of the
+    caller's sync."""
     if names is None:
-        influenced = prim.HasAPI(UsdSkel.BindingAPI)
+        posed = prim.HasAPI(UsdSkel.BindingAPI) or bool(
+            UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(_INFLUENCES[9:])
+        )
     else:
-        influenced = _INFLUENCES in names
-    if influenced or any(primvar.GetName() == _INFLUENCES for primvar in inherited):
-        return _skinning_of(prim, caches or SkelCaches(), warn, path)
-    return None
+        posed = _INFLUENCES in names or _SHAPES in names or any(
+            primvar.GetName() == _INFLUENCES for primvar in inherited
+        )
+    return _skinning_of(prim, caches or SkelCaches(), warn, path) if posed else None
 
 
 def skel_root(prim: Usd.Prim) -> Usd.Prim | None:
@@ -76,37 +79,65 @@ class SkelCaches:
 
 
 class Skinning:
-    """The skinning of one prim: its queries, its skeleton and its SkelAnimation's."""
+    """The skinning of one prim: its queries, its skeleton and its SkelAnimation's. Without
+    joint influences (blend shapes alone) the prim keeps its own space and transform."""
 
     def __init__(
-        self, prim: Usd.Prim, query: UsdSkel.SkinningQuery, skeleton: UsdSkel.SkeletonQuery
+        self,
+        prim: Usd.Prim,
+        query: UsdSkel.SkinningQuery,
+        skeleton: UsdSkel.SkeletonQuery,
+        warn: Callable[[str], None],
+        path: str,
     ) -> None:
         self.prim = prim
         self.query = query
         self.skeleton = skeleton
+        self.joints = query.HasJointInfluences()
         self.animation = skeleton.GetAnimQuery()
-        self.shapes = UsdSkel.BlendShapeQuery(UsdSkel.BindingAPI(prim)) if query.HasBlendShapes() else None
+        self.shapes = None
+        if query.HasBlendShapes() and self.animation:
+            self.shapes = UsdSkel.BlendShapeQuery(UsdSkel.BindingAPI(prim))
+        self._warn = warn
+        self._path = path
+        # Its own skinning attributes (those authored: usd-core's GetTimeSamples fails on an
+        # unauthored geomBindTransform).
+        own = (
+            query.GetJointIndicesPrimvar(), query.GetJointWeightsPrimvar(),
+            query.GetGeomBindTransformAttr(), query.GetSkinningMethodAttr(),
+            query.GetBlendShapesAttr(),
+        )
+        self._attributes = [
+            attr for attr in (a.GetAttr() if isinstance(a, UsdGeom.Primvar) else a for a in own)
+            if attr
+        ]
+
+    def _placing(self) -> list[Usd.Prim]:
+        """The prims whose transforms place the points: the skeleton's and the prim's (the
+        points are sent in the prim's space), or none without joints."""
+        return [self.skeleton.GetPrim(), self.prim] if self.joints else []
 
     def might_vary(self) -> bool:
         """Whether the pose might change with time."""
         animation = self.animation
         return bool(
-            (animation and animation.JointTransformsMightBeTimeVarying())
-            or (self.shapes and animation and animation.BlendShapeWeightsMightBeTimeVarying())
-            or self.query.GetTimeSamples()
-            or transform_might_vary(self.skeleton.GetPrim())
-            or transform_might_vary(self.prim)
+            (self.joints and animation and animation.JointTransformsMightBeTimeVarying())
+            or (self.shapes and animation.BlendShapeWeightsMightBeTimeVarying())
+            or any(attr.ValueMightBeTimeVarying() for attr in self._attributes)
+            or any(transform_might_vary(prim) for prim in self._placing())
         )
 
     def key_times(self, interval: Gf.Interval) -> set[float]:
         """The authored keys inside ``interval`` of what poses the prim."""
-        times = set(self.query.GetTimeSamplesInInterval(interval))
-        if self.animation:
+        times: set[float] = set()
+        for attr in self._attributes:
+            times.update(attr.GetTimeSamplesInInterval(interval))
+        if self.joints and self.animation:
             times.update(self.animation.GetJointTransformTimeSamplesInInterval(interval))
-            if self.shapes:
-                times.update(self.animation.GetBlendShapeWeightTimeSamplesInInterval(interval))
-        times.update(xform_sample_times(self.skeleton.GetPrim(), interval))
-        times.update(xform_sample_times(self.prim, interval))
+        if self.shapes:
+            times.update(self.animation.GetBlendShapeWeightTimeSamplesInInterval(interval))
+        for prim in self._placing():
+            times.update(xform_sample_times(prim, interval))
         return times
 
     def to_prim_space(self, time: Usd.TimeCode) -> np.ndarray | None:
@@ -118,49 +149,116 @@ class Skinning:
             return None
         return np.array(world.GetLocalToWorldTransform(self.skeleton.GetPrim()) * own.GetInverse())
 
-    def skinned(self, rest: Vt.Vec3fArray, time: Usd.TimeCode) -> np.ndarray | None:
-        """``rest`` deformed by the blend shapes and skinned at ``time``, in skeleton space:
-        float64 (N, 3); ``None`` when usd-core cannot (mismatched influences or shapes)."""
+    def _drop_shapes(self, problem: str) -> None:
+        """Pose without the blend shapes (as UsdSkel.BakeSkinning does), after one warning."""
+        self._warn(f"{self._path}: its blend shapes cannot apply ({problem}); posed without them")
+        self.shapes = None
+
+    def _sub_shapes(self, time: Usd.TimeCode):
+        """The sub-shape weights, blend shape indices and sub-shape indices at ``time``."""
+        weights = self.animation.ComputeBlendShapeWeights(time)
+        mapper = self.query.GetBlendShapeMapper()
+        if mapper and not mapper.IsIdentity():
+            weights = mapper.Remap(weights)
+        return self.shapes.ComputeSubShapeWeights(weights)
+
+    def pose(self, rest: Vt.Vec3fArray, time: Usd.TimeCode) -> np.ndarray | str:
+        """``rest`` deformed by the blend shapes and skinned at ``time``, in the prim's space:
+        float64 (N, 3); else what stops it."""
         points = Vt.Vec3fArray(rest)
-        if self.shapes and self.animation:
-            weights = self.animation.ComputeBlendShapeWeights(time)
-            mapper = self.query.GetBlendShapeMapper()
-            if mapper and not mapper.IsIdentity():
-                weights = mapper.Remap(weights)
+        if self.shapes:
             shapes = self.shapes
-            sub, shape_indices, sub_indices = shapes.ComputeSubShapeWeights(weights)
-            if not shapes.ComputeDeformedPoints(
-                sub, shape_indices, sub_indices, shapes.ComputeBlendShapePointIndices(),
-                shapes.ComputeSubShapePointOffsets(), points,
-            ):
-                return None
+            try:
+                sub, shape_indices, sub_indices = self._sub_shapes(time)
+                deformed = shapes.ComputeDeformedPoints(
+                    sub, shape_indices, sub_indices, shapes.ComputeBlendShapePointIndices(),
+                    shapes.ComputeSubShapePointOffsets(), points,
+                )
+            except RuntimeError as error:  # usd-core's errors (a target that is no BlendShape)
+                deformed, problem = False, str(error).splitlines()[0]
+            else:
+                problem = "their offsets or point indices do not match the points"
+            if not deformed:
+                self._drop_shapes(problem)
+                points = Vt.Vec3fArray(rest)
+        if not self.joints:
+            return np.asarray(points, dtype=np.float64)
         xforms = self.skeleton.ComputeSkinningTransforms(time)
         if not self.query.ComputeSkinnedPoints(xforms, points, time):
-            return None
-        return np.asarray(points, dtype=np.float64)
+            return "its joint influences do not match its points or its skeleton's joints"
+        to_prim = self.to_prim_space(time)
+        if to_prim is None:
+            return "its transform is singular"
+        return np.asarray(points, dtype=np.float64) @ to_prim[:3, :3] + to_prim[3, :3]
 
-    def linear_parts(self, rest: np.ndarray, time: Usd.TimeCode) -> np.ndarray | None:
-        """Each point's skinning deformation, linear part (row vectors, (N, 3, 3)): the skinned
-        offsets of the three unit vectors at the point (blend shapes translate, so they drop
-        out; dual-quaternion skinning is a rotation and translation per point)."""
-        xforms = self.skeleton.ComputeSkinningTransforms(time)
-        base = Vt.Vec3fArray.FromNumpy(rest)
-        if not self.query.ComputeSkinnedPoints(xforms, base, time):
-            return None
-        origin = np.asarray(base, dtype=np.float64)
-        rows = []
-        for axis in np.eye(3, dtype=np.float32):
-            moved = Vt.Vec3fArray.FromNumpy(rest + axis)
-            if not self.query.ComputeSkinnedPoints(xforms, moved, time):
+    def normal_offsets(self, time: Usd.TimeCode, count: int) -> np.ndarray:
+        """The blend shapes' weighted ``normalOffsets`` (of their in-betweens too) per point."""
+        total = np.zeros((count, 3))
+        if not self.shapes:
+            return total
+        shapes = self.shapes
+        for weight, shape_index, sub_index in zip(*self._sub_shapes(time)):
+            if weight == 0:
+                continue
+            shape = shapes.GetBlendShape(shape_index)
+            inbetween = shapes.GetInbetween(sub_index)
+            offsets = inbetween.GetNormalOffsets() if inbetween else shape.GetNormalOffsetsAttr().Get()
+            if not offsets:
+                continue
+            offsets = np.asarray(offsets, dtype=np.float64)
+            indices = shape.GetPointIndicesAttr().Get()
+            points = np.asarray(indices, dtype=np.int64) if indices else np.arange(len(offsets))
+            if len(points) == len(offsets) and (points.min() >= 0 and points.max() < count):
+                np.add.at(total, points, weight * offsets)
+        return total
+
+    def normal_matrices(self, rest: np.ndarray, time: Usd.TimeCode) -> np.ndarray | None:
+        """Per point, the matrix carrying a normal from the prim's rest space into its posed
+        space (row vectors, (N, 3, 3)): linear skinning blends the joints' inverse transposes
+        after the geomBindTransform's (as UsdSkel.SkinNormals does); dual-quaternion skinning
+        turns each point by a rotation, found by skinning the three unit offsets."""
+        time_xforms = self.skeleton.ComputeSkinningTransforms(time)
+        count = len(rest)
+        if self.query.GetSkinningMethod() == UsdSkel.Tokens.dualQuaternion:
+            base = Vt.Vec3fArray.FromNumpy(rest)
+            if not self.query.ComputeSkinnedPoints(time_xforms, base, time):
                 return None
-            rows.append(np.asarray(moved, dtype=np.float64) - origin)
-        return np.stack(rows, axis=1)
+            origin = np.asarray(base, dtype=np.float64)
+            rows = []
+            for axis in np.eye(3, dtype=np.float32):
+                moved = Vt.Vec3fArray.FromNumpy(rest + axis)
+                if not self.query.ComputeSkinnedPoints(time_xforms, moved, time):
+                    return None
+                rows.append(np.asarray(moved, dtype=np.float64) - origin)
+            with np.errstate(all="ignore"):
+                return np.linalg.pinv(np.stack(rows, axis=1)).transpose(0, 2, 1)
+        mapper = self.query.GetJointMapper()
+        if mapper and not mapper.IsIdentity():
+            time_xforms = mapper.RemapTransforms(time_xforms, Vt.Matrix4dArray())
+        joints = np.array(time_xforms, dtype=np.float64).reshape(-1, 4, 4)[:, :3, :3]
+        indices, weights = self.query.ComputeVaryingJointInfluences(count, time)
+        per_point = self.query.GetNumInfluencesPerComponent()
+        indices = np.asarray(indices, dtype=np.int64)
+        if len(indices) != count * per_point or len(joints) == 0 or (
+            len(indices) and (indices.min() < 0 or indices.max() >= len(joints))
+        ):
+            return None
+        bind = np.array(self.query.GetGeomBindTransform(time), dtype=np.float64)[:3, :3]
+        with np.errstate(all="ignore"):
+            joint_normals = np.linalg.pinv(joints).transpose(0, 2, 1)
+            blended = np.einsum(
+                "nk,nkij->nij",
+                np.asarray(weights, dtype=np.float64).reshape(count, per_point),
+                joint_normals[indices.reshape(count, per_point)],
+            )
+            return np.linalg.pinv(bind).T @ blended
 
 
 def _skinning_of(
     prim: Usd.Prim, caches: SkelCaches, warn: Callable[[str], None], path: str
 ) -> Skinning | None:
-    """The skinning of ``prim``, which has joint influences (see :func:`find_skinning`)."""
+    """The skinning of ``prim``, which has joint influences or blend shapes (see
+    :func:`find_skinning`)."""
     if prim.IsInPrototype():
         warn(
             f"{path}: a prim with joint influences inside an instance's prototype is rendered "
@@ -179,7 +277,13 @@ def _skinning_of(
     if not skeleton_query:
         warn(f"{path}: is bound to no usable Skeleton (skel:skeleton); rendered in its bind pose")
         return None
-    return Skinning(prim, query, skeleton_query)
+    if query.HasJointInfluences() and not skeleton_query.HasBindPose():
+        warn(
+            f"{path}: its Skeleton {skeleton.GetPath()} has no usable bind pose (bindTransforms, "
+            "one per joint); rendered in its bind pose"
+        )
+        return None
+    return Skinning(prim, query, skeleton_query, warn, path)
 
 
 def skinned_points(
@@ -193,25 +297,22 @@ def skinned_points(
     the reader's shutter when the pose changes within it; ``rest`` (with a warning) when
     usd-core cannot skin it."""
     shutter = reader.shutter
-    if skinning.might_vary():
+    varies = skinning.might_vary()
+    if varies:
         reader.depends_on_shutter()
     rest_array = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(rest, dtype=np.float32))
 
     def posed(times: list[Usd.TimeCode]) -> list[np.ndarray] | None:
         samples = []
         for time in times:
-            skinned = skinning.skinned(rest_array, time)
-            to_prim = skinning.to_prim_space(time)
-            if skinned is None or to_prim is None:
-                problem = "its transform is singular" if to_prim is None else (
-                    "its joint influences or blend shapes do not match its points or skeleton"
-                )
-                warn(f"{path}: cannot be skinned ({problem}); rendered in its bind pose")
+            points = skinning.pose(rest_array, time)
+            if isinstance(points, str):
+                warn(f"{path}: cannot be skinned ({points}); rendered in its bind pose")
                 return None
-            samples.append(skinned @ to_prim[:3, :3] + to_prim[3, :3])
+            samples.append(points)
         return samples
 
-    if not (shutter.blurred and skinning.might_vary()):
+    if not (shutter.blurred and varies):
         samples = posed([shutter.frame])
         return rest if samples is None else samples[0].astype(np.float32)
     # Joints turn on arcs between keys, which the delegate's linear steps cut: steps are halved
@@ -219,8 +320,12 @@ def skinned_points(
     segments = shutter.segments(skinning.key_times(shutter.interval))
     samples = posed(shutter.times(segments))
     while samples is not None and 2 * segments <= shutter.max_segments:
-        finer = posed(shutter.times(2 * segments))
-        if finer is None or _follow_chords(finer):
+        middles = posed(shutter.times(2 * segments)[1::2])
+        if middles is None:
+            samples = None
+            break
+        finer = [point for pair in zip(samples, middles) for point in pair] + [samples[-1]]
+        if _follow_chords(finer):
             break
         segments, samples = 2 * segments, finer
     if samples is None:
@@ -251,28 +356,35 @@ def skinned_normals(
     face_vertex_counts: np.ndarray,
     time: Usd.TimeCode,
 ) -> np.ndarray:
-    """Authored ``normals`` (of ``interpolation``) carried by the skinning at ``time`` into the
-    mesh's space: each by the inverse transpose of its point's deformation (a face's first
-    point for uniform normals, point 0 for a constant one); unchanged where it cannot be."""
-    parts = skinning.linear_parts(np.ascontiguousarray(rest, dtype=np.float32), time)
-    to_prim = skinning.to_prim_space(time)
-    if parts is None or to_prim is None:
-        return normals
+    """Authored ``normals`` (of ``interpolation``) posed at ``time`` in the mesh's space, as
+    UsdSkel.BakeSkinning poses them: per point, the blend shapes' normal offsets added (vertex
+    and varying normals), then the point's skinning carries them (a face-varying normal by its
+    face-vertex's point, a uniform one by its face's first point, a constant one by point 0);
+    unchanged where that cannot be (mismatched counts, which the delegate names)."""
     if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
         owners = np.arange(len(normals))
     elif interpolation == UsdGeom.Tokens.faceVarying:
-        owners = face_vertex_indices
+        owners = np.asarray(face_vertex_indices, dtype=np.int64)
     elif interpolation == UsdGeom.Tokens.uniform:
-        owners = face_vertex_indices[np.concatenate(([0], np.cumsum(face_vertex_counts)[:-1]))]
+        starts = np.concatenate(([0], np.cumsum(face_vertex_counts)[:-1])).astype(np.int64)
+        owners = np.asarray(face_vertex_indices, dtype=np.int64)[starts]
     else:
         owners = np.zeros(len(normals), dtype=np.int64)
-    if len(owners) != len(normals) or (
-        len(owners) and (owners.min() < 0 or owners.max() >= len(parts))
-    ):
-        return normals  # the delegate names the mismatch
-    linear = parts[owners] @ to_prim[:3, :3]
+    count = len(rest)
+    if len(owners) != len(normals) or (len(owners) and (owners.min() < 0 or owners.max() >= count)):
+        return normals
+    posed = np.asarray(normals, dtype=np.float64)
+    if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
+        posed = posed + skinning.normal_offsets(time, count)
+    if skinning.joints:
+        matrices = skinning.normal_matrices(np.ascontiguousarray(rest, dtype=np.float32), time)
+        to_prim = skinning.to_prim_space(time)
+        if matrices is None or to_prim is None:
+            return normals
+        with np.errstate(all="ignore"):
+            carry = matrices[owners] @ np.linalg.pinv(to_prim[:3, :3]).T
+            posed = np.einsum("nj,nji->ni", posed, carry)
     with np.errstate(all="ignore"):
-        carried = np.einsum("nj,nkj->nk", normals, np.linalg.pinv(linear))
-        lengths = np.linalg.norm(carried, axis=1, keepdims=True)
-        carried = np.where(lengths > 0, carried / lengths, normals)
-    return carried.astype(np.float32)
+        lengths = np.linalg.norm(posed, axis=1, keepdims=True)
+        posed = np.where(lengths > 0, posed / lengths, normals)
+    return posed.astype(np.float32)

@@ -13,7 +13,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from pxr import Sdf, Tf, Usd, UsdGeom
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdSkel
 
 from .classification import Classifier
 from .inherited import Inherited
@@ -130,6 +130,7 @@ class ChangeTracker:
         # the inherited state of the meshes among them.
         self._found: dict[Sdf.Path, tuple[Usd.Prim, Inherited | None]] = {}
         self._collection_binders = _CollectionBinders(stage)
+        self._skel_edits: set[Sdf.Path] = set()  # SkelRoots whose prims an edit may pose anew
         self._listener = Tf.Notice.Register(
             Usd.Notice.ObjectsChanged, self._on_objects_changed, stage
         )
@@ -213,6 +214,7 @@ class ChangeTracker:
             self.resync(root)
         for path in sorted(changed):
             self._on_changed(path)
+        self._mark_skinned_prims()
         # As Linking re-reads every link on any collection edit: membership may also follow a
         # collection that one includes or names in its expression, so every binding made
         # through a collection is resolved again.
@@ -229,7 +231,7 @@ class ChangeTracker:
             return
         self._materials.note_edited(prim_path)
         self._mark_subset_owner(prim_path)
-        self._mark_skinned_prims(prim_path)
+        self._note_skel_edit(prim_path, name)
         if _is_xform_property(name):
             self._mark_subtree(prim_path, Dirty.TRANSFORM)
         elif name == UsdGeom.Tokens.visibility:
@@ -260,18 +262,33 @@ class ChangeTracker:
         if owner is not None and owner.kind == "mesh" and path not in self.prims:
             self.mark(path.GetParentPath(), Dirty.BINDING)
 
-    def _mark_skinned_prims(self, path: Sdf.Path) -> None:
-        """An edit under a SkelRoot (of a skeleton, its animation, a blend shape, a transform)
-        may pose the meshes, curves and points below the root otherwise: they are read again."""
+    def _note_skel_edit(self, path: Sdf.Path, name: str) -> None:
+        """Note the SkelRoot above an edit that may pose the prims below it otherwise: of a
+        Skeleton, SkelAnimation or BlendShape, a transform, a binding (``skel:*``), or a prim
+        itself (``name`` empty: added, removed, its metadata)."""
         prim = self.stage.GetPrimAtPath(path)
         while not prim and path != Sdf.Path.absoluteRootPath:  # removed: its parent stays
             path = path.GetParentPath()
             prim = self.stage.GetPrimAtPath(path)
+        if name and not (
+            _is_xform_property(name)
+            or name.startswith(("skel:", "primvars:skel:"))
+            or prim.IsA(UsdSkel.Skeleton)
+            or prim.IsA(UsdSkel.Animation)
+            or prim.IsA(UsdSkel.BlendShape)
+        ):
+            return
         root = skel_root(prim)
         if root is not None:
-            for tracked in self._tracked_under(root.GetPath()):
+            self._skel_edits.add(root.GetPath())
+
+    def _mark_skinned_prims(self) -> None:
+        """Read again the meshes, curves and points under the SkelRoots edited (each once)."""
+        for root in self._skel_edits:
+            for tracked in self._tracked_under(root):
                 if self.prims[tracked].kind in _POINT_BASED:
                     self.mark(tracked, Dirty.DATA)
+        self._skel_edits.clear()
 
     def _mark_subtree(self, root: Sdf.Path, bits: int) -> None:
         for path in self._tracked_under(root):
@@ -306,7 +323,7 @@ class ChangeTracker:
             self.mark(user, Dirty.BINDING)
         if root != Sdf.Path.absoluteRootPath:
             self._mark_subset_owner(root)  # a subset added or removed
-            self._mark_skinned_prims(root)  # a skeleton, animation or blend shape
+            self._note_skel_edit(root, "")  # a skeleton, animation or blend shape
         if root != Sdf.Path.absoluteRootPath:  # else every binding is resolved again anyway
             # A collection owned in the subtree may have changed (or gone) with it.
             for binder, collections in self._collection_binders.binders().items():
