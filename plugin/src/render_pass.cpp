@@ -137,6 +137,7 @@ void RenderPass::execute(int samples, const std::atomic<bool>* cancel) {
     cameraSyncCount_ = cameraPrim.syncCount();
     settingsUsed_ = std::move(settingsUsed);
   }
+  exposureScale_ = cameraPrim.params().exposureScale;
   if (samples == 0) return;
   const int end = samplesDone_ + samples;
   if (settings.adaptiveThreshold > 0) checkCropMargin(end);
@@ -343,7 +344,13 @@ std::vector<float> RenderPass::aov(const std::string& name) const {
   const AovRequest request = parseAov(name);
   if (!film_.has(request))
     throw std::invalid_argument("AOV '" + name + "' is not accumulated by this render pass");
-  const std::vector<float> values = film_.resolve(request);
+  std::vector<float> values = film_.resolve(request);
+  if (request.kind == AovKind::Color && exposureScale_ != 1) {
+    for (size_t i = 0; i < values.size(); i += 4)  // RGBA: alpha is coverage
+      for (size_t c = 0; c < 3; ++c) values[i + c] *= exposureScale_;
+  } else if (request.kind == AovKind::Variance && exposureScale_ != 1) {
+    for (float& value : values) value *= exposureScale_ * exposureScale_;
+  }
   // Primvars are accumulated as 4 floats: keep as many as the primvar has.
   return cropped(values, size_t(Film::channels(request.kind)), size_t(aovChannels(name)));
 }

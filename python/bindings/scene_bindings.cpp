@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -437,7 +438,10 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
              float horizontalAperture, float verticalAperture, float horizontalApertureOffset,
              float verticalApertureOffset, float fStop, float focusDistance,
              std::pair<float, float> clippingRange, float shutterOpen, float shutterClose,
-             const std::string& projection, float pixelAspectRatio) {
+             const std::string& projection, float pixelAspectRatio, float exposureScale) {
+            if (!(std::isfinite(exposureScale) && exposureScale >= 0))
+              throw std::invalid_argument(id + ": exposure_scale must be finite and >= 0, not " +
+                                          std::to_string(exposureScale));
             CameraParams params;
             params.focalLength = focalLength;
             params.horizontalAperture = horizontalAperture;
@@ -451,6 +455,7 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
             params.shutterOpen = shutterOpen;
             params.shutterClose = shutterClose;
             params.pixelAspectRatio = pixelAspectRatio;
+            params.exposureScale = exposureScale;
             if (projection == "perspective")
               params.projection = Projection::Perspective;
             else if (projection == "orthographic")
@@ -465,7 +470,8 @@ void bindScene(py::module_& m, DelegateClass& delegate) {
           py::arg("focus_distance") = 0.0f,
           py::arg("clipping_range") = std::pair<float, float>(0.01f, 1e6f),
           py::arg("shutter_open") = 0.0f, py::arg("shutter_close") = 0.0f,
-          py::arg("projection") = "perspective", py::arg("pixel_aspect_ratio") = 1.0f)
+          py::arg("projection") = "perspective", py::arg("pixel_aspect_ratio") = 1.0f,
+          py::arg("exposure_scale") = 1.0f)
       .def(
           "set_camera_motion",
           [](RenderDelegate& self, const std::string& id, const FloatArray& focalLengths,

@@ -123,6 +123,11 @@ CASES = [
     Case("clipping a scalar", 1, "/cam: clippingRange must be two numbers", camera="float clippingRange = 3"),
     Case("focus distance inf", 1, "/cam: focusDistance", camera="float fStop = 2\nfloat focusDistance = inf"),
     Case("unknown projection", 1, "/cam: unknown projection 'fisheye'", camera='token projection = "fisheye"'),
+    Case("exposure fStop zero", 1, "/cam: the exposure scale", camera="float exposure:fStop = 0"),
+    Case("exposure NaN", 1, "/cam: the exposure scale", camera="float exposure = nan"),
+    Case("exposure overflowing", 1, "/cam: the exposure scale", camera="float exposure = 3000"),
+    Case("exposure ISO negative", 1, "/cam: the exposure scale", camera="float exposure:iso = -100"),
+    Case("exposure of an unknown type", 1, "/cam: exposure must be a number", camera='string exposure = "2"'),
     # Sizes and memory: exit 1 before anything is allocated.
     Case("huge width", 1, "--maxMemory", args=("-w", "100000")),
     Case("sliver aperture", 1, "--maxMemory", camera="float horizontalAperture = 0.004", args=("--maxMemory", "1G")),

@@ -81,6 +81,42 @@ def _number(attr: Usd.Attribute, time: Usd.TimeCode) -> float | None:
     return float(value) if is_number_value(value) else None
 
 
+def _exposure_attributes(camera: UsdGeom.Camera) -> tuple[Usd.Attribute, ...]:
+    """exposure, exposure:time, exposure:iso, exposure:responsivity, exposure:fStop."""
+    return (
+        camera.GetExposureAttr(), camera.GetExposureTimeAttr(), camera.GetExposureIsoAttr(),
+        camera.GetExposureResponsivityAttr(), camera.GetExposureFStopAttr(),
+    )
+
+
+def _exposure_scale(camera: UsdGeom.Camera, time: Usd.TimeCode) -> float | str:
+    """UsdGeomCamera's linear exposure scale at ``time`` (ComputeLinearExposureScale: 2^exposure
+    · exposure:time · exposure:iso / 100 · exposure:responsivity / exposure:fStop²), or what
+    makes it unusable (an input that is not a number, a scale not finite or negative)."""
+    path = camera.GetPath()
+    inputs = {}
+    for attr in _exposure_attributes(camera):
+        value = _number(attr, time)
+        if value is None:
+            return (
+                f"{path}: {attr.GetName()} must be a number, not a "
+                f"{type(attr.Get(time)).__name__} (a wrong or unknown type in the file)"
+            )
+        inputs[attr.GetName()] = value
+    exposure, seconds, iso, responsivity, f_stop = inputs.values()
+    try:
+        scale = 2.0**exposure * seconds * iso / 100 * responsivity / (f_stop * f_stop)
+    except (OverflowError, ZeroDivisionError):
+        scale = math.inf
+    if not (math.isfinite(scale) and 0 <= scale <= 3.4e38):
+        described = ", ".join(f"{name} {value:g}" for name, value in inputs.items())
+        return (
+            f"{path}: the exposure scale 2^exposure · time · iso / 100 · responsivity / fStop² "
+            f"must be finite and >= 0 ({described})"
+        )
+    return scale
+
+
 def _lens_times(
     attrs: tuple[Usd.Attribute, ...], time: Usd.TimeCode, shutter: Shutter
 ) -> list[Usd.TimeCode]:
@@ -161,6 +197,9 @@ def camera_problem(
     offsets = (camera.GetHorizontalApertureOffsetAttr(), camera.GetVerticalApertureOffsetAttr())
     lens = (camera.GetFStopAttr(), camera.GetFocusDistanceAttr())
     focal = (camera.GetFocalLengthAttr(),) if projection == "perspective" else ()
+    exposure = _exposure_scale(camera, time)
+    if isinstance(exposure, str):
+        return exposure
     for attr in (*apertures, *focal, *offsets, *lens):
         if _number(attr, time) is None:
             return (
@@ -265,7 +304,10 @@ def sync_camera(
         shutter_open=shutter.open,
         shutter_close=shutter.close,
         projection=str(read(camera.GetProjectionAttr())),
+        exposure_scale=_exposure_scale(camera, reader.time),
     )
+    for attr in _exposure_attributes(camera):
+        reader.get(attr)  # notes whether the exposure might vary with time
     lens = (focal_attr, focus_attr)
     if shutter.blurred and any(changes_within(attr, shutter.interval) for attr in lens):
         authored = [t for attr in lens for t in attr.GetTimeSamplesInInterval(shutter.interval)]

@@ -50,6 +50,10 @@ struct CameraParams {
   float farClip = 1e6f;
   float shutterOpen = 0;  // time codes relative to the frame
   float shutterClose = 0;
+  // UsdGeomCamera's linear exposure scale (2^exposure · time · ISO / 100 · responsivity /
+  // fStop², its exposure:* inputs): multiplies the radiance an image of the film shows, not
+  // what a sample is (render passes apply it when they resolve colour).
+  float exposureScale = 1;
   // Animated lens over the shutter: uniformly spaced samples; empty means the scalars above.
   std::vector<float> focalLengthSteps;
   std::vector<float> focusDistanceSteps;

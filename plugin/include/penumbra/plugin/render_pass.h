@@ -114,8 +114,9 @@ class RenderPass {
   /// for an unknown name.
   void setAovs(const std::vector<std::string>& names);
   /// Resolved buffer of the crop (or image), row-major from the top, aovChannels(name) floats
-  /// per pixel. Throws std::invalid_argument for an unknown name or one not accumulated (see
-  /// setAovs).
+  /// per pixel; colour (not alpha) times the camera's exposure scale (CameraParams), variance
+  /// times its square. Throws std::invalid_argument for an unknown name or one not accumulated
+  /// (see setAovs).
   std::vector<float> aov(const std::string& name) const;
   /// A Cryptomatte AOV (CryptoObject, CryptoMaterial or CryptoAsset, accumulated: see
   /// setAovs) of the crop (or image), row-major from the top: per pixel the render settings'
@@ -182,6 +183,7 @@ class RenderPass {
   // What the accumulated samples were rendered with; any change restarts accumulation.
   uint64_t sceneVersion_ = ~uint64_t(0);
   int cameraSyncCount_ = -1;
+  float exposureScale_ = 1;  // the camera's, at the last execute
   std::map<std::string, double> settingsUsed_;
   std::map<std::string, PrimId> aovBindings_;
   // Path guiding: the field once trained, the training records until then, and the samples
