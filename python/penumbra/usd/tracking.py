@@ -267,9 +267,12 @@ class ChangeTracker:
         Skeleton, SkelAnimation or BlendShape, a transform, a binding (``skel:*``), or a prim
         itself (``name`` empty: added, removed, its metadata)."""
         prim = self.stage.GetPrimAtPath(path)
-        while not prim and path != Sdf.Path.absoluteRootPath:  # removed: its parent stays
-            path = path.GetParentPath()
-            prim = self.stage.GetPrimAtPath(path)
+        for ancestor in reversed(path.GetPrefixes()[:-1]):  # removed: its nearest ancestor stays
+            if prim:
+                break
+            prim = self.stage.GetPrimAtPath(ancestor)
+        if not prim:  # not a prim path (the stage's own metadata): no prim to pose
+            return
         if name and not (
             _is_xform_property(name)
             or name.startswith(("skel:", "primvars:skel:"))
