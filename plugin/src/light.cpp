@@ -34,7 +34,7 @@ void Light::setParam(const std::string& name, const ParamValue& value) {
         break;
       }
       case LightInputKind::Asset:
-        textureFile_ = paramAsString(name, value);  // texture:file, the one asset input
+        (name == "shaping:ies:file" ? ies_ : texture_).file = paramAsString(name, value);
         break;
     }
   } catch (const std::invalid_argument& error) {
@@ -43,19 +43,19 @@ void Light::setParam(const std::string& name, const ParamValue& value) {
   markDirty(DirtyParams);
 }
 
-bool Light::textureFileChanged() const {
-  return !loadedTextureFile_.empty() && fileStamp(loadedTextureFile_) != loadedStamp_;
+void Light::loadTexture(SyncContext& context) {
+  if (!texture_.takeReload()) return;
+  params_.texture.reset();
+  if (texture_.file.empty()) return;
+  ++context.counters.lightTextureLoads;
+  params_.texture = LightTexture::load(context.scene.materials().sharedTextures(), texture_.file,
+                                       params_.type == LightType::Dome);
 }
 
-void Light::loadTexture(SyncContext& context) {
-  if (textureFile_ == loadedTextureFile_ && !textureFileChanged()) return;
-  loadedTextureFile_ = textureFile_;
-  loadedStamp_ = textureFile_.empty() ? std::nullopt : fileStamp(textureFile_);
-  params_.texture.reset();
-  if (textureFile_.empty()) return;
-  ++context.counters.lightTextureLoads;
-  params_.texture = LightTexture::load(context.scene.materials().sharedTextures(), textureFile_,
-                                       params_.type == LightType::Dome);
+void Light::loadIes() {
+  if (!ies_.takeReload()) return;
+  params_.ies.reset();
+  if (!ies_.file.empty()) params_.ies = std::make_shared<IesProfile>(IesProfile::read(ies_.file));
 }
 
 void Light::setMeshTriangles(std::shared_ptr<const std::vector<Vec3f>> triangles,
@@ -71,6 +71,11 @@ void Light::sync(SyncContext& context, uint32_t dirtyBits) {
       loadTexture(context);
     } catch (const std::runtime_error& error) {
       context.warn(id() + ": " + error.what() + "; the light renders without its texture");
+    }
+    try {
+      loadIes();
+    } catch (const std::invalid_argument& error) {
+      context.warn(id() + ": " + error.what() + "; the light renders without its IES profile");
     }
   }
   std::optional<penumbra::Light> rendered;

@@ -53,6 +53,9 @@ const std::vector<LightInputInfo>& lightInputs() {
       {"shaping:cone:softness", Kind::Float, Origin::ShapingAPI, &P::coneSoftness, {}},
       {"shaping:focus", Kind::Float, Origin::ShapingAPI, &P::focus, {}},
       {"shaping:focusTint", Kind::Color, Origin::ShapingAPI, &P::focusTint, {}},
+      {"shaping:ies:file", Kind::Asset, Origin::ShapingAPI, std::monostate{}, {}},
+      {"shaping:ies:angleScale", Kind::Float, Origin::ShapingAPI, &P::iesAngleScale, {}},
+      {"shaping:ies:normalize", Kind::Bool, Origin::ShapingAPI, &P::iesNormalize, {}},
       {"shadow:enable", Kind::Bool, Origin::ShadowAPI, &P::shadowEnable, {}},
       {"cameraVisible", Kind::Bool, Origin::FrontEnd, &P::cameraVisible, {}}};
   return inputs;

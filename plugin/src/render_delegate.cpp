@@ -304,10 +304,10 @@ bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
     context_.sceneChanged = true;
     lights_.forEach([](Light& light) { light.markDirty(DirtyParams); });
   }
-  // Lights load their texture again once its file changed (or one that could not be read is
-  // mended): their sampling is built from it.
+  // Lights load their texture or IES profile again once its file changed (or one that could not
+  // be read is mended): their sampling and shaping are built from it.
   lights_.forEach([](Light& light) {
-    if (light.textureFileChanged()) light.markDirty(DirtyParams);
+    if (light.filesChanged()) light.markDirty(DirtyParams);
   });
   for (const std::string& error : unreadable)
     context_.warn(error + "; the textures reading it give their fallback values");

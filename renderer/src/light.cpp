@@ -163,7 +163,14 @@ Light::Light(const LightParams& params) : params_(params) {
   coneSmoothStart_ = coneCutoff_ * (1 - std::clamp(params.coneSoftness, 0.0f, 1.0f));
   coneCosCutoff_ = std::cos(coneCutoff_);
   coneCosSmoothStart_ = std::cos(coneSmoothStart_);
-  shaped_ = !isInfinite() && (params.coneAngle < 180 || params.focus > 0);
+  if (params.ies && !isInfinite()) {
+    if (!std::isfinite(params.iesAngleScale))
+      throw std::invalid_argument("the IES profile's angle scale is not finite");
+    iesWorldToLight_ = toWorld.inverse();
+    const float mean = params.ies->meanCandela();
+    iesScale_ = params.iesNormalize ? (mean > 0 ? 1 / mean : 0) : 1;
+  }
+  shaped_ = !isInfinite() && (params.coneAngle < 180 || params.focus > 0 || params.ies);
   // A transform that scales -Z to nothing (a card flattened along Z) leaves no axis to emit along.
   if ((shaped_ || params.type == LightType::Distant) && !isFinite(axis_))
     throw std::invalid_argument(
@@ -184,13 +191,23 @@ Vec3f Light::shaping(const Vec3f& emitted) const {
     cone = 0;
   else if (cosine < coneCosSmoothStart_)
     cone = 1 - smoothstep(coneSmoothStart_, coneCutoff_, std::acos(std::min(cosine, 1.0f)));
-  Vec3f factor(cone);
+  Vec3f factor(cone * (params_.ies ? iesFactor(emitted) : 1.0f));
   if (params_.focus > 0) {
     // |cos|: a sphere's or cylinder's emission behind its axis is focused as in front.
     const float focused = std::pow(std::abs(cosine), params_.focus);
     factor *= params_.focusTint + (Vec3f(1.0f) - params_.focusTint) * focused;
   }
   return factor;
+}
+
+float Light::iesFactor(const Vec3f& emitted) const {
+  // In the light's frame, as hdEmbree evaluates it: the nadir along -Z, horizontal angle 0
+  // towards -X and 90° towards -Y.
+  const Vec3f local = normalize(iesWorldToLight_.applyToVector(emitted));
+  float theta = std::acos(std::clamp(-local.z, -1.0f, 1.0f));
+  const float scale = 1 + std::max(params_.iesAngleScale, -1.0f);
+  theta = scale > 0 ? std::clamp((theta - kPi) / scale + kPi, 0.0f, kPi) : (theta < kPi ? 0 : kPi);
+  return params_.ies->candela(theta, std::atan2(-local.y, -local.x)) * iesScale_;
 }
 
 Vec2f Light::edgeCoordinates(const Vec3f& point) const {
@@ -611,6 +628,9 @@ LightBounds Light::bounds() const {
     case LightType::Dome:
       break;  // infinite lights are not in the tree
   }
+  // An IES profile scales what the light emits by its mean factor (over the directions it
+  // covers), which the tree's choice should know: raw candelas are in the hundreds.
+  if (params_.ies && shaped_) bounds.power *= params_.ies->meanCandela() * iesScale_;
   return bounds;
 }
 

@@ -65,11 +65,15 @@ def test_the_inputs_read_are_the_tables():
     mesh = UsdGeom.Mesh.Define(stage, "/emitter").GetPrim()
     UsdLux.MeshLightAPI.Apply(mesh)
     lights.sync_mesh_light(core, mesh, "/emitter", reader, warn=lambda message: None)
-    assert list(core.sent["/emitter"]) == list(lights._COMMON_INPUTS)  # no schema applied
+    sent = dict(core.sent["/emitter"])
+    assert sent.pop("shaping:ies:file") == ""  # sent always, resolved: none without ShapingAPI
+    assert list(sent) == list(lights._COMMON_INPUTS)  # no schema applied
     UsdLux.ShapingAPI.Apply(mesh)
     UsdLux.ShadowAPI.Apply(mesh)
     lights.sync_mesh_light(core, mesh, "/emitter", reader, warn=lambda message: None)
-    assert list(core.sent["/emitter"]) == list(_table_inputs(None))
+    sent = dict(core.sent["/emitter"])
+    assert sent.pop("shaping:ies:file") == ""
+    assert list(sent) == [name for name in _table_inputs(None) if name != "shaping:ies:file"]
 
 
 def test_the_derived_lists_keep_their_order():
@@ -98,6 +102,8 @@ def test_the_derived_lists_keep_their_order():
         "shaping:cone:softness",
         "shaping:focus",
         "shaping:focusTint",
+        "shaping:ies:angleScale",
+        "shaping:ies:normalize",
     )
     assert lights._SHADOW_INPUTS == ("shadow:enable",)
     assert lights._COLOR_INPUTS == ("color", "shaping:focusTint")

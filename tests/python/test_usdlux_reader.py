@@ -186,10 +186,6 @@ def test_an_untextured_dome_whose_pole_is_z_is_uniform_and_not_warned_of() -> No
 # Inputs Penumbra does not render
 
 
-def author_ies(light: Usd.Prim) -> None:
-    UsdLux.ShapingAPI.Apply(light).CreateShapingIesFileAttr(Sdf.AssetPath("profile.ies"))
-
-
 def author_shadow(name: str, value):
     def author(light: Usd.Prim) -> None:
         shadow = UsdLux.ShadowAPI.Apply(light)
@@ -204,7 +200,6 @@ def author_filters(light: Usd.Prim) -> None:
 
 
 IGNORED = [
-    ("inputs:shaping:ies:file", author_ies),
     ("inputs:shadow:color", author_shadow("Color", Gf.Vec3f(1.0, 0.0, 0.0))),
     ("inputs:shadow:distance", author_shadow("Distance", 2.0)),
     ("inputs:shadow:distance", author_shadow("Distance", 0.0)),
@@ -220,7 +215,8 @@ IGNORED = [
 def test_an_input_penumbra_does_not_render_is_named_once_and_ignored(
     light_type: str, name: str, author
 ) -> None:
-    """They changed nothing, without a word (an IES profile dark everywhere lit as none)."""
+    """They changed nothing, without a word (IES profiles, once among them, are rendered:
+    tests/python/test_ies_profiles.py)."""
     stage = lit_stage()
     light = add_light(stage, light_type)
     UsdLux.LightAPI(light).CreateIntensityAttr(5.0)
@@ -240,8 +236,8 @@ def test_every_ignored_input_of_a_light_is_named_in_one_warning() -> None:
         author(light)
     _, messages = render_with_warnings(stage, WIDTH)
     assert messages == [
-        "/World/L: light:filters, inputs:shaping:ies:file, inputs:shadow:color, "
-        "inputs:shadow:distance, inputs:shadow:falloff are not supported yet; ignored"
+        "/World/L: light:filters, inputs:shadow:color, inputs:shadow:distance, "
+        "inputs:shadow:falloff are not supported yet; ignored"
     ]
 
 

@@ -2,8 +2,9 @@
 
 Every input the delegate knows is sent, authored or not, so that its schema fallback is used
 (``Get`` returns the fallback of an unauthored UsdLux input). Inputs authored to change the
-light that the delegate does not render (IES profiles, shadow colour, distance and falloff,
-light filters) are named in one warning per light.
+light that the delegate does not render (shadow colour, distance and falloff, light filters, an
+IES profile on a distant or dome light) are named in one warning per light. Asset inputs
+(``texture:file``, ``shaping:ies:file``) are sent resolved.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ _LIGHTS: tuple[tuple[str, type, tuple[str, ...]], ...] = tuple(
 """The delegate's sprim types for lights."""
 
 _DOME_SCHEMAS = (UsdLux.DomeLight, UsdLux.DomeLight_1)
+_INFINITE_LIGHTS = UsdLux.NonboundableLightBase  # distant and dome lights
 
 _POLE_Z = np.asarray(Gf.Matrix4d().SetRotate(Gf.Rotation(Gf.Vec3d(1, 0, 0), 90.0)))
 """Turns the light's +Y, the pole of the delegate's dome texture, to +Z, and the texture's
@@ -210,19 +212,21 @@ def sync_mesh_light(
         return
     params = _read_inputs(prim_id, _input_attributes(prim), reader, warn)
     _report_ignored_inputs(prim_id, prim, params.get("shadow:enable", True), reader, warn)
+    params["shaping:ies:file"] = _ies_path(prim, reader, warn)
     core.set_mesh_light(prim_id, True, **params)
 
 
 def _ignored_inputs(prim: Usd.Prim, shadows: bool, reader: SampleReader) -> list[str]:
     """The names of the UsdLux inputs of light ``prim`` that are authored to change its light
-    but that Penumbra does not render: light filters, an IES profile, and (when it casts
+    but that Penumbra does not render: light filters, an IES profile on a distant or dome light
+    (which profiles do not shape), and (when it casts
     shadows) a shadow colour other than black, a finite shadow distance (UsdLux's -1, or any
     negative one, is none) and a shadow falloff (none at 0 or less)."""
     ignored = []
     filters = UsdLux.LightAPI(prim).GetFiltersRel()
     if filters.HasAuthoredTargets() and filters.GetTargets():
         ignored.append(filters.GetName())
-    if prim.HasAPI(UsdLux.ShapingAPI):
+    if prim.HasAPI(UsdLux.ShapingAPI) and prim.IsA(_INFINITE_LIGHTS):
         ies = UsdLux.ShapingAPI(prim).GetShapingIesFileAttr()
         profile = as_asset_path(reader.get(ies))
         if profile is not None and profile.path:
@@ -316,6 +320,7 @@ def read_light(
     params = _read_inputs(path, _input_attributes(prim, schema, shape_inputs), reader, warn)
     _report_ignored_inputs(path, prim, params.get("shadow:enable", True), reader, warn)
     params["texture:file"] = _texture_path(prim, schema, reader, warn)
+    params["shaping:ies:file"] = _ies_path(prim, reader, warn)
     if params["texture:file"] and isinstance(schema, UsdLux.DomeLight_1):
         _check_pole_axis(prim, schema, warn)
     params["cameraVisible"] = dome_light_visibility or sprim_type != "domeLight"
@@ -373,6 +378,23 @@ def _check_pole_axis(
     axis = schema.GetPoleAxisAttr().Get()
     if axis not in ("scene", "Y", "Z"):
         warn(f"{prim.GetPath()}: poleAxis {axis!r} is not scene, Y or Z; read as scene")
+
+
+def _ies_path(prim: Usd.Prim, reader: SampleReader, warn: Callable[[str], None]) -> str:
+    """The resolved ``inputs:shaping:ies:file`` of a local light with ShapingAPI ("" when none;
+    distant and dome lights are not shaped by profiles). An unresolvable path is passed on as
+    authored: the delegate then warns, naming the file."""
+    if not prim.HasAPI(UsdLux.ShapingAPI) or prim.IsA(_INFINITE_LIGHTS):
+        return ""
+    attr = UsdLux.ShapingAPI(prim).GetShapingIesFileAttr()
+    value = reader.get(attr)
+    profile = as_asset_path(value)
+    if profile is None and value is not None:
+        warn(f"{prim.GetPath()}: {attr.GetName()} has a value of type {type(value).__name__}, "
+             "not an asset path; the light has no IES profile")
+    if profile is None or not profile.path:
+        return ""
+    return local_path(profile.resolvedPath) or profile.path
 
 
 def _texture_path(prim: Usd.Prim, schema, reader: SampleReader, warn: Callable[[str], None]) -> str:

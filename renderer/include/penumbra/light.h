@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "penumbra/distribution.h"
+#include "penumbra/ies_profile.h"
 #include "penumbra/math.h"
 #include "penumbra/mesh.h"
 #include "penumbra/motion.h"
@@ -84,8 +85,15 @@ struct LightParams {
   // ShapingAPI, around the light's -Z axis.
   float coneAngle = 180;  // degrees off the axis; 180 or more means no cone
   float coneSoftness = 0;
-  float focus = 0;                              // off-axis emission falls off as cos^focus ...
-  Vec3f focusTint{0.0f};                        // ... towards this tint
+  float focus = 0;        // off-axis emission falls off as cos^focus ...
+  Vec3f focusTint{0.0f};  // ... towards this tint
+  // ShapingAPI's IES profile (local lights): its candelas multiply the radiance emitted, the
+  // profile's nadir along -Z and its horizontal angle 0 towards -X, 90° towards -Y (hdEmbree's
+  // convention); divided by the profile's mean with iesNormalize. iesAngleScale s remaps the
+  // vertical angle θ to (θ − π) / (1 + s) + π (RenderMan's and hdEmbree's; s ≤ -1: -1).
+  std::shared_ptr<const IesProfile> ies;
+  float iesAngleScale = 0;
+  bool iesNormalize = false;
   bool shadowEnable = true;                     // ShadowAPI shadow:enable
   float diffuse = 1, specular = 1;              // multipliers of the light's effect on those lobes
   bool cameraVisible = true;                    // false: camera rays pass through the light
@@ -294,6 +302,8 @@ class Light {
                                          Vec3f* normal) const;
   /// ShapingAPI factor for light leaving the light in world direction `emitted`.
   Vec3f shaping(const Vec3f& emitted) const;
+  /// The IES profile's factor (LightParams::ies) on radiance emitted along `emitted`.
+  float iesFactor(const Vec3f& emitted) const;
   /// Rect and disk: (a, b) of a point centre + a · edgeU + b · edgeV of the light's plane.
   Vec2f edgeCoordinates(const Vec3f& point) const;
   /// Rect texture coordinates of a point in the light's plane.
@@ -319,6 +329,8 @@ class Light {
   float conePdf_ = 0;
   Vec3f axis_;  // shaping axis: the light's -Z in world space
   bool shaped_ = false;
+  Transform iesWorldToLight_;     // with an IES profile: world directions into the light's frame
+  float iesScale_ = 1;            // 1, or 1 / the profile's mean with iesNormalize
   bool orthogonalEdges_ = false;  // rect, disk: not sheared by its transform
   Vec3f dualU_, dualV_;  // sheared rect, disk: edgeCoordinates' dual axes of edgeU_, edgeV_
   SphericalRectangle::Rectangle rectangle_;  // rect with orthogonalEdges_: for sphericalRect

@@ -41,8 +41,9 @@ class Light : public Prim {
   }
 
   /// Builds its renderer light from what its dirty bits say changed (cf. HdLight::Sync):
-  /// texture:file is loaded only when it names another file or the file changed on disk (a
-  /// warning names a file that cannot be read: the light then renders untextured), and a
+  /// texture:file and shaping:ies:file are loaded only when they name another file or the
+  /// file changed on disk (a warning names a file that cannot be read: the light then renders
+  /// untextured, or unshaped by a profile), and a
   /// light whose inputs are invalid is skipped
   /// with a warning, once per change. The renderer light goes to the scene's light list
   /// (SyncContext::lights), which the light joins or where it replaces its entry; a hidden or
@@ -53,19 +54,39 @@ class Light : public Prim {
 
   const LightParams& params() const { return params_; }
   bool visible() const { return visible_; }
-  /// Whether its texture file was written (or made) since it was loaded: the light is then to
-  /// sync again (a repainted sky between two renders).
-  bool textureFileChanged() const;
+  /// Whether its texture or IES file was written (or made) since it was loaded: the light is
+  /// then to sync again (a repainted sky between two renders).
+  bool filesChanged() const { return texture_.changedOnDisk() || ies_.changedOnDisk(); }
 
  private:
+  /// An asset input: the file it names, and the one loaded, with its stamp as it was then.
+  struct AssetInput {
+    std::string file, loadedFile;
+    std::optional<FileStamp> loadedStamp;
+
+    bool changedOnDisk() const {
+      return !loadedFile.empty() && fileStamp(loadedFile) != loadedStamp;
+    }
+    /// Whether the file is to be loaded (another one named, or changed on disk); it counts as
+    /// loaded from then on.
+    bool takeReload() {
+      if (file == loadedFile && !changedOnDisk()) return false;
+      loadedFile = file;
+      loadedStamp = file.empty() ? std::nullopt : fileStamp(file);
+      return true;
+    }
+  };
+
   /// Loads texture:file if it changed since the last call. Throws std::runtime_error naming the
   /// file when it cannot be read.
   void loadTexture(SyncContext& context);
+  /// Loads shaping:ies:file likewise. Throws std::invalid_argument naming the file when it
+  /// cannot be read or parsed.
+  void loadIes();
 
   LightParams params_;
   bool visible_ = true;
-  std::string textureFile_, loadedTextureFile_;
-  std::optional<FileStamp> loadedStamp_;  // the loaded file's, as it was then
+  AssetInput texture_, ies_;
   std::optional<Geometry::MeshId> emittingMesh_;
 };
 

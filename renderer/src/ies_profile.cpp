@@ -1,0 +1,199 @@
+#include "penumbra/ies_profile.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "penumbra/math.h"
+
+namespace penumbra {
+namespace {
+
+/// The numbers after the TILT line, read one at a time.
+class Numbers {
+ public:
+  explicit Numbers(std::istream& in) : in_(in) {}
+
+  double next(const char* what) {
+    std::string token;
+    while (token.empty()) {
+      if (!(in_ >> token)) throw std::invalid_argument(std::string("the file ends before ") + what);
+      token.erase(std::remove(token.begin(), token.end(), ','), token.end());
+    }
+    char* end = nullptr;
+    const double value = std::strtod(token.c_str(), &end);
+    if (end == token.c_str() || *end != '\0' || !std::isfinite(value))
+      throw std::invalid_argument(std::string(what) + " '" + token + "' is not a finite number");
+    return value;
+  }
+
+  int count(const char* what) {
+    const double value = next(what);
+    if (value != std::floor(value) || value < 1 || value > 100000)
+      throw std::invalid_argument(std::string(what) + " must be a whole number from 1 to 100000");
+    return int(value);
+  }
+
+  std::vector<float> angles(int count, const char* what) {
+    std::vector<float> result;
+    for (int i = 0; i < count; ++i) {
+      result.push_back(float(next(what)));
+      if (i > 0 && !(result[size_t(i)] > result[size_t(i) - 1]))
+        throw std::invalid_argument(std::string(what) + " must increase");
+    }
+    return result;
+  }
+
+ private:
+  std::istream& in_;
+};
+
+/// Index i with values[i] <= x < values[i + 1] (clamped to the last interval) and the fraction
+/// of the way from values[i] to values[i + 1]; values has two entries or more.
+std::pair<size_t, float> bracket(const std::vector<float>& values, float x) {
+  const auto upper = std::upper_bound(values.begin() + 1, values.end() - 1, x);
+  const size_t i = size_t(upper - values.begin()) - 1;
+  const float t = (x - values[i]) / (values[i + 1] - values[i]);
+  return {i, std::clamp(t, 0.0f, 1.0f)};
+}
+
+}  // namespace
+
+IesProfile IesProfile::parse(const std::string& text) {
+  std::istringstream in(text);
+  std::string line;
+  bool tilt = false;
+  while (std::getline(in, line)) {
+    const size_t start = line.find_first_not_of(" \t\r");
+    if (start != std::string::npos && line.compare(start, 5, "TILT=") == 0) {
+      tilt = true;
+      std::string mode = line.substr(start + 5);
+      mode.erase(mode.find_last_not_of(" \t\r") + 1);
+      Numbers numbers(in);
+      if (mode == "INCLUDE") {  // lamp-to-luminaire geometry, then angles and factors
+        numbers.next("the tilt geometry");
+        const int tiltAngles = numbers.count("the number of tilt angles");
+        for (int i = 0; i < 2 * tiltAngles; ++i) numbers.next("a tilt value");
+      }
+      break;
+    }
+  }
+  if (!tilt) throw std::invalid_argument("there is no TILT= line (not an IES LM-63 profile)");
+  Numbers numbers(in);
+  numbers.next("the number of lamps");
+  numbers.next("the lumens per lamp");
+  const double multiplier = numbers.next("the candela multiplier");
+  const int verticalCount = numbers.count("the number of vertical angles");
+  const int horizontalCount = numbers.count("the number of horizontal angles");
+  const double photometricType = numbers.next("the photometric type");
+  if (photometricType != 1)
+    throw std::invalid_argument("photometric type " + std::to_string(int(photometricType)) +
+                                " is not supported (only type C, 1)");
+  for (const char* what : {"the units type", "the width", "the length", "the height",
+                           "the ballast factor", "the ballast-lamp factor", "the input watts"})
+    numbers.next(what);
+  std::vector<float> vertical = numbers.angles(verticalCount, "vertical angles");
+  std::vector<float> horizontal = numbers.angles(horizontalCount, "horizontal angles");
+  if (vertical.front() < 0 || vertical.back() > 180)
+    throw std::invalid_argument("vertical angles must lie in [0, 180] degrees");
+  if (horizontal.front() < 0 || horizontal.back() > 360)
+    throw std::invalid_argument("horizontal angles must lie in [0, 360] degrees");
+  std::vector<float> candelas;
+  candelas.reserve(size_t(verticalCount) * size_t(horizontalCount));
+  for (int i = 0; i < verticalCount * horizontalCount; ++i) {
+    const double value = numbers.next("a candela value") * multiplier;
+    if (!(value >= 0) || value > 3.0e38)
+      throw std::invalid_argument("candela values times the multiplier must lie in [0, 3e38]");
+    candelas.push_back(float(value));
+  }
+  return IesProfile(std::move(vertical), std::move(horizontal), std::move(candelas));
+}
+
+IesProfile IesProfile::read(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw std::invalid_argument("cannot read the IES profile " + path);
+  std::ostringstream text;
+  text << file.rdbuf();
+  try {
+    return parse(text.str());
+  } catch (const std::invalid_argument& error) {
+    throw std::invalid_argument("the IES profile " + path + " is unusable: " + error.what());
+  }
+}
+
+IesProfile::IesProfile(std::vector<float> vertical, std::vector<float> horizontal,
+                       std::vector<float> candelas)
+    : vertical_(std::move(vertical)),
+      horizontal_(std::move(horizontal)),
+      candelas_(std::move(candelas)) {
+  const float first = horizontal_.front(), last = horizontal_.back();
+  if (horizontal_.size() == 1)
+    symmetry_ = Symmetry::Rotational;
+  else if (first == 0 && last == 90)
+    symmetry_ = Symmetry::Quadrant;
+  else if (first == 0 && last == 180)
+    symmetry_ = Symmetry::Bilateral;
+  else if (first == 90 && last == 270)
+    symmetry_ = Symmetry::BilateralAcross90;
+  maxCandela_ = *std::max_element(candelas_.begin(), candelas_.end());
+  // The mean over the sphere (or the hemisphere the profile covers), by the midpoint rule on a
+  // half-degree grid of the same interpolation candela() makes.
+  const bool sphere = vertical_.back() - vertical_.front() > 90.0f + 5.73f;  // hdEmbree's 0.1 rad
+  constexpr int kThetaSteps = 360, kPhiSteps = 720;
+  double sum = 0, solidAngle = 0;
+  for (int i = 0; i < kThetaSteps; ++i) {
+    const double theta = (i + 0.5) * kPi / kThetaSteps;
+    const double band = std::sin(theta) * (kPi / kThetaSteps) * (2 * kPi / kPhiSteps);
+    solidAngle += band * kPhiSteps;
+    for (int j = 0; j < kPhiSteps; ++j)
+      sum += band * candela(float(theta), float((j + 0.5) * 2 * kPi / kPhiSteps));
+  }
+  meanCandela_ = float(sum / (sphere ? solidAngle : solidAngle / 2));
+}
+
+float IesProfile::horizontalAngle(float phi) const {
+  switch (symmetry_) {
+    case Symmetry::Rotational:
+      return horizontal_.front();
+    case Symmetry::Quadrant:
+      phi = std::fmod(phi, 180.0f);
+      return phi > 90 ? 180 - phi : phi;
+    case Symmetry::Bilateral:
+      return phi > 180 ? 360 - phi : phi;
+    case Symmetry::BilateralAcross90:  // mirrored across the 90°–270° plane
+      return phi < 90 ? 180 - phi : (phi > 270 ? 540 - phi : phi);
+    case Symmetry::None:
+      break;
+  }
+  return phi;
+}
+
+float IesProfile::candela(float theta, float phi) const {
+  const float thetaDegrees = theta * (180 / kPi);
+  if (thetaDegrees < vertical_.front() || thetaDegrees > vertical_.back()) return 0;
+  float phiDegrees = std::fmod(phi * (180 / kPi), 360.0f);
+  if (phiDegrees < 0) phiDegrees += 360;
+  const size_t verticalCount = vertical_.size();
+  const auto atColumn = [&](size_t h) {
+    const float* column = candelas_.data() + h * verticalCount;
+    if (verticalCount == 1) return column[0];
+    const auto [v, t] = bracket(vertical_, thetaDegrees);
+    return column[v] * (1 - t) + column[v + 1] * t;
+  };
+  if (horizontal_.size() == 1) return atColumn(0);
+  const float h = horizontalAngle(phiDegrees);
+  if (h >= horizontal_.front() && h <= horizontal_.back()) {
+    const auto [i, t] = bracket(horizontal_, h);
+    return atColumn(i) * (1 - t) + atColumn(i + 1) * t;
+  }
+  // A whole turn given short of 360° (or starting past 0°): across the gap, from the last
+  // angle round to the first.
+  const float gap = horizontal_.front() + 360 - horizontal_.back();
+  const float t = std::fmod(h - horizontal_.back() + 360, 360.0f) / gap;
+  return atColumn(horizontal_.size() - 1) * (1 - t) + atColumn(0) * t;
+}
+
+}  // namespace penumbra
