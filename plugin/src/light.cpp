@@ -52,10 +52,10 @@ void Light::loadTexture(SyncContext& context) {
                                        params_.type == LightType::Dome);
 }
 
-void Light::loadIes() {
+void Light::loadIes(SyncContext& context) {
   if (!ies_.takeReload()) return;
   params_.ies.reset();
-  if (!ies_.file.empty()) params_.ies = std::make_shared<IesProfile>(IesProfile::read(ies_.file));
+  if (!ies_.file.empty()) params_.ies = context.iesProfiles.load(ies_.file);
 }
 
 void Light::setMeshTriangles(std::shared_ptr<const std::vector<Vec3f>> triangles,
@@ -73,8 +73,8 @@ void Light::sync(SyncContext& context, uint32_t dirtyBits) {
       context.warn(id() + ": " + error.what() + "; the light renders without its texture");
     }
     try {
-      loadIes();
-    } catch (const std::invalid_argument& error) {
+      loadIes(context);
+    } catch (const std::exception& error) {  // a bad_alloc too: the profile, not the render
       context.warn(id() + ": " + error.what() + "; the light renders without its IES profile");
     }
   }

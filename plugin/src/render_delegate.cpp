@@ -309,6 +309,9 @@ bool RenderDelegate::sync(const DicingContext& view, uint64_t cameraSamples) {
   lights_.forEach([](Light& light) {
     if (light.filesChanged()) light.markDirty(DirtyParams);
   });
+  meshes_.forEach([](Mesh& mesh) {
+    if (mesh.lightFilesChanged()) mesh.markDirty(DirtyParams);  // its UsdLuxMeshLightAPI light
+  });
   for (const std::string& error : unreadable)
     context_.warn(error + "; the textures reading it give their fallback values");
   // Materials read again what they could not read before, once it changed.

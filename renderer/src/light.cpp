@@ -167,8 +167,10 @@ Light::Light(const LightParams& params) : params_(params) {
     if (!std::isfinite(params.iesAngleScale))
       throw std::invalid_argument("the IES profile's angle scale is not finite");
     iesWorldToLight_ = toWorld.inverse();
+    // Divided by (not times the reciprocal of) the mean: a profile of tiny candelas has a
+    // mean whose reciprocal overflows. An all-dark profile stays dark.
     const float mean = params.ies->meanCandela();
-    iesScale_ = params.iesNormalize ? (mean > 0 ? 1 / mean : 0) : 1;
+    iesDivisor_ = params.iesNormalize && mean > 0 ? mean : 1;
   }
   shaped_ = !isInfinite() && (params.coneAngle < 180 || params.focus > 0 || params.ies);
   // A transform that scales -Z to nothing (a card flattened along Z) leaves no axis to emit along.
@@ -207,7 +209,7 @@ float Light::iesFactor(const Vec3f& emitted) const {
   float theta = std::acos(std::clamp(-local.z, -1.0f, 1.0f));
   const float scale = 1 + std::max(params_.iesAngleScale, -1.0f);
   theta = scale > 0 ? std::clamp((theta - kPi) / scale + kPi, 0.0f, kPi) : (theta < kPi ? 0 : kPi);
-  return params_.ies->candela(theta, std::atan2(-local.y, -local.x)) * iesScale_;
+  return params_.ies->candela(theta, std::atan2(-local.y, -local.x)) / iesDivisor_;
 }
 
 Vec2f Light::edgeCoordinates(const Vec3f& point) const {
@@ -630,7 +632,7 @@ LightBounds Light::bounds() const {
   }
   // An IES profile scales what the light emits by its mean factor (over the directions it
   // covers), which the tree's choice should know: raw candelas are in the hundreds.
-  if (params_.ies && shaped_) bounds.power *= params_.ies->meanCandela() * iesScale_;
+  if (params_.ies && shaped_) bounds.power *= params_.ies->meanCandela() / iesDivisor_;
   return bounds;
 }
 

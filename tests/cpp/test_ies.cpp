@@ -100,7 +100,7 @@ TEST(IesProfile, UnusableProfilesAreRejectedSayingWhy) {
   EXPECT_EQ(message(profile("1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 90\n0\n10 nan\n")),
             "a candela value 'nan' is not a finite number");
   EXPECT_EQ(message(profile("1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 90\n0\n10 -1\n")),
-            "candela values times the multiplier must lie in [0, 3e38]");
+            "candela values times the multiplier and ballast factors must lie in [0, 3e38]");
   EXPECT_EQ(message(profile("1 -1 1 0 1 1 2 0 0 0\n1 1 0\n0\n")),
             "the number of vertical angles must be a whole number from 1 to 100000");
 }
@@ -168,4 +168,52 @@ TEST(IesProfile, HorizontalAngleZeroIsTheLightsMinusX) {
   EXPECT_GT(light.sample({-1, 0, -1}, {0.5f, 0.5f})->radiance.x, 0);
   EXPECT_EQ(light.sample({1, 0, -1}, {0.5f, 0.5f})->radiance.x, 0);
   EXPECT_EQ(light.sample({0, -1, -1}, {0.5f, 0.5f})->radiance.x, 0);  // 90°: towards -Y
+}
+
+TEST(IesProfile, RealWorldSpellingsParse) {
+  // Commas alone between numbers, CR line ends (old Mac files), "tilt = none" in lower case,
+  // and "TILT= INCLUDE" with a space.
+  const std::string numbers = "1,-1,1,2,1,1,2,0,0,0\r1,1,0\r0,90\r0\r7,3\r";
+  EXPECT_NEAR(IesProfile::parse("IESNA:LM-63-1995\rtilt = none\r" + numbers).candela(0, 0), 7,
+              1e-6);
+  const IesProfile tilted = IesProfile::parse(
+      "IESNA:LM-63-2002\nTILT= INCLUDE\n1\n2\n0 90\n1 0.5\n1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 90\n0\n"
+      "7 3\n");
+  EXPECT_NEAR(tilted.candela(kPi / 2, 0), 3, 1e-6);
+  // The ballast and ballast-lamp factors scale the candelas as the multiplier does.
+  EXPECT_NEAR(
+      IesProfile::parse(profile("1 -1 2 2 1 1 2 0 0 0\n0.5 3 0\n0 90\n0\n7 3\n")).candela(0, 0),
+      7 * 2 * 0.5 * 3, 1e-5);
+}
+
+TEST(IesProfile, CountsTheFileCannotHoldAreRefusedBeforeAllocating) {
+  try {
+    IesProfile::parse(profile("1 -1 1 100000 100000 1 2 0 0 0\n1 1 0\n0 90\n0\n7 3\n"));
+    FAIL() << "parsed";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()),
+              "the file is too short for its 100000 x 100000 candela values");
+  }
+}
+
+TEST(IesProfile, TheMeanOfANarrowBeamIsExact) {
+  // 100 cd at the nadir falling linearly to 0 at 1°: its hemisphere mean is
+  // ∫ 100 (1 − θ/a) sin θ dθ over [0, a] = 100 (1 − sin(a)/a), a = 1°.
+  const IesProfile beam =
+      IesProfile::parse(profile("1 -1 1 3 1 1 2 0 0 0\n1 1 0\n0 1 90\n0\n100 0 0\n"));
+  const double a = kPi / 180;
+  EXPECT_NEAR(beam.meanCandela() / (100 * (1 - std::sin(a) / a)), 1, 1e-4);
+}
+
+TEST(IesProfile, ANormalisedProfileOfTinyCandelasStaysFinite) {
+  const auto ies = std::make_shared<const IesProfile>(
+      IesProfile::parse(profile("1 -1 1e-39 2 1 1 2 0 0 0\n1 1 0\n0 180\n0\n1 1\n")));
+  LightParams point;
+  point.type = LightType::Sphere;
+  point.radius = 0;
+  point.ies = ies;
+  point.iesNormalize = true;
+  point.lightToWorld = test::translation(0, 0, 0);
+  const float radiance = Light(point).sample({0, 0, -1}, {0.5f, 0.5f})->radiance.x;
+  EXPECT_NEAR(radiance, 0.25f, 1e-4f);  // I/4 at 1 unit, the profile normalised to 1
 }

@@ -139,3 +139,49 @@ def test_a_profile_on_a_distant_light_is_named_as_unsupported(tmp_path):
         "/sun: inputs:shaping:ies:file is not supported yet; ignored" in str(w.message)
         for w in caught
     )
+
+
+def test_a_mesh_lights_profile_rewritten_on_disk_is_read_again(tmp_path):
+    """The light of a UsdLuxMeshLightAPI mesh is its mesh's: its profile was never looked at
+    again."""
+    path = tmp_path / "panel.ies"
+    write_profile(path, [0, 180], [0], [[100, 100]])
+    stage = new_stage()
+    add_quad(stage, "/floor", half_size=4.0, color=(1.0, 1.0, 1.0), facing="y")
+    add_camera(stage, translate=(0.0, 5.0, 0.0), rotate_x=-90.0)
+    panel = add_quad(stage, "/panel", center=(3.0, 1.0, 0.0), half_size=0.2, facing="y")
+    UsdGeom.Xformable(panel).AddRotateXOp().Set(180.0)  # facing down
+    UsdLux.MeshLightAPI.Apply(panel.GetPrim())
+    UsdLux.ShapingAPI.Apply(panel.GetPrim()).CreateShapingIesFileAttr(Sdf.AssetPath(str(path)))
+    renderer = penumbra.Renderer(stage)
+    before = renderer.render(**RENDER)["color"]
+    write_profile(path, [0, 180], [0], [[300, 300]])
+    os.utime(path, (1, 1e9))
+    after = renderer.render(**RENDER)["color"]
+    np.testing.assert_allclose(after, penumbra.Renderer(stage).render(**RENDER)["color"])
+    assert before[..., 0].sum() > 1
+    assert after[..., 0].sum() == pytest.approx(3 * before[..., 0].sum(), rel=0.02)
+
+
+def test_a_relative_profile_is_found_beside_its_layer_once_it_is_there(tmp_path, monkeypatch):
+    """Not in the working directory (a file of the same name there was used silently), and a
+    live Renderer reads it once it appears beside the layer."""
+    layer = tmp_path / "scene" / "lamp.usda"
+    layer.parent.mkdir()
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "profiles").mkdir()
+    write_profile(tmp_path / "profiles" / "lamp.ies", [0, 180], [0], [[1000, 1000]])  # a decoy
+    stage = lamp_stage("./profiles/lamp.ies")[0]
+    stage.GetRootLayer().Export(str(layer))
+    stage = Usd.Stage.Open(str(layer))
+    renderer = penumbra.Renderer(stage)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        unshaped = renderer.render(**RENDER)["color"]
+    expected = str(layer.parent / "profiles" / "lamp.ies")
+    assert any(expected in str(w.message) for w in caught), [str(w.message) for w in caught]
+    (layer.parent / "profiles").mkdir()
+    write_profile(layer.parent / "profiles" / "lamp.ies", [0, 180], [0], [[100, 100]])
+    shaped = renderer.render(**RENDER)["color"]
+    lit = unshaped[..., 0] > 0
+    np.testing.assert_allclose(shaped[..., 0][lit] / unshaped[..., 0][lit], 100, rtol=1e-4)

@@ -380,38 +380,48 @@ def _check_pole_axis(
         warn(f"{prim.GetPath()}: poleAxis {axis!r} is not scene, Y or Z; read as scene")
 
 
+def _asset_file(
+    prim: Usd.Prim, attr: Usd.Attribute, reader: SampleReader, warn: Callable[[str], None],
+    without: str,
+) -> str:
+    """The file asset input ``attr`` names, resolved ("" when none). A path that does not
+    resolve is anchored to the layer authoring it (not to the working directory): the delegate
+    then warns, naming it, and reads it once it appears. A value that is not an asset path is
+    named in a warning (the light renders without ``without``)."""
+    value = reader.get(attr)
+    asset = as_asset_path(value)
+    if asset is None and value is not None:
+        warn(f"{prim.GetPath()}: {attr.GetName()} has a value of type {type(value).__name__}, "
+             f"not an asset path; the light has no {without}")
+    if asset is None or not asset.path:
+        return ""
+    if asset.resolvedPath:
+        return local_path(asset.resolvedPath)
+    specs = attr.GetPropertyStack(reader.time)
+    if specs and not specs[0].layer.anonymous:
+        return specs[0].layer.ComputeAbsolutePath(asset.path)
+    return asset.path
+
+
 def _ies_path(prim: Usd.Prim, reader: SampleReader, warn: Callable[[str], None]) -> str:
-    """The resolved ``inputs:shaping:ies:file`` of a local light with ShapingAPI ("" when none;
-    distant and dome lights are not shaped by profiles). An unresolvable path is passed on as
-    authored: the delegate then warns, naming the file."""
+    """The ``inputs:shaping:ies:file`` of a local light with ShapingAPI (see :func:`_asset_file`;
+    distant and dome lights are not shaped by profiles)."""
     if not prim.HasAPI(UsdLux.ShapingAPI) or prim.IsA(_INFINITE_LIGHTS):
         return ""
     attr = UsdLux.ShapingAPI(prim).GetShapingIesFileAttr()
-    value = reader.get(attr)
-    profile = as_asset_path(value)
-    if profile is None and value is not None:
-        warn(f"{prim.GetPath()}: {attr.GetName()} has a value of type {type(value).__name__}, "
-             "not an asset path; the light has no IES profile")
-    if profile is None or not profile.path:
-        return ""
-    return local_path(profile.resolvedPath) or profile.path
+    return _asset_file(prim, attr, reader, warn, "IES profile")
 
 
 def _texture_path(prim: Usd.Prim, schema, reader: SampleReader, warn: Callable[[str], None]) -> str:
-    """The resolved ``inputs:texture:file`` of a rect or dome light ("" when none).
-
-    An unresolvable path is passed on as authored: the delegate then warns, naming the file.
-    """
+    """The ``inputs:texture:file`` of a rect or dome light (see :func:`_asset_file`)."""
     texture_attr = getattr(schema, "GetTextureFileAttr", None)
-    value = reader.get(texture_attr()) if texture_attr is not None else None
-    texture = as_asset_path(value)
-    if texture is None and value is not None:
-        warn(f"{prim.GetPath()}: inputs:texture:file has a value of type {type(value).__name__}, "
-             "not an asset path; the light has no texture")
-    if texture is None or not texture.path:
+    if texture_attr is None:
+        return ""
+    texture = _asset_file(prim, texture_attr(), reader, warn, "texture")
+    if not texture:
         return ""
     if isinstance(schema, _DOME_SCHEMAS):
         layout = reader.get(schema.GetTextureFormatAttr())
         if layout not in (None, UsdLux.Tokens.automatic, UsdLux.Tokens.latlong):
             warn(f"{prim.GetPath()}: texture:format {layout!r} is not supported yet; read as latlong")
-    return local_path(texture.resolvedPath) or texture.path
+    return texture

@@ -36,6 +36,10 @@ class IesProfile {
              std::vector<float> candelas);
   /// `phi` (degrees, [0, 360)) mapped into the horizontal angles given.
   float horizontalAngle(float phiDegrees) const;
+  /// The value between the columns (horizontal angles) at `phiDegrees`, interpolated linearly
+  /// from `column(h)`, the value of column h.
+  template <typename Column>
+  double acrossColumns(float phiDegrees, const Column& column) const;
 
   std::vector<float> vertical_;    // degrees, increasing
   std::vector<float> horizontal_;  // degrees, increasing

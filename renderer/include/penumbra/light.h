@@ -330,7 +330,7 @@ class Light {
   Vec3f axis_;  // shaping axis: the light's -Z in world space
   bool shaped_ = false;
   Transform iesWorldToLight_;     // with an IES profile: world directions into the light's frame
-  float iesScale_ = 1;            // 1, or 1 / the profile's mean with iesNormalize
+  float iesDivisor_ = 1;          // 1, or the profile's mean with iesNormalize
   bool orthogonalEdges_ = false;  // rect, disk: not sheared by its transform
   Vec3f dualU_, dualV_;  // sheared rect, disk: edgeCoordinates' dual axes of edgeU_, edgeV_
   SphericalRectangle::Rectangle rectangle_;  // rect with orthogonalEdges_: for sphericalRect

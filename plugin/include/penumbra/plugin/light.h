@@ -80,9 +80,9 @@ class Light : public Prim {
   /// Loads texture:file if it changed since the last call. Throws std::runtime_error naming the
   /// file when it cannot be read.
   void loadTexture(SyncContext& context);
-  /// Loads shaping:ies:file likewise. Throws std::invalid_argument naming the file when it
-  /// cannot be read or parsed.
-  void loadIes();
+  /// Loads shaping:ies:file likewise, through the context's cache of profiles. Throws
+  /// std::invalid_argument naming the file when it cannot be read or parsed.
+  void loadIes(SyncContext& context);
 
   LightParams params_;
   bool visible_ = true;

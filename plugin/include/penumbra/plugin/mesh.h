@@ -40,6 +40,9 @@ class Mesh : public PlacedRprim {
   /// UsdLuxMeshLightAPI: the mesh also emits, and is sampled as a light, with these inputs
   /// (names as Light::setParam). `enabled` false removes the light.
   void setLight(bool enabled, const std::vector<std::pair<std::string, ParamValue>>& params);
+  /// Whether its light's texture or IES file changed on disk since it was loaded
+  /// (Light::filesChanged).
+  bool lightFilesChanged() const { return light_ && light_->filesChanged(); }
   /// Its light's linking slot (Light::setLinkSlot), kept when setLight replaces the light.
   void setLightLinkSlot(int slot) {
     lightLinkSlot_ = slot;

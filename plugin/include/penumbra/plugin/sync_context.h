@@ -16,6 +16,7 @@
 
 #include "penumbra/camera.h"
 #include "penumbra/light.h"
+#include "penumbra/plugin/ies_profile_cache.h"
 #include "penumbra/plugin/prim.h"
 #include "penumbra/plugin/prim_collection.h"
 #include "penumbra/plugin/volume_field_cache.h"
@@ -123,6 +124,8 @@ struct SyncContext {
   DicingContext dicing;
   /// The volumes' fields read from files, shared between volumes, syncs and frames.
   VolumeFieldCache volumeFields;
+  /// The lights' IES profiles read from files, shared likewise.
+  IesProfileCache iesProfiles;
   /// RenderSettingsMap::complexity: how finely subdivision surfaces are diced.
   int complexity = 0;
   std::vector<std::string> warnings;
