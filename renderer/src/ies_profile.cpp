@@ -105,9 +105,12 @@ IesProfile IesProfile::parse(const std::string& text) {
     throw std::invalid_argument("the file is too short for its " + std::to_string(verticalCount) +
                                 " x " + std::to_string(horizontalCount) + " candela values");
   const double photometricType = numbers.next("the photometric type");
-  if (photometricType != 1)
-    throw std::invalid_argument("photometric type " + std::to_string(int(photometricType)) +
+  if (photometricType != 1) {
+    std::ostringstream type;  // as written (a double too large for an int is no type either)
+    type << photometricType;
+    throw std::invalid_argument("photometric type " + type.str() +
                                 " is not supported (only type C, 1)");
+  }
   for (const char* what : {"the units type", "the width", "the length", "the height"})
     numbers.next(what);
   const double scale =

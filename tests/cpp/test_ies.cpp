@@ -97,6 +97,8 @@ TEST(IesProfile, UnusableProfilesAreRejectedSayingWhy) {
             "vertical angles must increase");
   EXPECT_EQ(message(profile("1 -1 1 2 1 2 2 0 0 0\n1 1 0\n0 90\n0\n10 10\n")),
             "photometric type 2 is not supported (only type C, 1)");
+  EXPECT_EQ(message(profile("1 -1 1 2 1 1e300 2 0 0 0\n1 1 0\n0 90\n0\n10 10\n")),
+            "photometric type 1e+300 is not supported (only type C, 1)");
   EXPECT_EQ(message(profile("1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 90\n0\n10 nan\n")),
             "a candela value 'nan' is not a finite number");
   EXPECT_EQ(message(profile("1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 90\n0\n10 -1\n")),
