@@ -26,9 +26,8 @@ from pxr import Usd, UsdGeom
 
 from .curve_conversions import BasisCurves, hermite_to_bezier, nurbs_to_basis
 from .mesh import as_int32_array, as_vec3_array, display_color, gprim_primvars
-from .motion import point_samples
-from .skinning import SkelCaches, find_skinning, skinned_points
 from .sampling import SampleReader, primvar_over_attribute
+from .skinning import SkelCaches, positions_over_shutter
 
 DEFAULT_WIDTH = 1.0
 """The width of curves whose widths are not authored (Hydra's Storm uses it too)."""
@@ -75,11 +74,7 @@ def sync_curves_data(
             "points; skipped"
         )
         return False
-    skinning = find_skinning(prim, warn, path, skel_caches)
-    if skinning is not None:
-        positions = skinned_points(skinning, positions, reader, warn, path)
-    elif reader.shutter.blurred or gprim.GetVelocitiesAttr().HasAuthoredValue():
-        positions = point_samples(gprim, positions, reader, warn, path)
+    positions = positions_over_shutter(gprim, positions, reader, warn, path, skel_caches)
     curves = _basis_curves(prim, counts, positions, reader, warn, path)
     if curves is None:
         return False

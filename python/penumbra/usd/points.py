@@ -18,9 +18,8 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .mesh import as_vec3_array, display_color, gprim_primvars
-from .motion import point_samples
-from .skinning import SkelCaches, find_skinning, skinned_points
 from .sampling import SampleReader, primvar_over_attribute
+from .skinning import SkelCaches, positions_over_shutter
 
 DEFAULT_WIDTH = 1.0
 """The diameter of points whose widths are not authored (Hydra's Storm uses it too)."""
@@ -66,11 +65,7 @@ def sync_points_data(
         )
         if taken is not None:
             primvars[name] = (values, taken)
-    skinning = find_skinning(prim, warn, path, skel_caches)
-    if skinning is not None:
-        positions = skinned_points(skinning, positions, reader, warn, path)
-    elif reader.shutter.blurred or points.GetVelocitiesAttr().HasAuthoredValue():
-        positions = point_samples(points, positions, reader, warn, path)
+    positions = positions_over_shutter(points, positions, reader, warn, path, skel_caches)
     core.set_points(
         path,
         positions=positions,

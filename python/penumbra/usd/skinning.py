@@ -21,7 +21,7 @@ from collections.abc import Callable
 import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdSkel, Vt
 
-from .motion import ARC_TOLERANCE, xform_sample_times
+from .motion import ARC_TOLERANCE, point_samples, xform_sample_times
 from .sampling import SampleReader, transform_might_vary
 
 _INFLUENCES = "primvars:skel:jointIndices"
@@ -333,6 +333,26 @@ def skinned_points(
     if all(np.array_equal(sample, samples[0]) for sample in samples[1:]):
         return samples[0].astype(np.float32)
     return np.asarray(samples, dtype=np.float32)
+
+
+def positions_over_shutter(
+    gprim: UsdGeom.PointBased,
+    positions: np.ndarray,
+    reader: SampleReader,
+    warn: Callable[[str], None],
+    path: str,
+    caches: SkelCaches | None = None,
+) -> np.ndarray:
+    """The positions of curves or points ``gprim`` (``positions``: as read at the reader's
+    time) for the delegate: posed when it is skinned (``caches``: those of the caller's sync),
+    else sampled over an open shutter or along authored velocities
+    (:func:`~.motion.point_samples`), else as read."""
+    skinning = find_skinning(gprim.GetPrim(), warn, path, caches)
+    if skinning is not None:
+        return skinned_points(skinning, positions, reader, warn, path)
+    if reader.shutter.blurred or gprim.GetVelocitiesAttr().HasAuthoredValue():
+        return point_samples(gprim, positions, reader, warn, path)
+    return positions
 
 
 def _follow_chords(samples: list[np.ndarray]) -> bool:
