@@ -160,7 +160,6 @@ IesProfile::IesProfile(std::vector<float> vertical, std::vector<float> horizonta
     symmetry_ = Symmetry::Bilateral;
   else if (first == 90 && last == 270)
     symmetry_ = Symmetry::BilateralAcross90;
-  maxCandela_ = *std::max_element(candelas_.begin(), candelas_.end());
   // The mean over the sphere (or the hemisphere the profile covers): each column's integral
   // over the vertical angles, exact for candelas linear in θ between them, then the mean of
   // those over the turn by the same horizontal interpolation candela() makes.

@@ -32,7 +32,6 @@ TEST(IesProfile, ARotationallySymmetricProfileInterpolatesOverTheVerticalAngles)
   EXPECT_FLOAT_EQ(ies.candela(22.5f * kDegree, 1.0f), 150);  // halfway, any horizontal angle
   EXPECT_FLOAT_EQ(ies.candela(45 * kDegree, 4.0f), 100);
   EXPECT_FLOAT_EQ(ies.candela(120 * kDegree, 0), 0);  // above the vertical angles given
-  EXPECT_FLOAT_EQ(ies.maxCandela(), 200);
 }
 
 TEST(IesProfile, TheMeanIsOverTheHemisphereOrTheSphereTheAnglesCover) {

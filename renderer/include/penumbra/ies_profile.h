@@ -13,10 +13,11 @@ namespace penumbra {
 class IesProfile {
  public:
   /// Parses LM-63 text (1986 to 2019 editions: optional `IESNA:` line and `[KEYWORD]` lines,
-  /// `TILT=NONE`, `TILT=INCLUDE` with its table, or a tilt file, whose tilt is not applied);
-  /// candelas are scaled by the file's candela multiplier. Throws std::invalid_argument saying
-  /// what is wrong (a count, an angle out of order, a value that is not a finite number, a
-  /// photometric type other than C, too few values).
+  /// `TILT=NONE`, `TILT=INCLUDE` with its table, or a tilt file, whose tilt is not applied;
+  /// numbers separated by spaces, line ends or commas); candelas are scaled by the file's
+  /// candela multiplier and ballast factors. Throws std::invalid_argument saying what is wrong
+  /// (a count, or more values than the file can hold, an angle out of order, a value that is
+  /// not a finite number, a photometric type other than C, too few values).
   static IesProfile parse(const std::string& text);
   /// Reads and parses the file at `path`; errors name it.
   static IesProfile read(const std::string& path);
@@ -24,8 +25,6 @@ class IesProfile {
   /// Candelas at vertical angle `theta` (radians from the nadir, 0 to π) and horizontal angle
   /// `phi` (radians, any turn), interpolated bilinearly; 0 outside the vertical angles given.
   float candela(float theta, float phi) const;
-  /// The largest candela value.
-  float maxCandela() const { return maxCandela_; }
   /// The mean candela value over the sphere, or over the hemisphere when the vertical angles
   /// span 90° or less (what UsdLux's `shaping:ies:normalize` divides by, as hdEmbree does).
   float meanCandela() const { return meanCandela_; }
@@ -45,7 +44,7 @@ class IesProfile {
   std::vector<float> horizontal_;  // degrees, increasing
   std::vector<float> candelas_;    // horizontal-major: candelas_[h * vertical_.size() + v]
   Symmetry symmetry_ = Symmetry::None;
-  float maxCandela_ = 0, meanCandela_ = 0;
+  float meanCandela_ = 0;
 };
 
 }  // namespace penumbra

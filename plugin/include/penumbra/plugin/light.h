@@ -43,8 +43,7 @@ class Light : public Prim {
   /// Builds its renderer light from what its dirty bits say changed (cf. HdLight::Sync):
   /// texture:file and shaping:ies:file are loaded only when they name another file or the
   /// file changed on disk (a warning names a file that cannot be read: the light then renders
-  /// untextured, or unshaped by a profile), and a
-  /// light whose inputs are invalid is skipped
+  /// untextured, or unshaped by a profile), and a light whose inputs are invalid is skipped
   /// with a warning, once per change. The renderer light goes to the scene's light list
   /// (SyncContext::lights), which the light joins or where it replaces its entry; a hidden or
   /// skipped light leaves the list.
